@@ -1,0 +1,14 @@
+"""Monoplot's pure core: camera model, DEM, per-pixel XYZ, rendering, suggestions and camera fit.
+
+No Qt and no qgis import here: the core runs in plain Python scripts and notebooks.
+
+>>> from monoplot_plugin.core import Camera
+"""
+
+from .camera import Camera, PARAMETER_NAMES, project_points, rotation_matrix  # noqa: F401
+
+__all__ = ["Camera", "PARAMETER_NAMES", "project_points", "rotation_matrix"]
+
+# Other engineers: append your exports below with a guarded import block of your own module, e.g.
+#   from .dem import Dem  # noqa: E402,F401
+#   __all__ += ["Dem"]
