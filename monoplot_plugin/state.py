@@ -1,0 +1,366 @@
+"""Monoplot project state: photo, DEM, curated points, pairs, prior and fitted camera, with undo/redo.
+
+Pure Python (no Qt, no qgis): the dock and its controller edit the state only through :class:`CommandStack`, so every
+point edit can be undone, and listeners (the canvases, the table, the autosave) hear about every change.
+
+Coordinates: photo points are pixels ``(u, v)`` (column, row; origin at the top-left corner, see
+:mod:`monoplot_plugin.core.camera`); map points are ``(x, y)`` in the DEM's CRS (metres), ``z`` optional.
+
+>>> state = ProjectState()
+>>> stack = CommandStack(state)
+>>> stack.push(add_points(state, [Point.new("photo", 10.5, 20.5)], "Suggest"))
+>>> pid = next(iter(state.points))
+>>> stack.push(set_status(state, [pid], ACCEPTED))
+>>> state.points[pid].status
+'accepted'
+>>> stack.undo(); state.points[pid].status
+'suggested'
+>>> ProjectState.from_json(state.to_json()) == state
+True
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import uuid
+from dataclasses import asdict, dataclass, field, replace
+from typing import Callable, Dict, Iterable, List, Optional, Sequence, Tuple
+
+__all__ = [
+    "SUGGESTED", "ACCEPTED", "REJECTED", "STATUSES", "PHOTO", "MAP",
+    "Point", "ProjectState", "Edit", "CommandStack",
+    "add_points", "remove_points", "set_status", "move_point", "replace_suggestions", "link", "unlink",
+]
+
+SUGGESTED, ACCEPTED, REJECTED = "suggested", "accepted", "rejected"
+STATUSES = (SUGGESTED, ACCEPTED, REJECTED)
+PHOTO, MAP = "photo", "map"
+FORMAT = "monoplot-state/1"
+
+_counter = itertools.count(1)
+
+
+@dataclass(frozen=True)
+class Point:
+    """One control point on the photo (pixels) or on the map (DEM CRS).
+
+    Attributes:
+        id: unique key (stable across save/load).
+        space: ``"photo"`` or ``"map"``.
+        x, y: ``u, v`` pixels for the photo; map X, Y (metres) for the map.
+        z: ground height for map points when known (metres), else None.
+        status: suggested / accepted / rejected.
+        manual: True when the user placed it (False for detector suggestions).
+        score: detector strength (larger = more distinctive), 0 for manual points.
+        label: optional name (e.g. a summit).
+    """
+
+    id: str
+    space: str
+    x: float
+    y: float
+    z: Optional[float] = None
+    status: str = SUGGESTED
+    manual: bool = False
+    score: float = 0.0
+    label: str = ""
+
+    @staticmethod
+    def new(space: str, x: float, y: float, z: Optional[float] = None, status: str = SUGGESTED,
+            manual: bool = False, score: float = 0.0, label: str = "") -> "Point":
+        """A point with a fresh unique id (``"p1"``-like prefix + random suffix so merged states never clash)."""
+        if space not in (PHOTO, MAP):
+            raise ValueError(f"space must be 'photo' or 'map', got {space!r}")
+        if status not in STATUSES:
+            raise ValueError(f"unknown status {status!r}")
+        pid = f"{space[0]}{next(_counter)}-{uuid.uuid4().hex[:6]}"
+        return Point(pid, space, float(x), float(y), None if z is None else float(z), status, bool(manual),
+                     float(score), label)
+
+
+@dataclass
+class ProjectState:
+    """Everything Monoplot stores with a QGIS project (JSON-serialisable).
+
+    Attributes:
+        photo_path: absolute path of the photo file.
+        dem_layer_id: id of the DEM raster layer in the QGIS project; dem_source: its file (fallback on reopen).
+        points: id -> :class:`Point`, in insertion order.
+        pairs: list of (photo point id, map point id) links; the fit uses them when present.
+        prior: rough camera (``Camera.to_dict()``) or None; fitted: fitted camera dict or None.
+        fit_info: summary of the last fit (rmse_px, sigma, n_points, message...).
+        settings: small GUI settings worth restoring (overlay opacity...).
+    """
+
+    photo_path: str = ""
+    dem_layer_id: str = ""
+    dem_source: str = ""
+    points: Dict[str, Point] = field(default_factory=dict)
+    pairs: List[Tuple[str, str]] = field(default_factory=list)
+    prior: Optional[dict] = None
+    fitted: Optional[dict] = None
+    fit_info: dict = field(default_factory=dict)
+    settings: dict = field(default_factory=dict)
+
+    # --- queries ----------------------------------------------------------------------------------------------
+    def in_space(self, space: str, statuses: Iterable[str] = STATUSES) -> List[Point]:
+        """Points of one space (``"photo"``/``"map"``) whose status is in ``statuses``, in insertion order."""
+        wanted = set(statuses)
+        return [p for p in self.points.values() if p.space == space and p.status in wanted]
+
+    def accepted_xy(self, space: str) -> List[Tuple[float, float]]:
+        """(N, 2) list of accepted point coordinates of one space (suggested and rejected ones excluded)."""
+        return [(p.x, p.y) for p in self.in_space(space, (ACCEPTED,))]
+
+    def counts(self) -> Dict[str, Dict[str, int]]:
+        """{space: {status: count}}.
+
+        >>> ProjectState().counts()["photo"]["accepted"]
+        0
+        """
+        out = {s: {st: 0 for st in STATUSES} for s in (PHOTO, MAP)}
+        for p in self.points.values():
+            out[p.space][p.status] += 1
+        return out
+
+    def valid_pairs(self) -> List[Tuple[Point, Point]]:
+        """Pairs whose two points exist and are both accepted, as (photo point, map point)."""
+        out = []
+        for a, b in self.pairs:
+            pa, pb = self.points.get(a), self.points.get(b)
+            if pa and pb and pa.status == ACCEPTED and pb.status == ACCEPTED:
+                out.append((pa, pb))
+        return out
+
+    def partner(self, pid: str) -> Optional[str]:
+        """Id of the point linked to ``pid``, or None."""
+        for a, b in self.pairs:
+            if a == pid:
+                return b
+            if b == pid:
+                return a
+        return None
+
+    def next_point(self, space: str, current: Optional[str], step: int = 1,
+                   statuses: Iterable[str] = STATUSES) -> Optional[str]:
+        """Id of the next (``step=1``) or previous (``-1``) point of ``space`` after ``current``, wrapping around.
+
+        >>> s = ProjectState(); _ = [s.points.__setitem__(p.id, p) for p in (Point("a", "photo", 0, 0),
+        ...     Point("b", "photo", 1, 1), Point("c", "map", 1, 1))]
+        >>> s.next_point("photo", "b"), s.next_point("photo", None), s.next_point("photo", "a", -1)
+        ('a', 'a', 'b')
+        """
+        ids = [p.id for p in self.in_space(space, statuses)]
+        if not ids:
+            return None
+        if current not in ids:
+            return ids[0] if step > 0 else ids[-1]
+        return ids[(ids.index(current) + step) % len(ids)]
+
+    # --- serialisation ----------------------------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        return {
+            "format": FORMAT,
+            "photo_path": self.photo_path,
+            "dem_layer_id": self.dem_layer_id,
+            "dem_source": self.dem_source,
+            "points": [asdict(p) for p in self.points.values()],
+            "pairs": [list(p) for p in self.pairs],
+            "prior": self.prior,
+            "fitted": self.fitted,
+            "fit_info": self.fit_info,
+            "settings": self.settings,
+        }
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "ProjectState":
+        if d.get("format", FORMAT) != FORMAT:
+            raise ValueError(f"unsupported Monoplot state format {d.get('format')!r}")
+        points = {}
+        for pd in d.get("points", []):
+            p = Point(**pd)
+            points[p.id] = p
+        return cls(photo_path=d.get("photo_path", ""), dem_layer_id=d.get("dem_layer_id", ""),
+                   dem_source=d.get("dem_source", ""), points=points,
+                   pairs=[(str(a), str(b)) for a, b in d.get("pairs", [])], prior=d.get("prior"),
+                   fitted=d.get("fitted"), fit_info=dict(d.get("fit_info") or {}),
+                   settings=dict(d.get("settings") or {}))
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), indent=1)
+
+    @classmethod
+    def from_json(cls, text: str) -> "ProjectState":
+        return cls.from_dict(json.loads(text))
+
+    def copy_from(self, other: "ProjectState") -> None:
+        """Replace every field by those of ``other`` (keeps this object's identity for listeners)."""
+        for name in self.__dataclass_fields__:
+            setattr(self, name, getattr(other, name))
+
+
+# --- edits (undoable) -----------------------------------------------------------------------------------------
+
+@dataclass
+class Edit:
+    """One undoable change: points before/after (None = absent) and optionally the pair list before/after."""
+
+    text: str
+    before: Dict[str, Optional[Point]] = field(default_factory=dict)
+    after: Dict[str, Optional[Point]] = field(default_factory=dict)
+    pairs_before: Optional[List[Tuple[str, str]]] = None
+    pairs_after: Optional[List[Tuple[str, str]]] = None
+
+    def is_empty(self) -> bool:
+        return self.before == self.after and self.pairs_before == self.pairs_after
+
+    @staticmethod
+    def _apply(state: ProjectState, points: Dict[str, Optional[Point]], pairs) -> None:
+        for pid, p in points.items():
+            if p is None:
+                state.points.pop(pid, None)
+            else:
+                state.points[pid] = p
+        if pairs is not None:
+            state.pairs = list(pairs)
+
+    def redo(self, state: ProjectState) -> None:
+        self._apply(state, self.after, self.pairs_after)
+
+    def undo(self, state: ProjectState) -> None:
+        self._apply(state, self.before, self.pairs_before)
+
+
+def _pairs_without(state: ProjectState, removed: Iterable[str]) -> Optional[List[Tuple[str, str]]]:
+    removed = set(removed)
+    kept = [pr for pr in state.pairs if pr[0] not in removed and pr[1] not in removed]
+    return kept if len(kept) != len(state.pairs) else None
+
+
+def add_points(state: ProjectState, points: Sequence[Point], text: str = "Add point") -> Edit:
+    return Edit(text, before={p.id: None for p in points}, after={p.id: p for p in points})
+
+
+def remove_points(state: ProjectState, ids: Iterable[str], text: str = "Delete point") -> Edit:
+    ids = [i for i in ids if i in state.points]
+    pairs_after = _pairs_without(state, ids)
+    return Edit(text, before={i: state.points[i] for i in ids}, after={i: None for i in ids},
+                pairs_before=list(state.pairs) if pairs_after is not None else None, pairs_after=pairs_after)
+
+
+def set_status(state: ProjectState, ids: Iterable[str], status: str, text: Optional[str] = None) -> Edit:
+    if status not in STATUSES:
+        raise ValueError(f"unknown status {status!r}")
+    ids = [i for i in ids if i in state.points and state.points[i].status != status]
+    return Edit(text or f"Mark {len(ids)} point(s) {status}", before={i: state.points[i] for i in ids},
+                after={i: replace(state.points[i], status=status) for i in ids})
+
+
+def move_point(state: ProjectState, pid: str, x: float, y: float, z: Optional[float] = None,
+               text: str = "Move point") -> Edit:
+    old = state.points[pid]
+    return Edit(text, before={pid: old}, after={pid: replace(old, x=float(x), y=float(y),
+                                                              z=None if z is None else float(z))})
+
+
+def replace_suggestions(state: ProjectState, space: str, points: Sequence[Point],
+                        text: str = "Suggest points") -> Edit:
+    """Drop the untouched (still ``suggested``, not manual) points of ``space`` and add ``points``.
+
+    Accepted/rejected decisions and manual points survive a new suggestion run.
+    """
+    old = [p for p in state.in_space(space, (SUGGESTED,)) if not p.manual]
+    before: Dict[str, Optional[Point]] = {p.id: p for p in old}
+    after: Dict[str, Optional[Point]] = {p.id: None for p in old}
+    for p in points:
+        before[p.id] = None
+        after[p.id] = p
+    pairs_after = _pairs_without(state, [p.id for p in old])
+    return Edit(text, before=before, after=after,
+                pairs_before=list(state.pairs) if pairs_after is not None else None, pairs_after=pairs_after)
+
+
+def link(state: ProjectState, photo_id: str, map_id: str) -> Edit:
+    """Pair a photo point with a map point (each point in at most one pair; both become accepted)."""
+    if state.points[photo_id].space != PHOTO or state.points[map_id].space != MAP:
+        raise ValueError("a pair links one photo point to one map point")
+    pairs = [pr for pr in state.pairs if photo_id not in pr and map_id not in pr] + [(photo_id, map_id)]
+    before = {i: state.points[i] for i in (photo_id, map_id)}
+    after = {i: replace(state.points[i], status=ACCEPTED) for i in (photo_id, map_id)}
+    return Edit("Link points", before, after, list(state.pairs), pairs)
+
+
+def unlink(state: ProjectState, pid: str) -> Edit:
+    pairs = [pr for pr in state.pairs if pid not in pr]
+    return Edit("Unlink point", pairs_before=list(state.pairs), pairs_after=pairs)
+
+
+class CommandStack:
+    """Undo/redo of :class:`Edit` objects on one :class:`ProjectState`; listeners are called after every change.
+
+    Listeners receive the set of point ids that changed (empty set = "everything may have changed", e.g. after
+    :meth:`reset`).
+    """
+
+    def __init__(self, state: ProjectState, limit: int = 500):
+        self.state = state
+        self.limit = limit
+        self._done: List[Edit] = []
+        self._undone: List[Edit] = []
+        self._listeners: List[Callable[[set], None]] = []
+
+    def add_listener(self, fn: Callable[[set], None]) -> None:
+        self._listeners.append(fn)
+
+    def remove_listener(self, fn: Callable[[set], None]) -> None:
+        if fn in self._listeners:
+            self._listeners.remove(fn)
+
+    def notify(self, changed: Optional[set] = None) -> None:
+        for fn in list(self._listeners):
+            fn(set() if changed is None else changed)
+
+    def push(self, edit: Edit) -> None:
+        """Apply ``edit`` and record it (no-op edits are dropped)."""
+        if edit.is_empty():
+            return
+        edit.redo(self.state)
+        self._done.append(edit)
+        del self._done[:-self.limit]
+        self._undone.clear()
+        self.notify(set(edit.after) | set(edit.before))
+
+    def can_undo(self) -> bool:
+        return bool(self._done)
+
+    def can_redo(self) -> bool:
+        return bool(self._undone)
+
+    def undo_text(self) -> str:
+        return self._done[-1].text if self._done else ""
+
+    def redo_text(self) -> str:
+        return self._undone[-1].text if self._undone else ""
+
+    def undo(self) -> None:
+        if self._done:
+            edit = self._done.pop()
+            edit.undo(self.state)
+            self._undone.append(edit)
+            self.notify(set(edit.after) | set(edit.before))
+
+    def redo(self) -> None:
+        if self._undone:
+            edit = self._undone.pop()
+            edit.redo(self.state)
+            self._done.append(edit)
+            self.notify(set(edit.after) | set(edit.before))
+
+    def reset(self, state: Optional[ProjectState] = None) -> None:
+        """Forget the history; optionally replace the whole state (e.g. a project was opened)."""
+        if state is not None:
+            self.state.copy_from(state)
+        self._done.clear()
+        self._undone.clear()
+        self.notify(set())
