@@ -1,0 +1,63 @@
+# Monoplot developer commands. The README promises two: `make demo` and `make test`.
+# Both start with `make setup`, which is idempotent: apt packages only when missing, the venv only when absent,
+# pip only when a requirements file changed (stamp file inside .venv).
+SHELL := /bin/bash
+.DEFAULT_GOAL := help
+
+VENV      := .venv
+PY        := $(VENV)/bin/python
+STAMP     := $(VENV)/.requirements.stamp
+REQ_FILES := requirements.txt requirements-dev.txt constraints.txt
+APT_PKGS  := qgis python3-qgis xvfb pyqt5-dev-tools
+VERSION    = $(shell sed -n 's/^version=//p' metadata.txt)
+
+export QT_QPA_PLATFORM ?= offscreen
+
+.PHONY: help setup apt venv resources test demo package clean
+
+help:
+	@echo "make demo     set up everything, then run the demo job"
+	@echo "make test     set up everything, then run the whole test suite"
+	@echo "make package  build dist/monoplot-<version>.zip for plugins.qgis.org"
+
+setup: apt venv resources
+
+# Debian packages: QGIS and its Python bindings, Xvfb for the desktop smoke test, pyrcc5 for resources.qrc.
+apt:
+	@missing=""; for p in $(APT_PKGS); do dpkg -s $$p >/dev/null 2>&1 || missing="$$missing $$p"; done; \
+	if [ -n "$$missing" ]; then \
+	  echo "setup: apt-get install$$missing"; \
+	  SUDO=; [ "$$(id -u)" = 0 ] || SUDO=sudo; \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq$$missing >/dev/null; \
+	fi
+
+venv: $(STAMP)
+
+$(PY):
+	@echo "setup: creating $(VENV) (system site packages: qgis, osgeo, numpy from Debian)"
+	@/usr/bin/python3 -m venv --system-site-packages $(VENV)
+
+$(STAMP): $(REQ_FILES) | $(PY)
+	@echo "setup: pip install -r requirements-dev.txt"
+	@set -o pipefail; $(PY) -m pip install -q --disable-pip-version-check -r requirements-dev.txt 2>&1 \
+	  | { grep -v 'is neither a file nor a directory' || true; }
+	@touch $(STAMP)
+
+# Icons compiled from resources.qrc into resources_rc.py (gitignored, shipped in the zip); the plugin imports it.
+resources: resources_rc.py
+
+resources_rc.py: resources.qrc $(wildcard icons/*)
+	@pyrcc5 -o $@ resources.qrc
+
+test: setup
+	@mkdir -p test-artifacts
+	$(PY) -m pytest -q tests
+
+demo: setup
+	$(PY) -m monoplot_plugin.deps
+
+package: setup
+	$(PY) scripts/package.py --output dist
+
+clean:
+	rm -rf dist build test-artifacts .pytest_cache resources_rc.py
