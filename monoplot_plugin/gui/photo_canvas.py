@@ -1,0 +1,144 @@
+"""The photo canvas: a QgsMapCanvas whose "map" is the photo in pixel space.
+
+Map coordinates on this canvas are ``(x, y) = (u, -v)``: column to the right, row downwards, the photo spanning
+``x in [0, W]`` and ``y in [-H, 0]``. Because it is a real QgsMapCanvas, QGIS map tools (capture tools, rubber bands,
+vertex markers, snapping-free digitising) work on it unchanged; use :func:`uv_to_map` / :func:`map_to_uv` to convert.
+
+The photo itself is drawn by :class:`ImageItem` (a canvas item holding an EXIF-oriented QImage), not by a raster
+layer: GDAL ignores EXIF orientation, and no temporary file is needed. Vector layers (e.g. an outputs engineer's
+digitising layer, CRS left invalid) can still be put on top with :meth:`PhotoCanvas.set_extra_layers`.
+"""
+
+from __future__ import annotations
+
+from typing import List, Optional, Tuple
+
+from qgis.core import QgsCoordinateReferenceSystem, QgsMapLayer, QgsPointXY, QgsRectangle
+from qgis.gui import QgsMapCanvas, QgsMapCanvasItem
+from qgis.PyQt.QtCore import QRectF, Qt, pyqtSignal
+from qgis.PyQt.QtGui import QBrush, QColor, QImage, QPainter
+
+__all__ = ["PhotoCanvas", "ImageItem", "uv_to_map", "map_to_uv"]
+
+
+def uv_to_map(u: float, v: float) -> QgsPointXY:
+    """Photo pixel (u, v) -> photo-canvas map point (u, -v)."""
+    return QgsPointXY(float(u), -float(v))
+
+
+def map_to_uv(point) -> Tuple[float, float]:
+    """Photo-canvas map point -> photo pixel (u, v)."""
+    return float(point.x()), -float(point.y())
+
+
+class ImageItem(QgsMapCanvasItem):
+    """A QImage stretched over the rectangle ``[0, W] x [-H, 0]`` of a photo canvas, with an opacity."""
+
+    def __init__(self, canvas: QgsMapCanvas, z_value: float = -10.0):
+        super().__init__(canvas)
+        self._image: Optional[QImage] = None
+        self._opacity = 1.0
+        self.setZValue(z_value)
+
+    def set_image(self, image: Optional[QImage], size: Optional[Tuple[int, int]] = None) -> None:
+        """Show ``image`` stretched to ``size`` = (W, H) photo pixels (default: the image's own size)."""
+        self._image = image
+        if image is not None and not image.isNull():
+            w, h = size or (image.width(), image.height())
+            self.setRect(QgsRectangle(0.0, -float(h), float(w), 0.0))
+        self.setVisible(image is not None and not image.isNull())
+        self.update()
+
+    def set_opacity(self, opacity: float) -> None:
+        self._opacity = max(0.0, min(1.0, float(opacity)))
+        self.update()
+
+    def paint(self, painter: QPainter, option=None, widget=None) -> None:  # QGraphicsItem.paint
+        if self._image is None or self._image.isNull() or self._opacity <= 0:
+            return
+        painter.setOpacity(self._opacity)
+        painter.setRenderHint(QPainter.RenderHint.SmoothPixmapTransform, True)
+        painter.drawImage(self.boundingRect(), self._image, QRectF(self._image.rect()))
+
+
+class PhotoCanvas(QgsMapCanvas):
+    """Map canvas in photo pixel space: wheel zoom, middle/space-drag pan (QgsMapCanvas defaults), photo + overlay.
+
+    Signals:
+        cursorMoved(u, v): mouse over the canvas, in photo pixels (also outside the photo).
+        cursorLeft(): the mouse left the canvas.
+    """
+
+    cursorMoved = pyqtSignal(float, float)
+    cursorLeft = pyqtSignal()
+
+    def __init__(self, parent=None):
+        super().__init__(parent)
+        self.setObjectName("monoplotPhotoCanvas")
+        self.setDestinationCrs(QgsCoordinateReferenceSystem())  # pixel space: no CRS, no reprojection
+        # Layers render transparently over the photo (which sits below the map item); the view paints the frame.
+        self.setCanvasColor(QColor(0, 0, 0, 0))
+        self.setBackgroundBrush(QBrush(QColor(40, 40, 40)))
+        self.enableAntiAliasing(True)
+        self.setPreviewJobsEnabled(False)
+        self.photo_item = ImageItem(self, z_value=-20.0)
+        self.overlay_item = ImageItem(self, z_value=-10.0)
+        self.overlay_item.set_opacity(0.5)
+        self._size: Optional[Tuple[int, int]] = None
+        self._extra_layers: List[QgsMapLayer] = []
+        self.xyCoordinates.connect(lambda p: self.cursorMoved.emit(*map_to_uv(p)))
+
+    # --- content ----------------------------------------------------------------------------------------------
+    @property
+    def photo_size(self) -> Optional[Tuple[int, int]]:
+        """(W, H) of the shown photo in pixels, or None."""
+        return self._size
+
+    def set_photo(self, image: Optional[QImage]) -> None:
+        """Show ``image`` (already EXIF-oriented) and zoom to it; None clears the canvas."""
+        self._size = None if image is None or image.isNull() else (image.width(), image.height())
+        self.photo_item.set_image(image)
+        self.overlay_item.set_image(None)
+        self.zoom_to_photo()
+
+    def set_overlay(self, image: Optional[QImage]) -> None:
+        """Show ``image`` (e.g. the DEM rendered from the fitted camera) over the photo, stretched to its size."""
+        self.overlay_item.set_image(image, self._size)
+
+    def set_overlay_opacity(self, opacity: float) -> None:
+        self.overlay_item.set_opacity(opacity)
+
+    def set_extra_layers(self, layers: List[QgsMapLayer]) -> None:
+        """Draw these map layers (pixel-space vector layers, x = u, y = -v) over the photo."""
+        self._extra_layers = list(layers)
+        self.setLayers(self._extra_layers)
+        self.refresh()
+
+    # --- navigation -------------------------------------------------------------------------------------------
+    def zoom_to_photo(self) -> None:
+        if self._size is None:
+            self.setExtent(QgsRectangle(0, -100, 100, 0))
+        else:
+            w, h = self._size
+            self.setExtent(QgsRectangle(0, -h, w, 0).buffered(0.02 * max(w, h)))
+        self.refresh()
+
+    def center_on(self, u: float, v: float) -> None:
+        """Pan (keeping the scale) so that photo pixel (u, v) is in the middle of the view."""
+        self.setCenter(uv_to_map(u, v))
+        self.refresh()
+
+    def visible_uv_rect(self) -> Tuple[float, float, float, float]:
+        """(u_min, v_min, u_max, v_max) of the visible part of the photo plane."""
+        e = self.extent()
+        return e.xMinimum(), -e.yMaximum(), e.xMaximum(), -e.yMinimum()
+
+    def leaveEvent(self, event):  # noqa: N802 (Qt API)
+        self.cursorLeft.emit()
+        super().leaveEvent(event)
+
+    def keyPressEvent(self, event):  # noqa: N802
+        if event.key() == Qt.Key.Key_Home:
+            self.zoom_to_photo()
+            return
+        super().keyPressEvent(event)
