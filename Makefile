@@ -47,7 +47,7 @@ $(STAMP): $(REQ_FILES) | $(PY)
 resources: resources_rc.py
 
 resources_rc.py: resources.qrc $(wildcard icons/*)
-	@pyrcc5 -o $@ resources.qrc
+	@pyrcc5 resources.qrc | sed 's/^from PyQt5 import QtCore/from qgis.PyQt import QtCore/' > $@.tmp && mv $@.tmp $@
 
 test: setup
 	@mkdir -p test-artifacts
