@@ -12,3 +12,7 @@ __all__ = ["Camera", "PARAMETER_NAMES", "project_points", "rotation_matrix"]
 # Other engineers: append your exports below with a guarded import block of your own module, e.g.
 #   from .dem import Dem  # noqa: E402,F401
 #   __all__ += ["Dem"]
+
+from .dem import Dem  # noqa: E402,F401
+
+__all__ += ["Dem"]
