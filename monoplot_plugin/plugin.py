@@ -1,0 +1,95 @@
+"""The object QGIS loads: a toolbar button and a Raster-menu entry that toggle Monoplot's dock.
+
+``unload()`` undoes everything ``initGui()``/``initProcessing()`` did, so that a plugin reload leaves nothing behind.
+"""
+
+import importlib
+import importlib.util
+import logging
+
+from qgis.core import QgsApplication
+from qgis.PyQt.QtCore import QCoreApplication, QFile, Qt
+from qgis.PyQt.QtGui import QIcon
+from qgis.PyQt.QtWidgets import QAction
+
+from . import PLUGIN_DIR, deps, logging_bridge
+
+LOG = logging.getLogger(__name__)
+#: Icon compiled from resources.qrc (resources_rc.py, made by `make resources`); the SVG file is the fallback.
+ICON_RESOURCE = ":/plugins/monoplot/icons/monoplot.svg"
+ICON_FILE = PLUGIN_DIR / "icons" / "monoplot.svg"
+PROVIDER_MODULE = __name__.rpartition(".")[0] + ".processing.provider"
+
+
+def plugin_icon_path():
+    """``':/plugins/monoplot/icons/monoplot.svg'`` when the compiled resources are loaded, else the file path."""
+    return ICON_RESOURCE if QFile.exists(ICON_RESOURCE) else str(ICON_FILE)
+
+
+class MonoplotPlugin:
+    """QGIS plugin instance (created by the root ``classFactory``)."""
+
+    def __init__(self, iface):
+        self.iface = iface
+        self.action = None
+        self.dock = None
+        self.provider = None
+        self.menu = self.tr("&Monoplot")
+
+    @staticmethod
+    def tr(text):
+        return QCoreApplication.translate("MonoplotPlugin", text)
+
+    # --- Processing provider hook (monoplot_plugin/processing/provider.py, owned by the processing issue) ---
+    def initProcessing(self):  # noqa: N802 (QGIS calls this name)
+        """Register ``MonoplotProvider`` when that module exists; a broken provider is logged, never fatal."""
+        if importlib.util.find_spec(PROVIDER_MODULE) is None:
+            return
+        try:
+            provider_class = importlib.import_module(PROVIDER_MODULE).MonoplotProvider
+            self.provider = provider_class()
+            QgsApplication.processingRegistry().addProvider(self.provider)
+        except Exception:  # noqa: BLE001 — e.g. a missing optional dependency must not block the GUI
+            LOG.exception("Monoplot Processing provider could not be registered")
+            self.provider = None
+
+    def initGui(self):  # noqa: N802
+        logging_bridge.install()
+        self.action = QAction(QIcon(plugin_icon_path()), self.tr("Monoplot"), self.iface.mainWindow())
+        self.action.setObjectName("MonoplotAction")
+        self.action.setToolTip(self.tr("Monoplot: georeference an oblique photograph against a DEM"))
+        self.action.setCheckable(True)
+        self.action.toggled.connect(self.toggle_dock)
+        self.iface.addRasterToolBarIcon(self.action)
+        self.iface.addPluginToRasterMenu(self.menu, self.action)
+        self.initProcessing()
+        self.dependency_notice = deps.notify_missing(self.iface)
+
+    def toggle_dock(self, visible):
+        """Show or hide the dock, creating it on first use (keeps QGIS start-up light)."""
+        if self.dock is None:
+            if not visible:
+                return
+            from .gui.dock import MonoplotDock
+
+            self.dock = MonoplotDock(self.iface, self.iface.mainWindow())
+            self.iface.addDockWidget(Qt.DockWidgetArea.RightDockWidgetArea, self.dock)
+            self.dock.visibilityChanged.connect(self.action.setChecked)  # closing the dock unchecks the button
+        self.dock.setVisible(visible)
+
+    def unload(self):
+        if self.dock is not None:
+            self.dock.visibilityChanged.disconnect(self.action.setChecked)
+            self.iface.removeDockWidget(self.dock)
+            self.dock.deleteLater()
+            self.dock = None
+        if self.action is not None:
+            self.iface.removeRasterToolBarIcon(self.action)
+            self.iface.removePluginRasterMenu(self.menu, self.action)
+            self.action.deleteLater()
+            self.action = None
+        if self.provider is not None:
+            QgsApplication.processingRegistry().removeProvider(self.provider)
+            self.provider = None
+        deps.dismiss(self.iface, getattr(self, "dependency_notice", None))
+        logging_bridge.uninstall()

@@ -1,0 +1,109 @@
+"""The plugin shell in pytest-qgis's QGIS (offscreen): initGui builds the GUI, unload removes all of it."""
+
+import importlib.util
+import logging
+
+import pytest
+from qgis.core import QgsApplication
+from qgis.PyQt import sip
+from qgis.PyQt.QtCore import QCoreApplication, QEvent
+from qgis.PyQt.QtWidgets import QAction, QDockWidget
+
+import resources_rc  # noqa: F401  (compiled by `make resources`, as in the release zip)
+from monoplot_plugin import plugin as plugin_module
+from monoplot_plugin.plugin import MonoplotPlugin
+
+
+def flush_deletes():
+    QCoreApplication.sendPostedEvents(None, QEvent.Type.DeferredDelete)
+    QCoreApplication.processEvents()
+
+
+def monoplot_widgets(window):
+    return (window.findChildren(QAction, "MonoplotAction"), window.findChildren(QDockWidget, "MonoplotDock"))
+
+
+@pytest.fixture()
+def plugin(qgis_iface):
+    instance = MonoplotPlugin(qgis_iface)
+    instance.initGui()
+    yield instance
+    if instance.action is not None:
+        instance.unload()
+    flush_deletes()
+
+
+def test_init_gui_adds_action_to_raster_toolbar_and_menu(plugin, qgis_iface):
+    action = plugin.action
+    assert action in qgis_iface.mainWindow().findChildren(QAction, "MonoplotAction")
+    assert action.text() == "Monoplot" and action.isCheckable() and not action.icon().isNull()
+    assert plugin_module.plugin_icon_path() == plugin_module.ICON_RESOURCE  # the compiled resources.qrc is used
+    qgis_iface.addRasterToolBarIcon.assert_called_with(action)
+    qgis_iface.addPluginToRasterMenu.assert_called_with(plugin.menu, action)
+
+
+def test_action_opens_and_closes_the_dock(plugin, qgis_iface, qtbot):
+    qgis_iface.mainWindow().show()  # visibility signals only flow in a shown window
+    assert plugin.dock is None  # created lazily: nothing heavy at QGIS start-up
+    plugin.action.trigger()
+    dock = plugin.dock
+    assert isinstance(dock, QDockWidget) and dock.parent() is qgis_iface.mainWindow()
+    qtbot.waitUntil(dock.isVisible, timeout=2000)
+    assert dock.windowTitle() == "Monoplot" and plugin.action.isChecked()
+    assert "0.1" in dock.statusLabel.text()  # version from metadata.txt
+    dock.close()  # the dock's own close button unchecks the toolbar button
+    qtbot.waitUntil(lambda: not plugin.action.isChecked(), timeout=2000)
+    plugin.action.trigger()
+    assert plugin.dock is dock and dock.isVisible()
+    qgis_iface.mainWindow().hide()
+
+
+def test_unload_removes_everything_and_reload_leaves_nothing(qgis_iface):
+    window = qgis_iface.mainWindow()
+    for _ in range(3):  # a plugin reload is unload() + a fresh instance's initGui()
+        instance = MonoplotPlugin(qgis_iface)
+        instance.initGui()
+        instance.action.trigger()
+        actions, docks = monoplot_widgets(window)
+        assert len(actions) == 1 and len(docks) == 1
+        action, dock = instance.action, instance.dock
+        instance.unload()
+        flush_deletes()
+        assert sip.isdeleted(action) and sip.isdeleted(dock)
+        assert monoplot_widgets(window) == ([], [])
+        qgis_iface.removeRasterToolBarIcon.assert_called_with(action)
+        qgis_iface.removePluginRasterMenu.assert_called_with(instance.menu, action)
+
+
+@pytest.mark.skipif(importlib.util.find_spec("monoplot_plugin.processing.provider") is None,
+                    reason="no Processing provider in this checkout yet")
+def test_processing_provider_registered_and_removed(qgis_iface):
+    registry = QgsApplication.processingRegistry()
+    instance = MonoplotPlugin(qgis_iface)
+    instance.initGui()
+    provider = instance.provider
+    assert provider is not None, "monoplot_plugin.processing.provider exists but could not be registered"
+    provider_id = provider.id()
+    assert registry.providerById(provider_id) is provider
+    instance.unload()
+    assert registry.providerById(provider_id) is None
+
+
+def test_python_logging_reaches_the_monoplot_log_tab(plugin):
+    received = []
+
+    def on_message(message, tag, level):
+        received.append((message, tag))
+
+    QgsApplication.messageLog().messageReceived.connect(on_message)
+    try:
+        logging.getLogger("monoplot_plugin.some_module").warning("fit diverged after %d steps", 12)
+        QCoreApplication.processEvents()
+        assert ("monoplot_plugin.some_module: fit diverged after 12 steps", "Monoplot") in received
+        plugin.unload()
+        received.clear()
+        logging.getLogger("monoplot_plugin.some_module").warning("after unload")
+        QCoreApplication.processEvents()
+        assert not [m for m in received if m[1] == "Monoplot"]
+    finally:
+        QgsApplication.messageLog().messageReceived.disconnect(on_message)
