@@ -1,0 +1,137 @@
+"""Fit the camera to photo points and DEM points (paired GCPs or unpaired clouds), starting from a prior."""
+
+import json
+
+import numpy as np
+from qgis.core import (
+    QgsProcessing,
+    QgsProcessingException,
+    QgsProcessingOutputNumber,
+    QgsProcessingParameterBoolean,
+    QgsProcessingParameterFeatureSource,
+    QgsProcessingParameterFile,
+    QgsProcessingParameterFileDestination,
+)
+
+from .. import pipeline
+from ..base import (Canceled, MonoplotAlgorithm, check_canceled, checked, progress_callback, read_map_points,
+                    read_photo_points)
+from ..inputs import InputError, read_points_csv
+
+CSV_FILTER = "CSV (*.csv *.txt)"
+
+
+def pair_points(uv: np.ndarray, xyz: np.ndarray) -> None:
+    """Check that paired inputs really pair: same number of rows (row i of one is row i of the other)."""
+    if len(uv) != len(xyz):
+        raise InputError(f"paired mode needs as many photo points as DEM points (got {len(uv)} and {len(xyz)}); "
+                         "switch 'Points are paired' off to fit unpaired point sets")
+
+
+class FitCamera(MonoplotAlgorithm):
+    _name = "fitcamera"
+    _display = "Fit camera"
+    _help = ("Fits the camera (position, heading, pitch, roll, field of view) so that the DEM points project onto "
+             "the photo points, starting from a prior camera (Monoplot JSON or KML PhotoOverlay).\n\n"
+             "Points come from layers (photo points in pixel space, DEM points in the DEM's CRS) or from CSV files "
+             "(u_px, v_px and/or X, Y, Z columns); a single CSV with both sets of columns is a list of paired "
+             "ground-control points. Unpaired point sets may have different counts: the fit matches each photo "
+             "point to the nearest projected DEM point. Writes the fitted camera as JSON, the input of every other "
+             "algorithm.")
+
+    def initAlgorithm(self, config=None):
+        self.add_photo_parameter()
+        self.add_dem_parameter()
+        self.add_camera_parameter("PRIOR", description="Prior camera (Monoplot JSON, or KML PhotoOverlay)")
+        self.addParameter(QgsProcessingParameterFeatureSource("PHOTO_POINTS", self.tr("Photo points (layer)"),
+                                                              [QgsProcessing.TypeVectorPoint], optional=True))
+        self.addParameter(QgsProcessingParameterFeatureSource("DEM_POINTS", self.tr("DEM points (layer)"),
+                                                              [QgsProcessing.TypeVectorPoint], optional=True))
+        self.addParameter(QgsProcessingParameterFile("PHOTO_CSV", self.tr("Photo points (CSV, or paired GCP CSV)"),
+                                                     QgsProcessingParameterFile.File, optional=True,
+                                                     fileFilter=CSV_FILTER))
+        self.addParameter(QgsProcessingParameterFile("DEM_CSV", self.tr("DEM points (CSV)"),
+                                                     QgsProcessingParameterFile.File, optional=True,
+                                                     fileFilter=CSV_FILTER))
+        self.addParameter(QgsProcessingParameterBoolean("PAIRED", self.tr("Points are paired (row i <-> row i)"),
+                                                        defaultValue=False))
+        self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", self.tr("Fitted camera"),
+                                                                "Monoplot camera (*.json)"))
+        self.addOutput(QgsProcessingOutputNumber("RMSE_PX", self.tr("Reprojection error (px)")))
+        self.addOutput(QgsProcessingOutputNumber("N_PHOTO", self.tr("Photo points used")))
+        self.addOutput(QgsProcessingOutputNumber("N_DEM", self.tr("DEM points used")))
+
+    def gather_points(self, parameters, context, dem):
+        """(uv (N, 2), xyz (M, 3), paired) from layers and/or CSV files; Z sampled from the DEM where missing."""
+        uv_parts, xyz_parts = [], []
+        paired = self.parameterAsBool(parameters, "PAIRED", context)
+        photo_source = self.parameterAsSource(parameters, "PHOTO_POINTS", context)
+        dem_source = self.parameterAsSource(parameters, "DEM_POINTS", context)
+        if photo_source is not None:
+            uv_parts.append(read_photo_points(photo_source))
+        if dem_source is not None:
+            xyz_parts.append(read_map_points(dem_source))
+        for name in ("PHOTO_CSV", "DEM_CSV"):
+            path = self.parameterAsFile(parameters, name, context)
+            if not path:
+                continue
+            table = checked(read_points_csv, path)
+            if "uv" in table and "xyz" in table:
+                paired = True  # one table with both: ground-control points
+            if "uv" in table:
+                uv_parts.append(table["uv"])
+            if "xyz" in table:
+                xyz_parts.append(table["xyz"])
+        if not uv_parts or not xyz_parts:
+            raise QgsProcessingException(self.tr(
+                "Fit camera needs photo points and DEM points: give PHOTO_POINTS and DEM_POINTS layers, or "
+                "PHOTO_CSV and DEM_CSV files, or one paired CSV (u_px, v_px, X, Y, Z)."))
+        uv = np.concatenate(uv_parts)
+        xyz = np.concatenate(xyz_parts)
+        missing_z = ~np.isfinite(xyz[:, 2])
+        if missing_z.any():
+            xyz[missing_z, 2] = pipeline.sample_dem(dem, xyz[missing_z, :2])
+        good_xyz = np.isfinite(xyz).all(axis=1)
+        if paired:
+            checked(pair_points, uv, xyz)
+            keep = good_xyz & np.isfinite(uv).all(axis=1)
+            uv, xyz = uv[keep], xyz[keep]
+        else:
+            uv, xyz = uv[np.isfinite(uv).all(axis=1)], xyz[good_xyz]
+        return uv, xyz, paired
+
+    def processAlgorithm(self, parameters, context, feedback):
+        photo = self.photo_path(parameters, context)
+        dem, crs = self.dem(parameters, context)
+        prior = self.camera(parameters, context, "PRIOR", photo=photo, crs=crs)
+        uv, xyz, paired = self.gather_points(parameters, context, dem)
+        minimum = 4 if paired else 6
+        if len(uv) < minimum or len(xyz) < minimum:
+            raise QgsProcessingException(self.tr(
+                f"Too few points for a 7-parameter camera: {len(uv)} photo and {len(xyz)} DEM points "
+                f"(at least {minimum} each {'pair' if paired else 'set'} needed)."))
+        outside = ~prior.in_image(uv)
+        if outside.any():
+            raise QgsProcessingException(self.tr(
+                f"{int(outside.sum())} photo points lie outside the {prior.width}x{prior.height} photo: are they "
+                "in photo pixel space (x = column, y = -row, or columns u_px, v_px)?"))
+        feedback.pushInfo(self.tr(f"Fitting with {len(uv)} photo points and {len(xyz)} DEM points "
+                                  f"({'paired' if paired else 'unpaired'})"))
+        try:
+            camera, info = pipeline.fit(photo_size_of(prior), uv, xyz, prior, dem, paired,
+                                        progress_callback(feedback, 0, 95))
+        except Canceled:
+            raise QgsProcessingException(self.tr("Canceled."))
+        check_canceled(feedback)
+        camera.crs_wkt = crs.toWkt()
+        out = self.parameterAsFileOutput(parameters, "OUTPUT", context)
+        camera.save(out)
+        rmse = float(info.get("rmse_px", float("nan")))
+        feedback.pushInfo(self.tr(f"Camera: {json.dumps(camera.parameters())}"))
+        feedback.pushInfo(self.tr(f"Reprojection error {rmse:.2f} px; written to {out}"))
+        feedback.setProgress(100)
+        return {"OUTPUT": out, "RMSE_PX": rmse, "N_PHOTO": len(uv), "N_DEM": len(xyz)}
+
+
+def photo_size_of(camera):
+    return camera.image_size

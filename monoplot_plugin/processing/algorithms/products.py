@@ -1,0 +1,214 @@
+"""Products of a fitted camera: XYZ raster, photo features -> map, map -> photo, orthophoto, report."""
+
+import numpy as np
+from qgis.core import (
+    QgsCoordinateReferenceSystem,
+    QgsCoordinateTransform,
+    QgsFeature,
+    QgsFeatureSink,
+    QgsProcessing,
+    QgsProcessingException,
+    QgsProcessingOutputNumber,
+    QgsProcessingParameterBoolean,
+    QgsProcessingParameterFeatureSink,
+    QgsProcessingParameterFeatureSource,
+    QgsProcessingParameterFile,
+    QgsProcessingParameterFileDestination,
+    QgsProcessingParameterNumber,
+    QgsProcessingParameterRasterDestination,
+    QgsWkbTypes,
+)
+
+from .. import geometry as geo
+from .. import pipeline
+from ..base import PHOTO_Y_SIGN, MonoplotAlgorithm, check_canceled, checked, progress_callback
+from ..inputs import read_photo
+
+
+class _CameraDemAlgorithm(MonoplotAlgorithm):
+    """Algorithms that need a camera and a DEM (and optionally the photo, for a KML camera's size)."""
+
+    def add_camera_dem(self, photo_optional=True):
+        self.add_camera_parameter()
+        self.add_dem_parameter()
+        self.add_photo_parameter("PHOTO", optional=photo_optional,
+                                 description="Photo" if not photo_optional else "Photo (needed only for a KML camera)")
+
+    def camera_and_dem(self, parameters, context, feedback):
+        dem, crs = self.dem(parameters, context)
+        photo = self.parameterAsFile(parameters, "PHOTO", context) or None
+        camera = self.camera(parameters, context, "CAMERA", photo=photo, crs=crs)
+        feedback.pushInfo(self.tr(f"Camera at ({camera.position[0]:.1f}, {camera.position[1]:.1f}, "
+                                  f"{camera.position[2]:.1f}), heading {camera.heading:.2f}, pitch "
+                                  f"{camera.pitch:.2f}, fov {camera.fov:.2f}; image {camera.width}x{camera.height}"))
+        return camera, dem, crs
+
+
+class ComputeXyz(_CameraDemAlgorithm):
+    _name = "computexyz"
+    _display = "Compute XYZ raster"
+    _help = ("Intersects the ray of every photo pixel with the DEM and writes a 3-band GeoTIFF of the photo's size "
+             "(bands X, Y, Z in the DEM's CRS; nodata where the ray sees the sky). With it, every pixel of the photo "
+             "has map coordinates.")
+
+    def initAlgorithm(self, config=None):
+        self.add_camera_dem()
+        self.addParameter(QgsProcessingParameterRasterDestination("OUTPUT", self.tr("XYZ raster")))
+        self.addOutput(QgsProcessingOutputNumber("GROUND_FRACTION", self.tr("Fraction of pixels on the ground")))
+
+    def processAlgorithm(self, parameters, context, feedback):
+        camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
+        out = self.parameterAsOutputLayer(parameters, "OUTPUT", context)
+        xyz = pipeline.xyz_raster(camera, dem, progress_callback(feedback, 0, 80))
+        check_canceled(feedback)
+        pipeline.write_xyz(out, xyz, crs.toWkt())
+        ground = float(np.isfinite(xyz[..., 2]).mean())
+        feedback.pushInfo(self.tr(f"{100 * ground:.1f}% of the pixels hit the DEM; written to {out}"))
+        feedback.setProgress(100)
+        return {"OUTPUT": out, "GROUND_FRACTION": ground}
+
+
+class PhotoToMap(_CameraDemAlgorithm):
+    _name = "phototomap"
+    _display = "Photo features to map layer"
+    _help = ("Turns points, lines and polygons drawn on the photo (photo pixel space: x = column, y = -row) into a "
+             "layer in the DEM's CRS with Z, by intersecting each vertex's ray with the DEM. Lines are densified "
+             "every STEP pixels first, since a straight line on the photo is not straight on the terrain. Vertices "
+             "that see the sky are dropped (and reported).")
+
+    def initAlgorithm(self, config=None):
+        self.addParameter(QgsProcessingParameterFeatureSource("INPUT", self.tr("Features drawn on the photo")))
+        self.add_camera_dem()
+        self.addParameter(QgsProcessingParameterNumber("STEP", self.tr("Densify every (pixels)"),
+                                                       QgsProcessingParameterNumber.Double, 2.0, minValue=0.0))
+        self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Map features")))
+        self.addOutput(QgsProcessingOutputNumber("DROPPED", self.tr("Vertices dropped (sky)")))
+
+    def processAlgorithm(self, parameters, context, feedback):
+        source = self.parameterAsSource(parameters, "INPUT", context)
+        if source is None:
+            raise QgsProcessingException(self.invalidSourceError(parameters, "INPUT"))
+        camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
+        step = self.parameterAsDouble(parameters, "STEP", context)
+        wkb = QgsWkbTypes.addZ(QgsWkbTypes.multiType(source.wkbType()))
+        sink, dest = self.parameterAsSink(parameters, "OUTPUT", context, source.fields(), wkb, crs)
+        if sink is None:
+            raise QgsProcessingException(self.invalidSinkError(parameters, "OUTPUT"))
+        total = max(1, source.featureCount())
+        dropped = 0
+        for i, feature in enumerate(source.getFeatures()):
+            check_canceled(feedback)
+            geometry, lost = geo.photo_to_map_geometry(feature.geometry(), camera, dem, step, PHOTO_Y_SIGN)
+            dropped += lost
+            if geometry is None:
+                feedback.reportError(self.tr(f"Feature {feature.id()} is entirely in the sky or outside the "
+                                             "DEM; skipped"))
+                continue
+            out = QgsFeature(feature)
+            out.setGeometry(geometry)
+            sink.addFeature(out, QgsFeatureSink.FastInsert)
+            feedback.setProgress(100.0 * (i + 1) / total)
+        if dropped:
+            feedback.pushInfo(self.tr(f"{dropped} vertices saw the sky or left the DEM and were dropped"))
+        return {"OUTPUT": dest, "DROPPED": dropped}
+
+
+class MapToPhoto(_CameraDemAlgorithm):
+    _name = "maptophoto"
+    _display = "Map layer to photo"
+    _help = ("Draws a map layer onto the photo: every vertex is projected with the camera into photo pixel space "
+             "(x = column, y = -row). Lines are densified every STEP map units first. With 'Drop hidden parts', "
+             "vertices hidden behind terrain (depth test against the DEM rendered from the camera) or outside the "
+             "image are removed, splitting lines where they disappear.")
+
+    def initAlgorithm(self, config=None):
+        self.addParameter(QgsProcessingParameterFeatureSource("INPUT", self.tr("Map layer")))
+        self.add_camera_dem()
+        self.addParameter(QgsProcessingParameterNumber("STEP", self.tr("Densify every (map units, 0 = no)"),
+                                                       QgsProcessingParameterNumber.Double, 0.0, minValue=0.0))
+        self.addParameter(QgsProcessingParameterBoolean("HIDDEN", self.tr("Drop hidden parts"), defaultValue=True))
+        self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Features on the photo")))
+
+    def processAlgorithm(self, parameters, context, feedback):
+        source = self.parameterAsSource(parameters, "INPUT", context)
+        if source is None:
+            raise QgsProcessingException(self.invalidSourceError(parameters, "INPUT"))
+        camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
+        step = self.parameterAsDouble(parameters, "STEP", context)
+        drop_hidden = self.parameterAsBool(parameters, "HIDDEN", context)
+        transform = None
+        if source.sourceCrs().isValid() and crs.isValid() and source.sourceCrs() != crs:
+            transform = QgsCoordinateTransform(source.sourceCrs(), crs, context.transformContext())
+        visible = pipeline.visibility(camera, dem) if drop_hidden else None
+        wkb = QgsWkbTypes.flatType(QgsWkbTypes.multiType(source.wkbType()))
+        sink, dest = self.parameterAsSink(parameters, "OUTPUT", context, source.fields(), wkb,
+                                          QgsCoordinateReferenceSystem())
+        if sink is None:
+            raise QgsProcessingException(self.invalidSinkError(parameters, "OUTPUT"))
+        total = max(1, source.featureCount())
+        for i, feature in enumerate(source.getFeatures()):
+            check_canceled(feedback)
+            geometry = feature.geometry()
+            if transform is not None:
+                geometry.transform(transform)
+            projected = geo.map_to_photo_geometry(geometry, camera, dem, step, visible, PHOTO_Y_SIGN)
+            if projected is None:
+                continue
+            out = QgsFeature(feature)
+            out.setGeometry(projected)
+            sink.addFeature(out, QgsFeatureSink.FastInsert)
+            feedback.setProgress(100.0 * (i + 1) / total)
+        return {"OUTPUT": dest}
+
+
+class Orthophoto(_CameraDemAlgorithm):
+    _name = "orthophoto"
+    _display = "Orthophoto"
+    _help = ("Drapes the photo on the DEM and writes it as a north-up RGBA GeoTIFF in the DEM's CRS: each ground "
+             "cell seen by the camera gets the colour of its pixel; cells hidden by terrain or outside the photo "
+             "are transparent.")
+
+    def initAlgorithm(self, config=None):
+        self.add_camera_dem(photo_optional=False)
+        self.addParameter(QgsProcessingParameterNumber("RESOLUTION", self.tr("Cell size (map units, 0 = DEM's)"),
+                                                       QgsProcessingParameterNumber.Double, 0.0, minValue=0.0))
+        self.addParameter(QgsProcessingParameterRasterDestination("OUTPUT", self.tr("Orthophoto")))
+
+    def processAlgorithm(self, parameters, context, feedback):
+        camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
+        photo = checked(read_photo, self.photo_path(parameters, context))
+        if (photo.shape[1], photo.shape[0]) != tuple(camera.image_size):
+            raise QgsProcessingException(self.tr(
+                f"The photo is {photo.shape[1]}x{photo.shape[0]} px but the camera is for "
+                f"{camera.width}x{camera.height} px."))
+        resolution = self.parameterAsDouble(parameters, "RESOLUTION", context) or None
+        out = self.parameterAsOutputLayer(parameters, "OUTPUT", context)
+        pipeline.orthophoto(out, photo, camera, dem, crs.toWkt(), resolution, progress_callback(feedback, 0, 95))
+        feedback.setProgress(100)
+        return {"OUTPUT": out}
+
+
+class Report(_CameraDemAlgorithm):
+    _name = "report"
+    _display = "Camera report (PNG/PDF)"
+    _help = ("Writes a one-page report of a fitted camera: the photo with the DEM rendered from the camera "
+             "overlaid, the control points and their residuals, and the camera parameters. PNG or PDF by the "
+             "output's extension.")
+
+    def initAlgorithm(self, config=None):
+        self.add_camera_dem(photo_optional=False)
+        self.addParameter(QgsProcessingParameterFile("POINTS_CSV", self.tr("Control points (paired CSV, optional)"),
+                                                     QgsProcessingParameterFile.File, optional=True,
+                                                     fileFilter="CSV (*.csv *.txt)"))
+        self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", self.tr("Report"),
+                                                                "PNG image (*.png);;PDF (*.pdf)"))
+
+    def processAlgorithm(self, parameters, context, feedback):
+        camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
+        photo = checked(read_photo, self.photo_path(parameters, context))
+        points = self.parameterAsFile(parameters, "POINTS_CSV", context) or None
+        out = self.parameterAsFileOutput(parameters, "OUTPUT", context)
+        checked(pipeline.report, out, photo, camera, dem, points)
+        feedback.setProgress(100)
+        return {"OUTPUT": out}
+

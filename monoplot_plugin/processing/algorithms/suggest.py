@@ -1,0 +1,85 @@
+"""Suggest photo points and DEM points (candidate ground-control points for the user to curate)."""
+
+from qgis.core import (
+    QgsCoordinateReferenceSystem,
+    QgsProcessing,
+    QgsProcessingException,
+    QgsProcessingParameterFeatureSink,
+    QgsProcessingParameterNumber,
+    QgsWkbTypes,
+)
+
+from .. import pipeline
+from ..base import (MonoplotAlgorithm, check_canceled, checked, map_point_fields, photo_point_fields,
+                    progress_callback, write_map_points, write_photo_points)
+from ..inputs import read_photo
+
+
+class SuggestPhotoPoints(MonoplotAlgorithm):
+    _name = "suggestphotopoints"
+    _display = "Suggest photo points"
+    _help = ("Detects distinctive points (ORB key points, summits and ridge corners) on the photo and writes them "
+             "as a point layer in photo pixel space (x = column, y = -row; fields u_px, v_px, score). Accept or "
+             "delete points in that layer, then use it in 'Fit camera'.")
+
+    def initAlgorithm(self, config=None):
+        self.add_photo_parameter()
+        self.addParameter(QgsProcessingParameterNumber("MAX_POINTS", self.tr("Maximum number of points"),
+                                                       QgsProcessingParameterNumber.Integer, 60, minValue=1,
+                                                       maxValue=10000))
+        self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Suggested photo points"),
+                                                            QgsProcessing.TypeVectorPoint))
+
+    def processAlgorithm(self, parameters, context, feedback):
+        photo = checked(read_photo, self.photo_path(parameters, context))
+        count = self.parameterAsInt(parameters, "MAX_POINTS", context)
+        feedback.pushInfo(self.tr(f"Photo {photo.shape[1]}x{photo.shape[0]} px; detecting up to {count} points"))
+        feedback.setProgress(10)
+        uv, scores = pipeline.suggest_photo(photo, count)
+        check_canceled(feedback)
+        sink, dest = self.parameterAsSink(parameters, "OUTPUT", context, photo_point_fields(), QgsWkbTypes.Point,
+                                          QgsCoordinateReferenceSystem())
+        if sink is None:
+            raise QgsProcessingException(self.invalidSinkError(parameters, "OUTPUT"))
+        write_photo_points(sink, uv, scores)
+        feedback.pushInfo(self.tr(f"{len(uv)} photo points suggested"))
+        feedback.setProgress(100)
+        return {"OUTPUT": dest, "COUNT": len(uv)}
+
+
+class SuggestDemPoints(MonoplotAlgorithm):
+    _name = "suggestdempoints"
+    _display = "Suggest DEM points"
+    _help = ("Detects terrain landmarks on the DEM (summits, and ORB key points on a shaded rendering of it) and "
+             "writes them as a 3-D point layer in the DEM's CRS (fields X, Y, Z, score, label). With a prior "
+             "camera, only points visible from that camera (in view and not hidden by terrain) are kept.")
+
+    def initAlgorithm(self, config=None):
+        self.add_dem_parameter()
+        self.add_camera_parameter("CAMERA", optional=True,
+                                  description="Prior camera (optional: keep only points it sees)")
+        self.add_photo_parameter("PHOTO", optional=True, description="Photo (needed only for a KML camera)")
+        self.addParameter(QgsProcessingParameterNumber("MAX_POINTS", self.tr("Maximum number of points"),
+                                                       QgsProcessingParameterNumber.Integer, 60, minValue=1,
+                                                       maxValue=10000))
+        self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Suggested DEM points"),
+                                                            QgsProcessing.TypeVectorPoint))
+
+    def processAlgorithm(self, parameters, context, feedback):
+        dem, crs = self.dem(parameters, context)
+        camera = None
+        if self.parameterAsFile(parameters, "CAMERA", context):
+            photo = self.parameterAsFile(parameters, "PHOTO", context) or None
+            camera = self.camera(parameters, context, photo=photo, crs=crs)
+        count = self.parameterAsInt(parameters, "MAX_POINTS", context)
+        feedback.setProgress(10)
+        xyz, scores, labels = pipeline.suggest_dem(dem, count, camera, progress_callback(feedback, 10, 90))
+        check_canceled(feedback)
+        sink, dest = self.parameterAsSink(parameters, "OUTPUT", context, map_point_fields(), QgsWkbTypes.PointZ,
+                                          crs)
+        if sink is None:
+            raise QgsProcessingException(self.invalidSinkError(parameters, "OUTPUT"))
+        write_map_points(sink, xyz, scores, labels)
+        feedback.pushInfo(self.tr(f"{len(xyz)} DEM points suggested"))
+        feedback.setProgress(100)
+        return {"OUTPUT": dest, "COUNT": len(xyz)}

@@ -1,0 +1,252 @@
+"""Shared pieces of the Monoplot algorithms: base class, parameter helpers, QGIS <-> numpy conversions.
+
+Photo-space layers: features drawn on (or suggested for) the photo are stored with pixel coordinates as geometry,
+``x = u`` (column) and ``y = -v`` (minus the row), like QGIS's Georeferencer, so that a layer shows the right way
+up on a canvas with the image at x in [0, W], y in [-H, 0]. Point layers also carry fields ``u_px`` and ``v_px``,
+which win over the geometry when present. Photo-space layers have no CRS.
+"""
+
+from __future__ import annotations
+
+import os
+from typing import Callable, Optional, Tuple
+
+import numpy as np
+from qgis.core import (
+    QgsCoordinateReferenceSystem,
+    QgsFeature,
+    QgsFeatureSink,
+    QgsField,
+    QgsFields,
+    QgsGeometry,
+    QgsPoint,
+    QgsProcessingAlgorithm,
+    QgsProcessingException,
+    QgsProcessingParameterDefinition,
+    QgsProcessingParameterFile,
+    QgsProcessingParameterNumber,
+    QgsProcessingParameterRasterLayer,
+    QgsWkbTypes,
+)
+from qgis.PyQt.QtCore import QCoreApplication, QVariant
+
+from .inputs import InputError, load_camera, photo_size
+
+#: Sign of the photo-space y axis (see the module docstring).
+PHOTO_Y_SIGN = -1.0
+
+IMAGE_FILTER = "Images (*.jpg *.jpeg *.png *.tif *.tiff *.bmp *.JPG *.JPEG *.PNG *.TIF *.TIFF)"
+CAMERA_FILTER = "Camera (*.json *.kml);;Monoplot camera (*.json);;KML PhotoOverlay (*.kml)"
+
+
+class Canceled(Exception):
+    """Raised inside an algorithm when the user pressed Cancel (turned into a clean stop)."""
+
+
+class MonoplotAlgorithm(QgsProcessingAlgorithm):
+    """Base class: group, translation, instance creation, and conversion of input errors to clear messages."""
+
+    _name = ""
+    _display = ""
+    _help = ""
+
+    def tr(self, text: str) -> str:
+        return QCoreApplication.translate("MonoplotProcessing", text)
+
+    def createInstance(self):
+        return type(self)()
+
+    def name(self) -> str:
+        return self._name
+
+    def displayName(self) -> str:
+        return self.tr(self._display)
+
+    def group(self) -> str:
+        return self.tr("Monoplot")
+
+    def groupId(self) -> str:
+        return "monoplot"
+
+    def shortHelpString(self) -> str:
+        return self.tr(self._help)
+
+    # --- parameter helpers --------------------------------------------------------------------------------------
+    def add_photo_parameter(self, name: str = "PHOTO", optional: bool = False, description: str = "Photo"):
+        param = QgsProcessingParameterFile(name, self.tr(description), QgsProcessingParameterFile.File,
+                                           optional=optional, fileFilter=IMAGE_FILTER)
+        self.addParameter(param)
+
+    def add_camera_parameter(self, name: str = "CAMERA", optional: bool = False,
+                             description: str = "Camera (Monoplot JSON, or KML PhotoOverlay)"):
+        self.addParameter(QgsProcessingParameterFile(name, self.tr(description), QgsProcessingParameterFile.File,
+                                                     optional=optional, fileFilter=CAMERA_FILTER))
+
+    def add_dem_parameter(self, name: str = "DEM", optional: bool = False):
+        self.addParameter(QgsProcessingParameterRasterLayer(name, self.tr("DEM (elevation raster, projected CRS "
+                                                                          "in metres)"), optional=optional))
+        void = QgsProcessingParameterNumber("VOID_VALUE", self.tr("DEM void value (e.g. 0; empty = none)"),
+                                            QgsProcessingParameterNumber.Double, optional=True)
+        void.setFlags(void.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+        self.addParameter(void)
+
+    # --- input readers ------------------------------------------------------------------------------------------
+    def dem_path(self, parameters, context) -> Tuple[str, QgsCoordinateReferenceSystem]:
+        """File path and CRS of the DEM parameter, checked: a GDAL-readable single file in a projected CRS."""
+        layer = self.parameterAsRasterLayer(parameters, "DEM", context)
+        if layer is None or not layer.isValid():
+            raise QgsProcessingException(self.tr("The DEM could not be loaded as a raster layer."))
+        path = layer.source().split("|")[0]
+        if not os.path.isfile(path):
+            raise QgsProcessingException(self.tr(f"The DEM must be a raster file on disk (got '{path}')."))
+        crs = layer.crs()
+        if crs.isValid() and crs.isGeographic():
+            raise QgsProcessingException(self.tr(
+                f"The DEM is in a geographic CRS ({crs.authid()}); Monoplot needs a projected CRS in metres. "
+                "Reproject it first (Raster > Projections > Warp)."))
+        return path, crs
+
+    def void_value(self, parameters, context) -> Optional[float]:
+        value = parameters.get("VOID_VALUE")
+        if value is None or value == "":
+            return None
+        return self.parameterAsDouble(parameters, "VOID_VALUE", context)
+
+    def dem(self, parameters, context):
+        """(core Dem, QgsCoordinateReferenceSystem) of the DEM parameter (voids as NaN)."""
+        from . import pipeline
+
+        path, crs = self.dem_path(parameters, context)
+        return checked(pipeline.load_dem, path, self.void_value(parameters, context)), crs
+
+    def photo_path(self, parameters, context, name: str = "PHOTO") -> str:
+        path = self.parameterAsFile(parameters, name, context)
+        if not path:
+            raise QgsProcessingException(self.tr("No photo given."))
+        if not os.path.isfile(path):
+            raise QgsProcessingException(self.tr(f"Photo not found: {path}"))
+        return path
+
+    def camera(self, parameters, context, name: str = "CAMERA", photo: Optional[str] = None,
+               crs: Optional[QgsCoordinateReferenceSystem] = None, image_size=None):
+        """The camera of a file parameter; KML needs the photo (size) and the DEM CRS."""
+        path = self.parameterAsFile(parameters, name, context)
+        if image_size is None and photo:
+            image_size = checked(photo_size, photo)
+        return checked(load_camera, path, image_size, crs.toWkt() if crs is not None and crs.isValid() else "")
+
+
+def checked(function: Callable, *args, **kwargs):
+    """Call ``function``; turn an :class:`InputError` into a ``QgsProcessingException`` with the same message."""
+    try:
+        return function(*args, **kwargs)
+    except InputError as exc:
+        raise QgsProcessingException(str(exc)) from exc
+
+
+def progress_callback(feedback, start: float = 0.0, end: float = 100.0) -> Callable[[float], bool]:
+    """A callback for core loops: ``cb(fraction in [0, 1])`` sets the progress bar between ``start`` and ``end``
+    percent and returns True when the user asked to cancel (and raises nothing, so core code can stop cleanly)."""
+
+    def callback(fraction: float) -> bool:
+        if feedback is None:
+            return False
+        feedback.setProgress(start + (end - start) * max(0.0, min(1.0, float(fraction))))
+        return feedback.isCanceled()
+
+    return callback
+
+
+def check_canceled(feedback) -> None:
+    if feedback is not None and feedback.isCanceled():
+        raise Canceled()
+
+
+# --- photo-space and map-space point layers ---------------------------------------------------------------------
+def photo_point_fields() -> QgsFields:
+    fields = QgsFields()
+    fields.append(QgsField("id", QVariant.Int))
+    fields.append(QgsField("u_px", QVariant.Double))
+    fields.append(QgsField("v_px", QVariant.Double))
+    fields.append(QgsField("score", QVariant.Double))
+    return fields
+
+
+def map_point_fields() -> QgsFields:
+    fields = QgsFields()
+    fields.append(QgsField("id", QVariant.Int))
+    fields.append(QgsField("X", QVariant.Double))
+    fields.append(QgsField("Y", QVariant.Double))
+    fields.append(QgsField("Z", QVariant.Double))
+    fields.append(QgsField("score", QVariant.Double))
+    fields.append(QgsField("label", QVariant.String))
+    return fields
+
+
+def write_photo_points(sink, uv: np.ndarray, scores=None, feedback=None) -> int:
+    """Add (N, 2) pixel points to a sink made with :func:`photo_point_fields`; returns N."""
+    for i, (u, v) in enumerate(np.asarray(uv, dtype=float).reshape(-1, 2)):
+        feature = QgsFeature(photo_point_fields())
+        feature.setGeometry(QgsGeometry(QgsPoint(float(u), PHOTO_Y_SIGN * float(v))))
+        feature.setAttributes([i + 1, float(u), float(v), float(scores[i]) if scores is not None else 0.0])
+        sink.addFeature(feature, QgsFeatureSink.FastInsert)
+    return len(uv)
+
+
+def write_map_points(sink, xyz: np.ndarray, scores=None, labels=None) -> int:
+    """Add (N, 3) map points (PointZ) to a sink made with :func:`map_point_fields`; returns N."""
+    for i, (x, y, z) in enumerate(np.asarray(xyz, dtype=float).reshape(-1, 3)):
+        feature = QgsFeature(map_point_fields())
+        feature.setGeometry(QgsGeometry(QgsPoint(float(x), float(y), float(z))))
+        feature.setAttributes([i + 1, float(x), float(y), float(z), float(scores[i]) if scores is not None else 0.0,
+                               str(labels[i]) if labels is not None else ""])
+        sink.addFeature(feature, QgsFeatureSink.FastInsert)
+    return len(xyz)
+
+
+def _field_index(fields: QgsFields, names) -> int:
+    lowered = [f.name().lower() for f in fields]
+    for name in names:
+        if name in lowered:
+            return lowered.index(name)
+    return -1
+
+
+def read_photo_points(source) -> np.ndarray:
+    """(N, 2) pixels (u, v) of a point source in photo space (fields u_px/v_px, else geometry x, -y)."""
+    iu, iv = _field_index(source.fields(), ("u_px", "u")), _field_index(source.fields(), ("v_px", "v"))
+    points = []
+    for feature in source.getFeatures():
+        attributes = feature.attributes()
+        if iu >= 0 and iv >= 0 and attributes[iu] is not None and attributes[iv] is not None:
+            try:
+                points.append((float(attributes[iu]), float(attributes[iv])))
+                continue
+            except (TypeError, ValueError):
+                pass
+        geometry = feature.geometry()
+        if geometry.isNull():
+            continue
+        for vertex in geometry.vertices():
+            points.append((vertex.x(), PHOTO_Y_SIGN * vertex.y()))
+    return np.array(points, dtype=float).reshape(-1, 2)
+
+
+def read_map_points(source) -> np.ndarray:
+    """(N, 3) map points of a point source: geometry x, y; Z from the geometry, else a Z field, else NaN (the caller
+    samples the DEM)."""
+    iz = _field_index(source.fields(), ("z", "z_m", "elevation", "elev", "alt", "height"))
+    points = []
+    for feature in source.getFeatures():
+        geometry = feature.geometry()
+        if geometry.isNull():
+            continue
+        for vertex in geometry.vertices():
+            z = vertex.z() if QgsWkbTypes.hasZ(geometry.wkbType()) else float("nan")
+            if (z != z) and iz >= 0:
+                try:
+                    z = float(feature.attributes()[iz])
+                except (TypeError, ValueError):
+                    z = float("nan")
+            points.append((vertex.x(), vertex.y(), z))
+    return np.array(points, dtype=float).reshape(-1, 3)

@@ -1,0 +1,173 @@
+"""Many photos at once, without qgis: a time-lapse folder sharing one camera, or a CSV table of photos each with
+its own prior and points. One bad photo is reported and skipped; the others go on.
+
+A job is a list of :class:`PhotoJob`; :func:`run_batch` runs them and returns one :class:`PhotoResult` per photo.
+"""
+
+from __future__ import annotations
+
+import csv
+import fnmatch
+import os
+from dataclasses import dataclass, field
+from typing import Callable, List, Optional
+
+import numpy as np
+
+from . import pipeline
+from .inputs import InputError, load_camera, read_photo, read_points_csv
+
+IMAGE_PATTERNS = ("*.jpg", "*.jpeg", "*.png", "*.tif", "*.tiff", "*.bmp")
+
+
+@dataclass
+class PhotoJob:
+    """One photo of a batch: ``camera`` (shared, already fitted) or ``prior`` + point files (fit per photo)."""
+
+    photo: str
+    camera: Optional[object] = None
+    prior: str = ""
+    points: str = ""       # paired GCP CSV (u_px, v_px, X, Y, Z) or photo points CSV
+    dem_points: str = ""   # DEM points CSV (unpaired fit)
+
+
+@dataclass
+class PhotoResult:
+    photo: str
+    ok: bool
+    message: str = ""
+    outputs: List[str] = field(default_factory=list)
+    rmse_px: float = float("nan")
+
+
+def folder_jobs(folder: str, camera, patterns: str = "") -> List[PhotoJob]:
+    """Jobs for every image in ``folder`` (sorted by name), all sharing ``camera``.
+
+    ``patterns``: semicolon-separated globs (default: common image extensions)."""
+    if not folder or not os.path.isdir(folder):
+        raise InputError(f"photo folder not found: {folder}")
+    globs = [p.strip() for p in patterns.split(";") if p.strip()] or list(IMAGE_PATTERNS)
+    names = sorted(n for n in os.listdir(folder)
+                   if os.path.isfile(os.path.join(folder, n)) and any(fnmatch.fnmatch(n.lower(), g.lower())
+                                                                      for g in globs))
+    if not names:
+        raise InputError(f"no photos matching {';'.join(globs)} in {folder}")
+    return [PhotoJob(os.path.join(folder, n), camera=camera) for n in names]
+
+
+def table_jobs(path: str) -> List[PhotoJob]:
+    """Jobs from a CSV table with columns ``photo, prior, points`` and optionally ``dem_points``; relative paths
+    are relative to the table's folder. ``points`` is a paired GCP CSV, or photo points when ``dem_points`` is
+    given (unpaired)."""
+    if not path or not os.path.isfile(path):
+        raise InputError(f"batch table not found: {path}")
+    base = os.path.dirname(os.path.abspath(path))
+    with open(path, newline="", encoding="utf-8-sig") as fh:
+        rows = list(csv.DictReader(fh))
+    if not rows:
+        raise InputError(f"{os.path.basename(path)}: no photos listed")
+    lowered = {k.strip().lower(): k for k in rows[0].keys() if k}
+    missing = [c for c in ("photo", "prior", "points") if c not in lowered]
+    if missing:
+        raise InputError(f"{os.path.basename(path)}: missing column(s) {', '.join(missing)} (expected photo, prior, "
+                         f"points[, dem_points])")
+
+    def resolve(row, column):
+        value = (row.get(lowered.get(column, ""), "") or "").strip()
+        return os.path.join(base, value) if value and not os.path.isabs(value) else value
+
+    return [PhotoJob(resolve(r, "photo"), prior=resolve(r, "prior"), points=resolve(r, "points"),
+                     dem_points=resolve(r, "dem_points")) for r in rows]
+
+
+def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: bool = True,
+              write_ortho: bool = True, resolution: Optional[float] = None,
+              log: Callable[[str, bool], None] = lambda message, error: None,
+              progress: Callable[[float], bool] = lambda fraction: False) -> List[PhotoResult]:
+    """Run every job; never raises for one photo's problem.
+
+    Outputs per photo ``<stem>_camera.json`` (fitted jobs), ``<stem>_xyz.tif``, ``<stem>_ortho.tif``; jobs sharing
+    one camera share one ``xyz.tif`` (the XYZ raster depends only on the camera and the DEM). ``log(message,
+    is_error)`` receives one line per photo; ``progress(fraction)`` returns True to cancel (the remaining photos are
+    reported as not processed).
+    """
+    os.makedirs(out_dir, exist_ok=True)
+    results: List[PhotoResult] = []
+    shared_xyz_written = set()
+    for index, job in enumerate(jobs):
+        name = os.path.basename(job.photo)
+        if progress(index / max(1, len(jobs))):
+            results.extend(PhotoResult(j.photo, False, "canceled before processing") for j in jobs[index:])
+            log(f"canceled: {len(jobs) - index} photos not processed", True)
+            break
+        result = PhotoResult(job.photo, False)
+        try:
+            photo = read_photo(job.photo)
+            size = (photo.shape[1], photo.shape[0])
+            stem = os.path.splitext(name)[0]
+            camera = job.camera
+            if camera is None:
+                camera, result.rmse_px = _fit_job(job, size, dem, crs_wkt)
+                camera_path = os.path.join(out_dir, f"{stem}_camera.json")
+                camera.save(camera_path)
+                result.outputs.append(camera_path)
+            elif tuple(camera.image_size) != size:
+                raise InputError(f"photo is {size[0]}x{size[1]} px but the shared camera is for "
+                                 f"{camera.width}x{camera.height} px")
+            if write_xyz:
+                if job.camera is not None:
+                    xyz_path = os.path.join(out_dir, "xyz.tif")
+                    if camera.to_json() not in shared_xyz_written:
+                        pipeline.write_xyz(xyz_path, pipeline.xyz_raster(camera, dem), crs_wkt, camera)
+                        shared_xyz_written.add(camera.to_json())
+                else:
+                    xyz_path = os.path.join(out_dir, f"{stem}_xyz.tif")
+                    pipeline.write_xyz(xyz_path, pipeline.xyz_raster(camera, dem), crs_wkt, camera, name)
+                result.outputs.append(xyz_path)
+            if write_ortho:
+                ortho_path = os.path.join(out_dir, f"{stem}_ortho.tif")
+                pipeline.orthophoto(ortho_path, photo, camera, dem, crs_wkt, resolution)
+                result.outputs.append(ortho_path)
+            result.ok = True
+            result.message = "ok" if np.isnan(result.rmse_px) else f"ok, fit RMSE {result.rmse_px:.2f} px"
+            log(f"[{index + 1}/{len(jobs)}] {name}: {result.message}", False)
+        except Exception as exc:  # one photo's failure must not lose the batch
+            result.message = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
+            log(f"[{index + 1}/{len(jobs)}] {name}: FAILED, skipped: {result.message}", True)
+        results.append(result)
+    progress(1.0)
+    return results
+
+
+def _fit_job(job: PhotoJob, size, dem, crs_wkt: str):
+    """Fit one job's camera from its prior and point files; returns (camera, rmse in px)."""
+    prior = load_camera(job.prior, size, crs_wkt)
+    table = read_points_csv(job.points)
+    if "uv" not in table:
+        raise InputError(f"{os.path.basename(job.points)}: no photo point columns (u_px, v_px)")
+    uv = table["uv"]
+    if job.dem_points:
+        xyz, paired = read_points_csv(job.dem_points).get("xyz"), False
+        if xyz is None:
+            raise InputError(f"{os.path.basename(job.dem_points)}: no X, Y, Z columns")
+    elif "xyz" in table:
+        xyz, paired = table["xyz"], True
+    else:
+        raise InputError(f"{os.path.basename(job.points)}: no map columns (X, Y, Z) and no dem_points file")
+    xyz = xyz.copy()
+    missing = ~np.isfinite(xyz[:, 2])
+    if missing.any():
+        xyz[missing, 2] = pipeline.sample_dem(dem, xyz[missing, :2])
+    camera, info = pipeline.fit(size, uv, xyz, prior, dem, paired)
+    camera.crs_wkt = crs_wkt
+    return camera, float(info["rmse_px"])
+
+
+def write_log(path: str, results: List[PhotoResult]) -> None:
+    """CSV summary: photo, status, message, rmse_px, outputs (semicolon-separated)."""
+    with open(path, "w", newline="", encoding="utf-8") as fh:
+        writer = csv.writer(fh)
+        writer.writerow(["photo", "status", "message", "rmse_px", "outputs"])
+        for r in results:
+            writer.writerow([r.photo, "ok" if r.ok else "failed", r.message,
+                             "" if np.isnan(r.rmse_px) else f"{r.rmse_px:.3f}", ";".join(r.outputs)])

@@ -1,0 +1,185 @@
+"""The steps of the Monoplot pipeline as plain functions over core objects (no qgis import).
+
+The algorithms are thin wrappers around these; the batch runs them in a loop. Each function documents its
+shapes and units; ``progress`` arguments are callables ``progress(fraction in [0, 1]) -> bool`` that return True
+when the user asked to cancel.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, Dict, Optional, Tuple
+
+import numpy as np
+
+from ..core.camera import Camera
+from .inputs import InputError
+
+Progress = Optional[Callable[[float], bool]]
+
+
+def _tick(progress: Progress, fraction: float) -> bool:
+    return bool(progress(fraction)) if progress is not None else False
+
+
+# --- DEM ------------------------------------------------------------------------------------------------------
+def load_dem(path: str, void_value: Optional[float] = None):
+    """A core :class:`Dem` from a raster file (``void_value``: elevation meaning 'no data', e.g. 0)."""
+    from ..core.dem import Dem
+
+    try:
+        return Dem.open(path, void_value=void_value)
+    except Exception as exc:  # GDAL cannot read it: say which file
+        raise InputError(f"cannot read the DEM {path}: {exc}") from exc
+
+
+def sample_dem(dem, xy: np.ndarray) -> np.ndarray:
+    """(N,) bilinear DEM elevations at (N, 2) map coordinates; NaN outside the DEM or in voids."""
+    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+    if len(xy) == 0:
+        return np.zeros(0)
+    return np.asarray(dem.sample(xy[:, 0], xy[:, 1]), dtype=float)
+
+
+# --- suggestions ----------------------------------------------------------------------------------------------
+def suggest_photo(photo: np.ndarray, max_points: int) -> Tuple[np.ndarray, np.ndarray]:
+    """(uv (N, 2) pixels, scores (N,)) of suggested points on an (H, W, 3) uint8 photo."""
+    from ..core.suggest import suggest_photo_points
+
+    result = suggest_photo_points(photo, max_points=max_points)
+    return _points_and_scores(result, 2)
+
+
+def suggest_dem(dem, max_points: int, camera: Optional[Camera] = None,
+                progress: Progress = None) -> Tuple[np.ndarray, np.ndarray, list]:
+    """(xyz (N, 3) map coordinates, scores (N,), labels) of suggested terrain points; with a camera only those
+    it sees."""
+    from ..core.suggest import suggest_dem_points
+
+    result = suggest_dem_points(dem, camera=camera, max_points=max_points)
+    xyz, scores = _points_and_scores(result, 3)
+    labels = list(getattr(result, "labels", None) or [""] * len(xyz))
+    _tick(progress, 1.0)
+    return xyz, scores, labels
+
+
+def _points_and_scores(result, dims: int) -> Tuple[np.ndarray, np.ndarray]:
+    """Accept the suggestion result as an array, a (points, scores) tuple or an object with attributes."""
+    if isinstance(result, tuple):
+        points, scores = result[0], result[1]
+    elif hasattr(result, "points"):
+        points, scores = result.points, getattr(result, "scores", None)
+    else:
+        points, scores = result, None
+    points = np.asarray(points, dtype=float).reshape(-1, dims)
+    scores = np.zeros(len(points)) if scores is None else np.asarray(scores, dtype=float).reshape(-1)
+    return points, scores
+
+
+# --- fit ------------------------------------------------------------------------------------------------------
+def fit(image_size, uv: np.ndarray, xyz: np.ndarray, prior: Camera, dem, paired: bool,
+        progress: Progress = None) -> Tuple[Camera, Dict]:
+    """Fit a camera to (N, 2) photo points and (M, 3) DEM points, from ``prior``.
+
+    Returns (camera, info) with ``info["rmse_px"]``: RMS pixel distance between each photo point and its DEM
+    point (paired) or the nearest projected DEM point (unpaired).
+    """
+    from ..core.fit import fit_camera
+
+    result = fit_camera(prior, uv, xyz, paired=paired, dem=dem, progress=progress)
+    camera = result.camera if hasattr(result, "camera") else result[0] if isinstance(result, tuple) else result
+    return camera, {"rmse_px": point_rmse(camera, uv, xyz, paired)}
+
+
+def point_rmse(camera: Camera, uv: np.ndarray, xyz: np.ndarray, paired: bool) -> float:
+    """RMS pixel distance from photo points to their (paired) or nearest (unpaired) projected DEM point."""
+    projected = camera.project(xyz)
+    if paired:
+        d = np.linalg.norm(projected - uv, axis=1)
+    else:
+        ok = np.isfinite(projected).all(axis=1)
+        if not ok.any():
+            return float("inf")
+        d = np.linalg.norm(uv[:, None, :] - projected[None, ok, :], axis=2).min(axis=1)
+    d = d[np.isfinite(d)]
+    return float(np.sqrt(np.mean(d ** 2))) if len(d) else float("inf")
+
+
+# --- per-pixel XYZ ----------------------------------------------------------------------------------------------
+_XYZ_CACHE: Dict[Tuple[str, int], np.ndarray] = {}
+
+
+def xyz_raster(camera: Camera, dem, progress: Progress = None) -> np.ndarray:
+    """(H, W, 3) map coordinates of the ground seen through every pixel; NaN for sky. Cached per camera and DEM
+    (a time-lapse batch and the vector conversions reuse it)."""
+    key = (camera.to_json(), id(dem))
+    if key not in _XYZ_CACHE:
+        from ..core.xyz import compute_xyz
+
+        _XYZ_CACHE.clear()  # one entry: rasters are large
+        _XYZ_CACHE[key] = np.asarray(compute_xyz(camera, dem))
+    _tick(progress, 1.0)
+    return _XYZ_CACHE[key]
+
+
+def photo_to_map(camera: Camera, dem, uv: np.ndarray) -> np.ndarray:
+    """(N, 3) ground points seen at (N, 2) pixels (nearest pixel of the XYZ raster); NaN for sky / outside."""
+    xyz = xyz_raster(camera, dem)
+    uv = np.asarray(uv, dtype=float).reshape(-1, 2)
+    out = np.full((len(uv), 3), np.nan)
+    with np.errstate(invalid="ignore"):
+        cols = np.floor(uv[:, 0]).astype(np.int64, copy=False)
+        rows = np.floor(uv[:, 1]).astype(np.int64, copy=False)
+    inside = (np.isfinite(uv).all(axis=1) & (cols >= 0) & (cols < camera.width) & (rows >= 0)
+              & (rows < camera.height))
+    out[inside] = xyz[rows[inside], cols[inside]]
+    return out
+
+
+def visibility(camera: Camera, dem, tolerance: float = 0.01, absolute: float = 2.0):
+    """A function ``(N, 3) map points -> (N,) bool``: in the image and not hidden by terrain (depth test against
+    the ground seen at the same pixel, with a relative ``tolerance`` and an ``absolute`` one in metres)."""
+    xyz = xyz_raster(camera, dem)
+    forward = camera.forward
+    centre = np.asarray(camera.position)
+    ground_depth = (xyz - centre) @ forward  # (H, W), NaN for sky
+
+    def visible(points: np.ndarray) -> np.ndarray:
+        points = np.asarray(points, dtype=float).reshape(-1, 3)
+        uv, depth = camera.project_with_depth(points)
+        ok = camera.in_image(uv) & (depth > 0)
+        cols = np.clip(np.nan_to_num(uv[:, 0]).astype(int), 0, camera.width - 1)
+        rows = np.clip(np.nan_to_num(uv[:, 1]).astype(int), 0, camera.height - 1)
+        seen = ground_depth[rows, cols]
+        sky = ~np.isfinite(seen)
+        with np.errstate(invalid="ignore"):
+            in_front = depth <= seen * (1 + tolerance) + absolute
+        return ok & (sky | in_front)
+
+    return visible
+
+
+def write_xyz(path: str, xyz: np.ndarray, crs_wkt: str, camera: Optional[Camera] = None, photo_name: str = ""):
+    """Write the XYZ raster (outputs' GeoTIFF layout: photo pixel space, bands X, Y, Z)."""
+    from ..outputs.xyz_raster import write_xyz_raster
+
+    write_xyz_raster(path, xyz, crs_wkt, overwrite=True, camera=camera, photo_name=photo_name)
+
+
+# --- orthophoto and report ------------------------------------------------------------------------------------
+def orthophoto(path: str, photo: np.ndarray, camera: Camera, dem, crs_wkt: str, resolution: Optional[float],
+               progress: Progress = None) -> None:
+    """Write the photo draped on the DEM as a north-up RGBA GeoTIFF (``resolution``: cell size, None = DEM's)."""
+    from ..core.ortho import make_orthophoto
+    from ..outputs.ortho import write_orthophoto
+
+    ortho = make_orthophoto(photo, camera, dem, resolution=resolution)
+    _tick(progress, 0.9)
+    write_orthophoto(path, ortho, crs_wkt, overwrite=True)
+    _tick(progress, 1.0)
+
+
+def report(path: str, photo: np.ndarray, camera: Camera, dem, points_csv: Optional[str] = None) -> None:
+    """Write a one-page report (PNG or PDF by extension) of a fitted camera."""
+    from ..outputs.report import write_report
+
+    write_report(path, photo, camera, dem, points_csv=points_csv)
