@@ -1,0 +1,74 @@
+"""Small GDAL/OGR helpers shared by the writers (no qgis import)."""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+from typing import Optional
+
+from osgeo import gdal, ogr, osr
+
+from .safe_write import OutputError
+
+
+@contextmanager
+def gdal_errors_as_exceptions():
+    """Turn GDAL/OGR/OSR errors into Python exceptions inside the block, restoring the caller's setting after
+    (QGIS and other plugins run in the same process)."""
+    saved = (gdal.GetUseExceptions(), ogr.GetUseExceptions(), osr.GetUseExceptions())
+    gdal.UseExceptions()
+    ogr.UseExceptions()
+    osr.UseExceptions()
+    try:
+        yield
+    finally:
+        # GDAL keeps a stack of error handlers: undo in the reverse order.
+        for module, was in reversed(list(zip((gdal, ogr, osr), saved))):
+            if not was:
+                module.DontUseExceptions()
+
+
+def gdal_failure(exc: Exception, target) -> OutputError:
+    """An :class:`OutputError` with a readable reason for a GDAL/OGR failure while writing ``target``."""
+    text = str(exc)
+    low = text.lower()
+    if "no space left" in low or "disk full" in low or "enospc" in low:
+        return OutputError(f"cannot write {target}: the disk is full ({text})")
+    if "permission denied" in low or "read-only" in low:
+        return OutputError(f"cannot write {target}: permission denied ({text})")
+    return OutputError(f"cannot write {target}: {text}")
+
+
+def srs_from_user(crs) -> osr.SpatialReference:
+    """An osr.SpatialReference (traditional GIS axis order: x = easting) from WKT, 'EPSG:n' or PROJ text."""
+    srs = osr.SpatialReference()
+    if srs.SetFromUserInput(str(crs)) != 0:
+        raise ValueError(f"unreadable CRS: {str(crs)[:80]}")
+    srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+    return srs
+
+
+def crs_authid(crs) -> Optional[str]:
+    """'EPSG:21781'-style identifier of a CRS, or None when it has none.
+
+    >>> crs_authid("EPSG:21781")
+    'EPSG:21781'
+    """
+    if not crs:
+        return None
+    try:
+        srs = srs_from_user(crs)
+    except (ValueError, RuntimeError):
+        return None
+    for target in ("PROJCS", "GEOGCS", None):
+        name, code = srs.GetAuthorityName(target), srs.GetAuthorityCode(target)
+        if name and code:
+            return f"{name}:{code}"
+    srs.AutoIdentifyEPSG()
+    name, code = srs.GetAuthorityName(None), srs.GetAuthorityCode(None)
+    return f"{name}:{code}" if name and code else None
+
+
+def linear_unit_name(crs) -> str:
+    """'metre' etc.: the horizontal unit of a projected CRS (used for area/length field docs and raster units)."""
+    srs = srs_from_user(crs)
+    return srs.GetLinearUnitsName() if srs.IsProjected() else "degree"

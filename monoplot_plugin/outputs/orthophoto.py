@@ -1,0 +1,83 @@
+"""Orthophoto GeoTIFF: the photo draped onto the DEM grid, in the DEM's CRS.
+
+Layout: the photo's bands (1 grey or 3 RGB, Byte) plus an alpha band; cells the camera does not see (hidden behind
+terrain, outside the photo, DEM voids) have alpha 0, which GDAL exposes as the mask of every band (``GMF_ALPHA``) and
+QGIS draws transparent. Geotransform and CRS are the DEM's, so it lines up with the DEM cell for cell. Tiled,
+DEFLATE-compressed.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+from osgeo import gdal
+
+from ._gdal import gdal_errors_as_exceptions, gdal_failure, srs_from_user
+from .geometry import orthorectify
+from .safe_write import atomic_output
+
+__all__ = ["write_orthophoto", "orthophoto_from_camera"]
+
+
+def write_orthophoto(path, image: np.ndarray, geotransform: Sequence[float], crs_wkt: str, *,
+                     overwrite: bool = False) -> Path:
+    """Write a (rows, cols, bands + 1) uint8 array whose last band is alpha (0 = unseen) as a GeoTIFF.
+
+    Args:
+        path: target ``.tif``.
+        image: (rows, cols, 2) grey + alpha or (rows, cols, 4) RGB + alpha, uint8.
+        geotransform: the DEM's GDAL geotransform.
+        crs_wkt: the DEM's CRS.
+        overwrite: replace an existing file (default: refuse with OutputExistsError).
+    """
+    image = np.asarray(image)
+    if image.ndim != 3 or image.shape[2] not in (2, 4) or image.dtype != np.uint8:
+        raise ValueError(f"image must be uint8 (rows, cols, 2 or 4), got {image.dtype} {image.shape}")
+    rows, cols, nbands = image.shape
+    srs = srs_from_user(crs_wkt)
+    options = ["TILED=YES", "COMPRESS=DEFLATE", "BIGTIFF=IF_SAFER", "ALPHA=YES",
+               f"PHOTOMETRIC={'RGB' if nbands == 4 else 'MINISBLACK'}"]
+    target = Path(os.fspath(path))
+    with atomic_output(target, overwrite) as tmp:
+        ds = None
+        try:
+            with gdal_errors_as_exceptions():
+                ds = gdal.GetDriverByName("GTiff").Create(tmp, cols, rows, nbands, gdal.GDT_Byte, options=options)
+                ds.SetGeoTransform(tuple(float(g) for g in geotransform))
+                ds.SetProjection(srs.ExportToWkt())
+                ds.SetMetadataItem("MONOPLOT_FORMAT", "monoplot-orthophoto/1")
+                interp = ([gdal.GCI_RedBand, gdal.GCI_GreenBand, gdal.GCI_BlueBand] if nbands == 4
+                          else [gdal.GCI_GrayIndex]) + [gdal.GCI_AlphaBand]
+                for index in range(nbands):
+                    band = ds.GetRasterBand(index + 1)
+                    band.SetColorInterpretation(interp[index])
+                    band.WriteArray(image[..., index])
+                    band = None
+                ds.FlushCache()
+                ds = None
+        except RuntimeError as exc:
+            raise gdal_failure(exc, target) from exc
+        finally:
+            ds = None
+    return target
+
+
+def orthophoto_from_camera(path, photo: np.ndarray, camera, dem, xyz: np.ndarray, *,
+                           overwrite: bool = False) -> Path:
+    """Orthorectify ``photo`` onto ``dem`` (:func:`.geometry.orthorectify`) and write it.
+
+    Args:
+        photo: (H, W) or (H, W, 3) uint8, the size of the camera's image.
+        camera: the fitted Camera. dem: core Dem (grid and CRS of the result).
+        xyz: (H, W, 3) per-pixel map coordinates of the photo (occlusion test).
+    """
+    photo = np.asarray(photo)
+    if photo.ndim == 3 and photo.shape[2] == 4:
+        photo = photo[..., :3]
+    if photo.ndim == 3 and photo.shape[2] not in (1, 3):
+        raise ValueError(f"photo must have 1 or 3 bands, got {photo.shape}")
+    image = orthorectify(photo.astype(np.uint8, copy=False), camera, dem, xyz)
+    return write_orthophoto(path, image, dem.geotransform, dem.crs_wkt, overwrite=overwrite)

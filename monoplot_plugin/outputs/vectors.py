@@ -1,0 +1,241 @@
+"""3-D map vector layers from features digitised on the photo: GeoPackage (default) or ESRI Shapefile.
+
+A :class:`MapFeature` is one feature already in map coordinates (X, Y, Z in the DEM's CRS), with the parts that fell
+on sky already split off (see :mod:`.digitise`). :func:`write_vector_layer` writes a list of them with
+
+- Z geometries: ``Point Z`` for points, ``MultiLineString Z`` for lines (a line crossing sky becomes several
+  parts), ``MultiPolygon Z`` for polygons;
+- the user's attribute fields (name, type) plus computed ones, in map units of the CRS:
+  ``area`` (planimetric, polygons), ``length`` (planimetric) and ``length3d`` (along the terrain, lines), and
+  ``sky_parts`` (how many pieces of the drawn feature were over sky or off the DEM and were left out).
+
+Shapefile limits are checked up front with a clear message: field names of at most 10 characters, one geometry
+type per file. Attributes are written as UTF-8 (``.cpg`` file).
+"""
+
+from __future__ import annotations
+
+import datetime
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+from osgeo import ogr
+
+from ._gdal import gdal_errors_as_exceptions, gdal_failure, srs_from_user
+from .safe_write import atomic_output
+
+__all__ = ["MapFeature", "write_vector_layer", "read_vector_layer", "FIELD_TYPES", "driver_for_path",
+           "COMPUTED_FIELDS"]
+
+#: User field types and their OGR types.
+FIELD_TYPES = {"string": ogr.OFTString, "integer": ogr.OFTInteger, "real": ogr.OFTReal, "date": ogr.OFTDate}
+#: Fields Monoplot adds, by geometry kind.
+COMPUTED_FIELDS = {"point": ("sky_parts",), "line": ("length", "length3d", "sky_parts"),
+                   "polygon": ("area", "length", "sky_parts")}
+_OGR_GEOMETRY = {"point": ogr.wkbPoint25D, "line": ogr.wkbMultiLineString25D, "polygon": ogr.wkbMultiPolygon25D}
+
+
+@dataclass
+class MapFeature:
+    """One feature in map coordinates.
+
+    Attributes:
+        kind: "point", "line" or "polygon".
+        parts: list of (N, 3) arrays of X, Y, Z (map units). point: one (1, 3) array; line: one array per piece;
+            polygon: one closed or open ring per polygon (exterior rings; each becomes a polygon of the multipolygon).
+        attributes: values of the user's fields by name.
+        sky_parts: number of pieces left out because they were over sky / off the DEM.
+    """
+
+    kind: str
+    parts: List[np.ndarray]
+    attributes: Dict[str, object] = field(default_factory=dict)
+    sky_parts: int = 0
+
+    def __post_init__(self):
+        if self.kind not in _OGR_GEOMETRY:
+            raise ValueError(f"kind must be point, line or polygon, got {self.kind!r}")
+        self.parts = [np.asarray(p, dtype=np.float64).reshape(-1, 3) for p in self.parts]
+
+    def ogr_geometry(self) -> ogr.Geometry:
+        """The OGR geometry (Point Z / MultiLineString Z / MultiPolygon Z)."""
+        if self.kind == "point":
+            geom = ogr.Geometry(ogr.wkbPoint25D)
+            x, y, z = self.parts[0][0]
+            geom.AddPoint(float(x), float(y), float(z))
+            return geom
+        geom = ogr.Geometry(_OGR_GEOMETRY[self.kind])
+        for part in self.parts:
+            if self.kind == "line":
+                sub = ogr.Geometry(ogr.wkbLineString25D)
+                for x, y, z in part:
+                    sub.AddPoint(float(x), float(y), float(z))
+            else:
+                ring = ogr.Geometry(ogr.wkbLinearRing)  # AddPoint with z makes it 3-D
+                closed = part if np.array_equal(part[0], part[-1]) else np.vstack([part, part[:1]])
+                for x, y, z in closed:
+                    ring.AddPoint(float(x), float(y), float(z))
+                sub = ogr.Geometry(ogr.wkbPolygon25D)
+                sub.AddGeometry(ring)
+            geom.AddGeometry(sub)
+        return geom
+
+    def measures(self) -> Dict[str, float]:
+        """Computed fields (see :data:`COMPUTED_FIELDS`) in map units.
+
+        >>> MapFeature("polygon", [[[0, 0, 5], [10, 0, 5], [10, 20, 9], [0, 20, 9]]]).measures()
+        {'area': 200.0, 'length': 60.0, 'sky_parts': 0}
+        """
+        out: Dict[str, float] = {}
+        if self.kind == "polygon":
+            out["area"] = float(sum(abs(_shoelace(p[:, :2])) for p in self.parts))
+            out["length"] = float(sum(_path_length(_closed(p)[:, :2]) for p in self.parts))
+        elif self.kind == "line":
+            out["length"] = float(sum(_path_length(p[:, :2]) for p in self.parts))
+            out["length3d"] = float(sum(_path_length(p) for p in self.parts))
+        out["sky_parts"] = int(self.sky_parts)
+        return out
+
+
+def _closed(ring: np.ndarray) -> np.ndarray:
+    return ring if np.array_equal(ring[0], ring[-1]) else np.vstack([ring, ring[:1]])
+
+
+def _shoelace(xy: np.ndarray) -> float:
+    """Signed area of a ring (N, 2); coordinates centred first, since map coordinates are large numbers."""
+    xy = xy - xy.mean(axis=0)
+    x, y = xy[:, 0], xy[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
+
+
+def _path_length(points: np.ndarray) -> float:
+    return float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum()) if len(points) > 1 else 0.0
+
+
+def driver_for_path(path) -> str:
+    """OGR driver from the file suffix: .gpkg -> GPKG, .shp -> ESRI Shapefile.
+
+    >>> driver_for_path("glacier.SHP"), driver_for_path("a.gpkg")
+    ('ESRI Shapefile', 'GPKG')
+    """
+    suffix = Path(path).suffix.lower()
+    drivers = {".gpkg": "GPKG", ".shp": "ESRI Shapefile"}
+    if suffix not in drivers:
+        raise ValueError(f"unsupported vector format {suffix!r}: use .gpkg (default) or .shp")
+    return drivers[suffix]
+
+
+def _check_fields(fields: Sequence[Tuple[str, str]], kind: str, driver: str) -> None:
+    names = [name for name, _ in fields]
+    for name, ftype in fields:
+        if ftype not in FIELD_TYPES:
+            raise ValueError(f"field {name!r}: type must be one of {sorted(FIELD_TYPES)}, got {ftype!r}")
+        if name.lower() in COMPUTED_FIELDS[kind] or name.lower() == "fid":
+            raise ValueError(f"field name {name!r} is reserved for the value Monoplot computes")
+        if driver == "ESRI Shapefile" and len(name.encode("utf-8")) > 10:
+            raise ValueError(f"field name {name!r} is too long for a Shapefile (10 characters at most)")
+    if len({n.lower() for n in names}) != len(names):
+        raise ValueError(f"field names must be unique (case-insensitively): {names}")
+
+
+def write_vector_layer(path, features: Sequence[MapFeature], crs_wkt: str, *,
+                       fields: Sequence[Tuple[str, str]] = (), kind: Optional[str] = None,
+                       layer_name: Optional[str] = None, overwrite: bool = False) -> Path:
+    """Write map features as a 3-D vector file.
+
+    Args:
+        path: ``.gpkg`` (GeoPackage, default format) or ``.shp`` (ESRI Shapefile), any Unicode path.
+        features: the features, all of one kind.
+        crs_wkt: the DEM's CRS (WKT or "EPSG:n").
+        fields: user attribute fields as (name, type) with type in :data:`FIELD_TYPES`; computed fields are added.
+        kind: "point", "line" or "polygon"; needed when ``features`` is empty.
+        layer_name: GeoPackage layer name (default: the file's stem).
+        overwrite: replace an existing file (default: refuse with OutputExistsError).
+    Returns:
+        the Path written.
+    """
+    kinds = {f.kind for f in features}
+    if kind is None:
+        if len(kinds) != 1:
+            raise ValueError("give kind= for an empty feature list" if not kinds else
+                             f"one geometry kind per layer, got {sorted(kinds)}")
+        kind = kinds.pop()
+    elif kinds - {kind}:
+        raise ValueError(f"features of kind {sorted(kinds - {kind})} in a {kind} layer")
+    target = Path(os.fspath(path))
+    driver_name = driver_for_path(target)
+    fields = list(fields)
+    _check_fields(fields, kind, driver_name)
+    srs = srs_from_user(crs_wkt)
+    name = layer_name or target.stem
+    with atomic_output(target, overwrite) as tmp:
+        ds = layer = None
+        try:
+            with gdal_errors_as_exceptions():
+                ds = ogr.GetDriverByName(driver_name).CreateDataSource(tmp)
+                options = ["ENCODING=UTF-8"] if driver_name == "ESRI Shapefile" else ["SPATIAL_INDEX=YES"]
+                layer = ds.CreateLayer(name if driver_name == "GPKG" else Path(tmp).stem, srs,
+                                       _OGR_GEOMETRY[kind], options=options)
+                _fill_layer(layer, features, fields, kind)
+                ds.FlushCache()
+        except RuntimeError as exc:
+            raise gdal_failure(exc, target) from exc
+        finally:
+            layer = ds = None  # close before the temporary file is renamed or removed
+    return target
+
+
+def _fill_layer(layer: ogr.Layer, features: Sequence[MapFeature], fields, kind: str) -> None:
+    for fname, ftype in fields:
+        layer.CreateField(ogr.FieldDefn(fname, FIELD_TYPES[ftype]))
+    for cname in COMPUTED_FIELDS[kind]:
+        defn = ogr.FieldDefn(cname, ogr.OFTInteger if cname == "sky_parts" else ogr.OFTReal)
+        if cname != "sky_parts":
+            defn.SetWidth(18)
+            defn.SetPrecision(3)
+        layer.CreateField(defn)
+    layer.StartTransaction()
+    for feature in features:
+        ogr_feature = ogr.Feature(layer.GetLayerDefn())
+        for fname, ftype in fields:
+            _set_field(ogr_feature, fname, ftype, feature.attributes.get(fname))
+        for cname, value in feature.measures().items():
+            ogr_feature.SetField(cname, value)
+        ogr_feature.SetGeometry(feature.ogr_geometry())
+        layer.CreateFeature(ogr_feature)
+    layer.CommitTransaction()
+
+
+def _set_field(feature: ogr.Feature, name: str, ftype: str, value) -> None:
+    if value is None:
+        feature.SetFieldNull(name)
+    elif ftype == "date":
+        if isinstance(value, str):
+            value = datetime.date.fromisoformat(value)
+        feature.SetField(name, value.year, value.month, value.day, 0, 0, 0, 0)
+    elif ftype == "integer":
+        feature.SetField(name, int(value))
+    elif ftype == "real":
+        feature.SetField(name, float(value))
+    else:
+        feature.SetField(name, str(value))
+
+
+def read_vector_layer(path) -> Tuple[List[dict], str]:
+    """Read a vector file back (first layer): ([{'geometry': ogr WKT, 'attributes': {...}}], CRS WKT).
+
+    Convenience for tests and the report; the geometry is returned as ISO WKT with Z.
+    """
+    with gdal_errors_as_exceptions():
+        ds = ogr.Open(os.fspath(path))
+        layer = ds.GetLayer(0)
+        srs = layer.GetSpatialRef()
+        rows = []
+        for feature in layer:
+            geom = feature.GetGeometryRef()
+            rows.append({"geometry": geom.ExportToIsoWkt() if geom is not None else None,
+                         "attributes": feature.items()})
+    return rows, srs.ExportToWkt() if srs is not None else ""
