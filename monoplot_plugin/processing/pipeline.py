@@ -135,25 +135,15 @@ def photo_to_map(camera: Camera, dem, uv: np.ndarray) -> np.ndarray:
     return out
 
 
-def visibility(camera: Camera, dem, tolerance: float = 0.01, absolute: float = 2.0):
+def visibility(camera: Camera, dem):
     """A function ``(N, 3) map points -> (N,) bool``: in the image and not hidden by terrain (depth test against
-    the ground seen at the same pixel, with a relative ``tolerance`` and an ``absolute`` one in metres)."""
+    the XYZ raster, outputs' :func:`visibility_of_points`)."""
+    from ..outputs.geometry import visibility_of_points
+
     xyz = xyz_raster(camera, dem)
-    forward = camera.forward
-    centre = np.asarray(camera.position)
-    ground_depth = (xyz - centre) @ forward  # (H, W), NaN for sky
 
     def visible(points: np.ndarray) -> np.ndarray:
-        points = np.asarray(points, dtype=float).reshape(-1, 3)
-        uv, depth = camera.project_with_depth(points)
-        ok = camera.in_image(uv) & (depth > 0)
-        cols = np.clip(np.nan_to_num(uv[:, 0]).astype(int), 0, camera.width - 1)
-        rows = np.clip(np.nan_to_num(uv[:, 1]).astype(int), 0, camera.height - 1)
-        seen = ground_depth[rows, cols]
-        sky = ~np.isfinite(seen)
-        with np.errstate(invalid="ignore"):
-            in_front = depth <= seen * (1 + tolerance) + absolute
-        return ok & (sky | in_front)
+        return visibility_of_points(camera, np.asarray(points, dtype=float).reshape(-1, 3), xyz)[1]
 
     return visible
 
@@ -168,14 +158,31 @@ def write_xyz(path: str, xyz: np.ndarray, crs_wkt: str, camera: Optional[Camera]
 # --- orthophoto and report ------------------------------------------------------------------------------------
 def orthophoto(path: str, photo: np.ndarray, camera: Camera, dem, crs_wkt: str, resolution: Optional[float],
                progress: Progress = None) -> None:
-    """Write the photo draped on the DEM as a north-up RGBA GeoTIFF (``resolution``: cell size, None = DEM's)."""
-    from ..core.ortho import make_orthophoto
-    from ..outputs.ortho import write_orthophoto
+    """Write the photo draped on the DEM as a north-up RGBA GeoTIFF on the DEM's grid, or on a grid of cell size
+    ``resolution`` over the same extent (elevations resampled bilinearly)."""
+    from ..outputs.orthophoto import orthophoto_from_camera
 
-    ortho = make_orthophoto(photo, camera, dem, resolution=resolution)
-    _tick(progress, 0.9)
-    write_orthophoto(path, ortho, crs_wkt, overwrite=True)
+    xyz = xyz_raster(camera, dem)
+    _tick(progress, 0.5)
+    grid = dem if not resolution else dem_at_resolution(dem, resolution)
+    orthophoto_from_camera(path, photo, camera, grid, xyz, overwrite=True)
     _tick(progress, 1.0)
+
+
+def dem_at_resolution(dem, resolution: float):
+    """A north-up copy of ``dem`` with square cells of ``resolution`` map units over the same extent."""
+    from ..core.dem import Dem
+
+    xmin, ymin, xmax, ymax = dem.bounds()
+    cols = max(2, int(round((xmax - xmin) / resolution)))
+    rows = max(2, int(round((ymax - ymin) / resolution)))
+    if rows * cols > 50_000_000:
+        raise InputError(f"orthophoto of {cols}x{rows} cells at {resolution} map units is too large")
+    xs = xmin + (np.arange(cols) + 0.5) * resolution
+    ys = ymax - (np.arange(rows) + 0.5) * resolution
+    gx, gy = np.meshgrid(xs, ys)
+    elevation = np.asarray(dem.sample(gx.ravel(), gy.ravel()), dtype=float).reshape(rows, cols)
+    return Dem.from_array(elevation, (xmin, resolution, 0.0, ymax, 0.0, -resolution), crs_wkt=dem.crs_wkt)
 
 
 def report(path: str, photo: np.ndarray, camera: Camera, dem, points_csv: Optional[str] = None) -> None:

@@ -1,0 +1,108 @@
+"""XYZ raster, photo -> map, map -> photo and orthophoto algorithms through processing.run on real files."""
+
+import numpy as np
+import pytest
+from osgeo import gdal
+from qgis.core import (QgsFeature, QgsGeometry, QgsPointXY, QgsProcessingException, QgsVectorLayer)
+
+from monoplot_plugin.core.dem import Dem
+from monoplot_plugin.core.xyz import compute_xyz
+
+
+def test_compute_xyz_writes_photo_sized_raster_matching_core(run_alg, small_scene, tmp_path):
+    out = tmp_path / "xyz.tif"
+    result = run_alg("computexyz", {"CAMERA": small_scene["camera"], "DEM": small_scene["dem"],
+                                    "OUTPUT": str(out)})
+    ds = gdal.Open(str(out))
+    assert (ds.RasterXSize, ds.RasterYSize, ds.RasterCount) == (160, 120, 3)
+    written = np.dstack([ds.GetRasterBand(b).ReadAsArray() for b in (1, 2, 3)])
+    expected = compute_xyz(small_scene["cam"], Dem.open(small_scene["dem"]))
+    ground = np.isfinite(expected[..., 2])
+    assert 0.2 < ground.mean() < 0.98  # terrain and sky both in view
+    assert result["GROUND_FRACTION"] == pytest.approx(ground.mean())
+    assert np.allclose(written[ground], expected[ground], atol=1.0)
+    assert np.isnan(written[~ground]).all()
+
+
+def test_camera_for_another_image_size_is_refused(run_alg, small_scene, tmp_path):
+    from tests.processing.conftest import write_photo
+
+    other = write_photo(tmp_path / "big.png", size=(200, 150))
+    with pytest.raises(QgsProcessingException, match="200x150"):
+        run_alg("orthophoto", {"CAMERA": small_scene["camera"], "DEM": small_scene["dem"], "PHOTO": str(other),
+                               "OUTPUT": str(tmp_path / "o.tif")})
+
+
+def test_missing_camera_file_is_a_clear_error(run_alg, small_scene, tmp_path):
+    with pytest.raises(QgsProcessingException, match="camera file not found"):
+        run_alg("computexyz", {"CAMERA": str(tmp_path / "nope.json"), "DEM": small_scene["dem"],
+                               "OUTPUT": str(tmp_path / "x.tif")})
+
+
+def photo_polygon_layer(vertices_uv):
+    layer = QgsVectorLayer("Polygon", "drawn", "memory")
+    feature = QgsFeature()
+    feature.setGeometry(QgsGeometry.fromPolygonXY([[QgsPointXY(u, -v) for u, v in vertices_uv]]))
+    layer.dataProvider().addFeatures([feature])
+    return layer
+
+
+def test_photo_polygon_becomes_3d_map_polygon_on_the_terrain(run_alg, small_scene, tmp_path):
+    cam = small_scene["cam"]
+    dem = Dem.open(small_scene["dem"])
+    xyz = compute_xyz(cam, dem)
+    rows, cols = np.nonzero(np.isfinite(xyz[..., 2]))
+    v0, v1 = np.percentile(rows, [60, 90])
+    u0, u1 = 40, 120
+    drawn = photo_polygon_layer([(u0, v0), (u1, v0), (u1, v1), (u0, v1)])
+    out = tmp_path / "outline.gpkg"
+    result = run_alg("phototomap", {"INPUT": drawn, "CAMERA": small_scene["camera"], "DEM": small_scene["dem"],
+                                    "STEP": 5, "OUTPUT": str(out)})
+    layer = QgsVectorLayer(result["OUTPUT"], "out", "ogr")
+    assert layer.isValid() and layer.featureCount() == 1
+    assert layer.crs().authid() == "EPSG:32632"
+    geometry = next(layer.getFeatures()).geometry()
+    vertices = np.array([(p.x(), p.y(), p.z()) for p in geometry.vertices()])
+    assert len(vertices) > 4 * 10  # densified along the edges
+    assert np.allclose(vertices[:, 2], dem.sample(vertices[:, 0], vertices[:, 1]), atol=15.0)  # on the terrain
+    back = cam.project(vertices)
+    assert back[:, 0].min() == pytest.approx(u0, abs=1.5) and back[:, 0].max() == pytest.approx(u1, abs=1.5)
+
+
+def test_map_line_projects_onto_photo_and_back(run_alg, small_scene, tmp_path):
+    cam = small_scene["cam"]
+    dem = Dem.open(small_scene["dem"])
+    xyz = compute_xyz(cam, dem)
+    ground = xyz[np.isfinite(xyz[..., 2])]
+    a, b = ground[len(ground) // 3], ground[2 * len(ground) // 3]
+    line = QgsVectorLayer("LineString?crs=EPSG:32632", "line", "memory")
+    feature = QgsFeature()
+    feature.setGeometry(QgsGeometry.fromPolylineXY([QgsPointXY(a[0], a[1]), QgsPointXY(b[0], b[1])]))
+    line.dataProvider().addFeatures([feature])
+    result = run_alg("maptophoto", {"INPUT": line, "CAMERA": small_scene["camera"], "DEM": small_scene["dem"],
+                                    "STEP": 10, "HIDDEN": False, "OUTPUT": "memory:"})
+    out = result["OUTPUT"]
+    photo_vertices = np.array([(p.x(), -p.y()) for f in out.getFeatures() for p in f.geometry().vertices()])
+    expected = cam.project(np.array([a, b]))
+    assert np.allclose(photo_vertices[0], expected[0], atol=1.0)
+    assert np.allclose(photo_vertices[-1], expected[1], atol=1.0)
+
+
+def test_orthophoto_colours_come_from_the_photo(run_alg, small_scene, tmp_path):
+    import cv2
+
+    out = tmp_path / "ortho.tif"
+    run_alg("orthophoto", {"CAMERA": small_scene["camera"], "DEM": small_scene["dem"],
+                           "PHOTO": small_scene["photo"], "OUTPUT": str(out)})
+    ds = gdal.Open(str(out))
+    assert ds.RasterCount == 4 and (ds.RasterXSize, ds.RasterYSize) == (80, 80)
+    alpha = ds.GetRasterBand(4).ReadAsArray()
+    assert 0.05 < (alpha == 255).mean() < 0.95
+    # a seen cell has the colour of the pixel its centre projects to
+    dem = Dem.open(small_scene["dem"])
+    r, c = np.argwhere(alpha == 255)[len(np.argwhere(alpha == 255)) // 2]
+    x, y = dem.cell_to_map(c + 0.5, r + 0.5)
+    u, v = small_scene["cam"].project([[float(x), float(y), float(dem.elevation[r, c])]])[0]
+    photo = cv2.imread(small_scene["photo"])[:, :, ::-1]
+    rgb = [ds.GetRasterBand(b).ReadAsArray()[r, c] for b in (1, 2, 3)]
+    assert list(rgb) == photo[int(v), int(u)].tolist()
