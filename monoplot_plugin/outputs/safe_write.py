@@ -15,11 +15,10 @@ reader never sees a new .shp with an old .dbf.
 ...     _ = pathlib.Path(tmp).write_text("hello")
 >>> (folder / "a.txt").read_text()
 'hello'
->>> with atomic_output(folder / "a.txt") as tmp:
+>>> with atomic_output(folder / "a.txt") as tmp:  # doctest: +IGNORE_EXCEPTION_DETAIL
 ...     pass
 Traceback (most recent call last):
-...
-monoplot_plugin.outputs.safe_write.OutputExistsError: a.txt already exists in ... (set overwrite to replace it)
+OutputExistsError: a.txt already exists in ... (set overwrite to replace it)
 """
 
 from __future__ import annotations

@@ -1,0 +1,134 @@
+"""Photo features -> 3-D map layers (GeoPackage, Shapefile) read back with OGR; map -> photo round trip."""
+
+import os
+
+import numpy as np
+import pytest
+from osgeo import ogr
+
+from monoplot_plugin.outputs import OutputExistsError
+from monoplot_plugin.outputs.geometry import map_to_photo, photo_to_map_feature, sample_xyz
+from monoplot_plugin.outputs.vectors import MapFeature, write_vector_layer
+
+from outputs_helpers import CRS, plane_height
+
+FIELDS = [("name", "string"), ("year", "integer"), ("thick_m", "real"), ("seen", "date")]
+
+
+def ground_polygon(scene):
+    """A photo polygon fully on the ground, in the lower half of the photo."""
+    w, h = scene.camera.width, scene.camera.height
+    return np.array([[0.2 * w, 0.6 * h], [0.8 * w, 0.6 * h], [0.7 * w, 0.95 * h], [0.3 * w, 0.9 * h]])
+
+
+def open_layer(path):
+    ds = ogr.Open(str(path))
+    assert ds is not None
+    return ds, ds.GetLayer(0)
+
+
+@pytest.mark.parametrize("suffix", [".gpkg", ".shp"])
+def test_digitised_features_read_back_with_z_and_attributes(plane_scene, tmp_path, suffix):
+    scene = plane_scene
+    polygon = photo_to_map_feature("polygon", ground_polygon(scene), scene.xyz,
+                                   {"name": "Zunge ö", "year": 1890, "thick_m": 12.5, "seen": "1890-07-14"})
+    assert polygon is not None and polygon.sky_parts == 0
+    path = write_vector_layer(tmp_path / f"glacier{suffix}", [polygon], scene.dem.crs_wkt, fields=FIELDS)
+    ds, layer = open_layer(path)
+    assert layer.GetFeatureCount() == 1
+    assert ogr.GT_HasZ(layer.GetGeomType())
+    assert layer.GetSpatialRef().GetAuthorityCode(None) == "21781"
+    feature = layer.GetNextFeature()
+    assert feature["name"] == "Zunge ö" and feature["year"] == 1890 and feature["thick_m"] == 12.5
+    assert feature["seen"].startswith("1890")
+    geom = feature.GetGeometryRef()
+    assert geom.Is3D()
+    # Vertices lie on the terrain and the area field matches OGR's own planimetric area.
+    ring = geom.GetGeometryRef(0).GetGeometryRef(0) if geom.GetGeometryCount() and \
+        geom.GetGeometryRef(0).GetGeometryCount() else geom.GetGeometryRef(0)
+    pts = np.array(ring.GetPoints())
+    assert np.allclose(pts[:, 2], plane_height(pts[:, 0], pts[:, 1]), atol=0.01)
+    assert feature["area"] == pytest.approx(geom.GetArea(), rel=1e-6)
+    assert feature["area"] > 1e5  # hundreds of metres across at km range
+    assert feature["sky_parts"] == 0
+    ds = None
+
+
+def test_lines_follow_terrain_and_sky_parts_are_split_off(plane_scene, tmp_path):
+    scene = plane_scene
+    w, h = scene.camera.width, scene.camera.height
+    sky_row = np.flatnonzero(np.isnan(scene.xyz[:, w // 2, 2]))[-1] - 5  # well inside the sky
+    ground_row = int(0.8 * h)
+    # Ground -> sky -> ground: one drawn line, two map parts, one sky piece reported.
+    line = photo_to_map_feature("line", [[0.2 * w, ground_row], [0.5 * w, sky_row], [0.8 * w, ground_row]],
+                                scene.xyz, {"name": "crest"})
+    assert line is not None and len(line.parts) == 2 and line.sky_parts == 1
+    assert line.measures()["length3d"] >= line.measures()["length"] > 0
+    sky_point = photo_to_map_feature("point", [[0.5 * w, sky_row]], scene.xyz)
+    assert sky_point is None
+    path = write_vector_layer(tmp_path / "lines.gpkg", [line], CRS, fields=[("name", "string")])
+    ds, layer = open_layer(path)
+    feature = layer.GetNextFeature()
+    geom = feature.GetGeometryRef()
+    assert geom.GetGeometryName() == "MULTILINESTRING" and geom.GetGeometryCount() == 2
+    assert feature["sky_parts"] == 1 and feature["length"] == pytest.approx(geom.Length(), rel=1e-6)
+    # Densified: many vertices, each on the terrain.
+    pts = np.array(geom.GetGeometryRef(0).GetPoints())
+    assert len(pts) > 10
+    assert np.allclose(pts[:, 2], plane_height(pts[:, 0], pts[:, 1]), atol=0.01)
+
+
+def test_polygon_partly_over_sky_keeps_ground_part(plane_scene):
+    scene = plane_scene
+    w = scene.camera.width
+    sky_row = np.flatnonzero(np.isnan(scene.xyz[:, w // 2, 2]))[-1] - 5
+    polygon = photo_to_map_feature("polygon", [[0.3 * w, sky_row], [0.7 * w, sky_row], [0.7 * w, 140],
+                                               [0.3 * w, 140]], scene.xyz)
+    assert polygon is not None and polygon.sky_parts == 1
+    assert np.isfinite(polygon.parts[0]).all()
+
+
+def test_shapefile_limits_and_overwrite(plane_scene, tmp_path):
+    feature = MapFeature("point", [[600100.0, 200100.0, 410.0]], {"a_long_field_name": "x"})
+    with pytest.raises(ValueError, match="10 characters"):
+        write_vector_layer(tmp_path / "p.shp", [feature], CRS, fields=[("a_long_field_name", "string")])
+    with pytest.raises(ValueError, match="reserved"):
+        write_vector_layer(tmp_path / "p.gpkg", [feature], CRS, fields=[("sky_parts", "integer")])
+    path = write_vector_layer(tmp_path / "p.shp", [feature], CRS)
+    dbf = (tmp_path / "p.dbf").read_bytes()
+    with pytest.raises(OutputExistsError):
+        write_vector_layer(tmp_path / "p.shp", [feature, feature], CRS)
+    assert (tmp_path / "p.dbf").read_bytes() == dbf
+    write_vector_layer(path, [feature, feature], CRS, overwrite=True)
+    ds, layer = open_layer(path)
+    assert layer.GetFeatureCount() == 2
+    assert not [n for n in os.listdir(tmp_path) if "tmp" in n]
+
+
+def test_map_polygon_to_photo_and_back_within_one_cell(plane_scene):
+    scene = plane_scene
+    cell = scene.dem.cell_size
+    # A map polygon in front of the camera (about 1.5-3 km away).
+    ring = np.array([[601500.0, 202000.0], [602600.0, 202100.0], [602500.0, 203300.0], [601700.0, 203000.0],
+                     [601500.0, 202000.0]])
+    (path,) = map_to_photo([ring], scene.camera, scene.xyz, scene.dem)
+    assert path.visible.all()
+    back = sample_xyz(scene.xyz, path.uv, scene.camera.position)
+    dense = np.column_stack([path.uv, back])
+    assert np.isfinite(back).all()
+    # Every drawn vertex comes back within one DEM cell of the map outline it came from.
+    from monoplot_plugin.outputs.geometry import densify
+    truth = densify(ring, cell / 2.0)
+    error = np.linalg.norm(back[:, :2] - truth, axis=1)
+    assert np.median(error) < cell / 2 and error.max() < cell, (np.median(error), error.max(), dense.shape)
+
+
+def test_map_line_behind_the_camera_or_off_photo_is_hidden(plane_scene):
+    scene = plane_scene
+    cam_x, cam_y, _ = scene.camera.position
+    line = np.array([[cam_x - 200.0, cam_y - 800.0], [cam_x, cam_y + 2500.0]])  # starts behind the camera
+    (path,) = map_to_photo([line], scene.camera, scene.xyz, scene.dem)
+    assert path.visible.any() and not path.visible.all()
+    pieces = path.pieces()
+    assert any(vis for _, vis in pieces)
+    assert all(np.isfinite(uv).all() for uv, _ in pieces)
