@@ -1,4 +1,6 @@
-"""The object QGIS loads: a toolbar button and a Raster-menu entry that toggle Monoplot's dock.
+"""The object QGIS loads: a Plugins-toolbar button and a Raster-menu entry that toggle Monoplot's dock.
+
+The button goes on the Plugins toolbar because it is visible in a fresh profile; the Raster toolbar is not.
 
 ``unload()`` undoes everything ``initGui()``/``initProcessing()`` did, so that a plugin reload leaves nothing behind.
 """
@@ -60,7 +62,7 @@ class MonoplotPlugin:
         self.action.setToolTip(self.tr("Monoplot: georeference an oblique photograph against a DEM"))
         self.action.setCheckable(True)
         self.action.toggled.connect(self.toggle_dock)
-        self.iface.addRasterToolBarIcon(self.action)
+        self.iface.addToolBarIcon(self.action)
         self.iface.addPluginToRasterMenu(self.menu, self.action)
         self.initProcessing()
         self.dependency_notice = deps.notify_missing(self.iface)
@@ -84,7 +86,7 @@ class MonoplotPlugin:
             self.dock.deleteLater()
             self.dock = None
         if self.action is not None:
-            self.iface.removeRasterToolBarIcon(self.action)
+            self.iface.removeToolBarIcon(self.action)
             self.iface.removePluginRasterMenu(self.menu, self.action)
             self.action.deleteLater()
             self.action = None

@@ -33,12 +33,11 @@ def plugin(qgis_iface):
     flush_deletes()
 
 
-def test_init_gui_adds_action_to_raster_toolbar_and_menu(plugin, qgis_iface):
+def test_init_gui_adds_action_to_plugins_toolbar_and_raster_menu(plugin, qgis_iface):
     action = plugin.action
     assert action in qgis_iface.mainWindow().findChildren(QAction, "MonoplotAction")
     assert action.text() == "Monoplot" and action.isCheckable() and not action.icon().isNull()
     assert plugin_module.plugin_icon_path() == plugin_module.ICON_RESOURCE  # the compiled resources.qrc is used
-    qgis_iface.addRasterToolBarIcon.assert_called_with(action)
     qgis_iface.addPluginToRasterMenu.assert_called_with(plugin.menu, action)
 
 
@@ -71,7 +70,6 @@ def test_unload_removes_everything_and_reload_leaves_nothing(qgis_iface):
         flush_deletes()
         assert sip.isdeleted(action) and sip.isdeleted(dock)
         assert monoplot_widgets(window) == ([], [])
-        qgis_iface.removeRasterToolBarIcon.assert_called_with(action)
         qgis_iface.removePluginRasterMenu.assert_called_with(instance.menu, action)
 
 

@@ -1,0 +1,95 @@
+"""Run INSIDE real QGIS (``qgis --code``) by test_desktop_smoke.py; not a pytest module.
+
+Enables the plugin, checks its toolbar/menu entries, reloads it, opens the dock, saves a screenshot and a JSON
+report (``MONOPLOT_SMOKE_OUT``), then quits QGIS. A watchdog ends QGIS if anything stalls.
+"""
+
+import json
+import os
+import traceback
+from pathlib import Path
+
+import qgis.utils
+from qgis.core import Qgis, QgsApplication
+from qgis.PyQt.QtCore import QEvent, QTimer
+from qgis.PyQt.QtWidgets import QAction, QDockWidget
+
+OUT = Path(os.environ["MONOPLOT_SMOKE_OUT"])
+PLUGIN = "monoplot"
+iface = qgis.utils.iface
+report = {"log": [], "python_errors": [], "steps": [], "script_error": None}
+
+
+def on_message(message, tag, level):
+    entry = {"tag": tag, "level": int(level), "message": message[:2000]}
+    report["log"].append(entry)
+    if tag == "Python error" or (tag == "Monoplot" and level == Qgis.MessageLevel.Critical):
+        report["python_errors"].append(entry)
+
+
+QgsApplication.messageLog().messageReceived.connect(on_message)
+
+
+def counts():
+    window = iface.mainWindow()
+    raster_menu_actions = [a for a in iface.rasterMenu().actions() if a.menu() is not None
+                           and a.menu().title() == "&Monoplot"]
+    return {
+        "actions": len(window.findChildren(QAction, "MonoplotAction")),
+        "docks": len(window.findChildren(QDockWidget, "MonoplotDock")),
+        "raster_menu_entries": sum(len(a.menu().actions()) for a in raster_menu_actions),
+        "toolbar_entries": sum(a.objectName() == "MonoplotAction" and a.isVisible()
+                               for a in iface.pluginToolBar().actions()),
+    }
+
+
+def step(name, function):
+    def run():
+        try:
+            report["steps"].append({"step": name, **(function() or {})})
+        except Exception:  # noqa: BLE001 — reported in the JSON, the test fails on it
+            report["script_error"] = traceback.format_exc()
+            finish()
+    return run
+
+
+def enable():
+    loaded = qgis.utils.loadPlugin(PLUGIN)
+    started = qgis.utils.startPlugin(PLUGIN)
+    return {"loaded": bool(loaded), "started": bool(started), **counts()}
+
+
+def open_dock():
+    iface.mainWindow().findChild(QAction, "MonoplotAction").trigger()
+    dock = iface.mainWindow().findChild(QDockWidget, "MonoplotDock")
+    return {"dock_visible": bool(dock and dock.isVisible()), **counts()}
+
+
+def reload_plugin():
+    qgis.utils.reloadPlugin(PLUGIN)
+    QgsApplication.sendPostedEvents(None, QEvent.Type.DeferredDelete)  # unload() used deleteLater()
+    QgsApplication.processEvents()
+    return counts()
+
+
+def finish():
+    try:
+        QgsApplication.processEvents()
+        report["active_plugins"] = list(qgis.utils.active_plugins)
+        report["qgis_version"] = Qgis.QGIS_VERSION
+        processing = QgsApplication.processingRegistry()
+        report["processing_providers"] = [p.id() for p in processing.providers()]
+        iface.mainWindow().grab().save(str(OUT / "desktop_smoke.png"))
+    except Exception:  # noqa: BLE001
+        report["script_error"] = (report["script_error"] or "") + traceback.format_exc()
+    (OUT / "desktop_smoke.json").write_text(json.dumps(report, indent=1))
+    QTimer.singleShot(500, iface.actionExit().trigger)
+
+
+QTimer.singleShot(90_000, lambda: os._exit(3))  # watchdog: never hang CI
+iface.mainWindow().resize(1600, 1000)
+QTimer.singleShot(1000, step("enable", enable))
+QTimer.singleShot(2500, step("open_dock", open_dock))
+QTimer.singleShot(4000, step("reload", reload_plugin))
+QTimer.singleShot(5500, step("open_dock_after_reload", open_dock))
+QTimer.singleShot(8000, finish)
