@@ -1,0 +1,66 @@
+"""Batch algorithm: a time-lapse folder of 20 photos, one of them corrupted -> 19 outputs and one clear error."""
+
+import csv
+
+import numpy as np
+import pytest
+from osgeo import gdal
+from qgis.core import QgsProcessingException, QgsProcessingFeedback
+
+from tests.processing.conftest import write_photo
+
+
+def recording_feedback():
+    """A real feedback whose progress values are recorded (messages are read back from its text log)."""
+    feedback = QgsProcessingFeedback()
+    feedback.progress_values = []
+    feedback.progressChanged.connect(lambda value: feedback.progress_values.append(value))
+    return feedback
+
+
+@pytest.fixture()
+def timelapse(tmp_path):
+    folder = tmp_path / "frames"
+    folder.mkdir()
+    for i in range(20):
+        write_photo(folder / f"frame_{i:02d}.jpg", seed=i)
+    (folder / "frame_07.jpg").write_bytes(b"\xff\xd8\xff\xe0 this is not a JPEG any more")
+    return folder
+
+
+def test_timelapse_batch_skips_the_corrupted_photo(run_alg, small_scene, timelapse, tmp_path):
+    feedback = recording_feedback()
+    out = tmp_path / "out"
+    result = run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(timelapse),
+                               "CAMERA": small_scene["camera"], "XYZ": True, "ORTHO": True, "OUTPUT": str(out)},
+                     feedback)
+    assert result["SUCCEEDED"] == 19 and result["FAILED"] == 1
+    orthos = sorted(p.name for p in out.glob("*_ortho.tif"))
+    assert len(orthos) == 19 and "frame_07_ortho.tif" not in orthos
+    assert (out / "xyz.tif").is_file()  # one XYZ raster for the shared camera
+    log = feedback.textLog().splitlines()
+    failures = [line for line in log if "FAILED, skipped" in line]
+    assert len(failures) == 1
+    assert "frame_07.jpg" in failures[0] and "cannot read the photo" in failures[0]
+    # orthophotos differ per frame (each drapes its own photo)
+    a = gdal.Open(str(out / "frame_00_ortho.tif")).GetRasterBand(1).ReadAsArray()
+    b = gdal.Open(str(out / "frame_01_ortho.tif")).GetRasterBand(1).ReadAsArray()
+    assert not np.array_equal(a, b)
+    with open(result["LOG"], newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert [r["status"] for r in rows].count("failed") == 1
+    assert max(feedback.progress_values) == pytest.approx(100.0)
+    assert len(feedback.progress_values) >= 20  # progress per photo
+    assert sum("/20] frame_" in line and ": ok" in line for line in log) == 19  # one line per good photo
+
+
+def test_batch_table_mode_reports_missing_columns(run_alg, small_scene, tmp_path):
+    table = tmp_path / "photos.csv"
+    table.write_text("image,camera\nphoto.jpg,prior.json\n")
+    with pytest.raises(QgsProcessingException, match="missing column"):
+        run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(table), "OUTPUT": str(tmp_path)})
+
+
+def test_timelapse_without_camera_is_refused(run_alg, small_scene, timelapse, tmp_path):
+    with pytest.raises(QgsProcessingException, match="shared CAMERA"):
+        run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(timelapse), "OUTPUT": str(tmp_path)})
