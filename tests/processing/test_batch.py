@@ -43,9 +43,8 @@ def test_timelapse_batch_skips_the_corrupted_photo(run_alg, small_scene, timelap
     assert len(failures) == 1
     assert "frame_07.jpg" in failures[0] and "cannot read the photo" in failures[0]
     # orthophotos differ per frame (each drapes its own photo)
-    a = gdal.Open(str(out / "frame_00_ortho.tif")).GetRasterBand(1).ReadAsArray()
-    b = gdal.Open(str(out / "frame_01_ortho.tif")).GetRasterBand(1).ReadAsArray()
-    assert not np.array_equal(a, b)
+    first, second = (gdal.Open(str(out / f"frame_0{i}_ortho.tif")) for i in (0, 1))
+    assert not np.array_equal(first.GetRasterBand(1).ReadAsArray(), second.GetRasterBand(1).ReadAsArray())
     with open(result["LOG"], newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert [r["status"] for r in rows].count("failed") == 1
