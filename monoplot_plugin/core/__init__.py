@@ -16,3 +16,8 @@ __all__ = ["Camera", "PARAMETER_NAMES", "project_points", "rotation_matrix"]
 from .dem import Dem  # noqa: E402,F401
 
 __all__ += ["Dem"]
+
+# fit (issue 4): camera fit and GCP suggestions (torch, cv2 and scipy are imported lazily inside the functions).
+from .fit import FitResult, fit_camera  # noqa: E402,F401
+
+__all__ += ["FitResult", "fit_camera"]
