@@ -154,16 +154,23 @@ def fov_from_focal(focal_px: float, width: float) -> float:
     return math.degrees(2.0 * math.atan((width / 2.0) / focal_px))
 
 
-def _undistort_normalised(xd: np.ndarray, yd: np.ndarray, k1: float, k2: float, iterations: int = 20):
-    """Invert ``x_d = x (1 + k1 r^2 + k2 r^4)`` by fixed-point iteration (exact for k1 = k2 = 0)."""
-    x, y = xd.copy(), yd.copy()
+def _undistort_normalised(xd: np.ndarray, yd: np.ndarray, k1: float, k2: float, iterations: int = 30):
+    """Invert ``x_d = x (1 + k1 r^2 + k2 r^4)`` (radial only, so solve for the radius with Newton's method).
+
+    Exact for k1 = k2 = 0; converges wherever the distortion is monotonic in the radius (any usable lens).
+    """
     if k1 == 0.0 and k2 == 0.0:
-        return x, y
+        return xd.copy(), yd.copy()
+    rd = np.hypot(xd, yd)
+    r = rd.copy()
     for _ in range(iterations):
-        r2 = x * x + y * y
-        scale = 1.0 + k1 * r2 + k2 * r2 * r2
-        x, y = xd / scale, yd / scale
-    return x, y
+        r2 = r * r
+        residual = r * (1.0 + k1 * r2 + k2 * r2 * r2) - rd
+        slope = 1.0 + 3.0 * k1 * r2 + 5.0 * k2 * r2 * r2
+        r = r - residual / np.where(np.abs(slope) > 1e-12, slope, 1e-12)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ratio = np.where(rd > 0, r / rd, 1.0)
+    return xd * ratio, yd * ratio
 
 
 @dataclass

@@ -9,11 +9,16 @@ from monoplot_plugin.core.camera import (Camera, angles_from_rotation, project_p
 
 
 def random_camera(rng, distortion=True):
+    """A plausible camera: aspect ratio 0.6-1.8, principal point near the centre, mild distortion."""
+    width = int(rng.integers(300, 4000))
+    height = int(width / rng.uniform(0.6, 1.8))
+    principal = None
+    if rng.random() < 0.5:
+        principal = tuple(np.array([width, height]) * rng.uniform(0.45, 0.55, 2))
     return Camera(position=tuple(rng.uniform([-5e5, -5e5, 0], [5e5, 5e6, 4000])),
                   heading=rng.uniform(-180, 180), pitch=rng.uniform(-60, 40), roll=rng.uniform(-20, 20),
-                  fov=rng.uniform(20, 100), image_size=(int(rng.integers(200, 4000)), int(rng.integers(200, 3000))),
-                  principal_point=None if rng.random() < 0.5 else tuple(rng.uniform(100, 180, 2)),
-                  k1=rng.uniform(-0.1, 0.1) if distortion else 0.0, k2=rng.uniform(-0.02, 0.02) if distortion else 0.0)
+                  fov=rng.uniform(20, 90), image_size=(width, height), principal_point=principal,
+                  k1=rng.uniform(-0.1, 0.1) if distortion else 0.0, k2=rng.uniform(-0.01, 0.01) if distortion else 0.0)
 
 
 def test_axes_follow_documented_conventions():
