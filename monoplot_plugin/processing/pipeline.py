@@ -77,17 +77,40 @@ def _points_and_scores(result, dims: int) -> Tuple[np.ndarray, np.ndarray]:
 
 # --- fit ------------------------------------------------------------------------------------------------------
 def fit(image_size, uv: np.ndarray, xyz: np.ndarray, prior: Camera, dem, paired: bool,
-        progress: Progress = None) -> Tuple[Camera, Dict]:
-    """Fit a camera to (N, 2) photo points and (M, 3) DEM points, from ``prior``.
+        progress: Progress = None, on_ground: bool = False, eye_height: float = 1.7) -> Tuple[Camera, Dict]:
+    """Fit a camera to (N, 2) photo points and (M, 3) DEM points, from ``prior`` (core :func:`fit_camera`).
 
-    Returns (camera, info) with ``info["rmse_px"]``: RMS pixel distance between each photo point and its DEM
-    point (paired) or the nearest projected DEM point (unpaired).
+    Paired: row i of ``uv`` and of ``xyz`` are the same point. ``on_ground``: the camera stands ``eye_height``
+    metres above the DEM. Returns (camera, info) with ``info["rmse_px"]``, ``"status"`` ("ok" or "poor"),
+    ``"message"`` and ``"summary"`` (the fit's JSON digest). Raises :class:`InputError` when the fit refuses the
+    points (the message says what to add) and :class:`FitCanceledError` when canceled.
     """
     from ..core.fit import fit_camera
 
-    result = fit_camera(prior, uv, xyz, paired=paired, dem=dem, progress=progress)
-    camera = result.camera if hasattr(result, "camera") else result[0] if isinstance(result, tuple) else result
-    return camera, {"rmse_px": point_rmse(camera, uv, xyz, paired)}
+    if tuple(image_size) != tuple(prior.image_size):
+        raise InputError(f"the prior camera is for a {prior.width}x{prior.height} image, the photo is "
+                         f"{image_size[0]}x{image_size[1]}")
+    pairs = np.column_stack([np.arange(len(uv)), np.arange(len(uv))]) if paired else None
+    state = {"fraction": 0.0}
+
+    def report(fraction, message=""):
+        state["fraction"] = fraction
+        _tick(progress, fraction)
+
+    result = fit_camera(uv, xyz, prior, pairs=pairs, ground=dem if on_ground else None, eye_height=eye_height,
+                        progress=report, is_canceled=lambda: _tick(progress, state["fraction"]))
+    if result.status == "refused":
+        raise InputError(f"the fit refused these points: {result.message}")
+    if result.status == "canceled":
+        raise FitCanceledError(result.message)
+    camera = result.camera
+    rmse = float(result.rmse_px) if np.isfinite(result.rmse_px) else point_rmse(camera, uv, xyz, paired)
+    return camera, {"rmse_px": rmse, "status": result.status, "message": result.message,
+                    "summary": result.summary()}
+
+
+class FitCanceledError(RuntimeError):
+    """The user canceled the fit."""
 
 
 def point_rmse(camera: Camera, uv: np.ndarray, xyz: np.ndarray, paired: bool) -> float:

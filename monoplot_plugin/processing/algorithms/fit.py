@@ -7,14 +7,16 @@ from qgis.core import (
     QgsProcessing,
     QgsProcessingException,
     QgsProcessingOutputNumber,
+    QgsProcessingOutputString,
     QgsProcessingParameterBoolean,
     QgsProcessingParameterFeatureSource,
     QgsProcessingParameterFile,
     QgsProcessingParameterFileDestination,
+    QgsProcessingParameterNumber,
 )
 
 from .. import pipeline
-from ..base import (Canceled, MonoplotAlgorithm, check_canceled, checked, progress_callback, read_map_points,
+from ..base import (MonoplotAlgorithm, checked, progress_callback, read_map_points,
                     read_photo_points)
 from ..inputs import InputError, read_points_csv
 
@@ -55,11 +57,17 @@ class FitCamera(MonoplotAlgorithm):
                                                      fileFilter=CSV_FILTER))
         self.addParameter(QgsProcessingParameterBoolean("PAIRED", self.tr("Points are paired (row i <-> row i)"),
                                                         defaultValue=False))
+        self.addParameter(QgsProcessingParameterBoolean("ON_GROUND", self.tr("Camera stands on the ground "
+                                                                             "(hand-held photo)"),
+                                                        defaultValue=False))
+        self.addParameter(QgsProcessingParameterNumber("EYE_HEIGHT", self.tr("Height above the ground (m)"),
+                                                       QgsProcessingParameterNumber.Double, 1.7, minValue=0.0))
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", self.tr("Fitted camera"),
                                                                 "Monoplot camera (*.json)"))
         self.addOutput(QgsProcessingOutputNumber("RMSE_PX", self.tr("Reprojection error (px)")))
         self.addOutput(QgsProcessingOutputNumber("N_PHOTO", self.tr("Photo points used")))
         self.addOutput(QgsProcessingOutputNumber("N_DEM", self.tr("DEM points used")))
+        self.addOutput(QgsProcessingOutputString("STATUS", self.tr("Fit status (ok / poor)")))
 
     def gather_points(self, parameters, context, dem):
         """(uv (N, 2), xyz (M, 3), paired) from layers and/or CSV files; Z sampled from the DEM where missing."""
@@ -117,12 +125,18 @@ class FitCamera(MonoplotAlgorithm):
                 "in photo pixel space (x = column, y = -row, or columns u_px, v_px)?"))
         feedback.pushInfo(self.tr(f"Fitting with {len(uv)} photo points and {len(xyz)} DEM points "
                                   f"({'paired' if paired else 'unpaired'})"))
+        photo_size = checked(pipeline_photo_size, photo)
         try:
-            camera, info = pipeline.fit(photo_size_of(prior), uv, xyz, prior, dem, paired,
-                                        progress_callback(feedback, 0, 95))
-        except Canceled:
-            raise QgsProcessingException(self.tr("Canceled."))
-        check_canceled(feedback)
+            camera, info = checked(pipeline.fit, photo_size, uv, xyz, prior, dem, paired,
+                                   progress_callback(feedback, 0, 95),
+                                   on_ground=self.parameterAsBool(parameters, "ON_GROUND", context),
+                                   eye_height=self.parameterAsDouble(parameters, "EYE_HEIGHT", context))
+        except pipeline.FitCanceledError:
+            raise QgsProcessingException(self.tr("Fit canceled; no camera written."))
+        if info["status"] != "ok":
+            feedback.reportError(self.tr(f"Fit {info['status']}: {info['message']}"), False)
+        else:
+            feedback.pushInfo(info["message"])
         camera.crs_wkt = crs.toWkt()
         out = self.parameterAsFileOutput(parameters, "OUTPUT", context)
         camera.save(out)
@@ -130,8 +144,10 @@ class FitCamera(MonoplotAlgorithm):
         feedback.pushInfo(self.tr(f"Camera: {json.dumps(camera.parameters())}"))
         feedback.pushInfo(self.tr(f"Reprojection error {rmse:.2f} px; written to {out}"))
         feedback.setProgress(100)
-        return {"OUTPUT": out, "RMSE_PX": rmse, "N_PHOTO": len(uv), "N_DEM": len(xyz)}
+        return {"OUTPUT": out, "RMSE_PX": rmse, "N_PHOTO": len(uv), "N_DEM": len(xyz), "STATUS": info["status"]}
 
 
-def photo_size_of(camera):
-    return camera.image_size
+def pipeline_photo_size(path):
+    from ..inputs import photo_size
+
+    return photo_size(path)

@@ -1,0 +1,92 @@
+"""Fit camera algorithm through processing.run: paired CSV, unpaired layers, KML prior, clear refusals."""
+
+import json
+
+import numpy as np
+import pytest
+from qgis.core import QgsFeature, QgsGeometry, QgsPoint, QgsProcessingException, QgsVectorLayer
+
+from monoplot_plugin.core.camera import Camera
+from monoplot_plugin.core.dem import Dem
+from monoplot_plugin.core.xyz import compute_xyz
+from monoplot_plugin.processing.inputs import write_points_csv
+
+
+@pytest.fixture(scope="module")
+def ground_truth(small_scene):
+    """20 ground points seen by the scene camera, their exact pixels, and a prior off by 60 m and 2 degrees."""
+    cam = small_scene["cam"]
+    xyz = compute_xyz(cam, Dem.open(small_scene["dem"]))
+    rng = np.random.default_rng(3)
+    rows, cols = np.nonzero(np.isfinite(xyz[..., 2]))
+    pick = rng.choice(len(rows), 20, replace=False)
+    world = xyz[rows[pick], cols[pick]]
+    pixels = cam.project(world)
+    prior = cam.with_parameters(x=cam.position[0] + 50, y=cam.position[1] - 30, heading=cam.heading + 1.5,
+                                pitch=cam.pitch - 1.0, fov=cam.fov + 2.0)
+    prior_path = small_scene["dir"] / "prior.json"
+    prior.save(prior_path)
+    return {"world": world, "pixels": pixels, "prior": str(prior_path), "prior_cam": prior}
+
+
+def test_fit_from_paired_csv_recovers_the_camera(run_alg, small_scene, ground_truth, tmp_path):
+    gcps = tmp_path / "gcps.csv"
+    write_points_csv(str(gcps), uv=ground_truth["pixels"], xyz=ground_truth["world"])
+    out = tmp_path / "camera.json"
+    result = run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"],
+                                   "PRIOR": ground_truth["prior"], "PHOTO_CSV": str(gcps), "OUTPUT": str(out)})
+    fitted = Camera.load(out)
+    truth = small_scene["cam"]
+    assert result["RMSE_PX"] < 0.5 and result["N_PHOTO"] == 20
+    assert np.linalg.norm(np.subtract(fitted.position, truth.position)) < 5.0
+    assert abs(fitted.heading - truth.heading) < 0.1 and abs(fitted.fov - truth.fov) < 0.2
+    assert json.loads(out.read_text())["crs_wkt"]  # the DEM's CRS travels with the camera
+
+
+def point_layer(points, crs=""):
+    kind = "PointZ" if points.shape[1] == 3 else "Point"
+    layer = QgsVectorLayer(f"{kind}?crs={crs}" if crs else kind, "pts", "memory")
+    features = []
+    for p in points:
+        f = QgsFeature()
+        f.setGeometry(QgsGeometry(QgsPoint(*p) if len(p) == 3 else QgsPoint(p[0], -p[1])))
+        features.append(f)
+    layer.dataProvider().addFeatures(features)
+    return layer
+
+
+def test_fit_from_unpaired_layers_with_different_counts(run_alg, small_scene, ground_truth, tmp_path):
+    photo_layer = point_layer(ground_truth["pixels"][:16])          # 16 photo points (x = u, y = -v)
+    dem_layer = point_layer(ground_truth["world"][2:], "EPSG:32632")  # 18 DEM points, not in the same order
+    out = tmp_path / "camera.json"
+    result = run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"],
+                                   "PRIOR": ground_truth["prior"], "PHOTO_POINTS": photo_layer,
+                                   "DEM_POINTS": dem_layer, "PAIRED": False, "OUTPUT": str(out)})
+    fitted = Camera.load(out)
+    check = fitted.project(ground_truth["world"]) - ground_truth["pixels"]
+    assert result["N_PHOTO"] == 16 and result["N_DEM"] == 18
+    assert np.sqrt(np.mean(check ** 2)) < 1.0  # every point, including the ones only one side had
+
+
+def test_paired_counts_must_match(run_alg, small_scene, ground_truth, tmp_path):
+    with pytest.raises(QgsProcessingException, match="as many photo points as DEM points"):
+        run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"],
+                              "PRIOR": ground_truth["prior"], "PAIRED": True,
+                              "PHOTO_POINTS": point_layer(ground_truth["pixels"][:10]),
+                              "DEM_POINTS": point_layer(ground_truth["world"][:12], "EPSG:32632"),
+                              "OUTPUT": str(tmp_path / "c.json")})
+
+
+def test_no_points_is_a_clear_error(run_alg, small_scene, ground_truth, tmp_path):
+    with pytest.raises(QgsProcessingException, match="needs photo points and DEM points"):
+        run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"],
+                              "PRIOR": ground_truth["prior"], "OUTPUT": str(tmp_path / "c.json")})
+
+
+def test_photo_points_outside_the_image_are_refused(run_alg, small_scene, ground_truth, tmp_path):
+    gcps = tmp_path / "gcps.csv"
+    write_points_csv(str(gcps), uv=ground_truth["pixels"] * 10, xyz=ground_truth["world"])
+    with pytest.raises(QgsProcessingException, match="outside the 160x120 photo"):
+        run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"],
+                              "PRIOR": ground_truth["prior"], "PHOTO_CSV": str(gcps),
+                              "OUTPUT": str(tmp_path / "c.json")})
