@@ -431,10 +431,9 @@ def view_window(camera, geotransform: Sequence[float], shape: Tuple[int, int], z
 
 
 def _finite_min_max(a: np.ndarray) -> Tuple[float, float]:
-    finite = a[np.isfinite(a)]
-    if finite.size == 0:
+    if a.size == 0 or np.isnan(a).all():
         return float("nan"), float("nan")
-    return float(finite.min()), float(finite.max())
+    return float(np.nanmin(a)), float(np.nanmax(a))
 
 
 def _wkt_or_empty(crs) -> str:

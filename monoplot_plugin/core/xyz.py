@@ -1,0 +1,682 @@
+"""Per-pixel terrain intersection: the map coordinates (X, Y, Z) of the first terrain point each pixel sees.
+
+Surface: the DEM's triangle mesh (vertices at cell centres, two triangles per square of four centres, split along the
+diagonal from (row, col) to (row + 1, col + 1); see :mod:`.dem`). Triangles touching a void vertex are holes.
+
+Method (a z-buffer, not ray marching):
+
+1. every mesh vertex is projected once into the photo (coordinates recentred on the camera in float64 first, then
+   stored as float32 pixels and depths: UTM northings would lose half a metre in float32);
+2. every triangle is rasterised into a depth buffer of inverse depths that keeps, per pixel centre, the id of the
+   nearest triangle (triangles crossing the camera plane are clipped at 1 cm in front of it);
+3. each pixel's ray is then intersected *exactly* (float64) with the plane of the triangle in the buffer, so the
+   result does not depend on interpolation in the buffer: only which triangle wins can differ from a brute-force
+   search, on silhouettes.
+
+The loops are compiled with numba (``cache=True``; parallel over the available cores). Without numba the same code
+runs as plain Python, which is only practical for tiny grids.
+
+Radial distortion: vertices are projected with it (triangle edges are straight between distorted vertices, a
+sub-pixel approximation for small triangles); the exact step undistorts each pixel's ray. Points beyond the radius
+where the distortion polynomial stops growing are not projected.
+
+>>> import numpy as np
+>>> from .camera import Camera
+>>> from .dem import Dem
+>>> flat = Dem.from_array(np.full((50, 50), 100.0), (0, 10, 0, 500, 0, -10))
+>>> cam = Camera(position=(250, 0, 200), heading=0, pitch=-30, roll=0, fov=60, image_size=(64, 48))
+>>> xyz = compute_xyz(cam, flat)
+>>> xyz.shape, bool(np.allclose(xyz[40, :, 2], 100.0))
+((48, 64, 3), True)
+>>> bool(np.isnan(xyz[0, 0]).all())     # above the horizon of a finite grid: sky
+True
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import tempfile
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from .camera import Camera
+from .dem import Dem
+
+__all__ = ["compute_xyz", "compute_xyz_full", "XyzResult", "segment_first_hit", "HAVE_NUMBA", "NEAR_PLANE_M"]
+
+logger = logging.getLogger("monoplot")
+
+#: Terrain closer than this to the camera plane (metres) is clipped away.
+NEAR_PLANE_M = 0.01
+
+
+def _configure_numba_cache() -> None:
+    """Let numba cache compiled code in a temporary folder when the plugin's folder is read-only."""
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return
+    here = os.path.dirname(os.path.abspath(__file__))
+    pycache = os.path.join(here, "__pycache__")
+    probe = pycache if os.path.isdir(pycache) else here
+    if not os.access(probe, os.W_OK):
+        folder = os.path.join(tempfile.gettempdir(), "monoplot-numba-cache")
+        os.makedirs(folder, exist_ok=True)
+        os.environ["NUMBA_CACHE_DIR"] = folder
+
+
+_configure_numba_cache()
+try:
+    import numba
+    from numba import njit, prange
+
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        numba.config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]
+    HAVE_NUMBA = True
+except ImportError:  # pragma: no cover - exercised only where numba is missing
+    HAVE_NUMBA = False
+    prange = range
+
+    def njit(*args, **kwargs):
+        if args and callable(args[0]):
+            return args[0]
+        return lambda f: f
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# compiled kernels (camera-relative float64 arithmetic; float32 only for stored per-vertex pixels and depths)
+# ----------------------------------------------------------------------------------------------------------------
+
+@njit(cache=True)
+def _distort(xn, yn, k1, k2):
+    r2 = xn * xn + yn * yn
+    s = 1.0 + k1 * r2 + k2 * r2 * r2
+    return xn * s, yn * s
+
+
+@njit(cache=True)
+def _undistort(xd, yd, k1, k2):
+    x, y = xd, yd
+    if k1 == 0.0 and k2 == 0.0:
+        return x, y
+    for _ in range(20):
+        r2 = x * x + y * y
+        s = 1.0 + k1 * r2 + k2 * r2 * r2
+        x, y = xd / s, yd / s
+    return x, y
+
+
+@njit(cache=True)
+def _vertex_cam(elev, gt, C, R, r, c):
+    """Camera-frame coordinates (float64) of the vertex at cell centre (r, c)."""
+    X = gt[0] + (c + 0.5) * gt[1] + (r + 0.5) * gt[2] - C[0]
+    Y = gt[3] + (c + 0.5) * gt[4] + (r + 0.5) * gt[5] - C[1]
+    Z = elev[r, c] - C[2]
+    return (R[0, 0] * X + R[0, 1] * Y + R[0, 2] * Z,
+            R[1, 0] * X + R[1, 1] * Y + R[1, 2] * Z,
+            R[2, 0] * X + R[2, 1] * Y + R[2, 2] * Z)
+
+
+@njit(parallel=True, cache=True)
+def _project_vertices(elev, gt, C, R, intr, near, u, v, z):
+    """Fill (rows, cols) float32 u, v (pixels; NaN if not in front) and z (camera depth; NaN for voids and for
+    vertices outside the distortion's valid radius)."""
+    rows, cols = elev.shape
+    f, cx, cy, k1, k2, r2max = intr[0], intr[1], intr[2], intr[3], intr[4], intr[5]
+    for r in prange(rows):
+        for c in range(cols):
+            if elev[r, c] != elev[r, c]:
+                u[r, c] = np.nan
+                v[r, c] = np.nan
+                z[r, c] = np.nan
+                continue
+            xc, yc, zc = _vertex_cam(elev, gt, C, R, r, c)
+            z[r, c] = zc
+            if zc > near:
+                xn = xc / zc
+                yn = yc / zc
+                if k1 != 0.0 or k2 != 0.0:
+                    if xn * xn + yn * yn > r2max:
+                        u[r, c] = np.nan
+                        v[r, c] = np.nan
+                        z[r, c] = np.nan
+                        continue
+                    xn, yn = _distort(xn, yn, k1, k2)
+                u[r, c] = f * xn + cx
+                v[r, c] = f * yn + cy
+            else:
+                u[r, c] = np.nan
+                v[r, c] = np.nan
+
+
+@njit(cache=True)
+def _raster_triangle(u0, v0, w0, u1, v1, w1, u2, v2, w2, tid, zbuf, tbuf):
+    """Rasterise one screen triangle (pixels; w = inverse depth) into zbuf (keep the largest w) and tbuf."""
+    H, W = zbuf.shape
+    umin = min(u0, min(u1, u2))
+    umax = max(u0, max(u1, u2))
+    vmin = min(v0, min(v1, v2))
+    vmax = max(v0, max(v1, v2))
+    j0 = max(0, int(math.ceil(umin - 0.5)))
+    j1 = min(W - 1, int(math.floor(umax - 0.5)))
+    if j0 > j1:
+        return
+    i0 = max(0, int(math.ceil(vmin - 0.5)))
+    i1 = min(H - 1, int(math.floor(vmax - 0.5)))
+    if i0 > i1:
+        return
+    area = (u1 - u0) * (v2 - v0) - (u2 - u0) * (v1 - v0)
+    if abs(area) < 1e-12:
+        return
+    inv = 1.0 / area
+    eps = -1e-7
+    for i in range(i0, i1 + 1):
+        py = i + 0.5
+        for j in range(j0, j1 + 1):
+            px = j + 0.5
+            b0 = ((u1 - px) * (v2 - py) - (u2 - px) * (v1 - py)) * inv
+            if b0 < eps:
+                continue
+            b1 = ((u2 - px) * (v0 - py) - (u0 - px) * (v2 - py)) * inv
+            if b1 < eps:
+                continue
+            b2 = 1.0 - b0 - b1
+            if b2 < eps:
+                continue
+            w = b0 * w0 + b1 * w1 + b2 * w2
+            if w > zbuf[i, j]:
+                zbuf[i, j] = w
+                tbuf[i, j] = tid
+
+
+@njit(cache=True)
+def _raster_clipped(elev, gt, C, R, intr, near, ra, ca, rb, cb, rc, cc, tid, zbuf, tbuf):
+    """Clip a triangle that crosses the near plane (camera frame, float64) and rasterise the part in front."""
+    f, cx, cy, k1, k2, r2max = intr[0], intr[1], intr[2], intr[3], intr[4], intr[5]
+    P = np.empty((3, 3))
+    P[0, 0], P[0, 1], P[0, 2] = _vertex_cam(elev, gt, C, R, ra, ca)
+    P[1, 0], P[1, 1], P[1, 2] = _vertex_cam(elev, gt, C, R, rb, cb)
+    P[2, 0], P[2, 1], P[2, 2] = _vertex_cam(elev, gt, C, R, rc, cc)
+    Q = np.empty((4, 3))
+    n = 0
+    for k in range(3):
+        a = P[k]
+        b = P[(k + 1) % 3]
+        a_in = a[2] >= near
+        b_in = b[2] >= near
+        if a_in:
+            Q[n] = a
+            n += 1
+        if a_in != b_in:
+            t = (near - a[2]) / (b[2] - a[2])
+            Q[n] = a + t * (b - a)
+            n += 1
+    if n < 3:
+        return
+    U = np.empty(4)
+    V = np.empty(4)
+    Wd = np.empty(4)
+    for k in range(n):
+        xn = Q[k, 0] / Q[k, 2]
+        yn = Q[k, 1] / Q[k, 2]
+        if k1 != 0.0 or k2 != 0.0:
+            if xn * xn + yn * yn > r2max:
+                return
+            xn, yn = _distort(xn, yn, k1, k2)
+        U[k] = f * xn + cx
+        V[k] = f * yn + cy
+        Wd[k] = 1.0 / Q[k, 2]
+    for k in range(1, n - 1):
+        _raster_triangle(U[0], V[0], Wd[0], U[k], V[k], Wd[k], U[k + 1], V[k + 1], Wd[k + 1], tid, zbuf, tbuf)
+
+
+@njit(parallel=True, cache=True)
+def _rasterise(u, v, z, elev, gt, C, R, intr, near, zbufs, tbufs):
+    """Z-buffer all mesh triangles. Chunk k handles the DEM rows r = k, k + nchunks, ... into its own buffers
+    (no write races, balanced load); the caller merges the chunks."""
+    rows, cols = u.shape
+    nchunks = zbufs.shape[0]
+    for k in prange(nchunks):
+        zbuf = zbufs[k]
+        tbuf = tbufs[k]
+        H, W = zbuf.shape
+        for r in range(k, rows - 1, nchunks):
+            for c in range(cols - 1):
+                z00 = z[r, c]
+                z01 = z[r, c + 1]
+                z10 = z[r + 1, c]
+                z11 = z[r + 1, c + 1]
+                if z00 > near and z01 > near and z10 > near and z11 > near:
+                    # fast path (most quads): skip quads whose bounding box holds no pixel centre
+                    u00, u01, u10, u11 = u[r, c], u[r, c + 1], u[r + 1, c], u[r + 1, c + 1]
+                    umin = min(min(u00, u01), min(u10, u11))
+                    umax = max(max(u00, u01), max(u10, u11))
+                    if math.floor(umax - 0.5) < math.ceil(umin - 0.5) or umax < 0.5 or umin > W - 0.5:
+                        continue
+                    v00, v01, v10, v11 = v[r, c], v[r, c + 1], v[r + 1, c], v[r + 1, c + 1]
+                    vmin = min(min(v00, v01), min(v10, v11))
+                    vmax = max(max(v00, v01), max(v10, v11))
+                    if math.floor(vmax - 0.5) < math.ceil(vmin - 0.5) or vmax < 0.5 or vmin > H - 0.5:
+                        continue
+                    base = 2 * (r * (cols - 1) + c)
+                    _raster_triangle(u00, v00, 1.0 / z00, u01, v01, 1.0 / z01, u11, v11, 1.0 / z11, base, zbuf, tbuf)
+                    _raster_triangle(u00, v00, 1.0 / z00, u11, v11, 1.0 / z11, u10, v10, 1.0 / z10, base + 1,
+                                     zbuf, tbuf)
+                    continue
+                if not (z00 > near or z01 > near or z10 > near or z11 > near):
+                    continue  # behind the camera, or voids (NaN compares false)
+                base = 2 * (r * (cols - 1) + c)
+                for t in range(2):
+                    if t == 0:  # (r, c), (r, c+1), (r+1, c+1)
+                        ra, ca, rb, cb, rc, cc = r, c, r, c + 1, r + 1, c + 1
+                    else:  # (r, c), (r+1, c+1), (r+1, c)
+                        ra, ca, rb, cb, rc, cc = r, c, r + 1, c + 1, r + 1, c
+                    za = z[ra, ca]
+                    zb = z[rb, cb]
+                    zc = z[rc, cc]
+                    if za != za or zb != zb or zc != zc:
+                        continue
+                    if za > near and zb > near and zc > near:
+                        _raster_triangle(u[ra, ca], v[ra, ca], 1.0 / za, u[rb, cb], v[rb, cb], 1.0 / zb,
+                                         u[rc, cc], v[rc, cc], 1.0 / zc, base + t, zbuf, tbuf)
+                    elif za > near or zb > near or zc > near:
+                        _raster_clipped(elev, gt, C, R, intr, near, ra, ca, rb, cb, rc, cc, base + t, zbuf, tbuf)
+
+
+@njit(parallel=True, cache=True)
+def _merge(zbufs, tbufs, tri):
+    n, H, W = zbufs.shape
+    for i in prange(H):
+        for j in range(W):
+            best = zbufs[0, i, j]
+            tid = tbufs[0, i, j]
+            for k in range(1, n):
+                if zbufs[k, i, j] > best:
+                    best = zbufs[k, i, j]
+                    tid = tbufs[k, i, j]
+            tri[i, j] = tid
+
+
+@njit(cache=True)
+def _triangle_vertices(tid, cols):
+    q = tid // 2
+    r = q // (cols - 1)
+    c = q - r * (cols - 1)
+    if tid % 2 == 0:
+        return r, c, r, c + 1, r + 1, c + 1
+    return r, c, r + 1, c + 1, r + 1, c
+
+
+@njit(cache=True)
+def _world_rel(elev, gt, C, r, c):
+    return (gt[0] + (c + 0.5) * gt[1] + (r + 0.5) * gt[2] - C[0],
+            gt[3] + (c + 0.5) * gt[4] + (r + 0.5) * gt[5] - C[1],
+            elev[r, c] - C[2])
+
+
+@njit(cache=True)
+def _plane_hit(elev, gt, C, cols, tid, dx, dy, dz):
+    """Ray parameter t of the ray t * d (from the camera) hitting the plane of triangle tid (NaN if parallel)."""
+    ra, ca, rb, cb, rc, cc = _triangle_vertices(tid, cols)
+    ax, ay, az = _world_rel(elev, gt, C, ra, ca)
+    bx, by, bz = _world_rel(elev, gt, C, rb, cb)
+    qx, qy, qz = _world_rel(elev, gt, C, rc, cc)
+    e1x, e1y, e1z = bx - ax, by - ay, bz - az
+    e2x, e2y, e2z = qx - ax, qy - ay, qz - az
+    nx = e1y * e2z - e1z * e2y
+    ny = e1z * e2x - e1x * e2z
+    nz = e1x * e2y - e1y * e2x
+    den = nx * dx + ny * dy + nz * dz
+    if den == 0.0:
+        return np.nan
+    return (nx * ax + ny * ay + nz * az) / den
+
+
+@njit(parallel=True, cache=True)
+def _exact_hits(tri, elev, gt, C, R, intr, max_range, xyz, dist):
+    """Exact float64 ray / triangle-plane intersection for every pixel with a triangle in the buffer."""
+    H, W = tri.shape
+    cols = elev.shape[1]
+    f, cx, cy, k1, k2 = intr[0], intr[1], intr[2], intr[3], intr[4]
+    for i in prange(H):
+        for j in range(W):
+            tid = tri[i, j]
+            if tid < 0:
+                xyz[i, j, 0] = np.nan
+                xyz[i, j, 1] = np.nan
+                xyz[i, j, 2] = np.nan
+                dist[i, j] = np.nan
+                continue
+            xn, yn = _undistort((j + 0.5 - cx) / f, (i + 0.5 - cy) / f, k1, k2)
+            dx = xn * R[0, 0] + yn * R[1, 0] + R[2, 0]
+            dy = xn * R[0, 1] + yn * R[1, 1] + R[2, 1]
+            dz = xn * R[0, 2] + yn * R[1, 2] + R[2, 2]
+            t = _plane_hit(elev, gt, C, cols, tid, dx, dy, dz)
+            norm = math.sqrt(dx * dx + dy * dy + dz * dz)
+            if not (t > 0.0) or t * norm > max_range:
+                xyz[i, j, 0] = np.nan
+                xyz[i, j, 1] = np.nan
+                xyz[i, j, 2] = np.nan
+                dist[i, j] = np.nan
+                tri[i, j] = -1
+                continue
+            xyz[i, j, 0] = C[0] + t * dx
+            xyz[i, j, 1] = C[1] + t * dy
+            xyz[i, j, 2] = C[2] + t * dz
+            dist[i, j] = t * norm
+
+
+@njit(parallel=True, cache=True)
+def _visibility(u, v, z, tri, elev, gt, C, R, near, rel_tol, abs_tol, vis):
+    """Per-vertex visibility: in the image, in front, and not behind the surface seen at its pixel (the plane of
+    that pixel's triangle, along the vertex's own ray, within rel_tol * range + abs_tol)."""
+    rows, cols = u.shape
+    H, W = tri.shape
+    for r in prange(rows):
+        for c in range(cols):
+            vis[r, c] = False
+            zz = z[r, c]
+            if zz != zz or not (zz > near):
+                continue
+            uu = u[r, c]
+            vv = v[r, c]
+            if not (uu >= 0.0 and uu < W and vv >= 0.0 and vv < H):
+                continue
+            tid = tri[int(vv), int(uu)]
+            if tid < 0:
+                vis[r, c] = True  # the pixel sees sky: nothing in front of this vertex
+                continue
+            px, py, pz = _world_rel(elev, gt, C, r, c)
+            s = _plane_hit(elev, gt, C, cols, tid, px, py, pz)
+            rng = math.sqrt(px * px + py * py + pz * pz)
+            if not (s > 0.0) or s * rng >= rng - (rel_tol * rng + abs_tol):
+                vis[r, c] = True
+
+
+@njit(parallel=True, cache=True)
+def _mark_hit_vertices(tri, cols, vis):
+    """Mark the vertices of every triangle a pixel centre sees (concurrent writes all store True)."""
+    H, W = tri.shape
+    for i in prange(H):
+        for j in range(W):
+            tid = tri[i, j]
+            if tid >= 0:
+                ra, ca, rb, cb, rc, cc = _triangle_vertices(tid, cols)
+                vis[ra, ca] = True
+                vis[rb, cb] = True
+                vis[rc, cc] = True
+
+
+@njit(cache=True)
+def _ray_triangle(ox, oy, oz, dx, dy, dz, ax, ay, az, bx, by, bz, cx, cy, cz):
+    """Moller-Trumbore: parameter t of o + t d on triangle abc, or inf when it misses."""
+    e1x, e1y, e1z = bx - ax, by - ay, bz - az
+    e2x, e2y, e2z = cx - ax, cy - ay, cz - az
+    px = dy * e2z - dz * e2y
+    py = dz * e2x - dx * e2z
+    pz = dx * e2y - dy * e2x
+    det = e1x * px + e1y * py + e1z * pz
+    if abs(det) < 1e-300:
+        return np.inf
+    inv = 1.0 / det
+    tx, ty, tz = ox - ax, oy - ay, oz - az
+    uu = (tx * px + ty * py + tz * pz) * inv
+    if uu < -1e-12 or uu > 1.0 + 1e-12:
+        return np.inf
+    qx = ty * e1z - tz * e1y
+    qy = tz * e1x - tx * e1z
+    qz = tx * e1y - ty * e1x
+    vv = (dx * qx + dy * qy + dz * qz) * inv
+    if vv < -1e-12 or uu + vv > 1.0 + 1e-12:
+        return np.inf
+    return (e2x * qx + e2y * qy + e2z * qz) * inv
+
+
+@njit(cache=True)
+def _cell_first_hit(elev, gt, origin, d, r, c, smin, smax):
+    """First hit parameter in [smin, smax] of origin + s d on the two triangles of quad (r, c); inf if none."""
+    best = np.inf
+    for t in range(2):
+        if t == 0:
+            ra, ca, rb, cb, rc, cc = r, c, r, c + 1, r + 1, c + 1
+        else:
+            ra, ca, rb, cb, rc, cc = r, c, r + 1, c + 1, r + 1, c
+        if elev[ra, ca] != elev[ra, ca] or elev[rb, cb] != elev[rb, cb] or elev[rc, cc] != elev[rc, cc]:
+            continue
+        ax, ay, az = _world_rel(elev, gt, origin, ra, ca)
+        bx, by, bz = _world_rel(elev, gt, origin, rb, cb)
+        qx, qy, qz = _world_rel(elev, gt, origin, rc, cc)
+        s = _ray_triangle(0.0, 0.0, 0.0, d[0], d[1], d[2], ax, ay, az, bx, by, bz, qx, qy, qz)
+        if s >= smin and s <= smax and s < best:
+            best = s
+    return best
+
+
+@njit(parallel=True, cache=True)
+def _segments_first_hit(elev, gt, inv, origins, targets, smax, out):
+    """For each segment origin -> target: the smallest s in (1e-9, smax] where origin + s (target - origin) meets
+    the mesh (NaN if none). Cells are walked in order along the segment (2-D DDA in the grid of cell centres)."""
+    rows, cols = elev.shape
+    for k in prange(origins.shape[0]):
+        out[k] = np.nan
+        o = origins[k]
+        d = targets[k] - o
+        # positions in "centre grid" coordinates: fc = col - 0.5, fr = row - 0.5
+        ax = o[0] - gt[0]
+        ay = o[1] - gt[3]
+        fc0 = inv[0] * ax + inv[1] * ay - 0.5
+        fr0 = inv[2] * ax + inv[3] * ay - 0.5
+        dfc = inv[0] * d[0] + inv[1] * d[1]
+        dfr = inv[2] * d[0] + inv[3] * d[1]
+        # clip s to the mesh's extent [0, cols-1] x [0, rows-1]
+        s0 = 1e-9
+        s1 = smax
+        ok = True
+        for axis in range(2):
+            p0 = fc0 if axis == 0 else fr0
+            dp = dfc if axis == 0 else dfr
+            hi = (cols - 1.0) if axis == 0 else (rows - 1.0)
+            if dp == 0.0:
+                if p0 < 0.0 or p0 > hi:
+                    ok = False
+            else:
+                ta = (0.0 - p0) / dp
+                tb = (hi - p0) / dp
+                if ta > tb:
+                    ta, tb = tb, ta
+                s0 = max(s0, ta)
+                s1 = min(s1, tb)
+        if not ok or s0 > s1:
+            continue
+        sm = s0
+        pc = fc0 + sm * dfc
+        pr = fr0 + sm * dfr
+        c = min(max(int(math.floor(pc)), 0), cols - 2)
+        r = min(max(int(math.floor(pr)), 0), rows - 2)
+        stepc = 1 if dfc > 0 else -1
+        stepr = 1 if dfr > 0 else -1
+        if dfc != 0.0:
+            nextc = ((c + (1 if dfc > 0 else 0)) - fc0) / dfc
+            deltac = abs(1.0 / dfc)
+        else:
+            nextc = np.inf
+            deltac = np.inf
+        if dfr != 0.0:
+            nextr = ((r + (1 if dfr > 0 else 0)) - fr0) / dfr
+            deltar = abs(1.0 / dfr)
+        else:
+            nextr = np.inf
+            deltar = np.inf
+        while True:
+            s = _cell_first_hit(elev, gt, o, d, r, c, s0, s1)
+            if s < np.inf:
+                out[k] = s
+                break
+            if nextc < nextr:
+                if nextc > s1:
+                    break
+                c += stepc
+                nextc += deltac
+            else:
+                if nextr > s1:
+                    break
+                r += stepr
+                nextr += deltar
+            if c < 0 or r < 0 or c > cols - 2 or r > rows - 2:
+                break
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# public API
+# ----------------------------------------------------------------------------------------------------------------
+
+@dataclass
+class XyzResult:
+    """Everything the z-buffer knows about one camera over one DEM.
+
+    Attributes:
+        xyz: (H, W, 3) float64 map coordinates of each pixel's first terrain hit (centre of the pixel); NaN = none.
+        distance: (H, W) float32 metres from the camera centre to that hit; NaN = none.
+        triangle: (H, W) int32 id of the hit triangle in ``dem`` (``2 * (row * (cols - 1) + col) + k``, k = 0 for
+            (r, c), (r, c+1), (r+1, c+1) and 1 for (r, c), (r+1, c+1), (r+1, c)); -1 = none.
+        visible: (rows, cols) bool over the DEM that was *passed in*: the camera sees that cell's centre.
+        dem: the grid actually intersected (a crop of the input when ``crop=True``; ``dem.window`` says where).
+        camera: the camera.
+    """
+
+    xyz: np.ndarray
+    distance: np.ndarray
+    triangle: np.ndarray
+    visible: np.ndarray
+    dem: Dem
+    camera: Camera
+
+    @property
+    def hit(self) -> np.ndarray:
+        """(H, W) bool: the pixel sees terrain."""
+        return self.triangle >= 0
+
+    def depth(self) -> np.ndarray:
+        """(H, W) float64 depth along the optical axis (metres), NaN for sky."""
+        rel = self.xyz - np.asarray(self.camera.position)
+        return rel @ self.camera.forward
+
+
+def _intrinsics(cam: Camera) -> np.ndarray:
+    r2max = np.inf
+    if cam.k1 != 0.0 or cam.k2 != 0.0:
+        # the distortion polynomial r (1 + k1 r^2 + k2 r^4) must keep growing: d/dr > 0
+        # 1 + 3 k1 r^2 + 5 k2 r^4 = 0 -> smallest positive root in r^2
+        roots = np.roots([5 * cam.k2, 3 * cam.k1, 1.0]) if cam.k2 != 0 else np.array([-1.0 / (3 * cam.k1)])
+        real = [float(x.real) for x in np.atleast_1d(roots) if abs(complex(x).imag) < 1e-12 and x.real > 0]
+        r2max = min(real) * 0.999 if real else np.inf
+    return np.array([cam.focal_px, cam.cx, cam.cy, cam.k1, cam.k2, r2max], dtype=np.float64)
+
+
+def _chunk_count(H: int, W: int) -> int:
+    threads = numba.get_num_threads() if HAVE_NUMBA else 1
+    budget = int(1.2e9 // max(1, H * W * 8))  # bytes of per-chunk buffers we allow
+    return max(1, min(threads, budget))
+
+
+def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, crop: bool = True,
+                     visibility: bool = True, rel_tol: float = 0.005, abs_tol: Optional[float] = None) -> XyzResult:
+    """Z-buffer ``dem`` from ``cam``: per-pixel XYZ and distance, and per-cell visibility.
+
+    Args:
+        cam: camera in the DEM's CRS.
+        dem: the terrain.
+        max_range: ignore terrain farther than this (metres); None = no limit.
+        crop: first cut the DEM to the rectangle the camera can see (saves time on large DEMs).
+        visibility: compute :attr:`XyzResult.visible` (else all False).
+        rel_tol, abs_tol: a cell centre counts as visible when the surface seen at its pixel is no nearer than its
+            own range minus ``rel_tol * range + abs_tol`` (abs_tol defaults to one cell). Cells on which a pixel
+            centre lands are always visible. Approximate for sub-pixel cells; for exact line-of-sight tests of a
+            few points use :func:`segment_first_hit`.
+    Returns:
+        :class:`XyzResult`.
+    """
+    W, H = cam.width, cam.height
+    full_shape = dem.shape
+    work = dem.crop_to_view(cam, max_range) if crop else dem
+    elev = np.ascontiguousarray(work.elevation)
+    rows, cols = elev.shape
+    visible = np.zeros(full_shape, dtype=bool)
+    if rows < 2 or cols < 2:
+        return XyzResult(np.full((H, W, 3), np.nan), np.full((H, W), np.nan, dtype=np.float32),
+                         np.full((H, W), -1, dtype=np.int32), visible, work, cam)
+    if 2 * (rows - 1) * (cols - 1) >= 2 ** 31 - 1:
+        raise ValueError(f"DEM of {rows} x {cols} cells is too large for one pass: crop it or use max_range")
+    gt = np.asarray(work.geotransform, dtype=np.float64)
+    C = np.asarray(cam.position, dtype=np.float64)
+    R = np.ascontiguousarray(cam.rotation, dtype=np.float64)
+    intr = _intrinsics(cam)
+    near = NEAR_PLANE_M
+    u = np.empty((rows, cols), dtype=np.float32)
+    v = np.empty((rows, cols), dtype=np.float32)
+    z = np.empty((rows, cols), dtype=np.float32)
+    _project_vertices(elev, gt, C, R, intr, near, u, v, z)
+    n = _chunk_count(H, W)
+    zbufs = np.zeros((n, H, W), dtype=np.float32)
+    tbufs = np.full((n, H, W), -1, dtype=np.int32)
+    _rasterise(u, v, z, elev, gt, C, R, intr, near, zbufs, tbufs)
+    if n == 1:
+        tri = tbufs[0]
+    else:
+        tri = np.empty((H, W), dtype=np.int32)
+        _merge(zbufs, tbufs, tri)
+    del zbufs, tbufs
+    limit = np.inf if max_range is None else float(max_range)
+    xyz = np.empty((H, W, 3))  # every pixel is written by _exact_hits
+    dist = np.empty((H, W), dtype=np.float32)
+    _exact_hits(tri, elev, gt, C, R, intr, limit, xyz, dist)
+    if visibility:
+        vis = np.empty((rows, cols), dtype=np.bool_)
+        _visibility(u, v, z, tri, elev, gt, C, R, near, float(rel_tol),
+                    float(work.cell_size if abs_tol is None else abs_tol), vis)
+        _mark_hit_vertices(tri, cols, vis)
+        if max_range is not None:
+            X, Y = work.cell_centres()
+            rng = np.sqrt((X - C[0]) ** 2 + (Y - C[1]) ** 2 + (elev - C[2]) ** 2)
+            vis &= rng <= max_range
+        r0 = work.window[0] - dem.window[0]
+        c0 = work.window[1] - dem.window[1]
+        visible[r0:r0 + rows, c0:c0 + cols] = vis
+    return XyzResult(xyz, dist, tri, visible, work, cam)
+
+
+def compute_xyz(cam: Camera, dem: Dem, max_range: Optional[float] = None, crop: bool = True) -> np.ndarray:
+    """(H, W, 3) float64 map coordinates of the first terrain point seen by each pixel centre; NaN where the ray
+    meets no terrain (sky, voids, beyond the DEM or ``max_range``). See :func:`compute_xyz_full` for more."""
+    return compute_xyz_full(cam, dem, max_range=max_range, crop=crop, visibility=False).xyz
+
+
+def segment_first_hit(dem: Dem, origins, targets, smax: float = 1.0) -> np.ndarray:
+    """Exact line of sight: where each segment ``origin -> target`` first meets the terrain mesh.
+
+    Args:
+        dem: the terrain.
+        origins, targets: (N, 3) or (3,) map coordinates.
+        smax: search ``s`` in (0, smax] (1 = up to the target).
+    Returns:
+        (N,) float64 parameter ``s`` of the first hit (point = origin + s (target - origin)); NaN where none.
+        A target on the surface returns about 1; a target hidden behind terrain returns s < 1.
+
+    >>> dem = Dem.from_array(np.zeros((5, 5)), (0, 1, 0, 5, 0, -1))
+    >>> segment_first_hit(dem, [[2.5, 2.5, 10.0]], [[2.5, 2.5, -10.0]]).round(9).tolist()
+    [0.5]
+    """
+    origins = np.atleast_2d(np.asarray(origins, dtype=np.float64))
+    targets = np.atleast_2d(np.asarray(targets, dtype=np.float64))
+    origins = np.ascontiguousarray(np.broadcast_to(origins, targets.shape))
+    out = np.full(len(targets), np.nan)
+    if dem.rows < 2 or dem.cols < 2 or len(targets) == 0:
+        return out
+    g = dem.geotransform
+    det = g[1] * g[5] - g[2] * g[4]
+    inv = np.array([g[5] / det, -g[2] / det, -g[4] / det, g[1] / det])
+    _segments_first_hit(np.ascontiguousarray(dem.elevation, dtype=np.float64), np.asarray(g, dtype=np.float64),
+                        inv, origins, np.ascontiguousarray(targets), float(smax), out)
+    return out
