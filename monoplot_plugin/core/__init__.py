@@ -21,3 +21,7 @@ __all__ += ["Dem"]
 from .fit import FitResult, fit_camera  # noqa: E402,F401
 
 __all__ += ["FitResult", "fit_camera"]
+
+from .xyz import XyzResult, compute_xyz, compute_xyz_full  # noqa: E402,F401
+
+__all__ += ["XyzResult", "compute_xyz", "compute_xyz_full"]
