@@ -56,10 +56,23 @@ def _looks_like_python(path):
     return name.startswith("python") and not name.startswith("pythonw")
 
 
+def _inside(path, folder):
+    """True when ``path``'s folder lies in ``folder``: rejects e.g. a pyenv shim found on PATH.
+
+    The file itself is not resolved: a venv's ``bin/python`` is a symlink out of the venv.
+    """
+    here, folder = os.path.realpath(os.path.dirname(path)), os.path.realpath(folder)
+    try:
+        return os.path.commonpath([here, folder]) == folder
+    except ValueError:  # different drives on Windows
+        return False
+
+
 def qgis_python_executable(executable=None, platform=None, prefix=None, exists=os.path.exists):
     """Path of the Python interpreter that QGIS embeds (inside QGIS ``sys.executable`` is the qgis binary).
 
-    - already a python (scripts, tests, venvs): ``executable`` itself;
+    - already a python of this installation (scripts, tests, venvs): ``executable`` itself (embedded Python may
+      report an unrelated ``python3`` found on PATH, e.g. a pyenv shim: that one is skipped);
     - Windows OSGeo4W / standalone: ``python3.exe``/``python.exe`` next to ``qgis-bin.exe`` or in ``sys.prefix``;
     - macOS bundle: ``QGIS.app/Contents/MacOS/bin/python3``;
     - Linux: ``<prefix>/bin/python3.X`` (``/usr/bin/python3.11`` for Debian's QGIS).
@@ -70,8 +83,8 @@ def qgis_python_executable(executable=None, platform=None, prefix=None, exists=o
     executable = sys.executable if executable is None else executable
     platform = sys.platform if platform is None else platform
     prefix = sys.prefix if prefix is None else prefix
-    if executable and _looks_like_python(executable):
-        return executable
+    if executable and _looks_like_python(executable) and _inside(executable, prefix):
+        return executable  # a python of this installation (a venv's lies inside its prefix too)
     here = os.path.dirname(executable or "")
     version = f"{sys.version_info.major}.{sys.version_info.minor}"
     if platform.startswith("win"):
@@ -100,7 +113,7 @@ def pip_arguments(packages, extra_args=()):
     A system (non-venv) Python on Linux/macOS installs into the user site (``--user``); Debian's PEP 668 marker
     additionally needs ``--break-system-packages``. ``extra_args`` (e.g. ``--target DIR``) replace that choice.
     """
-    args = ["-m", "pip", "install", "--disable-pip-version-check"]
+    args = ["-m", "pip", "install"]
     if extra_args:
         args += list(extra_args)
     elif sys.prefix == sys.base_prefix and not sys.platform.startswith("win"):
@@ -143,7 +156,7 @@ def notify_missing(iface, required=REQUIRED, extra_pip_args=()):
     names = ", ".join(r.package for r in missing)
     command = pip_command_line(missing, extra_args=extra_pip_args)
     bar = iface.messageBar()
-    item = bar.createMessage(tr("Monoplot"), tr("Missing Python packages: {0}. Install them with: {1}")
+    item = bar.createMessage(tr("Monoplot"), tr("Missing Python packages: {0}. Click Install, or run: {1}")
                              .format(names, command))
     button = QPushButton(tr("Install"), item)
     button.setObjectName("MonoplotInstallButton")

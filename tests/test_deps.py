@@ -76,6 +76,16 @@ def test_qgis_python_executable_keeps_a_real_python():
     assert os.access(deps.qgis_python_executable(), os.X_OK)
 
 
+def test_qgis_python_executable_ignores_a_foreign_python_on_path(tmp_path):
+    """Embedded in /usr/bin/qgis, sys.executable can be a pyenv shim: not the Python QGIS runs."""
+    shim = tmp_path / "pyenv/shims/python3"
+    system = tmp_path / "usr/bin/python3"
+    for path in (shim, system):
+        path.parent.mkdir(parents=True)
+        path.write_bytes(b"")
+    assert deps.qgis_python_executable(str(shim), "linux", str(tmp_path / "usr")) == str(system)
+
+
 def test_pip_command_names_interpreter_and_pip_packages():
     line = deps.pip_command_line([Requirement("cv2", "opencv-python-headless"), ABSENT], python="/opt/py 3/python3")
     assert line.startswith("'/opt/py 3/python3' -m pip install ")
@@ -97,7 +107,7 @@ def test_missing_package_warning_and_install_button(qgis_iface, qtbot, tmp_path)
     assert item is not None and qgis_iface.messageBar().currentItem() is item
     assert item.level() == Qgis.MessageLevel.Warning
     text = notice_texts(item)
-    assert "monoplot-test-tinypkg" in text and "torch" not in text.split("Install them")[0]
+    assert "monoplot-test-tinypkg" in text and "torch" not in text.split("Click Install")[0]
     assert deps.pip_command_line([ABSENT], extra_args=pip_args) in text
 
     button = item.findChild(QPushButton, "MonoplotInstallButton")

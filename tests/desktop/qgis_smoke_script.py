@@ -15,6 +15,7 @@ from qgis.PyQt.QtCore import QEvent, QTimer
 from qgis.PyQt.QtWidgets import QAction, QDockWidget
 
 OUT = Path(os.environ["MONOPLOT_SMOKE_OUT"])
+NAME = os.environ.get("MONOPLOT_SMOKE_NAME", "desktop_smoke")
 PLUGIN = "monoplot"
 iface = qgis.utils.iface
 report = {"log": [], "python_errors": [], "steps": [], "script_error": None}
@@ -79,10 +80,11 @@ def finish():
         report["qgis_version"] = Qgis.QGIS_VERSION
         processing = QgsApplication.processingRegistry()
         report["processing_providers"] = [p.id() for p in processing.providers()]
-        iface.mainWindow().grab().save(str(OUT / "desktop_smoke.png"))
+        report["message_bar"] = [item.text() for item in iface.messageBar().items()]
+        iface.mainWindow().grab().save(str(OUT / f"{NAME}.png"))
     except Exception:  # noqa: BLE001
         report["script_error"] = (report["script_error"] or "") + traceback.format_exc()
-    (OUT / "desktop_smoke.json").write_text(json.dumps(report, indent=1))
+    (OUT / f"{NAME}.json").write_text(json.dumps(report, indent=1))
     QTimer.singleShot(500, iface.actionExit().trigger)
 
 

@@ -20,8 +20,8 @@ ARTIFACTS = ROOT / "test-artifacts"
 SCRIPT = Path(__file__).with_name("qgis_smoke_script.py")
 
 
-@pytest.fixture(scope="module")
-def smoke_report(tmp_path_factory):
+def run_qgis(tmp_path_factory, name, with_dependencies):
+    """Start QGIS on the unpacked release zip; return the JSON report written by qgis_smoke_script.py."""
     if not (shutil.which("qgis") and shutil.which("xvfb-run")):
         if os.environ.get("CI"):
             pytest.fail("qgis or xvfb-run missing: run `make setup`")
@@ -32,11 +32,13 @@ def smoke_report(tmp_path_factory):
     with zipfile.ZipFile(next(tmp.glob("monoplot-*.zip"))) as archive:
         archive.extractall(tmp / "plugins")  # -> plugins/monoplot/
     ARTIFACTS.mkdir(exist_ok=True)
-    for old in ARTIFACTS.glob("desktop_smoke.*"):
+    for old in ARTIFACTS.glob(f"{name}.*"):
         old.unlink()
     env = dict(os.environ, QGIS_PLUGINPATH=str(tmp / "plugins"), MONOPLOT_SMOKE_OUT=str(ARTIFACTS),
-               # QGIS runs /usr/bin/python3: give it the venv's torch/cv2/scipy/numba, as a user's pip install would
-               PYTHONPATH=sysconfig.get_paths()["purelib"], QT_QPA_PLATFORM="xcb", HOME=str(tmp / "home"))
+               MONOPLOT_SMOKE_NAME=name, QT_QPA_PLATFORM="xcb", HOME=str(tmp / "home"))
+    env.pop("PYTHONPATH", None)
+    if with_dependencies:  # QGIS runs /usr/bin/python3: give it the venv's torch/cv2/scipy/numba, like a pip install
+        env["PYTHONPATH"] = sysconfig.get_paths()["purelib"]
     command = ["xvfb-run", "-a", "-s", "-screen 0 1600x1000x24", "qgis", "--nologo", "--noversioncheck",
                "--profiles-path", str(tmp / "profiles"), "--code", str(SCRIPT)]
     try:
@@ -44,9 +46,19 @@ def smoke_report(tmp_path_factory):
                                  start_new_session=True)
     except subprocess.TimeoutExpired as expired:
         pytest.fail(f"QGIS did not quit within 240 s:\n{expired.stderr}")
-    result_file = ARTIFACTS / "desktop_smoke.json"
+    result_file = ARTIFACTS / f"{name}.json"
     assert result_file.is_file(), f"QGIS exit {process.returncode}, no report:\n{process.stderr[-4000:]}"
     return json.loads(result_file.read_text())
+
+
+@pytest.fixture(scope="module")
+def smoke_report(tmp_path_factory):
+    return run_qgis(tmp_path_factory, "desktop_smoke", with_dependencies=True)
+
+
+@pytest.fixture(scope="module")
+def missing_deps_report(tmp_path_factory):
+    return run_qgis(tmp_path_factory, "desktop_missing_deps", with_dependencies=False)
 
 
 def test_plugin_active_without_python_errors(smoke_report):
@@ -70,3 +82,18 @@ def test_toolbar_menu_dock_and_reload_in_real_qgis(smoke_report):
 
 def test_processing_provider_registered_in_real_qgis(smoke_report):
     assert "monoplot" in [p.lower() for p in smoke_report["processing_providers"]]
+
+
+def test_plugin_loads_with_missing_dependencies_and_says_what_to_install(missing_deps_report):
+    """Debian's /usr/bin/python3 has none of torch, cv2, scipy, numba: a warning, not a crash."""
+    report = missing_deps_report
+    assert report["script_error"] is None, report["script_error"]
+    assert [e for e in report["python_errors"] if e["tag"] == "Python error"] == []
+    assert "monoplot" in report["active_plugins"]
+    steps = {s["step"]: s for s in report["steps"]}
+    assert steps["open_dock"]["dock_visible"]
+    warnings = [text for text in report["message_bar"] if "Missing Python packages" in text]
+    assert len(warnings) == 1  # the reload replaced, not duplicated, the warning
+    assert "torch" in warnings[0] and "opencv-python-headless" in warnings[0]
+    debian_python = f"/usr/bin/python{sys.version_info[0]}.{sys.version_info[1]}"  # not a python found on PATH
+    assert f"{debian_python} -m pip install --user --break-system-packages" in warnings[0]
