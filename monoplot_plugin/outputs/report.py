@@ -1,0 +1,277 @@
+"""One-page report of a georeferenced photo (PNG or PDF, A4 portrait) for papers and field notes.
+
+Contents: the photo with the control points, their reprojections and residual vectors (exaggerated, scale given);
+the DEM seen from the camera overlaid on the photo (elevation contours of the XYZ raster and the skyline); a map of
+the footprint (hillshade, cells the camera sees, camera and view direction, control points); the camera parameters
+with their standard deviations and the reprojection RMSE.
+
+Drawn with matplotlib (Debian's python3-matplotlib, a dependency of python3-qgis, so present wherever QGIS is; this
+module uses the object API with the Agg/PDF canvases, never pyplot, so it does not touch QGIS's Qt event loop).
+"""
+
+from __future__ import annotations
+
+import csv
+import datetime
+import math
+import os
+from pathlib import Path
+from typing import Dict, Optional, Sequence
+
+import numpy as np
+
+from .safe_write import OutputError, atomic_output
+
+__all__ = ["write_report", "read_points_csv", "parameter_sigmas", "ReportPoints"]
+
+FIT_PARAMETERS = ("x", "y", "z", "heading", "pitch", "roll", "fov")
+_UNITS = {"x": "m", "y": "m", "z": "m", "heading": "°", "pitch": "°", "roll": "°", "fov": "°", "cx": "px",
+          "cy": "px", "k1": "", "k2": ""}
+
+
+class ReportPoints:
+    """Control points: (N, 2) photo pixels and (N, 3) map coordinates, optional names."""
+
+    def __init__(self, uv, xyz, names: Optional[Sequence[str]] = None):
+        self.uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+        self.xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, 3)
+        if len(self.uv) != len(self.xyz):
+            raise ValueError("as many photo points as map points are needed")
+        self.names = list(names) if names is not None else [str(i + 1) for i in range(len(self.uv))]
+
+
+def read_points_csv(path) -> ReportPoints:
+    """Read paired points: columns u, v, X, Y, Z (names as in gcps.csv: ``u_px,v_px,X_lv03,Y_lv03,Z_m``; any
+    header whose first five numeric columns are u, v, X, Y, Z in that order); an optional ``name``/``id`` column."""
+    with open(path, newline="", encoding="utf-8-sig") as fh:
+        rows = list(csv.reader(fh))
+    if not rows:
+        raise ValueError(f"{path}: empty point file")
+    header = [h.strip().lower() for h in rows[0]]
+    body = rows[1:] if any(not _is_number(h) for h in header) else rows
+    if body is rows:
+        header = []
+    name_col = next((header.index(n) for n in ("name", "id", "label") if n in header), None)
+    uv, xyz, names = [], [], []
+    for row in body:
+        if not row:
+            continue
+        values = [float(v) for i, v in enumerate(row) if i != name_col and _is_number(v)]
+        if len(values) < 5:
+            raise ValueError(f"{path}: a row needs u, v, X, Y, Z, got {row}")
+        uv.append(values[:2])
+        xyz.append(values[2:5])
+        names.append(row[name_col] if name_col is not None else str(len(names) + 1))
+    return ReportPoints(uv, xyz, names)
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def parameter_sigmas(camera, points: ReportPoints, names: Sequence[str] = FIT_PARAMETERS) -> Dict[str, float]:
+    """Standard deviations of camera parameters from the paired points (Gauss-Newton covariance
+    ``s² (JᵀJ)⁻¹``, with ``s²`` the residual variance per coordinate); NaN when under-determined.
+
+    Args:
+        camera: the fitted Camera. points: its control points. names: parameters that were fitted.
+    Returns:
+        {name: sigma} in the parameter's units (m, degrees).
+    """
+    base = np.array([camera.parameters()[n] for n in names])
+    steps = np.array([0.1 if n in ("x", "y", "z") else 1e-3 for n in names])
+
+    def residual(p):
+        return (camera.with_parameters(**dict(zip(names, p))).project(points.xyz) - points.uv).ravel()
+
+    r0 = residual(base)
+    jac = np.empty((len(r0), len(base)))
+    for j in range(len(base)):
+        dp = np.zeros_like(base)
+        dp[j] = steps[j]
+        jac[:, j] = (residual(base + dp) - residual(base - dp)) / (2 * steps[j])
+    dof = len(r0) - len(base)
+    if dof <= 0 or not np.isfinite(jac).all():
+        return {n: float("nan") for n in names}
+    s2 = float(r0 @ r0) / dof
+    try:
+        cov = s2 * np.linalg.inv(jac.T @ jac)
+    except np.linalg.LinAlgError:
+        return {n: float("nan") for n in names}
+    return {n: float(math.sqrt(max(cov[i, i], 0.0))) for i, n in enumerate(names)}
+
+
+def write_report(path, photo: np.ndarray, camera, dem, points_csv=None, *, points: Optional[ReportPoints] = None,
+                 xyz: Optional[np.ndarray] = None, visible: Optional[np.ndarray] = None,
+                 sigmas: Optional[Dict[str, float]] = None, title: str = "", overwrite: bool = False) -> Path:
+    """Write the one-page report.
+
+    Args:
+        path: ``.png`` (150 dpi) or ``.pdf``.
+        photo: (H, W) or (H, W, 3) uint8 photo.
+        camera: the fitted Camera. dem: core Dem in the camera's CRS.
+        points_csv: paired points file (see :func:`read_points_csv`), or ``points`` directly.
+        xyz: (H, W, 3) per-pixel map coordinates; computed with core's rasteriser when None.
+        visible: (rows, cols) bool DEM cells the camera sees; computed with the XYZ raster when None.
+        sigmas: parameter standard deviations by name; from the points (:func:`parameter_sigmas`) when None.
+        title: heading (default: "Monoplot report").
+        overwrite: replace an existing file (default: refuse with OutputExistsError).
+    Returns:
+        the Path written.
+    """
+    from matplotlib.figure import Figure
+
+    target = Path(os.fspath(path))
+    fmt = target.suffix.lower().lstrip(".")
+    if fmt not in ("png", "pdf"):
+        raise ValueError(f"report format must be .png or .pdf, got {target.suffix!r}")
+    if points is None and points_csv:
+        points = read_points_csv(points_csv)
+    if xyz is None or visible is None:
+        from ..core.xyz import compute_xyz_full
+
+        result = compute_xyz_full(camera, dem, visibility=visible is None)
+        xyz = result.xyz if xyz is None else xyz
+        visible = result.visible if visible is None else visible
+    residual = rmse = None
+    if points is not None and len(points.uv):
+        residual = camera.project(points.xyz) - points.uv
+        rmse = float(np.sqrt(np.nanmean(np.sum(residual ** 2, axis=1))))
+        if sigmas is None:
+            sigmas = parameter_sigmas(camera, points)
+    photo = np.asarray(photo)
+
+    fig = Figure(figsize=(8.27, 11.69))
+    fig.text(0.06, 0.965, title or "Monoplot report", fontsize=15, weight="bold")
+    fig.text(0.06, 0.948, f"{datetime.date.today().isoformat()}  ·  photo {camera.width} × {camera.height} px  ·  "
+             f"{_crs_label(dem.crs_wkt)}", fontsize=8, color="0.3")
+    ax_photo = fig.add_axes((0.06, 0.60, 0.88, 0.33))
+    ax_overlay = fig.add_axes((0.06, 0.33, 0.43, 0.24))
+    ax_map = fig.add_axes((0.54, 0.30, 0.40, 0.30))
+    ax_text = fig.add_axes((0.06, 0.03, 0.88, 0.24))
+    _draw_points(ax_photo, photo, points, residual, rmse)
+    _draw_overlay(ax_overlay, photo, xyz)
+    _draw_footprint(ax_map, camera, dem, visible, points)
+    _draw_parameters(ax_text, camera, sigmas, rmse, points, xyz)
+    with atomic_output(target, overwrite) as tmp:
+        try:
+            fig.savefig(tmp, format=fmt, dpi=150)
+        except OSError as exc:
+            raise OutputError(f"cannot write {target}: {exc.strerror or exc}") from exc
+    return target
+
+
+def _crs_label(crs_wkt: str) -> str:
+    from ._gdal import crs_authid
+
+    return crs_authid(crs_wkt) or "CRS without identifier"
+
+
+def _draw_points(ax, photo, points, residual, rmse):
+    ax.imshow(photo, cmap="gray" if photo.ndim == 2 else None, interpolation="antialiased")
+    ax.set_title("Control points: picked (○), reprojected (+), residuals ×10", fontsize=9, loc="left")
+    if points is not None and residual is not None:
+        uv = points.uv
+        ax.scatter(uv[:, 0], uv[:, 1], s=40, facecolors="none", edgecolors="yellow", linewidths=1.2)
+        proj = uv + residual
+        ax.scatter(proj[:, 0], proj[:, 1], s=30, marker="+", color="red", linewidths=1.2)
+        ax.quiver(uv[:, 0], uv[:, 1], residual[:, 0] * 10, residual[:, 1] * 10, angles="xy", scale_units="xy",
+                  scale=1, color="red", width=0.003)
+        for name, (u, v) in zip(points.names, uv):
+            ax.annotate(name, (u, v), xytext=(4, -4), textcoords="offset points", color="yellow", fontsize=7)
+        if rmse is not None:
+            ax.text(8, photo.shape[0] - 8, f"RMSE {rmse:.2f} px", color="white", fontsize=9, va="bottom",
+                    bbox=dict(facecolor="black", alpha=0.5, edgecolor="none"))
+    ax.set_xlim(0, photo.shape[1])
+    ax.set_ylim(photo.shape[0], 0)
+    ax.set_aspect("equal", adjustable="box")  # the axes shrink to the photo: nothing drawn beyond its edges
+    ax.axis("off")
+
+
+def _draw_overlay(ax, photo, xyz):
+    ax.imshow(photo, cmap="gray" if photo.ndim == 2 else None, alpha=0.8)
+    z = xyz[..., 2]
+    ax.set_title("DEM seen from the camera: contours and skyline", fontsize=9, loc="left")
+    if np.isfinite(z).any():
+        lo, hi = np.nanpercentile(z, [1, 99])
+        step = _nice_step((hi - lo) / 12.0)
+        levels = np.arange(math.floor(lo / step) * step, hi + step, step)
+        centres = np.arange(z.shape[1]) + 0.5, np.arange(z.shape[0]) + 0.5
+        contours = ax.contour(*centres, np.ma.masked_invalid(z), levels=levels, cmap="terrain", linewidths=0.6)
+        ax.clabel(contours, levels[::3], fontsize=5, fmt="%d")
+        ax.contour(*centres, np.isfinite(z).astype(float), levels=[0.5], colors="red", linewidths=1.0)  # skyline
+    ax.set_xlim(0, photo.shape[1])
+    ax.set_ylim(photo.shape[0], 0)
+    ax.set_aspect("equal", adjustable="box")  # the axes shrink to the photo: nothing drawn beyond its edges
+    ax.axis("off")
+
+
+def _nice_step(raw: float) -> float:
+    """A 1-2-5 step of at least ``raw``.
+
+    >>> _nice_step(130.0), _nice_step(7.0)
+    (200.0, 10.0)
+    """
+    if not raw > 0:
+        return 1.0
+    power = 10 ** math.floor(math.log10(raw))
+    for m in (1, 2, 5, 10):
+        if m * power >= raw:
+            return float(m * power)
+    return float(10 * power)
+
+
+def _draw_footprint(ax, camera, dem, visible, points):
+    xmin, ymin, xmax, ymax = dem.bounds()
+    extent = (xmin, xmax, ymin, ymax)
+    north_up = dem.geotransform[2] == 0 and dem.geotransform[4] == 0
+    ax.set_title("Footprint: cells the camera sees", fontsize=9, loc="left")
+    if north_up:
+        ax.imshow(dem.hillshade(), cmap="gray", extent=extent, interpolation="nearest")
+        if visible is not None and visible.any():
+            ax.imshow(np.ma.masked_where(~visible, visible.astype(float)), cmap="autumn", alpha=0.45,
+                      extent=extent, interpolation="nearest", vmin=0, vmax=1)
+    cx, cy, _ = camera.position
+    ax.plot([cx], [cy], marker="^", color="blue", markersize=7)
+    reach = 0.35 * max(xmax - xmin, ymax - ymin)
+    for angle in (camera.heading - camera.fov / 2, camera.heading + camera.fov / 2):
+        a = math.radians(angle)
+        ax.plot([cx, cx + reach * math.sin(a)], [cy, cy + reach * math.cos(a)], color="blue", lw=0.8)
+    if points is not None:
+        ax.scatter(points.xyz[:, 0], points.xyz[:, 1], s=12, color="yellow", edgecolors="black", linewidths=0.4)
+    ax.set_xlim(min(xmin, cx), max(xmax, cx))
+    ax.set_ylim(min(ymin, cy), max(ymax, cy))
+    ax.set_aspect("equal")
+    ax.tick_params(labelsize=6)
+    ax.ticklabel_format(useOffset=False, style="plain")
+
+
+def _draw_parameters(ax, camera, sigmas, rmse, points, xyz):
+    ax.axis("off")
+    params = camera.parameters()
+    sigmas = sigmas or {}
+    lines = ["Camera (pinhole; angles in degrees: heading from grid north, pitch above horizontal)", ""]
+    for name in ("x", "y", "z", "heading", "pitch", "roll", "fov", "cx", "cy", "k1", "k2"):
+        value = params[name]
+        if name in ("k1", "k2") and value == 0.0:
+            continue
+        sigma = sigmas.get(name)
+        sig = f" ± {sigma:.3g}" if sigma is not None and np.isfinite(sigma) else ""
+        fmt = "{:.2f}" if name in ("x", "y", "z") else "{:.4f}"
+        lines.append(f"  {name:<8} {fmt.format(value):>14}{sig} {_UNITS[name]}")
+    lines.append(f"  focal    {camera.focal_px:>14.2f} px")
+    lines.append("")
+    if rmse is not None:
+        lines.append(f"Reprojection RMSE {rmse:.2f} px on {len(points.uv)} points "
+                     f"(σ: 1 standard deviation from the fit's covariance)")
+    ground = np.isfinite(xyz[..., 2])
+    if ground.any():
+        dist = np.linalg.norm(xyz[ground] - np.asarray(camera.position), axis=1)
+        lines.append(f"Ground seen in {100 * ground.mean():.0f} % of the pixels, "
+                     f"{dist.min() / 1000:.1f} to {dist.max() / 1000:.1f} km from the camera")
+    ax.text(0.0, 1.0, "\n".join(lines), va="top", ha="left", family="monospace", fontsize=8,
+            transform=ax.transAxes)

@@ -1,0 +1,53 @@
+"""One-page report: PNG and PDF, parameters with sigma, refusal to overwrite."""
+
+import numpy as np
+import pytest
+from osgeo import gdal
+
+from monoplot_plugin.outputs import OutputExistsError
+from monoplot_plugin.outputs.report import ReportPoints, parameter_sigmas, read_points_csv, write_report
+
+
+def scene_points(scene, n=12, noise_px=1.5, seed=3):
+    """Paired points on the plane scene: true ground points, photo positions with pixel noise."""
+    rng = np.random.default_rng(seed)
+    ground = np.argwhere(np.isfinite(scene.xyz[..., 2]))
+    pick = ground[rng.choice(len(ground), n, replace=False)]
+    xyz = scene.xyz[pick[:, 0], pick[:, 1]]
+    uv = pick[:, ::-1] + 0.5 + rng.normal(0, noise_px, (n, 2))
+    return ReportPoints(uv, xyz)
+
+
+def test_report_png_and_pdf(plane_scene, tmp_path):
+    scene = plane_scene
+    points = scene_points(scene)
+    csv = tmp_path / "points.csv"
+    csv.write_text("u_px,v_px,X,Y,Z\n" + "\n".join(
+        ",".join(f"{v:.3f}" for v in (*uv, *p)) for uv, p in zip(points.uv, points.xyz)), encoding="utf-8")
+    assert np.allclose(read_points_csv(csv).xyz, points.xyz, atol=1e-3)
+    png = write_report(tmp_path / "rapport été.png", scene.photo, scene.camera, scene.dem, csv, xyz=scene.xyz,
+                       title="Plane test")
+    ds = gdal.Open(str(png))
+    assert ds.GetDriver().ShortName == "PNG"
+    assert ds.RasterXSize < ds.RasterYSize  # A4 portrait
+    assert ds.RasterXSize > 1000
+    pixels = ds.ReadAsArray()
+    assert pixels.std() > 10  # not blank
+    pdf = write_report(tmp_path / "report.pdf", scene.photo, scene.camera, scene.dem, points=points,
+                       xyz=scene.xyz)
+    data = pdf.read_bytes()
+    assert data.startswith(b"%PDF") and data.count(b"/Type /Page\n") + data.count(b"/Type /Page ") <= 2
+    with pytest.raises(OutputExistsError):
+        write_report(pdf, scene.photo, scene.camera, scene.dem, points=points, xyz=scene.xyz)
+    assert pdf.read_bytes() == data
+
+
+def test_parameter_sigmas_grow_with_noise(plane_scene):
+    scene = plane_scene
+    quiet = parameter_sigmas(scene.camera, scene_points(scene, noise_px=0.5))
+    noisy = parameter_sigmas(scene.camera, scene_points(scene, noise_px=5.0))
+    assert set(quiet) == {"x", "y", "z", "heading", "pitch", "roll", "fov"}
+    assert all(np.isfinite(v) and v > 0 for v in quiet.values())
+    assert noisy["heading"] > quiet["heading"] and noisy["z"] > quiet["z"]
+    few = parameter_sigmas(scene.camera, scene_points(scene, n=3))
+    assert all(np.isnan(v) for v in few.values())  # 6 residuals, 7 unknowns: no covariance
