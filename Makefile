@@ -13,10 +13,11 @@ VERSION    = $(shell sed -n 's/^version=//p' metadata.txt)
 
 export QT_QPA_PLATFORM ?= offscreen
 
-.PHONY: help setup apt venv resources test demo package clean
+.PHONY: help setup apt venv resources test demo qgis package clean
 
 help:
 	@echo "make demo     set up everything, then run the demo job"
+	@echo "make qgis     open QGIS with the plugin and the demo project"
 	@echo "make test     set up everything, then run the whole test suite"
 	@echo "make package  build dist/monoplot-<version>.zip for plugins.qgis.org"
 
@@ -53,8 +54,14 @@ test: setup
 	@mkdir -p test-artifacts
 	$(PY) -m pytest -q tests
 
+# The whole pipeline through qgis_process on a generated scene (demo/run_demo.py); outputs in demo-output/.
 demo: setup
-	$(PY) -m monoplot_plugin.deps
+	$(PY) demo/run_demo.py
+
+# Real QGIS desktop with the plugin from this checkout and a project of the demo's outputs (runs the demo first
+# when demo-output/ is missing). Needs a display; under Xvfb: xvfb-run -a make qgis
+qgis: setup
+	$(PY) demo/qgis_desktop.py
 
 package: setup
 	$(PY) scripts/package.py --output dist

@@ -212,4 +212,4 @@ def report(path: str, photo: np.ndarray, camera: Camera, dem, points_csv: Option
     """Write a one-page report (PNG or PDF by extension) of a fitted camera."""
     from ..outputs.report import write_report
 
-    write_report(path, photo, camera, dem, points_csv=points_csv)
+    write_report(path, photo, camera, dem, points_csv=points_csv, overwrite=True)

@@ -1,0 +1,88 @@
+"""``make qgis``: the real QGIS desktop with the Monoplot plugin from this checkout and the demo's project.
+
+Runs the demo first when ``demo-output/`` has no results, writes ``demo-output/monoplot-demo.qgz`` (DEM,
+hillshade, orthophoto, mapped outline, suggested DEM points; the photo-space layers in a second project,
+``monoplot-demo-photo.qgz``), then starts ``qgis`` with an isolated profile where the plugin is enabled (your own
+QGIS settings are not touched).
+
+``--project-only`` writes the projects and exits (used by the tests).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+if str(REPO) not in sys.path:
+    sys.path.insert(0, str(REPO))
+
+from monoplot_plugin.processing import cli  # noqa: E402
+
+
+def write_projects(out: Path) -> Path:
+    """Build the demo's map project (and the photo-space one) with PyQGIS, headless; returns the map project."""
+    os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+    from qgis.core import (QgsApplication, QgsCoordinateReferenceSystem, QgsProject, QgsRasterLayer,
+                           QgsVectorLayer)
+
+    app = QgsApplication([], False)
+    app.initQgis()
+    try:
+        project = QgsProject()
+        dem = QgsRasterLayer(str(out / "scene" / "dem.tif"), "DEM")
+        layers = [
+            dem,
+            QgsRasterLayer(str(out / "ortho.tif"), "Orthophoto (photo draped on the DEM)"),
+            QgsVectorLayer(str(out / "outline.gpkg"), "Glacier outline traced on the photo", "ogr"),
+            QgsVectorLayer(str(out / "suggested_dem_points.gpkg"), "Suggested DEM points", "ogr"),
+        ]
+        for layer in reversed(layers):
+            if layer.isValid():
+                project.addMapLayer(layer)
+        project.setCrs(dem.crs())
+        map_project = out / "monoplot-demo.qgz"
+        project.write(str(map_project))
+
+        photo_project = QgsProject()
+        photo_layers = [
+            QgsRasterLayer(str(out / "scene" / "photo.png"), "Photo"),
+            QgsRasterLayer(str(out / "xyz.tif"), "XYZ raster (identify a pixel: X, Y, Z)"),
+            QgsVectorLayer(str(out / "outline_on_photo.gpkg"), "Outline traced on the photo", "ogr"),
+            QgsVectorLayer(str(out / "suggested_photo_points.gpkg"), "Suggested photo points", "ogr"),
+        ]
+        for layer in reversed(photo_layers):
+            if layer.isValid():
+                layer.setCrs(QgsCoordinateReferenceSystem())
+                photo_project.addMapLayer(layer)
+        photo_project.write(str(out / "monoplot-demo-photo.qgz"))
+        return map_project
+    finally:
+        app.exitQgis()
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", default=str(REPO / "demo-output"))
+    parser.add_argument("--project-only", action="store_true")
+    args = parser.parse_args(argv)
+    out = Path(args.out).resolve()
+    if not (out / "camera.json").is_file():
+        from demo import run_demo
+
+        run_demo.run(out)
+    project = write_projects(out)
+    print(f"project: {project}")
+    if args.project_only:
+        return 0
+    env = cli.prepare_environment(str(out / ".qgis"))
+    if os.environ.get("DISPLAY"):  # a real screen: undo the Makefile's offscreen default
+        env.pop("QT_QPA_PLATFORM", None)
+    return subprocess.call(["qgis", "--nologo", "--noversioncheck", "--project", str(project)], env=env)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
