@@ -17,6 +17,8 @@ which ``qgis_process.bin`` 3.22 rejects ("Command --noversioncheck not known!"),
 Usage from a shell (prints the environment to export, then runs)::
 
     python -m monoplot_plugin.processing.cli run monoplot:fitcamera -- PHOTO=photo.jpg DEM=dem.tif ...
+
+(or export the environment of :func:`prepare_environment` and call ``qgis_process.bin`` yourself).
 """
 
 from __future__ import annotations
@@ -77,20 +79,28 @@ def prepare_environment(work_dir: Optional[str] = None, plugin_dir: Path = REPO_
         "QT_QPA_PLATFORM": env.get("QT_QPA_PLATFORM", "offscreen"),
         "PYTHONPATH": os.pathsep.join(p for p in (site, env.get("PYTHONPATH", "")) if p),
         "XDG_RUNTIME_DIR": env.get("XDG_RUNTIME_DIR", str(work / "runtime")),
+        # numba's on-disk cache records the module name of each compiled function; inside QGIS the package is
+        # "monoplot.monoplot_plugin", in a checkout "monoplot_plugin": they must not share a cache folder
+        "NUMBA_CACHE_DIR": os.path.join(tempfile.gettempdir(), f"monoplot-numba-qgis-{os.getuid()}"),
     })
     Path(env["XDG_RUNTIME_DIR"]).mkdir(parents=True, exist_ok=True, mode=0o700)
     return env
 
 
 def parameter_arguments(parameters: Dict[str, object]) -> List[str]:
-    """``--NAME=value`` arguments (lists repeat the parameter; booleans as true/false)."""
+    """``NAME=value`` arguments, to follow qgis_process's ``--`` separator (lists repeat the parameter; booleans
+    as true/false).
+
+    >>> parameter_arguments({"DEM": "dem.tif", "PAIRED": False, "LAYERS": ["a", "b"]})
+    ['DEM=dem.tif', 'PAIRED=false', 'LAYERS=a', 'LAYERS=b']
+    """
     args = []
     for name, value in parameters.items():
         values = value if isinstance(value, (list, tuple)) else [value]
         for v in values:
             if isinstance(v, bool):
                 v = "true" if v else "false"
-            args.append(f"--{name}={v}")
+            args.append(f"{name}={v}")
     return args
 
 
