@@ -106,3 +106,21 @@ def test_orthophoto_colours_come_from_the_photo(run_alg, small_scene, tmp_path):
     photo = cv2.imread(small_scene["photo"])[:, :, ::-1]
     rgb = [ds.GetRasterBand(b).ReadAsArray()[r, c] for b in (1, 2, 3)]
     assert list(rgb) == photo[int(v), int(u)].tolist()
+
+
+def test_report_png_is_written(run_alg, small_scene, tmp_path):
+    import cv2
+
+    from monoplot_plugin.processing.inputs import write_points_csv
+
+    cam = small_scene["cam"]
+    xyz = compute_xyz(cam, Dem.open(small_scene["dem"]))
+    ground = xyz[np.isfinite(xyz[..., 2])][::500][:10]
+    points = tmp_path / "check.csv"
+    write_points_csv(str(points), uv=cam.project(ground) + 0.5, xyz=ground)
+    out = tmp_path / "report.png"
+    run_alg("report", {"CAMERA": small_scene["camera"], "DEM": small_scene["dem"], "PHOTO": small_scene["photo"],
+                       "POINTS_CSV": str(points), "OUTPUT": str(out)})
+    image = cv2.imread(str(out))
+    assert image is not None and image.shape[0] > 400 and image.shape[1] > 400
+    assert image.std() > 10  # a drawn page, not a blank one
