@@ -1,0 +1,377 @@
+"""QGIS side of the outputs: layers in the project, live photo -> map layers, map layers drawn on the photo.
+
+Everything that writes files lives in the GDAL/OGR writers of this package; this module only builds QGIS layers
+around them:
+
+- :func:`photo_group`: the layer-tree group named after the photo that holds every product of that photo.
+- :func:`add_xyz_layer`, :func:`add_orthophoto_layer`, :func:`add_vector_file_layer`: add written files, styled.
+- :class:`DigitisingSession`: the photo-space digitising layers (one per kind: point, line, polygon; memory layers
+  in pixel space x = u, y = -v, no CRS, shown on the photo canvas) and, for each, a *live* 3-D map layer in the DEM's
+  CRS that is rebuilt whenever the photo layer changes (tools of :mod:`.digitise_tools`, QGIS's own editing, undo).
+- :func:`map_layer_on_photo`: any vector layer of the project projected onto the photo, hidden parts dashed.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Dict, List, Optional, Sequence, Tuple
+
+import numpy as np
+from qgis.core import (QgsCategorizedSymbolRenderer, QgsColorRampShader, QgsCoordinateReferenceSystem,
+                       QgsCoordinateTransform, QgsFeature, QgsField, QgsGeometry, QgsLayerTreeGroup, QgsLineString,
+                       QgsMultiLineString, QgsMultiPolygon, QgsPoint, QgsPointXY, QgsPolygon, QgsProject,
+                       QgsRasterBandStats, QgsRasterLayer, QgsRasterShader, QgsRendererCategory,
+                       QgsSingleBandPseudoColorRenderer, QgsStyle, QgsSymbol, QgsVectorLayer, QgsWkbTypes)
+from qgis.PyQt.QtCore import QObject, Qt, QVariant, pyqtSignal
+from qgis.PyQt.QtGui import QColor
+
+from .geometry import map_to_photo, photo_to_map_feature
+from .vectors import COMPUTED_FIELDS, MapFeature, write_vector_layer
+
+__all__ = ["photo_group", "add_xyz_layer", "add_orthophoto_layer", "add_vector_file_layer", "DigitisingSession",
+           "map_layer_on_photo", "KINDS"]
+
+KINDS = ("point", "line", "polygon")
+_PHOTO_TYPES = {"point": "Point", "line": "LineString", "polygon": "Polygon"}
+_MAP_TYPES = {"point": "PointZ", "line": "MultiLineStringZ", "polygon": "MultiPolygonZ"}
+_QVARIANT = {"string": QVariant.Type.String, "integer": QVariant.Type.Int, "real": QVariant.Type.Double,
+             "date": QVariant.Type.Date}
+_KIND_LABEL = {"point": "points", "line": "lines", "polygon": "polygons"}
+
+
+def _crs(wkt: str) -> QgsCoordinateReferenceSystem:
+    crs = QgsCoordinateReferenceSystem.fromWkt(wkt) if wkt else QgsCoordinateReferenceSystem()
+    if wkt and not crs.isValid():
+        crs = QgsCoordinateReferenceSystem(wkt)  # "EPSG:n"
+    return crs
+
+
+def photo_group(project: QgsProject, photo_name: str) -> QgsLayerTreeGroup:
+    """The top-level layer group named after the photo (file stem), created on first use."""
+    name = Path(photo_name).stem or "Monoplot"
+    root = project.layerTreeRoot()
+    group = root.findGroup(name)
+    return group if group is not None else root.insertGroup(0, name)
+
+
+def _add(project: QgsProject, layer, group: Optional[QgsLayerTreeGroup]):
+    project.addMapLayer(layer, group is None)
+    if group is not None:
+        group.addLayer(layer)
+    return layer
+
+
+def add_xyz_layer(path, project: QgsProject, group: Optional[QgsLayerTreeGroup] = None) -> QgsRasterLayer:
+    """Add an XYZ raster (see :mod:`.xyz_raster`): Z as a terrain colour ramp, no CRS (photo pixel space, drawn
+    without reprojection), identify shows X, Y, Z (and DISTANCE) of the clicked photo pixel."""
+    layer = QgsRasterLayer(str(path), f"{Path(path).stem} (X Y Z)")
+    if not layer.isValid():
+        raise ValueError(f"QGIS cannot open {path}")
+    layer.setCrs(QgsCoordinateReferenceSystem())
+    provider = layer.dataProvider()
+    stats = provider.bandStatistics(3, QgsRasterBandStats.Stats.Min | QgsRasterBandStats.Stats.Max)
+    ramp = QgsStyle.defaultStyle().colorRamp("Spectral") or QgsStyle.defaultStyle().colorRamp("Viridis")
+    if ramp is not None and stats.minimumValue < stats.maximumValue:
+        ramp.invert()  # Spectral: low = blue, high = red
+        shader_fn = QgsColorRampShader(stats.minimumValue, stats.maximumValue, ramp,
+                                       QgsColorRampShader.Type.Interpolated)
+        shader_fn.classifyColorRamp(8, -1)
+        shader = QgsRasterShader()
+        shader.setRasterShaderFunction(shader_fn)
+        renderer = QgsSingleBandPseudoColorRenderer(provider, 3, shader)
+        renderer.setClassificationMin(stats.minimumValue)
+        renderer.setClassificationMax(stats.maximumValue)
+        layer.setRenderer(renderer)
+    layer.setOpacity(0.8)
+    return _add(project, layer, group)
+
+
+def add_orthophoto_layer(path, project: QgsProject, group: Optional[QgsLayerTreeGroup] = None) -> QgsRasterLayer:
+    """Add an orthophoto GeoTIFF (RGB + alpha: unseen cells transparent)."""
+    layer = QgsRasterLayer(str(path), f"{Path(path).stem} (orthophoto)")
+    if not layer.isValid():
+        raise ValueError(f"QGIS cannot open {path}")
+    return _add(project, layer, group)
+
+
+def add_vector_file_layer(path, project: QgsProject, group: Optional[QgsLayerTreeGroup] = None) -> QgsVectorLayer:
+    layer = QgsVectorLayer(str(path), Path(path).stem, "ogr")
+    if not layer.isValid():
+        raise ValueError(f"QGIS cannot open {path}")
+    return _add(project, layer, group)
+
+
+class DigitisingSession(QObject):
+    """Photo-space digitising layers and their live 3-D map layers, for one photo, camera and DEM.
+
+    Args:
+        project: the QGIS project. camera: fitted Camera. dem: core Dem (CRS of the map layers).
+        xyz: (H, W, 3) full-resolution per-pixel map coordinates of the photo.
+        photo_name: photo file name (names the layer group and the layers).
+        fields: user attribute fields, (name, type) with type in string, integer, real, date.
+
+    Signals:
+        mapLayerUpdated(str kind, int sky_pieces, int dropped): a live map layer was rebuilt; ``sky_pieces``
+            pieces over sky were split off, ``dropped`` features were entirely over sky.
+    """
+
+    mapLayerUpdated = pyqtSignal(str, int, int)
+
+    def __init__(self, project: QgsProject, camera, dem, xyz: np.ndarray, photo_name: str,
+                 fields: Sequence[Tuple[str, str]] = (("name", "string"),), parent=None):
+        super().__init__(parent)
+        self.project = project
+        self.camera, self.dem, self.xyz = camera, dem, xyz
+        self.photo_name = photo_name
+        self.fields: List[Tuple[str, str]] = list(fields)
+        self.group = photo_group(project, photo_name)
+        self.photo_layers: Dict[str, QgsVectorLayer] = {}
+        self.map_layers: Dict[str, QgsVectorLayer] = {}
+        self.last_report: Dict[str, Tuple[int, int]] = {}
+
+    # --- layers -----------------------------------------------------------------------------------------------
+    def photo_layer(self, kind: str) -> QgsVectorLayer:
+        """The pixel-space layer of ``kind`` (created on first use; not in the layer tree: the photo canvas
+        shows it)."""
+        if kind not in self.photo_layers:
+            layer = QgsVectorLayer(f"{_PHOTO_TYPES[kind]}", f"{Path(self.photo_name).stem} photo {kind}s", "memory")
+            layer.setCrs(QgsCoordinateReferenceSystem())
+            layer.dataProvider().addAttributes([QgsField(n, _QVARIANT[t]) for n, t in self.fields])
+            layer.updateFields()
+            _style_photo_layer(layer, kind)
+            # Edits through QGIS's own tools (edit buffer, undo, rollback) rebuild the live map layer too.
+            for signal in (layer.featureAdded, layer.featuresDeleted, layer.geometryChanged,
+                           layer.attributeValueChanged, layer.afterRollBack, layer.afterCommitChanges):
+                signal.connect(lambda *args, k=kind: self.sync(k))
+            self.project.addMapLayer(layer, False)  # owned by the project (undo stack, identify), not in the tree
+            self.photo_layers[kind] = layer
+        return self.photo_layers[kind]
+
+    def map_layer(self, kind: str) -> QgsVectorLayer:
+        """The live 3-D map layer of ``kind`` in the photo's layer group (DEM CRS)."""
+        if kind not in self.map_layers:
+            uri = f"{_MAP_TYPES[kind]}?crs={_crs(self.dem.crs_wkt).authid() or 'EPSG:4326'}"
+            layer = QgsVectorLayer(uri, f"{Path(self.photo_name).stem} {_KIND_LABEL[kind]} (map)", "memory")
+            layer.setCrs(_crs(self.dem.crs_wkt))
+            attrs = [QgsField(n, _QVARIANT[t]) for n, t in self.fields]
+            attrs += [QgsField(n, QVariant.Type.Int if n == "sky_parts" else QVariant.Type.Double)
+                      for n in COMPUTED_FIELDS[kind]]
+            attrs.append(QgsField("photo_fid", QVariant.Type.LongLong))
+            layer.dataProvider().addAttributes(attrs)
+            layer.updateFields()
+            _add(self.project, layer, self.group)
+            self.map_layers[kind] = layer
+        return self.map_layers[kind]
+
+    def all_photo_layers(self) -> List[QgsVectorLayer]:
+        return [self.photo_layers[k] for k in KINDS if k in self.photo_layers]
+
+    # --- editing ----------------------------------------------------------------------------------------------
+    def add_feature(self, kind: str, vertices_uv, attributes: Optional[dict] = None) -> int:
+        """Add a feature drawn on the photo: (N, 2) pixel vertices (u, v). Returns its feature id."""
+        layer = self.photo_layer(kind)
+        feature = QgsFeature(layer.fields())
+        feature.setGeometry(photo_geometry(kind, vertices_uv))
+        for name, value in (attributes or {}).items():
+            if layer.fields().indexFromName(name) >= 0:
+                feature[name] = value
+        ok, added = layer.dataProvider().addFeatures([feature])
+        if not ok:
+            raise RuntimeError("the feature could not be added to the photo layer")
+        layer.triggerRepaint()
+        self.sync(kind)
+        return added[0].id()
+
+    def move_vertex(self, kind: str, fid: int, index: int, u: float, v: float) -> None:
+        layer = self.photo_layer(kind)
+        geom = QgsGeometry(layer.getFeature(fid).geometry())
+        geom.moveVertex(float(u), -float(v), index)
+        layer.dataProvider().changeGeometryValues({fid: geom})
+        layer.triggerRepaint()
+        self.sync(kind)
+
+    def delete_feature(self, kind: str, fid: int) -> None:
+        layer = self.photo_layer(kind)
+        layer.dataProvider().deleteFeatures([fid])
+        layer.triggerRepaint()
+        self.sync(kind)
+
+    def add_field(self, name: str, ftype: str) -> None:
+        """A new user field, on every photo and map layer."""
+        if ftype not in _QVARIANT:
+            raise ValueError(f"field type must be one of {sorted(_QVARIANT)}")
+        if any(n.lower() == name.lower() for n, _ in self.fields):
+            raise ValueError(f"field {name!r} exists")
+        self.fields.append((name, ftype))
+        for layer in [*self.photo_layers.values(), *self.map_layers.values()]:
+            layer.dataProvider().addAttributes([QgsField(name, _QVARIANT[ftype])])
+            layer.updateFields()
+
+    # --- photo -> map -----------------------------------------------------------------------------------------
+    def map_features(self, kind: str) -> Tuple[List[MapFeature], List[int], int]:
+        """The photo layer's features in map coordinates: (features, their photo fids, features dropped as sky)."""
+        layer = self.photo_layer(kind)
+        out, fids, dropped = [], [], 0
+        for feature in layer.getFeatures():
+            vertices = photo_vertices(feature.geometry())
+            if len(vertices) == 0:
+                continue
+            attrs = {n: _plain(feature[n]) for n, _ in self.fields}
+            mapped = photo_to_map_feature(kind, vertices, self.xyz, attrs, origin=self.camera.position)
+            if mapped is None:
+                dropped += 1
+                continue
+            out.append(mapped)
+            fids.append(feature.id())
+        return out, fids, dropped
+
+    def sync(self, kind: str) -> None:
+        """Rebuild the live map layer of ``kind`` from the photo layer (called on every photo-layer change)."""
+        features, fids, dropped = self.map_features(kind)
+        layer = self.map_layer(kind)
+        provider = layer.dataProvider()
+        provider.truncate()
+        new = []
+        for mapped, fid in zip(features, fids):
+            f = QgsFeature(layer.fields())
+            f.setGeometry(QgsGeometry(qgs_geometry(mapped)))
+            for name, value in {**mapped.attributes, **mapped.measures()}.items():
+                if layer.fields().indexFromName(name) >= 0 and value is not None:
+                    f[name] = value
+            f["photo_fid"] = int(fid)
+            new.append(f)
+        provider.addFeatures(new)
+        layer.updateExtents()
+        layer.triggerRepaint()
+        sky = sum(m.sky_parts for m in features)
+        self.last_report[kind] = (sky, dropped)
+        self.mapLayerUpdated.emit(kind, sky, dropped)
+
+    def export(self, kind: str, path, overwrite: bool = False, add_to_project: bool = True) -> Path:
+        """Write the features of ``kind`` as a GeoPackage or Shapefile (by suffix) and add it to the group."""
+        features, _, _ = self.map_features(kind)
+        written = write_vector_layer(path, features, self.dem.crs_wkt, fields=self.fields, kind=kind,
+                                     overwrite=overwrite)
+        if add_to_project:
+            add_vector_file_layer(written, self.project, self.group)
+        return written
+
+
+def photo_geometry(kind: str, vertices_uv) -> QgsGeometry:
+    """Pixel vertices (u, v) -> photo-canvas geometry (x = u, y = -v)."""
+    pts = [QgsPointXY(float(u), -float(v)) for u, v in np.asarray(vertices_uv, dtype=float).reshape(-1, 2)]
+    if kind == "point":
+        return QgsGeometry.fromPointXY(pts[0])
+    if kind == "line":
+        return QgsGeometry.fromPolylineXY(pts)
+    return QgsGeometry.fromPolygonXY([pts + [pts[0]]])
+
+
+def photo_vertices(geometry: QgsGeometry) -> np.ndarray:
+    """(N, 2) pixel vertices (u, v) of a photo-canvas geometry (polygon: exterior ring without the closing
+    vertex)."""
+    pts = [(p.x(), -p.y()) for p in geometry.vertices()]
+    if geometry.type() == QgsWkbTypes.GeometryType.PolygonGeometry and len(pts) > 1 and pts[0] == pts[-1]:
+        pts = pts[:-1]
+    return np.array(pts, dtype=float).reshape(-1, 2)
+
+
+def qgs_geometry(feature: MapFeature):
+    """A QGIS 3-D geometry (QgsPoint / QgsMultiLineString / QgsMultiPolygon with Z) for a MapFeature."""
+    if feature.kind == "point":
+        x, y, z = feature.parts[0][0]
+        return QgsPoint(float(x), float(y), float(z))
+    multi = QgsMultiLineString() if feature.kind == "line" else QgsMultiPolygon()
+    for part in feature.parts:
+        if feature.kind == "polygon" and not np.array_equal(part[0], part[-1]):
+            part = np.vstack([part, part[:1]])
+        line = QgsLineString([QgsPoint(float(x), float(y), float(z)) for x, y, z in part])
+        if feature.kind == "line":
+            multi.addGeometry(line)
+        else:
+            polygon = QgsPolygon()
+            polygon.setExteriorRing(line)
+            multi.addGeometry(polygon)
+    return multi
+
+
+def _plain(value):
+    """QVariant/QDate -> plain Python for the writers."""
+    if value is None or (hasattr(value, "isNull") and value.isNull()):
+        return None
+    if hasattr(value, "toPyDate"):
+        return value.toPyDate()
+    return value
+
+
+def _style_photo_layer(layer: QgsVectorLayer, kind: str) -> None:
+    symbol = QgsSymbol.defaultSymbol(layer.geometryType())
+    symbol.setColor(QColor(0, 200, 255))
+    if kind == "polygon":
+        symbol.setOpacity(0.6)
+    elif kind == "line":
+        symbol.symbolLayer(0).setWidth(0.8)
+    layer.renderer().setSymbol(symbol)
+
+
+def map_layer_on_photo(layer: QgsVectorLayer, camera, dem, xyz: np.ndarray,
+                       project: Optional[QgsProject] = None) -> QgsVectorLayer:
+    """A pixel-space line layer of ``layer``'s lines and polygon outlines as the camera sees them.
+
+    Each output feature is one piece with the field ``visible`` (1 seen, 0 hidden behind terrain); styled solid
+    for visible, dashed for hidden. Points become short pieces around them. Add it to the photo canvas with
+    ``PhotoCanvas.set_extra_layers``.
+    """
+    transform = QgsCoordinateTransform(layer.crs(), _crs(dem.crs_wkt), project or QgsProject.instance())
+    out = QgsVectorLayer("LineString", f"{layer.name()} on photo", "memory")
+    out.setCrs(QgsCoordinateReferenceSystem())
+    provider = out.dataProvider()
+    provider.addAttributes([QgsField("source_fid", QVariant.Type.LongLong), QgsField("visible", QVariant.Type.Int)])
+    out.updateFields()
+    new = []
+    for feature in layer.getFeatures():
+        geom = QgsGeometry(feature.geometry())
+        if geom.isNull():
+            continue
+        if layer.crs().isValid() and transform.isValid():
+            geom.transform(transform)
+        for part in _outline_parts(geom, dem.cell_size):
+            for path in map_to_photo([part], camera, xyz, dem):
+                for uv, visible in path.pieces():
+                    f = QgsFeature(out.fields())
+                    f.setGeometry(QgsGeometry.fromPolylineXY([QgsPointXY(u, -v) for u, v in uv]))
+                    f["source_fid"] = feature.id()
+                    f["visible"] = int(visible)
+                    new.append(f)
+    provider.addFeatures(new)
+    out.updateExtents()
+    _style_visible_hidden(out)
+    return out
+
+
+def _outline_parts(geom: QgsGeometry, cell: float) -> List[np.ndarray]:
+    """(N, 2) coordinate arrays of the lines / rings of a geometry; points as a tiny cross of one cell."""
+    parts = []
+    if geom.type() == QgsWkbTypes.GeometryType.PointGeometry:
+        for p in geom.vertices():
+            parts.append(np.array([[p.x() - cell, p.y()], [p.x() + cell, p.y()]]))
+            parts.append(np.array([[p.x(), p.y() - cell], [p.x(), p.y() + cell]]))
+        return parts
+    if geom.type() == QgsWkbTypes.GeometryType.PolygonGeometry:
+        for polygon in (geom.asMultiPolygon() if geom.isMultipart() else [geom.asPolygon()]):
+            parts.extend(np.array([(p.x(), p.y()) for p in ring]) for ring in polygon)
+        return parts
+    for line in (geom.asMultiPolyline() if geom.isMultipart() else [geom.asPolyline()]):
+        parts.append(np.array([(p.x(), p.y()) for p in line]))
+    return parts
+
+
+def _style_visible_hidden(layer: QgsVectorLayer) -> None:
+    solid = QgsSymbol.defaultSymbol(layer.geometryType())
+    solid.setColor(QColor(255, 60, 60))
+    solid.symbolLayer(0).setWidth(0.7)
+    dashed = solid.clone()
+    dashed.symbolLayer(0).setPenStyle(Qt.PenStyle.DashLine)
+    dashed.setOpacity(0.8)
+    layer.setRenderer(QgsCategorizedSymbolRenderer("visible", [
+        QgsRendererCategory(1, solid, "visible"), QgsRendererCategory(0, dashed, "hidden behind terrain")]))

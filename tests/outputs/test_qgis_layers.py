@@ -1,0 +1,106 @@
+"""QGIS layers of the outputs: live photo -> map layers in the photo's group, XYZ layer identify, map -> photo."""
+
+import numpy as np
+import pytest
+from osgeo import ogr
+from qgis.core import (QgsFeature, QgsGeometry, QgsPointXY, QgsProject, QgsRaster, QgsVectorLayer,
+                       QgsWkbTypes)
+
+from monoplot_plugin.outputs import write_xyz_raster
+from monoplot_plugin.outputs.qgis_layers import DigitisingSession, add_xyz_layer, map_layer_on_photo
+
+from outputs_helpers import CRS, plane_height
+
+
+@pytest.fixture
+def project(qgis_app):
+    project = QgsProject()
+    yield project
+    project.clear()
+
+
+def test_live_map_layer_follows_photo_edits(project, plane_scene, tmp_path):
+    s = plane_scene
+    session = DigitisingSession(project, s.camera, s.dem, s.xyz, "/photos/Aletsch 1890.jpg",
+                                fields=[("name", "string"), ("year", "integer")])
+    w, h = s.camera.width, s.camera.height
+    fid = session.add_feature("polygon", [[0.2 * w, 0.6 * h], [0.8 * w, 0.6 * h], [0.6 * w, 0.9 * h]],
+                              {"name": "tongue", "year": 1890})
+    live = session.map_layer("polygon")
+    assert session.group.name() == "Aletsch 1890"
+    assert session.group.findLayer(live.id()) is not None
+    assert QgsWkbTypes.hasZ(live.wkbType()) and live.crs().authid() == CRS
+    (feature,) = list(live.getFeatures())
+    area_before = feature["area"]
+    assert feature["name"] == "tongue" and feature["year"] == 1890 and area_before > 0
+    vertex = next(iter(feature.geometry().vertices()))
+    assert vertex.z() == pytest.approx(plane_height(vertex.x(), vertex.y()), abs=0.01)
+
+    # Moving a vertex on the photo updates the map layer; so does QGIS's own editing of the photo layer.
+    session.move_vertex("polygon", fid, 2, 0.5 * w, 0.98 * h)
+    (feature,) = list(live.getFeatures())
+    assert feature["area"] > area_before
+    photo_layer = session.photo_layer("polygon")
+    photo_layer.startEditing()
+    extra = QgsFeature(photo_layer.fields())
+    extra.setGeometry(QgsGeometry.fromPolygonXY([[QgsPointXY(10, -150), QgsPointXY(60, -150), QgsPointXY(40, -120),
+                                                  QgsPointXY(10, -150)]]))
+    photo_layer.addFeature(extra)
+    assert live.featureCount() == 2
+    photo_layer.rollBack()
+    assert live.featureCount() == 1
+    session.delete_feature("polygon", fid)
+    assert live.featureCount() == 0
+
+    # A line over sky: the sky piece is split off and reported.
+    sky_row = np.flatnonzero(np.isnan(s.xyz[:, w // 2, 2]))[-1] - 5
+    reports = []
+    session.mapLayerUpdated.connect(lambda kind, sky, dropped: reports.append((kind, sky, dropped)))
+    session.add_feature("line", [[0.2 * w, 0.8 * h], [0.5 * w, sky_row], [0.8 * w, 0.8 * h]], {"name": "crest"})
+    assert reports[-1] == ("line", 1, 0)
+    (line,) = list(session.map_layer("line").getFeatures())
+    assert line.geometry().constGet().numGeometries() == 2 and line["sky_parts"] == 1
+    session.add_feature("point", [[0.5 * w, sky_row]])
+    assert reports[-1] == ("point", 0, 1) and session.map_layer("point").featureCount() == 0
+
+    # Export as a Shapefile, added to the same group.
+    path = session.export("line", tmp_path / "crest.shp")
+    ds = ogr.Open(str(path))
+    assert ds.GetLayer(0).GetFeatureCount() == 1
+    assert len(session.group.findLayers()) == 4  # three live layers + the file
+
+
+def test_xyz_layer_identify_gives_ground_coordinates(project, plane_scene, tmp_path):
+    s = plane_scene
+    path = write_xyz_raster(tmp_path / "xyz.tif", s.xyz, CRS, s.distance)
+    layer = add_xyz_layer(path, project)
+    assert layer.isValid() and layer.bandCount() == 4 and not layer.crs().isValid()
+    assert layer.renderer().type() == "singlebandpseudocolor" and layer.renderer().band() == 3
+    assert "X" in layer.bandName(1) and "Z" in layer.bandName(3)
+    u, v = 130.5, 120.5  # a ground pixel, clicked on the photo canvas at (u, -v)
+    result = layer.dataProvider().identify(QgsPointXY(u, -v), QgsRaster.IdentifyFormat.IdentifyFormatValue)
+    values = result.results()
+    assert np.allclose([values[1], values[2], values[3]], s.xyz[int(v), int(u)], atol=0.07)
+
+
+def test_map_layer_drawn_on_photo_with_hidden_parts(project, plane_scene):
+    s = plane_scene
+    cx, cy, _ = s.camera.position
+    layer = QgsVectorLayer(f"LineString?crs={CRS}", "modern outline", "memory")
+    f = QgsFeature()
+    f.setGeometry(QgsGeometry.fromPolylineXY([QgsPointXY(cx - 200, cy - 800), QgsPointXY(cx, cy + 2500)]))
+    layer.dataProvider().addFeatures([f])
+    poly = QgsVectorLayer(f"Polygon?crs={CRS}", "outline", "memory")
+    g = QgsFeature()
+    g.setGeometry(QgsGeometry.fromPolygonXY([[QgsPointXY(601500, 202000), QgsPointXY(602600, 202100),
+                                              QgsPointXY(602500, 203300), QgsPointXY(601500, 202000)]]))
+    poly.dataProvider().addFeatures([g])
+    on_photo = map_layer_on_photo(layer, s.camera, s.dem, s.xyz, project)
+    flags = [feat["visible"] for feat in on_photo.getFeatures()]
+    assert 1 in flags  # the part in front of the camera, solid
+    assert on_photo.renderer().type() == "categorizedSymbol"
+    outline = map_layer_on_photo(poly, s.camera, s.dem, s.xyz, project)
+    (piece,) = list(outline.getFeatures())
+    assert piece["visible"] == 1
+    uv = np.array([(p.x(), -p.y()) for p in piece.geometry().vertices()])
+    assert np.allclose(uv[0], s.camera.project([[601500, 202000, plane_height(601500, 0)]])[0], atol=1e-6)
