@@ -63,3 +63,33 @@ def test_batch_table_mode_reports_missing_columns(run_alg, small_scene, tmp_path
 def test_timelapse_without_camera_is_refused(run_alg, small_scene, timelapse, tmp_path):
     with pytest.raises(QgsProcessingException, match="shared CAMERA"):
         run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(timelapse), "OUTPUT": str(tmp_path)})
+
+
+def test_table_batch_fits_each_photo_and_skips_a_bad_row(run_alg, small_scene, tmp_path):
+    from monoplot_plugin.core.dem import Dem
+    from monoplot_plugin.core.xyz import compute_xyz
+    from monoplot_plugin.processing.inputs import write_points_csv
+
+    cam = small_scene["cam"]
+    xyz = compute_xyz(cam, Dem.open(small_scene["dem"]))
+    rows, cols = np.nonzero(np.isfinite(xyz[..., 2]))
+    pick = np.random.default_rng(5).choice(len(rows), 12, replace=False)
+    world = xyz[rows[pick], cols[pick]]
+    write_points_csv(str(tmp_path / "gcps.csv"), uv=cam.project(world), xyz=world)
+    cam.with_parameters(heading=cam.heading - 1.0, y=cam.position[1] + 50).save(tmp_path / "prior.json")
+    for name in ("a.png", "b.png", "c.png"):
+        write_photo(tmp_path / name)
+    (tmp_path / "photos.csv").write_text("photo,prior,points\n"
+                                         "a.png,prior.json,gcps.csv\n"
+                                         "b.png,no_such_prior.json,gcps.csv\n"
+                                         "c.png,prior.json,gcps.csv\n")
+    out = tmp_path / "out"
+    result = run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"),
+                               "XYZ": True, "ORTHO": False, "OUTPUT": str(out)})
+    assert result["SUCCEEDED"] == 2 and result["FAILED"] == 1
+    assert sorted(p.name for p in out.glob("*_camera.json")) == ["a_camera.json", "c_camera.json"]
+    assert sorted(p.name for p in out.glob("*_xyz.tif")) == ["a_xyz.tif", "c_xyz.tif"]
+    with open(result["LOG"], newline="") as fh:
+        failed = [r for r in csv.DictReader(fh) if r["status"] == "failed"]
+    assert len(failed) == 1 and "b.png" in failed[0]["photo"]
+    assert "camera file not found" in failed[0]["message"]
