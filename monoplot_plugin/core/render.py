@@ -1,0 +1,118 @@
+"""The DEM seen from the camera: a photo-sized shaded relief and depth, for overlays on the photo.
+
+>>> import numpy as np
+>>> from .camera import Camera
+>>> from .dem import Dem
+>>> dem = Dem.from_array(np.zeros((40, 40)), (0, 10, 0, 400, 0, -10))
+>>> view = render_dem(Camera((200, -50, 100), 0, -20, 0, 60, (32, 24)), dem)
+>>> view.shade.shape, view.depth.shape, view.rgba().shape
+((24, 32), (24, 32), (24, 32, 4))
+>>> bool(np.isnan(view.depth[0, 0])), bool(np.isfinite(view.depth[-1, 16]))   # sky at the top, ground below
+(True, True)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional, Sequence
+
+import numpy as np
+
+from .camera import Camera
+from .dem import Dem
+from .xyz import XyzResult, compute_xyz_full
+
+__all__ = ["RenderedDem", "render_dem", "shade_points"]
+
+
+@dataclass
+class RenderedDem:
+    """A rendering of the terrain from a camera.
+
+    Attributes:
+        shade: (H, W) float64 Lambert shading 0..1 of the terrain each pixel sees; NaN for sky.
+        depth: (H, W) float64 distance in metres from the camera centre to that terrain point; NaN for sky.
+        result: the :class:`~monoplot_plugin.core.xyz.XyzResult` it was made from (xyz, visibility...).
+    """
+
+    shade: np.ndarray
+    depth: np.ndarray
+    result: XyzResult
+
+    def edges(self, jump: float = 0.05) -> np.ndarray:
+        """(H, W) bool: silhouettes and horizon lines, where the depth jumps by more than ``jump`` (relative) to a
+        neighbouring pixel, or terrain meets sky."""
+        d = self.depth
+        hit = np.isfinite(d)
+        out = np.zeros(d.shape, dtype=bool)
+        with np.errstate(invalid="ignore"):
+            for a, b in ((np.s_[:, 1:], np.s_[:, :-1]), (np.s_[1:, :], np.s_[:-1, :])):
+                da, db = d[a], d[b]
+                near = np.fmin(da, db)
+                step = (hit[a] != hit[b]) | (np.abs(da - db) > jump * near)
+                # mark the nearer pixel of each jump (the occluding ridge), or the terrain pixel next to sky
+                mark_a = step & (np.nan_to_num(da, nan=np.inf) <= np.nan_to_num(db, nan=np.inf))
+                mark_b = step & ~mark_a
+                out[a] |= mark_a
+                out[b] |= mark_b
+        return out & hit
+
+    def rgba(self, colour: Sequence[int] = (255, 255, 255), opacity: float = 0.6, edges: bool = True,
+             edge_colour: Sequence[int] = (255, 40, 40)) -> np.ndarray:
+        """(H, W, 4) uint8 overlay: grey-scale shading (scaled by ``colour``) at ``opacity`` where terrain is seen,
+        transparent sky, and optionally opaque silhouette lines in ``edge_colour``."""
+        H, W = self.shade.shape
+        out = np.zeros((H, W, 4), dtype=np.uint8)
+        hit = np.isfinite(self.shade)
+        s = 0.25 + 0.75 * np.nan_to_num(self.shade)[..., None]  # some ambient light: shadows stay readable
+        out[..., :3] = np.clip(np.round(s * np.asarray(colour, dtype=np.float64)), 0, 255).astype(np.uint8)
+        out[..., 3] = np.where(hit, int(round(255 * opacity)), 0)
+        if edges:
+            e = self.edges()
+            out[e, :3] = np.asarray(edge_colour, dtype=np.uint8)
+            out[e, 3] = 255
+        return out
+
+
+def shade_points(dem: Dem, xyz: np.ndarray, azimuth: float = 315.0, altitude: float = 45.0) -> np.ndarray:
+    """(N,) Lambert shading 0..1 at (N, 3) map points, from the DEM's slope interpolated bilinearly."""
+    dzdx, dzdy = dem.gradient()
+    col, row = dem.map_to_cell(xyz[:, 0], xyz[:, 1])
+    fr = np.asarray(row) - 0.5
+    fc = np.asarray(col) - 0.5
+    r0 = np.clip(np.floor(fr).astype(np.int64), 0, max(dem.rows - 2, 0))
+    c0 = np.clip(np.floor(fc).astype(np.int64), 0, max(dem.cols - 2, 0))
+    t = np.clip(fr - r0, 0.0, 1.0)
+    s = np.clip(fc - c0, 0.0, 1.0)
+    r1 = np.minimum(r0 + 1, dem.rows - 1)
+    c1 = np.minimum(c0 + 1, dem.cols - 1)
+
+    def lerp(g):
+        g = np.nan_to_num(g)
+        return g[r0, c0] * (1 - s) * (1 - t) + g[r0, c1] * s * (1 - t) + g[r1, c0] * (1 - s) * t + g[r1, c1] * s * t
+
+    gx, gy = lerp(dzdx), lerp(dzdy)
+    a, h = math.radians(azimuth), math.radians(altitude)
+    light = (math.sin(a) * math.cos(h), math.cos(a) * math.cos(h), math.sin(h))
+    return np.clip((-gx * light[0] - gy * light[1] + light[2]) / np.sqrt(gx * gx + gy * gy + 1.0), 0.0, 1.0)
+
+
+def render_dem(cam: Camera, dem: Dem, azimuth: float = 315.0, altitude: float = 45.0,
+               max_range: Optional[float] = None, result: Optional[XyzResult] = None) -> RenderedDem:
+    """Shaded relief and depth of ``dem`` as the camera sees it, photo-sized (H, W).
+
+    Args:
+        cam, dem: camera (in the DEM's CRS) and terrain.
+        azimuth, altitude: sun direction in degrees (clockwise from grid north; above the horizon).
+        max_range: ignore terrain farther than this (metres).
+        result: a :func:`~monoplot_plugin.core.xyz.compute_xyz_full` result to reuse (skips the z-buffer).
+    """
+    res = result if result is not None else compute_xyz_full(cam, dem, max_range=max_range, visibility=False)
+    H, W = cam.height, cam.width
+    shade = np.full((H, W), np.nan)
+    hit = res.hit
+    if hit.any():
+        shade[hit] = shade_points(res.dem, res.xyz[hit], azimuth, altitude)
+    depth = res.distance.astype(np.float64)
+    return RenderedDem(shade=shade, depth=depth, result=res)
