@@ -25,3 +25,7 @@ __all__ += ["FitResult", "fit_camera"]
 from .xyz import XyzResult, compute_xyz, compute_xyz_full  # noqa: E402,F401
 
 __all__ += ["XyzResult", "compute_xyz", "compute_xyz_full"]
+
+from .render import RenderedDem, render_dem  # noqa: E402,F401
+
+__all__ += ["RenderedDem", "render_dem"]
