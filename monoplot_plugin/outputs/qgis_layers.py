@@ -40,10 +40,11 @@ _KIND_LABEL = {"point": "points", "line": "lines", "polygon": "polygons"}
 
 
 def _crs(wkt: str) -> QgsCoordinateReferenceSystem:
-    crs = QgsCoordinateReferenceSystem.fromWkt(wkt) if wkt else QgsCoordinateReferenceSystem()
-    if wkt and not crs.isValid():
-        crs = QgsCoordinateReferenceSystem(wkt)  # "EPSG:n"
-    return crs
+    if not wkt:
+        return QgsCoordinateReferenceSystem()
+    if ":" in wkt[:12] and "[" not in wkt:
+        return QgsCoordinateReferenceSystem(wkt)  # "EPSG:n"
+    return QgsCoordinateReferenceSystem.fromWkt(wkt)
 
 
 def photo_group(project: QgsProject, photo_name: str) -> QgsLayerTreeGroup:
@@ -165,6 +166,13 @@ class DigitisingSession(QObject):
 
     def all_photo_layers(self) -> List[QgsVectorLayer]:
         return [self.photo_layers[k] for k in KINDS if k in self.photo_layers]
+
+    def update_camera(self, camera, dem, xyz: np.ndarray) -> None:
+        """A new fit (or DEM): keep what was drawn on the photo, recompute every live map layer."""
+        self.camera, self.dem, self.xyz = camera, dem, xyz
+        for kind in list(self.map_layers):
+            self.map_layers[kind].setCrs(_crs(dem.crs_wkt))
+            self.sync(kind)
 
     # --- editing ----------------------------------------------------------------------------------------------
     def add_feature(self, kind: str, vertices_uv, attributes: Optional[dict] = None) -> int:

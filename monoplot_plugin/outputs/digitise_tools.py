@@ -1,0 +1,238 @@
+"""Digitising on the photo canvas: capture (point, line, polygon) and edit/delete map tools.
+
+The photo canvas is a QgsMapCanvas in pixel space (x = u, y = -v; see :mod:`monoplot_plugin.gui.photo_canvas`).
+The tools write into a :class:`~.qgis_layers.DigitisingSession`, whose live map layers follow every change.
+
+Capture, QGIS-like: left click adds a vertex (a point is done at once), right click finishes a line (2+ vertices) or
+polygon (3+ vertices), Backspace removes the last vertex, Esc cancels. Vertices snap to the vertices of everything
+already drawn on the photo within :data:`SNAP_PIXELS` screen pixels (a marker shows the snap).
+
+Edit: drag a vertex to move it; right click on a feature (or press Delete with the mouse over it) deletes it.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, List, Optional, Tuple
+
+import numpy as np
+from qgis.core import QgsGeometry, QgsPointXY, QgsWkbTypes
+from qgis.gui import QgsMapCanvas, QgsMapMouseEvent, QgsMapTool, QgsRubberBand, QgsVertexMarker
+from qgis.PyQt.QtCore import Qt, pyqtSignal
+from qgis.PyQt.QtGui import QColor
+
+__all__ = ["PhotoCaptureTool", "PhotoEditTool", "SNAP_PIXELS"]
+
+#: Snapping and picking tolerance in screen pixels.
+SNAP_PIXELS = 10.0
+_GEOMETRY = {"point": QgsWkbTypes.GeometryType.PointGeometry, "line": QgsWkbTypes.GeometryType.LineGeometry,
+             "polygon": QgsWkbTypes.GeometryType.PolygonGeometry}
+
+
+def _tolerance(canvas: QgsMapCanvas) -> float:
+    """:data:`SNAP_PIXELS` in photo-canvas map units (photo pixels at the current zoom)."""
+    return SNAP_PIXELS * canvas.mapUnitsPerPixel()
+
+
+def _nearest_vertex(session, point: QgsPointXY, tolerance: float):
+    """(kind, fid, vertex index, QgsPointXY) of the nearest drawn vertex within ``tolerance``, or None."""
+    best, best_d = None, tolerance
+    for kind, layer in list(session.photo_layers.items()):
+        for feature in layer.getFeatures():
+            geom = feature.geometry()
+            vertex, index, _, _, sq = geom.closestVertex(point)
+            if index >= 0 and sq ** 0.5 <= best_d:
+                best, best_d = (kind, feature.id(), index, QgsPointXY(vertex)), sq ** 0.5
+    return best
+
+
+class PhotoCaptureTool(QgsMapTool):
+    """Capture points, lines or polygons on the photo canvas into the session returned by ``session_getter``.
+
+    Signals:
+        captured(str kind, int fid): a feature was added.
+        message(str): something the user should know (e.g. no fitted camera yet).
+    """
+
+    captured = pyqtSignal(str, int)
+    message = pyqtSignal(str)
+
+    def __init__(self, canvas: QgsMapCanvas, session_getter: Callable[[], object], kind: str):
+        super().__init__(canvas)
+        if kind not in _GEOMETRY:
+            raise ValueError(f"kind must be point, line or polygon, got {kind!r}")
+        self.kind = kind
+        self.session_getter = session_getter
+        self.vertices: List[QgsPointXY] = []
+        self.band = QgsRubberBand(canvas, _GEOMETRY[kind])
+        self.band.setColor(QColor(0, 200, 255, 160))
+        self.band.setWidth(2)
+        self.snap_marker = QgsVertexMarker(canvas)
+        self.snap_marker.setIconType(QgsVertexMarker.ICON_BOX)
+        self.snap_marker.setColor(QColor(255, 0, 255))
+        self.snap_marker.setVisible(False)
+        self.setCursor(Qt.CursorShape.CrossCursor)
+
+    def snapped(self, point: QgsPointXY) -> Tuple[QgsPointXY, bool]:
+        """``point`` moved onto a drawn vertex within the tolerance (or onto the first vertex of the feature being
+        drawn); the flag tells whether it snapped."""
+        tolerance = _tolerance(self.canvas())
+        candidates = list(self.vertices[:1])
+        session = self.session_getter()
+        hit = _nearest_vertex(session, point, tolerance) if session is not None else None
+        if hit is not None:
+            candidates.append(hit[3])
+        best = min(candidates, key=lambda p: p.distance(point), default=None)
+        if best is not None and best.distance(point) <= tolerance:
+            return QgsPointXY(best), True
+        return point, False
+
+    def _redraw(self, cursor: Optional[QgsPointXY] = None) -> None:
+        self.band.reset(_GEOMETRY[self.kind])
+        for p in self.vertices + ([cursor] if cursor is not None else []):
+            self.band.addPoint(p, False)
+        self.band.show()
+        self.band.updatePosition()
+        self.band.update()
+
+    def canvasMoveEvent(self, event: QgsMapMouseEvent) -> None:  # noqa: N802 (QGIS API)
+        point, snapped = self.snapped(event.mapPoint())
+        self.snap_marker.setCenter(point)
+        self.snap_marker.setVisible(snapped)
+        if self.vertices:
+            self._redraw(point)
+
+    def canvasReleaseEvent(self, event: QgsMapMouseEvent) -> None:  # noqa: N802
+        if event.button() == Qt.MouseButton.RightButton:
+            self.finish()
+            return
+        if event.button() != Qt.MouseButton.LeftButton:
+            return
+        point, _ = self.snapped(event.mapPoint())
+        self.vertices.append(point)
+        if self.kind == "point":
+            self.finish()
+        else:
+            self._redraw()
+
+    def keyPressEvent(self, event) -> None:  # noqa: N802
+        if event.key() == Qt.Key.Key_Escape:
+            self.cancel()
+            event.accept()
+        elif event.key() in (Qt.Key.Key_Backspace, Qt.Key.Key_Delete) and self.vertices:
+            self.vertices.pop()
+            self._redraw()
+            event.accept()
+        elif event.key() in (Qt.Key.Key_Return, Qt.Key.Key_Enter):
+            self.finish()
+            event.accept()
+        else:
+            event.ignore()
+
+    def finish(self) -> Optional[int]:
+        """Add the feature being drawn (if it has enough vertices) to the session; returns its fid."""
+        needed = {"point": 1, "line": 2, "polygon": 3}[self.kind]
+        vertices = self.vertices
+        # A polygon closed by snapping onto its first vertex: drop the duplicate.
+        if self.kind == "polygon" and len(vertices) > 3 and vertices[-1] == vertices[0]:
+            vertices = vertices[:-1]
+        self.cancel()
+        if len(vertices) < needed:
+            return None
+        session = self.session_getter()
+        if session is None:
+            self.message.emit(self.tr("Fit the camera first: features drawn on the photo need it to reach the map."))
+            return None
+        uv = np.array([(p.x(), -p.y()) for p in vertices])
+        fid = session.add_feature(self.kind, uv)
+        self.captured.emit(self.kind, fid)
+        return fid
+
+    def cancel(self) -> None:
+        self.vertices = []
+        self.band.reset(_GEOMETRY[self.kind])
+
+    def deactivate(self) -> None:
+        self.cancel()
+        self.snap_marker.setVisible(False)
+        super().deactivate()
+
+    def remove_items(self) -> None:
+        """Remove the rubber band and marker from the canvas (plugin unload)."""
+        for item in (self.band, self.snap_marker):
+            self.canvas().scene().removeItem(item)
+
+
+class PhotoEditTool(QgsMapTool):
+    """Move vertices of features drawn on the photo (drag), delete features (right click, or Delete key)."""
+
+    edited = pyqtSignal(str, int)
+    deleted = pyqtSignal(str, int)
+
+    def __init__(self, canvas: QgsMapCanvas, session_getter: Callable[[], object]):
+        super().__init__(canvas)
+        self.session_getter = session_getter
+        self.dragging = None  # (kind, fid, index)
+        self.last_point: Optional[QgsPointXY] = None
+        self.marker = QgsVertexMarker(canvas)
+        self.marker.setIconType(QgsVertexMarker.ICON_CIRCLE)
+        self.marker.setColor(QColor(255, 200, 0))
+        self.marker.setVisible(False)
+
+    def feature_at(self, point: QgsPointXY):
+        """(kind, fid) of the drawn feature under ``point`` (within the tolerance), or None."""
+        session = self.session_getter()
+        if session is None:
+            return None
+        tolerance = _tolerance(self.canvas())
+        probe = QgsGeometry.fromPointXY(point)
+        best, best_d = None, tolerance
+        for kind, layer in session.photo_layers.items():
+            for feature in layer.getFeatures():
+                d = feature.geometry().distance(probe)
+                if d <= best_d:
+                    best, best_d = (kind, feature.id()), d
+        return best
+
+    def canvasPressEvent(self, event: QgsMapMouseEvent) -> None:  # noqa: N802
+        session = self.session_getter()
+        if session is None or event.button() != Qt.MouseButton.LeftButton:
+            return
+        hit = _nearest_vertex(session, event.mapPoint(), _tolerance(self.canvas()))
+        self.dragging = hit[:3] if hit is not None else None
+
+    def canvasMoveEvent(self, event: QgsMapMouseEvent) -> None:  # noqa: N802
+        self.last_point = event.mapPoint()
+        self.marker.setCenter(self.last_point)
+        self.marker.setVisible(self.dragging is not None)
+
+    def canvasReleaseEvent(self, event: QgsMapMouseEvent) -> None:  # noqa: N802
+        session = self.session_getter()
+        if session is None:
+            return
+        if event.button() == Qt.MouseButton.RightButton:
+            self.delete_at(event.mapPoint())
+            return
+        if self.dragging is not None and event.button() == Qt.MouseButton.LeftButton:
+            kind, fid, index = self.dragging
+            self.dragging = None
+            self.marker.setVisible(False)
+            p = event.mapPoint()
+            session.move_vertex(kind, fid, index, p.x(), -p.y())
+            self.edited.emit(kind, fid)
+
+    def delete_at(self, point: QgsPointXY) -> bool:
+        hit = self.feature_at(point)
+        if hit is None:
+            return False
+        self.session_getter().delete_feature(*hit)
+        self.deleted.emit(*hit)
+        return True
+
+    def keyPressEvent(self, event) -> None:  # noqa: N802
+        if event.key() == Qt.Key.Key_Delete and self.last_point is not None and self.delete_at(self.last_point):
+            event.accept()
+        else:
+            event.ignore()
+
+    def remove_items(self) -> None:
+        self.canvas().scene().removeItem(self.marker)

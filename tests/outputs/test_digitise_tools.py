@@ -1,0 +1,105 @@
+"""Digitising tools on the real photo canvas: clicks, right-click finish, snapping, drag edit, delete."""
+
+import numpy as np
+import pytest
+from qgis.core import QgsPointXY, QgsProject
+from qgis.gui import QgsMapMouseEvent
+from qgis.PyQt.QtCore import QEvent, QPoint, Qt
+from qgis.PyQt.QtGui import QKeyEvent
+
+from monoplot_plugin.gui.photo_canvas import PhotoCanvas
+from monoplot_plugin.outputs.digitise_tools import PhotoCaptureTool, PhotoEditTool
+from monoplot_plugin.outputs.qgis_layers import DigitisingSession
+
+
+@pytest.fixture
+def canvas_and_session(qgis_app, qtbot, plane_scene):
+    s = plane_scene
+    project = QgsProject()
+    canvas = PhotoCanvas()
+    qtbot.addWidget(canvas)
+    canvas.resize(480, 320)  # 2 screen pixels per photo pixel
+    canvas.show()
+    canvas.setExtent(canvas.extent().__class__(0, -s.camera.height, s.camera.width, 0))
+    canvas.refresh()
+    session = DigitisingSession(project, s.camera, s.dem, s.xyz, "scene.png")
+    yield canvas, session
+    project.clear()
+
+
+def click(tool, canvas, u, v, button=Qt.MouseButton.LeftButton):
+    """A real mouse event at photo pixel (u, v) delivered to the tool (press, move, release)."""
+    screen = canvas.getCoordinateTransform().transform(QgsPointXY(u, -v))
+    pos = QPoint(int(round(screen.x())), int(round(screen.y())))
+    for kind, handler in ((QEvent.Type.MouseButtonPress, tool.canvasPressEvent),
+                          (QEvent.Type.MouseMove, tool.canvasMoveEvent),
+                          (QEvent.Type.MouseButtonRelease, tool.canvasReleaseEvent)):
+        handler(QgsMapMouseEvent(canvas, kind, pos, button, button))
+
+
+def test_capture_polygon_line_point_with_snapping(canvas_and_session):
+    canvas, session = canvas_and_session
+    polygon_tool = PhotoCaptureTool(canvas, lambda: session, "polygon")
+    canvas.setMapTool(polygon_tool)
+    for u, v in [(50, 100), (190, 100), (150, 150)]:
+        click(polygon_tool, canvas, u, v)
+    assert session.photo_layer("polygon").featureCount() == 0  # still drawing
+    click(polygon_tool, canvas, 0, 0, Qt.MouseButton.RightButton)  # right click finishes
+    assert session.photo_layer("polygon").featureCount() == 1
+    assert session.map_layer("polygon").featureCount() == 1
+
+    line_tool = PhotoCaptureTool(canvas, lambda: session, "line")
+    canvas.setMapTool(line_tool)
+    click(line_tool, canvas, 191.5, 101.5)  # within 10 screen px of the polygon's vertex (190, 100): snaps
+    click(line_tool, canvas, 120, 140)
+    click(line_tool, canvas, 60, 140)
+    line_tool.keyPressEvent(QKeyEvent(QEvent.Type.KeyPress, Qt.Key.Key_Backspace, Qt.KeyboardModifier.NoModifier))
+    click(line_tool, canvas, 0, 0, Qt.MouseButton.RightButton)
+    (line,) = list(session.photo_layer("line").getFeatures())
+    vertices = [(p.x(), -p.y()) for p in line.geometry().vertices()]
+    (polygon,) = list(session.photo_layer("polygon").getFeatures())
+    corner = [(p.x(), -p.y()) for p in polygon.geometry().vertices()][1]  # the click at (190, 100), to a screen px
+    assert vertices[0] == corner and len(vertices) == 2  # snapped exactly onto it
+    assert session.map_layer("line").featureCount() == 1
+
+    point_tool = PhotoCaptureTool(canvas, lambda: session, "point")
+    click(point_tool, canvas, 100, 130)
+    assert session.map_layer("point").featureCount() == 1
+    # Escape abandons a feature being drawn.
+    click(line_tool, canvas, 20, 120)
+    line_tool.keyPressEvent(QKeyEvent(QEvent.Type.KeyPress, Qt.Key.Key_Escape, Qt.KeyboardModifier.NoModifier))
+    click(line_tool, canvas, 0, 0, Qt.MouseButton.RightButton)
+    assert session.photo_layer("line").featureCount() == 1
+
+
+def test_edit_tool_moves_vertex_and_deletes(canvas_and_session):
+    canvas, session = canvas_and_session
+    fid = session.add_feature("polygon", [[50, 100], [190, 100], [150, 150]])
+    area = next(session.map_layer("polygon").getFeatures())["area"]
+    tool = PhotoEditTool(canvas, lambda: session)
+    canvas.setMapTool(tool)
+    screen = canvas.getCoordinateTransform().transform(QgsPointXY(150, -150))
+    start = QPoint(int(screen.x()), int(screen.y()))
+    target = canvas.getCoordinateTransform().transform(QgsPointXY(120, -158))
+    end = QPoint(int(target.x()), int(target.y()))
+    left = Qt.MouseButton.LeftButton
+    tool.canvasPressEvent(QgsMapMouseEvent(canvas, QEvent.Type.MouseButtonPress, start, left, left))
+    tool.canvasMoveEvent(QgsMapMouseEvent(canvas, QEvent.Type.MouseMove, end, left, left))
+    tool.canvasReleaseEvent(QgsMapMouseEvent(canvas, QEvent.Type.MouseButtonRelease, end, left, left))
+    moved = next(session.photo_layer("polygon").getFeatures())
+    uv = np.array([(p.x(), -p.y()) for p in moved.geometry().vertices()])
+    assert np.allclose(uv[2], [120, 158], atol=1.0)
+    assert next(session.map_layer("polygon").getFeatures())["area"] != pytest.approx(area)
+    click(tool, canvas, 120, 110, Qt.MouseButton.RightButton)  # inside the polygon: deletes it
+    assert session.photo_layer("polygon").featureCount() == 0 and session.map_layer("polygon").featureCount() == 0
+    assert fid not in [f.id() for f in session.photo_layer("polygon").getFeatures()]
+
+
+def test_without_fitted_camera_the_tool_says_so(qgis_app, qtbot):
+    canvas = PhotoCanvas()
+    qtbot.addWidget(canvas)
+    tool = PhotoCaptureTool(canvas, lambda: None, "point")
+    messages = []
+    tool.message.connect(messages.append)
+    click(tool, canvas, 10, 10)
+    assert messages and "Fit the camera" in messages[0]
