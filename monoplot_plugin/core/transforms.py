@@ -1,0 +1,398 @@
+"""Geometry between the photo and the map, and orthorectification. Plain numpy, no shapely/OGR.
+
+Geometries are numpy arrays: a point set is (N, 2) pixels or (N, 3) map coordinates; a line is one (N, 2) / (N, 3)
+array; a polygon is a list of rings (the first is the outer ring; rings are not closed: the last vertex is not
+repeated).
+
+Photo -> map (:func:`photo_points_to_map`, :func:`photo_line_to_map`, :func:`photo_polygon_to_map`): each pixel
+position's ray is intersected exactly with the terrain mesh (line of sight walked cell by cell, float64, see
+:func:`~monoplot_plugin.core.xyz.segment_first_hit`), so a point drawn between pixel centres is as exact as one on a
+centre. Lines are first densified along the pixel path (``step_px``), so that the map line follows the terrain.
+Vertices whose ray meets no terrain (sky, voids, off the DEM) are dropped and the line is split there; it is also
+split where consecutive samples jump in range (a silhouette: the line passes from a near ridge to a far slope). Pieces
+are never joined across a gap; :class:`DropReport` says what was dropped.
+
+Map -> photo (:func:`map_to_photo`): vertices are projected, and each is tested for occlusion by an exact line of
+sight from the camera (terrain between them hides it); lines are densified in map units first so that hidden runs
+are found.
+
+Orthorectification (:func:`orthorectify`): the photo resampled onto the DEM grid, only cells the camera sees.
+
+>>> import numpy as np
+>>> from .camera import Camera
+>>> from .dem import Dem
+>>> dem = Dem.from_array(np.full((50, 50), 10.0), (0, 10, 0, 500, 0, -10))
+>>> cam = Camera((250, 0, 110), heading=0, pitch=-30, roll=0, fov=60, image_size=(64, 48))
+>>> xyz, ok = photo_points_to_map([[32.0, 40.0], [32.0, 1.0]], cam, dem)
+>>> ok.tolist(), bool(np.allclose(cam.project(xyz[:1]), [[32.0, 40.0]]))
+([True, False], True)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .camera import Camera
+from .dem import Dem
+from .xyz import XyzResult, compute_xyz_full, segment_first_hit
+
+__all__ = ["DropReport", "PhotoToMap", "MapToPhoto", "Ortho", "photo_points_to_map", "photo_line_to_map",
+           "photo_polygon_to_map", "map_to_photo", "orthorectify", "densify", "true_runs"]
+
+
+@dataclass
+class DropReport:
+    """What a photo -> map conversion could not keep.
+
+    Attributes:
+        input_vertices: vertices given (after densification: samples tested).
+        dropped: samples whose ray meets no terrain (sky, voids, off the DEM, behind the camera).
+        splits_at_sky: number of places where a piece was cut because samples were dropped.
+        splits_at_jumps: number of places where a piece was cut at a range jump (silhouette).
+        short_pieces: pieces discarded because fewer than 2 samples (lines) remained.
+        messages: human-readable lines.
+    """
+
+    input_vertices: int = 0
+    dropped: int = 0
+    splits_at_sky: int = 0
+    splits_at_jumps: int = 0
+    short_pieces: int = 0
+    messages: List[str] = field(default_factory=list)
+
+    @property
+    def complete(self) -> bool:
+        """True when nothing was dropped or split."""
+        return self.dropped == 0 and self.splits_at_sky == 0 and self.splits_at_jumps == 0 and self.short_pieces == 0
+
+
+@dataclass
+class PhotoToMap:
+    """Result of a photo -> map line or polygon conversion.
+
+    Attributes:
+        parts: list of (M, 3) float64 map-coordinate arrays (line pieces, or polygon rings when ``closed``).
+        closed: for polygons: True when every ring was kept whole (``parts`` are then the rings, outer first);
+            False when some ring had to be cut (``parts`` are then open line pieces of the outline).
+        report: :class:`DropReport`.
+    """
+
+    parts: List[np.ndarray]
+    closed: bool
+    report: DropReport
+
+
+@dataclass
+class MapToPhoto:
+    """One map part drawn on the photo.
+
+    Attributes:
+        uv: (N, 2) float64 pixels (NaN behind the camera).
+        xyz: (N, 3) the map vertices used (densified, heights draped on the DEM mesh where z was not given).
+        visible: (N,) bool: in front of the camera, inside the image and not hidden by terrain.
+        occluded: (N,) bool: in front of the camera but hidden by terrain.
+        in_image: (N,) bool.
+    """
+
+    uv: np.ndarray
+    xyz: np.ndarray
+    visible: np.ndarray
+    occluded: np.ndarray
+    in_image: np.ndarray
+
+    def visible_runs(self) -> List[np.ndarray]:
+        """(M, 2) pixel pieces of consecutive visible vertices (at least 2 each)."""
+        return [self.uv[a:b] for a, b in true_runs(self.visible) if b - a >= 2]
+
+    def hidden_runs(self) -> List[np.ndarray]:
+        """(M, 2) pixel pieces of consecutive occluded vertices (for dashed drawing)."""
+        return [self.uv[a:b] for a, b in true_runs(self.occluded & self.in_image) if b - a >= 2]
+
+
+@dataclass
+class Ortho:
+    """An orthophoto on the DEM grid.
+
+    Attributes:
+        image: (rows, cols, C) float32 photo values (C = photo bands), NaN where the camera sees nothing.
+        mask: (rows, cols) bool: filled cells.
+        geotransform, crs_wkt: of the grid (same as the DEM's).
+    """
+
+    image: np.ndarray
+    mask: np.ndarray
+    geotransform: Tuple[float, ...]
+    crs_wkt: str
+
+    def to_uint8_rgba(self) -> np.ndarray:
+        """(rows, cols, 4) uint8: the first three bands (or the grey band thrice), alpha 255 where filled."""
+        img = self.image
+        rgb = img[..., :3] if img.shape[-1] >= 3 else np.repeat(img[..., :1], 3, axis=-1)
+        out = np.zeros(img.shape[:2] + (4,), dtype=np.uint8)
+        out[..., :3] = np.clip(np.round(np.nan_to_num(rgb)), 0, 255).astype(np.uint8)
+        out[..., 3] = np.where(self.mask, 255, 0)
+        return out
+
+
+# ----------------------------------------------------------------------------------------------------------------
+# helpers
+# ----------------------------------------------------------------------------------------------------------------
+
+def true_runs(mask: np.ndarray) -> List[Tuple[int, int]]:
+    """[(start, stop), ...] of the runs of True in a 1-D bool array.
+
+    >>> true_runs(np.array([True, True, False, True, False, False, True]))
+    [(0, 2), (3, 4), (6, 7)]
+    """
+    m = np.concatenate([[False], np.asarray(mask, dtype=bool), [False]])
+    d = np.diff(m.astype(np.int8))
+    starts = np.nonzero(d == 1)[0]
+    stops = np.nonzero(d == -1)[0]
+    return [(int(a), int(b)) for a, b in zip(starts, stops)]
+
+
+def densify(vertices, step: float, closed: bool = False) -> np.ndarray:
+    """Insert vertices so that consecutive ones are at most ``step`` apart (Euclidean in the first two coordinates;
+    other coordinates interpolated linearly). Original vertices are kept.
+
+    >>> densify([[0.0, 0.0], [3.0, 0.0]], 1.0).tolist()
+    [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]]
+    """
+    v = np.asarray(vertices, dtype=np.float64)
+    if v.ndim != 2 or len(v) == 0:
+        return v.reshape(-1, v.shape[-1] if v.ndim == 2 else 2)
+    if closed:
+        v = np.concatenate([v, v[:1]])
+    out = [v[:1]]
+    for a, b in zip(v[:-1], v[1:]):
+        length = float(np.hypot(*(b[:2] - a[:2])))
+        n = max(1, int(math.ceil(length / step))) if step > 0 else 1
+        t = (np.arange(1, n + 1) / n)[:, None]
+        out.append(a + (b - a) * t)
+    res = np.concatenate(out)
+    return res[:-1] if closed else res
+
+
+def _far_distance(cam: Camera, dem: Dem) -> float:
+    """A distance from the camera beyond every DEM vertex."""
+    xmin, ymin, xmax, ymax = dem.bounds()
+    finite = dem.elevation[np.isfinite(dem.elevation)]
+    zmin = float(finite.min()) if finite.size else 0.0
+    zmax = float(finite.max()) if finite.size else 0.0
+    cx, cy, cz = cam.position
+    dx = max(abs(xmin - cx), abs(xmax - cx))
+    dy = max(abs(ymin - cy), abs(ymax - cy))
+    dz = max(abs(zmin - cz), abs(zmax - cz))
+    return 1.01 * math.sqrt(dx * dx + dy * dy + dz * dz) + 1.0
+
+
+def photo_points_to_map(uv, cam: Camera, dem: Dem) -> Tuple[np.ndarray, np.ndarray]:
+    """Exact terrain points seen at pixel positions.
+
+    Args:
+        uv: (N, 2) pixel positions (any sub-pixel position; centres at +0.5).
+    Returns:
+        ((N, 3) float64 map coordinates, NaN rows where the ray meets no terrain; (N,) bool hit mask).
+    """
+    uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+    origin, dirs = cam.pixel_to_world_ray(uv)
+    far = _far_distance(cam, dem)
+    targets = origin + dirs * far
+    s = segment_first_hit(dem, origin, targets)
+    ok = np.isfinite(s)
+    xyz = np.where(ok[:, None], origin + dirs * (far * np.nan_to_num(s))[:, None], np.nan)
+    return xyz, ok
+
+
+def _pieces(samples_uv: np.ndarray, cam: Camera, dem: Dem, jump: float, report: DropReport):
+    xyz, ok = photo_points_to_map(samples_uv, cam, dem)
+    report.input_vertices += len(samples_uv)
+    report.dropped += int((~ok).sum())
+    runs = true_runs(ok)
+    report.splits_at_sky += max(0, len(runs) - 1) + (0 if ok.all() else 0)
+    pieces = []
+    rng = np.linalg.norm(xyz - np.asarray(cam.position), axis=1)
+    for a, b in runs:
+        r = rng[a:b]
+        big = np.nonzero(np.abs(np.diff(r)) > jump * np.minimum(r[:-1], r[1:]))[0]
+        report.splits_at_jumps += len(big)
+        cuts = [a] + [a + int(k) + 1 for k in big] + [b]
+        for p, q in zip(cuts[:-1], cuts[1:]):
+            pieces.append((p, q))
+    return xyz, ok, pieces
+
+
+def photo_line_to_map(line_uv, cam: Camera, dem: Dem, step_px: float = 1.0, jump: float = 0.1) -> PhotoToMap:
+    """A line drawn on the photo as 3-D map pieces following the terrain.
+
+    Args:
+        line_uv: (N, 2) pixel vertices.
+        step_px: densification step along the pixel path (pixels); 0 = keep the vertices only.
+        jump: relative range change between consecutive samples that counts as a silhouette (cut there).
+    Returns:
+        :class:`PhotoToMap` with ``parts`` = list of (M, 3) pieces (M >= 2), ``closed`` False.
+    """
+    report = DropReport()
+    samples = densify(line_uv, step_px) if step_px > 0 else np.asarray(line_uv, dtype=np.float64).reshape(-1, 2)
+    xyz, ok, pieces = _pieces(samples, cam, dem, jump, report)
+    parts = []
+    for a, b in pieces:
+        if b - a >= 2:
+            parts.append(xyz[a:b])
+        else:
+            report.short_pieces += 1
+    _messages(report, "line")
+    return PhotoToMap(parts, False, report)
+
+
+def photo_polygon_to_map(rings_uv: Sequence, cam: Camera, dem: Dem, step_px: float = 1.0,
+                         jump: float = 0.1) -> PhotoToMap:
+    """A polygon drawn on the photo (list of rings, outer first; or a single (N, 2) ring) as map rings.
+
+    When every sample of every ring is on terrain and no ring crosses a silhouette, ``parts`` are the 3-D rings
+    (outer first, not closed) and ``closed`` is True. Otherwise the polygon cannot be rebuilt faithfully: ``parts``
+    are the open pieces of the outlines that are on terrain, ``closed`` is False, and the report says why.
+    """
+    if isinstance(rings_uv, np.ndarray) and rings_uv.ndim == 2:
+        rings_uv = [rings_uv]
+    report = DropReport()
+    rings, pieces_all = [], []
+    whole = True
+    for ring in rings_uv:
+        samples = densify(ring, step_px, closed=True) if step_px > 0 else np.asarray(ring, dtype=np.float64)
+        closed_samples = np.concatenate([samples, samples[:1]])
+        xyz, ok, pieces = _pieces(closed_samples, cam, dem, jump, report)
+        if len(pieces) == 1 and pieces[0] == (0, len(closed_samples)):
+            rings.append(xyz[:-1])
+            pieces_all.append(xyz)
+        else:
+            whole = False
+            for a, b in pieces:
+                if b - a >= 2:
+                    pieces_all.append(xyz[a:b])
+                else:
+                    report.short_pieces += 1
+    _messages(report, "polygon")
+    if whole:
+        return PhotoToMap(rings, True, report)
+    report.messages.append("the polygon crosses sky or a silhouette: returned as open outline pieces")
+    return PhotoToMap(pieces_all, False, report)
+
+
+def _messages(report: DropReport, what: str) -> None:
+    if report.dropped:
+        report.messages.append(f"{report.dropped} of {report.input_vertices} {what} samples see no terrain "
+                               f"(sky, void or off the DEM) and were dropped")
+    if report.splits_at_sky:
+        report.messages.append(f"{what} cut in {report.splits_at_sky} place(s) where it crosses sky")
+    if report.splits_at_jumps:
+        report.messages.append(f"{what} cut in {report.splits_at_jumps} place(s) at a silhouette (range jump)")
+    if report.short_pieces:
+        report.messages.append(f"{report.short_pieces} piece(s) of a single sample discarded")
+
+
+def map_to_photo(parts: Sequence, cam: Camera, dem: Dem, densify_m: Optional[float] = None,
+                 tolerance_m: float = 1.0, rel_tolerance: float = 1e-4) -> List[MapToPhoto]:
+    """Map geometry drawn onto the photo, with hidden parts flagged.
+
+    Args:
+        parts: list of (N, 2) or (N, 3) map-coordinate arrays (points, line parts or rings). 2-D vertices are
+            draped on the DEM mesh (the surface the photo is intersected with); vertices off the DEM keep NaN z and
+            are reported as not visible.
+        densify_m: insert vertices every ``densify_m`` map units before projecting (None = half a DEM cell;
+            0 = keep the vertices only), so that partly hidden segments are split where they disappear.
+        tolerance_m, rel_tolerance: a vertex counts as hidden only when terrain meets its line of sight more than
+            ``tolerance_m + rel_tolerance * range`` before it.
+    Returns:
+        one :class:`MapToPhoto` per part.
+    """
+    step = dem.cell_size * 0.5 if densify_m is None else float(densify_m)
+    out = []
+    origin = np.asarray(cam.position, dtype=np.float64)
+    for part in parts:
+        p = np.asarray(part, dtype=np.float64)
+        if p.ndim == 1:
+            p = p[None]
+        if step > 0 and len(p) >= 2:
+            p = densify(p, step)
+        if p.shape[1] == 2:
+            p = np.column_stack([p, dem.sample(p[:, 0], p[:, 1], method="mesh")])
+        uv, depth = cam.project_with_depth(p)
+        front = depth > 0
+        finite = np.isfinite(p).all(axis=1)
+        s = segment_first_hit(dem, origin, np.where(finite[:, None], p, origin + 1.0))
+        length = np.linalg.norm(p - origin, axis=1)
+        with np.errstate(invalid="ignore"):
+            blocked = np.isfinite(s) & (s * length < length - (tolerance_m + rel_tolerance * length))
+        in_img = cam.in_image(uv) & front
+        occluded = front & finite & blocked
+        visible = in_img & finite & ~blocked
+        out.append(MapToPhoto(uv=uv, xyz=p, visible=visible, occluded=occluded, in_image=in_img))
+    return out
+
+
+def orthorectify(photo: np.ndarray, cam: Camera, dem: Dem, result: Optional[XyzResult] = None,
+                 max_range: Optional[float] = None, exact: bool = False) -> Ortho:
+    """The photo resampled (bilinear) onto the DEM grid; only cells the camera sees are filled.
+
+    Args:
+        photo: (H, W) or (H, W, C) array (any numeric dtype) of the camera's image size.
+        result: a :func:`~monoplot_plugin.core.xyz.compute_xyz_full` result to reuse for visibility.
+        max_range: ignore terrain farther than this.
+        exact: decide visibility by an exact line of sight per cell (slower) instead of the z-buffer.
+    Returns:
+        :class:`Ortho` on the DEM's grid.
+    """
+    img = np.asarray(photo)
+    if img.ndim == 2:
+        img = img[..., None]
+    H, W = img.shape[:2]
+    if (W, H) != (cam.width, cam.height):
+        raise ValueError(f"photo is {W} x {H} px but the camera expects {cam.width} x {cam.height}")
+    rows, cols = dem.shape
+    X, Y = dem.cell_centres()
+    Z = dem.elevation.astype(np.float64)
+    if exact:
+        pts = np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1)
+        finite = np.isfinite(pts[:, 2])
+        origin = np.asarray(cam.position, dtype=np.float64)
+        s = segment_first_hit(dem, origin, np.where(finite[:, None], pts, origin + 1.0))
+        length = np.linalg.norm(pts - origin, axis=1)
+        with np.errstate(invalid="ignore"):
+            blocked = np.isfinite(s) & (s * length < length - (1.0 + 1e-4 * length))
+        uv_all, depth = cam.project_with_depth(pts)
+        vis = (finite & ~blocked & cam.in_image(uv_all) & (depth > 0)).reshape(rows, cols)
+        if max_range is not None:
+            vis &= (length <= max_range).reshape(rows, cols)
+    else:
+        res = result if result is not None else compute_xyz_full(cam, dem, max_range=max_range)
+        vis = res.visible
+    out = np.full((rows, cols, img.shape[2]), np.nan, dtype=np.float32)
+    if vis.any():
+        pts = np.stack([X[vis], Y[vis], Z[vis]], axis=1)
+        uv = cam.project(pts)
+        out[vis] = _bilinear_image(img, uv)
+    mask = vis & np.isfinite(out).all(axis=-1)
+    return Ortho(image=out, mask=mask, geotransform=dem.geotransform, crs_wkt=dem.crs_wkt)
+
+
+def _bilinear_image(img: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """(N, C) float32 bilinear samples of an (H, W, C) image at pixel positions (centres at +0.5), edge-clamped."""
+    H, W = img.shape[:2]
+    x = np.clip(uv[:, 0] - 0.5, 0.0, W - 1.0)
+    y = np.clip(uv[:, 1] - 0.5, 0.0, H - 1.0)
+    x0 = np.minimum(np.floor(x).astype(np.int64), max(W - 2, 0))
+    y0 = np.minimum(np.floor(y).astype(np.int64), max(H - 2, 0))
+    x1 = np.minimum(x0 + 1, W - 1)
+    y1 = np.minimum(y0 + 1, H - 1)
+    fx = (x - x0)[:, None]
+    fy = (y - y0)[:, None]
+    a = img[y0, x0].astype(np.float32)
+    b = img[y0, x1].astype(np.float32)
+    c = img[y1, x0].astype(np.float32)
+    d = img[y1, x1].astype(np.float32)
+    return (a * (1 - fx) * (1 - fy) + b * fx * (1 - fy) + c * (1 - fx) * fy + d * fx * fy).astype(np.float32)
