@@ -1,9 +1,32 @@
-"""Monoplot's dock widget (placeholder shell; the GUI issue fills it). Layout in ``ui/dock.ui``."""
+"""Monoplot's dock: wires the widgets of ``ui/dock.ui`` to :class:`MonoplotController` and the presenters.
 
+Extension points (used by the outputs issue):
+    dock.controller ............ state, photo, DEM, fitted camera, per-pixel XYZ (``controller.xyz``), signals
+    dock.photo_canvas .......... QgsMapCanvas in pixel space (x = u, y = -v; see photo_canvas.uv_to_map)
+    dock.add_photo_tool(action, map_tool)   a checkable action in the photo bar that switches the photo canvas
+                                            to ``map_tool``; unchecking returns to point curation
+    dock.add_output_action(action)          a button in the "Fit and results" tab (e.g. "Export XYZ raster")
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Optional
+
+from qgis.core import Qgis, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer
 from qgis.PyQt import uic
-from qgis.PyQt.QtWidgets import QDockWidget
+from qgis.PyQt.QtCore import QItemSelectionModel, Qt
+from qgis.PyQt.QtWidgets import QAction, QDockWidget, QFileDialog, QToolButton
 
-from .. import PLUGIN_DIR, plugin_version
+from .. import PLUGIN_DIR
+from ..adapters import layers as camera_layers
+from ..state import MAP, PHOTO
+from . import engine
+from .controller import MonoplotController
+from .photo_canvas import PhotoCanvas
+from .point_table import ID_ROLE, PointTableModel, make_proxy
+from .tools import CurationTool, RoughCameraTool, SpaceMapping
+from .views import MapPresenter, PhotoPresenter
 
 FORM_CLASS, _ = uic.loadUiType(str(PLUGIN_DIR / "ui" / "dock.ui"))
 
@@ -11,9 +34,408 @@ FORM_CLASS, _ = uic.loadUiType(str(PLUGIN_DIR / "ui" / "dock.ui"))
 class MonoplotDock(QDockWidget, FORM_CLASS):
     """The plugin's main panel, docked on the right of the QGIS window."""
 
-    def __init__(self, iface, parent=None):
+    def __init__(self, iface, parent=None, project: Optional[QgsProject] = None):
         super().__init__(parent)
         self.iface = iface
         self.setupUi(self)
         self.setObjectName("MonoplotDock")  # QMainWindow.saveState() needs a stable name
-        self.statusLabel.setText(self.tr("Version {0}").format(plugin_version()))
+        self.project = project or QgsProject.instance()
+        self.controller = c = MonoplotController(self.project, self)
+        self.map_canvas = iface.mapCanvas()
+
+        # photo canvas and its default tool
+        self.photo_canvas = PhotoCanvas(self.photoHolder)
+        self.photoHolder.layout().addWidget(self.photo_canvas)
+        self.photo_tool = CurationTool(self.photo_canvas, c, SpaceMapping(self.photo_canvas, PHOTO))
+        self.photo_canvas.setMapTool(self.photo_tool)
+        self.photo_view = PhotoPresenter(c, self.photo_canvas)
+        self.map_view = MapPresenter(c, self.map_canvas)
+        self.map_mapping = SpaceMapping(self.map_canvas, MAP)
+        self.map_tool = CurationTool(self.map_canvas, c, self.map_mapping)
+        self.camera_tool = RoughCameraTool(self.map_canvas, self.map_mapping)
+        self._photo_tools = []
+
+        # inputs
+        self.demCombo.setFilters(QgsMapLayerProxyModel.Filter.RasterLayer)
+        self.demCombo.setAllowEmptyLayer(True)
+        self.demCombo.setLayer(None)
+        self.photoFile.fileChanged.connect(self._photo_chosen)
+        self.demCombo.layerChanged.connect(self._dem_chosen)
+
+        # camera
+        self.drawCameraButton.toggled.connect(self._toggle_camera_tool)
+        self.camera_tool.cameraDrawn.connect(self._camera_drawn)
+        self.camera_tool.dragging.connect(self._camera_dragging)
+        self.kmlButton.clicked.connect(self._import_kml)
+        self.clearPriorButton.clicked.connect(lambda: c.set_prior(None))
+        self.fovSpin.valueChanged.connect(self._prior_spin_changed)
+        self.pitchSpin.valueChanged.connect(self._prior_spin_changed)
+
+        # points
+        self.suggestButton.clicked.connect(lambda: c.suggest())
+        self.mapToolButton.toggled.connect(self._toggle_map_tool)
+        self.acceptViewButton.clicked.connect(self.accept_all_in_view)
+        self.resetButton.clicked.connect(lambda: c.reset_statuses())
+        self.undoButton.clicked.connect(c.stack.undo)
+        self.redoButton.clicked.connect(c.stack.redo)
+        self.table_model = PointTableModel(c.state, self)
+        self.table_proxy = make_proxy(self.table_model, self)
+        self.pointTable.setModel(self.table_proxy)
+        self.pointTable.verticalHeader().setVisible(False)
+        self.pointTable.horizontalHeader().setStretchLastSection(True)
+        self.pointTable.clicked.connect(self._table_clicked)
+
+        # fit and view
+        self.fitButton.clicked.connect(lambda: c.fit())
+        self.cancelButton.clicked.connect(c.cancel)
+        self.overlaySlider.valueChanged.connect(self._overlay_opacity)
+        self.residualsCheck.toggled.connect(self._residuals_toggled)
+        self.zoomPhotoButton.clicked.connect(self.photo_canvas.zoom_to_photo)
+        self.floatButton.toggled.connect(self._float)
+        self.topLevelChanged.connect(self.floatButton.setChecked)
+
+        # controller -> widgets
+        c.photoChanged.connect(self._on_photo)
+        c.demChanged.connect(self._on_dem)
+        c.pointsChanged.connect(self._on_points)
+        c.selectionChanged.connect(self._on_selection)
+        c.cameraChanged.connect(self._on_camera)
+        c.busyChanged.connect(self._on_busy)
+        c.progressChanged.connect(lambda p: self.progressBar.setValue(int(p)))
+        c.message.connect(self.show_message)
+        c.taskFinished.connect(self._on_task_finished)
+
+        # linked cursors
+        self.photo_canvas.cursorMoved.connect(self._photo_cursor)
+        self.photo_canvas.cursorLeft.connect(lambda: self.map_view.show_cursor(None))
+        self.map_canvas.xyCoordinates.connect(self._map_cursor)
+
+        # project life cycle
+        self.project.readProject.connect(self._project_read)
+        self.project.cleared.connect(self._project_cleared)
+        if self.project.readEntry("monoplot", "/state", "")[1]:
+            c.restore()
+        self._on_points(set())
+        self._on_busy("")
+        self._on_camera()
+
+    # --- messages ---------------------------------------------------------------------------------------------
+    def show_message(self, text: str, level=Qgis.MessageLevel.Info) -> None:
+        """Message bar (never a traceback); also the dock's status line."""
+        self.statusLabel.setText(text)
+        bar = self.iface.messageBar() if self.iface is not None else None
+        if bar is not None:
+            duration = 0 if level == Qgis.MessageLevel.Critical else 6
+            bar.pushMessage(self.tr("Monoplot"), text, level, duration)
+
+    # --- inputs -----------------------------------------------------------------------------------------------
+    def _photo_chosen(self, path: str) -> None:
+        if path and path != self.controller.state.photo_path:
+            self.controller.load_photo(path)
+
+    def _dem_chosen(self, layer) -> None:
+        if isinstance(layer, QgsRasterLayer) and (self.controller.dem_layer is None
+                                                 or layer.id() != self.controller.dem_layer.id()):
+            if layer.crs().isGeographic():
+                self.show_message(self.tr("The DEM is in degrees: Monoplot reprojects it to UTM metres."),
+                                  Qgis.MessageLevel.Info)
+            self.controller.set_dem_layer(layer)
+
+    def _on_photo(self) -> None:
+        self.photo_view.redraw_photo()
+        path = self.controller.state.photo_path
+        if path and self.photoFile.filePath() != path:
+            self.photoFile.blockSignals(True)
+            self.photoFile.setFilePath(path)
+            self.photoFile.blockSignals(False)
+
+    def _on_dem(self) -> None:
+        layer = self.controller.dem_layer
+        if layer is not None and self.demCombo.currentLayer() is not layer:
+            self.demCombo.blockSignals(True)
+            self.demCombo.setLayer(layer)
+            self.demCombo.blockSignals(False)
+        self.map_mapping.crs = self.controller.dem_crs
+        self.map_view.redraw_points()
+
+    # --- camera -----------------------------------------------------------------------------------------------
+    def _toggle_camera_tool(self, on: bool) -> None:
+        if on:
+            if self.controller.dem is None or self.controller.image is None:
+                self.show_message(self.tr("Load a photo and choose a DEM first."), Qgis.MessageLevel.Warning)
+                self.drawCameraButton.setChecked(False)
+                return
+            self.mapToolButton.setChecked(False)
+            self.map_canvas.setMapTool(self.camera_tool)
+            self.show_message(self.tr("Press on the map at the camera position and drag towards the view."))
+        elif self.map_canvas.mapTool() is self.camera_tool:
+            self.map_canvas.unsetMapTool(self.camera_tool)
+
+    def _camera_dragging(self, x: float, y: float, heading: float) -> None:
+        from ..core.camera import Camera
+
+        size = self.controller.photo_size or (4, 3)
+        self.map_view.prior_band.crs = self.map_view.crs
+        cam = Camera((x, y, 0.0), heading, 0.0, 0.0, self.fovSpin.value(), size)
+        reach = 0.5 * self.map_canvas.extent().width()
+        from qgis.core import QgsGeometry, QgsPointXY
+
+        self.map_view.prior_band.set_geometry(QgsGeometry.fromPolygonXY(
+            [[QgsPointXY(px, py) for px, py in engine.view_wedge(cam, reach)]]))
+
+    def _camera_drawn(self, x: float, y: float, heading: float) -> None:
+        self.controller.prior_from_map(x, y, heading, self.fovSpin.value(), self.pitchSpin.value(),
+                                       self.heightSpin.value())
+        self.drawCameraButton.setChecked(False)
+
+    def _prior_spin_changed(self) -> None:
+        prior = self.controller.prior
+        if prior is not None and (prior.fov, prior.pitch) != (self.fovSpin.value(), self.pitchSpin.value()):
+            self.controller.set_prior(prior.with_parameters(fov=self.fovSpin.value(), pitch=self.pitchSpin.value()))
+
+    def _import_kml(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(self, self.tr("Rough camera from KML"), "",
+                                              self.tr("KML PhotoOverlay (*.kml)"))
+        if path:
+            self.controller.import_kml(path)
+
+    def _on_camera(self) -> None:
+        c = self.controller
+        prior, fitted = c.prior, c.fitted
+        if prior is not None:
+            for spin, value in ((self.fovSpin, prior.fov), (self.pitchSpin, prior.pitch)):
+                spin.blockSignals(True)
+                spin.setValue(value)
+                spin.blockSignals(False)
+            x, y, z = prior.position
+            self.cameraSummary.setText(self.tr(
+                "Rough camera: X {0:.0f}  Y {1:.0f}  Z {2:.0f} m, heading {3:.1f}°, pitch {4:.1f}°, "
+                "field of view {5:.1f}°").format(x, y, z, prior.heading % 360, prior.pitch, prior.fov))
+        else:
+            self.cameraSummary.setText(self.tr("No rough camera yet: draw it on the map or import a KML."))
+        self.map_view.redraw_camera(c.footprint_wkt if fitted is not None else "")
+        self.photo_view.redraw_camera()
+        self.photo_view.canvas.set_overlay_opacity(self.overlaySlider.value() / 100.0)
+        self.resultLabel.setText(self._result_text())
+        self.table_model.refresh(self._residual_by_id())
+
+    def _result_text(self) -> str:
+        c = self.controller
+        fitted, info = c.fitted, c.state.fit_info
+        if fitted is None:
+            return self.tr("Not fitted yet.")
+        x, y, z = fitted.position
+        sigma = info.get("sigma") or {}
+
+        def sig(name: str, fmt: str = "{:.1f}") -> str:
+            return (" ± " + fmt.format(sigma[name])) if name in sigma and math.isfinite(sigma[name]) else ""
+
+        rmse = info.get("rmse_px")
+        rows = [
+            (self.tr("RMSE"), "—" if rmse is None else f"<b>{rmse:.1f} px</b>"),
+            (self.tr("Points"), f"{info.get('n_photo', 0)} photo / {info.get('n_map', 0)} DEM"
+                                + (f" / {info['n_pairs']} pairs" if info.get("n_pairs") else "")),
+            ("X", f"{x:.0f} m{sig('x', '{:.0f}')}"), ("Y", f"{y:.0f} m{sig('y', '{:.0f}')}"),
+            ("Z", f"{z:.0f} m{sig('z', '{:.0f}')}"),
+            (self.tr("Heading"), f"{fitted.heading % 360:.2f}°{sig('heading', '{:.2f}')}"),
+            (self.tr("Pitch"), f"{fitted.pitch:.2f}°{sig('pitch', '{:.2f}')}"),
+            (self.tr("Roll"), f"{fitted.roll:.2f}°{sig('roll', '{:.2f}')}"),
+            (self.tr("Field of view"), f"{fitted.fov:.2f}°{sig('fov', '{:.2f}')}"),
+        ]
+        html = "".join(f"<tr><td>{k}&nbsp;&nbsp;</td><td>{v}</td></tr>" for k, v in rows)
+        note = "" if info.get("converged", True) else "<p style='color:#c00'>" + self.tr("Did not converge.") + "</p>"
+        return f"<table>{html}</table>{note}"
+
+    def _residual_by_id(self):
+        """Residual length (px) per accepted photo point id, for the table."""
+        from ..state import ACCEPTED
+
+        segs = self.controller.residual_segments()
+        ids = [p.id for p in self.controller.state.in_space(PHOTO, (ACCEPTED,))]
+        return {pid: math.hypot(b[0] - a[0], b[1] - a[1]) for pid, (a, b) in zip(ids, segs)} if segs else {}
+
+    # --- points -----------------------------------------------------------------------------------------------
+    def _toggle_map_tool(self, on: bool) -> None:
+        if on:
+            self.drawCameraButton.setChecked(False)
+            self.map_canvas.setMapTool(self.map_tool)
+        elif self.map_canvas.mapTool() is self.map_tool:
+            self.map_canvas.unsetMapTool(self.map_tool)
+
+    def accept_all_in_view(self) -> int:
+        """Accept every suggestion visible on the photo canvas and on the main map."""
+        from qgis.core import QgsPointXY
+
+        n = self.controller.accept_all_in(PHOTO, self.photo_canvas.visible_uv_rect())
+        e = self.map_canvas.extent()
+        corners = [self.map_mapping.to_space(QgsPointXY(x, y)) for x in (e.xMinimum(), e.xMaximum())
+                   for y in (e.yMinimum(), e.yMaximum())]
+        xs, ys = [p[0] for p in corners], [p[1] for p in corners]
+        n += self.controller.accept_all_in(MAP, (min(xs), min(ys), max(xs), max(ys)))
+        self.show_message(self.tr("{0} suggestions accepted.").format(n))
+        return n
+
+    def _on_points(self, changed) -> None:
+        self.photo_view.redraw_points()
+        self.map_view.redraw_points()
+        self.table_model.refresh(self._residual_by_id())
+        counts = self.controller.state.counts()
+        self.countsLabel.setText(self.tr(
+            "Photo: {0} accepted, {1} to decide, {2} rejected · Map: {3} accepted, {4} to decide, {5} rejected"
+        ).format(counts[PHOTO]["accepted"], counts[PHOTO]["suggested"], counts[PHOTO]["rejected"],
+                 counts[MAP]["accepted"], counts[MAP]["suggested"], counts[MAP]["rejected"]))
+        st = self.controller.stack
+        self.undoButton.setEnabled(st.can_undo())
+        self.redoButton.setEnabled(st.can_redo())
+        self.undoButton.setToolTip(self.tr("Undo {0}").format(st.undo_text()))
+
+    def _on_selection(self, space: str, pid: str) -> None:
+        view = self.photo_view if space == PHOTO else self.map_view
+        view.redraw_selection()
+        p = self.controller.state.points.get(pid)
+        if p is not None and space == PHOTO:
+            u0, v0, u1, v1 = self.photo_canvas.visible_uv_rect()
+            if not (u0 <= p.x <= u1 and v0 <= p.y <= v1):
+                self.photo_canvas.center_on(p.x, p.y)
+        row = self.table_model.row_of(pid)
+        if row >= 0:
+            index = self.table_proxy.mapFromSource(self.table_model.index(row, 0))
+            self.pointTable.selectionModel().select(
+                index, QItemSelectionModel.SelectionFlag.ClearAndSelect | QItemSelectionModel.SelectionFlag.Rows)
+            self.pointTable.scrollTo(index)
+
+    def _table_clicked(self, index) -> None:
+        pid = self.table_proxy.data(index, ID_ROLE)
+        p = self.controller.state.points.get(pid)
+        if p is None:
+            return
+        self.controller.select(p.space, pid)
+        if p.space == PHOTO:
+            self.photo_canvas.center_on(p.x, p.y)
+        else:
+            self.map_canvas.setCenter(self.map_mapping.to_canvas(p.x, p.y))
+            self.map_canvas.refresh()
+
+    # --- task -------------------------------------------------------------------------------------------------
+    def _on_busy(self, description: str) -> None:
+        busy = bool(description)
+        for w in (self.suggestButton, self.fitButton):
+            w.setEnabled(not busy)
+        self.cancelButton.setEnabled(busy)
+        self.progressBar.setVisible(True)
+        if busy:
+            self.progressBar.setValue(0)
+            self.progressBar.setFormat(description + " %p%")
+            if self.controller.task_kind == "fit":
+                self.stepTabs.setCurrentWidget(self.fitTab)
+        else:
+            self.progressBar.setFormat("%p%")
+
+    def _on_task_finished(self, result) -> None:
+        if result.ok and self.controller.task_kind == "fit":
+            self._update_camera_layers()
+        elif result.ok and self.controller.task_kind == "suggest":
+            self.mapToolButton.setChecked(True)  # DEM suggestions are curated on the main map
+
+    def _update_camera_layers(self) -> None:
+        c = self.controller
+        if c.fitted is None or c.dem is None:
+            return
+        camera_layers.show_camera_layers(self.project, c.fitted, c.footprint_wkt, c.dem_crs)
+
+    # --- view -------------------------------------------------------------------------------------------------
+    def _overlay_opacity(self, value: int) -> None:
+        self.overlayValue.setText(f"{value} %")
+        self.photo_canvas.set_overlay_opacity(value / 100.0)
+        self.controller.state.settings["overlay_opacity"] = value
+
+    def _residuals_toggled(self, on: bool) -> None:
+        self.photo_view.show_residuals = on
+        self.photo_view.redraw_residuals()
+
+    def _float(self, on: bool) -> None:
+        if self.isFloating() != on:
+            self.setFloating(on)
+            if on:
+                self.resize(1100, 850)
+
+    def _photo_cursor(self, u: float, v: float) -> None:
+        ground = self.controller.ground_at_pixel(u, v)
+        self.map_view.show_cursor(None if ground is None else ground[:2])
+        if ground is not None and self.iface is not None:
+            self.iface.statusBarIface().showMessage(
+                self.tr("Monoplot: photo pixel ({0:.0f}, {1:.0f}) → X {2:.1f}  Y {3:.1f}  Z {4:.1f} m").format(
+                    u, v, *ground), 4000)
+
+    def _map_cursor(self, point) -> None:
+        if self.controller.fitted is None or self.controller.dem is None:
+            return
+        x, y = self.map_mapping.to_space(point)
+        uv, where = self.controller.pixel_of_ground(x, y)
+        self.photo_view.show_cursor(uv, hidden=(where == "hidden"))
+        if self.iface is not None and where:
+            text = {"visible": self.tr("visible in the photo at ({0:.0f}, {1:.0f})"),
+                    "hidden": self.tr("hidden behind terrain (would be at {0:.0f}, {1:.0f})"),
+                    "outside": self.tr("outside the photo")}[where]
+            self.iface.statusBarIface().showMessage("Monoplot: " + (text.format(*uv) if uv else text), 4000)
+
+    # --- extension points -------------------------------------------------------------------------------------
+    def add_photo_tool(self, action: QAction, map_tool) -> QToolButton:
+        """Add a checkable photo-canvas tool (e.g. digitising); unchecking it returns to point curation."""
+        action.setCheckable(True)
+        button = QToolButton(self)
+        button.setDefaultAction(action)
+        self.viewBar.insertWidget(2, button)
+        self._photo_tools.append((action, map_tool))
+
+        def toggled(on: bool) -> None:
+            if on:
+                for other, _ in self._photo_tools:
+                    if other is not action:
+                        other.setChecked(False)
+                self.photo_canvas.setMapTool(map_tool)
+            elif self.photo_canvas.mapTool() is map_tool:
+                self.photo_canvas.setMapTool(self.photo_tool)
+
+        action.toggled.connect(toggled)
+        return button
+
+    def add_output_action(self, action: QAction) -> QToolButton:
+        """Add a button for ``action`` to the "Fit and results" tab."""
+        button = QToolButton(self)
+        button.setDefaultAction(action)
+        self.outputsBar.addWidget(button)
+        return button
+
+    # --- project life cycle -----------------------------------------------------------------------------------
+    def _project_read(self, *args) -> None:
+        camera_layers_present = self.controller.restore()
+        if camera_layers_present:
+            self.overlaySlider.setValue(int(self.controller.state.settings.get("overlay_opacity", 50)))
+
+    def _project_cleared(self) -> None:
+        self.controller.cancel()
+        self.controller.restore()
+
+    def unload(self) -> None:
+        """Remove canvas items and map tools from the main map; save the state (plugin unload)."""
+        c = self.controller
+        c.cancel()
+        c.save()
+        for tool in (self.map_tool, self.camera_tool):
+            if self.map_canvas.mapTool() is tool:
+                self.map_canvas.unsetMapTool(tool)
+        self.map_view.remove()
+        for signal, slot in ((self.map_canvas.xyCoordinates, self._map_cursor),
+                             (self.project.readProject, self._project_read),
+                             (self.project.cleared, self._project_cleared)):
+            try:
+                signal.disconnect(slot)
+            except TypeError:
+                pass
+
+    def closeEvent(self, event) -> None:  # noqa: N802
+        if self.mapToolButton.isChecked():
+            self.mapToolButton.setChecked(False)
+        self.drawCameraButton.setChecked(False)
+        super().closeEvent(event)

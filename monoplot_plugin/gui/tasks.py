@@ -20,13 +20,12 @@ from typing import Any, Callable, Optional
 
 from qgis.core import Qgis, QgsApplication, QgsMessageLog, QgsTask
 
+from .engine import Canceled  # raised by work functions that stop at once when is_canceled() turns true
+
 __all__ = ["TaskResult", "FunctionTask", "start_task", "SUCCESS", "FAILED", "CANCELED"]
 
 SUCCESS, FAILED, CANCELED = "success", "failed", "canceled"
 
-
-class Canceled(Exception):
-    """Raised by work functions that want to stop at once when ``is_canceled()`` turns true."""
 
 
 @dataclass
@@ -78,7 +77,10 @@ class FunctionTask(QgsTask):
         except MemoryError:
             self.result = TaskResult.failed("not enough memory for this computation")
         except Exception as exc:  # never raise out of run(): QGIS would show a traceback dialog
-            self.result = TaskResult.failed(str(exc) or type(exc).__name__, traceback.format_exc())
+            if self.isCanceled():  # work interrupted by the cancel itself
+                self.result = TaskResult.canceled()
+            else:
+                self.result = TaskResult.failed(str(exc) or type(exc).__name__, traceback.format_exc())
         return self.result.ok
 
     def _report_progress(self, percent: float) -> None:

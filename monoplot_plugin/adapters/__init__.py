@@ -1,0 +1,1 @@
+"""QGIS <-> core conversions: layers to core objects (DEM, photo) and core results to layers."""

@@ -1,0 +1,85 @@
+"""Map layers for the fitted camera: its position (point) and its view footprint (polygon), in a "Monoplot" group.
+
+Memory layers are replaced in place on every fit (same names, found by a custom property), so the layer tree does
+not fill up with copies. The outputs issue writes permanent files; these layers are for looking.
+"""
+
+from __future__ import annotations
+
+from typing import Optional
+
+from qgis.core import (QgsCoordinateReferenceSystem, QgsFeature, QgsField, QgsFillSymbol, QgsGeometry,
+                       QgsMarkerSymbol, QgsPointXY, QgsProject, QgsSingleSymbolRenderer, QgsVectorLayer)
+from qgis.PyQt.QtCore import QVariant
+
+from ..core.camera import Camera
+
+__all__ = ["camera_layer", "footprint_layer", "show_camera_layers", "remove_camera_layers", "GROUP_NAME"]
+
+GROUP_NAME = "Monoplot"
+_ROLE = "monoplot/role"
+
+
+def _crs(camera: Camera, fallback: Optional[QgsCoordinateReferenceSystem]) -> QgsCoordinateReferenceSystem:
+    crs = QgsCoordinateReferenceSystem.fromWkt(camera.crs_wkt) if camera.crs_wkt else QgsCoordinateReferenceSystem()
+    return crs if crs.isValid() else (fallback or QgsCoordinateReferenceSystem())
+
+
+def camera_layer(camera: Camera, crs: Optional[QgsCoordinateReferenceSystem] = None,
+                 name: str = "Monoplot camera") -> QgsVectorLayer:
+    """Point memory layer with the camera position and its parameters as attributes."""
+    crs = _crs(camera, crs)
+    layer = QgsVectorLayer(f"Point?crs={crs.authid() or 'EPSG:4326'}", name, "memory")
+    if not crs.authid():
+        layer.setCrs(crs)
+    fields = [QgsField(n, QVariant.Double) for n in ("x", "y", "z", "heading", "pitch", "roll", "fov", "focal_px")]
+    layer.dataProvider().addAttributes(fields)
+    layer.updateFields()
+    f = QgsFeature(layer.fields())
+    x, y, z = camera.position
+    f.setGeometry(QgsGeometry.fromPointXY(QgsPointXY(x, y)))
+    f.setAttributes([x, y, z, camera.heading, camera.pitch, camera.roll, camera.fov, camera.focal_px])
+    layer.dataProvider().addFeatures([f])
+    symbol = QgsMarkerSymbol.createSimple({"name": "star", "color": "255,40,40", "size": "6",
+                                           "outline_color": "white", "outline_width": "0.6"})
+    layer.setRenderer(QgsSingleSymbolRenderer(symbol))
+    layer.setCustomProperty(_ROLE, "camera")
+    return layer
+
+
+def footprint_layer(wkt: str, crs: QgsCoordinateReferenceSystem, name: str = "Monoplot view footprint"
+                    ) -> QgsVectorLayer:
+    """Polygon memory layer holding the visible area (WKT polygon or multipolygon in ``crs``)."""
+    layer = QgsVectorLayer(f"MultiPolygon?crs={crs.authid() or 'EPSG:4326'}", name, "memory")
+    if not crs.authid():
+        layer.setCrs(crs)
+    geom = QgsGeometry.fromWkt(wkt) if wkt else QgsGeometry()
+    if not geom.isNull():
+        f = QgsFeature()
+        f.setGeometry(geom)
+        layer.dataProvider().addFeatures([f])
+    symbol = QgsFillSymbol.createSimple({"color": "255,80,40,50", "outline_color": "255,80,40",
+                                         "outline_width": "0.5"})
+    layer.setRenderer(QgsSingleSymbolRenderer(symbol))
+    layer.setCustomProperty(_ROLE, "footprint")
+    return layer
+
+
+def remove_camera_layers(project: QgsProject) -> None:
+    ids = [lid for lid, lyr in project.mapLayers().items() if lyr.customProperty(_ROLE) in ("camera", "footprint")]
+    if ids:
+        project.removeMapLayers(ids)
+
+
+def show_camera_layers(project: QgsProject, camera: Camera, footprint_wkt: str,
+                       crs: Optional[QgsCoordinateReferenceSystem] = None):
+    """Replace the camera and footprint layers of ``project`` (top of a "Monoplot" group); returns both."""
+    remove_camera_layers(project)
+    cam = camera_layer(camera, crs)
+    foot = footprint_layer(footprint_wkt, cam.crs())
+    root = project.layerTreeRoot()
+    group = root.findGroup(GROUP_NAME) or root.insertGroup(0, GROUP_NAME)
+    for layer in (foot, cam):
+        project.addMapLayer(layer, False)
+        group.insertLayer(0, layer)
+    return cam, foot

@@ -1,0 +1,447 @@
+"""The dock's brain, without widgets: photo, DEM, curated points, rough camera, background suggest/fit tasks.
+
+Widgets (dock, canvases, map tools) call these methods and listen to the signals; tests drive it directly.
+All point edits go through ``self.stack`` (undo/redo); every change is written to the QGIS project and autosaved.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import List, Optional, Sequence, Tuple
+
+import numpy as np
+from qgis.core import Qgis, QgsCoordinateReferenceSystem, QgsProject, QgsRasterLayer
+from qgis.PyQt.QtCore import QObject, QTimer, pyqtSignal
+from qgis.PyQt.QtGui import QImage
+
+from ..adapters.dem import DemError, read_dem_layer
+from ..adapters.photo import PhotoError, array_to_qimage, qimage_to_array, read_photo
+from ..core.camera import Camera
+from ..state import (ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, CommandStack, Point, ProjectState, add_points,
+                     link, move_point, remove_points, replace_suggestions, set_status, unlink)
+from . import engine, persistence
+from .tasks import CANCELED, FunctionTask, TaskResult, start_task
+
+__all__ = ["MonoplotController"]
+
+INFO, WARNING, CRITICAL, SUCCESS = (Qgis.MessageLevel.Info, Qgis.MessageLevel.Warning,
+                                    Qgis.MessageLevel.Critical, Qgis.MessageLevel.Success)
+
+
+class MonoplotController(QObject):
+    """State holder and workflow of one Monoplot session (one QGIS project).
+
+    Signals:
+        pointsChanged(set): ids of changed points (empty set: everything may have changed).
+        photoChanged(): a photo was loaded (``image``) or cleared.
+        demChanged(): ``dem`` changed.
+        cameraChanged(): prior or fitted camera changed (footprints, residuals, overlay follow).
+        selectionChanged(str, str): space, current point id ("" for none).
+        busyChanged(str): description of the running task, "" when idle.
+        progressChanged(float): percent of the running task.
+        message(str, object): text and Qgis.MessageLevel for the message bar.
+        taskFinished(object): the :class:`~monoplot_plugin.gui.tasks.TaskResult` of a suggest or fit task.
+    """
+
+    pointsChanged = pyqtSignal(object)
+    photoChanged = pyqtSignal()
+    demChanged = pyqtSignal()
+    cameraChanged = pyqtSignal()
+    selectionChanged = pyqtSignal(str, str)
+    busyChanged = pyqtSignal(str)
+    progressChanged = pyqtSignal(float)
+    message = pyqtSignal(str, object)
+    taskFinished = pyqtSignal(object)
+
+    #: fewest accepted points on each side before a fit is attempted (7 unknowns)
+    MIN_POINTS = 4
+
+    def __init__(self, project: Optional[QgsProject] = None, parent=None, autosave_delay_ms: int = 1500):
+        super().__init__(parent)
+        self.project = project or QgsProject.instance()
+        self.state = ProjectState()
+        self.stack = CommandStack(self.state)
+        self.stack.add_listener(self._on_points_changed)
+        self.image: Optional[QImage] = None
+        self.dem = None  # core Dem
+        self.dem_layer: Optional[QgsRasterLayer] = None
+        self.dem_crs = QgsCoordinateReferenceSystem()  # a copy: survives the layer's removal
+        self.current = {PHOTO: "", MAP: ""}
+        self.task: Optional[FunctionTask] = None
+        self.task_kind = ""
+        self.overlay: Optional[QImage] = None
+        self.xyz: Optional[np.ndarray] = None  # (H, W, 3) map X, Y, Z of each photo pixel (NaN = sky)
+        self.footprint_wkt = ""  # visible area of the fitted camera (DEM CRS)
+        self._restoring = False
+        self._autosave = QTimer(self)
+        self._autosave.setSingleShot(True)
+        self._autosave.setInterval(autosave_delay_ms)
+        self._autosave.timeout.connect(self.save)
+        self.project.layersWillBeRemoved.connect(self._layers_removed)
+
+    def _layers_removed(self, layer_ids) -> None:
+        """Forget the layer object (not the in-memory DEM) when the user removes the DEM layer."""
+        if self.dem_layer is not None and self.state.dem_layer_id in layer_ids:
+            self.dem_layer = None
+
+    # --- inputs -----------------------------------------------------------------------------------------------
+    def load_photo(self, path: str) -> bool:
+        """Read the photo (EXIF orientation honoured). On failure: message, previous photo kept."""
+        try:
+            image = read_photo(path)
+        except PhotoError as exc:
+            self.message.emit(str(exc), CRITICAL)
+            return False
+        new_photo = path != self.state.photo_path
+        self.image = image
+        self.state.photo_path = path
+        if new_photo and not self._restoring:
+            # photo points of another picture make no sense: start the curation of this one afresh
+            self.stack.reset(self._without_photo_points())
+            self.state.fitted, self.state.fit_info = None, {}
+        self.overlay, self.xyz, self.footprint_wkt = None, None, ""
+        self.photoChanged.emit()
+        self.cameraChanged.emit()
+        self._changed()
+        return True
+
+    def _without_photo_points(self) -> ProjectState:
+        s = ProjectState.from_dict(self.state.to_dict())
+        s.points = {k: p for k, p in s.points.items() if p.space != PHOTO}
+        s.pairs = []
+        return s
+
+    @property
+    def photo_size(self) -> Optional[Tuple[int, int]]:
+        return None if self.image is None else (self.image.width(), self.image.height())
+
+    def set_dem_layer(self, layer: Optional[QgsRasterLayer], void_value: Optional[float] = None) -> bool:
+        """Use ``layer`` as the DEM (its file is read into memory now)."""
+        if layer is None:
+            self.dem, self.dem_layer = None, None
+            self.state.dem_layer_id = ""
+            self.demChanged.emit()
+            return False
+        try:
+            dem, notes = read_dem_layer(layer, void_value)
+        except DemError as exc:
+            self.message.emit(str(exc), CRITICAL)
+            return False
+        self.dem, self.dem_layer = dem, layer
+        self.dem_crs = QgsCoordinateReferenceSystem(layer.crs())
+        self.state.dem_layer_id, self.state.dem_source = layer.id(), layer.source()
+        for note in notes:
+            self.message.emit(self.tr("DEM: {0}").format(note), INFO)
+        self.overlay, self.xyz, self.footprint_wkt = None, None, ""
+        self.demChanged.emit()
+        self._changed()
+        return True
+
+    # --- cameras ----------------------------------------------------------------------------------------------
+    @property
+    def prior(self) -> Optional[Camera]:
+        return Camera.from_dict(self.state.prior) if self.state.prior else None
+
+    @property
+    def fitted(self) -> Optional[Camera]:
+        return Camera.from_dict(self.state.fitted) if self.state.fitted else None
+
+    def camera(self) -> Optional[Camera]:
+        """The best camera known: the fitted one, else the prior."""
+        return self.fitted or self.prior
+
+    def set_prior(self, camera: Optional[Camera]) -> None:
+        self.state.prior = None if camera is None else camera.to_dict()
+        self.cameraChanged.emit()
+        self._changed()
+        if camera is not None and self.dem is not None and not engine.camera_sees_dem(camera, self.dem):
+            self.message.emit(self.tr("The rough camera does not look at the DEM: check position and heading."),
+                              WARNING)
+
+    def prior_from_map(self, x: float, y: float, heading: float, fov: float, pitch: float = 0.0,
+                       height_above_ground: float = 2.0) -> Optional[Camera]:
+        """A rough camera at map point (x, y) of the DEM CRS, looking towards ``heading`` (degrees from north)."""
+        if self.image is None or self.dem is None:
+            self.message.emit(self.tr("Load a photo and choose a DEM first."), WARNING)
+            return None
+        z = float(self.dem.sample(x, y))
+        if not math.isfinite(z):
+            self.message.emit(self.tr("The camera position is outside the DEM: its height is unknown."), WARNING)
+            return None
+        camera = Camera((x, y, z + height_above_ground), heading, pitch, 0.0, fov, self.photo_size,
+                        crs_wkt=self.dem.crs_wkt)
+        self.set_prior(camera)
+        return camera
+
+    def import_kml(self, path: str) -> bool:
+        """Read a KML PhotoOverlay as the prior."""
+        if self.image is None or self.dem is None:
+            self.message.emit(self.tr("Load a photo and choose a DEM before importing a KML camera."), WARNING)
+            return False
+        try:
+            camera = Camera.from_kml(path, self.photo_size, self.dem.crs_wkt)
+        except (OSError, ValueError, RuntimeError) as exc:
+            self.message.emit(self.tr("Cannot read the KML camera: {0}").format(exc), CRITICAL)
+            return False
+        self.set_prior(camera)
+        self.message.emit(self.tr("Rough camera imported from {0}").format(path), INFO)
+        return True
+
+    # --- points -----------------------------------------------------------------------------------------------
+    def point_near(self, space: str, x: float, y: float, tolerance: float) -> Optional[str]:
+        """Id of the point of ``space`` nearest to (x, y) within ``tolerance`` (same units), or None."""
+        best, best_d = None, tolerance
+        for p in self.state.in_space(space):
+            d = math.hypot(p.x - x, p.y - y)
+            if d <= best_d:
+                best, best_d = p.id, d
+        return best
+
+    def select(self, space: str, pid: Optional[str]) -> None:
+        self.current[space] = pid or ""
+        self.selectionChanged.emit(space, pid or "")
+
+    def step(self, space: str, step: int = 1, only_suggested: bool = False) -> Optional[str]:
+        """Select the next/previous point of ``space`` (only the undecided ones if asked); returns its id."""
+        statuses = (SUGGESTED,) if only_suggested else (SUGGESTED, ACCEPTED, REJECTED)
+        pid = self.state.next_point(space, self.current[space] or None, step, statuses)
+        self.select(space, pid)
+        return pid
+
+    def set_status(self, ids: Sequence[str], status: str) -> None:
+        self.stack.push(set_status(self.state, ids, status))
+
+    def accept(self, pid: str) -> None:
+        self.set_status([pid], ACCEPTED)
+
+    def reject(self, pid: str) -> None:
+        self.set_status([pid], REJECTED)
+
+    def accept_all_in(self, space: str, rect: Tuple[float, float, float, float]) -> int:
+        """Accept every *suggested* point of ``space`` within (xmin, ymin, xmax, ymax); returns how many."""
+        x0, y0, x1, y1 = rect
+        ids = [p.id for p in self.state.in_space(space, (SUGGESTED,)) if x0 <= p.x <= x1 and y0 <= p.y <= y1]
+        self.stack.push(set_status(self.state, ids, ACCEPTED, self.tr("Accept {0} points in view").format(len(ids))))
+        return len(ids)
+
+    def reset_statuses(self, space: Optional[str] = None) -> None:
+        """Every detector suggestion (of one space, or both) back to "suggested"."""
+        ids = [p.id for p in self.state.points.values()
+               if not p.manual and (space is None or p.space == space) and p.status != SUGGESTED]
+        self.stack.push(set_status(self.state, ids, SUGGESTED, self.tr("Reset decisions")))
+
+    def add_manual(self, space: str, x: float, y: float) -> str:
+        z = None
+        if space == MAP and self.dem is not None:
+            zz = float(self.dem.sample(x, y))
+            z = zz if math.isfinite(zz) else None
+        p = Point.new(space, x, y, z, status=ACCEPTED, manual=True)
+        self.stack.push(add_points(self.state, [p], self.tr("Add point")))
+        self.select(space, p.id)
+        return p.id
+
+    def move(self, pid: str, x: float, y: float) -> None:
+        p = self.state.points[pid]
+        z = None
+        if p.space == MAP and self.dem is not None:
+            zz = float(self.dem.sample(x, y))
+            z = zz if math.isfinite(zz) else None
+        self.stack.push(move_point(self.state, pid, x, y, z))
+
+    def delete(self, ids: Sequence[str]) -> None:
+        self.stack.push(remove_points(self.state, ids))
+        for space in (PHOTO, MAP):
+            if self.current[space] in ids:
+                self.select(space, None)
+
+    def link(self, photo_id: str, map_id: str) -> None:
+        self.stack.push(link(self.state, photo_id, map_id))
+
+    def unlink(self, pid: str) -> None:
+        self.stack.push(unlink(self.state, pid))
+
+    def _on_points_changed(self, changed: set) -> None:
+        self.pointsChanged.emit(changed)
+        self._changed()
+
+    # --- background work --------------------------------------------------------------------------------------
+    @property
+    def busy(self) -> bool:
+        return self.task is not None
+
+    def _start(self, kind: str, description: str, work, on_success) -> bool:
+        if self.task is not None:
+            self.message.emit(self.tr("Monoplot is busy ({0}); wait or cancel it.").format(self.task_kind), WARNING)
+            return False
+
+        def done(result: TaskResult) -> None:
+            self.task = None
+            if result.ok:
+                on_success(result.value)
+            elif result.status == CANCELED:
+                self.message.emit(self.tr("{0} canceled.").format(description), INFO)
+            else:
+                self.message.emit(self.tr("{0} failed: {1}").format(description, result.reason), CRITICAL)
+            self.busyChanged.emit("")
+            self.taskFinished.emit(result)
+            self.task_kind = ""
+
+        self.task = FunctionTask(description, work, done)
+        self.task_kind = kind
+        self.task.progressChanged.connect(self.progressChanged.emit)
+        self.busyChanged.emit(description)
+        start_task(self.task)
+        return True
+
+    def cancel(self) -> None:
+        if self.task is not None:
+            self.task.cancel()
+
+    def suggest(self, n_photo: int = 150, n_dem: int = 150) -> bool:
+        """Detect key points on the photo and on the DEM in a task; untouched old suggestions are replaced."""
+        if self.image is None or self.dem is None:
+            self.message.emit(self.tr("Load a photo and choose a DEM first."), WARNING)
+            return False
+        photo = qimage_to_array(self.image)  # copies: the task must not share Qt objects
+        dem, camera = self.dem, self.camera()
+
+        def work(progress, is_canceled):
+            return engine.suggest(photo, dem, camera, n_photo, n_dem, progress, is_canceled)
+
+        def apply(value):
+            photo_pts, map_pts = value
+            self.stack.push(replace_suggestions(self.state, PHOTO, photo_pts, self.tr("Suggest photo points")))
+            self.stack.push(replace_suggestions(self.state, MAP, map_pts, self.tr("Suggest DEM points")))
+            self.message.emit(self.tr("{0} photo and {1} DEM suggestions: accept (A / left click) or reject "
+                                      "(R / right click) them.").format(len(photo_pts), len(map_pts)), INFO)
+
+        return self._start("suggest", self.tr("Suggest points"), work, apply)
+
+    def fit_inputs(self):
+        """(photo uv (N, 2), map xyz (M, 3), pairs [(i, j)]) of the accepted points, or a reason string."""
+        photo = self.state.in_space(PHOTO, (ACCEPTED,))
+        world = [p for p in self.state.in_space(MAP, (ACCEPTED,))]
+        if self.dem is not None:
+            world = [p if p.z is not None else Point(**{**p.__dict__, "z": float(self.dem.sample(p.x, p.y))})
+                     for p in world]
+        world = [p for p in world if p.z is not None and math.isfinite(p.z)]
+        if len(photo) < self.MIN_POINTS or len(world) < self.MIN_POINTS:
+            return self.tr("The fit needs at least {0} accepted points on the photo and on the map "
+                           "(now {1} and {2}).").format(self.MIN_POINTS, len(photo), len(world))
+        index_photo = {p.id: i for i, p in enumerate(photo)}
+        index_world = {p.id: i for i, p in enumerate(world)}
+        pairs = [(index_photo[a.id], index_world[b.id]) for a, b in self.state.valid_pairs()
+                 if a.id in index_photo and b.id in index_world]
+        uv = np.array([(p.x, p.y) for p in photo], dtype=np.float64)
+        xyz = np.array([(p.x, p.y, p.z) for p in world], dtype=np.float64)
+        return uv, xyz, pairs
+
+    def fit(self) -> bool:
+        """Fit the camera to the accepted points in a task (prior = start); result applied on the main thread."""
+        if self.image is None or self.dem is None:
+            self.message.emit(self.tr("Load a photo and choose a DEM first."), WARNING)
+            return False
+        start = self.prior or self.fitted
+        if start is None:
+            self.message.emit(self.tr("Give a rough camera first (map tool or KML)."), WARNING)
+            return False
+        inputs = self.fit_inputs()
+        if isinstance(inputs, str):
+            self.message.emit(inputs, WARNING)
+            return False
+        uv, xyz, pairs = inputs
+        dem = self.dem
+
+        def work(progress, is_canceled):
+            return engine.fit_and_render(uv, xyz, pairs, start, dem, progress, is_canceled)
+
+        return self._start("fit", self.tr("Fit camera"), work, self._apply_fit)
+
+    def _apply_fit(self, outcome: "engine.FitOutcome") -> None:
+        self.state.fitted = outcome.camera.to_dict()
+        self.state.fit_info = outcome.info
+        self.overlay = None if outcome.overlay is None else array_to_qimage(outcome.overlay)
+        self.xyz = outcome.xyz
+        self.footprint_wkt = outcome.footprint_wkt
+        self.cameraChanged.emit()
+        self._changed()
+        rmse = outcome.info.get("rmse_px")
+        level = SUCCESS if outcome.info.get("converged", True) else WARNING
+        text = self.tr("Camera fitted: RMSE {0:.1f} px on {1} photo points.").format(
+            rmse if rmse is not None else float("nan"), outcome.info.get("n_photo", 0))
+        if level == WARNING:
+            text += " " + self.tr("The fit did not converge: check the points and the rough camera.")
+        self.message.emit(text, level)
+
+    def ensure_products(self) -> None:
+        """Recompute overlay and per-pixel XYZ of the fitted camera (after a project was reopened), main thread."""
+        cam = self.fitted
+        if cam is None or self.dem is None or self.image is None:
+            return
+        overlay, xyz, footprint = engine.render_products(cam, self.dem)
+        self.overlay = None if overlay is None else array_to_qimage(overlay)
+        self.xyz, self.footprint_wkt = xyz, footprint
+        self.cameraChanged.emit()
+
+    # --- results ----------------------------------------------------------------------------------------------
+    def residual_segments(self) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:
+        """For each accepted photo point: (its pixel, the nearest projected accepted DEM point) under the fit."""
+        cam = self.fitted
+        inputs = self.fit_inputs()
+        if cam is None or isinstance(inputs, str):
+            return []
+        uv, xyz, pairs = inputs
+        return engine.residual_segments(cam, uv, xyz, pairs)
+
+    def ground_at_pixel(self, u: float, v: float) -> Optional[Tuple[float, float, float]]:
+        """Map (X, Y, Z) seen at photo pixel (u, v), or None (sky, outside, no fit)."""
+        if self.xyz is None:
+            return None
+        return engine.lookup_xyz(self.xyz, self.photo_size, u, v)
+
+    def pixel_of_ground(self, x: float, y: float) -> Tuple[Optional[Tuple[float, float]], str]:
+        """(pixel, "visible" | "hidden" | "outside" | "") of map point (x, y) under the fitted camera."""
+        cam = self.fitted
+        if cam is None or self.dem is None:
+            return None, ""
+        return engine.locate_in_photo(cam, self.dem, self.xyz, x, y)
+
+    # --- persistence ------------------------------------------------------------------------------------------
+    def _changed(self) -> None:
+        """Every change goes into the project at once (saved with it); the autosave file follows, debounced."""
+        if not self._restoring:
+            persistence.store_in_project(self.project, self.state)
+            self._autosave.start()
+
+    def save(self) -> None:
+        """Write the state into the project and the autosave file now."""
+        self._autosave.stop()
+        persistence.save(self.project, self.state)
+
+    def restore(self) -> bool:
+        """Load the state stored in the project (after projectRead); falls back to a newer autosave."""
+        self._autosave.stop()  # a pending autosave of the previous project must not overwrite this one
+        state = persistence.load(self.project)
+        self._restoring = True
+        try:
+            self.stack.reset(state or ProjectState())
+            self.current = {PHOTO: "", MAP: ""}
+            self.image, self.dem, self.dem_layer, self.overlay, self.xyz = None, None, None, None, None
+            self.footprint_wkt = ""
+            self.dem_crs = QgsCoordinateReferenceSystem()
+            if state is None:
+                self.photoChanged.emit()
+                self.demChanged.emit()
+                self.cameraChanged.emit()
+                return False
+            if state.photo_path:
+                self.load_photo(state.photo_path)
+            layer = self.project.mapLayer(state.dem_layer_id) if state.dem_layer_id else None
+            if isinstance(layer, QgsRasterLayer):
+                self.set_dem_layer(layer)
+            self.ensure_products()
+            self.cameraChanged.emit()
+            self.pointsChanged.emit(set())
+            return True
+        finally:
+            self._restoring = False

@@ -1,0 +1,301 @@
+"""Glue between the GUI workflow and the pure core: functions that run inside tasks or on plain arrays.
+
+No Qt and no qgis here, so tasks can call them in a worker thread. Shapes: ``uv`` (N, 2) pixels, ``xyz`` (M, 3) map
+metres, per-pixel ``xyz`` rasters (H, W, 3) with NaN for sky.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Callable, List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ..core.camera import Camera
+from ..state import MAP, PHOTO, Point
+
+__all__ = ["FitOutcome", "suggest", "fit_and_render", "render_products", "residual_segments", "lookup_xyz",
+           "locate_in_photo", "camera_sees_dem", "view_wedge", "mask_to_wkt", "colorize_relief", "XYZ_MAX_PIXELS"]
+
+#: per-pixel XYZ for linked cursors is computed on at most this many pixels (a scaled copy of the camera)
+XYZ_MAX_PIXELS = 1_500_000
+
+
+class Canceled(Exception):
+    pass
+
+
+def _check(is_canceled: Callable[[], bool]) -> None:
+    if is_canceled():
+        raise Canceled()
+
+
+# --- suggestions ----------------------------------------------------------------------------------------------
+
+def suggest(photo_rgb: np.ndarray, dem, camera: Optional[Camera], n_photo: int, n_dem: int,
+            progress: Callable[[float], None], is_canceled: Callable[[], bool]) -> Tuple[List[Point], List[Point]]:
+    """Key points on the photo (pixels) and on the DEM (map X, Y, Z) as "suggested" :class:`Point` objects."""
+    from ..core import suggest as core_suggest
+
+    progress(5)
+    photo = core_suggest.suggest_photo_points(photo_rgb, max_points=n_photo)
+    _check(is_canceled)
+    progress(50)
+    dem_pts = core_suggest.suggest_dem_points(dem, camera=camera, max_points=n_dem)
+    _check(is_canceled)
+    progress(95)
+    photo_points = [Point.new(PHOTO, u, v, score=s) for u, v, s in _rows(photo, 2)]
+    map_points = [Point.new(MAP, x, y, z, score=s) for x, y, z, s in _rows(dem_pts, 3)]
+    return photo_points, map_points
+
+
+def _rows(result, ncoords: int):
+    """Normalise a suggestion result to (coords..., score) tuples: accepts an (N, k) array or an object with
+    ``.uv``/``.xyz`` and ``.score`` arrays."""
+    coords = getattr(result, "uv" if ncoords == 2 else "xyz", None)
+    if coords is None:
+        coords = getattr(result, "points", result)
+    coords = np.asarray(coords, dtype=np.float64).reshape(-1, np.asarray(coords).shape[-1] if np.ndim(coords) else 0)
+    scores = getattr(result, "score", getattr(result, "scores", None))
+    if scores is None:
+        scores = coords[:, ncoords] if coords.shape[1] > ncoords else np.zeros(len(coords))
+    return [tuple(c[:ncoords]) + (float(s),) for c, s in zip(coords, np.asarray(scores, dtype=np.float64))]
+
+
+# --- fit --------------------------------------------------------------------------------------------------------
+
+@dataclass
+class FitOutcome:
+    """What a fit task hands back: the camera, a summary, the overlay image and the per-pixel XYZ raster."""
+
+    camera: Camera
+    info: dict
+    overlay: Optional[np.ndarray] = None
+    xyz: Optional[np.ndarray] = None
+    footprint_wkt: str = ""
+
+
+def ground_clearance(camera: Camera, dem) -> float:
+    """Height of the camera above the terrain under it (metres; NaN outside the DEM)."""
+    return float(camera.position[2]) - float(dem.sample(camera.position[0], camera.position[1]))
+
+
+#: a start camera at most this high above the terrain is taken as standing on it (z follows the terrain)
+ON_GROUND_MAX_M = 20.0
+
+
+def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, int]], start: Camera, dem,
+                   progress: Callable[[float], None], is_canceled: Callable[[], bool]) -> FitOutcome:
+    """Fit the camera (0-85 %), then render the overlay and per-pixel XYZ (85-100 %).
+
+    A start camera within :data:`ON_GROUND_MAX_M` of the terrain is fitted "on the ground" (its height follows
+    the DEM, one unknown less); a higher one (summit, aircraft, balloon) keeps its height free.
+
+    Raises:
+        ValueError: the fit refused the input (too few points...), with the fit's own explanation.
+        Canceled: the user canceled.
+    """
+    from ..core.fit import fit_camera
+
+    clearance = ground_clearance(start, dem)
+    on_ground = math.isfinite(clearance) and clearance < ON_GROUND_MAX_M
+    result = fit_camera(uv, xyz, start, pairs=np.asarray(pairs, dtype=np.int64).reshape(-1, 2) if pairs else None,
+                        ground=dem if on_ground else None, eye_height=max(clearance, 0.0) if on_ground else 1.7,
+                        progress=lambda f, *_: progress(85.0 * _fraction(f)), is_canceled=is_canceled)
+    if result.status == "canceled" or is_canceled():
+        raise Canceled()
+    if result.status == "refused":
+        raise ValueError(result.message)
+    camera = result.camera
+    info = {
+        "status": result.status,
+        "rmse_px": _float(result.rmse_px),
+        "loo_rmse_px": _float(result.loo_rmse_px),
+        "sigma": {k: float(v) for k, v in (result.std or {}).items()},
+        "converged": result.status == "ok",
+        "message": str(result.message),
+        "mode": result.mode,
+        "on_ground": on_ground,
+        "n_photo": int(len(uv)),
+        "n_map": int(len(xyz)),
+        "n_pairs": int(len(pairs)),
+        "n_matched": int(len(result.pairs)),
+        "elapsed_s": float(result.elapsed_s),
+    }
+    progress(88)
+    overlay, pixel_xyz, footprint = render_products(camera, dem, is_canceled)
+    progress(100)
+    return FitOutcome(camera, info, overlay, pixel_xyz, footprint)
+
+
+def _fraction(f: float) -> float:
+    """Progress callbacks may report 0-1 or 0-100."""
+    f = float(f)
+    return f / 100.0 if f > 1.0 else f
+
+
+def _float(v) -> Optional[float]:
+    return None if v is None or not math.isfinite(float(v)) else float(v)
+
+
+def _scaled(camera: Camera, max_pixels: int) -> Tuple[Camera, float]:
+    w, h = camera.image_size
+    s = min(1.0, math.sqrt(max_pixels / float(w * h)))
+    if s >= 1.0:
+        return camera, 1.0
+    size = (max(1, round(w * s)), max(1, round(h * s)))
+    pp = None if camera.principal_point is None else (camera.cx * s, camera.cy * s)
+    return replace(camera, image_size=size, principal_point=pp), s
+
+
+def render_products(camera: Camera, dem, is_canceled: Callable[[], bool] = lambda: False
+                    ) -> Tuple[np.ndarray, np.ndarray, str]:
+    """What the GUI shows for a fitted camera, at up to :data:`XYZ_MAX_PIXELS` pixels:
+
+    (overlay RGBA (h, w, 4) uint8, per-pixel XYZ (h, w, 3) NaN = sky, visible-area WKT in the DEM CRS).
+    """
+    from ..core.render import render_dem
+    from ..core.xyz import compute_xyz_full
+
+    small, _ = _scaled(camera, XYZ_MAX_PIXELS)
+    res = compute_xyz_full(small, dem, visibility=True)
+    _check(is_canceled)
+    rendered = render_dem(small, dem, result=res)
+    overlay = colorize_relief(np.asarray(rendered.shade), res.xyz)
+    _check(is_canceled)
+    return overlay, res.xyz, mask_to_wkt(res.visible, dem)
+
+
+def colorize_relief(shade: np.ndarray, xyz: np.ndarray, contour_m: float = 100.0) -> np.ndarray:
+    """RGBA (h, w, 4) uint8 overlay: shaded relief (``shade`` 0..1, NaN = sky) in cool greys with orange contour
+    lines every ``contour_m`` metres of the heights in ``xyz``; the sky is transparent."""
+    hit = np.isfinite(shade)
+    s = np.nan_to_num(shade, nan=0.0).clip(0.0, 1.0)
+    base = 40.0 + 200.0 * s
+    rgba = np.zeros(shade.shape + (4,), np.uint8)
+    rgba[..., 0] = (base * 0.80).astype(np.uint8)
+    rgba[..., 1] = (base * 0.92).astype(np.uint8)
+    rgba[..., 2] = base.astype(np.uint8)
+    rgba[..., 3] = np.where(hit, 255, 0).astype(np.uint8)
+    z = xyz[..., 2]
+    band = np.floor(np.where(np.isfinite(z), z, 0.0) / contour_m)
+    edge = np.zeros(shade.shape, bool)
+    edge[:, 1:] |= band[:, 1:] != band[:, :-1]
+    edge[1:, :] |= band[1:, :] != band[:-1, :]
+    rgba[edge & hit] = (255, 140, 0, 255)
+    return rgba
+
+
+def mask_to_wkt(mask: np.ndarray, dem) -> str:
+    """WKT MultiPolygon of the True cells of a (rows, cols) mask over ``dem`` (polygonised with GDAL, small gaps
+    closed first); "" when the mask is empty."""
+    from osgeo import gdal, ogr, osr
+    from scipy import ndimage
+
+    if mask is None or not mask.any():
+        return ""
+    closed = ndimage.binary_closing(mask, iterations=2)
+    closed = ndimage.binary_opening(closed, iterations=1) | mask  # drop speckle, keep every seen cell
+    rows, cols = closed.shape
+    ds = gdal.GetDriverByName("MEM").Create("", cols, rows, 1, gdal.GDT_Byte)
+    ds.SetGeoTransform(tuple(dem.geotransform))
+    ds.GetRasterBand(1).WriteArray(closed.astype(np.uint8))
+    srs = osr.SpatialReference()
+    if dem.crs_wkt:
+        srs.ImportFromWkt(dem.crs_wkt)
+    vec = ogr.GetDriverByName("Memory").CreateDataSource("")
+    layer = vec.CreateLayer("visible", srs)
+    layer.CreateField(ogr.FieldDefn("v", ogr.OFTInteger))
+    gdal.Polygonize(ds.GetRasterBand(1), ds.GetRasterBand(1), layer, 0)
+    union = ogr.Geometry(ogr.wkbMultiPolygon)
+    for feat in layer:
+        geom = feat.GetGeometryRef()
+        if geom is not None and feat.GetField("v") == 1:
+            union.AddGeometry(geom.Clone())
+    return union.ExportToWkt() if union.GetGeometryCount() else ""
+
+
+# --- results ----------------------------------------------------------------------------------------------------
+
+def residual_segments(camera: Camera, uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, int]]
+                      ) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:
+    """Each photo point -> its partner's projection (pairs) or the nearest projected map point (the fit's loss)."""
+    if len(uv) == 0 or len(xyz) == 0:
+        return []
+    proj = camera.project(xyz)
+    ok = np.isfinite(proj).all(axis=1)
+    partner = dict(pairs)
+    out = []
+    for i, p in enumerate(uv):
+        j = partner.get(i)
+        if j is None or not ok[j]:
+            if not ok.any():
+                continue
+            d = np.where(ok, np.hypot(proj[:, 0] - p[0], proj[:, 1] - p[1]), np.inf)
+            j = int(np.argmin(d))
+        out.append(((float(p[0]), float(p[1])), (float(proj[j, 0]), float(proj[j, 1]))))
+    return out
+
+
+def lookup_xyz(xyz: np.ndarray, photo_size: Tuple[int, int], u: float, v: float
+               ) -> Optional[Tuple[float, float, float]]:
+    """Ground (X, Y, Z) at photo pixel (u, v) from a (possibly downscaled) per-pixel XYZ raster; None for sky."""
+    h, w = xyz.shape[:2]
+    sx, sy = w / float(photo_size[0]), h / float(photo_size[1])
+    col, row = int(math.floor(u * sx)), int(math.floor(v * sy))
+    if not (0 <= col < w and 0 <= row < h):
+        return None
+    p = xyz[row, col]
+    return None if not np.isfinite(p).all() else (float(p[0]), float(p[1]), float(p[2]))
+
+
+def locate_in_photo(camera: Camera, dem, xyz: Optional[np.ndarray], x: float, y: float
+                    ) -> Tuple[Optional[Tuple[float, float]], str]:
+    """Where map point (x, y) appears: (pixel, "visible"), (pixel, "hidden") behind terrain, (None, "outside")."""
+    z = float(dem.sample(x, y))
+    if not math.isfinite(z):
+        return None, "outside"
+    uv, depth = camera.project_with_depth([[x, y, z]])
+    if not (depth[0] > 0 and camera.in_image(uv)[0]):
+        return None, "outside"
+    u, v = float(uv[0, 0]), float(uv[0, 1])
+    if xyz is None:
+        return (u, v), "visible"
+    seen = lookup_xyz(xyz, camera.image_size, u, v)
+    cam = np.asarray(camera.position)
+    dist = float(np.linalg.norm(np.array([x, y, z]) - cam))
+    if seen is None:
+        return (u, v), "visible"  # sky in the raster: the point is on the skyline
+    seen_dist = float(np.linalg.norm(np.asarray(seen) - cam))
+    tolerance = max(30.0, 0.02 * dist)  # DEM cells and the raster's pixel footprint
+    return (u, v), ("hidden" if seen_dist < dist - tolerance else "visible")
+
+
+def camera_sees_dem(camera: Camera, dem, samples: int = 40) -> bool:
+    """True when some DEM cells project into the photo in front of the camera (coarse grid of samples)."""
+    rows, cols = dem.elevation.shape
+    r = np.linspace(0, rows - 1, min(samples, rows)).astype(int)
+    c = np.linspace(0, cols - 1, min(samples, cols)).astype(int)
+    rr, cc = np.meshgrid(r, c, indexing="ij")
+    z = dem.elevation[rr, cc].ravel()
+    x, y = dem.cell_to_map(cc.ravel() + 0.5, rr.ravel() + 0.5)
+    pts = np.column_stack([np.asarray(x, float), np.asarray(y, float), z])[np.isfinite(z)]
+    return bool(camera.in_image(camera.project(pts)).any()) if len(pts) else False
+
+
+def view_wedge(camera: Camera, distance: float, steps: int = 24) -> List[Tuple[float, float]]:
+    """Closed polygon (x, y) of the horizontal field of view out to ``distance`` metres (the prior's footprint).
+
+    >>> w = view_wedge(Camera((0, 0, 0), 0, 0, 0, 90, (100, 100)), 10, steps=2)
+    >>> [(round(x, 3), round(y, 3)) for x, y in w]
+    [(0.0, 0.0), (-7.071, 7.071), (0.0, 10.0), (7.071, 7.071), (0.0, 0.0)]
+    """
+    x0, y0 = camera.position[:2]
+    half = camera.fov / 2.0
+    pts = [(x0, y0)]
+    for i in range(steps + 1):
+        a = math.radians(camera.heading - half + camera.fov * i / steps)
+        pts.append((x0 + distance * math.sin(a), y0 + distance * math.cos(a)))
+    pts.append((x0, y0))
+    return pts

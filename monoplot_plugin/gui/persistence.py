@@ -1,0 +1,82 @@
+"""Monoplot state in the QGIS project file, plus an autosave file so that a crash loses no curation work.
+
+* Project: ``QgsProject.writeEntry("monoplot", "/state", json)``; saved with the .qgz when the user saves.
+* Autosave: ``<project>.monoplot-autosave.json`` next to a saved project, else
+  ``<profile>/monoplot/autosave-unsaved-project.json``. On reopening, the autosave wins when it is newer than the
+  project file (the user curated points, then QGIS crashed before saving).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from typing import Optional
+
+from qgis.core import QgsApplication, QgsMessageLog, QgsProject, Qgis
+
+from ..state import ProjectState
+
+__all__ = ["SCOPE", "KEY", "store_in_project", "save", "load", "autosave_path", "read_autosave"]
+
+SCOPE, KEY = "monoplot", "/state"
+
+
+def autosave_path(project: QgsProject) -> str:
+    """Where the autosave of ``project`` goes (the folder exists)."""
+    name = project.fileName()
+    if name:
+        base, _ = os.path.splitext(name)
+        return base + ".monoplot-autosave.json"
+    folder = os.path.join(QgsApplication.qgisSettingsDirPath(), "monoplot")
+    os.makedirs(folder, exist_ok=True)
+    return os.path.join(folder, "autosave-unsaved-project.json")
+
+
+def store_in_project(project: QgsProject, state: ProjectState) -> str:
+    """Store ``state`` in the project's properties (marks the project modified); returns the JSON text."""
+    text = state.to_json()
+    text_before, _ = project.readEntry(SCOPE, KEY, "")
+    if text != text_before:
+        project.writeEntry(SCOPE, KEY, text)
+    return text
+
+
+def save(project: QgsProject, state: ProjectState) -> None:
+    """Store ``state`` in the project and in the autosave file (atomic replace)."""
+    text = store_in_project(project, state)
+    path = autosave_path(project)
+    try:
+        tmp = path + ".tmp"
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    except OSError as exc:  # read-only folder: the project entry still holds the state
+        QgsMessageLog.logMessage(f"Monoplot autosave failed: {exc}", "Monoplot", Qgis.MessageLevel.Warning)
+
+
+def read_autosave(path: str) -> Optional[ProjectState]:
+    try:
+        with open(path, encoding="utf-8") as fh:
+            return ProjectState.from_json(fh.read())
+    except (OSError, ValueError, TypeError, KeyError):
+        return None
+
+
+def load(project: QgsProject) -> Optional[ProjectState]:
+    """The state stored in ``project``, or a newer autosave of it, or None."""
+    text, found = project.readEntry(SCOPE, KEY, "")
+    state = None
+    if found and text:
+        try:
+            state = ProjectState.from_json(text)
+        except (ValueError, TypeError, KeyError, json.JSONDecodeError) as exc:
+            QgsMessageLog.logMessage(f"Monoplot state in the project is unreadable: {exc}", "Monoplot",
+                                     Qgis.MessageLevel.Warning)
+    name = project.fileName()
+    if name:
+        path = autosave_path(project)
+        if os.path.exists(path) and os.path.exists(name) and os.path.getmtime(path) > os.path.getmtime(name) + 1:
+            newer = read_autosave(path)
+            if newer is not None:
+                state = newer
+    return state

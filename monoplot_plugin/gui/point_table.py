@@ -1,0 +1,96 @@
+"""Table of curated points (view, status, coordinates, residual, pair) for a sortable QTableView."""
+
+from __future__ import annotations
+
+from typing import Dict, List, Optional
+
+from qgis.PyQt.QtCore import QAbstractTableModel, QModelIndex, QSortFilterProxyModel, Qt
+from qgis.PyQt.QtGui import QBrush, QColor
+
+from ..state import ACCEPTED, PHOTO, REJECTED, ProjectState
+
+__all__ = ["PointTableModel", "make_proxy", "ID_ROLE"]
+
+ID_ROLE = Qt.ItemDataRole.UserRole + 1
+_COLUMNS = ("View", "Status", "X / u", "Y / v", "Z (m)", "Residual (px)", "Pair", "Source")
+_STATUS_COLORS = {ACCEPTED: QColor(0, 150, 60), REJECTED: QColor(200, 40, 40)}
+
+
+class PointTableModel(QAbstractTableModel):
+    """One row per point of a :class:`ProjectState`; call :meth:`refresh` after the state changed."""
+
+    def __init__(self, state: ProjectState, parent=None):
+        super().__init__(parent)
+        self.state = state
+        self._ids: List[str] = []
+        self.residuals: Dict[str, float] = {}
+
+    def refresh(self, residuals: Optional[Dict[str, float]] = None) -> None:
+        self.beginResetModel()
+        self._ids = list(self.state.points)
+        if residuals is not None:
+            self.residuals = dict(residuals)
+        self.endResetModel()
+
+    def point_id(self, row: int) -> str:
+        return self._ids[row]
+
+    def row_of(self, pid: str) -> int:
+        return self._ids.index(pid) if pid in self._ids else -1
+
+    def rowCount(self, parent=QModelIndex()) -> int:  # noqa: N802 (Qt API)
+        return 0 if parent.isValid() else len(self._ids)
+
+    def columnCount(self, parent=QModelIndex()) -> int:  # noqa: N802
+        return 0 if parent.isValid() else len(_COLUMNS)
+
+    def headerData(self, section, orientation, role=Qt.ItemDataRole.DisplayRole):  # noqa: N802
+        if role == Qt.ItemDataRole.DisplayRole and orientation == Qt.Orientation.Horizontal:
+            return self.tr(_COLUMNS[section])
+        return None
+
+    def data(self, index: QModelIndex, role=Qt.ItemDataRole.DisplayRole):
+        if not index.isValid():
+            return None
+        pid = self._ids[index.row()]
+        p = self.state.points.get(pid)
+        if p is None:
+            return None
+        col = index.column()
+        if role == ID_ROLE:
+            return pid
+        if role == Qt.ItemDataRole.ForegroundRole and col == 1 and p.status in _STATUS_COLORS:
+            return QBrush(_STATUS_COLORS[p.status])
+        if role == Qt.ItemDataRole.TextAlignmentRole and col in (2, 3, 4, 5):
+            return int(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
+        if role not in (Qt.ItemDataRole.DisplayRole, Qt.ItemDataRole.EditRole):
+            return None
+        sort = role == Qt.ItemDataRole.EditRole  # numbers for sorting, text for display
+        digits = 1 if p.space == PHOTO else 0
+        if col == 0:
+            return self.tr("photo") if p.space == PHOTO else self.tr("map")
+        if col == 1:
+            return self.tr(p.status)
+        if col == 2:
+            return p.x if sort else f"{p.x:.{digits}f}"
+        if col == 3:
+            return p.y if sort else f"{p.y:.{digits}f}"
+        if col == 4:
+            return (p.z if p.z is not None else -1e9) if sort else ("" if p.z is None else f"{p.z:.0f}")
+        if col == 5:
+            r = self.residuals.get(pid)
+            return (r if r is not None else -1.0) if sort else ("" if r is None else f"{r:.1f}")
+        if col == 6:
+            partner = self.state.partner(pid)
+            return "" if partner is None else partner
+        if col == 7:
+            return self.tr("manual") if p.manual else self.tr("detector")
+        return None
+
+
+def make_proxy(model: PointTableModel, parent=None) -> QSortFilterProxyModel:
+    """Sorting proxy that compares numbers as numbers (EditRole)."""
+    proxy = QSortFilterProxyModel(parent)
+    proxy.setSourceModel(model)
+    proxy.setSortRole(Qt.ItemDataRole.EditRole)
+    return proxy

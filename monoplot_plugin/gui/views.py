@@ -1,0 +1,155 @@
+"""Presenters: draw the controller's state on the photo canvas and on the main map canvas (no logic of their own).
+
+PhotoPresenter: photo, overlay, point markers, residual vectors, the "map cursor" marker.
+MapPresenter: DEM point markers, prior wedge, fitted footprint, the "photo cursor" marker.
+"""
+
+from __future__ import annotations
+
+from typing import Optional, Tuple
+
+from qgis.core import QgsCoordinateReferenceSystem, QgsGeometry, QgsPointXY
+from qgis.gui import QgsMapCanvas, QgsVertexMarker
+from qgis.PyQt.QtGui import QColor
+
+from ..state import MAP, PHOTO
+from . import engine
+from .markers import LineBand, PointMarkers, PolygonBand
+from .photo_canvas import PhotoCanvas, uv_to_map
+
+__all__ = ["PhotoPresenter", "MapPresenter"]
+
+
+def _cursor_marker(canvas: QgsMapCanvas, color: QColor) -> QgsVertexMarker:
+    m = QgsVertexMarker(canvas)
+    m.setIconType(QgsVertexMarker.IconType.ICON_CROSS)
+    m.setIconSize(26)
+    m.setPenWidth(3)
+    m.setColor(color)
+    m.setZValue(50)
+    m.hide()
+    return m
+
+
+class PhotoPresenter:
+    def __init__(self, controller, canvas: PhotoCanvas):
+        self.c = controller
+        self.canvas = canvas
+        self.markers = PointMarkers(canvas, to_canvas=uv_to_map)
+        self.residuals = LineBand(canvas, QColor(255, 0, 200), width=2, z=30)
+        self.cursor = _cursor_marker(canvas, QColor(0, 230, 255))
+        self.show_residuals = True
+
+    def redraw_photo(self) -> None:
+        self.canvas.set_photo(self.c.image)
+
+    def redraw_points(self) -> None:
+        self.markers.set_points((p.x, p.y, p.status, p.manual) for p in self.c.state.in_space(PHOTO))
+        self.redraw_selection()
+        self.redraw_residuals()
+
+    def redraw_selection(self) -> None:
+        p = self.c.state.points.get(self.c.current[PHOTO])
+        self.markers.set_highlight(None if p is None else (p.x, p.y))
+
+    def redraw_residuals(self) -> None:
+        segs = self.c.residual_segments() if self.show_residuals else []
+        self.residuals.set_segments([(uv_to_map(*a), uv_to_map(*b)) for a, b in segs])
+
+    def redraw_camera(self) -> None:
+        self.canvas.set_overlay(self.c.overlay)
+        self.redraw_residuals()
+
+    def show_cursor(self, uv: Optional[Tuple[float, float]], hidden: bool = False) -> None:
+        if uv is None:
+            self.cursor.hide()
+            return
+        self.cursor.setColor(QColor(150, 150, 150) if hidden else QColor(0, 230, 255))
+        self.cursor.setIconType(QgsVertexMarker.IconType.ICON_X if hidden else QgsVertexMarker.IconType.ICON_CROSS)
+        self.cursor.setCenter(uv_to_map(*uv))
+        self.cursor.show()
+
+    def remove(self) -> None:
+        self.markers.remove()
+        self.residuals.remove()
+        self.canvas.scene().removeItem(self.cursor)
+
+
+class MapPresenter:
+    def __init__(self, controller, canvas: QgsMapCanvas):
+        self.c = controller
+        self.canvas = canvas
+        self.markers = PointMarkers(canvas, crs=QgsCoordinateReferenceSystem())
+        self.prior_band = PolygonBand(canvas, QColor(255, 170, 0), QColor(255, 170, 0, 40), width=2, z=8,
+                                      dashed=True)
+        self.fitted_band = PolygonBand(canvas, QColor(255, 60, 30), QColor(255, 60, 30, 45), width=2, z=9)
+        self.camera_marker = _cursor_marker(canvas, QColor(255, 40, 40))
+        self.camera_marker.setIconType(QgsVertexMarker.IconType.ICON_CIRCLE)
+        self.camera_marker.setIconSize(14)
+        self.cursor = _cursor_marker(canvas, QColor(0, 230, 255))
+
+    @property
+    def crs(self) -> QgsCoordinateReferenceSystem:
+        return self.c.dem_crs
+
+    def _to_canvas(self, x: float, y: float) -> QgsPointXY:
+        from .tools import SpaceMapping
+
+        return SpaceMapping(self.canvas, MAP, self.crs).to_canvas(x, y)
+
+    def redraw_points(self) -> None:
+        self.markers.crs = self.crs
+        self.prior_band.crs = self.fitted_band.crs = self.crs
+        self.markers.set_points((p.x, p.y, p.status, p.manual) for p in self.c.state.in_space(MAP))
+        self.redraw_selection()
+
+    def redraw_selection(self) -> None:
+        p = self.c.state.points.get(self.c.current[MAP])
+        self.markers.set_highlight(None if p is None else (p.x, p.y))
+
+    def redraw_camera(self, fitted_footprint_wkt: str = "") -> None:
+        self.prior_band.crs = self.fitted_band.crs = self.crs
+        prior, fitted = self.c.prior, self.c.fitted
+        dem = self.c.dem
+        reach = 15000.0
+        if dem is not None:
+            x0, y0, x1, y1 = _extent(dem)
+            cam = fitted or prior
+            if cam is not None:
+                cx, cy = cam.position[:2]
+                reach = max(((x - cx) ** 2 + (y - cy) ** 2) ** 0.5 for x in (x0, x1) for y in (y0, y1))
+        self.prior_band.set_geometry(None if prior is None else QgsGeometry.fromPolygonXY(
+            [[QgsPointXY(x, y) for x, y in engine.view_wedge(prior, reach)]]))
+        self.fitted_band.set_geometry(QgsGeometry.fromWkt(fitted_footprint_wkt) if fitted_footprint_wkt else None)
+        cam = fitted or prior
+        if cam is None:
+            self.camera_marker.hide()
+        else:
+            self.camera_marker.setCenter(self._to_canvas(*cam.position[:2]))
+            self.camera_marker.show()
+
+    def show_cursor(self, xy: Optional[Tuple[float, float]]) -> None:
+        if xy is None:
+            self.cursor.hide()
+            return
+        self.cursor.setCenter(self._to_canvas(*xy))
+        self.cursor.show()
+
+    def remove(self) -> None:
+        self.markers.remove()
+        self.prior_band.remove()
+        self.fitted_band.remove()
+        for item in (self.camera_marker, self.cursor):
+            if item.scene() is not None:
+                item.scene().removeItem(item)
+
+
+def _extent(dem) -> Tuple[float, float, float, float]:
+    rows, cols = dem.elevation.shape
+    xs, ys = [], []
+    for c in (0, cols):
+        for r in (0, rows):
+            x, y = dem.cell_to_map(c, r)
+            xs.append(float(x))
+            ys.append(float(y))
+    return min(xs), min(ys), max(xs), max(ys)

@@ -1,0 +1,175 @@
+"""The Monoplot dock on a real QGIS project: inputs, curation by clicks and keys, fit task, cancel, save/reopen."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from qgis.core import Qgis, QgsPointXY, QgsProject
+from qgis.PyQt.QtCore import QPoint, Qt
+
+from monoplot_plugin.state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, replace_suggestions
+from monoplot_plugin.gui.photo_canvas import uv_to_map
+
+
+def photo_pos(dock, u, v) -> QPoint:
+    """Screen position (viewport pixels) of photo pixel (u, v) on the dock's photo canvas."""
+    p = dock.photo_canvas.getCoordinateTransform().transform(uv_to_map(u, v))
+    return QPoint(round(p.x()), round(p.y()))
+
+
+def load_inputs(dock, scene, qtbot):
+    dock.photoFile.setFilePath(scene.photo_path)
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    assert dock.controller.image is not None and dock.controller.dem is not None
+    dock.photo_canvas.resize(600, 400)
+    dock.photo_canvas.zoom_to_photo()
+    qtbot.wait(10)
+
+
+def add_scene_points(dock, scene, n=None):
+    """The scene's exact correspondences as suggestions (photo pixels and DEM points)."""
+    c = dock.controller
+    sl = slice(None) if n is None else slice(0, n)
+    photo = [Point.new(PHOTO, u, v) for u, v in scene.uv[sl]]
+    world = [Point.new(MAP, x, y, z) for x, y, z in scene.xyz[sl]]
+    c.stack.push(replace_suggestions(c.state, PHOTO, photo))
+    c.stack.push(replace_suggestions(c.state, MAP, world))
+    return photo, world
+
+
+def test_load_photo_and_dem_shows_photo(dock, scene, qtbot):
+    load_inputs(dock, scene, qtbot)
+    assert dock.photo_canvas.photo_size == (480, 320)
+    assert dock.controller.state.photo_path == scene.photo_path
+    assert dock.controller.state.dem_layer_id == dock.demCombo.currentLayer().id()
+    extent = dock.photo_canvas.extent()
+    assert extent.contains(uv_to_map(0, 0)) and extent.contains(uv_to_map(480, 320))
+
+
+def test_unreadable_photo_is_a_message_not_a_traceback(dock, tmp_path, qgis_iface):
+    bad = tmp_path / "broken.jpg"
+    bad.write_bytes(b"not a jpeg at all")
+    dock.photoFile.setFilePath(str(bad))
+    assert dock.controller.image is None
+    messages = qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Critical)
+    assert any("cannot read the photo" in m for m in messages)
+
+
+def test_fit_refuses_without_points(dock, scene, qtbot, qgis_iface):
+    load_inputs(dock, scene, qtbot)
+    dock.controller.set_prior(scene.prior)
+    qtbot.mouseClick(dock.fitButton, Qt.MouseButton.LeftButton)
+    assert dock.controller.task is None
+    assert any("at least" in m for m in qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Warning))
+
+
+def test_accept_reject_by_clicks_and_keys_with_undo(dock, scene, qtbot):
+    load_inputs(dock, scene, qtbot)
+    photo, _ = add_scene_points(dock, scene, n=6)
+    c = dock.controller
+    viewport = dock.photo_canvas.viewport()
+    qtbot.mouseClick(viewport, Qt.MouseButton.LeftButton, pos=photo_pos(dock, photo[0].x, photo[0].y))
+    assert c.state.points[photo[0].id].status == ACCEPTED
+    qtbot.mouseClick(viewport, Qt.MouseButton.RightButton, pos=photo_pos(dock, photo[1].x, photo[1].y))
+    assert c.state.points[photo[1].id].status == REJECTED
+    # keyboard: N selects the next undecided point, A accepts it and moves on, R rejects
+    dock.photo_canvas.setFocus()
+    qtbot.keyClick(dock.photo_canvas, Qt.Key.Key_N)
+    first = c.current[PHOTO]
+    assert c.state.points[first].status == SUGGESTED
+    qtbot.keyClick(dock.photo_canvas, Qt.Key.Key_A)
+    assert c.state.points[first].status == ACCEPTED
+    second = c.current[PHOTO]
+    assert second != first and c.state.points[second].status == SUGGESTED
+    qtbot.keyClick(dock.photo_canvas, Qt.Key.Key_R)
+    assert c.state.points[second].status == REJECTED
+    # undo twice restores the two keyboard decisions
+    qtbot.mouseClick(dock.undoButton, Qt.MouseButton.LeftButton)
+    qtbot.keyClick(dock.photo_canvas, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    assert c.state.points[first].status == SUGGESTED and c.state.points[second].status == SUGGESTED
+    assert c.state.points[photo[0].id].status == ACCEPTED
+    # table shows every point, sortable by status
+    assert dock.table_proxy.rowCount() == 12
+    dock.pointTable.sortByColumn(1, Qt.SortOrder.AscendingOrder)
+    statuses = [dock.table_proxy.index(r, 1).data() for r in range(12)]
+    assert statuses == sorted(statuses)
+
+
+def test_manual_point_add_move_delete_and_accept_all_in_view(dock, scene, qtbot):
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    viewport = dock.photo_canvas.viewport()
+    qtbot.mouseClick(viewport, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.ControlModifier,
+                     pos=photo_pos(dock, 100, 100))
+    manual = [p for p in c.state.in_space(PHOTO) if p.manual]
+    assert len(manual) == 1 and manual[0].status == ACCEPTED
+    assert abs(manual[0].x - 100) < 2 and abs(manual[0].y - 100) < 2
+    qtbot.keyClick(dock.photo_canvas, Qt.Key.Key_Delete)
+    assert not c.state.in_space(PHOTO)
+    add_scene_points(dock, scene)
+    n = dock.accept_all_in_view()
+    assert n > 0 and c.state.counts()[PHOTO][ACCEPTED] == len(scene.uv)
+
+
+def test_fit_task_runs_to_completion(dock, scene, qtbot):
+    load_inputs(dock, scene, qtbot)
+    add_scene_points(dock, scene)
+    dock.accept_all_in_view()
+    c = dock.controller
+    c.accept_all_in(MAP, (-1e12, -1e12, 1e12, 1e12))
+    c.set_prior(scene.prior)
+    qtbot.mouseClick(dock.fitButton, Qt.MouseButton.LeftButton)
+    assert c.busy and dock.cancelButton.isEnabled()
+    with qtbot.waitSignal(c.taskFinished, timeout=60000) as blocker:
+        pass
+    result = blocker.args[0]
+    assert result.ok, result.reason
+    fitted = c.fitted
+    assert np.hypot(*(np.subtract(fitted.position[:2], scene.camera.position[:2]))) < 400
+    assert abs(fitted.heading - scene.camera.heading) < 2.0
+    assert c.state.fit_info["rmse_px"] < 15
+    assert "RMSE" in dock.resultLabel.text()
+    assert c.overlay is not None and c.xyz is not None
+    assert dock.photo_view.residuals.band.numberOfVertices() > 0
+    # camera and footprint layers in the project
+    roles = {lyr.customProperty("monoplot/role") for lyr in QgsProject.instance().mapLayers().values()}
+    assert {"camera", "footprint"} <= roles
+    # linked cursor: a photo pixel maps to the ground it sees
+    ground = c.ground_at_pixel(240, 300)
+    assert ground is not None and abs(ground[2] - scene.dem.sample(ground[0], ground[1])) < 30
+
+
+def test_cancel_a_running_fit(dock, scene, qtbot):
+    load_inputs(dock, scene, qtbot)
+    add_scene_points(dock, scene)
+    c = dock.controller
+    c.accept_all_in(PHOTO, (-1e12, -1e12, 1e12, 1e12))
+    c.accept_all_in(MAP, (-1e12, -1e12, 1e12, 1e12))
+    c.set_prior(scene.prior)
+    assert c.fit()
+    qtbot.waitUntil(lambda: c.task is not None and c.task.progress() > 0, timeout=20000)
+    qtbot.mouseClick(dock.cancelButton, Qt.MouseButton.LeftButton)
+    with qtbot.waitSignal(c.taskFinished, timeout=3000) as blocker:
+        pass
+    assert blocker.args[0].status == "canceled"
+    assert c.fitted is None and dock.fitButton.isEnabled()
+
+
+def test_save_and_reopen_project_restores_state(dock, scene, qtbot, tmp_path):
+    load_inputs(dock, scene, qtbot)
+    photo, world = add_scene_points(dock, scene, n=5)
+    c = dock.controller
+    c.accept(photo[0].id)
+    c.reject(world[1].id)
+    c.link(photo[2].id, world[2].id)
+    c.set_prior(scene.prior)
+    before = c.state.to_dict()
+    path = str(tmp_path / "session.qgz")
+    assert QgsProject.instance().write(path)
+    QgsProject.instance().clear()
+    assert not c.state.points and c.image is None
+    assert QgsProject.instance().read(path)
+    qtbot.waitUntil(lambda: c.image is not None, timeout=5000)
+    assert c.state.to_dict() == before
+    assert c.dem is not None and dock.photo_canvas.photo_size == (480, 320)
+    assert c.prior.position == pytest.approx(scene.prior.position)
