@@ -1,0 +1,251 @@
+"""The outputs in the Monoplot dock: digitising tools on the photo canvas and the export buttons.
+
+The dock calls :func:`install_output_tools` once (end of its ``__init__``) and :meth:`OutputTools.unload` in its
+``unload``; everything else lives here, plugged into the dock's extension points ``add_photo_tool`` and
+``add_output_action``. Each export asks for a file with the standard save dialog (which asks before replacing a
+file; only then is ``overwrite=True`` passed) and reports success or the reason of a failure in the message bar;
+the ``export_*`` methods take the path directly for scripts and tests.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import List, Optional
+
+import numpy as np
+from qgis.core import Qgis, QgsMapLayer, QgsVectorLayer
+from qgis.PyQt.QtCore import QObject
+from qgis.PyQt.QtWidgets import QAction, QFileDialog
+
+from .digitise_tools import PhotoCaptureTool, PhotoEditTool
+from .qgis_layers import (DigitisingSession, KINDS, add_orthophoto_layer, add_xyz_layer, map_layer_on_photo,
+                          photo_group)
+from .safe_write import OutputError
+
+__all__ = ["install_output_tools", "OutputTools"]
+
+
+def install_output_tools(dock) -> "OutputTools":
+    """Add the digitising tools and export actions to ``dock`` (a MonoplotDock); returns their owner."""
+    return OutputTools(dock)
+
+
+class OutputTools(QObject):
+    """Digitising session, tools and export actions of one dock."""
+
+    def __init__(self, dock):
+        super().__init__(dock)
+        self.dock = dock
+        self.controller = dock.controller
+        self.session: Optional[DigitisingSession] = None
+        self._xyz_key = None
+        self._xyz = self._distance = self._visible = None
+        self.overlays: List[QgsVectorLayer] = []
+        canvas = dock.photo_canvas
+        self.capture_tools = {kind: PhotoCaptureTool(canvas, self.current_session, kind) for kind in KINDS}
+        self.edit_tool = PhotoEditTool(canvas, self.current_session)
+        labels = {"point": self.tr("Draw points on the photo"), "line": self.tr("Draw lines on the photo"),
+                  "polygon": self.tr("Draw polygons on the photo")}
+        self.actions = {}
+        for kind, tool in self.capture_tools.items():
+            action = QAction(labels[kind], dock)
+            action.setToolTip(labels[kind] + self.tr(": click vertices, right click to finish, Backspace undoes "
+                                                     "a vertex, Esc cancels"))
+            dock.add_photo_tool(action, tool)
+            tool.message.connect(lambda text: self._message(text, Qgis.MessageLevel.Warning))
+            self.actions[kind] = action
+        self.actions["edit"] = QAction(self.tr("Edit drawn features"), dock)
+        self.actions["edit"].setToolTip(self.tr("Drag a vertex to move it; right click a feature to delete it"))
+        dock.add_photo_tool(self.actions["edit"], self.edit_tool)
+        for name, label, slot in (("xyz", self.tr("XYZ raster…"), self._ask_xyz),
+                                  ("ortho", self.tr("Orthophoto…"), self._ask_ortho),
+                                  ("report", self.tr("Report…"), self._ask_report),
+                                  ("features", self.tr("Save drawn features…"), self._ask_features),
+                                  ("overlay", self.tr("Active map layer on photo"), self._overlay_active_layer)):
+            action = QAction(label, dock)
+            action.triggered.connect(slot)
+            dock.add_output_action(action)
+            self.actions[name] = action
+        self.controller.cameraChanged.connect(self._camera_changed)
+        self.controller.demChanged.connect(self._camera_changed)
+
+    # --- state ------------------------------------------------------------------------------------------------
+    def ready(self) -> Optional[str]:
+        """None when outputs can be made, else the reason for the user."""
+        c = self.controller
+        if c.image is None:
+            return self.tr("Load a photo first.")
+        if c.dem is None:
+            return self.tr("Choose a DEM first.")
+        if c.fitted is None:
+            return self.tr("Fit the camera first.")
+        return None
+
+    def products(self):
+        """(camera, dem, xyz, distance, visible) at full photo resolution, recomputed when the camera changes."""
+        from ..core.xyz import compute_xyz_full
+
+        c = self.controller
+        camera = c.fitted
+        key = (camera.to_json(), id(c.dem))
+        if key != self._xyz_key:
+            result = compute_xyz_full(camera, c.dem)
+            self._xyz, self._distance, self._visible = result.xyz, result.distance, result.visible
+            self._xyz_key = key
+        return camera, c.dem, self._xyz, self._distance, self._visible
+
+    def photo_name(self) -> str:
+        return Path(self.controller.state.photo_path or "photo").name
+
+    def current_session(self) -> Optional[DigitisingSession]:
+        """The digitising session of the fitted camera (created on first use), or None without a fit."""
+        if self.ready() is not None:
+            return None
+        camera, dem, xyz, _, _ = self.products()
+        if self.session is None:
+            self.session = DigitisingSession(self.dock.project, camera, dem, xyz, self.photo_name(), parent=self)
+            self.session.mapLayerUpdated.connect(self._report_sky)
+            for kind in KINDS:
+                self.session.photo_layer(kind)
+            self._show_on_photo()
+        return self.session
+
+    def _camera_changed(self) -> None:
+        if self.session is not None and self.ready() is None:
+            camera, dem, xyz, _, _ = self.products()
+            self.session.update_camera(camera, dem, xyz)
+
+    def _report_sky(self, kind: str, sky: int, dropped: int) -> None:
+        if sky or dropped:
+            self._message(self.tr("{0}: {1} piece(s) over sky left out of the map layer, {2} feature(s) entirely "
+                                  "over sky not mapped.").format(kind, sky, dropped), Qgis.MessageLevel.Warning)
+
+    def _show_on_photo(self) -> None:
+        layers: List[QgsMapLayer] = list(self.overlays)
+        if self.session is not None:
+            layers = self.session.all_photo_layers() + layers
+        self.dock.photo_canvas.set_extra_layers(layers)
+
+    def _message(self, text: str, level=Qgis.MessageLevel.Info) -> None:
+        self.dock.show_message(text, level)  # the dock's status line and QGIS's message bar
+
+    # --- exports (paths given) --------------------------------------------------------------------------------
+    def export_xyz(self, path, overwrite: bool = False, distance: bool = True):
+        from .xyz_raster import write_xyz_raster
+
+        camera, dem, xyz, dist, _ = self.products()
+        written = write_xyz_raster(path, xyz, dem.crs_wkt, dist if distance else None, overwrite=overwrite,
+                                   camera=camera, photo_name=self.photo_name())
+        return add_xyz_layer(written, self.dock.project, photo_group(self.dock.project, self.photo_name()))
+
+    def export_orthophoto(self, path, overwrite: bool = False):
+        from ..adapters.photo import qimage_to_array
+        from .orthophoto import orthophoto_from_camera
+
+        camera, dem, xyz, _, _ = self.products()
+        photo = qimage_to_array(self.controller.image)
+        written = orthophoto_from_camera(path, photo, camera, dem, xyz, overwrite=overwrite)
+        return add_orthophoto_layer(written, self.dock.project, photo_group(self.dock.project, self.photo_name()))
+
+    def export_report(self, path, overwrite: bool = False):
+        from ..adapters.photo import qimage_to_array
+        from .report import ReportPoints, write_report
+
+        camera, dem, xyz, _, visible = self.products()
+        points = None
+        inputs = self.controller.fit_inputs()
+        if not isinstance(inputs, str):
+            uv, world, pairs = inputs
+            if pairs:
+                i, j = np.asarray(pairs, dtype=int).T
+                points = ReportPoints(np.asarray(uv)[i], np.asarray(world)[j])
+        return write_report(path, qimage_to_array(self.controller.image), camera, dem, points=points, xyz=xyz,
+                            visible=visible, title=Path(self.photo_name()).stem, overwrite=overwrite)
+
+    def export_features(self, kind: str, path, overwrite: bool = False):
+        session = self.current_session()
+        if session is None:
+            raise OutputError(self.ready() or "no digitising session")
+        return session.export(kind, path, overwrite=overwrite)
+
+    def draw_layer_on_photo(self, layer: QgsVectorLayer) -> QgsVectorLayer:
+        """Project ``layer`` onto the photo (hidden parts dashed) and show it on the photo canvas."""
+        camera, dem, xyz, _, _ = self.products()
+        overlay = map_layer_on_photo(layer, camera, dem, xyz, self.dock.project)
+        self.overlays = [o for o in self.overlays if o.name() != overlay.name()] + [overlay]
+        self._show_on_photo()
+        return overlay
+
+    # --- dialogs ----------------------------------------------------------------------------------------------
+    def _run(self, work, done_text: str) -> None:
+        reason = self.ready()
+        if reason is not None:
+            self._message(reason, Qgis.MessageLevel.Warning)
+            return
+        try:
+            result = work()
+        except (OutputError, ValueError) as exc:
+            self._message(self.tr("Nothing was written: {0}").format(exc), Qgis.MessageLevel.Critical)
+            return
+        self._message(done_text.format(result), Qgis.MessageLevel.Success)
+
+    def _ask(self, title: str, filters: str, suffix: str) -> Optional[str]:
+        stem = Path(self.photo_name()).stem
+        start = str(Path(self.controller.state.photo_path or ".").parent / f"{stem}_{suffix}")
+        path, _ = QFileDialog.getSaveFileName(self.dock, title, start, filters)
+        return path or None
+
+    def _ask_xyz(self) -> None:
+        path = self._ask(self.tr("Save the XYZ raster"), "GeoTIFF (*.tif)", "xyz.tif")
+        if path:  # the dialog already asked before replacing a file
+            self._run(lambda: self.export_xyz(path, overwrite=True).source(), self.tr("XYZ raster written: {0}"))
+
+    def _ask_ortho(self) -> None:
+        path = self._ask(self.tr("Save the orthophoto"), "GeoTIFF (*.tif)", "ortho.tif")
+        if path:
+            self._run(lambda: self.export_orthophoto(path, overwrite=True).source(),
+                      self.tr("Orthophoto written: {0}"))
+
+    def _ask_report(self) -> None:
+        path = self._ask(self.tr("Save the report"), "PDF (*.pdf);;PNG (*.png)", "report.pdf")
+        if path:
+            self._run(lambda: self.export_report(path, overwrite=True), self.tr("Report written: {0}"))
+
+    def _ask_features(self) -> None:
+        session = self.current_session()
+        if session is None:
+            self._message(self.ready() or "", Qgis.MessageLevel.Warning)
+            return
+        kinds = [k for k in KINDS if k in session.photo_layers and session.photo_layers[k].featureCount()]
+        if not kinds:
+            self._message(self.tr("Nothing drawn on the photo yet."), Qgis.MessageLevel.Warning)
+            return
+        for kind in kinds:
+            path = self._ask(self.tr("Save the drawn {0}s").format(kind),
+                             "GeoPackage (*.gpkg);;ESRI Shapefile (*.shp)", f"{kind}s.gpkg")
+            if path:
+                self._run(lambda k=kind, p=path: self.export_features(k, p, overwrite=True),
+                          self.tr("Features written: {0}"))
+
+    def _overlay_active_layer(self) -> None:
+        iface = getattr(self.dock, "iface", None)
+        layer = iface.activeLayer() if iface is not None else None
+        if not isinstance(layer, QgsVectorLayer):
+            self._message(self.tr("Select a vector layer in the Layers panel first."), Qgis.MessageLevel.Warning)
+            return
+        self._run(lambda: self.draw_layer_on_photo(layer).name(), self.tr("Drawn on the photo: {0}"))
+
+    # --- life cycle -------------------------------------------------------------------------------------------
+    def unload(self) -> None:
+        """Undo the installation: tools off the canvas, canvas items removed, signals disconnected."""
+        canvas = self.dock.photo_canvas
+        for tool in [*self.capture_tools.values(), self.edit_tool]:
+            if canvas.mapTool() is tool:
+                canvas.unsetMapTool(tool)
+            tool.remove_items()
+        for signal in (self.controller.cameraChanged, self.controller.demChanged):
+            try:
+                signal.disconnect(self._camera_changed)
+            except TypeError:
+                pass
+

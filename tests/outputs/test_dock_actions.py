@@ -1,0 +1,87 @@
+"""The outputs inside the real Monoplot dock: tools and actions installed, drawing on the photo canvas, exports
+added to the photo's layer group, a refit moving the live map layer, unload."""
+
+import numpy as np
+import pytest
+from osgeo import gdal
+from qgis.core import QgsFeature, QgsGeometry, QgsPointXY, QgsProject, QgsRasterLayer, QgsVectorLayer
+
+from monoplot_plugin.outputs import OutputExistsError
+from monoplot_plugin.outputs.dock_actions import install_output_tools
+
+from outputs_helpers import CRS
+
+
+@pytest.fixture
+def dock_with_fit(qgis_iface, qtbot, plane_scene, tmp_path):
+    from monoplot_plugin.gui.dock import MonoplotDock
+
+    s = plane_scene
+    dem_path = tmp_path / "plane_dem.tif"
+    s.dem.save(str(dem_path))
+    photo_path = tmp_path / "Gletscher 1890.png"
+    mem = gdal.GetDriverByName("MEM").Create("", s.camera.width, s.camera.height, 3, gdal.GDT_Byte)
+    for b in range(3):
+        mem.GetRasterBand(b + 1).WriteArray(s.photo[..., b])
+    gdal.GetDriverByName("PNG").CreateCopy(str(photo_path), mem)
+    project = QgsProject.instance()
+    project.clear()
+    dem_layer = QgsRasterLayer(str(dem_path), "plane DEM")
+    project.addMapLayer(dem_layer)
+    dock = MonoplotDock(qgis_iface)
+    qtbot.addWidget(dock)
+    dock.resize(600, 900)
+    dock.show()
+    c = dock.controller
+    assert c.load_photo(str(photo_path)) and c.set_dem_layer(dem_layer)
+    dock.photo_canvas.resize(480, 320)
+    dock.photo_canvas.zoom_to_photo()
+    tools = install_output_tools(dock)
+    c.state.fitted = s.camera.to_dict()
+    c.cameraChanged.emit()
+    yield dock, tools
+    tools.unload()
+    c.cancel()
+    project.clear()
+
+
+def test_outputs_in_the_dock(dock_with_fit, plane_scene, tmp_path, qtbot):
+    dock, tools = dock_with_fit
+    s = plane_scene
+    # Tools and actions are on the dock's bars.
+    assert {"point", "line", "polygon", "edit", "xyz", "ortho", "report", "features", "overlay"} <= set(tools.actions)
+    tools.actions["polygon"].setChecked(True)
+    assert dock.photo_canvas.mapTool() is tools.capture_tools["polygon"]
+    session = tools.current_session()
+    session.add_feature("polygon", [[50, 100], [190, 100], [150, 150]], {"name": "tongue"})
+    live = session.map_layer("polygon")
+    assert live.featureCount() == 1
+    assert set(session.all_photo_layers()) <= set(dock.photo_canvas.layers())
+    group = session.group
+    assert group.name() == "Gletscher 1890"
+
+    xyz_layer = tools.export_xyz(tmp_path / "xyz.tif")
+    ortho_layer = tools.export_orthophoto(tmp_path / "ortho.tif")
+    report = tools.export_report(tmp_path / "report.png")
+    shp = tools.export_features("polygon", tmp_path / "tongue.shp")
+    assert xyz_layer.bandCount() == 4 and ortho_layer.crs().authid() == CRS and report.exists() and shp.exists()
+    names = {node.name() for node in group.findLayers()}
+    assert {"xyz (X Y Z)", "ortho (orthophoto)", "tongue"} <= names
+    with pytest.raises(OutputExistsError):
+        tools.export_xyz(tmp_path / "xyz.tif")
+
+    # A modern outline drawn on the photo.
+    outline = QgsVectorLayer(f"Polygon?crs={CRS}", "outline 2020", "memory")
+    f = QgsFeature()
+    f.setGeometry(QgsGeometry.fromPolygonXY([[QgsPointXY(601500, 202000), QgsPointXY(602600, 202100),
+                                              QgsPointXY(602500, 203300), QgsPointXY(601500, 202000)]]))
+    outline.dataProvider().addFeatures([f])
+    overlay = tools.draw_layer_on_photo(outline)
+    assert overlay in dock.photo_canvas.layers() and overlay.featureCount() >= 1
+
+    # A refit: the live map layer is recomputed from what was drawn on the photo.
+    before = next(live.getFeatures()).geometry().centroid().asPoint()
+    dock.controller.state.fitted = s.camera.with_parameters(heading=s.camera.heading + 2.0).to_dict()
+    dock.controller.cameraChanged.emit()
+    after = next(live.getFeatures()).geometry().centroid().asPoint()
+    assert before.distance(after) > 10.0
