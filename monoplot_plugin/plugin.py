@@ -49,8 +49,12 @@ class MonoplotPlugin:
             return
         try:
             provider_class = importlib.import_module(PROVIDER_MODULE).MonoplotProvider
-            self.provider = provider_class()
-            QgsApplication.processingRegistry().addProvider(self.provider)
+            provider = provider_class()
+            if QgsApplication.processingRegistry().addProvider(provider):
+                self.provider = provider
+            else:  # id already registered, or load() failed; QGIS has deleted our instance
+                LOG.warning("Processing provider not registered: id %r already taken or its load() failed",
+                            "monoplot")
         except Exception:  # noqa: BLE001 — e.g. a missing optional dependency must not block the GUI
             LOG.exception("Monoplot Processing provider could not be registered")
             self.provider = None

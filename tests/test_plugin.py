@@ -23,6 +23,27 @@ def monoplot_widgets(window):
     return (window.findChildren(QAction, "MonoplotAction"), window.findChildren(QDockWidget, "MonoplotDock"))
 
 
+_restored_providers = []
+
+
+@pytest.fixture(autouse=True)
+def no_foreign_monoplot_provider():
+    """Tests of the Processing engine register a session-wide "monoplot" provider; the plugin must register its own.
+
+    Taken out for each test here, then registered again by id, so that test order does not matter.
+    """
+    registry = QgsApplication.processingRegistry()
+    had_one = registry.providerById("monoplot") is not None
+    if had_one:
+        registry.removeProvider("monoplot")
+    yield
+    if had_one and registry.providerById("monoplot") is None:
+        from monoplot_plugin.processing.provider import MonoplotProvider
+
+        _restored_providers.append(MonoplotProvider())  # keep the Python object alive: sip does not
+        registry.addProvider(_restored_providers[-1])
+
+
 @pytest.fixture()
 def plugin(qgis_iface):
     instance = MonoplotPlugin(qgis_iface)
@@ -76,14 +97,27 @@ def test_unload_removes_everything_and_reload_leaves_nothing(qgis_iface):
                     reason="no Processing provider in this checkout yet")
 def test_processing_provider_registered_and_removed(qgis_iface):
     registry = QgsApplication.processingRegistry()
+    log = []
+    QgsApplication.messageLog().messageReceived.connect(lambda message, tag, level: log.append((tag, message)))
+    assert registry.providerById("monoplot") is None, [p.id() for p in registry.providers()]
     instance = MonoplotPlugin(qgis_iface)
     instance.initGui()
     provider = instance.provider
-    assert provider is not None, "monoplot_plugin.processing.provider exists but could not be registered"
+    assert provider is not None, f"monoplot_plugin.processing.provider exists but could not be registered: {log}"
     provider_id = provider.id()
     assert registry.providerById(provider_id) is provider
     instance.unload()
     assert registry.providerById(provider_id) is None
+
+
+def test_duplicate_provider_is_not_fatal(qgis_iface):
+    first, second = MonoplotPlugin(qgis_iface), MonoplotPlugin(qgis_iface)
+    first.initGui()
+    second.initGui()  # e.g. a provider left registered by a crashed reload
+    assert second.provider is None and first.provider is not None
+    second.unload()
+    assert QgsApplication.processingRegistry().providerById(first.provider.id()) is first.provider
+    first.unload()
 
 
 def test_python_logging_reaches_the_monoplot_log_tab(plugin):
