@@ -403,9 +403,12 @@ def view_window(camera, geotransform: Sequence[float], shape: Tuple[int, int], z
     lo = np.where(dz != 0, np.minimum(t1, t2), np.where((cz >= zmin) & (cz <= zmax), 0.0, np.inf))
     hi = np.where(dz != 0, np.maximum(t1, t2), np.where((cz >= zmin) & (cz <= zmax), np.inf, -np.inf))
     lo = np.maximum(lo, 0.0)
-    if max_range is not None:
-        hi = np.minimum(hi, float(max_range))
     ok = hi >= lo
+    if max_range is not None:
+        # A ray reaching the slab beyond max_range still bounds the view: keep its point at max_range (the sphere
+        # cap between sample rays is otherwise missed).
+        hi = np.minimum(hi, float(max_range))
+        lo = np.minimum(lo, float(max_range))
     if not ok.any():
         return None
     g = geotransform
