@@ -36,11 +36,13 @@ def dock_with_fit(qgis_iface, qtbot, plane_scene, tmp_path):
     assert c.load_photo(str(photo_path)) and c.set_dem_layer(dem_layer)
     dock.photo_canvas.resize(480, 320)
     dock.photo_canvas.zoom_to_photo()
-    tools = install_output_tools(dock)
+    tools = getattr(dock, "outputs", None) or install_output_tools(dock)  # the dock installs them itself
     c.state.fitted = s.camera.to_dict()
     c.cameraChanged.emit()
     yield dock, tools
-    tools.unload()
+    dock.unload()
+    if tools is not getattr(dock, "outputs", None):
+        tools.unload()
     c.cancel()
     project.clear()
 
