@@ -16,7 +16,7 @@ from typing import Optional
 from qgis.core import Qgis, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer
 from qgis.PyQt import uic
 from qgis.PyQt.QtCore import QItemSelectionModel, Qt
-from qgis.PyQt.QtWidgets import QAction, QDockWidget, QFileDialog, QToolButton
+from qgis.PyQt.QtWidgets import QAction, QDockWidget, QFileDialog, QSizePolicy, QToolBar, QToolButton
 
 from .. import PLUGIN_DIR
 from ..adapters import layers as camera_layers
@@ -54,6 +54,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.map_tool = CurationTool(self.map_canvas, c, self.map_mapping)
         self.camera_tool = RoughCameraTool(self.map_canvas, self.map_mapping)
         self._photo_tools = []
+        self._photo_toolbar: Optional[QToolBar] = None
 
         # inputs
         self.demCombo.setFilters(QgsMapLayerProxyModel.Filter.RasterLayer)
@@ -113,11 +114,30 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         # project life cycle
         self.project.readProject.connect(self._project_read)
         self.project.cleared.connect(self._project_cleared)
+        self.output_tools = self._install_outputs()
         if self.project.readEntry("monoplot", "/state", "")[1]:
             c.restore()
         self._on_points(set())
         self._on_busy("")
         self._on_camera()
+        # outputs (issue 6): digitising tools and export actions, in monoplot_plugin/outputs/dock_actions.py
+        from ..outputs.dock_actions import install_output_tools
+
+        self.outputs = install_output_tools(self)
+
+    def _install_outputs(self):
+        """Digitising tools and export buttons of the outputs package (optional: a failure is logged, not fatal)."""
+        try:
+            from ..outputs.dock_actions import install_output_tools
+
+            return install_output_tools(self)
+        except Exception:  # noqa: BLE001 — the curation and fit must stay usable
+            import traceback
+
+            from qgis.core import QgsMessageLog
+
+            QgsMessageLog.logMessage(traceback.format_exc(), "Monoplot", Qgis.MessageLevel.Warning)
+            return None
 
     # --- messages ---------------------------------------------------------------------------------------------
     def show_message(self, text: str, level=Qgis.MessageLevel.Info) -> None:
@@ -383,9 +403,12 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
     def add_photo_tool(self, action: QAction, map_tool) -> QToolButton:
         """Add a checkable photo-canvas tool (e.g. digitising); unchecking it returns to point curation."""
         action.setCheckable(True)
-        button = QToolButton(self)
-        button.setDefaultAction(action)
-        self.viewBar.insertWidget(2, button)
+        if self._photo_toolbar is None:
+            self._photo_toolbar = QToolBar(self)
+            self._photo_toolbar.setToolButtonStyle(Qt.ToolButtonStyle.ToolButtonTextOnly)
+            self.photoPaneLayout.insertWidget(1, self._photo_toolbar)
+        self._photo_toolbar.addAction(action)
+        button = self._photo_toolbar.widgetForAction(action)
         self._photo_tools.append((action, map_tool))
 
         def toggled(on: bool) -> None:
@@ -404,7 +427,10 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         """Add a button for ``action`` to the "Fit and results" tab."""
         button = QToolButton(self)
         button.setDefaultAction(action)
-        self.outputsBar.addWidget(button)
+        button.setToolButtonStyle(Qt.ToolButtonStyle.ToolButtonTextOnly)
+        button.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
+        n = self.outputsBar.count()
+        self.outputsBar.addWidget(button, n // 3, n % 3)
         return button
 
     # --- project life cycle -----------------------------------------------------------------------------------
@@ -422,6 +448,9 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         c = self.controller
         c.cancel()
         c.save()
+        self.outputs.unload()
+        if self.output_tools is not None and hasattr(self.output_tools, "unload"):
+            self.output_tools.unload()
         for tool in (self.map_tool, self.camera_tool):
             if self.map_canvas.mapTool() is tool:
                 self.map_canvas.unsetMapTool(tool)

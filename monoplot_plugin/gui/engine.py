@@ -35,32 +35,25 @@ def _check(is_canceled: Callable[[], bool]) -> None:
 
 def suggest(photo_rgb: np.ndarray, dem, camera: Optional[Camera], n_photo: int, n_dem: int,
             progress: Callable[[float], None], is_canceled: Callable[[], bool]) -> Tuple[List[Point], List[Point]]:
-    """Key points on the photo (pixels) and on the DEM (map X, Y, Z) as "suggested" :class:`Point` objects."""
-    from ..core import suggest as core_suggest
+    """Key points on the photo (pixels) and on the DEM (map X, Y, Z) as "suggested" :class:`Point` objects.
+
+    With a camera, DEM suggestions are the terrain points it sees (a rendering from it); without, a map hillshade.
+    """
+    from ..core.suggest import suggest_dem_points, suggest_photo_points
 
     progress(5)
-    photo = core_suggest.suggest_photo_points(photo_rgb, max_points=n_photo)
+    photo = suggest_photo_points(photo_rgb, max_points=n_photo)
     _check(is_canceled)
-    progress(50)
-    dem_pts = core_suggest.suggest_dem_points(dem, camera=camera, max_points=n_dem)
+    progress(45)
+    dem_pts = suggest_dem_points(dem, camera=camera, max_points=n_dem)
     _check(is_canceled)
     progress(95)
-    photo_points = [Point.new(PHOTO, u, v, score=s) for u, v, s in _rows(photo, 2)]
-    map_points = [Point.new(MAP, x, y, z, score=s) for x, y, z, s in _rows(dem_pts, 3)]
+    photo_points = [Point.new(PHOTO, u, v, score=float(s)) for (u, v), s in zip(photo.uv, photo.score)]
+    kinds = list(getattr(dem_pts, "kind", [""] * len(dem_pts.score)))
+    map_points = [Point.new(MAP, x, y, z, score=float(s), label=str(k) if k in ("summit", "saddle", "junction")
+                            else "")
+                  for (x, y, z), s, k in zip(dem_pts.xyz, dem_pts.score, kinds)]
     return photo_points, map_points
-
-
-def _rows(result, ncoords: int):
-    """Normalise a suggestion result to (coords..., score) tuples: accepts an (N, k) array or an object with
-    ``.uv``/``.xyz`` and ``.score`` arrays."""
-    coords = getattr(result, "uv" if ncoords == 2 else "xyz", None)
-    if coords is None:
-        coords = getattr(result, "points", result)
-    coords = np.asarray(coords, dtype=np.float64).reshape(-1, np.asarray(coords).shape[-1] if np.ndim(coords) else 0)
-    scores = getattr(result, "score", getattr(result, "scores", None))
-    if scores is None:
-        scores = coords[:, ncoords] if coords.shape[1] > ncoords else np.zeros(len(coords))
-    return [tuple(c[:ncoords]) + (float(s),) for c, s in zip(coords, np.asarray(scores, dtype=np.float64))]
 
 
 # --- fit --------------------------------------------------------------------------------------------------------

@@ -173,3 +173,25 @@ def test_save_and_reopen_project_restores_state(dock, scene, qtbot, tmp_path):
     assert c.state.to_dict() == before
     assert c.dem is not None and dock.photo_canvas.photo_size == (480, 320)
     assert c.prior.position == pytest.approx(scene.prior.position)
+
+
+def test_suggest_fills_both_canvases_and_keeps_decisions(dock, scene, qtbot):
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    c.set_prior(scene.prior)
+    manual = c.add_manual(PHOTO, 50.0, 60.0)
+    qtbot.mouseClick(dock.suggestButton, Qt.MouseButton.LeftButton)
+    with qtbot.waitSignal(c.taskFinished, timeout=60000) as blocker:
+        pass
+    assert blocker.args[0].ok, blocker.args[0].reason
+    counts = c.state.counts()
+    assert counts[PHOTO][SUGGESTED] > 10 and counts[MAP][SUGGESTED] > 10
+    assert manual in c.state.points  # a new suggestion run keeps the user's own points
+    # the suggestions are drawn: one vertex per suggested point on each canvas
+    assert dock.photo_view.markers.bands[SUGGESTED].numberOfVertices() == counts[PHOTO][SUGGESTED]
+    assert dock.map_view.markers.bands[SUGGESTED].numberOfVertices() == counts[MAP][SUGGESTED]
+    # DEM points are curated on the main map: the map tool is switched on
+    assert dock.map_canvas.mapTool() is dock.map_tool
+    # every DEM suggestion lies on the DEM and (with a camera) inside its view
+    for p in c.state.in_space(MAP)[:20]:
+        assert abs(p.z - scene.dem.sample(p.x, p.y)) < 5
