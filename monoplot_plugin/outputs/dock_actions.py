@@ -159,8 +159,11 @@ class OutputTools(QObject):
             if pairs:
                 i, j = np.asarray(pairs, dtype=int).T
                 points = ReportPoints(np.asarray(uv)[i], np.asarray(world)[j])
+        info = self.controller.state.fit_info or {}
+        std = info.get("std") if isinstance(info, dict) else None  # the fit's own sigmas when it reported them
         return write_report(path, qimage_to_array(self.controller.image), camera, dem, points=points, xyz=xyz,
-                            visible=visible, title=Path(self.photo_name()).stem, overwrite=overwrite)
+                            visible=visible, sigmas=std or None, title=Path(self.photo_name()).stem,
+                            overwrite=overwrite)
 
     def export_features(self, kind: str, path, overwrite: bool = False):
         session = self.current_session()

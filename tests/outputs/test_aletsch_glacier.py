@@ -1,7 +1,7 @@
 """The users' glacier workflow on the real Aletsch case (1890 photochrom, 25 m DEM, 11 hand GCPs).
 
-Camera: least-squares fit of the 7-parameter pinhole (position, three angles, field of view) to the 11 paired GCPs,
-started from the rough KML pose (the published figures: ~7.7 px RMSE, median 3-D error ~60 m).
+Camera: core's paired fit (least squares of the 7-parameter pinhole: position, three angles, field of view) on the
+11 GCPs, started from the rough KML pose (the published figures: ~7.7 px RMSE, median 3-D error ~60 m).
 """
 
 import numpy as np
@@ -10,39 +10,22 @@ from osgeo import gdal, ogr
 
 from monoplot_plugin.core.camera import Camera
 from monoplot_plugin.core.dem import Dem
+from monoplot_plugin.core.fit import fit_camera
 from monoplot_plugin.outputs.geometry import densify, map_to_photo, photo_to_map_feature, sample_xyz
 from monoplot_plugin.outputs.orthophoto import orthophoto_from_camera
+from monoplot_plugin.outputs.report import ReportPoints, parameter_sigmas, write_report
 from monoplot_plugin.outputs.vectors import write_vector_layer
 from monoplot_plugin.outputs.xyz_raster import read_xyz_raster, write_xyz_raster
 
 #: Around the lower (foreground) Aletsch glacier tongue, avoiding the two men on the right (photo pixels).
 LOWER_GLACIER = [(60, 450), (450, 445), (750, 395), (950, 355), (950, 430), (640, 470), (640, 600), (60, 640)]
-FIT_PARAMETERS = ("x", "y", "z", "heading", "pitch", "roll", "fov")
 
 
 def least_squares_camera(prior: Camera, uv: np.ndarray, xyz: np.ndarray) -> Camera:
-    """Paired least-squares camera: 7 parameters, reprojection residuals in pixels."""
-    fit_camera = _fit_camera_or_none()
-    if fit_camera is not None:
-        return fit_camera(prior, uv, xyz)
-    from scipy.optimize import least_squares
-
-    def camera(p):
-        return prior.with_parameters(**dict(zip(FIT_PARAMETERS, p)))
-
-    start = np.array([prior.parameters()[n] for n in FIT_PARAMETERS])
-    result = least_squares(lambda p: (camera(p).project(xyz) - uv).ravel(), start,
-                           x_scale=[100, 100, 100, 1, 1, 1, 1])
-    return camera(result.x)
-
-
-def _fit_camera_or_none():
-    """The fit engineer's paired fit, once it exists with a (prior, uv, xyz) -> Camera form; else None."""
-    try:
-        from monoplot_plugin.core.fit import fit_paired  # noqa: F401
-    except ImportError:
-        return None
-    return lambda prior, uv, xyz: fit_paired(prior, uv, xyz).camera
+    """The paired fit (core.fit.fit_camera with every GCP paired to itself): 7 parameters, least squares."""
+    result = fit_camera(uv, xyz, prior, pairs=np.column_stack([np.arange(len(uv))] * 2))
+    assert result.ok, result.message
+    return result
 
 
 @pytest.fixture(scope="module")
@@ -56,9 +39,10 @@ def aletsch(aletsch_dir):
     photo = photo_ds.ReadAsArray().transpose(1, 2, 0)
     prior = Camera.from_kml(aletsch_dir / "prior_pose.kml", (photo_ds.RasterXSize, photo_ds.RasterYSize),
                             dem.crs_wkt)
-    camera = least_squares_camera(prior, uv, gcp_xyz)
+    fit = least_squares_camera(prior, uv, gcp_xyz)
+    camera = fit.camera
     result = compute_xyz_full(camera, dem)
-    return dict(dem=dem, uv=uv, gcp_xyz=gcp_xyz, camera=camera, xyz=result.xyz, distance=result.distance,
+    return dict(dem=dem, uv=uv, gcp_xyz=gcp_xyz, camera=camera, fit=fit, xyz=result.xyz, distance=result.distance,
                 visible=result.visible, photo=photo)
 
 
@@ -66,6 +50,18 @@ def test_least_squares_camera_matches_published_fit(aletsch):
     residual = aletsch["camera"].project(aletsch["gcp_xyz"]) - aletsch["uv"]
     rmse = float(np.sqrt(np.mean(np.sum(residual ** 2, axis=1))))
     assert 5.0 < rmse < 10.0  # the paper: about 7.7 px (hand-coloured print: single digits are the floor)
+    # The report's own covariance agrees with the fit's standard deviations.
+    points = ReportPoints(aletsch["uv"], aletsch["gcp_xyz"])
+    sigmas = parameter_sigmas(aletsch["camera"], points)
+    for name, std in aletsch["fit"].std.items():
+        assert sigmas[name] == pytest.approx(std, rel=0.05), name
+
+
+def test_aletsch_report(aletsch, tmp_path):
+    path = write_report(tmp_path / "Aletsch 1890 report.pdf", aletsch["photo"], aletsch["camera"], aletsch["dem"],
+                        points=ReportPoints(aletsch["uv"], aletsch["gcp_xyz"]), xyz=aletsch["xyz"],
+                        visible=aletsch["visible"], sigmas=aletsch["fit"].std, title="Aletschgletscher 1890")
+    assert path.read_bytes().startswith(b"%PDF")
 
 
 def test_gcp_points_and_glacier_polygon_as_shapefile(aletsch, tmp_path):
