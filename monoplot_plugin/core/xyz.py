@@ -395,20 +395,6 @@ def _visibility(u, v, z, tri, elev, gt, C, R, near, rel_tol, abs_tol, vis):
                 vis[r, c] = True
 
 
-@njit(parallel=True, cache=True)
-def _mark_hit_vertices(tri, cols, vis):
-    """Mark the vertices of every triangle a pixel centre sees (concurrent writes all store True)."""
-    H, W = tri.shape
-    for i in prange(H):
-        for j in range(W):
-            tid = tri[i, j]
-            if tid >= 0:
-                ra, ca, rb, cb, rc, cc = _triangle_vertices(tid, cols)
-                vis[ra, ca] = True
-                vis[rb, cb] = True
-                vis[rc, cc] = True
-
-
 @njit(cache=True)
 def _ray_triangle(ox, oy, oz, dx, dy, dz, ax, ay, az, bx, by, bz, cx, cy, cz):
     """Moller-Trumbore: parameter t of o + t d on triangle abc, or inf when it misses."""
@@ -592,9 +578,9 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
         crop: first cut the DEM to the rectangle the camera can see (saves time on large DEMs).
         visibility: compute :attr:`XyzResult.visible` (else all False).
         rel_tol, abs_tol: a cell centre counts as visible when the surface seen at its pixel is no nearer than its
-            own range minus ``rel_tol * range + abs_tol`` (abs_tol defaults to one cell). Cells on which a pixel
-            centre lands are always visible. Approximate for sub-pixel cells; for exact line-of-sight tests of a
-            few points use :func:`segment_first_hit`.
+            own range minus ``rel_tol * range + abs_tol`` (abs_tol defaults to one cell). Decided at pixel
+            resolution: cells that project within a pixel of an occluding ridge can be misjudged; for exact
+            line-of-sight tests use :func:`segment_first_hit` (``transforms.orthorectify(exact=True)`` does).
     Returns:
         :class:`XyzResult`.
     """
@@ -636,7 +622,6 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
         vis = np.empty((rows, cols), dtype=np.bool_)
         _visibility(u, v, z, tri, elev, gt, C, R, near, float(rel_tol),
                     float(work.cell_size if abs_tol is None else abs_tol), vis)
-        _mark_hit_vertices(tri, cols, vis)
         if max_range is not None:
             X, Y = work.cell_centres()
             rng = np.sqrt((X - C[0]) ** 2 + (Y - C[1]) ** 2 + (elev - C[2]) ** 2)
