@@ -2,7 +2,10 @@
 ray-plane intersection, so writers and photo<->map geometry are tested against known truth without the rasteriser."""
 
 import os
+import shutil
+import stat
 import subprocess
+from contextlib import contextmanager
 import sys
 from dataclasses import dataclass
 
@@ -64,3 +67,32 @@ def run_as_unprivileged(code: str, *paths) -> subprocess.CompletedProcess:
         env["HOME"] = "/tmp"
     return subprocess.run([sys.executable, "-c", code, *map(str, paths)], capture_output=True, text=True,
                           env=env, timeout=60, **kwargs)
+
+
+@contextmanager
+def read_only_folder(folder):
+    """Make ``folder`` read-only for this process, however privileged, and restore it afterwards.
+
+    Yields how: "chmod" (ordinary user: permission bits), "immutable" (root: ``chattr +i``, which binds root too),
+    or "other-user" (root without chattr: the caller must write from :func:`run_as_unprivileged`).
+    """
+    mode = stat.S_IRUSR | stat.S_IXUSR | stat.S_IRGRP | stat.S_IXGRP | stat.S_IROTH | stat.S_IXOTH
+    if os.geteuid() != 0:
+        os.chmod(folder, mode)
+        try:
+            yield "chmod"
+        finally:
+            os.chmod(folder, 0o755)
+        return
+    chattr = shutil.which("chattr")
+    if chattr and subprocess.run([chattr, "+i", str(folder)], capture_output=True).returncode == 0:
+        try:
+            yield "immutable"
+        finally:
+            subprocess.run([chattr, "-i", str(folder)], check=True)
+        return
+    os.chmod(folder, mode)
+    try:
+        yield "other-user"
+    finally:
+        os.chmod(folder, 0o755)

@@ -1,7 +1,6 @@
 """XYZ raster: written through GDAL, opened back with GDAL; no data loss on refusal or failure."""
 
 import os
-import stat
 
 import numpy as np
 import pytest
@@ -11,7 +10,7 @@ from monoplot_plugin.core.camera import Camera
 from monoplot_plugin.outputs import OutputError, OutputExistsError, read_xyz_raster, write_xyz_raster
 from monoplot_plugin.outputs.xyz_raster import PHOTO_GEOTRANSFORM
 
-from outputs_helpers import CRS, run_as_unprivileged
+from outputs_helpers import CRS, read_only_folder, run_as_unprivileged
 
 
 def test_xyz_raster_reads_back_with_gdal(plane_scene, tmp_path):
@@ -81,28 +80,38 @@ def test_non_ascii_path(plane_scene, tmp_path):
     assert gdal.Open(str(path)).RasterCount == 3
 
 
+WRITE_TWICE = ("import sys, numpy as np\n"
+               "from monoplot_plugin.outputs import write_xyz_raster, OutputError\n"
+               "xyz = np.ones((20, 30, 3))\n"
+               "for name, overwrite in (('new.tif', False), ('xyz.tif', True)):\n"
+               "    try:\n"
+               "        write_xyz_raster(sys.argv[1] + '/' + name, xyz, 'EPSG:21781', overwrite=overwrite)\n"
+               "        print('WROTE', name)\n"
+               "    except OutputError as exc:\n"
+               "        print('REFUSED', exc)\n")
+
+
 def test_read_only_folder_is_reported_and_earlier_output_kept(plane_scene, world_readable_tmp):
     folder = world_readable_tmp / "read-only folder"
     folder.mkdir()
     earlier = write_xyz_raster(folder / "xyz.tif", plane_scene.xyz, CRS)
     before = earlier.read_bytes()
-    os.chmod(folder, stat.S_IRUSR | stat.S_IXUSR | stat.S_IRGRP | stat.S_IXGRP | stat.S_IROTH | stat.S_IXOTH)
-    try:
-        code = ("import sys, numpy as np\n"
-                "from monoplot_plugin.outputs import write_xyz_raster, OutputError\n"
-                "xyz = np.ones((20, 30, 3))\n"
-                "for name, overwrite in (('new.tif', False), ('xyz.tif', True)):\n"
-                "    try:\n"
-                "        write_xyz_raster(sys.argv[1] + '/' + name, xyz, 'EPSG:21781', overwrite=overwrite)\n"
-                "        print('WROTE', name)\n"
-                "    except OutputError as exc:\n"
-                "        print('REFUSED', exc)\n")
-        result = run_as_unprivileged(code, folder)
-    finally:
-        os.chmod(folder, 0o755)
-    assert result.returncode == 0, result.stderr
-    lines = result.stdout.strip().splitlines()
-    assert len(lines) == 2 and all(line.startswith("REFUSED") for line in lines), result.stdout
+    with read_only_folder(folder) as how:
+        if how == "other-user":
+            result = run_as_unprivileged(WRITE_TWICE, folder)
+            assert result.returncode == 0, result.stderr
+            output = result.stdout
+        else:
+            lines = []
+            for name, overwrite in (("new.tif", False), ("xyz.tif", True)):
+                try:
+                    write_xyz_raster(folder / name, np.ones((20, 30, 3)), CRS, overwrite=overwrite)
+                    lines.append(f"WROTE {name}")
+                except OutputError as exc:
+                    lines.append(f"REFUSED {exc}")
+            output = "\n".join(lines)
+    lines = output.strip().splitlines()
+    assert len(lines) == 2 and all(line.startswith("REFUSED") for line in lines), output
     assert "permission denied" in lines[0] and "read-only" in lines[0]
     assert earlier.read_bytes() == before
     assert sorted(os.listdir(folder)) == ["xyz.tif"]
