@@ -1,0 +1,141 @@
+"""Where to look for GCPs in a photo: the picture area without blank margins, frames and printed captions.
+
+Old prints and scans carry a paper border, a frame line and a printed title; key points there are useless (and a
+caption is full of corners). :func:`picture_mask` keeps only the picture itself.
+
+>>> img = np.full((100, 120), 250, np.uint8)            # white paper
+>>> img[10:90, 15:105] = np.random.default_rng(0).integers(0, 200, (80, 90))   # the picture
+>>> mask = picture_mask(img)
+>>> bool(mask[50, 60]), bool(mask[5, 60]), bool(mask[50, 10])
+(True, False, False)
+"""
+
+from __future__ import annotations
+
+from typing import Tuple
+
+import numpy as np
+
+__all__ = ["picture_mask", "picture_box", "caption_boxes", "to_gray"]
+
+
+def to_gray(image: np.ndarray) -> np.ndarray:
+    """(H, W) uint8 grey levels from an (H, W), (H, W, 3) or (H, W, 4) array (RGB order assumed; the weights are
+    those of luma, so BGR inputs give nearly the same result)."""
+    image = np.asarray(image)
+    if image.ndim == 3:
+        image = image[..., :3].astype(np.float32) @ np.array([0.299, 0.587, 0.114], dtype=np.float32)
+    if image.dtype != np.uint8:
+        image = np.clip(np.rint(image), 0, 255).astype(np.uint8) if image.max() > 1.0 or image.dtype.kind in "iu" \
+            else np.clip(np.rint(image * 255.0), 0, 255).astype(np.uint8)
+    return image
+
+
+def picture_box(gray: np.ndarray, tolerance: int = 30, paper_fill: float = 0.9) -> Tuple[int, int, int, int]:
+    """(row0, row1, col0, col1) of the picture inside a uniform paper border (the whole image when there is none).
+
+    The paper colour is the median of the outermost pixel frame. From each edge, rows (columns) are border while
+    at least ``paper_fill`` of their pixels lie within ``tolerance`` grey levels of the paper; the first row that
+    is not ends the border. (Testing rows from the outside in, rather than counting picture-like rows, keeps white
+    snow or pale sky inside the picture.)
+    """
+    h, w = gray.shape
+    frame = np.concatenate([gray[0], gray[-1], gray[:, 0], gray[:, -1]]).astype(np.int16)
+    paper = int(np.median(frame))
+    if np.mean(np.abs(frame - paper) <= tolerance) < 0.8:
+        return 0, h, 0, w  # no uniform border: the photo fills the frame
+    like = np.abs(gray.astype(np.int16) - paper) <= tolerance
+    rows = like.mean(axis=1) >= paper_fill
+    cols = like.mean(axis=0) >= paper_fill
+
+    def inner(flags):
+        n = len(flags)
+        a = int(np.argmin(flags)) if not flags.all() else n
+        b = n - int(np.argmin(flags[::-1])) if not flags.all() else n
+        return a, b
+
+    r0, r1 = inner(rows)
+    c0, c1 = inner(cols)
+    if r1 - r0 < 0.2 * h or c1 - c0 < 0.2 * w:
+        return 0, h, 0, w
+    return r0, r1, c0, c1
+
+
+def caption_boxes(gray: np.ndarray, box: Tuple[int, int, int, int], band: float = 0.12) -> list:
+    """Boxes (row0, row1, col0, col1) of printed text lines near the top and bottom edges of the picture.
+
+    A text line is a horizontal chain of at least five small, similar-height glyphs (bright on dark or dark on
+    bright) within ``band`` x the picture height of its top or bottom edge; natural texture rarely lines up so.
+    """
+    import cv2
+
+    r0, r1, c0, c1 = box
+    h = r1 - r0
+    glyph_max = max(6, int(0.05 * h))
+    kernel = cv2.getStructuringElement(cv2.MORPH_RECT, (glyph_max, glyph_max))
+    out = []
+    band_px = max(glyph_max * 2, int(band * h))
+    for top in (r0, r1 - band_px):
+        sub = gray[max(r0, top):min(r1, top + band_px), c0:c1]
+        if sub.size == 0:
+            continue
+        for op in (cv2.MORPH_TOPHAT, cv2.MORPH_BLACKHAT):
+            hat = cv2.morphologyEx(sub, op, kernel)
+            thr = max(40.0, float(np.percentile(hat, 97)))
+            glyphs = (hat >= thr).astype(np.uint8)
+            n, labels, stats, centroids = cv2.connectedComponentsWithStats(glyphs, connectivity=8)
+            hs = stats[1:, cv2.CC_STAT_HEIGHT]
+            ws = stats[1:, cv2.CC_STAT_WIDTH]
+            keep = (hs >= 4) & (hs <= glyph_max) & (ws <= 2 * glyph_max) & (stats[1:, cv2.CC_STAT_AREA] >= 6)
+            if keep.sum() < 5:
+                continue
+            cy = centroids[1:, 1][keep]
+            cx = centroids[1:, 0][keep]
+            gh = hs[keep]
+            # Group glyphs by their centre row (text lines): rows within half a glyph height of each other.
+            order = np.argsort(cy)
+            groups, current = [], [order[0]]
+            for a, b in zip(order[:-1], order[1:]):
+                if cy[b] - cy[a] <= 0.5 * np.median(gh):
+                    current.append(b)
+                else:
+                    groups.append(current)
+                    current = [b]
+            groups.append(current)
+            for grp in groups:
+                grp = np.asarray(grp)
+                if len(grp) < 5:
+                    continue
+                xs = np.sort(cx[grp])
+                gaps = np.diff(xs)
+                # Glyphs of one line are regularly spaced: most gaps below three glyph heights.
+                if np.mean(gaps <= 3 * np.median(gh[grp])) < 0.7:
+                    continue
+                ys = cy[grp]
+                half = float(np.median(gh[grp]))
+                row_a = int(max(r0, top) + ys.min() - half - 2)
+                row_b = int(max(r0, top) + ys.max() + half + 3)
+                col_a = int(c0 + xs.min() - 2 * half)
+                col_b = int(c0 + xs.max() + 2 * half)
+                out.append((max(r0, row_a), min(r1, row_b), max(c0, col_a), min(c1, col_b)))
+    return out
+
+
+def picture_mask(image: np.ndarray, inset: float = 0.006, ignore_captions: bool = True) -> np.ndarray:
+    """(H, W) bool: True where the photo shows the scene (not paper border, frame line or caption).
+
+    Args:
+        image: (H, W) or (H, W, 3) array.
+        inset: fraction of the image size removed inside the detected picture edge (frame lines, ragged edges).
+        ignore_captions: also remove printed text lines near the top and bottom of the picture.
+    """
+    gray = to_gray(image)
+    h, w = gray.shape
+    r0, r1, c0, c1 = picture_box(gray)
+    pad = int(round(inset * max(h, w)))
+    mask = np.zeros((h, w), dtype=bool)
+    mask[r0 + pad:max(r0 + pad, r1 - pad), c0 + pad:max(c0 + pad, c1 - pad)] = True
+    if ignore_captions:
+        for a, b, c, d in caption_boxes(gray, (r0, r1, c0, c1)):
+            mask[a:b, c:d] = False
+    return mask
