@@ -40,22 +40,28 @@ class RenderedDem:
     depth: np.ndarray
     result: XyzResult
 
-    def edges(self, jump: float = 0.05) -> np.ndarray:
-        """(H, W) bool: silhouettes and horizon lines, where the depth jumps by more than ``jump`` (relative) to a
-        neighbouring pixel, or terrain meets sky."""
+    def edges(self, jump: float = 0.05, contrast: float = 3.0) -> np.ndarray:
+        """(H, W) bool: silhouettes and horizon lines: terrain next to sky, or a depth step between neighbouring
+        pixels larger than ``jump`` (relative) and ``contrast`` times the steps beside it (so that the steady depth
+        growth of ground seen at a grazing angle is not taken for an edge). The nearer pixel of a step is marked."""
         d = self.depth
         hit = np.isfinite(d)
         out = np.zeros(d.shape, dtype=bool)
-        with np.errstate(invalid="ignore"):
-            for a, b in ((np.s_[:, 1:], np.s_[:, :-1]), (np.s_[1:, :], np.s_[:-1, :])):
-                da, db = d[a], d[b]
-                near = np.fmin(da, db)
-                step = (hit[a] != hit[b]) | (np.abs(da - db) > jump * near)
-                # mark the nearer pixel of each jump (the occluding ridge), or the terrain pixel next to sky
-                mark_a = step & (np.nan_to_num(da, nan=np.inf) <= np.nan_to_num(db, nan=np.inf))
-                mark_b = step & ~mark_a
-                out[a] |= mark_a
-                out[b] |= mark_b
+        for axis in (0, 1):
+            dd = np.moveaxis(d, axis, 0)
+            hh = np.moveaxis(hit, axis, 0)
+            oo = np.moveaxis(out, axis, 0)
+            diff = np.abs(dd[1:] - dd[:-1])  # step between k and k+1
+            near = np.fmin(dd[1:], dd[:-1])
+            mag = np.nan_to_num(diff, nan=0.0)
+            side = np.zeros_like(mag)
+            side[1:] = mag[:-1]
+            side[:-1] = np.maximum(side[:-1], mag[1:])
+            with np.errstate(invalid="ignore"):
+                step = (hh[1:] != hh[:-1]) | ((diff > jump * near) & (diff > contrast * side))
+                first_nearer = np.nan_to_num(dd[:-1], nan=np.inf) <= np.nan_to_num(dd[1:], nan=np.inf)
+            oo[:-1] |= step & first_nearer
+            oo[1:] |= step & ~first_nearer
         return out & hit
 
     def rgba(self, colour: Sequence[int] = (255, 255, 255), opacity: float = 0.6, edges: bool = True,
