@@ -1,0 +1,61 @@
+"""Suggest photo points / DEM points through processing.run on a rendered synthetic scene."""
+
+import numpy as np
+import pytest
+from qgis.core import QgsProcessingException, QgsVectorLayer
+
+from monoplot_plugin.core.camera import Camera
+from monoplot_plugin.core.dem import Dem
+
+
+@pytest.fixture(scope="module")
+def rendered(tmp_path_factory):
+    """A synthetic alpine DEM and a photo rendered from a known camera (core/synthetic.py)."""
+    import cv2
+
+    from monoplot_plugin.core.synthetic import render_photo, synthetic_terrain
+
+    folder = tmp_path_factory.mktemp("rendered")
+    dem = synthetic_terrain((120, 120), cell=50.0, seed=2)
+    dem.save(str(folder / "dem.tif"))
+    dem = Dem.open(str(folder / "dem.tif"))
+    x, y = dem.cell_to_map(60, 112)
+    z = float(dem.sample(np.array([x]), np.array([y]))[0]) + 400
+    cam = Camera((float(x), float(y), z), heading=0.0, pitch=-8.0, roll=0.0, fov=55.0, image_size=(320, 240))
+    cv2.imwrite(str(folder / "photo.png"), render_photo(cam, dem, seed=2)[:, :, ::-1])
+    cam.save(folder / "camera.json")
+    return {"dem": str(folder / "dem.tif"), "photo": str(folder / "photo.png"), "camera": str(folder / "camera.json"),
+            "cam": cam, "demobj": dem}
+
+
+def test_suggest_photo_points_in_pixel_space(run_alg, rendered, tmp_path):
+    out = tmp_path / "photo_points.gpkg"
+    result = run_alg("suggestphotopoints", {"PHOTO": rendered["photo"], "MAX_POINTS": 40, "OUTPUT": str(out)})
+    layer = QgsVectorLayer(result["OUTPUT"], "p", "ogr")
+    features = list(layer.getFeatures())
+    assert 5 <= len(features) <= 40 and result["COUNT"] == len(features)
+    for f in features:
+        point = f.geometry().asPoint()
+        assert point.x() == pytest.approx(f["u_px"]) and point.y() == pytest.approx(-f["v_px"])
+        assert 0 <= f["u_px"] <= 320 and 0 <= f["v_px"] <= 240
+    assert layer.crs().authid() == ""  # photo space has no CRS (GeoPackage reads it back as "undefined")
+
+
+def test_suggest_dem_points_seen_by_the_prior(run_alg, rendered, tmp_path):
+    out = tmp_path / "dem_points.gpkg"
+    result = run_alg("suggestdempoints", {"DEM": rendered["dem"], "CAMERA": rendered["camera"], "MAX_POINTS": 30,
+                                          "OUTPUT": str(out)})
+    layer = QgsVectorLayer(result["OUTPUT"], "d", "ogr")
+    xyz = np.array([(f["X"], f["Y"], f["Z"]) for f in layer.getFeatures()])
+    assert 3 <= len(xyz) <= 30
+    assert layer.crs().authid() == "EPSG:2056"
+    assert np.allclose(xyz[:, 2], rendered["demobj"].sample(xyz[:, 0], xyz[:, 1]), atol=30.0)
+    uv = rendered["cam"].project(xyz)
+    assert rendered["cam"].in_image(uv, margin=32).all()  # restricted to what the prior camera sees
+
+
+def test_unreadable_photo_is_a_clear_error(run_alg, tmp_path):
+    bad = tmp_path / "bad.jpg"
+    bad.write_bytes(b"not an image")
+    with pytest.raises(QgsProcessingException, match="cannot read the photo bad.jpg"):
+        run_alg("suggestphotopoints", {"PHOTO": str(bad), "OUTPUT": str(tmp_path / "p.gpkg")})
