@@ -173,8 +173,8 @@ class OutputTools(QObject):
 
     def draw_layer_on_photo(self, layer: QgsVectorLayer) -> QgsVectorLayer:
         """Project ``layer`` onto the photo (hidden parts dashed) and show it on the photo canvas."""
-        camera, dem, xyz, _, _ = self.products()
-        overlay = map_layer_on_photo(layer, camera, dem, xyz, self.dock.project)
+        camera, dem, _, _, _ = self.products()
+        overlay = map_layer_on_photo(layer, camera, dem, self.dock.project)
         self.overlays = [o for o in self.overlays if o.name() != overlay.name()] + [overlay]
         self._show_on_photo()
         return overlay

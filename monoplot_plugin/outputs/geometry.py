@@ -71,7 +71,8 @@ def sample_xyz(xyz: np.ndarray, uv, origin=None, max_jump: float = 0.05) -> np.n
 
 
 def densify(vertices, step: float, closed: bool = False) -> np.ndarray:
-    """Insert points so that consecutive points are at most ``step`` apart (any dimension).
+    """Insert points so that consecutive points are at most ``step`` apart (any dimension); ``step <= 0`` keeps
+    the vertices (a ring is still closed).
 
     >>> densify([[0, 0], [3, 0]], 1.0).tolist()
     [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]]
@@ -79,7 +80,7 @@ def densify(vertices, step: float, closed: bool = False) -> np.ndarray:
     pts = np.asarray(vertices, dtype=np.float64)
     if closed and len(pts) > 1 and not np.array_equal(pts[0], pts[-1]):
         pts = np.vstack([pts, pts[:1]])
-    if len(pts) < 2:
+    if len(pts) < 2 or step <= 0:
         return pts.copy()
     out = [pts[:1]]
     for a, b in zip(pts[:-1], pts[1:]):
@@ -95,36 +96,58 @@ def _runs(valid: np.ndarray) -> List[Tuple[int, int]]:
     return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)))
 
 
-def photo_to_map_feature(kind: str, vertices, xyz: np.ndarray, attributes: Optional[dict] = None,
-                         step_px: float = 1.0, origin=None) -> Optional[MapFeature]:
+def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, attributes: Optional[dict] = None,
+                         step_px: float = 1.0, origin=None, *, camera=None, dem=None,
+                         jump: float = 0.1) -> Optional[MapFeature]:
     """A feature digitised on the photo as a 3-D map feature.
 
     Lines and polygon outlines are densified to ``step_px`` pixels first, so they follow the terrain. Pieces over
     sky (or off the DEM) are split off and counted in ``sky_parts``:
 
     - point: None when it is over sky;
-    - line: one part per visible run of at least 2 points;
-    - polygon: the ring keeps its visible points (it closes across a gap); None when fewer than 3 remain.
+    - line: one part per run of ground samples of at least 2 points, also cut where the range jumps by more than
+      ``jump`` (a silhouette: the line passes from a near ridge to a far slope);
+    - polygon: the ring keeps its ground samples (it closes across a gap); None when fewer than 3 remain.
+
+    Ground points come from core's exact ray-terrain intersection
+    (:func:`monoplot_plugin.core.transforms.photo_points_to_map`) when ``camera`` and ``dem`` are given, else from
+    the per-pixel XYZ raster ``xyz`` (:func:`sample_xyz`, sub-pixel when ``origin`` is given).
 
     Args:
         kind: "point", "line" or "polygon".
         vertices: (N, 2) photo vertices (pixels).
-        xyz: (H, W, 3) per-pixel map coordinates, NaN for sky.
+        xyz: (H, W, 3) per-pixel map coordinates, NaN for sky (needed without camera and dem).
         attributes: user field values.
         step_px: densification step along lines and outlines (pixels).
-        origin: the camera centre; given, points are interpolated between pixels (see :func:`sample_xyz`).
+        origin: the camera centre, for sub-pixel XYZ lookups and the silhouette test.
+        camera, dem: the fitted Camera and core Dem, for exact intersections.
+        jump: relative range jump between consecutive samples that cuts a line.
     Returns:
         a :class:`MapFeature`, or None when nothing of the feature is on the ground.
     """
     attributes = dict(attributes or {})
     verts = np.asarray(vertices, dtype=np.float64).reshape(-1, 2)
+    if camera is not None and dem is not None:
+        from ..core.transforms import photo_points_to_map
+
+        origin = camera.position
+
+        def lookup(uv):
+            return photo_points_to_map(uv, camera, dem)[0]
+    elif xyz is not None:
+        def lookup(uv):
+            return sample_xyz(xyz, uv, origin)
+    else:
+        raise ValueError("give camera and dem, or the XYZ raster")
     if kind == "point":
-        ground = sample_xyz(xyz, verts[:1], origin)
+        ground = lookup(verts[:1])
         if not np.isfinite(ground).all():
             return None
         return MapFeature("point", [ground], attributes)
+    if kind not in ("line", "polygon"):
+        raise ValueError(f"kind must be point, line or polygon, got {kind!r}")
     dense = densify(verts, step_px, closed=(kind == "polygon"))
-    ground = sample_xyz(xyz, dense, origin)
+    ground = lookup(dense)
     valid = np.isfinite(ground).all(axis=1)
     if kind == "polygon":
         ring_valid = valid[:-1]  # the closing point repeats the first
@@ -135,9 +158,14 @@ def photo_to_map_feature(kind: str, vertices, xyz: np.ndarray, attributes: Optio
         if len(ring) < 3:
             return None
         return MapFeature("polygon", [ring], attributes, sky_parts=sky)
-    if kind != "line":
-        raise ValueError(f"kind must be point, line or polygon, got {kind!r}")
-    parts = [_drop_repeats(ground[a:b]) for a, b in _runs(valid)]
+    parts = []
+    for a, b in _runs(valid):
+        cuts = [a, b]
+        if origin is not None:
+            r = np.linalg.norm(ground[a:b] - np.asarray(origin, dtype=np.float64), axis=1)
+            big = np.flatnonzero(np.abs(np.diff(r)) > jump * np.minimum(r[:-1], r[1:]))
+            cuts = [a, *(a + big + 1).tolist(), b]
+        parts.extend(_drop_repeats(ground[p:q]) for p, q in zip(cuts[:-1], cuts[1:]))
     parts = [p for p in parts if len(p) >= 2]
     sky = len(_runs(~valid))
     if not parts:
@@ -179,17 +207,19 @@ def visibility_of_points(camera, points: np.ndarray, xyz: np.ndarray, tolerance:
 
 @dataclass
 class PhotoPath:
-    """A map line drawn on the photo: (M, 2) pixel vertices with a visibility flag per vertex."""
+    """A map line drawn on the photo: (M, 2) pixel vertices, each visible, hidden behind terrain, or neither
+    (behind the camera, outside the photo, off the DEM)."""
 
     uv: np.ndarray
     visible: np.ndarray
+    occluded: np.ndarray
 
     def pieces(self) -> List[Tuple[np.ndarray, bool]]:
-        """Consecutive runs as (uv (k, 2), visible) pieces, sharing their end points so a dashed piece joins the
-        solid ones; runs behind the camera (NaN) are dropped."""
-        finite = np.isfinite(self.uv).all(axis=1)
+        """Consecutive drawable runs as (uv (k, 2), visible) pieces: visible ones solid, hidden ones dashed. Pieces
+        share their end points, so a dashed piece joins the solid ones; the rest is left out."""
+        drawable = (self.visible | self.occluded) & np.isfinite(self.uv).all(axis=1)
         out = []
-        for a, b in _runs(finite):
+        for a, b in _runs(drawable):
             vis = self.visible[a:b]
             change = np.flatnonzero(np.diff(vis.astype(np.int8))) + 1
             bounds = [0, *change.tolist(), b - a]
@@ -200,30 +230,27 @@ class PhotoPath:
         return out
 
 
-def map_to_photo(parts_xy: Sequence[np.ndarray], camera, xyz: np.ndarray, dem,
-                 step: Optional[float] = None) -> List[PhotoPath]:
+def map_to_photo(parts_xy: Sequence[np.ndarray], camera, dem, step: Optional[float] = None) -> List[PhotoPath]:
     """Map lines or polygon rings drawn onto the photo, each vertex flagged visible or hidden.
 
+    Core's :func:`monoplot_plugin.core.transforms.map_to_photo` does the work (exact line of sight to every
+    vertex); this wraps its result for drawing.
+
     Args:
-        parts_xy: list of (N, 2) or (N, 3) map coordinate arrays (rings should repeat their first vertex). Z is
-            always taken from the DEM: 2-D outlines lie on the terrain.
+        parts_xy: list of (N, 2) or (N, 3) map coordinate arrays (rings should repeat their first vertex). 2-D
+            outlines are draped on the terrain.
         camera: the photo's Camera.
-        xyz: (H, W, 3) per-pixel map coordinates of the photo.
         dem: the :class:`~monoplot_plugin.core.dem.Dem` (same CRS as the layer: reproject the layer first).
-        step: densification in map units (default: half a DEM cell) so the drawn line follows the terrain.
+        step: densification in map units (default: half a DEM cell) so the drawn line follows the terrain and
+            hidden runs are found.
     Returns:
         one :class:`PhotoPath` per input part.
     """
-    step = step or dem.cell_size / 2.0
-    paths = []
-    for part in parts_xy:
-        xy = densify(np.asarray(part, dtype=np.float64)[:, :2], step)
-        z = dem.sample(xy[:, 0], xy[:, 1])
-        pts = np.column_stack([xy, z])
-        uv, visible = visibility_of_points(camera, pts, xyz)
-        visible &= np.isfinite(z)
-        paths.append(PhotoPath(uv, visible))
-    return paths
+    from ..core.transforms import map_to_photo as core_map_to_photo
+
+    parts = [np.asarray(p, dtype=np.float64) for p in parts_xy]
+    return [PhotoPath(r.uv, r.visible, r.occluded & r.in_image)
+            for r in core_map_to_photo(parts, camera, dem, densify_m=step)]
 
 
 def orthorectify(photo: np.ndarray, camera, dem, xyz: np.ndarray) -> np.ndarray:

@@ -225,7 +225,7 @@ class DigitisingSession(QObject):
             if len(vertices) == 0:
                 continue
             attrs = {n: _plain(feature[n]) for n, _ in self.fields}
-            mapped = photo_to_map_feature(kind, vertices, self.xyz, attrs, origin=self.camera.position)
+            mapped = photo_to_map_feature(kind, vertices, self.xyz, attrs, camera=self.camera, dem=self.dem)
             if mapped is None:
                 dropped += 1
                 continue
@@ -322,7 +322,7 @@ def _style_photo_layer(layer: QgsVectorLayer, kind: str) -> None:
     layer.renderer().setSymbol(symbol)
 
 
-def map_layer_on_photo(layer: QgsVectorLayer, camera, dem, xyz: np.ndarray,
+def map_layer_on_photo(layer: QgsVectorLayer, camera, dem,
                        project: Optional[QgsProject] = None) -> QgsVectorLayer:
     """A pixel-space line layer of ``layer``'s lines and polygon outlines as the camera sees them.
 
@@ -344,7 +344,7 @@ def map_layer_on_photo(layer: QgsVectorLayer, camera, dem, xyz: np.ndarray,
         if layer.crs().isValid() and transform.isValid():
             geom.transform(transform)
         for part in _outline_parts(geom, dem.cell_size):
-            for path in map_to_photo([part], camera, xyz, dem):
+            for path in map_to_photo([part], camera, dem):
                 for uv, visible in path.pieces():
                     f = QgsFeature(out.fields())
                     f.setGeometry(QgsGeometry.fromPolylineXY([QgsPointXY(u, -v) for u, v in uv]))

@@ -11,7 +11,8 @@ from osgeo import gdal, ogr
 from monoplot_plugin.core.camera import Camera
 from monoplot_plugin.core.dem import Dem
 from monoplot_plugin.core.fit import fit_camera
-from monoplot_plugin.outputs.geometry import densify, map_to_photo, photo_to_map_feature, sample_xyz
+from monoplot_plugin.outputs.geometry import (densify, map_to_photo, photo_to_map_feature, sample_xyz,
+                                              visibility_of_points)
 from monoplot_plugin.outputs.orthophoto import orthophoto_from_camera
 from monoplot_plugin.outputs.report import ReportPoints, parameter_sigmas, write_report
 from monoplot_plugin.outputs.vectors import write_vector_layer
@@ -66,7 +67,7 @@ def test_aletsch_report(aletsch, tmp_path):
 
 def test_gcp_points_and_glacier_polygon_as_shapefile(aletsch, tmp_path):
     camera, xyz, dem = aletsch["camera"], aletsch["xyz"], aletsch["dem"]
-    points = [photo_to_map_feature("point", [uv], xyz, {"gcp": i}, origin=camera.position)
+    points = [photo_to_map_feature("point", [uv], attributes={"gcp": i}, camera=camera, dem=dem)
               for i, uv in enumerate(aletsch["uv"])]
     on_ground = [p for p in points if p is not None]
     # Peaks picked right on the skyline may fall on sky with this camera: they are left out, never invented.
@@ -77,8 +78,11 @@ def test_gcp_points_and_glacier_polygon_as_shapefile(aletsch, tmp_path):
             error[i] = np.linalg.norm(p.parts[0][0] - aletsch["gcp_xyz"][i])
     assert np.median(error) < 100.0, np.round(error)
 
-    glacier = photo_to_map_feature("polygon", LOWER_GLACIER, xyz, {"name": "Grosser Aletsch", "year": 1890},
-                                   origin=camera.position)
+    glacier = photo_to_map_feature("polygon", LOWER_GLACIER, attributes={"name": "Grosser Aletsch", "year": 1890},
+                                   camera=camera, dem=dem)
+    # The XYZ raster gives the same outline (sub-pixel lookup) to well within a DEM cell.
+    from_raster = photo_to_map_feature("polygon", LOWER_GLACIER, xyz, origin=camera.position)
+    assert from_raster.measures()["area"] == pytest.approx(glacier.measures()["area"], rel=0.02)
     assert glacier is not None and glacier.sky_parts == 0
     folder = tmp_path / "Aletsch 1890 – Gletscher"
     folder.mkdir()
@@ -110,24 +114,32 @@ def test_gcp_points_and_glacier_polygon_as_shapefile(aletsch, tmp_path):
 
 def test_map_outline_round_trip_and_hidden_parts(aletsch):
     camera, xyz, dem = aletsch["camera"], aletsch["xyz"], aletsch["dem"]
-    glacier = photo_to_map_feature("polygon", LOWER_GLACIER, xyz, origin=camera.position)
+    glacier = photo_to_map_feature("polygon", LOWER_GLACIER, camera=camera, dem=dem)
     ring = np.vstack([glacier.parts[0], glacier.parts[0][:1]])[:, :2]
-    (path,) = map_to_photo([ring], camera, xyz, dem)
+    (path,) = map_to_photo([ring], camera, dem)
     assert path.visible.mean() > 0.95
-    back = sample_xyz(xyz, path.uv, camera.position)
     truth = densify(ring, dem.cell_size / 2.0)
-    error = np.linalg.norm(back[:, :2] - truth, axis=1)[path.visible]
-    assert np.max(error) < dem.cell_size, np.max(error)  # within one DEM cell on the visible parts
+    # Back to the map through the exact intersection and through the XYZ raster the user can identify-click:
+    # within one DEM cell on the visible parts either way.
+    exact = photo_to_map_feature("line", path.uv[path.visible], camera=camera, dem=dem, step_px=0, jump=1e9)
+    assert exact is not None and len(exact.parts) == 1
+    error_exact = np.linalg.norm(exact.parts[0][:, :2] - truth[path.visible][:len(exact.parts[0])], axis=1)
+    back = sample_xyz(xyz, path.uv, camera.position)
+    error_raster = np.linalg.norm(back[:, :2] - truth, axis=1)[path.visible]
+    assert np.max(error_exact) < dem.cell_size, np.max(error_exact)
+    assert np.max(error_raster) < dem.cell_size, np.max(error_raster)
 
-    # Hidden parts: the per-vertex flags agree with core's independent per-cell visibility of the DEM.
+    # Hidden parts: core's exact line of sight (map_to_photo) and the outputs' depth test against the XYZ raster
+    # (used for the orthophoto) agree on DEM cells across the view.
     rows, cols = np.nonzero(np.isfinite(dem.elevation))
     pick = np.random.default_rng(0).choice(len(rows), 3000, replace=False)
     x, y = dem.cell_to_map(cols[pick] + 0.5, rows[pick] + 0.5)
-    segments = [np.array([[xi, yi], [xi, yi]]) for xi, yi in zip(x, y)]
-    flags = np.array([p.visible[0] for p in map_to_photo(segments, camera, xyz, dem)])
-    core_visible = aletsch["visible"][rows[pick], cols[pick]]
-    assert flags.any() and (~flags).any()
-    assert np.mean(flags == core_visible) > 0.9
+    (cells,) = map_to_photo([np.column_stack([x, y])], camera, dem, step=0)  # vertices only, no densifying
+    exact_visible, hidden = cells.visible, cells.occluded
+    assert exact_visible.any() and hidden.any()
+    pts = np.column_stack([x, y, dem.elevation[rows[pick], cols[pick]]])
+    depth_visible = visibility_of_points(camera, pts, xyz)[1]
+    assert np.mean(exact_visible == depth_visible) > 0.95
 
 
 def test_xyz_raster_and_orthophoto_of_aletsch(aletsch, tmp_path):

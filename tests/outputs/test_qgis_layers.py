@@ -95,11 +95,11 @@ def test_map_layer_drawn_on_photo_with_hidden_parts(project, plane_scene):
     g.setGeometry(QgsGeometry.fromPolygonXY([[QgsPointXY(601500, 202000), QgsPointXY(602600, 202100),
                                               QgsPointXY(602500, 203300), QgsPointXY(601500, 202000)]]))
     poly.dataProvider().addFeatures([g])
-    on_photo = map_layer_on_photo(layer, s.camera, s.dem, s.xyz, project)
+    on_photo = map_layer_on_photo(layer, s.camera, s.dem, project)
     flags = [feat["visible"] for feat in on_photo.getFeatures()]
     assert 1 in flags  # the part in front of the camera, solid
     assert on_photo.renderer().type() == "categorizedSymbol"
-    outline = map_layer_on_photo(poly, s.camera, s.dem, s.xyz, project)
+    outline = map_layer_on_photo(poly, s.camera, s.dem, project)
     (piece,) = list(outline.getFeatures())
     assert piece["visible"] == 1
     uv = np.array([(p.x(), -p.y()) for p in piece.geometry().vertices()])

@@ -111,7 +111,7 @@ def test_map_polygon_to_photo_and_back_within_one_cell(plane_scene):
     # A map polygon in front of the camera (about 1.5-3 km away).
     ring = np.array([[601500.0, 202000.0], [602600.0, 202100.0], [602500.0, 203300.0], [601700.0, 203000.0],
                      [601500.0, 202000.0]])
-    (path,) = map_to_photo([ring], scene.camera, scene.xyz, scene.dem)
+    (path,) = map_to_photo([ring], scene.camera, scene.dem)
     assert path.visible.all()
     back = sample_xyz(scene.xyz, path.uv, scene.camera.position)
     dense = np.column_stack([path.uv, back])
@@ -127,7 +127,7 @@ def test_map_line_behind_the_camera_or_off_photo_is_hidden(plane_scene):
     scene = plane_scene
     cam_x, cam_y, _ = scene.camera.position
     line = np.array([[cam_x - 200.0, cam_y - 800.0], [cam_x, cam_y + 2500.0]])  # starts behind the camera
-    (path,) = map_to_photo([line], scene.camera, scene.xyz, scene.dem)
+    (path,) = map_to_photo([line], scene.camera, scene.dem)
     assert path.visible.any() and not path.visible.all()
     pieces = path.pieces()
     assert any(vis for _, vis in pieces)
