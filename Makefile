@@ -13,13 +13,14 @@ VERSION    = $(shell sed -n 's/^version=//p' metadata.txt)
 
 export QT_QPA_PLATFORM ?= offscreen
 
-.PHONY: help setup apt venv resources test demo qgis package clean
+.PHONY: help setup apt venv resources test demo qgis package clean bench
 
 help:
 	@echo "make demo     set up everything, then run the demo job"
 	@echo "make qgis     open QGIS with the plugin and the demo project"
 	@echo "make test     set up everything, then run the whole test suite"
 	@echo "make package  build dist/monoplot-<version>.zip for plugins.qgis.org"
+	@echo "make bench    core speed benchmarks (per-pixel XYZ, render, orthophoto), one JSON line each"
 
 setup: apt venv resources
 
@@ -62,6 +63,10 @@ demo: setup
 # when demo-output/ is missing). Needs a display; under Xvfb: xvfb-run -a make qgis
 qgis: setup
 	$(PY) demo/qgis_desktop.py
+
+# Core benchmarks on generated terrain: one JSON line per benchmark (median seconds, peak MB).
+bench: setup
+	$(PY) bench/run_bench.py
 
 package: setup
 	$(PY) scripts/package.py --output dist
