@@ -23,6 +23,11 @@ CURATION_TOLERANCE_PX = 4.0
 #: Fewest accepted pairs; below it the simulated user clicks visible DEM landmarks on the photo by hand
 #: (their exact projection plus 1 px of hand jitter), as a real user adds points the detectors missed.
 MIN_POINTS = 10
+#: Points the simulated user adds by hand in the part of the photo where no suggestion was accepted (usually the
+#: foreground: suggestions favour ridges and far slopes, and points at one distance leave the camera's position
+#: and orientation ambiguous). Each is a ground point seen there, clicked on the photo with 1 px of jitter and on
+#: the map exactly (a real user would pick a recognisable boulder or path junction).
+HAND_POINTS = 6
 
 
 @dataclass
@@ -113,6 +118,11 @@ def curate(photo_points: Path, dem_points: Path, sc: Scene, out_dir: Path, seed:
         photo_kept = np.vstack([photo_kept, clicks])
         dem_kept = np.vstack([dem_kept, extra_world])
         added = len(extra_world)
+    hand = _hand_points(sc, photo_kept, HAND_POINTS, rng)
+    if len(hand):
+        photo_kept = np.vstack([photo_kept, sc.truth.project(hand) + rng.normal(0.0, 1.0, (len(hand), 2))])
+        dem_kept = np.vstack([dem_kept, hand])
+        added += len(hand)
     photo_csv, dem_csv, check_csv = out_dir / "curated_photo_points.csv", out_dir / "curated_dem_points.csv", \
         out_dir / "check_points.csv"
     write_points_csv(str(photo_csv), uv=photo_kept)
@@ -122,6 +132,27 @@ def curate(photo_points: Path, dem_points: Path, sc: Scene, out_dir: Path, seed:
     return {"photo_csv": photo_csv, "dem_csv": dem_csv, "check_csv": check_csv,
             "n_photo_suggested": len(uv), "n_dem_suggested": len(world), "n_photo": len(photo_kept),
             "n_dem": len(dem_kept), "n_added": added}
+
+
+def _hand_points(sc: Scene, accepted_uv: np.ndarray, n: int, rng) -> np.ndarray:
+    """(k <= n, 3) ground points in the emptiest horizontal band of the photo (lower half first)."""
+    h, w = sc.xyz_truth.shape[:2]
+    bands = np.linspace(0, h, 5).astype(int)
+    counts = [int(((accepted_uv[:, 1] >= a) & (accepted_uv[:, 1] < b)).sum()) for a, b in zip(bands, bands[1:])]
+    ground_rows = [int(np.isfinite(sc.xyz_truth[a:b, :, 2]).mean() * (b - a)) for a, b in zip(bands, bands[1:])]
+    order = sorted(range(4), key=lambda i: (counts[i], -i))  # emptiest, lowest first
+    band = next((i for i in order if ground_rows[i] > 0), None)
+    if band is None:
+        return np.zeros((0, 3))
+    rows, cols = np.nonzero(np.isfinite(sc.xyz_truth[bands[band]:bands[band + 1], :, 2]))
+    rows += bands[band]
+    # spread across the band: one point per slice of columns
+    picks = []
+    for lo, hi in zip(np.linspace(0, w, n + 1)[:-1], np.linspace(0, w, n + 1)[1:]):
+        inside = np.flatnonzero((cols >= lo + 8) & (cols < hi - 8) & (rows > bands[band] + 8) & (rows < h - 8))
+        if len(inside):
+            picks.append(rng.choice(inside))
+    return sc.xyz_truth[rows[picks], cols[picks]]
 
 
 def _visible_ground_points(sc: Scene, n: int, rng) -> np.ndarray:
