@@ -57,7 +57,9 @@ class OutputTools(QObject):
         self.actions["edit"] = QAction(self.tr("Edit drawn features"), dock)
         self.actions["edit"].setToolTip(self.tr("Drag a vertex to move it; right click a feature to delete it"))
         dock.add_photo_tool(self.actions["edit"], self.edit_tool)
-        for name, label, slot in (("xyz", self.tr("XYZ raster…"), self._ask_xyz),
+        for name, label, slot in (("field", self.tr("Add attribute field…"), self._ask_field),
+                                  ("attributes", self.tr("Attributes of drawn features"), self._open_attributes),
+                                  ("xyz", self.tr("XYZ raster…"), self._ask_xyz),
                                   ("ortho", self.tr("Orthophoto…"), self._ask_ortho),
                                   ("report", self.tr("Report…"), self._ask_report),
                                   ("features", self.tr("Save drawn features…"), self._ask_features),
@@ -229,6 +231,35 @@ class OutputTools(QObject):
             if path:
                 self._run(lambda k=kind, p=path: self.export_features(k, p, overwrite=True),
                           self.tr("Features written: {0}"))
+
+    def _ask_field(self) -> None:
+        from qgis.PyQt.QtWidgets import QInputDialog
+
+        session = self.current_session()
+        if session is None:
+            self._message(self.ready() or "", Qgis.MessageLevel.Warning)
+            return
+        name, ok = QInputDialog.getText(self.dock, self.tr("Add attribute field"),
+                                        self.tr("Field name (10 characters at most for Shapefiles):"))
+        if not ok or not name.strip():
+            return
+        ftype, ok = QInputDialog.getItem(self.dock, self.tr("Add attribute field"), self.tr("Type:"),
+                                         ["string", "integer", "real", "date"], 0, False)
+        if ok:
+            self._run(lambda: session.add_field(name.strip(), ftype) or name.strip(),
+                      self.tr("Field {0} added to the drawn layers."))
+
+    def _open_attributes(self) -> None:
+        """Open the attribute tables of the photo layers (edits there update the live map layers)."""
+        session = self.current_session()
+        iface = getattr(self.dock, "iface", None)
+        if session is None or iface is None:
+            self._message(self.ready() or "", Qgis.MessageLevel.Warning)
+            return
+        for layer in session.all_photo_layers():
+            if layer.featureCount():
+                layer.startEditing()
+                iface.showAttributeTable(layer)
 
     def _overlay_active_layer(self) -> None:
         iface = getattr(self.dock, "iface", None)

@@ -58,6 +58,14 @@ def test_outputs_in_the_dock(dock_with_fit, plane_scene, tmp_path, qtbot):
     session.add_feature("polygon", [[50, 100], [190, 100], [150, 150]], {"name": "tongue"})
     live = session.map_layer("polygon")
     assert live.featureCount() == 1
+    # A field added later reaches both layers; a value typed into the photo layer reaches the map layer.
+    session.add_field("year", "integer")
+    photo_layer = session.photo_layer("polygon")
+    photo_layer.startEditing()
+    fid = next(photo_layer.getFeatures()).id()
+    assert photo_layer.changeAttributeValue(fid, photo_layer.fields().indexFromName("year"), 1890)
+    assert photo_layer.commitChanges()
+    assert next(live.getFeatures())["year"] == 1890
     assert set(session.all_photo_layers()) <= set(dock.photo_canvas.layers())
     group = session.group
     assert group.name() == "Gletscher 1890"
