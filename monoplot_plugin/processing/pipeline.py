@@ -42,37 +42,23 @@ def sample_dem(dem, xy: np.ndarray) -> np.ndarray:
 
 # --- suggestions ----------------------------------------------------------------------------------------------
 def suggest_photo(photo: np.ndarray, max_points: int) -> Tuple[np.ndarray, np.ndarray]:
-    """(uv (N, 2) pixels, scores (N,)) of suggested points on an (H, W, 3) uint8 photo."""
+    """(uv (N, 2) pixels, scores (N,) in [0, 1]) of suggested points on an (H, W, 3) uint8 photo."""
     from ..core.suggest import suggest_photo_points
 
     result = suggest_photo_points(photo, max_points=max_points)
-    return _points_and_scores(result, 2)
+    return np.asarray(result.uv, dtype=float).reshape(-1, 2), np.asarray(result.score, dtype=float)
 
 
 def suggest_dem(dem, max_points: int, camera: Optional[Camera] = None,
                 progress: Progress = None) -> Tuple[np.ndarray, np.ndarray, list]:
-    """(xyz (N, 3) map coordinates, scores (N,), labels) of suggested terrain points; with a camera only those
-    it sees."""
+    """(xyz (N, 3) map coordinates, scores (N,), kinds such as "summit" or "orb") of suggested terrain points;
+    with a camera only those it sees."""
     from ..core.suggest import suggest_dem_points
 
     result = suggest_dem_points(dem, camera=camera, max_points=max_points)
-    xyz, scores = _points_and_scores(result, 3)
-    labels = list(getattr(result, "labels", None) or [""] * len(xyz))
     _tick(progress, 1.0)
-    return xyz, scores, labels
-
-
-def _points_and_scores(result, dims: int) -> Tuple[np.ndarray, np.ndarray]:
-    """Accept the suggestion result as an array, a (points, scores) tuple or an object with attributes."""
-    if isinstance(result, tuple):
-        points, scores = result[0], result[1]
-    elif hasattr(result, "points"):
-        points, scores = result.points, getattr(result, "scores", None)
-    else:
-        points, scores = result, None
-    points = np.asarray(points, dtype=float).reshape(-1, dims)
-    scores = np.zeros(len(points)) if scores is None else np.asarray(scores, dtype=float).reshape(-1)
-    return points, scores
+    return (np.asarray(result.xyz, dtype=float).reshape(-1, 3), np.asarray(result.score, dtype=float),
+            [str(k) for k in result.kind])
 
 
 # --- fit ------------------------------------------------------------------------------------------------------
