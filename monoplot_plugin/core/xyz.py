@@ -151,7 +151,7 @@ def _project_vertices(elev, gt, C, R, intr, near, u, v, z):
                 v[r, c] = np.nan
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _raster_triangle(u0, v0, w0, u1, v1, w1, u2, v2, w2, tid, zbuf, tbuf):
     """Rasterise one screen triangle (pixels; w = inverse depth) into zbuf (keep the largest w) and tbuf."""
     H, W = zbuf.shape
@@ -189,6 +189,58 @@ def _raster_triangle(u0, v0, w0, u1, v1, w1, u2, v2, w2, tid, zbuf, tbuf):
             if w > zbuf[i, j]:
                 zbuf[i, j] = w
                 tbuf[i, j] = tid
+
+
+@njit(cache=True, inline="always")
+def _raster_quad(ua, va, wa, ub, vb, wb, uc, vc, wc, ud, vd, wd, i0, i1, j0, j1, tid, zbuf, tbuf):
+    """Rasterise the quad A B C D (A = (r, c), B = (r, c+1), C = (r+1, c+1), D = (r+1, c)) as its two triangles
+    ABC (id tid) and ACD (id tid + 1) in one pass over the quad's pixel box: the side of the diagonal AC picks the
+    triangle. Returns False (nothing drawn) when B and D are not on opposite sides of AC (a folded quad), for the
+    caller to draw the two triangles separately."""
+    acu = uc - ua
+    acv = vc - va
+    eb = acu * (vb - va) - acv * (ub - ua)
+    ed = acu * (vd - va) - acv * (ud - ua)
+    if not (eb * ed < 0.0):
+        return False
+    inv_b = 1.0 / eb
+    inv_d = 1.0 / ed
+    abu = ub - ua
+    abv = vb - va
+    adu = ud - ua
+    adv = vd - va
+    eps = -1e-7
+    for i in range(i0, i1 + 1):
+        py = i + 0.5
+        for j in range(j0, j1 + 1):
+            px = j + 0.5
+            e = acu * (py - va) - acv * (px - ua)  # side of AC
+            if e * eb >= 0.0:
+                # triangle A B C: weight of B = e / eb; weight of C from edge AB; weight of A the rest
+                bb = e * inv_b
+                bc = (abu * (py - va) - abv * (px - ua)) * (-inv_b)
+                if bc < eps:
+                    continue
+                ba = 1.0 - bb - bc
+                if ba < eps:
+                    continue
+                w = ba * wa + bb * wb + bc * wc
+                t = tid
+            else:
+                # triangle A C D: weight of D = e / ed; weight of C from edge AD; weight of A the rest
+                bd = e * inv_d
+                bc = (adu * (py - va) - adv * (px - ua)) * (-inv_d)
+                if bc < eps:
+                    continue
+                ba = 1.0 - bd - bc
+                if ba < eps:
+                    continue
+                w = ba * wa + bc * wc + bd * wd
+                t = tid + 1
+            if w > zbuf[i, j]:
+                zbuf[i, j] = w
+                tbuf[i, j] = t
+    return True
 
 
 @njit(cache=True)
@@ -261,9 +313,15 @@ def _rasterise(u, v, z, elev, gt, C, R, intr, near, zbufs, tbufs):
                     if math.floor(vmax - 0.5) < math.ceil(vmin - 0.5) or vmax < 0.5 or vmin > H - 0.5:
                         continue
                     base = 2 * (r * (cols - 1) + c)
-                    _raster_triangle(u00, v00, 1.0 / z00, u01, v01, 1.0 / z01, u11, v11, 1.0 / z11, base, zbuf, tbuf)
-                    _raster_triangle(u00, v00, 1.0 / z00, u11, v11, 1.0 / z11, u10, v10, 1.0 / z10, base + 1,
-                                     zbuf, tbuf)
+                    j0 = max(0, int(math.ceil(umin - 0.5)))
+                    j1 = min(W - 1, int(math.floor(umax - 0.5)))
+                    i0 = max(0, int(math.ceil(vmin - 0.5)))
+                    i1 = min(H - 1, int(math.floor(vmax - 0.5)))
+                    w00, w01, w10, w11 = 1.0 / z00, 1.0 / z01, 1.0 / z10, 1.0 / z11
+                    if not _raster_quad(u00, v00, w00, u01, v01, w01, u11, v11, w11, u10, v10, w10,
+                                        i0, i1, j0, j1, base, zbuf, tbuf):
+                        _raster_triangle(u00, v00, w00, u01, v01, w01, u11, v11, w11, base, zbuf, tbuf)
+                        _raster_triangle(u00, v00, w00, u11, v11, w11, u10, v10, w10, base + 1, zbuf, tbuf)
                     continue
                 if not (z00 > near or z01 > near or z10 > near or z11 > near):
                     continue  # behind the camera, or voids (NaN compares false)
