@@ -120,10 +120,6 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self._on_points(set())
         self._on_busy("")
         self._on_camera()
-        # outputs (issue 6): digitising tools and export actions, in monoplot_plugin/outputs/dock_actions.py
-        from ..outputs.dock_actions import install_output_tools
-
-        self.outputs = install_output_tools(self)
 
     def _install_outputs(self):
         """Digitising tools and export buttons of the outputs package (optional: a failure is logged, not fatal)."""
@@ -448,8 +444,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         c = self.controller
         c.cancel()
         c.save()
-        self.outputs.unload()
-        if self.output_tools is not None and hasattr(self.output_tools, "unload"):
+        if self.output_tools is not None:
             self.output_tools.unload()
         for tool in (self.map_tool, self.camera_tool):
             if self.map_canvas.mapTool() is tool:
