@@ -13,14 +13,15 @@ VERSION    = $(shell sed -n 's/^version=//p' metadata.txt)
 
 export QT_QPA_PLATFORM ?= offscreen
 
-.PHONY: help setup apt venv resources test demo qgis package clean bench
+.PHONY: help setup apt venv resources test demo qgis package clean bench eval
 
 help:
 	@echo "make demo     set up everything, then run the demo job"
 	@echo "make qgis     open QGIS with the plugin and the demo project"
 	@echo "make test     set up everything, then run the whole test suite"
 	@echo "make package  build dist/monoplot-<version>.zip for plugins.qgis.org"
-	@echo "make bench    core speed benchmarks (per-pixel XYZ, render, orthophoto), one JSON line each"
+	@echo "make bench    core speed benchmarks (per-pixel XYZ, render, orthophoto, fit, suggestions), one JSON line each"
+	@echo "make eval     camera fit measured on the real Aletsch case and a synthetic scene, one JSON line per case"
 
 setup: apt venv resources
 
@@ -67,6 +68,11 @@ qgis: setup
 # Core benchmarks on generated terrain: one JSON line per benchmark (median seconds, peak MB).
 bench: setup
 	$(PY) bench/run_bench.py
+	$(PY) bench/bench_fit.py
+
+# Camera fit on the real Aletsch case (../shared/data/aletsch) and a synthetic scene: one JSON line per case.
+eval: setup
+	$(PY) -m eval.aletsch
 
 package: setup
 	$(PY) scripts/package.py --output dist

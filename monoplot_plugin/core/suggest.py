@@ -255,7 +255,7 @@ def _ring_stack(z: np.ndarray) -> np.ndarray:
     return np.stack([p[1 + dr:1 + dr + r, 1 + dc:1 + dc + c] for dr, dc in _RING])
 
 
-def _prominence(z: np.ndarray, peaks_rc: np.ndarray, levels: int = 80) -> np.ndarray:
+def _prominence(z: np.ndarray, peaks_rc: np.ndarray, levels: int = 60) -> np.ndarray:
     """Topographic prominence (metres, quantised to the level step) of the given peak cells.
 
     Lowering a water level from the top, a peak's key col is the highest level at which its island joins one with
@@ -269,22 +269,29 @@ def _prominence(z: np.ndarray, peaks_rc: np.ndarray, levels: int = 80) -> np.nda
     lo, hi = float(np.min(z[finite])), float(np.max(z[finite]))
     prom = hp - lo
     unresolved = np.ones(len(hp), dtype=bool)
+    flat = zf.ravel()
+    by_height = np.argsort(-flat, kind="stable")  # once; cells above a level are a prefix of this order
+    sorted_heights = flat[by_height]
     for t in np.linspace(hi, lo, levels)[1:]:
         if not unresolved.any():
             break
         labels, n = ndimage.label(zf >= t)
         if n == 0:
             continue
-        top = ndimage.maximum(zf, labels, index=np.arange(1, n + 1))
+        count = int(np.searchsorted(-sorted_heights, -t, side="right"))
+        prefix = by_height[:count]
+        top = np.full(n + 1, -np.inf)
+        # Highest cell of each island: write in increasing height so that the last (highest) write wins.
+        top[labels.ravel()[prefix[::-1]]] = flat[prefix[::-1]]
         lab = labels[peaks_rc[unresolved, 0], peaks_rc[unresolved, 1]]
         idx = np.flatnonzero(unresolved)
-        higher = (lab > 0) & (top[np.maximum(lab, 1) - 1] > hp[idx] + 1e-9)
+        higher = (lab > 0) & (top[lab] > hp[idx] + 1e-9)
         prom[idx[higher]] = hp[idx[higher]] - t
         unresolved[idx[higher]] = False
     return prom
 
 
-def terrain_landmarks(dem, max_cells: int = 400_000, min_prominence: float = 30.0, smooth_cells: float = 1.0):
+def terrain_landmarks(dem, max_cells: int = 160_000, min_prominence: float = 30.0, smooth_cells: float = 1.0):
     """Summits (by prominence), saddles and ridge junctions of a DEM.
 
     Works on a version of the grid reduced to at most ``max_cells`` cells (block maxima for summits), then puts
@@ -401,12 +408,19 @@ def _render_for_keypoints(res, dem) -> np.ndarray:
     xyz = res.xyz
     img = np.full(hit.shape, 255.0)
     if hit.any():
-        work = res.dem
-        col, row = work.map_to_cell(xyz[hit, 0], xyz[hit, 1])
-        shade = np.zeros(len(col))
+        # Slopes by central differences at the seen points only (the DEM may be far larger than the picture).
+        x, y = xyz[hit, 0], xyz[hit, 1]
+        h = dem.cell_size
+        dzdx = (dem.sample(x + h, y) - dem.sample(x - h, y)) / (2 * h)
+        dzdy = (dem.sample(x, y + h) - dem.sample(x, y - h)) / (2 * h)
+        dzdx, dzdy = np.nan_to_num(dzdx), np.nan_to_num(dzdy)
+        norm = np.sqrt(dzdx * dzdx + dzdy * dzdy + 1.0)
+        shade = np.zeros(len(x))
+        alt = math.radians(40.0)
         for az in (315.0, 45.0, 135.0, 225.0):
-            hs = work.hillshade(az, 40.0)
-            shade += _bilinear(np.nan_to_num(hs, nan=0.5), row - 0.5, col - 0.5) / 4.0
+            a = math.radians(az)
+            lx, ly, lz = math.sin(a) * math.cos(alt), math.cos(a) * math.cos(alt), math.sin(alt)
+            shade += np.clip((-dzdx * lx - dzdy * ly + lz) / norm, 0.0, 1.0) / 4.0
         img[hit] = 30.0 + 200.0 * shade
         logd = np.log(np.where(hit, res.distance, np.nanmax(res.distance[hit]) * 4)).astype(np.float32)
         edges = np.abs(cv2.Sobel(logd, cv2.CV_32F, 1, 0, ksize=3)) + np.abs(cv2.Sobel(logd, cv2.CV_32F, 0, 1,
@@ -494,7 +508,7 @@ def suggest_dem_points(dem, camera=None, max_points: int = 1500, cell_px: Option
         from .xyz import compute_xyz_full
 
         small, scale = _scaled_camera(camera, render_width)
-        res = compute_xyz_full(small, dem, max_range=max_range, crop=True, visibility=landmarks)
+        res = compute_xyz_full(small, dem, max_range=max_range, crop=True, visibility=False)
         img = _render_for_keypoints(res, dem)
         mask = np.asarray(res.hit)
         import cv2
@@ -513,14 +527,22 @@ def suggest_dem_points(dem, camera=None, max_points: int = 1500, cell_px: Option
     else:
         import cv2
 
-        shade = np.zeros(dem.shape)
-        for az in (315.0, 45.0, 135.0, 225.0):
-            shade += np.nan_to_num(dem.hillshade(az, 40.0), nan=0.0) / 4.0
-        img = np.clip(30 + 200 * shade, 0, 255).astype(np.uint8)
-        valid = np.isfinite(dem.elevation)
         scale = min(1.0, float(map_size) / max(dem.shape))
+        view = dem
+        if scale < 1.0:  # shade a reduced grid (same extent): hillshades of 25 M cells take seconds
+            size = (max(2, round(dem.cols * scale)), max(2, round(dem.rows * scale)))
+            small_z = cv2.resize(np.nan_to_num(dem.elevation.astype(np.float32), nan=np.float32(np.nanmin(
+                dem.elevation))), size, interpolation=cv2.INTER_AREA)
+            g = dem.geotransform
+            sx, sy = dem.cols / size[0], dem.rows / size[1]
+            view = type(dem).from_array(small_z, (g[0], g[1] * sx, g[2] * sy, g[3], g[4] * sx, g[5] * sy))
+        shade = np.zeros(view.shape)
+        for az in (315.0, 45.0, 135.0, 225.0):
+            shade += np.nan_to_num(view.hillshade(az, 40.0), nan=0.0) / 4.0
+        img = np.clip(30 + 200 * shade, 0, 255).astype(np.uint8)
+        img = cv2.createCLAHE(clipLimit=4.0, tileGridSize=(8, 8)).apply(img)
+        valid = np.isfinite(dem.elevation)
         if scale < 1.0:
-            img = cv2.resize(img, (round(dem.cols * scale), round(dem.rows * scale)), interpolation=cv2.INTER_AREA)
             valid = cv2.resize(valid.astype(np.uint8), (img.shape[1], img.shape[0]),
                                interpolation=cv2.INTER_NEAREST).astype(bool)
         valid = cv2.erode(valid.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
@@ -542,7 +564,7 @@ def suggest_dem_points(dem, camera=None, max_points: int = 1500, cell_px: Option
         lxyz, lkind, lstrength, lprom = terrain_landmarks(dem)
         if len(lxyz):
             if res is not None:
-                seen = _visible_in_view(res, dem, camera, lxyz, view_margin)
+                seen = _visible_in_view(dem, camera, lxyz, view_margin)
                 lxyz, lkind, lstrength, lprom = lxyz[seen], lkind[seen], lstrength[seen], lprom[seen]
             lscore = np.zeros(len(lxyz))
             for k in np.unique(lkind):
@@ -570,13 +592,21 @@ def suggest_dem_points(dem, camera=None, max_points: int = 1500, cell_px: Option
     return DemSuggestions(xyz, score, [f"d{i:04d}" for i in range(len(xyz))], kind, uv, prom)
 
 
-def _visible_in_view(res, dem, camera, xyz: np.ndarray, margin: float) -> np.ndarray:
-    """(K,) bool: DEM points inside the camera's view (plus margin) and visible (z-buffer visibility grid)."""
+def _visible_in_view(dem, camera, xyz: np.ndarray, margin: float) -> np.ndarray:
+    """(K,) bool: DEM points inside the camera's view (plus margin) and in its line of sight (exact test with
+    :func:`~monoplot_plugin.core.xyz.segment_first_hit`; a point is seen when the first terrain hit on the way is
+    within one cell of it)."""
+    from .xyz import segment_first_hit
+
     uv, depth = camera.project_with_depth(xyz)
     inside = camera.in_image(uv, margin=margin * max(camera.image_size)) & (depth > 0)
-    col, row = dem.map_to_cell(xyz[:, 0], xyz[:, 1])
-    c = np.clip(np.floor(np.atleast_1d(col)).astype(int), 0, dem.cols - 1)
-    r = np.clip(np.floor(np.atleast_1d(row)).astype(int), 0, dem.rows - 1)
-    vis = np.asarray(res.visible)[r, c]
-    # A landmark on a cell next to a visible one still counts (visibility is per cell centre).
-    return inside & vis
+    if not inside.any():
+        return inside
+    origin = np.asarray(camera.position, dtype=np.float64)
+    targets = xyz[inside] + np.array([0.0, 0.0, 1.0])  # a metre above the ground: the point itself is on it
+    s = segment_first_hit(dem, np.broadcast_to(origin, targets.shape), targets)
+    length = np.linalg.norm(targets - origin, axis=1)
+    seen = ~np.isfinite(s) | ((1.0 - s) * length <= 1.5 * dem.cell_size)
+    out = inside.copy()
+    out[inside] = seen
+    return out
