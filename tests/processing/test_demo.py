@@ -41,3 +41,21 @@ def test_demo_outputs_are_readable_gis_files(demo_summary):
         ds = gdal.Open(str(out / name))
         assert ds is not None and ds.RasterCount >= bands
     assert (out / "report.png").stat().st_size > 50_000
+
+
+def test_make_qgis_project_lists_the_demo_layers(demo_summary, qgis_app):
+    """``make qgis`` writes a project of the demo's outputs before starting QGIS (here without starting it)."""
+    import subprocess
+    import sys
+
+    from qgis.core import QgsProject
+
+    out, _ = demo_summary
+    subprocess.run([sys.executable, "demo/qgis_desktop.py", "--project-only", "--out", str(out)], check=True,
+                   timeout=120, capture_output=True)
+    project = QgsProject()
+    assert project.read(str(out / "monoplot-demo.qgz"))
+    names = [layer.name() for layer in project.layerTreeRoot().layerOrder()]
+    assert names[0] == "Suggested DEM points" and names[-1] == "DEM" and len(names) == 4
+    assert all(layer.isValid() for layer in project.mapLayers().values())
+    project.clear()
