@@ -90,3 +90,28 @@ def test_photo_points_outside_the_image_are_refused(run_alg, small_scene, ground
         run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"],
                               "PRIOR": ground_truth["prior"], "PHOTO_CSV": str(gcps),
                               "OUTPUT": str(tmp_path / "c.json")})
+
+
+def test_aletsch_paired_fit_from_kml_prior(run_alg, aletsch_dir, tmp_path):
+    """The real case: 11 hand GCPs, the rough KML PhotoOverlay prior, the Int16 DEM with 0 voids."""
+    out = tmp_path / "aletsch.json"
+    result = run_alg("fitcamera", {"PHOTO": str(aletsch_dir / "photo.jpg"), "DEM": str(aletsch_dir / "dem.tif"),
+                                   "VOID_VALUE": 0, "PRIOR": str(aletsch_dir / "prior_pose.kml"),
+                                   "PHOTO_CSV": str(aletsch_dir / "gcps.csv"), "OUTPUT": str(out)})
+    fitted = Camera.load(out)
+    assert fitted.image_size == (1024, 763)
+    assert result["N_PHOTO"] == 11 and result["RMSE_PX"] < 12.0  # published least squares: about 7.7 px
+
+
+def test_canceled_feedback_stops_the_fit(run_alg, small_scene, ground_truth, tmp_path):
+    from qgis.core import QgsProcessingFeedback
+
+    gcps = tmp_path / "gcps.csv"
+    write_points_csv(str(gcps), uv=ground_truth["pixels"], xyz=ground_truth["world"])
+    feedback = QgsProcessingFeedback()
+    feedback.cancel()
+    out = tmp_path / "camera.json"
+    with pytest.raises(QgsProcessingException, match="canceled"):
+        run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"],
+                              "PRIOR": ground_truth["prior"], "PHOTO_CSV": str(gcps), "OUTPUT": str(out)}, feedback)
+    assert not out.exists()
