@@ -62,10 +62,16 @@ def _add(project: QgsProject, layer, group: Optional[QgsLayerTreeGroup]):
     return layer
 
 
-def add_xyz_layer(path, project: QgsProject, group: Optional[QgsLayerTreeGroup] = None) -> QgsRasterLayer:
-    """Add an XYZ raster (see :mod:`.xyz_raster`): Z as a terrain colour ramp, no CRS (photo pixel space, drawn
-    without reprojection), identify shows X, Y, Z (and DISTANCE) of the clicked photo pixel."""
-    layer = QgsRasterLayer(str(path), f"{Path(path).stem} (X Y Z)")
+def add_xyz_layer(path, project: QgsProject, group: Optional[QgsLayerTreeGroup] = None,
+                  visible: bool = False) -> QgsRasterLayer:
+    """Add an XYZ raster (see :mod:`.xyz_raster`): Z as a colour ramp, no CRS (photo pixel space, drawn without
+    reprojection), identify shows X, Y, Z (and DISTANCE) of the clicked photo pixel.
+
+    It lies at x in [0, W], y in [-H, 0] of whatever CRS the map has, far from the real terrain, so it is added
+    unchecked (``visible=False``): a hidden layer does not stretch "zoom to full extent"; check it and "zoom to
+    layer" to look at it and identify-click it.
+    """
+    layer = QgsRasterLayer(str(path), f"{Path(path).stem} (X Y Z, photo pixels)")
     if not layer.isValid():
         raise ValueError(f"QGIS cannot open {path}")
     layer.setCrs(QgsCoordinateReferenceSystem())
@@ -84,7 +90,11 @@ def add_xyz_layer(path, project: QgsProject, group: Optional[QgsLayerTreeGroup] 
         renderer.setClassificationMax(stats.maximumValue)
         layer.setRenderer(renderer)
     layer.setOpacity(0.8)
-    return _add(project, layer, group)
+    _add(project, layer, group)
+    node = (group or project.layerTreeRoot()).findLayer(layer.id())
+    if node is not None:
+        node.setItemVisibilityChecked(visible)
+    return layer
 
 
 def add_orthophoto_layer(path, project: QgsProject, group: Optional[QgsLayerTreeGroup] = None) -> QgsRasterLayer:

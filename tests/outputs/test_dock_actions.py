@@ -7,7 +7,6 @@ from osgeo import gdal
 from qgis.core import QgsFeature, QgsGeometry, QgsPointXY, QgsProject, QgsRasterLayer, QgsVectorLayer
 
 from monoplot_plugin.outputs import OutputExistsError
-from monoplot_plugin.outputs.dock_actions import install_output_tools
 
 from outputs_helpers import CRS
 
@@ -36,13 +35,12 @@ def dock_with_fit(qgis_iface, qtbot, plane_scene, tmp_path):
     assert c.load_photo(str(photo_path)) and c.set_dem_layer(dem_layer)
     dock.photo_canvas.resize(480, 320)
     dock.photo_canvas.zoom_to_photo()
-    tools = getattr(dock, "outputs", None) or install_output_tools(dock)  # the dock installs them itself
+    tools = dock.output_tools  # the dock installs them itself (gui.dock._install_outputs)
+    assert tools is not None
     c.state.fitted = s.camera.to_dict()
     c.cameraChanged.emit()
     yield dock, tools
-    dock.unload()
-    if tools is not getattr(dock, "outputs", None):
-        tools.unload()
+    dock.unload()  # also unloads the output tools
     c.cancel()
     project.clear()
 
@@ -76,7 +74,8 @@ def test_outputs_in_the_dock(dock_with_fit, plane_scene, tmp_path, qtbot):
     shp = tools.export_features("polygon", tmp_path / "tongue.shp")
     assert xyz_layer.bandCount() == 4 and ortho_layer.crs().authid() == CRS and report.exists() and shp.exists()
     names = {node.name() for node in group.findLayers()}
-    assert {"xyz (X Y Z)", "ortho (orthophoto)", "tongue"} <= names
+    assert {"xyz (X Y Z, photo pixels)", "ortho (orthophoto)", "tongue"} <= names
+    assert not group.findLayer(xyz_layer.id()).isVisible()  # off by default: it lies in photo pixel space
     with pytest.raises(OutputExistsError):
         tools.export_xyz(tmp_path / "xyz.tif")
 
