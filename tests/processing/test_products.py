@@ -124,3 +124,27 @@ def test_report_png_is_written(run_alg, small_scene, tmp_path):
     image = cv2.imread(str(out))
     assert image is not None and image.shape[0] > 400 and image.shape[1] > 400
     assert image.std() > 10  # a drawn page, not a blank one
+
+
+def test_map_to_photo_drops_points_hidden_behind_terrain(run_alg, small_scene):
+    cam = small_scene["cam"]
+    dem = Dem.open(small_scene["dem"])
+    xyz = compute_xyz(cam, dem)
+    seen = xyz[90, 80]  # a ground point in the lower middle of the photo
+    assert np.isfinite(seen).all()
+    direction = (seen - np.asarray(cam.position)) / np.linalg.norm(seen - np.asarray(cam.position))
+    behind_xy = seen[:2] + 400.0 * direction[:2]  # further along the same line of sight, on the ground
+    behind = np.array([*behind_xy, float(dem.sample(behind_xy[:1], behind_xy[1:])[0])])
+    layer = QgsVectorLayer("PointZ?crs=EPSG:32632", "pts", "memory")
+    features = []
+    for p in (seen, behind):
+        f = QgsFeature()
+        f.setGeometry(QgsGeometry.fromWkt(f"PointZ ({p[0]} {p[1]} {p[2]})"))
+        features.append(f)
+    layer.dataProvider().addFeatures(features)
+    common = {"INPUT": layer, "CAMERA": small_scene["camera"], "DEM": small_scene["dem"], "OUTPUT": "memory:"}
+    assert run_alg("maptophoto", {**common, "HIDDEN": False})["OUTPUT"].featureCount() == 2
+    kept = list(run_alg("maptophoto", {**common, "HIDDEN": True})["OUTPUT"].getFeatures())
+    assert len(kept) == 1
+    u, v = kept[0].geometry().vertices().next().x(), -kept[0].geometry().vertices().next().y()
+    assert np.allclose([u, v], cam.project([seen])[0], atol=0.5)
