@@ -79,6 +79,14 @@ class MonoplotController(QObject):
         self._autosave.timeout.connect(self.save)
         self.project.layersWillBeRemoved.connect(self._layers_removed)
 
+    def detach(self) -> None:
+        """Stop listening to the project (the dock is going away)."""
+        self._autosave.stop()
+        try:
+            self.project.layersWillBeRemoved.disconnect(self._layers_removed)
+        except (TypeError, RuntimeError):
+            pass
+
     def _layers_removed(self, layer_ids) -> None:
         """Forget the layer object (not the in-memory DEM) when the user removes the DEM layer."""
         if self.dem_layer is not None and self.state.dem_layer_id in layer_ids:

@@ -13,10 +13,11 @@ from __future__ import annotations
 import math
 from typing import Optional
 
-from qgis.core import Qgis, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer
+from qgis.core import Qgis, QgsApplication, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer
 from qgis.PyQt import uic
 from qgis.PyQt.QtCore import QItemSelectionModel, Qt
-from qgis.PyQt.QtWidgets import QAction, QDockWidget, QFileDialog, QSizePolicy, QToolBar, QToolButton
+from qgis.PyQt.QtWidgets import (QAction, QDockWidget, QFileDialog, QHeaderView, QSizePolicy, QToolBar,
+                                 QToolButton)
 
 from .. import PLUGIN_DIR
 from ..adapters import layers as camera_layers
@@ -85,6 +86,11 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.pointTable.verticalHeader().setVisible(False)
         self.pointTable.horizontalHeader().setStretchLastSection(True)
         self.pointTable.clicked.connect(self._table_clicked)
+        header = self.pointTable.horizontalHeader()
+        header.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
+        self.splitter.setStretchFactor(0, 3)
+        self.splitter.setStretchFactor(1, 2)
+        self._sized = False
 
         # fit and view
         self.fitButton.clicked.connect(lambda: c.fit())
@@ -114,6 +120,8 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         # project life cycle
         self.project.readProject.connect(self._project_read)
         self.project.cleared.connect(self._project_cleared)
+        self._unloaded = False
+        QgsApplication.instance().aboutToQuit.connect(self.unload)
         self.output_tools = self._install_outputs()
         if self.project.readEntry("monoplot", "/state", "")[1]:
             c.restore()
@@ -440,10 +448,17 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.controller.restore()
 
     def unload(self) -> None:
-        """Remove canvas items and map tools from the main map; save the state (plugin unload)."""
+        """Remove canvas items and map tools from the main map, disconnect from the project, save the state.
+
+        Called by the plugin's unload() and when QGIS quits (before QgsProject's destructor emits ``cleared``);
+        a second call does nothing."""
+        if self._unloaded:
+            return
+        self._unloaded = True
         c = self.controller
         c.cancel()
         c.save()
+        c.detach()
         if self.output_tools is not None:
             self.output_tools.unload()
         for tool in (self.map_tool, self.camera_tool):
@@ -452,11 +467,19 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.map_view.remove()
         for signal, slot in ((self.map_canvas.xyCoordinates, self._map_cursor),
                              (self.project.readProject, self._project_read),
-                             (self.project.cleared, self._project_cleared)):
+                             (self.project.cleared, self._project_cleared),
+                             (QgsApplication.instance().aboutToQuit, self.unload)):
             try:
                 signal.disconnect(slot)
-            except TypeError:
+            except (TypeError, RuntimeError):
                 pass
+
+    def showEvent(self, event) -> None:  # noqa: N802
+        super().showEvent(event)
+        if not self._sized:  # first show: most of the height to the photo
+            self._sized = True
+            total = max(self.splitter.height(), 600)
+            self.splitter.setSizes([int(total * 0.62), int(total * 0.38)])
 
     def closeEvent(self, event) -> None:  # noqa: N802
         if self.mapToolButton.isChecked():

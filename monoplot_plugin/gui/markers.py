@@ -21,10 +21,10 @@ __all__ = ["PointMarkers", "LineBand", "PolygonBand", "STYLE_COLORS"]
 Icon = QgsRubberBand.IconType
 #: style key -> (icon, size, stroke colour, fill colour, halo colour)
 _STYLES = {
-    SUGGESTED: (Icon.ICON_CIRCLE, 11, QColor(255, 214, 0), QColor(255, 214, 0, 60), QColor(0, 0, 0, 200)),
-    ACCEPTED: (Icon.ICON_FULL_BOX, 9, QColor(0, 200, 80), QColor(0, 200, 80), QColor(255, 255, 255, 230)),
-    "manual": (Icon.ICON_FULL_DIAMOND, 13, QColor(0, 170, 255), QColor(0, 170, 255), QColor(255, 255, 255, 230)),
-    REJECTED: (Icon.ICON_X, 9, QColor(230, 40, 40, 210), QColor(230, 40, 40, 0), QColor(0, 0, 0, 120)),
+    SUGGESTED: (Icon.ICON_CIRCLE, 9, QColor(255, 214, 0), QColor(255, 214, 0, 60), QColor(0, 0, 0, 200)),
+    ACCEPTED: (Icon.ICON_FULL_BOX, 7, QColor(0, 200, 80), QColor(0, 200, 80), QColor(255, 255, 255, 230)),
+    "manual": (Icon.ICON_FULL_DIAMOND, 11, QColor(0, 170, 255), QColor(0, 170, 255), QColor(255, 255, 255, 230)),
+    REJECTED: (Icon.ICON_X, 6, QColor(230, 40, 40, 170), QColor(230, 40, 40, 0), QColor(0, 0, 0, 0)),
 }
 STYLE_COLORS = {key: style[2] for key, style in _STYLES.items()}
 
@@ -123,7 +123,7 @@ class _Band:
         self.band.setColor(color)
         self.band.setStrokeColor(color)
         self.band.setFillColor(fill if fill is not None else QColor(0, 0, 0, 0))
-        self.band.setWidth(width)
+        self.band.setWidth(int(round(width)))
         self.band.setZValue(z)
         if dashed:
             self.band.setLineStyle(Qt.PenStyle.DashLine)

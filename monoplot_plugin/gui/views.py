@@ -82,7 +82,8 @@ class MapPresenter:
         self.markers = PointMarkers(canvas, crs=QgsCoordinateReferenceSystem())
         self.prior_band = PolygonBand(canvas, QColor(255, 170, 0), QColor(255, 170, 0, 40), width=2, z=8,
                                       dashed=True)
-        self.fitted_band = PolygonBand(canvas, QColor(255, 60, 30), QColor(255, 60, 30, 45), width=2, z=9)
+        # outline only: the footprint layer in the project carries the fill
+        self.fitted_band = PolygonBand(canvas, QColor(255, 60, 30), QColor(255, 60, 30, 0), width=2, z=9)
         self.camera_marker = _cursor_marker(canvas, QColor(255, 40, 40))
         self.camera_marker.setIconType(QgsVertexMarker.IconType.ICON_CIRCLE)
         self.camera_marker.setIconSize(14)

@@ -48,7 +48,8 @@ def shot(name):
 
 def finish():
     (OUT / "aletsch_session.json").write_text(json.dumps(report, indent=1))
-    QTimer.singleShot(200, lambda: iface.actionExit().trigger())
+    QgsProject.instance().setDirty(False)  # no "save changes?" dialog
+    QTimer.singleShot(200, QgsApplication.instance().quit)
 
 
 def guarded(fn):
@@ -66,14 +67,22 @@ def guarded(fn):
 def step1_inputs():
     from monoplot_plugin.gui.dock import MonoplotDock
 
+    from qgis.PyQt.QtWidgets import QDockWidget
+
     win = iface.mainWindow()
     win.resize(1600, 1000)
+    for dock_name in ("Browser", "Browser2"):
+        panel = win.findChild(QDockWidget, dock_name)
+        if panel is not None:
+            panel.hide()
     project = QgsProject.instance()
     dem = QgsRasterLayer(str(DATA / "dem.tif"), "Aletsch DEM (25 m)")
-    renderer = QgsHillshadeRenderer(dem.dataProvider(), 1, 315.0, 40.0)
-    renderer.setZFactor(1.5)
-    renderer.setMultiDirectional(True)
+    from qgis.core import QgsBilinearRasterResampler, QgsCubicRasterResampler
+
+    renderer = QgsHillshadeRenderer(dem.dataProvider(), 1, 315.0, 45.0)
     dem.setRenderer(renderer)
+    dem.resampleFilter().setZoomedInResampler(QgsBilinearRasterResampler())
+    dem.resampleFilter().setZoomedOutResampler(QgsCubicRasterResampler())
     project.addMapLayer(dem)
     project.setCrs(QgsCoordinateReferenceSystem("EPSG:21781"))
     canvas = iface.mapCanvas()
@@ -120,11 +129,29 @@ def step3_screenshot():
     shot("aletsch_1_suggestions.png")
     dock = state["dock"]
     c = dock.controller
-    # curation: select a few with the keyboard path, then "accept all in view" for the rest
-    n = dock.accept_all_in_view()
-    log("accepted", n=n, counts=c.state.counts())
+    curate(c)
+    log("curated", counts=c.state.counts())
     dock.stepTabs.setCurrentWidget(dock.fitTab)
     dock.fitButton.click()  # step 4: fit in a QgsTask
+
+
+def curate(c, radius_px=20.0):
+    """What a careful user does: accept a suggestion when its counterpart is recognisable on the other side
+    (a DEM suggestion projects, with the rough camera, within ``radius_px`` of a photo suggestion), reject the
+    rest (glacier-surface texture, foreground rocks). Uses the rough camera only, never the check GCPs."""
+    import numpy as np
+
+    from monoplot_plugin.state import ACCEPTED, MAP, PHOTO, REJECTED
+
+    photo, world = c.state.in_space(PHOTO), c.state.in_space(MAP)
+    uv = np.array([(p.x, p.y) for p in photo])
+    proj = c.prior.project(np.array([(p.x, p.y, p.z) for p in world]))
+    d = np.hypot(uv[:, None, 0] - proj[None, :, 0], uv[:, None, 1] - proj[None, :, 1])
+    d = np.where(np.isfinite(d), d, np.inf)
+    keep_photo, keep_world = d.min(axis=1) < radius_px, d.min(axis=0) < radius_px
+    for points, keep in ((photo, keep_photo), (world, keep_world)):
+        c.set_status([p.id for p, k in zip(points, keep) if k], ACCEPTED)
+        c.set_status([p.id for p, k in zip(points, keep) if not k], REJECTED)
 
 
 @guarded
@@ -150,11 +177,10 @@ def step5_result():
         uvp, where = c.pixel_of_ground(ground[0], ground[1])
         log("cursor_map_to_photo", pixel=uvp, where=where)
     canvas = iface.mapCanvas()
-    foot = dock.map_view.fitted_band.band.asGeometry().boundingBox()
-    if not foot.isEmpty():
-        foot.combineExtentWith(cam.position[0], cam.position[1])
-        canvas.setExtent(foot.buffered(1000))
-        canvas.refresh()
+    area = dock.map_view.prior_band.band.asGeometry().boundingBox()
+    area.combineExtentWith(dock.map_view.fitted_band.band.asGeometry().boundingBox())
+    canvas.setExtent(area.buffered(500))
+    canvas.refresh()
     QTimer.singleShot(2000, step6_screenshots)
 
 
@@ -164,8 +190,16 @@ def step6_screenshots():
     dock = state["dock"]
     dock.floatButton.setChecked(True)
     dock.move(60, 40)
-    dock.resize(1400, 920)
-    QTimer.singleShot(1200, lambda: (shot("aletsch_3_floating.png"), finish()))
+    dock.resize(1400, 960)
+    dock.photo_canvas.zoom_to_photo()
+
+    def grab_dock():
+        path = OUT / "aletsch_3_floating.png"
+        dock.grab().save(str(path))  # a floating dock is its own window: grab it, not the main window
+        log("screenshot", path=str(path))
+        finish()
+
+    QTimer.singleShot(1500, grab_dock)
 
 
 T0 = time.time()
