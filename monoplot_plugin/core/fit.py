@@ -540,7 +540,13 @@ class _Fitter:
         result = FitResult(camera, "ok", "", "unpaired", self.free, _rms(nearest), empty, np.zeros((0, 2)),
                            np.zeros(0, dtype=bool), nearest, loss_history=self.history, n_starts=self.starts_tried)
         if refine:
-            self.report(0.85, "unpaired fit: automatic pairing and robust refinement")
+            self.report(0.82, "unpaired fit: two-sided refinement")
+            u = self._two_sided(space, q_t, P_t, u)
+            camera = space.camera(u)
+            uv, usable = self._project_usable(space, u)
+            nearest = _nearest(self.q, uv, usable)
+            result.camera, result.nearest_px, result.rmse_px = camera, nearest, _rms(nearest)
+            self.report(0.88, "unpaired fit: automatic pairing and robust refinement")
             refined = self._refine_by_pairs(space, u, gate_px)
             if refined is not None:
                 result = refined
@@ -675,8 +681,67 @@ class _Fitter:
             u[i] = size * span * self.rng.uniform(-1, 1) / space.scales[i]
         return u
 
+    def _chamfer_weight(self) -> float:
+        """Weight of the DEM-to-photo term: 1 for sets of similar size, less when DEM points far outnumber photo
+        points (most of them then have no counterpart and must not pull)."""
+        return float(min(1.0, len(self.q) / max(1, len(self.P))))
+
+    def _two_sided_loss(self, space, u, q_t, P_t, cap: float):
+        """Truncated two-sided Chamfer distance (pixels): photo -> nearest DEM point and, weighted, in-view DEM
+        point -> nearest photo point; each distance capped at ``cap`` so unmatched points cost a constant."""
+        import torch
+
+        uv, depth = space.project(u, P_t)
+        usable = self._usable(uv, depth, 0.0)
+        if not bool(usable.any()):
+            return (u * 0.0).sum() + cap
+        cand = uv[usable]
+        with torch.no_grad():
+            D = torch.cdist(q_t, cand)
+            i_w = D.argmin(dim=1)
+            i_q = D.argmin(dim=0)
+        a = torch.sqrt((q_t - cand[i_w]).square().sum(dim=1) + 1e-6).clamp(max=cap).mean()
+        b = torch.sqrt((cand - q_t[i_q]).square().sum(dim=1) + 1e-6).clamp(max=cap).mean()
+        return a + self._chamfer_weight() * b
+
+    def _two_sided(self, space: ParameterSpace, q_t, P_t, u0) -> np.ndarray:
+        """Refine by the truncated two-sided Chamfer distance (:meth:`_two_sided_loss`). The paper's one-sided
+        loss lets a photo point sit anywhere inside a cloud of DEM points; asking the DEM points near photo points to
+        have a photo point near them too centres the two clouds (measured on Aletsch: about 0.5 px better)."""
+        import torch
+
+        cap = 0.025 * self.diag
+        u = torch.tensor(np.asarray(u0, dtype=np.float64), requires_grad=True)
+        optimiser = torch.optim.LBFGS([u], lr=1.0, max_iter=60, history_size=10, line_search_fn="strong_wolfe",
+                                      tolerance_grad=1e-9, tolerance_change=1e-10)
+
+        def closure():
+            self.poll()
+            optimiser.zero_grad()
+            loss = self._two_sided_loss(space, u, q_t, P_t, cap)
+            loss.backward()
+            return loss
+
+        optimiser.step(closure)
+        out = u.detach().numpy()
+        if not space.valid(out):
+            return np.asarray(u0, dtype=np.float64)
+        with torch.no_grad():
+            before = float(self._two_sided_loss(space, torch.tensor(np.asarray(u0, dtype=np.float64)), q_t, P_t, cap))
+            after = float(self._two_sided_loss(space, torch.tensor(out), q_t, P_t, cap))
+        self.history.append(after)
+        return out if after <= before else np.asarray(u0, dtype=np.float64)
+
     def _refine_by_pairs(self, space: ParameterSpace, u, gate_px: Optional[float]) -> Optional[FitResult]:
-        """Mutual-nearest-neighbour pairs within a gate, robust least squares, outlier rejection, re-pairing."""
+        """Mutual-nearest-neighbour pairs within a gate, robust least squares, outlier rejection, re-pairing.
+
+        The refined camera is kept only if it fits the whole point sets (truncated two-sided Chamfer distance) at
+        least as well as the camera it started from: with exact correspondences it is sharper, but pairs formed
+        between clouds of nearby yet different features would only fit noise.
+        """
+        import torch
+
+        u_start = np.asarray(u, dtype=np.float64).copy()
         min_pairs = len(space.names) // 2 + 2
         pairs = np.zeros((0, 2), dtype=np.int64)
         inliers = np.zeros(0, dtype=bool)
@@ -716,6 +781,15 @@ class _Fitter:
             self.remember(-1.0, space.camera(u))
         if len(pairs) < min_pairs or inliers.sum() < min_pairs:
             return None
+        q_t = torch.as_tensor(self.q, dtype=torch.float64)
+        P_t = torch.as_tensor(self.P, dtype=torch.float64)
+        cap = 0.025 * self.diag
+        with torch.no_grad():
+            before = float(self._two_sided_loss(space, torch.tensor(u_start), q_t, P_t, cap))
+            after = float(self._two_sided_loss(space, torch.tensor(np.asarray(u, dtype=np.float64)), q_t, P_t, cap))
+        kept_refinement = after <= before * 1.01
+        if not kept_refinement:
+            u = u_start
         camera = space.camera(u)
         q, P = self.q[pairs[:, 0]], self.P[pairs[:, 1]]
         residuals = space.project(u, P)[0] - q
@@ -733,6 +807,9 @@ class _Fitter:
         status, message = self._judge(rmse, loo, int(inliers.sum()), "unpaired")
         message = message.replace("unpaired fit on", "unpaired fit, automatic pairing:").replace(
             " pairs:", f" inlier pairs of {len(pairs)}:")
+        if not kept_refinement:
+            message += (" The least-squares refinement on these pairs fitted the point sets worse than the two-sided "
+                        "fit, which was kept (the automatic pairs are probably not exact correspondences).")
         return FitResult(camera, status, message, "unpaired", self.free, rmse, pairs, residuals, inliers, nearest,
                          std, _rms(loo), loo_all, loss_history=self.history, n_starts=self.starts_tried)
 

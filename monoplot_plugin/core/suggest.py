@@ -35,7 +35,7 @@ import numpy as np
 from .suggest_photo import picture_mask, to_gray
 
 __all__ = ["PhotoSuggestions", "DemSuggestions", "suggest_photo_points", "suggest_dem_points", "detect_keypoints",
-           "spread_by_grid", "terrain_landmarks"]
+           "spread_by_grid", "terrain_landmarks", "PHOTO_DETECTOR", "DEM_DETECTOR"]
 
 
 @dataclass
@@ -196,24 +196,34 @@ def _stable_order(score: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray
 # ----------------------------------------------------------------------------------------------------------------
 # Photo
 # ----------------------------------------------------------------------------------------------------------------
-def suggest_photo_points(image: np.ndarray, max_points: int = 1500, cell_px: Optional[float] = None,
-                         per_cell: int = 2, min_distance_px: Optional[float] = None, work_size: int = 2000,
+#: Detector settings of :func:`suggest_photo_points` (dense, small-scale corners: a GCP is a precise spot, and the
+#: user's curation needs a suggestion within a few pixels of the feature they recognise; tuned on Aletsch).
+PHOTO_DETECTOR = dict(orb_features=4000, fast_threshold=10, corner_count=8000, corner_quality=0.001,
+                      corner_min_distance=3.0, corner_block_size=7)
+#: Detector settings of :func:`suggest_dem_points` (on the rendering: only clear corners, fewer but sharper).
+DEM_DETECTOR = dict(orb_features=4000, fast_threshold=10, corner_count=8000, corner_quality=0.01,
+                    corner_min_distance=5.0, corner_block_size=5)
+
+
+def suggest_photo_points(image: np.ndarray, max_points: int = 8000, cell_px: Optional[float] = None,
+                         per_cell: int = 3, min_distance_px: Optional[float] = None, work_size: int = 2000,
                          mask: Optional[np.ndarray] = None, ignore_captions: bool = True,
                          **detector) -> PhotoSuggestions:
     """Suggest photo points worth pairing with the DEM.
 
     Args:
         image: (H, W) or (H, W, 3) uint8 array (RGB).
-        max_points: at most this many suggestions (the best scores after spreading).
-        cell_px: bucketing cell in full-resolution pixels (default: the long side / 64).
+        max_points: at most this many suggestions (the best scores after spreading). The default is dense on
+            purpose: the user accepts the few that sit on features they recognise (a GUI shows the best N first).
+        cell_px: bucketing cell in full-resolution pixels (default: the long side / 170, 6 px on a 1024 px photo).
         per_cell: at most this many per cell.
-        min_distance_px: no two suggestions closer (default: cell_px / 3).
+        min_distance_px: no two suggestions closer (default: cell_px / 2).
         work_size: the picture is reduced so that its long side is at most this (speed on 24 MP photos);
             coordinates are returned at full resolution.
         mask: optional (H, W) bool, where to look (default :func:`~monoplot_plugin.core.suggest_photo.picture_mask`:
             no blank margins, frame or caption).
         ignore_captions: with the default mask, also remove printed text lines.
-        **detector: settings of :func:`detect_keypoints` (ORB and corner detector).
+        **detector: settings of :func:`detect_keypoints` (ORB and corner detector), over :data:`PHOTO_DETECTOR`.
     Returns:
         :class:`PhotoSuggestions`.
     """
@@ -231,10 +241,10 @@ def suggest_photo_points(image: np.ndarray, max_points: int = 1500, cell_px: Opt
         if scale < 1.0:
             small_mask = cv2.resize(small_mask.astype(np.uint8), (small.shape[1], small.shape[0]),
                                     interpolation=cv2.INTER_NEAREST).astype(bool)
-    uv, score, source = detect_keypoints(small, small_mask, **detector)
+    uv, score, source = detect_keypoints(small, small_mask, **{**PHOTO_DETECTOR, **detector})
     uv = uv / scale
-    cell = float(cell_px) if cell_px else max(w, h) / 64.0
-    min_dist = cell / 3.0 if min_distance_px is None else float(min_distance_px)
+    cell = float(cell_px) if cell_px else max(w, h) / 170.0
+    min_dist = cell / 2.0 if min_distance_px is None else float(min_distance_px)
     keep = spread_by_grid(uv, score, (w, h), cell, per_cell, min_dist)[:max_points]
     uv, score, source = uv[keep], score[keep], source[keep]
     order = _stable_order(score, uv[:, 0], uv[:, 1])
@@ -307,9 +317,12 @@ def terrain_landmarks(dem, max_cells: int = 160_000, min_prominence: float = 30.
     step = max(1, int(math.ceil(math.sqrt(rows * cols / max_cells))))
     zr = z[:rows - rows % step or rows, :cols - cols % step or cols]
     if step > 1:
+        import warnings
+
         zr = zr[: (zr.shape[0] // step) * step, : (zr.shape[1] // step) * step]
         zr = zr.reshape(zr.shape[0] // step, step, zr.shape[1] // step, step)
-        with np.errstate(all="ignore"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # all-void blocks stay NaN
             zr = np.nanmean(zr, axis=(1, 3))
     finite = np.isfinite(zr)
     if finite.sum() < 9:
@@ -341,8 +354,9 @@ def terrain_landmarks(dem, max_cells: int = 160_000, min_prominence: float = 30.
     interior = np.isfinite(ring).all(axis=0) & finite
     saddle = interior & (changes >= 4)
     if saddle.any():
-        rise = np.nanmax(diff, axis=0)
-        drop = -np.nanmin(diff, axis=0)
+        filled = np.where(np.isfinite(diff), diff, 0.0)
+        rise = filled.max(axis=0)
+        drop = -filled.min(axis=0)
         strength = np.minimum(rise, drop)
         # One saddle per 5 x 5 neighbourhood: the strongest.
         best = strength == ndimage.maximum_filter(np.where(saddle, strength, -np.inf), size=5)
@@ -478,8 +492,8 @@ def _foreground_xyz(res, uv: np.ndarray, radius: int = 2) -> np.ndarray:
     return out
 
 
-def suggest_dem_points(dem, camera=None, max_points: int = 1500, cell_px: Optional[float] = None,
-                       per_cell: int = 2, min_distance_px: Optional[float] = None, render_width: int = 1024,
+def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Optional[float] = None,
+                       per_cell: int = 1, min_distance_px: Optional[float] = None, render_width: int = 1024,
                        view_margin: float = 0.05, max_range: Optional[float] = None, landmarks: bool = True,
                        max_landmarks: int = 300, map_size: int = 2048, **detector) -> DemSuggestions:
     """Suggest DEM points worth pairing with the photo.
@@ -491,14 +505,15 @@ def suggest_dem_points(dem, camera=None, max_points: int = 1500, cell_px: Option
             rendering of the DEM from it.
         max_points: most suggestions in all.
         cell_px, per_cell, min_distance_px: spreading of the key points, in pixels of the camera's picture (with a
-            camera) or of the map rendering (without); default cell = long side / 64, distance = cell / 3.
+            camera) or of the map rendering (without); default cell = long side / 128 (8 px of a 1024 px
+            rendering), distance = cell / 3.
         render_width: the camera's picture is rendered at most this wide (speed).
         view_margin: fraction of the picture size around it that still counts as "in view".
         max_range: ignore terrain farther from the camera (metres).
         landmarks: add summits, saddles and ridge junctions (:func:`terrain_landmarks`).
         max_landmarks: most landmarks (best first).
         map_size: without a camera, the hillshade is reduced so that its long side is at most this.
-        **detector: settings of :func:`detect_keypoints`.
+        **detector: settings of :func:`detect_keypoints`, over :data:`DEM_DETECTOR`.
     Returns:
         :class:`DemSuggestions` (``uv`` = pixels in ``camera``, NaN without one).
     """
@@ -514,8 +529,8 @@ def suggest_dem_points(dem, camera=None, max_points: int = 1500, cell_px: Option
         import cv2
 
         mask = cv2.dilate(mask.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
-        uv, score, source = detect_keypoints(img, mask, **detector)
-        cell = (float(cell_px) * scale) if cell_px else max(small.width, small.height) / 64.0
+        uv, score, source = detect_keypoints(img, mask, **{**DEM_DETECTOR, **detector})
+        cell = (float(cell_px) * scale) if cell_px else max(small.width, small.height) / 128.0
         min_dist = cell / 3.0 if min_distance_px is None else float(min_distance_px) * scale
         keep = spread_by_grid(uv, score, small.image_size, cell, per_cell, min_dist)
         pts = _foreground_xyz(res, uv[keep])
@@ -546,8 +561,8 @@ def suggest_dem_points(dem, camera=None, max_points: int = 1500, cell_px: Option
             valid = cv2.resize(valid.astype(np.uint8), (img.shape[1], img.shape[0]),
                                interpolation=cv2.INTER_NEAREST).astype(bool)
         valid = cv2.erode(valid.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
-        uv, score, source = detect_keypoints(img, valid, **detector)
-        cell = float(cell_px) if cell_px else max(img.shape) / 64.0
+        uv, score, source = detect_keypoints(img, valid, **{**DEM_DETECTOR, **detector})
+        cell = float(cell_px) if cell_px else max(img.shape) / 128.0
         min_dist = cell / 3.0 if min_distance_px is None else float(min_distance_px)
         keep = spread_by_grid(uv, score, (img.shape[1], img.shape[0]), cell, per_cell, min_dist)
         colf, rowf = uv[keep, 0] / scale, uv[keep, 1] / scale
