@@ -86,6 +86,7 @@ class MonoplotPlugin:
     def unload(self):
         if self.dock is not None:
             self.dock.visibilityChanged.disconnect(self.action.setChecked)
+            self.dock.unload()  # main-map markers, map tools, project signals (gui/dock.py)
             self.iface.removeDockWidget(self.dock)
             self.dock.deleteLater()
             self.dock = None
