@@ -152,8 +152,9 @@ def _project_vertices(elev, gt, C, R, intr, near, u, v, z):
 
 
 @njit(cache=True, inline="always")
-def _raster_triangle(u0, v0, w0, u1, v1, w1, u2, v2, w2, tid, zbuf, tbuf):
-    """Rasterise one screen triangle (pixels; w = inverse depth) into zbuf (keep the largest w) and tbuf."""
+def _raster_triangle(u0, v0, w0, u1, v1, w1, u2, v2, w2, tid, zbuf, tbuf, cull):
+    """Rasterise one screen triangle (pixels; w = inverse depth) into zbuf (keep the largest w) and tbuf.
+    ``cull`` = sign of the screen area of a front-facing triangle (0: draw both faces)."""
     H, W = zbuf.shape
     umin = min(u0, min(u1, u2))
     umax = max(u0, max(u1, u2))
@@ -168,7 +169,7 @@ def _raster_triangle(u0, v0, w0, u1, v1, w1, u2, v2, w2, tid, zbuf, tbuf):
     if i0 > i1:
         return
     area = (u1 - u0) * (v2 - v0) - (u2 - u0) * (v1 - v0)
-    if abs(area) < 1e-12:
+    if abs(area) < 1e-12 or cull * area < 0.0:
         return
     inv = 1.0 / area
     eps = -1e-7
@@ -192,7 +193,7 @@ def _raster_triangle(u0, v0, w0, u1, v1, w1, u2, v2, w2, tid, zbuf, tbuf):
 
 
 @njit(cache=True, inline="always")
-def _raster_quad(ua, va, wa, ub, vb, wb, uc, vc, wc, ud, vd, wd, i0, i1, j0, j1, tid, zbuf, tbuf):
+def _raster_quad(ua, va, wa, ub, vb, wb, uc, vc, wc, ud, vd, wd, i0, i1, j0, j1, tid, zbuf, tbuf, cull):
     """Rasterise the quad A B C D (A = (r, c), B = (r, c+1), C = (r+1, c+1), D = (r+1, c)) as its two triangles
     ABC (id tid) and ACD (id tid + 1) in one pass over the quad's pixel box: the side of the diagonal AC picks the
     triangle. Returns False (nothing drawn) when B and D are not on opposite sides of AC (a folded quad), for the
@@ -203,6 +204,8 @@ def _raster_quad(ua, va, wa, ub, vb, wb, uc, vc, wc, ud, vd, wd, i0, i1, j0, j1,
     ed = acu * (vd - va) - acv * (ud - ua)
     if not (eb * ed < 0.0):
         return False
+    if cull * eb > 0.0:  # the screen area of ABC is -eb: a back-facing quad, hidden behind the terrain's top side
+        return True
     inv_b = 1.0 / eb
     inv_d = 1.0 / ed
     abu = ub - ua
@@ -244,7 +247,7 @@ def _raster_quad(ua, va, wa, ub, vb, wb, uc, vc, wc, ud, vd, wd, i0, i1, j0, j1,
 
 
 @njit(cache=True)
-def _raster_clipped(elev, gt, C, R, intr, near, ra, ca, rb, cb, rc, cc, tid, zbuf, tbuf):
+def _raster_clipped(elev, gt, C, R, intr, near, ra, ca, rb, cb, rc, cc, tid, zbuf, tbuf, cull):
     """Clip a triangle that crosses the near plane (camera frame, float64) and rasterise the part in front."""
     f, cx, cy, k1, k2, r2max = intr[0], intr[1], intr[2], intr[3], intr[4], intr[5]
     P = np.empty((3, 3))
@@ -281,11 +284,12 @@ def _raster_clipped(elev, gt, C, R, intr, near, ra, ca, rb, cb, rc, cc, tid, zbu
         V[k] = f * yn + cy
         Wd[k] = 1.0 / Q[k, 2]
     for k in range(1, n - 1):
-        _raster_triangle(U[0], V[0], Wd[0], U[k], V[k], Wd[k], U[k + 1], V[k + 1], Wd[k + 1], tid, zbuf, tbuf)
+        _raster_triangle(U[0], V[0], Wd[0], U[k], V[k], Wd[k], U[k + 1], V[k + 1], Wd[k + 1], tid, zbuf, tbuf,
+                         cull)
 
 
 @njit(parallel=True, cache=True)
-def _rasterise(u, v, z, elev, gt, C, R, intr, near, zbufs, tbufs):
+def _rasterise(u, v, z, elev, gt, C, R, intr, near, cull, zbufs, tbufs):
     """Z-buffer all mesh triangles. Chunk k handles the DEM rows r = k, k + nchunks, ... into its own buffers
     (no write races, balanced load); the caller merges the chunks."""
     rows, cols = u.shape
@@ -319,9 +323,9 @@ def _rasterise(u, v, z, elev, gt, C, R, intr, near, zbufs, tbufs):
                     i1 = min(H - 1, int(math.floor(vmax - 0.5)))
                     w00, w01, w10, w11 = 1.0 / z00, 1.0 / z01, 1.0 / z10, 1.0 / z11
                     if not _raster_quad(u00, v00, w00, u01, v01, w01, u11, v11, w11, u10, v10, w10,
-                                        i0, i1, j0, j1, base, zbuf, tbuf):
-                        _raster_triangle(u00, v00, w00, u01, v01, w01, u11, v11, w11, base, zbuf, tbuf)
-                        _raster_triangle(u00, v00, w00, u11, v11, w11, u10, v10, w10, base + 1, zbuf, tbuf)
+                                        i0, i1, j0, j1, base, zbuf, tbuf, cull):
+                        _raster_triangle(u00, v00, w00, u01, v01, w01, u11, v11, w11, base, zbuf, tbuf, cull)
+                        _raster_triangle(u00, v00, w00, u11, v11, w11, u10, v10, w10, base + 1, zbuf, tbuf, cull)
                     continue
                 if not (z00 > near or z01 > near or z10 > near or z11 > near):
                     continue  # behind the camera, or voids (NaN compares false)
@@ -338,9 +342,10 @@ def _rasterise(u, v, z, elev, gt, C, R, intr, near, zbufs, tbufs):
                         continue
                     if za > near and zb > near and zc > near:
                         _raster_triangle(u[ra, ca], v[ra, ca], 1.0 / za, u[rb, cb], v[rb, cb], 1.0 / zb,
-                                         u[rc, cc], v[rc, cc], 1.0 / zc, base + t, zbuf, tbuf)
+                                         u[rc, cc], v[rc, cc], 1.0 / zc, base + t, zbuf, tbuf, cull)
                     elif za > near or zb > near or zc > near:
-                        _raster_clipped(elev, gt, C, R, intr, near, ra, ca, rb, cb, rc, cc, base + t, zbuf, tbuf)
+                        _raster_clipped(elev, gt, C, R, intr, near, ra, ca, rb, cb, rc, cc, base + t, zbuf, tbuf,
+                                        cull)
 
 
 @njit(parallel=True, cache=True)
@@ -619,6 +624,29 @@ def _intrinsics(cam: Camera) -> np.ndarray:
     return np.array([cam.focal_px, cam.cx, cam.cy, cam.k1, cam.k2, r2max], dtype=np.float64)
 
 
+def _cull_sign(cam: Camera, dem: Dem) -> float:
+    """Screen-area sign of front-facing triangles, or 0 to draw both faces.
+
+    A ray that starts above the terrain meets it first from its upper side, so triangles seen from below (back
+    faces) can never be the first hit and are skipped. That holds when the camera is above the mesh at its own
+    position, or, outside the mesh, above its highest point; otherwise (or over a void) both faces are drawn.
+    """
+    x, y, z = cam.position
+    below = dem.sample(x, y, method="mesh")
+    if math.isnan(below):
+        col, row = dem.map_to_cell(x, y)
+        inside = 0.5 <= col <= dem.cols - 0.5 and 0.5 <= row <= dem.rows - 0.5
+        finite = dem.elevation[np.isfinite(dem.elevation)]
+        if inside or finite.size == 0 or z <= float(finite.max()):
+            return 0.0
+    elif z <= below:
+        return 0.0
+    g = dem.geotransform
+    # triangle (r, c), (r, c+1), (r+1, c+1) is counter-clockwise in (col, row); the map flips it when the affine's
+    # determinant is negative (north-up), and the image's downward v axis flips it once more
+    return -1.0 if g[1] * g[5] - g[2] * g[4] > 0 else 1.0
+
+
 def _chunk_count(H: int, W: int) -> int:
     threads = numba.get_num_threads() if HAVE_NUMBA else 1
     budget = int(1.2e9 // max(1, H * W * 8))  # bytes of per-chunk buffers we allow
@@ -665,7 +693,7 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
     n = _chunk_count(H, W)
     zbufs = np.zeros((n, H, W), dtype=np.float32)
     tbufs = np.full((n, H, W), -1, dtype=np.int32)
-    _rasterise(u, v, z, elev, gt, C, R, intr, near, zbufs, tbufs)
+    _rasterise(u, v, z, elev, gt, C, R, intr, near, _cull_sign(cam, work), zbufs, tbufs)
     if n == 1:
         tri = tbufs[0]
     else:
