@@ -1,0 +1,121 @@
+"""Inputs through the dock on real files: EXIF orientation, geographic DEM, KML prior, rough camera drawn by a drag,
+linked cursor from the map ("hidden" behind terrain)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from qgis.core import Qgis, QgsPointXY, QgsProject, QgsRasterLayer
+from qgis.PyQt.QtCore import QPoint, Qt
+from qgis.PyQt.QtGui import QColor, QImage, QImageIOHandler, QImageWriter
+
+from monoplot_plugin.state import MAP
+
+
+def test_exif_orientation_is_honoured(dock, tmp_path):
+    image = QImage(60, 40, QImage.Format.Format_RGB32)
+    image.fill(QColor(200, 30, 30))
+    path = str(tmp_path / "rotated.jpg")
+    writer = QImageWriter(path)
+    writer.setTransformation(QImageIOHandler.Transformation.TransformationRotate90)  # EXIF orientation 6
+    assert writer.write(image)
+    dock.photoFile.setFilePath(path)
+    assert dock.controller.photo_size == (40, 60)  # as the user sees it, not as stored
+    assert dock.photo_canvas.photo_size == (40, 60)
+
+
+def test_geographic_dem_is_reprojected_with_a_message(dock, scene, tmp_path, qgis_iface):
+    from osgeo import gdal
+
+    path = str(tmp_path / "dem_wgs84.tif")
+    gdal.Warp(path, scene.dem_path, dstSRS="EPSG:4326")
+    layer = QgsRasterLayer(path, "DEM in degrees")
+    QgsProject.instance().addMapLayer(layer)
+    dock.demCombo.setLayer(layer)
+    dem = dock.controller.dem
+    assert dem is not None and "UTM" in dem.crs_wkt
+    assert abs(dem.geotransform[1]) > 10  # metres, not degrees
+    infos = qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Info)
+    assert any("degrees" in m for m in infos)
+
+
+def test_kml_prior_import(dock, scene, tmp_path):
+    from osgeo import osr
+
+    dock.photoFile.setFilePath(scene.photo_path)
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    src = osr.SpatialReference()
+    src.ImportFromWkt(scene.dem.crs_wkt)
+    dst = osr.SpatialReference()
+    dst.ImportFromEPSG(4326)
+    dst.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+    src.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+    lon, lat, _ = osr.CoordinateTransformation(src, dst).TransformPoint(*scene.camera.position[:2])
+    kml = tmp_path / "prior.kml"
+    kml.write_text(f"""<kml><PhotoOverlay><Camera><longitude>{lon}</longitude><latitude>{lat}</latitude>
+        <altitude>{scene.camera.position[2]}</altitude><heading>2</heading><tilt>86</tilt><roll>0</roll></Camera>
+        <ViewVolume><leftFov>-30</leftFov><rightFov>30</rightFov><bottomFov>-20</bottomFov><topFov>20</topFov>
+        </ViewVolume></PhotoOverlay></kml>""")
+    assert dock.controller.import_kml(str(kml))
+    prior = dock.controller.prior
+    assert math.dist(prior.position[:2], scene.camera.position[:2]) < 1.0
+    assert abs(prior.pitch + 4.0) < 1e-6 and abs(prior.fov - 60.0) < 1e-6
+    assert "Rough camera" in dock.cameraSummary.text()
+    assert not dock.map_view.prior_band.band.asGeometry().isEmpty()  # the wedge is drawn at once
+
+
+def test_rough_camera_drawn_by_press_and_drag(dock, scene, qtbot):
+    dock.photoFile.setFilePath(scene.photo_path)
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    canvas = dock.map_canvas
+    canvas.resize(600, 600)
+    canvas.setExtent(QgsProject.instance().mapLayersByName("synthetic DEM")[0].extent())
+    canvas.refresh()
+    dock.fovSpin.setValue(55.0)
+    qtbot.mouseClick(dock.drawCameraButton, Qt.MouseButton.LeftButton)
+    assert canvas.mapTool() is dock.camera_tool
+    x, y = scene.camera.position[:2]
+    start = canvas.getCoordinateTransform().transform(QgsPointXY(x, y))
+    end = canvas.getCoordinateTransform().transform(QgsPointXY(x + 2000.0, y + 2000.0))  # north-east
+    p0, p1 = QPoint(round(start.x()), round(start.y())), QPoint(round(end.x()), round(end.y()))
+    qtbot.mousePress(canvas.viewport(), Qt.MouseButton.LeftButton, pos=p0)
+    qtbot.mouseMove(canvas.viewport(), pos=p1)
+    qtbot.mouseRelease(canvas.viewport(), Qt.MouseButton.LeftButton, pos=p1)
+    prior = dock.controller.prior
+    assert prior is not None
+    assert abs(prior.heading - 45.0) < 2.0 and prior.fov == 55.0
+    assert math.dist(prior.position[:2], (x, y)) < 2 * canvas.mapUnitsPerPixel()
+    ground = scene.dem.sample(*prior.position[:2])
+    assert abs(prior.position[2] - (ground + dock.heightSpin.value())) < 1e-6
+    assert not dock.drawCameraButton.isChecked()
+
+
+def test_map_cursor_says_hidden_behind_terrain(dock, scene, qtbot):
+    from monoplot_plugin.gui import engine
+
+    c = dock.controller
+    dock.photoFile.setFilePath(scene.photo_path)
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    c.state.fitted = scene.camera.to_dict()  # the true camera, as if fitted
+    c.ensure_products()
+    # a DEM cell in the field of view that the camera does not see: behind a ridge
+    from monoplot_plugin.core.xyz import compute_xyz_full
+
+    res = compute_xyz_full(scene.camera, scene.dem, visibility=True)
+    rows, cols = np.nonzero(~res.visible)
+    found = None
+    for r, col in zip(rows[::7], cols[::7]):
+        x, y = scene.dem.cell_to_map(col + 0.5, r + 0.5)
+        uv, where = c.pixel_of_ground(float(x), float(y))
+        if where == "hidden":
+            found = (float(x), float(y), uv)
+            break
+    assert found is not None
+    x, y, uv = found
+    dock._map_cursor(dock.map_mapping.to_canvas(x, y))
+    assert dock.photo_view.cursor.isVisible()
+    # and a visible cell maps back onto the pixel that sees it
+    ground = c.ground_at_pixel(240.5, 250.5)
+    uv2, where2 = c.pixel_of_ground(ground[0], ground[1])
+    assert where2 == "visible" and math.dist(uv2, (240.5, 250.5)) < 3.0
