@@ -1,6 +1,5 @@
 """The algorithms from the command line (the real qgis_process binary) and chained in a Graphical Modeler model."""
 
-import json
 
 import numpy as np
 import pytest

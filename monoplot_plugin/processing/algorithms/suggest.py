@@ -4,6 +4,7 @@ from qgis.core import (
     QgsCoordinateReferenceSystem,
     QgsProcessing,
     QgsProcessingException,
+    QgsProcessingOutputNumber,
     QgsProcessingParameterFeatureSink,
     QgsProcessingParameterNumber,
     QgsWkbTypes,
@@ -29,6 +30,7 @@ class SuggestPhotoPoints(MonoplotAlgorithm):
                                                        maxValue=10000))
         self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Suggested photo points"),
                                                             QgsProcessing.TypeVectorPoint))
+        self.addOutput(QgsProcessingOutputNumber("COUNT", self.tr("Number of points")))
 
     def processAlgorithm(self, parameters, context, feedback):
         photo = checked(read_photo, self.photo_path(parameters, context))
@@ -64,6 +66,7 @@ class SuggestDemPoints(MonoplotAlgorithm):
                                                        maxValue=10000))
         self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Suggested DEM points"),
                                                             QgsProcessing.TypeVectorPoint))
+        self.addOutput(QgsProcessingOutputNumber("COUNT", self.tr("Number of points")))
 
     def processAlgorithm(self, parameters, context, feedback):
         dem, crs = self.dem(parameters, context)
