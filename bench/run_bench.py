@@ -2,7 +2,8 @@
 
 Each line: name, sizes (image W x H, DEM rows x cols), seconds (median of ``--repeat`` timed runs after one warm-up
 run), first_s (the warm-up run, which includes loading numba's compiled cache or compiling), peak_mb (the process's
-peak resident memory during the timed runs, inputs included), threads. Terrain is generated in code
+peak resident memory during the timed runs, inputs included), threads, and the machine's 1-minute load average
+(other people's work on shared cores slows the timings). Terrain is generated in code
 (core.synthetic), nothing is downloaded.
 
     .venv/bin/python bench/run_bench.py [--repeat 5] [--only xyz_1.5mp] [--threads N]
@@ -91,6 +92,7 @@ def main() -> int:
 
     cases = [
         ("xyz_1.5mp_dem2000", 2000, 25.0, 1500, 1000, "xyz"),
+        ("xyz_1.5mp_dem2000_1thread", 2000, 25.0, 1500, 1000, "xyz1"),
         ("xyz_full_1.5mp_dem2000", 2000, 25.0, 1500, 1000, "xyz_full"),
         ("render_1.5mp_dem2000", 2000, 25.0, 1500, 1000, "render"),
         ("ortho_1.5mp_dem2000", 2000, 25.0, 1500, 1000, "ortho"),
@@ -105,8 +107,11 @@ def main() -> int:
             cache.clear()
             cache[key] = scene(rows, cell, width, height)
         cam, dem = cache[key]
-        if kind == "xyz":
+        run_threads = threads
+        if kind in ("xyz", "xyz1"):
             fn = lambda: compute_xyz(cam, dem)  # noqa: E731
+            if kind == "xyz1" and xyz_mod.HAVE_NUMBA:
+                run_threads = 1
         elif kind == "xyz_full":
             fn = lambda: compute_xyz_full(cam, dem)  # noqa: E731
         elif kind == "render":
@@ -114,12 +119,16 @@ def main() -> int:
         else:
             photo = np.random.default_rng(0).integers(0, 255, size=(height, width, 3), dtype=np.uint8)
             fn = lambda: orthorectify(photo, cam, dem)  # noqa: E731
+        if xyz_mod.HAVE_NUMBA:
+            xyz_mod.numba.set_num_threads(run_threads)
         median, first, times = timed(fn, args.repeat)
-        hit = float(np.isfinite(compute_xyz(cam, dem)[..., 2]).mean()) if kind == "xyz" else None
+        if xyz_mod.HAVE_NUMBA:
+            xyz_mod.numba.set_num_threads(threads)
+        hit = float(np.isfinite(compute_xyz(cam, dem)[..., 2]).mean()) if kind.startswith("xyz") else None
         line = {"name": name, "image": [width, height], "megapixels": round(width * height / 1e6, 2),
                 "dem": [rows, rows], "cell_m": cell, "seconds": round(median, 4), "first_s": round(first, 3),
-                "min_s": round(min(times), 4), "peak_mb": round(peak_mb(), 1), "threads": threads,
-                "repeat": args.repeat}
+                "min_s": round(min(times), 4), "peak_mb": round(peak_mb(), 1), "threads": run_threads,
+                "repeat": args.repeat, "load_avg_1min": round(os.getloadavg()[0], 2)}
         if hit is not None:
             line["hit_fraction"] = round(hit, 3)
         print(json.dumps(line), flush=True)
