@@ -15,6 +15,7 @@ from qgis.PyQt.QtCore import QObject, QTimer, pyqtSignal
 from qgis.PyQt.QtGui import QImage
 
 from ..adapters.dem import DemError, read_dem_layer
+from ..adapters.exif import read_exif_prior
 from ..adapters.photo import PhotoError, array_to_qimage, qimage_to_array, read_photo
 from ..core.camera import Camera
 from ..state import (ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, CommandStack, Point, ProjectState, add_points,
@@ -111,6 +112,7 @@ class MonoplotController(QObject):
         self.photoChanged.emit()
         self.cameraChanged.emit()
         self._changed()
+        self._maybe_exif_prior()
         return True
 
     def _without_photo_points(self) -> ProjectState:
@@ -143,6 +145,7 @@ class MonoplotController(QObject):
         self.overlay, self.xyz, self.footprint_wkt = None, None, ""
         self.demChanged.emit()
         self._changed()
+        self._maybe_exif_prior()
         return True
 
     # --- cameras ----------------------------------------------------------------------------------------------
@@ -180,6 +183,50 @@ class MonoplotController(QObject):
                         crs_wkt=self.dem.crs_wkt)
         self.set_prior(camera)
         return camera
+
+    def prior_from_exif(self, quiet: bool = False) -> bool:
+        """A rough camera from the photo's EXIF GPS position, altitude, direction and 35 mm focal length.
+
+        Missing altitude: 2 m above the DEM; missing direction: towards the DEM centre (redraw it if wrong)."""
+        if self.image is None or self.dem is None:
+            if not quiet:
+                self.message.emit(self.tr("Load a photo and choose a DEM first."), WARNING)
+            return False
+        exif = read_exif_prior(self.state.photo_path, self.photo_size)
+        if exif is None or not exif.has_position:
+            if not quiet:
+                self.message.emit(self.tr("The photo has no GPS position in its EXIF tags."), WARNING)
+            return False
+        x, y, convergence = engine.lonlat_to_crs(exif.lon, exif.lat, self.dem.crs_wkt)
+        ground = float(self.dem.sample(x, y))
+        if not math.isfinite(ground):
+            self.message.emit(self.tr("The photo's GPS position lies outside the DEM."), WARNING)
+            return False
+        z = exif.altitude if exif.altitude is not None else ground + 2.0
+        if exif.heading is not None:
+            heading, guessed = exif.heading - convergence, False
+        else:
+            (x0, y0), (x1, y1) = engine.dem_corners(self.dem)
+            heading, guessed = math.degrees(math.atan2((x0 + x1) / 2 - x, (y0 + y1) / 2 - y)), True
+        camera = Camera((x, y, max(z, ground + 1.0)), heading, 0.0, 0.0, exif.fov or 60.0, self.photo_size,
+                        crs_wkt=self.dem.crs_wkt)
+        self.set_prior(camera)
+        text = self.tr("Rough camera from the photo's EXIF GPS tags.")
+        if guessed:
+            text += " " + self.tr("No direction in EXIF: it looks at the DEM centre; draw it on the map if wrong.")
+        self.message.emit(text, INFO)
+        return True
+
+    def exif_fov(self) -> Optional[float]:
+        """Horizontal field of view from the photo's EXIF 35 mm focal length, or None."""
+        if not self.state.photo_path or self.image is None:
+            return None
+        exif = read_exif_prior(self.state.photo_path, self.photo_size)
+        return None if exif is None else exif.fov
+
+    def _maybe_exif_prior(self) -> None:
+        if not self._restoring and self.state.prior is None and self.image is not None and self.dem is not None:
+            self.prior_from_exif(quiet=True)
 
     def import_kml(self, path: str) -> bool:
         """Read a KML PhotoOverlay as the prior."""

@@ -69,6 +69,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.camera_tool.cameraDrawn.connect(self._camera_drawn)
         self.camera_tool.dragging.connect(self._camera_dragging)
         self.kmlButton.clicked.connect(self._import_kml)
+        self.exifButton.clicked.connect(lambda: c.prior_from_exif())
         self.clearPriorButton.clicked.connect(lambda: c.set_prior(None))
         self.fovSpin.valueChanged.connect(self._prior_spin_changed)
         self.pitchSpin.valueChanged.connect(self._prior_spin_changed)
@@ -167,6 +168,9 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
 
     def _on_photo(self) -> None:
         self.photo_view.redraw_photo()
+        fov = self.controller.exif_fov()
+        if fov is not None and self.controller.prior is None:
+            self.fovSpin.setValue(fov)
         path = self.controller.state.photo_path
         if path and self.photoFile.filePath() != path:
             self.photoFile.blockSignals(True)

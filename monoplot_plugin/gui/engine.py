@@ -292,3 +292,31 @@ def view_wedge(camera: Camera, distance: float, steps: int = 24) -> List[Tuple[f
         pts.append((x0 + distance * math.sin(a), y0 + distance * math.cos(a)))
     pts.append((x0, y0))
     return pts
+
+
+def lonlat_to_crs(lon: float, lat: float, crs_wkt: str) -> Tuple[float, float, float]:
+    """WGS 84 (lon, lat) -> (x, y) in ``crs_wkt`` and the grid convergence there (degrees: true north minus grid
+    north, clockwise), so that ``grid heading = true heading - convergence``."""
+    from osgeo import osr
+
+    src, dst = osr.SpatialReference(), osr.SpatialReference()
+    src.ImportFromEPSG(4326)
+    dst.SetFromUserInput(crs_wkt)
+    for srs in (src, dst):
+        srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+    t = osr.CoordinateTransformation(src, dst)
+    x, y, _ = t.TransformPoint(lon, lat)
+    x2, y2, _ = t.TransformPoint(lon, lat + 1e-3)
+    return x, y, math.degrees(math.atan2(x2 - x, y2 - y))
+
+
+def dem_corners(dem) -> Tuple[Tuple[float, float], Tuple[float, float]]:
+    """((xmin, ymin), (xmax, ymax)) of the DEM grid (corner to corner)."""
+    rows, cols = dem.elevation.shape
+    xs, ys = [], []
+    for c in (0, cols):
+        for r in (0, rows):
+            x, y = dem.cell_to_map(c, r)
+            xs.append(float(x))
+            ys.append(float(y))
+    return (min(xs), min(ys)), (max(xs), max(ys))

@@ -119,3 +119,36 @@ def test_map_cursor_says_hidden_behind_terrain(dock, scene, qtbot):
     ground = c.ground_at_pixel(240.5, 250.5)
     uv2, where2 = c.pixel_of_ground(ground[0], ground[1])
     assert where2 == "visible" and math.dist(uv2, (240.5, 250.5)) < 3.0
+
+
+def test_rough_camera_from_exif_gps(dock, scene, tmp_path):
+    from osgeo import gdal, osr
+
+    src = osr.SpatialReference()
+    src.ImportFromWkt(scene.dem.crs_wkt)
+    dst = osr.SpatialReference()
+    dst.ImportFromEPSG(4326)
+    for srs in (src, dst):
+        srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+    lon, lat, _ = osr.CoordinateTransformation(src, dst).TransformPoint(*scene.camera.position[:2])
+
+    def dms(value):
+        d = int(value)
+        m = int((value - d) * 60)
+        return f"({d}) ({m}) ({(value - d - m / 60) * 3600:.4f})"
+
+    photo = gdal.Open(scene.photo_path)
+    mem = gdal.GetDriverByName("MEM").CreateCopy("", photo)
+    mem.SetMetadata({"EXIF_GPSLatitude": dms(lat), "EXIF_GPSLatitudeRef": "N", "EXIF_GPSLongitude": dms(lon),
+                     "EXIF_GPSLongitudeRef": "E", "EXIF_GPSAltitude": f"({scene.camera.position[2]:.1f})",
+                     "EXIF_GPSImgDirection": "(10.0)", "EXIF_FocalLengthIn35mmFilm": "31"})
+    path = str(tmp_path / "phone.jpg")
+    gdal.GetDriverByName("JPEG").CreateCopy(path, mem)
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    dock.photoFile.setFilePath(path)  # photo + DEM + GPS tags: the rough camera appears by itself
+    prior = dock.controller.prior
+    assert prior is not None
+    assert math.dist(prior.position[:2], scene.camera.position[:2]) < 1.0
+    assert abs(prior.position[2] - scene.camera.position[2]) < 0.2
+    assert abs(prior.fov - 60.2) < 0.5  # 2 atan(18 / 31)
+    assert 8.0 < prior.heading < 12.0  # true north -> grid north: within a couple of degrees in Switzerland
