@@ -139,6 +139,25 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
     return results
 
 
+def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_points: str, dem, crs_wkt: str,
+                      log: Callable[[str, bool], None] = lambda message, error: None):
+    """Fit one camera for a whole time-lapse on its first readable photo (the frames share the camera).
+
+    Returns (camera, photo used, rmse px). Raises InputError when no photo can be fitted."""
+    problems = []
+    for path in folder_photos:
+        try:
+            photo = read_photo(path)
+        except InputError as exc:
+            problems.append(str(exc))
+            log(f"{os.path.basename(path)}: skipped for the shared fit: {exc}", True)
+            continue
+        job = PhotoJob(path, prior=prior, points=points, dem_points=dem_points)
+        camera, rmse = _fit_job(job, (photo.shape[1], photo.shape[0]), dem, crs_wkt)
+        return camera, path, rmse
+    raise InputError("no photo of the folder could be read for the shared fit: " + "; ".join(problems[:3]))
+
+
 def _fit_job(job: PhotoJob, size, dem, crs_wkt: str):
     """Fit one job's camera from its prior and point files; returns (camera, rmse in px)."""
     prior = load_camera(job.prior, size, crs_wkt)

@@ -93,3 +93,27 @@ def test_table_batch_fits_each_photo_and_skips_a_bad_row(run_alg, small_scene, t
         failed = [r for r in csv.DictReader(fh) if r["status"] == "failed"]
     assert len(failed) == 1 and "b.png" in failed[0]["photo"]
     assert "camera file not found" in failed[0]["message"]
+
+
+def test_timelapse_fits_the_shared_camera_once_from_a_prior(run_alg, small_scene, timelapse, tmp_path):
+    from monoplot_plugin.core.camera import Camera
+    from monoplot_plugin.core.dem import Dem
+    from monoplot_plugin.core.xyz import compute_xyz
+    from monoplot_plugin.processing.inputs import write_points_csv
+
+    cam = small_scene["cam"]
+    xyz = compute_xyz(cam, Dem.open(small_scene["dem"]))
+    rows, cols = np.nonzero(np.isfinite(xyz[..., 2]))
+    pick = np.random.default_rng(8).choice(len(rows), 12, replace=False)
+    world = xyz[rows[pick], cols[pick]]
+    write_points_csv(str(tmp_path / "gcps.csv"), uv=cam.project(world), xyz=world)
+    cam.with_parameters(heading=cam.heading + 1.5, x=cam.position[0] - 60).save(tmp_path / "prior.json")
+    (timelapse / "frame_00.jpg").write_bytes(b"truncated")  # the first frame is bad too: the fit uses the next
+    out = tmp_path / "out"
+    result = run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(timelapse),
+                               "CAMERA": str(tmp_path / "prior.json"), "POINTS": str(tmp_path / "gcps.csv"),
+                               "XYZ": False, "ORTHO": True, "OUTPUT": str(out)})
+    assert result["SUCCEEDED"] == 18 and result["FAILED"] == 2
+    fitted = Camera.load(out / "camera.json")
+    assert np.linalg.norm(np.subtract(fitted.position, cam.position)) < 5.0
+    assert abs(fitted.heading - cam.heading) < 0.1

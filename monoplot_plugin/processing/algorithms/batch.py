@@ -23,7 +23,9 @@ class BatchPhotos(MonoplotAlgorithm):
     _display = "Batch: many photos"
     _help = ("Processes many photos at once.\n\n"
              "Time-lapse folder: every image in FOLDER shares one fitted CAMERA; the XYZ raster is computed once "
-             "(xyz.tif) and an orthophoto is written per photo (<name>_ortho.tif).\n\n"
+             "(xyz.tif) and an orthophoto is written per photo (<name>_ortho.tif). With POINTS (and DEM_POINTS "
+             "for unpaired points), CAMERA is the prior and the shared camera is fitted once on the first readable "
+             "photo (camera.json).\n\n"
              "CSV table: TABLE lists photos with their own prior camera and points (columns photo, prior, points "
              "and optionally dem_points; paths relative to the table); each photo is fitted (<name>_camera.json) "
              "and gets its own XYZ raster and orthophoto.\n\n"
@@ -42,7 +44,16 @@ class BatchPhotos(MonoplotAlgorithm):
                                                        defaultValue="*.jpg;*.jpeg;*.png;*.tif;*.tiff",
                                                        optional=True))
         self.add_camera_parameter("CAMERA", optional=True,
-                                  description="Shared camera, Monoplot JSON (time-lapse mode)")
+                                  description="Shared camera, or its prior when POINTS is given (time-lapse mode)")
+        self.addParameter(QgsProcessingParameterFile("POINTS", self.tr("Points to fit the shared camera on the first "
+                                                                       "photo: paired GCP CSV or photo points CSV "
+                                                                       "(time-lapse mode, optional)"),
+                                                     QgsProcessingParameterFile.File, optional=True,
+                                                     fileFilter="CSV (*.csv *.txt)"))
+        self.addParameter(QgsProcessingParameterFile("DEM_POINTS", self.tr("DEM points CSV for an unpaired shared fit "
+                                                                           "(time-lapse mode, optional)"),
+                                                     QgsProcessingParameterFile.File, optional=True,
+                                                     fileFilter="CSV (*.csv *.txt)"))
         self.addParameter(QgsProcessingParameterFile("TABLE", self.tr("Photo table CSV (table mode)"),
                                                      QgsProcessingParameterFile.File, optional=True,
                                                      fileFilter="CSV (*.csv)"))
@@ -62,11 +73,24 @@ class BatchPhotos(MonoplotAlgorithm):
         out_dir = self.parameterAsString(parameters, "OUTPUT", context)
         if mode == 0:
             if not self.parameterAsFile(parameters, "CAMERA", context):
-                raise QgsProcessingException(self.tr("Time-lapse mode needs the shared CAMERA (fit it first with "
-                                                     "'Fit camera' on one photo)."))
-            camera = self.camera(parameters, context, "CAMERA")
-            jobs = checked(batch.folder_jobs, self.parameterAsFile(parameters, "FOLDER", context), camera,
+                raise QgsProcessingException(self.tr("Time-lapse mode needs the shared CAMERA (fitted with 'Fit "
+                                                     "camera' on one photo, or a prior with POINTS to fit it here)."))
+            jobs = checked(batch.folder_jobs, self.parameterAsFile(parameters, "FOLDER", context), None,
                            self.parameterAsString(parameters, "PATTERN", context))
+            points = self.parameterAsFile(parameters, "POINTS", context)
+            if points:  # fit once, on the first readable frame; every frame shares the camera
+                camera, used, rmse = checked(batch.fit_shared_camera, [j.photo for j in jobs],
+                                             self.parameterAsFile(parameters, "CAMERA", context), points,
+                                             self.parameterAsFile(parameters, "DEM_POINTS", context), dem,
+                                             crs.toWkt(), lambda m, e: feedback.reportError(m, False))
+                os.makedirs(out_dir, exist_ok=True)
+                camera.save(os.path.join(out_dir, "camera.json"))
+                feedback.pushInfo(self.tr(f"Shared camera fitted on {os.path.basename(used)}: RMSE {rmse:.2f} px; "
+                                          f"written to {os.path.join(out_dir, 'camera.json')}"))
+            else:
+                camera = self.camera(parameters, context, "CAMERA")
+            for job in jobs:
+                job.camera = camera
         else:
             jobs = checked(batch.table_jobs, self.parameterAsFile(parameters, "TABLE", context))
         feedback.pushInfo(self.tr(f"{len(jobs)} photos to process"))
