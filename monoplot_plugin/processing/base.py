@@ -21,6 +21,7 @@ from qgis.core import (
     QgsGeometry,
     QgsPoint,
     QgsProcessingAlgorithm,
+    QgsProject,
     QgsProcessingException,
     QgsProcessingParameterDefinition,
     QgsProcessingParameterFile,
@@ -92,19 +93,14 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
 
     # --- input readers ------------------------------------------------------------------------------------------
     def dem_path(self, parameters, context) -> Tuple[str, QgsCoordinateReferenceSystem]:
-        """File path and CRS of the DEM parameter, checked: a GDAL-readable single file in a projected CRS."""
+        """File path and CRS of the DEM parameter, checked: a GDAL-readable file."""
         layer = self.parameterAsRasterLayer(parameters, "DEM", context)
         if layer is None or not layer.isValid():
             raise QgsProcessingException(self.tr("The DEM could not be loaded as a raster layer."))
         path = layer.source().split("|")[0]
         if not os.path.isfile(path):
             raise QgsProcessingException(self.tr(f"The DEM must be a raster file on disk (got '{path}')."))
-        crs = layer.crs()
-        if crs.isValid() and crs.isGeographic():
-            raise QgsProcessingException(self.tr(
-                f"The DEM is in a geographic CRS ({crs.authid()}); Monoplot needs a projected CRS in metres. "
-                "Reproject it first (Raster > Projections > Warp)."))
-        return path, crs
+        return path, layer.crs()
 
     def void_value(self, parameters, context) -> Optional[float]:
         value = parameters.get("VOID_VALUE")
@@ -113,11 +109,17 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         return self.parameterAsDouble(parameters, "VOID_VALUE", context)
 
     def dem(self, parameters, context):
-        """(core Dem, QgsCoordinateReferenceSystem) of the DEM parameter (voids as NaN)."""
+        """(core Dem, QgsCoordinateReferenceSystem of its values) of the DEM parameter (voids as NaN).
+
+        A DEM in geographic coordinates is reprojected to the UTM zone of its centre (core :meth:`Dem.open`); the
+        CRS returned is then that UTM CRS: cameras, points and products are in metres."""
         from . import pipeline
 
         path, crs = self.dem_path(parameters, context)
-        return checked(pipeline.load_dem, path, self.void_value(parameters, context)), crs
+        dem = checked(pipeline.load_dem, path, self.void_value(parameters, context))
+        if crs.isGeographic() and dem.crs_wkt:
+            crs = QgsCoordinateReferenceSystem.fromWkt(dem.crs_wkt)
+        return dem, crs
 
     def photo_path(self, parameters, context, name: str = "PHOTO") -> str:
         path = self.parameterAsFile(parameters, name, context)
@@ -232,12 +234,18 @@ def read_photo_points(source) -> np.ndarray:
     return np.array(points, dtype=float).reshape(-1, 2)
 
 
-def read_map_points(source) -> np.ndarray:
-    """(N, 3) map points of a point source: geometry x, y; Z from the geometry, else a Z field, else NaN (the caller
-    samples the DEM)."""
+def read_map_points(source, crs=None, context=None) -> np.ndarray:
+    """(N, 3) map points of a point source: geometry x, y (transformed to ``crs`` when given and different); Z from
+    the geometry, else a Z field, else NaN (the caller samples the DEM)."""
+    from qgis.core import QgsFeatureRequest
+
     iz = _field_index(source.fields(), ("z", "z_m", "elevation", "elev", "alt", "height"))
+    request = QgsFeatureRequest()
+    if crs is not None and crs.isValid() and source.sourceCrs().isValid() and source.sourceCrs() != crs:
+        request.setDestinationCrs(crs, context.transformContext() if context is not None else
+                                  QgsProject.instance().transformContext())
     points = []
-    for feature in source.getFeatures():
+    for feature in source.getFeatures(request):
         geometry = feature.geometry()
         if geometry.isNull():
             continue

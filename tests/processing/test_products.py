@@ -148,3 +148,18 @@ def test_map_to_photo_drops_points_hidden_behind_terrain(run_alg, small_scene):
     assert len(kept) == 1
     u, v = kept[0].geometry().vertices().next().x(), -kept[0].geometry().vertices().next().y()
     assert np.allclose([u, v], cam.project([seen])[0], atol=0.5)
+
+
+def test_geographic_dem_is_used_in_its_utm_zone(run_alg, small_scene, tmp_path):
+    geographic = tmp_path / "dem_wgs84.tif"
+    gdal.Warp(str(geographic), small_scene["dem"], dstSRS="EPSG:4326", resampleAlg="bilinear")
+    out = tmp_path / "xyz.tif"
+    result = run_alg("computexyz", {"CAMERA": small_scene["camera"], "DEM": str(geographic), "OUTPUT": str(out)})
+    ds = gdal.Open(str(out))
+    z = ds.GetRasterBand(3).ReadAsArray()
+    expected = compute_xyz(small_scene["cam"], Dem.open(small_scene["dem"]))[..., 2]
+    both = np.isfinite(z) & np.isfinite(expected)
+    assert both.mean() > 0.3 and result["GROUND_FRACTION"] > 0.3
+    assert np.median(np.abs(z[both] - expected[both])) < 10.0  # same terrain, resampled twice
+    assert "32632" in ds.GetMetadataItem("MONOPLOT_VALUE_CRS_AUTHID") or "UTM zone 32N" in \
+        ds.GetMetadataItem("MONOPLOT_VALUE_CRS")

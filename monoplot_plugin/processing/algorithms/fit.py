@@ -69,7 +69,7 @@ class FitCamera(MonoplotAlgorithm):
         self.addOutput(QgsProcessingOutputNumber("N_DEM", self.tr("DEM points used")))
         self.addOutput(QgsProcessingOutputString("STATUS", self.tr("Fit status (ok / poor)")))
 
-    def gather_points(self, parameters, context, dem):
+    def gather_points(self, parameters, context, dem, crs=None):
         """(uv (N, 2), xyz (M, 3), paired) from layers and/or CSV files; Z sampled from the DEM where missing."""
         uv_parts, xyz_parts = [], []
         paired = self.parameterAsBool(parameters, "PAIRED", context)
@@ -78,7 +78,7 @@ class FitCamera(MonoplotAlgorithm):
         if photo_source is not None:
             uv_parts.append(read_photo_points(photo_source))
         if dem_source is not None:
-            xyz_parts.append(read_map_points(dem_source))
+            xyz_parts.append(read_map_points(dem_source, crs, context))
         for name in ("PHOTO_CSV", "DEM_CSV"):
             path = self.parameterAsFile(parameters, name, context)
             if not path:
@@ -112,7 +112,7 @@ class FitCamera(MonoplotAlgorithm):
         photo = self.photo_path(parameters, context)
         dem, crs = self.dem(parameters, context)
         prior = self.camera(parameters, context, "PRIOR", photo=photo, crs=crs)
-        uv, xyz, paired = self.gather_points(parameters, context, dem)
+        uv, xyz, paired = self.gather_points(parameters, context, dem, crs)
         minimum = 4 if paired else 6
         if len(uv) < minimum or len(xyz) < minimum:
             raise QgsProcessingException(self.tr(
