@@ -163,3 +163,12 @@ def test_geographic_dem_is_used_in_its_utm_zone(run_alg, small_scene, tmp_path):
     assert np.median(np.abs(z[both] - expected[both])) < 10.0  # same terrain, resampled twice
     assert "32632" in ds.GetMetadataItem("MONOPLOT_VALUE_CRS_AUTHID") or "UTM zone 32N" in \
         ds.GetMetadataItem("MONOPLOT_VALUE_CRS")
+
+
+def test_orthophoto_at_another_resolution(run_alg, small_scene, tmp_path):
+    out = tmp_path / "ortho60.tif"
+    run_alg("orthophoto", {"CAMERA": small_scene["camera"], "DEM": small_scene["dem"],
+                           "PHOTO": small_scene["photo"], "RESOLUTION": 60, "OUTPUT": str(out)})
+    ds = gdal.Open(str(out))
+    assert (ds.RasterXSize, ds.RasterYSize) == (40, 40) and ds.GetGeoTransform()[1] == 60.0
+    assert 0.05 < (ds.GetRasterBand(4).ReadAsArray() == 255).mean() < 0.95
