@@ -58,7 +58,7 @@ def footprint_layer(wkt: str, crs: QgsCoordinateReferenceSystem, name: str = "Mo
         f = QgsFeature()
         f.setGeometry(geom)
         layer.dataProvider().addFeatures([f])
-    symbol = QgsFillSymbol.createSimple({"color": "255,80,40,50", "outline_color": "255,80,40",
+    symbol = QgsFillSymbol.createSimple({"color": "40,130,255,55", "outline_color": "40,130,255",
                                          "outline_width": "0.5"})
     layer.setRenderer(QgsSingleSymbolRenderer(symbol))
     layer.setCustomProperty(_ROLE, "footprint")

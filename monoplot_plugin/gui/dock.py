@@ -259,20 +259,25 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
             return (" ± " + fmt.format(sigma[name])) if name in sigma and math.isfinite(sigma[name]) else ""
 
         rmse = info.get("rmse_px")
-        rows = [
-            (self.tr("RMSE"), "—" if rmse is None else f"<b>{rmse:.1f} px</b>"),
-            (self.tr("Points"), f"{info.get('n_photo', 0)} photo / {info.get('n_map', 0)} DEM"
-                                + (f" / {info['n_pairs']} pairs" if info.get("n_pairs") else "")),
-            ("X", f"{x:.0f} m{sig('x', '{:.0f}')}"), ("Y", f"{y:.0f} m{sig('y', '{:.0f}')}"),
-            ("Z", f"{z:.0f} m{sig('z', '{:.0f}')}"),
-            (self.tr("Heading"), f"{fitted.heading % 360:.2f}°{sig('heading', '{:.2f}')}"),
-            (self.tr("Pitch"), f"{fitted.pitch:.2f}°{sig('pitch', '{:.2f}')}"),
-            (self.tr("Roll"), f"{fitted.roll:.2f}°{sig('roll', '{:.2f}')}"),
-            (self.tr("Field of view"), f"{fitted.fov:.2f}°{sig('fov', '{:.2f}')}"),
-        ]
-        html = "".join(f"<tr><td>{k}&nbsp;&nbsp;</td><td>{v}</td></tr>" for k, v in rows)
-        note = "" if info.get("converged", True) else "<p style='color:#c00'>" + self.tr("Did not converge.") + "</p>"
-        return f"<table>{html}</table>{note}"
+        loo = info.get("loo_rmse_px")
+        head = self.tr("RMSE <b>{0}</b>{1} · {2} photo / {3} DEM points{4}").format(
+            "—" if rmse is None else f"{rmse:.1f} px",
+            "" if loo is None else self.tr(" (leave-one-out {0:.1f} px)").format(loo),
+            info.get("n_photo", 0), info.get("n_map", 0),
+            self.tr(", {0} pairs").format(info["n_pairs"]) if info.get("n_pairs") else "")
+        deg = "{:.2f}"
+        cells = [("X", f"{x:.0f} m{sig('x', '{:.0f}')}"),
+                 (self.tr("Heading"), f"{fitted.heading % 360:.2f}°{sig('heading', deg)}"),
+                 ("Y", f"{y:.0f} m{sig('y', '{:.0f}')}"),
+                 (self.tr("Pitch"), f"{fitted.pitch:.2f}°{sig('pitch', deg)}"),
+                 ("Z", f"{z:.0f} m{sig('z', '{:.0f}')}"),
+                 (self.tr("Roll"), f"{fitted.roll:.2f}°{sig('roll', deg)}"),
+                 ("", ""), (self.tr("Field of view"), f"{fitted.fov:.2f}°{sig('fov', deg)}")]
+        html = "".join("<tr>" + "".join(f"<td>{k}&nbsp;</td><td>{v}&nbsp;&nbsp;&nbsp;</td>" for k, v in pair)
+                       + "</tr>" for pair in zip(cells[0::2], cells[1::2]))
+        note = "" if info.get("converged", True) else "<p style='color:#c00'>" + info.get("message", "") + "</p>"
+        html = f"<p>{head}</p><table>{html}</table>"
+        return html + note
 
     def _residual_by_id(self):
         """Residual length (px) per accepted photo point id, for the table."""

@@ -83,7 +83,7 @@ class MapPresenter:
         self.prior_band = PolygonBand(canvas, QColor(255, 170, 0), QColor(255, 170, 0, 40), width=2, z=8,
                                       dashed=True)
         # outline only: the footprint layer in the project carries the fill
-        self.fitted_band = PolygonBand(canvas, QColor(255, 60, 30), QColor(255, 60, 30, 0), width=2, z=9)
+        self.fitted_band = PolygonBand(canvas, QColor(40, 130, 255), QColor(40, 130, 255, 0), width=2, z=9)
         self.camera_marker = _cursor_marker(canvas, QColor(255, 40, 40))
         self.camera_marker.setIconType(QgsVertexMarker.IconType.ICON_CIRCLE)
         self.camera_marker.setIconSize(14)
