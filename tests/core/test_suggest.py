@@ -1,0 +1,163 @@
+"""GCP suggestions: photo key points (picture mask, spreading, ids) and DEM points (landmarks, view, visibility)."""
+
+import numpy as np
+import pytest
+
+from monoplot_plugin.core import Camera, Dem
+from monoplot_plugin.core.suggest import (_prominence, spread_by_grid, suggest_dem_points, suggest_photo_points,
+                                          terrain_landmarks)
+from monoplot_plugin.core.suggest_photo import picture_box, picture_mask
+
+cv2 = pytest.importorskip("cv2")
+
+
+def textured_picture(h=400, w=600, seed=0):
+    rng = np.random.default_rng(seed)
+    base = cv2.GaussianBlur(rng.integers(0, 255, (h, w)).astype(np.uint8), (0, 0), 3)
+    return cv2.equalizeHist(base)
+
+
+def print_with_border_and_caption():
+    """A 'print': textured picture on white paper, a thin frame line and a printed caption inside its bottom."""
+    page = np.full((480, 680), 250, np.uint8)
+    pic = textured_picture()
+    pic[345:400, :] = 40  # dark strip the caption is printed on
+    cv2.putText(pic, "1478. P. Z. - ALETSCHGLETSCHER", (20, 388), cv2.FONT_HERSHEY_SIMPLEX, 0.7, 235, 2)
+    page[40:440, 40:640] = pic
+    cv2.rectangle(page, (38, 38), (641, 441), 0, 1)
+    return np.dstack([page] * 3)
+
+
+def test_picture_mask_drops_paper_frame_and_caption():
+    img = print_with_border_and_caption()
+    r0, r1, c0, c1 = picture_box(img[..., 0])
+    assert 36 <= r0 <= 42 and 438 <= r1 <= 444 and 36 <= c0 <= 42 and 638 <= c1 <= 644
+    mask = picture_mask(img)
+    assert not mask[:36].any() and not mask[:, :36].any() and not mask[445:].any()
+    assert mask[200, 300] and mask[100, 600]
+    assert not mask[418, 150]  # inside the caption
+
+
+def test_photo_suggestions_avoid_border_and_caption_and_are_spread():
+    img = print_with_border_and_caption()
+    s = suggest_photo_points(img)
+    assert len(s) > 100
+    u, v = s.uv[:, 0], s.uv[:, 1]
+    assert (u > 40).all() and (u < 640).all() and (v > 40).all() and (v < 440).all()
+    in_caption = (v > 405) & (v < 432) & (u > 55) & (u < 440)
+    assert not in_caption.any()
+    # spread: at most per_cell per cell
+    cell = 680 / 170.0
+    keys = np.floor(v / cell) * 1000 + np.floor(u / cell)
+    assert np.bincount(np.unique(keys, return_inverse=True)[1]).max() <= 3
+    # sorted by score, ids stable and unique
+    assert (np.diff(s.score) <= 1e-12).all() and 0 < s.score.min() and s.score.max() <= 1
+    assert s.ids[0] == "p0000" and len(set(s.ids)) == len(s)
+    again = suggest_photo_points(img)
+    assert again.ids == s.ids and np.array_equal(again.uv, s.uv)
+    assert set(np.unique(s.source)) <= {"orb", "corner"}
+
+
+def test_photo_settings_are_honoured():
+    img = textured_picture()
+    few = suggest_photo_points(img, max_points=50, corner_count=0)
+    assert len(few) == 50 and set(few.source) == {"orb"}
+    sub = few.subset(few.score > np.median(few.score))
+    assert len(sub) < 50 and all(i in few.ids for i in sub.ids)
+
+
+def test_large_photos_are_reduced_but_coordinates_stay_full_resolution():
+    img = cv2.resize(textured_picture(), (2400, 1600), interpolation=cv2.INTER_CUBIC)
+    s = suggest_photo_points(img, work_size=800)
+    assert s.uv[:, 0].max() > 1800 and s.uv[:, 1].max() > 1200
+
+
+def test_spread_by_grid_keeps_the_best_per_cell():
+    uv = np.array([[1.0, 1.0], [2.0, 1.0], [3.0, 1.0], [15.0, 1.0]])
+    keep = spread_by_grid(uv, np.array([0.5, 0.9, 0.7, 0.1]), (20, 10), cell_px=10, per_cell=2)
+    assert keep.tolist() == [1, 2, 3]
+
+
+def two_hills():
+    """Two Gaussian hills (1000 m and 600 m high) joined by a col about 70 m high; 10 m cells."""
+    y, x = np.mgrid[0:80, 0:120].astype(float)
+    z = 1000 * np.exp(-((x - 35) ** 2 + (y - 40) ** 2) / 200) + 600 * np.exp(-((x - 85) ** 2 + (y - 40) ** 2) / 200)
+    return Dem.from_array(z + 1000.0, (500000.0, 10.0, 0.0, 100000.0, 0.0, -10.0))
+
+
+def test_prominence_of_two_hills():
+    dem = two_hills()
+    z = dem.elevation
+    peaks = np.array([[40, 35], [40, 85]])
+    prom = _prominence(z, peaks, levels=200)
+    col = z[40, 35:86].min()
+    step = (z.max() - z.min()) / 199
+    assert prom[0] == pytest.approx(z[40, 35] - z.min(), abs=step)
+    assert prom[1] == pytest.approx(z[40, 85] - col, abs=step)
+
+
+def test_landmarks_find_both_summits_and_the_saddle_with_map_coordinates():
+    dem = two_hills()
+    xyz, kind, strength, prom = terrain_landmarks(dem, smooth_cells=0)
+    summits = xyz[kind == "summit"]
+    assert len(summits) == 2
+    expected = [dem.cell_to_map(35.5, 40.5), dem.cell_to_map(85.5, 40.5)]
+    for ex, ey in expected:
+        assert np.min(np.hypot(summits[:, 0] - ex, summits[:, 1] - ey)) <= 15.0
+    assert np.allclose(summits[:, 2], dem.sample(summits[:, 0], summits[:, 1]))
+    saddles = xyz[kind == "saddle"]
+    assert len(saddles) >= 1
+    sx, sy = dem.cell_to_map(np.array([55.0, 65.0]), np.array([40.5, 40.5]))
+    near_col = (saddles[:, 0] > sx[0]) & (saddles[:, 0] < sx[1]) & (np.abs(saddles[:, 1] - sy[0]) < 30)
+    assert near_col.any()
+
+
+def test_dem_suggestions_without_camera_have_dem_heights_and_stable_ids():
+    from monoplot_plugin.core.synthetic import synthetic_terrain
+
+    dem = synthetic_terrain((200, 200), cell=25.0, seed=4)
+    s = suggest_dem_points(dem)
+    assert len(s) > 50
+    assert np.allclose(s.xyz[:, 2], dem.sample(s.xyz[:, 0], s.xyz[:, 1]), atol=1e-6)
+    assert {"summit", "orb", "corner"} <= set(s.kind)
+    assert np.isnan(s.uv).all()
+    assert s.ids[:2] == ["d0000", "d0001"] and (np.diff(s.score) <= 1e-12).all()
+    assert (s.prominence[s.kind == "summit"] >= 30).all()
+
+
+def test_dem_suggestions_with_a_camera_are_in_view_and_visible():
+    from monoplot_plugin.core.synthetic import synthetic_terrain
+    from monoplot_plugin.core.xyz import segment_first_hit
+
+    dem = synthetic_terrain((240, 240), cell=25.0, seed=5)
+    x0, y0, x1, y1 = dem.bounds()
+    cx, cy = (x0 + x1) / 2, y0 + 0.1 * (y1 - y0)
+    cam = Camera((cx, cy, float(dem.sample(cx, cy)) + 300), heading=0, pitch=-5, roll=0, fov=50,
+                 image_size=(800, 533))
+    s = suggest_dem_points(dem, cam, view_margin=0.05)
+    assert len(s) > 100
+    uv, depth = cam.project_with_depth(s.xyz)
+    assert np.allclose(uv, s.uv)
+    assert (depth > 0).all() and cam.in_image(uv, margin=0.05 * 800).all()
+    # points are on terrain the camera sees: the first hit on the way to each (1 m above ground) is at the point
+    targets = s.xyz + np.array([0, 0, 1.0])
+    hit = segment_first_hit(dem, np.broadcast_to(np.asarray(cam.position), targets.shape), targets)
+    length = np.linalg.norm(targets - np.asarray(cam.position), axis=1)
+    seen = ~np.isfinite(hit) | ((1 - hit) * length < 3 * dem.cell_size)
+    assert seen.mean() > 0.95
+    # nothing from the terrain behind the camera
+    behind = (s.xyz[:, 1] < cy)
+    assert not behind.any()
+
+
+def test_aletsch_suggestions_cover_the_hand_picked_gcps(aletsch_dir):
+    """Measured coverage on the real print: the curation of the evaluation needs suggestions near the GCPs."""
+    image = cv2.imread(str(aletsch_dir / "photo.jpg"))[..., ::-1]
+    gcps = np.loadtxt(aletsch_dir / "gcps.csv", delimiter=",", skiprows=1)
+    s = suggest_photo_points(image)
+    # nothing on the white border or on the printed caption at the bottom left
+    assert (s.uv[:, 1] > 22).all() and (s.uv[:, 1] < 737).all() and (s.uv[:, 0] > 27).all()
+    caption = (s.uv[:, 1] > 708) & (s.uv[:, 0] > 50) & (s.uv[:, 0] < 460)
+    assert not caption.any()
+    near = np.linalg.norm(s.uv[:, None] - gcps[None, :, :2], axis=2) <= 10
+    assert near.any(axis=0).sum() >= 6
