@@ -387,6 +387,11 @@ class MonoplotController(QObject):
         index_world = {p.id: i for i, p in enumerate(world)}
         pairs = [(index_photo[a.id], index_world[b.id]) for a, b in self.state.valid_pairs()
                  if a.id in index_photo and b.id in index_world]
+        if 0 < len(pairs) < self.MIN_POINTS:
+            # a paired fit uses the pairs only: too few of them would under-determine the 7 unknowns
+            self.message.emit(self.tr("{0} pair(s) ignored: a paired fit needs at least {1}; fitting without "
+                                      "pairs.").format(len(pairs), self.MIN_POINTS), INFO)
+            pairs = []
         uv = np.array([(p.x, p.y) for p in photo], dtype=np.float64)
         xyz = np.array([(p.x, p.y, p.z) for p in world], dtype=np.float64)
         return uv, xyz, pairs
