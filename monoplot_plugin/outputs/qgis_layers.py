@@ -139,6 +139,7 @@ class DigitisingSession(QObject):
         self.photo_layers: Dict[str, QgsVectorLayer] = {}
         self.map_layers: Dict[str, QgsVectorLayer] = {}
         self.last_report: Dict[str, Tuple[int, int]] = {}
+        self._mapped: Dict[Tuple[str, int], tuple] = {}  # (kind, fid) -> (photo geometry WKB, MapFeature or None)
 
     # --- layers -----------------------------------------------------------------------------------------------
     def photo_layer(self, kind: str) -> QgsVectorLayer:
@@ -180,6 +181,7 @@ class DigitisingSession(QObject):
     def update_camera(self, camera, dem, xyz: np.ndarray) -> None:
         """A new fit (or DEM): keep what was drawn on the photo, recompute every live map layer."""
         self.camera, self.dem, self.xyz = camera, dem, xyz
+        self._mapped.clear()
         for kind in list(self.map_layers):
             self.map_layers[kind].setCrs(_crs(dem.crs_wkt))
             self.sync(kind)
@@ -235,7 +237,18 @@ class DigitisingSession(QObject):
             if len(vertices) == 0:
                 continue
             attrs = {n: _plain(feature[n]) for n, _ in self.fields}
-            mapped = photo_to_map_feature(kind, vertices, self.xyz, attrs, camera=self.camera, dem=self.dem)
+            # Only features whose photo geometry changed are intersected again (editing one vertex of one
+            # polygon must not redo every outline); attributes are cheap and always taken fresh.
+            key = (kind, feature.id())
+            wkb = bytes(feature.geometry().asWkb())
+            cached = self._mapped.get(key)
+            if cached is not None and cached[0] == wkb:
+                mapped = cached[1]
+            else:
+                mapped = photo_to_map_feature(kind, vertices, self.xyz, camera=self.camera, dem=self.dem)
+                self._mapped[key] = (wkb, mapped)
+            if mapped is not None:
+                mapped = MapFeature(mapped.kind, mapped.parts, attrs, mapped.sky_parts)
             if mapped is None:
                 dropped += 1
                 continue
