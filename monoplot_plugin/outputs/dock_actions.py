@@ -103,7 +103,8 @@ class OutputTools(QObject):
         """The digitising session of the fitted camera (created on first use), or None without a fit."""
         if self.ready() is not None:
             return None
-        camera, dem, xyz, _, _ = self.products()
+        # The session intersects rays with the DEM exactly: no full-resolution XYZ raster needed (fast start).
+        camera, dem, xyz = self.controller.fitted, self.controller.dem, None
         if self.session is None:
             self.session = DigitisingSession(self.dock.project, camera, dem, xyz, self.photo_name(), parent=self)
             self.session.mapLayerUpdated.connect(self._report_sky)
@@ -114,8 +115,7 @@ class OutputTools(QObject):
 
     def _camera_changed(self) -> None:
         if self.session is not None and self.ready() is None:
-            camera, dem, xyz, _, _ = self.products()
-            self.session.update_camera(camera, dem, xyz)
+            self.session.update_camera(self.controller.fitted, self.controller.dem, None)
 
     def _report_sky(self, kind: str, sky: int, dropped: int) -> None:
         if sky or dropped:
@@ -175,7 +175,7 @@ class OutputTools(QObject):
 
     def draw_layer_on_photo(self, layer: QgsVectorLayer) -> QgsVectorLayer:
         """Project ``layer`` onto the photo (hidden parts dashed) and show it on the photo canvas."""
-        camera, dem, _, _, _ = self.products()
+        camera, dem = self.controller.fitted, self.controller.dem  # exact line of sight: no XYZ raster needed
         overlay = map_layer_on_photo(layer, camera, dem, self.dock.project)
         self.overlays = [o for o in self.overlays if o.name() != overlay.name()] + [overlay]
         self._show_on_photo()

@@ -117,7 +117,8 @@ class DigitisingSession(QObject):
 
     Args:
         project: the QGIS project. camera: fitted Camera. dem: core Dem (CRS of the map layers).
-        xyz: (H, W, 3) full-resolution per-pixel map coordinates of the photo.
+        xyz: optional per-pixel XYZ raster of the photo; not needed (features are intersected with the DEM
+            exactly) and may be None.
         photo_name: photo file name (names the layer group and the layers).
         fields: user attribute fields, (name, type) with type in string, integer, real, date.
 
@@ -128,7 +129,7 @@ class DigitisingSession(QObject):
 
     mapLayerUpdated = pyqtSignal(str, int, int)
 
-    def __init__(self, project: QgsProject, camera, dem, xyz: np.ndarray, photo_name: str,
+    def __init__(self, project: QgsProject, camera, dem, xyz: Optional[np.ndarray], photo_name: str,
                  fields: Sequence[Tuple[str, str]] = (("name", "string"),), parent=None):
         super().__init__(parent)
         self.project = project
@@ -178,7 +179,7 @@ class DigitisingSession(QObject):
     def all_photo_layers(self) -> List[QgsVectorLayer]:
         return [self.photo_layers[k] for k in KINDS if k in self.photo_layers]
 
-    def update_camera(self, camera, dem, xyz: np.ndarray) -> None:
+    def update_camera(self, camera, dem, xyz: Optional[np.ndarray] = None) -> None:
         """A new fit (or DEM): keep what was drawn on the photo, recompute every live map layer."""
         self.camera, self.dem, self.xyz = camera, dem, xyz
         self._mapped.clear()
