@@ -187,7 +187,8 @@ def mutual_nearest_pairs(image_points: np.ndarray, projected: np.ndarray, usable
 def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Optional[Iterable[str]] = None, *,
                ground=None, eye_height: float = 1.7, check_image_points=None, check_world_points=None,
                n_starts: int = 12, n_escapes: int = 6, view_margin: float = 0.1, gate_px: Optional[float] = None,
-               refine: bool = True, coarse: bool = True, seed: int = 0,
+               refine: bool = True, coarse: bool = True, time_budget_s: float = 8.0, switch_ratio: float = 0.8,
+               seed: int = 0,
                progress: Optional[Callable[[float, str], None]] = None,
                is_canceled: Optional[Callable[[], bool]] = None) -> FitResult:
     """Fit a camera to photo points and DEM points.
@@ -212,6 +213,9 @@ def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Op
             (False = stop after the paper's loss).
         coarse: unpaired mode only: a coarse-to-fine pass on a smoothed nearest distance before the paper's loss
             at every start (False = the paper's descent alone).
+        time_budget_s: no new start or basin escape begins after this many seconds (the best so far is kept).
+        switch_ratio: another start replaces the initial camera's result only when its truncated nearest-distance
+            score is below ``switch_ratio`` x the initial one (with uninformative points, stay near the prior).
         seed: random seed of the basin-escape perturbations (results are deterministic).
         progress: optional ``callable(fraction in [0, 1], message)``.
         is_canceled: optional ``callable() -> bool``, polled during the optimisation (at least every few
@@ -223,6 +227,8 @@ def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Op
     fitter = _Fitter(image_points, world_points, initial, free, ground, eye_height, view_margin, seed, progress,
                      is_canceled)
     fitter.coarse = bool(coarse)
+    fitter.time_budget_s = float(time_budget_s)
+    fitter.switch_ratio = float(switch_ratio)
     try:
         refusal = fitter.check_inputs(pairs)
         if refusal:
@@ -525,19 +531,33 @@ class _Fitter:
         starts = self._start_vectors(space, max(1, n_starts))
         best = None
         total = len(starts) + max(0, n_escapes) + 2
+        t0 = time.perf_counter()
+        # Another start must beat the initial camera's descent clearly: with few or outlier-ridden points every
+        # camera scores alike, and moving far from the user's rough camera on a tiny difference does harm.
+        first_score = math.inf
+
+        def better(score, best_score):
+            return score < best_score and score < self.switch_ratio * first_score
+
         for i, u0 in enumerate(starts):
+            if i > 0 and time.perf_counter() - t0 > self.time_budget_s:
+                break
             self.report(0.8 * i / total, f"unpaired fit: start {i + 1}")
             u = self._descend(space, u0, q_t, P_t)
             score = self._score(space, u, cap)
             self.starts_tried += 1
             self.remember(score, space.camera(u))
-            if best is None or score < best[0]:
+            if best is None:
+                best, first_score = (score, u), score
+            elif better(score, best[0]):
                 best = (score, u)
             if self._good_enough(space, best[1], cap):
                 break
         # Basin escape: random jumps around the best camera, kept when they lower the truncated score.
         if not self._good_enough(space, best[1], cap):
             for j in range(max(0, n_escapes)):
+                if time.perf_counter() - t0 > self.time_budget_s:
+                    break
                 self.report(0.8 * (len(starts) + j) / total, f"unpaired fit: basin escape {j + 1}")
                 u0 = best[1] + self._jump(space, 0.5)
                 if not space.valid(u0):
@@ -546,7 +566,7 @@ class _Fitter:
                 score = self._score(space, u, cap)
                 self.starts_tried += 1
                 self.remember(score, space.camera(u))
-                if score < best[0]:
+                if better(score, best[0]):
                     best = (score, u)
                 if self._good_enough(space, best[1], cap):
                     break
