@@ -54,27 +54,32 @@ logger = logging.getLogger("monoplot")
 NEAR_PLANE_M = 0.01
 
 
-def _configure_numba_cache() -> None:
-    """Let numba cache compiled code in a temporary folder when the plugin's folder is read-only."""
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        return
-    here = os.path.dirname(os.path.abspath(__file__))
-    pycache = os.path.join(here, "__pycache__")
-    probe = pycache if os.path.isdir(pycache) else here
-    if not os.access(probe, os.W_OK):
-        folder = os.path.join(tempfile.gettempdir(), "monoplot-numba-cache")
-        os.makedirs(folder, exist_ok=True)
-        os.environ["NUMBA_CACHE_DIR"] = folder
+def _numba_cache_dir() -> str:
+    """Where this module's compiled kernels are cached: a folder per import name (numba's cache records the module
+    name, so the same file imported as ``monoplot_plugin.core.xyz`` by tests and as ``monoplot.monoplot_plugin...``
+    by QGIS must not share a cache), under ``NUMBA_CACHE_DIR`` if set, else in the package's ``__pycache__``, else
+    (read-only plugin folder) in a temporary folder."""
+    base = os.environ.get("NUMBA_CACHE_DIR", "")
+    if not base:
+        base = os.path.join(os.path.dirname(os.path.abspath(__file__)), "__pycache__", "numba")
+        try:
+            os.makedirs(base, exist_ok=True)
+            writable = os.access(base, os.W_OK)
+        except OSError:
+            writable = False
+        if not writable:
+            base = os.path.join(tempfile.gettempdir(), "monoplot-numba-cache")
+    return os.path.join(base, __name__)
 
 
-_configure_numba_cache()
 try:
     import numba
     from numba import njit, prange
 
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        numba.config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]
     HAVE_NUMBA = True
+    # numba picks a function's cache folder when it is decorated: point it at ours for the kernels below only
+    _saved_cache_dir = numba.config.CACHE_DIR
+    numba.config.CACHE_DIR = _numba_cache_dir()
 except ImportError:  # pragma: no cover - exercised only where numba is missing
     HAVE_NUMBA = False
     prange = range
@@ -575,6 +580,10 @@ def _segments_first_hit(elev, gt, inv, origins, targets, smax, out):
                 nextr += deltar
             if c < 0 or r < 0 or c > cols - 2 or r > rows - 2:
                 break
+
+
+if HAVE_NUMBA:
+    numba.config.CACHE_DIR = _saved_cache_dir
 
 
 # ----------------------------------------------------------------------------------------------------------------
