@@ -214,3 +214,11 @@ def test_camera_inside_grid_close_to_ground_clips_near_plane():
     assert np.allclose(xyz[np.isfinite(xyz[..., 2])][:, 2], 0.0, atol=1e-9)
     # bottom rows look steeply down: ground right next to the camera
     assert np.isfinite(xyz[-1, 24, 2])
+
+
+def test_numba_cache_folder_is_per_import_name(monkeypatch, tmp_path):
+    from monoplot_plugin.core import xyz
+
+    assert xyz._numba_cache_dir().endswith("monoplot_plugin.core.xyz")
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    assert xyz._numba_cache_dir() == str(tmp_path / "monoplot_plugin.core.xyz")
