@@ -539,16 +539,24 @@ class _Fitter:
         def better(score, best_score):
             return score < best_score and score < self.switch_ratio * first_score
 
-        for i, u0 in enumerate(starts):
+        # The initial camera is tried first with the paper's descent alone (fast when it is good enough), then
+        # with the coarse-to-fine pass, then the other starts (coarse-to-fine when enabled).
+        plan = [(starts[0], False)] + [(u0, self.coarse) for u0 in starts[:1 if self.coarse else 0] + starts[1:]]
+        total = len(plan) + max(0, n_escapes) + 2
+        for i, (u0, coarse) in enumerate(plan):
             if i > 0 and time.perf_counter() - t0 > self.time_budget_s:
                 break
             self.report(0.8 * i / total, f"unpaired fit: start {i + 1}")
-            u = self._descend(space, u0, q_t, P_t)
+            u = self._descend(space, u0, q_t, P_t, coarse=coarse)
             score = self._score(space, u, cap)
             self.starts_tried += 1
             self.remember(score, space.camera(u))
             if best is None:
                 best, first_score = (score, u), score
+            elif u0 is starts[0]:  # the initial camera again, coarse-to-fine: a plain comparison
+                if score < best[0]:
+                    best = (score, u)
+                first_score = min(first_score, score)
             elif better(score, best[0]):
                 best = (score, u)
             if self._good_enough(space, best[1], cap):
@@ -558,11 +566,11 @@ class _Fitter:
             for j in range(max(0, n_escapes)):
                 if time.perf_counter() - t0 > self.time_budget_s:
                     break
-                self.report(0.8 * (len(starts) + j) / total, f"unpaired fit: basin escape {j + 1}")
+                self.report(0.8 * (len(plan) + j) / total, f"unpaired fit: basin escape {j + 1}")
                 u0 = best[1] + self._jump(space, 0.5)
                 if not space.valid(u0):
                     continue
-                u = self._descend(space, u0, q_t, P_t)
+                u = self._descend(space, u0, q_t, P_t, coarse=self.coarse)
                 score = self._score(space, u, cap)
                 self.starts_tried += 1
                 self.remember(score, space.camera(u))
@@ -612,7 +620,7 @@ class _Fitter:
         return ok
 
     def _descend(self, space: ParameterSpace, u0: np.ndarray, q_t, P_t, rounds: int = 6,
-                 iterations: int = 20) -> np.ndarray:
+                 iterations: int = 20, coarse: bool = True) -> np.ndarray:
         """The paper's descent: L-BFGS on :func:`unpaired_loss`, ``lambda`` updated between rounds; preceded
         (``coarse=True``) by a coarse-to-fine pass on a smoothed version of the same nearest distance
         (:func:`soft_nearest_loss`, scale 8 %, 4 %, 2 % then 1 % of the image diagonal), which widens the basin of
@@ -621,7 +629,7 @@ class _Fitter:
 
         u = torch.tensor(np.asarray(u0, dtype=np.float64), requires_grad=True)
         diag = self.diag
-        if self.coarse:
+        if coarse:
             for sigma in (0.08 * diag, 0.04 * diag, 0.02 * diag, 0.01 * diag):
                 self.poll()
                 optimiser = torch.optim.LBFGS([u], lr=1.0, max_iter=15, history_size=10,
