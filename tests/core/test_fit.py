@@ -258,3 +258,13 @@ def test_aletsch_paired_mode_reaches_the_least_squares_floor(aletsch_dir):
     assert result.status == "ok", result.message
     assert result.rmse_px <= 7.8
     assert 9.0 < result.loo_rmse_px < 14.0  # the published leave-one-out is about 11 px
+
+
+@pytest.mark.parametrize("name", ["fit", "fit_params", "suggest", "suggest_photo"])
+def test_doctests_of_fit_and_suggest_modules(name):
+    import doctest
+    import importlib
+
+    module = importlib.import_module(f"monoplot_plugin.core.{name}")
+    result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    assert result.attempted > 0 and result.failed == 0
