@@ -13,6 +13,9 @@ around them:
 
 from __future__ import annotations
 
+import hashlib
+import json
+import re
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
 
@@ -141,22 +144,31 @@ class DigitisingSession(QObject):
         self.map_layers: Dict[str, QgsVectorLayer] = {}
         self.last_report: Dict[str, Tuple[int, int]] = {}
         self._mapped: Dict[Tuple[str, int], tuple] = {}  # (kind, fid) -> (photo geometry WKB, MapFeature or None)
+        self._restoring = False
+        self.restore_drawn()
 
     # --- layers -----------------------------------------------------------------------------------------------
     def photo_layer(self, kind: str) -> QgsVectorLayer:
         """The pixel-space layer of ``kind`` (created on first use; not in the layer tree: the photo canvas
         shows it)."""
         if kind not in self.photo_layers:
-            layer = QgsVectorLayer(f"{_PHOTO_TYPES[kind]}", f"{Path(self.photo_name).stem} photo {kind}s", "memory")
+            name = f"{Path(self.photo_name).stem} photo {kind}s"
+            layer = self._reusable(name)  # left in a reopened project (memory layers come back empty)
+            if layer is None:
+                layer = QgsVectorLayer(f"{_PHOTO_TYPES[kind]}", name, "memory")
+            else:
+                layer.dataProvider().truncate()
             layer.setCrs(QgsCoordinateReferenceSystem())
-            layer.dataProvider().addAttributes([QgsField(n, _QVARIANT[t]) for n, t in self.fields])
+            missing = [QgsField(n, _QVARIANT[t]) for n, t in self.fields if layer.fields().indexFromName(n) < 0]
+            layer.dataProvider().addAttributes(missing)
             layer.updateFields()
             _style_photo_layer(layer, kind)
             # Edits through QGIS's own tools (edit buffer, undo, rollback) rebuild the live map layer too.
             for signal in (layer.featureAdded, layer.featuresDeleted, layer.geometryChanged,
                            layer.attributeValueChanged, layer.afterRollBack, layer.afterCommitChanges):
                 signal.connect(lambda *args, k=kind: self.sync(k))
-            self.project.addMapLayer(layer, False)  # owned by the project (undo stack, identify), not in the tree
+            if self.project.mapLayer(layer.id()) is None:
+                self.project.addMapLayer(layer, False)  # owned by the project (saved with it), not in the tree
             self.photo_layers[kind] = layer
         return self.photo_layers[kind]
 
@@ -164,17 +176,77 @@ class DigitisingSession(QObject):
         """The live 3-D map layer of ``kind`` in the photo's layer group (DEM CRS)."""
         if kind not in self.map_layers:
             uri = f"{_MAP_TYPES[kind]}?crs={_crs(self.dem.crs_wkt).authid() or 'EPSG:4326'}"
-            layer = QgsVectorLayer(uri, f"{Path(self.photo_name).stem} {_KIND_LABEL[kind]} (map)", "memory")
+            name = f"{Path(self.photo_name).stem} {_KIND_LABEL[kind]} (map)"
+            layer = self._reusable(name)
+            reused = layer is not None
+            if not reused:
+                layer = QgsVectorLayer(uri, name, "memory")
             layer.setCrs(_crs(self.dem.crs_wkt))
             attrs = [QgsField(n, _QVARIANT[t]) for n, t in self.fields]
             attrs += [QgsField(n, QVariant.Type.Int if n == "sky_parts" else QVariant.Type.Double)
                       for n in COMPUTED_FIELDS[kind]]
             attrs.append(QgsField("photo_fid", QVariant.Type.LongLong))
-            layer.dataProvider().addAttributes(attrs)
+            layer.dataProvider().addAttributes([a for a in attrs if layer.fields().indexFromName(a.name()) < 0])
             layer.updateFields()
-            _add(self.project, layer, self.group)
+            if not reused:
+                _add(self.project, layer, self.group)
             self.map_layers[kind] = layer
         return self.map_layers[kind]
+
+    def _reusable(self, name: str) -> Optional[QgsVectorLayer]:
+        for layer in self.project.mapLayersByName(name):
+            if isinstance(layer, QgsVectorLayer) and layer.providerType() == "memory":
+                return layer
+        return None
+
+    # --- persistence: what was drawn on the photo is kept in the project file --------------------------------
+    def _entry(self) -> str:
+        """Project entry key for this photo: project entries are XML element names (ASCII letters, digits, _),
+        so the photo's name is reduced to those plus a hash of the full name (no two photos share a key)."""
+        stem = Path(self.photo_name).stem
+        safe = re.sub(r"[^A-Za-z0-9_]", "_", stem)[:40]
+        return f"/outputs/drawn/p_{safe}_{hashlib.sha1(stem.encode('utf-8')).hexdigest()[:10]}"
+
+    def save_drawn(self) -> None:
+        """Store the photo-space features (pixel vertices + attributes) in the project (memory layers are not
+        saved with a project; this is)."""
+        data = {"fields": self.fields, "features": {}}
+        for kind, layer in self.photo_layers.items():
+            data["features"][kind] = [
+                {"uv": photo_vertices(f.geometry()).tolist(),
+                 "attributes": {n: _jsonable(_plain(f[n])) for n, _ in self.fields}}
+                for f in layer.getFeatures() if not f.geometry().isNull()]
+        self.project.writeEntry("monoplot", self._entry(), json.dumps(data))
+
+    def restore_drawn(self) -> int:
+        """Bring back the features stored by :meth:`save_drawn` for this photo; returns how many."""
+        text, ok = self.project.readEntry("monoplot", self._entry(), "")
+        if not ok or not text:
+            return 0
+        data = json.loads(text)
+        for name, ftype in data.get("fields", []):
+            if not any(n.lower() == name.lower() for n, _ in self.fields):
+                self.fields.append((name, ftype))
+        count = 0
+        self._restoring = True
+        try:
+            for kind, features in data.get("features", {}).items():
+                layer = self.photo_layer(kind)
+                new = []
+                for item in features:
+                    f = QgsFeature(layer.fields())
+                    f.setGeometry(photo_geometry(kind, item["uv"]))
+                    for n, v in item.get("attributes", {}).items():
+                        if layer.fields().indexFromName(n) >= 0 and v is not None:
+                            f[n] = _qvalue(v, dict(self.fields).get(n))
+                    new.append(f)
+                layer.dataProvider().addFeatures(new)
+                count += len(new)
+        finally:
+            self._restoring = False
+        for kind in data.get("features", {}):
+            self.sync(kind)
+        return count
 
     def all_photo_layers(self) -> List[QgsVectorLayer]:
         return [self.photo_layers[k] for k in KINDS if k in self.photo_layers]
@@ -195,7 +267,7 @@ class DigitisingSession(QObject):
         feature.setGeometry(photo_geometry(kind, vertices_uv))
         for name, value in (attributes or {}).items():
             if layer.fields().indexFromName(name) >= 0:
-                feature[name] = value
+                feature[name] = _qvalue(value, dict(self.fields).get(name))
         ok, added = layer.dataProvider().addFeatures([feature])
         if not ok:
             raise RuntimeError("the feature could not be added to the photo layer")
@@ -269,15 +341,21 @@ class DigitisingSession(QObject):
             f.setGeometry(QgsGeometry(qgs_geometry(mapped)))
             for name, value in {**mapped.attributes, **mapped.measures()}.items():
                 if layer.fields().indexFromName(name) >= 0 and value is not None:
-                    f[name] = value
+                    f[name] = _qvalue(value, dict(self.fields).get(name))
             f["photo_fid"] = int(fid)
             new.append(f)
-        provider.addFeatures(new)
+        ok, _ = provider.addFeatures(new)
+        if not ok:  # never silently: a feature missing from the map layer is data the user would lose
+            from qgis.core import Qgis, QgsMessageLog
+
+            QgsMessageLog.logMessage(f"{layer.name()}: {provider.lastError()}", "Monoplot", Qgis.MessageLevel.Warning)
         layer.updateExtents()
         layer.triggerRepaint()
         sky = sum(m.sky_parts for m in features)
         self.last_report[kind] = (sky, dropped)
         self.mapLayerUpdated.emit(kind, sky, dropped)
+        if not self._restoring:
+            self.save_drawn()
 
     def export(self, kind: str, path, overwrite: bool = False, add_to_project: bool = True) -> Path:
         """Write the features of ``kind`` as a GeoPackage or Shapefile (by suffix) and add it to the group."""
@@ -325,6 +403,27 @@ def qgs_geometry(feature: MapFeature):
             polygon.setExteriorRing(line)
             multi.addGeometry(polygon)
     return multi
+
+
+def _qvalue(value, ftype: Optional[str]):
+    """A Python value as QGIS stores it: dates (date objects or ISO text) as QDate, the rest unchanged.
+
+    Without this a memory layer refuses the whole feature ("could not convert value")."""
+    from qgis.PyQt.QtCore import QDate
+
+    if value is None:
+        return None
+    if ftype == "date" or hasattr(value, "isoformat"):
+        if isinstance(value, QDate):
+            return value
+        if hasattr(value, "year"):
+            return QDate(value.year, value.month, value.day)
+        return QDate.fromString(str(value)[:10], Qt.DateFormat.ISODate)
+    return value
+
+
+def _jsonable(value):
+    return value.isoformat() if hasattr(value, "isoformat") else value
 
 
 def _plain(value):

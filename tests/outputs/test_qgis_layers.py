@@ -104,3 +104,28 @@ def test_map_layer_drawn_on_photo_with_hidden_parts(project, plane_scene):
     assert piece["visible"] == 1
     uv = np.array([(p.x(), -p.y()) for p in piece.geometry().vertices()])
     assert np.allclose(uv[0], s.camera.project([[601500, 202000, plane_height(601500, 0)]])[0], atol=1e-6)
+
+
+def test_drawn_features_survive_saving_and_reopening_the_project(qgis_app, plane_scene, tmp_path):
+    s = plane_scene
+    project = QgsProject()
+    session = DigitisingSession(project, s.camera, s.dem, None, "Aletsch 1890.jpg",
+                                fields=[("name", "string"), ("seen", "date")])
+    session.add_feature("polygon", [[50, 100], [190, 100], [150, 150]], {"name": "tongue", "seen": "1890-07-14"})
+    session.add_feature("line", [[40, 120], [200, 130]], {"name": "moraine"})
+    path = tmp_path / "glacier project.qgz"
+    assert project.write(str(path))
+    project.clear()
+
+    reopened = QgsProject()
+    assert reopened.read(str(path))
+    # QGIS brings memory layers back empty; the session refills them from the project file.
+    again = DigitisingSession(reopened, s.camera, s.dem, None, "Aletsch 1890.jpg")
+    assert ("seen", "date") in again.fields
+    assert again.photo_layer("polygon").featureCount() == 1 and again.photo_layer("line").featureCount() == 1
+    (poly,) = list(again.map_layer("polygon").getFeatures())
+    assert poly["name"] == "tongue" and poly["area"] > 0
+    assert poly["seen"].toString("yyyy-MM-dd") == "1890-07-14"  # a date field must not make the feature vanish
+    names = [n.name() for n in again.group.findLayers()]
+    assert len(names) == len(set(names))  # the reopened layers are reused, not duplicated
+    reopened.clear()
