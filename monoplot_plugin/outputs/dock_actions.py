@@ -18,8 +18,8 @@ from qgis.PyQt.QtCore import QObject
 from qgis.PyQt.QtWidgets import QAction, QFileDialog
 
 from .digitise_tools import PhotoCaptureTool, PhotoEditTool
-from .qgis_layers import (DigitisingSession, KINDS, add_orthophoto_layer, add_xyz_layer, map_layer_on_photo,
-                          photo_group)
+from .qgis_layers import (DigitisingSession, KINDS, add_orthophoto_layer, add_xyz_layer, drawn_entry_key,
+                          map_layer_on_photo, photo_group)
 from .safe_write import OutputError
 
 __all__ = ["install_output_tools", "OutputTools"]
@@ -70,6 +70,8 @@ class OutputTools(QObject):
             self.actions[name] = action
         self.controller.cameraChanged.connect(self._camera_changed)
         self.controller.demChanged.connect(self._camera_changed)
+        self.controller.photoChanged.connect(self._forget)
+        self.dock.project.cleared.connect(self._forget)
 
     # --- state ------------------------------------------------------------------------------------------------
     def ready(self) -> Optional[str]:
@@ -114,8 +116,23 @@ class OutputTools(QObject):
         return self.session
 
     def _camera_changed(self) -> None:
-        if self.session is not None and self.ready() is None:
+        if self.ready() is not None:
+            return
+        if self.session is not None:
             self.session.update_camera(self.controller.fitted, self.controller.dem, None)
+        elif self.dock.project.readEntry("monoplot", drawn_entry_key(self.photo_name()), "")[0]:
+            self.current_session()  # a reopened project with features drawn on this photo: show them again
+
+    def _forget(self) -> None:
+        """Another photo or project: drop the session (its layers belong to the old one; the drawn features are
+        in the project file and come back with it)."""
+        if self.session is not None:
+            self.session.deleteLater()
+        self.session = None
+        self.overlays = []
+        self._xyz_key = None
+        self.dock.photo_canvas.set_extra_layers([])
+        self._camera_changed()
 
     def _report_sky(self, kind: str, sky: int, dropped: int) -> None:
         if sky or dropped:
@@ -277,9 +294,12 @@ class OutputTools(QObject):
             if canvas.mapTool() is tool:
                 canvas.unsetMapTool(tool)
             tool.remove_items()
-        for signal in (self.controller.cameraChanged, self.controller.demChanged):
+        for signal, slot in ((self.controller.cameraChanged, self._camera_changed),
+                             (self.controller.demChanged, self._camera_changed),
+                             (self.controller.photoChanged, self._forget),
+                             (self.dock.project.cleared, self._forget)):
             try:
-                signal.disconnect(self._camera_changed)
+                signal.disconnect(slot)
             except TypeError:
                 pass
 

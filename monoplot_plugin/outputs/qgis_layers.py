@@ -31,7 +31,7 @@ from qgis.PyQt.QtGui import QColor
 from .geometry import map_to_photo, photo_to_map_feature
 from .vectors import COMPUTED_FIELDS, MapFeature, write_vector_layer
 
-__all__ = ["photo_group", "add_xyz_layer", "add_orthophoto_layer", "add_vector_file_layer", "DigitisingSession",
+__all__ = ["drawn_entry_key", "photo_group", "add_xyz_layer", "add_orthophoto_layer", "add_vector_file_layer", "DigitisingSession",
            "map_layer_on_photo", "KINDS"]
 
 KINDS = ("point", "line", "polygon")
@@ -201,11 +201,7 @@ class DigitisingSession(QObject):
 
     # --- persistence: what was drawn on the photo is kept in the project file --------------------------------
     def _entry(self) -> str:
-        """Project entry key for this photo: project entries are XML element names (ASCII letters, digits, _),
-        so the photo's name is reduced to those plus a hash of the full name (no two photos share a key)."""
-        stem = Path(self.photo_name).stem
-        safe = re.sub(r"[^A-Za-z0-9_]", "_", stem)[:40]
-        return f"/outputs/drawn/p_{safe}_{hashlib.sha1(stem.encode('utf-8')).hexdigest()[:10]}"
+        return drawn_entry_key(self.photo_name)
 
     def save_drawn(self) -> None:
         """Store the photo-space features (pixel vertices + attributes) in the project (memory layers are not
@@ -403,6 +399,18 @@ def qgs_geometry(feature: MapFeature):
             polygon.setExteriorRing(line)
             multi.addGeometry(polygon)
     return multi
+
+
+def drawn_entry_key(photo_name: str) -> str:
+    """Project entry key (scope "monoplot") of the features drawn on a photo. Project entries are XML element
+    names (ASCII letters, digits, _), so the photo's name is reduced to those plus a hash of the full name.
+
+    >>> drawn_entry_key("Aletsch 1890.jpg").startswith("/outputs/drawn/p_Aletsch_1890_")
+    True
+    """
+    stem = Path(photo_name).stem
+    safe = re.sub(r"[^A-Za-z0-9_]", "_", stem)[:40]
+    return f"/outputs/drawn/p_{safe}_{hashlib.sha1(stem.encode('utf-8')).hexdigest()[:10]}"
 
 
 def _qvalue(value, ftype: Optional[str]):

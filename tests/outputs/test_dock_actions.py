@@ -94,3 +94,19 @@ def test_outputs_in_the_dock(dock_with_fit, plane_scene, tmp_path, qtbot):
     dock.controller.cameraChanged.emit()
     after = next(live.getFeatures()).geometry().centroid().asPoint()
     assert before.distance(after) > 10.0
+
+
+def test_drawn_features_come_back_with_the_project(dock_with_fit, tmp_path, qtbot):
+    dock, tools = dock_with_fit
+    project = QgsProject.instance()
+    tools.current_session().add_feature("line", [[40, 120], [200, 130]], {"name": "moraine"})
+    path = tmp_path / "session.qgz"
+    dock.controller.save()
+    assert project.write(str(path))
+    project.clear()
+    assert tools.session is None
+    assert project.read(str(path))
+    qtbot.waitUntil(lambda: tools.session is not None, timeout=5000)
+    layer = tools.session.map_layer("line")
+    assert layer.featureCount() == 1 and next(layer.getFeatures())["name"] == "moraine"
+    assert tools.session.photo_layer("line") in dock.photo_canvas.layers()

@@ -6,7 +6,7 @@ import importlib
 
 import pytest
 
-MODULES = ["safe_write", "_gdal", "vectors", "geometry", "report"]
+MODULES = ["safe_write", "_gdal", "vectors", "geometry", "report", "qgis_layers"]
 
 
 @pytest.mark.parametrize("name", MODULES)
