@@ -417,6 +417,22 @@ class MonoplotController(QObject):
 
         return self._start("fit", self.tr("Fit camera"), work, self._apply_fit)
 
+    def set_fitted(self, camera: Optional[Camera], info: Optional[dict] = None) -> None:
+        """Use ``camera`` as the fitted camera (e.g. loaded from a file); overlay and XYZ are recomputed here."""
+        self.state.fitted = None if camera is None else camera.to_dict()
+        self.state.fit_info = dict(info or {})
+        self.overlay, self.xyz, self.footprint_wkt = None, None, ""
+        self._changed()
+        if camera is not None:
+            self.ensure_products()
+        self.cameraChanged.emit()
+
+    def set_setting(self, key: str, value) -> None:
+        """A small GUI setting stored with the project (e.g. overlay opacity)."""
+        if self.state.settings.get(key) != value:
+            self.state.settings[key] = value
+            self._changed()
+
     def _apply_fit(self, outcome: "engine.FitOutcome") -> None:
         self.state.fitted = outcome.camera.to_dict()
         self.state.fit_info = outcome.info

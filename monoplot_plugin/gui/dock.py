@@ -380,7 +380,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
     def _overlay_opacity(self, value: int) -> None:
         self.overlayValue.setText(f"{value} %")
         self.photo_canvas.set_overlay_opacity(value / 100.0)
-        self.controller.state.settings["overlay_opacity"] = value
+        self.controller.set_setting("overlay_opacity", value)
 
     def _residuals_toggled(self, on: bool) -> None:
         self.photo_view.show_residuals = on
@@ -448,9 +448,10 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
 
     # --- project life cycle -----------------------------------------------------------------------------------
     def _project_read(self, *args) -> None:
-        camera_layers_present = self.controller.restore()
-        if camera_layers_present:
+        if self.controller.restore():
             self.overlaySlider.setValue(int(self.controller.state.settings.get("overlay_opacity", 50)))
+            if self.controller.fitted is not None:
+                self._update_camera_layers()  # memory layers come back empty from a project file: rebuild them
 
     def _project_cleared(self) -> None:
         self.controller.cancel()

@@ -76,6 +76,7 @@ class CurationTool(QgsMapTool):
         self.space = mapping.space
         self._drag_id: Optional[str] = None
         self._dragged = False
+        self._press_pos = None
         self.setCursor(Qt.CursorShape.CrossCursor)
 
     def _hit(self, event: QgsMapMouseEvent) -> Tuple[Optional[str], Tuple[float, float]]:
@@ -91,12 +92,15 @@ class CurationTool(QgsMapTool):
                 return
             if pid is not None:
                 self._drag_id, self._dragged = pid, False
+                self._press_pos = event.pos()
         elif event.button() == Qt.MouseButton.RightButton and pid is not None:
             self.controller.select(self.space, pid)
             self.controller.reject(pid)
 
     def canvasMoveEvent(self, event: QgsMapMouseEvent) -> None:  # noqa: N802
-        if self._drag_id is not None and event.buttons() & Qt.MouseButton.LeftButton:
+        # between press and release the button is held: a move of more than 3 screen pixels is a drag
+        if self._drag_id is not None and not self._dragged and \
+                (event.pos() - self._press_pos).manhattanLength() > 3:
             self._dragged = True
             self.controller.select(self.space, self._drag_id)
 

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from qgis.core import Qgis, QgsPointXY, QgsProject
-from qgis.PyQt.QtCore import QPoint, Qt
+from qgis.core import Qgis, QgsPointXY, QgsProject, QgsRectangle
+from qgis.PyQt.QtCore import QEvent, QPoint, QPointF, Qt
+from qgis.PyQt.QtGui import QMouseEvent
+from qgis.PyQt.QtWidgets import QApplication
 
 from monoplot_plugin.state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, replace_suggestions
 from monoplot_plugin.gui.photo_canvas import uv_to_map
@@ -162,6 +164,8 @@ def test_save_and_reopen_project_restores_state(dock, scene, qtbot, tmp_path):
     c.reject(world[1].id)
     c.link(photo[2].id, world[2].id)
     c.set_prior(scene.prior)
+    c.set_fitted(scene.camera)  # as if fitted
+    dock.overlaySlider.setValue(30)
     before = c.state.to_dict()
     path = str(tmp_path / "session.qgz")
     assert QgsProject.instance().write(path)
@@ -172,6 +176,11 @@ def test_save_and_reopen_project_restores_state(dock, scene, qtbot, tmp_path):
     assert c.state.to_dict() == before
     assert c.dem is not None and dock.photo_canvas.photo_size == (480, 320)
     assert c.prior.position == pytest.approx(scene.prior.position)
+    # the fitted camera's products come back: overlay, per-pixel XYZ, camera layers, overlay opacity
+    assert c.overlay is not None and c.xyz is not None and dock.overlaySlider.value() == 30
+    cams = [lyr for lyr in QgsProject.instance().mapLayers().values()
+            if lyr.customProperty("monoplot/role") == "camera"]
+    assert len(cams) == 1 and cams[0].featureCount() == 1
 
 
 def test_suggest_fills_both_canvases_and_keeps_decisions(dock, scene, qtbot):
@@ -223,3 +232,48 @@ def test_paired_fit_uses_the_links(dock, scene, qtbot):
     assert c.state.fit_info["n_pairs"] == 12 and c.state.fit_info["mode"] == "paired"
     assert c.state.fit_info["rmse_px"] < 2.0  # exact correspondences
     assert np.hypot(*np.subtract(c.fitted.position[:2], scene.camera.position[:2])) < 50
+
+
+def test_linked_cursor_from_photo_mouse_moves(dock, scene, qtbot):
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    c.set_fitted(scene.camera)
+    qtbot.mouseMove(dock.photo_canvas.viewport(), pos=photo_pos(dock, 240.5, 250.5))
+    qtbot.waitUntil(lambda: dock.map_view.cursor.isVisible(), timeout=2000)
+    ground = c.ground_at_pixel(240.5, 250.5)
+    shown = dock.map_view.cursor.center()
+    expected = dock.map_mapping.to_canvas(ground[0], ground[1])
+    assert abs(shown.x() - expected.x()) < 60 and abs(shown.y() - expected.y()) < 60  # within a pixel step of the
+    # (scaled) XYZ raster and the mouse position rounding
+
+
+def test_manual_map_point_add_and_move_on_the_main_map(dock, scene, qtbot):
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    canvas = dock.map_canvas
+    x0, y0 = scene.dem.cell_to_map(60, 60)
+    canvas.setExtent(QgsRectangle(x0 - 200, y0 - 200, x0 + 1300, y0 + 200))  # the test canvas is small
+    canvas.refresh()
+    dock.mapToolButton.setChecked(True)
+    assert canvas.mapTool() is dock.map_tool
+    assert 1000.0 / canvas.mapUnitsPerPixel() > 10  # a 1 km drag spans many screen pixels
+
+    def screen(x, y):
+        p = canvas.getCoordinateTransform().transform(QgsPointXY(x, y))
+        return QPoint(round(p.x()), round(p.y()))
+
+    qtbot.mouseClick(canvas.viewport(), Qt.MouseButton.LeftButton, Qt.KeyboardModifier.ControlModifier,
+                     pos=screen(x0, y0))
+    (pid,) = [p.id for p in c.state.in_space(MAP) if p.manual]
+    p = c.state.points[pid]
+    assert abs(p.x - x0) < 2 * canvas.mapUnitsPerPixel() and p.z == pytest.approx(scene.dem.sample(p.x, p.y))
+    # drag it 1 km east
+    qtbot.mousePress(canvas.viewport(), Qt.MouseButton.LeftButton, pos=screen(p.x, p.y))
+    # the main canvas of the test session is not shown, so QTest's cursor moves reach it not: send the move
+    move = QMouseEvent(QEvent.Type.MouseMove, QPointF(screen(p.x + 1000.0, p.y)), Qt.MouseButton.NoButton,
+                       Qt.MouseButton.LeftButton, Qt.KeyboardModifier.NoModifier)
+    QApplication.sendEvent(canvas.viewport(), move)
+    qtbot.mouseRelease(canvas.viewport(), Qt.MouseButton.LeftButton, pos=screen(p.x + 1000.0, p.y))
+    moved = c.state.points[pid]
+    assert abs(moved.x - (p.x + 1000.0)) < 2 * canvas.mapUnitsPerPixel()
+    assert moved.z == pytest.approx(scene.dem.sample(moved.x, moved.y))

@@ -97,8 +97,7 @@ def test_map_cursor_says_hidden_behind_terrain(dock, scene, qtbot):
     c = dock.controller
     dock.photoFile.setFilePath(scene.photo_path)
     dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
-    c.state.fitted = scene.camera.to_dict()  # the true camera, as if fitted
-    c.ensure_products()
+    c.set_fitted(scene.camera)  # the true camera, as if fitted
     # a DEM cell in the field of view that the camera does not see: behind a ridge
     from monoplot_plugin.core.xyz import compute_xyz_full
 
