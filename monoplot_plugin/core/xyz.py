@@ -125,9 +125,10 @@ def _vertex_cam(elev, gt, C, R, r, c):
 
 
 @njit(parallel=True, cache=True)
-def _project_vertices(elev, gt, C, R, intr, near, u, v, z):
-    """Fill (rows, cols) float32 u, v (pixels; NaN if not in front) and z (camera depth; NaN for voids and for
-    vertices outside the distortion's valid radius)."""
+def _project_vertices(elev, gt, C, R, intr, near, u, v, w):
+    """Fill (rows, cols) float32 u, v (pixels; NaN if not in front) and w: inverse camera depth 1/z for vertices
+    more than ``near`` in front, -1 for the others, NaN for voids and for vertices outside the distortion's valid
+    radius."""
     rows, cols = elev.shape
     f, cx, cy, k1, k2, r2max = intr[0], intr[1], intr[2], intr[3], intr[4], intr[5]
     for r in prange(rows):
@@ -135,10 +136,10 @@ def _project_vertices(elev, gt, C, R, intr, near, u, v, z):
             if elev[r, c] != elev[r, c]:
                 u[r, c] = np.nan
                 v[r, c] = np.nan
-                z[r, c] = np.nan
+                w[r, c] = np.nan
                 continue
             xc, yc, zc = _vertex_cam(elev, gt, C, R, r, c)
-            z[r, c] = zc
+            w[r, c] = 1.0 / zc if zc > near else -1.0
             if zc > near:
                 xn = xc / zc
                 yn = yc / zc
@@ -146,7 +147,7 @@ def _project_vertices(elev, gt, C, R, intr, near, u, v, z):
                     if xn * xn + yn * yn > r2max:
                         u[r, c] = np.nan
                         v[r, c] = np.nan
-                        z[r, c] = np.nan
+                        w[r, c] = np.nan
                         continue
                     xn, yn = _distort(xn, yn, k1, k2)
                 u[r, c] = f * xn + cx
@@ -294,7 +295,7 @@ def _raster_clipped(elev, gt, C, R, intr, near, ra, ca, rb, cb, rc, cc, tid, zbu
 
 
 @njit(parallel=True, cache=True)
-def _rasterise(u, v, z, elev, gt, C, R, intr, near, cull, zbufs, tbufs):
+def _rasterise(u, v, w, elev, gt, C, R, intr, near, cull, zbufs, tbufs):
     """Z-buffer all mesh triangles. Chunk k handles the DEM rows r = k, k + nchunks, ... into its own buffers
     (no write races, balanced load); the caller merges the chunks."""
     rows, cols = u.shape
@@ -305,11 +306,11 @@ def _rasterise(u, v, z, elev, gt, C, R, intr, near, cull, zbufs, tbufs):
         H, W = zbuf.shape
         for r in range(k, rows - 1, nchunks):
             for c in range(cols - 1):
-                z00 = z[r, c]
-                z01 = z[r, c + 1]
-                z10 = z[r + 1, c]
-                z11 = z[r + 1, c + 1]
-                if z00 > near and z01 > near and z10 > near and z11 > near:
+                w00 = w[r, c]
+                w01 = w[r, c + 1]
+                w10 = w[r + 1, c]
+                w11 = w[r + 1, c + 1]
+                if w00 > 0.0 and w01 > 0.0 and w10 > 0.0 and w11 > 0.0:
                     # fast path (most quads): skip quads whose bounding box holds no pixel centre
                     u00, u01, u10, u11 = u[r, c], u[r, c + 1], u[r + 1, c], u[r + 1, c + 1]
                     umin = min(min(u00, u01), min(u10, u11))
@@ -326,13 +327,12 @@ def _rasterise(u, v, z, elev, gt, C, R, intr, near, cull, zbufs, tbufs):
                     j1 = min(W - 1, int(math.floor(umax - 0.5)))
                     i0 = max(0, int(math.ceil(vmin - 0.5)))
                     i1 = min(H - 1, int(math.floor(vmax - 0.5)))
-                    w00, w01, w10, w11 = 1.0 / z00, 1.0 / z01, 1.0 / z10, 1.0 / z11
                     if not _raster_quad(u00, v00, w00, u01, v01, w01, u11, v11, w11, u10, v10, w10,
                                         i0, i1, j0, j1, base, zbuf, tbuf, cull):
                         _raster_triangle(u00, v00, w00, u01, v01, w01, u11, v11, w11, base, zbuf, tbuf, cull)
                         _raster_triangle(u00, v00, w00, u11, v11, w11, u10, v10, w10, base + 1, zbuf, tbuf, cull)
                     continue
-                if not (z00 > near or z01 > near or z10 > near or z11 > near):
+                if not (w00 > 0.0 or w01 > 0.0 or w10 > 0.0 or w11 > 0.0):
                     continue  # behind the camera, or voids (NaN compares false)
                 base = 2 * (r * (cols - 1) + c)
                 for t in range(2):
@@ -340,15 +340,15 @@ def _rasterise(u, v, z, elev, gt, C, R, intr, near, cull, zbufs, tbufs):
                         ra, ca, rb, cb, rc, cc = r, c, r, c + 1, r + 1, c + 1
                     else:  # (r, c), (r+1, c+1), (r+1, c)
                         ra, ca, rb, cb, rc, cc = r, c, r + 1, c + 1, r + 1, c
-                    za = z[ra, ca]
-                    zb = z[rb, cb]
-                    zc = z[rc, cc]
-                    if za != za or zb != zb or zc != zc:
+                    wa = w[ra, ca]
+                    wb = w[rb, cb]
+                    wc = w[rc, cc]
+                    if wa != wa or wb != wb or wc != wc:
                         continue
-                    if za > near and zb > near and zc > near:
-                        _raster_triangle(u[ra, ca], v[ra, ca], 1.0 / za, u[rb, cb], v[rb, cb], 1.0 / zb,
-                                         u[rc, cc], v[rc, cc], 1.0 / zc, base + t, zbuf, tbuf, cull)
-                    elif za > near or zb > near or zc > near:
+                    if wa > 0.0 and wb > 0.0 and wc > 0.0:
+                        _raster_triangle(u[ra, ca], v[ra, ca], wa, u[rb, cb], v[rb, cb], wb,
+                                         u[rc, cc], v[rc, cc], wc, base + t, zbuf, tbuf, cull)
+                    elif wa > 0.0 or wb > 0.0 or wc > 0.0:
                         _raster_clipped(elev, gt, C, R, intr, near, ra, ca, rb, cb, rc, cc, base + t, zbuf, tbuf,
                                         cull)
 
@@ -437,7 +437,7 @@ def _exact_hits(tri, elev, gt, C, R, intr, max_range, xyz, dist):
 
 
 @njit(parallel=True, cache=True)
-def _visibility(u, v, z, tri, elev, gt, C, R, near, rel_tol, abs_tol, vis):
+def _visibility(u, v, w, tri, elev, gt, C, R, near, rel_tol, abs_tol, vis):
     """Per-vertex visibility: in the image, in front, and not behind the surface seen at its pixel (the plane of
     that pixel's triangle, along the vertex's own ray, within rel_tol * range + abs_tol)."""
     rows, cols = u.shape
@@ -445,8 +445,7 @@ def _visibility(u, v, z, tri, elev, gt, C, R, near, rel_tol, abs_tol, vis):
     for r in prange(rows):
         for c in range(cols):
             vis[r, c] = False
-            zz = z[r, c]
-            if zz != zz or not (zz > near):
+            if not (w[r, c] > 0.0):  # void, behind the camera or too close
                 continue
             uu = u[r, c]
             vv = v[r, c]
@@ -697,12 +696,12 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
     near = NEAR_PLANE_M
     u = np.empty((rows, cols), dtype=np.float32)
     v = np.empty((rows, cols), dtype=np.float32)
-    z = np.empty((rows, cols), dtype=np.float32)
-    _project_vertices(elev, gt, C, R, intr, near, u, v, z)
+    w = np.empty((rows, cols), dtype=np.float32)
+    _project_vertices(elev, gt, C, R, intr, near, u, v, w)
     n = _chunk_count(H, W)
     zbufs = np.zeros((n, H, W), dtype=np.float32)
     tbufs = np.full((n, H, W), -1, dtype=np.int32)
-    _rasterise(u, v, z, elev, gt, C, R, intr, near, _cull_sign(cam, work), zbufs, tbufs)
+    _rasterise(u, v, w, elev, gt, C, R, intr, near, _cull_sign(cam, work), zbufs, tbufs)
     if n == 1:
         tri = tbufs[0]
     else:
@@ -715,7 +714,7 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
     _exact_hits(tri, elev, gt, C, R, intr, limit, xyz, dist)
     if visibility:
         vis = np.empty((rows, cols), dtype=np.bool_)
-        _visibility(u, v, z, tri, elev, gt, C, R, near, float(rel_tol),
+        _visibility(u, v, w, tri, elev, gt, C, R, near, float(rel_tol),
                     float(work.cell_size if abs_tol is None else abs_tol), vis)
         if max_range is not None:
             X, Y = work.cell_centres()
