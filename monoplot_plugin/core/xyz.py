@@ -678,6 +678,9 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
     Returns:
         :class:`XyzResult`.
     """
+    if dem.is_geographic:
+        raise ValueError("the DEM is in geographic degrees: use Dem.open (reprojects to UTM) or dem.reprojected_to_utm()"
+                         " and a camera in that CRS")
     W, H = cam.width, cam.height
     full_shape = dem.shape
     work = dem.crop_to_view(cam, max_range) if crop else dem

@@ -137,3 +137,12 @@ def test_aletsch_dem_with_void_value(aletsch_dir):
     assert dem.shape == (720, 693)
     assert int(np.isnan(dem.elevation).sum()) == 6891
     assert 500 < np.nanmin(dem.elevation) < np.nanmax(dem.elevation) < 4300
+
+
+def test_geographic_dem_in_memory_is_refused_by_compute_xyz():
+    dem = Dem.from_array(np.zeros((5, 5)), (8.0, 0.001, 0.0, 46.5, 0.0, -0.001), "EPSG:4326")
+    cam = Camera((8.002, 46.498, 100.0), heading=0.0, pitch=-10.0, roll=0.0, fov=60.0, image_size=(8, 6))
+    with pytest.raises(ValueError, match="geographic"):
+        compute_xyz(cam, dem)
+    utm = dem.reprojected_to_utm()
+    assert not utm.is_geographic and utm.source_crs_wkt
