@@ -33,9 +33,23 @@ def gdal_failure(exc: Exception, target) -> OutputError:
     low = text.lower()
     if "no space left" in low or "disk full" in low or "enospc" in low:
         return OutputError(f"cannot write {target}: the disk is full ({text})")
+    if "write error" in low or "too large" in low or "short write" in low or _nearly_full(target):
+        return OutputError(f"cannot write {target}: the disk is full, or the file is larger than the folder "
+                           f"allows (quota, file-system limit) ({text})")
     if "permission denied" in low or "read-only" in low:
         return OutputError(f"cannot write {target}: permission denied ({text})")
     return OutputError(f"cannot write {target}: {text}")
+
+
+def _nearly_full(target) -> bool:
+    """True when the target's file system has less than 1 MiB free (GDAL's own message rarely says so)."""
+    import shutil
+    from pathlib import Path
+
+    try:
+        return shutil.disk_usage(Path(target).parent).free < 1 << 20
+    except OSError:
+        return False
 
 
 def srs_from_user(crs) -> osr.SpatialReference:

@@ -122,3 +122,30 @@ def test_missing_folder_and_bad_shapes_are_clear_errors(plane_scene, tmp_path):
         write_xyz_raster(tmp_path / "nowhere" / "xyz.tif", plane_scene.xyz, CRS)
     with pytest.raises(ValueError, match=r"\(H, W, 3\)"):
         write_xyz_raster(tmp_path / "xyz.tif", plane_scene.xyz[..., :2], CRS)
+
+
+FILL_THE_DISK = ("import resource, signal, sys, numpy as np\n"
+                 "from monoplot_plugin.outputs import write_xyz_raster, OutputError\n"
+                 "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # the write fails (EFBIG) instead of killing us\n"
+                 "resource.setrlimit(resource.RLIMIT_FSIZE, (200_000, 200_000))\n"
+                 "xyz = np.random.default_rng(0).uniform(6e5, 7e5, (600, 800, 3))\n"
+                 "try:\n"
+                 "    write_xyz_raster(sys.argv[1], xyz, 'EPSG:21781', overwrite=True)\n"
+                 "    print('WROTE')\n"
+                 "except OutputError as exc:\n"
+                 "    print('REFUSED', exc)\n")
+
+
+def test_running_out_of_space_half_way_keeps_the_earlier_output(plane_scene, tmp_path):
+    """A real failed write: the OS refuses to grow the file past 200 kB, as on a full disk."""
+    import subprocess
+    import sys
+
+    path = write_xyz_raster(tmp_path / "xyz.tif", plane_scene.xyz, CRS)
+    before = path.read_bytes()
+    result = subprocess.run([sys.executable, "-c", FILL_THE_DISK, str(path)], capture_output=True, text=True,
+                            timeout=60, env=dict(os.environ, PYTHONPATH=os.getcwd()))
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.startswith("REFUSED cannot write") and "disk is full" in result.stdout, result.stdout
+    assert path.read_bytes() == before
+    assert os.listdir(tmp_path) == ["xyz.tif"]
