@@ -92,6 +92,12 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.splitter.setStretchFactor(0, 3)
         self.splitter.setStretchFactor(1, 2)
         self._sized = False
+        self.overlaySlider.setMinimumWidth(90)
+        self.dockContents.setMinimumWidth(440)  # narrower squeezes the photo bar
+        for label in (self.cameraSummary, self.resultLabel, self.countsLabel):
+            label.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
+        self.cameraTabLayout.setStretch(self.cameraTabLayout.count() - 1, 1)
+        self.fitTabLayout.setStretch(self.fitTabLayout.count() - 1, 1)
 
         # fit and view
         self.fitButton.clicked.connect(lambda: c.fit())

@@ -15,7 +15,7 @@ from typing import List, Optional, Tuple
 
 from qgis.core import QgsCoordinateReferenceSystem, QgsMapLayer, QgsPointXY, QgsRectangle
 from qgis.gui import QgsMapCanvas, QgsMapCanvasItem
-from qgis.PyQt.QtCore import QRectF, Qt, pyqtSignal
+from qgis.PyQt.QtCore import QRectF, Qt, QTimer, pyqtSignal
 from qgis.PyQt.QtGui import QBrush, QColor, QImage, QPainter
 
 __all__ = ["PhotoCanvas", "ImageItem", "uv_to_map", "map_to_uv"]
@@ -132,6 +132,14 @@ class PhotoCanvas(QgsMapCanvas):
         """(u_min, v_min, u_max, v_max) of the visible part of the photo plane."""
         e = self.extent()
         return e.xMinimum(), -e.yMaximum(), e.xMaximum(), -e.yMinimum()
+
+    def resizeEvent(self, event):  # noqa: N802 (Qt API)
+        """Keep showing the whole photo across resizes (dock floated, splitter moved) unless the user zoomed in."""
+        showing_all = self._size is not None and self.extent().contains(
+            QgsRectangle(0, -self._size[1], self._size[0], 0))
+        super().resizeEvent(event)
+        if showing_all:
+            QTimer.singleShot(0, self.zoom_to_photo)
 
     def leaveEvent(self, event):  # noqa: N802 (Qt API)
         self.cursorLeft.emit()
