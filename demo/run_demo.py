@@ -10,7 +10,8 @@
 5. ``monoplot:computexyz`` -> xyz.tif.
 6. A glacier outline digitised on the photo (simulated: the hidden camera's view of a known map polygon) ->
    ``monoplot:phototomap`` -> outline.gpkg and outline.shp.
-7. ``monoplot:orthophoto`` -> ortho.tif; ``monoplot:report`` -> report.png.
+7. ``monoplot:maptophoto`` draws the mapped outline back onto the photo (round trip, should land on the traced
+   pixels); ``monoplot:orthophoto`` -> ortho.tif; ``monoplot:report`` -> report.png.
 
 Prints where the outputs are, the pose error of the fitted camera against the hidden one, and writes everything
 to ``demo-output/summary.json``. ``--quick`` makes a smaller scene (CI).
@@ -103,6 +104,9 @@ def run(out_dir: Path, quick: bool = False, verbose: bool = True) -> dict:
     for ext in ("gpkg", "shp"):
         qp("phototomap", {**common, "INPUT": str(outline_photo), "CAMERA": str(camera_path), "STEP": 2,
                           "OUTPUT": str(out_dir / f"outline.{ext}")})
+    back = out_dir / "outline_back_on_photo.gpkg"
+    qp("maptophoto", {**common, "INPUT": str(out_dir / "outline.gpkg"), "CAMERA": str(camera_path), "HIDDEN": True,
+                      "OUTPUT": str(back)})
     qp("orthophoto", {**common, "CAMERA": str(camera_path), "PHOTO": str(sc.photo_path),
                       "OUTPUT": str(out_dir / "ortho.tif")})
     qp("report", {**common, "CAMERA": str(camera_path), "PHOTO": str(sc.photo_path),
@@ -121,22 +125,25 @@ def run(out_dir: Path, quick: bool = False, verbose: bool = True) -> dict:
         "prior_check_reprojection_rmse_px": reprojection_error(Camera.load(sc.prior_path), sc.truth, check),
         "fit_rmse_px": fit.get("RMSE_PX"),
         "outline_mean_error_m": outline_error,
+        "outline_round_trip_px": scene_module.round_trip_error(back, outline_photo),
         "curation": {k: v for k, v in curated.items() if k.startswith("n_")},
         "timings_s": timings,
         "outputs": {name: str(out_dir / name) for name in (
-            "camera.json", "xyz.tif", "outline.gpkg", "outline.shp", "ortho.tif", "report.png")},
+            "camera.json", "xyz.tif", "outline.gpkg", "outline.shp", "outline_back_on_photo.gpkg", "ortho.tif",
+            "report.png")},
     }
     (out_dir / "summary.json").write_text(json.dumps(summary, indent=2))
     say("")
     say("outputs in " + str(out_dir) + "/:")
     for name, path in summary["outputs"].items():
-        say(f"  {name:14s} {path}")
+        say(f"  {name:27s} {path}")
     say(f"pose error vs the hidden camera: position {errors['position_m']:.1f} m, heading "
         f"{errors['heading_deg']:.3f} deg, pitch {errors['pitch_deg']:.3f} deg, roll {errors['roll_deg']:.3f} deg, "
         f"fov {errors['fov_deg']:.3f} deg (prior was off by {prior_errors['position_m']:.0f} m, "
         f"{prior_errors['heading_deg']:.1f} deg heading)")
     say(f"check points: {summary['check_reprojection_rmse_px']:.2f} px RMSE (prior: "
-        f"{summary['prior_check_reprojection_rmse_px']:.1f} px); outline mean error {outline_error:.1f} m")
+        f"{summary['prior_check_reprojection_rmse_px']:.1f} px); outline mean error {outline_error:.1f} m; "
+        f"photo -> map -> photo round trip {summary['outline_round_trip_px']:.2f} px")
     say(f"demo finished in {summary['seconds']:.1f} s; summary: {out_dir / 'summary.json'}")
     return summary
 

@@ -235,3 +235,33 @@ def outline_error(mapped_path: Path, sc: Scene, fitted: Camera) -> float:
     d = np.linalg.norm(mapped - truth_ground, axis=1)
     d = d[np.isfinite(d)]
     return float(d.mean()) if len(d) else float("nan")
+
+
+def _ring_vertices(path: Path) -> np.ndarray:
+    """(N, 2) x, y of every vertex of every polygon in the first layer of a vector file."""
+    ds = ogr.Open(str(path))
+    layer = ds.GetLayer(0)
+    points = []
+    for feature in layer:
+        geometry = feature.GetGeometryRef()
+        parts = [geometry] if geometry.GetGeometryType() in (ogr.wkbPolygon, ogr.wkbPolygon25D) else \
+            [geometry.GetGeometryRef(i) for i in range(geometry.GetGeometryCount())]
+        for part in parts:
+            for j in range(part.GetGeometryCount()):
+                points.extend(p[:2] for p in part.GetGeometryRef(j).GetPoints())
+    return np.array(points, dtype=float).reshape(-1, 2)
+
+
+def round_trip_error(back_on_photo: Path, traced: Path) -> float:
+    """Mean distance (px) from the vertices of the outline drawn back onto the photo to the traced outline's
+    boundary (photo -> map -> photo with the same camera: about the XYZ raster's pixel quantisation)."""
+    back = _ring_vertices(back_on_photo)
+    ring = _ring_vertices(traced)
+    if len(back) == 0 or len(ring) < 2:
+        return float("nan")
+    a, b = ring[:-1], ring[1:]
+    ab = b - a
+    t = np.clip(((back[:, None, :] - a[None]) * ab[None]).sum(-1) / np.maximum((ab ** 2).sum(-1), 1e-12)[None],
+                0.0, 1.0)
+    nearest = a[None] + t[..., None] * ab[None]
+    return float(np.linalg.norm(back[:, None, :] - nearest, axis=2).min(axis=1).mean())

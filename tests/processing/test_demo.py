@@ -25,6 +25,7 @@ def test_demo_recovers_the_hidden_camera(demo_summary):
     assert summary["check_reprojection_rmse_px"] < 3.0
     assert summary["prior_check_reprojection_rmse_px"] > 10 * summary["check_reprojection_rmse_px"]
     assert summary["outline_mean_error_m"] < 60.0
+    assert summary["outline_round_trip_px"] < 1.5  # photo -> map -> photo with the same camera
     assert json.loads((out / "summary.json").read_text())["pose_error"] == errors
 
 
