@@ -14,7 +14,7 @@ from typing import List, Optional
 
 import numpy as np
 from qgis.core import Qgis, QgsMapLayer, QgsVectorLayer
-from qgis.PyQt.QtCore import QObject
+from qgis.PyQt.QtCore import QObject, pyqtSignal
 from qgis.PyQt.QtWidgets import QAction, QFileDialog
 
 from .digitise_tools import PhotoCaptureTool, PhotoEditTool
@@ -31,7 +31,13 @@ def install_output_tools(dock) -> "OutputTools":
 
 
 class OutputTools(QObject):
-    """Digitising session, tools and export actions of one dock."""
+    """Digitising session, tools and export actions of one dock.
+
+    Signals:
+        exported(str what, str path): a background export ("xyz", "ortho", "report") was written.
+    """
+
+    exported = pyqtSignal(str, str)
 
     def __init__(self, dock):
         super().__init__(dock)
@@ -41,6 +47,7 @@ class OutputTools(QObject):
         self._xyz_key = None
         self._xyz = self._distance = self._visible = None
         self.overlays: List[QgsVectorLayer] = []
+        self._tasks: list = []  # running export tasks (kept referenced until done)
         canvas = dock.photo_canvas
         self.capture_tools = {kind: PhotoCaptureTool(canvas, self.current_session, kind) for kind in KINDS}
         self.edit_tool = PhotoEditTool(canvas, self.current_session)
@@ -168,20 +175,12 @@ class OutputTools(QObject):
 
     def export_report(self, path, overwrite: bool = False):
         from ..adapters.photo import qimage_to_array
-        from .report import ReportPoints, write_report
+        from .report import write_report
 
         camera, dem, xyz, _, visible = self.products()
-        points = None
-        inputs = self.controller.fit_inputs()
-        if not isinstance(inputs, str):
-            uv, world, pairs = inputs
-            if pairs:
-                i, j = np.asarray(pairs, dtype=int).T
-                points = ReportPoints(np.asarray(uv)[i], np.asarray(world)[j])
-        info = self.controller.state.fit_info or {}
-        std = info.get("std") if isinstance(info, dict) else None  # the fit's own sigmas when it reported them
+        points, sigmas = self._report_inputs()
         return write_report(path, qimage_to_array(self.controller.image), camera, dem, points=points, xyz=xyz,
-                            visible=visible, sigmas=std or None, title=Path(self.photo_name()).stem,
+                            visible=visible, sigmas=sigmas, title=Path(self.photo_name()).stem,
                             overwrite=overwrite)
 
     def export_features(self, kind: str, path, overwrite: bool = False):
@@ -220,18 +219,103 @@ class OutputTools(QObject):
     def _ask_xyz(self) -> None:
         path = self._ask(self.tr("Save the XYZ raster"), "GeoTIFF (*.tif)", "xyz.tif")
         if path:  # the dialog already asked before replacing a file
-            self._run(lambda: self.export_xyz(path, overwrite=True).source(), self.tr("XYZ raster written: {0}"))
+            self.start_export("xyz", path, overwrite=True)
 
     def _ask_ortho(self) -> None:
         path = self._ask(self.tr("Save the orthophoto"), "GeoTIFF (*.tif)", "ortho.tif")
         if path:
-            self._run(lambda: self.export_orthophoto(path, overwrite=True).source(),
-                      self.tr("Orthophoto written: {0}"))
+            self.start_export("ortho", path, overwrite=True)
 
     def _ask_report(self) -> None:
         path = self._ask(self.tr("Save the report"), "PDF (*.pdf);;PNG (*.png)", "report.pdf")
         if path:
-            self._run(lambda: self.export_report(path, overwrite=True), self.tr("Report written: {0}"))
+            self.start_export("report", path, overwrite=True)
+
+    # --- background exports -----------------------------------------------------------------------------------
+    def start_export(self, what: str, path, overwrite: bool = False):
+        """Compute and write the XYZ raster ("xyz"), orthophoto ("ortho") or report ("report") in a QgsTask;
+        the layer is added and the user told on the main thread when it is done. Returns the task (None when
+        the inputs are missing: the reason is shown)."""
+        from ..adapters.photo import qimage_to_array
+        from ..gui.tasks import FunctionTask, start_task
+
+        reason = self.ready()
+        if reason is not None:
+            self._message(reason, Qgis.MessageLevel.Warning)
+            return None
+        c = self.controller
+        camera, dem, name = c.fitted, c.dem, self.photo_name()
+        # Everything the worker needs, copied now: it must not touch Qt objects or the project.
+        photo = qimage_to_array(c.image) if what in ("ortho", "report") else None
+        points, sigmas = (self._report_inputs() if what == "report" else (None, None))
+        cached = (self._xyz, self._distance, self._visible) if self._xyz_key == (camera.to_json(), id(dem)) else None
+
+        def work(progress, is_canceled):
+            from ..core.xyz import compute_xyz_full
+
+            if cached is None:
+                r = compute_xyz_full(camera, dem)
+                xyz, distance, visible = r.xyz, r.distance, r.visible
+            else:
+                xyz, distance, visible = cached
+            progress(60.0)
+            if is_canceled():
+                return None
+            if what == "xyz":
+                from .xyz_raster import write_xyz_raster
+
+                written = write_xyz_raster(path, xyz, dem.crs_wkt, distance, overwrite=overwrite, camera=camera,
+                                           photo_name=name)
+            elif what == "ortho":
+                from .orthophoto import orthophoto_from_camera
+
+                written = orthophoto_from_camera(path, photo, camera, dem, xyz, overwrite=overwrite)
+            else:
+                from .report import write_report
+
+                written = write_report(path, photo, camera, dem, points=points, xyz=xyz, visible=visible,
+                                       sigmas=sigmas, title=Path(name).stem, overwrite=overwrite)
+            return written, (camera.to_json(), id(dem)), (xyz, distance, visible)
+
+        def done(result):
+            self._tasks = [t for t in self._tasks if t is not task]
+            if not result.ok or result.value is None:
+                if result.status == "canceled":
+                    self._message(self.tr("Export canceled; nothing was replaced."), Qgis.MessageLevel.Info)
+                else:
+                    self._message(self.tr("Nothing was written: {0}").format(result.reason),
+                                  Qgis.MessageLevel.Critical)
+                return
+            written, key, products = result.value
+            self._xyz_key = key
+            self._xyz, self._distance, self._visible = products
+            group = photo_group(self.dock.project, name)
+            if what == "xyz":
+                add_xyz_layer(written, self.dock.project, group)
+            elif what == "ortho":
+                add_orthophoto_layer(written, self.dock.project, group)
+            self._message(self.tr("Written: {0}").format(written), Qgis.MessageLevel.Success)
+            self.exported.emit(what, str(written))
+
+        labels = {"xyz": self.tr("XYZ raster"), "ortho": self.tr("Orthophoto"), "report": self.tr("Report")}
+        task = FunctionTask(self.tr("Monoplot: {0}").format(labels[what]), work, done)
+        self._tasks.append(task)
+        return start_task(task)
+
+    def _report_inputs(self):
+        """(ReportPoints of the user's pairs or None, the fit's sigmas or None), read on the main thread."""
+        from .report import ReportPoints
+
+        points = None
+        inputs = self.controller.fit_inputs()
+        if not isinstance(inputs, str):
+            uv, world, pairs = inputs
+            if pairs:
+                i, j = np.asarray(pairs, dtype=int).T
+                points = ReportPoints(np.asarray(uv)[i], np.asarray(world)[j])
+        info = self.controller.state.fit_info or {}
+        std = info.get("std") if isinstance(info, dict) else None
+        return points, (std or None)
 
     def _ask_features(self) -> None:
         session = self.current_session()

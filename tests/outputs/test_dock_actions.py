@@ -110,3 +110,21 @@ def test_drawn_features_come_back_with_the_project(dock_with_fit, tmp_path, qtbo
     layer = tools.session.map_layer("line")
     assert layer.featureCount() == 1 and next(layer.getFeatures())["name"] == "moraine"
     assert tools.session.photo_layer("line") in dock.photo_canvas.layers()
+
+
+def test_exports_run_in_background_tasks(dock_with_fit, tmp_path, qtbot):
+    dock, tools = dock_with_fit
+    done = []
+    tools.exported.connect(lambda what, path: done.append((what, path)))
+    for what, name in (("xyz", "bg_xyz.tif"), ("ortho", "bg_ortho.tif"), ("report", "bg_report.pdf")):
+        assert tools.start_export(what, tmp_path / name) is not None
+        qtbot.waitUntil(lambda: len(done) > 0 and done[-1][0] == what, timeout=30000)
+    assert all((tmp_path / n).exists() for n in ("bg_xyz.tif", "bg_ortho.tif", "bg_report.pdf"))
+    names = {node.name() for node in QgsProject.instance().layerTreeRoot().findGroup("Gletscher 1890").findLayers()}
+    assert {"bg_xyz (X Y Z, photo pixels)", "bg_ortho (orthophoto)"} <= names
+    # A refused overwrite is a message, not a traceback, and the file is untouched.
+    before = (tmp_path / "bg_xyz.tif").read_bytes()
+    tools.start_export("xyz", tmp_path / "bg_xyz.tif")
+    qtbot.waitUntil(lambda: "Nothing was written" in dock.statusLabel.text(), timeout=30000)
+    assert "already exists" in dock.statusLabel.text()
+    assert (tmp_path / "bg_xyz.tif").read_bytes() == before
