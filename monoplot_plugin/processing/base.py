@@ -84,8 +84,9 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
                                                      optional=optional, fileFilter=CAMERA_FILTER))
 
     def add_dem_parameter(self, name: str = "DEM", optional: bool = False):
-        self.addParameter(QgsProcessingParameterRasterLayer(name, self.tr("DEM (elevation raster, projected CRS "
-                                                                          "in metres)"), optional=optional))
+        self.addParameter(QgsProcessingParameterRasterLayer(name, self.tr("DEM (elevation raster in metres; a "
+                                                                          "geographic one is used in its UTM zone)"),
+                                                            optional=optional))
         void = QgsProcessingParameterNumber("VOID_VALUE", self.tr("DEM void value (e.g. 0; empty = none)"),
                                             QgsProcessingParameterNumber.Double, optional=True)
         void.setFlags(void.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
