@@ -149,10 +149,10 @@ class DigitisingSession(QObject):
 
     # --- layers -----------------------------------------------------------------------------------------------
     def photo_layer(self, kind: str) -> QgsVectorLayer:
-        """The pixel-space layer of ``kind`` (created on first use; not in the layer tree: the photo canvas
-        shows it)."""
+        """The pixel-space layer of ``kind`` (created on first use; drawn on the photo canvas, and in the photo's
+        layer group unchecked)."""
         if kind not in self.photo_layers:
-            name = f"{Path(self.photo_name).stem} photo {kind}s"
+            name = f"{Path(self.photo_name).stem} {_KIND_LABEL[kind]} (photo pixels)"
             layer = self._reusable(name)  # left in a reopened project (memory layers come back empty)
             if layer is None:
                 layer = QgsVectorLayer(f"{_PHOTO_TYPES[kind]}", name, "memory")
@@ -168,7 +168,11 @@ class DigitisingSession(QObject):
                            layer.attributeValueChanged, layer.afterRollBack, layer.afterCommitChanges):
                 signal.connect(lambda *args, k=kind: self.sync(k))
             if self.project.mapLayer(layer.id()) is None:
-                self.project.addMapLayer(layer, False)  # owned by the project (saved with it), not in the tree
+                self.project.addMapLayer(layer, False)
+            # In the photo's group beside its map layer, unchecked: it lies in photo pixel space (like the XYZ
+            # raster) and must not stretch the map's extent; the Layers panel gives its attribute table.
+            if self.group.findLayer(layer.id()) is None:
+                self.group.addLayer(layer).setItemVisibilityChecked(False)
             self.photo_layers[kind] = layer
         return self.photo_layers[kind]
 

@@ -67,7 +67,12 @@ def test_live_map_layer_follows_photo_edits(project, plane_scene, tmp_path):
     path = session.export("line", tmp_path / "crest.shp")
     ds = ogr.Open(str(path))
     assert ds.GetLayer(0).GetFeatureCount() == 1
-    assert len(session.group.findLayers()) == 4  # three live layers + the file
+    # One group for the photo: for each kind the photo layer (unchecked: photo pixel space) and its live map
+    # layer, plus the written file.
+    nodes = session.group.findLayers()
+    assert len(nodes) == 7
+    photo_nodes = [n for n in nodes if n.layer() in session.photo_layers.values()]
+    assert len(photo_nodes) == 3 and not any(n.isVisible() for n in photo_nodes)
 
 
 def test_xyz_layer_identify_gives_ground_coordinates(project, plane_scene, tmp_path):
