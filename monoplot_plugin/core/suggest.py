@@ -35,7 +35,7 @@ import numpy as np
 from .suggest_photo import picture_mask, to_gray
 
 __all__ = ["PhotoSuggestions", "DemSuggestions", "suggest_photo_points", "suggest_dem_points", "detect_keypoints",
-           "spread_by_grid", "terrain_landmarks", "PHOTO_DETECTOR", "DEM_DETECTOR"]
+           "spread_by_grid", "terrain_landmarks", "silhouette_peaks", "PHOTO_DETECTOR", "DEM_DETECTOR"]
 
 
 @dataclass
@@ -473,6 +473,75 @@ def _scaled_camera(camera, max_width: int):
     return replace(camera, image_size=size, principal_point=principal), scale
 
 
+def silhouette_peaks(res, half_width: int = 15, min_rise_px: float = 3.0, tolerance: float = 0.25):
+    """Peaks of the silhouettes seen by the camera: terrain points at the top of an occluding contour (sky or
+    farther terrain right above them) that are higher in the picture than the contour ``half_width`` pixels to
+    either side by at least ``min_rise_px``. These are the summits and ridge tops a person picks on a skyline.
+
+    Args:
+        res: :class:`~monoplot_plugin.core.xyz.XyzResult` of the (reduced) camera.
+        tolerance: contour pixels within this fraction of each other's distance belong to the same ridge.
+    Returns:
+        (xyz (K, 3) map coordinates of the peak pixels' terrain, strength (K,) rise in pixels).
+    """
+    import cv2
+
+    hit = np.asarray(res.hit)
+    dist = np.where(hit, res.distance, np.inf).astype(np.float64)
+    above = np.vstack([np.full((1, dist.shape[1]), np.inf), dist[:-1]])
+    top = hit & (above > 1.15 * dist)  # sky, or terrain at least 15 % farther, just above
+    rows, cols = np.nonzero(top)
+    d = dist[rows, cols]
+    out, strength, candidates = [], [], []
+    by_col = {}
+    for i, c in enumerate(cols):
+        by_col.setdefault(int(c), []).append(i)
+    # Contour pixels of the same ridge are those at a similar distance (a silhouette piece may jump several rows
+    # from one column to the next on steep slopes, so pixel connectivity would cut it up).
+    for i in range(len(rows)):
+        r, c, di = rows[i], int(cols[i]), d[i]
+        best_above = False
+        side_rows = []
+        for cc in range(c - half_width, c + half_width + 1):
+            for j in by_col.get(cc, ()):
+                if abs(d[j] - di) <= tolerance * di:
+                    if rows[j] < r:
+                        best_above = True
+                        break
+            if best_above:
+                break
+        if best_above:
+            continue
+        rises = []
+        for side in (range(c - half_width, c), range(c + 1, c + half_width + 1)):
+            drop = 0.0
+            for cc in side:
+                same = [rows[j] for j in by_col.get(cc, ()) if abs(d[j] - di) <= tolerance * di]
+                if same:
+                    drop = max(drop, float(min(same) - r))
+            rises.append(drop)
+        rise = min(rises)
+        if rise >= min_rise_px:
+            candidates.append((int(r), c, float(rise)))
+    # A flat top is a run of equal rows: keep its middle pixel.
+    candidates.sort()
+    k = 0
+    while k < len(candidates):
+        m = k
+        while (m + 1 < len(candidates) and candidates[m + 1][0] == candidates[k][0]
+               and candidates[m + 1][1] <= candidates[m][1] + 1):
+            m += 1
+        r, c, rise = candidates[(k + m) // 2]
+        out.append(res.xyz[r, c])
+        strength.append(rise)
+        k = m + 1
+    if not out:
+        return np.zeros((0, 3)), np.zeros(0)
+    xyz = np.asarray(out)
+    ok = np.isfinite(xyz).all(axis=1)
+    return xyz[ok], np.asarray(strength)[ok]
+
+
 def _foreground_xyz(res, uv: np.ndarray, radius: int = 2) -> np.ndarray:
     """(K, 3) XYZ of the nearest terrain within ``radius`` pixels of each key point (NaN when only sky)."""
     dist = np.where(res.hit, res.distance, np.inf)
@@ -539,6 +608,13 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
         score_list.append(score[keep][ok])
         kind_list.append(source[keep][ok])
         prom_list.append(np.full(int(ok.sum()), np.nan))
+        if landmarks:
+            spts, sstrength = silhouette_peaks(res)
+            if len(spts):
+                xyz_list.append(spts)
+                score_list.append(0.5 + 0.5 * _percentile_rank(sstrength))
+                kind_list.append(np.full(len(spts), "skyline"))
+                prom_list.append(np.full(len(spts), np.nan))
     else:
         import cv2
 

@@ -161,3 +161,20 @@ def test_aletsch_suggestions_cover_the_hand_picked_gcps(aletsch_dir):
     assert not caption.any()
     near = np.linalg.norm(s.uv[:, None] - gcps[None, :, :2], axis=2) <= 10
     assert near.any(axis=0).sum() >= 6
+
+
+def test_silhouette_peaks_find_the_summit_on_the_skyline():
+    from monoplot_plugin.core.suggest import silhouette_peaks
+    from monoplot_plugin.core.xyz import compute_xyz_full
+
+    y, x = np.mgrid[0:200, 0:200].astype(float)
+    z = 1000.0 + 800.0 * np.exp(-((x - 100) ** 2 + (y - 60) ** 2) / 300.0)
+    dem = Dem.from_array(z, (0.0, 10.0, 0.0, 2000.0, 0.0, -10.0))
+    summit = np.array([*dem.cell_to_map(100.5, 60.5), z[60, 100]])
+    cam = Camera((1005.0, 100.0, 1300.0), heading=0, pitch=12, roll=0, fov=50, image_size=(640, 400))
+    xyz, strength = silhouette_peaks(compute_xyz_full(cam, dem, visibility=False))
+    assert len(xyz) >= 1
+    best = xyz[np.argmax(strength)]
+    assert np.hypot(*(best[:2] - summit[:2])) <= 30.0 and abs(best[2] - summit[2]) < 15.0
+    kinds = suggest_dem_points(dem, cam).kind
+    assert "skyline" in set(kinds)
