@@ -8,13 +8,16 @@ Method (a z-buffer, not ray marching):
 1. every mesh vertex is projected once into the photo (coordinates recentred on the camera in float64 first, then
    stored as float32 pixels and depths: UTM northings would lose half a metre in float32);
 2. every triangle is rasterised into a depth buffer of inverse depths that keeps, per pixel centre, the id of the
-   nearest triangle (triangles crossing the camera plane are clipped at 1 cm in front of it);
+   nearest triangle. The two triangles of a quad are drawn in one pass over its pixel box (the side of the diagonal
+   picks the triangle); triangles crossing the camera plane are clipped 1 cm in front of it; back faces are skipped
+   when the camera is above the terrain (a ray from above meets the surface first from its top side);
 3. each pixel's ray is then intersected *exactly* (float64) with the plane of the triangle in the buffer, so the
    result does not depend on interpolation in the buffer: only which triangle wins can differ from a brute-force
    search, on silhouettes.
 
-The loops are compiled with numba (``cache=True``; parallel over the available cores). Without numba the same code
-runs as plain Python, which is only practical for tiny grids.
+The loops are compiled with numba (``cache=True``, in a folder per import name, see :func:`_numba_cache_dir`; parallel
+over the available cores, each thread with its own depth buffer over interleaved DEM rows, merged at the end).
+Without numba the same code runs as plain Python, which is only practical for tiny grids.
 
 Radial distortion: vertices are projected with it (triangle edges are straight between distorted vertices, a
 sub-pixel approximation for small triangles); the exact step undistorts each pixel's ray. Points beyond the radius
