@@ -447,6 +447,11 @@ class MonoplotController(QObject):
             rmse if rmse is not None else float("nan"), outcome.info.get("n_photo", 0))
         if level == WARNING:
             text += " " + self.tr("The fit did not converge: check the points and the rough camera.")
+        clearance = outcome.info.get("clearance_m")
+        if clearance is not None and clearance < 0:
+            level = WARNING
+            text += " " + self.tr("The camera ended {0:.0f} m below the terrain: the fit is wrong; reject "
+                                  "doubtful points or improve the rough camera.").format(-clearance)
         self.message.emit(text, level)
 
     def ensure_products(self) -> None:

@@ -89,6 +89,8 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.pointTable.clicked.connect(self._table_clicked)
         header = self.pointTable.horizontalHeader()
         header.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
+        header.setSortIndicator(-1, Qt.SortOrder.AscendingOrder)  # detector order until a header is clicked
+        self.table_proxy.sort(-1)
         self.splitter.setStretchFactor(0, 3)
         self.splitter.setStretchFactor(1, 2)
         self._sized = False
@@ -276,7 +278,8 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
                  (self.tr("Heading"), f"{fitted.heading % 360:.2f}°{sig('heading', deg)}"),
                  ("Y", f"{y:.0f} m{sig('y', '{:.0f}')}"),
                  (self.tr("Pitch"), f"{fitted.pitch:.2f}°{sig('pitch', deg)}"),
-                 ("Z", f"{z:.0f} m{sig('z', '{:.0f}')}"),
+                 ("Z", f"{z:.0f} m{sig('z', '{:.0f}')}" if not info.get("on_ground") else
+                  self.tr("{0:.0f} m (ground + {1:.0f} m)").format(z, info.get("eye_height_m") or 0.0)),
                  (self.tr("Roll"), f"{fitted.roll:.2f}°{sig('roll', deg)}"),
                  ("", ""), (self.tr("Field of view"), f"{fitted.fov:.2f}°{sig('fov', deg)}")]
         html = "".join("<tr>" + "".join(f"<td>{k}&nbsp;</td><td>{v}&nbsp;&nbsp;&nbsp;</td>" for k, v in pair)

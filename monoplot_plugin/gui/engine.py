@@ -74,16 +74,18 @@ def ground_clearance(camera: Camera, dem) -> float:
     return float(camera.position[2]) - float(dem.sample(camera.position[0], camera.position[1]))
 
 
-#: a start camera at most this high above the terrain is taken as standing on it (z follows the terrain)
-ON_GROUND_MAX_M = 20.0
+#: a start camera at most this high above the terrain is taken as a photographer on the ground (a hill, a ridge,
+#: a summit): the fit keeps its height above the terrain (z follows the DEM, one unknown less), which also keeps
+#: it from ending underground; a higher start (aircraft, balloon, drone) keeps z free
+ON_GROUND_MAX_M = 200.0
 
 
 def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, int]], start: Camera, dem,
                    progress: Callable[[float], None], is_canceled: Callable[[], bool]) -> FitOutcome:
     """Fit the camera (0-85 %), then render the overlay and per-pixel XYZ (85-100 %).
 
-    A start camera within :data:`ON_GROUND_MAX_M` of the terrain is fitted "on the ground" (its height follows
-    the DEM, one unknown less); a higher one (summit, aircraft, balloon) keeps its height free.
+    A start camera within :data:`ON_GROUND_MAX_M` of the terrain is fitted "on the ground" (it keeps its height
+    above the DEM, one unknown less); a higher one (aircraft, balloon, drone) keeps its height free.
 
     Raises:
         ValueError: the fit refused the input (too few points...), with the fit's own explanation.
@@ -110,6 +112,8 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         "message": str(result.message),
         "mode": result.mode,
         "on_ground": on_ground,
+        "eye_height_m": float(max(clearance, 0.0)) if on_ground else None,
+        "clearance_m": _float(ground_clearance(camera, dem)),
         "n_photo": int(len(uv)),
         "n_map": int(len(xyz)),
         "n_pairs": int(len(pairs)),

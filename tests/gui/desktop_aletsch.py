@@ -115,6 +115,10 @@ def on_task_finished(result):
         state["suggested"] = True
         counts = c.state.counts()
         log("suggestions", counts=counts)
+        from monoplot_plugin.state import MAP, PHOTO
+
+        c.step(PHOTO, 1, only_suggested=True)  # what the N key does: the current point gets a cyan box
+        c.step(MAP, 1, only_suggested=True)
         canvas = iface.mapCanvas()
         canvas.setExtent(dock.map_view.prior_band.band.asGeometry().boundingBox().buffered(1500))
         canvas.refresh()
