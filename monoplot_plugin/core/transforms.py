@@ -41,7 +41,7 @@ from .dem import Dem
 from .xyz import XyzResult, compute_xyz_full, segment_first_hit
 
 __all__ = ["DropReport", "PhotoToMap", "MapToPhoto", "Ortho", "photo_points_to_map", "photo_line_to_map",
-           "photo_polygon_to_map", "map_to_photo", "orthorectify", "densify", "true_runs"]
+           "photo_polygon_to_map", "map_to_photo", "map_points_to_photo", "orthorectify", "densify", "true_runs"]
 
 
 @dataclass
@@ -296,7 +296,7 @@ def _messages(report: DropReport, what: str) -> None:
 
 
 def map_to_photo(parts: Sequence, cam: Camera, dem: Dem, densify_m: Optional[float] = None,
-                 tolerance_m: float = 1.0, rel_tolerance: float = 1e-4) -> List[MapToPhoto]:
+                 tolerance_m: float = 1.0, rel_tolerance: float = 1e-4, closed: bool = False) -> List[MapToPhoto]:
     """Map geometry drawn onto the photo, with hidden parts flagged.
 
     Args:
@@ -307,8 +307,9 @@ def map_to_photo(parts: Sequence, cam: Camera, dem: Dem, densify_m: Optional[flo
             0 = keep the vertices only), so that partly hidden segments are split where they disappear.
         tolerance_m, rel_tolerance: a vertex counts as hidden only when terrain meets its line of sight more than
             ``tolerance_m + rel_tolerance * range`` before it.
+        closed: the parts are polygon rings (not closed): the closing edge is densified too (the ring stays unclosed).
     Returns:
-        one :class:`MapToPhoto` per part.
+        one :class:`MapToPhoto` per part. For scattered points use :func:`map_points_to_photo` (no densification).
     """
     step = dem.cell_size * 0.5 if densify_m is None else float(densify_m)
     out = []
@@ -318,7 +319,7 @@ def map_to_photo(parts: Sequence, cam: Camera, dem: Dem, densify_m: Optional[flo
         if p.ndim == 1:
             p = p[None]
         if step > 0 and len(p) >= 2:
-            p = densify(p, step)
+            p = densify(p, step, closed=closed)
         if p.shape[1] == 2:
             p = np.column_stack([p, dem.sample(p[:, 0], p[:, 1], method="mesh")])
         uv, depth = cam.project_with_depth(p)
@@ -333,6 +334,20 @@ def map_to_photo(parts: Sequence, cam: Camera, dem: Dem, densify_m: Optional[flo
         visible = in_img & finite & ~blocked
         out.append(MapToPhoto(uv=uv, xyz=p, visible=visible, occluded=occluded, in_image=in_img))
     return out
+
+
+def map_points_to_photo(points, cam: Camera, dem: Dem, tolerance_m: float = 1.0,
+                        rel_tolerance: float = 1e-4) -> MapToPhoto:
+    """Scattered map points ((N, 2) draped on the DEM mesh, or (N, 3)) on the photo, with occlusion flags.
+
+    >>> dem = Dem.from_array(np.zeros((20, 20)), (0, 10, 0, 200, 0, -10))
+    >>> cam = Camera((100, -50, 30), heading=0, pitch=-10, roll=0, fov=60, image_size=(64, 48))
+    >>> seen = map_points_to_photo([[100.0, 100.0], [100.0, 500.0]], cam, dem)
+    >>> seen.visible.tolist(), bool(np.isnan(seen.xyz[1, 2]))   # the second point is off the DEM
+    ([True, False], True)
+    """
+    return map_to_photo([np.asarray(points, dtype=np.float64)], cam, dem, densify_m=0.0, tolerance_m=tolerance_m,
+                        rel_tolerance=rel_tolerance)[0]
 
 
 def orthorectify(photo: np.ndarray, cam: Camera, dem: Dem, result: Optional[XyzResult] = None,

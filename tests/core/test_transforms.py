@@ -119,3 +119,18 @@ def test_densify_keeps_vertices():
     assert len(d) == 5 and np.allclose(d[:, 2], [5, 7.5, 10, 12.5, 15])
     ring = densify(np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 4.0]]), 2.0, closed=True)
     assert len(ring) == 2 + 2 + 3  # last edge (length 5.66) gets 3 steps, closing vertex not repeated
+
+
+def test_map_ring_closing_edge_is_densified_and_points_are_not():
+    dem = Dem.from_array(np.zeros((40, 40)), (0.0, 10.0, 0.0, 400.0, 0.0, -10.0))
+    cam = Camera((200.0, -100.0, 150.0), heading=0.0, pitch=-25.0, roll=0.0, fov=60.0, image_size=(80, 60))
+    ring = np.array([[100.0, 100.0], [300.0, 100.0], [300.0, 300.0], [100.0, 300.0]])
+    (part,) = map_to_photo([ring], cam, dem, densify_m=50.0, closed=True)
+    assert len(part.xyz) == 16  # 4 edges of 200 m in 50 m steps, ring left unclosed
+    assert np.allclose(part.xyz[-1], [100.0, 150.0, 0.0])
+    assert part.visible.all()
+    from monoplot_plugin.core.transforms import map_points_to_photo
+
+    pts = map_points_to_photo(ring, cam, dem)
+    assert len(pts.uv) == 4 and pts.visible.all()
+    assert np.allclose(cam.project(pts.xyz), pts.uv)
