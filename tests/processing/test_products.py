@@ -172,3 +172,33 @@ def test_orthophoto_at_another_resolution(run_alg, small_scene, tmp_path):
     ds = gdal.Open(str(out))
     assert (ds.RasterXSize, ds.RasterYSize) == (40, 40) and ds.GetGeoTransform()[1] == 60.0
     assert 0.05 < (ds.GetRasterBand(4).ReadAsArray() == 255).mean() < 0.95
+
+
+def test_photo_line_into_the_sky_is_cut_where_it_leaves_the_ground(run_alg, small_scene):
+    cam = small_scene["cam"]
+    xyz = compute_xyz(cam, Dem.open(small_scene["dem"]))
+    column = xyz[:, 80, 2]
+    sky_rows = np.flatnonzero(~np.isfinite(column))
+    ground_rows = np.flatnonzero(np.isfinite(column))
+    assert len(sky_rows) and len(ground_rows)
+    line = QgsVectorLayer("LineString", "drawn", "memory")
+    feature = QgsFeature()
+    feature.setGeometry(QgsGeometry.fromPolylineXY([QgsPointXY(80.5, -(ground_rows.max() + 0.5)),
+                                                    QgsPointXY(80.5, -(sky_rows.min() + 0.5))]))
+    line.dataProvider().addFeatures([feature])
+    result = run_alg("phototomap", {"INPUT": line, "CAMERA": small_scene["camera"], "DEM": small_scene["dem"],
+                                    "STEP": 1, "OUTPUT": "memory:"})
+    assert result["DROPPED"] > 0
+    vertices = np.array([(p.x(), p.y(), p.z()) for f in result["OUTPUT"].getFeatures()
+                         for p in f.geometry().vertices()])
+    assert len(vertices) >= 2 and np.isfinite(vertices).all()
+    rows = cam.project(vertices)[:, 1]
+    assert rows.min() > sky_rows.min() - 1  # nothing mapped from the sky part
+
+
+def test_kml_camera_without_photo_says_what_is_missing(run_alg, small_scene, tmp_path):
+    kml = tmp_path / "prior.kml"
+    kml.write_text("<kml><PhotoOverlay><Camera><longitude>9</longitude><latitude>46</latitude></Camera>"
+                   "<ViewVolume><leftFov>-20</leftFov><rightFov>20</rightFov></ViewVolume></PhotoOverlay></kml>")
+    with pytest.raises(QgsProcessingException, match="needs the photo"):
+        run_alg("computexyz", {"CAMERA": str(kml), "DEM": small_scene["dem"], "OUTPUT": str(tmp_path / "x.tif")})
