@@ -74,6 +74,7 @@ class MonoplotController(QObject):
         self.xyz: Optional[np.ndarray] = None  # (H, W, 3) map X, Y, Z of each photo pixel (NaN = sky)
         self.footprint_wkt = ""  # visible area of the fitted camera (DEM CRS)
         self._restoring = False
+        self._fit_ids: Tuple[List[str], List[str]] = ([], [])
         self._autosave = QTimer(self)
         self._autosave.setSingleShot(True)
         self._autosave.setInterval(autosave_delay_ms)
@@ -387,13 +388,11 @@ class MonoplotController(QObject):
         index_world = {p.id: i for i, p in enumerate(world)}
         pairs = [(index_photo[a.id], index_world[b.id]) for a, b in self.state.valid_pairs()
                  if a.id in index_photo and b.id in index_world]
-        if 0 < len(pairs) < self.MIN_POINTS:
-            # a paired fit uses the pairs only: too few of them would under-determine the 7 unknowns
-            self.message.emit(self.tr("{0} pair(s) ignored: a paired fit needs at least {1}; fitting without "
-                                      "pairs.").format(len(pairs), self.MIN_POINTS), INFO)
-            pairs = []
+        if len(pairs) < self.MIN_POINTS:
+            pairs = []  # a paired fit uses the pairs only: fewer than 4 would under-determine the 7 unknowns
         uv = np.array([(p.x, p.y) for p in photo], dtype=np.float64)
         xyz = np.array([(p.x, p.y, p.z) for p in world], dtype=np.float64)
+        self._fit_ids = ([p.id for p in photo], [p.id for p in world])
         return uv, xyz, pairs
 
     def fit(self) -> bool:
@@ -410,12 +409,22 @@ class MonoplotController(QObject):
             self.message.emit(inputs, WARNING)
             return False
         uv, xyz, pairs = inputs
+        n_links = len(self.state.valid_pairs())
+        if 0 < n_links < self.MIN_POINTS:
+            self.message.emit(self.tr("{0} pair(s) ignored: a paired fit needs at least {1}; fitting without "
+                                      "pairs.").format(n_links, self.MIN_POINTS), INFO)
+        photo_ids, world_ids = self._fit_ids
         dem = self.dem
 
         def work(progress, is_canceled):
             return engine.fit_and_render(uv, xyz, pairs, start, dem, progress, is_canceled)
 
-        return self._start("fit", self.tr("Fit camera"), work, self._apply_fit)
+        def apply(outcome):
+            # the matches the fit used, by point id (indices would drift with later edits)
+            outcome.info["matched"] = [[photo_ids[i], world_ids[j]] for i, j in outcome.info.pop("matched_idx", [])]
+            self._apply_fit(outcome)
+
+        return self._start("fit", self.tr("Fit camera"), work, apply)
 
     def set_fitted(self, camera: Optional[Camera], info: Optional[dict] = None) -> None:
         """Use ``camera`` as the fitted camera (e.g. loaded from a file); overlay and XYZ are recomputed here."""
@@ -465,14 +474,39 @@ class MonoplotController(QObject):
         self.cameraChanged.emit()
 
     # --- results ----------------------------------------------------------------------------------------------
-    def residual_segments(self) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:
-        """For each accepted photo point: (its pixel, the nearest projected accepted DEM point) under the fit."""
+    def residuals(self) -> List[Tuple[str, Tuple[float, float], Tuple[float, float]]]:
+        """(photo point id, its pixel, the pixel of its DEM match under the fitted camera) for each accepted photo
+        point the last fit matched (its pairs, or the automatic pairs of an unpaired fit); without that record
+        (older state), each point's nearest projected accepted DEM point."""
         cam = self.fitted
+        if cam is None:
+            return []
+        matched = self.state.fit_info.get("matched")
+        if matched:
+            out = []
+            pts = self.state.points
+            links = [(pts[a], pts[b]) for a, b in matched if a in pts and b in pts
+                     and pts[a].status == ACCEPTED and pts[b].status == ACCEPTED]
+            if not links:
+                return []
+            world = np.array([(b.x, b.y, b.z if b.z is not None else float(self.dem.sample(b.x, b.y))
+                               if self.dem is not None else 0.0) for _, b in links])
+            proj = cam.project(world)
+            for (a, _), q in zip(links, proj):
+                if np.isfinite(q).all():
+                    out.append((a.id, (a.x, a.y), (float(q[0]), float(q[1]))))
+            return out
         inputs = self.fit_inputs()
-        if cam is None or isinstance(inputs, str):
+        if isinstance(inputs, str):
             return []
         uv, xyz, pairs = inputs
-        return engine.residual_segments(cam, uv, xyz, pairs)
+        photo_ids = self._fit_ids[0]
+        segs = engine.residual_segments(cam, uv, xyz, pairs)
+        return [(pid, a, b) for pid, (a, b) in zip(photo_ids, segs)]
+
+    def residual_segments(self) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:
+        """(photo pixel, matched DEM point's pixel) segments of :meth:`residuals`."""
+        return [(a, b) for _, a, b in self.residuals()]
 
     def ground_at_pixel(self, u: float, v: float) -> Optional[Tuple[float, float, float]]:
         """Map (X, Y, Z) seen at photo pixel (u, v), or None (sky, outside, no fit)."""

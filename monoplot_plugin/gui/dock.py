@@ -289,12 +289,8 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         return html + note
 
     def _residual_by_id(self):
-        """Residual length (px) per accepted photo point id, for the table."""
-        from ..state import ACCEPTED
-
-        segs = self.controller.residual_segments()
-        ids = [p.id for p in self.controller.state.in_space(PHOTO, (ACCEPTED,))]
-        return {pid: math.hypot(b[0] - a[0], b[1] - a[1]) for pid, (a, b) in zip(ids, segs)} if segs else {}
+        """Residual length (px) per matched photo point id, for the table."""
+        return {pid: math.hypot(b[0] - a[0], b[1] - a[1]) for pid, a, b in self.controller.residuals()}
 
     # --- points -----------------------------------------------------------------------------------------------
     def _toggle_map_tool(self, on: bool) -> None:

@@ -118,12 +118,21 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         "n_map": int(len(xyz)),
         "n_pairs": int(len(pairs)),
         "n_matched": int(len(result.pairs)),
+        "matched_idx": [[int(i), int(j)] for (i, j), ok in zip(np.asarray(result.pairs).reshape(-1, 2),
+                                                              _inliers(result)) if ok],
         "elapsed_s": float(result.elapsed_s),
     }
     progress(88)
     overlay, pixel_xyz, footprint = render_products(camera, dem, is_canceled)
     progress(100)
     return FitOutcome(camera, info, overlay, pixel_xyz, footprint)
+
+
+def _inliers(result) -> np.ndarray:
+    """(K,) bool of the fit's pairs that it kept (all True when it does not say)."""
+    k = len(np.asarray(result.pairs).reshape(-1, 2))
+    inl = np.asarray(getattr(result, "inliers", np.ones(k, bool)), dtype=bool)
+    return inl if inl.shape == (k,) else np.ones(k, bool)
 
 
 def _fraction(f: float) -> float:

@@ -132,7 +132,15 @@ def test_fit_task_runs_to_completion(dock, scene, qtbot):
     assert c.state.fit_info["rmse_px"] < 15
     assert "RMSE" in dock.resultLabel.text()
     assert c.overlay is not None and c.xyz is not None
-    assert dock.photo_view.residuals.band.numberOfVertices() > 0
+    # residual vectors: one per photo point the fit matched, from the point to its DEM match's projection
+    matched = c.state.fit_info["matched"]
+    assert len(matched) >= 10 and all(c.state.points[a].space == PHOTO for a, _ in matched)
+    residuals = c.residuals()
+    assert len(residuals) == len(matched)
+    assert np.median([np.hypot(b[0] - a[0], b[1] - a[1]) for _, a, b in residuals]) < 10
+    assert dock.photo_view.residuals.band.numberOfVertices() == 2 * len(residuals)
+    row = dock.table_model.row_of(matched[0][0])
+    assert dock.table_model.index(row, 5).data() != ""  # the table shows its residual
     # camera and footprint layers in the project
     roles = {lyr.customProperty("monoplot/role") for lyr in QgsProject.instance().mapLayers().values()}
     assert {"camera", "footprint"} <= roles
