@@ -330,6 +330,11 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
     def _on_selection(self, space: str, pid: str) -> None:
         view = self.photo_view if space == PHOTO else self.map_view
         view.redraw_selection()
+        partner = self.controller.state.partner(pid) if pid else None
+        if partner:  # a paired point brings its partner along on the other canvas
+            other = MAP if space == PHOTO else PHOTO
+            self.controller.current[other] = partner
+            (self.map_view if other == MAP else self.photo_view).redraw_selection()
         p = self.controller.state.points.get(pid)
         if p is not None and space == PHOTO:
             u0, v0, u1, v1 = self.photo_canvas.visible_uv_rect()

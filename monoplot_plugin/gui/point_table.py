@@ -12,7 +12,7 @@ from ..state import ACCEPTED, PHOTO, REJECTED, ProjectState
 __all__ = ["PointTableModel", "make_proxy", "ID_ROLE"]
 
 ID_ROLE = Qt.ItemDataRole.UserRole + 1
-_COLUMNS = ("View", "Status", "X / u", "Y / v", "Z (m)", "Residual (px)", "Pair", "Source")
+_COLUMNS = ("View", "Status", "X / u", "Y / v", "Z (m)", "Residual (px)", "Pair", "Source", "Id")
 _STATUS_COLORS = {ACCEPTED: QColor(0, 150, 60), REJECTED: QColor(200, 40, 40)}
 
 
@@ -84,7 +84,10 @@ class PointTableModel(QAbstractTableModel):
             partner = self.state.partner(pid)
             return "" if partner is None else partner
         if col == 7:
-            return self.tr("manual") if p.manual else self.tr("detector")
+            kind = self.tr("manual") if p.manual else self.tr("detector")
+            return f"{kind} ({p.label})" if p.label else kind
+        if col == 8:
+            return pid
         return None
 
 
