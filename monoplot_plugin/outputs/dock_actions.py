@@ -48,6 +48,7 @@ class OutputTools(QObject):
         self._xyz = self._distance = self._visible = None
         self.overlays: List[QgsVectorLayer] = []
         self._tasks: list = []  # running export tasks (kept referenced until done)
+        self._sky_told: dict = {}  # kind -> (sky pieces, dropped features) last reported
         canvas = dock.photo_canvas
         self.capture_tools = {kind: PhotoCaptureTool(canvas, self.current_session, kind) for kind in KINDS}
         self.edit_tool = PhotoEditTool(canvas, self.current_session)
@@ -142,7 +143,10 @@ class OutputTools(QObject):
         self._camera_changed()
 
     def _report_sky(self, kind: str, sky: int, dropped: int) -> None:
-        if sky or dropped:
+        # Tell once per change, not on every edit of an unrelated feature.
+        previous = self._sky_told.get(kind, (0, 0))
+        self._sky_told[kind] = (sky, dropped)
+        if (sky or dropped) and (sky, dropped) != previous:
             self._message(self.tr("{0}: {1} piece(s) over sky left out of the map layer, {2} feature(s) entirely "
                                   "over sky not mapped.").format(kind, sky, dropped), Qgis.MessageLevel.Warning)
 
