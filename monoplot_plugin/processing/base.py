@@ -72,6 +72,21 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
     def shortHelpString(self) -> str:
         return self.tr(self._help)
 
+    def processAlgorithm(self, parameters, context, feedback):
+        """Run :meth:`run_algorithm`; a cancel becomes a clean "Canceled." error, and the cached XYZ raster (large)
+        is released when the algorithm ends."""
+        from . import pipeline
+
+        try:
+            return self.run_algorithm(parameters, context, feedback)
+        except Canceled:
+            raise QgsProcessingException(self.tr("Canceled.")) from None
+        finally:
+            pipeline.clear_cache()
+
+    def run_algorithm(self, parameters, context, feedback):  # pragma: no cover - every algorithm overrides it
+        raise NotImplementedError
+
     # --- parameter helpers --------------------------------------------------------------------------------------
     def add_photo_parameter(self, name: str = "PHOTO", optional: bool = False, description: str = "Photo"):
         param = QgsProcessingParameterFile(name, self.tr(description), QgsProcessingParameterFile.File,

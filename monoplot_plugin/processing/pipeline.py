@@ -114,20 +114,27 @@ def point_rmse(camera: Camera, uv: np.ndarray, xyz: np.ndarray, paired: bool) ->
 
 
 # --- per-pixel XYZ ----------------------------------------------------------------------------------------------
-_XYZ_CACHE: Dict[Tuple[str, int], np.ndarray] = {}
+#: The last XYZ raster: camera JSON, the Dem object itself (held, so that a new Dem can never be mistaken for it),
+#: and the (H, W, 3) array.
+_XYZ_CACHE: Dict[str, object] = {}
 
 
 def xyz_raster(camera: Camera, dem, progress: Progress = None) -> np.ndarray:
-    """(H, W, 3) map coordinates of the ground seen through every pixel; NaN for sky. Cached per camera and DEM
-    (a time-lapse batch and the vector conversions reuse it)."""
-    key = (camera.to_json(), id(dem))
-    if key not in _XYZ_CACHE:
+    """(H, W, 3) map coordinates of the ground seen through every pixel; NaN for sky. The last one is kept (a
+    time-lapse batch and the vector conversions reuse it for the same camera and Dem object)."""
+    key = camera.to_json()
+    if _XYZ_CACHE.get("camera") != key or _XYZ_CACHE.get("dem") is not dem:
         from ..core.xyz import compute_xyz
 
         _XYZ_CACHE.clear()  # one entry: rasters are large
-        _XYZ_CACHE[key] = np.asarray(compute_xyz(camera, dem))
+        _XYZ_CACHE.update(camera=key, dem=dem, xyz=np.asarray(compute_xyz(camera, dem)))
     _tick(progress, 1.0)
-    return _XYZ_CACHE[key]
+    return _XYZ_CACHE["xyz"]
+
+
+def clear_cache() -> None:
+    """Forget the cached XYZ raster (and the DEM it holds)."""
+    _XYZ_CACHE.clear()
 
 
 def photo_to_map(camera: Camera, dem, uv: np.ndarray) -> np.ndarray:

@@ -202,3 +202,17 @@ def test_kml_camera_without_photo_says_what_is_missing(run_alg, small_scene, tmp
                    "<ViewVolume><leftFov>-20</leftFov><rightFov>20</rightFov></ViewVolume></PhotoOverlay></kml>")
     with pytest.raises(QgsProcessingException, match="needs the photo"):
         run_alg("computexyz", {"CAMERA": str(kml), "DEM": small_scene["dem"], "OUTPUT": str(tmp_path / "x.tif")})
+
+
+def test_cancel_during_feature_loop_is_a_clean_error_and_frees_the_cache(run_alg, small_scene):
+    from qgis.core import QgsProcessingFeedback
+
+    from monoplot_plugin.processing import pipeline
+
+    feedback = QgsProcessingFeedback()
+    feedback.cancel()
+    drawn = photo_polygon_layer([(40, 80), (120, 80), (120, 110), (40, 110)])
+    with pytest.raises(QgsProcessingException, match="Canceled"):
+        run_alg("phototomap", {"INPUT": drawn, "CAMERA": small_scene["camera"], "DEM": small_scene["dem"],
+                               "OUTPUT": "memory:"}, feedback)
+    assert not pipeline._XYZ_CACHE

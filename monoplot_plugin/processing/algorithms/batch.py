@@ -67,7 +67,7 @@ class BatchPhotos(MonoplotAlgorithm):
         self.addOutput(QgsProcessingOutputNumber("FAILED", self.tr("Photos skipped")))
         self.addOutput(QgsProcessingOutputFile("LOG", self.tr("Batch log (CSV)")))
 
-    def processAlgorithm(self, parameters, context, feedback):
+    def run_algorithm(self, parameters, context, feedback):
         mode = self.parameterAsEnum(parameters, "MODE", context)
         dem, crs = self.dem(parameters, context)
         out_dir = self.parameterAsString(parameters, "OUTPUT", context)

@@ -108,7 +108,7 @@ class FitCamera(MonoplotAlgorithm):
             uv, xyz = uv[np.isfinite(uv).all(axis=1)], xyz[good_xyz]
         return uv, xyz, paired
 
-    def processAlgorithm(self, parameters, context, feedback):
+    def run_algorithm(self, parameters, context, feedback):
         photo = self.photo_path(parameters, context)
         dem, crs = self.dem(parameters, context)
         prior = self.camera(parameters, context, "PRIOR", photo=photo, crs=crs)

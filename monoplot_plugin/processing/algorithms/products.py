@@ -55,7 +55,7 @@ class ComputeXyz(_CameraDemAlgorithm):
         self.addParameter(QgsProcessingParameterRasterDestination("OUTPUT", self.tr("XYZ raster")))
         self.addOutput(QgsProcessingOutputNumber("GROUND_FRACTION", self.tr("Fraction of pixels on the ground")))
 
-    def processAlgorithm(self, parameters, context, feedback):
+    def run_algorithm(self, parameters, context, feedback):
         camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
         out = self.parameterAsOutputLayer(parameters, "OUTPUT", context)
         xyz = pipeline.xyz_raster(camera, dem, progress_callback(feedback, 0, 80))
@@ -83,7 +83,7 @@ class PhotoToMap(_CameraDemAlgorithm):
         self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Map features")))
         self.addOutput(QgsProcessingOutputNumber("DROPPED", self.tr("Vertices dropped (sky)")))
 
-    def processAlgorithm(self, parameters, context, feedback):
+    def run_algorithm(self, parameters, context, feedback):
         source = self.parameterAsSource(parameters, "INPUT", context)
         if source is None:
             raise QgsProcessingException(self.invalidSourceError(parameters, "INPUT"))
@@ -128,7 +128,7 @@ class MapToPhoto(_CameraDemAlgorithm):
         self.addParameter(QgsProcessingParameterBoolean("HIDDEN", self.tr("Drop hidden parts"), defaultValue=True))
         self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Features on the photo")))
 
-    def processAlgorithm(self, parameters, context, feedback):
+    def run_algorithm(self, parameters, context, feedback):
         source = self.parameterAsSource(parameters, "INPUT", context)
         if source is None:
             raise QgsProcessingException(self.invalidSourceError(parameters, "INPUT"))
@@ -173,7 +173,7 @@ class Orthophoto(_CameraDemAlgorithm):
                                                        QgsProcessingParameterNumber.Double, 0.0, minValue=0.0))
         self.addParameter(QgsProcessingParameterRasterDestination("OUTPUT", self.tr("Orthophoto")))
 
-    def processAlgorithm(self, parameters, context, feedback):
+    def run_algorithm(self, parameters, context, feedback):
         camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
         photo = checked(read_photo, self.photo_path(parameters, context))
         if (photo.shape[1], photo.shape[0]) != tuple(camera.image_size):
@@ -202,7 +202,7 @@ class Report(_CameraDemAlgorithm):
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", self.tr("Report"),
                                                                 "PNG image (*.png);;PDF (*.pdf)"))
 
-    def processAlgorithm(self, parameters, context, feedback):
+    def run_algorithm(self, parameters, context, feedback):
         camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
         photo = checked(read_photo, self.photo_path(parameters, context))
         points = self.parameterAsFile(parameters, "POINTS_CSV", context) or None

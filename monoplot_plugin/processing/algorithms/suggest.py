@@ -32,7 +32,7 @@ class SuggestPhotoPoints(MonoplotAlgorithm):
                                                             QgsProcessing.TypeVectorPoint))
         self.addOutput(QgsProcessingOutputNumber("COUNT", self.tr("Number of points")))
 
-    def processAlgorithm(self, parameters, context, feedback):
+    def run_algorithm(self, parameters, context, feedback):
         photo = checked(read_photo, self.photo_path(parameters, context))
         count = self.parameterAsInt(parameters, "MAX_POINTS", context)
         feedback.pushInfo(self.tr(f"Photo {photo.shape[1]}x{photo.shape[0]} px; detecting up to {count} points"))
@@ -68,7 +68,7 @@ class SuggestDemPoints(MonoplotAlgorithm):
                                                             QgsProcessing.TypeVectorPoint))
         self.addOutput(QgsProcessingOutputNumber("COUNT", self.tr("Number of points")))
 
-    def processAlgorithm(self, parameters, context, feedback):
+    def run_algorithm(self, parameters, context, feedback):
         dem, crs = self.dem(parameters, context)
         camera = None
         if self.parameterAsFile(parameters, "CAMERA", context):
