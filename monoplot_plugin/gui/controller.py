@@ -7,7 +7,7 @@ All point edits go through ``self.stack`` (undo/redo); every change is written t
 from __future__ import annotations
 
 import math
-from typing import List, Optional, Sequence, Tuple
+from typing import List, Optional, Tuple
 
 import numpy as np
 from qgis.core import Qgis, QgsCoordinateReferenceSystem, QgsProject, QgsRasterLayer
@@ -15,12 +15,12 @@ from qgis.PyQt.QtCore import QObject, QTimer, pyqtSignal
 from qgis.PyQt.QtGui import QImage
 
 from ..adapters.dem import DemError, read_dem_layer
-from ..adapters.exif import read_exif_prior
 from ..adapters.photo import PhotoError, array_to_qimage, qimage_to_array, read_photo
 from ..core.camera import Camera
-from ..state import (ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, CommandStack, Point, ProjectState, add_points,
-                     link, move_point, remove_points, replace_suggestions, set_status, unlink)
+from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, replace_suggestions
 from . import engine, persistence
+from .curation import CurationMixin
+from .priors import PriorsMixin
 from .tasks import CANCELED, FunctionTask, TaskResult, start_task
 
 __all__ = ["MonoplotController"]
@@ -29,7 +29,7 @@ INFO, WARNING, CRITICAL, SUCCESS = (Qgis.MessageLevel.Info, Qgis.MessageLevel.Wa
                                     Qgis.MessageLevel.Critical, Qgis.MessageLevel.Success)
 
 
-class MonoplotController(QObject):
+class MonoplotController(PriorsMixin, CurationMixin, QObject):
     """State holder and workflow of one Monoplot session (one QGIS project).
 
     Signals:
@@ -148,177 +148,6 @@ class MonoplotController(QObject):
         self._changed()
         self._maybe_exif_prior()
         return True
-
-    # --- cameras ----------------------------------------------------------------------------------------------
-    @property
-    def prior(self) -> Optional[Camera]:
-        return Camera.from_dict(self.state.prior) if self.state.prior else None
-
-    @property
-    def fitted(self) -> Optional[Camera]:
-        return Camera.from_dict(self.state.fitted) if self.state.fitted else None
-
-    def camera(self) -> Optional[Camera]:
-        """The best camera known: the fitted one, else the prior."""
-        return self.fitted or self.prior
-
-    def set_prior(self, camera: Optional[Camera]) -> None:
-        self.state.prior = None if camera is None else camera.to_dict()
-        self.cameraChanged.emit()
-        self._changed()
-        if camera is not None and self.dem is not None and not engine.camera_sees_dem(camera, self.dem):
-            self.message.emit(self.tr("The rough camera does not look at the DEM: check position and heading."),
-                              WARNING)
-
-    def prior_from_map(self, x: float, y: float, heading: float, fov: float, pitch: float = 0.0,
-                       height_above_ground: float = 2.0) -> Optional[Camera]:
-        """A rough camera at map point (x, y) of the DEM CRS, looking towards ``heading`` (degrees from north)."""
-        if self.image is None or self.dem is None:
-            self.message.emit(self.tr("Load a photo and choose a DEM first."), WARNING)
-            return None
-        z = float(self.dem.sample(x, y))
-        if not math.isfinite(z):
-            self.message.emit(self.tr("The camera position is outside the DEM: its height is unknown."), WARNING)
-            return None
-        camera = Camera((x, y, z + height_above_ground), heading, pitch, 0.0, fov, self.photo_size,
-                        crs_wkt=self.dem.crs_wkt)
-        self.set_prior(camera)
-        return camera
-
-    def prior_from_exif(self, quiet: bool = False) -> bool:
-        """A rough camera from the photo's EXIF GPS position, altitude, direction and 35 mm focal length.
-
-        Missing altitude: 2 m above the DEM; missing direction: towards the DEM centre (redraw it if wrong)."""
-        if self.image is None or self.dem is None:
-            if not quiet:
-                self.message.emit(self.tr("Load a photo and choose a DEM first."), WARNING)
-            return False
-        exif = read_exif_prior(self.state.photo_path, self.photo_size)
-        if exif is None or not exif.has_position:
-            if not quiet:
-                self.message.emit(self.tr("The photo has no GPS position in its EXIF tags."), WARNING)
-            return False
-        x, y, convergence = engine.lonlat_to_crs(exif.lon, exif.lat, self.dem.crs_wkt)
-        ground = float(self.dem.sample(x, y))
-        if not math.isfinite(ground):
-            self.message.emit(self.tr("The photo's GPS position lies outside the DEM."), WARNING)
-            return False
-        z = exif.altitude if exif.altitude is not None else ground + 2.0
-        if exif.heading is not None:
-            heading, guessed = exif.heading - convergence, False
-        else:
-            (x0, y0), (x1, y1) = engine.dem_corners(self.dem)
-            heading, guessed = math.degrees(math.atan2((x0 + x1) / 2 - x, (y0 + y1) / 2 - y)), True
-        camera = Camera((x, y, max(z, ground + 1.0)), heading, 0.0, 0.0, exif.fov or 60.0, self.photo_size,
-                        crs_wkt=self.dem.crs_wkt)
-        self.set_prior(camera)
-        text = self.tr("Rough camera from the photo's EXIF GPS tags.")
-        if guessed:
-            text += " " + self.tr("No direction in EXIF: it looks at the DEM centre; draw it on the map if wrong.")
-        self.message.emit(text, INFO)
-        return True
-
-    def exif_fov(self) -> Optional[float]:
-        """Horizontal field of view from the photo's EXIF 35 mm focal length, or None."""
-        if not self.state.photo_path or self.image is None:
-            return None
-        exif = read_exif_prior(self.state.photo_path, self.photo_size)
-        return None if exif is None else exif.fov
-
-    def _maybe_exif_prior(self) -> None:
-        if not self._restoring and self.state.prior is None and self.image is not None and self.dem is not None:
-            self.prior_from_exif(quiet=True)
-
-    def import_kml(self, path: str) -> bool:
-        """Read a KML PhotoOverlay as the prior."""
-        if self.image is None or self.dem is None:
-            self.message.emit(self.tr("Load a photo and choose a DEM before importing a KML camera."), WARNING)
-            return False
-        try:
-            camera = Camera.from_kml(path, self.photo_size, self.dem.crs_wkt)
-        except (OSError, ValueError, RuntimeError) as exc:
-            self.message.emit(self.tr("Cannot read the KML camera: {0}").format(exc), CRITICAL)
-            return False
-        self.set_prior(camera)
-        self.message.emit(self.tr("Rough camera imported from {0}").format(path), INFO)
-        return True
-
-    # --- points -----------------------------------------------------------------------------------------------
-    def point_near(self, space: str, x: float, y: float, tolerance: float) -> Optional[str]:
-        """Id of the point of ``space`` nearest to (x, y) within ``tolerance`` (same units), or None."""
-        best, best_d = None, tolerance
-        for p in self.state.in_space(space):
-            d = math.hypot(p.x - x, p.y - y)
-            if d <= best_d:
-                best, best_d = p.id, d
-        return best
-
-    def select(self, space: str, pid: Optional[str]) -> None:
-        self.current[space] = pid or ""
-        self.selectionChanged.emit(space, pid or "")
-
-    def step(self, space: str, step: int = 1, only_suggested: bool = False) -> Optional[str]:
-        """Select the next/previous point of ``space`` (only the undecided ones if asked); returns its id."""
-        statuses = (SUGGESTED,) if only_suggested else (SUGGESTED, ACCEPTED, REJECTED)
-        pid = self.state.next_point(space, self.current[space] or None, step, statuses)
-        self.select(space, pid)
-        return pid
-
-    def set_status(self, ids: Sequence[str], status: str) -> None:
-        self.stack.push(set_status(self.state, ids, status))
-
-    def accept(self, pid: str) -> None:
-        self.set_status([pid], ACCEPTED)
-
-    def reject(self, pid: str) -> None:
-        self.set_status([pid], REJECTED)
-
-    def accept_all_in(self, space: str, rect: Tuple[float, float, float, float]) -> int:
-        """Accept every *suggested* point of ``space`` within (xmin, ymin, xmax, ymax); returns how many."""
-        x0, y0, x1, y1 = rect
-        ids = [p.id for p in self.state.in_space(space, (SUGGESTED,)) if x0 <= p.x <= x1 and y0 <= p.y <= y1]
-        self.stack.push(set_status(self.state, ids, ACCEPTED, self.tr("Accept {0} points in view").format(len(ids))))
-        return len(ids)
-
-    def reset_statuses(self, space: Optional[str] = None) -> None:
-        """Every detector suggestion (of one space, or both) back to "suggested"."""
-        ids = [p.id for p in self.state.points.values()
-               if not p.manual and (space is None or p.space == space) and p.status != SUGGESTED]
-        self.stack.push(set_status(self.state, ids, SUGGESTED, self.tr("Reset decisions")))
-
-    def add_manual(self, space: str, x: float, y: float) -> str:
-        z = None
-        if space == MAP and self.dem is not None:
-            zz = float(self.dem.sample(x, y))
-            z = zz if math.isfinite(zz) else None
-        p = Point.new(space, x, y, z, status=ACCEPTED, manual=True)
-        self.stack.push(add_points(self.state, [p], self.tr("Add point")))
-        self.select(space, p.id)
-        return p.id
-
-    def move(self, pid: str, x: float, y: float) -> None:
-        p = self.state.points[pid]
-        z = None
-        if p.space == MAP and self.dem is not None:
-            zz = float(self.dem.sample(x, y))
-            z = zz if math.isfinite(zz) else None
-        self.stack.push(move_point(self.state, pid, x, y, z))
-
-    def delete(self, ids: Sequence[str]) -> None:
-        self.stack.push(remove_points(self.state, ids))
-        for space in (PHOTO, MAP):
-            if self.current[space] in ids:
-                self.select(space, None)
-
-    def link(self, photo_id: str, map_id: str) -> None:
-        self.stack.push(link(self.state, photo_id, map_id))
-
-    def unlink(self, pid: str) -> None:
-        self.stack.push(unlink(self.state, pid))
-
-    def _on_points_changed(self, changed: set) -> None:
-        self.pointsChanged.emit(changed)
-        self._changed()
 
     # --- background work --------------------------------------------------------------------------------------
     @property

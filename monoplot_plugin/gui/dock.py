@@ -26,6 +26,7 @@ from . import engine
 from .controller import MonoplotController
 from .photo_canvas import PhotoCanvas
 from .point_table import ID_ROLE, PointTableModel, make_proxy
+from .summary import fit_summary_html
 from .tools import CurationTool, RoughCameraTool, SpaceMapping
 from .views import MapPresenter, PhotoPresenter
 
@@ -257,36 +258,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
 
     def _result_text(self) -> str:
         c = self.controller
-        fitted, info = c.fitted, c.state.fit_info
-        if fitted is None:
-            return self.tr("Not fitted yet.")
-        x, y, z = fitted.position
-        sigma = info.get("sigma") or {}
-
-        def sig(name: str, fmt: str = "{:.1f}") -> str:
-            return (" ± " + fmt.format(sigma[name])) if name in sigma and math.isfinite(sigma[name]) else ""
-
-        rmse = info.get("rmse_px")
-        loo = info.get("loo_rmse_px")
-        head = self.tr("RMSE <b>{0}</b>{1} · {2} photo / {3} DEM points{4}").format(
-            "—" if rmse is None else f"{rmse:.1f} px",
-            "" if loo is None else self.tr(" (leave-one-out {0:.1f} px)").format(loo),
-            info.get("n_photo", 0), info.get("n_map", 0),
-            self.tr(", {0} pairs").format(info["n_pairs"]) if info.get("n_pairs") else "")
-        deg = "{:.2f}"
-        cells = [("X", f"{x:.0f} m{sig('x', '{:.0f}')}"),
-                 (self.tr("Heading"), f"{fitted.heading % 360:.2f}°{sig('heading', deg)}"),
-                 ("Y", f"{y:.0f} m{sig('y', '{:.0f}')}"),
-                 (self.tr("Pitch"), f"{fitted.pitch:.2f}°{sig('pitch', deg)}"),
-                 ("Z", f"{z:.0f} m{sig('z', '{:.0f}')}" if not info.get("on_ground") else
-                  self.tr("{0:.0f} m (ground + {1:.0f} m)").format(z, info.get("eye_height_m") or 0.0)),
-                 (self.tr("Roll"), f"{fitted.roll:.2f}°{sig('roll', deg)}"),
-                 ("", ""), (self.tr("Field of view"), f"{fitted.fov:.2f}°{sig('fov', deg)}")]
-        html = "".join("<tr>" + "".join(f"<td>{k}&nbsp;</td><td>{v}&nbsp;&nbsp;&nbsp;</td>" for k, v in pair)
-                       + "</tr>" for pair in zip(cells[0::2], cells[1::2]))
-        note = "" if info.get("converged", True) else "<p style='color:#c00'>" + info.get("message", "") + "</p>"
-        html = f"<p>{head}</p><table>{html}</table>"
-        return html + note
+        return fit_summary_html(c.fitted, c.state.fit_info, self.tr)
 
     def _residual_by_id(self):
         """Residual length (px) per matched photo point id, for the table."""

@@ -14,13 +14,13 @@ RoughCameraTool (main map): press at the camera position, drag towards the view 
 from __future__ import annotations
 
 import math
-from typing import Callable, Optional, Tuple
+from typing import Optional, Tuple
 
 from qgis.core import QgsCoordinateReferenceSystem, QgsCoordinateTransform, QgsPointXY, QgsProject
 from qgis.gui import QgsMapCanvas, QgsMapMouseEvent, QgsMapTool
 from qgis.PyQt.QtCore import Qt, pyqtSignal
 
-from ..state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED
+from ..state import MAP, PHOTO, SUGGESTED
 from .photo_canvas import map_to_uv, uv_to_map
 
 __all__ = ["CurationTool", "RoughCameraTool", "SpaceMapping"]

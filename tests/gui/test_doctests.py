@@ -6,7 +6,8 @@ import importlib
 import pytest
 
 MODULES = ["monoplot_plugin.state", "monoplot_plugin.adapters.exif", "monoplot_plugin.adapters.dem",
-           "monoplot_plugin.gui.engine", "monoplot_plugin.gui.tools", "monoplot_plugin.gui.tasks"]
+           "monoplot_plugin.gui.engine", "monoplot_plugin.gui.tools", "monoplot_plugin.gui.tasks",
+           "monoplot_plugin.gui.summary"]
 
 
 @pytest.mark.parametrize("name", MODULES)

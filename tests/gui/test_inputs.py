@@ -10,7 +10,6 @@ from qgis.core import Qgis, QgsPointXY, QgsProject, QgsRasterLayer
 from qgis.PyQt.QtCore import QPoint, Qt
 from qgis.PyQt.QtGui import QColor, QImage, QImageIOHandler, QImageWriter
 
-from monoplot_plugin.state import MAP
 
 
 def test_exif_orientation_is_honoured(dock, tmp_path):
@@ -92,8 +91,6 @@ def test_rough_camera_drawn_by_press_and_drag(dock, scene, qtbot):
 
 
 def test_map_cursor_says_hidden_behind_terrain(dock, scene, qtbot):
-    from monoplot_plugin.gui import engine
-
     c = dock.controller
     dock.photoFile.setFilePath(scene.photo_path)
     dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])

@@ -1,0 +1,50 @@
+"""The fit summary shown in the dock: RMSE, leave-one-out RMSE, point counts and every parameter with its sigma."""
+
+from __future__ import annotations
+
+import math
+from typing import Callable, Optional
+
+from ..core.camera import Camera
+
+__all__ = ["fit_summary_html"]
+
+
+def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], str] = str) -> str:
+    """Rich text for the results label (``tr`` translates the user-visible words).
+
+    >>> cam = Camera((600000, 200000, 2500), 300, -9, 1, 60, (1024, 768))
+    >>> html = fit_summary_html(cam, {"rmse_px": 6.4, "n_photo": 70, "n_map": 66, "sigma": {"x": 44.0}})
+    >>> "RMSE <b>6.4 px</b>" in html and "600000 m ± 44" in html
+    True
+    """
+    if fitted is None:
+        return tr("Not fitted yet.")
+    x, y, z = fitted.position
+    sigma = info.get("sigma") or {}
+
+    def sig(name: str, fmt: str = "{:.1f}") -> str:
+        return (" ± " + fmt.format(sigma[name])) if name in sigma and math.isfinite(sigma[name]) else ""
+
+    rmse = info.get("rmse_px")
+    loo = info.get("loo_rmse_px")
+    head = tr("RMSE <b>{0}</b>{1} · {2} photo / {3} DEM points{4}").format(
+        "—" if rmse is None else f"{rmse:.1f} px",
+        "" if loo is None else tr(" (leave-one-out {0:.1f} px)").format(loo),
+        info.get("n_photo", 0), info.get("n_map", 0),
+        tr(", {0} pairs").format(info["n_pairs"]) if info.get("n_pairs") else "")
+    deg = "{:.2f}"
+    cells = [("X", f"{x:.0f} m{sig('x', '{:.0f}')}"),
+             (tr("Heading"), f"{fitted.heading % 360:.2f}°{sig('heading', deg)}"),
+             ("Y", f"{y:.0f} m{sig('y', '{:.0f}')}"),
+             (tr("Pitch"), f"{fitted.pitch:.2f}°{sig('pitch', deg)}"),
+             ("Z", f"{z:.0f} m{sig('z', '{:.0f}')}" if not info.get("on_ground") else
+              tr("{0:.0f} m (ground + {1:.0f} m)").format(z, info.get("eye_height_m") or 0.0)),
+             (tr("Roll"), f"{fitted.roll:.2f}°{sig('roll', deg)}"),
+             ("", ""), (tr("Field of view"), f"{fitted.fov:.2f}°{sig('fov', deg)}")]
+    html = "".join("<tr>" + "".join(f"<td>{k}&nbsp;</td><td>{v}&nbsp;&nbsp;&nbsp;</td>" for k, v in pair)
+                   + "</tr>" for pair in zip(cells[0::2], cells[1::2]))
+    note = "" if info.get("converged", True) else "<p style='color:#c00'>" + info.get("message", "") + "</p>"
+    html = f"<p>{head}</p><table>{html}</table>"
+    return html + note
+
