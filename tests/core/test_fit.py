@@ -268,3 +268,16 @@ def test_doctests_of_fit_and_suggest_modules(name):
     module = importlib.import_module(f"monoplot_plugin.core.{name}")
     result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
     assert result.attempted > 0 and result.failed == 0
+
+
+def test_wrongly_accepted_photo_points_do_not_drag_the_fit():
+    photo, world = unpaired_problem(seed=14)
+    rng = np.random.default_rng(14)
+    junk = np.c_[rng.uniform(0, 1024, 25), rng.uniform(0, 768, 25)]  # accepted by mistake: no DEM counterpart
+    start = TRUTH.with_parameters(heading=TRUTH.heading + 2, pitch=TRUTH.pitch - 1, fov=TRUTH.fov * 1.04)
+    result = fit_camera(np.vstack([photo, junk]), world, start)
+    assert angle_error(result.camera) < 0.05, result.message
+    assert (~result.inliers).sum() + (len(photo) + 25 - len(result.pairs)) >= 20  # the junk is left out
+    exact = fit_camera(np.vstack([photo, junk]), world, start, refine=False, coarse=False, robust=False,
+                       centroid_weight=1.0, n_starts=1, n_escapes=0)  # the paper's method, exactly
+    assert exact.n_starts == 1 and len(exact.pairs) == 0
