@@ -285,3 +285,28 @@ def test_manual_map_point_add_and_move_on_the_main_map(dock, scene, qtbot):
     moved = c.state.points[pid]
     assert abs(moved.x - (p.x + 1000.0)) < 2 * canvas.mapUnitsPerPixel()
     assert moved.z == pytest.approx(scene.dem.sample(moved.x, moved.y))
+
+
+def test_autosave_recovers_work_after_a_crash(dock, scene, qtbot, tmp_path):
+    """Points curated after the last project save survive: the autosave file beside the project is newer."""
+    import os
+    import time
+
+    from monoplot_plugin.gui import persistence
+
+    load_inputs(dock, scene, qtbot)
+    photo, _ = add_scene_points(dock, scene, n=4)
+    c = dock.controller
+    path = str(tmp_path / "crash.qgz")
+    assert QgsProject.instance().write(path)
+    old = os.path.getmtime(path)
+    os.utime(path, (old - 10, old - 10))  # the save happened a while ago
+    c.accept(photo[3].id)  # work after the save...
+    qtbot.waitUntil(lambda: os.path.exists(persistence.autosave_path(QgsProject.instance())), timeout=3000)
+    qtbot.waitUntil(lambda: '"accepted"' in open(persistence.autosave_path(QgsProject.instance())).read(),
+                    timeout=3000)
+    # ...then "crash": the project on disk lacks it; reopening restores it from the autosave
+    QgsProject.instance().clear()
+    assert QgsProject.instance().read(path)
+    qtbot.waitUntil(lambda: c.image is not None, timeout=5000)
+    assert c.state.points[photo[3].id].status == ACCEPTED
