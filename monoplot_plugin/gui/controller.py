@@ -80,14 +80,22 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
         self._autosave.setInterval(autosave_delay_ms)
         self._autosave.timeout.connect(self.save)
         self.project.layersWillBeRemoved.connect(self._layers_removed)
+        # (re)write the entry while the project is being written: paths are made relative to its (new) file
+        self.project.writeProject.connect(self._project_writing)
 
     def detach(self) -> None:
         """Stop listening to the project (the dock is going away)."""
         self._autosave.stop()
-        try:
-            self.project.layersWillBeRemoved.disconnect(self._layers_removed)
-        except (TypeError, RuntimeError):
-            pass
+        for signal, slot in ((self.project.layersWillBeRemoved, self._layers_removed),
+                             (self.project.writeProject, self._project_writing)):
+            try:
+                signal.disconnect(slot)
+            except (TypeError, RuntimeError):
+                pass
+
+    def _project_writing(self, *args) -> None:
+        if not self._restoring:
+            persistence.store_in_project(self.project, self.state)
 
     def _layers_removed(self, layer_ids) -> None:
         """Forget the layer object (not the in-memory DEM) when the user removes the DEM layer."""
@@ -365,7 +373,7 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
     def restore(self) -> bool:
         """Load the state stored in the project (after projectRead); falls back to a newer autosave."""
         self._autosave.stop()  # a pending autosave of the previous project must not overwrite this one
-        state = persistence.load(self.project)
+        state, source = persistence.load_with_source(self.project)
         self._restoring = True
         try:
             self.stack.reset(state or ProjectState())
@@ -386,6 +394,9 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
             self.ensure_products()
             self.cameraChanged.emit()
             self.pointsChanged.emit(set())
+            if source == "autosave":
+                self.message.emit(self.tr("Monoplot restored work done after the project was last saved "
+                                          "(autosave)."), INFO)
             return True
         finally:
             self._restoring = False

@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import json
 import os
-from typing import Optional
+from typing import Optional, Tuple
 
 from qgis.core import QgsApplication, QgsMessageLog, QgsProject, Qgis
 
 from ..state import ProjectState
 
-__all__ = ["SCOPE", "KEY", "store_in_project", "save", "load", "autosave_path", "read_autosave"]
+__all__ = ["SCOPE", "KEY", "store_in_project", "save", "load", "load_with_source", "autosave_path", "read_autosave"]
 
 SCOPE, KEY = "monoplot", "/state"
 
@@ -32,9 +32,18 @@ def autosave_path(project: QgsProject) -> str:
     return os.path.join(folder, "autosave-unsaved-project.json")
 
 
+def _for_project(project: QgsProject, state: ProjectState) -> str:
+    """JSON for the project file: the photo path written the way the project writes its layer paths (relative to
+    the project when it is saved with relative paths, the default), so a moved project folder keeps its photo."""
+    d = state.to_dict()
+    if d["photo_path"]:
+        d["photo_path"] = project.writePath(d["photo_path"])
+    return json.dumps(d, indent=1)
+
+
 def store_in_project(project: QgsProject, state: ProjectState) -> str:
     """Store ``state`` in the project's properties (marks the project modified); returns the JSON text."""
-    text = state.to_json()
+    text = _for_project(project, state)
     text_before, _ = project.readEntry(SCOPE, KEY, "")
     if text != text_before:
         project.writeEntry(SCOPE, KEY, text)
@@ -42,8 +51,9 @@ def store_in_project(project: QgsProject, state: ProjectState) -> str:
 
 
 def save(project: QgsProject, state: ProjectState) -> None:
-    """Store ``state`` in the project and in the autosave file (atomic replace)."""
-    text = store_in_project(project, state)
+    """Store ``state`` in the project and in the autosave file (atomic replace; absolute paths)."""
+    store_in_project(project, state)
+    text = state.to_json()
     path = autosave_path(project)
     try:
         tmp = path + ".tmp"
@@ -63,12 +73,19 @@ def read_autosave(path: str) -> Optional[ProjectState]:
 
 
 def load(project: QgsProject) -> Optional[ProjectState]:
-    """The state stored in ``project``, or a newer autosave of it, or None."""
+    """The state stored in ``project``, or a newer autosave of it, or None (see :func:`load_with_source`)."""
+    return load_with_source(project)[0]
+
+
+def load_with_source(project: QgsProject) -> Tuple[Optional[ProjectState], str]:
+    """(state, "project" | "autosave" | "") — the autosave wins when it is newer than the project file."""
     text, found = project.readEntry(SCOPE, KEY, "")
-    state = None
+    state, source = None, ""
     if found and text:
         try:
-            state = ProjectState.from_json(text)
+            state, source = ProjectState.from_json(text), "project"
+            if state.photo_path:
+                state.photo_path = project.readPath(state.photo_path)
         except (ValueError, TypeError, KeyError, json.JSONDecodeError) as exc:
             QgsMessageLog.logMessage(f"Monoplot state in the project is unreadable: {exc}", "Monoplot",
                                      Qgis.MessageLevel.Warning)
@@ -78,5 +95,5 @@ def load(project: QgsProject) -> Optional[ProjectState]:
         if os.path.exists(path) and os.path.exists(name) and os.path.getmtime(path) > os.path.getmtime(name) + 1:
             newer = read_autosave(path)
             if newer is not None:
-                state = newer
-    return state
+                state, source = newer, "autosave"
+    return state, source

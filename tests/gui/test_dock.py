@@ -310,3 +310,28 @@ def test_autosave_recovers_work_after_a_crash(dock, scene, qtbot, tmp_path):
     assert QgsProject.instance().read(path)
     qtbot.waitUntil(lambda: c.image is not None, timeout=5000)
     assert c.state.points[photo[3].id].status == ACCEPTED
+
+
+def test_moved_project_folder_keeps_its_photo(dock, scene, qtbot, tmp_path):
+    import shutil
+
+    folder = tmp_path / "fieldwork"
+    folder.mkdir()
+    shutil.copy(scene.photo_path, folder / "photo.png")
+    shutil.copy(scene.dem_path, folder / "dem.tif")
+    project = QgsProject.instance()
+    project.clear()
+    from qgis.core import QgsRasterLayer
+
+    layer = QgsRasterLayer(str(folder / "dem.tif"), "synthetic DEM")
+    project.addMapLayer(layer)
+    dock.photoFile.setFilePath(str(folder / "photo.png"))
+    dock.demCombo.setLayer(layer)
+    assert project.write(str(folder / "survey.qgz"))
+    project.clear()
+    moved = tmp_path / "archive" / "fieldwork"
+    shutil.move(str(folder), str(moved))  # e.g. the folder was copied to another disk
+    assert project.read(str(moved / "survey.qgz"))
+    c = dock.controller
+    qtbot.waitUntil(lambda: c.image is not None, timeout=5000)
+    assert c.state.photo_path == str(moved / "photo.png") and c.dem is not None
