@@ -11,6 +11,7 @@ Extension points (used by the outputs issue):
 from __future__ import annotations
 
 import math
+import os
 from typing import Optional
 
 from qgis.core import Qgis, QgsApplication, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer
@@ -164,7 +165,8 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
 
     # --- inputs -----------------------------------------------------------------------------------------------
     def _photo_chosen(self, path: str) -> None:
-        if path and path != self.controller.state.photo_path:
+        # the file widget reports every keystroke of a typed path: act once it names an existing file
+        if path and path != self.controller.state.photo_path and os.path.isfile(path):
             self.controller.load_photo(path)
 
     def _dem_chosen(self, layer) -> None:

@@ -148,3 +148,12 @@ def test_rough_camera_from_exif_gps(dock, scene, tmp_path):
     assert abs(prior.position[2] - scene.camera.position[2]) < 0.2
     assert abs(prior.fov - 60.2) < 0.5  # 2 atan(18 / 31)
     assert 8.0 < prior.heading < 12.0  # true north -> grid north: within a couple of degrees in Switzerland
+
+
+def test_typing_a_photo_path_loads_it_once_complete(dock, scene, qtbot, qgis_iface):
+    qgis_iface.messageBar().clear_messages()
+    edit = dock.photoFile.lineEdit()
+    edit.clear()
+    qtbot.keyClicks(edit, scene.photo_path)  # every keystroke changes the path
+    assert dock.controller.state.photo_path == scene.photo_path and dock.controller.image is not None
+    assert not qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Critical)  # no error for partial paths
