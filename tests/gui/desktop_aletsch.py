@@ -5,7 +5,7 @@ Run it (not a pytest module) with ``tests/gui/run_desktop_aletsch.sh``, i.e.
 It loads dem.tif and photo.jpg, imports prior_pose.kml, suggests points, accepts those in view, fits the camera,
 shows residuals and the DEM overlay at 50 %, moves the linked cursor, and saves screenshots and a JSON summary to
 test-artifacts/ (gitignored): aletsch_1_suggestions.png, aletsch_2_fit.png, aletsch_3_floating.png,
-aletsch_session.json. The fitted camera is checked against the 11 independent GCPs (never used as input).
+aletsch_4_residuals_closeup.png, aletsch_session.json. The fitted camera is checked against the 11 independent GCPs (never used as input).
 """
 
 import csv
@@ -200,6 +200,17 @@ def step6_screenshots():
     def grab_dock():
         path = OUT / "aletsch_3_floating.png"
         dock.grab().save(str(path))  # a floating dock is its own window: grab it, not the main window
+        log("screenshot", path=str(path))
+        # close-up of the skyline: residual vectors from each matched photo point to its DEM point
+        from qgis.core import QgsRectangle
+
+        dock.photo_canvas.setExtent(QgsRectangle(280.0, -260.0, 760.0, -20.0))
+        dock.photo_canvas.refresh()
+        QTimer.singleShot(1200, grab_zoom)
+
+    def grab_zoom():
+        path = OUT / "aletsch_4_residuals_closeup.png"
+        dock.grab().save(str(path))
         log("screenshot", path=str(path))
         finish()
 
