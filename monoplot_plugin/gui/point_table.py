@@ -26,10 +26,16 @@ class PointTableModel(QAbstractTableModel):
         self.residuals: Dict[str, float] = {}
 
     def refresh(self, residuals: Optional[Dict[str, float]] = None) -> None:
-        self.beginResetModel()
-        self._ids = list(self.state.points)
+        """Follow the state. When the same points are still there (status changes, moves), the rows are updated in
+        place so the view keeps its scroll position and selection; otherwise the model is reset."""
         if residuals is not None:
             self.residuals = dict(residuals)
+        ids = list(self.state.points)
+        if ids == self._ids and ids:
+            self.dataChanged.emit(self.index(0, 0), self.index(len(ids) - 1, len(_COLUMNS) - 1))
+            return
+        self.beginResetModel()
+        self._ids = ids
         self.endResetModel()
 
     def point_id(self, row: int) -> str:
