@@ -93,6 +93,17 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
             except (TypeError, RuntimeError):
                 pass
 
+    def _readd_dem(self, source: str) -> Optional[QgsRasterLayer]:
+        """The DEM layer was removed from the project: add its file back (the curation needs it)."""
+        layer = QgsRasterLayer(source, self.tr("DEM (Monoplot)"))
+        if not layer.isValid():
+            self.message.emit(self.tr("The DEM of this Monoplot session is missing: {0}").format(source), WARNING)
+            return None
+        self.project.addMapLayer(layer)
+        self.message.emit(self.tr("The DEM layer was missing from the project; Monoplot added {0} again.")
+                          .format(source), INFO)
+        return layer
+
     def _project_writing(self, *args) -> None:
         if not self._restoring:
             persistence.store_in_project(self.project, self.state)
@@ -389,6 +400,8 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
             if state.photo_path:
                 self.load_photo(state.photo_path)
             layer = self.project.mapLayer(state.dem_layer_id) if state.dem_layer_id else None
+            if not isinstance(layer, QgsRasterLayer) and state.dem_source:
+                layer = self._readd_dem(state.dem_source)
             if isinstance(layer, QgsRasterLayer):
                 self.set_dem_layer(layer)
             self.ensure_products()

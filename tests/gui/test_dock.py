@@ -335,3 +335,18 @@ def test_moved_project_folder_keeps_its_photo(dock, scene, qtbot, tmp_path):
     c = dock.controller
     qtbot.waitUntil(lambda: c.image is not None, timeout=5000)
     assert c.state.photo_path == str(moved / "photo.png") and c.dem is not None
+
+
+def test_reopening_without_the_dem_layer_adds_it_back(dock, scene, qtbot, tmp_path):
+    load_inputs(dock, scene, qtbot)
+    project = QgsProject.instance()
+    path = str(tmp_path / "nodem.qgz")
+    dem_id = dock.controller.state.dem_layer_id
+    project.removeMapLayer(dem_id)  # the user removed the DEM layer, then saved
+    assert dock.controller.dem is not None  # the in-memory copy stays usable meanwhile
+    assert project.write(path)
+    project.clear()
+    assert project.read(path)
+    c = dock.controller
+    qtbot.waitUntil(lambda: c.dem_layer is not None, timeout=5000)
+    assert c.dem_layer.source() == scene.dem_path and c.dem_layer.id() in project.mapLayers()
