@@ -13,12 +13,12 @@ centroid term dominates while the projection is far from the points and vanishes
 centroids of two unequal point sets need not coincide). DEM points behind the camera or projecting outside the
 image (plus a margin) take part in neither term: out-of-view points must not attract the fit.
 
-With ``robust=False, centroid_weight=1, coarse=False, n_starts=1, n_escapes=0, refine=False`` :func:`fit_camera`
-is exactly that. The defaults differ where measurements said so (eval/aletsch.py): the centroid term is off
-(``centroid_weight=0``: with a few wrongly accepted points, the centroids of the two sets differ and the term pulls
-the camera away; 1 % of the rejected suggestions added moved the Aletsch fit 200 px off with it, 10 px without), and
-each distance saturates (``robust``, :func:`unpaired_loss`). Wide starts are handled by the coarse-to-fine pass and
-the multi-start instead.
+With ``robust=False, coarse=False, n_starts=1, n_escapes=0, refine=False`` :func:`fit_camera` is exactly that.
+The defaults differ where measurements said so (eval/aletsch.py): each distance saturates (``robust``,
+:func:`unpaired_loss`), and when the first descent leaves many photo points unmatched, the initial camera is tried
+again *without* the centroid term (with a few wrongly accepted points the centroids of the two sets differ and the
+term pulls the camera away: 1 % of the rejected Aletsch suggestions added moved the fit 200 px off with it, 12 px
+without), then the other starts.
 
 Then, beyond the paper:
 
@@ -201,7 +201,7 @@ def mutual_nearest_pairs(image_points: np.ndarray, projected: np.ndarray, usable
 def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Optional[Iterable[str]] = None, *,
                ground=None, eye_height: float = 1.7, check_image_points=None, check_world_points=None,
                n_starts: int = 12, n_escapes: int = 6, view_margin: float = 0.1, gate_px: Optional[float] = None,
-               refine: bool = True, coarse: bool = True, robust=True, centroid_weight: float = 0.0, time_budget_s: float = 8.0, switch_ratio: float = 0.8,
+               refine: bool = True, coarse: bool = True, robust=True, centroid_weight: float = 1.0, time_budget_s: float = 8.0, switch_ratio: float = 0.8,
                seed: int = 0,
                progress: Optional[Callable[[float, str], None]] = None,
                is_canceled: Optional[Callable[[], bool]] = None) -> FitResult:
@@ -228,7 +228,8 @@ def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Op
         robust: unpaired mode only: True = each nearest distance of the paper's loss passes through
             ``c tanh(d / c)`` with ``c`` = 6 % of the image diagonal (a wrongly accepted point stops pulling once far
             from every DEM point); a number = that ``c`` in pixels; False or None = the paper's loss exactly.
-        centroid_weight: unpaired mode only: factor on the paper's adaptive lambda (0 = no centroid term).
+        centroid_weight: unpaired mode only: factor on the paper's adaptive lambda in the first descent (0 = no
+            centroid term); the later starts always go without it.
         coarse: unpaired mode only: a coarse-to-fine pass on a smoothed nearest distance before the paper's loss
             at every start (False = the paper's descent alone).
         time_budget_s: no new start or basin escape begins after this many seconds (the best so far is kept).
@@ -562,13 +563,18 @@ class _Fitter:
 
         # The initial camera is tried first with the paper's descent alone (fast when it is good enough), then
         # with the coarse-to-fine pass, then the other starts (coarse-to-fine when enabled).
-        plan = [(starts[0], False)] + [(u0, self.coarse) for u0 in starts[:1 if self.coarse else 0] + starts[1:]]
+        # The first descent is the paper's (with its centroid term); the initial camera is then tried again
+        # without it (robust to wrongly accepted points, which shift the centroids), with the coarse-to-fine pass.
+        plan = [(starts[0], False, self.centroid_weight)]
+        if self.coarse or self.centroid_weight:
+            plan.append((starts[0], self.coarse, 0.0))
+        plan += [(u0, self.coarse, 0.0) for u0 in starts[1:]]
         total = len(plan) + max(0, n_escapes) + 2
-        for i, (u0, coarse) in enumerate(plan):
+        for i, (u0, coarse, centroid) in enumerate(plan):
             if i > 0 and time.perf_counter() - t0 > self.time_budget_s:
                 break
             self.report(0.8 * i / total, f"unpaired fit: start {i + 1}")
-            u = self._descend(space, u0, q_t, P_t, coarse=coarse)
+            u = self._descend(space, u0, q_t, P_t, coarse=coarse, centroid_weight=centroid)
             score = self._score(space, u, cap)
             self.starts_tried += 1
             self.remember(score, space.camera(u))
@@ -591,7 +597,7 @@ class _Fitter:
                 u0 = best[1] + self._jump(space, 0.5)
                 if not space.valid(u0):
                     continue
-                u = self._descend(space, u0, q_t, P_t, coarse=self.coarse)
+                u = self._descend(space, u0, q_t, P_t, coarse=self.coarse, centroid_weight=0.0)
                 score = self._score(space, u, cap)
                 self.starts_tried += 1
                 self.remember(score, space.camera(u))
@@ -641,7 +647,7 @@ class _Fitter:
         return ok
 
     def _descend(self, space: ParameterSpace, u0: np.ndarray, q_t, P_t, rounds: int = 6,
-                 iterations: int = 20, coarse: bool = True) -> np.ndarray:
+                 iterations: int = 20, coarse: bool = True, centroid_weight: float = 1.0) -> np.ndarray:
         """The paper's descent: L-BFGS on :func:`unpaired_loss`, ``lambda`` updated between rounds; preceded
         (``coarse=True``) by a coarse-to-fine pass on a smoothed version of the same nearest distance
         (:func:`soft_nearest_loss`, scale 8 %, 4 %, 2 % then 1 % of the image diagonal), which widens the basin of
@@ -686,7 +692,7 @@ class _Fitter:
                     return u.detach().numpy()
                 _, nearest = unpaired_loss(q_t, uv, usable, 0.0)
             mean_nearest = float(nearest.mean())
-            lam = self.centroid_weight * (mean_nearest / (mean_nearest + 0.02 * diag)) / diag
+            lam = centroid_weight * (mean_nearest / (mean_nearest + 0.02 * diag)) / diag
             optimiser = torch.optim.LBFGS([u], lr=1.0, max_iter=iterations, history_size=10,
                                           line_search_fn="strong_wolfe", tolerance_grad=1e-9,
                                           tolerance_change=1e-10)
