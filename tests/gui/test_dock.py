@@ -350,3 +350,21 @@ def test_reopening_without_the_dem_layer_adds_it_back(dock, scene, qtbot, tmp_pa
     c = dock.controller
     qtbot.waitUntil(lambda: c.dem_layer is not None, timeout=5000)
     assert c.dem_layer.source() == scene.dem_path and c.dem_layer.id() in project.mapLayers()
+
+
+def test_unload_leaves_nothing_on_the_main_map(qgis_iface, qtbot, dem_layer, scene):
+    from monoplot_plugin.gui.dock import MonoplotDock
+
+    canvas = qgis_iface.mapCanvas()
+    before = len(canvas.scene().items())
+    d = MonoplotDock(qgis_iface)
+    qtbot.addWidget(d)
+    d.photoFile.setFilePath(scene.photo_path)
+    d.demCombo.setLayer(dem_layer)
+    d.controller.set_prior(scene.prior)
+    d.mapToolButton.setChecked(True)
+    assert len(canvas.scene().items()) > before and canvas.mapTool() is d.map_tool
+    d.unload()
+    d.unload()  # a second call (QGIS quitting after the plugin unloaded) is harmless
+    assert len(canvas.scene().items()) == before
+    assert canvas.mapTool() is not d.map_tool
