@@ -45,7 +45,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Dict, Iterable, List, Optional, Sequence, Tuple
+from typing import Callable, Dict, Iterable, List, Optional, Tuple
 
 import numpy as np
 
@@ -201,8 +201,8 @@ def mutual_nearest_pairs(image_points: np.ndarray, projected: np.ndarray, usable
 def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Optional[Iterable[str]] = None, *,
                ground=None, eye_height: float = 1.7, check_image_points=None, check_world_points=None,
                n_starts: int = 12, n_escapes: int = 6, view_margin: float = 0.1, gate_px: Optional[float] = None,
-               refine: bool = True, coarse: bool = True, robust=True, centroid_weight: float = 1.0, time_budget_s: float = 8.0, switch_ratio: float = 0.8,
-               seed: int = 0,
+               refine: bool = True, coarse: bool = True, robust=True, centroid_weight: float = 1.0,
+               time_budget_s: float = 8.0, switch_ratio: float = 0.8, seed: int = 0,
                progress: Optional[Callable[[float, str], None]] = None,
                is_canceled: Optional[Callable[[], bool]] = None) -> FitResult:
     """Fit a camera to photo points and DEM points.
