@@ -397,6 +397,9 @@ class _Fitter:
         if not (depth > 0).any():
             return ("Every DEM point is behind the initial camera: check its heading and position (the fit needs a "
                     "rough camera that looks towards the points).")
+        if not self.initial.in_image(uv, margin=max(self.initial.image_size)).any():
+            return (f"None of the {len(self.world)} DEM points falls in or near the initial camera's view: check its "
+                    f"heading, pitch and field of view (the fit needs a rough camera that sees the points).")
         return ""
 
     # --- paired mode -----------------------------------------------------------------------------------------

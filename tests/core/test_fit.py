@@ -174,6 +174,9 @@ def test_unpaired_refusal_names_the_missing_points():
     behind = np.asarray(TRUTH.position) - np.array([[0, 0, 0]]) - TRUTH.forward * 1000 + np.arange(12)[:, None]
     result = fit_camera(np.random.default_rng(0).uniform(0, 500, (12, 2)), behind, TRUTH)
     assert result.status == "refused" and "behind" in result.message
+    aside = world_points(30, seed=3, camera=TRUTH.with_parameters(heading=TRUTH.heading + 120))
+    result = fit_camera(np.random.default_rng(0).uniform(0, 500, (12, 2)), aside, TRUTH)
+    assert result.status == "refused" and "view" in result.message
 
 
 def test_fixed_parameters_keep_their_initial_values_and_free_ones_move():
