@@ -34,15 +34,20 @@ def map_to_uv(point) -> Tuple[float, float]:
 class ImageItem(QgsMapCanvasItem):
     """A QImage stretched over the rectangle ``[0, W] x [-H, 0]`` of a photo canvas, with an opacity."""
 
+    #: levels of the image pyramid stop at this width (pixels)
+    PYRAMID_MIN_WIDTH = 512
+
     def __init__(self, canvas: QgsMapCanvas, z_value: float = -10.0):
         super().__init__(canvas)
         self._image: Optional[QImage] = None
+        self._levels: List[QImage] = []
         self._opacity = 1.0
         self.setZValue(z_value)
 
     def set_image(self, image: Optional[QImage], size: Optional[Tuple[int, int]] = None) -> None:
         """Show ``image`` stretched to ``size`` = (W, H) photo pixels (default: the image's own size)."""
         self._image = image
+        self._levels = self._pyramid(image)
         if image is not None and not image.isNull():
             w, h = size or (image.width(), image.height())
             self.setRect(QgsRectangle(0.0, -float(h), float(w), 0.0))
@@ -53,12 +58,35 @@ class ImageItem(QgsMapCanvasItem):
         self._opacity = max(0.0, min(1.0, float(opacity)))
         self.update()
 
+    @classmethod
+    def _pyramid(cls, image: Optional[QImage]) -> List[QImage]:
+        """The image and halved copies down to :attr:`PYRAMID_MIN_WIDTH`: zoomed-out views of a 24 MP photo paint
+        from a small copy instead of resampling every pixel on each repaint."""
+        if image is None or image.isNull():
+            return []
+        levels = [image]
+        while levels[-1].width() > 2 * cls.PYRAMID_MIN_WIDTH:
+            last = levels[-1]
+            levels.append(last.scaled(last.width() // 2, last.height() // 2, Qt.AspectRatioMode.IgnoreAspectRatio,
+                                      Qt.TransformationMode.SmoothTransformation))
+        return levels
+
+    def level_for(self, device_width: float) -> QImage:
+        """The smallest pyramid level at least ``device_width`` pixels wide (the full image when zoomed in)."""
+        for level in reversed(self._levels):
+            if level.width() >= device_width:
+                return level
+        return self._levels[0]
+
     def paint(self, painter: QPainter, option=None, widget=None) -> None:  # QGraphicsItem.paint
-        if self._image is None or self._image.isNull() or self._opacity <= 0:
+        if not self._levels or self._opacity <= 0:
             return
+        target = self.boundingRect()
+        device_width = target.width() * painter.deviceTransform().m11()
+        image = self.level_for(device_width)
         painter.setOpacity(self._opacity)
         painter.setRenderHint(QPainter.RenderHint.SmoothPixmapTransform, True)
-        painter.drawImage(self.boundingRect(), self._image, QRectF(self._image.rect()))
+        painter.drawImage(target, image, QRectF(image.rect()))
 
 
 class PhotoCanvas(QgsMapCanvas):

@@ -157,3 +157,15 @@ def test_typing_a_photo_path_loads_it_once_complete(dock, scene, qtbot, qgis_ifa
     qtbot.keyClicks(edit, scene.photo_path)  # every keystroke changes the path
     assert dock.controller.state.photo_path == scene.photo_path and dock.controller.image is not None
     assert not qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Critical)  # no error for partial paths
+
+
+def test_large_photo_paints_from_a_reduced_copy_when_zoomed_out(dock, tmp_path):
+    big = QImage(6000, 4000, QImage.Format.Format_RGB888)
+    big.fill(QColor(90, 120, 160))
+    path = str(tmp_path / "big.jpg")
+    assert big.save(path)
+    dock.photoFile.setFilePath(path)
+    item = dock.photo_canvas.photo_item
+    assert dock.controller.photo_size == (6000, 4000)
+    assert item.level_for(400).width() < 1500  # whole photo in a small view: a small level
+    assert item.level_for(5000).width() == 6000  # zoomed in: full resolution
