@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 from typing import Optional, Tuple
 
-from qgis.core import QgsCoordinateReferenceSystem, QgsCoordinateTransform, QgsPointXY, QgsProject
+from qgis.core import Qgis, QgsCoordinateReferenceSystem, QgsCoordinateTransform, QgsPointXY, QgsProject
 from qgis.gui import QgsMapCanvas, QgsMapMouseEvent, QgsMapTool
 from qgis.PyQt.QtCore import Qt, pyqtSignal
 
@@ -46,7 +46,7 @@ class SpaceMapping:
         if self.space == PHOTO:
             return map_to_uv(point)
         t = self._transform()
-        p = t.transform(point, QgsCoordinateTransform.TransformDirection.ReverseTransform) if t else point
+        p = t.transform(point, Qgis.TransformDirection.Reverse) if t else point
         return p.x(), p.y()
 
     def to_canvas(self, x: float, y: float) -> QgsPointXY:

@@ -169,3 +169,35 @@ def test_large_photo_paints_from_a_reduced_copy_when_zoomed_out(dock, tmp_path):
     assert dock.controller.photo_size == (6000, 4000)
     assert item.level_for(400).width() < 1500  # whole photo in a small view: a small level
     assert item.level_for(5000).width() == 6000  # zoomed in: full resolution
+
+
+def test_main_map_in_another_crs(dock, scene, qtbot):
+    """The map canvas in degrees while the DEM is in metres: clicks and markers are transformed both ways."""
+    from qgis.core import QgsCoordinateReferenceSystem, QgsCoordinateTransform
+
+    from monoplot_plugin.state import MAP, Point, add_points
+
+    dock.photoFile.setFilePath(scene.photo_path)
+    layer = QgsProject.instance().mapLayersByName("synthetic DEM")[0]
+    dock.demCombo.setLayer(layer)
+    canvas = dock.map_canvas
+    wgs84 = QgsCoordinateReferenceSystem("EPSG:4326")
+    canvas.setDestinationCrs(wgs84)
+    to_wgs = QgsCoordinateTransform(layer.crs(), wgs84, QgsProject.instance())
+    canvas.setExtent(to_wgs.transformBoundingBox(layer.extent()))
+    canvas.refresh()
+    x, y = scene.camera.position[:2]
+    # a DEM point is drawn where the map shows that place
+    c = dock.controller
+    p = Point.new(MAP, x, y + 2000.0, 1500.0)
+    c.stack.push(add_points(c.state, [p]))
+    c.select(MAP, p.id)
+    shown = dock.map_view.markers.highlight.center()
+    expected = to_wgs.transform(QgsPointXY(x, y + 2000.0))
+    assert abs(shown.x() - expected.x()) < 1e-6 and abs(shown.y() - expected.y()) < 1e-6
+    # and a click there finds it again (tolerance converted to metres)
+    screen = canvas.getCoordinateTransform().transform(expected)
+    qtbot.mouseClick(dock.drawCameraButton, Qt.MouseButton.LeftButton)
+    dock.mapToolButton.setChecked(True)
+    qtbot.mouseClick(canvas.viewport(), Qt.MouseButton.RightButton, pos=QPoint(round(screen.x()), round(screen.y())))
+    assert c.state.points[p.id].status == "rejected"
