@@ -23,7 +23,6 @@ from qgis.PyQt.QtWidgets import (QAction, QDockWidget, QFileDialog, QHeaderView,
 from .. import PLUGIN_DIR
 from ..adapters import layers as camera_layers
 from ..state import MAP, PHOTO
-from . import engine
 from .controller import MonoplotController
 from .photo_canvas import PhotoCanvas
 from .point_table import ID_ROLE, PointTableModel, make_proxy
@@ -211,16 +210,11 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
             self.map_canvas.unsetMapTool(self.camera_tool)
 
     def _camera_dragging(self, x: float, y: float, heading: float) -> None:
+        """Live wedge while the rough camera is being dragged (DEM CRS)."""
         from ..core.camera import Camera
 
         size = self.controller.photo_size or (4, 3)
-        self.map_view.prior_band.crs = self.map_view.crs
-        cam = Camera((x, y, 0.0), heading, 0.0, 0.0, self.fovSpin.value(), size)
-        reach = 0.5 * self.map_canvas.extent().width()
-        from qgis.core import QgsGeometry, QgsPointXY
-
-        self.map_view.prior_band.set_geometry(QgsGeometry.fromPolygonXY(
-            [[QgsPointXY(px, py) for px, py in engine.view_wedge(cam, reach)]]))
+        self.map_view.show_wedge(Camera((x, y, 0.0), heading, 0.0, 0.0, self.fovSpin.value(), size))
 
     def _camera_drawn(self, x: float, y: float, heading: float) -> None:
         self.controller.prior_from_map(x, y, heading, self.fovSpin.value(), self.pitchSpin.value(),

@@ -108,19 +108,24 @@ class MapPresenter:
         p = self.c.state.points.get(self.c.current[MAP])
         self.markers.set_highlight(None if p is None else (p.x, p.y))
 
+    def reach(self, cx: float, cy: float) -> float:
+        """Metres from (cx, cy) to the farthest DEM corner: how far a view wedge is drawn (15 km without DEM)."""
+        dem = self.c.dem
+        if dem is None:
+            return 15000.0
+        x0, y0, x1, y1 = _extent(dem)
+        return max(((x - cx) ** 2 + (y - cy) ** 2) ** 0.5 for x in (x0, x1) for y in (y0, y1))
+
+    def show_wedge(self, camera) -> None:
+        """Draw the horizontal field of view of ``camera`` (DEM CRS) as the dashed prior wedge."""
+        self.prior_band.crs = self.crs
+        self.prior_band.set_geometry(None if camera is None else QgsGeometry.fromPolygonXY(
+            [[QgsPointXY(x, y) for x, y in engine.view_wedge(camera, self.reach(*camera.position[:2]))]]))
+
     def redraw_camera(self, fitted_footprint_wkt: str = "") -> None:
         self.prior_band.crs = self.fitted_band.crs = self.crs
         prior, fitted = self.c.prior, self.c.fitted
-        dem = self.c.dem
-        reach = 15000.0
-        if dem is not None:
-            x0, y0, x1, y1 = _extent(dem)
-            cam = fitted or prior
-            if cam is not None:
-                cx, cy = cam.position[:2]
-                reach = max(((x - cx) ** 2 + (y - cy) ** 2) ** 0.5 for x in (x0, x1) for y in (y0, y1))
-        self.prior_band.set_geometry(None if prior is None else QgsGeometry.fromPolygonXY(
-            [[QgsPointXY(x, y) for x, y in engine.view_wedge(prior, reach)]]))
+        self.show_wedge(prior)
         self.fitted_band.set_geometry(QgsGeometry.fromWkt(fitted_footprint_wkt) if fitted_footprint_wkt else None)
         cam = fitted or prior
         if cam is None:

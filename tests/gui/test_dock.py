@@ -290,7 +290,6 @@ def test_manual_map_point_add_and_move_on_the_main_map(dock, scene, qtbot):
 def test_autosave_recovers_work_after_a_crash(dock, scene, qtbot, tmp_path):
     """Points curated after the last project save survive: the autosave file beside the project is newer."""
     import os
-    import time
 
     from monoplot_plugin.gui import persistence
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from qgis.core import Qgis, QgsPointXY, QgsProject, QgsRasterLayer
 from qgis.PyQt.QtCore import QPoint, Qt
 from qgis.PyQt.QtGui import QColor, QImage, QImageIOHandler, QImageWriter
@@ -88,6 +89,10 @@ def test_rough_camera_drawn_by_press_and_drag(dock, scene, qtbot):
     ground = scene.dem.sample(*prior.position[:2])
     assert abs(prior.position[2] - (ground + dock.heightSpin.value())) < 1e-6
     assert not dock.drawCameraButton.isChecked()
+    # while dragging, the wedge follows the mouse (out to the far DEM corner, in metres)
+    dock.camera_tool.dragging.emit(x, y, 90.0)
+    box = dock.map_view.prior_band.band.asGeometry().boundingBox()
+    assert box.xMinimum() == pytest.approx(x, abs=1.0) and box.width() > 2000.0
 
 
 def test_map_cursor_says_hidden_behind_terrain(dock, scene, qtbot):
