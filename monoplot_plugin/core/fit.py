@@ -305,6 +305,10 @@ class _Fitter:
         self.free = tuple(n for n in PARAMETER_NAMES if n in set(requested)
                           and not (self.ground is not None and n == "z"))
         self.view_margin = float(view_margin)
+        # Options of fit_camera (set again there); defaults here keep the class usable on its own.
+        self.coarse, self.robust_px, self.centroid_weight = True, None, 1.0
+        self.time_budget_s, self.switch_ratio = 8.0, 0.8
+        self.two_sided_cap = 0.025
         self.rng = np.random.default_rng(seed)
         self.progress = progress
         self.is_canceled = is_canceled
@@ -815,7 +819,7 @@ class _Fitter:
         have a photo point near them too centres the two clouds (measured on Aletsch: about 0.5 px better)."""
         import torch
 
-        cap = 0.025 * self.diag
+        cap = self.two_sided_cap * self.diag
         u = torch.tensor(np.asarray(u0, dtype=np.float64), requires_grad=True)
         optimiser = torch.optim.LBFGS([u], lr=1.0, max_iter=60, history_size=10, line_search_fn="strong_wolfe",
                                       tolerance_grad=1e-9, tolerance_change=1e-10)
@@ -888,7 +892,7 @@ class _Fitter:
             return None
         q_t = torch.as_tensor(self.q, dtype=torch.float64)
         P_t = torch.as_tensor(self.P, dtype=torch.float64)
-        cap = 0.025 * self.diag
+        cap = self.two_sided_cap * self.diag
         with torch.no_grad():
             before = float(self._two_sided_loss(space, torch.tensor(u_start), q_t, P_t, cap))
             after = float(self._two_sided_loss(space, torch.tensor(np.asarray(u, dtype=np.float64)), q_t, P_t, cap))

@@ -11,7 +11,8 @@ run on that picture, so suggestions are the terrain points that look like corner
 skyline, ridge crossings, spur tips); each key point takes the X, Y, Z of the nearest terrain it shows (the
 foreground side of a silhouette). Only points the camera sees, inside its view (plus a margin), are suggested.
 Without a camera the detectors run on a map hillshade. Terrain landmarks are added in both cases: summits ranked
-by topographic prominence, saddles and ridge junctions, X / Y from the geotransform and Z from the DEM.
+by topographic prominence, saddles and ridge junctions, X / Y from the geotransform and Z from the DEM; with a
+camera also the peaks of the silhouettes it sees (:func:`silhouette_peaks`, kind "skyline").
 
 Scores (documented, in [0, 1], higher first):
 
@@ -71,7 +72,8 @@ class DemSuggestions:
         xyz: (M, 3) float64 map coordinates (DEM CRS; Z from the DEM, metres).
         score: (M,) float64 in [0, 1], decreasing.
         ids: M stable ids "d0000", ...
-        kind: (M,) str: "summit", "saddle", "junction", "orb" or "corner".
+        kind: (M,) str: "summit", "saddle", "junction", "skyline" (peak of a silhouette seen by the camera), "orb" or
+            "corner".
         uv: (M, 2) their pixels in the approximate camera (NaN without a camera).
         prominence: (M,) metres for summits (NaN for the others).
     """
