@@ -284,3 +284,16 @@ def test_wrongly_accepted_photo_points_do_not_drag_the_fit():
     exact = fit_camera(np.vstack([photo, junk]), world, start, refine=False, coarse=False, robust=False,
                        centroid_weight=1.0, n_starts=1, n_escapes=0)  # the paper's method, exactly
     assert exact.n_starts == 1 and len(exact.pairs) == 0
+
+
+def test_aletsch_paired_on_the_ground_of_the_dem(aletsch_dir):
+    from monoplot_plugin.core import Dem
+
+    dem = Dem.open(aletsch_dir / "dem.tif", void_value=0)
+    gcps = np.loadtxt(aletsch_dir / "gcps.csv", delimiter=",", skiprows=1)
+    prior = Camera.from_kml(str(aletsch_dir / "prior_pose.kml"), (1024, 763), dem.crs_wkt)
+    result = fit_camera(gcps[:, :2], gcps[:, 2:], prior, pairs=np.stack([np.arange(11)] * 2, axis=1), ground=dem,
+                        eye_height=1.7)
+    x, y, z = result.camera.position
+    assert "z" not in result.free and math.isclose(z, dem.sample(x, y) + 1.7, abs_tol=1e-6)
+    assert result.rmse_px <= 8.0
