@@ -916,6 +916,8 @@ class _Fitter:
         status, message = self._judge(rmse, loo, int(inliers.sum()), "unpaired")
         message = message.replace("unpaired fit on", "unpaired fit, automatic pairing:").replace(
             " pairs:", f" inlier pairs of {len(pairs)}:")
+        message += (" These figures measure how well the automatic pairs agree, not the accuracy: give independent "
+                    "check points for that.")
         if not kept_refinement:
             message += (" The least-squares refinement on these pairs fitted the point sets worse than the two-sided "
                         "fit, which was kept (the automatic pairs are probably not exact correspondences).")
