@@ -139,6 +139,7 @@ class OutputTools(QObject):
         self.session = None
         self.overlays = []
         self._xyz_key = None
+        self._sky_told = {}
         self.dock.photo_canvas.set_extra_layers([])
         self._camera_changed()
 
