@@ -113,11 +113,15 @@ class OutputTools(QObject):
         """The digitising session of the fitted camera (created on first use), or None without a fit."""
         if self.ready() is not None:
             return None
+        if self.session is not None and self.session.closed:  # its layers were deleted (project cleared)
+            self._forget_session()
         # The session intersects rays with the DEM exactly: no full-resolution XYZ raster needed (fast start).
         camera, dem, xyz = self.controller.fitted, self.controller.dem, None
         if self.session is None:
             self.session = DigitisingSession(self.dock.project, camera, dem, xyz, self.photo_name(), parent=self)
             self.session.mapLayerUpdated.connect(self._report_sky)
+            # Layers deleted under us (project cleared, QGIS closing): the photo canvas must drop them at once.
+            self.session.closedByLayers.connect(lambda: self.dock.photo_canvas.set_extra_layers([]))
             for kind in KINDS:
                 self.session.photo_layer(kind)
             self._show_on_photo()
@@ -126,18 +130,25 @@ class OutputTools(QObject):
     def _camera_changed(self) -> None:
         if self.ready() is not None:
             return
+        if self.session is not None and self.session.closed:
+            self._forget_session()
         if self.session is not None:
             self.session.update_camera(self.controller.fitted, self.controller.dem, None)
         elif self.dock.project.readEntry("monoplot", drawn_entry_key(self.photo_name()), "")[0]:
             self.current_session()  # a reopened project with features drawn on this photo: show them again
 
-    def _forget(self) -> None:
-        """Another photo or project: drop the session (its layers belong to the old one; the drawn features are
-        in the project file and come back with it)."""
+    def _forget_session(self) -> None:
         if self.session is not None:
+            self.session.close()
             self.session.deleteLater()
         self.session = None
         self.overlays = []
+        self.dock.photo_canvas.set_extra_layers([])
+
+    def _forget(self) -> None:
+        """Another photo or project: drop the session (its layers belong to the old one; the drawn features are
+        in the project file and come back with it)."""
+        self._forget_session()
         self._xyz_key = None
         self._sky_told = {}
         self.dock.photo_canvas.set_extra_layers([])

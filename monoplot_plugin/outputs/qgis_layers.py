@@ -128,9 +128,11 @@ class DigitisingSession(QObject):
     Signals:
         mapLayerUpdated(str kind, int sky_pieces, int dropped): a live map layer was rebuilt; ``sky_pieces``
             pieces over sky were split off, ``dropped`` features were entirely over sky.
+        closedByLayers(): the session closed itself because one of its layers is being deleted.
     """
 
     mapLayerUpdated = pyqtSignal(str, int, int)
+    closedByLayers = pyqtSignal()
 
     def __init__(self, project: QgsProject, camera, dem, xyz: Optional[np.ndarray], photo_name: str,
                  fields: Sequence[Tuple[str, str]] = (("name", "string"),), parent=None):
@@ -145,6 +147,7 @@ class DigitisingSession(QObject):
         self.last_report: Dict[str, Tuple[int, int]] = {}
         self._mapped: Dict[Tuple[str, int], tuple] = {}  # (kind, fid) -> (photo geometry WKB, MapFeature or None)
         self._restoring = False
+        self.closed = False  # set when one of its layers is being deleted (project cleared, QGIS closing)
         self.restore_drawn()
 
     # --- layers -----------------------------------------------------------------------------------------------
@@ -167,6 +170,7 @@ class DigitisingSession(QObject):
             for signal in (layer.featureAdded, layer.featuresDeleted, layer.geometryChanged,
                            layer.attributeValueChanged, layer.afterRollBack, layer.afterCommitChanges):
                 signal.connect(lambda *args, k=kind: self.sync(k))
+            layer.willBeDeleted.connect(self.close)
             if self.project.mapLayer(layer.id()) is None:
                 self.project.addMapLayer(layer, False)
             # In the photo's group beside its map layer, unchecked: it lies in photo pixel space (like the XYZ
@@ -194,6 +198,7 @@ class DigitisingSession(QObject):
             layer.updateFields()
             if not reused:
                 _add(self.project, layer, self.group)
+            layer.willBeDeleted.connect(self.close)
             self.map_layers[kind] = layer
         return self.map_layers[kind]
 
@@ -210,6 +215,8 @@ class DigitisingSession(QObject):
     def save_drawn(self) -> None:
         """Store the photo-space features (pixel vertices + attributes) in the project (memory layers are not
         saved with a project; this is)."""
+        if self.closed:
+            return
         data = {"fields": self.fields, "features": {}}
         for kind, layer in self.photo_layers.items():
             data["features"][kind] = [
@@ -251,8 +258,20 @@ class DigitisingSession(QObject):
     def all_photo_layers(self) -> List[QgsVectorLayer]:
         return [self.photo_layers[k] for k in KINDS if k in self.photo_layers]
 
+    def close(self) -> None:
+        """Stop following the layers (one of them is being deleted: project cleared or QGIS closing); a closed
+        session never creates or touches layers again."""
+        if self.closed:
+            return
+        self.closed = True  # the layers' signals may still fire while they go: sync() and save_drawn() no-op
+        self.photo_layers.clear()
+        self.map_layers.clear()
+        self.closedByLayers.emit()
+
     def update_camera(self, camera, dem, xyz: Optional[np.ndarray] = None) -> None:
         """A new fit (or DEM): keep what was drawn on the photo, recompute every live map layer."""
+        if self.closed:
+            return
         self.camera, self.dem, self.xyz = camera, dem, xyz
         self._mapped.clear()
         for kind in list(self.map_layers):
@@ -331,6 +350,8 @@ class DigitisingSession(QObject):
 
     def sync(self, kind: str) -> None:
         """Rebuild the live map layer of ``kind`` from the photo layer (called on every photo-layer change)."""
+        if self.closed:
+            return
         features, fids, dropped = self.map_features(kind)
         layer = self.map_layer(kind)
         provider = layer.dataProvider()
