@@ -2,12 +2,17 @@
 
 import os
 import shutil
+import sys
 import tempfile
 from pathlib import Path
 
 import pytest
 
-from outputs_helpers import PlaneScene, build_plane_scene
+# The test modules import outputs_helpers by its plain name; make that work under any pytest import mode
+# (prepend, importlib, or test folders turned into packages).
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from outputs_helpers import PlaneScene, build_plane_scene  # noqa: E402
 
 
 @pytest.fixture(scope="session")
