@@ -151,7 +151,7 @@ def write_report(path, photo: np.ndarray, camera, dem, points_csv=None, *, point
              f"{_crs_label(dem.crs_wkt)}", fontsize=8, color="0.3")
     ax_photo = fig.add_axes((0.06, 0.60, 0.88, 0.33))
     ax_overlay = fig.add_axes((0.06, 0.33, 0.43, 0.24))
-    ax_map = fig.add_axes((0.54, 0.30, 0.40, 0.30))
+    ax_map = fig.add_axes((0.54, 0.29, 0.40, 0.27))  # its title stays below the photo
     ax_text = fig.add_axes((0.06, 0.03, 0.88, 0.24))
     _draw_points(ax_photo, photo, points, residual, rmse)
     _draw_overlay(ax_overlay, photo, xyz)
@@ -248,6 +248,9 @@ def _draw_footprint(ax, camera, dem, visible, points):
     ax.set_aspect("equal")
     ax.tick_params(labelsize=6)
     ax.ticklabel_format(useOffset=False, style="plain")
+    from matplotlib.ticker import MaxNLocator
+
+    ax.xaxis.set_major_locator(MaxNLocator(4))  # seven-digit eastings: more labels would run into each other
 
 
 def _draw_parameters(ax, camera, sigmas, rmse, points, xyz):
