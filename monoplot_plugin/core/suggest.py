@@ -36,7 +36,7 @@ import numpy as np
 from .suggest_photo import picture_mask, to_gray
 
 __all__ = ["PhotoSuggestions", "DemSuggestions", "suggest_photo_points", "suggest_dem_points", "detect_keypoints",
-           "spread_by_grid", "terrain_landmarks", "silhouette_peaks", "PHOTO_DETECTOR", "DEM_DETECTOR"]
+           "spread_by_grid", "thin_evenly", "terrain_landmarks", "silhouette_peaks", "PHOTO_DETECTOR", "DEM_DETECTOR"]
 
 
 @dataclass
@@ -191,6 +191,36 @@ def spread_by_grid(uv: np.ndarray, score: np.ndarray, size: Tuple[float, float],
     return kept
 
 
+def thin_evenly(uv: np.ndarray, score: np.ndarray, size: Tuple[float, float], count: int) -> np.ndarray:
+    """Indices of at most ``count`` points spread over a picture of ``size`` (width, height) pixels.
+
+    A grid with about ``count`` cells covers the picture; the best point of every cell comes first, then the second
+    best of every cell, and so on (each round by decreasing score), so that a short list shows every part of the
+    picture instead of the few places where the detector scores highest.
+
+    >>> uv = np.array([[1.0, 1.0], [2.0, 2.0], [3.0, 1.0], [15.0, 8.0]])
+    >>> thin_evenly(uv, np.array([0.9, 0.8, 0.7, 0.1]), (20, 10), count=2).tolist()
+    [0, 3]
+    """
+    n = len(uv)
+    if n <= count:
+        return np.lexsort((np.arange(n), -score))
+    w, h = size
+    cell = math.sqrt(max(w * h, 1.0) / max(count, 1))
+    ncols = int(math.ceil(w / cell)) + 1
+    finite = np.isfinite(uv).all(axis=1)
+    safe = np.where(finite[:, None], uv, 0.0)
+    cell_id = (np.floor(safe[:, 1] / cell) * ncols + np.floor(safe[:, 0] / cell)).astype(np.int64)
+    order = np.lexsort((np.arange(n), -score, cell_id))
+    sorted_cells = cell_id[order]
+    first = np.r_[True, sorted_cells[1:] != sorted_cells[:-1]]
+    start = np.maximum.accumulate(np.where(first, np.arange(n), 0))
+    rank = np.empty(n, dtype=np.int64)
+    rank[order] = np.arange(n) - start
+    rank[~finite] = n  # points without pixels go last
+    return np.lexsort((np.arange(n), -score, rank))[:count]
+
+
 def _stable_order(score: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.lexsort((a, b, -np.round(score, 12)))
 
@@ -215,8 +245,9 @@ def suggest_photo_points(image: np.ndarray, max_points: int = 8000, cell_px: Opt
 
     Args:
         image: (H, W) or (H, W, 3) uint8 array (RGB).
-        max_points: at most this many suggestions (the best scores after spreading). The default is dense on
-            purpose: the user accepts the few that sit on features they recognise (a GUI shows the best N first).
+        max_points: at most this many suggestions. The default is dense on purpose: the user accepts the few that
+            sit on features they recognise. A shorter list is thinned evenly over the picture
+            (:func:`thin_evenly`: the best point of each part of the picture first), not cut by score alone.
         cell_px: bucketing cell in full-resolution pixels (default: the long side / 170, 6 px on a 1024 px photo).
         per_cell: at most this many per cell.
         min_distance_px: no two suggestions closer (default: cell_px / 2).
@@ -247,7 +278,8 @@ def suggest_photo_points(image: np.ndarray, max_points: int = 8000, cell_px: Opt
     uv = uv / scale
     cell = float(cell_px) if cell_px else max(w, h) / 170.0
     min_dist = cell / 2.0 if min_distance_px is None else float(min_distance_px)
-    keep = spread_by_grid(uv, score, (w, h), cell, per_cell, min_dist)[:max_points]
+    keep = spread_by_grid(uv, score, (w, h), cell, per_cell, min_dist)
+    keep = keep[thin_evenly(uv[keep], score[keep], (w, h), max_points)]
     uv, score, source = uv[keep], score[keep], source[keep]
     order = _stable_order(score, uv[:, 0], uv[:, 1])
     uv, score, source = uv[order], score[order], source[order]
@@ -574,7 +606,8 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
         camera: optional approximate :class:`~monoplot_plugin.core.camera.Camera`. With it, only points it sees
             (z-buffer visibility) inside its picture plus ``view_margin`` are suggested, and key points come from a
             rendering of the DEM from it.
-        max_points: most suggestions in all.
+        max_points: most suggestions in all; a shorter list than the candidates is thinned evenly over the
+            camera's picture (over the map without a camera), see :func:`thin_evenly`.
         cell_px, per_cell, min_distance_px: spreading of the key points, in pixels of the camera's picture (with a
             camera) or of the map rendering (without); default cell = long side / 128 (8 px of a 1024 px
             rendering), distance = cell / 3.
@@ -680,7 +713,12 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
     else:
         uv = np.full((len(xyz), 2), np.nan)
     # Landmarks first where a key point falls on the same spot (within a third of a DEM cell: duplicates).
-    order = _stable_order(score, xyz[:, 0], xyz[:, 1])[:max_points]
+    order = _stable_order(score, xyz[:, 0], xyz[:, 1])
+    if len(order) > max_points:  # a short list spread over the camera's picture (or the map), not all on one ridge
+        spread_uv = uv if camera is not None else np.stack(dem.map_to_cell(xyz[:, 0], xyz[:, 1]), axis=1)
+        spread_size = camera.image_size if camera is not None else (dem.cols, dem.rows)
+        order = order[thin_evenly(spread_uv[order], score[order], spread_size, max_points)]
+        order = order[_stable_order(score[order], xyz[order, 0], xyz[order, 1])]
     xyz, score, kind, prom, uv = xyz[order], score[order], kind[order], prom[order], uv[order]
     return DemSuggestions(xyz, score, [f"d{i:04d}" for i in range(len(xyz))], kind, uv, prom)
 

@@ -178,3 +178,30 @@ def test_silhouette_peaks_find_the_summit_on_the_skyline():
     assert np.hypot(*(best[:2] - summit[:2])) <= 30.0 and abs(best[2] - summit[2]) < 15.0
     kinds = suggest_dem_points(dem, cam).kind
     assert "skyline" in set(kinds)
+
+
+def test_short_photo_lists_cover_the_whole_picture():
+    """A strongly textured corner would take every place of a list cut by score; the thinned list covers all four
+    quadrants of the picture."""
+    img = textured_picture(seed=1)
+    img = (128 + (img.astype(float) - 128) * 0.25).astype(np.uint8)  # faint texture everywhere...
+    img[:200, :300] = textured_picture(seed=2)[:200, :300]  # ...and a strong one in the top-left quadrant
+    dense = suggest_photo_points(img)
+    top = dense.uv[np.argsort(-dense.score)[:40]]
+    assert ((top[:, 0] < 300) & (top[:, 1] < 200)).mean() > 0.9  # what a cut by score would show
+    few = suggest_photo_points(img, max_points=40)
+    assert len(few) == 40
+    quadrant = (few.uv[:, 0] >= 300).astype(int) + 2 * (few.uv[:, 1] >= 200)
+    assert np.bincount(quadrant, minlength=4).min() >= 5
+
+
+def test_thin_evenly_takes_the_best_of_every_cell_first():
+    from monoplot_plugin.core.suggest import thin_evenly
+
+    rng = np.random.default_rng(0)
+    uv = np.concatenate([rng.uniform(0, 10, (50, 2)), rng.uniform(0, 100, (10, 2))])
+    score = np.concatenate([np.full(50, 0.9), np.full(10, 0.1)])  # a dense, high-scoring cluster near (0, 0)
+    keep = thin_evenly(uv, score, (100, 100), count=12)
+    assert len(keep) == 12 and len(set(keep.tolist())) == 12
+    assert (keep >= 50).sum() >= 6  # most of the scattered low scores make it in
+    assert thin_evenly(uv, score, (100, 100), count=100).tolist() == np.lexsort((np.arange(60), -score)).tolist()
