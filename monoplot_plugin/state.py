@@ -28,13 +28,16 @@ from dataclasses import asdict, dataclass, field, replace
 from typing import Callable, Dict, Iterable, List, Optional, Sequence, Tuple
 
 __all__ = [
-    "SUGGESTED", "ACCEPTED", "REJECTED", "STATUSES", "PHOTO", "MAP",
+    "SUGGESTED", "ACCEPTED", "REJECTED", "CHECK", "STATUSES", "PHOTO", "MAP",
     "Point", "ProjectState", "Edit", "CommandStack",
-    "add_points", "remove_points", "set_status", "move_point", "replace_suggestions", "link", "unlink",
+    "add_points", "remove_points", "set_status", "move_point", "replace_suggestions", "link", "unlink", "set_check",
 ]
 
 SUGGESTED, ACCEPTED, REJECTED = "suggested", "accepted", "rejected"
-STATUSES = (SUGGESTED, ACCEPTED, REJECTED)
+#: A check point: one point of a photo-map pair kept out of the fit, to measure the fitted camera's real accuracy
+#: (the fit's own RMSE only says how well the points it used agree).
+CHECK = "check"
+STATUSES = (SUGGESTED, ACCEPTED, REJECTED, CHECK)
 PHOTO, MAP = "photo", "map"
 FORMAT = "monoplot-state/1"
 
@@ -50,7 +53,7 @@ class Point:
         space: ``"photo"`` or ``"map"``.
         x, y: ``u, v`` pixels for the photo; map X, Y (metres) for the map.
         z: ground height for map points when known (metres), else None.
-        status: suggested / accepted / rejected.
+        status: suggested / accepted / rejected / check (paired, held out of the fit to measure it).
         manual: True when the user placed it (False for detector suggestions).
         score: detector strength (larger = more distinctive), 0 for manual points.
         label: optional name (e.g. a summit).
@@ -124,14 +127,28 @@ class ProjectState:
             out[p.space][p.status] += 1
         return out
 
-    def valid_pairs(self) -> List[Tuple[Point, Point]]:
-        """Pairs whose two points exist and are both accepted, as (photo point, map point)."""
+    def pairs_with_status(self, status: str) -> List[Tuple[Point, Point]]:
+        """Pairs whose two points exist and both have ``status``, as (photo point, map point)."""
         out = []
         for a, b in self.pairs:
             pa, pb = self.points.get(a), self.points.get(b)
-            if pa and pb and pa.status == ACCEPTED and pb.status == ACCEPTED:
+            if pa and pb and pa.status == status and pb.status == status:
                 out.append((pa, pb))
         return out
+
+    def valid_pairs(self) -> List[Tuple[Point, Point]]:
+        """Pairs whose two points are both accepted: the ones a paired fit uses."""
+        return self.pairs_with_status(ACCEPTED)
+
+    def check_pairs(self) -> List[Tuple[Point, Point]]:
+        """Pairs whose two points are both check points: kept out of the fit, they measure it.
+
+        >>> s = ProjectState(points={"a": Point("a", "photo", 1, 2, status=CHECK),
+        ...                          "b": Point("b", "map", 3, 4, 5, status=CHECK)}, pairs=[("a", "b")])
+        >>> [(a.id, b.id) for a, b in s.check_pairs()], s.valid_pairs()
+        ([('a', 'b')], [])
+        """
+        return self.pairs_with_status(CHECK)
 
     def partner(self, pid: str) -> Optional[str]:
         """Id of the point linked to ``pid``, or None."""
@@ -291,9 +308,35 @@ def link(state: ProjectState, photo_id: str, map_id: str) -> Edit:
     return Edit("Link points", before, after, list(state.pairs), pairs)
 
 
+def set_check(state: ProjectState, pid: str, on: bool = True) -> Edit:
+    """Make a paired point and its partner check points (``on``), or ordinary accepted points again.
+
+    Raises:
+        ValueError: ``pid`` has no partner (a check point is measured against its counterpart on the other view).
+
+    >>> s = ProjectState(points={"a": Point("a", "photo", 1, 2), "b": Point("b", "map", 3, 4, 5)})
+    >>> stack = CommandStack(s); stack.push(link(s, "a", "b")); stack.push(set_check(s, "b"))
+    >>> s.points["a"].status, s.points["b"].status
+    ('check', 'check')
+    >>> stack.push(set_check(s, "a", on=False)); s.points["b"].status
+    'accepted'
+    """
+    partner = state.partner(pid)
+    if partner is None:
+        raise ValueError("a check point must be paired with its counterpart on the other view first")
+    status = CHECK if on else ACCEPTED
+    ids = [i for i in (pid, partner) if state.points[i].status != status]
+    return Edit("Mark check point" if on else "Use point in the fit", before={i: state.points[i] for i in ids},
+                after={i: replace(state.points[i], status=status) for i in ids})
+
+
 def unlink(state: ProjectState, pid: str) -> Edit:
+    """Remove the pair of ``pid``; check points of that pair become ordinary accepted points again."""
     pairs = [pr for pr in state.pairs if pid not in pr]
-    return Edit("Unlink point", pairs_before=list(state.pairs), pairs_after=pairs)
+    ids = [i for pr in state.pairs if pid in pr for i in pr if state.points.get(i) and state.points[i].status == CHECK]
+    return Edit("Unlink point", before={i: state.points[i] for i in ids},
+                after={i: replace(state.points[i], status=ACCEPTED) for i in ids},
+                pairs_before=list(state.pairs), pairs_after=pairs)
 
 
 class CommandStack:

@@ -17,7 +17,7 @@ from qgis.PyQt.QtGui import QImage
 from ..adapters.dem import DemError, read_dem_layer
 from ..adapters.photo import PhotoError, array_to_qimage, qimage_to_array, read_photo
 from ..core.camera import Camera
-from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, replace_suggestions
+from ..state import ACCEPTED, CHECK, MAP, PHOTO, CommandStack, Point, ProjectState, replace_suggestions
 from . import engine, persistence
 from .curation import CurationMixin
 from .priors import PriorsMixin
@@ -158,7 +158,10 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
             self.message.emit(str(exc), CRITICAL)
             return False
         self.dem, self.dem_layer = dem, layer
-        self.dem_crs = QgsCoordinateReferenceSystem(layer.crs())
+        # The CRS of the in-memory DEM, which all map points and cameras use: a geographic layer was reprojected
+        # to UTM metres, so the layer's own CRS (degrees) would put every marker and click in the wrong place.
+        crs = QgsCoordinateReferenceSystem.fromWkt(dem.crs_wkt) if dem.crs_wkt else QgsCoordinateReferenceSystem()
+        self.dem_crs = crs if crs.isValid() else QgsCoordinateReferenceSystem(layer.crs())
         self.state.dem_layer_id, self.state.dem_source = layer.id(), layer.source()
         for note in notes:
             self.message.emit(self.tr("DEM: {0}").format(note), INFO)
@@ -201,7 +204,7 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
         if self.task is not None:
             self.task.cancel()
 
-    def suggest(self, n_photo: int = 150, n_dem: int = 150) -> bool:
+    def suggest(self, n_photo: int = 300, n_dem: int = 300) -> bool:
         """Detect key points on the photo and on the DEM in a task; untouched old suggestions are replaced."""
         if self.image is None or self.dem is None:
             self.message.emit(self.tr("Load a photo and choose a DEM first."), WARNING)
@@ -243,6 +246,19 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
         self._fit_ids = ([p.id for p in photo], [p.id for p in world])
         return uv, xyz, pairs
 
+    def _ground_z(self, p: Point) -> Optional[float]:
+        if p.z is not None:
+            return p.z
+        z = float(self.dem.sample(p.x, p.y)) if self.dem is not None else float("nan")
+        return z if math.isfinite(z) else None
+
+    def check_points(self):
+        """(photo ids, uv (C, 2), xyz (C, 3)) of the check pairs: paired points kept out of the fit."""
+        pairs = [(a, b, self._ground_z(b)) for a, b in self.state.check_pairs()]
+        pairs = [(a, b, z) for a, b, z in pairs if z is not None]
+        return ([a.id for a, _, _ in pairs], np.array([(a.x, a.y) for a, _, _ in pairs], dtype=np.float64).reshape(-1, 2),
+                np.array([(b.x, b.y, z) for _, b, z in pairs], dtype=np.float64).reshape(-1, 3))
+
     def fit(self) -> bool:
         """Fit the camera to the accepted points in a task (prior = start); result applied on the main thread."""
         if self.image is None or self.dem is None:
@@ -262,14 +278,16 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
             self.message.emit(self.tr("{0} pair(s) ignored: a paired fit needs at least {1}; fitting without "
                                       "pairs.").format(n_links, self.MIN_POINTS), INFO)
         photo_ids, world_ids = self._fit_ids
+        check_ids, check_uv, check_xyz = self.check_points()
         dem = self.dem
 
         def work(progress, is_canceled):
-            return engine.fit_and_render(uv, xyz, pairs, start, dem, progress, is_canceled)
+            return engine.fit_and_render(uv, xyz, pairs, start, dem, progress, is_canceled, check_uv, check_xyz)
 
         def apply(outcome):
             # the matches the fit used, by point id (indices would drift with later edits)
             outcome.info["matched"] = [[photo_ids[i], world_ids[j]] for i, j in outcome.info.pop("matched_idx", [])]
+            outcome.info["check_error_px"] = dict(zip(check_ids, outcome.info.pop("check_errors", [])))
             self._apply_fit(outcome)
 
         return self._start("fit", self.tr("Fit camera"), work, apply)
@@ -302,6 +320,15 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
         level = SUCCESS if outcome.info.get("converged", True) else WARNING
         text = self.tr("Camera fitted: RMSE {0:.1f} px on {1} photo points.").format(
             rmse if rmse is not None else float("nan"), outcome.info.get("n_photo", 0))
+        check = outcome.info.get("check_rmse_px")
+        if check is not None:  # the real accuracy first: the message bar shows only its start
+            text = self.tr("Camera fitted: {0:.1f} px RMSE on {1} check points (fit: {2:.1f} px on {3} photo "
+                           "points).").format(check, outcome.info.get("n_check", 0),
+                                              rmse if rmse is not None else float("nan"),
+                                              outcome.info.get("n_photo", 0))
+        elif outcome.info.get("mode") == "unpaired":
+            text += " " + self.tr("(How well the automatic pairs agree, not the accuracy: pair a few points you "
+                                  "recognise and mark them as check points, key C.)")
         if level == WARNING:
             text += " " + self.tr("The fit did not converge: check the points and the rough camera.")
         clearance = outcome.info.get("clearance_m")
@@ -351,6 +378,16 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
         photo_ids = self._fit_ids[0]
         segs = engine.residual_segments(cam, uv, xyz, pairs)
         return [(pid, a, b) for pid, (a, b) in zip(photo_ids, segs)]
+
+    def check_residuals(self) -> List[Tuple[str, Tuple[float, float], Tuple[float, float]]]:
+        """(photo point id, its pixel, the pixel of its map partner under the fitted camera) per check pair."""
+        cam = self.fitted
+        ids, uv, xyz = self.check_points()
+        if cam is None or not ids:
+            return []
+        proj = cam.project(xyz)
+        return [(pid, (float(a[0]), float(a[1])), (float(q[0]), float(q[1])))
+                for pid, a, q in zip(ids, uv, proj) if np.isfinite(q).all()]
 
     def residual_segments(self) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:
         """(photo pixel, matched DEM point's pixel) segments of :meth:`residuals`."""

@@ -6,14 +6,16 @@ from __future__ import annotations
 import math
 from typing import Optional, Sequence, Tuple
 
-from ..state import (ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, add_points, link, move_point, remove_points,
-                     set_status, unlink)
+from qgis.core import Qgis
+
+from ..state import (ACCEPTED, CHECK, MAP, PHOTO, REJECTED, SUGGESTED, Point, add_points, link, move_point,
+                     remove_points, set_check, set_status, unlink)
 
 __all__ = ["CurationMixin"]
 
 
 class CurationMixin:
-    """Needs the controller's ``state``, ``stack``, ``dem``, ``current`` and ``selectionChanged``."""
+    """Needs the controller's ``state``, ``stack``, ``dem``, ``current``, ``message`` and ``selectionChanged``."""
 
     def point_near(self, space: str, x: float, y: float, tolerance: float) -> Optional[str]:
         """Id of the point of ``space`` nearest to (x, y) within ``tolerance`` (same units), or None."""
@@ -30,7 +32,7 @@ class CurationMixin:
 
     def step(self, space: str, step: int = 1, only_suggested: bool = False) -> Optional[str]:
         """Select the next/previous point of ``space`` (only the undecided ones if asked); returns its id."""
-        statuses = (SUGGESTED,) if only_suggested else (SUGGESTED, ACCEPTED, REJECTED)
+        statuses = (SUGGESTED,) if only_suggested else (SUGGESTED, ACCEPTED, REJECTED, CHECK)
         pid = self.state.next_point(space, self.current[space] or None, step, statuses)
         self.select(space, pid)
         return pid
@@ -43,6 +45,19 @@ class CurationMixin:
 
     def reject(self, pid: str) -> None:
         self.set_status([pid], REJECTED)
+
+    def toggle_check(self, pid: str) -> bool:
+        """Make a paired point (and its partner) a check point, kept out of the fit to measure it, or back;
+        a point without a partner gets a message instead. Returns whether anything changed."""
+        on = self.state.points[pid].status != CHECK
+        try:
+            edit = set_check(self.state, pid, on)
+        except ValueError:
+            self.message.emit(self.tr("A check point needs its counterpart: Shift+click to pair it with the "
+                                      "selected point of the other view first."), Qgis.MessageLevel.Warning)
+            return False
+        self.stack.push(edit)
+        return True
 
     def accept_all_in(self, space: str, rect: Tuple[float, float, float, float]) -> int:
         """Accept every *suggested* point of ``space`` within (xmin, ymin, xmax, ymax); returns how many."""

@@ -14,7 +14,7 @@ import math
 import os
 from typing import Optional
 
-from qgis.core import Qgis, QgsApplication, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer
+from qgis.core import Qgis, QgsApplication, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer, QgsSettings
 from qgis.PyQt import uic
 from qgis.PyQt.QtCore import QItemSelectionModel, Qt
 from qgis.PyQt.QtWidgets import (QAction, QDockWidget, QFileDialog, QHeaderView, QSizePolicy, QToolBar,
@@ -31,6 +31,8 @@ from .tools import CurationTool, RoughCameraTool, SpaceMapping
 from .views import MapPresenter, PhotoPresenter
 
 FORM_CLASS, _ = uic.loadUiType(str(PLUGIN_DIR / "ui" / "dock.ui"))
+#: QgsSettings key (the plugin's "monoplot/" prefix) of the number of suggestions per view.
+SUGGESTION_COUNT_KEY = "monoplot/suggestions_per_view"
 
 
 class MonoplotDock(QDockWidget, FORM_CLASS):
@@ -63,6 +65,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.demCombo.setAllowEmptyLayer(True)
         self.demCombo.setLayer(None)
         self.photoFile.fileChanged.connect(self._photo_chosen)
+        self.photoFile.lineEdit().editingFinished.connect(self._photo_path_typed)
         self.demCombo.layerChanged.connect(self._dem_chosen)
 
         # camera
@@ -76,7 +79,12 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.pitchSpin.valueChanged.connect(self._prior_spin_changed)
 
         # points
-        self.suggestButton.clicked.connect(lambda: c.suggest())
+        # how many suggestions: a user preference (QgsSettings), not part of the project
+        count = QgsSettings().value(SUGGESTION_COUNT_KEY, self.suggestCountSpin.value(), type=int)
+        self.suggestCountSpin.setValue(count)
+        self.suggestCountSpin.valueChanged.connect(lambda n: QgsSettings().setValue(SUGGESTION_COUNT_KEY, n))
+        self.suggestButton.clicked.connect(
+            lambda: c.suggest(self.suggestCountSpin.value(), self.suggestCountSpin.value()))
         self.mapToolButton.toggled.connect(self._toggle_map_tool)
         self.acceptViewButton.clicked.connect(self.accept_all_in_view)
         self.resetButton.clicked.connect(lambda: c.reset_statuses())
@@ -92,6 +100,9 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         header.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
         header.setSortIndicator(-1, Qt.SortOrder.AscendingOrder)  # detector order until a header is clicked
         self.table_proxy.sort(-1)
+        for button in (self.suggestButton, self.mapToolButton, self.acceptViewButton, self.resetButton,
+                       self.undoButton, self.redoButton):  # two even rows (ui/dock.ui): one row was clipped
+            button.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
         self.splitter.setStretchFactor(0, 3)
         self.splitter.setStretchFactor(1, 2)
         self._sized = False
@@ -133,11 +144,22 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self._unloaded = False
         QgsApplication.instance().aboutToQuit.connect(self.unload)
         self.output_tools = self._install_outputs()
+        self._fit_minimum_width()
         if self.project.readEntry("monoplot", "/state", "")[1]:
             c.restore()
+        self._apply_settings()  # a dock opened on an already open project shows its saved overlay opacity
         self._on_points(set())
         self._on_busy("")
         self._on_camera()
+
+    def _fit_minimum_width(self) -> None:
+        """At least 440 px (narrower squeezes the photo bar), and never narrower than the button rows and the photo
+        tool bar need: a fixed minimum below that clipped the button texts ("uggest poin") with wide fonts."""
+        need = self.dockContents.minimumSizeHint().width()
+        if self._photo_toolbar is not None:
+            margins = self.photoPaneLayout.contentsMargins()
+            need = max(need, self._photo_toolbar.sizeHint().width() + margins.left() + margins.right() + 12)
+        self.dockContents.setMinimumWidth(max(440, need))
 
     def _install_outputs(self):
         """Digitising tools and export buttons of the outputs package (optional: a failure is logged, not fatal)."""
@@ -168,6 +190,12 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         if path and path != self.controller.state.photo_path and os.path.isfile(path):
             self.controller.load_photo(path)
 
+    def _photo_path_typed(self) -> None:
+        """Enter (or leaving the box) on a typed path that names no file: say so instead of doing nothing."""
+        path = self.photoFile.filePath().strip()
+        if path and not os.path.isfile(path):
+            self.show_message(self.tr("No photo file at {0}").format(path), Qgis.MessageLevel.Warning)
+
     def _dem_chosen(self, layer) -> None:
         if isinstance(layer, QgsRasterLayer) and (self.controller.dem_layer is None
                                                  or layer.id() != self.controller.dem_layer.id()):
@@ -182,10 +210,13 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         if fov is not None and self.controller.prior is None:
             self.fovSpin.setValue(fov)
         path = self.controller.state.photo_path
-        if path and self.photoFile.filePath() != path:
+        if self.photoFile.filePath() != path:  # also cleared with the project: no stale path in the box
             self.photoFile.blockSignals(True)
             self.photoFile.setFilePath(path)
             self.photoFile.blockSignals(False)
+        size = self.controller.photo_size
+        if size is not None:  # replaces e.g. the error of a previous, unreadable file
+            self.statusLabel.setText(self.tr("Photo: {0} ({1} × {2} px)").format(os.path.basename(path), *size))
 
     def _on_dem(self) -> None:
         layer = self.controller.dem_layer
@@ -257,8 +288,9 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         return fit_summary_html(c.fitted, c.state.fit_info, self.tr)
 
     def _residual_by_id(self):
-        """Residual length (px) per matched photo point id, for the table."""
-        return {pid: math.hypot(b[0] - a[0], b[1] - a[1]) for pid, a, b in self.controller.residuals()}
+        """Residual length (px) per matched photo point id and per check point, for the table."""
+        c = self.controller
+        return {pid: math.hypot(b[0] - a[0], b[1] - a[1]) for pid, a, b in c.residuals() + c.check_residuals()}
 
     # --- points -----------------------------------------------------------------------------------------------
     def _toggle_map_tool(self, on: bool) -> None:
@@ -333,8 +365,12 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         for w in (self.suggestButton, self.fitButton):
             w.setEnabled(not busy)
         self.cancelButton.setEnabled(busy)
-        self.progressBar.setVisible(True)
+        # the task row sits under the tabs (ui/dock.ui), visible while a task runs whichever tab is open: in the
+        # fit tab, the progress and Cancel of "Suggest points" were out of sight on the points tab
+        self.progressBar.setVisible(busy)
+        self.cancelButton.setVisible(busy)
         if busy:
+            self.statusLabel.setText(self.tr("{0}…").format(description))  # not a stale message of before
             self.progressBar.setValue(0)
             self.progressBar.setFormat(description + " %p%")
             if self.controller.task_kind == "fit":
@@ -421,19 +457,25 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         button.setToolButtonStyle(Qt.ToolButtonStyle.ToolButtonTextOnly)
         button.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
         n = self.outputsBar.count()
-        self.outputsBar.addWidget(button, n // 3, n % 3)
+        self.outputsBar.addWidget(button, n // 2, n % 2)  # two columns: three clipped the labels at 440 px
         return button
 
     # --- project life cycle -----------------------------------------------------------------------------------
+    def _apply_settings(self) -> None:
+        """Widgets that show a setting stored with the project (default when the project has none)."""
+        self.overlaySlider.setValue(int(self.controller.state.settings.get("overlay_opacity", 50)))
+
     def _project_read(self, *args) -> None:
         if self.controller.restore():
-            self.overlaySlider.setValue(int(self.controller.state.settings.get("overlay_opacity", 50)))
+            self._apply_settings()
             if self.controller.fitted is not None:
                 self._update_camera_layers()  # memory layers come back empty from a project file: rebuild them
 
     def _project_cleared(self) -> None:
         self.controller.cancel()
         self.controller.restore()
+        self._apply_settings()
+        self.statusLabel.clear()  # the last message was about the closed project
 
     def unload(self) -> None:
         """Remove canvas items and map tools from the main map, disconnect from the project, save the state.

@@ -81,8 +81,12 @@ ON_GROUND_MAX_M = 200.0
 
 
 def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, int]], start: Camera, dem,
-                   progress: Callable[[float], None], is_canceled: Callable[[], bool]) -> FitOutcome:
+                   progress: Callable[[float], None], is_canceled: Callable[[], bool],
+                   check_uv: Optional[np.ndarray] = None, check_xyz: Optional[np.ndarray] = None) -> FitOutcome:
     """Fit the camera (0-85 %), then render the overlay and per-pixel XYZ (85-100 %).
+
+    ``check_uv`` (C, 2) / ``check_xyz`` (C, 3): paired check points, not fitted; their error goes into the info
+    (``check_rmse_px``, ``n_check``, ``check_errors`` in pixels).
 
     A start camera within :data:`ON_GROUND_MAX_M` of the terrain is fitted "on the ground" (it keeps its height
     above the DEM, one unknown less); a higher one (aircraft, balloon, drone) keeps its height free.
@@ -97,6 +101,8 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
     on_ground = math.isfinite(clearance) and clearance < ON_GROUND_MAX_M
     result = fit_camera(uv, xyz, start, pairs=np.asarray(pairs, dtype=np.int64).reshape(-1, 2) if pairs else None,
                         ground=dem if on_ground else None, eye_height=max(clearance, 0.0) if on_ground else 1.7,
+                        check_image_points=check_uv if check_uv is not None and len(check_uv) else None,
+                        check_world_points=check_xyz if check_xyz is not None and len(check_xyz) else None,
                         progress=lambda f, *_: progress(85.0 * _fraction(f)), is_canceled=is_canceled)
     if result.status == "canceled" or is_canceled():
         raise Canceled()
@@ -121,6 +127,9 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         "matched_idx": [[int(i), int(j)] for (i, j), ok in zip(np.asarray(result.pairs).reshape(-1, 2),
                                                               _inliers(result)) if ok],
         "elapsed_s": float(result.elapsed_s),
+        "check_rmse_px": _float(result.check_rmse_px),
+        "n_check": int(len(result.check_residuals_px)),
+        "check_errors": [_float(np.hypot(*r)) for r in np.asarray(result.check_residuals_px).reshape(-1, 2)],
     }
     progress(88)
     overlay, pixel_xyz, footprint = render_products(camera, dem, is_canceled)

@@ -1,6 +1,6 @@
 """Point markers, residual vectors and footprints drawn as rubber bands on any QgsMapCanvas.
 
-One rubber band per visual style (suggested / accepted / rejected / manual) keeps hundreds of points cheap to draw.
+One rubber band per visual style (suggested / accepted / rejected / manual / check) keeps hundreds of points cheap to draw.
 Coordinates are given in a source CRS (the DEM's for the main map) or, for the photo canvas, already in canvas
 coordinates (``crs=None``).
 """
@@ -14,7 +14,7 @@ from qgis.gui import QgsMapCanvas, QgsRubberBand, QgsVertexMarker
 from qgis.PyQt.QtCore import Qt
 from qgis.PyQt.QtGui import QColor
 
-from ..state import ACCEPTED, REJECTED, SUGGESTED
+from ..state import ACCEPTED, CHECK, REJECTED, SUGGESTED
 
 __all__ = ["PointMarkers", "LineBand", "PolygonBand", "STYLE_COLORS"]
 
@@ -24,7 +24,9 @@ _STYLES = {
     SUGGESTED: (Icon.ICON_CIRCLE, 9, QColor(255, 214, 0), QColor(255, 214, 0, 60), QColor(0, 0, 0, 200)),
     ACCEPTED: (Icon.ICON_FULL_BOX, 7, QColor(0, 200, 80), QColor(0, 200, 80), QColor(255, 255, 255, 230)),
     "manual": (Icon.ICON_FULL_DIAMOND, 11, QColor(0, 170, 255), QColor(0, 170, 255), QColor(255, 255, 255, 230)),
-    REJECTED: (Icon.ICON_X, 6, QColor(230, 40, 40, 170), QColor(230, 40, 40, 0), QColor(0, 0, 0, 0)),
+    # faint: after a curation most suggestions are rejected, and they must not hide the accepted ones
+    REJECTED: (Icon.ICON_X, 5, QColor(230, 40, 40, 110), QColor(230, 40, 40, 0), QColor(0, 0, 0, 0)),
+    CHECK: (Icon.ICON_CROSS, 13, QColor(170, 60, 255), QColor(170, 60, 255), QColor(255, 255, 255, 230)),
 }
 STYLE_COLORS = {key: style[2] for key, style in _STYLES.items()}
 
@@ -45,7 +47,7 @@ class PointMarkers:
         self.to_canvas = to_canvas or (lambda x, y: QgsPointXY(x, y))
         self.bands: Dict[str, QgsRubberBand] = {}
         # rejected below suggested below accepted: the decisions the user made stay readable
-        for z, key in enumerate((REJECTED, SUGGESTED, ACCEPTED, "manual")):
+        for z, key in enumerate((REJECTED, SUGGESTED, ACCEPTED, "manual", CHECK)):
             icon, size, stroke, fill, halo = _STYLES[key]
             band = QgsRubberBand(canvas, QgsWkbTypes.GeometryType.PointGeometry)
             band.setIcon(icon)

@@ -7,13 +7,13 @@ from typing import Dict, List, Optional
 from qgis.PyQt.QtCore import QAbstractTableModel, QModelIndex, QSortFilterProxyModel, Qt
 from qgis.PyQt.QtGui import QBrush, QColor
 
-from ..state import ACCEPTED, PHOTO, REJECTED, ProjectState
+from ..state import ACCEPTED, CHECK, PHOTO, REJECTED, ProjectState
 
 __all__ = ["PointTableModel", "make_proxy", "ID_ROLE"]
 
 ID_ROLE = Qt.ItemDataRole.UserRole + 1
 _COLUMNS = ("View", "Status", "X / u", "Y / v", "Z (m)", "Residual (px)", "Pair", "Source", "Id")
-_STATUS_COLORS = {ACCEPTED: QColor(0, 150, 60), REJECTED: QColor(200, 40, 40)}
+_STATUS_COLORS = {ACCEPTED: QColor(0, 150, 60), REJECTED: QColor(200, 40, 40), CHECK: QColor(140, 40, 220)}
 
 
 class PointTableModel(QAbstractTableModel):

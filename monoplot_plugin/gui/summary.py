@@ -13,9 +13,15 @@ __all__ = ["fit_summary_html"]
 def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], str] = str) -> str:
     """Rich text for the results label (``tr`` translates the user-visible words).
 
+    Check points (paired points kept out of the fit) come first: they measure the camera; the fit's own RMSE only
+    says how well the points it used agree, which for automatic pairs says little about accuracy.
+
     >>> cam = Camera((600000, 200000, 2500), 300, -9, 1, 60, (1024, 768))
     >>> html = fit_summary_html(cam, {"rmse_px": 6.4, "n_photo": 70, "n_map": 66, "sigma": {"x": 44.0}})
     >>> "RMSE <b>6.4 px</b>" in html and "600000 m ± 44" in html
+    True
+    >>> html = fit_summary_html(cam, {"rmse_px": 6.4, "mode": "unpaired", "check_rmse_px": 12.3, "n_check": 4})
+    >>> html.index("Check points <b>12.3 px</b>") < html.index("RMSE <b>6.4 px</b>")
     True
     """
     if fitted is None:
@@ -33,6 +39,12 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
         "" if loo is None else tr(" (leave-one-out {0:.1f} px)").format(loo),
         info.get("n_photo", 0), info.get("n_map", 0),
         tr(", {0} pairs").format(info["n_pairs"]) if info.get("n_pairs") else "")
+    if info.get("check_rmse_px") is not None:
+        head = tr("Check points <b>{0:.1f} px</b> RMSE on {1} (not fitted)").format(
+            info["check_rmse_px"], info.get("n_check", 0)) + "<br>" + tr("Fit: ") + head
+    elif info.get("mode") == "unpaired":
+        head += "<br><small>" + tr("RMSE of the automatic pairs (agreement, not accuracy): mark a few paired "
+                                  "points as check points (key C) to measure the camera.") + "</small>"
     deg = "{:.2f}"
     cells = [("X", f"{x:.0f} m{sig('x', '{:.0f}')}"),
              (tr("Heading"), f"{fitted.heading % 360:.2f}°{sig('heading', deg)}"),

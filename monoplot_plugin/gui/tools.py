@@ -139,6 +139,8 @@ class CurationTool(QgsMapTool):
             c.step(self.space, 1, only_suggested=True)
         elif key == Qt.Key.Key_U and pid:
             c.set_status([pid], SUGGESTED)
+        elif key == Qt.Key.Key_C and pid:
+            c.toggle_check(pid)
         elif key in (Qt.Key.Key_Delete, Qt.Key.Key_Backspace) and pid:
             c.delete([pid])
         else:

@@ -37,6 +37,7 @@ class PhotoPresenter:
         self.canvas = canvas
         self.markers = PointMarkers(canvas, to_canvas=uv_to_map)
         self.residuals = LineBand(canvas, QColor(255, 0, 200), width=2, z=30)
+        self.check_residuals = LineBand(canvas, QColor(170, 60, 255), width=2, z=31)  # the check points' colour
         self.cursor = _cursor_marker(canvas, QColor(0, 230, 255))
         self.show_residuals = True
 
@@ -55,6 +56,8 @@ class PhotoPresenter:
     def redraw_residuals(self) -> None:
         segs = self.c.residual_segments() if self.show_residuals else []
         self.residuals.set_segments([(uv_to_map(*a), uv_to_map(*b)) for a, b in segs])
+        checks = [(a, b) for _, a, b in self.c.check_residuals()] if self.show_residuals else []
+        self.check_residuals.set_segments([(uv_to_map(*a), uv_to_map(*b)) for a, b in checks])
 
     def redraw_camera(self) -> None:
         self.canvas.set_overlay(self.c.overlay)
@@ -72,6 +75,7 @@ class PhotoPresenter:
     def remove(self) -> None:
         self.markers.remove()
         self.residuals.remove()
+        self.check_residuals.remove()
         self.canvas.scene().removeItem(self.cursor)
 
 

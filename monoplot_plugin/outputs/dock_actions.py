@@ -52,13 +52,14 @@ class OutputTools(QObject):
         canvas = dock.photo_canvas
         self.capture_tools = {kind: PhotoCaptureTool(canvas, self.current_session, kind) for kind in KINDS}
         self.edit_tool = PhotoEditTool(canvas, self.current_session)
-        labels = {"point": self.tr("Draw points on the photo"), "line": self.tr("Draw lines on the photo"),
-                  "polygon": self.tr("Draw polygons on the photo")}
+        # short button texts: all four tools must fit the photo bar of a 440 px dock (longer ones went into the
+        # toolbar's overflow menu, hiding the polygon tool); the tooltip says "on the photo"
+        labels = {"point": self.tr("Draw points"), "line": self.tr("Draw lines"), "polygon": self.tr("Draw polygons")}
         self.actions = {}
         for kind, tool in self.capture_tools.items():
             action = QAction(labels[kind], dock)
-            action.setToolTip(labels[kind] + self.tr(": click vertices, right click to finish, Backspace undoes "
-                                                     "a vertex, Esc cancels"))
+            action.setToolTip(labels[kind] + self.tr(" on the photo: click vertices, right click to finish, "
+                                                     "Backspace undoes a vertex, Esc cancels"))
             dock.add_photo_tool(action, tool)
             tool.message.connect(lambda text: self._message(text, Qgis.MessageLevel.Warning))
             self.actions[kind] = action
@@ -323,14 +324,24 @@ class OutputTools(QObject):
         from .report import ReportPoints
 
         points = None
+        info = self.controller.state.fit_info or {}
+        info = info if isinstance(info, dict) else {}
         inputs = self.controller.fit_inputs()
         if not isinstance(inputs, str):
             uv, world, pairs = inputs
+            if not pairs:
+                # An unpaired fit: the report shows the automatic pairs the fit matched (by id) and their RMSE;
+                # without them its photo panel promised control points and showed none.
+                photo_ids, world_ids = self.controller._fit_ids
+                index_photo = {pid: i for i, pid in enumerate(photo_ids)}
+                index_world = {pid: i for i, pid in enumerate(world_ids)}
+                pairs = [(index_photo[a], index_world[b]) for a, b in info.get("matched") or []
+                         if a in index_photo and b in index_world]
             if pairs:
                 i, j = np.asarray(pairs, dtype=int).T
                 points = ReportPoints(np.asarray(uv)[i], np.asarray(world)[j])
-        info = self.controller.state.fit_info or {}
-        std = info.get("std") if isinstance(info, dict) else None
+        # the dock's fit stores its standard deviations as "sigma" (gui/engine.py); a core summary says "std"
+        std = info.get("sigma") or info.get("std")
         return points, (std or None)
 
     def _ask_features(self) -> None:

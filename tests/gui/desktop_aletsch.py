@@ -2,10 +2,12 @@
 
 Run it (not a pytest module) with ``tests/gui/run_desktop_aletsch.sh``, i.e.
 ``xvfb-run -a -s "-screen 0 1600x1000x24" qgis --nologo --noversioncheck --code tests/gui/desktop_aletsch.py``.
-It loads dem.tif and photo.jpg, imports prior_pose.kml, suggests points, accepts those in view, fits the camera,
+It loads dem.tif and photo.jpg, imports prior_pose.kml, suggests points, curates them as a careful user would,
+adds the 11 hand-picked GCPs as paired *check points* (kept out of the fit, key C in the dock), fits the camera,
 shows residuals and the DEM overlay at 50 %, moves the linked cursor, and saves screenshots and a JSON summary to
 test-artifacts/ (gitignored): aletsch_1_suggestions.png, aletsch_2_fit.png, aletsch_3_floating.png,
-aletsch_4_residuals_closeup.png, aletsch_session.json. The fitted camera is checked against the 11 independent GCPs (never used as input).
+aletsch_4_residuals_closeup.png, aletsch_session.json. The dock's check-point RMSE must agree with an independent
+computation and stay within CHECK_LIMIT_PX.
 """
 
 import csv
@@ -28,6 +30,8 @@ OUT.mkdir(exist_ok=True)
 sys.path.insert(0, str(ROOT))
 
 iface = qgis.utils.iface
+SUGGESTIONS = 2000  # per view (the Points tab's spin box): dense enough that recognisable features have one
+CHECK_LIMIT_PX = 15.0  # eval (make eval) reaches ~9-11 px on the same curation rule
 report = {"steps": [], "errors": []}
 state = {}
 
@@ -102,6 +106,7 @@ def step1_inputs():
     log("prior", camera=c.prior.parameters())
     # step 3: suggestions (background task)
     c.taskFinished.connect(on_task_finished)
+    dock.suggestCountSpin.setValue(SUGGESTIONS)
     dock.suggestButton.click()
 
 
@@ -139,23 +144,36 @@ def step3_screenshot():
     dock.fitButton.click()  # step 4: fit in a QgsTask
 
 
-def curate(c, radius_px=20.0):
-    """What a careful user does: accept a suggestion when its counterpart is recognisable on the other side
-    (a DEM suggestion projects, with the rough camera, within ``radius_px`` of a photo suggestion), reject the
-    rest (glacier-surface texture, foreground rocks). Uses the rough camera only, never the check GCPs."""
+def read_gcps():
     import numpy as np
 
+    rows = list(csv.DictReader(open(DATA / "gcps.csv")))
+    uv = np.array([[float(r["u_px"]), float(r["v_px"])] for r in rows])
+    xyz = np.array([[float(r["X_lv03"]), float(r["Y_lv03"]), float(r["Z_m"])] for r in rows])
+    return uv, xyz
+
+
+def curate(c):
+    """What a careful user does, as ``make eval`` simulates it: accept the suggestions on features they recognise
+    (a photo suggestion within 10 px of one of the summits and glacier junctions they know, a DEM suggestion within
+    75 m of one), reject the rest (glacier-surface texture, foreground rocks). No pairing. Then the known features
+    themselves go in as paired check points: the dock measures the fitted camera on them, the fit never sees them."""
+    import numpy as np
+
+    from eval.aletsch import curate as careful_user
     from monoplot_plugin.state import ACCEPTED, MAP, PHOTO, REJECTED
 
     photo, world = c.state.in_space(PHOTO), c.state.in_space(MAP)
-    uv = np.array([(p.x, p.y) for p in photo])
-    proj = c.prior.project(np.array([(p.x, p.y, p.z) for p in world]))
-    d = np.hypot(uv[:, None, 0] - proj[None, :, 0], uv[:, None, 1] - proj[None, :, 1])
-    d = np.where(np.isfinite(d), d, np.inf)
-    keep_photo, keep_world = d.min(axis=1) < radius_px, d.min(axis=0) < radius_px
+    gcp_uv, gcp_xyz = read_gcps()
+    keep_photo, keep_world = careful_user(np.array([(p.x, p.y) for p in photo]),
+                                          np.array([(p.x, p.y, p.z) for p in world]), np.column_stack([gcp_uv, gcp_xyz]))
     for points, keep in ((photo, keep_photo), (world, keep_world)):
         c.set_status([p.id for p, k in zip(points, keep) if k], ACCEPTED)
         c.set_status([p.id for p, k in zip(points, keep) if not k], REJECTED)
+    for (u, v), (x, y, _) in zip(gcp_uv, gcp_xyz):
+        pid, mid = c.add_manual(PHOTO, u, v), c.add_manual(MAP, x, y)
+        c.link(pid, mid)
+        assert c.toggle_check(pid)
 
 
 @guarded
@@ -165,14 +183,19 @@ def step5_result():
     dock.overlaySlider.setValue(50)
     dock.residualsCheck.setChecked(True)
     cam = c.fitted
-    # independent check: the 11 hand GCPs
+    # independent check: the 11 hand GCPs (the fit used the Z the DEM gives under each; the survey's own Z here)
     import numpy as np
 
-    rows = list(csv.DictReader(open(DATA / "gcps.csv")))
-    uv = np.array([[float(r["u_px"]), float(r["v_px"])] for r in rows])
-    xyz = np.array([[float(r["X_lv03"]), float(r["Y_lv03"]), float(r["Z_m"])] for r in rows])
+    uv, xyz = read_gcps()
     err = np.linalg.norm(cam.project(xyz) - uv, axis=1)
-    log("gcp_check", rmse_px=float(np.sqrt(np.mean(err ** 2))), median_px=float(np.median(err)))
+    rmse = float(np.sqrt(np.mean(err ** 2)))
+    dock_rmse = c.state.fit_info.get("check_rmse_px")
+    log("gcp_check", rmse_px=rmse, median_px=float(np.median(err)), dock_check_rmse_px=dock_rmse,
+        n_check=c.state.fit_info.get("n_check"), summary=dock.resultLabel.text())
+    if dock_rmse is None or c.state.fit_info.get("n_check") != len(uv) or abs(dock_rmse - rmse) > 3.0:
+        report["errors"].append(f"dock check points {dock_rmse} px on {c.state.fit_info.get('n_check')} vs {rmse:.2f} px")
+    if rmse > CHECK_LIMIT_PX:
+        report["errors"].append(f"fitted camera {rmse:.1f} px RMSE on the 11 GCPs (limit {CHECK_LIMIT_PX})")
     # step 6: linked cursors, photo -> map (status bar shows X, Y, Z) and map -> photo
     dock._photo_cursor(520.0, 420.0)
     ground = c.ground_at_pixel(520.0, 420.0)

@@ -1,0 +1,143 @@
+"""What a new user hit in the real desktop: clipped buttons at the dock's minimum width, a geographic DEM whose
+markers went to (inf, inf), a stale photo path after a new project, typed paths that silently did nothing, and an
+overlay opacity not restored when the dock is opened on an already open project."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from qgis.core import Qgis, QgsPointXY, QgsProject, QgsRasterLayer
+from qgis.PyQt.QtCore import Qt
+from qgis.PyQt.QtWidgets import QToolButton
+
+
+@pytest.fixture
+def narrow_dock(dock, qtbot):
+    """The dock at the 440 px it gets when first opened on the right of a 1600 px window."""
+    dock.resize(440, 700)
+    dock.stepTabs.setCurrentWidget(dock.pointsTab)
+    qtbot.wait(50)
+    return dock
+
+
+def _clipped(buttons):
+    return [b.text() for b in buttons if b.isVisible() and b.width() < b.sizeHint().width()]
+
+
+def test_point_buttons_not_clipped_at_minimum_width(narrow_dock, qtbot):
+    d = narrow_dock
+    buttons = [d.suggestButton, d.mapToolButton, d.acceptViewButton, d.resetButton, d.undoButton, d.redoButton]
+    assert _clipped(buttons) == []
+
+
+def test_output_buttons_not_clipped_at_minimum_width(narrow_dock, qtbot):
+    d = narrow_dock
+    d.stepTabs.setCurrentWidget(d.fitTab)
+    qtbot.wait(50)
+    bar = d.outputsBar
+    buttons = [bar.itemAt(i).widget() for i in range(bar.count())]
+    assert len(buttons) >= 7
+    assert _clipped(buttons) == []
+
+
+def test_all_photo_tools_on_the_photo_bar_at_minimum_width(narrow_dock, qtbot):
+    toolbar = narrow_dock._photo_toolbar
+    overflow = toolbar.findChild(QToolButton, "qt_toolbar_ext_button")
+    assert overflow is None or not overflow.isVisible()  # the polygon tool was hidden behind ">>"
+    for action in narrow_dock.output_tools.actions.values():
+        if action.isCheckable():
+            assert toolbar.widgetForAction(action).isVisible(), action.text()
+
+
+def test_fit_tab_scrolls_instead_of_clipping(dock):
+    from qgis.PyQt.QtWidgets import QScrollArea
+
+    assert isinstance(dock.findChild(QScrollArea, "fitScroll"), QScrollArea)
+    assert dock.resultLabel.window() is dock and dock.fitButton.isVisibleTo(dock.fitTab)
+
+
+def test_geographic_dem_markers_use_the_reprojected_crs(dock, scene, tmp_path):
+    """A DEM in degrees is reprojected to UTM metres; the map must draw and pick in that CRS, not the layer's."""
+    from osgeo import gdal
+
+    from monoplot_plugin.state import MAP, Point, add_points
+
+    path = str(tmp_path / "dem_degrees.tif")
+    gdal.Warp(path, scene.dem_path, dstSRS="EPSG:4326")
+    layer = QgsRasterLayer(path, "DEM in degrees")
+    QgsProject.instance().addMapLayer(layer)
+    dock.photoFile.setFilePath(scene.photo_path)
+    dock.demCombo.setLayer(layer)
+    c = dock.controller
+    assert c.dem is not None and "UTM" in c.dem.crs_wkt
+    assert not c.dem_crs.isGeographic() and c.dem_crs.isValid()
+    # a point at the DEM centre (UTM metres) is drawn at the DEM centre on a canvas in the scene's CRS
+    x0, y0 = c.dem.cell_to_map(c.dem.elevation.shape[1] // 2, c.dem.elevation.shape[0] // 2)
+    p = Point.new(MAP, x0, y0, 1500.0)
+    c.stack.push(add_points(c.state, [p]))
+    c.select(MAP, p.id)
+    shown = dock.map_view.markers.highlight.center()
+    centre = QgsProject.instance().mapLayersByName("synthetic DEM")[0].extent().center()
+    assert math.isfinite(shown.x()) and math.hypot(shown.x() - centre.x(), shown.y() - centre.y()) < 200.0
+    # and a rough camera there draws its marker without a transform error
+    c.set_prior(scene.prior.with_parameters(x=x0, y=y0))
+    assert math.isfinite(dock.map_view.camera_marker.center().x())
+
+
+def test_photo_box_cleared_with_the_project(dock, scene):
+    dock.photoFile.setFilePath(scene.photo_path)
+    assert dock.controller.photo_size is not None
+    QgsProject.instance().clear()
+    assert dock.controller.image is None
+    assert dock.photoFile.filePath() == ""
+
+
+def test_typed_missing_photo_path_is_reported(dock, qtbot, qgis_iface, tmp_path):
+    edit = dock.photoFile.lineEdit()
+    edit.setFocus()
+    edit.setText(str(tmp_path / "no_such_photo.jpg"))
+    qtbot.keyClick(edit, Qt.Key.Key_Return)
+    warnings = qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Warning)
+    assert any("No photo file" in m for m in warnings)
+    assert "No photo file" in dock.statusLabel.text()
+
+
+def test_good_photo_replaces_the_error_in_the_status_line(dock, scene, tmp_path):
+    bad = tmp_path / "not_a_photo.jpg"
+    bad.write_text("not an image")
+    dock.photoFile.setFilePath(str(bad))
+    assert "cannot read" in dock.statusLabel.text()
+    dock.photoFile.setFilePath(scene.photo_path)
+    assert "cannot read" not in dock.statusLabel.text() and "px" in dock.statusLabel.text()
+
+
+def test_overlay_opacity_restored_when_dock_opens_on_open_project(dock, qgis_iface, qtbot, scene):
+    from monoplot_plugin.gui.dock import MonoplotDock
+
+    dock.photoFile.setFilePath(scene.photo_path)
+    dock.overlaySlider.setValue(80)
+    dock.controller.save()
+    second = MonoplotDock(qgis_iface)  # e.g. the plugin reloaded: a new dock on the same project
+    qtbot.addWidget(second)
+    try:
+        assert second.overlaySlider.value() == 80
+    finally:
+        second.unload()
+
+
+def test_suggest_progress_and_cancel_visible_on_the_points_tab(dock, scene, qtbot):
+    dock.photoFile.setFilePath(scene.photo_path)
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    c = dock.controller
+    c.set_prior(scene.prior)
+    assert not dock.progressBar.isVisible()  # idle: no empty progress bar
+    dock.stepTabs.setCurrentWidget(dock.pointsTab)
+    qtbot.mouseClick(dock.suggestButton, Qt.MouseButton.LeftButton)
+    assert c.busy
+    assert dock.stepTabs.currentWidget() is dock.pointsTab
+    assert dock.progressBar.isVisible() and dock.cancelButton.isVisible() and dock.cancelButton.isEnabled()
+    assert "Suggest" in dock.progressBar.format()
+    with qtbot.waitSignal(c.taskFinished, timeout=60000):
+        qtbot.mouseClick(dock.cancelButton, Qt.MouseButton.LeftButton)
+    assert not dock.progressBar.isVisible() and dock.suggestButton.isEnabled()
