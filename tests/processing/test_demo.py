@@ -1,6 +1,7 @@
 """The demo itself (quick mode): the whole pipeline through qgis_process; its figures are checked."""
 
 import json
+from pathlib import Path
 
 import pytest
 from osgeo import gdal, ogr
@@ -59,4 +60,14 @@ def test_make_qgis_project_lists_the_demo_layers(demo_summary, qgis_app):
     names = [layer.name() for layer in project.layerTreeRoot().layerOrder()]
     assert names[0] == "Suggested DEM points" and names[-1] == "DEM" and len(names) == 4
     assert all(layer.isValid() for layer in project.mapLayers().values())
+    # the Monoplot session the dock restores: photo, DEM layer, cameras, curated points and check points
+    from monoplot_plugin.gui import persistence
+    from monoplot_plugin.state import ACCEPTED, PHOTO
+
+    state = persistence.load(project)
+    assert state is not None and Path(state.photo_path).is_file()
+    assert project.mapLayer(state.dem_layer_id).name() == "DEM"
+    assert state.prior is not None and state.fitted is not None
+    assert len(state.check_pairs()) >= 10 and len(state.in_space(PHOTO, (ACCEPTED,))) >= 10
+    assert state.fit_info["check_rmse_px"] < 5
     project.clear()
