@@ -16,6 +16,7 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
+from ..core.transforms import true_runs
 from .vectors import MapFeature
 
 __all__ = ["sample_xyz", "densify", "photo_to_map_feature", "PhotoPath", "map_to_photo",
@@ -90,12 +91,6 @@ def densify(vertices, step: float, closed: bool = False) -> np.ndarray:
     return np.vstack(out)
 
 
-def _runs(valid: np.ndarray) -> List[Tuple[int, int]]:
-    """[start, stop) index ranges of consecutive True values."""
-    edges = np.diff(np.concatenate([[0], valid.astype(np.int8), [0]]))
-    return list(zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)))
-
-
 def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, attributes: Optional[dict] = None,
                          step_px: float = 1.0, origin=None, *, camera=None, dem=None,
                          jump: float = 0.1) -> Optional[MapFeature]:
@@ -151,7 +146,7 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
     valid = np.isfinite(ground).all(axis=1)
     if kind == "polygon":
         ring_valid = valid[:-1]  # the closing point repeats the first
-        sky = len(_runs(~ring_valid))
+        sky = len(true_runs(~ring_valid))
         if sky > 1 and not ring_valid[0] and not ring_valid[-1]:
             sky -= 1  # a sky run across the ring's start is one piece
         ring = _drop_repeats(ground[:-1][ring_valid])
@@ -159,7 +154,7 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
             return None
         return MapFeature("polygon", [ring], attributes, sky_parts=sky)
     parts = []
-    for a, b in _runs(valid):
+    for a, b in true_runs(valid):
         cuts = [a, b]
         if origin is not None:
             r = np.linalg.norm(ground[a:b] - np.asarray(origin, dtype=np.float64), axis=1)
@@ -167,7 +162,7 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
             cuts = [a, *(a + big + 1).tolist(), b]
         parts.extend(_drop_repeats(ground[p:q]) for p, q in zip(cuts[:-1], cuts[1:]))
     parts = [p for p in parts if len(p) >= 2]
-    sky = len(_runs(~valid))
+    sky = len(true_runs(~valid))
     if not parts:
         return None
     return MapFeature("line", parts, attributes, sky_parts=sky)
@@ -219,7 +214,7 @@ class PhotoPath:
         share their end points, so a dashed piece joins the solid ones; the rest is left out."""
         drawable = (self.visible | self.occluded) & np.isfinite(self.uv).all(axis=1)
         out = []
-        for a, b in _runs(drawable):
+        for a, b in true_runs(drawable):
             vis = self.visible[a:b]
             change = np.flatnonzero(np.diff(vis.astype(np.int8))) + 1
             bounds = [0, *change.tolist(), b - a]

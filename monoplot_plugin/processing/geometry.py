@@ -16,7 +16,11 @@ from qgis.core import (
     QgsWkbTypes,
 )
 
+from ..core.transforms import true_runs
 from . import pipeline
+
+#: Relative range jump between consecutive line vertices that cuts the line (a silhouette).
+SILHOUETTE_JUMP = 0.1
 
 
 def _parts(geometry: QgsGeometry) -> Tuple[str, List[List[np.ndarray]]]:
@@ -78,24 +82,26 @@ def _build(kind: str, parts: List[List[np.ndarray]], with_z: bool) -> Optional[Q
     return QgsGeometry(multi)
 
 
-def _split_runs(a: np.ndarray, keep: np.ndarray) -> List[np.ndarray]:
-    """Consecutive runs of kept rows: a line broken where vertices are dropped."""
-    runs, start = [], None
-    for i, k in enumerate(list(keep) + [False]):
-        if k and start is None:
-            start = i
-        elif not k and start is not None:
-            runs.append(a[start:i])
-            start = None
-    return runs
+def _line_pieces(xyz: np.ndarray, ok: np.ndarray, origin, jump: float = SILHOUETTE_JUMP) -> List[np.ndarray]:
+    """Runs of ground vertices of a line, also cut where the range from the camera jumps by more than ``jump``
+    (relative): there the line passes from a near ridge to a far slope behind it (as the dock's digitising does)."""
+    rng = np.linalg.norm(xyz - np.asarray(origin, dtype=float), axis=1)
+    pieces = []
+    for a, b in true_runs(ok):
+        r = rng[a:b]
+        big = np.flatnonzero(np.abs(np.diff(r)) > jump * np.minimum(r[:-1], r[1:]))
+        cuts = [a, *(a + big + 1).tolist(), b]
+        pieces.extend(xyz[p:q] for p, q in zip(cuts[:-1], cuts[1:]))
+    return pieces
 
 
 def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float,
                           y_sign: float = -1.0) -> Tuple[Optional[QgsGeometry], int]:
     """A photo-space geometry (x = u, y = y_sign * v) -> map geometry with Z in the DEM's CRS.
 
-    Lines and rings are densified every ``step`` pixels first. Lines break where vertices see the sky; polygon
-    rings drop those vertices. Returns (geometry or None, number of vertices dropped).
+    Lines and rings are densified every ``step`` pixels first; every vertex is intersected exactly with the DEM.
+    Lines break where vertices see the sky and at silhouettes; polygon rings drop the vertices over the sky (the
+    ring closes across the gap). Returns (geometry or None, number of vertices dropped).
     """
     if geometry is None or geometry.isNull():
         return None, 0
@@ -111,7 +117,7 @@ def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float,
             ok = np.isfinite(xyz).all(axis=1)
             dropped += int((~ok).sum())
             if kind == "line":
-                out_rings.extend(_split_runs(xyz, ok))
+                out_rings.extend(_line_pieces(xyz, ok, camera.position))
             else:
                 out_rings.append(xyz[ok])
         if kind == "line":

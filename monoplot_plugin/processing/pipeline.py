@@ -138,16 +138,17 @@ def clear_cache() -> None:
 
 
 def photo_to_map(camera: Camera, dem, uv: np.ndarray) -> np.ndarray:
-    """(N, 3) ground points seen at (N, 2) pixels (nearest pixel of the XYZ raster); NaN for sky / outside."""
-    xyz = xyz_raster(camera, dem)
+    """(N, 3) ground points seen at (N, 2) pixel positions: the exact first hit of each position's own ray on the
+    DEM mesh (core, as the dock does), not the centre of its pixel; NaN for sky and outside the photo."""
+    from ..core.transforms import photo_points_to_map
+
     uv = np.asarray(uv, dtype=float).reshape(-1, 2)
     out = np.full((len(uv), 3), np.nan)
     with np.errstate(invalid="ignore"):
-        cols = np.floor(uv[:, 0]).astype(np.int64, copy=False)
-        rows = np.floor(uv[:, 1]).astype(np.int64, copy=False)
-    inside = (np.isfinite(uv).all(axis=1) & (cols >= 0) & (cols < camera.width) & (rows >= 0)
-              & (rows < camera.height))
-    out[inside] = xyz[rows[inside], cols[inside]]
+        inside = (np.isfinite(uv).all(axis=1) & (uv[:, 0] >= 0) & (uv[:, 0] <= camera.width) & (uv[:, 1] >= 0)
+                  & (uv[:, 1] <= camera.height))
+    if inside.any():
+        out[inside] = photo_points_to_map(uv[inside], camera, dem)[0]
     return out
 
 

@@ -6,7 +6,7 @@ from osgeo import gdal
 from qgis.core import (QgsFeature, QgsGeometry, QgsPointXY, QgsProcessingException, QgsVectorLayer)
 
 from monoplot_plugin.core.dem import Dem
-from monoplot_plugin.core.xyz import compute_xyz
+from monoplot_plugin.core.xyz import compute_xyz, compute_xyz_full
 
 
 def test_compute_xyz_writes_photo_sized_raster_matching_core(run_alg, small_scene, tmp_path):
@@ -216,3 +216,28 @@ def test_cancel_during_feature_loop_is_a_clean_error_and_frees_the_cache(run_alg
         run_alg("phototomap", {"INPUT": drawn, "CAMERA": small_scene["camera"], "DEM": small_scene["dem"],
                                "OUTPUT": "memory:"}, feedback)
     assert not pipeline._XYZ_CACHE
+
+
+def test_photo_line_across_a_silhouette_is_cut_there(run_alg, small_scene):
+    """A line drawn down the photo from a far slope onto the ridge in front of it: the map line must not join the
+    two (it would cross ground hidden behind the ridge); it is cut where the range jumps."""
+    cam = small_scene["cam"]
+    distance = compute_xyz_full(cam, Dem.open(small_scene["dem"]), visibility=False).distance
+    jumps = np.abs(np.diff(distance, axis=0)) > 0.2 * np.fmin(distance[:-1], distance[1:])
+    col = int(np.flatnonzero(np.nan_to_num(jumps).any(axis=0))[-1])
+    row = int(np.flatnonzero(jumps[:, col])[0])  # far slope in pixel row `row`, the ridge from row + 1
+    assert np.isfinite(distance[row - 1:row + 12, col]).all()
+    line = QgsVectorLayer("LineString", "drawn", "memory")
+    feature = QgsFeature()
+    feature.setGeometry(QgsGeometry.fromPolylineXY([QgsPointXY(col + 0.5, -(row - 0.8)),
+                                                    QgsPointXY(col + 0.5, -(row + 10.5))]))
+    line.dataProvider().addFeatures([feature])
+    result = run_alg("phototomap", {"INPUT": line, "CAMERA": small_scene["camera"], "DEM": small_scene["dem"],
+                                    "STEP": 0.25, "OUTPUT": "memory:"})
+    parts = [np.array([(p.x(), p.y(), p.z()) for p in part.vertices()])
+             for f in result["OUTPUT"].getFeatures() for part in f.geometry().constParts()]
+    assert len(parts) == 2
+    far, near = sorted(parts, key=lambda a: -np.linalg.norm(a[0] - np.asarray(cam.position)))
+    gap = np.linalg.norm(far[-1, :2] - near[0, :2])
+    steps = max(np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1).max() for p in parts)
+    assert gap > 10 * steps  # the hidden ground between the pieces is not bridged
