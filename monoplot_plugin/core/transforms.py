@@ -41,7 +41,8 @@ from .dem import Dem
 from .xyz import XyzResult, compute_xyz_full, segment_first_hit
 
 __all__ = ["DropReport", "PhotoToMap", "MapToPhoto", "Ortho", "photo_points_to_map", "photo_line_to_map",
-           "photo_polygon_to_map", "map_to_photo", "map_points_to_photo", "orthorectify", "densify", "true_runs"]
+           "photo_polygon_to_map", "map_to_photo", "map_points_to_photo", "orthorectify", "densify", "true_runs",
+           "ground_pieces"]
 
 
 @dataclass
@@ -208,21 +209,38 @@ def photo_points_to_map(uv, cam: Camera, dem: Dem) -> Tuple[np.ndarray, np.ndarr
     return xyz, ok
 
 
+def ground_pieces(xyz: np.ndarray, ok: np.ndarray, origin, jump: float = 0.1) -> Tuple[List[Tuple[int, int]], int]:
+    """Where a path of ground points must be cut: at samples that see no terrain, and where the range from the
+    camera jumps by more than ``jump`` (relative) between consecutive samples (a silhouette: the path passes from a
+    near ridge to a far slope, and joining them would cross hidden ground).
+
+    Args:
+        xyz: (N, 3) ground points along the path; ok: (N,) bool, the sample sees terrain; origin: (3,) camera.
+    Returns:
+        ([(start, stop), ...] index ranges of the pieces, number of cuts at range jumps).
+
+    >>> xyz = np.array([[0, 100.0, 0], [0, 101.0, 0], [0, 300.0, 0], [0, 301.0, 0], [0, 0, 0]])
+    >>> ground_pieces(xyz, np.array([True, True, True, True, False]), (0, 0, 0))
+    ([(0, 2), (2, 4)], 1)
+    """
+    rng = np.linalg.norm(xyz - np.asarray(origin, dtype=np.float64), axis=1)
+    pieces, jumps = [], 0
+    for a, b in true_runs(ok):
+        r = rng[a:b]
+        big = np.flatnonzero(np.abs(np.diff(r)) > jump * np.minimum(r[:-1], r[1:]))
+        jumps += len(big)
+        cuts = [a, *(a + big + 1).tolist(), b]
+        pieces.extend((int(p), int(q)) for p, q in zip(cuts[:-1], cuts[1:]))
+    return pieces, jumps
+
+
 def _pieces(samples_uv: np.ndarray, cam: Camera, dem: Dem, jump: float, report: DropReport):
     xyz, ok = photo_points_to_map(samples_uv, cam, dem)
     report.input_vertices += len(samples_uv)
     report.dropped += int((~ok).sum())
-    runs = true_runs(ok)
-    report.splits_at_sky += max(0, len(runs) - 1) + (0 if ok.all() else 0)
-    pieces = []
-    rng = np.linalg.norm(xyz - np.asarray(cam.position), axis=1)
-    for a, b in runs:
-        r = rng[a:b]
-        big = np.nonzero(np.abs(np.diff(r)) > jump * np.minimum(r[:-1], r[1:]))[0]
-        report.splits_at_jumps += len(big)
-        cuts = [a] + [a + int(k) + 1 for k in big] + [b]
-        for p, q in zip(cuts[:-1], cuts[1:]):
-            pieces.append((p, q))
+    report.splits_at_sky += max(0, len(true_runs(ok)) - 1)
+    pieces, jumps = ground_pieces(xyz, ok, cam.position, jump)
+    report.splits_at_jumps += jumps
     return xyz, ok, pieces
 
 

@@ -256,8 +256,9 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
         """(photo ids, uv (C, 2), xyz (C, 3)) of the check pairs: paired points kept out of the fit."""
         pairs = [(a, b, self._ground_z(b)) for a, b in self.state.check_pairs()]
         pairs = [(a, b, z) for a, b, z in pairs if z is not None]
-        return ([a.id for a, _, _ in pairs], np.array([(a.x, a.y) for a, _, _ in pairs], dtype=np.float64).reshape(-1, 2),
-                np.array([(b.x, b.y, z) for _, b, z in pairs], dtype=np.float64).reshape(-1, 3))
+        uv = np.array([(a.x, a.y) for a, _, _ in pairs], dtype=np.float64).reshape(-1, 2)
+        xyz = np.array([(b.x, b.y, z) for _, b, z in pairs], dtype=np.float64).reshape(-1, 3)
+        return [a.id for a, _, _ in pairs], uv, xyz
 
     def fit(self) -> bool:
         """Fit the camera to the accepted points in a task (prior = start); result applied on the main thread."""

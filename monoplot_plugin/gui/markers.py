@@ -1,6 +1,7 @@
 """Point markers, residual vectors and footprints drawn as rubber bands on any QgsMapCanvas.
 
-One rubber band per visual style (suggested / accepted / rejected / manual / check) keeps hundreds of points cheap to draw.
+One rubber band per visual style (suggested / accepted / rejected / manual / check) keeps hundreds of points cheap
+to draw.
 Coordinates are given in a source CRS (the DEM's for the main map) or, for the photo canvas, already in canvas
 coordinates (``crs=None``).
 """

@@ -16,7 +16,7 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from ..core.transforms import true_runs
+from ..core.transforms import ground_pieces, true_runs
 from .vectors import MapFeature
 
 __all__ = ["sample_xyz", "densify", "photo_to_map_feature", "PhotoPath", "map_to_photo",
@@ -153,14 +153,8 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
         if len(ring) < 3:
             return None
         return MapFeature("polygon", [ring], attributes, sky_parts=sky)
-    parts = []
-    for a, b in true_runs(valid):
-        cuts = [a, b]
-        if origin is not None:
-            r = np.linalg.norm(ground[a:b] - np.asarray(origin, dtype=np.float64), axis=1)
-            big = np.flatnonzero(np.abs(np.diff(r)) > jump * np.minimum(r[:-1], r[1:]))
-            cuts = [a, *(a + big + 1).tolist(), b]
-        parts.extend(_drop_repeats(ground[p:q]) for p, q in zip(cuts[:-1], cuts[1:]))
+    pieces = ground_pieces(ground, valid, origin, jump)[0] if origin is not None else true_runs(valid)
+    parts = [_drop_repeats(ground[p:q]) for p, q in pieces]
     parts = [p for p in parts if len(p) >= 2]
     sky = len(true_runs(~valid))
     if not parts:

@@ -16,7 +16,7 @@ from qgis.core import (
     QgsWkbTypes,
 )
 
-from ..core.transforms import true_runs
+from ..core.transforms import ground_pieces
 from . import pipeline
 
 #: Relative range jump between consecutive line vertices that cuts the line (a silhouette).
@@ -82,19 +82,6 @@ def _build(kind: str, parts: List[List[np.ndarray]], with_z: bool) -> Optional[Q
     return QgsGeometry(multi)
 
 
-def _line_pieces(xyz: np.ndarray, ok: np.ndarray, origin, jump: float = SILHOUETTE_JUMP) -> List[np.ndarray]:
-    """Runs of ground vertices of a line, also cut where the range from the camera jumps by more than ``jump``
-    (relative): there the line passes from a near ridge to a far slope behind it (as the dock's digitising does)."""
-    rng = np.linalg.norm(xyz - np.asarray(origin, dtype=float), axis=1)
-    pieces = []
-    for a, b in true_runs(ok):
-        r = rng[a:b]
-        big = np.flatnonzero(np.abs(np.diff(r)) > jump * np.minimum(r[:-1], r[1:]))
-        cuts = [a, *(a + big + 1).tolist(), b]
-        pieces.extend(xyz[p:q] for p, q in zip(cuts[:-1], cuts[1:]))
-    return pieces
-
-
 def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float,
                           y_sign: float = -1.0) -> Tuple[Optional[QgsGeometry], int]:
     """A photo-space geometry (x = u, y = y_sign * v) -> map geometry with Z in the DEM's CRS.
@@ -117,7 +104,8 @@ def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float,
             ok = np.isfinite(xyz).all(axis=1)
             dropped += int((~ok).sum())
             if kind == "line":
-                out_rings.extend(_line_pieces(xyz, ok, camera.position))
+                # cut over the sky and at silhouettes, as the dock's digitising does
+                out_rings.extend(xyz[p:q] for p, q in ground_pieces(xyz, ok, camera.position, SILHOUETTE_JUMP)[0])
             else:
                 out_rings.append(xyz[ok])
         if kind == "line":

@@ -166,7 +166,8 @@ def curate(c):
     photo, world = c.state.in_space(PHOTO), c.state.in_space(MAP)
     gcp_uv, gcp_xyz = read_gcps()
     keep_photo, keep_world = careful_user(np.array([(p.x, p.y) for p in photo]),
-                                          np.array([(p.x, p.y, p.z) for p in world]), np.column_stack([gcp_uv, gcp_xyz]))
+                                          np.array([(p.x, p.y, p.z) for p in world]),
+                                          np.column_stack([gcp_uv, gcp_xyz]))
     for points, keep in ((photo, keep_photo), (world, keep_world)):
         c.set_status([p.id for p, k in zip(points, keep) if k], ACCEPTED)
         c.set_status([p.id for p, k in zip(points, keep) if not k], REJECTED)
@@ -193,7 +194,8 @@ def step5_result():
     log("gcp_check", rmse_px=rmse, median_px=float(np.median(err)), dock_check_rmse_px=dock_rmse,
         n_check=c.state.fit_info.get("n_check"), summary=dock.resultLabel.text())
     if dock_rmse is None or c.state.fit_info.get("n_check") != len(uv) or abs(dock_rmse - rmse) > 3.0:
-        report["errors"].append(f"dock check points {dock_rmse} px on {c.state.fit_info.get('n_check')} vs {rmse:.2f} px")
+        n_check = c.state.fit_info.get("n_check")
+        report["errors"].append(f"dock check points {dock_rmse} px on {n_check} vs {rmse:.2f} px")
     if rmse > CHECK_LIMIT_PX:
         report["errors"].append(f"fitted camera {rmse:.1f} px RMSE on the 11 GCPs (limit {CHECK_LIMIT_PX})")
     # step 6: linked cursors, photo -> map (status bar shows X, Y, Z) and map -> photo

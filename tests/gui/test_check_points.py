@@ -6,7 +6,7 @@ import numpy as np
 from qgis.PyQt.QtCore import Qt
 
 from monoplot_plugin.state import ACCEPTED, CHECK, MAP, PHOTO, Point, ProjectState, add_points
-from test_dock import add_scene_points, load_inputs
+from test_dock import accept_everything, add_scene_points, load_inputs
 
 
 def pair_by_shift_click(dock, qtbot, photo, world):
@@ -24,8 +24,7 @@ def test_key_c_marks_a_pair_as_check_points_and_the_fit_measures_them(dock, scen
     photo, world = add_scene_points(dock, scene)
     c = dock.controller
     # unpaired set: everything accepted; four pairs linked by the user, then marked as check points
-    c.accept_all_in(PHOTO, (-1e12, -1e12, 1e12, 1e12))
-    c.accept_all_in(MAP, (-1e12, -1e12, 1e12, 1e12))
+    accept_everything(c)
     checks = list(range(0, 40, 10))
     pair_by_shift_click(dock, qtbot, [photo[i] for i in checks], [world[i] for i in checks])
     assert len(c.state.valid_pairs()) == 4
@@ -71,8 +70,7 @@ def test_unpaired_fit_without_check_points_says_its_rmse_is_agreement(dock, scen
     load_inputs(dock, scene, qtbot)
     add_scene_points(dock, scene)
     c = dock.controller
-    c.accept_all_in(PHOTO, (-1e12, -1e12, 1e12, 1e12))
-    c.accept_all_in(MAP, (-1e12, -1e12, 1e12, 1e12))
+    accept_everything(c)
     c.set_prior(scene.prior)
     assert c.fit()
     with qtbot.waitSignal(c.taskFinished, timeout=60000) as blocker:

@@ -39,6 +39,13 @@ def add_scene_points(dock, scene, n=None):
     return photo, world
 
 
+def accept_everything(c) -> None:
+    """Accept every point of both views (a curation that trusts all suggestions)."""
+    everywhere = (-1e12, -1e12, 1e12, 1e12)
+    c.accept_all_in(PHOTO, everywhere)
+    c.accept_all_in(MAP, everywhere)
+
+
 def test_load_photo_and_dem_shows_photo(dock, scene, qtbot):
     load_inputs(dock, scene, qtbot)
     assert dock.photo_canvas.photo_size == (480, 320)
@@ -153,8 +160,7 @@ def test_cancel_a_running_fit(dock, scene, qtbot):
     load_inputs(dock, scene, qtbot)
     add_scene_points(dock, scene)
     c = dock.controller
-    c.accept_all_in(PHOTO, (-1e12, -1e12, 1e12, 1e12))
-    c.accept_all_in(MAP, (-1e12, -1e12, 1e12, 1e12))
+    accept_everything(c)
     c.set_prior(scene.prior)
     assert c.fit()
     qtbot.waitUntil(lambda: c.task is not None and c.task.progress() > 0, timeout=20000)
