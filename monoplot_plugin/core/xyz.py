@@ -5,8 +5,9 @@ diagonal from (row, col) to (row + 1, col + 1); see :mod:`.dem`). Triangles touc
 
 Method (a z-buffer, not ray marching):
 
-1. every mesh vertex is projected once into the photo (coordinates recentred on the camera in float64 first, then
-   stored as float32 pixels and depths: UTM northings would lose half a metre in float32);
+1. every mesh vertex is projected into the photo (coordinates recentred on the camera in float64 first, then
+   kept as float32 pixels and depths: UTM northings would lose half a metre in float32), row by row as step 2
+   goes, so that only two rows per thread are held;
 2. every triangle is rasterised into a depth buffer of inverse depths that keeps, per pixel centre, the id of the
    nearest triangle. The two triangles of a quad are drawn in one pass over its pixel box (the side of the diagonal
    picks the triangle); triangles crossing the camera plane are clipped 1 cm in front of it; back faces are skipped
@@ -16,7 +17,8 @@ Method (a z-buffer, not ray marching):
    search, on silhouettes.
 
 The loops are compiled with numba (``cache=True``, in a folder per import name, see :func:`_numba_cache_dir`; parallel
-over the available cores, each thread with its own depth buffer over interleaved DEM rows, merged at the end).
+over the available cores, each thread with its own depth buffer over interleaved blocks of DEM rows, merged at the
+end; up to three such buffers live in the memory of the output array, see :func:`_depth_buffers`).
 Without numba the same code runs as plain Python, which is only practical for tiny grids.
 
 Radial distortion: vertices are projected with it (triangle edges are straight between distorted vertices, a
@@ -127,37 +129,36 @@ def _vertex_cam(elev, gt, C, R, r, c):
             R[2, 0] * X + R[2, 1] * Y + R[2, 2] * Z)
 
 
-@njit(parallel=True, cache=True)
-def _project_vertices(elev, gt, C, R, intr, near, u, v, w):
-    """Fill (rows, cols) float32 u, v (pixels; NaN if not in front) and w: inverse camera depth 1/z for vertices
-    more than ``near`` in front, -1 for the others, NaN for voids and for vertices outside the distortion's valid
-    radius."""
-    rows, cols = elev.shape
+@njit(cache=True)
+def _project_row(elev, gt, C, R, intr, near, r, u, v, w):
+    """Project the mesh vertices of DEM row r into (cols,) float32 u, v (pixels; NaN if not in front) and w: inverse
+    camera depth 1/z for vertices more than ``near`` in front, -1 for the others, NaN for voids and for vertices
+    outside the distortion's valid radius."""
+    cols = elev.shape[1]
     f, cx, cy, k1, k2, r2max = intr[0], intr[1], intr[2], intr[3], intr[4], intr[5]
-    for r in prange(rows):
-        for c in range(cols):
-            if elev[r, c] != elev[r, c]:
-                u[r, c] = np.nan
-                v[r, c] = np.nan
-                w[r, c] = np.nan
-                continue
-            xc, yc, zc = _vertex_cam(elev, gt, C, R, r, c)
-            w[r, c] = 1.0 / zc if zc > near else -1.0
-            if zc > near:
-                xn = xc / zc
-                yn = yc / zc
-                if k1 != 0.0 or k2 != 0.0:
-                    if xn * xn + yn * yn > r2max:
-                        u[r, c] = np.nan
-                        v[r, c] = np.nan
-                        w[r, c] = np.nan
-                        continue
-                    xn, yn = _distort(xn, yn, k1, k2)
-                u[r, c] = f * xn + cx
-                v[r, c] = f * yn + cy
-            else:
-                u[r, c] = np.nan
-                v[r, c] = np.nan
+    for c in range(cols):
+        if elev[r, c] != elev[r, c]:
+            u[c] = np.nan
+            v[c] = np.nan
+            w[c] = np.nan
+            continue
+        xc, yc, zc = _vertex_cam(elev, gt, C, R, r, c)
+        w[c] = 1.0 / zc if zc > near else -1.0
+        if zc > near:
+            xn = xc / zc
+            yn = yc / zc
+            if k1 != 0.0 or k2 != 0.0:
+                if xn * xn + yn * yn > r2max:
+                    u[c] = np.nan
+                    v[c] = np.nan
+                    w[c] = np.nan
+                    continue
+                xn, yn = _distort(xn, yn, k1, k2)
+            u[c] = f * xn + cx
+            v[c] = f * yn + cy
+        else:
+            u[c] = np.nan
+            v[c] = np.nan
 
 
 @njit(cache=True, inline="always")
@@ -297,63 +298,92 @@ def _raster_clipped(elev, gt, C, R, intr, near, ra, ca, rb, cb, rc, cc, tid, zbu
                          cull)
 
 
+@njit(cache=True, inline="always")
+def _row_pick(top, bottom, r, rr, c):
+    return top[c] if rr == r else bottom[c]
+
+
+@njit(cache=True)
+def _raster_quad_row(ut, vt, wt, ub, vb, wb, r, elev, gt, C, R, intr, near, cull, zbuf, tbuf):
+    """Z-buffer the two triangles of every quad between DEM rows r (projected into ut, vt, wt) and r + 1 (ub, vb,
+    wb)."""
+    cols = elev.shape[1]
+    H, W = zbuf.shape
+    for c in range(cols - 1):
+        w00 = wt[c]
+        w01 = wt[c + 1]
+        w10 = wb[c]
+        w11 = wb[c + 1]
+        if w00 > 0.0 and w01 > 0.0 and w10 > 0.0 and w11 > 0.0:
+            # fast path (most quads): skip quads whose bounding box holds no pixel centre
+            u00, u01, u10, u11 = ut[c], ut[c + 1], ub[c], ub[c + 1]
+            umin = min(min(u00, u01), min(u10, u11))
+            umax = max(max(u00, u01), max(u10, u11))
+            if math.floor(umax - 0.5) < math.ceil(umin - 0.5) or umax < 0.5 or umin > W - 0.5:
+                continue
+            v00, v01, v10, v11 = vt[c], vt[c + 1], vb[c], vb[c + 1]
+            vmin = min(min(v00, v01), min(v10, v11))
+            vmax = max(max(v00, v01), max(v10, v11))
+            if math.floor(vmax - 0.5) < math.ceil(vmin - 0.5) or vmax < 0.5 or vmin > H - 0.5:
+                continue
+            base = 2 * (r * (cols - 1) + c)
+            j0 = max(0, int(math.ceil(umin - 0.5)))
+            j1 = min(W - 1, int(math.floor(umax - 0.5)))
+            i0 = max(0, int(math.ceil(vmin - 0.5)))
+            i1 = min(H - 1, int(math.floor(vmax - 0.5)))
+            if not _raster_quad(u00, v00, w00, u01, v01, w01, u11, v11, w11, u10, v10, w10,
+                                i0, i1, j0, j1, base, zbuf, tbuf, cull):
+                _raster_triangle(u00, v00, w00, u01, v01, w01, u11, v11, w11, base, zbuf, tbuf, cull)
+                _raster_triangle(u00, v00, w00, u11, v11, w11, u10, v10, w10, base + 1, zbuf, tbuf, cull)
+            continue
+        if not (w00 > 0.0 or w01 > 0.0 or w10 > 0.0 or w11 > 0.0):
+            continue  # behind the camera, or voids (NaN compares false)
+        base = 2 * (r * (cols - 1) + c)
+        for t in range(2):
+            if t == 0:  # (r, c), (r, c+1), (r+1, c+1)
+                ra, ca, rb, cb, rc, cc = r, c, r, c + 1, r + 1, c + 1
+            else:  # (r, c), (r+1, c+1), (r+1, c)
+                ra, ca, rb, cb, rc, cc = r, c, r + 1, c + 1, r + 1, c
+            wa = _row_pick(wt, wb, r, ra, ca)
+            wb_ = _row_pick(wt, wb, r, rb, cb)
+            wc = _row_pick(wt, wb, r, rc, cc)
+            if wa != wa or wb_ != wb_ or wc != wc:
+                continue
+            if wa > 0.0 and wb_ > 0.0 and wc > 0.0:
+                _raster_triangle(_row_pick(ut, ub, r, ra, ca), _row_pick(vt, vb, r, ra, ca), wa,
+                                 _row_pick(ut, ub, r, rb, cb), _row_pick(vt, vb, r, rb, cb), wb_,
+                                 _row_pick(ut, ub, r, rc, cc), _row_pick(vt, vb, r, rc, cc), wc,
+                                 base + t, zbuf, tbuf, cull)
+            elif wa > 0.0 or wb_ > 0.0 or wc > 0.0:
+                _raster_clipped(elev, gt, C, R, intr, near, ra, ca, rb, cb, rc, cc, base + t, zbuf, tbuf, cull)
+
+
+#: DEM rows per block of :func:`_rasterise`: a block projects its rows once each, plus one shared row.
+RASTER_BLOCK_ROWS = 16
+
+
 @njit(parallel=True, cache=True)
-def _rasterise(u, v, w, elev, gt, C, R, intr, near, cull, zbufs, tbufs):
-    """Z-buffer all mesh triangles. Chunk k handles the DEM rows r = k, k + nchunks, ... into its own buffers
-    (no write races, balanced load); the caller merges the chunks."""
-    rows, cols = u.shape
+def _rasterise(elev, gt, C, R, intr, near, cull, zbufs, tbufs):
+    """Z-buffer all mesh triangles. Chunk k handles the blocks of RASTER_BLOCK_ROWS DEM rows b = k, k + nchunks, ...
+    into its own buffers (no write races, balanced load); the caller merges the chunks. Vertices are projected
+    row by row as the block goes (two rows held, no DEM-sized arrays)."""
+    rows, cols = elev.shape
     nchunks = zbufs.shape[0]
+    nblocks = (rows - 1 + RASTER_BLOCK_ROWS - 1) // RASTER_BLOCK_ROWS
     for k in prange(nchunks):
         zbuf = zbufs[k]
         tbuf = tbufs[k]
-        H, W = zbuf.shape
-        for r in range(k, rows - 1, nchunks):
-            for c in range(cols - 1):
-                w00 = w[r, c]
-                w01 = w[r, c + 1]
-                w10 = w[r + 1, c]
-                w11 = w[r + 1, c + 1]
-                if w00 > 0.0 and w01 > 0.0 and w10 > 0.0 and w11 > 0.0:
-                    # fast path (most quads): skip quads whose bounding box holds no pixel centre
-                    u00, u01, u10, u11 = u[r, c], u[r, c + 1], u[r + 1, c], u[r + 1, c + 1]
-                    umin = min(min(u00, u01), min(u10, u11))
-                    umax = max(max(u00, u01), max(u10, u11))
-                    if math.floor(umax - 0.5) < math.ceil(umin - 0.5) or umax < 0.5 or umin > W - 0.5:
-                        continue
-                    v00, v01, v10, v11 = v[r, c], v[r, c + 1], v[r + 1, c], v[r + 1, c + 1]
-                    vmin = min(min(v00, v01), min(v10, v11))
-                    vmax = max(max(v00, v01), max(v10, v11))
-                    if math.floor(vmax - 0.5) < math.ceil(vmin - 0.5) or vmax < 0.5 or vmin > H - 0.5:
-                        continue
-                    base = 2 * (r * (cols - 1) + c)
-                    j0 = max(0, int(math.ceil(umin - 0.5)))
-                    j1 = min(W - 1, int(math.floor(umax - 0.5)))
-                    i0 = max(0, int(math.ceil(vmin - 0.5)))
-                    i1 = min(H - 1, int(math.floor(vmax - 0.5)))
-                    if not _raster_quad(u00, v00, w00, u01, v01, w01, u11, v11, w11, u10, v10, w10,
-                                        i0, i1, j0, j1, base, zbuf, tbuf, cull):
-                        _raster_triangle(u00, v00, w00, u01, v01, w01, u11, v11, w11, base, zbuf, tbuf, cull)
-                        _raster_triangle(u00, v00, w00, u11, v11, w11, u10, v10, w10, base + 1, zbuf, tbuf, cull)
-                    continue
-                if not (w00 > 0.0 or w01 > 0.0 or w10 > 0.0 or w11 > 0.0):
-                    continue  # behind the camera, or voids (NaN compares false)
-                base = 2 * (r * (cols - 1) + c)
-                for t in range(2):
-                    if t == 0:  # (r, c), (r, c+1), (r+1, c+1)
-                        ra, ca, rb, cb, rc, cc = r, c, r, c + 1, r + 1, c + 1
-                    else:  # (r, c), (r+1, c+1), (r+1, c)
-                        ra, ca, rb, cb, rc, cc = r, c, r + 1, c + 1, r + 1, c
-                    wa = w[ra, ca]
-                    wb = w[rb, cb]
-                    wc = w[rc, cc]
-                    if wa != wa or wb != wb or wc != wc:
-                        continue
-                    if wa > 0.0 and wb > 0.0 and wc > 0.0:
-                        _raster_triangle(u[ra, ca], v[ra, ca], wa, u[rb, cb], v[rb, cb], wb,
-                                         u[rc, cc], v[rc, cc], wc, base + t, zbuf, tbuf, cull)
-                    elif wa > 0.0 or wb > 0.0 or wc > 0.0:
-                        _raster_clipped(elev, gt, C, R, intr, near, ra, ca, rb, cb, rc, cc, base + t, zbuf, tbuf,
-                                        cull)
+        top = np.empty((3, cols), dtype=np.float32)
+        bottom = np.empty((3, cols), dtype=np.float32)
+        for b in range(k, nblocks, nchunks):
+            r0 = b * RASTER_BLOCK_ROWS
+            r1 = min(r0 + RASTER_BLOCK_ROWS, rows - 1)
+            _project_row(elev, gt, C, R, intr, near, r0, top[0], top[1], top[2])
+            for r in range(r0, r1):
+                _project_row(elev, gt, C, R, intr, near, r + 1, bottom[0], bottom[1], bottom[2])
+                _raster_quad_row(top[0], top[1], top[2], bottom[0], bottom[1], bottom[2], r, elev, gt, C, R, intr,
+                                 near, cull, zbuf, tbuf)
+                top, bottom = bottom, top
 
 
 @njit(parallel=True, cache=True)
@@ -450,18 +480,20 @@ def _exact_hits(tri, elev, gt, C, R, intr, max_range, xyz, dist):
 
 
 @njit(parallel=True, cache=True)
-def _visibility(u, v, w, tri, elev, gt, C, R, near, rel_tol, abs_tol, vis):
+def _visibility(tri, elev, gt, C, R, intr, near, rel_tol, abs_tol, vis):
     """Per-vertex visibility: in the image, in front, and not behind the surface seen at its pixel (the plane of
     that pixel's triangle, along the vertex's own ray, within rel_tol * range + abs_tol)."""
-    rows, cols = u.shape
+    rows, cols = elev.shape
     H, W = tri.shape
     for r in prange(rows):
+        proj = np.empty((3, cols), dtype=np.float32)
+        _project_row(elev, gt, C, R, intr, near, r, proj[0], proj[1], proj[2])
         for c in range(cols):
             vis[r, c] = False
-            if not (w[r, c] > 0.0):  # void, behind the camera or too close
+            if not (proj[2, c] > 0.0):  # void, behind the camera or too close
                 continue
-            uu = u[r, c]
-            vv = v[r, c]
+            uu = proj[0, c]
+            vv = proj[1, c]
             if not (uu >= 0.0 and uu < W and vv >= 0.0 and vv < H):
                 continue
             tid = tri[int(vv), int(uu)]
@@ -729,14 +761,10 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
     R = np.ascontiguousarray(cam.rotation, dtype=np.float64)
     intr = _intrinsics(cam)
     near = NEAR_PLANE_M
-    u = np.empty((rows, cols), dtype=np.float32)
-    v = np.empty((rows, cols), dtype=np.float32)
-    w = np.empty((rows, cols), dtype=np.float32)
-    _project_vertices(elev, gt, C, R, intr, near, u, v, w)
     n = _chunk_count(H, W)
     xyz = np.empty((H, W, 3))  # scratch for the depth buffers first; every pixel is written by _exact_hits
     zbufs, tbufs = _depth_buffers(xyz, n)
-    _rasterise(u, v, w, elev, gt, C, R, intr, near, _cull_sign(cam, work), zbufs, tbufs)
+    _rasterise(elev, gt, C, R, intr, near, _cull_sign(cam, work), zbufs, tbufs)
     tri = np.empty((H, W), dtype=np.int32)
     _merge(zbufs, tbufs, tri)
     del zbufs, tbufs
@@ -745,7 +773,7 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
     _exact_hits(tri, elev, gt, C, R, intr, limit, xyz, dist)
     if visibility:
         vis = np.empty((rows, cols), dtype=np.bool_)
-        _visibility(u, v, w, tri, elev, gt, C, R, near, float(rel_tol),
+        _visibility(tri, elev, gt, C, R, intr, near, float(rel_tol),
                     float(work.cell_size if abs_tol is None else abs_tol), vis)
         if max_range is not None:
             X, Y = work.cell_centres()
