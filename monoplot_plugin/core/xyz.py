@@ -428,8 +428,8 @@ def _world_rel(elev, gt, C, r, c):
 
 
 @njit(cache=True)
-def _plane_hit(elev, gt, C, cols, tid, dx, dy, dz):
-    """Ray parameter t of the ray t * d (from the camera) hitting the plane of triangle tid (NaN if parallel)."""
+def _plane_of(elev, gt, C, cols, tid):
+    """Plane of triangle tid, camera-relative: normal (nx, ny, nz) and nd = n . a for its vertex a."""
     ra, ca, rb, cb, rc, cc = _triangle_vertices(tid, cols)
     ax, ay, az = _world_rel(elev, gt, C, ra, ca)
     bx, by, bz = _world_rel(elev, gt, C, rb, cb)
@@ -439,44 +439,66 @@ def _plane_hit(elev, gt, C, cols, tid, dx, dy, dz):
     nx = e1y * e2z - e1z * e2y
     ny = e1z * e2x - e1x * e2z
     nz = e1x * e2y - e1y * e2x
+    return nx, ny, nz, nx * ax + ny * ay + nz * az
+
+
+@njit(cache=True)
+def _plane_hit(elev, gt, C, cols, tid, dx, dy, dz):
+    """Ray parameter t of the ray t * d (from the camera) hitting the plane of triangle tid (NaN if parallel)."""
+    nx, ny, nz, nd = _plane_of(elev, gt, C, cols, tid)
     den = nx * dx + ny * dy + nz * dz
     if den == 0.0:
         return np.nan
-    return (nx * ax + ny * ay + nz * az) / den
+    return nd / den
 
 
 @njit(parallel=True, cache=True)
-def _exact_hits(tri, elev, gt, C, R, intr, max_range, xyz, dist):
-    """Exact float64 ray / triangle-plane intersection for every pixel with a triangle in the buffer."""
-    H, W = tri.shape
+def _exact_hits(tri, elev, gt, C, R, intr, max_range, nthreads, xyz, dist):
+    """Exact float64 ray / triangle-plane intersection for every pixel with a triangle in the buffer. Rows are
+    dealt to the threads in turn: the sky, which costs nothing, usually fills the top of the picture."""
+    H = tri.shape[0]
     cols = elev.shape[1]
     f, cx, cy, k1, k2 = intr[0], intr[1], intr[2], intr[3], intr[4]
-    for i in prange(H):
-        for j in range(W):
-            tid = tri[i, j]
-            if tid < 0:
-                xyz[i, j, 0] = np.nan
-                xyz[i, j, 1] = np.nan
-                xyz[i, j, 2] = np.nan
-                dist[i, j] = np.nan
-                continue
-            xn, yn = _undistort((j + 0.5 - cx) / f, (i + 0.5 - cy) / f, k1, k2)
-            dx = xn * R[0, 0] + yn * R[1, 0] + R[2, 0]
-            dy = xn * R[0, 1] + yn * R[1, 1] + R[2, 1]
-            dz = xn * R[0, 2] + yn * R[1, 2] + R[2, 2]
-            t = _plane_hit(elev, gt, C, cols, tid, dx, dy, dz)
-            norm = math.sqrt(dx * dx + dy * dy + dz * dz)
-            if not (t > 0.0) or t * norm > max_range:
-                xyz[i, j, 0] = np.nan
-                xyz[i, j, 1] = np.nan
-                xyz[i, j, 2] = np.nan
-                dist[i, j] = np.nan
-                tri[i, j] = -1
-                continue
-            xyz[i, j, 0] = C[0] + t * dx
-            xyz[i, j, 1] = C[1] + t * dy
-            xyz[i, j, 2] = C[2] + t * dz
-            dist[i, j] = t * norm
+    for k in prange(nthreads):
+        for i in range(k, H, nthreads):
+            _exact_row(tri, elev, gt, C, R, f, cx, cy, k1, k2, cols, max_range, i, xyz, dist)
+
+
+@njit(cache=True)
+def _exact_row(tri, elev, gt, C, R, f, cx, cy, k1, k2, cols, max_range, i, xyz, dist):
+    """One picture row of :func:`_exact_hits`."""
+    W = tri.shape[1]
+    last = -1  # neighbouring pixels often share a triangle: its plane is computed once for the run
+    nx = ny = nz = nd = 0.0
+    for j in range(W):
+        tid = tri[i, j]
+        if tid < 0:
+            xyz[i, j, 0] = np.nan
+            xyz[i, j, 1] = np.nan
+            xyz[i, j, 2] = np.nan
+            dist[i, j] = np.nan
+            continue
+        xn, yn = _undistort((j + 0.5 - cx) / f, (i + 0.5 - cy) / f, k1, k2)
+        dx = xn * R[0, 0] + yn * R[1, 0] + R[2, 0]
+        dy = xn * R[0, 1] + yn * R[1, 1] + R[2, 1]
+        dz = xn * R[0, 2] + yn * R[1, 2] + R[2, 2]
+        if tid != last:
+            nx, ny, nz, nd = _plane_of(elev, gt, C, cols, tid)
+            last = tid
+        den = nx * dx + ny * dy + nz * dz
+        t = nd / den if den != 0.0 else np.nan
+        norm = math.sqrt(dx * dx + dy * dy + dz * dz)
+        if not (t > 0.0) or t * norm > max_range:
+            xyz[i, j, 0] = np.nan
+            xyz[i, j, 1] = np.nan
+            xyz[i, j, 2] = np.nan
+            dist[i, j] = np.nan
+            tri[i, j] = -1
+            continue
+        xyz[i, j, 0] = C[0] + t * dx
+        xyz[i, j, 1] = C[1] + t * dy
+        xyz[i, j, 2] = C[2] + t * dz
+        dist[i, j] = t * norm
 
 
 @njit(parallel=True, cache=True)
@@ -719,8 +741,12 @@ def _depth_buffers(xyz: np.ndarray, n: int):
     return zbufs, tbufs
 
 
+def _threads() -> int:
+    return numba.get_num_threads() if HAVE_NUMBA else 1
+
+
 def _chunk_count(H: int, W: int) -> int:
-    threads = numba.get_num_threads() if HAVE_NUMBA else 1
+    threads = _threads()
     budget = int(1.2e9 // max(1, H * W * 8))  # bytes of per-chunk buffers we allow
     return max(1, min(threads, budget))
 
@@ -770,7 +796,7 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
     del zbufs, tbufs
     limit = np.inf if max_range is None else float(max_range)
     dist = np.empty((H, W), dtype=np.float32)
-    _exact_hits(tri, elev, gt, C, R, intr, limit, xyz, dist)
+    _exact_hits(tri, elev, gt, C, R, intr, limit, _threads(), xyz, dist)
     if visibility:
         vis = np.empty((rows, cols), dtype=np.bool_)
         _visibility(tri, elev, gt, C, R, intr, near, float(rel_tol),
