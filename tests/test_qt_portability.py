@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 from qgis.PyQt import QtCore, QtGui, QtWidgets
 
-from conftest import REPO_ROOT
 
+REPO_ROOT = Path(__file__).resolve().parent.parent
 QT_MODULES = {"qgis.PyQt.QtCore": QtCore, "qgis.PyQt.QtGui": QtGui, "qgis.PyQt.QtWidgets": QtWidgets}
 # QGIS's Qt 6 builds put QVariant.Int & co. back (as QMetaType.Type values), and PyQt6 has no QVariant.Type
 # to spell them with: QVariant.Double is the portable spelling for QgsField.

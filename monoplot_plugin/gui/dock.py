@@ -145,8 +145,9 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         QgsApplication.instance().aboutToQuit.connect(self.unload)
         self.output_tools = self._install_outputs()
         self._fit_minimum_width()
-        if self.project.readEntry("monoplot", "/state", "")[1]:
-            c.restore()
+        if self.project.readEntry("monoplot", "/state", "")[1] and c.restore() and c.fitted is not None:
+            # a dock opened on an already open project: its camera layers came back empty from the file
+            self._update_camera_layers()
         self._apply_settings()  # a dock opened on an already open project shows its saved overlay opacity
         self._on_points(set())
         self._on_busy("")

@@ -94,6 +94,8 @@ def load_with_source(project: QgsProject) -> Tuple[Optional[ProjectState], str]:
         path = autosave_path(project)
         if os.path.exists(path) and os.path.exists(name) and os.path.getmtime(path) > os.path.getmtime(name) + 1:
             newer = read_autosave(path)
-            if newer is not None:
+            # an autosave written after the save with the same content (a pending autosave that fired after
+            # Save) is not "work done after the project was last saved"
+            if newer is not None and (state is None or newer.to_dict() != state.to_dict()):
                 state, source = newer, "autosave"
     return state, source

@@ -9,6 +9,7 @@ the ``export_*`` methods take the path directly for scripts and tests.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import List, Optional
 
@@ -22,7 +23,10 @@ from .qgis_layers import (DigitisingSession, KINDS, add_orthophoto_layer, add_xy
                           map_layer_on_photo, photo_group)
 from .safe_write import OutputError
 
-__all__ = ["install_output_tools", "OutputTools"]
+__all__ = ["install_output_tools", "OutputTools", "LAST_FOLDER_KEY"]
+
+#: QgsSettings key of the folder the last product was saved to (the next save dialog opens there).
+LAST_FOLDER_KEY = "monoplot/last_output_folder"
 
 
 def install_output_tools(dock) -> "OutputTools":
@@ -47,6 +51,7 @@ class OutputTools(QObject):
         self._xyz_key = None
         self._xyz = self._distance = self._visible = None
         self.overlays: List[QgsVectorLayer] = []
+        self._overlay_ids: List[str] = []  # the map layers drawn on the photo, redrawn after a refit or a reopen
         self._tasks: list = []  # running export tasks (kept referenced until done)
         self._sky_told: dict = {}  # kind -> (sky pieces, dropped features) last reported
         canvas = dock.photo_canvas
@@ -66,13 +71,15 @@ class OutputTools(QObject):
         self.actions["edit"] = QAction(self.tr("Edit drawn features"), dock)
         self.actions["edit"].setToolTip(self.tr("Drag a vertex to move it; right click a feature to delete it"))
         dock.add_photo_tool(self.actions["edit"], self.edit_tool)
-        for name, label, slot in (("field", self.tr("Add attribute field…"), self._ask_field),
-                                  ("attributes", self.tr("Attributes of drawn features"), self._open_attributes),
-                                  ("xyz", self.tr("XYZ raster…"), self._ask_xyz),
+        # the products first: at the default dock height the fit tab scrolls and its last row is out of sight
+        # (it used to be "Active map layer on photo"); the attribute helpers are also in the Layers panel
+        for name, label, slot in (("xyz", self.tr("XYZ raster…"), self._ask_xyz),
                                   ("ortho", self.tr("Orthophoto…"), self._ask_ortho),
                                   ("report", self.tr("Report…"), self._ask_report),
                                   ("features", self.tr("Save drawn features…"), self._ask_features),
-                                  ("overlay", self.tr("Active map layer on photo"), self._overlay_active_layer)):
+                                  ("overlay", self.tr("Active map layer on photo"), self._overlay_active_layer),
+                                  ("field", self.tr("Add attribute field…"), self._ask_field),
+                                  ("attributes", self.tr("Attributes of drawn features"), self._open_attributes)):
             action = QAction(label, dock)
             action.triggered.connect(slot)
             dock.add_output_action(action)
@@ -137,6 +144,31 @@ class OutputTools(QObject):
             self.session.update_camera(self.controller.fitted, self.controller.dem, None)
         elif self.dock.project.readEntry("monoplot", drawn_entry_key(self.photo_name()), "")[0]:
             self.current_session()  # a reopened project with features drawn on this photo: show them again
+        self._redraw_overlays()
+
+    def _overlay_entry(self) -> str:
+        return drawn_entry_key(self.photo_name()).replace("/drawn/", "/overlays/")
+
+    def _redraw_overlays(self) -> None:
+        """Draw the map layers shown on the photo again with the current camera (they were left where the previous
+        fit put them), or, in a reopened project, the ones stored with it; layers removed since are dropped."""
+        ids = list(self._overlay_ids)
+        if not ids:
+            text = self.dock.project.readEntry("monoplot", self._overlay_entry(), "")[0]
+            try:
+                ids = [str(i) for i in json.loads(text)] if text else []
+            except ValueError:
+                ids = []
+        self.overlays, self._overlay_ids = [], []
+        for layer_id in ids:
+            layer = self.dock.project.mapLayer(layer_id)
+            if isinstance(layer, QgsVectorLayer) and layer.isValid():
+                try:
+                    self.draw_layer_on_photo(layer)
+                except (OutputError, ValueError) as exc:
+                    self._message(self.tr("{0} could not be drawn on the photo: {1}").format(layer.name(), exc),
+                                  Qgis.MessageLevel.Warning)
+        self._show_on_photo()
 
     def _forget_session(self) -> None:
         if self.session is not None:
@@ -144,6 +176,7 @@ class OutputTools(QObject):
             self.session.deleteLater()
         self.session = None
         self.overlays = []
+        self._overlay_ids = []
         self.dock.photo_canvas.set_extra_layers([])
 
     def _forget(self) -> None:
@@ -160,8 +193,19 @@ class OutputTools(QObject):
         previous = self._sky_told.get(kind, (0, 0))
         self._sky_told[kind] = (sky, dropped)
         if (sky or dropped) and (sky, dropped) != previous:
-            self._message(self.tr("{0}: {1} piece(s) over sky left out of the map layer, {2} feature(s) entirely "
-                                  "over sky not mapped.").format(kind, sky, dropped), Qgis.MessageLevel.Warning)
+            self._message(self.sky_text(kind, sky, dropped), Qgis.MessageLevel.Warning)
+
+    def sky_text(self, kind: str, sky: int, dropped: int) -> str:
+        """What the user is told when drawn features (partly) see the sky: only the counts that are not zero (a
+        point has no "pieces")."""
+        names = {"point": self.tr("Drawn points"), "line": self.tr("Drawn lines"),
+                 "polygon": self.tr("Drawn polygons")}
+        parts = []
+        if sky:
+            parts.append(self.tr("{0} part(s) over the sky left out of the map layer").format(sky))
+        if dropped:
+            parts.append(self.tr("{0} entirely over the sky or off the DEM, not on the map layer").format(dropped))
+        return self.tr("{0}: {1}.").format(names.get(kind, kind), "; ".join(parts))
 
     def _show_on_photo(self) -> None:
         layers: List[QgsMapLayer] = list(self.overlays)
@@ -211,6 +255,10 @@ class OutputTools(QObject):
         camera, dem = self.controller.fitted, self.controller.dem  # exact line of sight: no XYZ raster needed
         overlay = map_layer_on_photo(layer, camera, dem, self.dock.project)
         self.overlays = [o for o in self.overlays if o.name() != overlay.name()] + [overlay]
+        self._overlay_ids = [i for i in self._overlay_ids if i != layer.id()] + [layer.id()]
+        text = json.dumps(self._overlay_ids)
+        if self.dock.project.readEntry("monoplot", self._overlay_entry(), "")[0] != text:
+            self.dock.project.writeEntry("monoplot", self._overlay_entry(), text)  # kept with the project
         self._show_on_photo()
         return overlay
 
@@ -227,10 +275,27 @@ class OutputTools(QObject):
             return
         self._message(done_text.format(result), Qgis.MessageLevel.Success)
 
+    def output_folder(self) -> Path:
+        """Where the save dialogs open: the folder of the last product saved, else the saved project's folder,
+        else the photo's folder (which may be a read-only archive)."""
+        from qgis.core import QgsSettings
+
+        last = QgsSettings().value(LAST_FOLDER_KEY, "", type=str)
+        photo_folder = str(Path(self.controller.state.photo_path or ".").parent)
+        candidates = [last, self.dock.project.absolutePath(), photo_folder]
+        for folder in candidates:
+            if folder and Path(folder).is_dir():
+                return Path(folder)
+        return Path(".")
+
     def _ask(self, title: str, filters: str, suffix: str) -> Optional[str]:
+        from qgis.core import QgsSettings
+
         stem = Path(self.photo_name()).stem
-        start = str(Path(self.controller.state.photo_path or ".").parent / f"{stem}_{suffix}")
+        start = str(self.output_folder() / f"{stem}_{suffix}")
         path, _ = QFileDialog.getSaveFileName(self.dock, title, start, filters)
+        if path:
+            QgsSettings().setValue(LAST_FOLDER_KEY, str(Path(path).parent))
         return path or None
 
     def _ask_xyz(self) -> None:
@@ -317,6 +382,10 @@ class OutputTools(QObject):
         labels = {"xyz": self.tr("XYZ raster"), "ortho": self.tr("Orthophoto"), "report": self.tr("Report")}
         task = FunctionTask(self.tr("Monoplot: {0}").format(labels[what]), work, done)
         self._tasks.append(task)
+        # said in the dock's status line (not the message bar, where it would pile up under "Written"): the task
+        # bar's progress is easy to miss, and the dock gave no sign for seconds
+        self.dock.statusLabel.setText(self.tr("{0}: computing {1}… (progress and Cancel in QGIS's task bar)")
+                                      .format(labels[what], Path(str(path)).name))
         return start_task(task)
 
     def _report_inputs(self):

@@ -58,9 +58,30 @@ def photo_group(project: QgsProject, photo_name: str) -> QgsLayerTreeGroup:
     return group if group is not None else root.insertGroup(0, name)
 
 
+def _file_of(layer) -> str:
+    """The file behind a file-based layer (GeoPackage sources carry ``|layername=...``), normalised; "" if none."""
+    path = layer.source().split("|")[0]
+    return str(Path(path).resolve()) if path and Path(path).is_file() else ""
+
+
 def _add(project: QgsProject, layer, group: Optional[QgsLayerTreeGroup]):
-    project.addMapLayer(layer, group is None)
-    if group is not None:
+    """Add ``layer`` to ``group`` (or the legend's root): vector layers above the group's rasters, so that an
+    opaque orthophoto never hides the outlines drawn on the photo; a layer of the group on the same file (an
+    export written again to the same path) is replaced, not duplicated."""
+    if group is None:
+        project.addMapLayer(layer, True)
+        return layer
+    source = _file_of(layer)
+    if source:
+        old = [node.layer() for node in group.findLayers()
+               if node.layer() is not None and node.layer() is not layer and _file_of(node.layer()) == source
+               and node.layer().type() == layer.type()]
+        if old:
+            project.removeMapLayers([o.id() for o in old])
+    project.addMapLayer(layer, False)
+    if isinstance(layer, QgsVectorLayer):
+        group.insertLayer(0, layer)
+    else:
         group.addLayer(layer)
     return layer
 
@@ -318,6 +339,7 @@ class DigitisingSession(QObject):
         for layer in [*self.photo_layers.values(), *self.map_layers.values()]:
             layer.dataProvider().addAttributes([QgsField(name, _QVARIANT[ftype])])
             layer.updateFields()
+        self.save_drawn()  # the field is part of what the project keeps, even before a feature uses it
 
     # --- photo -> map -----------------------------------------------------------------------------------------
     def map_features(self, kind: str) -> Tuple[List[MapFeature], List[int], int]:

@@ -16,7 +16,7 @@ import datetime
 import math
 import os
 from pathlib import Path
-from typing import Dict, Optional, Sequence
+from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
@@ -253,13 +253,16 @@ def _draw_footprint(ax, camera, dem, visible, points):
     ax.xaxis.set_major_locator(MaxNLocator(4))  # seven-digit eastings: more labels would run into each other
 
 
-def _draw_parameters(ax, camera, sigmas, rmse, points, xyz):
-    ax.axis("off")
+def parameter_lines(camera, sigmas) -> List[str]:
+    """The camera block of the report, one parameter a line. The heading is an azimuth in [0, 360), as the dock
+    shows it (a fit may return -63.6 for 296.4)."""
     params = camera.parameters()
     sigmas = sigmas or {}
-    lines = ["Camera (pinhole; angles in degrees: heading from grid north, pitch above horizontal)", ""]
+    lines = ["Camera (pinhole; angles in degrees: heading clockwise from grid north, pitch above horizontal)", ""]
     for name in ("x", "y", "z", "heading", "pitch", "roll", "fov", "cx", "cy", "k1", "k2"):
         value = params[name]
+        if name == "heading":
+            value = float(value) % 360.0
         if name in ("k1", "k2") and value == 0.0:
             continue
         sigma = sigmas.get(name)
@@ -267,6 +270,12 @@ def _draw_parameters(ax, camera, sigmas, rmse, points, xyz):
         fmt = "{:.2f}" if name in ("x", "y", "z") else "{:.4f}"
         lines.append(f"  {name:<8} {fmt.format(value):>14}{sig} {_UNITS[name]}")
     lines.append(f"  focal    {camera.focal_px:>14.2f} px")
+    return lines
+
+
+def _draw_parameters(ax, camera, sigmas, rmse, points, xyz):
+    ax.axis("off")
+    lines = parameter_lines(camera, sigmas)
     lines.append("")
     if rmse is not None:
         lines.append(f"Reprojection RMSE {rmse:.2f} px on {len(points.uv)} points "

@@ -141,3 +141,12 @@ def test_suggest_progress_and_cancel_visible_on_the_points_tab(dock, scene, qtbo
     with qtbot.waitSignal(c.taskFinished, timeout=60000):
         qtbot.mouseClick(dock.cancelButton, Qt.MouseButton.LeftButton)
     assert not dock.progressBar.isVisible() and dock.suggestButton.isEnabled()
+
+
+def test_product_buttons_come_first_in_the_fit_tab(narrow_dock):
+    """The fit tab scrolls at the default dock height and its last row is out of sight: that row must not be a
+    product (it was "Active map layer on photo"), the attribute helpers go last."""
+    bar = narrow_dock.outputsBar
+    texts = [bar.itemAt(i).widget().text() for i in range(bar.count())]
+    assert texts[:5] == ["XYZ raster…", "Orthophoto…", "Report…", "Save drawn features…",
+                         "Active map layer on photo"]

@@ -128,3 +128,142 @@ def test_exports_run_in_background_tasks(dock_with_fit, tmp_path, qtbot):
     qtbot.waitUntil(lambda: "Nothing was written" in dock.statusLabel.text(), timeout=30000)
     assert "already exists" in dock.statusLabel.text()
     assert (tmp_path / "bg_xyz.tif").read_bytes() == before
+
+
+def _legend_order(group):
+    return [node.layer() for node in group.findLayers()]
+
+
+def test_drawn_layers_stay_above_the_orthophoto_and_a_rewrite_replaces_its_layer(dock_with_fit, tmp_path):
+    """An orthophoto exported first must not hide what is drawn afterwards (it is opaque where the camera sees the
+    ground: the glacier outline vanished under it on the map); writing the same file again replaces its layer
+    instead of adding a second copy."""
+    dock, tools = dock_with_fit
+    ortho = tools.export_orthophoto(tmp_path / "ortho.tif")
+    ortho_id = ortho.id()
+    xyz = tools.export_xyz(tmp_path / "xyz.tif")
+    session = tools.current_session()
+    session.add_feature("polygon", [[50, 100], [190, 100], [150, 150]], {"name": "tongue"})
+    saved = tools.export_features("polygon", tmp_path / "tongue.gpkg")
+    order = _legend_order(session.group)
+    live = session.map_layer("polygon")
+    assert order.index(live) < order.index(ortho) and order.index(live) < order.index(xyz)
+    saved_layer = next(layer for layer in order if layer.name() == "tongue")
+    assert order.index(saved_layer) < order.index(ortho)
+
+    again = tools.export_orthophoto(tmp_path / "ortho.tif", overwrite=True)
+    tools.export_xyz(tmp_path / "xyz.tif", overwrite=True)
+    tools.export_features("polygon", saved, overwrite=True)
+    names = [layer.name() for layer in _legend_order(session.group)]
+    assert names.count("ortho (orthophoto)") == 1 and names.count("xyz (X Y Z, photo pixels)") == 1
+    assert names.count("tongue") == 1
+    assert QgsProject.instance().mapLayer(again.id()) is again and QgsProject.instance().mapLayer(ortho_id) is None
+
+
+def test_a_field_added_before_drawing_comes_back_with_the_project(dock_with_fit, tmp_path, qtbot):
+    dock, tools = dock_with_fit
+    project = QgsProject.instance()
+    session = tools.current_session()
+    session.add_feature("point", [[120, 120]], {"name": "cairn"})
+    session.add_field("year", "integer")  # nothing edited afterwards: the field alone must be kept
+    path = tmp_path / "fields.qgz"
+    assert project.write(str(path))
+    project.clear()
+    assert project.read(str(path))
+    qtbot.waitUntil(lambda: tools.session is not None, timeout=5000)
+    assert ("year", "integer") in [tuple(f) for f in tools.session.fields]
+    assert tools.session.map_layer("point").fields().indexFromName("year") >= 0
+
+
+def test_point_over_the_sky_is_reported_in_plain_words(dock_with_fit):
+    dock, tools = dock_with_fit
+    tools.current_session().add_feature("point", [[120, 2]])  # the top rows of the plane scene see the sky
+    text = dock.statusLabel.text()
+    assert text == "Drawn points: 1 entirely over the sky or off the DEM, not on the map layer.", text
+    assert "piece" not in tools.sky_text("point", 0, 2)
+    assert tools.sky_text("line", 2, 0) == "Drawn lines: 2 part(s) over the sky left out of the map layer."
+
+
+def _save_through_dialog(qtbot, path, seen):
+    """Answer the next save dialog (a real QFileDialog, Qt's own widget offscreen) with ``path``; record the
+    folder it opened in."""
+    from qgis.PyQt.QtCore import QMetaObject, QTimer
+    from qgis.PyQt.QtWidgets import QApplication, QFileDialog, QLineEdit
+
+    def answer():
+        dialog = QApplication.activeModalWidget()
+        if not isinstance(dialog, QFileDialog):
+            QTimer.singleShot(50, answer)
+            return
+        seen.append(dialog.directory().absolutePath())
+        dialog.findChild(QLineEdit, "fileNameEdit").setText(str(path))  # what typing the path does
+        QMetaObject.invokeMethod(dialog, "accept")
+
+    QTimer.singleShot(50, answer)
+
+
+def test_save_dialogs_open_in_the_folder_of_the_last_product(dock_with_fit, tmp_path, qtbot):
+    """The photo's folder is often a read-only archive: after one product was saved elsewhere, the next dialog
+    opens there instead of sending the user back to the photo's folder every time."""
+    from qgis.core import QgsSettings
+
+    from monoplot_plugin.outputs.dock_actions import LAST_FOLDER_KEY
+
+    dock, tools = dock_with_fit
+    QgsSettings().remove(LAST_FOLDER_KEY)
+    products = tmp_path / "products"
+    products.mkdir()
+    done, seen = [], []
+    tools.exported.connect(lambda what, path: done.append(what))
+    _save_through_dialog(qtbot, products / "first_xyz.tif", seen)
+    tools.actions["xyz"].trigger()
+    assert "computing first_xyz.tif" in dock.statusLabel.text()  # the dock says it is working
+    qtbot.waitUntil(lambda: done == ["xyz"], timeout=30000)
+    _save_through_dialog(qtbot, products / "ortho.tif", seen)
+    tools.actions["ortho"].trigger()
+    qtbot.waitUntil(lambda: done == ["xyz", "ortho"], timeout=30000)
+    assert seen[0] == str(tmp_path)  # the photo's folder the first time
+    assert seen[1] == str(products)
+    assert (products / "first_xyz.tif").exists() and (products / "ortho.tif").exists()
+    QgsSettings().remove(LAST_FOLDER_KEY)
+
+
+def test_map_layer_on_the_photo_follows_a_refit_and_comes_back_with_the_project(dock_with_fit, tmp_path, qtbot):
+    """It stayed where the previous camera put it after a refit (a wrong place), and was gone after reopening."""
+    from osgeo import ogr, osr
+
+    dock, tools = dock_with_fit
+    path = tmp_path / "outline.gpkg"
+    srs = osr.SpatialReference()
+    srs.ImportFromEPSG(21781)
+    ds = ogr.GetDriverByName("GPKG").CreateDataSource(str(path))
+    lyr = ds.CreateLayer("outline", srs, ogr.wkbPolygon)
+    f = ogr.Feature(lyr.GetLayerDefn())
+    f.SetGeometry(ogr.CreateGeometryFromWkt("POLYGON((601500 202000,602600 202100,602500 203300,601500 202000))"))
+    lyr.CreateFeature(f)
+    ds = None
+    project = QgsProject.instance()
+    outline = QgsVectorLayer(str(path), "outline 2020", "ogr")
+    project.addMapLayer(outline)
+    tools.draw_layer_on_photo(outline)
+
+    def pixels():
+        (overlay,) = [o for o in tools.overlays if o.name() == "outline 2020 on photo"]
+        assert overlay in dock.photo_canvas.layers()
+        return np.array([(p.x(), p.y()) for g in overlay.getFeatures() for p in g.geometry().vertices()])
+
+    before = pixels()
+    c = dock.controller
+    c.state.fitted = c.fitted.with_parameters(heading=c.fitted.heading + 3.0).to_dict()
+    c.cameraChanged.emit()
+    after = pixels()
+    assert np.abs(after[:, 0].mean() - before[:, 0].mean()) > 5.0  # moved sideways with the heading
+
+    saved = tmp_path / "overlay.qgz"
+    c.save()
+    assert project.write(str(saved))
+    project.clear()
+    assert tools.overlays == []
+    assert project.read(str(saved))
+    qtbot.waitUntil(lambda: any(o.name() == "outline 2020 on photo" for o in tools.overlays), timeout=5000)
+    assert np.allclose(pixels().mean(axis=0), after.mean(axis=0), atol=0.5)

@@ -51,3 +51,13 @@ def test_parameter_sigmas_grow_with_noise(plane_scene):
     assert noisy["heading"] > quiet["heading"] and noisy["z"] > quiet["z"]
     few = parameter_sigmas(scene.camera, scene_points(scene, n=3))
     assert all(np.isnan(v) for v in few.values())  # 6 residuals, 7 unknowns: no covariance
+
+
+def test_report_heading_is_the_azimuth_the_dock_shows(plane_scene, tmp_path):
+    """A fit may return heading -63.6; the dock shows 296.4 (clockwise from grid north) and so must the report."""
+    from monoplot_plugin.outputs.report import parameter_lines
+
+    camera = plane_scene.camera.with_parameters(heading=-63.6349)
+    heading = next(line for line in parameter_lines(camera, {"heading": 0.295}) if line.strip().startswith("heading"))
+    assert "296.3651 ± 0.295 °" in heading, heading
+    assert write_report(tmp_path / "r.png", plane_scene.photo, camera, plane_scene.dem).exists()

@@ -241,3 +241,43 @@ def test_photo_line_across_a_silhouette_is_cut_there(run_alg, small_scene):
     gap = np.linalg.norm(far[-1, :2] - near[0, :2])
     steps = max(np.linalg.norm(np.diff(p[:, :2], axis=0), axis=1).max() for p in parts)
     assert gap > 10 * steps  # the hidden ground between the pieces is not bridged
+
+
+class _RecordingFeedback:
+    """A QgsProcessingFeedback that keeps what the algorithm reported."""
+
+    def __new__(cls):
+        from qgis.core import QgsProcessingFeedback
+
+        class Recording(QgsProcessingFeedback):
+            def __init__(self):
+                super().__init__()
+                self.errors = []
+
+            def reportError(self, error, fatalError=False):  # noqa: N802, N803 (QGIS API)
+                self.errors.append(error)
+                super().reportError(error, fatalError)
+
+        return Recording()
+
+
+def test_map_polygon_whose_corners_are_outside_the_photo_is_still_drawn(run_alg, small_scene):
+    """A strip across the view with its four corners far outside the image: corners alone (the old default, no
+    densifying) found no visible vertex and the output was silently empty. A box behind the camera is skipped and
+    said so."""
+    layer = QgsVectorLayer("Polygon?crs=EPSG:32632", "strip", "memory")
+    features = []
+    for ring in ([(497000, 5098900), (506000, 5098900), (506000, 5099100), (497000, 5099100)],
+                 [(501000, 5090000), (501400, 5090000), (501400, 5090400), (501000, 5090400)]):
+        f = QgsFeature()
+        f.setGeometry(QgsGeometry.fromPolygonXY([[QgsPointXY(x, y) for x, y in ring]]))
+        features.append(f)
+    layer.dataProvider().addFeatures(features)
+    feedback = _RecordingFeedback()
+    out = run_alg("maptophoto", {"INPUT": layer, "CAMERA": small_scene["camera"], "DEM": small_scene["dem"],
+                                 "HIDDEN": True, "OUTPUT": "memory:"}, feedback=feedback)["OUTPUT"]
+    kept = list(out.getFeatures())
+    assert len(kept) == 1
+    u = [p.x() for p in kept[0].geometry().vertices()]
+    assert min(u) < 80 < max(u)  # across the middle of the 160 px wide photo
+    assert any("1 of 2 feature(s) are not visible" in e for e in feedback.errors), feedback.errors

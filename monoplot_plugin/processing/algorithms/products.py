@@ -116,14 +116,16 @@ class MapToPhoto(_CameraDemAlgorithm):
     _name = "maptophoto"
     _display = "Map layer to photo"
     _help = ("Draws a map layer onto the photo: every vertex is projected with the camera into photo pixel space "
-             "(x = column, y = -row). Lines are densified every STEP map units first. With 'Drop hidden parts', "
-             "vertices hidden behind terrain (depth test against the DEM rendered from the camera) or outside the "
-             "image are removed, splitting lines where they disappear.")
+             "(x = column, y = -row). Lines and polygon outlines are densified every STEP map units first (0: the "
+             "DEM's cell size, so that an edge crossing the view between two far-apart corners is not lost). With "
+             "'Drop hidden parts', vertices hidden behind terrain (depth test against the DEM rendered from the "
+             "camera) or outside the image are removed, splitting lines where they disappear; features with no "
+             "visible vertex are skipped and reported.")
 
     def initAlgorithm(self, config=None):
         self.addParameter(QgsProcessingParameterFeatureSource("INPUT", self.tr("Map layer")))
         self.add_camera_dem()
-        self.addParameter(QgsProcessingParameterNumber("STEP", self.tr("Densify every (map units, 0 = no)"),
+        self.addParameter(QgsProcessingParameterNumber("STEP", self.tr("Densify every (map units, 0 = DEM cell size)"),
                                                        QgsProcessingParameterNumber.Double, 0.0, minValue=0.0))
         self.addParameter(QgsProcessingParameterBoolean("HIDDEN", self.tr("Drop hidden parts"), defaultValue=True))
         self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Features on the photo")))
@@ -133,7 +135,8 @@ class MapToPhoto(_CameraDemAlgorithm):
         if source is None:
             raise QgsProcessingException(self.invalidSourceError(parameters, "INPUT"))
         camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
-        step = self.parameterAsDouble(parameters, "STEP", context)
+        # 0: the DEM's cell size; corners alone miss a polygon whose edges cross the view (silently empty output)
+        step = self.parameterAsDouble(parameters, "STEP", context) or float(dem.cell_size)
         drop_hidden = self.parameterAsBool(parameters, "HIDDEN", context)
         transform = None
         if source.sourceCrs().isValid() and crs.isValid() and source.sourceCrs() != crs:
@@ -145,18 +148,23 @@ class MapToPhoto(_CameraDemAlgorithm):
         if sink is None:
             raise QgsProcessingException(self.invalidSinkError(parameters, "OUTPUT"))
         total = max(1, source.featureCount())
+        skipped = 0
         for i, feature in enumerate(source.getFeatures()):
             check_canceled(feedback)
+            feedback.setProgress(100.0 * (i + 1) / total)
             geometry = feature.geometry()
             if transform is not None:
                 geometry.transform(transform)
             projected = geo.map_to_photo_geometry(geometry, camera, dem, step, visible, PHOTO_Y_SIGN)
             if projected is None:
+                skipped += 1
                 continue
             out = QgsFeature(feature)
             out.setGeometry(projected)
             sink.addFeature(out, QgsFeatureSink.FastInsert)
-            feedback.setProgress(100.0 * (i + 1) / total)
+        if skipped:
+            feedback.reportError(self.tr("{0} of {1} feature(s) are not visible in the photo (hidden behind "
+                                         "terrain or outside the image); skipped").format(skipped, total))
         return {"OUTPUT": dest}
 
 

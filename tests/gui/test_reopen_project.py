@@ -1,0 +1,69 @@
+"""Reopening a saved project in the real dock: what a user finds (camera layers filled, no false "autosave
+restored" notice)."""
+
+from __future__ import annotations
+
+import os
+
+from qgis.core import QgsProject
+
+from monoplot_plugin.adapters.layers import GROUP_NAME
+from monoplot_plugin.gui import persistence
+
+
+def _fitted_session(dock, scene, qtbot):
+    dock.photoFile.setFilePath(scene.photo_path)
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    c = dock.controller
+    assert c.image is not None and c.dem is not None
+    c.state.fitted = scene.camera.to_dict()
+    c.state.fit_info = {"status": "ok", "rmse_px": 1.0, "mode": "paired"}
+    c.save()
+    return c
+
+
+def _camera_layers(project):
+    group = project.layerTreeRoot().findGroup(GROUP_NAME)
+    return {node.layer().name(): node.layer().featureCount() for node in (group.findLayers() if group else [])}
+
+
+def test_dock_opened_after_the_project_shows_the_camera_on_the_map(dock, scene, qtbot, qgis_iface, tmp_path):
+    """QGIS started with a project, Monoplot opened afterwards: the camera and footprint layers of the group came
+    back from the file as empty memory layers and stayed empty (nothing to identify, nothing to zoom to)."""
+    from monoplot_plugin.gui.dock import MonoplotDock
+
+    _fitted_session(dock, scene, qtbot)
+    dock._update_camera_layers()
+    project = QgsProject.instance()
+    path = str(tmp_path / "reopen.qgz")
+    assert project.write(path)
+    dock.unload()  # Monoplot not open while the project is read
+    project.clear()
+    assert project.read(path)
+    assert _camera_layers(project) == {"Monoplot camera": 0, "Monoplot view footprint": 0}  # memory: empty
+    later = MonoplotDock(qgis_iface)
+    qtbot.addWidget(later)
+    try:
+        assert later.controller.fitted is not None
+        assert _camera_layers(project) == {"Monoplot camera": 1, "Monoplot view footprint": 1}
+    finally:
+        later.unload()
+
+
+def test_an_autosave_identical_to_the_saved_project_is_not_announced(dock, scene, qtbot, tmp_path):
+    """A pending autosave that fires just after Save is newer than the file but holds the same work: reopening
+    must not say "Monoplot restored work done after the project was last saved"."""
+    c = _fitted_session(dock, scene, qtbot)
+    project = QgsProject.instance()
+    path = str(tmp_path / "saved.qgz")
+    assert project.write(path)
+    c.save()  # the autosave, after the save
+    old = os.path.getmtime(path)
+    os.utime(path, (old - 10, old - 10))
+    messages = []
+    c.message.connect(lambda text, level: messages.append(text))
+    project.clear()
+    assert project.read(path)
+    qtbot.waitUntil(lambda: c.image is not None, timeout=5000)
+    assert persistence.load_with_source(project)[1] == "project"
+    assert not any("autosave" in m for m in messages), messages
