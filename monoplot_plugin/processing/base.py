@@ -115,7 +115,7 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
             raise QgsProcessingException(self.tr("The DEM could not be loaded as a raster layer."))
         path = layer.source().split("|")[0]
         if not os.path.isfile(path):
-            raise QgsProcessingException(self.tr(f"The DEM must be a raster file on disk (got '{path}')."))
+            raise QgsProcessingException(self.tr("The DEM must be a raster file on disk (got '{0}').").format(path))
         return path, layer.crs()
 
     def void_value(self, parameters, context) -> Optional[float]:
@@ -142,7 +142,7 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         if not path:
             raise QgsProcessingException(self.tr("No photo given."))
         if not os.path.isfile(path):
-            raise QgsProcessingException(self.tr(f"Photo not found: {path}"))
+            raise QgsProcessingException(self.tr("Photo not found: {0}").format(path))
         return path
 
     def camera(self, parameters, context, name: str = "CAMERA", photo: Optional[str] = None,

@@ -85,15 +85,15 @@ class BatchPhotos(MonoplotAlgorithm):
                                              crs.toWkt(), lambda m, e: feedback.reportError(m, False))
                 os.makedirs(out_dir, exist_ok=True)
                 camera.save(os.path.join(out_dir, "camera.json"))
-                feedback.pushInfo(self.tr(f"Shared camera fitted on {os.path.basename(used)}: RMSE {rmse:.2f} px; "
-                                          f"written to {os.path.join(out_dir, 'camera.json')}"))
+                feedback.pushInfo(self.tr("Shared camera fitted on {0}: RMSE {1:.2f} px; written to {2}").format(
+                    os.path.basename(used), rmse, os.path.join(out_dir, 'camera.json')))
             else:
                 camera = self.camera(parameters, context, "CAMERA")
             for job in jobs:
                 job.camera = camera
         else:
             jobs = checked(batch.table_jobs, self.parameterAsFile(parameters, "TABLE", context))
-        feedback.pushInfo(self.tr(f"{len(jobs)} photos to process"))
+        feedback.pushInfo(self.tr("{0} photos to process").format(len(jobs)))
 
         def log(message, error):
             (feedback.reportError if error else feedback.pushInfo)(message)
@@ -111,7 +111,7 @@ class BatchPhotos(MonoplotAlgorithm):
         batch.write_log(log_path, results)
         succeeded = sum(r.ok for r in results)
         failed = len(results) - succeeded
-        feedback.pushInfo(self.tr(f"{succeeded} photos processed, {failed} skipped; log: {log_path}"))
+        feedback.pushInfo(self.tr("{0} photos processed, {1} skipped; log: {2}").format(succeeded, failed, log_path))
         if succeeded == 0:
-            raise QgsProcessingException(self.tr(f"No photo could be processed; see {log_path}"))
+            raise QgsProcessingException(self.tr("No photo could be processed; see {0}").format(log_path))
         return {"OUTPUT": out_dir, "SUCCEEDED": succeeded, "FAILED": failed, "LOG": log_path}

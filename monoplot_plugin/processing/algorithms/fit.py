@@ -115,16 +115,16 @@ class FitCamera(MonoplotAlgorithm):
         uv, xyz, paired = self.gather_points(parameters, context, dem, crs)
         minimum = 4 if paired else 6
         if len(uv) < minimum or len(xyz) < minimum:
-            raise QgsProcessingException(self.tr(
-                f"Too few points for a 7-parameter camera: {len(uv)} photo and {len(xyz)} DEM points "
-                f"(at least {minimum} each {'pair' if paired else 'set'} needed)."))
+            raise QgsProcessingException(self.tr("Too few points for a 7-parameter camera: {0} photo and {1} DEM "
+                                                 "points (at least {2} each {3} needed).").format(
+                len(uv), len(xyz), minimum, self.tr("pair") if paired else self.tr("set")))
         outside = ~prior.in_image(uv)
         if outside.any():
-            raise QgsProcessingException(self.tr(
-                f"{int(outside.sum())} photo points lie outside the {prior.width}x{prior.height} photo: are they "
-                "in photo pixel space (x = column, y = -row, or columns u_px, v_px)?"))
-        feedback.pushInfo(self.tr(f"Fitting with {len(uv)} photo points and {len(xyz)} DEM points "
-                                  f"({'paired' if paired else 'unpaired'})"))
+            raise QgsProcessingException(self.tr("{0} photo points lie outside the {1}x{2} photo: are they in photo "
+                                                 "pixel space (x = column, y = -row, or columns u_px, v_px)?").format(
+                int(outside.sum()), prior.width, prior.height))
+        feedback.pushInfo(self.tr("Fitting with {0} photo points and {1} DEM points ({2})").format(
+            len(uv), len(xyz), self.tr("paired") if paired else self.tr("unpaired")))
         photo_size = checked(pipeline_photo_size, photo)
         try:
             camera, info = checked(pipeline.fit, photo_size, uv, xyz, prior, dem, paired,
@@ -134,15 +134,15 @@ class FitCamera(MonoplotAlgorithm):
         except pipeline.FitCanceledError:
             raise QgsProcessingException(self.tr("Fit canceled; no camera written."))
         if info["status"] != "ok":
-            feedback.reportError(self.tr(f"Fit {info['status']}: {info['message']}"), False)
+            feedback.reportError(self.tr("Fit {0}: {1}").format(info['status'], info['message']), False)
         else:
             feedback.pushInfo(info["message"])
         camera.crs_wkt = crs.toWkt()
         out = self.parameterAsFileOutput(parameters, "OUTPUT", context)
         camera.save(out)
         rmse = float(info.get("rmse_px", float("nan")))
-        feedback.pushInfo(self.tr(f"Camera: {json.dumps(camera.parameters())}"))
-        feedback.pushInfo(self.tr(f"Reprojection error {rmse:.2f} px; written to {out}"))
+        feedback.pushInfo(self.tr("Camera: {0}").format(json.dumps(camera.parameters())))
+        feedback.pushInfo(self.tr("Reprojection error {0:.2f} px; written to {1}").format(rmse, out))
         feedback.setProgress(100)
         return {"OUTPUT": out, "RMSE_PX": rmse, "N_PHOTO": len(uv), "N_DEM": len(xyz), "STATUS": info["status"]}
 

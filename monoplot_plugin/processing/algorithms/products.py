@@ -37,9 +37,10 @@ class _CameraDemAlgorithm(MonoplotAlgorithm):
         dem, crs = self.dem(parameters, context)
         photo = self.parameterAsFile(parameters, "PHOTO", context) or None
         camera = self.camera(parameters, context, "CAMERA", photo=photo, crs=crs)
-        feedback.pushInfo(self.tr(f"Camera at ({camera.position[0]:.1f}, {camera.position[1]:.1f}, "
-                                  f"{camera.position[2]:.1f}), heading {camera.heading:.2f}, pitch "
-                                  f"{camera.pitch:.2f}, fov {camera.fov:.2f}; image {camera.width}x{camera.height}"))
+        feedback.pushInfo(self.tr("Camera at ({0:.1f}, {1:.1f}, {2:.1f}), heading {3:.2f}, pitch {4:.2f}, fov {5:.2f};"
+                                  " image {6}x{7}").format(
+            camera.position[0], camera.position[1], camera.position[2], camera.heading, camera.pitch, camera.fov,
+            camera.width, camera.height))
         return camera, dem, crs
 
 
@@ -62,7 +63,7 @@ class ComputeXyz(_CameraDemAlgorithm):
         check_canceled(feedback)
         pipeline.write_xyz(out, xyz, crs.toWkt())
         ground = float(np.isfinite(xyz[..., 2]).mean())
-        feedback.pushInfo(self.tr(f"{100 * ground:.1f}% of the pixels hit the DEM; written to {out}"))
+        feedback.pushInfo(self.tr("{0:.1f}% of the pixels hit the DEM; written to {1}").format(100 * ground, out))
         feedback.setProgress(100)
         return {"OUTPUT": out, "GROUND_FRACTION": ground}
 
@@ -100,15 +101,15 @@ class PhotoToMap(_CameraDemAlgorithm):
             geometry, lost = geo.photo_to_map_geometry(feature.geometry(), camera, dem, step, PHOTO_Y_SIGN)
             dropped += lost
             if geometry is None:
-                feedback.reportError(self.tr(f"Feature {feature.id()} is entirely in the sky or outside the "
-                                             "DEM; skipped"))
+                feedback.reportError(self.tr("Feature {0} is entirely in the sky or outside the DEM; skipped").format(
+                    feature.id()))
                 continue
             out = QgsFeature(feature)
             out.setGeometry(geometry)
             sink.addFeature(out, QgsFeatureSink.FastInsert)
             feedback.setProgress(100.0 * (i + 1) / total)
         if dropped:
-            feedback.pushInfo(self.tr(f"{dropped} vertices saw the sky or left the DEM and were dropped"))
+            feedback.pushInfo(self.tr("{0} vertices saw the sky or left the DEM and were dropped").format(dropped))
         return {"OUTPUT": dest, "DROPPED": dropped}
 
 
@@ -185,9 +186,8 @@ class Orthophoto(_CameraDemAlgorithm):
         camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
         photo = checked(read_photo, self.photo_path(parameters, context))
         if (photo.shape[1], photo.shape[0]) != tuple(camera.image_size):
-            raise QgsProcessingException(self.tr(
-                f"The photo is {photo.shape[1]}x{photo.shape[0]} px but the camera is for "
-                f"{camera.width}x{camera.height} px."))
+            raise QgsProcessingException(self.tr("The photo is {0}x{1} px but the camera is for {2}x{3} px.").format(
+                photo.shape[1], photo.shape[0], camera.width, camera.height))
         resolution = self.parameterAsDouble(parameters, "RESOLUTION", context) or None
         out = self.parameterAsOutputLayer(parameters, "OUTPUT", context)
         pipeline.orthophoto(out, photo, camera, dem, crs.toWkt(), resolution, progress_callback(feedback, 0, 95))

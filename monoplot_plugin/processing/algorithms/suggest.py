@@ -35,7 +35,8 @@ class SuggestPhotoPoints(MonoplotAlgorithm):
     def run_algorithm(self, parameters, context, feedback):
         photo = checked(read_photo, self.photo_path(parameters, context))
         count = self.parameterAsInt(parameters, "MAX_POINTS", context)
-        feedback.pushInfo(self.tr(f"Photo {photo.shape[1]}x{photo.shape[0]} px; detecting up to {count} points"))
+        feedback.pushInfo(self.tr("Photo {0}x{1} px; detecting up to {2} points").format(
+            photo.shape[1], photo.shape[0], count))
         feedback.setProgress(10)
         uv, scores = pipeline.suggest_photo(photo, count)
         check_canceled(feedback)
@@ -44,7 +45,7 @@ class SuggestPhotoPoints(MonoplotAlgorithm):
         if sink is None:
             raise QgsProcessingException(self.invalidSinkError(parameters, "OUTPUT"))
         write_photo_points(sink, uv, scores)
-        feedback.pushInfo(self.tr(f"{len(uv)} photo points suggested"))
+        feedback.pushInfo(self.tr("{0} photo points suggested").format(len(uv)))
         feedback.setProgress(100)
         return {"OUTPUT": dest, "COUNT": len(uv)}
 
@@ -83,6 +84,6 @@ class SuggestDemPoints(MonoplotAlgorithm):
         if sink is None:
             raise QgsProcessingException(self.invalidSinkError(parameters, "OUTPUT"))
         write_map_points(sink, xyz, scores, labels)
-        feedback.pushInfo(self.tr(f"{len(xyz)} DEM points suggested"))
+        feedback.pushInfo(self.tr("{0} DEM points suggested").format(len(xyz)))
         feedback.setProgress(100)
         return {"OUTPUT": dest, "COUNT": len(xyz)}
