@@ -569,9 +569,23 @@ def _cell_first_hit(elev, gt, origin, d, r, c, smin, smax):
         bx, by, bz = _world_rel(elev, gt, origin, rb, cb)
         qx, qy, qz = _world_rel(elev, gt, origin, rc, cc)
         s = _ray_triangle(0.0, 0.0, 0.0, d[0], d[1], d[2], ax, ay, az, bx, by, bz, qx, qy, qz)
-        if s >= smin and s <= smax and s < best:
+        if s >= smin and s <= smax and s < best and _enters_from_above(d, ax, ay, az, bx, by, bz, qx, qy, qz):
             best = s
     return best
+
+
+@njit(cache=True, inline="always")
+def _enters_from_above(d, ax, ay, az, bx, by, bz, qx, qy, qz):
+    """The direction d crosses triangle abc from its upper side (against its upward normal); a crossing from
+    below (a segment leaving the ground, e.g. from a camera a few metres under a coarse DEM) is not a hit."""
+    e1x, e1y, e1z = bx - ax, by - ay, bz - az
+    e2x, e2y, e2z = qx - ax, qy - ay, qz - az
+    nx = e1y * e2z - e1z * e2y
+    ny = e1z * e2x - e1x * e2z
+    nz = e1x * e2y - e1y * e2x
+    if nz < 0.0:
+        nx, ny, nz = -nx, -ny, -nz
+    return nx * d[0] + ny * d[1] + nz * d[2] < 0.0
 
 
 @njit(parallel=True, cache=True)
@@ -700,22 +714,19 @@ def _intrinsics(cam: Camera) -> np.ndarray:
 
 
 def _cull_sign(cam: Camera, dem: Dem) -> float:
-    """Screen-area sign of front-facing triangles, or 0 to draw both faces.
+    """Screen-area sign of front-facing triangles: only the terrain's upper side is drawn.
 
     A ray that starts above the terrain meets it first from its upper side, so triangles seen from below (back
-    faces) can never be the first hit and are skipped. That holds when the camera is above the mesh at its own
-    position, or, outside the mesh, above its highest point; otherwise (or over a void) both faces are drawn.
+    faces) can never be its first hit. A camera *below* the surface at its own position is a DEM that is too coarse
+    or a fit that ended a few metres low (a photographer on a summit that a 25 m DEM rounds off): drawing the
+    underside would fill the whole picture with the slope above the camera. Culling it instead lets the rays leave
+    the ground and see the terrain beyond, as the photo does; the log says the camera is below the DEM.
     """
     x, y, z = cam.position
-    below = dem.sample(x, y, method="mesh")
-    if math.isnan(below):
-        col, row = dem.map_to_cell(x, y)
-        inside = 0.5 <= col <= dem.cols - 0.5 and 0.5 <= row <= dem.rows - 0.5
-        finite = dem.elevation[np.isfinite(dem.elevation)]
-        if inside or finite.size == 0 or z <= float(finite.max()):
-            return 0.0
-    elif z <= below:
-        return 0.0
+    ground = dem.sample(x, y, method="mesh")
+    if not math.isnan(ground) and z <= ground:
+        logger.warning("camera %.1f m below the DEM surface at its position: the terrain is seen from above only",
+                       ground - z)
     g = dem.geotransform
     # triangle (r, c), (r, c+1), (r+1, c+1) is counter-clockwise in (col, row); the map flips it when the affine's
     # determinant is negative (north-up), and the image's downward v axis flips it once more
@@ -818,7 +829,11 @@ def compute_xyz(cam: Camera, dem: Dem, max_range: Optional[float] = None, crop: 
 
 
 def segment_first_hit(dem: Dem, origins, targets, smax: float = 1.0) -> np.ndarray:
-    """Exact line of sight: where each segment ``origin -> target`` first meets the terrain mesh.
+    """Exact line of sight: where each segment ``origin -> target`` first enters the terrain mesh from above.
+
+    Crossings from below do not count, so a segment from a camera a few metres under a coarse DEM leaves the
+    ground and is stopped only where it goes into the terrain again (as the z-buffer of :func:`compute_xyz_full`
+    draws only the terrain's upper side).
 
     Args:
         dem: the terrain.
@@ -831,6 +846,8 @@ def segment_first_hit(dem: Dem, origins, targets, smax: float = 1.0) -> np.ndarr
     >>> dem = Dem.from_array(np.zeros((5, 5)), (0, 1, 0, 5, 0, -1))
     >>> segment_first_hit(dem, [[2.5, 2.5, 10.0]], [[2.5, 2.5, -10.0]]).round(9).tolist()
     [0.5]
+    >>> segment_first_hit(dem, [[2.5, 2.5, -10.0]], [[2.5, 2.5, 10.0]]).tolist()  # from below: no hit
+    [nan]
     """
     origins = np.atleast_2d(np.asarray(origins, dtype=np.float64))
     targets = np.atleast_2d(np.asarray(targets, dtype=np.float64))

@@ -260,3 +260,41 @@ def test_same_xyz_whatever_the_thread_count(tmp_path, threads):
     assert (hit_a != hit_b).mean() < 1e-4
     both = hit_a & hit_b
     assert np.percentile(np.linalg.norm(a[both] - b[both], axis=1), 99.9) < 1e-3
+
+
+def _hill_and_ridge():
+    """A round hill with its top at (1000, 1000) and, 800 m north of it, a 300 m high east-west ridge."""
+    rows = cols = 200
+    x = (np.arange(cols) + 0.5) * 10.0
+    y = 2000.0 - (np.arange(rows) + 0.5) * 10.0
+    X, Y = np.meshgrid(x, y)
+    z = 100.0 * np.exp(-((X - 1000) ** 2 + (Y - 1000) ** 2) / (2 * 300.0 ** 2))
+    z += 300.0 * np.exp(-((Y - 1800) ** 2) / (2 * 60.0 ** 2))
+    return Dem.from_array(z, (0.0, 10.0, 0.0, 2000.0, 0.0, -10.0))
+
+
+@pytest.mark.parametrize("offset_m", [-3.0, 1.5])
+def test_camera_a_few_metres_under_the_dem_sees_the_terrain_beyond(offset_m, caplog):
+    """A fit on a coarse DEM can end a few metres below the surface at the camera (a summit the DEM rounds off).
+    The rays must leave the ground and see the ridge, as from a camera on the ground; not the hill's underside
+    (drawn both ways, it filled the whole picture a few metres from the camera)."""
+    dem = _hill_and_ridge()
+    ground = float(dem.sample(1000.0, 1000.0, method="mesh"))
+    cam = Camera((1000.0, 1000.0, ground + offset_m), heading=0.0, pitch=-2.0, roll=0.0, fov=60.0,
+                 image_size=(160, 100))
+    on_ground = cam.with_parameters(z=ground + 1.5)
+    res = compute_xyz_full(cam, dem)
+    ref = compute_xyz_full(on_ground, dem)
+    # rays leave the ground; only rays that head down from under the surface (near the bottom edge) never do
+    assert (res.hit & ~ref.hit).mean() < 0.03  # (parallax at the skyline)
+    assert res.hit.mean() > 0.5 * ref.hit.mean()
+    far = ref.hit & (ref.distance > 500.0)  # the ridge, seen over the valley
+    assert far.mean() > 0.2
+    assert np.mean(res.distance[far] > 500.0) > 0.99  # not the hill's underside, a few metres away
+    # the same terrain as from the camera on the ground, but for a few metres of parallax
+    both = res.hit & ref.hit
+    assert np.median(np.abs(res.distance[both] - ref.distance[both])) < 5.0
+    assert ("below the DEM surface" in caplog.text) == (offset_m < 0)
+    # exact lines of sight agree: a point 1 m above the ridge's south face is in the open from the buried camera
+    face = np.array([[1000.0, 1700.0, float(dem.sample(1000.0, 1700.0, method="mesh")) + 1.0]])
+    assert np.isnan(segment_first_hit(dem, np.asarray(cam.position)[None], face)[0])
