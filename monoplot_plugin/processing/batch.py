@@ -29,6 +29,7 @@ class PhotoJob:
     prior: str = ""
     points: str = ""       # paired GCP CSV (u_px, v_px, X, Y, Z) or photo points CSV
     dem_points: str = ""   # DEM points CSV (unpaired fit)
+    label: str = ""        # where the job comes from (table line), for messages about a row without a photo
 
 
 @dataclass
@@ -38,6 +39,7 @@ class PhotoResult:
     message: str = ""
     outputs: List[str] = field(default_factory=list)
     rmse_px: float = float("nan")
+    canceled: bool = False  # not processed because the user canceled the batch
 
 
 def folder_jobs(folder: str, camera, patterns: str = "") -> List[PhotoJob]:
@@ -63,21 +65,33 @@ def table_jobs(path: str) -> List[PhotoJob]:
         raise InputError(f"batch table not found: {path}")
     base = os.path.dirname(os.path.abspath(path))
     with open(path, newline="", encoding="utf-8-sig") as fh:
-        rows = list(csv.DictReader(fh))
+        sample = fh.read(4096)
+        fh.seek(0)
+        try:  # spreadsheets in many locales save CSV with ';' (or tabs)
+            dialect = csv.Sniffer().sniff(sample.splitlines()[0] if sample else "", delimiters=",;\t")
+        except csv.Error:
+            dialect = csv.excel
+        reader = csv.DictReader(fh, dialect=dialect)
+        rows = []  # (line number in the file, row), blank rows left out
+        for row in reader:
+            if any(isinstance(v, str) and v.strip() for v in row.values()):
+                rows.append((reader.line_num, row))
+        header = [k for k in (reader.fieldnames or []) if k]
     if not rows:
         raise InputError(f"{os.path.basename(path)}: no photos listed")
-    lowered = {k.strip().lower(): k for k in rows[0].keys() if k}
+    lowered = {k.strip().lower(): k for k in header}
     missing = [c for c in ("photo", "prior", "points") if c not in lowered]
     if missing:
         raise InputError(f"{os.path.basename(path)}: missing column(s) {', '.join(missing)} (expected photo, prior, "
-                         f"points[, dem_points])")
+                         f"points[, dem_points]; found {', '.join(header) or 'no header'})")
 
     def resolve(row, column):
         value = (row.get(lowered.get(column, ""), "") or "").strip()
         return os.path.join(base, value) if value and not os.path.isabs(value) else value
 
     return [PhotoJob(resolve(r, "photo"), prior=resolve(r, "prior"), points=resolve(r, "points"),
-                     dem_points=resolve(r, "dem_points")) for r in rows]
+                     dem_points=resolve(r, "dem_points"), label=f"{os.path.basename(path)} line {line}")
+            for line, r in rows]
 
 
 def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: bool = True,
@@ -92,19 +106,28 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
     reported as not processed).
     """
     os.makedirs(out_dir, exist_ok=True)
+    stems = output_stems(jobs)
+    for job, stem in zip(jobs, stems):
+        if job.photo and stem != os.path.splitext(os.path.basename(job.photo))[0]:
+            log(f"{job.photo}: another photo of the batch has the same name; its outputs are named {stem}_*", False)
+    existing = [n for n in _planned_outputs(jobs, stems, write_xyz, write_ortho)
+                if os.path.exists(os.path.join(out_dir, n))]
+    if existing:
+        log(f"{len(existing)} file(s) of an earlier run in {out_dir} are replaced (e.g. {existing[0]})", False)
     results: List[PhotoResult] = []
     shared_xyz_written = set()
     for index, job in enumerate(jobs):
-        name = os.path.basename(job.photo)
+        name = os.path.basename(job.photo) or job.label or f"job {index + 1}"
+        stem = stems[index]
         if progress(index / max(1, len(jobs))):
-            results.extend(PhotoResult(j.photo, False, "canceled before processing") for j in jobs[index:])
+            results.extend(PhotoResult(j.photo, False, "canceled before processing", canceled=True)
+                           for j in jobs[index:])
             log(f"canceled: {len(jobs) - index} photos not processed", True)
             break
         result = PhotoResult(job.photo, False)
         try:
             photo = read_photo(job.photo)
             size = (photo.shape[1], photo.shape[0])
-            stem = os.path.splitext(name)[0]
             camera = job.camera
             if camera is None:
                 camera, result.rmse_px = _fit_job(job, size, dem, crs_wkt)
@@ -114,6 +137,8 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
             elif tuple(camera.image_size) != size:
                 raise InputError(f"photo is {size[0]}x{size[1]} px but the shared camera is for "
                                  f"{camera.width}x{camera.height} px")
+            if (write_xyz or write_ortho) and not np.isfinite(pipeline.xyz_raster(camera, dem)[..., 2]).any():
+                raise InputError("the camera sees no cell of the DEM (every pixel is sky): wrong camera or DEM?")
             if write_xyz:
                 if job.camera is not None:
                     xyz_path = os.path.join(out_dir, "xyz.tif")
@@ -130,6 +155,8 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
                 result.outputs.append(ortho_path)
             result.ok = True
             result.message = "ok" if np.isnan(result.rmse_px) else f"ok, fit RMSE {result.rmse_px:.2f} px"
+            if job.photo and stem != os.path.splitext(name)[0]:
+                result.message += f" (outputs {stem}_*)"
             log(f"[{index + 1}/{len(jobs)}] {name}: {result.message}", False)
         except Exception as exc:  # one photo's failure must not lose the batch
             result.message = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
@@ -137,6 +164,40 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
         results.append(result)
     progress(1.0)
     return results
+
+
+def output_stems(jobs: List[PhotoJob]) -> List[str]:
+    """The name stem of each job's outputs: the photo's name without extension, made unique within the batch
+    (case-insensitively, for Windows and macOS file systems) by ``_2``, ``_3``... in job order, so that
+    ``frame.jpg`` and ``frame.png``, or two ``frame.jpg`` of different folders, never write the same files.
+
+    >>> output_stems([PhotoJob("a/frame.jpg"), PhotoJob("b/frame.jpg"), PhotoJob("Frame.png"), PhotoJob("x.jpg")])
+    ['frame', 'frame_2', 'Frame_3', 'x']
+    """
+    plain = [os.path.splitext(os.path.basename(j.photo))[0] or "photo" for j in jobs]
+    taken = {p.lower() for p in plain}
+    seen, stems = set(), []
+    for stem in plain:
+        unique, n = stem, 1
+        while unique.lower() in seen or (n > 1 and unique.lower() in taken):  # nor another photo's own name
+            n += 1
+            unique = f"{stem}_{n}"
+        seen.add(unique.lower())
+        stems.append(unique)
+    return stems
+
+
+def _planned_outputs(jobs: List[PhotoJob], stems: List[str], write_xyz: bool, write_ortho: bool) -> List[str]:
+    """File names :func:`run_batch` writes into the output folder."""
+    names = []
+    for job, stem in zip(jobs, stems):
+        if job.camera is None:
+            names.append(f"{stem}_camera.json")
+        if write_xyz:
+            names.append("xyz.tif" if job.camera is not None else f"{stem}_xyz.tif")
+        if write_ortho:
+            names.append(f"{stem}_ortho.tif")
+    return sorted(set(names))
 
 
 def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_points: str, dem, crs_wkt: str,
@@ -183,10 +244,10 @@ def _fit_job(job: PhotoJob, size, dem, crs_wkt: str):
 
 
 def write_log(path: str, results: List[PhotoResult]) -> None:
-    """CSV summary: photo, status, message, rmse_px, outputs (semicolon-separated)."""
+    """CSV summary: photo, status (ok, failed or canceled), message, rmse_px, outputs (semicolon-separated)."""
     with open(path, "w", newline="", encoding="utf-8") as fh:
         writer = csv.writer(fh)
         writer.writerow(["photo", "status", "message", "rmse_px", "outputs"])
         for r in results:
-            writer.writerow([r.photo, "ok" if r.ok else "failed", r.message,
+            writer.writerow([r.photo, "ok" if r.ok else "canceled" if r.canceled else "failed", r.message,
                              "" if np.isnan(r.rmse_px) else f"{r.rmse_px:.3f}", ";".join(r.outputs)])

@@ -60,7 +60,38 @@ def load_camera(path: str, image_size: Optional[Tuple[int, int]] = None, crs_wkt
     if image_size is not None and tuple(camera.image_size) != tuple(image_size):
         raise InputError(f"camera {os.path.basename(path)} is for a {camera.width}x{camera.height} image but the "
                          f"photo is {image_size[0]}x{image_size[1]}")
+    if crs_wkt and camera.crs_wkt and not _same_crs(camera.crs_wkt, crs_wkt):
+        # its position would be read in the wrong coordinates: the camera sees no DEM, every product is empty
+        raise InputError(f"camera {os.path.basename(path)} is in {_crs_name(camera.crs_wkt)} but the DEM is in "
+                         f"{_crs_name(crs_wkt)}: use a DEM in the camera's CRS, or fit the camera on this DEM")
     return camera
+
+
+def _srs(wkt: str):
+    from osgeo import osr
+
+    srs = osr.SpatialReference()
+    if srs.SetFromUserInput(wkt) != 0:
+        return None
+    return srs
+
+
+def _same_crs(a: str, b: str) -> bool:
+    """Whether two CRS definitions (WKT, "EPSG:n") are the same; True when either cannot be parsed."""
+    sa, sb = _srs(a), _srs(b)
+    if sa is None or sb is None:
+        return True
+    return bool(sa.IsSame(sb, ["IGNORE_DATA_AXIS_TO_SRS_AXIS_MAPPING=YES",
+                               "CRITERION=EQUIVALENT_EXCEPT_AXIS_ORDER_GEOGCRS"]))
+
+
+def _crs_name(wkt: str) -> str:
+    srs = _srs(wkt)
+    if srs is None:
+        return "an unknown CRS"
+    code = srs.GetAuthorityCode(None)
+    name = srs.GetName() or "an unnamed CRS"
+    return f"{name} (EPSG:{code})" if code else name
 
 
 def read_photo(path: str) -> np.ndarray:
@@ -71,10 +102,33 @@ def read_photo(path: str) -> np.ndarray:
         raise InputError(f"photo not found: {path}")
     import cv2
 
-    image = cv2.imread(path, cv2.IMREAD_COLOR)
+    try:  # bytes, then imdecode: cv2.imread cannot open non-ASCII paths on Windows
+        data = np.fromfile(path, dtype=np.uint8)
+    except OSError as exc:
+        raise InputError(f"cannot read the photo {os.path.basename(path)}: {exc}") from exc
+    if _jpeg_truncated(data.tobytes()):
+        # libjpeg fills the missing rows with grey and only prints a warning: products would drape grey on terrain
+        raise InputError(f"cannot read the photo {os.path.basename(path)}: the JPEG file is truncated (its image "
+                         f"data ends early; the missing part would be grey)")
+    image = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None  # EXIF orientation applied, as imread
     if image is None or image.size == 0:
         raise InputError(f"cannot read the photo {os.path.basename(path)}: not an image file, or a damaged one")
     return np.ascontiguousarray(image[:, :, ::-1])
+
+
+def _jpeg_truncated(data: bytes) -> bool:
+    """True for a JPEG whose last scan has no end-of-image marker after it (a cut-off download or copy).
+
+    In entropy-coded data every 0xFF byte is stuffed (0xFF00) or a restart marker (0xFFD0-D7), so the last end of
+    image (0xFFD9) comes after the last start of scan (0xFFDA) in a complete file, also with an EXIF thumbnail
+    (whose own scan and end come before the main image's) or bytes appended after the end.
+
+    >>> _jpeg_truncated(b"\\xff\\xd8\\xff\\xda..scan..\\xff\\xd9"), _jpeg_truncated(b"\\xff\\xd8\\xff\\xda..sc")
+    (False, True)
+    """
+    if not data.startswith(b"\xff\xd8"):
+        return False
+    return data.rfind(b"\xff\xd9") < data.rfind(b"\xff\xda")
 
 
 def photo_size(path: str) -> Tuple[int, int]:

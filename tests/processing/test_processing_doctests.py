@@ -4,10 +4,10 @@ import doctest
 
 import pytest
 
-from monoplot_plugin.processing import cli, inputs
+from monoplot_plugin.processing import batch, cli, inputs
 
 
-@pytest.mark.parametrize("module", [inputs, cli], ids=lambda m: m.__name__)
+@pytest.mark.parametrize("module", [inputs, cli, batch], ids=lambda m: m.__name__)
 def test_docstring_examples(module):
     result = doctest.testmod(module)
     assert result.attempted > 0 and result.failed == 0

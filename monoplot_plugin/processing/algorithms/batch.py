@@ -23,14 +23,18 @@ class BatchPhotos(MonoplotAlgorithm):
     _display = "Batch: many photos"
     _help = ("Processes many photos at once.\n\n"
              "Time-lapse folder: every image in FOLDER shares one fitted CAMERA; the XYZ raster is computed once "
-             "(xyz.tif) and an orthophoto is written per photo (<name>_ortho.tif). With POINTS (and DEM_POINTS "
-             "for unpaired points), CAMERA is the prior and the shared camera is fitted once on the first readable "
-             "photo (camera.json).\n\n"
+             "(xyz.tif) and an orthophoto is written per photo (frame_ortho.tif for frame.jpg). With POINTS (and "
+             "DEM_POINTS for unpaired points), CAMERA is the prior and the shared camera is fitted once on the first "
+             "readable photo (camera.json).\n\n"
              "CSV table: TABLE lists photos with their own prior camera and points (columns photo, prior, points "
-             "and optionally dem_points; paths relative to the table); each photo is fitted (<name>_camera.json) "
+             "and optionally dem_points; paths relative to the table); each photo is fitted (frame_camera.json) "
              "and gets its own XYZ raster and orthophoto.\n\n"
-             "Progress is reported per photo. A photo that cannot be read or fitted is reported and skipped; the "
-             "others are processed. batch_log.csv in the output folder lists every photo's status.")
+             "A KML camera (a rough prior) takes its image size from the first readable photo.\n\n"
+             "Progress is reported per photo. A photo that cannot be read (damaged, truncated, not an image) or "
+             "fitted, or whose size differs from the shared camera's, is reported and skipped; the others are "
+             "processed. batch_log.csv in the output folder lists every photo's status. Photos with the same name "
+             "(frame.jpg and frame.png, or in different folders) get numbered outputs (frame_2_ortho.tif); files of "
+             "an earlier run in the output folder are replaced, and the log says so.")
 
     MODES = ["Time-lapse folder (one shared camera)", "CSV table (each photo with its prior and points)"]
 
@@ -47,11 +51,11 @@ class BatchPhotos(MonoplotAlgorithm):
                                   description="Shared camera, or its prior when POINTS is given (time-lapse mode)")
         self.addParameter(QgsProcessingParameterFile("POINTS", self.tr("Points to fit the shared camera on the first "
                                                                        "photo: paired GCP CSV or photo points CSV "
-                                                                       "(time-lapse mode, optional)"),
+                                                                       "(time-lapse mode)"),
                                                      QgsProcessingParameterFile.File, optional=True,
                                                      fileFilter="CSV (*.csv *.txt)"))
         self.addParameter(QgsProcessingParameterFile("DEM_POINTS", self.tr("DEM points CSV for an unpaired shared fit "
-                                                                           "(time-lapse mode, optional)"),
+                                                                           "(time-lapse mode)"),
                                                      QgsProcessingParameterFile.File, optional=True,
                                                      fileFilter="CSV (*.csv *.txt)"))
         self.addParameter(QgsProcessingParameterFile("TABLE", self.tr("Photo table CSV (table mode)"),
@@ -75,6 +79,9 @@ class BatchPhotos(MonoplotAlgorithm):
             if not self.parameterAsFile(parameters, "CAMERA", context):
                 raise QgsProcessingException(self.tr("Time-lapse mode needs the shared CAMERA (fitted with 'Fit "
                                                      "camera' on one photo, or a prior with POINTS to fit it here)."))
+            if not self.parameterAsFile(parameters, "FOLDER", context):
+                raise QgsProcessingException(self.tr("Time-lapse mode needs the photo FOLDER (or choose the CSV "
+                                                     "table mode and give TABLE)."))
             jobs = checked(batch.folder_jobs, self.parameterAsFile(parameters, "FOLDER", context), None,
                            self.parameterAsString(parameters, "PATTERN", context))
             points = self.parameterAsFile(parameters, "POINTS", context)
@@ -84,14 +91,22 @@ class BatchPhotos(MonoplotAlgorithm):
                                              self.parameterAsFile(parameters, "DEM_POINTS", context), dem,
                                              crs.toWkt(), lambda m, e: feedback.reportError(m, False))
                 os.makedirs(out_dir, exist_ok=True)
+                if os.path.exists(os.path.join(out_dir, "camera.json")):
+                    feedback.pushInfo(self.tr("camera.json of an earlier run in {0} is replaced").format(out_dir))
                 camera.save(os.path.join(out_dir, "camera.json"))
                 feedback.pushInfo(self.tr("Shared camera fitted on {0}: RMSE {1:.2f} px; written to {2}").format(
                     os.path.basename(used), rmse, os.path.join(out_dir, 'camera.json')))
             else:
-                camera = self.camera(parameters, context, "CAMERA")
+                size = None
+                if self.parameterAsFile(parameters, "CAMERA", context).lower().endswith(".kml"):
+                    size = self.first_photo_size([j.photo for j in jobs], feedback)  # KML has no image size
+                camera = self.camera(parameters, context, "CAMERA", crs=crs, image_size=size)
             for job in jobs:
                 job.camera = camera
         else:
+            if not self.parameterAsFile(parameters, "TABLE", context):
+                raise QgsProcessingException(self.tr("CSV table mode needs the photo TABLE (or choose the "
+                                                     "time-lapse mode and give FOLDER and CAMERA)."))
             jobs = checked(batch.table_jobs, self.parameterAsFile(parameters, "TABLE", context))
         feedback.pushInfo(self.tr("{0} photos to process").format(len(jobs)))
 
@@ -111,7 +126,28 @@ class BatchPhotos(MonoplotAlgorithm):
         batch.write_log(log_path, results)
         succeeded = sum(r.ok for r in results)
         failed = len(results) - succeeded
-        feedback.pushInfo(self.tr("{0} photos processed, {1} skipped; log: {2}").format(succeeded, failed, log_path))
+        canceled = sum(r.canceled for r in results)
+        if canceled:
+            feedback.pushInfo(self.tr("{0} photos processed, {1} skipped, {2} not processed (canceled); "
+                                      "log: {3}").format(succeeded, failed - canceled, canceled, log_path))
+        else:
+            feedback.pushInfo(self.tr("{0} photos processed, {1} skipped; log: {2}").format(succeeded, failed,
+                                                                                            log_path))
         if succeeded == 0:
             raise QgsProcessingException(self.tr("No photo could be processed; see {0}").format(log_path))
         return {"OUTPUT": out_dir, "SUCCEEDED": succeeded, "FAILED": failed, "LOG": log_path}
+
+    def first_photo_size(self, photos, feedback):
+        """(width, height) of the first readable photo (a KML camera takes the frames' size from it)."""
+        from ..inputs import InputError, photo_size
+
+        for path in photos:
+            try:
+                size = photo_size(path)
+            except InputError:
+                continue
+            feedback.pushInfo(self.tr("KML camera: image size {0}x{1} px taken from {2}").format(
+                size[0], size[1], os.path.basename(path)))
+            return size
+        raise QgsProcessingException(self.tr("No photo of the folder could be read (a KML camera takes its image "
+                                             "size from the first readable photo)."))

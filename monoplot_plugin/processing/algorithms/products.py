@@ -204,7 +204,7 @@ class Report(_CameraDemAlgorithm):
 
     def initAlgorithm(self, config=None):
         self.add_camera_dem(photo_optional=False)
-        self.addParameter(QgsProcessingParameterFile("POINTS_CSV", self.tr("Control points (paired CSV, optional)"),
+        self.addParameter(QgsProcessingParameterFile("POINTS_CSV", self.tr("Control points (paired CSV)"),
                                                      QgsProcessingParameterFile.File, optional=True,
                                                      fileFilter="CSV (*.csv *.txt)"))
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", self.tr("Report"),

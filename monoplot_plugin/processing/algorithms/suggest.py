@@ -60,7 +60,7 @@ class SuggestDemPoints(MonoplotAlgorithm):
     def initAlgorithm(self, config=None):
         self.add_dem_parameter()
         self.add_camera_parameter("CAMERA", optional=True,
-                                  description="Prior camera (optional: keep only points it sees)")
+                                  description="Prior camera (to keep only points it sees)")
         self.add_photo_parameter("PHOTO", optional=True, description="Photo (needed only for a KML camera)")
         self.addParameter(QgsProcessingParameterNumber("MAX_POINTS", self.tr("Maximum number of points"),
                                                        QgsProcessingParameterNumber.Integer, 60, minValue=1,

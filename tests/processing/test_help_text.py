@@ -1,0 +1,25 @@
+"""What the Processing dialog shows of the Monoplot algorithms: the help is rendered as HTML there, so text such as
+``<name>_ortho.tif`` would silently vanish; QGIS itself appends "[optional]" to optional parameters."""
+
+import re
+
+from qgis.PyQt.QtGui import QTextDocument
+
+
+def words(text):
+    return re.sub(r"\s+", " ", text).strip()
+
+
+def test_help_reads_the_same_in_the_dialog(processing_provider):
+    for alg in processing_provider.algorithms():
+        raw = alg.shortHelpString()
+        document = QTextDocument()
+        document.setHtml(raw)
+        assert words(document.toPlainText()) == words(raw), alg.id()
+
+
+def test_optional_parameters_do_not_say_optional_twice(processing_provider):
+    for alg in processing_provider.algorithms():
+        for param in alg.parameterDefinitions():
+            if param.flags() & param.FlagOptional:
+                assert "optional" not in param.description().lower(), (alg.id(), param.description())
