@@ -23,6 +23,8 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     >>> html = fit_summary_html(cam, {"rmse_px": 6.4, "mode": "unpaired", "check_rmse_px": 12.3, "n_check": 4})
     >>> html.index("Check points <b>12.3 px</b>") < html.index("RMSE <b>6.4 px</b>")
     True
+    >>> "3.8 m under the DEM" in fit_summary_html(cam, {"rmse_px": 6.4, "clearance_m": -3.8})
+    True
     """
     if fitted is None:
         return tr("Not fitted yet.")
@@ -46,17 +48,26 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
         head += "<br><small>" + tr("RMSE of the automatic pairs (agreement, not accuracy): mark a few paired "
                                   "points as check points (key C) to measure the camera.") + "</small>"
     deg = "{:.2f}"
+    z_text = f"{z:.0f} m{sig('z', '{:.0f}')}"
+    clearance = info.get("clearance_m")
+    under = not info.get("on_ground") and clearance is not None and math.isfinite(clearance) and clearance < 0
+    if under:  # a coarse DEM at the camera, or a fit that ended low: say so, the overlay needs it explained
+        z_text += " " + tr("({0:.1f} m under the DEM)").format(-clearance)
     cells = [("X", f"{x:.0f} m{sig('x', '{:.0f}')}"),
              (tr("Heading"), f"{fitted.heading % 360:.2f}°{sig('heading', deg)}"),
              ("Y", f"{y:.0f} m{sig('y', '{:.0f}')}"),
              (tr("Pitch"), f"{fitted.pitch:.2f}°{sig('pitch', deg)}"),
-             ("Z", f"{z:.0f} m{sig('z', '{:.0f}')}" if not info.get("on_ground") else
+             ("Z", z_text if not info.get("on_ground") else
               tr("{0:.0f} m (ground + {1:.0f} m)").format(z, info.get("eye_height_m") or 0.0)),
              (tr("Roll"), f"{fitted.roll:.2f}°{sig('roll', deg)}"),
              ("", ""), (tr("Field of view"), f"{fitted.fov:.2f}°{sig('fov', deg)}")]
     html = "".join("<tr>" + "".join(f"<td>{k}&nbsp;</td><td>{v}&nbsp;&nbsp;&nbsp;</td>" for k, v in pair)
                    + "</tr>" for pair in zip(cells[0::2], cells[1::2]))
     note = "" if info.get("converged", True) else "<p style='color:#c00'>" + info.get("message", "") + "</p>"
+    if under:
+        note += "<p><small>" + tr("The camera is below the DEM surface at its own position (the DEM is coarse "
+                                  "there, or the fit ended low): rays start by leaving the ground, and the terrain "
+                                  "is seen from above only.") + "</small></p>"
     html = f"<p>{head}</p><table>{html}</table>"
     return html + note
 
