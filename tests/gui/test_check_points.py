@@ -6,7 +6,7 @@ import numpy as np
 from qgis.PyQt.QtCore import Qt
 
 from monoplot_plugin.state import ACCEPTED, CHECK, MAP, PHOTO, Point, ProjectState, add_points
-from test_dock import accept_everything, add_scene_points, load_inputs
+from test_dock import accept_everything, add_scene_points, load_inputs, start_fit_on_scene
 
 
 def pair_by_shift_click(dock, qtbot, photo, world):
@@ -67,12 +67,7 @@ def test_key_c_marks_a_pair_as_check_points_and_the_fit_measures_them(dock, scen
 
 
 def test_unpaired_fit_without_check_points_says_its_rmse_is_agreement(dock, scene, qtbot):
-    load_inputs(dock, scene, qtbot)
-    add_scene_points(dock, scene)
-    c = dock.controller
-    accept_everything(c)
-    c.set_prior(scene.prior)
-    assert c.fit()
+    c = start_fit_on_scene(dock, scene, qtbot)
     with qtbot.waitSignal(c.taskFinished, timeout=60000) as blocker:
         pass
     assert blocker.args[0].ok

@@ -46,6 +46,17 @@ def accept_everything(c) -> None:
     c.accept_all_in(MAP, everywhere)
 
 
+def start_fit_on_scene(dock, scene, qtbot):
+    """Load the scene, accept all its exact points, set its prior and start the fit; returns the controller."""
+    load_inputs(dock, scene, qtbot)
+    add_scene_points(dock, scene)
+    c = dock.controller
+    accept_everything(c)
+    c.set_prior(scene.prior)
+    assert c.fit()
+    return c
+
+
 def test_load_photo_and_dem_shows_photo(dock, scene, qtbot):
     load_inputs(dock, scene, qtbot)
     assert dock.photo_canvas.photo_size == (480, 320)
@@ -157,12 +168,7 @@ def test_fit_task_runs_to_completion(dock, scene, qtbot):
 
 
 def test_cancel_a_running_fit(dock, scene, qtbot):
-    load_inputs(dock, scene, qtbot)
-    add_scene_points(dock, scene)
-    c = dock.controller
-    accept_everything(c)
-    c.set_prior(scene.prior)
-    assert c.fit()
+    c = start_fit_on_scene(dock, scene, qtbot)
     qtbot.waitUntil(lambda: c.task is not None and c.task.progress() > 0, timeout=20000)
     with qtbot.waitSignal(c.taskFinished, timeout=1000) as blocker:  # the issue asks for less than a second
         qtbot.mouseClick(dock.cancelButton, Qt.MouseButton.LeftButton)
