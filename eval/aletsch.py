@@ -61,16 +61,10 @@ def gcp_errors(camera: Camera, gcps: np.ndarray, dem: Dem) -> dict:
     res = uv - gcps[:, :2]
     rmse = float(np.sqrt(np.mean(np.sum(res ** 2, axis=1))))
     origin, dirs = camera.pixel_to_world_ray(gcps[:, :2])
-    # A fitted camera can sit a few tens of metres below the coarse DEM surface at its own position (the paired
-    # least-squares camera does, by ~70 m): each ray starts at its first point above the terrain (searched in 50 m
-    # steps up to 2 km) so that it is not stopped at once by the slope it starts under.
-    starts = np.empty_like(dirs)
-    for k, d in enumerate(dirs):
-        steps = origin + np.outer(np.arange(0.0, 2000.0, 50.0), d)
-        above = steps[:, 2] > dem.sample(steps[:, 0], steps[:, 1])
-        first = int(np.argmax(above)) if above.any() else 0
-        starts[k] = steps[first]
-    far = origin + dirs * 60000.0
+    # A fitted camera can sit below the coarse DEM surface at its own position (the paired least-squares camera
+    # does): the line of sight counts only entries into the terrain from above, so the rays leave the ground first.
+    starts = np.broadcast_to(origin, dirs.shape)
+    far = starts + dirs * 60000.0
     s = segment_first_hit(dem, starts, far)
     hits = starts + s[:, None] * (far - starts)
     err3d = np.linalg.norm(hits - gcps[:, 2:], axis=1)
