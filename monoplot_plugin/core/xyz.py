@@ -427,6 +427,14 @@ def _world_rel(elev, gt, C, r, c):
             elev[r, c] - C[2])
 
 
+@njit(cache=True, inline="always")
+def _triangle_normal(ax, ay, az, bx, by, bz, qx, qy, qz):
+    """(b - a) x (q - a): normal of triangle abc (not unit length)."""
+    e1x, e1y, e1z = bx - ax, by - ay, bz - az
+    e2x, e2y, e2z = qx - ax, qy - ay, qz - az
+    return e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+
+
 @njit(cache=True)
 def _plane_of(elev, gt, C, cols, tid):
     """Plane of triangle tid, camera-relative: normal (nx, ny, nz) and nd = n . a for its vertex a."""
@@ -434,11 +442,7 @@ def _plane_of(elev, gt, C, cols, tid):
     ax, ay, az = _world_rel(elev, gt, C, ra, ca)
     bx, by, bz = _world_rel(elev, gt, C, rb, cb)
     qx, qy, qz = _world_rel(elev, gt, C, rc, cc)
-    e1x, e1y, e1z = bx - ax, by - ay, bz - az
-    e2x, e2y, e2z = qx - ax, qy - ay, qz - az
-    nx = e1y * e2z - e1z * e2y
-    ny = e1z * e2x - e1x * e2z
-    nz = e1x * e2y - e1y * e2x
+    nx, ny, nz = _triangle_normal(ax, ay, az, bx, by, bz, qx, qy, qz)
     return nx, ny, nz, nx * ax + ny * ay + nz * az
 
 
@@ -578,11 +582,7 @@ def _cell_first_hit(elev, gt, origin, d, r, c, smin, smax):
 def _enters_from_above(d, ax, ay, az, bx, by, bz, qx, qy, qz):
     """The direction d crosses triangle abc from its upper side (against its upward normal); a crossing from
     below (a segment leaving the ground, e.g. from a camera a few metres under a coarse DEM) is not a hit."""
-    e1x, e1y, e1z = bx - ax, by - ay, bz - az
-    e2x, e2y, e2z = qx - ax, qy - ay, qz - az
-    nx = e1y * e2z - e1z * e2y
-    ny = e1z * e2x - e1x * e2z
-    nz = e1x * e2y - e1y * e2x
+    nx, ny, nz = _triangle_normal(ax, ay, az, bx, by, bz, qx, qy, qz)
     if nz < 0.0:
         nx, ny, nz = -nx, -ny, -nz
     return nx * d[0] + ny * d[1] + nz * d[2] < 0.0
