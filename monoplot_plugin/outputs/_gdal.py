@@ -86,3 +86,63 @@ def linear_unit_name(crs) -> str:
     """'metre' etc.: the horizontal unit of a projected CRS (used for area/length field docs and raster units)."""
     srs = srs_from_user(crs)
     return srs.GetLinearUnitsName() if srs.IsProjected() else "degree"
+
+
+def raster_verifier(width: int, height: int, bands: int):
+    """A ``verify(path)`` for :func:`~.safe_write.atomic_output`: the GeoTIFF opens with the expected size and band
+    count, and the last row of blocks of every band decodes (a file cut short by a full disk does not)."""
+
+    def verify(path: str) -> None:
+        with gdal_errors_as_exceptions():
+            ds = gdal.Open(path)
+            if (ds.RasterXSize, ds.RasterYSize, ds.RasterCount) != (width, height, bands):
+                raise OutputError(f"the file written is {ds.RasterXSize}x{ds.RasterYSize} with {ds.RasterCount} "
+                                  f"bands, not {width}x{height} with {bands}")
+            for index in range(1, bands + 1):
+                band = ds.GetRasterBand(index)
+                block = band.GetBlockSize()[1] or 1
+                top = max(0, height - min(height, block))
+                band.ReadRaster(0, top, width, height - top)
+                band.ReadRaster(0, 0, width, min(height, block))
+            ds = None
+
+    return verify
+
+
+def vector_verifier(feature_count: int, layer_name: Optional[str] = None):
+    """A ``verify(path)``: the vector file opens with OGR, has the layer, and holds ``feature_count`` features."""
+
+    def verify(path: str) -> None:
+        with gdal_errors_as_exceptions():
+            ds = ogr.Open(path)
+            if ds is None or ds.GetLayerCount() == 0:
+                raise OutputError("the file written has no layer")
+            layer = ds.GetLayerByName(layer_name) if layer_name else ds.GetLayer(0)
+            if layer is None:
+                layer = ds.GetLayer(0)
+            count = layer.GetFeatureCount()
+            ds = None
+        if count != feature_count:
+            raise OutputError(f"the file written holds {count} of {feature_count} features")
+
+    return verify
+
+
+def image_verifier(fmt: str):
+    """A ``verify(path)`` for PNG and PDF files: complete (PNG ends with its IEND chunk, PDF with %%EOF)."""
+
+    def verify(path: str) -> None:
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+            fh.seek(0, 2)
+            size = fh.tell()
+            fh.seek(max(0, size - 1024))
+            tail = fh.read()
+        if fmt == "png":
+            ok = head.startswith(b"\x89PNG\r\n\x1a\n") and b"IEND" in tail[-16:]
+        else:
+            ok = head.startswith(b"%PDF") and b"%%EOF" in tail
+        if not ok:
+            raise OutputError(f"the {fmt.upper()} file written is incomplete ({size} bytes)")
+
+    return verify

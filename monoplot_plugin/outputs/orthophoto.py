@@ -15,7 +15,7 @@ from typing import Sequence
 import numpy as np
 from osgeo import gdal
 
-from ._gdal import gdal_errors_as_exceptions, gdal_failure, srs_from_user
+from ._gdal import gdal_errors_as_exceptions, gdal_failure, raster_verifier, srs_from_user
 from .geometry import orthorectify
 from .safe_write import atomic_output
 
@@ -41,7 +41,7 @@ def write_orthophoto(path, image: np.ndarray, geotransform: Sequence[float], crs
     options = ["TILED=YES", "COMPRESS=DEFLATE", "BIGTIFF=IF_SAFER", "ALPHA=YES",
                f"PHOTOMETRIC={'RGB' if nbands == 4 else 'MINISBLACK'}"]
     target = Path(os.fspath(path))
-    with atomic_output(target, overwrite) as tmp:
+    with atomic_output(target, overwrite, verify=raster_verifier(cols, rows, nbands)) as tmp:
         ds = None
         try:
             with gdal_errors_as_exceptions():

@@ -20,6 +20,7 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
+from ._gdal import image_verifier
 from .safe_write import OutputError, atomic_output
 
 __all__ = ["write_report", "read_points_csv", "parameter_sigmas", "ReportPoints"]
@@ -157,7 +158,7 @@ def write_report(path, photo: np.ndarray, camera, dem, points_csv=None, *, point
     _draw_overlay(ax_overlay, photo, xyz)
     _draw_footprint(ax_map, camera, dem, visible, points)
     _draw_parameters(ax_text, camera, sigmas, rmse, points, xyz)
-    with atomic_output(target, overwrite) as tmp:
+    with atomic_output(target, overwrite, verify=image_verifier(fmt)) as tmp:
         try:
             fig.savefig(tmp, format=fmt, dpi=150)
         except OSError as exc:

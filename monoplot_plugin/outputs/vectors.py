@@ -24,7 +24,7 @@ from typing import Dict, List, Optional, Sequence, Tuple
 import numpy as np
 from osgeo import ogr
 
-from ._gdal import gdal_errors_as_exceptions, gdal_failure, srs_from_user
+from ._gdal import gdal_errors_as_exceptions, gdal_failure, srs_from_user, vector_verifier
 from .safe_write import atomic_output
 
 __all__ = ["MapFeature", "write_vector_layer", "read_vector_layer", "FIELD_TYPES", "driver_for_path",
@@ -171,7 +171,8 @@ def write_vector_layer(path, features: Sequence[MapFeature], crs_wkt: str, *,
     _check_fields(fields, kind, driver_name)
     srs = srs_from_user(crs_wkt)
     name = layer_name or target.stem
-    with atomic_output(target, overwrite) as tmp:
+    verify = vector_verifier(len(features), name if driver_name == "GPKG" else None)
+    with atomic_output(target, overwrite, verify=verify) as tmp:
         ds = layer = None
         try:
             with gdal_errors_as_exceptions():

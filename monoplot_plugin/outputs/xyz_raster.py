@@ -29,7 +29,8 @@ from typing import Optional, Tuple
 import numpy as np
 from osgeo import gdal
 
-from ._gdal import crs_authid, gdal_errors_as_exceptions, gdal_failure, linear_unit_name, srs_from_user
+from ._gdal import (crs_authid, gdal_errors_as_exceptions, gdal_failure, linear_unit_name, raster_verifier,
+                    srs_from_user)
 from .safe_write import OutputError, atomic_output
 
 __all__ = ["write_xyz_raster", "read_xyz_raster", "PHOTO_GEOTRANSFORM", "XYZ_FORMAT"]
@@ -89,7 +90,7 @@ def write_xyz_raster(path, xyz: np.ndarray, crs_wkt: str, distance: Optional[np.
     options = ["TILED=YES", "BLOCKXSIZE=256", "BLOCKYSIZE=256", f"COMPRESS={compress.upper()}", "PREDICTOR=3",
                "BIGTIFF=IF_SAFER", "INTERLEAVE=BAND"]
     target = Path(os.fspath(path))
-    with atomic_output(target, overwrite) as tmp:
+    with atomic_output(target, overwrite, verify=raster_verifier(width, height, len(bands))) as tmp:
         ds = None
         try:
             with gdal_errors_as_exceptions():
