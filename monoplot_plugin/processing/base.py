@@ -73,14 +73,20 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         return self.tr(self._help)
 
     def processAlgorithm(self, parameters, context, feedback):
-        """Run :meth:`run_algorithm`; a cancel becomes a clean "Canceled." error, and the cached XYZ raster (large)
-        is released when the algorithm ends."""
+        """Run :meth:`run_algorithm`; a cancel (the button, SIGINT, SIGTERM) becomes a clean "Canceled" error with
+        every earlier output untouched, write and input errors become their readable message, and the cached XYZ
+        raster (large) is released when the algorithm ends."""
+        from ..outputs.safe_write import OutputCanceled, OutputError, cancel_before_commit
         from . import pipeline
+        from .safe_sink import signals_cancel
 
         try:
-            return self.run_algorithm(parameters, context, feedback)
-        except Canceled:
-            raise QgsProcessingException(self.tr("Canceled.")) from None
+            with signals_cancel(feedback), cancel_before_commit(feedback.isCanceled if feedback else lambda: False):
+                return self.run_algorithm(parameters, context, feedback)
+        except (Canceled, OutputCanceled):
+            raise QgsProcessingException(self.tr("Canceled; earlier outputs were left as they were.")) from None
+        except (OutputError, InputError) as exc:  # readable messages, not tracebacks
+            raise QgsProcessingException(str(exc)) from exc
         finally:
             pipeline.clear_cache()
 

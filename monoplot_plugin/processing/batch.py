@@ -14,6 +14,7 @@ from typing import Callable, List, Optional
 
 import numpy as np
 
+from ..outputs.safe_write import write_text
 from . import pipeline
 from .inputs import InputError, load_camera, read_photo, read_points_csv
 
@@ -132,7 +133,7 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
             if camera is None:
                 camera, result.rmse_px = _fit_job(job, size, dem, crs_wkt)
                 camera_path = os.path.join(out_dir, f"{stem}_camera.json")
-                camera.save(camera_path)
+                write_text(camera_path, camera.to_json(), overwrite=True)
                 result.outputs.append(camera_path)
             elif tuple(camera.image_size) != size:
                 raise InputError(f"photo is {size[0]}x{size[1]} px but the shared camera is for "
@@ -245,9 +246,12 @@ def _fit_job(job: PhotoJob, size, dem, crs_wkt: str):
 
 def write_log(path: str, results: List[PhotoResult]) -> None:
     """CSV summary: photo, status (ok, failed or canceled), message, rmse_px, outputs (semicolon-separated)."""
-    with open(path, "w", newline="", encoding="utf-8") as fh:
-        writer = csv.writer(fh)
-        writer.writerow(["photo", "status", "message", "rmse_px", "outputs"])
-        for r in results:
-            writer.writerow([r.photo, "ok" if r.ok else "canceled" if r.canceled else "failed", r.message,
-                             "" if np.isnan(r.rmse_px) else f"{r.rmse_px:.3f}", ";".join(r.outputs)])
+    import io
+
+    text = io.StringIO(newline="")
+    writer = csv.writer(text)
+    writer.writerow(["photo", "status", "message", "rmse_px", "outputs"])
+    for r in results:
+        writer.writerow([r.photo, "ok" if r.ok else "canceled" if r.canceled else "failed", r.message,
+                         "" if np.isnan(r.rmse_px) else f"{r.rmse_px:.3f}", ";".join(r.outputs)])
+    write_text(path, text.getvalue(), overwrite=True)

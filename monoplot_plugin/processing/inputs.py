@@ -219,13 +219,18 @@ def write_points_csv(path: str, uv: Optional[np.ndarray] = None, xyz: Optional[n
     """Write points in the format :func:`read_points_csv` reads (columns id, u_px, v_px, X, Y, Z)."""
     n = len(uv) if uv is not None else len(xyz)
     header = ["id"] + (["u_px", "v_px"] if uv is not None else []) + (["X", "Y", "Z"] if xyz is not None else [])
-    with open(path, "w", newline="", encoding="utf-8") as fh:
-        writer = csv.writer(fh)
-        writer.writerow(header)
-        for i in range(n):
-            row = [ids[i] if ids is not None else i + 1]
-            if uv is not None:
-                row += [f"{v:.3f}" for v in uv[i]]
-            if xyz is not None:
-                row += [f"{v:.3f}" for v in xyz[i]]
-            writer.writerow(row)
+    import io
+
+    from ..outputs.safe_write import write_text
+
+    text = io.StringIO(newline="")
+    writer = csv.writer(text)
+    writer.writerow(header)
+    for i in range(n):
+        row = [ids[i] if ids is not None else i + 1]
+        if uv is not None:
+            row += [f"{v:.3f}" for v in uv[i]]
+        if xyz is not None:
+            row += [f"{v:.3f}" for v in xyz[i]]
+        writer.writerow(row)
+    write_text(path, text.getvalue(), overwrite=True)

@@ -14,6 +14,7 @@ from qgis.core import (
     QgsProcessingParameterString,
 )
 
+from ...outputs.safe_write import cancel_before_commit, write_text
 from .. import batch
 from ..base import MonoplotAlgorithm, checked
 
@@ -93,7 +94,7 @@ class BatchPhotos(MonoplotAlgorithm):
                 os.makedirs(out_dir, exist_ok=True)
                 if os.path.exists(os.path.join(out_dir, "camera.json")):
                     feedback.pushInfo(self.tr("camera.json of an earlier run in {0} is replaced").format(out_dir))
-                camera.save(os.path.join(out_dir, "camera.json"))
+                write_text(os.path.join(out_dir, "camera.json"), camera.to_json(), overwrite=True)
                 feedback.pushInfo(self.tr("Shared camera fitted on {0}: RMSE {1:.2f} px; written to {2}").format(
                     os.path.basename(used), rmse, os.path.join(out_dir, 'camera.json')))
             else:
@@ -123,7 +124,8 @@ class BatchPhotos(MonoplotAlgorithm):
                                   resolution=self.parameterAsDouble(parameters, "RESOLUTION", context) or None,
                                   log=log, progress=progress)
         log_path = os.path.join(out_dir, "batch_log.csv")
-        batch.write_log(log_path, results)
+        with cancel_before_commit(lambda: False):  # the log says what was done, canceled or not
+            batch.write_log(log_path, results)
         succeeded = sum(r.ok for r in results)
         failed = len(results) - succeeded
         canceled = sum(r.canceled for r in results)

@@ -16,7 +16,8 @@ from qgis.core import (
 )
 
 from .. import pipeline
-from ..base import (MonoplotAlgorithm, checked, progress_callback, read_map_points,
+from ...outputs.safe_write import write_text
+from ..base import (MonoplotAlgorithm, check_canceled, checked, progress_callback, read_map_points,
                     read_photo_points)
 from ..inputs import InputError, read_points_csv
 
@@ -139,7 +140,8 @@ class FitCamera(MonoplotAlgorithm):
             feedback.pushInfo(info["message"])
         camera.crs_wkt = crs.toWkt()
         out = self.parameterAsFileOutput(parameters, "OUTPUT", context)
-        camera.save(out)
+        check_canceled(feedback)
+        write_text(out, camera.to_json(), overwrite=True)
         rmse = float(info.get("rmse_px", float("nan")))
         feedback.pushInfo(self.tr("Camera: {0}").format(json.dumps(camera.parameters())))
         feedback.pushInfo(self.tr("Reprojection error {0:.2f} px; written to {1}").format(rmse, out))

@@ -22,6 +22,7 @@ from .. import geometry as geo
 from .. import pipeline
 from ..base import PHOTO_Y_SIGN, MonoplotAlgorithm, check_canceled, checked, progress_callback
 from ..inputs import read_photo
+from ..safe_sink import safe_sink
 
 
 class _CameraDemAlgorithm(MonoplotAlgorithm):
@@ -91,9 +92,7 @@ class PhotoToMap(_CameraDemAlgorithm):
         camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
         step = self.parameterAsDouble(parameters, "STEP", context)
         wkb = QgsWkbTypes.addZ(QgsWkbTypes.multiType(source.wkbType()))
-        sink, dest = self.parameterAsSink(parameters, "OUTPUT", context, source.fields(), wkb, crs)
-        if sink is None:
-            raise QgsProcessingException(self.invalidSinkError(parameters, "OUTPUT"))
+        sink = safe_sink(self, parameters, "OUTPUT", context, source.fields(), wkb, crs)
         total = max(1, source.featureCount())
         dropped = 0
         for i, feature in enumerate(source.getFeatures()):
@@ -110,6 +109,8 @@ class PhotoToMap(_CameraDemAlgorithm):
             feedback.setProgress(100.0 * (i + 1) / total)
         if dropped:
             feedback.pushInfo(self.tr("{0} vertices saw the sky or left the DEM and were dropped").format(dropped))
+        check_canceled(feedback)
+        dest = sink.commit()
         return {"OUTPUT": dest, "DROPPED": dropped}
 
 
@@ -144,10 +145,7 @@ class MapToPhoto(_CameraDemAlgorithm):
             transform = QgsCoordinateTransform(source.sourceCrs(), crs, context.transformContext())
         visible = pipeline.visibility(camera, dem) if drop_hidden else None
         wkb = QgsWkbTypes.flatType(QgsWkbTypes.multiType(source.wkbType()))
-        sink, dest = self.parameterAsSink(parameters, "OUTPUT", context, source.fields(), wkb,
-                                          QgsCoordinateReferenceSystem())
-        if sink is None:
-            raise QgsProcessingException(self.invalidSinkError(parameters, "OUTPUT"))
+        sink = safe_sink(self, parameters, "OUTPUT", context, source.fields(), wkb, QgsCoordinateReferenceSystem())
         total = max(1, source.featureCount())
         skipped = 0
         for i, feature in enumerate(source.getFeatures()):
@@ -166,6 +164,8 @@ class MapToPhoto(_CameraDemAlgorithm):
         if skipped:
             feedback.reportError(self.tr("{0} of {1} feature(s) are not visible in the photo (hidden behind "
                                          "terrain or outside the image); skipped").format(skipped, total))
+        check_canceled(feedback)
+        dest = sink.commit()
         return {"OUTPUT": dest}
 
 

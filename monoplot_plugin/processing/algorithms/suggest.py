@@ -11,6 +11,7 @@ from qgis.core import (
 )
 
 from .. import pipeline
+from ..safe_sink import safe_sink
 from ..base import (MonoplotAlgorithm, check_canceled, checked, map_point_fields, photo_point_fields,
                     progress_callback, write_map_points, write_photo_points)
 from ..inputs import read_photo
@@ -40,11 +41,9 @@ class SuggestPhotoPoints(MonoplotAlgorithm):
         feedback.setProgress(10)
         uv, scores = pipeline.suggest_photo(photo, count)
         check_canceled(feedback)
-        sink, dest = self.parameterAsSink(parameters, "OUTPUT", context, photo_point_fields(), QgsWkbTypes.Point,
-                                          QgsCoordinateReferenceSystem())
-        if sink is None:
-            raise QgsProcessingException(self.invalidSinkError(parameters, "OUTPUT"))
+        sink = safe_sink(self, parameters, "OUTPUT", context, photo_point_fields(), QgsWkbTypes.Point, QgsCoordinateReferenceSystem())
         write_photo_points(sink, uv, scores)
+        dest = sink.commit()
         feedback.pushInfo(self.tr("{0} photo points suggested").format(len(uv)))
         feedback.setProgress(100)
         return {"OUTPUT": dest, "COUNT": len(uv)}
@@ -79,11 +78,9 @@ class SuggestDemPoints(MonoplotAlgorithm):
         feedback.setProgress(10)
         xyz, scores, labels = pipeline.suggest_dem(dem, count, camera, progress_callback(feedback, 10, 90))
         check_canceled(feedback)
-        sink, dest = self.parameterAsSink(parameters, "OUTPUT", context, map_point_fields(), QgsWkbTypes.PointZ,
-                                          crs)
-        if sink is None:
-            raise QgsProcessingException(self.invalidSinkError(parameters, "OUTPUT"))
+        sink = safe_sink(self, parameters, "OUTPUT", context, map_point_fields(), QgsWkbTypes.PointZ, crs)
         write_map_points(sink, xyz, scores, labels)
+        dest = sink.commit()
         feedback.pushInfo(self.tr("{0} DEM points suggested").format(len(xyz)))
         feedback.setProgress(100)
         return {"OUTPUT": dest, "COUNT": len(xyz)}
