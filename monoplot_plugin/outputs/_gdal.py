@@ -7,7 +7,7 @@ from typing import Optional
 
 from osgeo import gdal, ogr, osr
 
-from .safe_write import OutputError
+from .safe_write import OutputError, incomplete_write
 
 
 @contextmanager
@@ -34,8 +34,7 @@ def gdal_failure(exc: Exception, target) -> OutputError:
     if "no space left" in low or "disk full" in low or "enospc" in low:
         return OutputError(f"cannot write {target}: the disk is full ({text})")
     if "write error" in low or "too large" in low or "short write" in low or _nearly_full(target):
-        return OutputError(f"cannot write {target}: the disk is full, or the file is larger than the folder "
-                           f"allows (quota, file-system limit) ({text})")
+        return incomplete_write(target, text)
     if "permission denied" in low or "read-only" in low:
         return OutputError(f"cannot write {target}: permission denied ({text})")
     return OutputError(f"cannot write {target}: {text}")

@@ -21,7 +21,7 @@ from typing import Dict, List, Optional, Sequence
 import numpy as np
 
 from ._gdal import image_verifier
-from .safe_write import OutputError, atomic_output
+from .safe_write import atomic_output
 
 __all__ = ["write_report", "read_points_csv", "parameter_sigmas", "ReportPoints"]
 
@@ -158,11 +158,13 @@ def write_report(path, photo: np.ndarray, camera, dem, points_csv=None, *, point
     _draw_overlay(ax_overlay, photo, xyz)
     _draw_footprint(ax_map, camera, dem, visible, points)
     _draw_parameters(ax_text, camera, sigmas, rmse, points, xyz)
+    import io
+
+    page = io.BytesIO()  # rendered in memory: matplotlib's own errors on a full disk hide the cause
+    fig.savefig(page, format=fmt, dpi=150)
     with atomic_output(target, overwrite, verify=image_verifier(fmt)) as tmp:
-        try:
-            fig.savefig(tmp, format=fmt, dpi=150)
-        except OSError as exc:
-            raise OutputError(f"cannot write {target}: {exc.strerror or exc}") from exc
+        with open(tmp, "wb") as fh:  # OSError (disk full...) is said in words by atomic_output
+            fh.write(page.getbuffer())
     return target
 
 

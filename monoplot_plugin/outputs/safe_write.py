@@ -38,7 +38,7 @@ from pathlib import Path
 from typing import Callable, Iterator, Optional, Sequence, Union
 
 __all__ = ["OutputError", "OutputExistsError", "OutputCanceled", "atomic_output", "check_can_write",
-           "sidecar_suffixes", "describe_os_error", "cancel_before_commit", "write_text", "temporary_path",
+           "sidecar_suffixes", "describe_os_error", "incomplete_write", "cancel_before_commit", "write_text", "temporary_path",
            "commit_temporary", "remove_temporary", "WriteInterrupted"]
 
 PathLike = Union[str, os.PathLike]
@@ -82,11 +82,21 @@ def describe_os_error(exc: OSError, target: PathLike) -> str:
         return f"cannot write into {folder}: the file system is read-only"
     if code in (errno.ENOSPC, errno.EDQUOT):
         return f"cannot write {Path(target).name}: the disk is full (no space left in {folder})"
+    if code == errno.EFBIG:
+        return f"cannot write {Path(target).name}: the file is larger than the folder allows (quota or file-size limit)"
     if code == errno.ENOENT:
         return f"cannot write {Path(target).name}: the folder {folder} does not exist"
     if code == errno.ENAMETOOLONG:
         return f"cannot write {target}: the file name is too long"
     return f"cannot write {target}: {exc.strerror or exc}"
+
+
+def incomplete_write(target: PathLike, detail: str = "") -> OutputError:
+    """The error for a write that did not reach the disk whole (what GDAL, OGR and QGIS report then is rarely the
+    cause): the disk is full or the file hit a size limit."""
+    extra = f" ({detail})" if detail else ""
+    return OutputError(f"cannot write {Path(target).name}: the disk is full, or the file is larger than the folder "
+                       f"allows (quota, file-size limit){extra}")
 
 
 def check_can_write(path: PathLike, overwrite: bool = False) -> Path:
@@ -255,11 +265,8 @@ def commit_temporary(tmp: PathLike, target: PathLike, overwrite: bool = False,
         if verify is not None:
             try:
                 verify(str(tmp))
-            except OutputError:
-                raise
             except Exception as exc:  # an unreadable result is a failed write, whatever the reader says
-                raise OutputError(f"cannot write {target}: the file written does not read back ({exc}); "
-                                  f"the disk may be full") from exc
+                raise incomplete_write(target, f"the file written does not read back: {exc}") from exc
         if _canceled():
             raise OutputCanceled(f"canceled: {target.name} was not replaced" if target.exists() else
                                  f"canceled: {target.name} was not written")
@@ -331,8 +338,7 @@ def write_text(path: PathLike, text: str, overwrite: bool = False, encoding: str
         with open(tmp, encoding=encoding, newline="") as fh:
             back = fh.read()
         if back != text:
-            raise OutputError(f"cannot write {target}: {len(back)} of {len(text)} characters reached the disk "
-                              f"(the disk is full, or the file is larger than the folder allows)")
+            raise incomplete_write(target, f"{len(back)} of {len(text)} characters reached the disk")
         if target.suffix.lower() == ".json":
             json.loads(back)
 

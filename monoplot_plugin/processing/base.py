@@ -76,12 +76,13 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         """Run :meth:`run_algorithm`; a cancel (the button, SIGINT, SIGTERM) becomes a clean "Canceled" error with
         every earlier output untouched, write and input errors become their readable message, and the cached XYZ
         raster (large) is released when the algorithm ends."""
-        from ..outputs.safe_write import OutputCanceled, OutputError, cancel_before_commit
+        from ..outputs.safe_write import OutputCanceled, OutputError
         from . import pipeline
-        from .safe_sink import signals_cancel
+        from .safe_sink import check_file_destinations, guarded_run
 
         try:
-            with signals_cancel(feedback), cancel_before_commit(feedback.isCanceled if feedback else lambda: False):
+            check_file_destinations(self, parameters, context)
+            with guarded_run(feedback):
                 return self.run_algorithm(parameters, context, feedback)
         except (Canceled, OutputCanceled):
             raise QgsProcessingException(self.tr("Canceled; earlier outputs were left as they were.")) from None

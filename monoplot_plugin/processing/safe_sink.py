@@ -17,9 +17,18 @@ from pathlib import Path
 
 from qgis.core import QgsFeatureSink, QgsProcessingException, QgsProcessingOutputLayerDefinition
 
-from ..outputs.safe_write import OutputError, commit_temporary, remove_temporary, temporary_path
+from ..outputs.safe_write import check_can_write, commit_temporary, incomplete_write, remove_temporary, temporary_path
 
-__all__ = ["SafeSink", "safe_sink", "signals_cancel"]
+__all__ = ["SafeSink", "safe_sink", "signals_cancel", "guarded_run", "check_file_destinations"]
+
+
+_local = threading.local()
+
+
+def _open_sinks() -> list:
+    if not hasattr(_local, "sinks"):
+        _local.sinks = []
+    return _local.sinks
 
 
 def _file_destination(dest: str) -> bool:
@@ -39,12 +48,13 @@ class SafeSink:
     def __init__(self, sink, dest: str, final: str = "", tmp: str = "", context=None):
         self._sink, self.dest, self._final, self._tmp, self._context = sink, dest, final, tmp, context
         self.count = 0
+        if tmp:
+            _open_sinks().append(self)
 
     def addFeature(self, feature, flags=QgsFeatureSink.FastInsert) -> bool:
         if not self._sink.addFeature(feature, flags):
             error = self._sink.lastError() if hasattr(self._sink, "lastError") else ""
-            raise OutputError(f"cannot write {os.path.basename(self._final or self.dest)}: {error or 'write error'}"
-                              f" (is the disk full?)")
+            raise incomplete_write(self._final or self.dest, error or "write error")
         self.count += 1
         return True
 
@@ -58,9 +68,11 @@ class SafeSink:
         from ..outputs._gdal import vector_verifier
 
         sink, self._sink = self._sink, None
+        if self in _open_sinks():
+            _open_sinks().remove(self)
         if sink is not None and hasattr(sink, "flushBuffer"):
             if not sink.flushBuffer():
-                raise OutputError(f"cannot write {os.path.basename(self._final)}: {sink.lastError()}")
+                raise incomplete_write(self._final or self.dest, sink.lastError())
         del sink  # the writer closes its file when the last reference goes
         if not self._tmp:
             return self.dest
@@ -70,6 +82,8 @@ class SafeSink:
 
     def discard(self) -> None:
         self._sink = None
+        if self in _open_sinks():
+            _open_sinks().remove(self)
         if self._tmp:
             remove_temporary(self._tmp, self._final)
 
@@ -91,6 +105,7 @@ def safe_sink(algorithm, parameters, name, context, fields, wkb, crs) -> SafeSin
         if sink is None:
             raise QgsProcessingException(algorithm.invalidSinkError(parameters, name))
         return SafeSink(sink, dest)
+    check_can_write(final, overwrite=True)  # a missing or read-only folder is said in words, before any work
     tmp = str(temporary_path(final))
     layer_name = Path(final).stem
     definition = QgsProcessingOutputLayerDefinition(tmp)
@@ -102,6 +117,9 @@ def safe_sink(algorithm, parameters, name, context, fields, wkb, crs) -> SafeSin
     redirected[name] = definition
     try:
         sink, _dest = algorithm.parameterAsSink(redirected, name, context, fields, wkb, crs)
+    except QgsProcessingException as exc:  # the folder was writable a moment ago: out of space
+        remove_temporary(tmp, final)
+        raise incomplete_write(final, str(exc)) from exc
     except Exception:
         remove_temporary(tmp, final)
         raise
@@ -109,6 +127,40 @@ def safe_sink(algorithm, parameters, name, context, fields, wkb, crs) -> SafeSin
         remove_temporary(tmp, final)
         raise QgsProcessingException(algorithm.invalidSinkError(parameters, name))
     return SafeSink(sink, final, final, tmp, context)
+
+
+def check_file_destinations(algorithm, parameters, context) -> None:
+    """Refuse a missing or read-only output folder in words before any work (file and raster destinations; feature
+    sinks are checked by :func:`safe_sink`)."""
+    from qgis.core import QgsProcessingParameterFileDestination, QgsProcessingParameterRasterDestination
+
+    for definition in algorithm.destinationParameterDefinitions():
+        name = definition.name()
+        if parameters.get(name) in (None, "") or not isinstance(
+                definition, (QgsProcessingParameterFileDestination, QgsProcessingParameterRasterDestination)):
+            continue
+        if isinstance(definition, QgsProcessingParameterFileDestination):
+            path = algorithm.parameterAsFileOutput(parameters, name, context)
+        else:
+            path = algorithm.parameterAsOutputLayer(parameters, name, context)
+        if _file_destination(path) or (path and not os.path.isdir(os.path.dirname(os.path.abspath(path)))):
+            check_can_write(path, overwrite=True)
+
+
+@contextmanager
+def guarded_run(feedback):
+    """Around an algorithm: SIGINT/SIGTERM cancel it (:func:`signals_cancel`), every write asks for a cancel just
+    before its final rename, and the temporary files of sinks that were not committed (an error, a cancel) are
+    removed."""
+    from ..outputs.safe_write import cancel_before_commit
+
+    before = list(_open_sinks())
+    try:
+        with signals_cancel(feedback), cancel_before_commit(feedback.isCanceled if feedback else lambda: False):
+            yield
+    finally:
+        for sink in [s for s in _open_sinks() if s not in before]:
+            sink.discard()
 
 
 @contextmanager
