@@ -18,7 +18,9 @@ Usage from a shell (prints the environment to export, then runs)::
 
     python -m monoplot_plugin.processing.cli run monoplot:fitcamera -- PHOTO=photo.jpg DEM=dem.tif ...
 
-(or export the environment of :func:`prepare_environment` and call ``qgis_process.bin`` yourself).
+(or export the environment of :func:`prepare_environment` and call ``qgis_process.bin`` yourself). SIGINT (Ctrl+C),
+SIGTERM and SIGHUP are forwarded to ``qgis_process``, and the helper waits for it: the algorithm cancels, and the
+earlier output stays as it was.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import sysconfig
@@ -54,9 +57,15 @@ def prepare_environment(work_dir: Optional[str] = None, plugin_dir: Path = REPO_
     """Environment variables under which ``qgis_process`` loads the Monoplot provider from ``plugin_dir``.
 
     Creates ``<work_dir>/plugins/monoplot`` (a link to the checkout) and an isolated profile in
-    ``<work_dir>/profile`` with the plugin enabled.
+    ``<work_dir>/profile`` with the plugin enabled. The default work folder is the same for every run of one user
+    and checkout, so that numba's compiled kernels (cached per source path) are compiled once, not on every run.
     """
-    work = Path(work_dir or tempfile.mkdtemp(prefix="monoplot-qgis-"))
+    if not work_dir:
+        import hashlib
+
+        tag = hashlib.sha1(str(Path(plugin_dir).resolve()).encode()).hexdigest()[:8]
+        work_dir = os.path.join(tempfile.gettempdir(), f"monoplot-qgis-{os.getuid()}-{tag}")
+    work = Path(work_dir)
     plugins = work / "plugins"
     plugins.mkdir(parents=True, exist_ok=True)
     link = plugins / PLUGIN_NAME
@@ -122,10 +131,57 @@ def run(algorithm: str, parameters: Dict[str, object], env: Dict[str, str], time
     return json.loads(proc.stdout[start:])
 
 
+FORWARDED_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+def call_forwarding_signals(command: Sequence[str], env: Dict[str, str]) -> int:
+    """Run ``command`` and wait for it; SIGINT, SIGTERM and SIGHUP sent to this process are passed on to it (the
+    algorithm inside cancels and leaves earlier outputs as they were), and this process waits until it has ended.
+
+    Returns:
+        its exit code; 128 + n when it was killed by signal n (the shell's convention).
+    """
+    child = subprocess.Popen(list(command), env=env)
+
+    def forward(signum, frame):
+        if child.poll() is None:
+            try:
+                child.send_signal(signum)
+            except ProcessLookupError:
+                pass
+
+    previous = {}
+    for signum in FORWARDED_SIGNALS:
+        try:
+            previous[signum] = signal.signal(signum, forward)
+        except (ValueError, OSError):  # not the main thread
+            pass
+    try:
+        code = child.wait()  # retried after each forwarded signal (PEP 475)
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+    return 128 - code if code < 0 else code
+
+
+def foreign_python() -> str:
+    """A sentence when this Python is not the one QGIS embeds (its packages cannot load in qgis_process, which
+    then fails with "Couldn't load SIP module"); "" when it is."""
+    if sys.platform.startswith("linux") and os.path.realpath(sys.base_prefix) != "/usr" and \
+            os.path.isdir("/usr/lib/python3/dist-packages/qgis"):
+        return (f"this Python ({sys.executable}, {sys.version.split()[0]}) is not the system's, which QGIS embeds: "
+                f"run the helper with /usr/bin/python3 or with the project's .venv/bin/python (made from it)")
+    return ""
+
+
 def main(argv: Sequence[str]) -> int:
     """``python -m monoplot_plugin.processing.cli <qgis_process arguments>``: same arguments as qgis_process."""
+    problem = foreign_python()
+    if problem:
+        print(f"monoplot: {problem}", file=sys.stderr)
+        return 2
     env = prepare_environment(os.environ.get("MONOPLOT_QGIS_WORK"))
-    return subprocess.call([qgis_process_binary(), *argv], env=env)
+    return call_forwarding_signals([qgis_process_binary(), *argv], env)
 
 
 if __name__ == "__main__":

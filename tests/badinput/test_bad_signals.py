@@ -1,0 +1,93 @@
+"""Cancel means cancel: SIGTERM / SIGINT to the command-line helper (forwarded to qgis_process) or to qgis_process
+itself while the new output is being written leave the earlier output byte for byte, no temporary file, no
+process behind, and a non-zero exit with the reason."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from monoplot_plugin.processing import cli
+from tests.badinput.conftest import leftovers, snapshot
+from tests.processing.conftest import scene_camera
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def big_camera(tmp_path_factory):
+    """A 2000 x 1500 camera of the scene: its XYZ raster takes a second or more to write."""
+    path = tmp_path_factory.mktemp("cam") / "camera.json"
+    scene_camera(size=(2000, 1500)).save(path)
+    return str(path)
+
+
+def _run_and_signal(command, env, folder: Path, signum: int):
+    process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                               cwd=REPO)
+    deadline = time.time() + 240
+    while not leftovers(folder) and process.poll() is None and time.time() < deadline:
+        time.sleep(0.01)
+    assert process.poll() is None, "the run ended before its output was written: " + process.communicate()[0]
+    children = subprocess.run(["pgrep", "-P", str(process.pid)], capture_output=True, text=True).stdout.split()
+    process.send_signal(signum)
+    output, _ = process.communicate(timeout=240)
+    alive = [c for c in children if Path(f"/proc/{c}").exists()]
+    return process.returncode, output, alive
+
+
+@pytest.mark.parametrize("signum", [signal.SIGTERM, signal.SIGINT], ids=["SIGTERM", "SIGINT"])
+def test_signal_to_the_helper_cancels_and_keeps_the_earlier_output(signum, small_scene, big_camera, tmp_path):
+    earlier = tmp_path / "xyz.tif"
+    earlier.write_bytes(b"earlier output")
+    before = snapshot(tmp_path)
+    env = dict(os.environ)
+    env.pop("MONOPLOT_QGIS_WORK", None)
+    command = [sys.executable, "-m", "monoplot_plugin.processing.cli", "run", "monoplot:computexyz", "--",
+               f"CAMERA={big_camera}", f"DEM={small_scene['dem']}", f"OUTPUT={earlier}"]
+    code, output, alive = _run_and_signal(command, env, tmp_path, signum)
+    assert code != 0, output
+    assert "Canceled; earlier outputs were left as they were" in output
+    assert alive == []  # the helper waited for qgis_process
+    assert snapshot(tmp_path) == before and leftovers(tmp_path) == []
+
+
+def test_sigterm_to_qgis_process_itself_cancels(small_scene, big_camera, tmp_path):
+    earlier = tmp_path / "xyz.tif"
+    earlier.write_bytes(b"earlier output")
+    before = snapshot(tmp_path)
+    env = cli.prepare_environment()
+    command = [cli.qgis_process_binary(), "run", "monoplot:computexyz", "--", f"CAMERA={big_camera}",
+               f"DEM={small_scene['dem']}", f"OUTPUT={earlier}"]
+    code, output, _ = _run_and_signal(command, env, tmp_path, signal.SIGTERM)
+    assert code != 0 and "Canceled; earlier outputs were left as they were" in output, output
+    assert snapshot(tmp_path) == before and leftovers(tmp_path) == []
+
+
+def test_helper_forwards_signals_and_returns_the_child_exit_code(tmp_path):
+    child = tmp_path / "child.py"
+    child.write_text("import signal, sys, time\n"
+                     "signal.signal(signal.SIGTERM, lambda s, f: (print('child got', s, flush=True), sys.exit(3)))\n"
+                     "print('ready', flush=True)\n"
+                     "time.sleep(60)\n")
+    helper = tmp_path / "helper.py"
+    helper.write_text(f"import sys; sys.path.insert(0, {str(REPO)!r})\n"
+                      "from monoplot_plugin.processing.cli import call_forwarding_signals\n"
+                      f"sys.exit(call_forwarding_signals([sys.executable, {str(child)!r}], None))\n")
+    process = subprocess.Popen([sys.executable, str(helper)], stdout=subprocess.PIPE, text=True)
+    assert process.stdout.readline().strip() == "ready"
+    process.send_signal(signal.SIGTERM)
+    assert process.wait(timeout=30) == 3
+    assert "child got 15" in process.stdout.read()
+
+
+def test_helper_refuses_a_foreign_python_in_words(monkeypatch):
+    if not os.path.isdir("/usr/lib/python3/dist-packages/qgis"):
+        pytest.skip("needs Debian's QGIS")
+    monkeypatch.setattr(sys, "base_prefix", "/root/.pyenv/versions/3.11.7")
+    assert "is not the system's, which QGIS embeds" in cli.foreign_python()
+    assert cli.main(["list"]) == 2
