@@ -1,7 +1,8 @@
 """QgsRasterLayer -> core :class:`~monoplot_plugin.core.dem.Dem`, read with GDAL on the main thread.
 
-Tasks only ever get this in-memory copy, never the layer. Beyond what ``Dem.open`` does (nodata, geographic CRS
-warped to UTM), this adapter recognises zero-filled voids in DEMs that declare no nodata value (the Aletsch DEM).
+Tasks only ever get this in-memory copy, never the layer. ``Dem.open`` finds the voids (nodata, NaN, common
+sentinels, zero-filled voids of a DEM that declares no nodata value, as the Aletsch DEM) and warps a geographic DEM
+to UTM; this adapter turns what it did into notes for the user.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from typing import List, Optional, Tuple
 import numpy as np
 from qgis.core import QgsRasterLayer
 
-from ..core.dem import Dem
+from ..core.dem import Dem, zero_voids  # noqa: F401 (zero_voids: re-exported)
 
 __all__ = ["DemError", "read_dem_layer", "read_dem_file", "zero_voids"]
 
@@ -20,28 +21,8 @@ class DemError(ValueError):
     """The layer cannot serve as a DEM (the message is meant for the user)."""
 
 
-def zero_voids(elevation: np.ndarray, min_median: float = 300.0) -> int:
-    """Turn exact zeros into NaN when the rest of the terrain is high (median > ``min_median`` m); in place.
-
-    Mountain DEMs without a nodata value often fill voids with 0, which no real high-terrain DEM contains.
-    Returns the number of cells changed.
-
-    >>> z = np.array([[0.0, 2000.0], [2100.0, 2200.0]]); zero_voids(z), np.isnan(z[0, 0])
-    (1, True)
-    >>> z = np.array([[0.0, 2.0], [3.0, 4.0]]); zero_voids(z)
-    0
-    """
-    zeros = elevation == 0
-    if not zeros.any() or zeros.all() or np.nanmedian(elevation[~zeros]) <= min_median:
-        return 0
-    elevation[zeros] = np.nan
-    return int(zeros.sum())
-
-
 def read_dem_file(path: str, void_value: Optional[float] = None) -> Tuple[Dem, List[str]]:
     """(Dem, notes for the user) from a raster file; ``void_value`` = cells to treat as voids."""
-    from osgeo import gdal
-
     try:
         dem = Dem.open(path, void_value=void_value)
     except Exception as exc:  # GDAL errors, missing CRS...: say it in words
@@ -49,14 +30,8 @@ def read_dem_file(path: str, void_value: Optional[float] = None) -> Tuple[Dem, L
     notes = []
     if dem.source_crs_wkt:
         notes.append("geographic DEM reprojected to UTM metres")
-    if void_value is None:
-        ds = gdal.Open(path)
-        if ds is not None and ds.GetRasterBand(1).GetNoDataValue() is None:
-            if not dem.elevation.flags.writeable or dem.elevation.dtype not in (np.float32, np.float64):
-                dem.elevation = dem.elevation.astype(np.float64)
-            n = zero_voids(dem.elevation)
-            if n:
-                notes.append(f"{n} cells at 0 m treated as voids (the DEM declares no nodata value)")
+    if dem.void_notes:  # core's one rule: nodata, NaN, sentinels, zero-filled voids
+        notes.append("treated as voids: " + "; ".join(dem.void_notes))
     if np.isnan(dem.elevation).all():
         raise DemError("the DEM has no valid cell")
     return dem, notes

@@ -29,11 +29,11 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass, field, replace
-from typing import Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-__all__ = ["Dem", "utm_wkt_for_lonlat", "view_window"]
+__all__ = ["Dem", "utm_wkt_for_lonlat", "view_window", "mark_voids", "zero_voids", "VOID_SENTINELS"]
 
 logger = logging.getLogger("monoplot")
 
@@ -57,6 +57,7 @@ class Dem:
     crs_wkt: str = ""
     source_crs_wkt: str = field(default="", repr=False)
     window: Tuple[int, int] = (0, 0)
+    void_notes: List[str] = field(default_factory=list, repr=False, compare=False)
 
     def __post_init__(self):
         elevation = np.asarray(self.elevation)
@@ -90,7 +91,7 @@ class Dem:
 
     @classmethod
     def open(cls, path, void_value: Optional[float] = None, band: int = 1, camera=None,
-             max_range: Optional[float] = None, margin_cells: int = 2) -> "Dem":
+             max_range: Optional[float] = None, margin_cells: int = 2, sentinels: bool = True) -> "Dem":
         """Read a DEM with GDAL.
 
         Args:
@@ -102,6 +103,8 @@ class Dem:
                 window the camera can see (frustum, ``max_range`` metres) is read, for large DEMs.
             max_range: with ``camera``, the farthest distance (metres) of interest; None = unlimited.
             margin_cells: extra cells around that window.
+            sentinels: also treat the common no-data sentinels as voids (see :func:`mark_voids`); what was treated
+                as void is listed in ``void_notes`` (and logged).
         Returns:
             a :class:`Dem` in a metric CRS. A DEM in geographic coordinates is reprojected (bilinear) to the UTM
             zone of its centre, with an INFO log line on the "monoplot" logger; ``crs_wkt`` then says which CRS
@@ -130,10 +133,16 @@ class Dem:
         nodata = rb.GetNoDataValue()
         if row0 or col0:
             gt = (gt[0] + col0 * gt[1] + row0 * gt[2], gt[1], gt[2], gt[3] + col0 * gt[4] + row0 * gt[5], gt[4], gt[5])
-        dem = cls.from_array(data, gt, wkt, void_value=void_value, nodata=nodata)
+        elevation = np.array(data, dtype=np.float64 if data.dtype != np.float32 else np.float32)
+        notes = mark_voids(elevation, nodata=nodata, void_value=void_value, sentinels=sentinels)
+        dem = cls(elevation, tuple(gt), _wkt_or_empty(wkt))
         dem.window = (row0, col0)
+        dem.void_notes = notes
+        if notes:
+            logger.info("DEM %s: %s", path, "; ".join(notes))
         if geographic:
             dem = dem.reprojected_to_utm()
+            dem.void_notes = notes
             if camera is not None:
                 dem = dem.crop_to_view(camera, max_range, margin_cells)
         return dem
@@ -360,6 +369,72 @@ class Dem:
         ds = self.to_gdal(str(path), "GTiff")
         ds.FlushCache()
         ds = None
+
+
+#: Heights that mean "no data" in DEMs that do not say so (ESRI/ASCII grids, SRTM, GMTED, exports of GIS tools).
+VOID_SENTINELS = (-9999.0, -99999.0, -32768.0, -32767.0, -3.4028234663852886e38)
+#: Below the deepest ocean trench or above the highest summit: not a height on Earth.
+LOWEST_TERRAIN_M, HIGHEST_TERRAIN_M = -11000.0, 9000.0
+
+
+def zero_voids(elevation: np.ndarray, min_median: float = 300.0) -> int:
+    """Turn exact zeros into NaN when the rest of the terrain is high (median > ``min_median`` m); in place.
+
+    Mountain DEMs without a nodata value often fill voids with 0, which no real high-terrain DEM contains.
+    Returns the number of cells changed.
+
+    >>> z = np.array([[0.0, 2000.0], [2100.0, 2200.0]]); zero_voids(z), np.isnan(z[0, 0])
+    (1, True)
+    >>> z = np.array([[0.0, 2.0], [3.0, 4.0]]); zero_voids(z)
+    0
+    """
+    zeros = elevation == 0
+    if not zeros.any() or zeros.all() or np.nanmedian(elevation[~zeros]) <= min_median:
+        return 0
+    elevation[zeros] = np.nan
+    return int(zeros.sum())
+
+
+def mark_voids(elevation: np.ndarray, nodata: Optional[float] = None, void_value: Optional[float] = None,
+               sentinels: bool = True) -> List[str]:
+    """Set every void cell of a float elevation grid to NaN, in place; return one sentence per kind of void found.
+
+    Voids are: the declared ``nodata`` value; the user's ``void_value``; NaN and infinite cells; and, with
+    ``sentinels``, the common sentinels (:data:`VOID_SENTINELS`), heights that are no height on Earth (below
+    -11,000 m or above 9,000 m), and, when the file declares no nodata value, the zero-filled voids of a high DEM
+    (:func:`zero_voids`).
+
+    >>> z = np.array([[-9999.0, 1500.0], [np.nan, 1510.0]])
+    >>> mark_voids(z)
+    ['1 NaN cells', '1 cells at -9999 (a common no-data value)']
+    >>> np.isnan(z).sum()
+    2
+    """
+    notes: List[str] = []
+
+    def mark(mask: np.ndarray, text: str) -> None:
+        n = int(mask.sum())
+        if n:
+            elevation[mask] = np.nan
+            notes.append(f"{n} {text}")
+
+    with np.errstate(invalid="ignore"):
+        nan = ~np.isfinite(elevation)
+        if nodata is not None and not math.isnan(nodata):
+            mark(elevation == nodata, f"cells at the declared nodata value {nodata:g}")
+        if void_value is not None and not math.isnan(void_value):
+            mark(elevation == void_value, f"cells at the void value {void_value:g} you gave")
+        mark(nan, "NaN cells")
+        if sentinels:
+            for value in VOID_SENTINELS:
+                mark(elevation == value, f"cells at {value:g} (a common no-data value)")
+            mark((elevation < LOWEST_TERRAIN_M) | (elevation > HIGHEST_TERRAIN_M),
+                 f"cells below {LOWEST_TERRAIN_M:g} m or above {HIGHEST_TERRAIN_M:g} m (no height on Earth)")
+            if nodata is None and void_value is None:
+                n = zero_voids(elevation)
+                if n:
+                    notes.append(f"{n} cells at 0 m (zero-filled voids of a high DEM that declares no nodata value)")
+    return notes
 
 
 def utm_wkt_for_lonlat(lon: float, lat: float) -> str:

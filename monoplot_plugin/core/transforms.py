@@ -203,7 +203,7 @@ def photo_points_to_map(uv, cam: Camera, dem: Dem) -> Tuple[np.ndarray, np.ndarr
     origin, dirs = cam.pixel_to_world_ray(uv)
     far = _far_distance(cam, dem)
     targets = origin + dirs * far
-    s = segment_first_hit(dem, origin, targets)
+    s = segment_first_hit(dem, origin, targets, voids_stop=True)  # a ray meeting a void sees no ground
     ok = np.isfinite(s)
     xyz = np.where(ok[:, None], origin + dirs * (far * np.nan_to_num(s))[:, None], np.nan)
     return xyz, ok

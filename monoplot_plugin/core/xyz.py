@@ -1,7 +1,9 @@
 """Per-pixel terrain intersection: the map coordinates (X, Y, Z) of the first terrain point each pixel sees.
 
 Surface: the DEM's triangle mesh (vertices at cell centres, two triangles per square of four centres, split along the
-diagonal from (row, col) to (row + 1, col + 1); see :mod:`.dem`). Triangles touching a void vertex are holes.
+diagonal from (row, col) to (row + 1, col + 1); see :mod:`.dem`). Interior voids are not holes to look through: they
+are closed by a lid at the height of their rim, and a pixel whose nearest triangle touches a void vertex is
+nodata (NaN), never the ground behind the void (see :func:`_filled_voids`).
 
 Method (a z-buffer, not ray marching):
 
@@ -410,6 +412,44 @@ def _merge(zbufs, tbufs, tri):
             tri[i, j] = tid
 
 
+@njit(parallel=True, cache=True)
+def _drop_void_hits(tri, void):
+    """Pixels whose nearest triangle touches a void vertex see a void: no hit (-1), never the ground behind it."""
+    H, W = tri.shape
+    cols = void.shape[1]
+    for i in prange(H):
+        for j in range(W):
+            tid = tri[i, j]
+            if tid < 0:
+                continue
+            ra, ca, rb, cb, rc, cc = _triangle_vertices(tid, cols)
+            if void[ra, ca] or void[rb, cb] or void[rc, cc]:
+                tri[i, j] = -1
+
+
+def _filled_voids(elev: np.ndarray, void: np.ndarray):
+    """(elevations with interior voids closed, bool mask of those cells) for the z-buffer.
+
+    An interior void (one that does not touch the edge of the grid: a pit of -9999, a NaN hole, a lake filled with
+    0) is closed by a flat lid at the highest height of its rim, so that a ray meeting it stops there and the pixel
+    becomes nodata, instead of looking through the hole at ground that the missing terrain may hide. Voids that
+    reach the edge of the grid (the nodata surround of a clipped DEM) stay holes, like the world beyond the grid:
+    a lid there could cover a camera standing outside the clipped area."""
+    from scipy import ndimage
+
+    labels, count = ndimage.label(void)
+    edge = np.unique(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]))
+    interior = void & ~np.isin(labels, edge[edge > 0])
+    if not interior.any():
+        return elev, interior
+    index = ndimage.distance_transform_edt(void, return_distances=False, return_indices=True)
+    nearest = elev[index[0], index[1]]  # a void cell's nearest valid cell is on its rim
+    lids = np.asarray(ndimage.maximum(nearest, labels, np.arange(1, count + 1)), dtype=elev.dtype).reshape(-1)
+    filled = elev.copy()
+    filled[interior] = lids[labels[interior] - 1]
+    return np.ascontiguousarray(filled), interior
+
+
 @njit(cache=True)
 def _triangle_vertices(tid, cols):
     q = tid // 2
@@ -788,7 +828,12 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
     elev = np.ascontiguousarray(work.elevation)
     rows, cols = elev.shape
     visible = np.zeros(full_shape, dtype=bool)
-    if rows < 2 or cols < 2:
+    void = np.isnan(elev)
+    has_voids = bool(void.any()) and not void.all() and rows >= 2 and cols >= 2
+    if has_voids:
+        elev, void = _filled_voids(elev, void)
+        has_voids = bool(void.any())
+    if rows < 2 or cols < 2 or np.isnan(elev).all():
         return XyzResult(np.full((H, W, 3), np.nan), np.full((H, W), np.nan, dtype=np.float32),
                          np.full((H, W), -1, dtype=np.int32), visible, work, cam)
     if 2 * (rows - 1) * (cols - 1) >= 2 ** 31 - 1:
@@ -805,6 +850,8 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
     tri = np.empty((H, W), dtype=np.int32)
     _merge(zbufs, tbufs, tri)
     del zbufs, tbufs
+    if has_voids:
+        _drop_void_hits(tri, void)
     limit = np.inf if max_range is None else float(max_range)
     dist = np.empty((H, W), dtype=np.float32)
     _exact_hits(tri, elev, gt, C, R, intr, limit, _threads(), xyz, dist)
@@ -812,6 +859,8 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
         vis = np.empty((rows, cols), dtype=np.bool_)
         _visibility(tri, elev, gt, C, R, intr, near, float(rel_tol),
                     float(work.cell_size if abs_tol is None else abs_tol), vis)
+        if has_voids:
+            vis &= ~void
         if max_range is not None:
             X, Y = work.cell_centres()
             rng = np.sqrt((X - C[0]) ** 2 + (Y - C[1]) ** 2 + (elev - C[2]) ** 2)
@@ -828,7 +877,7 @@ def compute_xyz(cam: Camera, dem: Dem, max_range: Optional[float] = None, crop: 
     return compute_xyz_full(cam, dem, max_range=max_range, crop=crop, visibility=False).xyz
 
 
-def segment_first_hit(dem: Dem, origins, targets, smax: float = 1.0) -> np.ndarray:
+def segment_first_hit(dem: Dem, origins, targets, smax: float = 1.0, voids_stop: bool = False) -> np.ndarray:
     """Exact line of sight: where each segment ``origin -> target`` first enters the terrain mesh from above.
 
     Crossings from below do not count, so a segment from a camera a few metres under a coarse DEM leaves the
@@ -839,6 +888,8 @@ def segment_first_hit(dem: Dem, origins, targets, smax: float = 1.0) -> np.ndarr
         dem: the terrain.
         origins, targets: (N, 3) or (3,) map coordinates.
         smax: search ``s`` in (0, smax] (1 = up to the target).
+        voids_stop: a segment that meets a void (drawn at the height of its nearest valid cells) stops there with
+            NaN, as a pixel of :func:`compute_xyz` does; default False: voids are holes it passes through.
     Returns:
         (N,) float64 parameter ``s`` of the first hit (point = origin + s (target - origin)); NaN where none.
         A target on the surface returns about 1; a target hidden behind terrain returns s < 1.
@@ -858,6 +909,20 @@ def segment_first_hit(dem: Dem, origins, targets, smax: float = 1.0) -> np.ndarr
     g = dem.geotransform
     det = g[1] * g[5] - g[2] * g[4]
     inv = np.array([g[5] / det, -g[2] / det, -g[4] / det, g[1] / det])
-    _segments_first_hit(np.ascontiguousarray(dem.elevation, dtype=np.float64), np.asarray(g, dtype=np.float64),
-                        inv, origins, np.ascontiguousarray(targets), float(smax), out)
+    elev = np.ascontiguousarray(dem.elevation, dtype=np.float64)
+    void = np.isnan(elev) if voids_stop else None
+    if void is not None and void.any() and not void.all():
+        elev, void = _filled_voids(elev, void)
+    if void is not None and not void.any():
+        void = None
+    _segments_first_hit(elev, np.asarray(g, dtype=np.float64), inv, origins, np.ascontiguousarray(targets),
+                        float(smax), out)
+    if void is not None:
+        hit = np.flatnonzero(np.isfinite(out))
+        p = origins[hit] + out[hit, None] * (targets[hit] - origins[hit])
+        col, row = dem.map_to_cell(p[:, 0], p[:, 1])
+        c = np.clip(np.floor(np.asarray(col) - 0.5).astype(np.int64), 0, dem.cols - 2)
+        r = np.clip(np.floor(np.asarray(row) - 0.5).astype(np.int64), 0, dem.rows - 2)
+        in_void = void[r, c] | void[r, c + 1] | void[r + 1, c] | void[r + 1, c + 1]
+        out[hit[in_void]] = np.nan
     return out
