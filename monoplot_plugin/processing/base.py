@@ -31,6 +31,8 @@ from qgis.core import (
 )
 from qgis.PyQt.QtCore import QCoreApplication, QVariant
 
+from ..workflow.inputs import check_dem_file, check_photo_path
+from ..workflow.inputs import load_dem as load_checked_dem
 from .inputs import InputError, load_camera, photo_size
 
 #: Sign of the photo-space y axis (see the module docstring).
@@ -91,6 +93,18 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         finally:
             pipeline.clear_cache()
 
+    def checkParameterValues(self, parameters, context):
+        """QGIS's own checks, but a DEM path it refuses ("Incorrect parameter value") gets the workflow's reason
+        (a folder, a text file, no georeferencing...)."""
+        ok, message = super().checkParameterValues(parameters, context)
+        value = parameters.get("DEM") if "DEM" in [p.name() for p in self.parameterDefinitions()] else None
+        if not ok and isinstance(value, str) and value:
+            try:
+                check_dem_file(value)
+            except InputError as exc:
+                return False, str(exc)
+        return ok, message
+
     def run_algorithm(self, parameters, context, feedback):  # pragma: no cover - every algorithm overrides it
         raise NotImplementedError
 
@@ -117,6 +131,11 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
     # --- input readers ------------------------------------------------------------------------------------------
     def dem_path(self, parameters, context) -> Tuple[str, QgsCoordinateReferenceSystem]:
         """File path and CRS of the DEM parameter, checked: a GDAL-readable file."""
+        value = parameters.get("DEM")
+        if isinstance(value, str) and value and not value.startswith(("memory:", "ogr:")) and \
+                (os.path.exists(value) or not os.path.isabs(value)):
+            # a path: the workflow's checks say what is wrong with it (a folder, text, no CRS...), not "not found"
+            return value, QgsCoordinateReferenceSystem.fromWkt(checked(check_dem_file, value))
         layer = self.parameterAsRasterLayer(parameters, "DEM", context)
         if layer is None or not layer.isValid():
             raise QgsProcessingException(self.tr("The DEM could not be loaded as a raster layer."))
@@ -136,21 +155,19 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
 
         A DEM in geographic coordinates is reprojected to the UTM zone of its centre (core :meth:`Dem.open`); the
         CRS returned is then that UTM CRS: cameras, points and products are in metres."""
-        from . import pipeline
-
         path, crs = self.dem_path(parameters, context)
-        dem = checked(pipeline.load_dem, path, self.void_value(parameters, context))
-        if crs.isGeographic() and dem.crs_wkt:
+        # the workflow's one set of DEM checks (as the dock): CRS, size, voids from nodata, NaN and sentinels
+        dem, notes = checked(load_checked_dem, path, self.void_value(parameters, context))
+        feedback = context.feedback() if hasattr(context, "feedback") else None
+        for note in notes:
+            if feedback is not None:
+                feedback.pushInfo(note)
+        if (crs.isGeographic() or not crs.isValid()) and dem.crs_wkt:
             crs = QgsCoordinateReferenceSystem.fromWkt(dem.crs_wkt)
         return dem, crs
 
     def photo_path(self, parameters, context, name: str = "PHOTO") -> str:
-        path = self.parameterAsFile(parameters, name, context)
-        if not path:
-            raise QgsProcessingException(self.tr("No photo given."))
-        if not os.path.isfile(path):
-            raise QgsProcessingException(self.tr("Photo not found: {0}").format(path))
-        return path
+        return checked(check_photo_path, self.parameterAsFile(parameters, name, context))
 
     def camera(self, parameters, context, name: str = "CAMERA", photo: Optional[str] = None,
                crs: Optional[QgsCoordinateReferenceSystem] = None, image_size=None):

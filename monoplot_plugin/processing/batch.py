@@ -65,7 +65,11 @@ def table_jobs(path: str) -> List[PhotoJob]:
     if not path or not os.path.isfile(path):
         raise InputError(f"batch table not found: {path}")
     base = os.path.dirname(os.path.abspath(path))
-    with open(path, newline="", encoding="utf-8-sig") as fh:
+    import io
+
+    from ..workflow.inputs import read_text
+
+    with io.StringIO(read_text(path), newline="") as fh:  # UTF-8 with or without BOM, UTF-16
         sample = fh.read(4096)
         fh.seek(0)
         try:  # spreadsheets in many locales save CSV with ';' (or tabs)

@@ -26,8 +26,7 @@ MAP_COLUMNS = (("x", "easting", "east", "lon"), ("y", "northing", "north", "lat"
                ("z", "z_m", "elevation", "elev", "alt", "altitude", "height"))
 
 
-class InputError(ValueError):
-    """An input the user has to fix; the message says which and why."""
+from ..workflow.inputs import InputError, check_camera, check_photo_path, read_text  # noqa: F401 (InputError)
 
 
 def load_camera(path: str, image_size: Optional[Tuple[int, int]] = None, crs_wkt: str = "") -> Camera:
@@ -52,11 +51,14 @@ def load_camera(path: str, image_size: Optional[Tuple[int, int]] = None, crs_wkt
             return Camera.from_kml(path, image_size=image_size, dst_crs_wkt=crs_wkt)
         except Exception as exc:  # malformed KML: say which file
             raise InputError(f"cannot read the KML camera {os.path.basename(path)}: {exc}") from exc
+    if os.path.getsize(path) == 0:
+        raise InputError(f"the camera file {os.path.basename(path)} is empty (0 bytes)")
     try:
-        camera = Camera.load(path)
-    except (OSError, ValueError, TypeError, KeyError, json.JSONDecodeError) as exc:
+        camera = Camera.from_json(read_text(path))
+    except (OSError, ValueError, TypeError, KeyError, AttributeError, json.JSONDecodeError) as exc:
         raise InputError(f"cannot read the camera file {os.path.basename(path)} "
                          f"(expected Monoplot camera JSON): {exc}") from exc
+    check_camera(camera, f"the camera {os.path.basename(path)}")
     if image_size is not None and tuple(camera.image_size) != tuple(image_size):
         raise InputError(f"camera {os.path.basename(path)} is for a {camera.width}x{camera.height} image but the "
                          f"photo is {image_size[0]}x{image_size[1]}")
@@ -96,10 +98,7 @@ def _crs_name(wkt: str) -> str:
 
 def read_photo(path: str) -> np.ndarray:
     """A photo as an (H, W, 3) uint8 RGB array (grey images are repeated on 3 bands; alpha is dropped)."""
-    if not path:
-        raise InputError("no photo given")
-    if not os.path.isfile(path):
-        raise InputError(f"photo not found: {path}")
+    check_photo_path(path)
     import cv2
 
     try:  # bytes, then imdecode: cv2.imread cannot open non-ASCII paths on Windows
@@ -169,14 +168,14 @@ def read_points_csv(path: str) -> Dict[str, np.ndarray]:
     """
     if not path or not os.path.isfile(path):
         raise InputError(f"point file not found: {path}")
-    with open(path, newline="", encoding="utf-8-sig") as fh:
-        sample = fh.read(4096)
-        fh.seek(0)
-        try:
-            dialect = csv.Sniffer().sniff(sample, delimiters=",;\t ")
-        except csv.Error:
-            dialect = csv.excel
-        rows = [row for row in csv.reader(fh, dialect) if any(cell.strip() for cell in row)]
+    import io
+
+    text = read_text(path)  # UTF-8 with or without BOM, UTF-16
+    try:
+        dialect = csv.Sniffer().sniff(text[:4096], delimiters=",;\t ")
+    except csv.Error:
+        dialect = csv.excel
+    rows = [row for row in csv.reader(io.StringIO(text, newline=""), dialect) if any(cell.strip() for cell in row)]
     name = os.path.basename(path)
     if len(rows) < 2:
         raise InputError(f"{name}: needs a header row and at least one point")

@@ -1,6 +1,7 @@
 """Fit the camera to photo points and DEM points (paired GCPs or unpaired clouds), starting from a prior."""
 
 import json
+import os
 
 import numpy as np
 from qgis.core import (
@@ -19,6 +20,7 @@ from .. import pipeline
 from ...outputs.safe_write import write_text
 from ..base import (MonoplotAlgorithm, check_canceled, checked, progress_callback, read_map_points,
                     read_photo_points)
+from ...workflow.inputs import points_to_dem_crs
 from ..inputs import InputError, read_points_csv
 
 CSV_FILTER = "CSV (*.csv *.txt)"
@@ -89,8 +91,11 @@ class FitCamera(MonoplotAlgorithm):
                 paired = True  # one table with both: ground-control points
             if "uv" in table:
                 uv_parts.append(table["uv"])
-            if "xyz" in table:
-                xyz_parts.append(table["xyz"])
+            if "xyz" in table:  # in the DEM file's CRS (degrees for a geographic DEM used in UTM)
+                converted, notes = points_to_dem_crs(table["xyz"], dem, name=os.path.basename(path))
+                for note in notes:
+                    context.feedback().pushInfo(note) if context.feedback() else None
+                xyz_parts.append(converted)
         if not uv_parts or not xyz_parts:
             raise QgsProcessingException(self.tr(
                 "Fit camera needs photo points and DEM points: give PHOTO_POINTS and DEM_POINTS layers, or "

@@ -9,6 +9,7 @@ from qgis.core import (
     QgsProcessingException,
     QgsProcessingOutputNumber,
     QgsProcessingParameterBoolean,
+    QgsProcessingParameterDefinition,
     QgsProcessingParameterFeatureSink,
     QgsProcessingParameterFeatureSource,
     QgsProcessingParameterFile,
@@ -22,6 +23,7 @@ from .. import geometry as geo
 from .. import pipeline
 from ..base import PHOTO_Y_SIGN, MonoplotAlgorithm, check_canceled, checked, progress_callback
 from ..inputs import read_photo
+from ...workflow.inputs import check_not_empty, check_view
 from ..safe_sink import safe_sink
 
 
@@ -34,10 +36,20 @@ class _CameraDemAlgorithm(MonoplotAlgorithm):
         self.add_photo_parameter("PHOTO", optional=photo_optional,
                                  description="Photo" if not photo_optional else "Photo (needed only for a KML camera)")
 
+    def add_allow_empty(self):
+        param = QgsProcessingParameterBoolean("ALLOW_EMPTY", self.tr("Write an empty output too (else an error)"),
+                                              defaultValue=False, optional=True)
+        param.setFlags(param.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+        self.addParameter(param)
+
+    def check_not_empty(self, parameters, context, count, what, hint):
+        checked(check_not_empty, count, what, self.parameterAsBool(parameters, "ALLOW_EMPTY", context), hint)
+
     def camera_and_dem(self, parameters, context, feedback):
         dem, crs = self.dem(parameters, context)
         photo = self.parameterAsFile(parameters, "PHOTO", context) or None
         camera = self.camera(parameters, context, "CAMERA", photo=photo, crs=crs)
+        checked(check_view, camera, dem)
         feedback.pushInfo(self.tr("Camera at ({0:.1f}, {1:.1f}, {2:.1f}), heading {3:.2f}, pitch {4:.2f}, fov {5:.2f};"
                                   " image {6}x{7}").format(
             camera.position[0], camera.position[1], camera.position[2], camera.heading, camera.pitch, camera.fov,
@@ -56,14 +68,16 @@ class ComputeXyz(_CameraDemAlgorithm):
         self.add_camera_dem()
         self.addParameter(QgsProcessingParameterRasterDestination("OUTPUT", self.tr("XYZ raster")))
         self.addOutput(QgsProcessingOutputNumber("GROUND_FRACTION", self.tr("Fraction of pixels on the ground")))
+        self.add_allow_empty()
 
     def run_algorithm(self, parameters, context, feedback):
         camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
         out = self.parameterAsOutputLayer(parameters, "OUTPUT", context)
         xyz = pipeline.xyz_raster(camera, dem, progress_callback(feedback, 0, 80))
         check_canceled(feedback)
-        pipeline.write_xyz(out, xyz, crs.toWkt())
         ground = float(np.isfinite(xyz[..., 2]).mean())
+        self.check_not_empty(parameters, context, int(ground > 0), "XYZ raster", "no pixel of the photo sees the DEM (the camera looks at the sky, or past the DEM)")
+        pipeline.write_xyz(out, xyz, crs.toWkt())
         feedback.pushInfo(self.tr("{0:.1f}% of the pixels hit the DEM; written to {1}").format(100 * ground, out))
         feedback.setProgress(100)
         return {"OUTPUT": out, "GROUND_FRACTION": ground}
@@ -84,6 +98,7 @@ class PhotoToMap(_CameraDemAlgorithm):
                                                        QgsProcessingParameterNumber.Double, 2.0, minValue=0.0))
         self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Map features")))
         self.addOutput(QgsProcessingOutputNumber("DROPPED", self.tr("Vertices dropped (sky)")))
+        self.add_allow_empty()
 
     def run_algorithm(self, parameters, context, feedback):
         source = self.parameterAsSource(parameters, "INPUT", context)
@@ -110,6 +125,8 @@ class PhotoToMap(_CameraDemAlgorithm):
         if dropped:
             feedback.pushInfo(self.tr("{0} vertices saw the sky or left the DEM and were dropped").format(dropped))
         check_canceled(feedback)
+        self.check_not_empty(parameters, context, sink.count, "map layer",
+                             "every feature is in the sky or outside the DEM")
         dest = sink.commit()
         return {"OUTPUT": dest, "DROPPED": dropped}
 
@@ -131,6 +148,7 @@ class MapToPhoto(_CameraDemAlgorithm):
                                                        QgsProcessingParameterNumber.Double, 0.0, minValue=0.0))
         self.addParameter(QgsProcessingParameterBoolean("HIDDEN", self.tr("Drop hidden parts"), defaultValue=True))
         self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Features on the photo")))
+        self.add_allow_empty()
 
     def run_algorithm(self, parameters, context, feedback):
         source = self.parameterAsSource(parameters, "INPUT", context)
@@ -165,6 +183,8 @@ class MapToPhoto(_CameraDemAlgorithm):
             feedback.reportError(self.tr("{0} of {1} feature(s) are not visible in the photo (hidden behind "
                                          "terrain or outside the image); skipped").format(skipped, total))
         check_canceled(feedback)
+        self.check_not_empty(parameters, context, sink.count, "photo layer",
+                             "no feature is visible in the photo (hidden behind terrain or outside the image)")
         dest = sink.commit()
         return {"OUTPUT": dest}
 
@@ -181,6 +201,7 @@ class Orthophoto(_CameraDemAlgorithm):
         self.addParameter(QgsProcessingParameterNumber("RESOLUTION", self.tr("Cell size (map units, 0 = DEM's)"),
                                                        QgsProcessingParameterNumber.Double, 0.0, minValue=0.0))
         self.addParameter(QgsProcessingParameterRasterDestination("OUTPUT", self.tr("Orthophoto")))
+        self.add_allow_empty()
 
     def run_algorithm(self, parameters, context, feedback):
         camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
@@ -190,6 +211,8 @@ class Orthophoto(_CameraDemAlgorithm):
                 photo.shape[1], photo.shape[0], camera.width, camera.height))
         resolution = self.parameterAsDouble(parameters, "RESOLUTION", context) or None
         out = self.parameterAsOutputLayer(parameters, "OUTPUT", context)
+        ground = int(np.isfinite(pipeline.xyz_raster(camera, dem)[..., 2]).any())
+        self.check_not_empty(parameters, context, ground, "orthophoto", "no pixel of the photo sees the DEM (the camera looks at the sky, or past the DEM)")
         pipeline.orthophoto(out, photo, camera, dem, crs.toWkt(), resolution, progress_callback(feedback, 0, 95))
         feedback.setProgress(100)
         return {"OUTPUT": out}

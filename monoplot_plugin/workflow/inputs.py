@@ -1,0 +1,251 @@
+"""The one set of input checks, for the dock and for Processing alike (no Qt, no qgis).
+
+Every function raises :class:`InputError` with a message meant for the user: it names the file and says what is
+wrong and what to do. What was silently taken as something else is said in notes (lists of sentences) instead.
+
+- DEMs (:func:`load_dem`): a raster GDAL reads, georeferenced, with a CRS, at least 2 x 2 valid cells; voids from
+  the declared nodata, NaN, common sentinels and zero-filled voids (core :func:`~..core.dem.mark_voids`), named in
+  the notes.
+- Photos (:func:`check_photo_path`): a file, not a folder.
+- Cameras (:func:`check_camera`): finite parameters, a usable field of view; (:func:`check_view`) the camera sees
+  some of the DEM.
+- Text tables (:func:`read_text`): UTF-8 with or without BOM, UTF-16 (BOM or not), else Latin-1.
+- Map points (:func:`points_to_dem_crs`): converted from their stated CRS, or from the DEM file's CRS when the DEM
+  was reprojected (a geographic DEM is used in UTM: its CSV points are in degrees).
+- Products (:func:`check_not_empty`): an empty product is an error unless asked for.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from typing import List, Optional, Tuple
+
+import numpy as np
+
+__all__ = ["InputError", "load_dem", "check_dem_file", "check_photo_path", "check_camera", "check_view", "read_text",
+           "points_to_dem_crs", "check_not_empty", "MIN_DEM_CELLS"]
+
+#: Rows and columns a DEM needs at the least (the mesh has a triangle per half of a square of four cells).
+MIN_DEM_CELLS = 2
+
+
+class InputError(ValueError):
+    """An input the user has to fix; the message says which and why."""
+
+
+# --- DEM --------------------------------------------------------------------------------------------------------
+def check_dem_file(path: str) -> str:
+    """The CRS (WKT) of a DEM file, after the checks that need only its header (see :func:`load_dem`)."""
+    from osgeo import gdal
+
+    name = os.path.basename(path or "")
+    if not path:
+        raise InputError("no DEM given")
+    if os.path.isdir(path):
+        raise InputError(f"the DEM {path} is a folder, not a raster file")
+    if not os.path.isfile(path):
+        raise InputError(f"DEM not found: {path}")
+    saved = gdal.GetUseExceptions()
+    gdal.UseExceptions()
+    try:
+        ds = gdal.Open(path)
+    except RuntimeError as exc:
+        raise InputError(f"cannot read the DEM {name}: not a raster GDAL can read ({_first_line(exc)})") from None
+    finally:
+        if not saved:
+            gdal.DontUseExceptions()
+    gt = ds.GetGeoTransform(can_return_null=True)
+    if gt is None:
+        kind = (f"{ds.RasterCount} band(s) of {gdal.GetDataTypeName(ds.GetRasterBand(1).DataType)}"
+                if ds.RasterCount else "no band")
+        raise InputError(f"the DEM {name} has no georeferencing ({ds.RasterXSize} x {ds.RasterYSize} pixels, "
+                         f"{kind}): is it a photo? Give an elevation raster with map coordinates")
+    wkt = ds.GetProjection()
+    if not wkt:
+        raise InputError(f"the DEM {name} has no CRS (coordinate reference system): set one, e.g. "
+                         f"gdal_edit.py -a_srs EPSG:2056 {name}, or in the layer's properties in QGIS")
+    if ds.RasterXSize < MIN_DEM_CELLS or ds.RasterYSize < MIN_DEM_CELLS:
+        raise InputError(f"the DEM {name} is too small: {ds.RasterXSize} x {ds.RasterYSize} cells (at least "
+                         f"{MIN_DEM_CELLS} x {MIN_DEM_CELLS}; a useful DEM has hundreds)")
+    return wkt
+
+
+def load_dem(path: str, void_value: Optional[float] = None) -> Tuple[object, List[str]]:
+    """(core Dem, notes for the user) of a DEM file, checked.
+
+    Raises InputError for: no file or a folder; a file GDAL cannot read (a text file, a damaged raster); no
+    georeferencing (a photo given as DEM); no CRS; fewer than 2 x 2 cells; no valid cell.
+
+    >>> load_dem("/no/such/dem.tif")
+    Traceback (most recent call last):
+    ...
+    monoplot_plugin.workflow.inputs.InputError: DEM not found: /no/such/dem.tif
+    """
+    from ..core.dem import Dem
+
+    check_dem_file(path)
+    name = os.path.basename(path)
+    try:
+        dem = Dem.open(path, void_value=void_value)
+    except Exception as exc:  # GDAL read errors, a CRS PROJ does not know
+        raise InputError(f"cannot read the DEM {name}: {_first_line(exc)}") from exc
+    notes: List[str] = []
+    if dem.source_crs_wkt:
+        notes.append(f"the DEM is in degrees: used in {_crs_name(dem.crs_wkt)} (metres); results are in that CRS")
+    void_text = "; ".join(dem.void_notes)
+    valid = np.isfinite(dem.elevation)
+    if not valid.any():
+        raise InputError(f"the DEM {name} has no valid cell: all {dem.elevation.size} cells are voids"
+                         + (f" ({void_text})" if void_text else ""))
+    rows_ok = int(valid.any(axis=1).sum())
+    cols_ok = int(valid.any(axis=0).sum())
+    if rows_ok < MIN_DEM_CELLS or cols_ok < MIN_DEM_CELLS:
+        raise InputError(f"the DEM {name} has too few valid cells ({int(valid.sum())}: {cols_ok} column(s) x "
+                         f"{rows_ok} row(s)) to make a terrain surface")
+    if void_text:
+        share = 100.0 * (1.0 - valid.mean())
+        notes.append(f"treated as void in {name} ({share:.1f} % of the grid): {void_text}; pixels that see a void "
+                     f"are nodata")
+    return dem, notes
+
+
+def _first_line(exc: Exception) -> str:
+    return str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+
+
+def _crs_name(wkt: str) -> str:
+    from osgeo import osr
+
+    srs = osr.SpatialReference()
+    if not wkt or srs.SetFromUserInput(wkt) != 0:
+        return "an unknown CRS"
+    code = srs.GetAuthorityCode(None)
+    return f"{srs.GetName()} (EPSG:{code})" if code else srs.GetName()
+
+
+# --- photo and camera -------------------------------------------------------------------------------------------
+def check_photo_path(path: str) -> str:
+    """The photo path, checked: given, existing, a file (not a folder)."""
+    if not path:
+        raise InputError("no photo given")
+    if os.path.isdir(path):
+        raise InputError(f"the photo {path} is a folder, not an image file")
+    if not os.path.isfile(path):
+        raise InputError(f"photo not found: {path}")
+    return path
+
+
+def check_camera(camera, name: str = "the camera") -> None:
+    """Refuse a camera with non-finite or impossible parameters (NaN position, field of view not in (0, 180))."""
+    values = {"X": camera.position[0], "Y": camera.position[1], "Z": camera.position[2], "heading": camera.heading,
+              "pitch": camera.pitch, "roll": camera.roll, "fov": camera.fov}
+    bad = [k for k, v in values.items() if not math.isfinite(float(v))]
+    if bad:
+        raise InputError(f"{name} has no valid {', '.join(bad)} (not a number): fit it again or fix the file")
+    if not 0.0 < float(camera.fov) < 180.0:
+        raise InputError(f"{name} has a field of view of {camera.fov:g} degrees (must be between 0 and 180)")
+    if camera.width < 1 or camera.height < 1:
+        raise InputError(f"{name} is for a {camera.width} x {camera.height} image")
+
+
+def check_view(camera, dem, name: str = "the camera") -> None:
+    """Refuse a camera that sees no part of the DEM (wrong CRS, wrong position, looking away)."""
+    from ..core.dem import view_window
+
+    z = dem.elevation[np.isfinite(dem.elevation)]
+    window = view_window(camera, dem.geotransform, dem.shape, float(z.min()), float(z.max()))
+    if window is None:
+        xmin, ymin, xmax, ymax = dem.bounds()
+        x, y, h = camera.position
+        raise InputError(f"{name} sees no part of the DEM: it stands at ({x:.1f}, {y:.1f}, {h:.1f}), heading "
+                         f"{camera.heading:.1f}, pitch {camera.pitch:.1f}; the DEM covers x {xmin:.1f} to {xmax:.1f}, "
+                         f"y {ymin:.1f} to {ymax:.1f} (heights {z.min():.0f} to {z.max():.0f} m). Is the camera in "
+                         f"the DEM's CRS?")
+
+
+def check_not_empty(count: int, what: str, allow_empty: bool = False, hint: str = "") -> None:
+    """An empty product is an error (with ``hint``: why it may be empty), unless ``allow_empty``."""
+    if count == 0 and not allow_empty:
+        raise InputError(f"the {what} would be empty" + (f": {hint}" if hint else "")
+                         + " (allow empty outputs to write it anyway)")
+
+
+# --- text tables and point coordinates ------------------------------------------------------------------------
+def read_text(path: str) -> str:
+    """The text of a table file: UTF-8 (with or without BOM), UTF-16 (with BOM, or without one when every other
+    byte is zero), else Latin-1 (never fails on bytes).
+
+    >>> import tempfile
+    >>> p = os.path.join(tempfile.mkdtemp(), "t.csv")
+    >>> _ = open(p, "wb").write("id,X\\n1,7\\n".encode("utf-16"))
+    >>> read_text(p)
+    'id,X\\n1,7\\n'
+    """
+    with open(path, "rb") as fh:
+        data = fh.read()
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        return data.decode("utf-16")
+    if data.startswith(b"\xef\xbb\xbf"):
+        return data[3:].decode("utf-8", errors="replace")
+    if len(data) >= 4 and data[1::2].count(0) > 0.4 * (len(data) // 2):
+        return data.decode("utf-16-le", errors="replace")
+    if len(data) >= 4 and data[0::2].count(0) > 0.4 * (len(data) // 2):
+        return data.decode("utf-16-be", errors="replace")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        return data.decode("latin-1")
+
+
+def points_to_dem_crs(xyz: np.ndarray, dem, points_crs: str = "", name: str = "the points") \
+        -> Tuple[np.ndarray, List[str]]:
+    """(N, 3) map points in the DEM's working CRS, and notes.
+
+    The points are in ``points_crs`` when given (WKT or "EPSG:n"), else in the CRS of the DEM file: for a DEM in
+    degrees that Monoplot uses in UTM (``dem.source_crs_wkt``) they are converted too. A table in lon/lat for a
+    projected DEM is recognised when the values fit degrees and land on the DEM only read as WGS 84 (noted).
+    """
+    from osgeo import osr
+
+    xyz = np.array(xyz, dtype=float).reshape(-1, 3)
+    notes: List[str] = []
+    source = points_crs or dem.source_crs_wkt or ""
+    if not source and len(xyz) and dem.crs_wkt:
+        lonlat = (np.abs(xyz[:, 0]) <= 180).all() and (np.abs(xyz[:, 1]) <= 90).all()
+        if lonlat and _inside(dem, xyz).mean() < 0.5:
+            converted = _transform(xyz, "EPSG:4326", dem.crs_wkt)
+            if _inside(dem, converted).mean() >= 0.5:
+                notes.append(f"{name} look like longitude/latitude (WGS 84) and were converted to the DEM's CRS")
+                return converted, notes
+    if not source or not dem.crs_wkt:
+        return xyz, notes
+    a, b = osr.SpatialReference(), osr.SpatialReference()
+    a.SetFromUserInput(source)
+    b.SetFromUserInput(dem.crs_wkt)
+    if a.IsSame(b):
+        return xyz, notes
+    converted = _transform(xyz, source, dem.crs_wkt)
+    notes.append(f"{name} were converted from {_crs_name(source)} to {_crs_name(dem.crs_wkt)}")
+    return converted, notes
+
+
+def _inside(dem, xyz: np.ndarray) -> np.ndarray:
+    xmin, ymin, xmax, ymax = dem.bounds()
+    return (xyz[:, 0] >= xmin) & (xyz[:, 0] <= xmax) & (xyz[:, 1] >= ymin) & (xyz[:, 1] <= ymax)
+
+
+def _transform(xyz: np.ndarray, source: str, target: str) -> np.ndarray:
+    from osgeo import osr
+
+    a, b = osr.SpatialReference(), osr.SpatialReference()
+    a.SetFromUserInput(source)
+    b.SetFromUserInput(target)
+    for srs in (a, b):
+        srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+    out = xyz.copy()
+    if len(xyz):
+        pts = osr.CoordinateTransformation(a, b).TransformPoints(
+            [(float(x), float(y), 0.0) for x, y in xyz[:, :2]])
+        out[:, :2] = np.asarray(pts, dtype=float)[:, :2]
+    return out
