@@ -2,7 +2,7 @@
 
 Layout (``MONOPLOT_FORMAT=monoplot-xyz/1`` in the dataset metadata):
 
-- Bands 1-3: float32 X, Y, Z in the DEM's CRS (band descriptions ``X``, ``Y``, ``Z``; unit type from the CRS, e.g.
+- Bands 1-3: X, Y, Z (float64, or float32 when that is as exact, see below) in the DEM's CRS (band descriptions ``X``, ``Y``, ``Z``; unit type from the CRS, e.g.
   ``metre``). Optional band 4 ``DISTANCE``: metres from the camera centre to the ground point.
 - Nodata: NaN in every band for sky, and for pixels whose ray misses the DEM (voids, outside the grid). NaN is the
   one value that can never be a real coordinate.
@@ -16,8 +16,11 @@ Layout (``MONOPLOT_FORMAT=monoplot-xyz/1`` in the dataset metadata):
   (e.g. ``EPSG:21781``); the camera as JSON in ``MONOPLOT_CAMERA``; the photo's file name in ``MONOPLOT_PHOTO``.
 - Tiled 256 x 256, DEFLATE (or LZW) compression with the floating-point predictor, BIGTIFF when needed.
 
-float32 keeps about 7 significant digits: a 6-digit easting (Swiss LV03, UTM) is stored to 6 cm, a 7-digit UTM
-northing to 0.5 m, far below a DEM cell. Pass ``dtype="float64"`` for exact values.
+Precision: every value is stored to 1 cm or better in any CRS. float32 keeps about 7 significant digits (a 7-digit
+UTM northing would step by 0.5 m), so the bands are float64 unless every coordinate is below 131,072 map units
+(float32 then rounds by at most 4 mm, and the file is half the size). The dock and Processing write the same
+layout (both call :func:`write_xyz_raster` with the default ``dtype="auto"``). Plain band values, no scale/offset
+metadata: QGIS would apply an offset in float32 and lose the precision again.
 """
 
 from __future__ import annotations
@@ -33,7 +36,7 @@ from ._gdal import (crs_authid, gdal_errors_as_exceptions, gdal_failure, linear_
                     srs_from_user)
 from .safe_write import OutputError, atomic_output
 
-__all__ = ["write_xyz_raster", "read_xyz_raster", "PHOTO_GEOTRANSFORM", "XYZ_FORMAT"]
+__all__ = ["write_xyz_raster", "read_xyz_raster", "storage_dtype", "PHOTO_GEOTRANSFORM", "XYZ_FORMAT"]
 
 #: Geotransform of every photo-space raster Monoplot writes: x = column, y = -row, 1 unit = 1 pixel.
 PHOTO_GEOTRANSFORM = (0.0, 1.0, 0.0, 0.0, 0.0, -1.0)
@@ -42,7 +45,7 @@ BAND_NAMES = ("X", "Y", "Z", "DISTANCE")
 
 
 def write_xyz_raster(path, xyz: np.ndarray, crs_wkt: str, distance: Optional[np.ndarray] = None, *,
-                     overwrite: bool = False, compress: str = "DEFLATE", dtype: str = "float32",
+                     overwrite: bool = False, compress: str = "DEFLATE", dtype: str = "auto",
                      camera=None, photo_name: str = "") -> Path:
     """Write the per-pixel ground coordinates of a photo as a GeoTIFF (layout in the module docstring).
 
@@ -53,7 +56,8 @@ def write_xyz_raster(path, xyz: np.ndarray, crs_wkt: str, distance: Optional[np.
         distance: optional (H, W) metres from the camera to the ground point; written as band 4.
         overwrite: replace an existing file (default: refuse with OutputExistsError).
         compress: "DEFLATE" (default) or "LZW".
-        dtype: "float32" (default) or "float64".
+        dtype: "auto" (default: float32 when every value is below :data:`FLOAT32_EXACT_LIMIT`, else float64),
+            "float32" or "float64".
         camera: optional :class:`~monoplot_plugin.core.camera.Camera`, stored as JSON in the metadata.
         photo_name: optional name of the photo, stored in the metadata.
     Returns:
@@ -73,6 +77,8 @@ def write_xyz_raster(path, xyz: np.ndarray, crs_wkt: str, distance: Optional[np.
         bands.append(distance)
     if compress.upper() not in ("DEFLATE", "LZW"):
         raise ValueError(f"compress must be DEFLATE or LZW, got {compress}")
+    if dtype == "auto":
+        dtype = storage_dtype(xyz)
     gdal_type = {"float32": gdal.GDT_Float32, "float64": gdal.GDT_Float64}[dtype]
     srs = srs_from_user(crs_wkt)
     try:
@@ -111,6 +117,23 @@ def write_xyz_raster(path, xyz: np.ndarray, crs_wkt: str, distance: Optional[np.
         finally:
             ds = None  # closed before the temporary file is renamed or removed
     return target
+
+
+#: Largest magnitude float32 stores to within 1 cm (its spacing there is 7.8 mm: rounding is at most 3.9 mm).
+FLOAT32_EXACT_LIMIT = 131072.0
+
+
+def storage_dtype(xyz: np.ndarray) -> str:
+    """"float32" when every finite value of ``xyz`` keeps 1 cm in float32, else "float64".
+
+    >>> storage_dtype(np.array([[[600000.0, 5100000.0, 3000.0]]])), storage_dtype(np.array([[[1000.0, 2000.0, 5.0]]]))
+    ('float64', 'float32')
+    """
+    with np.errstate(invalid="ignore"):
+        high, low = float(np.fmax.reduce(xyz, axis=None)), float(np.fmin.reduce(xyz, axis=None))  # NaN-skipping
+    if not (np.isfinite(high) and np.isfinite(low)):  # all NaN (or infinite values, which must not be rounded)
+        return "float32" if np.isnan(high) and np.isnan(low) else "float64"
+    return "float32" if max(abs(high), abs(low)) < FLOAT32_EXACT_LIMIT else "float64"
 
 
 def read_xyz_raster(path) -> Tuple[np.ndarray, str, Optional[np.ndarray], dict]:
