@@ -11,7 +11,6 @@ from qgis.core import QgsProcessingException, QgsProcessingFeedback
 
 from monoplot_plugin.core.dem import Dem
 from monoplot_plugin.core.xyz import compute_xyz
-from monoplot_plugin.processing.inputs import write_points_csv
 from tests.badinput.conftest import leftovers
 from tests.processing.conftest import hill_elevation, write_photo
 
