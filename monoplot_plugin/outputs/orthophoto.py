@@ -10,14 +10,14 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Sequence
+from typing import Optional, Sequence
 
 import numpy as np
 from osgeo import gdal
 
 from ._gdal import gdal_errors_as_exceptions, gdal_failure, raster_verifier, srs_from_user
 from .geometry import orthorectify
-from .safe_write import atomic_output
+from .safe_write import OutputError, atomic_output
 
 __all__ = ["write_orthophoto", "orthophoto_from_camera"]
 
@@ -65,19 +65,52 @@ def write_orthophoto(path, image: np.ndarray, geotransform: Sequence[float], crs
     return target
 
 
-def orthophoto_from_camera(path, photo: np.ndarray, camera, dem, xyz: np.ndarray, *,
-                           overwrite: bool = False) -> Path:
+def orthophoto_from_camera(path, photo: np.ndarray, camera, dem, xyz: Optional[np.ndarray] = None, *,
+                           overwrite: bool = False, rows_per_strip: Optional[int] = None,
+                           allow_empty: bool = True) -> Path:
     """Orthorectify ``photo`` onto ``dem`` (:func:`.geometry.orthorectify`) and write it.
 
     Args:
         photo: (H, W) or (H, W, 3) uint8, the size of the camera's image.
         camera: the fitted Camera. dem: core Dem (grid and CRS of the result).
-        xyz: (H, W, 3) per-pixel map coordinates of the photo (occlusion test).
+        xyz: (H, W, 3) per-pixel map coordinates of the photo (occlusion test); None: computed here, in strips of
+            the image when the whole raster does not fit in the free memory (core :mod:`~..core.xyz_strips`).
+        rows_per_strip: force strips of this many image rows (None: planned from the free memory).
+        allow_empty: write an orthophoto with no cell seen (else OutputError, nothing written).
+    Raises:
+        MemoryBudgetError (core) with the numbers when even thin strips do not fit.
     """
     photo = np.asarray(photo)
     if photo.ndim == 3 and photo.shape[2] == 4:
         photo = photo[..., :3]
     if photo.ndim == 3 and photo.shape[2] not in (1, 3):
         raise ValueError(f"photo must have 1 or 3 bands, got {photo.shape}")
-    image = orthorectify(photo.astype(np.uint8, copy=False), camera, dem, xyz)
+    photo = photo.astype(np.uint8, copy=False)
+    if xyz is not None:
+        image = orthorectify(photo, camera, dem, xyz)
+    else:
+        image = orthorectify_in_strips(photo, camera, dem, rows_per_strip)
+    if not allow_empty and not image[..., -1].any():
+        raise OutputError(f"the orthophoto {Path(os.fspath(path)).name} would be empty: the camera sees no cell of "
+                          f"the DEM")
     return write_orthophoto(path, image, dem.geotransform, dem.crs_wkt, overwrite=overwrite)
+
+
+def orthorectify_in_strips(photo: np.ndarray, camera, dem, rows_per_strip: Optional[int] = None) -> np.ndarray:
+    """:func:`.geometry.orthorectify` with the XYZ raster computed strip by strip: a DEM cell takes its colour from
+    the strip of the photo it falls in (strips do not overlap, so each cell is decided once)."""
+    from ..core.xyz import compute_xyz
+    from ..core.xyz_strips import plan_strips, strip_camera
+
+    rows, cols = dem.shape
+    bands = 1 if photo.ndim == 2 else photo.shape[2]
+    grid_bytes = rows * cols * (24 + 8 + bands + 1)  # cell vertices, projections, the image
+    n = rows_per_strip or plan_strips(camera, extra_per_row=camera.width * bands, fixed=grid_bytes,
+                                      what="orthophoto")
+    out = np.zeros((rows, cols, bands + 1), dtype=np.uint8)
+    for row0 in range(0, camera.height, n):
+        strip = strip_camera(camera, row0, min(n, camera.height - row0))
+        part = orthorectify(photo[row0:row0 + strip.height], strip, dem, compute_xyz(strip, dem))
+        seen = part[..., -1] > 0
+        out[seen] = part[seen]
+    return out

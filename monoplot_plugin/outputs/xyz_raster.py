@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Optional, Tuple
+from typing import Iterable, Optional, Tuple
 
 import numpy as np
 from osgeo import gdal
@@ -36,7 +36,7 @@ from ._gdal import (crs_authid, gdal_errors_as_exceptions, gdal_failure, linear_
                     srs_from_user)
 from .safe_write import OutputError, atomic_output
 
-__all__ = ["write_xyz_raster", "read_xyz_raster", "storage_dtype", "PHOTO_GEOTRANSFORM", "XYZ_FORMAT"]
+__all__ = ["write_xyz_raster", "write_xyz_raster_strips", "read_xyz_raster", "storage_dtype", "storage_dtype_for_range", "PHOTO_GEOTRANSFORM", "XYZ_FORMAT"]
 
 #: Geotransform of every photo-space raster Monoplot writes: x = column, y = -row, 1 unit = 1 pixel.
 PHOTO_GEOTRANSFORM = (0.0, 1.0, 0.0, 0.0, 0.0, -1.0)
@@ -69,16 +69,30 @@ def write_xyz_raster(path, xyz: np.ndarray, crs_wkt: str, distance: Optional[np.
     if xyz.ndim != 3 or xyz.shape[2] != 3:
         raise ValueError(f"xyz must be (H, W, 3), got {xyz.shape}")
     height, width = xyz.shape[:2]
-    bands = [xyz[..., 0], xyz[..., 1], xyz[..., 2]]
     if distance is not None:
         distance = np.asarray(distance)
         if distance.shape != (height, width):
             raise ValueError(f"distance must be {(height, width)}, got {distance.shape}")
-        bands.append(distance)
+    return write_xyz_raster_strips(path, [(0, xyz, distance)], width, height, crs_wkt,
+                                   storage_dtype(xyz) if dtype == "auto" else dtype, distance is not None,
+                                   overwrite=overwrite, compress=compress, camera=camera, photo_name=photo_name)
+
+
+def write_xyz_raster_strips(path, strips: Iterable, width: int, height: int, crs_wkt: str, dtype: str,
+                            with_distance: bool = False, *, overwrite: bool = False, compress: str = "DEFLATE",
+                            camera=None, photo_name: str = "") -> Path:
+    """Write the XYZ raster strip by strip (the memory-bounded path: a strip is computed, written, dropped).
+
+    Args:
+        strips: ``(row0, (rows, W, 3) xyz, (rows, W) distance or None)`` covering every row once, e.g. core's
+            :func:`~monoplot_plugin.core.xyz_strips.xyz_strips`.
+        width, height: size of the photo in pixels.
+        dtype: "float32" or "float64" (see :func:`storage_dtype`, :func:`storage_dtype_for_range`).
+        with_distance: write band 4 from the strips' distances.
+        Other arguments as :func:`write_xyz_raster`.
+    """
     if compress.upper() not in ("DEFLATE", "LZW"):
         raise ValueError(f"compress must be DEFLATE or LZW, got {compress}")
-    if dtype == "auto":
-        dtype = storage_dtype(xyz)
     gdal_type = {"float32": gdal.GDT_Float32, "float64": gdal.GDT_Float64}[dtype]
     srs = srs_from_user(crs_wkt)
     try:
@@ -95,21 +109,32 @@ def write_xyz_raster(path, xyz: np.ndarray, crs_wkt: str, distance: Optional[np.
     }
     options = ["TILED=YES", "BLOCKXSIZE=256", "BLOCKYSIZE=256", f"COMPRESS={compress.upper()}", "PREDICTOR=3",
                "BIGTIFF=IF_SAFER", "INTERLEAVE=BAND"]
+    nbands = 4 if with_distance else 3
     target = Path(os.fspath(path))
-    with atomic_output(target, overwrite, verify=raster_verifier(width, height, len(bands))) as tmp:
+    with atomic_output(target, overwrite, verify=raster_verifier(width, height, nbands)) as tmp:
         ds = None
         try:
             with gdal_errors_as_exceptions():
-                ds = gdal.GetDriverByName("GTiff").Create(tmp, width, height, len(bands), gdal_type, options=options)
+                ds = gdal.GetDriverByName("GTiff").Create(tmp, width, height, nbands, gdal_type, options=options)
                 ds.SetGeoTransform(PHOTO_GEOTRANSFORM)
                 ds.SetMetadata(metadata)
-                for index, values in enumerate(bands, start=1):
+                for index in range(1, nbands + 1):
                     band = ds.GetRasterBand(index)
                     band.SetDescription(BAND_NAMES[index - 1])
                     band.SetNoDataValue(float("nan"))
                     band.SetUnitType("metre" if index == 4 else unit)
-                    band.WriteArray(np.where(np.isfinite(values), values, np.nan).astype(dtype, copy=False))
                     band = None
+                written = 0
+                for row0, xyz, distance in strips:
+                    values = [xyz[..., 0], xyz[..., 1], xyz[..., 2]] + ([distance] if with_distance else [])
+                    for index, band_values in enumerate(values, start=1):
+                        ds.GetRasterBand(index).WriteArray(
+                            np.where(np.isfinite(band_values), band_values, np.nan).astype(dtype, copy=False),
+                            0, int(row0))
+                    written += xyz.shape[0]
+                    del xyz, distance, values
+                if written != height:
+                    raise OutputError(f"{target.name}: {written} of {height} rows were computed")
                 ds.FlushCache()
                 ds = None  # closes the file: errors while writing the last tiles surface here
         except RuntimeError as exc:
@@ -134,6 +159,15 @@ def storage_dtype(xyz: np.ndarray) -> str:
     if not (np.isfinite(high) and np.isfinite(low)):  # all NaN (or infinite values, which must not be rounded)
         return "float32" if np.isnan(high) and np.isnan(low) else "float64"
     return "float32" if max(abs(high), abs(low)) < FLOAT32_EXACT_LIMIT else "float64"
+
+
+def storage_dtype_for_range(low: float, high: float) -> str:
+    """:func:`storage_dtype` from the range the values can take (a DEM's bounds and heights), before computing.
+
+    >>> storage_dtype_for_range(-500.0, 5100000.0), storage_dtype_for_range(0.0, 9000.0)
+    ('float64', 'float32')
+    """
+    return "float32" if max(abs(low), abs(high)) < FLOAT32_EXACT_LIMIT else "float64"
 
 
 def read_xyz_raster(path) -> Tuple[np.ndarray, str, Optional[np.ndarray], dict]:

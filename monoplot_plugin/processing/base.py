@@ -78,6 +78,7 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         """Run :meth:`run_algorithm`; a cancel (the button, SIGINT, SIGTERM) becomes a clean "Canceled" error with
         every earlier output untouched, write and input errors become their readable message, and the cached XYZ
         raster (large) is released when the algorithm ends."""
+        from ..core.xyz_strips import MemoryBudgetError
         from ..outputs.safe_write import OutputCanceled, OutputError
         from . import pipeline
         from .safe_sink import check_file_destinations, guarded_run
@@ -88,7 +89,7 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
                 return self.run_algorithm(parameters, context, feedback)
         except (Canceled, OutputCanceled):
             raise QgsProcessingException(self.tr("Canceled; earlier outputs were left as they were.")) from None
-        except (OutputError, InputError) as exc:  # readable messages, not tracebacks
+        except (OutputError, InputError, MemoryBudgetError) as exc:  # readable messages, not tracebacks
             raise QgsProcessingException(str(exc)) from exc
         finally:
             pipeline.clear_cache()

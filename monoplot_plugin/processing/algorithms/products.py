@@ -23,6 +23,7 @@ from .. import geometry as geo
 from .. import pipeline
 from ..base import PHOTO_Y_SIGN, MonoplotAlgorithm, check_canceled, checked, progress_callback
 from ..inputs import read_photo
+from ...core.xyz_strips import plan_strips
 from ...workflow.inputs import check_not_empty, check_view
 from ..safe_sink import safe_sink
 
@@ -73,14 +74,47 @@ class ComputeXyz(_CameraDemAlgorithm):
     def run_algorithm(self, parameters, context, feedback):
         camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
         out = self.parameterAsOutputLayer(parameters, "OUTPUT", context)
+        rows = plan_strips(camera, fixed=3 * dem.elevation.nbytes)
+        if rows < camera.height:  # does not fit in the free memory at once: strip by strip into the file
+            return self.xyz_in_strips(parameters, context, feedback, camera, dem, crs, out, rows)
         xyz = pipeline.xyz_raster(camera, dem, progress_callback(feedback, 0, 80))
         check_canceled(feedback)
         ground = float(np.isfinite(xyz[..., 2]).mean())
-        self.check_not_empty(parameters, context, int(ground > 0), "XYZ raster", "no pixel of the photo sees the DEM (the camera looks at the sky, or past the DEM)")
+        self.check_not_empty(parameters, context, int(ground > 0), "XYZ raster", NO_GROUND)
         pipeline.write_xyz(out, xyz, crs.toWkt())
         feedback.pushInfo(self.tr("{0:.1f}% of the pixels hit the DEM; written to {1}").format(100 * ground, out))
         feedback.setProgress(100)
         return {"OUTPUT": out, "GROUND_FRACTION": ground}
+
+
+    def xyz_in_strips(self, parameters, context, feedback, camera, dem, crs, out, rows):
+        from ...core.xyz_strips import available_memory, xyz_memory, xyz_strips
+        from ...outputs.xyz_raster import storage_dtype_for_range, write_xyz_raster_strips
+
+        feedback.pushInfo(self.tr("The XYZ raster needs {0:.2f} GB at once, {1:.2f} GB can be used: computed in "
+                                  "strips of {2} rows").format(xyz_memory(camera) / 1e9, available_memory() / 1e9,
+                                                               rows))
+        counts = {"ground": 0}
+
+        def strips():
+            for row0, xyz, distance in xyz_strips(camera, dem, rows_per_strip=rows):
+                check_canceled(feedback)
+                counts["ground"] += int(np.isfinite(xyz[..., 2]).sum())
+                feedback.setProgress(95.0 * (row0 + xyz.shape[0]) / camera.height)
+                yield row0, xyz, distance
+            self.check_not_empty(parameters, context, counts["ground"], "XYZ raster", NO_GROUND)
+
+        xmin, ymin, xmax, ymax = dem.bounds()
+        z = dem.elevation[np.isfinite(dem.elevation)]
+        dtype = storage_dtype_for_range(min(xmin, ymin, float(z.min())), max(xmax, ymax, float(z.max())))
+        write_xyz_raster_strips(out, strips(), camera.width, camera.height, crs.toWkt(), dtype, overwrite=True)
+        ground = counts["ground"] / float(camera.width * camera.height)
+        feedback.pushInfo(self.tr("{0:.1f}% of the pixels hit the DEM; written to {1}").format(100 * ground, out))
+        feedback.setProgress(100)
+        return {"OUTPUT": out, "GROUND_FRACTION": ground}
+
+
+NO_GROUND = "no pixel of the photo sees the DEM (the camera looks at the sky, or past the DEM)"
 
 
 class PhotoToMap(_CameraDemAlgorithm):
@@ -211,8 +245,19 @@ class Orthophoto(_CameraDemAlgorithm):
                 photo.shape[1], photo.shape[0], camera.width, camera.height))
         resolution = self.parameterAsDouble(parameters, "RESOLUTION", context) or None
         out = self.parameterAsOutputLayer(parameters, "OUTPUT", context)
+        grid = pipeline.dem_at_resolution(dem, resolution) if resolution else dem
+        rows = plan_strips(camera, extra_per_row=3 * camera.width,
+                              fixed=grid.elevation.size * 40 + 3 * dem.elevation.nbytes, what="orthophoto")
+        if rows < camera.height:  # the XYZ raster does not fit at once: the photo is draped strip by strip
+            from ...outputs.orthophoto import orthophoto_from_camera
+
+            feedback.pushInfo(self.tr("Orthophoto computed in strips of {0} photo rows (memory)").format(rows))
+            orthophoto_from_camera(out, photo, camera, grid, None, overwrite=True, rows_per_strip=rows,
+                                   allow_empty=self.parameterAsBool(parameters, "ALLOW_EMPTY", context))
+            feedback.setProgress(100)
+            return {"OUTPUT": out}
         ground = int(np.isfinite(pipeline.xyz_raster(camera, dem)[..., 2]).any())
-        self.check_not_empty(parameters, context, ground, "orthophoto", "no pixel of the photo sees the DEM (the camera looks at the sky, or past the DEM)")
+        self.check_not_empty(parameters, context, ground, "orthophoto", NO_GROUND)
         pipeline.orthophoto(out, photo, camera, dem, crs.toWkt(), resolution, progress_callback(feedback, 0, 95))
         feedback.setProgress(100)
         return {"OUTPUT": out}
