@@ -319,3 +319,23 @@ def test_geographic_dem_with_a_lonlat_gcp_table_fits_in_utm(run_alg, small_scene
                                    "OUTPUT": str(tmp_path / "camera.json")}, feedback)
     assert "were converted from WGS 84" in feedback.textLog()
     assert np.isfinite(result["RMSE_PX"]) and result["RMSE_PX"] < 5.0
+
+
+def test_aletsch_zero_voids_are_voids_in_processing_too(run_alg, aletsch_dir, tmp_path):
+    """The Aletsch DEM declares no nodata and fills its voids with 0: computexyz (as the dock) treats them as voids,
+    says so, and no pixel lands at 0 m."""
+    from monoplot_plugin.processing.inputs import load_camera, photo_size
+
+    size = photo_size(str(aletsch_dir / "photo.jpg"))
+    dem = Dem.open(aletsch_dir / "dem.tif")
+    camera = load_camera(str(aletsch_dir / "prior_pose.kml"), size, dem.crs_wkt)
+    camera = camera.scaled(0.25) if hasattr(camera, "scaled") else camera
+    camera.save(tmp_path / "camera.json")
+    feedback = QgsProcessingFeedback()
+    out = tmp_path / "xyz.tif"
+    run_alg("computexyz", {"CAMERA": str(tmp_path / "camera.json"), "DEM": str(aletsch_dir / "dem.tif"),
+                           "OUTPUT": str(out)}, feedback)
+    assert "6891 cells at 0 m (zero-filled voids" in feedback.textLog()
+    ds = gdal.Open(str(out))  # kept: a band outliving its dataset crashes GDAL's Python bindings
+    z = ds.GetRasterBand(3).ReadAsArray()
+    assert np.isfinite(z).mean() > 0.2 and np.nanmin(z) > 500.0
