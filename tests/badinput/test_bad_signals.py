@@ -91,3 +91,15 @@ def test_helper_refuses_a_foreign_python_in_words(monkeypatch):
     monkeypatch.setattr(sys, "base_prefix", "/root/.pyenv/versions/3.11.7")
     assert "is not the system's, which QGIS embeds" in cli.foreign_python()
     assert cli.main(["list"]) == 2
+
+
+def test_qgis_process_exits_non_zero_with_the_reason(small_scene, read_only):
+    """A write error through the real qgis_process: a sentence, not a traceback, and exit code 1."""
+    with read_only(lambda folder: (folder / "xyz.tif").write_bytes(b"earlier output")) as folder:
+        command = [cli.qgis_process_binary(), "run", "monoplot:computexyz", "--", f"CAMERA={small_scene['camera']}",
+                   f"DEM={small_scene['dem']}", f"OUTPUT={folder / 'xyz.tif'}"]
+        proc = subprocess.run(command, env=cli.prepare_environment(), capture_output=True, text=True, timeout=240)
+        assert proc.returncode != 0
+        assert f"cannot write into {folder}" in proc.stdout + proc.stderr
+        assert "Traceback" not in proc.stdout + proc.stderr
+        assert (folder / "xyz.tif").read_bytes() == b"earlier output"
