@@ -39,7 +39,7 @@ from typing import Callable, Iterator, Optional, Sequence, Union
 
 __all__ = ["OutputError", "OutputExistsError", "OutputCanceled", "atomic_output", "check_can_write",
            "sidecar_suffixes", "describe_os_error", "incomplete_write", "cancel_before_commit", "write_text", "temporary_path",
-           "commit_temporary", "remove_temporary", "WriteInterrupted"]
+           "commit_temporary", "remove_temporary", "WriteInterrupted", "signal_handlers"]
 
 PathLike = Union[str, os.PathLike]
 
@@ -169,16 +169,15 @@ def _raise_interrupted(signum, frame):
 
 
 @contextmanager
-def _signals_clean_up() -> Iterator[None]:
-    """In the main thread, turn a SIGTERM (and a SIGINT whose handler is the default one) into an exception for the
-    duration of a write, so that the ``finally`` that removes the temporary files runs. Handlers installed by
-    someone else (QGIS, Processing's cancel) are left alone: they do not kill the process."""
+def signal_handlers(handler, signums=(signal.SIGINT, signal.SIGTERM), only_default: bool = False) -> Iterator[None]:
+    """Install ``handler`` for ``signums`` inside the block (main thread only; elsewhere nothing happens), and the
+    earlier handlers again after it. ``only_default``: leave a signal alone unless its handler is the default one."""
     installed = []
     if threading.current_thread() is threading.main_thread():
-        for signum in (signal.SIGTERM, signal.SIGINT):
+        for signum in signums:
             try:
-                if signal.getsignal(signum) == signal.SIG_DFL:  # SIGINT's default_int_handler raises already
-                    installed.append((signum, signal.signal(signum, _raise_interrupted)))
+                if not only_default or signal.getsignal(signum) == signal.SIG_DFL:
+                    installed.append((signum, signal.signal(signum, handler)))
             except (ValueError, OSError, TypeError):  # not the main interpreter, or no such signal
                 pass
     try:
@@ -189,6 +188,14 @@ def _signals_clean_up() -> Iterator[None]:
                 signal.signal(signum, previous if previous is not None else signal.SIG_DFL)
             except (ValueError, OSError, TypeError):
                 pass
+
+
+def _signals_clean_up():
+    """In the main thread, turn a SIGTERM (and a SIGINT whose handler is the default one; Python's own already
+    raises KeyboardInterrupt) into an exception for the duration of a write, so that the ``finally`` that removes
+    the temporary files runs. Handlers installed by someone else (QGIS, Processing's cancel) are left alone: they
+    do not kill the process."""
+    return signal_handlers(_raise_interrupted, only_default=True)
 
 
 def _remove_active_temps() -> None:

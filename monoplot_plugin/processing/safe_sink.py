@@ -163,26 +163,14 @@ def guarded_run(feedback):
             sink.discard()
 
 
-@contextmanager
 def signals_cancel(feedback):
     """While the block runs (main thread only), SIGINT and SIGTERM cancel ``feedback`` instead of killing the
     process: the algorithm stops at its next check and the earlier output stays as it was."""
-    installed = []
-    if feedback is not None and threading.current_thread() is threading.main_thread():
-        def handler(signum, frame):
+    from ..outputs.safe_write import signal_handlers
+
+    def handler(signum, frame):
+        if feedback is not None:
             feedback.reportError(f"signal {signal.Signals(signum).name} received: canceling", False)
             feedback.cancel()
 
-        for signum in (signal.SIGINT, signal.SIGTERM):
-            try:
-                installed.append((signum, signal.signal(signum, handler)))
-            except (ValueError, OSError, TypeError):
-                pass
-    try:
-        yield
-    finally:
-        for signum, previous in installed:
-            try:
-                signal.signal(signum, previous if previous is not None else signal.SIG_DFL)
-            except (ValueError, OSError, TypeError):
-                pass
+    return signal_handlers(handler, (signal.SIGINT, signal.SIGTERM) if feedback is not None else ())

@@ -39,13 +39,7 @@ def check_dem_file(path: str) -> str:
     """The CRS (WKT) of a DEM file, after the checks that need only its header (see :func:`load_dem`)."""
     from osgeo import gdal
 
-    name = os.path.basename(path or "")
-    if not path:
-        raise InputError("no DEM given")
-    if os.path.isdir(path):
-        raise InputError(f"the DEM {path} is a folder, not a raster file")
-    if not os.path.isfile(path):
-        raise InputError(f"DEM not found: {path}")
+    name = os.path.basename(_check_file(path, "DEM", "a raster file"))
     saved = gdal.GetUseExceptions()
     gdal.UseExceptions()
     try:
@@ -127,12 +121,17 @@ def _crs_name(wkt: str) -> str:
 # --- photo and camera -------------------------------------------------------------------------------------------
 def check_photo_path(path: str) -> str:
     """The photo path, checked: given, existing, a file (not a folder)."""
+    return _check_file(path, "photo", "an image file")
+
+
+def _check_file(path: str, what: str, kind: str) -> str:
+    """``path``, or InputError: nothing given, a folder, not there."""
     if not path:
-        raise InputError("no photo given")
+        raise InputError(f"no {what} given")
     if os.path.isdir(path):
-        raise InputError(f"the photo {path} is a folder, not an image file")
+        raise InputError(f"the {what} {path} is a folder, not {kind}")
     if not os.path.isfile(path):
-        raise InputError(f"photo not found: {path}")
+        raise InputError(f"{what} not found: {path}")
     return path
 
 
