@@ -828,12 +828,12 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
     elev = np.ascontiguousarray(work.elevation)
     rows, cols = elev.shape
     visible = np.zeros(full_shape, dtype=bool)
-    void = np.isnan(elev)
-    has_voids = bool(void.any()) and not void.all() and rows >= 2 and cols >= 2
-    if has_voids:
+    has_voids = elev.size > 0 and bool(np.isnan(np.min(elev)))  # one pass, no mask for a DEM without voids
+    void = np.isnan(elev) if has_voids else None
+    if has_voids and not void.all() and rows >= 2 and cols >= 2:
         elev, void = _filled_voids(elev, void)
         has_voids = bool(void.any())
-    if rows < 2 or cols < 2 or np.isnan(elev).all():
+    if rows < 2 or cols < 2 or (void is not None and np.isnan(elev).all()):
         return XyzResult(np.full((H, W, 3), np.nan), np.full((H, W), np.nan, dtype=np.float32),
                          np.full((H, W), -1, dtype=np.int32), visible, work, cam)
     if 2 * (rows - 1) * (cols - 1) >= 2 ** 31 - 1:
@@ -888,7 +888,7 @@ def segment_first_hit(dem: Dem, origins, targets, smax: float = 1.0, voids_stop:
         dem: the terrain.
         origins, targets: (N, 3) or (3,) map coordinates.
         smax: search ``s`` in (0, smax] (1 = up to the target).
-        voids_stop: a segment that meets a void (drawn at the height of its nearest valid cells) stops there with
+        voids_stop: a segment that meets an interior void (closed by a lid at its rim height) stops there with
             NaN, as a pixel of :func:`compute_xyz` does; default False: voids are holes it passes through.
     Returns:
         (N,) float64 parameter ``s`` of the first hit (point = origin + s (target - origin)); NaN where none.
