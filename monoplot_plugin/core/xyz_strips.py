@@ -35,9 +35,12 @@ from .xyz import compute_xyz, compute_xyz_full
 __all__ = ["MemoryBudgetError", "available_memory", "xyz_bytes_per_pixel", "xyz_memory", "plan_strips",
            "strip_camera", "xyz_strips", "MIN_STRIP_ROWS"]
 
-#: Bytes per photo pixel while the XYZ raster of a strip is computed and written: float64 X, Y, Z (24), the triangle
-#: ids (4), the distance (4) and one band converted for the writer (8).
+#: Bytes per photo pixel while the XYZ raster of a strip is computed and written: float64 X, Y, Z (24, which also
+#: hold up to three depth buffers), the triangle ids (4), the distance (4) and a margin (8); more threads than three
+#: add 8 bytes each (their depth buffers, see core.xyz._depth_buffers).
 XYZ_BYTES_PER_PIXEL = 40
+#: Bytes needed whatever the strips: GDAL's block cache while writing (capped by the writer) and the interpreter.
+FIXED_OVERHEAD = 384 << 20
 #: Thinner strips than this cost more in passes over the DEM than they save.
 MIN_STRIP_ROWS = 16
 #: Part of the free memory a product may take (the rest is for QGIS, the photo, the DEM and other programs).
@@ -49,7 +52,10 @@ class MemoryBudgetError(MemoryError):
 
 
 def xyz_bytes_per_pixel() -> int:
-    return XYZ_BYTES_PER_PIXEL
+    """:data:`XYZ_BYTES_PER_PIXEL` plus 8 bytes per z-buffer thread beyond three."""
+    from .xyz import _threads
+
+    return XYZ_BYTES_PER_PIXEL + 8 * max(0, _threads() - 3)
 
 
 def available_memory() -> int:
@@ -85,7 +91,7 @@ def available_memory() -> int:
 
 def xyz_memory(camera: Camera, rows: Optional[int] = None) -> int:
     """Bytes the XYZ raster of ``rows`` image rows (default: all) needs while it is computed and written."""
-    return int(camera.width) * int(camera.height if rows is None else rows) * XYZ_BYTES_PER_PIXEL
+    return int(camera.width) * int(camera.height if rows is None else rows) * xyz_bytes_per_pixel()
 
 
 def plan_strips(camera: Camera, budget: Optional[int] = None, extra_per_row: int = 0, fixed: int = 0,
@@ -98,8 +104,9 @@ def plan_strips(camera: Camera, budget: Optional[int] = None, extra_per_row: int
         MemoryBudgetError with the numbers when even :data:`MIN_STRIP_ROWS` rows do not fit.
     """
     budget = available_memory() if budget is None else int(budget)
-    per_row = camera.width * XYZ_BYTES_PER_PIXEL + int(extra_per_row)
-    room = budget - int(fixed)
+    per_row = camera.width * xyz_bytes_per_pixel() + int(extra_per_row)
+    fixed = int(fixed) + (FIXED_OVERHEAD if budget > 4 * FIXED_OVERHEAD else 0)
+    room = budget - fixed
     if room >= per_row * camera.height:
         return camera.height
     rows = room // per_row if per_row else camera.height

@@ -26,6 +26,7 @@ metadata: QGIS would apply an offset in float32 and lose the precision again.
 from __future__ import annotations
 
 import os
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterable, Optional, Tuple
 
@@ -111,7 +112,8 @@ def write_xyz_raster_strips(path, strips: Iterable, width: int, height: int, crs
                "BIGTIFF=IF_SAFER", "INTERLEAVE=BAND"]
     nbands = 4 if with_distance else 3
     target = Path(os.fspath(path))
-    with atomic_output(target, overwrite, verify=raster_verifier(width, height, nbands)) as tmp:
+    with atomic_output(target, overwrite, verify=raster_verifier(width, height, nbands)) as tmp, \
+            gdal_cache_at_most(GDAL_CACHE_BYTES):
         ds = None
         try:
             with gdal_errors_as_exceptions():
@@ -128,9 +130,12 @@ def write_xyz_raster_strips(path, strips: Iterable, width: int, height: int, crs
                 for row0, xyz, distance in strips:
                     values = [xyz[..., 0], xyz[..., 1], xyz[..., 2]] + ([distance] if with_distance else [])
                     for index, band_values in enumerate(values, start=1):
-                        ds.GetRasterBand(index).WriteArray(
-                            np.where(np.isfinite(band_values), band_values, np.nan).astype(dtype, copy=False),
-                            0, int(row0))
+                        band = ds.GetRasterBand(index)
+                        for r in range(0, band_values.shape[0], WRITE_ROWS):  # converted a slice at a time
+                            part = band_values[r:r + WRITE_ROWS]
+                            band.WriteArray(np.where(np.isfinite(part), part, np.nan).astype(dtype, copy=False),
+                                            0, int(row0) + r)
+                        band = None
                     written += xyz.shape[0]
                     del xyz, distance, values
                 if written != height:
@@ -142,6 +147,23 @@ def write_xyz_raster_strips(path, strips: Iterable, width: int, height: int, crs
         finally:
             ds = None  # closed before the temporary file is renamed or removed
     return target
+
+
+#: Rows of a band converted for GDAL at a time (the conversion copy stays small whatever the strip).
+WRITE_ROWS = 256
+#: GDAL's block cache while an XYZ raster is streamed (its default, 5 % of the RAM, would hold written tiles).
+GDAL_CACHE_BYTES = 256 << 20
+
+
+@contextmanager
+def gdal_cache_at_most(limit: int):
+    """Cap GDAL's block cache inside the block (restored after)."""
+    saved = gdal.GetCacheMax()
+    gdal.SetCacheMax(min(saved, int(limit)))
+    try:
+        yield
+    finally:
+        gdal.SetCacheMax(saved)
 
 
 #: Largest magnitude float32 stores to within 1 cm (its spacing there is 7.8 mm: rounding is at most 3.9 mm).
