@@ -3,6 +3,11 @@
 Tasks only ever get this in-memory copy, never the layer. ``Dem.open`` finds the voids (nodata, NaN, common
 sentinels, zero-filled voids of a DEM that declares no nodata value, as the Aletsch DEM) and warps a geographic DEM
 to UTM; this adapter turns what it did into notes for the user.
+
+>>> import numpy as np
+>>> z = np.array([[0.0, 2000.0], [2100.0, 2200.0]])   # a zero-filled void in high terrain (core's rule)
+>>> zero_voids(z), bool(np.isnan(z[0, 0]))
+(1, True)
 """
 
 from __future__ import annotations

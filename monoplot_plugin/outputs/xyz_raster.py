@@ -137,7 +137,8 @@ def write_xyz_raster_strips(path, strips: Iterable, width: int, height: int, crs
                                             0, int(row0) + r)
                         band = None
                     written += xyz.shape[0]
-                    del xyz, distance, values
+                    # every view of the strip goes now, before the next strip is computed (one strip in memory)
+                    del xyz, distance, values, band_values, part
                 if written != height:
                     raise OutputError(f"{target.name}: {written} of {height} rows were computed")
                 ds.FlushCache()
