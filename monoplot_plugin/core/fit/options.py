@@ -59,7 +59,7 @@ class FitOptions:
     consensus: bool = True
     consensus_hypotheses: int = 4000
     consensus_starts: int = 8
-    bootstrap: int = 30
+    bootstrap: int = 20
     position_sigma_m: Optional[float] = None
     angle_sigma_deg: Optional[float] = None
     fov_sigma_deg: Optional[float] = None

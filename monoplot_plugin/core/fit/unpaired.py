@@ -57,7 +57,12 @@ def _fit_unpaired(ctx) -> FitResult:
     u_descent = space.from_camera(descended.camera)
     candidates: List[Tuple[float, np.ndarray, str]] = [(_score(ctx, space, u_descent, radius), u_descent,
                                                         "descent")]
-    if opts.consensus and opts.refine:
+    # The consensus search is skipped when the descent already explains half of the smaller point set: a clearly
+    # different camera cannot then explain as many (it would need those points to fit two cameras).
+    uv_d, usable_d = ctx.project_usable(space, u_descent)
+    matched = len(consensus_score(ctx.q, uv_d, usable_d, radius)[1])
+    convincing = matched >= max(12, 0.5 * min(len(ctx.q), int(usable_d.sum())))
+    if opts.consensus and opts.refine and not convincing:
         ctx.report(0.9, "unpaired fit: consensus search")
         _, hyp_radius = _gates(ctx, sigmas)
         starts = []
