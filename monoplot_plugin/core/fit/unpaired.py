@@ -27,7 +27,7 @@ from .lsq import bootstrap_std, jacobian, parameter_std
 from .pairing import refine_by_pairs
 from .params import ParameterSpace
 from .result import FitResult, rms, rmse
-from .verdict import judge, photo_spread, weakest_parameter
+from .verdict import judge, photo_spread, weak_direction_matters, weakest_parameter
 
 __all__ = ["fit_unpaired", "AUTOMATIC_PAIRS_WIDENING"]
 
@@ -141,6 +141,8 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
     q_in, P_in = (ctx.q[pairs[:, 0]], ctx.P[pairs[:, 1]]) if len(pairs) else (np.zeros((0, 2)), np.zeros((0, 3)))
     cond, weakest = (weakest_parameter(jacobian(space, u, q_in, P_in), space.names, space.scales)
                      if 2 * len(pairs) > len(u) else (math.inf, ""))
+    if not weak_direction_matters(result.camera, weakest):
+        cond = 1.0
     # σ: the covariance of the final pairs, widened by a bootstrap over them when that is larger (a few wrong
     # automatic pairs widen the bootstrap, not the covariance).
     std = dict(result.std) if result.std else (parameter_std(ctx, space, u, q_in, P_in) if len(pairs) else {})

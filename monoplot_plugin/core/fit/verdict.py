@@ -24,7 +24,7 @@ from typing import Tuple
 
 import numpy as np
 
-__all__ = ["degenerate_points", "weakest_parameter", "judge", "photo_spread"]
+__all__ = ["degenerate_points", "weakest_parameter", "weak_direction_matters", "judge", "photo_spread"]
 
 
 def degenerate_points(q: np.ndarray, world: np.ndarray, needed: int) -> str:
@@ -69,6 +69,12 @@ def weakest_parameter(J: np.ndarray, names, scales) -> Tuple[float, str]:
     _, s, vt = np.linalg.svd(J / norms, full_matrices=False)
     cond = float(s[0] / s[-1]) if s[-1] > 0 else math.inf
     return cond, names[int(np.argmax(np.abs(vt[-1])))]
+
+
+def weak_direction_matters(camera, weakest: str) -> bool:
+    """False when the weakest direction is only the angles' own redundancy: looking nearly straight up or down,
+    heading and roll turn about the same axis, so the points cannot tell them apart but the camera is the same."""
+    return not (abs(camera.pitch) > 80.0 and weakest in ("heading", "roll"))
 
 
 def photo_spread(q: np.ndarray, image_size) -> float:
