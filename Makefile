@@ -73,6 +73,7 @@ bench: setup
 # Camera fit on the real Aletsch case (../shared/data/aletsch) and a synthetic scene: one JSON line per case.
 eval: setup
 	$(PY) -m eval.aletsch
+	$(PY) -m eval.synthetic_suite
 
 package: setup
 	$(PY) scripts/package.py --output dist
