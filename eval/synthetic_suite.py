@@ -3,14 +3,15 @@ line with the targets of issue 11 as pass flags.
 
 Scenes (all deterministic from ``--seed``; terrain from :func:`~monoplot_plugin.core.synthetic.synthetic_terrain`):
 
-- **unpaired** (``--scenes``, default 240): a hidden camera looks over generated terrain. Each scene draws, stratified
+- **unpaired** (``--scenes``, default 200): a hidden camera looks over generated terrain. Each scene draws, stratified
   (every bin gets the same number of scenes, in a shuffled order): nominal range 200 m-30 km (4 bins; the DEM spans
   3 x the range, 200-600 cells a side, cells about 1-150 m), horizontal fov 20-90 deg, image width 1000-6000 px
   (3:2, 4:3, 16:9, sometimes portrait), the number of true correspondences 6-500, the share of wrong accepted
   points (0, 10, 20, 30, 45, 60 %), the prior error bound (4 bins up to 300 m / 10 deg), pixel noise 0.05-3 px
-  (Gaussian sigma per coordinate) and the DEM resolution (600, 300 or 200 cells a side). True DEM points are
-  where rays through random pixels of the hidden camera first hit the terrain (visible, in the picture); their
-  photo points are the hidden camera's projection plus noise. Wrong points: on the photo side either "plausible"
+  (Gaussian sigma per coordinate) and the DEM resolution: the hidden camera sees a 600-cell "world", the user's
+  DEM has every 1st, 2nd or 3rd of its vertices (coarser DEMs miss fine relief). True points are where rays
+  through random pixels of the hidden camera first hit the world (visible, in the picture); their photo points are
+  the hidden camera's projection plus noise, their DEM points the same x, y at the DEM's height. Wrong points: on the photo side either "plausible"
   (a visible terrain pixel whose DEM point was not accepted) or anywhere in the picture; on the DEM side either
   plausible (visible terrain not accepted in the photo) or terrain hidden behind ridges or just outside the picture.
   The photo set and the DEM set have their own wrong shares (mean = the drawn share), hence different sizes; both
@@ -25,11 +26,13 @@ Scenes (all deterministic from ``--seed``; terrain from :func:`~monoplot_plugin.
 When ``fit_camera`` takes ``position_sigma_m``, ``angle_sigma_deg``, ``fov_sigma_deg`` (the prior's stated
 uncertainty), they are set to 1.5 x the scene's drawn error bounds (floors 1 m, 0.1 deg).
 
-**Success.** With ``T`` the hidden camera and ``P_i`` the n true DEM points of the scene, the error of a camera ``C`` is
-``e(C) = sqrt(mean_i |C.project(P_i) - T.project(P_i)|^2)`` in pixels (noiseless truth pixels; infinite when a
-point falls behind ``C``). The paired optimum ``e_opt = e(paired fit on the n true (noisy) correspondences, started
+**Success.** With ``T`` the hidden camera and ``W_i`` the n true world points of the scene (their DEM points are
+``W_i`` on the full-resolution DEM, ``W_i`` at the coarser DEM's height otherwise), the error of a camera ``C`` is
+``e(C) = sqrt(mean_i |C.project(W_i) - T.project(W_i)|^2)`` in pixels (noiseless truth pixels; infinite when a
+point falls behind ``C``): the camera's error where the true correspondences are, not the DEM's own error. The paired optimum ``e_opt = e(paired fit on the n true (noisy) correspondences, started
 from T)``. A fit succeeds when ``e(fit) <= max(2 px, 1.5 e_opt)``; a degenerate set succeeds only when refused.
-``grid_err_px`` (in the records, not judged) is the same error over a regular grid of visible terrain pixels.
+``grid_err_px`` (in the records, not judged) is ``|C.project(W) - T.project(W)|`` (RMS) over a regular grid of
+visible world points (the whole picture, not only where the points are).
 **Sigma coverage**: share of successes with sigmas whose true camera lies within 2 sigma of the fitted one for every
 parameter with a finite sigma (x, y, z in m; heading (wrapped), pitch, roll, fov in deg); a success without any
 sigma counts as not covered.
@@ -39,7 +42,7 @@ Output: one JSON line per stratum (n, success rate, the verdict's confusion matr
 the targets. Per-scene records (parameters, status, message, success, errors) go to
 ``test-artifacts/synthetic_suite.jsonl`` (``--records``).
 
-Run: ``.venv/bin/python -m eval.synthetic_suite [--scenes 240] [--seed 0] [--jobs 2] [--only wrong60,range3]
+Run: ``.venv/bin/python -m eval.synthetic_suite [--scenes 200] [--seed 0] [--jobs 2] [--only wrong60,range3]
 [--scene u17]``. ``--only`` keeps the scenes having all the given tags (``unpaired paired degenerate``, ``range0-3
 fov0-2 count0-3 wrong0 wrong10 ... wrong60 prior0-3 noise0-2 cell0-2``); ``--scene`` runs one scene by id (same
 ``--scenes`` and ``--seed``) and prints its record.
@@ -142,16 +145,31 @@ def base_terrain(key):
     return _TERRAIN[key]
 
 
-def scene_dem(spec, rng, nominal_range: float) -> Dem:
+def scene_dem(spec, rng, nominal_range: float):
+    """(world, dem): the 600-cell terrain the hidden camera sees, and the DEM the user has (every 1st, 2nd or 3rd
+    vertex of it, same grid alignment): a coarser DEM misses the world's fine relief."""
     b = spec["bins"]
     elevation, cell = base_terrain(_base_key(b["range"], int(rng.integers(TERRAIN_SEEDS))))
     lo, hi = RANGE_BINS[b["range"]]
     f = nominal_range / math.sqrt(lo * hi)
-    step = CELL_STEPS[b["cell"]]
-    z = elevation[::step, ::step] * np.float32(min(f, 3000.0 / max(float(elevation.max()), 1.0)))
-    c = cell * f * step
+    z = elevation * np.float32(min(f, 3000.0 / max(float(elevation.max()), 1.0)))
+    c = cell * f
     x0, y0 = DEFAULT_ORIGIN
-    return Dem.from_array(np.ascontiguousarray(z), (x0, c, 0.0, y0, 0.0, -c))
+    world = Dem.from_array(z, (x0, c, 0.0, y0, 0.0, -c))
+    step = CELL_STEPS[b["cell"]]
+    if step == 1:
+        return world, world
+    shift = (step - 1) * c / 2  # coarse vertex j on fine vertex j * step
+    return world, Dem.from_array(np.ascontiguousarray(z[::step, ::step]),
+                                 (x0 - shift, c * step, 0.0, y0 + shift, 0.0, -c * step))
+
+
+def on_dem(dem: Dem, xyz: np.ndarray, world: Dem) -> np.ndarray:
+    """World points as the user's DEM has them: its height at their x, y (the world's where it has none)."""
+    if dem is world or len(xyz) == 0:
+        return xyz
+    z = np.asarray(dem.sample(xyz[:, 0], xyz[:, 1]), dtype=np.float64)
+    return np.column_stack([xyz[:, :2], np.where(np.isfinite(z), z, xyz[:, 2])])
 
 
 def cast(dem: Dem, cam: Camera, uv: np.ndarray, far: float):
@@ -262,9 +280,9 @@ def build_scene(spec):
     b = spec["bins"]
     lo, hi = RANGE_BINS[b["range"]]
     nominal_range = math.exp(rng.uniform(math.log(lo), math.log(hi)))
-    dem = scene_dem(spec, rng, nominal_range)
-    far = 3 * (dem.bounds()[2] - dem.bounds()[0])
-    truth, grid_points, attempts = place_camera(spec, rng, dem, nominal_range)
+    world, dem = scene_dem(spec, rng, nominal_range)
+    far = 3 * (world.bounds()[2] - world.bounds()[0])
+    truth, grid_points, attempts = place_camera(spec, rng, world, nominal_range)
     clo, chi = COUNT_BINS[b["count"]]
     n_true = int(round(math.exp(rng.uniform(math.log(clo), math.log(chi + 0.999)) - 1e-9)))
     n_true = int(min(max(n_true, clo), chi))
@@ -275,14 +293,17 @@ def build_scene(spec):
     n_wd = int(round(n_true * w_dem / (1 - w_dem)))
     plausible = rng.uniform(0.3, 1.0) if w > 0 else 0.0
     n_pp, n_pd = int(round(plausible * n_wp)), int(round(plausible * n_wd))
-    pts = visible_points(dem, truth, rng, n_true + n_pp + n_pd, far)
+    pts = visible_points(world, truth, rng, n_true + n_pp + n_pd, far)
     true_xyz, pp_xyz, pd_xyz = pts[:n_true], pts[n_true:n_true + n_pp], pts[n_true + n_pp:]
     noise = rng.uniform(*NOISE_BINS[b["noise"]])
     uv_truth = truth.project(true_xyz)
     photo_true = uv_truth + rng.normal(0, noise, uv_truth.shape)
+    real_xyz, true_xyz = true_xyz, on_dem(dem, true_xyz, world)  # truth and the DEM's version of it
+    dem_z_error = float(np.median(np.abs(real_xyz[:, 2] - true_xyz[:, 2]))) if len(real_xyz) else 0.0
     photo_wrong = np.vstack([truth.project(pp_xyz) + rng.normal(0, noise, (len(pp_xyz), 2)),
                              rng.uniform([0, 0], truth.image_size, (n_wp - n_pp, 2))])
-    dem_wrong = np.vstack([pd_xyz, hidden_or_outside(dem, truth, rng, n_wd - n_pd, nominal_range)])
+    dem_wrong = on_dem(dem, np.vstack([pd_xyz, hidden_or_outside(world, truth, rng, n_wd - n_pd, nominal_range)]),
+                       world)
     prior, prior_err, sigmas = perturb_prior(truth, rng, b, nominal_range)
     pairs = None
     kind = spec.get("degenerate")
@@ -301,8 +322,8 @@ def build_scene(spec):
         photo_true = uv_truth + rng.normal(0, noise, uv_truth.shape)
     n = len(true_xyz)
     photo = np.vstack([photo_true, photo_wrong])
-    world = np.vstack([true_xyz, dem_wrong])
-    perm_p, perm_d = rng.permutation(len(photo)), rng.permutation(len(world))
+    dem_set = np.vstack([true_xyz, dem_wrong])
+    perm_p, perm_d = rng.permutation(len(photo)), rng.permutation(len(dem_set))
     inv_p, inv_d = np.argsort(perm_p), np.argsort(perm_d)
     truth_pairs = np.stack([inv_p[:n], inv_d[:n]], axis=1)
     if spec["kind"] != "unpaired":
@@ -310,12 +331,13 @@ def build_scene(spec):
     dist = np.linalg.norm(true_xyz - np.asarray(truth.position), axis=1)
     params = {"nominal_range_m": nominal_range, "median_range_m": float(np.median(dist)), "cell_m": dem.cell_size,
               "dem_shape": list(dem.shape), "fov": truth.fov, "image_size": list(truth.image_size),
-              "n_true": n, "n_photo": len(photo), "n_dem": len(world), "wrong_share": w,
-              "wrong_photo": (len(photo) - n) / len(photo), "wrong_dem": (len(world) - n) / len(world),
+              "n_true": n, "n_photo": len(photo), "n_dem": len(dem_set), "wrong_share": w,
+              "wrong_photo": (len(photo) - n) / len(photo), "wrong_dem": (len(dem_set) - n) / len(dem_set),
+              "dem_z_error_m": dem_z_error,
               "plausible_share": plausible, "noise_px": noise, **prior_err, "camera_attempts": attempts,
               "truth": truth.parameters(), "prior": prior.parameters()}
-    return {"photo": photo[perm_p], "world": world[perm_d], "prior": prior, "truth": truth, "pairs": pairs,
-            "truth_pairs": truth_pairs, "true_xyz": true_xyz, "uv_truth": uv_truth, "sigmas": sigmas,
+    return {"photo": photo[perm_p], "world": dem_set[perm_d], "prior": prior, "truth": truth, "pairs": pairs,
+            "truth_pairs": truth_pairs, "world_xyz": real_xyz, "uv_truth": uv_truth, "sigmas": sigmas,
             "grid_xyz": grid_points, "params": params}
 
 
@@ -363,12 +385,12 @@ def run_scene(spec) -> dict:
         rec.update(success=status == "refused", err_px=None, threshold_px=None, opt_px=None)
     else:
         opt = fit_camera(s["photo"], s["world"], s["truth"], pairs=s["truth_pairs"])
-        e_opt = reprojection_error(opt.camera, s["true_xyz"], s["uv_truth"])
-        e = reprojection_error(cam, s["true_xyz"], s["uv_truth"])
+        e_opt = reprojection_error(opt.camera, s["world_xyz"], s["uv_truth"])
+        e = reprojection_error(cam, s["world_xyz"], s["uv_truth"])
         threshold = max(2.0, 1.5 * e_opt)
         rec.update(success=bool(status not in ("refused", "canceled", "error") and e <= threshold),
                    err_px=round(e, 3) if np.isfinite(e) else None, threshold_px=round(threshold, 3),
-                   opt_px=round(e_opt, 3), prior_err_px=_round(reprojection_error(s["prior"], s["true_xyz"],
+                   opt_px=round(e_opt, 3), prior_err_px=_round(reprojection_error(s["prior"], s["world_xyz"],
                                                                                   s["uv_truth"])),
                    grid_err_px=_round(reprojection_error(cam, s["grid_xyz"], s["truth"].project(s["grid_xyz"]))))
     err = parameter_errors(cam, s["truth"])
@@ -493,7 +515,7 @@ def _progress(results, n, t0) -> list:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenes", type=int, default=240, help="unpaired scenes (paired: /10, degenerate: /15)")
+    parser.add_argument("--scenes", type=int, default=200, help="unpaired scenes (paired: /10, degenerate: /15)")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--only", default="", help="comma-separated tags, all required (e.g. wrong60,range3)")
