@@ -24,7 +24,8 @@ Scenes (all deterministic from ``--seed``; terrain from :func:`~monoplot_plugin.
   three points repeated to 9, 8-11 collinear points (a straight 3-D segment between two terrain points).
 
 When ``fit_camera`` takes ``position_sigma_m``, ``angle_sigma_deg``, ``fov_sigma_deg`` (the prior's stated
-uncertainty), they are set to 1.5 x the scene's drawn error bounds (floors 1 m, 0.1 deg).
+uncertainty; in its signature or as ``FitOptions`` fields), they are set to 1.5 x the scene's drawn error bounds
+(floors 1 m, 0.1 deg); the overall line lists them as ``prior_sigmas_passed``.
 
 **Success.** With ``T`` the hidden camera and ``W_i`` the n true world points of the scene (their DEM points are
 ``W_i`` on the full-resolution DEM, ``W_i`` at the coarser DEM's height otherwise), the error of a camera ``C`` is
@@ -351,8 +352,21 @@ def reprojection_error(cam: Camera, xyz: np.ndarray, uv_truth: np.ndarray) -> fl
     return float(np.sqrt(np.mean(np.sum((uv - uv_truth) ** 2, axis=1))))
 
 
+def accepted_options() -> set:
+    """Keyword names ``fit_camera`` takes: its signature's, plus the fields of ``FitOptions`` when it has one
+    (the rewritten fit takes them through ``**option_values``)."""
+    names = set(inspect.signature(fit_camera).parameters)
+    try:
+        from monoplot_plugin.core.fit import FitOptions
+
+        names |= set(FitOptions.names())
+    except ImportError:
+        pass
+    return names
+
+
 def _sigma_kwargs(sigmas):
-    names = inspect.signature(fit_camera).parameters
+    names = accepted_options()
     return {k: v for k, v in sigmas.items() if k in names}
 
 
@@ -488,7 +502,7 @@ def overall(records, runtime_s) -> dict:
         "degenerate_refused": target(rate(deg), 1.0)}
     line["all_pass"] = all(t["pass"] for t in line["targets"].values() if t["pass"] is not None)
     line["runtime_s"] = round(runtime_s, 1)
-    line["fit_signature_sigmas"] = [k for k in SIGMA_KW if k in inspect.signature(fit_camera).parameters]
+    line["prior_sigmas_passed"] = [k for k in SIGMA_KW if k in accepted_options()]
     return line
 
 
