@@ -84,8 +84,8 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         from .safe_sink import check_file_destinations, guarded_run
 
         try:
-            check_file_destinations(self, parameters, context)
             with guarded_run(feedback):
+                check_file_destinations(self, parameters, context)
                 return self.run_algorithm(parameters, context, feedback)
         except (Canceled, OutputCanceled):
             raise QgsProcessingException(self.tr("Canceled; earlier outputs were left as they were.")) from None

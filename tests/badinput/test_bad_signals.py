@@ -30,7 +30,9 @@ def _run_and_signal(command, env, folder: Path, signum: int):
     process = subprocess.Popen(command, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
                                cwd=REPO)
     deadline = time.time() + 240
-    while not leftovers(folder) and process.poll() is None and time.time() < deadline:
+    # the new output's temporary file, not the probe file of the folder check
+    while not any("monoplot-tmp" in n for n in leftovers(folder)) and process.poll() is None \
+            and time.time() < deadline:
         time.sleep(0.01)
     assert process.poll() is None, "the run ended before its output was written: " + process.communicate()[0]
     with open(f"/proc/{process.pid}/task/{process.pid}/children") as fh:  # at once (pgrep would take a while)
