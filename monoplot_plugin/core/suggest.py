@@ -518,8 +518,6 @@ def silhouette_peaks(res, half_width: int = 15, min_rise_px: float = 3.0, tolera
     Returns:
         (xyz (K, 3) map coordinates of the peak pixels' terrain, strength (K,) rise in pixels).
     """
-    import cv2
-
     hit = np.asarray(res.hit)
     dist = np.where(hit, res.distance, np.inf).astype(np.float64)
     above = np.vstack([np.full((1, dist.shape[1]), np.inf), dist[:-1]])
@@ -535,7 +533,6 @@ def silhouette_peaks(res, half_width: int = 15, min_rise_px: float = 3.0, tolera
     for i in range(len(rows)):
         r, c, di = rows[i], int(cols[i]), d[i]
         best_above = False
-        side_rows = []
         for cc in range(c - half_width, c + half_width + 1):
             for j in by_col.get(cc, ()):
                 if abs(d[j] - di) <= tolerance * di:

@@ -31,7 +31,8 @@ from qgis.PyQt.QtGui import QColor
 from .geometry import map_to_photo, photo_to_map_feature
 from .vectors import COMPUTED_FIELDS, MapFeature, write_vector_layer
 
-__all__ = ["drawn_entry_key", "photo_group", "add_xyz_layer", "add_orthophoto_layer", "add_vector_file_layer", "DigitisingSession",
+__all__ = ["drawn_entry_key", "photo_group", "add_xyz_layer", "add_orthophoto_layer", "add_vector_file_layer",
+           "DigitisingSession",
            "map_layer_on_photo", "KINDS"]
 
 KINDS = ("point", "line", "polygon")

@@ -16,7 +16,7 @@ from qgis.core import (
     QgsWkbTypes,
 )
 
-from ..core.transforms import ground_pieces
+from ..core.transforms import ground_pieces, true_runs
 from . import pipeline
 
 #: Relative range jump between consecutive line vertices that cuts the line (a silhouette).
@@ -98,7 +98,7 @@ def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float,
     out_parts, dropped = [], 0
     for rings in parts:
         out_rings = []
-        for ring_index, a in enumerate(rings):
+        for a in rings:
             uv = np.column_stack([a[:, 0], y_sign * a[:, 1]])
             xyz = pipeline.photo_to_map(camera, dem, uv)
             ok = np.isfinite(xyz).all(axis=1)
@@ -146,7 +146,7 @@ def map_to_photo_geometry(geometry: QgsGeometry, camera, dem, step: float, visib
             if kind == "polygon":
                 out_rings.append(photo[np.isfinite(uv).all(axis=1)])
             elif kind == "line" and visible is not None:
-                out_rings.extend(_split_runs(photo, ok))
+                out_rings.extend(photo[p:q] for p, q in true_runs(ok))
             else:
                 out_rings.append(photo[ok])
         if kind == "line":

@@ -51,7 +51,7 @@ def test_digitised_features_read_back_with_z_and_attributes(plane_scene, tmp_pat
     assert feature["area"] == pytest.approx(geom.GetArea(), rel=1e-6)
     assert feature["area"] > 1e5  # hundreds of metres across at km range
     assert feature["sky_parts"] == 0
-    ds = None
+    ds = None  # noqa: F841 (closes the GDAL dataset)
 
 
 def test_lines_follow_terrain_and_sky_parts_are_split_off(plane_scene, tmp_path):

@@ -132,7 +132,7 @@ class FitCamera(MonoplotAlgorithm):
                                    on_ground=self.parameterAsBool(parameters, "ON_GROUND", context),
                                    eye_height=self.parameterAsDouble(parameters, "EYE_HEIGHT", context))
         except pipeline.FitCanceledError:
-            raise QgsProcessingException(self.tr("Fit canceled; no camera written."))
+            raise QgsProcessingException(self.tr("Fit canceled; no camera written.")) from None
         if info["status"] != "ok":
             feedback.reportError(self.tr("Fit {0}: {1}").format(info['status'], info['message']), False)
         else:
