@@ -7,10 +7,11 @@ because the repository root is a package, which also confuses numba's on-disk ca
 
 import doctest
 import importlib
+from pathlib import Path
 
 import pytest
 
-from conftest import REPO_ROOT
+REPO_ROOT = Path(__file__).resolve().parent.parent
 
 PACKAGE = REPO_ROOT / "monoplot_plugin"
 MODULES = sorted(".".join(p.relative_to(REPO_ROOT).with_suffix("").parts).removesuffix(".__init__")
