@@ -1,7 +1,7 @@
 """Digitising on the photo canvas: capture (point, line, polygon) and edit/delete map tools.
 
 The photo canvas is a QgsMapCanvas in pixel space (x = u, y = -v; see :mod:`monoplot_plugin.gui.photo_canvas`).
-The tools write into a :class:`~.qgis_layers.DigitisingSession`, whose live map layers follow every change.
+The tools write into a :class:`~.digitising.DigitisingSession`, whose live map layers follow every change.
 
 Capture, QGIS-like: left click adds a vertex (a point is done at once), right click finishes a line (2+ vertices) or
 polygon (3+ vertices), Backspace removes the last vertex, Esc cancels. Vertices snap to the vertices of everything

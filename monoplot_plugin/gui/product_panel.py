@@ -1,4 +1,4 @@
-"""The outputs in the Monoplot dock: digitising tools on the photo canvas and the export buttons.
+"""The product panel of the Monoplot dock: digitising tools on the photo canvas and the export buttons.
 
 The dock calls :func:`install_output_tools` once (end of its ``__init__``) and :meth:`OutputTools.unload` in its
 ``unload``; everything else lives here, plugged into the dock's extension points ``add_photo_tool`` and
@@ -19,9 +19,9 @@ from qgis.PyQt.QtCore import QObject, pyqtSignal
 from qgis.PyQt.QtWidgets import QAction, QFileDialog
 
 from .digitise_tools import PhotoCaptureTool, PhotoEditTool
-from .qgis_layers import (DigitisingSession, KINDS, add_orthophoto_layer, add_xyz_layer, drawn_entry_key,
-                          map_layer_on_photo, photo_group)
-from .safe_write import OutputError
+from ..outputs.safe_write import OutputError
+from .digitising import KINDS, DigitisingSession, drawn_entry_key
+from .map_layers import add_orthophoto_layer, add_xyz_layer, map_layer_on_photo, photo_group
 
 __all__ = ["install_output_tools", "OutputTools", "LAST_FOLDER_KEY"]
 
@@ -218,7 +218,7 @@ class OutputTools(QObject):
 
     # --- exports (paths given) --------------------------------------------------------------------------------
     def export_xyz(self, path, overwrite: bool = False, distance: bool = True):
-        from .xyz_raster import write_xyz_raster
+        from ..outputs.xyz_raster import write_xyz_raster
 
         camera, dem, xyz, dist, _ = self.products()
         written = write_xyz_raster(path, xyz, dem.crs_wkt, dist if distance else None, overwrite=overwrite,
@@ -227,7 +227,7 @@ class OutputTools(QObject):
 
     def export_orthophoto(self, path, overwrite: bool = False):
         from ..adapters.photo import qimage_to_array
-        from .orthophoto import orthophoto_from_camera
+        from ..outputs.orthophoto import orthophoto_from_camera
 
         camera, dem, xyz, _, _ = self.products()
         photo = qimage_to_array(self.controller.image)
@@ -236,7 +236,7 @@ class OutputTools(QObject):
 
     def export_report(self, path, overwrite: bool = False):
         from ..adapters.photo import qimage_to_array
-        from .report import write_report
+        from ..outputs.report import write_report
 
         camera, dem, xyz, _, visible = self.products()
         points, sigmas = self._report_inputs()
@@ -319,7 +319,7 @@ class OutputTools(QObject):
         the layer is added and the user told on the main thread when it is done. Returns the task (None when
         the inputs are missing: the reason is shown)."""
         from ..adapters.photo import qimage_to_array
-        from ..gui.tasks import FunctionTask, start_task
+        from .tasks import FunctionTask, start_task
 
         reason = self.ready()
         if reason is not None:
@@ -344,16 +344,16 @@ class OutputTools(QObject):
             if is_canceled():
                 return None
             if what == "xyz":
-                from .xyz_raster import write_xyz_raster
+                from ..outputs.xyz_raster import write_xyz_raster
 
                 written = write_xyz_raster(path, xyz, dem.crs_wkt, distance, overwrite=overwrite, camera=camera,
                                            photo_name=name)
             elif what == "ortho":
-                from .orthophoto import orthophoto_from_camera
+                from ..outputs.orthophoto import orthophoto_from_camera
 
                 written = orthophoto_from_camera(path, photo, camera, dem, xyz, overwrite=overwrite)
             else:
-                from .report import write_report
+                from ..outputs.report import write_report
 
                 written = write_report(path, photo, camera, dem, points=points, xyz=xyz, visible=visible,
                                        sigmas=sigmas, title=Path(name).stem, overwrite=overwrite)
@@ -390,7 +390,7 @@ class OutputTools(QObject):
 
     def _report_inputs(self):
         """(ReportPoints of the user's pairs or None, the fit's sigmas or None), read on the main thread."""
-        from .report import ReportPoints
+        from ..outputs.report import ReportPoints
 
         points = None
         info = self.controller.state.fit_info or {}

@@ -1,7 +1,7 @@
 """Monoplot's products: XYZ raster, photo features as 3-D map layers, map layers on the photo, orthophoto, report.
 
 The writers here use GDAL/OGR (and matplotlib for the report) and never import qgis, so Processing algorithms and
-plain scripts call them directly. :mod:`.qgis_layers` adds the written files to a QGIS project.
+plain scripts call them directly. The dock adds the written files to the project (:mod:`..gui.map_layers`).
 
 Every writer takes ``overwrite=False``: an existing output is never replaced unless asked, and writes go through a
 temporary file renamed into place (:mod:`.safe_write`).

@@ -207,7 +207,7 @@ def test_save_dialogs_open_in_the_folder_of_the_last_product(dock_with_fit, tmp_
     opens there instead of sending the user back to the photo's folder every time."""
     from qgis.core import QgsSettings
 
-    from monoplot_plugin.outputs.dock_actions import LAST_FOLDER_KEY
+    from monoplot_plugin.gui.product_panel import LAST_FOLDER_KEY
 
     dock, tools = dock_with_fit
     QgsSettings().remove(LAST_FOLDER_KEY)
