@@ -133,10 +133,7 @@ def map_to_photo_geometry(geometry: QgsGeometry, camera, dem, step: float, visib
     for rings in parts:
         out_rings = []
         for a in rings:
-            xyz = a.copy()
-            missing = ~np.isfinite(xyz[:, 2])
-            if missing.any():
-                xyz[missing, 2] = pipeline.sample_dem(dem, xyz[missing, :2])
+            xyz = pipeline.fill_missing_z(a, dem)
             uv = camera.project(xyz)
             ok = np.isfinite(uv).all(axis=1)
             if visible is not None:

@@ -231,7 +231,7 @@ def test_kml_camera_without_photo_says_what_is_missing(run_alg, small_scene, tmp
 def test_cancel_during_feature_loop_is_a_clean_error_and_frees_the_cache(run_alg, small_scene):
     from qgis.core import QgsProcessingFeedback
 
-    from monoplot_plugin.processing import pipeline
+    from monoplot_plugin.workflow import xyz
 
     feedback = QgsProcessingFeedback()
     feedback.cancel()
@@ -239,7 +239,7 @@ def test_cancel_during_feature_loop_is_a_clean_error_and_frees_the_cache(run_alg
     with pytest.raises(QgsProcessingException, match="Canceled"):
         run_alg("phototomap", {"INPUT": drawn, "CAMERA": small_scene["camera"], "DEM": small_scene["dem"],
                                "OUTPUT": "memory:"}, feedback)
-    assert not pipeline._XYZ_CACHE
+    assert not xyz._cache
 
 
 def test_photo_line_across_a_silhouette_is_cut_there(run_alg, small_scene):
