@@ -498,13 +498,7 @@ def _bilinear(grid: np.ndarray, fr: np.ndarray, fc: np.ndarray) -> np.ndarray:
 def _scaled_camera(camera, max_width: int):
     """``camera`` with its image reduced to ``max_width`` columns (same view), and the scale factor."""
     scale = min(1.0, float(max_width) / camera.width)
-    if scale >= 1.0:
-        return camera, 1.0
-    from dataclasses import replace
-
-    size = (max(2, int(round(camera.width * scale))), max(2, int(round(camera.height * scale))))
-    principal = None if camera.principal_point is None else (camera.cx * scale, camera.cy * scale)
-    return replace(camera, image_size=size, principal_point=principal), scale
+    return camera.scaled(scale), scale
 
 
 def silhouette_peaks(res, half_width: int = 15, min_rise_px: float = 3.0, tolerance: float = 0.25):
