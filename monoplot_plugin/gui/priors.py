@@ -11,7 +11,7 @@ from typing import Optional
 from qgis.core import Qgis
 
 from ..adapters.exif import read_exif_prior
-from ..core.camera import Camera
+from ..core.camera import Camera, lonlat_to_crs
 from . import engine
 
 __all__ = ["PriorsMixin"]
@@ -71,7 +71,7 @@ class PriorsMixin:
             if not quiet:
                 self.message.emit(self.tr("The photo has no GPS position in its EXIF tags."), WARNING)
             return False
-        x, y, convergence = engine.lonlat_to_crs(exif.lon, exif.lat, self.dem.crs_wkt)
+        x, y, convergence = lonlat_to_crs(exif.lon, exif.lat, self.dem.crs_wkt)
         ground = float(self.dem.sample(x, y))
         if not math.isfinite(ground):
             self.message.emit(self.tr("The photo's GPS position lies outside the DEM."), WARNING)
