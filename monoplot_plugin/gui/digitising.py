@@ -22,7 +22,7 @@ from qgis.PyQt.QtCore import QObject, Qt, QVariant, pyqtSignal
 from qgis.PyQt.QtGui import QColor
 
 from ..adapters.layers import crs_from_wkt as _crs
-from ..outputs.geometry import photo_to_map_feature
+from ..workflow.features import photo_to_map_feature
 from ..outputs.vectors import COMPUTED_FIELDS, MapFeature, write_vector_layer
 from .map_layers import add_layer, add_vector_file_layer, photo_group
 

@@ -19,7 +19,7 @@ from qgis.PyQt.QtCore import Qt, QVariant
 from qgis.PyQt.QtGui import QColor
 
 from ..adapters.layers import crs_from_wkt as _crs
-from ..outputs.geometry import map_to_photo
+from ..workflow.features import map_to_photo
 
 __all__ = ["photo_group", "add_layer", "add_xyz_layer", "add_orthophoto_layer", "add_vector_file_layer",
            "map_layer_on_photo"]

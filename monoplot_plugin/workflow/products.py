@@ -1,5 +1,5 @@
 """The products of a fitted camera, each written once for the dock and Processing: the XYZ raster, the
-orthophoto and the report (vectors: :mod:`..outputs.geometry` and :mod:`..outputs.vectors`).
+orthophoto and the report (vectors: :mod:`.features`, :mod:`.vectors` and :mod:`..outputs.vectors`).
 
 Every product reads the per-pixel XYZ from :mod:`.xyz` (one cache), writes through the writers of
 :mod:`..outputs` (temporary file renamed into place, ``overwrite`` as asked) and returns the written path.

@@ -9,6 +9,7 @@ from typing import Callable
 import numpy as np
 
 from ..core.camera import Camera
+from ..core.lookup import visibility_of_points
 from ..core.transforms import photo_points_to_map
 from .xyz import xyz_raster
 
@@ -46,9 +47,7 @@ def photo_to_map(camera: Camera, dem, uv: np.ndarray) -> np.ndarray:
 
 def visibility(camera: Camera, dem) -> Callable[[np.ndarray], np.ndarray]:
     """A function ``(N, 3) map points -> (N,) bool``: in the image and not hidden by terrain (depth test against
-    the XYZ raster, outputs' :func:`visibility_of_points`)."""
-    from ..outputs.geometry import visibility_of_points
-
+    the XYZ raster, core's :func:`visibility_of_points`)."""
     xyz = xyz_raster(camera, dem)
 
     def visible(points: np.ndarray) -> np.ndarray:
