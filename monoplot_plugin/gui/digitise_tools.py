@@ -20,6 +20,8 @@ from qgis.gui import QgsMapCanvas, QgsMapMouseEvent, QgsMapTool, QgsRubberBand, 
 from qgis.PyQt.QtCore import Qt, pyqtSignal
 from qgis.PyQt.QtGui import QColor
 
+from ..adapters.photo_space import pixel_of
+
 __all__ = ["PhotoCaptureTool", "PhotoEditTool", "SNAP_PIXELS"]
 
 #: Snapping and picking tolerance in screen pixels.
@@ -142,7 +144,7 @@ class PhotoCaptureTool(QgsMapTool):
         if session is None:
             self.message.emit(self.tr("Fit the camera first: features drawn on the photo need it to reach the map."))
             return None
-        uv = np.array([(p.x(), -p.y()) for p in vertices])
+        uv = np.array([pixel_of(p) for p in vertices])
         fid = session.add_feature(self.kind, uv)
         self.captured.emit(self.kind, fid)
         return fid
@@ -217,7 +219,7 @@ class PhotoEditTool(QgsMapTool):
             self.dragging = None
             self.marker.setVisible(False)
             p = event.mapPoint()
-            session.move_vertex(kind, fid, index, p.x(), -p.y())
+            session.move_vertex(kind, fid, index, *pixel_of(p))
             self.edited.emit(kind, fid)
 
     def delete_at(self, point: QgsPointXY) -> bool:

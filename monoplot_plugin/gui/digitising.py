@@ -15,18 +15,18 @@ from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
-from qgis.core import (QgsCoordinateReferenceSystem, QgsFeature, QgsField, QgsGeometry, QgsLineString,
-                       QgsMultiLineString, QgsMultiPolygon, QgsPoint, QgsPointXY, QgsPolygon, QgsProject, QgsSymbol,
-                       QgsVectorLayer, QgsWkbTypes)
+from qgis.core import (QgsCoordinateReferenceSystem, QgsFeature, QgsField, QgsGeometry, QgsProject, QgsSymbol,
+                       QgsVectorLayer)
 from qgis.PyQt.QtCore import QObject, Qt, QVariant, pyqtSignal
 from qgis.PyQt.QtGui import QColor
 
 from ..adapters.layers import crs_from_wkt as _crs
+from ..adapters.photo_space import photo_geometry, photo_point, photo_vertices, qgs_geometry
 from ..workflow.features import photo_to_map_feature
 from ..outputs.vectors import COMPUTED_FIELDS, MapFeature, write_vector_layer
 from .map_layers import add_layer, add_vector_file_layer, photo_group
 
-__all__ = ["DigitisingSession", "drawn_entry_key", "photo_geometry", "photo_vertices", "qgs_geometry", "KINDS"]
+__all__ = ["DigitisingSession", "drawn_entry_key", "KINDS"]
 
 KINDS = ("point", "line", "polygon")
 _PHOTO_TYPES = {"point": "Point", "line": "LineString", "polygon": "Polygon"}
@@ -218,7 +218,8 @@ class DigitisingSession(QObject):
     def move_vertex(self, kind: str, fid: int, index: int, u: float, v: float) -> None:
         layer = self.photo_layer(kind)
         geom = QgsGeometry(layer.getFeature(fid).geometry())
-        geom.moveVertex(float(u), -float(v), index)
+        point = photo_point(u, v)
+        geom.moveVertex(point.x(), point.y(), index)
         layer.dataProvider().changeGeometryValues({fid: geom})
         layer.triggerRepaint()
         self.sync(kind)
@@ -308,44 +309,6 @@ class DigitisingSession(QObject):
         if add_to_project:
             add_vector_file_layer(written, self.project, self.group)
         return written
-
-
-def photo_geometry(kind: str, vertices_uv) -> QgsGeometry:
-    """Pixel vertices (u, v) -> photo-canvas geometry (x = u, y = -v)."""
-    pts = [QgsPointXY(float(u), -float(v)) for u, v in np.asarray(vertices_uv, dtype=float).reshape(-1, 2)]
-    if kind == "point":
-        return QgsGeometry.fromPointXY(pts[0])
-    if kind == "line":
-        return QgsGeometry.fromPolylineXY(pts)
-    return QgsGeometry.fromPolygonXY([pts + [pts[0]]])
-
-
-def photo_vertices(geometry: QgsGeometry) -> np.ndarray:
-    """(N, 2) pixel vertices (u, v) of a photo-canvas geometry (polygon: exterior ring without the closing
-    vertex)."""
-    pts = [(p.x(), -p.y()) for p in geometry.vertices()]
-    if geometry.type() == QgsWkbTypes.GeometryType.PolygonGeometry and len(pts) > 1 and pts[0] == pts[-1]:
-        pts = pts[:-1]
-    return np.array(pts, dtype=float).reshape(-1, 2)
-
-
-def qgs_geometry(feature: MapFeature):
-    """A QGIS 3-D geometry (QgsPoint / QgsMultiLineString / QgsMultiPolygon with Z) for a MapFeature."""
-    if feature.kind == "point":
-        x, y, z = feature.parts[0][0]
-        return QgsPoint(float(x), float(y), float(z))
-    multi = QgsMultiLineString() if feature.kind == "line" else QgsMultiPolygon()
-    for part in feature.parts:
-        if feature.kind == "polygon" and not np.array_equal(part[0], part[-1]):
-            part = np.vstack([part, part[:1]])
-        line = QgsLineString([QgsPoint(float(x), float(y), float(z)) for x, y, z in part])
-        if feature.kind == "line":
-            multi.addGeometry(line)
-        else:
-            polygon = QgsPolygon()
-            polygon.setExteriorRing(line)
-            multi.addGeometry(polygon)
-    return multi
 
 
 def drawn_entry_key(photo_name: str) -> str:

@@ -8,17 +8,17 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import List, Optional
+from typing import Optional
 
-import numpy as np
 from qgis.core import (QgsCategorizedSymbolRenderer, QgsColorRampShader, QgsCoordinateReferenceSystem,
-                       QgsCoordinateTransform, QgsFeature, QgsField, QgsGeometry, QgsLayerTreeGroup, QgsPointXY,
-                       QgsProject, QgsRasterBandStats, QgsRasterLayer, QgsRasterShader, QgsRendererCategory,
-                       QgsSingleBandPseudoColorRenderer, QgsStyle, QgsSymbol, QgsVectorLayer, QgsWkbTypes)
+                       QgsCoordinateTransform, QgsFeature, QgsField, QgsGeometry, QgsLayerTreeGroup, QgsProject,
+                       QgsRasterBandStats, QgsRasterLayer, QgsRasterShader, QgsRendererCategory,
+                       QgsSingleBandPseudoColorRenderer, QgsStyle, QgsSymbol, QgsVectorLayer)
 from qgis.PyQt.QtCore import Qt, QVariant
 from qgis.PyQt.QtGui import QColor
 
 from ..adapters.layers import crs_from_wkt as _crs
+from ..adapters.photo_space import outline_parts, photo_point
 from ..workflow.features import map_to_photo
 
 __all__ = ["photo_group", "add_layer", "add_xyz_layer", "add_orthophoto_layer", "add_vector_file_layer",
@@ -132,11 +132,11 @@ def map_layer_on_photo(layer: QgsVectorLayer, camera, dem,
             continue
         if layer.crs().isValid() and transform.isValid():
             geom.transform(transform)
-        for part in _outline_parts(geom, dem.cell_size):
+        for part in outline_parts(geom, dem.cell_size):
             for path in map_to_photo([part], camera, dem):
                 for uv, visible in path.pieces():
                     f = QgsFeature(out.fields())
-                    f.setGeometry(QgsGeometry.fromPolylineXY([QgsPointXY(u, -v) for u, v in uv]))
+                    f.setGeometry(QgsGeometry.fromPolylineXY([photo_point(u, v) for u, v in uv]))
                     f["source_fid"] = feature.id()
                     f["visible"] = int(visible)
                     new.append(f)
@@ -144,23 +144,6 @@ def map_layer_on_photo(layer: QgsVectorLayer, camera, dem,
     out.updateExtents()
     _style_visible_hidden(out)
     return out
-
-
-def _outline_parts(geom: QgsGeometry, cell: float) -> List[np.ndarray]:
-    """(N, 2) coordinate arrays of the lines / rings of a geometry; points as a tiny cross of one cell."""
-    parts = []
-    if geom.type() == QgsWkbTypes.GeometryType.PointGeometry:
-        for p in geom.vertices():
-            parts.append(np.array([[p.x() - cell, p.y()], [p.x() + cell, p.y()]]))
-            parts.append(np.array([[p.x(), p.y() - cell], [p.x(), p.y() + cell]]))
-        return parts
-    if geom.type() == QgsWkbTypes.GeometryType.PolygonGeometry:
-        for polygon in (geom.asMultiPolygon() if geom.isMultipart() else [geom.asPolygon()]):
-            parts.extend(np.array([(p.x(), p.y()) for p in ring]) for ring in polygon)
-        return parts
-    for line in (geom.asMultiPolyline() if geom.isMultipart() else [geom.asPolyline()]):
-        parts.append(np.array([(p.x(), p.y()) for p in line]))
-    return parts
 
 
 def _style_visible_hidden(layer: QgsVectorLayer) -> None:

@@ -3,7 +3,7 @@
 Photo-space layers: features drawn on (or suggested for) the photo are stored with pixel coordinates as geometry,
 ``x = u`` (column) and ``y = -v`` (minus the row), like QGIS's Georeferencer, so that a layer shows the right way
 up on a canvas with the image at x in [0, W], y in [-H, 0]. Point layers also carry fields ``u_px`` and ``v_px``,
-which win over the geometry when present. Photo-space layers have no CRS.
+which win over the geometry when present. Photo-space layers have no CRS (the convention: ..adapters.photo_space).
 """
 
 from __future__ import annotations
@@ -31,11 +31,10 @@ from qgis.core import (
 )
 from qgis.PyQt.QtCore import QCoreApplication, QVariant
 
+from ..adapters.photo_space import PHOTO_Y_SIGN  # noqa: F401 (algorithms import it from here)
 from ..workflow.progress import Canceled
 from .inputs import InputError, load_camera, photo_size
 
-#: Sign of the photo-space y axis (see the module docstring).
-PHOTO_Y_SIGN = -1.0
 
 IMAGE_FILTER = "Images (*.jpg *.jpeg *.png *.tif *.tiff *.bmp *.JPG *.JPEG *.PNG *.TIF *.TIFF)"
 CAMERA_FILTER = "Camera (*.json *.kml);;Monoplot camera (*.json);;KML PhotoOverlay (*.kml)"
