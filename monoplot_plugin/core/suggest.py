@@ -61,7 +61,12 @@ class PhotoSuggestions:
         return len(self.ids)
 
     def subset(self, keep) -> "PhotoSuggestions":
-        """The suggestions selected by a bool mask or an index array (ids unchanged)."""
+        """The suggestions selected by a bool mask or an index array (ids unchanged).
+
+        >>> s = PhotoSuggestions(np.zeros((2, 2)), np.array([0.9, 0.5]), ["p0000", "p0001"], np.array(["orb", "orb"]))
+        >>> s.subset([False, True]).ids, len(s.subset([1]))
+        (['p0001'], 1)
+        """
         idx = np.flatnonzero(keep) if np.asarray(keep).dtype == bool else np.asarray(keep, dtype=np.int64)
         return PhotoSuggestions(self.uv[idx], self.score[idx], [self.ids[i] for i in idx], self.source[idx])
 
