@@ -261,15 +261,3 @@ def view_wedge(camera: Camera, distance: float, steps: int = 24) -> List[Tuple[f
         pts.append((x0 + distance * math.sin(a), y0 + distance * math.cos(a)))
     pts.append((x0, y0))
     return pts
-
-
-def dem_corners(dem) -> Tuple[Tuple[float, float], Tuple[float, float]]:
-    """((xmin, ymin), (xmax, ymax)) of the DEM grid (corner to corner)."""
-    rows, cols = dem.elevation.shape
-    xs, ys = [], []
-    for c in (0, cols):
-        for r in (0, rows):
-            x, y = dem.cell_to_map(c, r)
-            xs.append(float(x))
-            ys.append(float(y))
-    return (min(xs), min(ys)), (max(xs), max(ys))

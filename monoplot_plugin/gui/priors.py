@@ -80,7 +80,7 @@ class PriorsMixin:
         if exif.heading is not None:
             heading, guessed = exif.heading - convergence, False
         else:
-            (x0, y0), (x1, y1) = engine.dem_corners(self.dem)
+            x0, y0, x1, y1 = self.dem.bounds()
             heading, guessed = math.degrees(math.atan2((x0 + x1) / 2 - x, (y0 + y1) / 2 - y)), True
         camera = Camera((x, y, max(z, ground + 1.0)), heading, 0.0, 0.0, exif.fov or 60.0, self.photo_size,
                         crs_wkt=self.dem.crs_wkt)
