@@ -30,17 +30,29 @@ from .lsq import least_squares
 from .params import ParameterSpace
 
 __all__ = ["focal_from_ray_angle", "rotation_from_two_rays", "consensus_score", "hypotheses", "local_optimise",
-           "chance_inliers", "inlier_radius"]
+           "chance_inliers", "inlier_radius", "shift_hypotheses", "kernel_align", "prior_penalty"]
 
 
-def inlier_radius(diag: float) -> float:
-    """Radius (pixels) within which a projected DEM point explains a photo point: 1 % of the image diagonal, at
-    least 3 px (the accuracy of a point clicked or detected on a photo scales with its size).
+def inlier_radius(diag: float, image_area: float = 0.0, n_photo: int = 0, n_dem: int = 0) -> float:
+    """Radius (pixels) within which a projected DEM point explains a photo point.
+
+    1 % of the image diagonal (a clicked or detected point is about that accurate), but smaller for dense point
+    sets: where ``n_photo`` photo points and ``n_dem`` DEM points in view fill ``image_area`` px^2 so densely
+    that a camera placed anywhere would pair about one of them by chance at that radius, the radius shrinks to
+    keep the expected coincidences near one (down to 0.3 % of the diagonal, at least 2 px).
 
     >>> inlier_radius(1000.0), inlier_radius(100.0)
     (10.0, 3.0)
+    >>> round(inlier_radius(2000.0, 600 * 800, 400, 100), 2)   # 400 x 100 points fill 600 x 800 px densely
+    6.0
+    >>> round(inlier_radius(2000.0, 1600 * 1200, 40, 10), 2)   # sparse: 1 % of the diagonal
+    20.0
     """
-    return max(3.0, 0.01 * float(diag))
+    radius = max(3.0, 0.01 * float(diag))
+    if image_area > 0 and n_photo > 0 and n_dem > 0:
+        one_coincidence = math.sqrt(image_area / (math.pi * n_photo * n_dem))
+        radius = min(radius, max(one_coincidence, 0.003 * float(diag), 2.0))
+    return radius
 
 
 def focal_from_ray_angle(p1: np.ndarray, p2: np.ndarray, cos_world: np.ndarray) -> np.ndarray:
@@ -140,6 +152,25 @@ def chance_inliers(ctx, space: ParameterSpace, u, radius: float, trials: int = 2
     return scores
 
 
+def prior_penalty(ctx, camera, sigmas: dict) -> float:
+    """Half the squared Mahalanobis distance of ``camera`` from the initial camera under the prior's σ (position,
+    heading, pitch, roll, field of view; fixed parameters do not count): the log-prior that a camera explaining
+    the same number of points must pay for being farther from what the user stated."""
+    cam0 = ctx.initial
+    m2 = 0.0
+    if {"x", "y", "z"} & set(ctx.free):
+        d = np.subtract(camera.position, cam0.position)
+        m2 += float(d @ d) / sigmas["position_m"] ** 2
+    for name, sigma in (("heading", sigmas["angle_deg"]), ("pitch", sigmas["angle_deg"]),
+                        ("roll", sigmas["angle_deg"]), ("fov", sigmas["fov_deg"])):
+        if name in ctx.free:
+            delta = getattr(camera, name) - getattr(cam0, name)
+            if name == "heading":
+                delta = (delta + 180.0) % 360.0 - 180.0
+            m2 += (delta / sigma) ** 2
+    return 0.5 * m2
+
+
 def _gates(ctx, sigmas: dict) -> Tuple[float, float]:
     """(candidate gate, hypothesis inlier radius) in pixels from the prior's σ."""
     cam = ctx.initial
@@ -188,7 +219,7 @@ def hypotheses(ctx, sigmas: dict, n_max: int) -> List[dict]:
         return []
     # Cost of one hypothesis is one projection of the scored DEM points: keep hypotheses x points bounded.
     score_idx = dem_idx if len(dem_idx) <= 600 else np.sort(rng.choice(dem_idx, 600, replace=False))
-    n_hyp = int(min(n_max, max(200, 1_500_000 // max(1, len(score_idx)))))
+    n_hyp = int(min(n_max, max(200, 600_000 // max(1, len(score_idx)))))
     draws = 4 * n_hyp
     p = weight / weight.sum()
     a = rng.choice(len(cand_i), draws, p=p)
@@ -266,6 +297,119 @@ def hypotheses(ctx, sigmas: dict, n_max: int) -> List[dict]:
         out.append({"heading": heading, "pitch": pitch, "roll": roll,
                     "fov": fov_from_focal(float(focal[idx]), cam.width), "score": float(scores[idx])})
     return out
+
+
+def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(3, 3) smallest rotation taking unit vector ``a`` onto unit vector ``b`` (Rodrigues)."""
+    v = np.cross(a, b)
+    c = float(a @ b)
+    vx = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+    return np.eye(3) + vx + vx @ vx / (1.0 + c)
+
+
+def shift_hypotheses(ctx, sigmas: dict, n_keep: int = 6) -> List[dict]:
+    """Hypotheses from a vote: every candidate correspondence votes for the image shift that would bring the
+    prior's projection of its DEM point onto its photo point; true correspondences agree on one shift (the prior's
+    rotation error), wrong ones spread over the gate. The strongest peaks become rotations of the prior camera.
+
+    Cheaper and far less sensitive to the share of wrong points than drawing pairs at random, because one true
+    correspondence is enough for a vote.
+    """
+    from scipy import ndimage
+    from scipy.spatial import cKDTree
+
+    cam = ctx.initial
+    if len(ctx.q) < 2 or len(ctx.P) < 2:
+        return []
+    gate, _ = _gates(ctx, sigmas)
+    uv0, depth0 = cam.project_with_depth(ctx.world)
+    front = np.isfinite(uv0).all(axis=1) & (depth0 > 1e-3 * ctx.typical_range)
+    dem_idx = np.flatnonzero(front & cam.in_image(np.nan_to_num(uv0, nan=-1e9), margin=gate))
+    if len(dem_idx) < 2:
+        return []
+    k = min(60, len(dem_idx))
+    dist, nn = cKDTree(uv0[dem_idx]).query(ctx.q, k=k, distance_upper_bound=gate)
+    dist, nn = np.atleast_2d(dist), np.atleast_2d(nn)
+    ok = np.isfinite(dist)
+    rows = np.repeat(np.arange(len(ctx.q)), k).reshape(len(ctx.q), k)[ok]
+    shifts = ctx.q[rows] - uv0[dem_idx[nn[ok]]]
+    if len(shifts) == 0:
+        return []
+    bin_px = max(2.0, 0.012 * ctx.diag)
+    n_bins = max(3, int(math.ceil(2 * gate / bin_px)))
+    votes, ex, ey = np.histogram2d(shifts[:, 0], shifts[:, 1], bins=n_bins, range=[[-gate, gate], [-gate, gate]])
+    smooth = ndimage.gaussian_filter(votes, 1.0)
+    peaks = (smooth == ndimage.maximum_filter(smooth, size=5)) & (smooth > 0)
+    order = np.argsort(-smooth[peaks])
+    ix, iy = np.nonzero(peaks)
+    f = cam.focal_px
+    R0 = cam.rotation
+    out = []
+    for n in order[:n_keep]:
+        dx = 0.5 * (ex[ix[n]] + ex[ix[n] + 1])
+        dy = 0.5 * (ey[iy[n]] + ey[iy[n] + 1])
+        # A point seen dx to the right of where the prior puts it: the camera turns so that (0, 0, 1) in the new
+        # frame is the old frame's ray through the centre minus the shift.
+        a = np.array([0.0, 0.0, 1.0])
+        b = np.array([-dx / f, -dy / f, 1.0])
+        R = _rotation_between(b / np.linalg.norm(b), a) @ R0
+        heading, pitch, roll = angles_from_rotation(R)
+        out.append({"heading": heading, "pitch": pitch, "roll": roll, "fov": cam.fov, "score": float(smooth[ix[n],
+                                                                                                        iy[n]])})
+    return out
+
+
+def kernel_align(ctx, space: ParameterSpace, u0, start_scale: float, final_scale: float, max_points: int = 400):
+    """Align by a soft mutual count, annealed: maximise ``sum_i max_j k_ij + sum_j max_i k_ij`` with
+    ``k_ij = exp(-|q_i - p_j|^2 / (2 s^2))`` over the free parameters (L-BFGS, torch), ``s`` halving from
+    ``start_scale`` to ``final_scale`` pixels.
+
+    A wrongly accepted point adds a term that is flat almost everywhere, so it neither pulls nor pushes: unlike a
+    mean distance, the maximum stays where the true correspondences coincide, however many wrong points there are.
+    At most ``max_points`` points of each set take part (evenly drawn), which bounds the time.
+    """
+    import torch
+
+    rng = np.random.default_rng(ctx.options.seed + 3)
+    q = ctx.q if len(ctx.q) <= max_points else ctx.q[rng.choice(len(ctx.q), max_points, replace=False)]
+    uv, usable = ctx.project_usable(space, u0)
+    idx = np.flatnonzero(usable)
+    if len(idx) < 2:
+        return np.asarray(u0, dtype=np.float64)
+    if len(idx) > max_points:
+        idx = rng.choice(idx, max_points, replace=False)
+    q_t = torch.as_tensor(q, dtype=torch.float64)
+    P_t = torch.as_tensor(ctx.P[idx], dtype=torch.float64)
+    u = torch.tensor(np.asarray(u0, dtype=np.float64), requires_grad=True)
+    scale = float(start_scale)
+    while True:
+        ctx.poll()
+        optimiser = torch.optim.LBFGS([u], lr=1.0, max_iter=20, history_size=10, line_search_fn="strong_wolfe",
+                                      tolerance_grad=1e-9, tolerance_change=1e-9)
+        before = u.detach().clone()
+
+        def closure(s=scale):
+            ctx.poll()
+            optimiser.zero_grad()
+            proj, depth = space.project(u, P_t)
+            front = (depth > 1e-3 * ctx.typical_range).to(torch.float64)
+            # Nearest only, both ways: a photo point (or a DEM point) counts once, so stacking many points of one
+            # set onto a cluster of the other gains nothing.
+            d2 = torch.cdist(q_t, proj).square() + (1.0 - front[None, :]) * 1e12
+            k = torch.exp(-d2 / (2.0 * s * s))
+            loss = -(k.max(dim=1).values.sum() + k.max(dim=0).values.sum()) / len(q)
+            loss.backward()
+            return loss
+
+        optimiser.step(closure)
+        if not torch.isfinite(u).all() or not space.valid(u.detach().numpy()):
+            with torch.no_grad():
+                u.copy_(before)
+            break
+        if scale <= final_scale:
+            break
+        scale = max(final_scale, 0.5 * scale)
+    return u.detach().numpy().copy()
 
 
 def local_optimise(ctx, space: ParameterSpace, u, start_gate: float, final_radius: float, rounds: int = 6):

@@ -6,7 +6,7 @@
 60.0
 >>> opts = FitOptions(angle_sigma_deg=2.0)
 >>> opts.prior_sigmas(fov=50.0, typical_range=4000.0)
-{'position_m': 100.0, 'angle_deg': 2.0, 'fov_deg': 5.0}
+{'position_m': 200.0, 'angle_deg': 2.0, 'fov_deg': 5.0}
 """
 
 from __future__ import annotations
@@ -22,7 +22,8 @@ class FitOptions:
     """Every tuning knob of :func:`~monoplot_plugin.core.fit.fit_camera` (its keyword arguments of the same names).
 
     The prior's uncertainty (what the user states about the rough camera; ``None`` = the default):
-        position_sigma_m: metres, one σ of the rough position (default 100 m).
+        position_sigma_m: metres, one σ of the rough position (default 100 m or 5 % of the distance to the
+            points, whichever is more).
         angle_sigma_deg: degrees, one σ of heading and pitch (default 5°; roll gets half of it).
         fov_sigma_deg: degrees, one σ of the horizontal field of view (default 10 % of it).
 
@@ -40,12 +41,13 @@ class FitOptions:
         consensus: also search camera hypotheses drawn from the prior's uncertainty (minimal two-point solves
             verified by their mutual-nearest inliers) and keep whichever camera the consensus score prefers.
         consensus_hypotheses: most minimal-set hypotheses scored by the consensus search.
+        consensus_starts: how many of the best hypotheses are aligned and optimised.
         bootstrap: resamplings of the inlier pairs for the σ of an unpaired fit (0 = Jacobian only).
         seed: random seed (results are deterministic for a given seed).
     """
 
-    n_starts: int = 12
-    n_escapes: int = 6
+    n_starts: int = 4
+    n_escapes: int = 2
     view_margin: float = 0.1
     gate_px: Optional[float] = None
     refine: bool = True
@@ -56,7 +58,8 @@ class FitOptions:
     switch_ratio: float = 0.8
     consensus: bool = True
     consensus_hypotheses: int = 4000
-    bootstrap: int = 30
+    consensus_starts: int = 8
+    bootstrap: int = 20
     position_sigma_m: Optional[float] = None
     angle_sigma_deg: Optional[float] = None
     fov_sigma_deg: Optional[float] = None
@@ -74,6 +77,7 @@ class FitOptions:
 
     def prior_sigmas(self, fov: float, typical_range: float) -> Dict[str, float]:
         """The prior's one-σ uncertainty with the defaults filled in (metres and degrees)."""
-        return {"position_m": float(100.0 if self.position_sigma_m is None else self.position_sigma_m),
+        position = max(100.0, 0.05 * typical_range) if self.position_sigma_m is None else self.position_sigma_m
+        return {"position_m": float(position),
                 "angle_deg": float(5.0 if self.angle_sigma_deg is None else self.angle_sigma_deg),
                 "fov_deg": float(0.1 * fov if self.fov_sigma_deg is None else self.fov_sigma_deg)}

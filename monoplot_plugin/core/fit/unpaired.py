@@ -19,7 +19,8 @@ from typing import List, Tuple
 
 import numpy as np
 
-from .consensus import _gates, chance_inliers, consensus_score, hypotheses, inlier_radius, local_optimise
+from .consensus import (_gates, chance_inliers, consensus_score, hypotheses, inlier_radius, kernel_align,
+                        local_optimise, prior_penalty, shift_hypotheses)
 from .descent import descend_from_prior
 from .losses import nearest_distances
 from .lsq import bootstrap_std, jacobian, parameter_std
@@ -48,28 +49,41 @@ def fit_unpaired(ctx) -> FitResult:
 def _fit_unpaired(ctx) -> FitResult:
     opts = ctx.options
     space = ctx.space(ctx.initial)
-    radius = inlier_radius(ctx.diag)
+    uv0, in_view = ctx.project_usable(space, space.zero())
+    w, h = ctx.initial.image_size
+    radius = inlier_radius(ctx.diag, w * h, len(ctx.q), int(in_view.sum()))
+    sigmas = opts.prior_sigmas(ctx.initial.fov, ctx.typical_range)
     descended = descend_from_prior(ctx)
     u_descent = space.from_camera(descended.camera)
     candidates: List[Tuple[float, np.ndarray, str]] = [(_score(ctx, space, u_descent, radius), u_descent,
                                                         "descent")]
-    if opts.consensus and opts.refine:
+    # The consensus search is skipped when the descent already explains half of the smaller point set: a clearly
+    # different camera cannot then explain as many (it would need those points to fit two cameras).
+    uv_d, usable_d = ctx.project_usable(space, u_descent)
+    matched = len(consensus_score(ctx.q, uv_d, usable_d, radius)[1])
+    convincing = matched >= max(12, 0.5 * min(len(ctx.q), int(usable_d.sum())))
+    if opts.consensus and opts.refine and not convincing:
         ctx.report(0.9, "unpaired fit: consensus search")
-        sigmas = opts.prior_sigmas(ctx.initial.fov, ctx.typical_range)
         _, hyp_radius = _gates(ctx, sigmas)
-        for h in hypotheses(ctx, sigmas, opts.consensus_hypotheses)[:6]:
+        starts = []
+        for h in shift_hypotheses(ctx, sigmas, 8) + hypotheses(ctx, sigmas, opts.consensus_hypotheses)[:6]:
             values = {k: h[k] for k in ("heading", "pitch", "roll", "fov") if k in ctx.free}
-            cam = ctx.restrict_to_free(ctx.initial.with_parameters(**values))
-            u0 = space.from_camera(cam)
-            if not space.valid(u0):
-                continue
-            u = local_optimise(ctx, space, u0, 2.0 * hyp_radius, radius)
+            u0 = space.from_camera(ctx.restrict_to_free(ctx.initial.with_parameters(**values)))
+            if space.valid(u0):
+                starts.append((_score(ctx, space, u0, hyp_radius), u0))
+        # Only the most promising starts are aligned (the alignment is what costs).
+        for _, u0 in sorted(starts, key=lambda t: -t[0])[:opts.consensus_starts]:
+            u = kernel_align(ctx, space, u0, hyp_radius, radius)
+            u = local_optimise(ctx, space, u, 3.0 * radius, radius)
             candidates.append((_score(ctx, space, u, radius), u, "consensus"))
             ctx.starts_tried += 1
+    # Judged by the consensus score less the prior's penalty: a camera far from the stated one must explain
+    # more points. The descent's camera is kept on a near tie: it is the paper's method, and its two-sided
+    # refinement centres clouds of nearby different features better than a count does.
+    candidates = [(s - prior_penalty(ctx, space.camera(u), sigmas) if np.isfinite(s) else s, u, o)
+                  for s, u, o in candidates]
     best_score = max(c[0] for c in candidates)
-    # The descent's camera is kept on a near tie: it is the paper's method, and its two-sided refinement centres
-    # clouds of nearby different features better than a count does.
-    if candidates[0][0] >= 0.97 * best_score:
+    if candidates[0][0] >= best_score - 0.03 * abs(best_score):
         chosen = candidates[0]
     else:
         chosen = max(candidates, key=lambda c: c[0])
@@ -88,7 +102,7 @@ def _fit_unpaired(ctx) -> FitResult:
                           "leave-one-out check.")
     result.n_starts = ctx.starts_tried
     result.loss_history = ctx.history
-    _judge_unpaired(ctx, space, result, candidates, radius, chosen[2])
+    _judge_unpaired(ctx, space, result, candidates, radius, chosen[2], sigmas)
     return result
 
 
@@ -99,7 +113,8 @@ def _score(ctx, space: ParameterSpace, u, radius: float) -> float:
     return consensus_score(ctx.q, uv, usable, radius)[0]
 
 
-def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, radius: float, origin: str) -> None:
+def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, radius: float, origin: str,
+                    sigmas: dict) -> None:
     """Fill ``result.evidence``, ``status``, ``message``, ``photo_outliers`` and the σ of an unpaired fit."""
     u = space.from_camera(result.camera)
     uv, usable = ctx.project_usable(space, u)
@@ -119,6 +134,7 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
             there = space.project(uc, P_in)[0]
             if np.median(np.linalg.norm(there - here, axis=1)) >= 3.0 * radius:
                 competitor = max(competitor, s)
+    own = score - prior_penalty(ctx, result.camera, sigmas)
     q_in, P_in = (ctx.q[pairs[:, 0]], ctx.P[pairs[:, 1]]) if len(pairs) else (np.zeros((0, 2)), np.zeros((0, 3)))
     cond, weakest = (weakest_parameter(jacobian(space, u, q_in, P_in), space.names, space.scales)
                      if 2 * len(pairs) > len(u) else (math.inf, ""))
@@ -133,7 +149,7 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
     evidence = {"mode": "unpaired", "n_free": len(ctx.free), "diag": ctx.diag, "n_photo": len(ctx.q),
                 "n_dem_in_view": int(usable.sum()), "radius_px": radius, "n_inliers": int(len(pairs)),
                 "score": score, "chance_max": float(chance.max()), "chance_mean": float(chance.mean()),
-                "competitor_ratio": competitor / score if score > 0 else 0.0,
+                "competitor_ratio": competitor / own if own > 0 else 0.0,
                 "spread": photo_spread(ctx.q[pairs[:, 0]], ctx.initial.image_size) if len(pairs) else 0.0,
                 "photo_outliers": int(outliers.sum()), "condition": cond, "weakest": weakest,
                 "rmse_px": rmse(space.project(u, P_in)[0] - q_in) if len(pairs) else math.nan,

@@ -128,10 +128,8 @@ def judge(e: dict) -> Tuple[str, str]:
         weak.append("leaving one pair out changes the prediction a lot: add points")
     if e.get("mode") == "unpaired":
         n_in = int(e.get("n_inliers", 0))
-        n_photo = max(1, int(e.get("n_photo", 1)))
         chance = float(e.get("chance_max", 0.0))
         score = float(e.get("score", 0.0))
-        outliers = int(e.get("photo_outliers", 0))
         needed = n_free // 2 + 2
         if n_in < needed:
             poor.append(f"only {n_in} photo points match a DEM point ({needed} at least are needed)")
@@ -147,12 +145,13 @@ def judge(e: dict) -> Tuple[str, str]:
                             "points or check points")
             if float(e.get("spread", 1.0)) < 0.05:
                 weak.append("the matched points cover a small part of the picture: add points elsewhere")
-            if n_in < 0.3 * n_photo and outliers:
-                weak.append(f"{outliers} of {n_photo} accepted photo points fit no terrain point (flagged as "
-                            f"outliers): reject them or check the camera")
         if not e.get("has_check", False) and not poor:
             text += " The residuals measure how well the automatic pairs agree: check points measure accuracy."
     note = (" " + e["note"]) if e.get("note") else ""
+    if e.get("mode") == "unpaired" and int(e.get("photo_outliers", 0)):
+        note = (f" {int(e['photo_outliers'])} of {int(e.get('n_photo', 0))} accepted photo points fit no terrain "
+                f"point under this camera (flagged as outliers): reject them if they are not on the DEM's "
+                f"terrain.") + note
     if poor:
         return "poor", text + " Probably wrong: " + "; ".join(poor) + "." + note
     if weak:
