@@ -46,8 +46,8 @@ class FitOptions:
         seed: random seed (results are deterministic for a given seed).
     """
 
-    n_starts: int = 4
-    n_escapes: int = 2
+    n_starts: int = 2
+    n_escapes: int = 1
     view_margin: float = 0.1
     gate_px: Optional[float] = None
     refine: bool = True
