@@ -16,7 +16,7 @@ import numpy as np
 from osgeo import gdal
 
 from ._gdal import gdal_errors_as_exceptions, gdal_failure, srs_from_user
-from .geometry import orthorectify
+from ..core.lookup import orthorectify
 from .safe_write import atomic_output
 
 __all__ = ["write_orthophoto", "orthophoto_from_camera"]
@@ -67,7 +67,7 @@ def write_orthophoto(path, image: np.ndarray, geotransform: Sequence[float], crs
 
 def orthophoto_from_camera(path, photo: np.ndarray, camera, dem, xyz: np.ndarray, *,
                            overwrite: bool = False) -> Path:
-    """Orthorectify ``photo`` onto ``dem`` (:func:`.geometry.orthorectify`) and write it.
+    """Orthorectify ``photo`` onto ``dem`` (:func:`monoplot_plugin.core.lookup.orthorectify`) and write it.
 
     Args:
         photo: (H, W) or (H, W, 3) uint8, the size of the camera's image.

@@ -82,7 +82,8 @@ def write_xyz_raster(path, xyz: np.ndarray, crs_wkt: str, distance: Optional[np.
         "MONOPLOT_FORMAT": XYZ_FORMAT,
         "MONOPLOT_VALUE_CRS": srs.ExportToWkt(),
         "MONOPLOT_VALUE_CRS_AUTHID": crs_authid(crs_wkt) or "",
-        "MONOPLOT_PIXEL_SPACE": "x = photo column u, y = -photo row v; pixel (row i, col j) centre at (j+0.5, -(i+0.5))",
+        "MONOPLOT_PIXEL_SPACE": ("x = photo column u, y = -photo row v; "
+                                 "pixel (row i, col j) centre at (j+0.5, -(i+0.5))"),
         "MONOPLOT_PHOTO": photo_name,
         "MONOPLOT_CAMERA": camera.to_json(indent=None) if camera is not None else "",
     }

@@ -14,6 +14,7 @@ from typing import Callable, List, Optional
 
 import numpy as np
 
+from ..workflow.progress import IsCanceled, Progress, never_canceled, no_progress
 from . import pipeline
 from .inputs import InputError, load_camera, read_photo, read_points_csv
 
@@ -97,13 +98,13 @@ def table_jobs(path: str) -> List[PhotoJob]:
 def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: bool = True,
               write_ortho: bool = True, resolution: Optional[float] = None,
               log: Callable[[str, bool], None] = lambda message, error: None,
-              progress: Callable[[float], bool] = lambda fraction: False) -> List[PhotoResult]:
+              progress: Progress = no_progress, is_canceled: IsCanceled = never_canceled) -> List[PhotoResult]:
     """Run every job; never raises for one photo's problem.
 
     Outputs per photo ``<stem>_camera.json`` (fitted jobs), ``<stem>_xyz.tif``, ``<stem>_ortho.tif``; jobs sharing
     one camera share one ``xyz.tif`` (the XYZ raster depends only on the camera and the DEM). ``log(message,
-    is_error)`` receives one line per photo; ``progress(fraction)`` returns True to cancel (the remaining photos are
-    reported as not processed).
+    is_error)`` receives one line per photo; ``progress(fraction, message)`` and ``is_canceled()`` follow the
+    workflow's protocol; on a cancel the remaining photos are reported as not processed.
     """
     os.makedirs(out_dir, exist_ok=True)
     stems = output_stems(jobs)
@@ -119,7 +120,8 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
     for index, job in enumerate(jobs):
         name = os.path.basename(job.photo) or job.label or f"job {index + 1}"
         stem = stems[index]
-        if progress(index / max(1, len(jobs))):
+        progress(index / max(1, len(jobs)), name)
+        if is_canceled():
             results.extend(PhotoResult(j.photo, False, "canceled before processing", canceled=True)
                            for j in jobs[index:])
             log(f"canceled: {len(jobs) - index} photos not processed", True)
@@ -143,15 +145,15 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
                 if job.camera is not None:
                     xyz_path = os.path.join(out_dir, "xyz.tif")
                     if camera.to_json() not in shared_xyz_written:
-                        pipeline.write_xyz(xyz_path, pipeline.xyz_raster(camera, dem), crs_wkt, camera)
+                        pipeline.write_xyz(xyz_path, camera, dem, crs_wkt)
                         shared_xyz_written.add(camera.to_json())
                 else:
                     xyz_path = os.path.join(out_dir, f"{stem}_xyz.tif")
-                    pipeline.write_xyz(xyz_path, pipeline.xyz_raster(camera, dem), crs_wkt, camera, name)
+                    pipeline.write_xyz(xyz_path, camera, dem, crs_wkt, name)
                 result.outputs.append(xyz_path)
             if write_ortho:
                 ortho_path = os.path.join(out_dir, f"{stem}_ortho.tif")
-                pipeline.orthophoto(ortho_path, photo, camera, dem, crs_wkt, resolution)
+                pipeline.orthophoto(ortho_path, photo, camera, dem, resolution)
                 result.outputs.append(ortho_path)
             result.ok = True
             result.message = "ok" if np.isnan(result.rmse_px) else f"ok, fit RMSE {result.rmse_px:.2f} px"
@@ -162,7 +164,7 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
             result.message = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
             log(f"[{index + 1}/{len(jobs)}] {name}: FAILED, skipped: {result.message}", True)
         results.append(result)
-    progress(1.0)
+    progress(1.0, "")
     return results
 
 
@@ -234,10 +236,7 @@ def _fit_job(job: PhotoJob, size, dem, crs_wkt: str):
         xyz, paired = table["xyz"], True
     else:
         raise InputError(f"{os.path.basename(job.points)}: no map columns (X, Y, Z) and no dem_points file")
-    xyz = xyz.copy()
-    missing = ~np.isfinite(xyz[:, 2])
-    if missing.any():
-        xyz[missing, 2] = pipeline.sample_dem(dem, xyz[missing, :2])
+    xyz = pipeline.fill_missing_z(xyz, dem)
     camera, info = pipeline.fit(size, uv, xyz, prior, dem, paired)
     camera.crs_wkt = crs_wkt
     return camera, float(info["rmse_px"])

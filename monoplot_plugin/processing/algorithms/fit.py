@@ -16,7 +16,8 @@ from qgis.core import (
 )
 
 from .. import pipeline
-from ..base import (MonoplotAlgorithm, checked, progress_callback, read_map_points,
+from ...workflow.progress import Canceled
+from ..base import (MonoplotAlgorithm, cancel_callback, checked, progress_callback, read_map_points,
                     read_photo_points)
 from ..inputs import InputError, read_points_csv
 
@@ -96,9 +97,7 @@ class FitCamera(MonoplotAlgorithm):
                 "PHOTO_CSV and DEM_CSV files, or one paired CSV (u_px, v_px, X, Y, Z)."))
         uv = np.concatenate(uv_parts)
         xyz = np.concatenate(xyz_parts)
-        missing_z = ~np.isfinite(xyz[:, 2])
-        if missing_z.any():
-            xyz[missing_z, 2] = pipeline.sample_dem(dem, xyz[missing_z, :2])
+        xyz = pipeline.fill_missing_z(xyz, dem)
         good_xyz = np.isfinite(xyz).all(axis=1)
         if paired:
             checked(pair_points, uv, xyz)
@@ -128,11 +127,11 @@ class FitCamera(MonoplotAlgorithm):
         photo_size = checked(pipeline_photo_size, photo)
         try:
             camera, info = checked(pipeline.fit, photo_size, uv, xyz, prior, dem, paired,
-                                   progress_callback(feedback, 0, 95),
+                                   progress_callback(feedback, 0, 95), cancel_callback(feedback),
                                    on_ground=self.parameterAsBool(parameters, "ON_GROUND", context),
                                    eye_height=self.parameterAsDouble(parameters, "EYE_HEIGHT", context))
-        except pipeline.FitCanceledError:
-            raise QgsProcessingException(self.tr("Fit canceled; no camera written."))
+        except Canceled:
+            raise QgsProcessingException(self.tr("Fit canceled; no camera written.")) from None
         if info["status"] != "ok":
             feedback.reportError(self.tr("Fit {0}: {1}").format(info['status'], info['message']), False)
         else:

@@ -20,7 +20,7 @@ from qgis.core import (
 
 from .. import geometry as geo
 from .. import pipeline
-from ..base import PHOTO_Y_SIGN, MonoplotAlgorithm, check_canceled, checked, progress_callback
+from ..base import PHOTO_Y_SIGN, MonoplotAlgorithm, cancel_callback, check_canceled, checked, progress_callback
 from ..inputs import read_photo
 
 
@@ -59,9 +59,9 @@ class ComputeXyz(_CameraDemAlgorithm):
     def run_algorithm(self, parameters, context, feedback):
         camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
         out = self.parameterAsOutputLayer(parameters, "OUTPUT", context)
-        xyz = pipeline.xyz_raster(camera, dem, progress_callback(feedback, 0, 80))
-        check_canceled(feedback)
-        pipeline.write_xyz(out, xyz, crs.toWkt())
+        pipeline.write_xyz(out, camera, dem, crs.toWkt(), progress=progress_callback(feedback, 0, 95),
+                           is_canceled=cancel_callback(feedback))
+        xyz = pipeline.xyz_raster(camera, dem)  # cached
         ground = float(np.isfinite(xyz[..., 2]).mean())
         feedback.pushInfo(self.tr("{0:.1f}% of the pixels hit the DEM; written to {1}").format(100 * ground, out))
         feedback.setProgress(100)
@@ -190,7 +190,8 @@ class Orthophoto(_CameraDemAlgorithm):
                 photo.shape[1], photo.shape[0], camera.width, camera.height))
         resolution = self.parameterAsDouble(parameters, "RESOLUTION", context) or None
         out = self.parameterAsOutputLayer(parameters, "OUTPUT", context)
-        pipeline.orthophoto(out, photo, camera, dem, crs.toWkt(), resolution, progress_callback(feedback, 0, 95))
+        checked(pipeline.orthophoto, out, photo, camera, dem, resolution, progress_callback(feedback, 0, 95),
+                cancel_callback(feedback))
         feedback.setProgress(100)
         return {"OUTPUT": out}
 

@@ -12,7 +12,7 @@ from qgis.core import (
 
 from .. import pipeline
 from ..base import (MonoplotAlgorithm, check_canceled, checked, map_point_fields, photo_point_fields,
-                    progress_callback, write_map_points, write_photo_points)
+                    write_map_points, write_photo_points)
 from ..inputs import read_photo
 
 
@@ -77,7 +77,7 @@ class SuggestDemPoints(MonoplotAlgorithm):
             camera = self.camera(parameters, context, photo=photo, crs=crs)
         count = self.parameterAsInt(parameters, "MAX_POINTS", context)
         feedback.setProgress(10)
-        xyz, scores, labels = pipeline.suggest_dem(dem, count, camera, progress_callback(feedback, 10, 90))
+        xyz, scores, labels = pipeline.suggest_dem(dem, count, camera)
         check_canceled(feedback)
         sink, dest = self.parameterAsSink(parameters, "OUTPUT", context, map_point_fields(), QgsWkbTypes.PointZ,
                                           crs)
