@@ -226,6 +226,8 @@ class OutputTools(QObject):
         camera, dem, name = c.fitted, c.dem, self.photo_name()
         photo = qimage_to_array(c.image) if what in ("ortho", "report") else None
         points, sigmas = (self._report_inputs() if what == "report" else (None, None))
+        info = self.controller.state.fit_info if isinstance(self.controller.state.fit_info, dict) else {}
+        verdict = f"{info.get('status', '')}: {info.get('message', '')}" if info.get("status") else ""
 
         def work(progress=None, is_canceled=None):
             if what == "xyz":
@@ -235,7 +237,8 @@ class OutputTools(QObject):
                 return product_step.orthophoto(path, photo, camera, dem, overwrite=overwrite, progress=progress,
                                            is_canceled=is_canceled)
             return product_step.report(path, photo, camera, dem, points=points, sigmas=sigmas, title=Path(name).stem,
-                                   overwrite=overwrite, progress=progress, is_canceled=is_canceled)
+                                       overwrite=overwrite, progress=progress, is_canceled=is_canceled,
+                                       verdict=verdict)
 
         return work
 

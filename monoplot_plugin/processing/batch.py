@@ -131,8 +131,9 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
             photo = read_photo(job.photo)
             size = (photo.shape[1], photo.shape[0])
             camera = job.camera
+            fit_status, fit_message = "ok", ""
             if camera is None:
-                camera, result.rmse_px = _fit_job(job, size, dem, crs_wkt)
+                camera, result.rmse_px, fit_status, fit_message = _fit_job(job, size, dem, crs_wkt)
                 camera_path = os.path.join(out_dir, f"{stem}_camera.json")
                 camera.save(camera_path)
                 result.outputs.append(camera_path)
@@ -157,6 +158,8 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
                 result.outputs.append(ortho_path)
             result.ok = True
             result.message = "ok" if np.isnan(result.rmse_px) else f"ok, fit RMSE {result.rmse_px:.2f} px"
+            if fit_status != "ok":  # products written, but the fitted camera is doubtful
+                result.message = f"fit {fit_status}, RMSE {result.rmse_px:.2f} px: {fit_message}"
             if job.photo and stem != os.path.splitext(name)[0]:
                 result.message += f" (outputs {stem}_*)"
             log(f"[{index + 1}/{len(jobs)}] {name}: {result.message}", False)
@@ -216,13 +219,15 @@ def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_poi
             log(f"{os.path.basename(path)}: skipped for the shared fit: {exc}", True)
             continue
         job = PhotoJob(path, prior=prior, points=points, dem_points=dem_points)
-        camera, rmse = _fit_job(job, (photo.shape[1], photo.shape[0]), dem, crs_wkt)
+        camera, rmse, status, message = _fit_job(job, (photo.shape[1], photo.shape[0]), dem, crs_wkt)
+        if status != "ok":
+            log(f"{os.path.basename(path)}: the shared camera's fit is {status}: {message}", True)
         return camera, path, rmse
     raise InputError("no photo of the folder could be read for the shared fit: " + "; ".join(problems[:3]))
 
 
 def _fit_job(job: PhotoJob, size, dem, crs_wkt: str):
-    """Fit one job's camera from its prior and point files; returns (camera, rmse in px)."""
+    """Fit one job's camera from its prior and point files; returns (camera, rmse in px, fit status, message)."""
     prior = load_camera(job.prior, size, crs_wkt)
     table = read_points_csv(job.points)
     if "uv" not in table:
@@ -239,7 +244,7 @@ def _fit_job(job: PhotoJob, size, dem, crs_wkt: str):
     xyz = pipeline.fill_missing_z(xyz, dem)
     camera, info = pipeline.fit(size, uv, xyz, prior, dem, paired)
     camera.crs_wkt = crs_wkt
-    return camera, float(info["rmse_px"])
+    return camera, float(info["rmse_px"]), info["status"], info["message"]
 
 
 def write_log(path: str, results: List[PhotoResult]) -> None:

@@ -57,7 +57,7 @@ def fit(image_size, uv: np.ndarray, xyz: np.ndarray, prior: Camera, dem, paired:
     """Fit a camera to (N, 2) photo points and (M, 3) DEM points, from ``prior`` (:func:`workflow.fit.fit`).
 
     Paired: row i of ``uv`` and of ``xyz`` are the same point. ``on_ground``: the camera stands ``eye_height``
-    metres above the DEM. Returns (camera, info) with ``info["rmse_px"]``, ``"status"`` ("ok" or "poor"),
+    metres above the DEM. Returns (camera, info) with ``info["rmse_px"]``, ``"status"`` ("ok", "uncertain" or "poor"),
     ``"message"`` and ``"summary"`` (the fit's JSON digest). Raises :class:`InputError` when the fit refuses the
     points (the message says what to add) and :class:`~..workflow.progress.Canceled` when canceled.
     """

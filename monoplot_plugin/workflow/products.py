@@ -65,15 +65,17 @@ def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution: Optiona
 
 def report(path, photo: np.ndarray, camera: Camera, dem, points=None, points_csv=None,
            sigmas: Optional[Dict[str, float]] = None, title: str = "", overwrite: bool = False,
-           progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None) -> Path:
+           progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None, verdict: str = "") -> Path:
     """The one-page report (PNG or PDF by the suffix of ``path``) of a fitted camera; ``points``: the control
-    points to show (outputs' ``ReportPoints``), or ``points_csv``, a paired CSV."""
+    points to show (outputs' ``ReportPoints``), or ``points_csv``, a paired CSV; ``verdict``: the fit's status and
+    message, printed on the page."""
     from ..outputs.report import write_report
 
     result = xyz_result(camera, dem, visibility=True, progress=part(progress, 0.0, 0.6), is_canceled=is_canceled)
     check_canceled(is_canceled)
     written = write_report(path, photo, camera, dem, points_csv=points_csv, points=points, xyz=result.xyz,
-                           visible=result.visible, sigmas=sigmas, title=title, overwrite=overwrite)
+                           visible=result.visible, sigmas=sigmas, title=title, overwrite=overwrite,
+                           verdict=verdict)
     if progress is not None:
         progress(1.0, "")
     return written

@@ -146,7 +146,7 @@ def judge(e: dict) -> Tuple[str, str]:
                 weak.append("few points match compared with what a wrongly placed camera gets by chance: accept "
                             "more points on recognisable features, or pair a few")
             smaller = min(int(e.get("n_photo", 0)), int(e.get("n_dem", 0)))
-            if smaller and n_in < 0.3 * smaller:
+            if smaller and n_in < 0.4 * smaller:
                 weak.append(f"only {n_in} of the {smaller} points of the smaller set match: either most accepted "
                             f"points are wrong or the camera is; reject the flagged points and fit again")
             ratio = float(e.get("competitor_ratio", 0.0))

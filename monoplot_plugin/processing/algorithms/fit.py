@@ -68,7 +68,8 @@ class FitCamera(MonoplotAlgorithm):
         self.addOutput(QgsProcessingOutputNumber("RMSE_PX", self.tr("Reprojection error (px)")))
         self.addOutput(QgsProcessingOutputNumber("N_PHOTO", self.tr("Photo points used")))
         self.addOutput(QgsProcessingOutputNumber("N_DEM", self.tr("DEM points used")))
-        self.addOutput(QgsProcessingOutputString("STATUS", self.tr("Fit status (ok / poor)")))
+        self.addOutput(QgsProcessingOutputString("STATUS", self.tr("Fit status (ok / uncertain / poor)")))
+        self.addOutput(QgsProcessingOutputString("MESSAGE", self.tr("What the fit found and, unless ok, what to do")))
 
     def gather_points(self, parameters, context, dem, crs=None):
         """(uv (N, 2), xyz (M, 3), paired) from layers and/or CSV files; Z sampled from the DEM where missing."""
@@ -141,9 +142,14 @@ class FitCamera(MonoplotAlgorithm):
         camera.save(out)
         rmse = float(info.get("rmse_px", float("nan")))
         feedback.pushInfo(self.tr("Camera: {0}").format(json.dumps(camera.parameters())))
+        std = info.get("summary", {}).get("std") or {}
+        if std:
+            feedback.pushInfo(self.tr("One standard deviation: {0}").format(
+                ", ".join(f"{k} ± {v:.3g}" for k, v in std.items() if v is not None)))
         feedback.pushInfo(self.tr("Reprojection error {0:.2f} px; written to {1}").format(rmse, out))
         feedback.setProgress(100)
-        return {"OUTPUT": out, "RMSE_PX": rmse, "N_PHOTO": len(uv), "N_DEM": len(xyz), "STATUS": info["status"]}
+        return {"OUTPUT": out, "RMSE_PX": rmse, "N_PHOTO": len(uv), "N_DEM": len(xyz), "STATUS": info["status"],
+                "MESSAGE": info["message"]}
 
 
 def pipeline_photo_size(path):
