@@ -13,12 +13,13 @@ VERSION    = $(shell sed -n 's/^version=//p' metadata.txt)
 
 export QT_QPA_PLATFORM ?= offscreen
 
-.PHONY: help setup apt venv resources test demo qgis package clean bench eval
+.PHONY: help setup apt venv resources test demo qgis package clean bench eval lint
 
 help:
 	@echo "make demo     set up everything, then run the demo job"
 	@echo "make qgis     open QGIS with the plugin and the demo project"
-	@echo "make test     set up everything, then run the whole test suite"
+	@echo "make test     set up everything, then run the whole test suite (ruff included: tests/test_lint.py)"
+	@echo "make lint     ruff on the whole repository (configuration in pyproject.toml)"
 	@echo "make package  build dist/monoplot-<version>.zip for plugins.qgis.org"
 	@echo "make bench    core speed benchmarks (per-pixel XYZ, render, orthophoto, fit, suggestions), one JSON line each"
 	@echo "make eval     camera fit measured on the real Aletsch case and a synthetic scene, one JSON line per case"
@@ -55,6 +56,10 @@ resources_rc.py: resources.qrc $(wildcard icons/*)
 test: setup
 	@mkdir -p test-artifacts
 	$(PY) -m pytest -q tests
+
+# ruff (pyflakes, pycodestyle, bugbear; pyproject.toml). make test runs it too, as tests/test_lint.py.
+lint: setup
+	$(PY) -m ruff check .
 
 # The whole pipeline through qgis_process on a generated scene (demo/run_demo.py); outputs in demo-output/.
 demo: setup

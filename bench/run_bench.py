@@ -80,7 +80,7 @@ def main() -> int:
 
     from monoplot_plugin.core import xyz as xyz_mod
     from monoplot_plugin.core.render import render_dem
-    from monoplot_plugin.core.transforms import orthorectify
+    from monoplot_plugin.core.lookup import orthorectify  # the orthophoto product's own (outputs.orthophoto)
     from monoplot_plugin.core.xyz import compute_xyz, compute_xyz_full
 
     if args.threads and xyz_mod.HAVE_NUMBA:
@@ -118,7 +118,8 @@ def main() -> int:
             fn = lambda: render_dem(cam, dem)  # noqa: E731
         else:
             photo = np.random.default_rng(0).integers(0, 255, size=(height, width, 3), dtype=np.uint8)
-            fn = lambda: orthorectify(photo, cam, dem)  # noqa: E731
+            # what the orthophoto product runs (workflow.products.orthophoto, before writing): z-buffer, then drape
+            fn = lambda: orthorectify(photo, cam, dem, compute_xyz(cam, dem))  # noqa: E731
         if xyz_mod.HAVE_NUMBA:
             xyz_mod.numba.set_num_threads(run_threads)
         median, first, times = timed(fn, args.repeat)

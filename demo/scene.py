@@ -83,7 +83,7 @@ def _read_points(path: Path, fields) -> np.ndarray:
 
 
 def _visible(sc: Scene, world: np.ndarray):
-    from monoplot_plugin.outputs.geometry import visibility_of_points
+    from monoplot_plugin.core.lookup import visibility_of_points
 
     return visibility_of_points(sc.truth, world, sc.xyz_truth)
 
@@ -229,7 +229,7 @@ def outline_error(mapped_path: Path, sc: Scene, fitted: Camera) -> float:
                 vertices.extend(ring.GetPoints())
     mapped = np.array(vertices, dtype=float).reshape(-1, 3)
     # each mapped vertex is the fitted camera's ground at a traced pixel: compare with the truth's ground there
-    from monoplot_plugin.outputs.geometry import sample_xyz
+    from monoplot_plugin.core.lookup import sample_xyz
 
     truth_ground = sample_xyz(sc.xyz_truth, fitted.project(mapped))
     d = np.linalg.norm(mapped - truth_ground, axis=1)

@@ -151,7 +151,7 @@ def case_robustness(dem, gcps, image, prior, photo, demsug, pa, da, n=20, seed=1
     for name, resuggest in (("robustness", False), ("robustness_resuggested", True)):
         rng = np.random.default_rng(seed)
         errors, times, accepted, statuses = [], [], [], []
-        for i in range(n):
+        for _ in range(n):
             start = prior.with_parameters(
                 x=prior.position[0] + rng.uniform(-300, 300), y=prior.position[1] + rng.uniform(-300, 300),
                 z=prior.position[2] + rng.uniform(-300, 300), heading=prior.heading + rng.uniform(-10, 10),

@@ -11,9 +11,10 @@ Scenes (all deterministic from ``--seed``; terrain from :func:`~monoplot_plugin.
   (Gaussian sigma per coordinate) and the DEM resolution: the hidden camera sees a 600-cell "world", the user's
   DEM has every 1st, 2nd or 3rd of its vertices (coarser DEMs miss fine relief). True points are where rays
   through random pixels of the hidden camera first hit the world (visible, in the picture); their photo points are
-  the hidden camera's projection plus noise, their DEM points the same x, y at the DEM's height. Wrong points: on the photo side either "plausible"
-  (a visible terrain pixel whose DEM point was not accepted) or anywhere in the picture; on the DEM side either
-  plausible (visible terrain not accepted in the photo) or terrain hidden behind ridges or just outside the picture.
+  the hidden camera's projection plus noise, their DEM points the same x, y at the DEM's height. Wrong points: on
+  the photo side either "plausible" (a visible terrain pixel whose DEM point was not accepted) or anywhere in the
+  picture; on the DEM side either plausible (visible terrain not accepted in the photo) or terrain hidden behind
+  ridges or just outside the picture.
   The photo set and the DEM set have their own wrong shares (mean = the drawn share), hence different sizes; both
   are shuffled and no pairing is given: ``fit_camera(photo_uv, dem_xyz, prior)``.
   The prior: x and y each off by up to the bound (uniform; the bound capped at 0.3 x the range: a user knows where
@@ -30,8 +31,9 @@ uncertainty; in its signature or as ``FitOptions`` fields), they are set to 1.5 
 **Success.** With ``T`` the hidden camera and ``W_i`` the n true world points of the scene (their DEM points are
 ``W_i`` on the full-resolution DEM, ``W_i`` at the coarser DEM's height otherwise), the error of a camera ``C`` is
 ``e(C) = sqrt(mean_i |C.project(W_i) - T.project(W_i)|^2)`` in pixels (noiseless truth pixels; infinite when a
-point falls behind ``C``): the camera's error where the true correspondences are, not the DEM's own error. The paired optimum ``e_opt = e(paired fit on the n true (noisy) correspondences, started
-from T)``. A fit succeeds when ``e(fit) <= max(2 px, 1.5 e_opt)``; a degenerate set succeeds only when refused.
+point falls behind ``C``): the camera's error where the true correspondences are, not the DEM's own error. The
+paired optimum ``e_opt = e(paired fit on the n true (noisy) correspondences, started from T)``. A fit succeeds
+when ``e(fit) <= max(2 px, 1.5 e_opt)``; a degenerate set succeeds only when refused.
 ``grid_err_px`` (in the records, not judged) is ``|C.project(W) - T.project(W)|`` (RMS) over a regular grid of
 visible world points (the whole picture, not only where the points are).
 **Sigma coverage**: share of successes with sigmas whose true camera lies within 2 sigma of the fitted one for every

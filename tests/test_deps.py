@@ -45,9 +45,9 @@ def test_missing_requirements_finds_really_absent_package_only():
     assert deps.missing_requirements(deps.REQUIRED + (ABSENT,)) == [ABSENT]  # the venv has torch, cv2, scipy, numba
 
 
-def test_dependency_check_imports_nothing_heavy():
+def test_dependency_check_imports_nothing_heavy(monkeypatch):
     for name in ("torch", "cv2", "scipy", "numba"):
-        sys.modules.pop(name, None)
+        monkeypatch.delitem(sys.modules, name, raising=False)  # put back afterwards: a half-removed cv2 breaks later imports
     before = set(sys.modules)
     deps.missing_requirements()
     assert not {"torch", "cv2", "scipy", "numba"} & (set(sys.modules) - before)

@@ -14,14 +14,24 @@ from qgis.PyQt.QtCore import QVariant
 
 from ..core.camera import Camera
 
-__all__ = ["camera_layer", "footprint_layer", "show_camera_layers", "remove_camera_layers", "GROUP_NAME"]
+__all__ = ["camera_layer", "footprint_layer", "show_camera_layers", "remove_camera_layers", "crs_from_wkt",
+           "GROUP_NAME"]
 
 GROUP_NAME = "Monoplot"
 _ROLE = "monoplot/role"
 
 
+def crs_from_wkt(wkt: str) -> QgsCoordinateReferenceSystem:
+    """The QGIS CRS of a core ``crs_wkt`` (WKT or "EPSG:n"); an invalid CRS for ""."""
+    if not wkt:
+        return QgsCoordinateReferenceSystem()
+    if ":" in wkt[:12] and "[" not in wkt:
+        return QgsCoordinateReferenceSystem(wkt)  # "EPSG:n"
+    return QgsCoordinateReferenceSystem.fromWkt(wkt)
+
+
 def _crs(camera: Camera, fallback: Optional[QgsCoordinateReferenceSystem]) -> QgsCoordinateReferenceSystem:
-    crs = QgsCoordinateReferenceSystem.fromWkt(camera.crs_wkt) if camera.crs_wkt else QgsCoordinateReferenceSystem()
+    crs = crs_from_wkt(camera.crs_wkt)
     return crs if crs.isValid() else (fallback or QgsCoordinateReferenceSystem())
 
 

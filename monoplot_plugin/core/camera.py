@@ -42,7 +42,7 @@ import json
 import math
 import re
 from dataclasses import asdict, dataclass, field, replace
-from typing import Optional, Sequence, Tuple
+from typing import Optional, Tuple
 
 import numpy as np
 
@@ -52,6 +52,7 @@ __all__ = [
     "project_points",
     "focal_from_fov",
     "fov_from_focal",
+    "lonlat_to_crs",
     "PARAMETER_NAMES",
 ]
 
@@ -320,6 +321,20 @@ class Camera:
         return replace(self, position=(p["x"], p["y"], p["z"]), heading=p["heading"], pitch=p["pitch"],
                        roll=p["roll"], fov=p["fov"], principal_point=principal, k1=p["k1"], k2=p["k2"])
 
+    def scaled(self, factor: float) -> "Camera":
+        """The same view through an image scaled by ``factor`` (at least 2 x 2 pixels; principal point scaled with
+        it; the field of view unchanged), e.g. to render or z-buffer a preview of a large photo.
+
+        >>> small = Camera((0, 0, 0), 0, 0, 0, 60, (1000, 800), principal_point=(510, 400)).scaled(0.25)
+        >>> small.image_size, small.principal_point
+        ((250, 200), (127.5, 100.0))
+        """
+        if factor == 1.0:
+            return self
+        size = (max(2, int(round(self.width * factor))), max(2, int(round(self.height * factor))))
+        principal = None if self.principal_point is None else (self.cx * factor, self.cy * factor)
+        return replace(self, image_size=size, principal_point=principal)
+
     # --- serialisation ----------------------------------------------------------------------------------------
     def to_dict(self) -> dict:
         d = asdict(self)
@@ -433,7 +448,7 @@ class Camera:
         left, right = number("leftFov"), number("rightFov")
         if use_overlay_rotation:
             roll += number("rotation", 0.0)
-        x, y, convergence = _lonlat_to_crs_with_convergence(lon, lat, dst_crs_wkt)
+        x, y, convergence = lonlat_to_crs(lon, lat, dst_crs_wkt)
         heading = (heading_true - convergence + 180.0) % 360.0 - 180.0
         return cls(position=(x, y, alt), heading=heading, pitch=tilt - 90.0, roll=roll, fov=right - left,
                    image_size=image_size, crs_wkt=_wkt(dst_crs_wkt))
@@ -465,9 +480,9 @@ def _wkt(crs: str) -> str:
     return srs.ExportToWkt()
 
 
-def _lonlat_to_crs_with_convergence(lon: float, lat: float, crs: str) -> Tuple[float, float, float]:
-    """Project WGS84 lon/lat to ``crs``; also return the grid convergence (degrees, true north minus grid north,
-    measured clockwise from grid north)."""
+def lonlat_to_crs(lon: float, lat: float, crs: str) -> Tuple[float, float, float]:
+    """WGS 84 (lon, lat) -> (x, y) in ``crs`` (WKT or "EPSG:n") and the grid convergence there (degrees: true north
+    minus grid north, clockwise), so that ``grid heading = true heading - convergence``."""
     from osgeo import osr
 
     src = osr.SpatialReference()

@@ -291,12 +291,10 @@ class Dem:
         >>> round(float(flat.hillshade(altitude=30)[1, 1]), 6)
         0.5
         """
+        from .grid import lambert
+
         dzdx, dzdy = self.gradient()
-        a, h = math.radians(azimuth), math.radians(altitude)
-        light = (math.sin(a) * math.cos(h), math.cos(a) * math.cos(h), math.sin(h))
-        norm = np.sqrt(dzdx * dzdx + dzdy * dzdy + 1.0)
-        shade = (-dzdx * light[0] - dzdy * light[1] + light[2]) / norm
-        return np.clip(shade, 0.0, 1.0)
+        return lambert(dzdx, dzdy, azimuth, altitude)
 
     # --- cutting and reprojection -----------------------------------------------------------------------------
     def crop(self, row0: int, col0: int, rows: int, cols: int) -> "Dem":

@@ -13,7 +13,6 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Optional, Sequence
 
@@ -21,6 +20,7 @@ import numpy as np
 
 from .camera import Camera
 from .dem import Dem
+from .grid import bilinear, lambert
 from .xyz import XyzResult, compute_xyz_full
 
 __all__ = ["RenderedDem", "render_dem", "shade_points"]
@@ -87,21 +87,8 @@ def shade_points(dem: Dem, xyz: np.ndarray, azimuth: float = 315.0, altitude: fl
     col, row = dem.map_to_cell(xyz[:, 0], xyz[:, 1])
     fr = np.asarray(row) - 0.5
     fc = np.asarray(col) - 0.5
-    r0 = np.clip(np.floor(fr).astype(np.int64), 0, max(dem.rows - 2, 0))
-    c0 = np.clip(np.floor(fc).astype(np.int64), 0, max(dem.cols - 2, 0))
-    t = np.clip(fr - r0, 0.0, 1.0)
-    s = np.clip(fc - c0, 0.0, 1.0)
-    r1 = np.minimum(r0 + 1, dem.rows - 1)
-    c1 = np.minimum(c0 + 1, dem.cols - 1)
-
-    def lerp(g):
-        g = np.nan_to_num(g)
-        return g[r0, c0] * (1 - s) * (1 - t) + g[r0, c1] * s * (1 - t) + g[r1, c0] * (1 - s) * t + g[r1, c1] * s * t
-
-    gx, gy = lerp(dzdx), lerp(dzdy)
-    a, h = math.radians(azimuth), math.radians(altitude)
-    light = (math.sin(a) * math.cos(h), math.cos(a) * math.cos(h), math.sin(h))
-    return np.clip((-gx * light[0] - gy * light[1] + light[2]) / np.sqrt(gx * gx + gy * gy + 1.0), 0.0, 1.0)
+    gx, gy = bilinear(np.nan_to_num(dzdx), fr, fc), bilinear(np.nan_to_num(dzdy), fr, fc)
+    return lambert(gx, gy, azimuth, altitude)
 
 
 def render_dem(cam: Camera, dem: Dem, azimuth: float = 315.0, altitude: float = 45.0,

@@ -18,6 +18,7 @@ import numpy as np
 
 from .camera import Camera
 from .dem import Dem
+from .grid import bilinear
 
 __all__ = ["synthetic_terrain", "render_photo", "SWISS_LV95_WKT", "DEFAULT_ORIGIN"]
 
@@ -108,16 +109,6 @@ def synthetic_terrain(shape: Tuple[int, int] = (400, 400), cell: float = 25.0, s
     return Dem(elevation, gt, SWISS_LV95_WKT if crs_wkt is None else crs_wkt)
 
 
-def _bilinear(grid: np.ndarray, fr: np.ndarray, fc: np.ndarray) -> np.ndarray:
-    """Bilinear lookup of ``grid`` at fractional (row, col) index positions, clamped at the edges."""
-    r0 = np.clip(np.floor(fr).astype(np.int64), 0, grid.shape[0] - 2)
-    c0 = np.clip(np.floor(fc).astype(np.int64), 0, grid.shape[1] - 2)
-    t = np.clip(fr - r0, 0.0, 1.0)
-    s = np.clip(fc - c0, 0.0, 1.0)
-    return (grid[r0, c0] * (1 - s) * (1 - t) + grid[r0, c0 + 1] * s * (1 - t) + grid[r0 + 1, c0] * (1 - s) * t
-            + grid[r0 + 1, c0 + 1] * s * t)
-
-
 def _smooth_random(shape, rng, sigma):
     from scipy import ndimage
 
@@ -168,12 +159,12 @@ def render_photo(cam: Camera, dem: Dem, seed: int = 0, haze: bool = True, noise:
         patches = _smooth_random(dem.shape, tex_rng, 6.0)
         fr = row - 0.5 + work.window[0] - dem.window[0]
         fc = col - 0.5 + work.window[1] - dem.window[1]
-        tex = _bilinear(texture, fr, fc)
-        patch = _bilinear(patches, fr, fc)
+        tex = bilinear(texture, fr, fc)
+        patch = bilinear(patches, fr, fc)
 
         dzdx, dzdy = work.gradient()
-        gx = np.nan_to_num(_bilinear(dzdx, row - 0.5, col - 0.5))
-        gy = np.nan_to_num(_bilinear(dzdy, row - 0.5, col - 0.5))
+        gx = np.nan_to_num(bilinear(dzdx, row - 0.5, col - 0.5))
+        gy = np.nan_to_num(bilinear(dzdy, row - 0.5, col - 0.5))
         slope = np.degrees(np.arctan(np.hypot(gx, gy)))
         a, h = math.radians(sun_azimuth), math.radians(sun_altitude)
         light = np.array([math.sin(a) * math.cos(h), math.cos(a) * math.cos(h), math.sin(h)])

@@ -1,4 +1,4 @@
-"""Geometry between the photo and the map, and orthorectification. Plain numpy, no shapely/OGR.
+"""Geometry between the photo and the map. Plain numpy, no shapely/OGR.
 
 Geometries are numpy arrays: a point set is (N, 2) pixels or (N, 3) map coordinates; a line is one (N, 2) / (N, 3)
 array; a polygon is a list of rings (the first is the outer ring; rings are not closed: the last vertex is not
@@ -16,7 +16,7 @@ Map -> photo (:func:`map_to_photo`): vertices are projected, and each is tested 
 sight from the camera (terrain between them hides it); lines are densified in map units first so that hidden runs
 are found.
 
-Orthorectification (:func:`orthorectify`): the photo resampled onto the DEM grid, only cells the camera sees.
+Orthorectification (the photo draped onto the DEM grid) is :func:`monoplot_plugin.core.lookup.orthorectify`.
 
 >>> import numpy as np
 >>> from .camera import Camera
@@ -38,10 +38,10 @@ import numpy as np
 
 from .camera import Camera
 from .dem import Dem
-from .xyz import XyzResult, compute_xyz_full, segment_first_hit
+from .xyz import segment_first_hit
 
-__all__ = ["DropReport", "PhotoToMap", "MapToPhoto", "Ortho", "photo_points_to_map", "photo_line_to_map",
-           "photo_polygon_to_map", "map_to_photo", "map_points_to_photo", "orthorectify", "densify", "true_runs",
+__all__ = ["DropReport", "PhotoToMap", "MapToPhoto", "photo_points_to_map", "photo_line_to_map",
+           "photo_polygon_to_map", "map_to_photo", "map_points_to_photo", "densify", "true_runs",
            "ground_pieces"]
 
 
@@ -112,31 +112,6 @@ class MapToPhoto:
     def hidden_runs(self) -> List[np.ndarray]:
         """(M, 2) pixel pieces of consecutive occluded vertices (for dashed drawing)."""
         return [self.uv[a:b] for a, b in true_runs(self.occluded & self.in_image) if b - a >= 2]
-
-
-@dataclass
-class Ortho:
-    """An orthophoto on the DEM grid.
-
-    Attributes:
-        image: (rows, cols, C) float32 photo values (C = photo bands), NaN where the camera sees nothing.
-        mask: (rows, cols) bool: filled cells.
-        geotransform, crs_wkt: of the grid (same as the DEM's).
-    """
-
-    image: np.ndarray
-    mask: np.ndarray
-    geotransform: Tuple[float, ...]
-    crs_wkt: str
-
-    def to_uint8_rgba(self) -> np.ndarray:
-        """(rows, cols, 4) uint8: the first three bands (or the grey band thrice), alpha 255 where filled."""
-        img = self.image
-        rgb = img[..., :3] if img.shape[-1] >= 3 else np.repeat(img[..., :1], 3, axis=-1)
-        out = np.zeros(img.shape[:2] + (4,), dtype=np.uint8)
-        out[..., :3] = np.clip(np.round(np.nan_to_num(rgb)), 0, 255).astype(np.uint8)
-        out[..., 3] = np.where(self.mask, 255, 0)
-        return out
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -366,66 +341,3 @@ def map_points_to_photo(points, cam: Camera, dem: Dem, tolerance_m: float = 1.0,
     """
     return map_to_photo([np.asarray(points, dtype=np.float64)], cam, dem, densify_m=0.0, tolerance_m=tolerance_m,
                         rel_tolerance=rel_tolerance)[0]
-
-
-def orthorectify(photo: np.ndarray, cam: Camera, dem: Dem, result: Optional[XyzResult] = None,
-                 max_range: Optional[float] = None, exact: bool = False) -> Ortho:
-    """The photo resampled (bilinear) onto the DEM grid; only cells the camera sees are filled.
-
-    Args:
-        photo: (H, W) or (H, W, C) array (any numeric dtype) of the camera's image size.
-        result: a :func:`~monoplot_plugin.core.xyz.compute_xyz_full` result to reuse for visibility.
-        max_range: ignore terrain farther than this.
-        exact: decide visibility by an exact line of sight per cell (slower) instead of the z-buffer.
-    Returns:
-        :class:`Ortho` on the DEM's grid.
-    """
-    img = np.asarray(photo)
-    if img.ndim == 2:
-        img = img[..., None]
-    H, W = img.shape[:2]
-    if (W, H) != (cam.width, cam.height):
-        raise ValueError(f"photo is {W} x {H} px but the camera expects {cam.width} x {cam.height}")
-    rows, cols = dem.shape
-    X, Y = dem.cell_centres()
-    Z = dem.elevation.astype(np.float64)
-    if exact:
-        pts = np.stack([X.ravel(), Y.ravel(), Z.ravel()], axis=1)
-        finite = np.isfinite(pts[:, 2])
-        origin = np.asarray(cam.position, dtype=np.float64)
-        s = segment_first_hit(dem, origin, np.where(finite[:, None], pts, origin + 1.0))
-        length = np.linalg.norm(pts - origin, axis=1)
-        with np.errstate(invalid="ignore"):
-            blocked = np.isfinite(s) & (s * length < length - (1.0 + 1e-4 * length))
-        uv_all, depth = cam.project_with_depth(pts)
-        vis = (finite & ~blocked & cam.in_image(uv_all) & (depth > 0)).reshape(rows, cols)
-        if max_range is not None:
-            vis &= (length <= max_range).reshape(rows, cols)
-    else:
-        res = result if result is not None else compute_xyz_full(cam, dem, max_range=max_range)
-        vis = res.visible
-    out = np.full((rows, cols, img.shape[2]), np.nan, dtype=np.float32)
-    if vis.any():
-        pts = np.stack([X[vis], Y[vis], Z[vis]], axis=1)
-        uv = cam.project(pts)
-        out[vis] = _bilinear_image(img, uv)
-    mask = vis & np.isfinite(out).all(axis=-1)
-    return Ortho(image=out, mask=mask, geotransform=dem.geotransform, crs_wkt=dem.crs_wkt)
-
-
-def _bilinear_image(img: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """(N, C) float32 bilinear samples of an (H, W, C) image at pixel positions (centres at +0.5), edge-clamped."""
-    H, W = img.shape[:2]
-    x = np.clip(uv[:, 0] - 0.5, 0.0, W - 1.0)
-    y = np.clip(uv[:, 1] - 0.5, 0.0, H - 1.0)
-    x0 = np.minimum(np.floor(x).astype(np.int64), max(W - 2, 0))
-    y0 = np.minimum(np.floor(y).astype(np.int64), max(H - 2, 0))
-    x1 = np.minimum(x0 + 1, W - 1)
-    y1 = np.minimum(y0 + 1, H - 1)
-    fx = (x - x0)[:, None]
-    fy = (y - y0)[:, None]
-    a = img[y0, x0].astype(np.float32)
-    b = img[y0, x1].astype(np.float32)
-    c = img[y1, x0].astype(np.float32)
-    d = img[y1, x1].astype(np.float32)
-    return (a * (1 - fx) * (1 - fy) + b * fx * (1 - fy) + c * (1 - fx) * fy + d * fx * fy).astype(np.float32)

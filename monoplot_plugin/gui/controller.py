@@ -17,7 +17,7 @@ from qgis.PyQt.QtGui import QImage
 from ..adapters.dem import DemError, read_dem_layer
 from ..adapters.photo import PhotoError, array_to_qimage, qimage_to_array, read_photo
 from ..core.camera import Camera
-from ..state import ACCEPTED, CHECK, MAP, PHOTO, CommandStack, Point, ProjectState, replace_suggestions
+from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, replace_suggestions
 from . import engine, persistence
 from .curation import CurationMixin
 from .priors import PriorsMixin

@@ -165,7 +165,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
     def _install_outputs(self):
         """Digitising tools and export buttons of the outputs package (optional: a failure is logged, not fatal)."""
         try:
-            from ..outputs.dock_actions import install_output_tools
+            from .product_panel import install_output_tools
 
             return install_output_tools(self)
         except Exception:  # noqa: BLE001 — the curation and fit must stay usable

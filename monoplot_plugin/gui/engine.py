@@ -1,53 +1,39 @@
-"""Glue between the GUI workflow and the pure core: functions that run inside tasks or on plain arrays.
+"""The dock's side of the workflow steps: :mod:`..workflow` called for the dock, and what the dock shows.
 
-No Qt and no qgis here, so tasks can call them in a worker thread. Shapes: ``uv`` (N, 2) pixels, ``xyz`` (M, 3) map
-metres, per-pixel ``xyz`` rasters (H, W, 3) with NaN for sky.
+No Qt and no qgis here, so tasks can call these in a worker thread. Shapes: ``uv`` (N, 2) pixels, ``xyz`` (M, 3) map
+metres, per-pixel ``xyz`` rasters (H, W, 3) with NaN for sky. ``progress(fraction, message)`` and
+``is_canceled()`` follow the workflow's one protocol; a cancel raises :class:`~..workflow.progress.Canceled`.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
-from typing import Callable, List, Optional, Sequence, Tuple
+from dataclasses import dataclass
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
 from ..core.camera import Camera
 from ..state import MAP, PHOTO, Point
+from ..workflow import fit as fit_step
+from ..workflow import suggest as suggest_step
+from ..workflow.progress import Canceled, IsCanceled, Progress, check_canceled, part
 
 __all__ = ["FitOutcome", "suggest", "fit_and_render", "render_products", "residual_segments", "lookup_xyz",
-           "locate_in_photo", "camera_sees_dem", "view_wedge", "mask_to_wkt", "colorize_relief", "XYZ_MAX_PIXELS"]
+           "locate_in_photo", "camera_sees_dem", "view_wedge", "mask_to_wkt", "colorize_relief", "XYZ_MAX_PIXELS",
+           "Canceled"]
 
 #: per-pixel XYZ for linked cursors is computed on at most this many pixels (a scaled copy of the camera)
 XYZ_MAX_PIXELS = 1_500_000
 
 
-class Canceled(Exception):
-    pass
-
-
-def _check(is_canceled: Callable[[], bool]) -> None:
-    if is_canceled():
-        raise Canceled()
-
-
 # --- suggestions ----------------------------------------------------------------------------------------------
 
 def suggest(photo_rgb: np.ndarray, dem, camera: Optional[Camera], n_photo: int, n_dem: int,
-            progress: Callable[[float], None], is_canceled: Callable[[], bool]) -> Tuple[List[Point], List[Point]]:
-    """Key points on the photo (pixels) and on the DEM (map X, Y, Z) as "suggested" :class:`Point` objects.
-
-    With a camera, DEM suggestions are the terrain points it sees (a rendering from it); without, a map hillshade.
-    """
-    from ..core.suggest import suggest_dem_points, suggest_photo_points
-
-    progress(5)
-    photo = suggest_photo_points(photo_rgb, max_points=n_photo)
-    _check(is_canceled)
-    progress(45)
-    dem_pts = suggest_dem_points(dem, camera=camera, max_points=n_dem)
-    _check(is_canceled)
-    progress(95)
+            progress: Progress, is_canceled: IsCanceled) -> Tuple[List[Point], List[Point]]:
+    """Key points on the photo (pixels) and on the DEM (map X, Y, Z) as "suggested" :class:`Point` objects
+    (:func:`workflow.suggest.suggest`)."""
+    photo, dem_pts = suggest_step.suggest(photo_rgb, dem, camera, n_photo, n_dem, progress, is_canceled)
     photo_points = [Point.new(PHOTO, u, v, score=float(s)) for (u, v), s in zip(photo.uv, photo.score)]
     kinds = list(getattr(dem_pts, "kind", [""] * len(dem_pts.score)))
     map_points = [Point.new(MAP, x, y, z, score=float(s), label=str(k) if k in ("summit", "saddle", "junction")
@@ -69,46 +55,22 @@ class FitOutcome:
     footprint_wkt: str = ""
 
 
-def ground_clearance(camera: Camera, dem) -> float:
-    """Height of the camera above the terrain under it (metres; NaN outside the DEM)."""
-    return float(camera.position[2]) - float(dem.sample(camera.position[0], camera.position[1]))
-
-
-#: a start camera at most this high above the terrain is taken as a photographer on the ground (a hill, a ridge,
-#: a summit): the fit keeps its height above the terrain (z follows the DEM, one unknown less), which also keeps
-#: it from ending underground; a higher start (aircraft, balloon, drone) keeps z free
-ON_GROUND_MAX_M = 200.0
-
-
 def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, int]], start: Camera, dem,
-                   progress: Callable[[float], None], is_canceled: Callable[[], bool],
+                   progress: Progress, is_canceled: IsCanceled,
                    check_uv: Optional[np.ndarray] = None, check_xyz: Optional[np.ndarray] = None) -> FitOutcome:
-    """Fit the camera (0-85 %), then render the overlay and per-pixel XYZ (85-100 %).
+    """Fit the camera (0-85 %, :func:`workflow.fit.fit`), then render the overlay and per-pixel XYZ (85-100 %).
 
     ``check_uv`` (C, 2) / ``check_xyz`` (C, 3): paired check points, not fitted; their error goes into the info
-    (``check_rmse_px``, ``n_check``, ``check_errors`` in pixels).
-
-    A start camera within :data:`ON_GROUND_MAX_M` of the terrain is fitted "on the ground" (it keeps its height
-    above the DEM, one unknown less); a higher one (aircraft, balloon, drone) keeps its height free.
+    (``check_rmse_px``, ``n_check``, ``check_errors`` in pixels). The camera is held on the ground by the
+    workflow's one rule (:func:`workflow.fit.on_ground_rule`, automatic here).
 
     Raises:
-        ValueError: the fit refused the input (too few points...), with the fit's own explanation.
+        FitRefused (a ValueError): the fit refused the input (too few points...), with the fit's own explanation.
         Canceled: the user canceled.
     """
-    from ..core.fit import fit_camera
-
-    clearance = ground_clearance(start, dem)
-    on_ground = math.isfinite(clearance) and clearance < ON_GROUND_MAX_M
-    result = fit_camera(uv, xyz, start, pairs=np.asarray(pairs, dtype=np.int64).reshape(-1, 2) if pairs else None,
-                        ground=dem if on_ground else None, eye_height=max(clearance, 0.0) if on_ground else 1.7,
-                        check_image_points=check_uv if check_uv is not None and len(check_uv) else None,
-                        check_world_points=check_xyz if check_xyz is not None and len(check_xyz) else None,
-                        progress=lambda f, *_: progress(85.0 * _fraction(f)), is_canceled=is_canceled)
-    if result.status == "canceled" or is_canceled():
-        raise Canceled()
-    if result.status == "refused":
-        raise ValueError(result.message)
-    camera = result.camera
+    done = fit_step.fit(uv, xyz, start, dem, pairs=pairs or None, check_uv=check_uv, check_xyz=check_xyz,
+                        progress=part(progress, 0.0, 0.85), is_canceled=is_canceled)
+    result, camera = done.result, done.camera
     info = {
         "status": result.status,
         "rmse_px": _float(result.rmse_px),
@@ -117,9 +79,9 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         "converged": result.status == "ok",
         "message": str(result.message),
         "mode": result.mode,
-        "on_ground": on_ground,
-        "eye_height_m": float(max(clearance, 0.0)) if on_ground else None,
-        "clearance_m": _float(ground_clearance(camera, dem)),
+        "on_ground": done.on_ground,
+        "eye_height_m": done.eye_height,
+        "clearance_m": _float(fit_step.ground_clearance(camera, dem)),
         "n_photo": int(len(uv)),
         "n_map": int(len(xyz)),
         "n_pairs": int(len(pairs)),
@@ -131,9 +93,9 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         "n_check": int(len(result.check_residuals_px)),
         "check_errors": [_float(np.hypot(*r)) for r in np.asarray(result.check_residuals_px).reshape(-1, 2)],
     }
-    progress(88)
+    progress(0.88, "")
     overlay, pixel_xyz, footprint = render_products(camera, dem, is_canceled)
-    progress(100)
+    progress(1.0, "")
     return FitOutcome(camera, info, overlay, pixel_xyz, footprint)
 
 
@@ -144,27 +106,11 @@ def _inliers(result) -> np.ndarray:
     return inl if inl.shape == (k,) else np.ones(k, bool)
 
 
-def _fraction(f: float) -> float:
-    """Progress callbacks may report 0-1 or 0-100."""
-    f = float(f)
-    return f / 100.0 if f > 1.0 else f
-
-
 def _float(v) -> Optional[float]:
     return None if v is None or not math.isfinite(float(v)) else float(v)
 
 
-def _scaled(camera: Camera, max_pixels: int) -> Tuple[Camera, float]:
-    w, h = camera.image_size
-    s = min(1.0, math.sqrt(max_pixels / float(w * h)))
-    if s >= 1.0:
-        return camera, 1.0
-    size = (max(1, round(w * s)), max(1, round(h * s)))
-    pp = None if camera.principal_point is None else (camera.cx * s, camera.cy * s)
-    return replace(camera, image_size=size, principal_point=pp), s
-
-
-def render_products(camera: Camera, dem, is_canceled: Callable[[], bool] = lambda: False
+def render_products(camera: Camera, dem, is_canceled: IsCanceled = lambda: False
                     ) -> Tuple[np.ndarray, np.ndarray, str]:
     """What the GUI shows for a fitted camera, at up to :data:`XYZ_MAX_PIXELS` pixels:
 
@@ -173,12 +119,13 @@ def render_products(camera: Camera, dem, is_canceled: Callable[[], bool] = lambd
     from ..core.render import render_dem
     from ..core.xyz import compute_xyz_full
 
-    small, _ = _scaled(camera, XYZ_MAX_PIXELS)
+    w, h = camera.image_size
+    small = camera.scaled(min(1.0, math.sqrt(XYZ_MAX_PIXELS / float(w * h))))
     res = compute_xyz_full(small, dem, visibility=True)
-    _check(is_canceled)
+    check_canceled(is_canceled)
     rendered = render_dem(small, dem, result=res)
     overlay = colorize_relief(np.asarray(rendered.shade), res.xyz)
-    _check(is_canceled)
+    check_canceled(is_canceled)
     return overlay, res.xyz, mask_to_wkt(res.visible, dem)
 
 
@@ -314,31 +261,3 @@ def view_wedge(camera: Camera, distance: float, steps: int = 24) -> List[Tuple[f
         pts.append((x0 + distance * math.sin(a), y0 + distance * math.cos(a)))
     pts.append((x0, y0))
     return pts
-
-
-def lonlat_to_crs(lon: float, lat: float, crs_wkt: str) -> Tuple[float, float, float]:
-    """WGS 84 (lon, lat) -> (x, y) in ``crs_wkt`` and the grid convergence there (degrees: true north minus grid
-    north, clockwise), so that ``grid heading = true heading - convergence``."""
-    from osgeo import osr
-
-    src, dst = osr.SpatialReference(), osr.SpatialReference()
-    src.ImportFromEPSG(4326)
-    dst.SetFromUserInput(crs_wkt)
-    for srs in (src, dst):
-        srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
-    t = osr.CoordinateTransformation(src, dst)
-    x, y, _ = t.TransformPoint(lon, lat)
-    x2, y2, _ = t.TransformPoint(lon, lat + 1e-3)
-    return x, y, math.degrees(math.atan2(x2 - x, y2 - y))
-
-
-def dem_corners(dem) -> Tuple[Tuple[float, float], Tuple[float, float]]:
-    """((xmin, ymin), (xmax, ymax)) of the DEM grid (corner to corner)."""
-    rows, cols = dem.elevation.shape
-    xs, ys = [], []
-    for c in (0, cols):
-        for r in (0, rows):
-            x, y = dem.cell_to_map(c, r)
-            xs.append(float(x))
-            ys.append(float(y))
-    return (min(xs), min(ys)), (max(xs), max(ys))

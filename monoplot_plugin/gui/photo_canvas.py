@@ -13,22 +13,18 @@ from __future__ import annotations
 
 from typing import List, Optional, Tuple
 
-from qgis.core import QgsCoordinateReferenceSystem, QgsMapLayer, QgsPointXY, QgsRectangle
+from qgis.core import QgsCoordinateReferenceSystem, QgsMapLayer, QgsRectangle
 from qgis.gui import QgsMapCanvas, QgsMapCanvasItem
 from qgis.PyQt.QtCore import QRectF, Qt, QTimer, pyqtSignal
 from qgis.PyQt.QtGui import QBrush, QColor, QImage, QPainter
 
+from ..adapters.photo_space import photo_point, pixel_of
+
 __all__ = ["PhotoCanvas", "ImageItem", "uv_to_map", "map_to_uv"]
 
 
-def uv_to_map(u: float, v: float) -> QgsPointXY:
-    """Photo pixel (u, v) -> photo-canvas map point (u, -v)."""
-    return QgsPointXY(float(u), -float(v))
-
-
-def map_to_uv(point) -> Tuple[float, float]:
-    """Photo-canvas map point -> photo pixel (u, v)."""
-    return float(point.x()), -float(point.y())
+uv_to_map = photo_point  # photo pixel (u, v) -> photo-canvas map point (u, -v)
+map_to_uv = pixel_of  # photo-canvas map point -> photo pixel (u, v)
 
 
 class ImageItem(QgsMapCanvasItem):

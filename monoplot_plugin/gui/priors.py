@@ -11,7 +11,7 @@ from typing import Optional
 from qgis.core import Qgis
 
 from ..adapters.exif import read_exif_prior
-from ..core.camera import Camera
+from ..core.camera import Camera, lonlat_to_crs
 from . import engine
 
 __all__ = ["PriorsMixin"]
@@ -71,7 +71,7 @@ class PriorsMixin:
             if not quiet:
                 self.message.emit(self.tr("The photo has no GPS position in its EXIF tags."), WARNING)
             return False
-        x, y, convergence = engine.lonlat_to_crs(exif.lon, exif.lat, self.dem.crs_wkt)
+        x, y, convergence = lonlat_to_crs(exif.lon, exif.lat, self.dem.crs_wkt)
         ground = float(self.dem.sample(x, y))
         if not math.isfinite(ground):
             self.message.emit(self.tr("The photo's GPS position lies outside the DEM."), WARNING)
@@ -80,7 +80,7 @@ class PriorsMixin:
         if exif.heading is not None:
             heading, guessed = exif.heading - convergence, False
         else:
-            (x0, y0), (x1, y1) = engine.dem_corners(self.dem)
+            x0, y0, x1, y1 = self.dem.bounds()
             heading, guessed = math.degrees(math.atan2((x0 + x1) / 2 - x, (y0 + y1) / 2 - y)), True
         camera = Camera((x, y, max(z, ground + 1.0)), heading, 0.0, 0.0, exif.fov or 60.0, self.photo_size,
                         crs_wkt=self.dem.crs_wkt)

@@ -4,8 +4,9 @@ The pattern every Monoplot task follows:
 
 * the caller copies everything the work needs (numpy arrays, Camera objects: never a layer) *before* starting;
 * ``run()`` never raises: exceptions become a :class:`TaskResult` with status ``failed`` and a readable reason;
-* the work function receives ``progress(percent)`` and ``is_canceled()`` callbacks and polls the latter often (the
-  fit checks it every iteration, so Cancel acts within a second);
+* the work function receives the workflow's ``progress(fraction in [0, 1], message="")`` and ``is_canceled()``
+  callbacks (:mod:`..workflow.progress`) and polls the latter often (the fit checks it every iteration, so Cancel
+  acts within a second); it may stop by raising the workflow's ``Canceled``;
 * ``finished()`` runs on the main thread and hands the :class:`TaskResult` to ``on_done``.
 
 >>> TaskResult.success(42).ok, TaskResult.failed("no points").reason
@@ -20,7 +21,7 @@ from typing import Any, Callable, Optional
 
 from qgis.core import Qgis, QgsApplication, QgsMessageLog, QgsTask
 
-from .engine import Canceled  # raised by work functions that stop at once when is_canceled() turns true
+from ..workflow.progress import Canceled  # raised by work that stops at once when is_canceled() turns true
 
 __all__ = ["TaskResult", "FunctionTask", "start_task", "SUCCESS", "FAILED", "CANCELED"]
 
@@ -61,7 +62,7 @@ class FunctionTask(QgsTask):
     or the project. ``on_done(result)`` is called on the main thread.
     """
 
-    def __init__(self, description: str, work: Callable[[Callable[[float], None], Callable[[], bool]], Any],
+    def __init__(self, description: str, work: Callable[[Callable[..., None], Callable[[], bool]], Any],
                  on_done: Optional[Callable[[TaskResult], None]] = None):
         super().__init__(description, QgsTask.Flag.CanCancel)
         self._work = work
@@ -83,8 +84,8 @@ class FunctionTask(QgsTask):
                 self.result = TaskResult.failed(str(exc) or type(exc).__name__, traceback.format_exc())
         return self.result.ok
 
-    def _report_progress(self, percent: float) -> None:
-        self.setProgress(max(0.0, min(100.0, float(percent))))
+    def _report_progress(self, fraction: float, message: str = "") -> None:
+        self.setProgress(max(0.0, min(100.0, 100.0 * float(fraction))))
 
     def finished(self, ok: bool) -> None:  # main thread
         if self.result is None:  # canceled before run() started

@@ -117,7 +117,7 @@ class MapPresenter:
         dem = self.c.dem
         if dem is None:
             return 15000.0
-        x0, y0, x1, y1 = _extent(dem)
+        x0, y0, x1, y1 = dem.bounds()
         return max(((x - cx) ** 2 + (y - cy) ** 2) ** 0.5 for x in (x0, x1) for y in (y0, y1))
 
     def show_wedge(self, camera) -> None:
@@ -152,14 +152,3 @@ class MapPresenter:
         for item in (self.camera_marker, self.cursor):
             if item.scene() is not None:
                 item.scene().removeItem(item)
-
-
-def _extent(dem) -> Tuple[float, float, float, float]:
-    rows, cols = dem.elevation.shape
-    xs, ys = [], []
-    for c in (0, cols):
-        for r in (0, rows):
-            x, y = dem.cell_to_map(c, r)
-            xs.append(float(x))
-            ys.append(float(y))
-    return min(xs), min(ys), max(xs), max(ys)

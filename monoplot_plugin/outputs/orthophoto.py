@@ -16,7 +16,7 @@ import numpy as np
 from osgeo import gdal
 
 from ._gdal import gdal_errors_as_exceptions, gdal_failure, raster_verifier, srs_from_user
-from .geometry import orthorectify
+from ..core.lookup import orthorectify
 from .safe_write import OutputError, atomic_output
 
 __all__ = ["write_orthophoto", "orthophoto_from_camera"]
@@ -68,7 +68,7 @@ def write_orthophoto(path, image: np.ndarray, geotransform: Sequence[float], crs
 def orthophoto_from_camera(path, photo: np.ndarray, camera, dem, xyz: Optional[np.ndarray] = None, *,
                            overwrite: bool = False, rows_per_strip: Optional[int] = None,
                            allow_empty: bool = True) -> Path:
-    """Orthorectify ``photo`` onto ``dem`` (:func:`.geometry.orthorectify`) and write it.
+    """Orthorectify ``photo`` onto ``dem`` (:func:`monoplot_plugin.core.lookup.orthorectify`) and write it.
 
     Args:
         photo: (H, W) or (H, W, 3) uint8, the size of the camera's image.

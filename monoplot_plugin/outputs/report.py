@@ -108,7 +108,8 @@ def parameter_sigmas(camera, points: ReportPoints, names: Sequence[str] = FIT_PA
 
 def write_report(path, photo: np.ndarray, camera, dem, points_csv=None, *, points: Optional[ReportPoints] = None,
                  xyz: Optional[np.ndarray] = None, visible: Optional[np.ndarray] = None,
-                 sigmas: Optional[Dict[str, float]] = None, title: str = "", overwrite: bool = False) -> Path:
+                 sigmas: Optional[Dict[str, float]] = None, title: str = "", overwrite: bool = False,
+                 verdict: str = "") -> Path:
     """Write the one-page report.
 
     Args:
@@ -120,6 +121,8 @@ def write_report(path, photo: np.ndarray, camera, dem, points_csv=None, *, point
         visible: (rows, cols) bool DEM cells the camera sees; computed with the XYZ raster when None.
         sigmas: parameter standard deviations by name; from the points (:func:`parameter_sigmas`) when None.
         title: heading (default: "Monoplot report").
+        verdict: the fit's status and message (e.g. ``"uncertain: ... add check points."``), printed under the
+            parameters so that a report of a doubtful camera says so.
         overwrite: replace an existing file (default: refuse with OutputExistsError).
     Returns:
         the Path written.
@@ -157,7 +160,7 @@ def write_report(path, photo: np.ndarray, camera, dem, points_csv=None, *, point
     _draw_points(ax_photo, photo, points, residual, rmse)
     _draw_overlay(ax_overlay, photo, xyz)
     _draw_footprint(ax_map, camera, dem, visible, points)
-    _draw_parameters(ax_text, camera, sigmas, rmse, points, xyz)
+    _draw_parameters(ax_text, camera, sigmas, rmse, points, xyz, verdict)
     import io
 
     page = io.BytesIO()  # rendered in memory: matplotlib's own errors on a full disk hide the cause
@@ -276,7 +279,7 @@ def parameter_lines(camera, sigmas) -> List[str]:
     return lines
 
 
-def _draw_parameters(ax, camera, sigmas, rmse, points, xyz):
+def _draw_parameters(ax, camera, sigmas, rmse, points, xyz, verdict=""):
     ax.axis("off")
     lines = parameter_lines(camera, sigmas)
     lines.append("")
@@ -288,5 +291,10 @@ def _draw_parameters(ax, camera, sigmas, rmse, points, xyz):
         dist = np.linalg.norm(xyz[ground] - np.asarray(camera.position), axis=1)
         lines.append(f"Ground seen in {100 * ground.mean():.0f} % of the pixels, "
                      f"{dist.min() / 1000:.1f} to {dist.max() / 1000:.1f} km from the camera")
+    if verdict:
+        import textwrap
+
+        lines.append("")
+        lines += textwrap.wrap("Fit status " + verdict, 110)
     ax.text(0.0, 1.0, "\n".join(lines), va="top", ha="left", family="monospace", fontsize=8,
             transform=ax.transAxes)

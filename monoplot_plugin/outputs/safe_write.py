@@ -38,7 +38,8 @@ from pathlib import Path
 from typing import Callable, Iterator, Optional, Sequence, Union
 
 __all__ = ["OutputError", "OutputExistsError", "OutputCanceled", "atomic_output", "check_can_write",
-           "sidecar_suffixes", "describe_os_error", "incomplete_write", "cancel_before_commit", "write_text", "temporary_path",
+           "sidecar_suffixes", "describe_os_error", "incomplete_write", "cancel_before_commit", "write_text",
+           "temporary_path",
            "commit_temporary", "remove_temporary", "WriteInterrupted", "signal_handlers"]
 
 PathLike = Union[str, os.PathLike]

@@ -2,7 +2,8 @@
 
 Layout (``MONOPLOT_FORMAT=monoplot-xyz/1`` in the dataset metadata):
 
-- Bands 1-3: X, Y, Z (float64, or float32 when that is as exact, see below) in the DEM's CRS (band descriptions ``X``, ``Y``, ``Z``; unit type from the CRS, e.g.
+- Bands 1-3: X, Y, Z (float64, or float32 when that is as exact, see below) in the DEM's CRS (band descriptions
+  ``X``, ``Y``, ``Z``; unit type from the CRS, e.g.
   ``metre``). Optional band 4 ``DISTANCE``: metres from the camera centre to the ground point.
 - Nodata: NaN in every band for sky, and for pixels whose ray misses the DEM (voids, outside the grid). NaN is the
   one value that can never be a real coordinate.
@@ -37,7 +38,8 @@ from ._gdal import (crs_authid, gdal_errors_as_exceptions, gdal_failure, linear_
                     srs_from_user)
 from .safe_write import OutputError, atomic_output
 
-__all__ = ["write_xyz_raster", "write_xyz_raster_strips", "read_xyz_raster", "storage_dtype", "storage_dtype_for_range", "PHOTO_GEOTRANSFORM", "XYZ_FORMAT"]
+__all__ = ["write_xyz_raster", "write_xyz_raster_strips", "read_xyz_raster", "storage_dtype", "storage_dtype_for_range",
+           "PHOTO_GEOTRANSFORM", "XYZ_FORMAT"]
 
 #: Geotransform of every photo-space raster Monoplot writes: x = column, y = -row, 1 unit = 1 pixel.
 PHOTO_GEOTRANSFORM = (0.0, 1.0, 0.0, 0.0, 0.0, -1.0)
@@ -104,7 +106,8 @@ def write_xyz_raster_strips(path, strips: Iterable, width: int, height: int, crs
         "MONOPLOT_FORMAT": XYZ_FORMAT,
         "MONOPLOT_VALUE_CRS": srs.ExportToWkt(),
         "MONOPLOT_VALUE_CRS_AUTHID": crs_authid(crs_wkt) or "",
-        "MONOPLOT_PIXEL_SPACE": "x = photo column u, y = -photo row v; pixel (row i, col j) centre at (j+0.5, -(i+0.5))",
+        "MONOPLOT_PIXEL_SPACE": ("x = photo column u, y = -photo row v; "
+                                 "pixel (row i, col j) centre at (j+0.5, -(i+0.5))"),
         "MONOPLOT_PHOTO": photo_name,
         "MONOPLOT_CAMERA": camera.to_json(indent=None) if camera is not None else "",
     }

@@ -3,7 +3,7 @@
 Photo-space layers: features drawn on (or suggested for) the photo are stored with pixel coordinates as geometry,
 ``x = u`` (column) and ``y = -v`` (minus the row), like QGIS's Georeferencer, so that a layer shows the right way
 up on a canvas with the image at x in [0, W], y in [-H, 0]. Point layers also carry fields ``u_px`` and ``v_px``,
-which win over the geometry when present. Photo-space layers have no CRS.
+which win over the geometry when present. Photo-space layers have no CRS (the convention: ..adapters.photo_space).
 """
 
 from __future__ import annotations
@@ -33,17 +33,13 @@ from qgis.PyQt.QtCore import QCoreApplication, QVariant
 
 from ..workflow.inputs import check_dem_file, check_photo_path
 from ..workflow.inputs import load_dem as load_checked_dem
+from ..adapters.photo_space import PHOTO_Y_SIGN  # noqa: F401 (algorithms import it from here)
+from ..workflow.progress import Canceled
 from .inputs import InputError, load_camera, photo_size
 
-#: Sign of the photo-space y axis (see the module docstring).
-PHOTO_Y_SIGN = -1.0
 
 IMAGE_FILTER = "Images (*.jpg *.jpeg *.png *.tif *.tiff *.bmp *.JPG *.JPEG *.PNG *.TIF *.TIFF)"
 CAMERA_FILTER = "Camera (*.json *.kml);;Monoplot camera (*.json);;KML PhotoOverlay (*.kml)"
-
-
-class Canceled(Exception):
-    """Raised inside an algorithm when the user pressed Cancel (turned into a clean stop)."""
 
 
 class MonoplotAlgorithm(QgsProcessingAlgorithm):
@@ -187,17 +183,20 @@ def checked(function: Callable, *args, **kwargs):
         raise QgsProcessingException(str(exc)) from exc
 
 
-def progress_callback(feedback, start: float = 0.0, end: float = 100.0) -> Callable[[float], bool]:
-    """A callback for core loops: ``cb(fraction in [0, 1])`` sets the progress bar between ``start`` and ``end``
-    percent and returns True when the user asked to cancel (and raises nothing, so core code can stop cleanly)."""
+def progress_callback(feedback, start: float = 0.0, end: float = 100.0) -> Callable[..., None]:
+    """The workflow's ``progress(fraction in [0, 1], message="")`` on ``feedback``: the progress bar between
+    ``start`` and ``end`` percent."""
 
-    def callback(fraction: float) -> bool:
-        if feedback is None:
-            return False
-        feedback.setProgress(start + (end - start) * max(0.0, min(1.0, float(fraction))))
-        return feedback.isCanceled()
+    def callback(fraction: float, message: str = "") -> None:
+        if feedback is not None:
+            feedback.setProgress(start + (end - start) * max(0.0, min(1.0, float(fraction))))
 
     return callback
+
+
+def cancel_callback(feedback) -> Callable[[], bool]:
+    """The workflow's ``is_canceled()`` on ``feedback``."""
+    return (lambda: False) if feedback is None else feedback.isCanceled
 
 
 def check_canceled(feedback) -> None:

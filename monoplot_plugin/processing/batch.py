@@ -15,6 +15,7 @@ from typing import Callable, List, Optional
 import numpy as np
 
 from ..outputs.safe_write import write_text
+from ..workflow.progress import IsCanceled, Progress, never_canceled, no_progress
 from . import pipeline
 from .inputs import InputError, load_camera, read_photo, read_points_csv
 
@@ -102,13 +103,13 @@ def table_jobs(path: str) -> List[PhotoJob]:
 def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: bool = True,
               write_ortho: bool = True, resolution: Optional[float] = None,
               log: Callable[[str, bool], None] = lambda message, error: None,
-              progress: Callable[[float], bool] = lambda fraction: False) -> List[PhotoResult]:
+              progress: Progress = no_progress, is_canceled: IsCanceled = never_canceled) -> List[PhotoResult]:
     """Run every job; never raises for one photo's problem.
 
     Outputs per photo ``<stem>_camera.json`` (fitted jobs), ``<stem>_xyz.tif``, ``<stem>_ortho.tif``; jobs sharing
     one camera share one ``xyz.tif`` (the XYZ raster depends only on the camera and the DEM). ``log(message,
-    is_error)`` receives one line per photo; ``progress(fraction)`` returns True to cancel (the remaining photos are
-    reported as not processed).
+    is_error)`` receives one line per photo; ``progress(fraction, message)`` and ``is_canceled()`` follow the
+    workflow's protocol; on a cancel the remaining photos are reported as not processed.
     """
     os.makedirs(out_dir, exist_ok=True)
     stems = output_stems(jobs)
@@ -124,7 +125,8 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
     for index, job in enumerate(jobs):
         name = os.path.basename(job.photo) or job.label or f"job {index + 1}"
         stem = stems[index]
-        if progress(index / max(1, len(jobs))):
+        progress(index / max(1, len(jobs)), name)
+        if is_canceled():
             results.extend(PhotoResult(j.photo, False, "canceled before processing", canceled=True)
                            for j in jobs[index:])
             log(f"canceled: {len(jobs) - index} photos not processed", True)
@@ -134,8 +136,9 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
             photo = read_photo(job.photo)
             size = (photo.shape[1], photo.shape[0])
             camera = job.camera
+            fit_status, fit_message = "ok", ""
             if camera is None:
-                camera, result.rmse_px = _fit_job(job, size, dem, crs_wkt)
+                camera, result.rmse_px, fit_status, fit_message = _fit_job(job, size, dem, crs_wkt)
                 camera_path = os.path.join(out_dir, f"{stem}_camera.json")
                 write_text(camera_path, camera.to_json(), overwrite=True)
                 result.outputs.append(camera_path)
@@ -148,18 +151,20 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
                 if job.camera is not None:
                     xyz_path = os.path.join(out_dir, "xyz.tif")
                     if camera.to_json() not in shared_xyz_written:
-                        pipeline.write_xyz(xyz_path, pipeline.xyz_raster(camera, dem), crs_wkt, camera)
+                        pipeline.write_xyz(xyz_path, camera, dem, crs_wkt)
                         shared_xyz_written.add(camera.to_json())
                 else:
                     xyz_path = os.path.join(out_dir, f"{stem}_xyz.tif")
-                    pipeline.write_xyz(xyz_path, pipeline.xyz_raster(camera, dem), crs_wkt, camera, name)
+                    pipeline.write_xyz(xyz_path, camera, dem, crs_wkt, name)
                 result.outputs.append(xyz_path)
             if write_ortho:
                 ortho_path = os.path.join(out_dir, f"{stem}_ortho.tif")
-                pipeline.orthophoto(ortho_path, photo, camera, dem, crs_wkt, resolution)
+                pipeline.orthophoto(ortho_path, photo, camera, dem, resolution)
                 result.outputs.append(ortho_path)
             result.ok = True
             result.message = "ok" if np.isnan(result.rmse_px) else f"ok, fit RMSE {result.rmse_px:.2f} px"
+            if fit_status != "ok":  # products written, but the fitted camera is doubtful
+                result.message = f"fit {fit_status}, RMSE {result.rmse_px:.2f} px: {fit_message}"
             if job.photo and stem != os.path.splitext(name)[0]:
                 result.message += f" (outputs {stem}_*)"
             log(f"[{index + 1}/{len(jobs)}] {name}: {result.message}", False)
@@ -167,7 +172,7 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
             result.message = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
             log(f"[{index + 1}/{len(jobs)}] {name}: FAILED, skipped: {result.message}", True)
         results.append(result)
-    progress(1.0)
+    progress(1.0, "")
     return results
 
 
@@ -219,13 +224,15 @@ def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_poi
             log(f"{os.path.basename(path)}: skipped for the shared fit: {exc}", True)
             continue
         job = PhotoJob(path, prior=prior, points=points, dem_points=dem_points)
-        camera, rmse = _fit_job(job, (photo.shape[1], photo.shape[0]), dem, crs_wkt)
+        camera, rmse, status, message = _fit_job(job, (photo.shape[1], photo.shape[0]), dem, crs_wkt)
+        if status != "ok":
+            log(f"{os.path.basename(path)}: the shared camera's fit is {status}: {message}", True)
         return camera, path, rmse
     raise InputError("no photo of the folder could be read for the shared fit: " + "; ".join(problems[:3]))
 
 
 def _fit_job(job: PhotoJob, size, dem, crs_wkt: str):
-    """Fit one job's camera from its prior and point files; returns (camera, rmse in px)."""
+    """Fit one job's camera from its prior and point files; returns (camera, rmse in px, fit status, message)."""
     prior = load_camera(job.prior, size, crs_wkt)
     table = read_points_csv(job.points)
     if "uv" not in table:
@@ -239,13 +246,10 @@ def _fit_job(job: PhotoJob, size, dem, crs_wkt: str):
         xyz, paired = table["xyz"], True
     else:
         raise InputError(f"{os.path.basename(job.points)}: no map columns (X, Y, Z) and no dem_points file")
-    xyz = xyz.copy()
-    missing = ~np.isfinite(xyz[:, 2])
-    if missing.any():
-        xyz[missing, 2] = pipeline.sample_dem(dem, xyz[missing, :2])
+    xyz = pipeline.fill_missing_z(xyz, dem)
     camera, info = pipeline.fit(size, uv, xyz, prior, dem, paired)
     camera.crs_wkt = crs_wkt
-    return camera, float(info["rmse_px"])
+    return camera, float(info["rmse_px"]), info["status"], info["message"]
 
 
 def write_log(path: str, results: List[PhotoResult]) -> None:

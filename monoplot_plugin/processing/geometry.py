@@ -1,21 +1,16 @@
-"""QgsGeometry <-> numpy vertex arrays, for moving features between photo pixel space and the map."""
+"""Processing's photo <-> map geometry: features moved between photo pixel space and the map (the vertex arrays
+of :mod:`..adapters.photo_space`)."""
 
 from __future__ import annotations
 
-from typing import List, Optional, Tuple
+from typing import Optional, Tuple
 
 import numpy as np
-from qgis.core import (
-    QgsGeometry,
-    QgsLineString,
-    QgsMultiLineString,
-    QgsMultiPoint,
-    QgsMultiPolygon,
-    QgsPoint,
-    QgsPolygon,
-    QgsWkbTypes,
-)
+from qgis.core import QgsGeometry, QgsWkbTypes
 
+from ..adapters.photo_space import PHOTO_Y_SIGN
+from ..adapters.photo_space import build_geometry as _build
+from ..adapters.photo_space import geometry_parts as _parts
 from ..core.transforms import ground_pieces, true_runs
 from . import pipeline
 
@@ -23,67 +18,8 @@ from . import pipeline
 SILHOUETTE_JUMP = 0.1
 
 
-def _parts(geometry: QgsGeometry) -> Tuple[str, List[List[np.ndarray]]]:
-    """(kind, parts): kind "point" | "line" | "polygon"; each part is a list of (N, 3) vertex arrays (rings for
-    polygons, one array for lines and points); Z is NaN when the geometry has none."""
-    kind = {QgsWkbTypes.PointGeometry: "point", QgsWkbTypes.LineGeometry: "line",
-            QgsWkbTypes.PolygonGeometry: "polygon"}.get(geometry.type())
-    if kind is None:
-        raise ValueError("unsupported geometry type")
-    has_z = QgsWkbTypes.hasZ(geometry.wkbType())
-    parts = []
-    for part in geometry.constParts():
-        if kind == "polygon":
-            rings = [part.exteriorRing()] + [part.interiorRing(i) for i in range(part.numInteriorRings())]
-        else:
-            rings = [part]
-        arrays = []
-        for ring in rings:
-            vertices = [(v.x(), v.y(), v.z() if has_z else np.nan) for v in ring.vertices()]
-            arrays.append(np.array(vertices, dtype=float).reshape(-1, 3))
-        parts.append(arrays)
-    return kind, parts
-
-
-def _build(kind: str, parts: List[List[np.ndarray]], with_z: bool) -> Optional[QgsGeometry]:
-    """A multi geometry from parts of (N, 2 or 3) arrays; None when nothing valid is left."""
-    def line(a):
-        xs, ys = a[:, 0].tolist(), a[:, 1].tolist()
-        return QgsLineString(xs, ys, a[:, 2].tolist()) if with_z else QgsLineString(xs, ys)
-
-    if kind == "point":
-        multi = QgsMultiPoint()
-        for rings in parts:
-            for a in rings:
-                for p in a:
-                    multi.addGeometry(QgsPoint(p[0], p[1], p[2]) if with_z else QgsPoint(p[0], p[1]))
-    elif kind == "line":
-        multi = QgsMultiLineString()
-        for rings in parts:
-            for a in rings:
-                if len(a) >= 2:
-                    multi.addGeometry(line(a))
-    else:
-        multi = QgsMultiPolygon()
-        for rings in parts:
-            if len(rings) == 0 or len(rings[0]) < 3:
-                continue
-            polygon = QgsPolygon()
-            exterior = rings[0] if np.allclose(rings[0][0], rings[0][-1], equal_nan=True) else \
-                np.vstack([rings[0], rings[0][:1]])
-            polygon.setExteriorRing(line(exterior))
-            for hole in rings[1:]:
-                if len(hole) >= 3:
-                    closed = hole if np.allclose(hole[0], hole[-1], equal_nan=True) else np.vstack([hole, hole[:1]])
-                    polygon.addInteriorRing(line(closed))
-            multi.addGeometry(polygon)
-    if multi.numGeometries() == 0:
-        return None
-    return QgsGeometry(multi)
-
-
 def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float,
-                          y_sign: float = -1.0) -> Tuple[Optional[QgsGeometry], int]:
+                          y_sign: float = PHOTO_Y_SIGN) -> Tuple[Optional[QgsGeometry], int]:
     """A photo-space geometry (x = u, y = y_sign * v) -> map geometry with Z in the DEM's CRS.
 
     Lines and rings are densified every ``step`` pixels first; every vertex is intersected exactly with the DEM.
@@ -98,7 +34,7 @@ def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float,
     out_parts, dropped = [], 0
     for rings in parts:
         out_rings = []
-        for ring_index, a in enumerate(rings):
+        for a in rings:
             uv = np.column_stack([a[:, 0], y_sign * a[:, 1]])
             xyz = pipeline.photo_to_map(camera, dem, uv)
             ok = np.isfinite(xyz).all(axis=1)
@@ -116,7 +52,7 @@ def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float,
 
 
 def map_to_photo_geometry(geometry: QgsGeometry, camera, dem, step: float, visible=None,
-                          y_sign: float = -1.0) -> Optional[QgsGeometry]:
+                          y_sign: float = PHOTO_Y_SIGN) -> Optional[QgsGeometry]:
     """A map geometry (DEM CRS) -> photo-space geometry (x = u, y = y_sign * v).
 
     Z comes from the geometry, else from the DEM. ``visible``: optional callable ``(xyz (N, 3)) -> (N,) bool``
@@ -133,10 +69,7 @@ def map_to_photo_geometry(geometry: QgsGeometry, camera, dem, step: float, visib
     for rings in parts:
         out_rings = []
         for a in rings:
-            xyz = a.copy()
-            missing = ~np.isfinite(xyz[:, 2])
-            if missing.any():
-                xyz[missing, 2] = pipeline.sample_dem(dem, xyz[missing, :2])
+            xyz = pipeline.fill_missing_z(a, dem)
             uv = camera.project(xyz)
             ok = np.isfinite(uv).all(axis=1)
             if visible is not None:
@@ -146,7 +79,7 @@ def map_to_photo_geometry(geometry: QgsGeometry, camera, dem, step: float, visib
             if kind == "polygon":
                 out_rings.append(photo[np.isfinite(uv).all(axis=1)])
             elif kind == "line" and visible is not None:
-                out_rings.extend(photo[a:b] for a, b in true_runs(ok))
+                out_rings.extend(photo[p:q] for p, q in true_runs(ok))
             else:
                 out_rings.append(photo[ok])
         if kind == "line":

@@ -14,6 +14,7 @@ from typing import Dict, Optional, Sequence, Tuple
 import numpy as np
 
 from ..core.camera import Camera
+from ..workflow.inputs import InputError, check_camera, check_photo_path, read_text  # noqa: F401 (InputError)
 
 __all__ = ["InputError", "load_camera", "read_photo", "photo_size", "read_points_csv", "write_points_csv",
            "PHOTO_COLUMNS", "MAP_COLUMNS"]
@@ -26,7 +27,6 @@ MAP_COLUMNS = (("x", "easting", "east", "lon"), ("y", "northing", "north", "lat"
                ("z", "z_m", "elevation", "elev", "alt", "altitude", "height"))
 
 
-from ..workflow.inputs import InputError, check_camera, check_photo_path, read_text  # noqa: F401 (InputError)
 
 
 def load_camera(path: str, image_size: Optional[Tuple[int, int]] = None, crs_wkt: str = "") -> Camera:

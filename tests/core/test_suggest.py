@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from monoplot_plugin.core import Camera, Dem
-from monoplot_plugin.core.suggest import (_prominence, spread_by_grid, suggest_dem_points, suggest_photo_points,
+from monoplot_plugin.core.landmarks import _prominence
+from monoplot_plugin.core.suggest import (spread_by_grid, suggest_dem_points, suggest_photo_points,
                                           terrain_landmarks)
 from monoplot_plugin.core.suggest_photo import picture_box, picture_mask
 

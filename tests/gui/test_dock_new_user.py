@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from qgis.core import Qgis, QgsPointXY, QgsProject, QgsRasterLayer
+from qgis.core import Qgis, QgsProject, QgsRasterLayer
 from qgis.PyQt.QtCore import Qt
 from qgis.PyQt.QtWidgets import QToolButton
 

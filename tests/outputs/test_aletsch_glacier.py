@@ -11,8 +11,9 @@ from osgeo import gdal, ogr
 from monoplot_plugin.core.camera import Camera
 from monoplot_plugin.core.dem import Dem
 from monoplot_plugin.core.fit import fit_camera
-from monoplot_plugin.outputs.geometry import (densify, map_to_photo, photo_to_map_feature, sample_xyz,
-                                              visibility_of_points)
+from monoplot_plugin.core.lookup import sample_xyz, visibility_of_points
+from monoplot_plugin.core.transforms import densify
+from monoplot_plugin.workflow.features import map_to_photo, photo_to_map_feature
 from monoplot_plugin.outputs.orthophoto import orthophoto_from_camera
 from monoplot_plugin.outputs.report import ReportPoints, parameter_sigmas, write_report
 from monoplot_plugin.outputs.vectors import write_vector_layer

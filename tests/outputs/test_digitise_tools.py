@@ -8,8 +8,8 @@ from qgis.PyQt.QtCore import QEvent, QPoint, Qt
 from qgis.PyQt.QtGui import QKeyEvent
 
 from monoplot_plugin.gui.photo_canvas import PhotoCanvas
-from monoplot_plugin.outputs.digitise_tools import PhotoCaptureTool, PhotoEditTool
-from monoplot_plugin.outputs.qgis_layers import DigitisingSession
+from monoplot_plugin.gui.digitise_tools import PhotoCaptureTool, PhotoEditTool
+from monoplot_plugin.gui.digitising import DigitisingSession
 
 
 @pytest.fixture

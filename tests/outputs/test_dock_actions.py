@@ -72,7 +72,9 @@ def test_outputs_in_the_dock(dock_with_fit, plane_scene, tmp_path, qtbot):
     ortho_layer = tools.export_orthophoto(tmp_path / "ortho.tif")
     report = tools.export_report(tmp_path / "report.png")
     shp = tools.export_features("polygon", tmp_path / "tongue.shp")
-    assert xyz_layer.bandCount() == 4 and ortho_layer.crs().authid() == CRS and report.exists() and shp.exists()
+    # the product card's one layout, as Processing writes it: bands X, Y, Z (distance only when asked)
+    assert xyz_layer.bandCount() == 3 and ortho_layer.crs().authid() == CRS and report.exists() and shp.exists()
+    assert tools.export_xyz(tmp_path / "xyz_distance.tif", distance=True).bandCount() == 4
     names = {node.name() for node in group.findLayers()}
     assert {"xyz (X Y Z, photo pixels)", "ortho (orthophoto)", "tongue"} <= names
     assert not group.findLayer(xyz_layer.id()).isVisible()  # off by default: it lies in photo pixel space
@@ -207,7 +209,7 @@ def test_save_dialogs_open_in_the_folder_of_the_last_product(dock_with_fit, tmp_
     opens there instead of sending the user back to the photo's folder every time."""
     from qgis.core import QgsSettings
 
-    from monoplot_plugin.outputs.dock_actions import LAST_FOLDER_KEY
+    from monoplot_plugin.gui.product_panel import LAST_FOLDER_KEY
 
     dock, tools = dock_with_fit
     QgsSettings().remove(LAST_FOLDER_KEY)

@@ -7,7 +7,8 @@ from qgis.core import (QgsFeature, QgsGeometry, QgsPointXY, QgsProject, QgsRaste
                        QgsWkbTypes)
 
 from monoplot_plugin.outputs import write_xyz_raster
-from monoplot_plugin.outputs.qgis_layers import DigitisingSession, add_xyz_layer, map_layer_on_photo
+from monoplot_plugin.gui.digitising import DigitisingSession
+from monoplot_plugin.gui.map_layers import add_xyz_layer, map_layer_on_photo
 
 from outputs_helpers import CRS, plane_height
 

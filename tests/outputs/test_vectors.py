@@ -7,7 +7,8 @@ import pytest
 from osgeo import ogr
 
 from monoplot_plugin.outputs import OutputExistsError
-from monoplot_plugin.outputs.geometry import map_to_photo, photo_to_map_feature, sample_xyz
+from monoplot_plugin.core.lookup import sample_xyz
+from monoplot_plugin.workflow.features import map_to_photo, photo_to_map_feature
 from monoplot_plugin.outputs.vectors import MapFeature, write_vector_layer
 
 from outputs_helpers import CRS, plane_height
@@ -51,7 +52,7 @@ def test_digitised_features_read_back_with_z_and_attributes(plane_scene, tmp_pat
     assert feature["area"] == pytest.approx(geom.GetArea(), rel=1e-6)
     assert feature["area"] > 1e5  # hundreds of metres across at km range
     assert feature["sky_parts"] == 0
-    ds = None
+    ds = None  # noqa: F841 (closes the GDAL dataset)
 
 
 def test_lines_follow_terrain_and_sky_parts_are_split_off(plane_scene, tmp_path):
@@ -117,7 +118,7 @@ def test_map_polygon_to_photo_and_back_within_one_cell(plane_scene):
     dense = np.column_stack([path.uv, back])
     assert np.isfinite(back).all()
     # Every drawn vertex comes back within one DEM cell of the map outline it came from.
-    from monoplot_plugin.outputs.geometry import densify
+    from monoplot_plugin.core.transforms import densify
     truth = densify(ring, cell / 2.0)
     error = np.linalg.norm(back[:, :2] - truth, axis=1)
     assert np.median(error) < cell / 2 and error.max() < cell, (np.median(error), error.max(), dense.shape)

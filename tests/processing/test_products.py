@@ -150,6 +150,30 @@ def test_map_to_photo_drops_points_hidden_behind_terrain(run_alg, small_scene):
     assert np.allclose([u, v], cam.project([seen])[0], atol=0.5)
 
 
+def test_map_line_into_hidden_ground_keeps_only_its_visible_part(run_alg, small_scene):
+    """A line from a seen point to a hidden one (with 'drop hidden parts') keeps the seen end and loses the other."""
+    cam = small_scene["cam"]
+    dem = Dem.open(small_scene["dem"])
+    seen = compute_xyz(cam, dem)[90, 80]
+    direction = (seen - np.asarray(cam.position)) / np.linalg.norm(seen - np.asarray(cam.position))
+    behind = seen[:2] + 400.0 * direction[:2]
+    line = QgsVectorLayer("LineString?crs=EPSG:32632", "line", "memory")
+    feature = QgsFeature()
+    feature.setGeometry(QgsGeometry.fromPolylineXY([QgsPointXY(seen[0], seen[1]), QgsPointXY(*behind)]))
+    line.dataProvider().addFeatures([feature])
+    common = {"INPUT": line, "CAMERA": small_scene["camera"], "DEM": small_scene["dem"], "STEP": 10,
+              "OUTPUT": "memory:"}
+
+    def vertices(hidden):
+        out = run_alg("maptophoto", {**common, "HIDDEN": hidden})["OUTPUT"]
+        return np.array([(p.x(), -p.y()) for f in out.getFeatures() for p in f.geometry().vertices()])
+
+    whole, visible = vertices(False), vertices(True)
+    assert len(whole) >= 30  # 400 m densified every 10 m
+    assert 2 <= len(visible) < len(whole)  # the far end, behind the near slope, is gone
+    assert np.allclose(visible[0], cam.project([seen])[0], atol=1.0)
+
+
 def test_geographic_dem_is_used_in_its_utm_zone(run_alg, small_scene, tmp_path):
     geographic = tmp_path / "dem_wgs84.tif"
     gdal.Warp(str(geographic), small_scene["dem"], dstSRS="EPSG:4326", resampleAlg="bilinear")
@@ -207,7 +231,7 @@ def test_kml_camera_without_photo_says_what_is_missing(run_alg, small_scene, tmp
 def test_cancel_during_feature_loop_is_a_clean_error_and_frees_the_cache(run_alg, small_scene):
     from qgis.core import QgsProcessingFeedback
 
-    from monoplot_plugin.processing import pipeline
+    from monoplot_plugin.workflow import xyz
 
     feedback = QgsProcessingFeedback()
     feedback.cancel()
@@ -215,7 +239,7 @@ def test_cancel_during_feature_loop_is_a_clean_error_and_frees_the_cache(run_alg
     with pytest.raises(QgsProcessingException, match="Canceled"):
         run_alg("phototomap", {"INPUT": drawn, "CAMERA": small_scene["camera"], "DEM": small_scene["dem"],
                                "OUTPUT": "memory:"}, feedback)
-    assert not pipeline._XYZ_CACHE
+    assert not xyz._cache
 
 
 def test_photo_line_across_a_silhouette_is_cut_there(run_alg, small_scene):

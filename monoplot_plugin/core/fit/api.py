@@ -69,7 +69,7 @@ def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Op
         result.check_residuals_px = cuv - cq
         result.check_rmse_px = rmse(result.check_residuals_px)
         if result.evidence:
-            result.evidence.update(check_rmse_px=result.check_rmse_px, has_check=len(cq) > 0)
+            result.evidence.update(check_rmse_px=result.check_rmse_px, has_check=len(cq) > 0, n_check=len(cq))
     if result.evidence and result.status not in ("refused", "canceled"):
         result.status, result.message = judge(result.evidence)
     result.elapsed_s = time.perf_counter() - t0

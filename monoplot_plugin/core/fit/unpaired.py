@@ -95,6 +95,13 @@ def _fit_unpaired(ctx) -> FitResult:
     if opts.refine:
         ctx.report(0.95, "unpaired fit: automatic pairing and robust refinement")
         result = refine_by_pairs(ctx, space, u, opts.gate_px)
+        # Polish: least squares on the camera's own tight inliers (the gate shrinks with the residuals down to 2 px),
+        # kept when it explains the points at least as well; the automatic pairing's gate can be wide.
+        if result is not None:
+            u_res = space.from_camera(result.camera)
+            u_pol = local_optimise(ctx, space, u_res, radius, 2.0)
+            if _score(ctx, space, u_pol, radius) >= _score(ctx, space, u_res, radius):
+                result.camera = space.camera(u_pol)
     if result is None:
         uv, usable = ctx.project_usable(space, u)
         nearest = nearest_distances(ctx.q, uv, usable)

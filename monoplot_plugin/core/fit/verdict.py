@@ -98,10 +98,11 @@ def judge(e: dict) -> Tuple[str, str]:
     """(status, message) from the evidence ``e``.
 
     Keys (missing ones are not judged): ``mode`` ("paired"/"unpaired"), ``n_free``, ``diag`` (px),
-    ``n_pairs`` (pairs used), ``rmse_px``, ``loo_rmse_px``, ``check_rmse_px``, ``condition`` and ``weakest``
-    (Jacobian), and for unpaired fits ``n_photo`` (photo points given), ``n_inliers`` (mutual-nearest pairs within
-    ``radius_px``), ``n_dem`` (DEM points given), ``chance_max`` / ``chance_mean`` (the same score for cameras
-    turned away, see :func:`~monoplot_plugin.core.fit.consensus.chance_inliers`), ``score`` (the fit's consensus score),
+    ``n_pairs`` (pairs used), ``rmse_px``, ``loo_rmse_px``, ``check_rmse_px`` and ``n_check`` (independent check
+    points), ``condition`` and ``weakest`` (Jacobian), and for unpaired fits ``n_photo`` (photo points given),
+    ``n_inliers`` (mutual-nearest pairs within ``radius_px``), ``n_dem`` (DEM points given), ``chance_max`` /
+    ``chance_mean`` (the same score for cameras turned away, see
+    :func:`~monoplot_plugin.core.fit.consensus.chance_inliers`), ``score`` (the fit's consensus score),
     ``competitor_ratio`` (best distinct competing camera's score / ``score``), ``spread`` (hull share of the
     inliers), ``photo_outliers`` (accepted photo points that fit no DEM point).
     """
@@ -146,7 +147,7 @@ def judge(e: dict) -> Tuple[str, str]:
                 weak.append("few points match compared with what a wrongly placed camera gets by chance: accept "
                             "more points on recognisable features, or pair a few")
             smaller = min(int(e.get("n_photo", 0)), int(e.get("n_dem", 0)))
-            if smaller and n_in < 0.3 * smaller:
+            if smaller and n_in < 0.4 * smaller:
                 weak.append(f"only {n_in} of the {smaller} points of the smaller set match: either most accepted "
                             f"points are wrong or the camera is; reject the flagged points and fit again")
             ratio = float(e.get("competitor_ratio", 0.0))
@@ -157,6 +158,11 @@ def judge(e: dict) -> Tuple[str, str]:
                 weak.append("the matched points cover a small part of the picture: add points elsewhere")
         if not e.get("has_check", False) and not poor:
             text += " The residuals measure how well the automatic pairs agree: check points measure accuracy."
+    # Independent check points that agree outweigh weak matching evidence: they measure the camera itself.
+    checked_ok = np.isfinite(check) and check <= 0.015 * diag and int(e.get("n_check", 0)) >= 4
+    if checked_ok and not poor and weak:
+        text += " Verified by the check points despite: " + "; ".join(weak) + "."
+        weak = []
     note = (" " + e["note"]) if e.get("note") else ""
     if e.get("mode") == "unpaired" and int(e.get("photo_outliers", 0)):
         note = (f" {int(e['photo_outliers'])} of {int(e.get('n_photo', 0))} accepted photo points fit no terrain "

@@ -114,15 +114,14 @@ class BatchPhotos(MonoplotAlgorithm):
         def log(message, error):
             (feedback.reportError if error else feedback.pushInfo)(message)
 
-        def progress(fraction):
+        def progress(fraction, message=""):
             feedback.setProgress(100.0 * fraction)
-            return feedback.isCanceled()
 
         results = batch.run_batch(jobs, dem, crs.toWkt(), out_dir,
                                   write_xyz=self.parameterAsBool(parameters, "XYZ", context),
                                   write_ortho=self.parameterAsBool(parameters, "ORTHO", context),
                                   resolution=self.parameterAsDouble(parameters, "RESOLUTION", context) or None,
-                                  log=log, progress=progress)
+                                  log=log, progress=progress, is_canceled=feedback.isCanceled)
         log_path = os.path.join(out_dir, "batch_log.csv")
         with cancel_before_commit(lambda: False):  # the log says what was done, canceled or not
             batch.write_log(log_path, results)

@@ -18,7 +18,8 @@ from qgis.core import (
 
 from .. import pipeline
 from ...outputs.safe_write import write_text
-from ..base import (MonoplotAlgorithm, check_canceled, checked, progress_callback, read_map_points,
+from ...workflow.progress import Canceled
+from ..base import (MonoplotAlgorithm, cancel_callback, check_canceled, checked, progress_callback, read_map_points,
                     read_photo_points)
 from ...workflow.inputs import points_to_dem_crs
 from ..inputs import InputError, read_points_csv
@@ -70,7 +71,8 @@ class FitCamera(MonoplotAlgorithm):
         self.addOutput(QgsProcessingOutputNumber("RMSE_PX", self.tr("Reprojection error (px)")))
         self.addOutput(QgsProcessingOutputNumber("N_PHOTO", self.tr("Photo points used")))
         self.addOutput(QgsProcessingOutputNumber("N_DEM", self.tr("DEM points used")))
-        self.addOutput(QgsProcessingOutputString("STATUS", self.tr("Fit status (ok / poor)")))
+        self.addOutput(QgsProcessingOutputString("STATUS", self.tr("Fit status (ok / uncertain / poor)")))
+        self.addOutput(QgsProcessingOutputString("MESSAGE", self.tr("What the fit found and, unless ok, what to do")))
 
     def gather_points(self, parameters, context, dem, crs=None):
         """(uv (N, 2), xyz (M, 3), paired) from layers and/or CSV files; Z sampled from the DEM where missing."""
@@ -102,9 +104,7 @@ class FitCamera(MonoplotAlgorithm):
                 "PHOTO_CSV and DEM_CSV files, or one paired CSV (u_px, v_px, X, Y, Z)."))
         uv = np.concatenate(uv_parts)
         xyz = np.concatenate(xyz_parts)
-        missing_z = ~np.isfinite(xyz[:, 2])
-        if missing_z.any():
-            xyz[missing_z, 2] = pipeline.sample_dem(dem, xyz[missing_z, :2])
+        xyz = pipeline.fill_missing_z(xyz, dem)
         good_xyz = np.isfinite(xyz).all(axis=1)
         if paired:
             checked(pair_points, uv, xyz)
@@ -134,11 +134,11 @@ class FitCamera(MonoplotAlgorithm):
         photo_size = checked(pipeline_photo_size, photo)
         try:
             camera, info = checked(pipeline.fit, photo_size, uv, xyz, prior, dem, paired,
-                                   progress_callback(feedback, 0, 95),
+                                   progress_callback(feedback, 0, 95), cancel_callback(feedback),
                                    on_ground=self.parameterAsBool(parameters, "ON_GROUND", context),
                                    eye_height=self.parameterAsDouble(parameters, "EYE_HEIGHT", context))
-        except pipeline.FitCanceledError:
-            raise QgsProcessingException(self.tr("Fit canceled; no camera written."))
+        except Canceled:
+            raise QgsProcessingException(self.tr("Fit canceled; no camera written.")) from None
         if info["status"] != "ok":
             feedback.reportError(self.tr("Fit {0}: {1}").format(info['status'], info['message']), False)
         else:
@@ -149,9 +149,14 @@ class FitCamera(MonoplotAlgorithm):
         write_text(out, camera.to_json(), overwrite=True)
         rmse = float(info.get("rmse_px", float("nan")))
         feedback.pushInfo(self.tr("Camera: {0}").format(json.dumps(camera.parameters())))
+        std = info.get("summary", {}).get("std") or {}
+        if std:
+            feedback.pushInfo(self.tr("One standard deviation: {0}").format(
+                ", ".join(f"{k} ± {v:.3g}" for k, v in std.items() if v is not None)))
         feedback.pushInfo(self.tr("Reprojection error {0:.2f} px; written to {1}").format(rmse, out))
         feedback.setProgress(100)
-        return {"OUTPUT": out, "RMSE_PX": rmse, "N_PHOTO": len(uv), "N_DEM": len(xyz), "STATUS": info["status"]}
+        return {"OUTPUT": out, "RMSE_PX": rmse, "N_PHOTO": len(uv), "N_DEM": len(xyz), "STATUS": info["status"],
+                "MESSAGE": info["message"]}
 
 
 def pipeline_photo_size(path):

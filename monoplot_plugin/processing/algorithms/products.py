@@ -21,9 +21,10 @@ from qgis.core import (
 
 from .. import geometry as geo
 from .. import pipeline
-from ..base import PHOTO_Y_SIGN, MonoplotAlgorithm, check_canceled, checked, progress_callback
+from ..base import PHOTO_Y_SIGN, MonoplotAlgorithm, cancel_callback, check_canceled, checked, progress_callback
 from ..inputs import read_photo
 from ...core.xyz_strips import plan_strips
+from ...workflow.products import dem_at_resolution
 from ...workflow.inputs import check_not_empty, check_view
 from ..safe_sink import safe_sink
 
@@ -77,11 +78,12 @@ class ComputeXyz(_CameraDemAlgorithm):
         rows = plan_strips(camera, fixed=3 * dem.elevation.nbytes)
         if rows < camera.height:  # does not fit in the free memory at once: strip by strip into the file
             return self.xyz_in_strips(parameters, context, feedback, camera, dem, crs, out, rows)
-        xyz = pipeline.xyz_raster(camera, dem, progress_callback(feedback, 0, 80))
+        xyz = pipeline.xyz_raster(camera, dem)  # cached: written below without computing again
         check_canceled(feedback)
         ground = float(np.isfinite(xyz[..., 2]).mean())
         self.check_not_empty(parameters, context, int(ground > 0), "XYZ raster", NO_GROUND)
-        pipeline.write_xyz(out, xyz, crs.toWkt())
+        pipeline.write_xyz(out, camera, dem, crs.toWkt(), progress=progress_callback(feedback, 80, 95),
+                           is_canceled=cancel_callback(feedback))
         feedback.pushInfo(self.tr("{0:.1f}% of the pixels hit the DEM; written to {1}").format(100 * ground, out))
         feedback.setProgress(100)
         return {"OUTPUT": out, "GROUND_FRACTION": ground}
@@ -245,9 +247,9 @@ class Orthophoto(_CameraDemAlgorithm):
                 photo.shape[1], photo.shape[0], camera.width, camera.height))
         resolution = self.parameterAsDouble(parameters, "RESOLUTION", context) or None
         out = self.parameterAsOutputLayer(parameters, "OUTPUT", context)
-        grid = pipeline.dem_at_resolution(dem, resolution) if resolution else dem
+        grid = dem_at_resolution(dem, resolution) if resolution else dem
         rows = plan_strips(camera, extra_per_row=3 * camera.width,
-                              fixed=grid.elevation.size * 40 + 3 * dem.elevation.nbytes, what="orthophoto")
+                           fixed=grid.elevation.size * 40 + 3 * dem.elevation.nbytes, what="orthophoto")
         if rows < camera.height:  # the XYZ raster does not fit at once: the photo is draped strip by strip
             from ...outputs.orthophoto import orthophoto_from_camera
 
@@ -258,7 +260,8 @@ class Orthophoto(_CameraDemAlgorithm):
             return {"OUTPUT": out}
         ground = int(np.isfinite(pipeline.xyz_raster(camera, dem)[..., 2]).any())
         self.check_not_empty(parameters, context, ground, "orthophoto", NO_GROUND)
-        pipeline.orthophoto(out, photo, camera, dem, crs.toWkt(), resolution, progress_callback(feedback, 0, 95))
+        checked(pipeline.orthophoto, out, photo, camera, dem, resolution, progress_callback(feedback, 0, 95),
+                cancel_callback(feedback))
         feedback.setProgress(100)
         return {"OUTPUT": out}
 

@@ -12,7 +12,7 @@ from qgis.core import (
 from .. import pipeline
 from ..safe_sink import safe_sink
 from ..base import (MonoplotAlgorithm, check_canceled, checked, map_point_fields, photo_point_fields,
-                    progress_callback, write_map_points, write_photo_points)
+                    write_map_points, write_photo_points)
 from ..inputs import read_photo
 
 
@@ -40,7 +40,8 @@ class SuggestPhotoPoints(MonoplotAlgorithm):
         feedback.setProgress(10)
         uv, scores = pipeline.suggest_photo(photo, count)
         check_canceled(feedback)
-        sink = safe_sink(self, parameters, "OUTPUT", context, photo_point_fields(), QgsWkbTypes.Point, QgsCoordinateReferenceSystem())
+        sink = safe_sink(self, parameters, "OUTPUT", context, photo_point_fields(), QgsWkbTypes.Point,
+                         QgsCoordinateReferenceSystem())
         write_photo_points(sink, uv, scores)
         dest = sink.commit()
         feedback.pushInfo(self.tr("{0} photo points suggested").format(len(uv)))
@@ -75,7 +76,7 @@ class SuggestDemPoints(MonoplotAlgorithm):
             camera = self.camera(parameters, context, photo=photo, crs=crs)
         count = self.parameterAsInt(parameters, "MAX_POINTS", context)
         feedback.setProgress(10)
-        xyz, scores, labels = pipeline.suggest_dem(dem, count, camera, progress_callback(feedback, 10, 90))
+        xyz, scores, labels = pipeline.suggest_dem(dem, count, camera)
         check_canceled(feedback)
         sink = safe_sink(self, parameters, "OUTPUT", context, map_point_fields(), QgsWkbTypes.PointZ, crs)
         write_map_points(sink, xyz, scores, labels)

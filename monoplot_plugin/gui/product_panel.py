@@ -1,4 +1,4 @@
-"""The outputs in the Monoplot dock: digitising tools on the photo canvas and the export buttons.
+"""The product panel of the Monoplot dock: digitising tools on the photo canvas and the export buttons.
 
 The dock calls :func:`install_output_tools` once (end of its ``__init__``) and :meth:`OutputTools.unload` in its
 ``unload``; everything else lives here, plugged into the dock's extension points ``add_photo_tool`` and
@@ -19,9 +19,11 @@ from qgis.PyQt.QtCore import QObject, pyqtSignal
 from qgis.PyQt.QtWidgets import QAction, QFileDialog
 
 from .digitise_tools import PhotoCaptureTool, PhotoEditTool
-from .qgis_layers import (DigitisingSession, KINDS, add_orthophoto_layer, add_xyz_layer, drawn_entry_key,
-                          map_layer_on_photo, photo_group)
-from .safe_write import OutputError
+from ..outputs.safe_write import OutputError
+from ..workflow import products as product_step
+from ..workflow import xyz as xyz_step
+from .digitising import KINDS, DigitisingSession, drawn_entry_key
+from .map_layers import add_orthophoto_layer, add_xyz_layer, map_layer_on_photo, photo_group
 
 __all__ = ["install_output_tools", "OutputTools", "LAST_FOLDER_KEY"]
 
@@ -48,8 +50,6 @@ class OutputTools(QObject):
         self.dock = dock
         self.controller = dock.controller
         self.session: Optional[DigitisingSession] = None
-        self._xyz_key = None
-        self._xyz = self._distance = self._visible = None
         self.overlays: List[QgsVectorLayer] = []
         self._overlay_ids: List[str] = []  # the map layers drawn on the photo, redrawn after a refit or a reopen
         self._tasks: list = []  # running export tasks (kept referenced until done)
@@ -100,19 +100,6 @@ class OutputTools(QObject):
         if c.fitted is None:
             return self.tr("Fit the camera first.")
         return None
-
-    def products(self):
-        """(camera, dem, xyz, distance, visible) at full photo resolution, recomputed when the camera changes."""
-        from ..core.xyz import compute_xyz_full
-
-        c = self.controller
-        camera = c.fitted
-        key = (camera.to_json(), id(c.dem))
-        if key != self._xyz_key:
-            result = compute_xyz_full(camera, c.dem)
-            self._xyz, self._distance, self._visible = result.xyz, result.distance, result.visible
-            self._xyz_key = key
-        return camera, c.dem, self._xyz, self._distance, self._visible
 
     def photo_name(self) -> str:
         return Path(self.controller.state.photo_path or "photo").name
@@ -183,7 +170,7 @@ class OutputTools(QObject):
         """Another photo or project: drop the session (its layers belong to the old one; the drawn features are
         in the project file and come back with it)."""
         self._forget_session()
-        self._xyz_key = None
+        xyz_step.clear_cache()
         self._sky_told = {}
         self.dock.photo_canvas.set_extra_layers([])
         self._camera_changed()
@@ -217,32 +204,43 @@ class OutputTools(QObject):
         self.dock.show_message(text, level)  # the dock's status line and QGIS's message bar
 
     # --- exports (paths given) --------------------------------------------------------------------------------
-    def export_xyz(self, path, overwrite: bool = False, distance: bool = True):
-        from .xyz_raster import write_xyz_raster
-
-        camera, dem, xyz, dist, _ = self.products()
-        written = write_xyz_raster(path, xyz, dem.crs_wkt, dist if distance else None, overwrite=overwrite,
-                                   camera=camera, photo_name=self.photo_name())
+    def export_xyz(self, path, overwrite: bool = False, distance: bool = False):
+        """The product card's 3-band X, Y, Z raster (a distance band when asked), added to the photo's group."""
+        written = self._work("xyz", path, overwrite, distance=distance)()
         return add_xyz_layer(written, self.dock.project, photo_group(self.dock.project, self.photo_name()))
 
     def export_orthophoto(self, path, overwrite: bool = False):
-        from ..adapters.photo import qimage_to_array
-        from .orthophoto import orthophoto_from_camera
-
-        camera, dem, xyz, _, _ = self.products()
-        photo = qimage_to_array(self.controller.image)
-        written = orthophoto_from_camera(path, photo, camera, dem, xyz, overwrite=overwrite)
+        written = self._work("ortho", path, overwrite)()
         return add_orthophoto_layer(written, self.dock.project, photo_group(self.dock.project, self.photo_name()))
 
     def export_report(self, path, overwrite: bool = False):
-        from ..adapters.photo import qimage_to_array
-        from .report import write_report
+        return self._work("report", path, overwrite)()
 
-        camera, dem, xyz, _, visible = self.products()
-        points, sigmas = self._report_inputs()
-        return write_report(path, qimage_to_array(self.controller.image), camera, dem, points=points, xyz=xyz,
-                            visible=visible, sigmas=sigmas, title=Path(self.photo_name()).stem,
-                            overwrite=overwrite)
+    def _work(self, what: str, path, overwrite: bool, distance: bool = False):
+        """``work(progress=None, is_canceled=None) -> written path`` of the product ``what`` ("xyz", "ortho",
+        "report", :mod:`..workflow.products`), with everything it needs copied now (main thread), so that it can
+        run in a task: it touches no Qt object and no layer."""
+        from ..adapters.photo import qimage_to_array
+
+        c = self.controller
+        camera, dem, name = c.fitted, c.dem, self.photo_name()
+        photo = qimage_to_array(c.image) if what in ("ortho", "report") else None
+        points, sigmas = (self._report_inputs() if what == "report" else (None, None))
+        info = self.controller.state.fit_info if isinstance(self.controller.state.fit_info, dict) else {}
+        verdict = f"{info.get('status', '')}: {info.get('message', '')}" if info.get("status") else ""
+
+        def work(progress=None, is_canceled=None):
+            if what == "xyz":
+                return product_step.write_xyz(path, camera, dem, photo_name=name, distance=distance,
+                                          overwrite=overwrite, progress=progress, is_canceled=is_canceled)
+            if what == "ortho":
+                return product_step.orthophoto(path, photo, camera, dem, overwrite=overwrite, progress=progress,
+                                           is_canceled=is_canceled)
+            return product_step.report(path, photo, camera, dem, points=points, sigmas=sigmas, title=Path(name).stem,
+                                       overwrite=overwrite, progress=progress, is_canceled=is_canceled,
+                                       verdict=verdict)
+
+        return work
 
     def export_features(self, kind: str, path, overwrite: bool = False):
         session = self.current_session()
@@ -318,46 +316,14 @@ class OutputTools(QObject):
         """Compute and write the XYZ raster ("xyz"), orthophoto ("ortho") or report ("report") in a QgsTask;
         the layer is added and the user told on the main thread when it is done. Returns the task (None when
         the inputs are missing: the reason is shown)."""
-        from ..adapters.photo import qimage_to_array
-        from ..gui.tasks import FunctionTask, start_task
+        from .tasks import FunctionTask, start_task
 
         reason = self.ready()
         if reason is not None:
             self._message(reason, Qgis.MessageLevel.Warning)
             return None
-        c = self.controller
-        camera, dem, name = c.fitted, c.dem, self.photo_name()
-        # Everything the worker needs, copied now: it must not touch Qt objects or the project.
-        photo = qimage_to_array(c.image) if what in ("ortho", "report") else None
-        points, sigmas = (self._report_inputs() if what == "report" else (None, None))
-        cached = (self._xyz, self._distance, self._visible) if self._xyz_key == (camera.to_json(), id(dem)) else None
-
-        def work(progress, is_canceled):
-            from ..core.xyz import compute_xyz_full
-
-            if cached is None:
-                r = compute_xyz_full(camera, dem)
-                xyz, distance, visible = r.xyz, r.distance, r.visible
-            else:
-                xyz, distance, visible = cached
-            progress(60.0)
-            if is_canceled():
-                return None
-            if what == "xyz":
-                from .xyz_raster import write_xyz_raster
-
-                written = write_xyz_raster(path, xyz, dem.crs_wkt, distance, overwrite=overwrite, camera=camera,
-                                           photo_name=name)
-            elif what == "ortho":
-                from .orthophoto import orthophoto_from_camera
-
-                written = orthophoto_from_camera(path, photo, camera, dem, xyz, overwrite=overwrite)
-            else:
-                from .report import write_report
-
-                written = write_report(path, photo, camera, dem, points=points, xyz=xyz, visible=visible,
-                                       sigmas=sigmas, title=Path(name).stem, overwrite=overwrite)
-            return written, (camera.to_json(), id(dem)), (xyz, distance, visible)
+        name = self.photo_name()
+        work = self._work(what, path, overwrite)  # copies what the worker needs, now
 
         def done(result):
             self._tasks = [t for t in self._tasks if t is not task]
@@ -368,9 +334,7 @@ class OutputTools(QObject):
                     self._message(self.tr("Nothing was written: {0}").format(result.reason),
                                   Qgis.MessageLevel.Critical)
                 return
-            written, key, products = result.value
-            self._xyz_key = key
-            self._xyz, self._distance, self._visible = products
+            written = result.value
             group = photo_group(self.dock.project, name)
             if what == "xyz":
                 add_xyz_layer(written, self.dock.project, group)
@@ -390,7 +354,7 @@ class OutputTools(QObject):
 
     def _report_inputs(self):
         """(ReportPoints of the user's pairs or None, the fit's sigmas or None), read on the main thread."""
-        from .report import ReportPoints
+        from ..outputs.report import ReportPoints
 
         points = None
         info = self.controller.state.fit_info or {}

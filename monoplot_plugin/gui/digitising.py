@@ -1,14 +1,9 @@
-"""QGIS side of the outputs: layers in the project, live photo -> map layers, map layers drawn on the photo.
+"""The dock's digitising session: photo-space layers and their live 3-D map layers.
 
-Everything that writes files lives in the GDAL/OGR writers of this package; this module only builds QGIS layers
-around them:
-
-- :func:`photo_group`: the layer-tree group named after the photo that holds every product of that photo.
-- :func:`add_xyz_layer`, :func:`add_orthophoto_layer`, :func:`add_vector_file_layer`: add written files, styled.
-- :class:`DigitisingSession`: the photo-space digitising layers (one per kind: point, line, polygon; memory layers
-  in pixel space x = u, y = -v, no CRS, shown on the photo canvas) and, for each, a *live* 3-D map layer in the DEM's
-  CRS that is rebuilt whenever the photo layer changes (tools of :mod:`.digitise_tools`, QGIS's own editing, undo).
-- :func:`map_layer_on_photo`: any vector layer of the project projected onto the photo, hidden parts dashed.
+:class:`DigitisingSession` holds the photo-space digitising layers (one per kind: point, line, polygon; memory
+layers in pixel space x = u, y = -v, no CRS, shown on the photo canvas) and, for each, a *live* 3-D map layer in the
+DEM's CRS that is rebuilt whenever the photo layer changes (tools of :mod:`.digitise_tools`, QGIS's own editing,
+undo). Files are written by :mod:`..outputs.vectors`; layers of written files are added by :mod:`.map_layers`.
 """
 
 from __future__ import annotations
@@ -20,19 +15,18 @@ from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
-from qgis.core import (QgsCategorizedSymbolRenderer, QgsColorRampShader, QgsCoordinateReferenceSystem,
-                       QgsCoordinateTransform, QgsFeature, QgsField, QgsGeometry, QgsLayerTreeGroup, QgsLineString,
-                       QgsMultiLineString, QgsMultiPolygon, QgsPoint, QgsPointXY, QgsPolygon, QgsProject,
-                       QgsRasterBandStats, QgsRasterLayer, QgsRasterShader, QgsRendererCategory,
-                       QgsSingleBandPseudoColorRenderer, QgsStyle, QgsSymbol, QgsVectorLayer, QgsWkbTypes)
+from qgis.core import (QgsCoordinateReferenceSystem, QgsFeature, QgsField, QgsGeometry, QgsProject, QgsSymbol,
+                       QgsVectorLayer)
 from qgis.PyQt.QtCore import QObject, Qt, QVariant, pyqtSignal
 from qgis.PyQt.QtGui import QColor
 
-from .geometry import map_to_photo, photo_to_map_feature
-from .vectors import COMPUTED_FIELDS, MapFeature, write_vector_layer
+from ..adapters.layers import crs_from_wkt as _crs
+from ..adapters.photo_space import photo_geometry, photo_point, photo_vertices, qgs_geometry
+from ..workflow.features import photo_to_map_feature
+from ..outputs.vectors import COMPUTED_FIELDS, MapFeature, write_vector_layer
+from .map_layers import add_layer, add_vector_file_layer, photo_group
 
-__all__ = ["drawn_entry_key", "photo_group", "add_xyz_layer", "add_orthophoto_layer", "add_vector_file_layer", "DigitisingSession",
-           "map_layer_on_photo", "KINDS"]
+__all__ = ["DigitisingSession", "drawn_entry_key", "KINDS"]
 
 KINDS = ("point", "line", "polygon")
 _PHOTO_TYPES = {"point": "Point", "line": "LineString", "polygon": "Polygon"}
@@ -40,100 +34,6 @@ _MAP_TYPES = {"point": "PointZ", "line": "MultiLineStringZ", "polygon": "MultiPo
 _QVARIANT = {"string": QVariant.Type.String, "integer": QVariant.Type.Int, "real": QVariant.Type.Double,
              "date": QVariant.Type.Date}
 _KIND_LABEL = {"point": "points", "line": "lines", "polygon": "polygons"}
-
-
-def _crs(wkt: str) -> QgsCoordinateReferenceSystem:
-    if not wkt:
-        return QgsCoordinateReferenceSystem()
-    if ":" in wkt[:12] and "[" not in wkt:
-        return QgsCoordinateReferenceSystem(wkt)  # "EPSG:n"
-    return QgsCoordinateReferenceSystem.fromWkt(wkt)
-
-
-def photo_group(project: QgsProject, photo_name: str) -> QgsLayerTreeGroup:
-    """The top-level layer group named after the photo (file stem), created on first use."""
-    name = Path(photo_name).stem or "Monoplot"
-    root = project.layerTreeRoot()
-    group = root.findGroup(name)
-    return group if group is not None else root.insertGroup(0, name)
-
-
-def _file_of(layer) -> str:
-    """The file behind a file-based layer (GeoPackage sources carry ``|layername=...``), normalised; "" if none."""
-    path = layer.source().split("|")[0]
-    return str(Path(path).resolve()) if path and Path(path).is_file() else ""
-
-
-def _add(project: QgsProject, layer, group: Optional[QgsLayerTreeGroup]):
-    """Add ``layer`` to ``group`` (or the legend's root): vector layers above the group's rasters, so that an
-    opaque orthophoto never hides the outlines drawn on the photo; a layer of the group on the same file (an
-    export written again to the same path) is replaced, not duplicated."""
-    if group is None:
-        project.addMapLayer(layer, True)
-        return layer
-    source = _file_of(layer)
-    if source:
-        old = [node.layer() for node in group.findLayers()
-               if node.layer() is not None and node.layer() is not layer and _file_of(node.layer()) == source
-               and node.layer().type() == layer.type()]
-        if old:
-            project.removeMapLayers([o.id() for o in old])
-    project.addMapLayer(layer, False)
-    if isinstance(layer, QgsVectorLayer):
-        group.insertLayer(0, layer)
-    else:
-        group.addLayer(layer)
-    return layer
-
-
-def add_xyz_layer(path, project: QgsProject, group: Optional[QgsLayerTreeGroup] = None,
-                  visible: bool = False) -> QgsRasterLayer:
-    """Add an XYZ raster (see :mod:`.xyz_raster`): Z as a colour ramp, no CRS (photo pixel space, drawn without
-    reprojection), identify shows X, Y, Z (and DISTANCE) of the clicked photo pixel.
-
-    It lies at x in [0, W], y in [-H, 0] of whatever CRS the map has, far from the real terrain, so it is added
-    unchecked (``visible=False``): a hidden layer does not stretch "zoom to full extent"; check it and "zoom to
-    layer" to look at it and identify-click it.
-    """
-    layer = QgsRasterLayer(str(path), f"{Path(path).stem} (X Y Z, photo pixels)")
-    if not layer.isValid():
-        raise ValueError(f"QGIS cannot open {path}")
-    layer.setCrs(QgsCoordinateReferenceSystem())
-    provider = layer.dataProvider()
-    stats = provider.bandStatistics(3, QgsRasterBandStats.Stats.Min | QgsRasterBandStats.Stats.Max)
-    ramp = QgsStyle.defaultStyle().colorRamp("Spectral") or QgsStyle.defaultStyle().colorRamp("Viridis")
-    if ramp is not None and stats.minimumValue < stats.maximumValue:
-        ramp.invert()  # Spectral: low = blue, high = red
-        shader_fn = QgsColorRampShader(stats.minimumValue, stats.maximumValue, ramp,
-                                       QgsColorRampShader.Type.Interpolated)
-        shader_fn.classifyColorRamp(8, -1)
-        shader = QgsRasterShader()
-        shader.setRasterShaderFunction(shader_fn)
-        renderer = QgsSingleBandPseudoColorRenderer(provider, 3, shader)
-        renderer.setClassificationMin(stats.minimumValue)
-        renderer.setClassificationMax(stats.maximumValue)
-        layer.setRenderer(renderer)
-    layer.setOpacity(0.8)
-    _add(project, layer, group)
-    node = (group or project.layerTreeRoot()).findLayer(layer.id())
-    if node is not None:
-        node.setItemVisibilityChecked(visible)
-    return layer
-
-
-def add_orthophoto_layer(path, project: QgsProject, group: Optional[QgsLayerTreeGroup] = None) -> QgsRasterLayer:
-    """Add an orthophoto GeoTIFF (RGB + alpha: unseen cells transparent)."""
-    layer = QgsRasterLayer(str(path), f"{Path(path).stem} (orthophoto)")
-    if not layer.isValid():
-        raise ValueError(f"QGIS cannot open {path}")
-    return _add(project, layer, group)
-
-
-def add_vector_file_layer(path, project: QgsProject, group: Optional[QgsLayerTreeGroup] = None) -> QgsVectorLayer:
-    layer = QgsVectorLayer(str(path), Path(path).stem, "ogr")
-    if not layer.isValid():
-        raise ValueError(f"QGIS cannot open {path}")
-    return _add(project, layer, group)
 
 
 class DigitisingSession(QObject):
@@ -218,7 +118,7 @@ class DigitisingSession(QObject):
             layer.dataProvider().addAttributes([a for a in attrs if layer.fields().indexFromName(a.name()) < 0])
             layer.updateFields()
             if not reused:
-                _add(self.project, layer, self.group)
+                add_layer(self.project, layer, self.group)
             layer.willBeDeleted.connect(self.close)
             self.map_layers[kind] = layer
         return self.map_layers[kind]
@@ -318,7 +218,8 @@ class DigitisingSession(QObject):
     def move_vertex(self, kind: str, fid: int, index: int, u: float, v: float) -> None:
         layer = self.photo_layer(kind)
         geom = QgsGeometry(layer.getFeature(fid).geometry())
-        geom.moveVertex(float(u), -float(v), index)
+        point = photo_point(u, v)
+        geom.moveVertex(point.x(), point.y(), index)
         layer.dataProvider().changeGeometryValues({fid: geom})
         layer.triggerRepaint()
         self.sync(kind)
@@ -410,44 +311,6 @@ class DigitisingSession(QObject):
         return written
 
 
-def photo_geometry(kind: str, vertices_uv) -> QgsGeometry:
-    """Pixel vertices (u, v) -> photo-canvas geometry (x = u, y = -v)."""
-    pts = [QgsPointXY(float(u), -float(v)) for u, v in np.asarray(vertices_uv, dtype=float).reshape(-1, 2)]
-    if kind == "point":
-        return QgsGeometry.fromPointXY(pts[0])
-    if kind == "line":
-        return QgsGeometry.fromPolylineXY(pts)
-    return QgsGeometry.fromPolygonXY([pts + [pts[0]]])
-
-
-def photo_vertices(geometry: QgsGeometry) -> np.ndarray:
-    """(N, 2) pixel vertices (u, v) of a photo-canvas geometry (polygon: exterior ring without the closing
-    vertex)."""
-    pts = [(p.x(), -p.y()) for p in geometry.vertices()]
-    if geometry.type() == QgsWkbTypes.GeometryType.PolygonGeometry and len(pts) > 1 and pts[0] == pts[-1]:
-        pts = pts[:-1]
-    return np.array(pts, dtype=float).reshape(-1, 2)
-
-
-def qgs_geometry(feature: MapFeature):
-    """A QGIS 3-D geometry (QgsPoint / QgsMultiLineString / QgsMultiPolygon with Z) for a MapFeature."""
-    if feature.kind == "point":
-        x, y, z = feature.parts[0][0]
-        return QgsPoint(float(x), float(y), float(z))
-    multi = QgsMultiLineString() if feature.kind == "line" else QgsMultiPolygon()
-    for part in feature.parts:
-        if feature.kind == "polygon" and not np.array_equal(part[0], part[-1]):
-            part = np.vstack([part, part[:1]])
-        line = QgsLineString([QgsPoint(float(x), float(y), float(z)) for x, y, z in part])
-        if feature.kind == "line":
-            multi.addGeometry(line)
-        else:
-            polygon = QgsPolygon()
-            polygon.setExteriorRing(line)
-            multi.addGeometry(polygon)
-    return multi
-
-
 def drawn_entry_key(photo_name: str) -> str:
     """Project entry key (scope "monoplot") of the features drawn on a photo. Project entries are XML element
     names (ASCII letters, digits, _), so the photo's name is reduced to those plus a hash of the full name.
@@ -498,66 +361,3 @@ def _style_photo_layer(layer: QgsVectorLayer, kind: str) -> None:
     elif kind == "line":
         symbol.symbolLayer(0).setWidth(0.8)
     layer.renderer().setSymbol(symbol)
-
-
-def map_layer_on_photo(layer: QgsVectorLayer, camera, dem,
-                       project: Optional[QgsProject] = None) -> QgsVectorLayer:
-    """A pixel-space line layer of ``layer``'s lines and polygon outlines as the camera sees them.
-
-    Each output feature is one piece with the field ``visible`` (1 seen, 0 hidden behind terrain); styled solid
-    for visible, dashed for hidden. Points become short pieces around them. Add it to the photo canvas with
-    ``PhotoCanvas.set_extra_layers``.
-    """
-    transform = QgsCoordinateTransform(layer.crs(), _crs(dem.crs_wkt), project or QgsProject.instance())
-    out = QgsVectorLayer("LineString", f"{layer.name()} on photo", "memory")
-    out.setCrs(QgsCoordinateReferenceSystem())
-    provider = out.dataProvider()
-    provider.addAttributes([QgsField("source_fid", QVariant.Type.LongLong), QgsField("visible", QVariant.Type.Int)])
-    out.updateFields()
-    new = []
-    for feature in layer.getFeatures():
-        geom = QgsGeometry(feature.geometry())
-        if geom.isNull():
-            continue
-        if layer.crs().isValid() and transform.isValid():
-            geom.transform(transform)
-        for part in _outline_parts(geom, dem.cell_size):
-            for path in map_to_photo([part], camera, dem):
-                for uv, visible in path.pieces():
-                    f = QgsFeature(out.fields())
-                    f.setGeometry(QgsGeometry.fromPolylineXY([QgsPointXY(u, -v) for u, v in uv]))
-                    f["source_fid"] = feature.id()
-                    f["visible"] = int(visible)
-                    new.append(f)
-    provider.addFeatures(new)
-    out.updateExtents()
-    _style_visible_hidden(out)
-    return out
-
-
-def _outline_parts(geom: QgsGeometry, cell: float) -> List[np.ndarray]:
-    """(N, 2) coordinate arrays of the lines / rings of a geometry; points as a tiny cross of one cell."""
-    parts = []
-    if geom.type() == QgsWkbTypes.GeometryType.PointGeometry:
-        for p in geom.vertices():
-            parts.append(np.array([[p.x() - cell, p.y()], [p.x() + cell, p.y()]]))
-            parts.append(np.array([[p.x(), p.y() - cell], [p.x(), p.y() + cell]]))
-        return parts
-    if geom.type() == QgsWkbTypes.GeometryType.PolygonGeometry:
-        for polygon in (geom.asMultiPolygon() if geom.isMultipart() else [geom.asPolygon()]):
-            parts.extend(np.array([(p.x(), p.y()) for p in ring]) for ring in polygon)
-        return parts
-    for line in (geom.asMultiPolyline() if geom.isMultipart() else [geom.asPolyline()]):
-        parts.append(np.array([(p.x(), p.y()) for p in line]))
-    return parts
-
-
-def _style_visible_hidden(layer: QgsVectorLayer) -> None:
-    solid = QgsSymbol.defaultSymbol(layer.geometryType())
-    solid.setColor(QColor(255, 60, 60))
-    solid.symbolLayer(0).setWidth(0.7)
-    dashed = solid.clone()
-    dashed.symbolLayer(0).setPenStyle(Qt.PenStyle.DashLine)
-    dashed.setOpacity(0.8)
-    layer.setRenderer(QgsCategorizedSymbolRenderer("visible", [
-        QgsRendererCategory(1, solid, "visible"), QgsRendererCategory(0, dashed, "hidden behind terrain")]))

@@ -1,7 +1,7 @@
 """Digitising on the photo canvas: capture (point, line, polygon) and edit/delete map tools.
 
 The photo canvas is a QgsMapCanvas in pixel space (x = u, y = -v; see :mod:`monoplot_plugin.gui.photo_canvas`).
-The tools write into a :class:`~.qgis_layers.DigitisingSession`, whose live map layers follow every change.
+The tools write into a :class:`~.digitising.DigitisingSession`, whose live map layers follow every change.
 
 Capture, QGIS-like: left click adds a vertex (a point is done at once), right click finishes a line (2+ vertices) or
 polygon (3+ vertices), Backspace removes the last vertex, Esc cancels. Vertices snap to the vertices of everything
@@ -19,6 +19,8 @@ from qgis.core import QgsGeometry, QgsPointXY, QgsWkbTypes
 from qgis.gui import QgsMapCanvas, QgsMapMouseEvent, QgsMapTool, QgsRubberBand, QgsVertexMarker
 from qgis.PyQt.QtCore import Qt, pyqtSignal
 from qgis.PyQt.QtGui import QColor
+
+from ..adapters.photo_space import pixel_of
 
 __all__ = ["PhotoCaptureTool", "PhotoEditTool", "SNAP_PIXELS"]
 
@@ -142,7 +144,7 @@ class PhotoCaptureTool(QgsMapTool):
         if session is None:
             self.message.emit(self.tr("Fit the camera first: features drawn on the photo need it to reach the map."))
             return None
-        uv = np.array([(p.x(), -p.y()) for p in vertices])
+        uv = np.array([pixel_of(p) for p in vertices])
         fid = session.add_feature(self.kind, uv)
         self.captured.emit(self.kind, fid)
         return fid
@@ -217,7 +219,7 @@ class PhotoEditTool(QgsMapTool):
             self.dragging = None
             self.marker.setVisible(False)
             p = event.mapPoint()
-            session.move_vertex(kind, fid, index, p.x(), -p.y())
+            session.move_vertex(kind, fid, index, *pixel_of(p))
             self.edited.emit(kind, fid)
 
     def delete_at(self, point: QgsPointXY) -> bool:

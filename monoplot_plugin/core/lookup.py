@@ -1,0 +1,120 @@
+"""What the per-pixel XYZ raster answers: the ground seen through photo positions, whether map points are seen,
+and the photo draped onto the DEM grid (the orthophoto). The raster is core's z-buffer
+(:func:`~monoplot_plugin.core.xyz.compute_xyz`), or a file read back by the outputs.
+
+Pixel convention (see :mod:`monoplot_plugin.core.camera`): ``u`` = column, ``v`` = row, pixel (row i, column j)
+covers ``[j, j+1) x [i, i+1)``, so the lookup of ``(u, v)`` is pixel ``(floor(v), floor(u))``.
+"""
+
+from __future__ import annotations
+
+from typing import Optional, Tuple
+
+import numpy as np
+
+__all__ = ["sample_xyz", "visibility_of_points", "orthorectify"]
+
+
+def sample_xyz(xyz: np.ndarray, uv, origin=None, max_jump: float = 0.05) -> np.ndarray:
+    """Ground points seen through photo positions.
+
+    Without ``origin``: the value of the pixel that contains each position (nearest). With ``origin`` (the camera
+    centre): bilinear between the four surrounding pixel centres where they lie on one continuous surface (their
+    distances to the camera differ by at most ``max_jump`` of the nearest one), nearest elsewhere, so points are
+    sub-pixel accurate on slopes and never smeared across an occluding ridge or into the sky.
+
+    Args:
+        xyz: (H, W, 3) per-pixel map coordinates, NaN for sky.
+        uv: (N, 2) photo positions (pixels, module convention).
+        origin: optional (3,) camera centre in map coordinates.
+    Returns:
+        (N, 3) map coordinates; NaN rows for sky, no DEM, or outside the photo.
+
+    >>> xyz = np.arange(2 * 3 * 3, dtype=float).reshape(2, 3, 3)
+    >>> sample_xyz(xyz, [[2.9, 1.0], [5.0, 0.0]]).tolist()[0], bool(np.isnan(sample_xyz(xyz, [[5.0, 0.0]])).all())
+    ([15.0, 16.0, 17.0], True)
+    >>> sample_xyz(xyz, [[1.0, 1.0]], origin=(1e3, 0.0, 0.0)).tolist()  # between four pixel centres
+    [[6.0, 7.0, 8.0]]
+    """
+    uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+    height, width = xyz.shape[:2]
+    out = np.full((len(uv), 3), np.nan)
+    with np.errstate(invalid="ignore"):
+        cols = np.floor(uv[:, 0])
+        rows = np.floor(uv[:, 1])
+        inside = (cols >= 0) & (cols < width) & (rows >= 0) & (rows < height)
+    out[inside] = xyz[rows[inside].astype(int), cols[inside].astype(int)]
+    if origin is None or height < 2 or width < 2 or not inside.any():
+        return out
+    idx = np.flatnonzero(inside)
+    fc = np.clip(uv[idx, 0] - 0.5, 0, width - 1)  # pixel centres on integers
+    fr = np.clip(uv[idx, 1] - 0.5, 0, height - 1)
+    c0 = np.minimum(np.floor(fc).astype(int), width - 2)
+    r0 = np.minimum(np.floor(fr).astype(int), height - 2)
+    s, t = (fc - c0)[:, None], (fr - r0)[:, None]
+    corners = [xyz[r0, c0], xyz[r0, c0 + 1], xyz[r0 + 1, c0], xyz[r0 + 1, c0 + 1]]
+    dist = np.stack([np.linalg.norm(p - np.asarray(origin, dtype=np.float64), axis=1) for p in corners], axis=1)
+    with np.errstate(invalid="ignore"):
+        smooth = np.isfinite(dist).all(axis=1) & (dist.max(axis=1) - dist.min(axis=1) <= max_jump * dist.min(axis=1))
+        smooth &= np.isfinite(out[idx]).all(axis=1)
+    blend = (corners[0] * (1 - s) * (1 - t) + corners[1] * s * (1 - t) + corners[2] * (1 - s) * t
+             + corners[3] * s * t)
+    out[idx[smooth]] = blend[smooth]
+    return out
+
+
+def visibility_of_points(camera, points: np.ndarray, xyz: np.ndarray, tolerance: Optional[float] = None
+                         ) -> Tuple[np.ndarray, np.ndarray]:
+    """Project ground points into the photo and tell which ones the camera sees.
+
+    A point is visible when it projects inside the photo and is not farther from the camera than the ground seen
+    through that pixel (the XYZ raster's point), within ``tolerance`` metres (default: 1 % of the distance plus
+    the XYZ raster's pixel footprint there, which absorbs the 1-pixel quantisation of the depth buffer).
+
+    Returns:
+        (uv (N, 2) pixels, NaN behind the camera; visible (N,) bool).
+    """
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    uv, depth = camera.project_with_depth(points)
+    seen = sample_xyz(xyz, uv, camera.position)
+    origin = np.asarray(camera.position)
+    d_point = np.linalg.norm(points - origin, axis=1)
+    d_seen = np.linalg.norm(seen - origin, axis=1)
+    footprint = d_seen / camera.focal_px  # metres per pixel at that distance, face-on
+    tol = (0.01 * d_point + 3.0 * footprint) if tolerance is None else tolerance
+    with np.errstate(invalid="ignore"):
+        visible = (depth > 0) & camera.in_image(uv) & np.isfinite(d_seen) & (d_point <= d_seen + tol)
+    return uv, visible
+
+
+def orthorectify(photo: np.ndarray, camera, dem, xyz: np.ndarray) -> np.ndarray:
+    """The photo draped onto the DEM grid.
+
+    Every DEM cell centre (on the terrain) is projected into the photo; it takes the colour of that photo pixel
+    when the camera sees it (:func:`visibility_of_points`).
+
+    Args:
+        photo: (H, W) or (H, W, bands) uint8 photo.
+        camera: the photo's Camera (image_size must match the photo).
+        dem: the :class:`~monoplot_plugin.core.dem.Dem` to drape onto (its grid and CRS are the orthophoto's).
+        xyz: (H, W, 3) per-pixel map coordinates of the photo (for occlusion).
+    Returns:
+        (rows, cols, bands + 1) uint8: photo bands then an alpha band (255 seen, 0 unseen: nodata).
+    """
+    photo = np.asarray(photo)
+    if photo.ndim == 2:
+        photo = photo[..., None]
+    if photo.shape[1] != camera.width or photo.shape[0] != camera.height:
+        raise ValueError(f"photo is {photo.shape[1]}x{photo.shape[0]} px, camera expects {camera.image_size}")
+    rows, cols = dem.elevation.shape
+    pts = dem.vertices().reshape(-1, 3)
+    out = np.zeros((rows * cols, photo.shape[2] + 1), dtype=np.uint8)
+    finite = np.isfinite(pts[:, 2])
+    uv, visible = visibility_of_points(camera, pts[finite], xyz)
+    idx = np.flatnonzero(finite)[visible]
+    uv = uv[visible]
+    r = np.clip(np.floor(uv[:, 1]).astype(int), 0, camera.height - 1)
+    c = np.clip(np.floor(uv[:, 0]).astype(int), 0, camera.width - 1)
+    out[idx, :-1] = photo[r, c]
+    out[idx, -1] = 255
+    return out.reshape(rows, cols, -1)

@@ -1,0 +1,153 @@
+"""Features between the photo and the map for the vector products: a feature drawn on the photo as a 3-D map
+feature (the dock's digitising), map lines and rings drawn on the photo with their hidden parts.
+
+Ground points come from core's exact ray-terrain intersection or from the per-pixel XYZ raster
+(:func:`~monoplot_plugin.core.lookup.sample_xyz`). Pixel convention (see :mod:`monoplot_plugin.core.camera`):
+``u`` = column, ``v`` = row.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import List, Optional, Sequence, Tuple
+
+import numpy as np
+
+from ..core.lookup import sample_xyz
+from ..core.transforms import densify, ground_pieces, true_runs
+from ..outputs.vectors import MapFeature
+
+__all__ = ["photo_to_map_feature", "PhotoPath", "map_to_photo"]
+
+
+def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, attributes: Optional[dict] = None,
+                         step_px: float = 1.0, origin=None, *, camera=None, dem=None,
+                         jump: float = 0.1) -> Optional[MapFeature]:
+    """A feature digitised on the photo as a 3-D map feature.
+
+    Lines and polygon outlines are densified to ``step_px`` pixels first, so they follow the terrain. Pieces over
+    sky (or off the DEM) are split off and counted in ``sky_parts``:
+
+    - point: None when it is over sky;
+    - line: one part per run of ground samples of at least 2 points, also cut where the range jumps by more than
+      ``jump`` (a silhouette: the line passes from a near ridge to a far slope);
+    - polygon: the ring keeps its ground samples (it closes across a gap); None when fewer than 3 remain.
+
+    Ground points come from core's exact ray-terrain intersection
+    (:func:`monoplot_plugin.core.transforms.photo_points_to_map`) when ``camera`` and ``dem`` are given, else from
+    the per-pixel XYZ raster ``xyz`` (:func:`sample_xyz`, sub-pixel when ``origin`` is given).
+
+    Args:
+        kind: "point", "line" or "polygon".
+        vertices: (N, 2) photo vertices (pixels).
+        xyz: (H, W, 3) per-pixel map coordinates, NaN for sky (needed without camera and dem).
+        attributes: user field values.
+        step_px: densification step along lines and outlines (pixels).
+        origin: the camera centre, for sub-pixel XYZ lookups and the silhouette test.
+        camera, dem: the fitted Camera and core Dem, for exact intersections.
+        jump: relative range jump between consecutive samples that cuts a line.
+    Returns:
+        a :class:`MapFeature`, or None when nothing of the feature is on the ground.
+    """
+    attributes = dict(attributes or {})
+    verts = np.asarray(vertices, dtype=np.float64).reshape(-1, 2)
+    if camera is not None and dem is not None:
+        from ..core.transforms import photo_points_to_map
+
+        origin = camera.position
+
+        def lookup(uv):
+            return photo_points_to_map(uv, camera, dem)[0]
+    elif xyz is not None:
+        def lookup(uv):
+            return sample_xyz(xyz, uv, origin)
+    else:
+        raise ValueError("give camera and dem, or the XYZ raster")
+    if kind == "point":
+        ground = lookup(verts[:1])
+        if not np.isfinite(ground).all():
+            return None
+        return MapFeature("point", [ground], attributes)
+    if kind not in ("line", "polygon"):
+        raise ValueError(f"kind must be point, line or polygon, got {kind!r}")
+    if kind == "polygon":
+        if len(verts) > 1 and np.array_equal(verts[0], verts[-1]):
+            verts = verts[:-1]
+        # densified along the closing edge too; the last point repeats the first
+        dense = np.vstack([densify(verts, step_px, closed=True), verts[:1]])
+    else:
+        dense = densify(verts, step_px)
+    ground = lookup(dense)
+    valid = np.isfinite(ground).all(axis=1)
+    if kind == "polygon":
+        ring_valid = valid[:-1]  # the closing point repeats the first
+        sky = len(true_runs(~ring_valid))
+        if sky > 1 and not ring_valid[0] and not ring_valid[-1]:
+            sky -= 1  # a sky run across the ring's start is one piece
+        ring = _drop_repeats(ground[:-1][ring_valid])
+        if len(ring) < 3:
+            return None
+        return MapFeature("polygon", [ring], attributes, sky_parts=sky)
+    pieces = ground_pieces(ground, valid, origin, jump)[0] if origin is not None else true_runs(valid)
+    parts = [_drop_repeats(ground[p:q]) for p, q in pieces]
+    parts = [p for p in parts if len(p) >= 2]
+    sky = len(true_runs(~valid))
+    if not parts:
+        return None
+    return MapFeature("line", parts, attributes, sky_parts=sky)
+
+
+def _drop_repeats(points: np.ndarray) -> np.ndarray:
+    """Remove consecutive duplicates (several densified points fall in one pixel)."""
+    if len(points) < 2:
+        return points
+    keep = np.concatenate([[True], np.any(np.diff(points, axis=0) != 0, axis=1)])
+    return points[keep]
+
+
+@dataclass
+class PhotoPath:
+    """A map line drawn on the photo: (M, 2) pixel vertices, each visible, hidden behind terrain, or neither
+    (behind the camera, outside the photo, off the DEM)."""
+
+    uv: np.ndarray
+    visible: np.ndarray
+    occluded: np.ndarray
+
+    def pieces(self) -> List[Tuple[np.ndarray, bool]]:
+        """Consecutive drawable runs as (uv (k, 2), visible) pieces: visible ones solid, hidden ones dashed. Pieces
+        share their end points, so a dashed piece joins the solid ones; the rest is left out."""
+        drawable = (self.visible | self.occluded) & np.isfinite(self.uv).all(axis=1)
+        out = []
+        for a, b in true_runs(drawable):
+            vis = self.visible[a:b]
+            change = np.flatnonzero(np.diff(vis.astype(np.int8))) + 1
+            bounds = [0, *change.tolist(), b - a]
+            for s, e in zip(bounds[:-1], bounds[1:]):
+                piece = self.uv[a + s: a + min(e + 1, b - a)]
+                if len(piece) >= 2:
+                    out.append((piece, bool(vis[s])))
+        return out
+
+
+def map_to_photo(parts_xy: Sequence[np.ndarray], camera, dem, step: Optional[float] = None) -> List[PhotoPath]:
+    """Map lines or polygon rings drawn onto the photo, each vertex flagged visible or hidden.
+
+    Core's :func:`monoplot_plugin.core.transforms.map_to_photo` does the work (exact line of sight to every
+    vertex); this wraps its result for drawing.
+
+    Args:
+        parts_xy: list of (N, 2) or (N, 3) map coordinate arrays (rings should repeat their first vertex). 2-D
+            outlines are draped on the terrain.
+        camera: the photo's Camera.
+        dem: the :class:`~monoplot_plugin.core.dem.Dem` (same CRS as the layer: reproject the layer first).
+        step: densification in map units (default: half a DEM cell) so the drawn line follows the terrain and
+            hidden runs are found.
+    Returns:
+        one :class:`PhotoPath` per input part.
+    """
+    from ..core.transforms import map_to_photo as core_map_to_photo
+
+    parts = [np.asarray(p, dtype=np.float64) for p in parts_xy]
+    return [PhotoPath(r.uv, r.visible, r.occluded & r.in_image)
+            for r in core_map_to_photo(parts, camera, dem, densify_m=step)]

@@ -1,0 +1,111 @@
+"""The camera fit step: the one on-ground rule and the one call of the core fit, for the dock and Processing.
+
+Shapes: ``uv`` (N, 2) photo pixels, ``xyz`` (M, 3) map coordinates in the DEM's CRS, ``pairs`` (K, 2) indices
+(photo row, map row) or None for an unpaired fit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Optional, Tuple
+
+import numpy as np
+
+from ..core.camera import Camera
+from ..core.fit import FitResult, fit_camera
+from .progress import Canceled, IsCanceled, Progress, check_canceled
+
+__all__ = ["ON_GROUND_MAX_M", "DEFAULT_EYE_HEIGHT_M", "FitRefused", "FitDone", "ground_clearance", "on_ground_rule",
+           "fit", "point_rmse"]
+
+#: a start camera at most this high above the terrain is taken as a photographer on the ground (a hill, a ridge,
+#: a summit): the fit keeps its height above the terrain (z follows the DEM, one unknown less), which also keeps
+#: it from ending underground; a higher start (aircraft, balloon, drone) keeps z free
+ON_GROUND_MAX_M = 200.0
+#: eye height of a photographer standing on the ground, when nothing else says it
+DEFAULT_EYE_HEIGHT_M = 1.7
+
+
+class FitRefused(ValueError):
+    """The fit refused its input (too few points, ...); the message is the fit's own explanation."""
+
+
+@dataclass
+class FitDone:
+    """A finished fit: the core result and how the camera was held (on the ground, at which eye height)."""
+
+    result: FitResult
+    on_ground: bool
+    eye_height: Optional[float]
+
+    @property
+    def camera(self) -> Camera:
+        return self.result.camera
+
+
+def ground_clearance(camera: Camera, dem) -> float:
+    """Height of the camera above the terrain under it (metres; NaN outside the DEM)."""
+    return float(camera.position[2]) - float(dem.sample(camera.position[0], camera.position[1]))
+
+
+def on_ground_rule(start: Camera, dem, on_ground: Optional[bool] = None,
+                   eye_height: Optional[float] = None) -> Tuple[bool, float]:
+    """(on the ground?, eye height in metres) of a fit from ``start``.
+
+    ``on_ground`` None: automatic, a start within :data:`ON_GROUND_MAX_M` of the terrain is on the ground at its
+    present height above it. True / False: as asked, at ``eye_height`` (default :data:`DEFAULT_EYE_HEIGHT_M`).
+    """
+    if on_ground is None:
+        clearance = ground_clearance(start, dem)
+        if math.isfinite(clearance) and clearance < ON_GROUND_MAX_M:
+            return True, max(clearance, 0.0)
+        return False, DEFAULT_EYE_HEIGHT_M
+    return bool(on_ground), DEFAULT_EYE_HEIGHT_M if eye_height is None else float(eye_height)
+
+
+def fit(uv: np.ndarray, xyz: np.ndarray, start: Camera, dem, pairs=None, on_ground: Optional[bool] = None,
+        eye_height: Optional[float] = None, check_uv: Optional[np.ndarray] = None,
+        check_xyz: Optional[np.ndarray] = None, progress: Optional[Progress] = None,
+        is_canceled: Optional[IsCanceled] = None) -> FitDone:
+    """Fit the camera from ``start`` (core :func:`fit_camera`), held on the ground by :func:`on_ground_rule`.
+
+    ``check_uv`` (C, 2) / ``check_xyz`` (C, 3): paired check points, kept out of the fit and measured.
+
+    Raises:
+        FitRefused: the fit refused the input, with the fit's own explanation.
+        Canceled: ``is_canceled()`` turned true.
+    """
+    grounded, eye = on_ground_rule(start, dem, on_ground, eye_height)
+    pairs = None if pairs is None or len(pairs) == 0 else np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    has_check = check_uv is not None and len(check_uv) > 0
+    result = fit_camera(uv, xyz, start, pairs=pairs, ground=dem if grounded else None, eye_height=eye,
+                        check_image_points=check_uv if has_check else None,
+                        check_world_points=check_xyz if has_check else None,
+                        progress=progress, is_canceled=is_canceled)
+    if result.status == "canceled":
+        raise Canceled(str(result.message) or "canceled")
+    check_canceled(is_canceled)
+    if result.status == "refused":
+        raise FitRefused(result.message)
+    return FitDone(result, grounded, eye if grounded else None)
+
+
+def point_rmse(camera: Camera, uv: np.ndarray, xyz: np.ndarray, paired: bool) -> float:
+    """RMS pixel distance from photo points to their (paired) or nearest (unpaired) projected DEM point.
+
+    >>> cam = Camera((0, 0, 0), 0, 0, 0, 90, (100, 100))
+    >>> world = np.array([[0.0, 10.0, 0.0]])
+    >>> point_rmse(cam, cam.project(world) + [3.0, 4.0], world, paired=True)
+    5.0
+    """
+    projected = camera.project(xyz)
+    if paired:
+        d = np.linalg.norm(projected - uv, axis=1)
+    else:
+        ok = np.isfinite(projected).all(axis=1)
+        if not ok.any():
+            return float("inf")
+        d = np.linalg.norm(uv[:, None, :] - projected[None, ok, :], axis=2).min(axis=1)
+    d = d[np.isfinite(d)]
+    return float(np.sqrt(np.mean(d ** 2))) if len(d) else float("inf")

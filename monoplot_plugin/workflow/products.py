@@ -1,0 +1,100 @@
+"""The products of a fitted camera, each written once for the dock and Processing: the XYZ raster, the
+orthophoto and the report (vectors: :mod:`.features`, :mod:`.vectors` and :mod:`..outputs.vectors`).
+
+Every product reads the per-pixel XYZ from :mod:`.xyz` (one cache), writes through the writers of
+:mod:`..outputs` (temporary file renamed into place, ``overwrite`` as asked) and returns the written path.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Dict, Optional
+
+import numpy as np
+
+from ..core.camera import Camera
+from ..core.dem import Dem
+from .progress import IsCanceled, Progress, check_canceled, part
+from .xyz import xyz_result
+
+__all__ = ["ProductError", "write_xyz", "orthophoto", "report", "dem_at_resolution", "MAX_ORTHO_CELLS"]
+
+#: an orthophoto grid larger than this many cells is refused (memory)
+MAX_ORTHO_CELLS = 50_000_000
+
+
+class ProductError(ValueError):
+    """A product cannot be made from these inputs; the message says why."""
+
+
+def write_xyz(path, camera: Camera, dem, crs_wkt: Optional[str] = None, photo_name: str = "",
+              distance: bool = False, overwrite: bool = False, progress: Optional[Progress] = None,
+              is_canceled: Optional[IsCanceled] = None) -> Path:
+    """The 3-band X, Y, Z GeoTIFF of the photo's pixels (nodata for the sky); a 4th band of distances from the
+    camera only when ``distance`` is asked."""
+    from ..outputs.xyz_raster import write_xyz_raster
+
+    result = xyz_result(camera, dem, visibility=False, progress=part(progress, 0.0, 0.8), is_canceled=is_canceled)
+    check_canceled(is_canceled)
+    written = write_xyz_raster(path, result.xyz, crs_wkt if crs_wkt is not None else dem.crs_wkt,
+                               result.distance if distance else None, overwrite=overwrite, camera=camera,
+                               photo_name=photo_name)
+    if progress is not None:
+        progress(1.0, "")
+    return written
+
+
+def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution: Optional[float] = None,
+               overwrite: bool = False, progress: Optional[Progress] = None,
+               is_canceled: Optional[IsCanceled] = None) -> Path:
+    """The photo (H, W, 3) draped on the DEM: a north-up RGBA GeoTIFF on the DEM's grid, or on a grid of cell size
+    ``resolution`` over the same extent (elevations resampled bilinearly)."""
+    from ..outputs.orthophoto import orthophoto_from_camera
+
+    if (photo.shape[1], photo.shape[0]) != tuple(camera.image_size):
+        raise ProductError(f"the photo is {photo.shape[1]}x{photo.shape[0]} px but the camera is for "
+                           f"{camera.width}x{camera.height} px")
+    xyz = xyz_result(camera, dem, visibility=False, progress=part(progress, 0.0, 0.5), is_canceled=is_canceled).xyz
+    check_canceled(is_canceled)
+    grid = dem if not resolution else dem_at_resolution(dem, resolution)
+    written = orthophoto_from_camera(path, photo, camera, grid, xyz, overwrite=overwrite)
+    if progress is not None:
+        progress(1.0, "")
+    return written
+
+
+def report(path, photo: np.ndarray, camera: Camera, dem, points=None, points_csv=None,
+           sigmas: Optional[Dict[str, float]] = None, title: str = "", overwrite: bool = False,
+           progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None, verdict: str = "") -> Path:
+    """The one-page report (PNG or PDF by the suffix of ``path``) of a fitted camera; ``points``: the control
+    points to show (outputs' ``ReportPoints``), or ``points_csv``, a paired CSV; ``verdict``: the fit's status and
+    message, printed on the page."""
+    from ..outputs.report import write_report
+
+    result = xyz_result(camera, dem, visibility=True, progress=part(progress, 0.0, 0.6), is_canceled=is_canceled)
+    check_canceled(is_canceled)
+    written = write_report(path, photo, camera, dem, points_csv=points_csv, points=points, xyz=result.xyz,
+                           visible=result.visible, sigmas=sigmas, title=title, overwrite=overwrite,
+                           verdict=verdict)
+    if progress is not None:
+        progress(1.0, "")
+    return written
+
+
+def dem_at_resolution(dem, resolution: float):
+    """A north-up copy of ``dem`` with square cells of ``resolution`` map units over the same extent.
+
+    >>> d = Dem.from_array(np.arange(16.0).reshape(4, 4), (0, 10, 0, 40, 0, -10))
+    >>> dem_at_resolution(d, 20).elevation.shape
+    (2, 2)
+    """
+    xmin, ymin, xmax, ymax = dem.bounds()
+    cols = max(2, int(round((xmax - xmin) / resolution)))
+    rows = max(2, int(round((ymax - ymin) / resolution)))
+    if rows * cols > MAX_ORTHO_CELLS:
+        raise ProductError(f"orthophoto of {cols}x{rows} cells at {resolution} map units is too large")
+    xs = xmin + (np.arange(cols) + 0.5) * resolution
+    ys = ymax - (np.arange(rows) + 0.5) * resolution
+    gx, gy = np.meshgrid(xs, ys)
+    elevation = np.asarray(dem.sample(gx.ravel(), gy.ravel()), dtype=float).reshape(rows, cols)
+    return Dem.from_array(elevation, (xmin, resolution, 0.0, ymax, 0.0, -resolution), crs_wkt=dem.crs_wkt)

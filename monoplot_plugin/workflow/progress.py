@@ -1,0 +1,58 @@
+"""The one progress protocol and the one cancel exception of the workflow (the core fit uses the same protocol).
+
+- ``progress(fraction, message="")``: ``fraction`` in [0, 1] of the current step, ``message`` a short text or "".
+- ``is_canceled() -> bool``: polled by long loops; a step that sees it true raises :class:`Canceled`.
+
+The dock's task turns ``progress`` into its progress bar, a Processing algorithm into ``feedback.setProgress``; both
+catch :class:`Canceled` (a clean stop, nothing written).
+
+>>> seen = []
+>>> half = part(lambda f, m="": seen.append(round(f, 2)), 0.5, 1.0)
+>>> half(0.0); half(0.5); half(1.0)
+>>> seen
+[0.5, 0.75, 1.0]
+>>> check_canceled(lambda: True)
+Traceback (most recent call last):
+...
+monoplot_plugin.workflow.progress.Canceled: canceled
+"""
+
+from __future__ import annotations
+
+from typing import Callable, Optional
+
+__all__ = ["Progress", "IsCanceled", "Canceled", "no_progress", "never_canceled", "part", "check_canceled"]
+
+Progress = Callable[..., None]  # progress(fraction in [0, 1], message: str = "")
+IsCanceled = Callable[[], bool]
+
+
+class Canceled(Exception):
+    """The user canceled: the step stopped and wrote nothing."""
+
+    def __init__(self, message: str = "canceled"):
+        super().__init__(message)
+
+
+def no_progress(fraction: float, message: str = "") -> None:
+    """A ``progress`` that shows nothing."""
+
+
+def never_canceled() -> bool:
+    return False
+
+
+def part(progress: Optional[Progress], start: float, end: float) -> Progress:
+    """A ``progress`` for a sub-step that fills ``[start, end]`` of ``progress`` (fractions, clipped to [0, 1])."""
+    progress = progress or no_progress
+
+    def sub(fraction: float, message: str = "") -> None:
+        progress(start + (end - start) * max(0.0, min(1.0, float(fraction))), message)
+
+    return sub
+
+
+def check_canceled(is_canceled: Optional[IsCanceled]) -> None:
+    """Raise :class:`Canceled` when ``is_canceled()`` says so."""
+    if is_canceled is not None and is_canceled():
+        raise Canceled()

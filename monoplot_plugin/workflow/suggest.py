@@ -1,0 +1,42 @@
+"""The suggestion step: key points on the photo (pixels) and on the DEM (map X, Y, Z), for the dock and Processing.
+
+With a camera, DEM suggestions are the terrain points it sees (a rendering from it); without, a map hillshade.
+"""
+
+from __future__ import annotations
+
+from typing import Optional, Tuple
+
+import numpy as np
+
+from ..core.camera import Camera
+from ..core.suggest import DemSuggestions, PhotoSuggestions, suggest_dem_points, suggest_photo_points
+from .progress import IsCanceled, Progress, check_canceled
+
+__all__ = ["suggest", "suggest_photo", "suggest_dem"]
+
+
+def suggest_photo(photo: np.ndarray, max_points: int) -> PhotoSuggestions:
+    """Suggested points of an (H, W, 3) uint8 photo: ``.uv`` (N, 2) pixels, ``.score`` (N,) in [0, 1]."""
+    return suggest_photo_points(photo, max_points=max_points)
+
+
+def suggest_dem(dem, max_points: int, camera: Optional[Camera] = None) -> DemSuggestions:
+    """Suggested terrain points: ``.xyz`` (M, 3) map coordinates, ``.score`` (M,), ``.kind`` ("summit", "saddle",
+    "junction", "orb"...); with a camera only those it sees."""
+    return suggest_dem_points(dem, camera=camera, max_points=max_points)
+
+
+def suggest(photo: np.ndarray, dem, camera: Optional[Camera], n_photo: int, n_dem: int,
+            progress: Optional[Progress] = None,
+            is_canceled: Optional[IsCanceled] = None) -> Tuple[PhotoSuggestions, DemSuggestions]:
+    """Both sets of suggestions (photo, then DEM), with progress and cancel between them."""
+    report = progress or (lambda fraction, message="": None)
+    report(0.05, "photo")
+    photo_points = suggest_photo(photo, n_photo)
+    check_canceled(is_canceled)
+    report(0.45, "DEM")
+    dem_points = suggest_dem(dem, n_dem, camera)
+    check_canceled(is_canceled)
+    report(0.95, "")
+    return photo_points, dem_points

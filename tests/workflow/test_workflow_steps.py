@@ -1,0 +1,89 @@
+"""The workflow's steps on a real synthetic scene: one XYZ cache keyed on content, one on-ground rule, one cancel
+exception and the refusal of the fit, the products in their one layout."""
+
+import numpy as np
+import pytest
+from osgeo import gdal
+
+from monoplot_plugin.core.camera import Camera
+from monoplot_plugin.core.dem import Dem
+from monoplot_plugin.core.synthetic import render_photo, synthetic_terrain
+from monoplot_plugin.workflow import fit as fit_step
+from monoplot_plugin.workflow import products, xyz
+from monoplot_plugin.workflow.progress import Canceled
+
+
+@pytest.fixture(scope="module")
+def scene():
+    dem = synthetic_terrain((120, 120), cell=50.0, seed=5)
+    x, y = dem.cell_to_map(60, 115)
+    ground = float(dem.sample(x, y))
+    camera = Camera((x, y, ground + 80.0), 0.0, -4.0, 0.0, 60.0, (240, 160), crs_wkt=dem.crs_wkt)
+    return dem, camera, ground
+
+
+@pytest.fixture(autouse=True)
+def empty_cache():
+    xyz.clear_cache()
+    yield
+    xyz.clear_cache()
+
+
+def test_xyz_cache_is_keyed_on_content_not_on_the_object(scene):
+    dem, camera, _ = scene
+    first = xyz.xyz_result(camera, dem)
+    twin = Dem.from_array(dem.elevation.copy(), dem.geotransform, crs_wkt=dem.crs_wkt)
+    assert xyz.xyz_result(camera, twin) is first  # same data, another object: reused
+    changed = Dem.from_array(dem.elevation + 10.0, dem.geotransform, crs_wkt=dem.crs_wkt)
+    other = xyz.xyz_result(camera, changed)
+    assert other is not first  # other data: never taken for the old one
+    hit = np.isfinite(other.xyz[..., 2])
+    ground = other.xyz[hit]
+    on_new = np.median(np.abs(ground[:, 2] - changed.sample(ground[:, 0], ground[:, 1])))
+    on_old = np.median(np.abs(ground[:, 2] - dem.sample(ground[:, 0], ground[:, 1])))
+    assert on_new < 2.0 < 8.0 < on_old  # on the raised terrain (mesh vs bilinear: about a metre), not the old one
+    assert xyz.xyz_result(camera.with_parameters(heading=1.0), changed) is not other
+
+
+def test_on_ground_rule(scene):
+    dem, camera, ground = scene
+    assert fit_step.on_ground_rule(camera, dem) == (True, pytest.approx(80.0))  # within 200 m: on the ground
+    high = camera.with_parameters(z=ground + 1500.0)
+    assert fit_step.on_ground_rule(high, dem) == (False, fit_step.DEFAULT_EYE_HEIGHT_M)
+    assert fit_step.on_ground_rule(high, dem, on_ground=True, eye_height=3.0) == (True, 3.0)
+    assert fit_step.on_ground_rule(camera, dem, on_ground=False) == (False, fit_step.DEFAULT_EYE_HEIGHT_M)
+
+
+def test_fit_cancel_and_refusal(scene):
+    dem, camera, _ = scene
+    full = xyz.xyz_raster(camera, dem)
+    rows, cols = np.nonzero(np.isfinite(full[..., 2]))
+    pick = np.random.default_rng(1).choice(len(rows), 30, replace=False)
+    uv = np.column_stack([cols[pick] + 0.5, rows[pick] + 0.5])
+    world = full[rows[pick], cols[pick]]
+    with pytest.raises(Canceled):
+        fit_step.fit(uv, world, camera, dem, pairs=np.column_stack([np.arange(30)] * 2), is_canceled=lambda: True)
+    with pytest.raises(fit_step.FitRefused):
+        fit_step.fit(uv[:2], world[:2], camera, dem, pairs=[(0, 0), (1, 1)])
+    seen = []
+    done = fit_step.fit(uv, world, camera.with_parameters(heading=1.0), dem,
+                        pairs=np.column_stack([np.arange(30)] * 2), progress=lambda f, m="": seen.append(f))
+    assert done.on_ground and done.result.status != "refused"
+    assert seen and all(0.0 <= f <= 1.0 for f in seen)
+    assert abs(done.camera.heading) < 0.5
+
+
+def test_products_in_the_one_layout(scene, tmp_path):
+    dem, camera, _ = scene
+    path = products.write_xyz(tmp_path / "xyz.tif", camera, dem)
+    assert gdal.Open(str(path)).RasterCount == 3  # X, Y, Z
+    with_distance = products.write_xyz(tmp_path / "xyz_d.tif", camera, dem, distance=True)
+    assert gdal.Open(str(with_distance)).RasterCount == 4
+    photo = render_photo(camera, dem)
+    ortho = products.orthophoto(tmp_path / "ortho.tif", photo, camera, dem)
+    assert gdal.Open(str(ortho)).RasterCount == 4  # RGB + alpha
+    with pytest.raises(products.ProductError):
+        products.orthophoto(tmp_path / "bad.tif", photo[:-1], camera, dem)
+    with pytest.raises(Canceled):
+        products.write_xyz(tmp_path / "never.tif", camera, dem, is_canceled=lambda: True)
+    assert not (tmp_path / "never.tif").exists()
