@@ -31,9 +31,6 @@ TORCH_INDEX_ENV = "MONOPLOT_TORCH_INDEX"
 #: that QGIS does not import: may be upgraded in the user site (``>=`` installed); everything else is pinned ``==``.
 UPGRADABLE = frozenset({"sympy", "mpmath", "networkx", "filelock", "fsspec", "typing-extensions", "setuptools"})
 
-#: Releases whose metadata accepts an installed numpy their binaries do not work with (found by installing them).
-KNOWN_BAD = ()
-
 Target = namedtuple("Target", "python platform in_venv externally_managed distributions")
 Target.__doc__ = """What :func:`probe` found: ``distributions`` maps a normalized name to ``(name, version)``."""
 
@@ -92,15 +89,7 @@ def constraint_lines(target, extra=()):
     for key, (name, version) in sorted(target.distributions.items()):
         if _VERSION.match(version):
             lines.append(f"{name}{'>=' if key in UPGRADABLE else '=='}{version}")
-    numpy = target.distributions.get("numpy")
-    for package, specifier, numpy_below in KNOWN_BAD:
-        if numpy and _major_minor(numpy[1]) < numpy_below:
-            lines.append(f"{package}{specifier}")
     return lines + list(extra)
-
-
-def _major_minor(version):
-    return tuple(int(part) for part in re.findall(r"\d+", version)[:2])
 
 
 def scheme_arguments(target):

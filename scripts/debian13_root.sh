@@ -48,10 +48,15 @@ if [ ! -f "$DEBOOTSTRAPPED" ]; then
   fi
   mkdir -p "$(dirname "$ROOT")"
   echo "debian13: debootstrap $SUITE from $MIRROR"
-  debootstrap --variant=minbase --include=ca-certificates "$SUITE" "$ROOT" "$MIRROR" >"$ROOT.debootstrap.log" 2>&1 || {
+  for attempt in 1 2; do  # a network hiccup on the mirror: once more from scratch
+    debootstrap --variant=minbase --include=ca-certificates "$SUITE" "$ROOT" "$MIRROR" >"$ROOT.debootstrap.log" 2>&1 \
+      && break
     tail -30 "$ROOT.debootstrap.log" >&2
-    exit 1
-  }
+    [ "$attempt" = 2 ] && exit 1
+    echo "debian13: debootstrap failed, trying again" >&2
+    umount_all
+    rm -rf --one-file-system "$ROOT"
+  done
   mv "$ROOT.debootstrap.log" "$ROOT/debootstrap.log"
   touch "$DEBOOTSTRAPPED"
   echo "debian13: debootstrap done in $((SECONDS - start)) s"
@@ -68,8 +73,8 @@ mount -t proc proc "$ROOT/proc"
 mount --bind /dev "$ROOT/dev"
 mount --bind /dev/pts "$ROOT/dev/pts"
 chroot "$ROOT" /usr/bin/env -i PATH=/usr/sbin:/usr/bin:/sbin:/bin DEBIAN_FRONTEND=noninteractive bash -ec "
-  apt-get update -qq
-  apt-get install -y -qq --no-install-recommends $PACKAGES >/var/log/monoplot-apt.log 2>&1 || {
+  apt-get -o Acquire::Retries=3 update -qq
+  apt-get -o Acquire::Retries=3 install -y -qq --no-install-recommends $PACKAGES >/var/log/monoplot-apt.log 2>&1 || {
     tail -40 /var/log/monoplot-apt.log; exit 1; }
   apt-get clean
 "

@@ -199,3 +199,10 @@ def test_failed_install_reports_pip_error(qgis_iface, qtbot, tmp_path):
 
 def test_nothing_shown_when_all_present(qgis_iface):
     assert deps.notify_missing(qgis_iface) is None
+
+
+def test_deps_pins_doctests():
+    import doctest
+
+    result = doctest.testmod(deps_pins)
+    assert result.attempted >= 7 and result.failed == 0
