@@ -57,7 +57,8 @@ mkdir -p "$PIP_CACHE"
 cp /etc/resolv.conf "$ROOT/etc/resolv.conf"
 
 # Variables passed into the chroot (env -i there): pip's, TLS bundles, CI, the display/Qt ones the tests set.
-pass_env=(PATH=$VENV/bin:/usr/sbin:/usr/bin:/sbin:/bin HOME=/root LANG=C.UTF-8 QT_QPA_PLATFORM=offscreen
+# The venv is NOT on PATH: QGIS's embedded Python would find its python3 there and take the venv for its own.
+pass_env=(PATH=/usr/sbin:/usr/bin:/sbin:/bin HOME=/root LANG=C.UTF-8 QT_QPA_PLATFORM=offscreen
           MONOPLOT_VENV=$VENV MONOPLOT_INSTALLER_TEST=1)
 while IFS= read -r line; do pass_env+=("$line"); done < <(env | grep -E '^(PIP_|CI=|SSL_CERT_|REQUESTS_CA_BUNDLE=|CURL_CA_BUNDLE=|MONOPLOT_TORCH_INDEX=)' || true)
 

@@ -26,7 +26,7 @@ def zero_voids(elevation: np.ndarray, min_median: float = 300.0) -> int:
     Mountain DEMs without a nodata value often fill voids with 0, which no real high-terrain DEM contains.
     Returns the number of cells changed.
 
-    >>> z = np.array([[0.0, 2000.0], [2100.0, 2200.0]]); zero_voids(z), np.isnan(z[0, 0])
+    >>> z = np.array([[0.0, 2000.0], [2100.0, 2200.0]]); zero_voids(z), bool(np.isnan(z[0, 0]))
     (1, True)
     >>> z = np.array([[0.0, 2.0], [3.0, 4.0]]); zero_voids(z)
     0
