@@ -2,6 +2,7 @@
 # `make test-qgis340`: the whole test suite (desktop tests included) on Debian 13's QGIS 3.40, Python 3.13, numpy 2.
 #
 #   scripts/test_qgis340.sh [PYTEST ARGS...]      (default: -q tests)
+#   scripts/test_qgis340.sh --run 'COMMAND'        (a shell command in the chroot instead, e.g. a desktop script)
 #
 # 1. scripts/debian13_root.sh builds (once) the Debian 13 root file system, default .cache/debian13
 #    (MONOPLOT_DEBIAN13_ROOT overrides; gitignored);
@@ -98,7 +99,12 @@ echo "qgis340: venv $((SECONDS - phase)) s"
 
 # --- the suite ---------------------------------------------------------------------------------------------------
 phase=$SECONDS
-[ $# -gt 0 ] || set -- -q tests
-in_root "$(printf '%q ' make resources) >/dev/null && $(printf '%q ' "$VENV/bin/python" -m pytest "$@")" && status=0 || status=$?
+if [ "${1:-}" = --run ]; then  # scripts/test_qgis340.sh --run 'SHELL COMMAND': anything else inside the tree
+  command=$2
+else
+  [ $# -gt 0 ] || set -- -q tests
+  command="$(printf '%q ' "$VENV/bin/python" -m pytest "$@")"
+fi
+in_root "make resources >/dev/null && $command" && status=0 || status=$?
 echo "qgis340: tests $((SECONDS - phase)) s (exit $status); total $((SECONDS - start)) s; screenshots in $ARTIFACTS"
 exit $status
