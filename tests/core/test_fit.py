@@ -263,7 +263,7 @@ def test_aletsch_paired_mode_reaches_the_least_squares_floor(aletsch_dir):
     assert 9.0 < result.loo_rmse_px < 14.0  # the published leave-one-out is about 11 px
 
 
-@pytest.mark.parametrize("name", ["fit", "fit_params", "suggest", "suggest_photo"])
+@pytest.mark.parametrize("name", ["fit.losses", "fit.params", "fit.options", "fit.consensus", "fit.verdict", "suggest", "suggest_photo"])
 def test_doctests_of_fit_and_suggest_modules(name):
     import doctest
     import importlib

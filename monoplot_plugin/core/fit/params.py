@@ -23,7 +23,7 @@ from typing import Callable, Dict, Optional, Sequence
 
 import numpy as np
 
-from .camera import PARAMETER_NAMES, Camera, project_points, rotation_matrix
+from ..camera import PARAMETER_NAMES, Camera, project_points, rotation_matrix
 
 __all__ = ["DEFAULT_FREE", "ParameterSpace", "parameter_scales"]
 

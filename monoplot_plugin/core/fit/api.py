@@ -1,0 +1,77 @@
+"""The entry point, :func:`fit_camera`: checks, then the paired or the unpaired mode, check points, verdict."""
+
+from __future__ import annotations
+
+import time
+from typing import Callable, Iterable, Optional
+
+import numpy as np
+
+from ..camera import Camera
+from .checks import check_inputs
+from .context import FitCanceled, FitContext
+from .options import FitOptions
+from .paired import fit_paired
+from .result import FitResult, rmse
+from .unpaired import fit_unpaired
+from .verdict import judge
+
+__all__ = ["fit_camera"]
+
+
+def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Optional[Iterable[str]] = None, *,
+               ground=None, eye_height: float = 1.7, check_image_points=None, check_world_points=None,
+               options: Optional[FitOptions] = None, progress: Optional[Callable[[float, str], None]] = None,
+               is_canceled: Optional[Callable[[], bool]] = None, **option_values) -> FitResult:
+    """Fit a camera to photo points and DEM points.
+
+    Args:
+        image_points: (N, 2) pixels (u = column, v = row, see :mod:`~monoplot_plugin.core.camera`).
+        world_points: (M, 3) map coordinates in the DEM's CRS (metres).
+        initial: approximate camera (its image size is the photo's); parameters not in ``free`` keep its values.
+        pairs: optional (K, 2) int array of (image index, world index): paired mode on those pairs only.
+        free: parameter names to fit (default :data:`DEFAULT_FREE`: x y z heading pitch roll fov).
+        ground: optional terrain for the "camera on the ground" constraint: a callable ``(x, y) -> z`` on numpy
+            arrays, or an object with a ``sample(x, y)`` method (a :class:`~monoplot_plugin.core.dem.Dem`).
+        eye_height: metres of the camera above the ground (with ``ground``).
+        check_image_points, check_world_points: optional (C, 2) and (C, 3) paired points NOT used by the fit;
+            their RMSE is reported as ``check_rmse_px`` and judged by the verdict.
+        options: a :class:`FitOptions`; or give its fields as keywords (``position_sigma_m=50``, ``n_starts=1``,
+            ``robust=False``, ...), which override it.
+        progress: optional ``callable(fraction in [0, 1], message)``.
+        is_canceled: optional ``callable() -> bool``, polled during the optimisation (at least every few
+            milliseconds); when it returns True the fit stops with status "canceled".
+    Returns:
+        :class:`FitResult`; its ``status`` says whether the evidence supports the camera.
+    """
+    unknown = set(option_values) - set(FitOptions.names())
+    if unknown:
+        raise TypeError(f"fit_camera() got unexpected keyword arguments {sorted(unknown)}")
+    opts = FitOptions(**{**(vars(options) if options is not None else {}), **option_values})
+    t0 = time.perf_counter()
+    ctx = FitContext(image_points, world_points, initial, free, ground, eye_height, opts, progress, is_canceled)
+    mode = "unpaired" if pairs is None else "paired"
+    try:
+        refusal = check_inputs(ctx, pairs)
+        if refusal:
+            result = FitResult(initial, "refused", refusal, mode, ctx.free)
+        elif pairs is not None:
+            result = fit_paired(ctx, np.asarray(pairs, dtype=np.int64).reshape(-1, 2))
+        else:
+            result = fit_unpaired(ctx)
+    except FitCanceled:
+        result = FitResult(ctx.best_camera(), "canceled", "The fit was canceled; the camera is the best found "
+                           "so far.", mode, ctx.free, loss_history=ctx.history, n_starts=ctx.starts_tried)
+    if result.status not in ("refused", "canceled") and check_image_points is not None \
+            and check_world_points is not None:
+        cq = np.asarray(check_image_points, dtype=np.float64).reshape(-1, 2)
+        cuv = result.camera.project(np.asarray(check_world_points, dtype=np.float64).reshape(-1, 3))
+        result.check_residuals_px = cuv - cq
+        result.check_rmse_px = rmse(result.check_residuals_px)
+        if result.evidence:
+            result.evidence.update(check_rmse_px=result.check_rmse_px, has_check=len(cq) > 0)
+    if result.evidence and result.status not in ("refused", "canceled"):
+        result.status, result.message = judge(result.evidence)
+    result.elapsed_s = time.perf_counter() - t0
+    ctx.report(1.0, result.status)
+    return result

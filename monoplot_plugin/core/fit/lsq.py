@@ -1,0 +1,117 @@
+"""Least squares on pixel residuals of pairs, the parameters' σ and leave-one-out; shared by every mode."""
+
+from __future__ import annotations
+
+import math
+from typing import Dict
+
+import numpy as np
+
+from .params import ParameterSpace
+from .result import rmse
+
+__all__ = ["least_squares", "jacobian", "parameter_std", "bootstrap_std", "leave_one_out", "PIXEL_FLOOR"]
+
+
+def least_squares(ctx, space: ParameterSpace, u0, q, P, loss="linear", f_scale=1.0, max_nfev=None):
+    """Least squares on pixel residuals of pairs; returns (u, cost = RMSE px)."""
+    from scipy.optimize import least_squares
+
+    def residuals(u):
+        ctx.poll()
+        uv, depth = space.project(u, P)
+        r = (uv - q).ravel()
+        # A point behind the camera would be a meaningless projection: push it away with a large residual.
+        behind = np.repeat(depth <= 0, 2)
+        if behind.any():
+            r = np.where(behind, 10.0 * ctx.diag, r)
+        return r
+
+    method = "lm" if loss == "linear" and 2 * len(q) >= len(u0) else "trf"
+    res = least_squares(residuals, u0, method=method, loss=loss, f_scale=f_scale, x_scale=1.0,
+                        max_nfev=max_nfev or 200 * (len(u0) + 1))
+    u = res.x
+    if not space.valid(u):
+        raise ValueError("invalid camera")
+    r = residuals(u).reshape(-1, 2)
+    return u, rmse(r)
+
+
+def jacobian(space: ParameterSpace, u, q, P) -> np.ndarray:
+    """(2K, n) forward-difference Jacobian of the K pairs' pixel residuals in the parameter vector's units."""
+    m, n = 2 * len(q), len(u)
+    J = np.zeros((m, n))
+    r0 = (space.project(u, P)[0] - q).ravel()
+    for k in range(n):
+        h = 1e-6 * max(1.0, abs(u[k]))
+        du = np.zeros(n)
+        du[k] = h
+        J[:, k] = ((space.project(u + du, P)[0] - q).ravel() - r0) / h
+    return J
+
+
+#: Pixel accuracy below which no point is trusted (a detected or clicked point is never better than this).
+PIXEL_FLOOR = 0.5
+
+
+def parameter_std(ctx, space: ParameterSpace, u, q, P) -> Dict[str, float]:
+    """Standard deviations of the free parameters (their units: metres, degrees, pixels) from the covariance
+    ``s^2 (J^T J)^-1``, ``s`` the residuals' standard error (at least :data:`PIXEL_FLOOR`)."""
+    m, n = 2 * len(q), len(u)
+    if m <= n:
+        return {}
+    J = jacobian(space, u, q, P)
+    r0 = (space.project(u, P)[0] - q).ravel()
+    sigma2 = max(float(r0 @ r0) / (m - n), PIXEL_FLOOR ** 2)
+    try:
+        cov = np.linalg.inv(J.T @ J) * sigma2
+    except np.linalg.LinAlgError:
+        return {}
+    diag = np.clip(np.diag(cov), 0.0, None)
+    return {name: float(space.scales[i] * math.sqrt(diag[i])) for i, name in enumerate(space.names)}
+
+
+def bootstrap_std(ctx, space: ParameterSpace, u, q, P, rounds: int) -> Dict[str, float]:
+    """σ of each free parameter over ``rounds`` least-squares fits to pairs drawn with replacement (captures
+    what the covariance misses when a few automatic pairs are wrong). Empty when too few pairs."""
+    k, n = len(q), len(u)
+    if rounds <= 0 or 2 * k <= n + 2:
+        return {}
+    rng = np.random.default_rng(ctx.options.seed + 99)
+    samples = []
+    for _ in range(rounds):
+        pick = rng.integers(0, k, k)
+        if len(np.unique(pick)) * 2 <= n + 1:
+            continue
+        try:
+            ub, _ = least_squares(ctx, space, u, q[pick], P[pick], max_nfev=20 * (n + 1))
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+        samples.append(ub)
+    if len(samples) < 5:
+        return {}
+    spread = np.std(np.asarray(samples), axis=0)
+    return {name: float(space.scales[i] * spread[i]) for i, name in enumerate(space.names)}
+
+
+def leave_one_out(ctx, space: ParameterSpace, u, q, P, limit: int = 40) -> np.ndarray:
+    """(K,) pixel error of each pair predicted by a fit without it (NaN when the rest is too few).
+
+    With more than ``limit`` pairs only ``limit`` evenly spread pairs are left out in turn (the others stay
+    NaN): enough for the RMSE, and the time stays bounded.
+    """
+    k = len(q)
+    out = np.full(k, np.nan)
+    if 2 * (k - 1) <= len(u):
+        return out
+    chosen = np.unique(np.linspace(0, k - 1, min(k, limit)).round().astype(int))
+    for i in chosen:
+        keep = np.arange(k) != i
+        try:
+            ui, _ = least_squares(ctx, space, u, q[keep], P[keep], max_nfev=50 * (len(u) + 1))
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+        uv, depth = space.project(ui, P[i:i + 1])
+        if depth[0] > 0:
+            out[i] = float(np.linalg.norm(uv[0] - q[i]))
+    return out

@@ -1,0 +1,83 @@
+"""Options of one camera fit, in one place: :class:`FitOptions`.
+
+>>> FitOptions().consensus, FitOptions(robust=False).robust_px(1000.0)
+(True, None)
+>>> round(FitOptions().robust_px(1000.0), 1)   # 6 % of the image diagonal
+60.0
+>>> opts = FitOptions(angle_sigma_deg=2.0)
+>>> opts.prior_sigmas(fov=50.0, typical_range=4000.0)
+{'position_m': 200.0, 'angle_deg': 2.0, 'fov_deg': 5.0}
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from typing import Dict, Optional, Union
+
+__all__ = ["FitOptions"]
+
+
+@dataclass
+class FitOptions:
+    """Every tuning knob of :func:`~monoplot_plugin.core.fit.fit_camera` (its keyword arguments of the same names).
+
+    The prior's uncertainty (what the user states about the rough camera; ``None`` = the default):
+        position_sigma_m: metres, one σ of the rough position (default 100 m or 5 % of the distance to the
+            points, whichever is more).
+        angle_sigma_deg: degrees, one σ of heading and pitch (default 5°; roll gets half of it).
+        fov_sigma_deg: degrees, one σ of the horizontal field of view (default 10 % of it).
+
+    Unpaired mode, the paper's descent (a stage of the search, not the judge):
+        n_starts, n_escapes: most starts and basin escapes of the multi-start descent.
+        view_margin: fraction of the image size around it within which projected DEM points still count.
+        gate_px: pairing gate in pixels (None: adaptive).
+        refine: two-sided refinement, automatic pairing and robust least squares after the descent.
+        coarse: a coarse-to-fine pass on a smoothed nearest distance before the paper's loss.
+        robust: True = saturating distances at 6 % of the diagonal; a number = that scale in pixels; False/None =
+            the paper's loss exactly.
+        centroid_weight: factor on the paper's adaptive centroid weight in the first descent.
+        time_budget_s: no new start begins after this many seconds.
+        switch_ratio: another start replaces the initial camera's descent only below this ratio of its score.
+        consensus: also search camera hypotheses drawn from the prior's uncertainty (minimal two-point solves
+            verified by their mutual-nearest inliers) and keep whichever camera the consensus score prefers.
+        consensus_hypotheses: most minimal-set hypotheses scored by the consensus search.
+        consensus_starts: how many of the best hypotheses are aligned and optimised.
+        bootstrap: resamplings of the inlier pairs for the σ of an unpaired fit (0 = Jacobian only).
+        seed: random seed (results are deterministic for a given seed).
+    """
+
+    n_starts: int = 4
+    n_escapes: int = 2
+    view_margin: float = 0.1
+    gate_px: Optional[float] = None
+    refine: bool = True
+    coarse: bool = True
+    robust: Union[bool, float, None] = True
+    centroid_weight: float = 1.0
+    time_budget_s: float = 8.0
+    switch_ratio: float = 0.8
+    consensus: bool = True
+    consensus_hypotheses: int = 4000
+    consensus_starts: int = 8
+    bootstrap: int = 30
+    position_sigma_m: Optional[float] = None
+    angle_sigma_deg: Optional[float] = None
+    fov_sigma_deg: Optional[float] = None
+    seed: int = 0
+
+    @classmethod
+    def names(cls):
+        return tuple(f.name for f in fields(cls))
+
+    def robust_px(self, diag: float) -> Optional[float]:
+        """Saturation scale of the paper's distances in pixels, or None for the paper's loss exactly."""
+        if self.robust is None or self.robust is False:
+            return None
+        return 0.06 * diag if self.robust is True else float(self.robust)
+
+    def prior_sigmas(self, fov: float, typical_range: float) -> Dict[str, float]:
+        """The prior's one-σ uncertainty with the defaults filled in (metres and degrees)."""
+        position = max(100.0, 0.05 * typical_range) if self.position_sigma_m is None else self.position_sigma_m
+        return {"position_m": float(position),
+                "angle_deg": float(5.0 if self.angle_sigma_deg is None else self.angle_sigma_deg),
+                "fov_deg": float(0.1 * fov if self.fov_sigma_deg is None else self.fov_sigma_deg)}

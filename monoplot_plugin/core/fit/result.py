@@ -1,0 +1,101 @@
+"""What a fit returns: :class:`FitResult`, and the two RMS helpers every stage uses."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Dict, List, Tuple
+
+import numpy as np
+
+from ..camera import Camera
+
+__all__ = ["FitResult", "STATUSES", "rmse", "rms"]
+
+#: Every status a fit can end with, from best to worst; only "ok" means the evidence supports the camera.
+STATUSES = ("ok", "uncertain", "poor", "refused", "canceled")
+
+
+@dataclass
+class FitResult:
+    """What :func:`fit_camera` found.
+
+    Attributes:
+        camera: the fitted camera (``initial`` unchanged when refused; the best so far when canceled).
+        status: one of :data:`STATUSES`: "ok" (the evidence supports the camera), "uncertain" (fitted, but some
+            evidence is weak: the message says which and what to add), "poor" (probably wrong), "refused"
+            (degenerate or invalid input: nothing fitted), "canceled". See :mod:`~monoplot_plugin.core.fit.verdict`.
+        message: human-readable sentences: the figures, then for a status other than "ok" why and what to do.
+        mode: "paired" or "unpaired".
+        free: names of the parameters that were fitted.
+        rmse_px: RMSE (pixels) of the pairs used by the final fit (the user's pairs, or the automatic pairs of the
+            unpaired mode); for an unpaired fit without enough pairs, the RMS nearest distance. NaN when refused.
+        pairs: (K, 2) int array of (image index, world index) used by the final fit.
+        residuals_px: (K, 2) projected minus observed pixel of each pair.
+        inliers: (K,) bool, False for automatic pairs rejected as outliers (always True in paired mode).
+        nearest_px: (N,) distance from each photo point to the nearest projected in-view DEM point (unpaired mode;
+            in paired mode, the pair residual norm of each photo point, NaN for unpaired ones).
+        std: standard deviation of each fitted parameter (its units: metres, degrees, pixels), from the Jacobian
+            of the final least-squares fit; empty when it could not be computed.
+        loo_rmse_px: leave-one-out RMSE over the pairs (each pair predicted by a fit without it), NaN if too few.
+        loo_residuals_px: (K,) leave-one-out error of each pair (pixels).
+        check_rmse_px / check_residuals_px: RMSE and (C, 2) residuals on the independent check points, if given.
+        loss_history: the unpaired loss (pixels) after every L-BFGS round of every start, then the pairs' RMSE
+            after every robust refinement; for plotting convergence.
+        evidence: the figures the verdict judged (inliers, chance level, competing camera, spread, Jacobian
+            condition, ...; see :func:`~monoplot_plugin.core.fit.verdict.judge`).
+        photo_outliers: (N,) bool, accepted photo points the fitted camera explains by no DEM point (unpaired mode;
+            shown red so that the person can reject them).
+        n_starts: how many starts the multi-start tried.
+        elapsed_s: wall time of the fit.
+    """
+
+    camera: Camera
+    status: str
+    message: str
+    mode: str
+    free: Tuple[str, ...] = ()
+    rmse_px: float = float("nan")
+    pairs: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=np.int64))
+    residuals_px: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    inliers: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    nearest_px: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    std: Dict[str, float] = field(default_factory=dict)
+    loo_rmse_px: float = float("nan")
+    loo_residuals_px: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    check_rmse_px: float = float("nan")
+    check_residuals_px: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    loss_history: List[float] = field(default_factory=list)
+    evidence: Dict[str, object] = field(default_factory=dict)
+    photo_outliers: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    n_starts: int = 0
+    elapsed_s: float = 0.0
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+    def summary(self) -> dict:
+        """JSON-friendly digest (numbers rounded) for logs and reports."""
+        def r(x, n=3):
+            return None if x is None or not np.isfinite(x) else round(float(x), n)
+
+        return {"status": self.status, "mode": self.mode, "message": self.message, "rmse_px": r(self.rmse_px),
+                "loo_rmse_px": r(self.loo_rmse_px), "check_rmse_px": r(self.check_rmse_px),
+                "pairs": int(len(self.pairs)), "inliers": int(self.inliers.sum()), "free": list(self.free),
+                "std": {k: r(v, 4) for k, v in self.std.items()}, "n_starts": self.n_starts,
+                "elapsed_s": r(self.elapsed_s), "photo_outliers": int(np.sum(self.photo_outliers)),
+                "evidence": {k: (r(v) if isinstance(v, float) else v) for k, v in self.evidence.items()},
+                "camera": self.camera.to_dict()}
+
+
+def rmse(residuals: np.ndarray) -> float:
+    residuals = np.asarray(residuals, dtype=np.float64).reshape(-1, 2)
+    if len(residuals) == 0:
+        return float("nan")
+    return float(np.sqrt(np.mean(np.sum(residuals ** 2, axis=1))))
+
+
+def rms(values) -> float:
+    values = np.asarray(values, dtype=np.float64)
+    values = values[np.isfinite(values)]
+    return float(np.sqrt(np.mean(values ** 2))) if len(values) else float("nan")

@@ -1,0 +1,155 @@
+"""Unpaired mode: photo points and DEM points with no correspondence known.
+
+Two searches propose cameras and one score judges them:
+
+1. the paper's descent (:mod:`.descent`) from the initial camera and its other starts;
+2. the consensus search (:mod:`.consensus`): minimal two-point hypotheses drawn from the prior's uncertainty,
+   each locally optimised on its own mutual-nearest pairs.
+
+The camera with the best consensus score (soft count of photo points explained within
+:func:`~.consensus.inlier_radius`) is refined by automatic pairing (:mod:`.pairing`), then judged
+(:mod:`.verdict`) on evidence that a small residual cannot fake: its inliers against the chance level of cameras
+turned away, the best clearly different competing camera, the spread of the inliers, the Jacobian.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import List, Tuple
+
+import numpy as np
+
+from .consensus import (_gates, chance_inliers, consensus_score, hypotheses, inlier_radius, kernel_align,
+                        local_optimise, prior_penalty, shift_hypotheses)
+from .descent import descend_from_prior
+from .losses import nearest_distances
+from .lsq import bootstrap_std, jacobian, parameter_std
+from .pairing import refine_by_pairs
+from .params import ParameterSpace
+from .result import FitResult, rms, rmse
+from .verdict import judge, photo_spread, weakest_parameter
+
+__all__ = ["fit_unpaired"]
+
+
+def fit_unpaired(ctx) -> FitResult:
+    """The whole unpaired fit (see the module docstring); status and message from :func:`~.verdict.judge`."""
+    import torch
+
+    # The tensors are small (hundreds of points): intra-op threads only add overhead, and on a busy machine a
+    # lot of it (ten times slower measured with 2 threads on 2 shared cores).
+    threads = torch.get_num_threads()
+    torch.set_num_threads(1)
+    try:
+        return _fit_unpaired(ctx)
+    finally:
+        torch.set_num_threads(threads)
+
+
+def _fit_unpaired(ctx) -> FitResult:
+    opts = ctx.options
+    space = ctx.space(ctx.initial)
+    uv0, in_view = ctx.project_usable(space, space.zero())
+    w, h = ctx.initial.image_size
+    radius = inlier_radius(ctx.diag, w * h, len(ctx.q), int(in_view.sum()))
+    sigmas = opts.prior_sigmas(ctx.initial.fov, ctx.typical_range)
+    descended = descend_from_prior(ctx)
+    u_descent = space.from_camera(descended.camera)
+    candidates: List[Tuple[float, np.ndarray, str]] = [(_score(ctx, space, u_descent, radius), u_descent,
+                                                        "descent")]
+    if opts.consensus and opts.refine:
+        ctx.report(0.9, "unpaired fit: consensus search")
+        _, hyp_radius = _gates(ctx, sigmas)
+        starts = []
+        for h in shift_hypotheses(ctx, sigmas, 8) + hypotheses(ctx, sigmas, opts.consensus_hypotheses)[:6]:
+            values = {k: h[k] for k in ("heading", "pitch", "roll", "fov") if k in ctx.free}
+            u0 = space.from_camera(ctx.restrict_to_free(ctx.initial.with_parameters(**values)))
+            if space.valid(u0):
+                starts.append((_score(ctx, space, u0, hyp_radius), u0))
+        # Only the most promising starts are aligned (the alignment is what costs).
+        for _, u0 in sorted(starts, key=lambda t: -t[0])[:opts.consensus_starts]:
+            u = kernel_align(ctx, space, u0, hyp_radius, radius)
+            u = local_optimise(ctx, space, u, 3.0 * radius, radius)
+            candidates.append((_score(ctx, space, u, radius), u, "consensus"))
+            ctx.starts_tried += 1
+    # Judged by the consensus score less the prior's penalty: a camera far from the stated one must explain
+    # more points. The descent's camera is kept on a near tie: it is the paper's method, and its two-sided
+    # refinement centres clouds of nearby different features better than a count does.
+    candidates = [(s - prior_penalty(ctx, space.camera(u), sigmas) if np.isfinite(s) else s, u, o)
+                  for s, u, o in candidates]
+    best_score = max(c[0] for c in candidates)
+    if candidates[0][0] >= best_score - 0.03 * abs(best_score):
+        chosen = candidates[0]
+    else:
+        chosen = max(candidates, key=lambda c: c[0])
+    u = chosen[1]
+    result = None
+    if opts.refine:
+        ctx.report(0.95, "unpaired fit: automatic pairing and robust refinement")
+        result = refine_by_pairs(ctx, space, u, opts.gate_px)
+    if result is None:
+        uv, usable = ctx.project_usable(space, u)
+        nearest = nearest_distances(ctx.q, uv, usable)
+        result = descended if chosen[2] == "descent" else FitResult(
+            space.camera(u), "ok", "", "unpaired", ctx.free, rms(nearest), nearest_px=nearest)
+    if not opts.refine:
+        result.message = ("The paper's loss only (refine=False): no automatic pairing asked, so no "
+                          "leave-one-out check.")
+    result.n_starts = ctx.starts_tried
+    result.loss_history = ctx.history
+    _judge_unpaired(ctx, space, result, candidates, radius, chosen[2], sigmas)
+    return result
+
+
+def _score(ctx, space: ParameterSpace, u, radius: float) -> float:
+    if not space.valid(u):
+        return -math.inf
+    uv, usable = ctx.project_usable(space, u)
+    return consensus_score(ctx.q, uv, usable, radius)[0]
+
+
+def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, radius: float, origin: str,
+                    sigmas: dict) -> None:
+    """Fill ``result.evidence``, ``status``, ``message``, ``photo_outliers`` and the σ of an unpaired fit."""
+    u = space.from_camera(result.camera)
+    uv, usable = ctx.project_usable(space, u)
+    score, pairs = consensus_score(ctx.q, uv, usable, radius)
+    # Outliers: photo points with no DEM point within three radii, or, when some pairs exist, farther than that.
+    nearest = nearest_distances(ctx.q, uv, usable)
+    outliers = ~(nearest <= 3.0 * radius)
+    chance = chance_inliers(ctx, space, u, radius)
+    # The best clearly different competitor: a candidate that moves this camera's inliers by 3 radii or more.
+    competitor = 0.0
+    if len(pairs):
+        P_in = ctx.P[pairs[:, 1]]
+        here = space.project(u, P_in)[0]
+        for s, uc, _ in candidates:
+            if not np.isfinite(s) or not space.valid(uc):
+                continue
+            there = space.project(uc, P_in)[0]
+            if np.median(np.linalg.norm(there - here, axis=1)) >= 3.0 * radius:
+                competitor = max(competitor, s)
+    own = score - prior_penalty(ctx, result.camera, sigmas)
+    q_in, P_in = (ctx.q[pairs[:, 0]], ctx.P[pairs[:, 1]]) if len(pairs) else (np.zeros((0, 2)), np.zeros((0, 3)))
+    cond, weakest = (weakest_parameter(jacobian(space, u, q_in, P_in), space.names, space.scales)
+                     if 2 * len(pairs) > len(u) else (math.inf, ""))
+    # σ: the covariance of the final pairs, widened by a bootstrap over them when that is larger (a few wrong
+    # automatic pairs widen the bootstrap, not the covariance).
+    std = dict(result.std) if result.std else (parameter_std(ctx, space, u, q_in, P_in) if len(pairs) else {})
+    boot = bootstrap_std(ctx, space, u, q_in, P_in, ctx.options.bootstrap) if len(pairs) else {}
+    for name, value in boot.items():
+        std[name] = max(std.get(name, 0.0), value)
+    result.std = std
+    used = result.inliers.sum() if len(result.inliers) else 0
+    evidence = {"mode": "unpaired", "n_free": len(ctx.free), "diag": ctx.diag, "n_photo": len(ctx.q),
+                "n_dem_in_view": int(usable.sum()), "radius_px": radius, "n_inliers": int(len(pairs)),
+                "score": score, "chance_max": float(chance.max()), "chance_mean": float(chance.mean()),
+                "competitor_ratio": competitor / own if own > 0 else 0.0,
+                "spread": photo_spread(ctx.q[pairs[:, 0]], ctx.initial.image_size) if len(pairs) else 0.0,
+                "photo_outliers": int(outliers.sum()), "condition": cond, "weakest": weakest,
+                "rmse_px": rmse(space.project(u, P_in)[0] - q_in) if len(pairs) else math.nan,
+                "loo_rmse_px": result.loo_rmse_px, "n_pairs": int(used), "camera_from": origin,
+                "note": result.message}
+    result.evidence = evidence
+    result.photo_outliers = outliers
+    result.status, result.message = judge(evidence)

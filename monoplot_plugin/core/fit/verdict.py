@@ -1,0 +1,159 @@
+"""The verdict: "ok" only when the evidence says so.
+
+Statuses (:data:`~monoplot_plugin.core.fit.result.STATUSES`):
+
+- ``ok``: enough well-spread inliers, far more than a wrongly placed camera gets by chance, no competing camera
+  explains the points nearly as well, small residuals (and check points agree, when given).
+- ``uncertain``: a camera was fitted but some evidence is weak (the message says which and what to do).
+- ``poor``: the camera is probably wrong (few inliers, not better than chance, large residuals or check points).
+- ``refused``: degenerate input (duplicated or collinear points, parameters the points cannot determine).
+
+The evidence is a plain dict (:func:`judge` documents its keys) kept in :attr:`FitResult.evidence`, so the dock,
+Processing and the report show the same figures.
+
+>>> judge({"mode": "paired", "n_free": 7, "n_pairs": 11, "rmse_px": 2.0, "diag": 1000.0})[0]
+'ok'
+>>> judge({"mode": "paired", "n_free": 7, "n_pairs": 11, "rmse_px": 80.0, "diag": 1000.0})[0]
+'poor'
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Tuple
+
+import numpy as np
+
+__all__ = ["degenerate_points", "weakest_parameter", "judge", "photo_spread"]
+
+
+def degenerate_points(q: np.ndarray, world: np.ndarray, needed: int) -> str:
+    """Empty string, or why (K, 2) photo points paired with (K, 3) DEM points cannot fix a camera: fewer than
+    ``needed`` distinct points on either side, or all on one line.
+
+    >>> q = np.array([[10.0, 10]] * 11); w = np.array([[0.0, 500, 10]] * 11)
+    >>> degenerate_points(q, w, 4).split(":")[0]
+    'The 11 pairs hold only 1 distinct photo point and 1 distinct DEM point'
+    >>> t = np.linspace(0, 1, 8)[:, None]
+    >>> degenerate_points(np.hstack([t * 500, t * 300]), np.hstack([t * 900, t * 50 + 1000, t * 20]), 4)[:38]
+    'The 8 photo points lie on a straight l'
+    """
+    k = len(q)
+    scale_q = max(1.0, float(np.ptp(q, axis=0).max())) if k else 1.0
+    scale_w = max(1.0, float(np.ptp(world, axis=0).max())) if k else 1.0
+    distinct_q = len(np.unique(np.round(q / (1e-6 * scale_q)), axis=0)) if k else 0
+    distinct_w = len(np.unique(np.round(world / (1e-6 * scale_w)), axis=0)) if k else 0
+    if min(distinct_q, distinct_w) < needed:
+        return (f"The {k} pairs hold only {distinct_q} distinct photo point{'s' if distinct_q != 1 else ''} and "
+                f"{distinct_w} distinct DEM point{'s' if distinct_w != 1 else ''}: a camera needs at least "
+                f"{needed} different points on each side. Remove the duplicates and add points.")
+    if k >= 3:
+        sq = np.linalg.svd(q - q.mean(axis=0), compute_uv=False)
+        if sq[1] <= 1e-3 * sq[0]:
+            return (f"The {k} photo points lie on a straight line: the camera could turn about it. Add points off "
+                    f"that line (spread over the picture).")
+        sw = np.linalg.svd(world - world.mean(axis=0), compute_uv=False)
+        if sw[1] <= 1e-3 * sw[0]:
+            return (f"The {k} DEM points lie on a straight line: the camera could turn about it. Add points off "
+                    f"that line.")
+    return ""
+
+
+def weakest_parameter(J: np.ndarray, names, scales) -> Tuple[float, str]:
+    """(condition number of the scaled Jacobian, name of the parameter with the largest share of its weakest
+    direction). ``J`` is (2K, n) in the parameter vector's units."""
+    if J.size == 0 or J.shape[0] < J.shape[1]:
+        return math.inf, names[0] if names else ""
+    norms = np.linalg.norm(J, axis=0)
+    norms[norms == 0] = 1.0
+    _, s, vt = np.linalg.svd(J / norms, full_matrices=False)
+    cond = float(s[0] / s[-1]) if s[-1] > 0 else math.inf
+    return cond, names[int(np.argmax(np.abs(vt[-1])))]
+
+
+def photo_spread(q: np.ndarray, image_size) -> float:
+    """Convex-hull area of the photo points as a share of the picture (0 for fewer than 3 or collinear points).
+
+    >>> round(photo_spread(np.array([[0.0, 0], [100, 0], [0, 100]]), (100, 100)), 6)
+    0.5
+    """
+    if len(q) < 3:
+        return 0.0
+    from scipy.spatial import ConvexHull, QhullError
+
+    try:
+        area = ConvexHull(q).volume  # in 2-D, "volume" is the area
+    except (QhullError, ValueError):
+        return 0.0
+    return float(area / (image_size[0] * image_size[1]))
+
+
+def judge(e: dict) -> Tuple[str, str]:
+    """(status, message) from the evidence ``e``.
+
+    Keys (missing ones are not judged): ``mode`` ("paired"/"unpaired"), ``n_free``, ``diag`` (px),
+    ``n_pairs`` (pairs used), ``rmse_px``, ``loo_rmse_px``, ``check_rmse_px``, ``condition`` and ``weakest``
+    (Jacobian), and for unpaired fits ``n_photo`` (photo points given), ``n_inliers`` (mutual-nearest pairs within
+    ``radius_px``), ``chance_max`` / ``chance_mean`` (the same score for cameras turned away, see
+    :func:`~monoplot_plugin.core.fit.consensus.chance_inliers`), ``score`` (the fit's consensus score),
+    ``competitor_ratio`` (best distinct competing camera's score / ``score``), ``spread`` (hull share of the
+    inliers), ``photo_outliers`` (accepted photo points that fit no DEM point).
+    """
+    diag = float(e.get("diag", 1000.0))
+    n_free = int(e.get("n_free", 7))
+    rmse = float(e.get("rmse_px", math.nan))
+    poor, weak = [], []
+    if e.get("mode") == "paired":
+        text = f"paired fit on {e.get('n_pairs', 0)} pairs: RMSE {rmse:.1f} px"
+    else:
+        text = (f"unpaired fit: {e.get('n_inliers', 0)} of {e.get('n_photo', 0)} photo points matched a DEM point "
+                f"within {e.get('radius_px', 0):.0f} px, RMSE {rmse:.1f} px")
+    loo = float(e.get("loo_rmse_px", math.nan))
+    text += f", leave-one-out {loo:.1f} px" if np.isfinite(loo) else " (too few pairs for a leave-one-out check)"
+    check = float(e.get("check_rmse_px", math.nan))
+    if np.isfinite(check):
+        text += f"; check points {check:.1f} px"
+    text += "."
+    if not np.isfinite(rmse) or rmse > 0.03 * diag:
+        poor.append("the residuals are large: check the pairs (a wrong link?) or the free parameters")
+    if np.isfinite(check) and check > 0.03 * diag:
+        poor.append("the independent check points disagree with the camera")
+    elif np.isfinite(check) and check > 0.015 * diag:
+        weak.append("the check points are off by more than 1.5 % of the picture")
+    cond = float(e.get("condition", 1.0))
+    if cond > 1e6:
+        weak.append(f"the points barely determine {e.get('weakest', 'a parameter')}: fix it or add points that "
+                    f"constrain it")
+    if np.isfinite(loo) and np.isfinite(rmse) and loo > 3.0 * max(rmse, 1.0) and loo > 0.01 * diag:
+        weak.append("leaving one pair out changes the prediction a lot: add points")
+    if e.get("mode") == "unpaired":
+        n_in = int(e.get("n_inliers", 0))
+        chance = float(e.get("chance_max", 0.0))
+        score = float(e.get("score", 0.0))
+        needed = n_free // 2 + 2
+        if n_in < needed:
+            poor.append(f"only {n_in} photo points match a DEM point ({needed} at least are needed)")
+        elif score <= chance + 1.0:
+            poor.append("a camera turned well away matches as many points: the match is a coincidence")
+        else:
+            if score < 1.5 * chance + 2.0 or n_in < 2 * n_free:
+                weak.append("few points match compared with what a wrongly placed camera gets by chance: accept "
+                            "more points on recognisable features, or pair a few")
+            ratio = float(e.get("competitor_ratio", 0.0))
+            if ratio >= 0.8:
+                weak.append("another camera, clearly different, explains the points almost as well: add two paired "
+                            "points or check points")
+            if float(e.get("spread", 1.0)) < 0.05:
+                weak.append("the matched points cover a small part of the picture: add points elsewhere")
+        if not e.get("has_check", False) and not poor:
+            text += " The residuals measure how well the automatic pairs agree: check points measure accuracy."
+    note = (" " + e["note"]) if e.get("note") else ""
+    if e.get("mode") == "unpaired" and int(e.get("photo_outliers", 0)):
+        note = (f" {int(e['photo_outliers'])} of {int(e.get('n_photo', 0))} accepted photo points fit no terrain "
+                f"point under this camera (flagged as outliers): reject them if they are not on the DEM's "
+                f"terrain.") + note
+    if poor:
+        return "poor", text + " Probably wrong: " + "; ".join(poor) + "." + note
+    if weak:
+        return "uncertain", text + " Uncertain: " + "; ".join(weak) + "." + note
+    return "ok", text + note
