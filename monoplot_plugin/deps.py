@@ -256,8 +256,7 @@ class PipInstaller(QObject):
     def _dry_run_finished(self, exit_code, _status):
         self._read()
         if exit_code != 0:
-            self._report(False, self.tr("not installed, pip found no versions compatible with QGIS's packages: {0}")
-                         .format(deps_pins.pip_failure(self.output)))
+            self._report(False, self.tr("not installed, {0}").format(deps_pins.dry_run_failure(self.output)))
             return
         self.installs = deps_pins.planned_installs(self.report_file)
         reason = deps_pins.refusal(self.installs, self.target)

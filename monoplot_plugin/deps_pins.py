@@ -170,6 +170,17 @@ def pip_failure(output):
     return errors[0]
 
 
+def dry_run_failure(output):
+    r"""What to tell the user when the dry run failed.
+
+    >>> dry_run_failure("Usage: ...\nno such option: --dry-run")
+    "pip is too old for a dry run (needs 22.2): upgrade pip in QGIS's Python first"
+    """
+    if "no such option: --dry-run" in output or "no such option: --report" in output:
+        return "pip is too old for a dry run (needs 22.2): upgrade pip in QGIS's Python first"
+    return "pip found no versions compatible with QGIS's packages: " + pip_failure(output)
+
+
 Outcome = namedtuple("Outcome", "ok detail installs output")
 
 
@@ -184,8 +195,7 @@ def install(packages, python, env=None, extra_args=None, extra_constraints=(), d
                              env=env)
         output = run.stdout + run.stderr
         if run.returncode != 0:
-            return Outcome(False, "pip found no versions compatible with QGIS's packages: " + pip_failure(output),
-                           [], output)
+            return Outcome(False, dry_run_failure(output), [], output)
         installs = planned_installs(report_file)
         reason = refusal(installs, target)
         if reason or dry_run_only:
