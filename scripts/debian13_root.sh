@@ -21,6 +21,10 @@ PACKAGES="qgis python3-qgis xvfb xauth pyqt5-dev-tools python3-venv python3-pip 
 PACKAGES=$(echo $PACKAGES)
 DEBOOTSTRAPPED="$ROOT/.monoplot-debootstrap-done"
 
+mkdir -p "$(dirname "$ROOT")"
+exec 9>"$ROOT.lock"
+flock 9  # two runs at once (e.g. two worktrees' make): the second waits for the first's tree
+
 if [ -f "$READY" ] && [ "$(cat "$READY")" = "$PACKAGES" ]; then
   echo "debian13: reusing $ROOT"
   exit 0
