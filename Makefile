@@ -84,9 +84,12 @@ bench: setup
 	$(PY) bench/run_bench.py
 	$(PY) bench/bench_fit.py
 
-# Camera fit on the real Aletsch case (../shared/data/aletsch) and a synthetic scene: one JSON line per case.
+# Camera fit on the real Aletsch case (../shared/data/aletsch), smapshot's 100 real small GCP sets and the synthetic
+# suite (232 generated scenes): one JSON line per case or stratum.
 eval: setup
 	$(PY) -m eval.aletsch
+	$(PY) -m eval.smapshot
+	$(PY) -m eval.synthetic_suite
 
 package: setup
 	$(PY) scripts/package.py --output dist

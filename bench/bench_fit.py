@@ -41,22 +41,23 @@ def timed(fn, repeat: int):
     return statistics.median(times), first, out
 
 
-def fit_problem(seed: int = 0):
-    """200 photo points (1 px noise) and 500 world points, 150 of them outside the view or without counterpart."""
+def fit_problem(seed: int = 0, n_photo: int = 200, n_world: int = 500):
+    """200 photo points (1 px noise) and 500 world points, 150 of them outside the view or without counterpart
+    (or other counts in the same proportions)."""
     rng = np.random.default_rng(seed)
     truth = Camera((2_600_000.0, 1_200_000.0, 1500.0), heading=30.0, pitch=-6.0, roll=1.0, fov=60.0,
                    image_size=(1024, 768))
     fwd = truth.forward
     right = np.cross(fwd, [0, 0, 1.0])
     right /= np.linalg.norm(right)
-    dist = rng.uniform(2000, 9000, 500)
-    lateral = rng.uniform(-0.9, 0.9, 500) * dist * 0.6
+    dist = rng.uniform(2000, 9000, n_world)
+    lateral = rng.uniform(-0.9, 0.9, n_world) * dist * 0.6
     world = (np.asarray(truth.position) + dist[:, None] * fwd * np.array([1, 1, 0]) / np.linalg.norm(fwd[:2])
              + lateral[:, None] * right)
-    world[:, 2] = rng.uniform(500, 1400, 500)
+    world[:, 2] = rng.uniform(500, 1400, n_world)
     uv = truth.project(world)
     inside = np.flatnonzero(truth.in_image(uv))
-    photo = uv[inside[:200]] + rng.normal(0, 1.0, (min(200, len(inside)), 2))
+    photo = uv[inside[:n_photo]] + rng.normal(0, 1.0, (min(n_photo, len(inside)), 2))
     start = truth.with_parameters(heading=truth.heading + 4, pitch=truth.pitch - 2, fov=truth.fov * 1.08,
                                   x=truth.position[0] + 100)
     return photo, world, start, truth
@@ -91,8 +92,14 @@ def main() -> int:
     if not only or "fit_unpaired_200x500_refined" in only:
         s, f, r = timed(lambda: fit_camera(photo, world, start), args.repeat)
         err = float(np.linalg.norm(np.asarray(r.camera.position) - truth.position))
-        emit("fit_unpaired_200x500_refined", s, f, sizes="200 photo x 500 DEM points", status=r.status,
+        emit("fit_unpaired_200x500_refined", s, f, 1.0, sizes="200 photo x 500 DEM points", status=r.status,
              position_error_m=round(err, 2), pairs=int(r.inliers.sum()))
+    if not only or "fit_unpaired_2000x2000" in only:
+        big_photo, big_world, big_start, big_truth = fit_problem(1, n_photo=2000, n_world=3000)
+        s, f, r = timed(lambda: fit_camera(big_photo, big_world, big_start), max(1, args.repeat // 2))
+        err = float(np.linalg.norm(np.asarray(r.camera.position) - big_truth.position))
+        emit("fit_unpaired_2000x2000", s, f, 3.0, sizes=f"{len(big_photo)} photo x {len(big_world)} DEM points",
+             status=r.status, position_error_m=round(err, 2), pairs=int(r.inliers.sum()))
     if not only or "fit_paired_11" in only:
         pairs = np.stack([np.arange(11)] * 2, axis=1)
         uvw = truth.project(world)

@@ -318,7 +318,8 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
         self.cameraChanged.emit()
         self._changed()
         rmse = outcome.info.get("rmse_px")
-        level = SUCCESS if outcome.info.get("converged", True) else WARNING
+        status = outcome.info.get("status", "ok")
+        level = SUCCESS if status == "ok" else WARNING
         text = self.tr("Camera fitted: RMSE {0:.1f} px on {1} photo points.").format(
             rmse if rmse is not None else float("nan"), outcome.info.get("n_photo", 0))
         check = outcome.info.get("check_rmse_px")
@@ -330,8 +331,8 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
         elif outcome.info.get("mode") == "unpaired":
             text += " " + self.tr("(How well the automatic pairs agree, not the accuracy: pair a few points you "
                                   "recognise and mark them as check points, key C.)")
-        if level == WARNING:
-            text += " " + self.tr("The fit did not converge: check the points and the rough camera.")
+        if status != "ok":  # the verdict's reasons (its message) are in the fit tab
+            text += " " + self.tr("Status {0}: see the fit tab for why and what to do.").format(self.tr(status))
         clearance = outcome.info.get("clearance_m")
         if clearance is not None and clearance < 0:
             level = WARNING

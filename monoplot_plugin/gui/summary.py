@@ -9,6 +9,9 @@ from ..core.camera import Camera
 
 __all__ = ["fit_summary_html"]
 
+#: Colour of each fit status (core.fit.STATUSES): "uncertain" must look different from "ok".
+_STATUS_STYLE = {"ok": "#1a7f37", "uncertain": "#b35900", "poor": "#c00", "refused": "#c00", "canceled": "#666"}
+
 
 def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], str] = str) -> str:
     """Rich text for the results label (``tr`` translates the user-visible words).
@@ -24,6 +27,9 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     >>> html.index("Check points <b>12.3 px</b>") < html.index("RMSE <b>6.4 px</b>")
     True
     >>> "3.8 m under the DEM" in fit_summary_html(cam, {"rmse_px": 6.4, "clearance_m": -3.8})
+    True
+    >>> html = fit_summary_html(cam, {"rmse_px": 6.4, "status": "uncertain", "message": "Uncertain: add points."})
+    >>> "uncertain</b>" in html and "Uncertain: add points." in html
     True
     """
     if fitted is None:
@@ -63,7 +69,11 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
              ("", ""), (tr("Field of view"), f"{fitted.fov:.2f}°{sig('fov', deg)}")]
     html = "".join("<tr>" + "".join(f"<td>{k}&nbsp;</td><td>{v}&nbsp;&nbsp;&nbsp;</td>" for k, v in pair)
                    + "</tr>" for pair in zip(cells[0::2], cells[1::2]))
-    note = "" if info.get("converged", True) else "<p style='color:#c00'>" + info.get("message", "") + "</p>"
+    status = info.get("status") or ("ok" if info.get("converged", True) else "poor")
+    badge = _STATUS_STYLE.get(status, _STATUS_STYLE["poor"])
+    head = tr("Status: <b style='color:{0}'>{1}</b>").format(badge, tr(status)) + " · " + head
+    # Anything but "ok" shows the verdict's own words: what is weak and what to do.
+    note = "" if status == "ok" else f"<p style='color:{badge}'>" + info.get("message", "") + "</p>"
     if under:
         note += "<p><small>" + tr("The camera is below the DEM surface at its own position (the DEM is coarse "
                                   "there, or the fit ended low): rays start by leaving the ground, and the terrain "

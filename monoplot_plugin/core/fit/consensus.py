@@ -219,7 +219,7 @@ def hypotheses(ctx, sigmas: dict, n_max: int) -> List[dict]:
         return []
     # Cost of one hypothesis is one projection of the scored DEM points: keep hypotheses x points bounded.
     score_idx = dem_idx if len(dem_idx) <= 600 else np.sort(rng.choice(dem_idx, 600, replace=False))
-    n_hyp = int(min(n_max, max(200, 1_500_000 // max(1, len(score_idx)))))
+    n_hyp = int(min(n_max, max(200, 600_000 // max(1, len(score_idx)))))
     draws = 4 * n_hyp
     p = weight / weight.sum()
     a = rng.choice(len(cand_i), draws, p=p)
@@ -359,7 +359,7 @@ def shift_hypotheses(ctx, sigmas: dict, n_keep: int = 6) -> List[dict]:
     return out
 
 
-def kernel_align(ctx, space: ParameterSpace, u0, start_scale: float, final_scale: float, max_points: int = 800):
+def kernel_align(ctx, space: ParameterSpace, u0, start_scale: float, final_scale: float, max_points: int = 400):
     """Align by a soft mutual count, annealed: maximise ``sum_i max_j k_ij + sum_j max_i k_ij`` with
     ``k_ij = exp(-|q_i - p_j|^2 / (2 s^2))`` over the free parameters (L-BFGS, torch), ``s`` halving from
     ``start_scale`` to ``final_scale`` pixels.

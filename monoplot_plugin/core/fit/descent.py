@@ -8,7 +8,7 @@ import time
 
 import numpy as np
 
-from .losses import nearest_distances, soft_nearest_loss, unpaired_loss
+from .losses import nearest_distances, nearest_index, soft_nearest_loss, unpaired_loss
 from .params import ParameterSpace
 from .result import FitResult, rms
 from .starts import jump, start_vectors
@@ -217,10 +217,8 @@ def two_sided_loss(ctx, space, u, q_t, P_t, cap: float):
     if not bool(usable.any()):
         return (u * 0.0).sum() + cap
     cand = uv[usable]
-    with torch.no_grad():
-        D = torch.cdist(q_t, cand)
-        i_w = D.argmin(dim=1)
-        i_q = D.argmin(dim=0)
+    i_w = nearest_index(q_t, cand)
+    i_q = nearest_index(cand, q_t)
     a = torch.sqrt((q_t - cand[i_w]).square().sum(dim=1) + 1e-6).clamp(max=cap).mean()
     b = torch.sqrt((cand - q_t[i_q]).square().sum(dim=1) + 1e-6).clamp(max=cap).mean()
     return a + chamfer_weight(ctx) * b

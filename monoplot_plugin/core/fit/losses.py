@@ -11,7 +11,7 @@ from typing import Optional
 
 import numpy as np
 
-__all__ = ["unpaired_loss", "soft_nearest_loss", "mutual_nearest_pairs", "nearest_distances"]
+__all__ = ["unpaired_loss", "soft_nearest_loss", "mutual_nearest_pairs", "nearest_distances", "nearest_index"]
 
 
 def unpaired_loss(image_points, projected, usable, lam: float, eps: float = 1e-3, robust_px: Optional[float] = None):
@@ -36,8 +36,7 @@ def unpaired_loss(image_points, projected, usable, lam: float, eps: float = 1e-3
         raise ValueError("no DEM point projects into the picture")
     # The gradient of a minimum is that of its arg-minimum: find it without autograd (cheap), then differentiate
     # only the N chosen distances instead of the whole N x M matrix.
-    with torch.no_grad():
-        index = torch.cdist(image_points, candidates).argmin(dim=1)
+    index = nearest_index(image_points, candidates)
     delta = image_points - candidates[index]
     nearest = torch.sqrt(delta.square().sum(dim=1) + eps * eps)
     if robust_px is not None and math.isfinite(robust_px):
@@ -49,15 +48,41 @@ def unpaired_loss(image_points, projected, usable, lam: float, eps: float = 1e-3
     return loss, nearest.detach()
 
 
-def soft_nearest_loss(image_points, candidates, sigma: float):
+def nearest_index(points, candidates):
+    """(N,) torch long index of the nearest of the (M, 2) ``candidates`` to each of the (N, 2) ``points`` (torch
+    tensors, no gradient): a k-d tree, so large sets cost (N + M) log M instead of an N x M distance matrix.
+
+    >>> import torch
+    >>> nearest_index(torch.tensor([[0.0, 0], [9, 9]]), torch.tensor([[10.0, 10], [1, 0]])).tolist()
+    [1, 0]
+    """
+    import torch
+    from scipy.spatial import cKDTree
+
+    with torch.no_grad():
+        _, index = cKDTree(candidates.detach().numpy()).query(points.detach().numpy())
+    return torch.as_tensor(np.asarray(index, dtype=np.int64))
+
+
+def soft_nearest_loss(image_points, candidates, sigma: float, neighbours: int = 32):
     """Smoothed mean nearest distance (pixels): ``-sigma * log(sum_j exp(-d_ij^2 / (2 sigma^2)))`` per photo point,
     a soft minimum of the squared distances at scale ``sigma`` (pixels), expressed as a distance, averaged.
 
     It tends to the paper's nearest distance as ``sigma -> 0`` and is smooth at larger scales (coarse-to-fine).
+    With more than ``2 * neighbours`` candidates the sum runs over each photo point's ``neighbours`` nearest only
+    (the others weigh nothing at these scales), which keeps large sets linear in size.
     """
     import torch
 
-    d2 = torch.cdist(image_points, candidates).square()
+    if candidates.shape[0] > 2 * neighbours:
+        from scipy.spatial import cKDTree
+
+        with torch.no_grad():
+            _, index = cKDTree(candidates.detach().numpy()).query(image_points.detach().numpy(), k=neighbours)
+        near = candidates[torch.as_tensor(index, dtype=torch.int64)]  # (N, k, 2)
+        d2 = (image_points[:, None, :] - near).square().sum(dim=2)
+    else:
+        d2 = torch.cdist(image_points, candidates).square()
     soft_d2 = -2.0 * sigma * sigma * torch.logsumexp(-d2 / (2.0 * sigma * sigma), dim=1)
     return torch.sqrt(soft_d2.clamp(min=0.0) + 1e-6).mean()
 

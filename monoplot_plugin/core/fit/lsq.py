@@ -84,7 +84,7 @@ def bootstrap_std(ctx, space: ParameterSpace, u, q, P, rounds: int) -> Dict[str,
         if len(np.unique(pick)) * 2 <= n + 1:
             continue
         try:
-            ub, _ = least_squares(ctx, space, u, q[pick], P[pick], max_nfev=20 * (n + 1))
+            ub, _ = least_squares(ctx, space, u, q[pick], P[pick], max_nfev=10 * (n + 1))
         except (ValueError, np.linalg.LinAlgError):
             continue
         samples.append(ub)

@@ -46,8 +46,8 @@ class FitOptions:
         seed: random seed (results are deterministic for a given seed).
     """
 
-    n_starts: int = 4
-    n_escapes: int = 2
+    n_starts: int = 2
+    n_escapes: int = 1
     view_margin: float = 0.1
     gate_px: Optional[float] = None
     refine: bool = True
@@ -59,7 +59,7 @@ class FitOptions:
     consensus: bool = True
     consensus_hypotheses: int = 4000
     consensus_starts: int = 8
-    bootstrap: int = 30
+    bootstrap: int = 20
     position_sigma_m: Optional[float] = None
     angle_sigma_deg: Optional[float] = None
     fov_sigma_deg: Optional[float] = None

@@ -7,7 +7,7 @@ import numpy as np
 from .lsq import jacobian, leave_one_out, least_squares, parameter_std
 from .result import FitResult, rmse, rms
 from .starts import dlt_start, pnp_starts
-from .verdict import weakest_parameter
+from .verdict import weak_direction_matters, weakest_parameter
 
 __all__ = ["fit_paired"]
 
@@ -52,6 +52,8 @@ def fit_paired(ctx, pairs: np.ndarray) -> FitResult:
     nearest[pairs[:, 0]] = np.linalg.norm(residuals, axis=1)
     rmse_px = rmse(residuals)
     cond, weakest = weakest_parameter(jacobian(space, u, q, P), space.names, space.scales)
+    if not weak_direction_matters(camera, weakest):
+        cond = 1.0
     evidence = {"mode": "paired", "n_free": len(ctx.free), "diag": ctx.diag, "n_pairs": len(pairs),
                 "rmse_px": rmse_px, "loo_rmse_px": rms(loo), "condition": cond, "weakest": weakest}
     return FitResult(camera, "ok", "", "paired", ctx.free, rmse_px, pairs, residuals,

@@ -24,7 +24,7 @@ from typing import Tuple
 
 import numpy as np
 
-__all__ = ["degenerate_points", "weakest_parameter", "judge", "photo_spread"]
+__all__ = ["degenerate_points", "weakest_parameter", "weak_direction_matters", "judge", "photo_spread"]
 
 
 def degenerate_points(q: np.ndarray, world: np.ndarray, needed: int) -> str:
@@ -71,6 +71,12 @@ def weakest_parameter(J: np.ndarray, names, scales) -> Tuple[float, str]:
     return cond, names[int(np.argmax(np.abs(vt[-1])))]
 
 
+def weak_direction_matters(camera, weakest: str) -> bool:
+    """False when the weakest direction is only the angles' own redundancy: looking nearly straight up or down,
+    heading and roll turn about the same axis, so the points cannot tell them apart but the camera is the same."""
+    return not (abs(camera.pitch) > 80.0 and weakest in ("heading", "roll"))
+
+
 def photo_spread(q: np.ndarray, image_size) -> float:
     """Convex-hull area of the photo points as a share of the picture (0 for fewer than 3 or collinear points).
 
@@ -94,8 +100,8 @@ def judge(e: dict) -> Tuple[str, str]:
     Keys (missing ones are not judged): ``mode`` ("paired"/"unpaired"), ``n_free``, ``diag`` (px),
     ``n_pairs`` (pairs used), ``rmse_px``, ``loo_rmse_px``, ``check_rmse_px``, ``condition`` and ``weakest``
     (Jacobian), and for unpaired fits ``n_photo`` (photo points given), ``n_inliers`` (mutual-nearest pairs within
-    ``radius_px``), ``chance_max`` / ``chance_mean`` (the same score for cameras turned away, see
-    :func:`~monoplot_plugin.core.fit.consensus.chance_inliers`), ``score`` (the fit's consensus score),
+    ``radius_px``), ``n_dem`` (DEM points given), ``chance_max`` / ``chance_mean`` (the same score for cameras
+    turned away, see :func:`~monoplot_plugin.core.fit.consensus.chance_inliers`), ``score`` (the fit's consensus score),
     ``competitor_ratio`` (best distinct competing camera's score / ``score``), ``spread`` (hull share of the
     inliers), ``photo_outliers`` (accepted photo points that fit no DEM point).
     """
@@ -139,6 +145,10 @@ def judge(e: dict) -> Tuple[str, str]:
             if score < 1.5 * chance + 2.0 or n_in < 2 * n_free:
                 weak.append("few points match compared with what a wrongly placed camera gets by chance: accept "
                             "more points on recognisable features, or pair a few")
+            smaller = min(int(e.get("n_photo", 0)), int(e.get("n_dem", 0)))
+            if smaller and n_in < 0.3 * smaller:
+                weak.append(f"only {n_in} of the {smaller} points of the smaller set match: either most accepted "
+                            f"points are wrong or the camera is; reject the flagged points and fit again")
             ratio = float(e.get("competitor_ratio", 0.0))
             if ratio >= 0.8:
                 weak.append("another camera, clearly different, explains the points almost as well: add two paired "
