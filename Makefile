@@ -13,13 +13,15 @@ VERSION    = $(shell sed -n 's/^version=//p' metadata.txt)
 
 export QT_QPA_PLATFORM ?= offscreen
 
-.PHONY: help setup apt venv resources test demo qgis package clean bench eval lint
+.PHONY: help setup apt venv resources test test-installer test-qgis340 demo qgis package clean bench eval lint
 
 help:
 	@echo "make demo     set up everything, then run the demo job"
 	@echo "make qgis     open QGIS with the plugin and the demo project"
 	@echo "make test     set up everything, then run the whole test suite (ruff included: tests/test_lint.py)"
 	@echo "make lint     ruff on the whole repository (configuration in pyproject.toml)"
+	@echo "make test-installer  the Install button's pip for real: QGIS's Python + a throwaway user site"
+	@echo "make test-qgis340    the whole suite on QGIS 3.40 (Debian 13 root file system in .cache/, needs root)"
 	@echo "make package  build dist/monoplot-<version>.zip for plugins.qgis.org"
 	@echo "make bench    core speed benchmarks (per-pixel XYZ, render, orthophoto, fit, suggestions), one JSON line each"
 	@echo "make eval     camera fit measured on the real Aletsch case and a synthetic scene, one JSON line per case"
@@ -60,6 +62,18 @@ test: setup
 # ruff (pyflakes, pycodestyle, bugbear; pyproject.toml). make test runs it too, as tests/test_lint.py.
 lint: setup
 	$(PY) -m ruff check .
+
+# The missing-dependencies installer for real: resolves and installs torch, OpenCV, SciPy, numba into a throwaway user
+# site of QGIS's Python (/usr/bin/python3), then imports osgeo.gdal_array, qgis.core and the plugin from it.
+test-installer: setup
+	@mkdir -p test-artifacts
+	MONOPLOT_INSTALLER_TEST=1 $(PY) -m pytest -q tests/test_deps_install.py
+
+# The whole suite on Debian 13's QGIS 3.40 (Python 3.13, numpy 2) in a chroot; see scripts/test_qgis340.sh.
+# The root file system is built once into .cache/debian13 (MONOPLOT_DEBIAN13_ROOT overrides); screenshots in
+# test-artifacts-qgis340/. PYTEST_ARGS="tests/desktop" runs a part.
+test-qgis340: resources
+	bash scripts/test_qgis340.sh $(PYTEST_ARGS)
 
 # The whole pipeline through qgis_process on a generated scene (demo/run_demo.py); outputs in demo-output/.
 demo: setup

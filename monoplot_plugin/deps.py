@@ -14,12 +14,15 @@ import shlex
 import subprocess
 import sys
 import sysconfig
+import tempfile
 from collections import namedtuple
 from pathlib import Path
 
 from qgis.core import Qgis, QgsApplication
-from qgis.PyQt.QtCore import QObject, QProcess, pyqtSignal
+from qgis.PyQt.QtCore import QObject, QProcess, QProcessEnvironment, pyqtSignal
 from qgis.PyQt.QtWidgets import QProgressBar, QPushButton
+
+from . import deps_pins
 
 LOG = logging.getLogger(__name__)
 
@@ -101,31 +104,31 @@ def qgis_python_executable(executable=None, platform=None, prefix=None, exists=o
     return "python3"
 
 
-def _externally_managed():
-    """True for a distribution Python that refuses plain pip installs (PEP 668, e.g. Debian 12)."""
+def local_target(python=None):
+    """:class:`deps_pins.Target` of this process (inside QGIS: QGIS's Python), without starting a subprocess."""
+    import importlib.metadata
+
     stdlib = sysconfig.get_paths().get("stdlib", "")
-    return sys.prefix == sys.base_prefix and os.path.exists(os.path.join(stdlib, "EXTERNALLY-MANAGED"))
+    distributions = {}
+    for dist in importlib.metadata.distributions():
+        name = dist.metadata["Name"]
+        if name and deps_pins.normalize(name) not in distributions:
+            distributions[deps_pins.normalize(name)] = (name, dist.version)
+    return deps_pins.Target(python or qgis_python_executable(), sys.platform, sys.prefix != sys.base_prefix,
+                            os.path.exists(os.path.join(stdlib, "EXTERNALLY-MANAGED")), distributions)
 
 
-def pip_arguments(packages, extra_args=()):
-    """Arguments after the interpreter for ``python -m pip install``.
+def pip_command_line(packages, python=None, extra_args=(), target=None):
+    """The command a user can paste in a shell (quoted for this platform): the missing packages plus QGIS's own
+    numpy (and SciPy) at their installed versions, so that pip chooses releases compatible with them.
 
-    A system (non-venv) Python on Linux/macOS installs into the user site (``--user``); Debian's PEP 668 marker
-    additionally needs ``--break-system-packages``. ``extra_args`` (e.g. ``--target DIR``) replace that choice.
+    The Install button does more (every installed package pinned, a dry run first): :class:`PipInstaller`.
     """
-    args = ["-m", "pip", "install"]
-    if extra_args:
-        args += list(extra_args)
-    elif sys.prefix == sys.base_prefix and not sys.platform.startswith("win"):
-        args.append("--user")
-        if _externally_managed():
-            args.append("--break-system-packages")
-    return args + [r.package if isinstance(r, Requirement) else str(r) for r in packages]
-
-
-def pip_command_line(packages, python=None, extra_args=()):
-    """The exact command a user can paste in a shell (quoted for this platform)."""
-    command = [python or qgis_python_executable()] + pip_arguments(packages, extra_args)
+    target = target or local_target(python)
+    names = [r.package if isinstance(r, Requirement) else str(r) for r in packages]
+    keep = [f"{target.distributions[key][0]}=={target.distributions[key][1]}" for key in ("numpy", "scipy")
+            if key in target.distributions and key not in names]
+    command = [target.python] + deps_pins.install_arguments(target, names, None, extra_args) + keep
     return subprocess.list2cmdline(command) if sys.platform.startswith("win") else shlex.join(command)
 
 
@@ -179,19 +182,27 @@ def dismiss(iface, item):
 
 
 class PipInstaller(QObject):
-    """Runs pip for QGIS's interpreter in a ``QProcess``; shows a busy progress bar, then the result.
+    """Runs pip for QGIS's interpreter in a ``QProcess``: a dry run against pins of everything QGIS's Python has
+    (:mod:`.deps_pins`), a refusal with the reason if numpy or another installed package would change, else the
+    install. Shows a busy progress bar, then the result.
 
-    ``succeeded`` is ``None`` while running, then ``True``/``False``; ``output`` holds pip's stdout+stderr.
+    ``succeeded`` is ``None`` while running, then ``True``/``False``; ``output`` holds pip's stdout+stderr,
+    ``installs`` the ``(name, version)`` pairs of the dry run. ``python``/``environment`` (default: QGIS's
+    interpreter, this process' environment) and ``extra_constraints`` (pip constraint lines) are for tests.
     """
 
     finished = pyqtSignal(bool)
 
-    def __init__(self, missing, extra_args=(), required=REQUIRED, parent=None):
+    def __init__(self, missing, extra_args=(), required=REQUIRED, parent=None, python=None, environment=None,
+                 extra_constraints=()):
         super().__init__(parent)
         self.missing, self.extra_args, self.required = list(missing), list(extra_args), required
+        self.python = python or qgis_python_executable()
+        self.environment, self.extra_constraints = environment, list(extra_constraints)
         self.process = None
         self.succeeded = None
         self.output = ""
+        self.installs = []
 
     def start(self, iface, notice=None):
         if self.process is not None:
@@ -200,37 +211,71 @@ class PipInstaller(QObject):
         bar = iface.messageBar()
         if notice is not None:
             dismiss(iface, notice)
-        self.progress_item = bar.createMessage(self.tr("Monoplot"), self.tr("Installing {0} with pip…").format(
-            ", ".join(r.package for r in self.missing)))
+        self.progress_item = bar.createMessage(self.tr("Monoplot"), self.tr(
+            "Checking which versions of {0} suit QGIS's Python…").format(self._names()))
         progress = QProgressBar(self.progress_item)
         progress.setRange(0, 0)  # busy indicator: pip gives no reliable percentage
         progress.setObjectName("MonoplotInstallProgress")
         self.progress_item.layout().addWidget(progress)
         bar.pushWidget(self.progress_item, Qgis.MessageLevel.Info)
+        self.folder = tempfile.TemporaryDirectory(prefix="monoplot-pip-")
+        try:
+            self.target = deps_pins.probe(self.python, self.environment)
+        except (OSError, ValueError, subprocess.SubprocessError) as error:
+            self._report(False, self.tr("could not run {0}: {1}").format(self.python, error))
+            return
+        constraints = deps_pins.write_constraints(self.target, self.folder.name, self.extra_constraints)
+        self.arguments = deps_pins.install_arguments(self.target, self.missing, constraints, self.extra_args,
+                                                     self.environment)
+        self.report_file = os.path.join(self.folder.name, "report.json")
+        self._run(deps_pins.dry_run_arguments(self.arguments, self.report_file), self._dry_run_finished)
 
+    def _names(self):
+        return ", ".join(r.package for r in self.missing)
+
+    def _run(self, arguments, on_finished):
         self.process = QProcess(self)
         self.process.setProcessChannelMode(QProcess.ProcessChannelMode.MergedChannels)
-        self.process.finished.connect(self._finished)
+        if self.environment is not None:
+            environment = QProcessEnvironment()
+            for key, value in self.environment.items():
+                environment.insert(key, value)
+            self.process.setProcessEnvironment(environment)
+        self.process.finished.connect(on_finished)
         self.process.errorOccurred.connect(self._failed_to_start)
-        python = qgis_python_executable()
-        arguments = pip_arguments(self.missing, self.extra_args)
-        LOG.info("Running %s", shlex.join([python] + arguments))
-        self.process.start(python, arguments)
+        LOG.info("Running %s", shlex.join([self.python] + arguments))
+        self.process.start(self.python, arguments)
+
+    def _read(self):
+        self.output += bytes(self.process.readAll()).decode("utf-8", "replace")
 
     def _failed_to_start(self, error):
         if error == QProcess.ProcessError.FailedToStart:
-            self._report(False, self.tr("could not start {0}").format(qgis_python_executable()))
+            self._report(False, self.tr("could not start {0}").format(self.python))
+
+    def _dry_run_finished(self, exit_code, _status):
+        self._read()
+        if exit_code != 0:
+            self._report(False, self.tr("not installed, {0}").format(deps_pins.dry_run_failure(self.output)))
+            return
+        self.installs = deps_pins.planned_installs(self.report_file)
+        reason = deps_pins.refusal(self.installs, self.target)
+        if reason:
+            self._report(False, self.tr("not installed: {0}").format(reason))
+            return
+        self.progress_item.setText(self.tr("Installing {0} with pip…").format(
+            ", ".join(f"{name} {version}" for name, version in self.installs)))
+        self._run(self.arguments, self._finished)
 
     def _finished(self, exit_code, _status):
-        self.output = bytes(self.process.readAll()).decode("utf-8", "replace")
+        self._read()
         still_missing = missing_requirements(self.required) if exit_code == 0 else self.missing
         if exit_code == 0 and still_missing and not self.extra_args:
             detail = self.tr("installed; restart QGIS to use them")
         elif exit_code == 0:
             detail = self.tr("installed")
         else:
-            detail = self.tr("pip failed (exit code {0}): {1}").format(
-                exit_code, self.output.strip().splitlines()[-1] if self.output.strip() else "")
+            detail = self.tr("pip failed (exit code {0}): {1}").format(exit_code, deps_pins.pip_failure(self.output))
         self._report(exit_code == 0, detail)
 
     def _report(self, ok, detail):
@@ -238,11 +283,11 @@ class PipInstaller(QObject):
             return
         self.succeeded = ok
         dismiss(self.iface, self.progress_item)
-        names = ", ".join(r.package for r in self.missing)
+        self.folder.cleanup()
         self.iface.messageBar().pushMessage(
-            self.tr("Monoplot"), f"{names}: {detail}",
+            self.tr("Monoplot"), f"{self._names()}: {detail}",
             Qgis.MessageLevel.Success if ok else Qgis.MessageLevel.Critical, 0 if not ok else 10)
-        (LOG.info if ok else LOG.error)("pip install %s: %s\n%s", names, detail, self.output)
+        (LOG.info if ok else LOG.error)("pip install %s: %s\n%s", self._names(), detail, self.output)
         self.finished.emit(ok)
 
 

@@ -6,6 +6,7 @@ The install tests run real pip (QProcess) on a real wheel built here, from a loc
 
 import base64
 import hashlib
+import importlib.metadata
 import os
 import sys
 import zipfile
@@ -14,7 +15,7 @@ import pytest
 from qgis.core import Qgis
 from qgis.PyQt.QtWidgets import QProgressBar, QPushButton
 
-from monoplot_plugin import deps
+from monoplot_plugin import deps, deps_pins
 from monoplot_plugin.deps import Requirement
 
 ABSENT = Requirement("monoplot_test_tinypkg", "monoplot-test-tinypkg")
@@ -86,12 +87,66 @@ def test_qgis_python_executable_ignores_a_foreign_python_on_path(tmp_path):
     assert deps.qgis_python_executable(str(shim), "linux", str(tmp_path / "usr")) == str(system)
 
 
-def test_pip_command_names_interpreter_and_pip_packages():
+def test_pip_command_names_interpreter_pip_packages_and_keeps_numpy():
     line = deps.pip_command_line([Requirement("cv2", "opencv-python-headless"), ABSENT], python="/opt/py 3/python3")
     assert line.startswith("'/opt/py 3/python3' -m pip install ")
-    assert line.endswith("opencv-python-headless monoplot-test-tinypkg")
     in_venv = sys.prefix != sys.base_prefix
     assert ("--user" in line) is (not in_venv)
+    numpy_pin = f"numpy=={importlib.metadata.version('numpy')}"
+    assert line.endswith(f"opencv-python-headless monoplot-test-tinypkg {numpy_pin} scipy=={scipy_version()}")
+    assert "download.pytorch.org" not in line  # torch is not asked for
+    torch_line = deps.pip_command_line([Requirement("torch", "torch")], python="python3")
+    if sys.platform != "darwin":
+        assert f"--extra-index-url {deps_pins.TORCH_CPU_INDEX} torch {numpy_pin}" in torch_line
+
+
+def scipy_version():
+    return importlib.metadata.version("scipy")
+
+
+def test_constraints_pin_every_installed_distribution_of_the_target_python():
+    target = deps_pins.probe(sys.executable)
+    lines = deps_pins.constraint_lines(target)
+    assert f"numpy=={importlib.metadata.version('numpy')}" in lines
+    assert f"pytest=={importlib.metadata.version('pytest')}" in lines  # from the venv, not just Debian's
+    assert {line.split(">=")[0] for line in lines if ">=" in line} <= {
+        target.distributions[key][0] for key in deps_pins.UPGRADABLE}
+
+
+def test_torch_index_override_for_mirrors(monkeypatch):
+    target = deps_pins.Target("python3", "linux", False, True, {})
+    args = deps_pins.install_arguments(target, ["torch", "scipy"], "/tmp/c.txt")
+    assert args == ["-m", "pip", "install", "--user", "--break-system-packages", "-c", "/tmp/c.txt",
+                    "--extra-index-url", deps_pins.TORCH_CPU_INDEX, "torch", "scipy"]
+    monkeypatch.setenv(deps_pins.TORCH_INDEX_ENV, "https://mirror.example/torch-cpu")
+    assert "https://mirror.example/torch-cpu" in deps_pins.install_arguments(target, ["torch"], "/tmp/c.txt")
+    monkeypatch.setenv(deps_pins.TORCH_INDEX_ENV, "")
+    assert "--extra-index-url" not in deps_pins.install_arguments(target, ["torch"], "/tmp/c.txt")
+
+
+def test_install_that_would_change_numpy_stops_at_the_dry_run(qgis_iface, qtbot, tmp_path):
+    """Real pip, a local 'numpy 99.0' asked for directly: the pins make the dry run fail, nothing is installed."""
+    wheels = tmp_path / "wheels"
+    wheels.mkdir()
+    build_wheel(wheels, "numpy", "99.0")
+    pip_args = ["--no-index", "--find-links", str(wheels), "--target", str(tmp_path / "target")]
+    installer = deps.PipInstaller([Requirement("numpy", "numpy==99.0")], pip_args, parent=qgis_iface.messageBar())
+    with qtbot.waitSignal(installer.finished, timeout=120_000) as result:
+        installer.start(qgis_iface)
+    assert result.args == [False]
+    message = [m for m in qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Critical) if "numpy==99.0" in m]
+    assert message and "pip found no versions compatible with QGIS's packages" in message[-1]
+    assert f"numpy=={importlib.metadata.version('numpy')}" in message[-1]  # the reason: the pin
+    assert not (tmp_path / "target").exists()
+
+
+def test_a_planned_change_of_an_installed_package_is_refused_with_the_reason():
+    target = deps_pins.probe(sys.executable)
+    installed = importlib.metadata.version("numpy")
+    reason = deps_pins.refusal([("numpy", "99.0"), ("monoplot-test-tinypkg", "1.0")], target)
+    assert reason.startswith(f"pip would replace numpy {installed} by 99.0 in QGIS's Python ({sys.executable})")
+    assert deps_pins.refusal([("numpy", installed), ("sympy", "99.0"), ("monoplot-test-tinypkg", "1.0")],
+                             target) is None
 
 
 def notice_texts(item):
@@ -137,8 +192,17 @@ def test_failed_install_reports_pip_error(qgis_iface, qtbot, tmp_path):
         item.findChild(QPushButton, "MonoplotInstallButton").click()
     assert result.args == [False]
     assert "No matching distribution" in item.installer.output or "Could not find" in item.installer.output
-    assert any("pip failed" in m for m in qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Critical))
+    assert item.installer.installs == []  # stopped at the dry run
+    assert any("pip found no versions compatible" in m and "monoplot-test-tinypkg" in m
+               for m in qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Critical))
 
 
 def test_nothing_shown_when_all_present(qgis_iface):
     assert deps.notify_missing(qgis_iface) is None
+
+
+def test_deps_pins_doctests():
+    import doctest
+
+    result = doctest.testmod(deps_pins)
+    assert result.attempted >= 7 and result.failed == 0

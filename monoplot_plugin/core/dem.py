@@ -381,7 +381,7 @@ def zero_voids(elevation: np.ndarray, min_median: float = 300.0) -> int:
     Mountain DEMs without a nodata value often fill voids with 0, which no real high-terrain DEM contains.
     Returns the number of cells changed.
 
-    >>> z = np.array([[0.0, 2000.0], [2100.0, 2200.0]]); zero_voids(z), np.isnan(z[0, 0])
+    >>> z = np.array([[0.0, 2000.0], [2100.0, 2200.0]]); zero_voids(z), bool(np.isnan(z[0, 0]))
     (1, True)
     >>> z = np.array([[0.0, 2.0], [3.0, 4.0]]); zero_voids(z)
     0
@@ -405,7 +405,7 @@ def mark_voids(elevation: np.ndarray, nodata: Optional[float] = None, void_value
     >>> z = np.array([[-9999.0, 1500.0], [np.nan, 1510.0]])
     >>> mark_voids(z)
     ['1 NaN cells', '1 cells at -9999 (a common no-data value)']
-    >>> np.isnan(z).sum()
+    >>> int(np.isnan(z).sum())
     2
     """
     notes: List[str] = []
