@@ -73,8 +73,10 @@ def test_sigterm_to_qgis_process_itself_cancels(small_scene, big_camera, tmp_pat
 
 def test_helper_forwards_signals_and_returns_the_child_exit_code(tmp_path):
     child = tmp_path / "child.py"
-    child.write_text("import signal, sys, time\n"
-                     "signal.signal(signal.SIGTERM, lambda s, f: (print('child got', s, flush=True), sys.exit(3)))\n"
+    # The handler writes with os.write: the signal may land while print() holds stdout's buffer (a reentrant
+    # print raises RuntimeError on Python 3.13).
+    child.write_text("import os, signal, time\n"
+                     "signal.signal(signal.SIGTERM, lambda s, f: (os.write(1, b'child got %d\\n' % s), os._exit(3)))\n"
                      "print('ready', flush=True)\n"
                      "time.sleep(60)\n")
     helper = tmp_path / "helper.py"
