@@ -102,6 +102,11 @@ def _fit_unpaired(ctx) -> FitResult:
             u_pol = local_optimise(ctx, space, u_res, radius, 2.0)
             if _score(ctx, space, u_pol, radius) >= _score(ctx, space, u_res, radius):
                 result.camera = space.camera(u_pol)
+                if len(result.pairs):  # the pairs' residuals and RMSE of the camera returned, not of the one before
+                    p = result.pairs
+                    result.residuals_px = space.project(u_pol, ctx.P[p[:, 1]])[0] - ctx.q[p[:, 0]]
+                    kept = result.inliers if len(result.inliers) == len(p) else np.ones(len(p), dtype=bool)
+                    result.rmse_px = rmse(result.residuals_px[kept])
     if result is None:
         uv, usable = ctx.project_usable(space, u)
         nearest = nearest_distances(ctx.q, uv, usable)
