@@ -28,6 +28,25 @@ def plugin_icon_path():
     return ICON_RESOURCE if QFile.exists(ICON_RESOURCE) else str(ICON_FILE)
 
 
+def start_warm_up():
+    """Compile or load numba's kernels and import torch, OpenCV, SciPy in a background task (never the main thread),
+    so the first Suggest, the first fit and a reopened project do not pay for it (``workflow/warmup.py``).
+    Returns the task (keep a reference while it runs), or None when it could not start."""
+    try:
+        from .gui.tasks import FunctionTask, start_task
+        from .workflow.warmup import warm_up
+
+        def done(result):
+            if result.ok:
+                LOG.info("Monoplot warmed up: %s", ", ".join(f"{k} {v:.1f} s" for k, v in result.value.items()))
+
+        return start_task(FunctionTask("Monoplot: preparing", lambda progress, is_canceled: warm_up(
+            progress, is_canceled), done))
+    except Exception:  # noqa: BLE001 — a warm-up is an optimisation, never a reason to fail loading
+        LOG.exception("Monoplot warm-up not started")
+        return None
+
+
 class MonoplotPlugin:
     """QGIS plugin instance (created by the root ``classFactory``)."""
 
@@ -70,6 +89,7 @@ class MonoplotPlugin:
         self.iface.addPluginToRasterMenu(self.menu, self.action)
         self.initProcessing()
         self.dependency_notice = deps.notify_missing(self.iface)
+        self.warmup_task = None if self.dependency_notice is not None else start_warm_up()
 
     def toggle_dock(self, visible):
         """Show or hide the dock, creating it on first use (keeps QGIS start-up light)."""
@@ -84,6 +104,13 @@ class MonoplotPlugin:
         self.dock.setVisible(visible)
 
     def unload(self):
+        task = getattr(self, "warmup_task", None)
+        if task is not None:
+            try:
+                task.cancel()  # stops between steps; a kernel being compiled finishes first
+            except RuntimeError:  # already deleted by the task manager
+                pass
+            self.warmup_task = None
         if self.dock is not None:
             self.dock.visibilityChanged.disconnect(self.action.setChecked)
             self.dock.unload()  # main-map markers, map tools, project signals (gui/dock.py)

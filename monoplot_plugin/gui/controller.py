@@ -42,6 +42,7 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
         progressChanged(float): percent of the running task.
         message(str, object): text and Qgis.MessageLevel for the message bar.
         taskFinished(object): the :class:`~monoplot_plugin.gui.tasks.TaskResult` of a suggest or fit task.
+        productsReady(): overlay and per-pixel XYZ of a restored or loaded camera arrived (:meth:`ensure_products`).
     """
 
     pointsChanged = pyqtSignal(object)
@@ -53,6 +54,7 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
     progressChanged = pyqtSignal(float)
     message = pyqtSignal(str, object)
     taskFinished = pyqtSignal(object)
+    productsReady = pyqtSignal()
 
     #: fewest accepted points on each side before a fit is attempted (7 unknowns)
     MIN_POINTS = 4
@@ -69,6 +71,7 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
         self.dem_crs = QgsCoordinateReferenceSystem()  # a copy: survives the layer's removal
         self.current = {PHOTO: "", MAP: ""}
         self.task: Optional[FunctionTask] = None
+        self._products_tasks: List[FunctionTask] = []  # referenced until done: Python must not collect them
         self.task_kind = ""
         self.overlay: Optional[QImage] = None
         self.xyz: Optional[np.ndarray] = None  # (H, W, 3) map X, Y, Z of each photo pixel (NaN = sky)
@@ -203,6 +206,8 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
     def cancel(self) -> None:
         if self.task is not None:
             self.task.cancel()
+        for task in self._products_tasks:
+            task.cancel()
 
     def suggest(self, n_photo: int = 300, n_dem: int = 300) -> bool:
         """Detect key points on the photo and on the DEM in a task; untouched old suggestions are replaced."""
@@ -293,14 +298,15 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
 
         return self._start("fit", self.tr("Fit camera"), work, apply)
 
-    def set_fitted(self, camera: Optional[Camera], info: Optional[dict] = None) -> None:
-        """Use ``camera`` as the fitted camera (e.g. loaded from a file); overlay and XYZ are recomputed here."""
+    def set_fitted(self, camera: Optional[Camera], info: Optional[dict] = None, background: bool = False) -> None:
+        """Use ``camera`` as the fitted camera (e.g. loaded from a file); overlay and XYZ are recomputed here (in a
+        task with ``background``)."""
         self.state.fitted = None if camera is None else camera.to_dict()
         self.state.fit_info = dict(info or {})
         self.overlay, self.xyz, self.footprint_wkt = None, None, ""
         self._changed()
         if camera is not None:
-            self.ensure_products()
+            self.ensure_products(background)
         self.cameraChanged.emit()
 
     def set_setting(self, key: str, value) -> None:
@@ -340,15 +346,44 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
                                   "doubtful points or improve the rough camera.").format(-clearance)
         self.message.emit(text, level)
 
-    def ensure_products(self) -> None:
-        """Recompute overlay and per-pixel XYZ of the fitted camera (after a project was reopened), main thread."""
+    def ensure_products(self, background: bool = True) -> None:
+        """Recompute overlay and per-pixel XYZ of the fitted camera (a project was reopened, a camera loaded).
+
+        In a task by default (a reopened project must not freeze QGIS); ``productsReady`` follows. A newer call
+        or camera makes an older result stale: it is dropped."""
         cam = self.fitted
         if cam is None or self.dem is None or self.image is None:
             return
-        overlay, xyz, footprint = engine.render_products(cam, self.dem)
-        self.overlay = None if overlay is None else array_to_qimage(overlay)
-        self.xyz, self.footprint_wkt = xyz, footprint
-        self.cameraChanged.emit()
+        self._products_generation = generation = getattr(self, "_products_generation", 0) + 1
+        dem, key = self.dem, cam.to_dict()
+
+        def apply(value) -> None:
+            if generation != self._products_generation or self.state.fitted != key or self.dem is not dem:
+                return  # another camera or DEM since: stale
+            overlay, xyz, footprint = value
+            self.overlay = None if overlay is None else array_to_qimage(overlay)
+            self.xyz, self.footprint_wkt = xyz, footprint
+            self.cameraChanged.emit()
+            self.productsReady.emit()
+
+        if not background:
+            apply(engine.render_products(cam, dem))
+            return
+
+        def done(result: TaskResult) -> None:
+            self._products_tasks.remove(task)
+            if result.ok:
+                apply(result.value)
+
+        task = FunctionTask(self.tr("Monoplot: overlay of the fitted camera"),
+                            lambda progress, is_canceled: engine.render_products(cam, dem, is_canceled), done)
+        self._products_tasks.append(task)
+        start_task(task)
+
+    @property
+    def products_pending(self) -> bool:
+        """True while :meth:`ensure_products` renders in the background."""
+        return bool(self._products_tasks)
 
     # --- results ----------------------------------------------------------------------------------------------
     def residuals(self) -> List[Tuple[str, Tuple[float, float], Tuple[float, float]]]:

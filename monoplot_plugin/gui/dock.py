@@ -132,6 +132,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         c.progressChanged.connect(lambda p: self.progressBar.setValue(int(p)))
         c.message.connect(self.show_message)
         c.taskFinished.connect(self._on_task_finished)
+        c.productsReady.connect(self._update_camera_layers)  # a reopened project's footprint, rendered in a task
 
         # linked cursors
         self.photo_canvas.cursorMoved.connect(self._photo_cursor)

@@ -197,7 +197,8 @@ def test_save_and_reopen_project_restores_state(dock, scene, qtbot, tmp_path):
     assert c.dem is not None and dock.photo_canvas.photo_size == (480, 320)
     assert c.prior.position == pytest.approx(scene.prior.position)
     # the fitted camera's products come back: overlay, per-pixel XYZ, camera layers, overlay opacity
-    assert c.overlay is not None and c.xyz is not None and dock.overlaySlider.value() == 30
+    qtbot.waitUntil(lambda: c.overlay is not None and c.xyz is not None, timeout=30000)  # in a task
+    assert dock.overlaySlider.value() == 30
     cams = [lyr for lyr in QgsProject.instance().mapLayers().values()
             if lyr.customProperty("monoplot/role") == "camera"]
     assert len(cams) == 1 and cams[0].featureCount() == 1

@@ -45,7 +45,9 @@ def test_dock_opened_after_the_project_shows_the_camera_on_the_map(dock, scene, 
     qtbot.addWidget(later)
     try:
         assert later.controller.fitted is not None
-        assert _camera_layers(project) == {"Monoplot camera": 1, "Monoplot view footprint": 1}
+        # the footprint is rendered in a task (a reopened project must not freeze QGIS), then the layers fill
+        qtbot.waitUntil(lambda: _camera_layers(project) == {"Monoplot camera": 1, "Monoplot view footprint": 1},
+                        timeout=30000)
     finally:
         later.unload()
 

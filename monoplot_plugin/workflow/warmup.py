@@ -1,0 +1,68 @@
+"""Warm the compiled kernels and the heavy imports once, in the background, so the first real step is quick.
+
+numba compiles (or loads from its cache) each kernel the first time it is called with a given type signature, and
+torch, OpenCV and SciPy take seconds to import. A fresh QGIS session paid all of that on the first Suggest (11-18 s
+with the bar at 5 %) and when a saved project was reopened. :func:`warm_up` runs every step of the dock once on a
+tiny generated scene (both DEM dtypes the readers produce), so the plugin can call it in a task when it starts.
+
+>>> sorted(warm_up())
+['fit', 'render', 'suggest']
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Dict, Optional
+
+import numpy as np
+
+from .progress import IsCanceled, Progress, check_canceled
+
+__all__ = ["warm_up"]
+
+
+def warm_up(progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None) -> Dict[str, float]:
+    """Run suggest, fit and render once on a 48 x 48 cell scene; returns the seconds each took (by step name).
+
+    No result is kept; the point is the side effect (kernels compiled or loaded, modules imported). Raises
+    ``Canceled`` when ``is_canceled()`` turns true between steps."""
+    from ..core.camera import Camera
+    from ..core.dem import Dem
+    from ..core.render import render_dem
+    from ..core.synthetic import render_photo, synthetic_terrain
+    from ..core.xyz import compute_xyz_full
+    from . import fit as fit_step
+    from . import suggest as suggest_step
+
+    report = progress or (lambda fraction, message="": None)
+    seconds: Dict[str, float] = {}
+    terrain = synthetic_terrain((48, 48), cell=50.0, seed=1)
+    x, y = terrain.cell_to_map(24, 46)
+    camera = Camera((x, y, float(terrain.sample(x, y)) + 200.0), 0.0, -5.0, 0.0, 60.0, (96, 64),
+                    crs_wkt=terrain.crs_wkt)
+    t = time.perf_counter()
+    for dtype in (np.float64, np.float32):  # the z-buffer and the render: one signature per DEM dtype
+        check_canceled(is_canceled)
+        dem = Dem.from_array(terrain.elevation.astype(dtype), terrain.geotransform, terrain.crs_wkt)
+        res = compute_xyz_full(camera, dem, visibility=True)
+        render_dem(camera, dem, result=res)
+    seconds["render"] = time.perf_counter() - t
+    report(0.3, "render")
+    check_canceled(is_canceled)
+    t = time.perf_counter()
+    photo = render_photo(camera, terrain, noise=False)
+    suggest_step.suggest(photo, terrain, camera, 20, 20, lambda *a: None, is_canceled)
+    seconds["suggest"] = time.perf_counter() - t
+    report(0.6, "suggest")
+    check_canceled(is_canceled)
+    t = time.perf_counter()
+    xyz = res.xyz[8:56:6, 8:88:8].reshape(-1, 3)
+    uv = np.stack(np.meshgrid(np.arange(8, 88, 8) + 0.5, np.arange(8, 56, 6) + 0.5), axis=-1).reshape(-1, 2)
+    ok = np.isfinite(xyz).all(axis=1)
+    if ok.sum() >= 6:
+        pairs = np.column_stack([np.arange(ok.sum()), np.arange(ok.sum())])
+        fit_step.fit(uv[ok], xyz[ok], camera.with_parameters(heading=1.0), terrain, pairs=pairs,
+                     on_ground=False, is_canceled=is_canceled)
+    seconds["fit"] = time.perf_counter() - t
+    report(1.0, "fit")
+    return seconds
