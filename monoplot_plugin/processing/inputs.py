@@ -6,28 +6,18 @@ wrong), which the algorithms turn into a ``QgsProcessingException``.
 
 from __future__ import annotations
 
-import csv
 import json
 import os
-from typing import Dict, Optional, Sequence, Tuple
+from typing import Optional, Tuple
 
 import numpy as np
 
 from ..core.camera import Camera
 from ..workflow.inputs import InputError, check_camera, check_photo_path, read_text  # noqa: F401 (InputError)
+from ..workflow.points_csv import MAP_COLUMNS, PHOTO_COLUMNS, read_points_csv, write_points_csv  # noqa: F401
 
 __all__ = ["InputError", "load_camera", "read_photo", "photo_size", "read_points_csv", "write_points_csv",
            "PHOTO_COLUMNS", "MAP_COLUMNS"]
-
-#: Accepted column names (case-insensitive) for photo pixel coordinates: u = column, v = row, from the top-left
-#: corner of the image, in pixels.
-PHOTO_COLUMNS = (("u_px", "u", "col", "column", "x_px", "px"), ("v_px", "v", "row", "y_px", "py"))
-#: Accepted column names (case-insensitive prefixes allowed, e.g. X_lv03) for map coordinates in the DEM's CRS.
-MAP_COLUMNS = (("x", "easting", "east", "lon"), ("y", "northing", "north", "lat"),
-               ("z", "z_m", "elevation", "elev", "alt", "altitude", "height"))
-
-
-
 
 def load_camera(path: str, image_size: Optional[Tuple[int, int]] = None, crs_wkt: str = "") -> Camera:
     """A camera from a Monoplot JSON file (:meth:`Camera.save`) or a KML PhotoOverlay.
@@ -134,102 +124,3 @@ def photo_size(path: str) -> Tuple[int, int]:
     """(width, height) of a photo in pixels (reads the whole image, which also checks that it decodes)."""
     image = read_photo(path)
     return image.shape[1], image.shape[0]
-
-
-def _find_column(header: Sequence[str], names: Sequence[str], exclude: Sequence[str] = ()) -> Optional[int]:
-    lowered = [h.strip().lower() for h in header]
-    for name in names:  # exact names first
-        if name in lowered and lowered.index(name) not in exclude:
-            return lowered.index(name)
-    for name in names:  # then prefixes such as X_lv03, Z_m
-        for i, h in enumerate(lowered):
-            if i not in exclude and (h.startswith(name + "_") or h.startswith(name + " ")):
-                return i
-    return None
-
-
-def read_points_csv(path: str) -> Dict[str, np.ndarray]:
-    """Points from a CSV file with a header row.
-
-    The table may hold photo points (columns ``u_px, v_px``), map points (``X, Y, Z`` in the DEM's CRS, names such
-    as ``X_lv03`` or ``Z_m`` accepted) or both on each row (paired ground-control points, as in ``gcps.csv``).
-
-    Returns:
-        dict with ``"uv"``: (N, 2) float pixels and/or ``"xyz"``: (N, 3) float map coordinates (Z may be NaN when
-        the table has no Z column; the caller samples the DEM), and ``"ids"``: (N,) str (column ``id`` or row
-        number).
-
-    >>> import tempfile
-    >>> path = os.path.join(tempfile.mkdtemp(), "g.csv")
-    >>> _ = open(path, "w").write("u_px,v_px,X_lv03,Y_lv03,Z_m\\n10,20,600000,150000,3000\\n")
-    >>> points = read_points_csv(path)
-    >>> points["uv"].tolist(), points["xyz"].tolist()
-    ([[10.0, 20.0]], [[600000.0, 150000.0, 3000.0]])
-    """
-    if not path or not os.path.isfile(path):
-        raise InputError(f"point file not found: {path}")
-    import io
-
-    text = read_text(path)  # UTF-8 with or without BOM, UTF-16
-    try:
-        dialect = csv.Sniffer().sniff(text[:4096], delimiters=",;\t ")
-    except csv.Error:
-        dialect = csv.excel
-    rows = [row for row in csv.reader(io.StringIO(text, newline=""), dialect) if any(cell.strip() for cell in row)]
-    name = os.path.basename(path)
-    if len(rows) < 2:
-        raise InputError(f"{name}: needs a header row and at least one point")
-    header, body = rows[0], rows[1:]
-    iu = _find_column(header, PHOTO_COLUMNS[0])
-    iv = _find_column(header, PHOTO_COLUMNS[1])
-    taken = [i for i in (iu, iv) if i is not None]
-    ix = _find_column(header, MAP_COLUMNS[0], taken)
-    iy = _find_column(header, MAP_COLUMNS[1], taken)
-    iz = _find_column(header, MAP_COLUMNS[2], taken)
-    iid = _find_column(header, ("id", "fid", "name"))
-    result: Dict[str, np.ndarray] = {}
-
-    def numbers(columns):
-        out = np.full((len(body), len(columns)), np.nan)
-        for r, row in enumerate(body):
-            for c, col in enumerate(columns):
-                if col is None:
-                    continue
-                try:
-                    out[r, c] = float(row[col])
-                except (IndexError, ValueError):
-                    raise InputError(f"{name}, line {r + 2}: '{header[col]}' is not a number") from None
-        return out
-
-    if iu is not None and iv is not None:
-        result["uv"] = numbers((iu, iv))
-    if ix is not None and iy is not None:
-        result["xyz"] = numbers((ix, iy, iz))
-    if not result:
-        raise InputError(f"{name}: no point columns found; expected u_px,v_px (photo pixels) and/or X,Y,Z "
-                         f"(map coordinates), got {', '.join(header)}")
-    result["ids"] = np.array([row[iid] if iid is not None and iid < len(row) else str(r + 1)
-                              for r, row in enumerate(body)])
-    return result
-
-
-def write_points_csv(path: str, uv: Optional[np.ndarray] = None, xyz: Optional[np.ndarray] = None,
-                     ids: Optional[Sequence] = None) -> None:
-    """Write points in the format :func:`read_points_csv` reads (columns id, u_px, v_px, X, Y, Z)."""
-    n = len(uv) if uv is not None else len(xyz)
-    header = ["id"] + (["u_px", "v_px"] if uv is not None else []) + (["X", "Y", "Z"] if xyz is not None else [])
-    import io
-
-    from ..outputs.safe_write import write_text
-
-    text = io.StringIO(newline="")
-    writer = csv.writer(text)
-    writer.writerow(header)
-    for i in range(n):
-        row = [ids[i] if ids is not None else i + 1]
-        if uv is not None:
-            row += [f"{v:.3f}" for v in uv[i]]
-        if xyz is not None:
-            row += [f"{v:.3f}" for v in xyz[i]]
-        writer.writerow(row)
-    write_text(path, text.getvalue(), overwrite=True)

@@ -1,0 +1,141 @@
+"""Point tables as CSV files, for the dock and Processing: the one reader and the one writer.
+
+Photo points are pixels ``u_px, v_px`` (column, row from the top-left corner); map points ``X, Y, Z`` in the DEM's
+CRS; a row may hold both (a paired ground-control point, as in ``gcps.csv``). An optional ``id`` column names the
+points and an optional ``check`` column (1/0, true/false, yes/no) marks check points: pairs kept out of the fit to
+measure it. A Z given in the table is the surveyed height and is used as given; an empty or missing Z is NaN (the
+caller samples the DEM).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import os
+from typing import Dict, Optional, Sequence
+
+import numpy as np
+
+from .inputs import InputError, read_text
+
+__all__ = ["read_points_csv", "write_points_csv", "PHOTO_COLUMNS", "MAP_COLUMNS", "CHECK_COLUMNS"]
+
+#: Accepted column names (case-insensitive) for photo pixel coordinates: u = column, v = row, from the top-left
+#: corner of the image, in pixels.
+PHOTO_COLUMNS = (("u_px", "u", "col", "column", "x_px", "px"), ("v_px", "v", "row", "y_px", "py"))
+#: Accepted column names (case-insensitive prefixes allowed, e.g. X_lv03) for map coordinates in the DEM's CRS.
+MAP_COLUMNS = (("x", "easting", "east", "lon"), ("y", "northing", "north", "lat"),
+               ("z", "z_m", "elevation", "elev", "alt", "altitude", "height"))
+#: Accepted names of the check-point flag column.
+CHECK_COLUMNS = ("check", "is_check", "checkpoint", "check_point")
+_TRUE = ("1", "true", "yes", "y", "t", "check", "x")
+
+
+def _find_column(header: Sequence[str], names: Sequence[str], exclude: Sequence[str] = ()) -> Optional[int]:
+    lowered = [h.strip().lower() for h in header]
+    for name in names:  # exact names first
+        if name in lowered and lowered.index(name) not in exclude:
+            return lowered.index(name)
+    for name in names:  # then prefixes such as X_lv03, Z_m
+        for i, h in enumerate(lowered):
+            if i not in exclude and (h.startswith(name + "_") or h.startswith(name + " ")):
+                return i
+    return None
+
+
+def read_points_csv(path: str) -> Dict[str, np.ndarray]:
+    """Points from a CSV file with a header row.
+
+    The table may hold photo points (columns ``u_px, v_px``), map points (``X, Y, Z`` in the DEM's CRS, names such
+    as ``X_lv03`` or ``Z_m`` accepted) or both on each row (paired ground-control points, as in ``gcps.csv``).
+
+    Returns:
+        dict with ``"uv"``: (N, 2) float pixels and/or ``"xyz"``: (N, 3) float map coordinates (Z is NaN where
+        the table has no Z column or an empty cell; the caller samples the DEM), ``"ids"``: (N,) str (column
+        ``id`` or row number) and, when the table has a check column, ``"check"``: (N,) bool.
+
+    >>> import tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "g.csv")
+    >>> _ = open(path, "w").write("u_px,v_px,X_lv03,Y_lv03,Z_m\\n10,20,600000,150000,3000\\n")
+    >>> points = read_points_csv(path)
+    >>> points["uv"].tolist(), points["xyz"].tolist()
+    ([[10.0, 20.0]], [[600000.0, 150000.0, 3000.0]])
+    >>> write_points_csv(path, uv=[[1, 2]], xyz=[[3, 4, 5]], ids=["a"], check=[True])
+    >>> points = read_points_csv(path)
+    >>> points["ids"].tolist(), points["check"].tolist(), points["xyz"].tolist()
+    (['a'], [True], [[3.0, 4.0, 5.0]])
+    """
+    if not path or not os.path.isfile(path):
+        raise InputError(f"point file not found: {path}")
+    text = read_text(path)  # UTF-8 with or without BOM, UTF-16
+    try:
+        dialect = csv.Sniffer().sniff(text[:4096], delimiters=",;\t ")
+    except csv.Error:
+        dialect = csv.excel
+    rows = [row for row in csv.reader(io.StringIO(text, newline=""), dialect) if any(cell.strip() for cell in row)]
+    name = os.path.basename(path)
+    if len(rows) < 2:
+        raise InputError(f"{name}: needs a header row and at least one point")
+    header, body = rows[0], rows[1:]
+    iu = _find_column(header, PHOTO_COLUMNS[0])
+    iv = _find_column(header, PHOTO_COLUMNS[1])
+    taken = [i for i in (iu, iv) if i is not None]
+    ix = _find_column(header, MAP_COLUMNS[0], taken)
+    iy = _find_column(header, MAP_COLUMNS[1], taken)
+    iz = _find_column(header, MAP_COLUMNS[2], taken)
+    iid = _find_column(header, ("id", "fid", "name"))
+    icheck = _find_column(header, CHECK_COLUMNS)
+    result: Dict[str, np.ndarray] = {}
+
+    def numbers(columns):
+        out = np.full((len(body), len(columns)), np.nan)
+        for r, row in enumerate(body):
+            for c, col in enumerate(columns):
+                if col is None:
+                    continue
+                cell = row[col].strip() if col < len(row) else ""
+                if not cell and c == 2:
+                    continue  # no surveyed height on this row: NaN, the DEM's
+                try:
+                    out[r, c] = float(cell)
+                except ValueError:
+                    raise InputError(f"{name}, line {r + 2}: '{header[col]}' is not a number") from None
+        return out
+
+    if iu is not None and iv is not None:
+        result["uv"] = numbers((iu, iv))
+    if ix is not None and iy is not None:
+        result["xyz"] = numbers((ix, iy, iz))
+    if not result:
+        raise InputError(f"{name}: no point columns found; expected u_px,v_px (photo pixels) and/or X,Y,Z "
+                         f"(map coordinates), got {', '.join(header)}")
+    result["ids"] = np.array([row[iid] if iid is not None and iid < len(row) else str(r + 1)
+                              for r, row in enumerate(body)])
+    if icheck is not None:
+        result["check"] = np.array([icheck < len(row) and row[icheck].strip().lower() in _TRUE for row in body])
+    return result
+
+
+def write_points_csv(path: str, uv: Optional[np.ndarray] = None, xyz: Optional[np.ndarray] = None,
+                     ids: Optional[Sequence] = None, check: Optional[Sequence[bool]] = None) -> None:
+    """Write points in the format :func:`read_points_csv` reads (columns id, u_px, v_px, X, Y, Z, check).
+
+    A NaN Z is written as an empty cell (read back as "take the DEM's")."""
+    from ..outputs.safe_write import write_text
+
+    n = len(uv) if uv is not None else len(xyz)
+    header = (["id"] + (["u_px", "v_px"] if uv is not None else []) + (["X", "Y", "Z"] if xyz is not None else [])
+              + (["check"] if check is not None else []))
+    text = io.StringIO(newline="")
+    writer = csv.writer(text)
+    writer.writerow(header)
+    for i in range(n):
+        row = [ids[i] if ids is not None else i + 1]
+        if uv is not None:
+            row += [f"{float(v):.3f}" for v in uv[i]]
+        if xyz is not None:
+            row += ["" if not np.isfinite(float(v)) else f"{float(v):.3f}" for v in xyz[i]]
+        if check is not None:
+            row.append(1 if check[i] else 0)
+        writer.writerow(row)
+    write_text(path, text.getvalue(), overwrite=True)
