@@ -24,6 +24,7 @@ from .. import PLUGIN_DIR
 from ..adapters import layers as camera_layers
 from ..state import MAP, PHOTO
 from .controller import MonoplotController
+from .io_actions import IoActions
 from .photo_canvas import PhotoCanvas
 from .point_table import ID_ROLE, PointTableModel, make_proxy
 from .summary import fit_summary_html
@@ -145,6 +146,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self._unloaded = False
         QgsApplication.instance().aboutToQuit.connect(self.unload)
         self.output_tools = self._install_outputs()
+        self.io_actions = IoActions(self)  # camera files, GCP tables and point layers (gui/io_actions.py)
         self._fit_minimum_width()
         if self.project.readEntry("monoplot", "/state", "")[1] and c.restore() and c.fitted is not None:
             # a dock opened on an already open project: its camera layers came back empty from the file

@@ -1,0 +1,374 @@
+"""Import and export in the dock: ground-control points (CSV, point layers) and cameras (JSON, KML), both ways.
+
+The readers and writers are the workflow's (one of each, shared with Processing): :mod:`..workflow.points_csv`
+and :mod:`..workflow.camera_files`. A map point imported with a height keeps it: the fit and the check points use
+that surveyed Z, not the DEM's (``Point.z``; the DEM fills only a missing one).
+
+The functions take the dock's :class:`~.controller.MonoplotController`; :class:`IoActions` puts them in two menus
+of the dock (camera tab: "Camera files", points tab: "Import / export").
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from typing import List, Optional, Tuple
+
+import numpy as np
+from qgis.core import (Qgis, QgsCoordinateReferenceSystem, QgsCoordinateTransform, QgsFeature, QgsField,
+                       QgsGeometry, QgsPoint, QgsProject, QgsVectorLayer, QgsWkbTypes)
+from qgis.PyQt.QtCore import QCoreApplication, Qt, QVariant
+from qgis.PyQt.QtWidgets import QFileDialog, QMenu, QSizePolicy, QToolButton
+
+from ..adapters.photo_space import photo_point, pixel_of
+from ..core.camera import Camera
+from ..state import ACCEPTED, CHECK, MAP, PHOTO, Edit, Point
+from ..workflow.camera_files import load_camera, save_camera
+from ..workflow.inputs import InputError, points_to_dem_crs
+from ..workflow.points_csv import read_points_csv, write_points_csv
+
+__all__ = ["import_points_csv", "export_points_csv", "import_point_layers", "export_point_layers",
+           "load_camera_file", "save_camera_file", "IoActions", "PHOTO_LAYER_NAME", "MAP_LAYER_NAME"]
+
+INFO, WARNING, CRITICAL, SUCCESS = (Qgis.MessageLevel.Info, Qgis.MessageLevel.Warning,
+                                    Qgis.MessageLevel.Critical, Qgis.MessageLevel.Success)
+PHOTO_LAYER_NAME, MAP_LAYER_NAME = "Monoplot photo points", "Monoplot map points"
+_FIELDS = (("id", QVariant.String), ("label", QVariant.String), ("status", QVariant.String),
+           ("pair", QVariant.Int), ("z", QVariant.Double))
+
+
+def tr(text: str) -> str:
+    return QCoreApplication.translate("MonoplotIo", text)
+
+
+# --- points ---------------------------------------------------------------------------------------------------
+def _add_imported(controller, photo: List[Point], world: List[Point], pairs: List[Tuple[str, str]],
+                  text: str) -> None:
+    """One undoable edit: the new points and their pairs."""
+    state = controller.state
+    new = photo + world
+    edit = Edit(text, before={p.id: None for p in new}, after={p.id: p for p in new},
+                pairs_before=list(state.pairs) if pairs else None,
+                pairs_after=list(state.pairs) + pairs if pairs else None)
+    controller.stack.push(edit)
+
+
+def _status(check: bool) -> str:
+    return CHECK if check else ACCEPTED
+
+
+def import_points_csv(controller, path: str) -> int:
+    """Add the points of a CSV table (:func:`~..workflow.points_csv.read_points_csv`): rows with u, v and X, Y, Z
+    become pairs (check pairs where the check column says so), rows with only one side single accepted points.
+    Map coordinates are taken in the DEM file's CRS (converted like Processing's). Returns the number of rows
+    imported (0 and a message on failure)."""
+    c = controller
+    try:
+        table = read_points_csv(path)
+    except InputError as exc:
+        c.message.emit(str(exc), CRITICAL)
+        return 0
+    uv, xyz, ids = table.get("uv"), table.get("xyz"), table["ids"]
+    if (uv is not None and c.image is None) or (xyz is not None and c.dem is None):
+        c.message.emit(tr("Load the photo and choose the DEM before importing points."), WARNING)
+        return 0
+    check = table.get("check", np.zeros(len(ids), bool))
+    notes: List[str] = []
+    if xyz is not None:
+        xyz, notes = points_to_dem_crs(xyz, c.dem, name=os.path.basename(path))
+    photo, world, pairs = [], [], []
+    n = len(ids)
+    for i in range(n):
+        paired = uv is not None and xyz is not None
+        status = _status(bool(check[i]) and paired)
+        label = str(ids[i])
+        a = b = None
+        if uv is not None and np.isfinite(uv[i]).all():
+            a = Point.new(PHOTO, uv[i, 0], uv[i, 1], status=status, manual=True, label=label)
+            photo.append(a)
+        if xyz is not None and np.isfinite(xyz[i, :2]).all():
+            z = float(xyz[i, 2]) if math.isfinite(xyz[i, 2]) else None  # surveyed Z as entered, else the DEM's
+            b = Point.new(MAP, xyz[i, 0], xyz[i, 1], z, status=status, manual=True, label=label)
+            world.append(b)
+        if a is not None and b is not None:
+            pairs.append((a.id, b.id))
+    _add_imported(c, photo, world, pairs, tr("Import {0}").format(os.path.basename(path)))
+    n_check = sum(1 for a, _ in pairs if c.state.points[a].status == CHECK)
+    text = tr("{0}: {1} photo and {2} map points, {3} pairs ({4} check pairs).").format(
+        os.path.basename(path), len(photo), len(world), len(pairs), n_check)
+    outside = _outside_photo(c, photo)
+    if outside:
+        text += " " + tr("{0} photo points lie outside the photo: is the table for this photo?").format(outside)
+    for note in notes:
+        text += " " + note + "."
+    c.message.emit(text, WARNING if outside else INFO)
+    return len(photo) + len(world) - len(pairs)
+
+
+def _outside_photo(c, photo: List[Point]) -> int:
+    if c.photo_size is None:
+        return 0
+    w, h = c.photo_size
+    return sum(1 for p in photo if not (0 <= p.x <= w and 0 <= p.y <= h))
+
+
+def export_points_csv(controller, path: str) -> int:
+    """Write the pairs (accepted and check pairs) as a CSV table ``id, u_px, v_px, X, Y, Z, check``; the height
+    is the point's own (surveyed) Z, else the DEM's. Returns the number of rows written."""
+    c = controller
+    pairs = c.state.valid_pairs() + c.state.check_pairs()
+    if not pairs:
+        c.message.emit(tr("No pairs to export: pair photo and map points first (Shift+click)."), WARNING)
+        return 0
+    uv = np.array([(a.x, a.y) for a, _ in pairs], dtype=float)
+    xyz = np.array([(b.x, b.y, b.z if b.z is not None else _dem_z(c, b)) for _, b in pairs], dtype=float)
+    ids = [a.label or b.label or a.id for a, b in pairs]
+    try:
+        write_points_csv(path, uv=uv, xyz=xyz, ids=ids, check=[a.status == CHECK for a, _ in pairs])
+    except (OSError, ValueError) as exc:
+        c.message.emit(tr("Cannot write {0}: {1}").format(path, exc), CRITICAL)
+        return 0
+    c.message.emit(tr("{0} pairs written to {1}.").format(len(pairs), path), INFO)
+    return len(pairs)
+
+
+def _dem_z(c, p: Point) -> float:
+    return float(c.dem.sample(p.x, p.y)) if c.dem is not None else float("nan")
+
+
+def _layer_fields():
+    return [QgsField(name, kind) for name, kind in _FIELDS]
+
+
+def export_point_layers(controller, project: Optional[QgsProject] = None) -> Tuple[QgsVectorLayer, QgsVectorLayer]:
+    """Two memory layers of every point with its id, label, status and pair number: photo points in photo space
+    (x = u, y = -v, no CRS) and map points (PointZ in the DEM's CRS). Added to ``project`` when given."""
+    c = controller
+    pair_of = {}
+    for k, (a, b) in enumerate(c.state.pairs, start=1):
+        pair_of[a], pair_of[b] = k, k
+    photo_layer = QgsVectorLayer("Point", PHOTO_LAYER_NAME, "memory")
+    photo_layer.setCrs(QgsCoordinateReferenceSystem())
+    map_layer = QgsVectorLayer("PointZ", MAP_LAYER_NAME, "memory")
+    map_layer.setCrs(c.dem_crs)
+    for layer, space in ((photo_layer, PHOTO), (map_layer, MAP)):
+        provider = layer.dataProvider()
+        provider.addAttributes(_layer_fields())
+        layer.updateFields()
+        features = []
+        for p in c.state.in_space(space):
+            f = QgsFeature(layer.fields())
+            if space == PHOTO:
+                f.setGeometry(QgsGeometry.fromPointXY(photo_point(p.x, p.y)))
+            else:
+                z = p.z if p.z is not None else _dem_z(c, p)
+                f.setGeometry(QgsGeometry(QgsPoint(p.x, p.y, z if math.isfinite(z) else 0.0)))
+            f.setAttributes([p.id, p.label, p.status, pair_of.get(p.id), p.z])
+            features.append(f)
+        provider.addFeatures(features)
+        layer.updateExtents()
+        layer.setCustomProperty("monoplot/points", space)
+    if project is not None:
+        project.addMapLayers([photo_layer, map_layer])
+    c.message.emit(tr("{0} photo and {1} map points exported as layers.").format(
+        photo_layer.featureCount(), map_layer.featureCount()), INFO)
+    return photo_layer, map_layer
+
+
+def _is_photo_layer(layer: QgsVectorLayer) -> bool:
+    """Photo-space layers have no CRS (or are marked as such by :func:`export_point_layers`)."""
+    marked = layer.customProperty("monoplot/points")
+    return marked == PHOTO if marked in (PHOTO, MAP) else not layer.crs().isValid()
+
+
+def import_point_layers(controller, layers, project: Optional[QgsProject] = None) -> int:
+    """Add the points of point layers: a layer without CRS holds photo points (x = u, y = -v), one with a CRS map
+    points (reprojected to the DEM's CRS; a geometry Z, else a ``z`` field, is the surveyed height). Fields used
+    when present: ``status`` (accepted / check; anything else is accepted), ``label`` or ``name`` or ``id``, and
+    ``pair``: photo and map points with the same pair number become a pair. Returns the number of points added."""
+    c = controller
+    project = project or QgsProject.instance()
+    photo, world, by_pair = [], [], {}
+    for layer in layers:
+        if not isinstance(layer, QgsVectorLayer) or layer.geometryType() != QgsWkbTypes.GeometryType.PointGeometry:
+            continue
+        space = PHOTO if _is_photo_layer(layer) else MAP
+        if (space == PHOTO and c.image is None) or (space == MAP and c.dem is None):
+            c.message.emit(tr("Load the photo and choose the DEM before importing points."), WARNING)
+            return 0
+        names = layer.fields().names()
+        transform = None
+        if space == MAP and c.dem_crs.isValid() and layer.crs() != c.dem_crs:
+            transform = QgsCoordinateTransform(layer.crs(), c.dem_crs, project)
+        for f in layer.getFeatures():
+            geom = f.geometry()
+            if geom is None or geom.isEmpty():
+                continue
+            for vertex in geom.vertices():
+                status = str(f["status"]) if "status" in names else ACCEPTED
+                status = CHECK if status == CHECK else ACCEPTED
+                label = next((str(f[n]) for n in ("label", "name", "id") if n in names and f[n] not in (None, "")),
+                             "")
+                if space == PHOTO:
+                    u, v = pixel_of(vertex)
+                    p = Point.new(PHOTO, u, v, status=status, manual=True, label=label)
+                    photo.append(p)
+                else:
+                    z = vertex.z() if QgsWkbTypes.hasZ(geom.wkbType()) else None
+                    if z is None and "z" in names and f["z"] not in (None, ""):
+                        z = float(f["z"])
+                    x, y = vertex.x(), vertex.y()
+                    if transform is not None:
+                        pt = transform.transform(x, y)
+                        x, y = pt.x(), pt.y()
+                    z = None if z is None or not math.isfinite(z) else float(z)
+                    p = Point.new(MAP, x, y, z, status=status, manual=True, label=label)
+                    world.append(p)
+                pair = f["pair"] if "pair" in names else None
+                if pair not in (None, "") and not (isinstance(pair, QVariant) and pair.isNull()):
+                    by_pair.setdefault(str(pair), {})[space] = p
+    pairs = [(d[PHOTO].id, d[MAP].id) for d in by_pair.values() if PHOTO in d and MAP in d]
+    paired = {i for pr in pairs for i in pr}
+    # a check point needs its partner: unpaired ones are ordinary accepted points
+    photo, world = ([p if p.id in paired or p.status != CHECK else dataclasses.replace(p, status=ACCEPTED)
+                     for p in points] for points in (photo, world))
+    _add_imported(c, photo, world, pairs, tr("Import point layers"))
+    c.message.emit(tr("{0} photo and {1} map points imported, {2} pairs.").format(len(photo), len(world),
+                                                                                   len(pairs)), INFO)
+    return len(photo) + len(world)
+
+
+# --- cameras --------------------------------------------------------------------------------------------------
+def load_camera_file(controller, path: str, as_fitted: bool = False) -> Optional[Camera]:
+    """Read a camera JSON (Processing's ``fitcamera`` output, a saved one) or a KML PhotoOverlay as the rough camera,
+    or (``as_fitted``) as the fitted camera: overlay, footprint and per-pixel XYZ are rendered in a task, and the
+    check points, if any, are measured on it."""
+    c = controller
+    if c.image is None or c.dem is None:
+        c.message.emit(tr("Load the photo and choose the DEM before loading a camera."), WARNING)
+        return None
+    try:
+        camera = load_camera(path, c.photo_size, c.dem.crs_wkt)
+    except InputError as exc:
+        c.message.emit(str(exc), CRITICAL)
+        return None
+    if not camera.crs_wkt:
+        camera = dataclasses.replace(camera, crs_wkt=c.dem.crs_wkt)
+    name = os.path.basename(path)
+    if not as_fitted:
+        c.set_prior(camera)
+        c.message.emit(tr("Rough camera loaded from {0}.").format(name), INFO)
+        return camera
+    info = {"message": tr("Camera loaded from {0}; not fitted in this session.").format(name), "loaded_from": path}
+    ids, cuv, cxyz = c.check_points()
+    if ids:
+        d = np.hypot(*(camera.project(cxyz) - cuv).T)
+        d = d[np.isfinite(d)]
+        if len(d):
+            info.update(check_rmse_px=float(np.sqrt(np.mean(d ** 2))), n_check=int(len(d)))
+    c.set_fitted(camera, info, background=True)
+    c.message.emit(tr("Fitted camera loaded from {0}.").format(name), INFO)
+    return camera
+
+
+def save_camera_file(controller, path: str, which: str = "fitted") -> bool:
+    """Write the fitted (``which="fitted"``) or rough camera as Monoplot JSON, or as KML for a ``.kml`` path."""
+    c = controller
+    camera = c.fitted if which == "fitted" else c.prior
+    if camera is None:
+        c.message.emit(tr("There is no {0} camera to save.").format(tr("fitted") if which == "fitted"
+                                                                    else tr("rough")), WARNING)
+        return False
+    if not camera.crs_wkt and c.dem is not None:
+        camera = dataclasses.replace(camera, crs_wkt=c.dem.crs_wkt)
+    try:
+        save_camera(path, camera, name=os.path.splitext(os.path.basename(c.state.photo_path or path))[0])
+    except (OSError, ValueError) as exc:
+        c.message.emit(tr("Cannot write {0}: {1}").format(path, exc), CRITICAL)
+        return False
+    c.message.emit(tr("Camera written to {0}.").format(path), INFO)
+    return True
+
+
+# --- the dock's menus -----------------------------------------------------------------------------------------
+class IoActions:
+    """"Camera files" (camera tab) and "Import / export" (points tab) menus of the dock."""
+
+    CAMERA_FILTER = "Monoplot camera (*.json);;KML PhotoOverlay (*.kml)"
+    OPEN_CAMERA_FILTER = "Camera (*.json *.kml);;Monoplot camera (*.json);;KML PhotoOverlay (*.kml)"
+
+    def __init__(self, dock):
+        self.dock = dock
+        c = dock.controller
+        self.camera_button = self._menu_button(tr("Camera files"), [
+            (tr("Load rough camera (JSON or KML)…"), lambda: self._open_camera(False)),
+            (tr("Load fitted camera (JSON or KML)…"), lambda: self._open_camera(True)),
+            None,
+            (tr("Save fitted camera…"), lambda: self._save_camera("fitted")),
+            (tr("Save rough camera…"), lambda: self._save_camera("prior")),
+        ])
+        dock.cameraButtons.insertWidget(dock.cameraButtons.count() - 1, self.camera_button)
+        self.points_button = self._menu_button(tr("Import / export points"), [
+            (tr("Import GCP table (CSV: u, v, X, Y, Z, id, check)…"), self._import_csv),
+            (tr("Export pairs as GCP table (CSV)…"), self._export_csv),
+            None,
+            (tr("Import selected point layers"), self._import_layers),
+            (tr("Export points as layers"), lambda: export_point_layers(c, dock.project)),
+        ])
+        self.points_button.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
+        layout = dock.pointsTabLayout
+        layout.insertWidget(layout.indexOf(dock.countsLabel), self.points_button)
+
+    def _menu_button(self, text: str, entries) -> QToolButton:
+        button = QToolButton(self.dock)
+        button.setText(text)
+        button.setPopupMode(QToolButton.ToolButtonPopupMode.InstantPopup)
+        button.setToolButtonStyle(Qt.ToolButtonStyle.ToolButtonTextOnly)
+        menu = QMenu(button)
+        for entry in entries:
+            if entry is None:
+                menu.addSeparator()
+            else:
+                menu.addAction(entry[0]).triggered.connect(entry[1])
+        button.setMenu(menu)
+        return button
+
+    def _folder(self) -> str:
+        path = self.dock.controller.state.photo_path
+        return os.path.dirname(path) if path else ""
+
+    def _open_camera(self, as_fitted: bool) -> None:
+        path, _ = QFileDialog.getOpenFileName(self.dock, tr("Load camera"), self._folder(), self.OPEN_CAMERA_FILTER)
+        if path:
+            load_camera_file(self.dock.controller, path, as_fitted)
+
+    def _save_camera(self, which: str) -> None:
+        path, chosen = QFileDialog.getSaveFileName(self.dock, tr("Save camera"), self._folder(), self.CAMERA_FILTER)
+        if path:
+            if not os.path.splitext(path)[1]:
+                path += ".kml" if "kml" in chosen.lower() else ".json"
+            save_camera_file(self.dock.controller, path, which)
+
+    def _import_csv(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(self.dock, tr("Import ground-control points"), self._folder(),
+                                              tr("CSV table (*.csv *.txt)"))
+        if path:
+            import_points_csv(self.dock.controller, path)
+
+    def _export_csv(self) -> None:
+        path, _ = QFileDialog.getSaveFileName(self.dock, tr("Export pairs"), self._folder(), tr("CSV table (*.csv)"))
+        if path:
+            export_points_csv(self.dock.controller, path if path.lower().endswith(".csv") else path + ".csv")
+
+    def _import_layers(self) -> None:
+        iface = self.dock.iface
+        layers = iface.layerTreeView().selectedLayers() if iface is not None else []
+        if not layers and iface is not None and iface.activeLayer() is not None:
+            layers = [iface.activeLayer()]
+        if not layers:
+            self.dock.controller.message.emit(tr("Select one or two point layers in the Layers panel first (a photo "
+                                                 "layer without CRS, a map layer)."), WARNING)
+            return
+        import_point_layers(self.dock.controller, layers, self.dock.project)
+
