@@ -1,6 +1,11 @@
-"""A rough camera from a photo's EXIF tags (GPS position, altitude, direction, 35 mm focal length), read with GDAL.
+"""A rough camera from a photo's EXIF tags (GPS position, altitude, direction, focal length), read with GDAL.
 
 Phones and drones write these; historical scans do not (then :func:`read_exif_prior` returns None).
+
+The field of view comes from ``FocalLengthIn35mmFilm``, else from ``FocalLength`` with the sensor's size, which EXIF
+gives as ``FocalPlaneXResolution`` (pixels per ``FocalPlaneResolutionUnit``) over the image width. A focal length
+without either is kept (``focal_mm``, ``fov`` None), so the dock can say so and ask for the sensor width instead of
+ignoring it.
 """
 
 from __future__ import annotations
@@ -10,7 +15,10 @@ import re
 from dataclasses import dataclass
 from typing import Dict, Optional, Tuple
 
-__all__ = ["ExifPrior", "read_exif_prior", "parse_exif_prior", "horizontal_fov_from_35mm"]
+__all__ = ["ExifPrior", "read_exif_prior", "parse_exif_prior", "horizontal_fov_from_35mm", "lens_fov"]
+
+#: Millimetres per FocalPlaneResolutionUnit (EXIF: 1 none, 2 inch, 3 cm; 4 mm and 5 µm in some writers).
+_UNIT_MM = {1: 25.4, 2: 25.4, 3: 10.0, 4: 1.0, 5: 0.001}
 
 
 @dataclass
@@ -22,6 +30,9 @@ class ExifPrior:
         altitude: metres above sea level.
         heading: direction of view, degrees from north (GPSImgDirection).
         fov: horizontal field of view in degrees, for the picture as displayed (EXIF orientation applied).
+        focal_mm: the lens's focal length (FocalLength), focal_35mm: its 35 mm equivalent.
+        sensor_width_mm: width of the sensor along the displayed picture's horizontal axis (from the focal plane
+            resolution), when EXIF says it.
     """
 
     lon: Optional[float] = None
@@ -29,6 +40,9 @@ class ExifPrior:
     altitude: Optional[float] = None
     heading: Optional[float] = None
     fov: Optional[float] = None
+    focal_mm: Optional[float] = None
+    focal_35mm: Optional[float] = None
+    sensor_width_mm: Optional[float] = None
 
     @property
     def has_position(self) -> bool:
@@ -57,6 +71,43 @@ def horizontal_fov_from_35mm(focal_35mm: float, landscape: bool = True) -> float
     return math.degrees(2.0 * math.atan(width / (2.0 * focal_35mm)))
 
 
+def lens_fov(focal_mm: float, sensor_width_mm: Optional[float] = None, focal_35mm: Optional[float] = None,
+             landscape: bool = True) -> float:
+    """Horizontal field of view (degrees) of a lens of ``focal_mm`` on a sensor ``sensor_width_mm`` wide, or of its
+    35 mm equivalent ``focal_35mm`` (then ``focal_mm`` is not needed).
+
+    >>> round(lens_fov(30.0, 22.2), 1), round(lens_fov(0, focal_35mm=48.0), 1)   # the issue's 30 mm on 22.2 mm
+    (40.6, 41.1)
+    """
+    from ..core.camera import fov_from_focal
+
+    if focal_35mm:
+        return horizontal_fov_from_35mm(focal_35mm, landscape)
+    if not focal_mm or not sensor_width_mm or focal_mm <= 0 or sensor_width_mm <= 0:
+        raise ValueError("a focal length and a sensor width (or a 35 mm equivalent) are needed")
+    return fov_from_focal(focal_mm, sensor_width_mm)  # the same formula in millimetres as in pixels
+
+
+def _rotated(metadata: Dict[str, str]) -> bool:
+    """True when the EXIF orientation turns the picture by 90 degrees (values 5 to 8)."""
+    value = _numbers(metadata.get("EXIF_Orientation", ""))
+    return bool(value) and int(value[0]) in (5, 6, 7, 8)
+
+
+def _sensor_width_mm(metadata: Dict[str, str], size: Tuple[int, int]) -> Optional[float]:
+    """Sensor size along the displayed horizontal axis (mm) from the focal-plane resolution, or None."""
+    rotated = _rotated(metadata)
+    tag = "EXIF_FocalPlaneYResolution" if rotated else "EXIF_FocalPlaneXResolution"
+    res = _numbers(metadata.get(tag, "")) or _numbers(metadata.get("EXIF_FocalPlaneXResolution", ""))
+    unit = _numbers(metadata.get("EXIF_FocalPlaneResolutionUnit", "")) or [2.0]
+    if not res or res[0] <= 0 or int(unit[0]) not in _UNIT_MM:
+        return None
+    # the resolution refers to the full-size image the camera wrote (PixelX/YDimension), before the orientation
+    raw = _numbers(metadata.get("EXIF_PixelYDimension" if rotated else "EXIF_PixelXDimension", ""))
+    pixels = raw[0] if raw and raw[0] > 0 else float(size[0])
+    return pixels / res[0] * _UNIT_MM[int(unit[0])]
+
+
 def parse_exif_prior(metadata: Dict[str, str], size: Tuple[int, int]) -> ExifPrior:
     """ExifPrior from GDAL's ``EXIF_*`` metadata of a photo displayed at ``size`` = (W, H) pixels.
 
@@ -66,6 +117,13 @@ def parse_exif_prior(metadata: Dict[str, str], size: Tuple[int, int]) -> ExifPri
     >>> p = parse_exif_prior(md, (4000, 3000))
     >>> round(p.lon, 4), round(p.lat, 4), p.altitude, p.heading, round(p.fov, 1)
     (8.0933, 46.4314, 2929.0, 297.1, 65.5)
+    >>> p = parse_exif_prior({"EXIF_FocalLength": "(30)", "EXIF_FocalPlaneXResolution": "(1000)",
+    ...                       "EXIF_FocalPlaneResolutionUnit": "4", "EXIF_PixelXDimension": "22200"}, (4290, 2856))
+    >>> round(p.sensor_width_mm, 1), round(p.fov, 1)
+    (22.2, 40.6)
+    >>> p = parse_exif_prior({"EXIF_FocalLength": "(30)"}, (4290, 2856))   # no sensor size: no field of view
+    >>> p.focal_mm, p.fov
+    (30.0, None)
     """
     out = ExifPrior()
     if "EXIF_GPSLatitude" in metadata and "EXIF_GPSLongitude" in metadata:
@@ -78,9 +136,16 @@ def parse_exif_prior(metadata: Dict[str, str], size: Tuple[int, int]) -> ExifPri
     direction = _numbers(metadata.get("EXIF_GPSImgDirection", ""))
     if direction:
         out.heading = direction[0] % 360.0
+    landscape = size[0] >= size[1]
     f35 = _numbers(metadata.get("EXIF_FocalLengthIn35mmFilm", ""))
+    focal = _numbers(metadata.get("EXIF_FocalLength", ""))
+    out.focal_mm = focal[0] if focal and focal[0] > 0 else None
+    out.sensor_width_mm = _sensor_width_mm(metadata, size)
     if f35 and f35[0] > 0:
-        out.fov = horizontal_fov_from_35mm(f35[0], landscape=size[0] >= size[1])
+        out.focal_35mm = f35[0]
+        out.fov = horizontal_fov_from_35mm(f35[0], landscape=landscape)
+    elif out.focal_mm is not None and out.sensor_width_mm is not None:
+        out.fov = lens_fov(out.focal_mm, out.sensor_width_mm)
     return out
 
 
@@ -95,4 +160,4 @@ def read_exif_prior(path: str, size: Tuple[int, int]) -> Optional[ExifPrior]:
     if ds is None:
         return None
     prior = parse_exif_prior(ds.GetMetadata() or {}, size)
-    return prior if (prior.has_position or prior.fov is not None) else None
+    return prior if (prior.has_position or prior.fov is not None or prior.focal_mm is not None) else None

@@ -20,6 +20,7 @@ from ..core.camera import Camera
 from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, replace_suggestions
 from . import engine, persistence
 from .curation import CurationMixin
+from .fit_settings import fit_arguments
 from .priors import PriorsMixin
 from .tasks import CANCELED, FunctionTask, TaskResult, start_task
 
@@ -287,8 +288,11 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
         check_ids, check_uv, check_xyz = self.check_points()
         dem = self.dem
 
+        free, options = fit_arguments(self.state.settings)  # the dock's fit settings (gui/fit_settings.py)
+
         def work(progress, is_canceled):
-            return engine.fit_and_render(uv, xyz, pairs, start, dem, progress, is_canceled, check_uv, check_xyz)
+            return engine.fit_and_render(uv, xyz, pairs, start, dem, progress, is_canceled, check_uv, check_xyz,
+                                         free=free, options=options)
 
         def apply(outcome):
             # the matches the fit used, by point id (indices would drift with later edits)

@@ -24,6 +24,7 @@ from .. import PLUGIN_DIR
 from ..adapters import layers as camera_layers
 from ..state import MAP, PHOTO
 from .controller import MonoplotController
+from .fit_settings import FitSettingsPanel, LensPanel
 from .io_actions import IoActions
 from .photo_canvas import PhotoCanvas
 from .point_table import ID_ROLE, PointTableModel, make_proxy
@@ -147,6 +148,10 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         QgsApplication.instance().aboutToQuit.connect(self.unload)
         self.output_tools = self._install_outputs()
         self.io_actions = IoActions(self)  # camera files, GCP tables and point layers (gui/io_actions.py)
+        self.lens_panel = LensPanel(c, self.fovSpin, self.cameraTab)  # what the user knows (gui/fit_settings.py)
+        self.cameraTabLayout.insertWidget(self.cameraTabLayout.indexOf(self.cameraSummary), self.lens_panel)
+        self.fit_settings = FitSettingsPanel(c, self.fitScrollContents)
+        self.fitTabLayout.insertWidget(self.fitTabLayout.indexOf(self.resultLabel) + 1, self.fit_settings)
         self._fit_minimum_width()
         if self.project.readEntry("monoplot", "/state", "")[1] and c.restore() and c.fitted is not None:
             # a dock opened on an already open project: its camera layers came back empty from the file

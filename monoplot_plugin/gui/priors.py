@@ -8,15 +8,44 @@ from __future__ import annotations
 import math
 from typing import Optional
 
+import numpy as np
 from qgis.core import Qgis
 
 from ..adapters.exif import read_exif_prior
 from ..core.camera import Camera, lonlat_to_crs
 from . import engine
 
-__all__ = ["PriorsMixin"]
+__all__ = ["PriorsMixin", "terrain_pitch"]
 
 INFO, WARNING, CRITICAL = Qgis.MessageLevel.Info, Qgis.MessageLevel.Warning, Qgis.MessageLevel.Critical
+
+
+def terrain_pitch(camera: Camera, dem, rays: int = 9, samples: int = 160) -> Optional[float]:
+    """A pitch (degrees) for a camera whose pitch is unknown: the terrain's skyline along ``rays`` horizontal rays
+    across the field of view (the highest elevation angle of the DEM along each, median over the rays), put a fifth
+    of the vertical field of view below the top of the frame. None when no ray crosses the DEM.
+
+    >>> from monoplot_plugin.core.dem import Dem
+    >>> ramp = Dem.from_array(np.tile(np.arange(100.0) * 10.0, (100, 1)).T[::-1], (0, 10, 0, 1000, 0, -10))
+    >>> cam = Camera((500.0, 100.0, 200.0), 0.0, 0.0, 0.0, 60.0, (400, 300))
+    >>> -10.0 < terrain_pitch(cam, ramp) < 40.0   # looking up the slope: up, less than the slope's top angle
+    True
+    """
+    x0, y0, z0 = (float(v) for v in camera.position)
+    bx0, by0, bx1, by1 = dem.bounds()
+    reach = math.hypot(bx1 - bx0, by1 - by0)
+    distances = np.geomspace(max(20.0, reach / 2000.0), reach, samples)
+    best = []
+    for k in range(rays):
+        a = math.radians(camera.heading - camera.fov / 2.0 + camera.fov * k / max(1, rays - 1))
+        xs, ys = x0 + distances * math.sin(a), y0 + distances * math.cos(a)
+        z = np.asarray(dem.sample(xs, ys), dtype=float)
+        ok = np.isfinite(z)
+        if ok.any():
+            best.append(float(np.degrees(np.arctan2(z[ok] - z0, distances[ok])).max()))
+    if not best:
+        return None
+    return float(np.clip(np.median(best) - 0.2 * camera.vertical_fov, -60.0, 30.0))
 
 
 class PriorsMixin:
@@ -55,8 +84,18 @@ class PriorsMixin:
             return None
         camera = Camera((x, y, z + height_above_ground), heading, pitch, 0.0, fov, self.photo_size,
                         crs_wkt=self.dem.crs_wkt)
+        if pitch == 0.0:  # unknown (the box's default): aim at the terrain's skyline
+            camera = self._with_terrain_pitch(camera)
         self.set_prior(camera)
         return camera
+
+    def _with_terrain_pitch(self, camera: Camera) -> Camera:
+        pitch = terrain_pitch(camera, self.dem)
+        if pitch is None:
+            return camera
+        self.message.emit(self.tr("Pitch set to {0:.1f}° from the terrain (the skyline in the upper part of the "
+                                  "picture); edit it if wrong.").format(pitch), INFO)
+        return camera.with_parameters(pitch=pitch)
 
     def prior_from_exif(self, quiet: bool = False) -> bool:
         """A rough camera from the photo's EXIF GPS position, altitude, direction and 35 mm focal length.
@@ -84,19 +123,27 @@ class PriorsMixin:
             heading, guessed = math.degrees(math.atan2((x0 + x1) / 2 - x, (y0 + y1) / 2 - y)), True
         camera = Camera((x, y, max(z, ground + 1.0)), heading, 0.0, 0.0, exif.fov or 60.0, self.photo_size,
                         crs_wkt=self.dem.crs_wkt)
-        self.set_prior(camera)
+        self.set_prior(self._with_terrain_pitch(camera))
         text = self.tr("Rough camera from the photo's EXIF GPS tags.")
         if guessed:
             text += " " + self.tr("No direction in EXIF: it looks at the DEM centre; draw it on the map if wrong.")
+        if exif.fov is None:
+            text += " " + (self.tr("EXIF gives a {0:g} mm focal length but no sensor size and no 35 mm equivalent: "
+                                   "field of view 60° until you enter the lens (camera tab).").format(exif.focal_mm)
+                           if exif.focal_mm else self.tr("No focal length in EXIF: field of view 60°."))
         self.message.emit(text, INFO)
         return True
 
     def exif_fov(self) -> Optional[float]:
         """Horizontal field of view from the photo's EXIF 35 mm focal length, or None."""
+        exif = self.exif_lens()
+        return None if exif is None else exif.fov
+
+    def exif_lens(self):
+        """The photo's EXIF (:class:`~..adapters.exif.ExifPrior`: focal length, sensor, field of view), or None."""
         if not self.state.photo_path or self.image is None:
             return None
-        exif = read_exif_prior(self.state.photo_path, self.photo_size)
-        return None if exif is None else exif.fov
+        return read_exif_prior(self.state.photo_path, self.photo_size)
 
     def _maybe_exif_prior(self) -> None:
         if not self._restoring and self.state.prior is None and self.image is not None and self.dem is not None:

@@ -8,12 +8,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Optional, Tuple
+from typing import Optional, Sequence, Tuple
 
 import numpy as np
 
 from ..core.camera import Camera
-from ..core.fit import FitResult, fit_camera
+from ..core.fit import FitOptions, FitResult, fit_camera
 from .progress import Canceled, IsCanceled, Progress, check_canceled
 
 __all__ = ["ON_GROUND_MAX_M", "DEFAULT_EYE_HEIGHT_M", "FitRefused", "FitDone", "ground_clearance", "on_ground_rule",
@@ -67,10 +67,13 @@ def on_ground_rule(start: Camera, dem, on_ground: Optional[bool] = None,
 def fit(uv: np.ndarray, xyz: np.ndarray, start: Camera, dem, pairs=None, on_ground: Optional[bool] = None,
         eye_height: Optional[float] = None, check_uv: Optional[np.ndarray] = None,
         check_xyz: Optional[np.ndarray] = None, progress: Optional[Progress] = None,
-        is_canceled: Optional[IsCanceled] = None) -> FitDone:
+        is_canceled: Optional[IsCanceled] = None, free: Optional[Sequence[str]] = None,
+        options: Optional[FitOptions] = None) -> FitDone:
     """Fit the camera from ``start`` (core :func:`fit_camera`), held on the ground by :func:`on_ground_rule`.
 
     ``check_uv`` (C, 2) / ``check_xyz`` (C, 3): paired check points, kept out of the fit and measured.
+    ``free``: the parameter names to fit (None: the core's default); ``options``: a core ``FitOptions`` (the prior's
+    uncertainty...), None for the defaults.
 
     Raises:
         FitRefused: the fit refused the input, with the fit's own explanation.
@@ -81,7 +84,7 @@ def fit(uv: np.ndarray, xyz: np.ndarray, start: Camera, dem, pairs=None, on_grou
     has_check = check_uv is not None and len(check_uv) > 0
     result = fit_camera(uv, xyz, start, pairs=pairs, ground=dem if grounded else None, eye_height=eye,
                         check_image_points=check_uv if has_check else None,
-                        check_world_points=check_xyz if has_check else None,
+                        check_world_points=check_xyz if has_check else None, free=free, options=options,
                         progress=progress, is_canceled=is_canceled)
     if result.status == "canceled":
         raise Canceled(str(result.message) or "canceled")

@@ -1,0 +1,237 @@
+"""What the user knows about the camera, in the dock: the lens (focal length and sensor, or a 35 mm equivalent ->
+field of view, filled from EXIF where it can be), which parameters the fit may change, and how sure the rough camera
+is (the core's ``FitOptions`` prior sigmas).
+
+Stored with the project in ``state.settings["fit"]``::
+
+    {"free": ["x", "y", "z", "heading", "pitch", "roll", "fov"], "position_sigma_m": 50.0, "angle_sigma_deg": null,
+     "fov_sigma_deg": null, "focal_mm": 30.0, "sensor_width_mm": 22.2, "focal_35mm": null}
+
+:func:`fit_arguments` turns it into what ``engine.fit_and_render`` passes to the fit.
+
+>>> fit_arguments({})
+(None, None)
+>>> free, options = fit_arguments({"fit": {"free": ["heading", "pitch", "roll", "fov"], "position_sigma_m": 20}})
+>>> free, options.position_sigma_m, options.angle_sigma_deg
+(('heading', 'pitch', 'roll', 'fov'), 20.0, None)
+"""
+
+from __future__ import annotations
+
+from typing import Dict, Optional, Sequence, Tuple
+
+from qgis.gui import QgsCollapsibleGroupBox
+from qgis.PyQt.QtCore import QCoreApplication
+from qgis.PyQt.QtWidgets import (QCheckBox, QDoubleSpinBox, QGridLayout, QHBoxLayout, QLabel, QPushButton,
+                                 QVBoxLayout, QWidget)
+
+from ..adapters.exif import lens_fov
+from ..core.fit import DEFAULT_FREE, FitOptions
+
+__all__ = ["SETTINGS_KEY", "FREE_GROUPS", "fit_arguments", "FitSettingsPanel", "LensPanel"]
+
+SETTINGS_KEY = "fit"
+#: The toggles of the dock (label, camera parameter names): checked = the fit may change them.
+FREE_GROUPS: Tuple[Tuple[str, Tuple[str, ...]], ...] = (
+    ("position", ("x", "y")), ("height", ("z",)), ("heading", ("heading",)), ("pitch", ("pitch",)),
+    ("roll", ("roll",)), ("field of view", ("fov",)), ("principal point", ("cx", "cy")), ("k1", ("k1",)))
+_SIGMAS = (("position_sigma_m", "Position ±", " m", 0.0, 100000.0, 10.0),
+           ("angle_sigma_deg", "Angles ±", "°", 0.0, 90.0, 0.5),
+           ("fov_sigma_deg", "Field of view ±", "°", 0.0, 90.0, 0.5))
+
+
+def tr(text: str) -> str:
+    return QCoreApplication.translate("MonoplotFitSettings", text)
+
+
+def fit_arguments(settings: Dict) -> Tuple[Optional[Tuple[str, ...]], Optional[FitOptions]]:
+    """(free parameter names or None for the core's default, FitOptions or None) from the dock's settings."""
+    fit = (settings or {}).get(SETTINGS_KEY) or {}
+    free = tuple(fit["free"]) if fit.get("free") is not None else None
+    sigmas = {name: float(fit[name]) for name, *_ in _SIGMAS if fit.get(name)}
+    return free, (FitOptions(**sigmas) if sigmas else None)
+
+
+class _Panel:
+    """Reads and writes ``state.settings["fit"]`` of the dock's controller."""
+
+    def _fit(self) -> Dict:
+        return dict(self.controller.state.settings.get(SETTINGS_KEY) or {})
+
+    def _store(self, **values) -> None:
+        fit = self._fit()
+        fit.update(values)
+        self.controller.set_setting(SETTINGS_KEY, fit)
+
+
+class FitSettingsPanel(QgsCollapsibleGroupBox, _Panel):
+    """"Fit settings" in the fit tab: a fix / free toggle per parameter and the rough camera's uncertainty."""
+
+    def __init__(self, controller, parent=None):
+        super().__init__(tr("Fit settings: what the fit may change, how sure the rough camera is"), parent)
+        self.controller = controller
+        self.setObjectName("MonoplotFitSettings")
+        layout = QVBoxLayout(self)
+        grid = QGridLayout()
+        self.free_checks: Dict[str, QCheckBox] = {}
+        for i, (label, _) in enumerate(FREE_GROUPS):
+            box = QCheckBox(tr(label))
+            box.setToolTip(tr("Checked: the fit adjusts it; unchecked: it keeps the rough camera's value."))
+            box.toggled.connect(self._free_toggled)
+            self.free_checks[label] = box
+            grid.addWidget(box, i // 4, i % 4)
+        layout.addWidget(QLabel(tr("Free parameters (unchecked = fixed at the rough camera's value):")))
+        layout.addLayout(grid)
+        row = QHBoxLayout()
+        self.sigma_spins: Dict[str, QDoubleSpinBox] = {}
+        for name, label, suffix, low, high, step in _SIGMAS:
+            spin = QDoubleSpinBox()
+            spin.setRange(low, high)
+            spin.setSingleStep(step)
+            spin.setDecimals(1)
+            spin.setSuffix(suffix)
+            spin.setSpecialValueText(tr("auto"))  # 0 = the fit's default
+            spin.setToolTip(tr("One standard deviation of the rough camera; auto = the fit's default."))
+            spin.valueChanged.connect(self._sigma_changed)
+            self.sigma_spins[name] = spin
+            row.addWidget(QLabel(tr(label)))
+            row.addWidget(spin)
+        layout.addWidget(QLabel(tr("Rough camera's uncertainty:")))
+        layout.addLayout(row)
+        self.setCollapsed(True)
+        self._updating = False
+        controller.photoChanged.connect(self.refresh)
+        controller.demChanged.connect(self.refresh)
+        self.refresh()
+
+    def free(self) -> Tuple[str, ...]:
+        names = {n for label, names in FREE_GROUPS if self.free_checks[label].isChecked() for n in names}
+        from ..core.camera import PARAMETER_NAMES
+
+        return tuple(n for n in PARAMETER_NAMES if n in names)
+
+    def set_free(self, names: Sequence[str]) -> None:
+        for label, group in FREE_GROUPS:
+            self.free_checks[label].setChecked(all(n in names for n in group))
+
+    def refresh(self) -> None:
+        """Show the settings stored in the project (defaults when it has none)."""
+        self._updating = True
+        try:
+            fit = self._fit()
+            free = fit.get("free")
+            self.set_free(DEFAULT_FREE if free is None else free)
+            for name, spin in self.sigma_spins.items():
+                spin.setValue(float(fit.get(name) or 0.0))
+        finally:
+            self._updating = False
+
+    def _free_toggled(self) -> None:
+        if not self._updating:
+            free = self.free()
+            self._store(free=None if set(free) == set(DEFAULT_FREE) else list(free))
+
+    def _sigma_changed(self) -> None:
+        if not self._updating:
+            self._store(**{name: (spin.value() or None) for name, spin in self.sigma_spins.items()})
+
+
+class LensPanel(QWidget, _Panel):
+    """Lens row of the camera tab: focal length and sensor width (or a 35 mm equivalent) -> the field of view box.
+
+    Filled from the photo's EXIF tags when it has them; when EXIF has a focal length it cannot use (no sensor size,
+    no 35 mm equivalent), the note says so and asks for the sensor width."""
+
+    def __init__(self, controller, fov_spin, parent=None):
+        super().__init__(parent)
+        self.controller = controller
+        self.fov_spin = fov_spin
+        self.setObjectName("MonoplotLens")
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        row = QHBoxLayout()
+        self.focal_spin = self._spin(0.0, 5000.0, " mm", tr("Focal length of the lens (as printed on it, or EXIF)"))
+        self.sensor_spin = self._spin(0.0, 500.0, " mm", tr("Width of the sensor or film (e.g. 22.2 mm APS-C, "
+                                                            "36 mm full frame)"))
+        self.equivalent_check = QCheckBox(tr("35 mm equiv."))
+        self.equivalent_check.setToolTip(tr("The focal length is a 35 mm equivalent (no sensor width needed)"))
+        self.apply_button = QPushButton(tr("Set field of view"))
+        for w in (QLabel(tr("Lens")), self.focal_spin, QLabel(tr("on sensor")), self.sensor_spin,
+                  self.equivalent_check, self.apply_button):
+            row.addWidget(w)
+        row.addStretch(1)
+        layout.addLayout(row)
+        self.note = QLabel("")
+        self.note.setWordWrap(True)
+        self.note.setObjectName("MonoplotLensNote")
+        layout.addWidget(self.note)
+        self.equivalent_check.toggled.connect(lambda on: self.sensor_spin.setEnabled(not on))
+        self.apply_button.clicked.connect(self.apply)
+        controller.photoChanged.connect(self.from_exif)
+        self.from_exif()
+
+    @staticmethod
+    def _spin(low, high, suffix, tip) -> QDoubleSpinBox:
+        spin = QDoubleSpinBox()
+        spin.setRange(low, high)
+        spin.setDecimals(1)
+        spin.setSuffix(suffix)
+        spin.setSpecialValueText("—")
+        spin.setToolTip(tip)
+        return spin
+
+    def fov(self) -> Optional[float]:
+        """Horizontal field of view from the boxes, or None when they are not enough."""
+        focal = self.focal_spin.value()
+        size = self.controller.photo_size
+        landscape = size is None or size[0] >= size[1]
+        try:
+            if self.equivalent_check.isChecked():
+                return lens_fov(0.0, focal_35mm=focal, landscape=landscape) if focal > 0 else None
+            return lens_fov(focal, self.sensor_spin.value())
+        except ValueError:
+            return None
+
+    def apply(self) -> Optional[float]:
+        """Put the lens's field of view into the camera tab's box (which updates the rough camera)."""
+        fov = self.fov()
+        if fov is None:
+            self.note.setText(tr("Enter the focal length and the sensor width (or tick 35 mm equiv.)."))
+            return None
+        self.fov_spin.setValue(fov)
+        self._store(focal_mm=self.focal_spin.value(), sensor_width_mm=self.sensor_spin.value() or None,
+                    focal_35mm=self.focal_spin.value() if self.equivalent_check.isChecked() else None)
+        self.note.setText(tr("Field of view {0:.1f}° from the lens.").format(fov))
+        return fov
+
+    def from_exif(self) -> None:
+        """Fill the boxes from the project's stored lens, else from the photo's EXIF, and say what EXIF lacks."""
+        fit = self._fit()
+        self.note.setText("")
+        if fit.get("focal_mm"):
+            self.focal_spin.setValue(float(fit["focal_mm"]))
+            self.sensor_spin.setValue(float(fit.get("sensor_width_mm") or 0.0))
+            self.equivalent_check.setChecked(bool(fit.get("focal_35mm")))
+            return
+        exif = self.controller.exif_lens()
+        if exif is None:
+            self.focal_spin.setValue(0.0)
+            self.sensor_spin.setValue(0.0)
+            self.equivalent_check.setChecked(False)
+            return
+        if exif.focal_35mm:
+            self.focal_spin.setValue(exif.focal_35mm)
+            self.equivalent_check.setChecked(True)
+            self.note.setText(tr("EXIF: {0:g} mm (35 mm equivalent) → field of view {1:.1f}°.").format(
+                exif.focal_35mm, exif.fov))
+        elif exif.focal_mm:
+            self.focal_spin.setValue(exif.focal_mm)
+            self.equivalent_check.setChecked(False)
+            self.sensor_spin.setValue(exif.sensor_width_mm or 0.0)
+            if exif.fov is not None:
+                self.note.setText(tr("EXIF: {0:g} mm on a {1:.1f} mm wide sensor → field of view {2:.1f}°.").format(
+                    exif.focal_mm, exif.sensor_width_mm, exif.fov))
+            else:
+                self.note.setText(tr("EXIF gives a {0:g} mm focal length but no sensor size and no 35 mm "
+                                     "equivalent: enter the sensor width, then Set field of view.").format(
+                                         exif.focal_mm))

@@ -1,0 +1,130 @@
+"""What the user knows, in the real dock: lens -> field of view (EXIF where it can), fix / free toggles and the
+prior's uncertainty passed to a real fit, a terrain-derived pitch for a drawn camera."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from osgeo import gdal
+from qgis.core import QgsProject
+
+from monoplot_plugin.adapters.exif import read_exif_prior
+from monoplot_plugin.gui.fit_settings import fit_arguments
+from monoplot_plugin.state import MAP, PHOTO, Point, replace_suggestions
+
+
+def _jpeg_with_exif(path, size, **tags):
+    """A real JPEG file of ``size`` = (W, H) with the given EXIF tags (GDAL's JPEG driver writes them)."""
+    w, h = size
+    mem = gdal.GetDriverByName("MEM").Create("", w, h, 3)
+    for b in range(3):
+        mem.GetRasterBand(b + 1).WriteArray(np.full((h, w), 40 * (b + 1), np.uint8))
+    for key, value in tags.items():
+        mem.SetMetadataItem("EXIF_" + key, value)
+    gdal.GetDriverByName("JPEG").CreateCopy(str(path), mem, options=["WRITE_EXIF_METADATA=YES"])
+    return str(path)
+
+
+def _load(dock, photo_path):
+    dock.photoFile.setFilePath(photo_path)
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    assert dock.controller.image is not None and dock.controller.dem is not None
+
+
+def test_lens_entry_sets_the_field_of_view(dock, scene):
+    _load(dock, scene.photo_path)
+    c = dock.controller
+    c.set_prior(scene.prior)
+    lens = dock.lens_panel
+    lens.focal_spin.setValue(30.0)
+    lens.sensor_spin.setValue(22.2)
+    assert lens.apply() == pytest.approx(40.6, abs=0.05)  # the issue's 30 mm lens on a 22.2 mm sensor
+    assert dock.fovSpin.value() == pytest.approx(40.6, abs=0.05) and c.prior.fov == pytest.approx(40.6, abs=0.05)
+    lens.equivalent_check.setChecked(True)
+    lens.focal_spin.setValue(28.0)
+    assert lens.apply() == pytest.approx(65.5, abs=0.05) and not lens.sensor_spin.isEnabled()
+    assert c.state.settings["fit"]["focal_35mm"] == 28.0
+
+
+def test_exif_focal_length_without_sensor_is_said_not_ignored(dock, tmp_path):
+    path = _jpeg_with_exif(tmp_path / "lens_only.jpg", (480, 320), FocalLength="(30)")
+    _load(dock, path)
+    lens = dock.lens_panel
+    assert lens.focal_spin.value() == 30.0
+    assert "no sensor size" in lens.note.text()
+    lens.sensor_spin.setValue(22.2)
+    assert lens.apply() == pytest.approx(40.6, abs=0.05)
+
+
+def test_exif_focal_plane_resolution_gives_the_field_of_view(dock, tmp_path):
+    # 30 mm; 480 px over a 22.2 mm wide sensor: 21.62 px/mm (unit 4 = mm)
+    path = _jpeg_with_exif(tmp_path / "lens_plane.jpg", (480, 320), FocalLength="(30)",
+                           FocalPlaneXResolution=f"({480 / 22.2:.6f})", FocalPlaneResolutionUnit="4")
+    exif = read_exif_prior(path, (480, 320))
+    assert exif.sensor_width_mm == pytest.approx(22.2, abs=0.01) and exif.fov == pytest.approx(40.6, abs=0.05)
+    _load(dock, path)
+    assert "22.2 mm" in dock.lens_panel.note.text() and dock.fovSpin.value() == pytest.approx(40.6, abs=0.05)
+
+
+def _scene_points(dock, scene):
+    c = dock.controller
+    c.stack.push(replace_suggestions(c.state, PHOTO, [Point.new(PHOTO, u, v) for u, v in scene.uv]))
+    c.stack.push(replace_suggestions(c.state, MAP, [Point.new(MAP, x, y, z) for x, y, z in scene.xyz]))
+    everywhere = (-1e12, -1e12, 1e12, 1e12)
+    c.accept_all_in(PHOTO, everywhere)
+    c.accept_all_in(MAP, everywhere)
+
+
+def test_fixed_position_and_height_are_kept_by_the_fit(dock, scene, qtbot):
+    _load(dock, scene.photo_path)
+    c = dock.controller
+    _scene_points(dock, scene)
+    # the known position (the true one), heading and field of view wrong
+    start = scene.camera.with_parameters(heading=4.0, fov=55.0)
+    c.set_prior(start)
+    panel = dock.fit_settings
+    panel.free_checks["position"].setChecked(False)
+    panel.free_checks["height"].setChecked(False)
+    panel.sigma_spins["angle_sigma_deg"].setValue(6.0)
+    free, options = fit_arguments(c.state.settings)
+    assert set(free) == {"heading", "pitch", "roll", "fov"} and options.angle_sigma_deg == 6.0
+    assert c.fit()
+    with qtbot.waitSignal(c.taskFinished, timeout=120000) as blocker:
+        pass
+    assert blocker.args[0].ok, blocker.args[0].reason
+    fitted = c.fitted
+    assert fitted.position == pytest.approx(start.position, abs=1e-6)  # fixed: not moved at all
+    assert set(c.state.fit_info["free"]) <= {"heading", "pitch", "roll", "fov"}
+    assert abs(fitted.heading - scene.camera.heading) < 1.0 and abs(fitted.fov - scene.camera.fov) < 1.0
+
+
+def test_settings_come_back_with_the_project(dock, scene, qtbot, tmp_path):
+    _load(dock, scene.photo_path)
+    panel = dock.fit_settings
+    panel.free_checks["k1"].setChecked(True)
+    panel.sigma_spins["position_sigma_m"].setValue(25.0)
+    path = str(tmp_path / "settings.qgz")
+    assert QgsProject.instance().write(path)
+    QgsProject.instance().clear()
+    assert not panel.free_checks["k1"].isChecked() and panel.sigma_spins["position_sigma_m"].value() == 0.0
+    assert QgsProject.instance().read(path)
+    qtbot.waitUntil(lambda: dock.controller.image is not None, timeout=5000)
+    assert panel.free_checks["k1"].isChecked() and panel.sigma_spins["position_sigma_m"].value() == 25.0
+    assert "k1" in fit_arguments(dock.controller.state.settings)[0]
+
+
+def test_drawn_camera_gets_a_pitch_from_the_terrain(dock, scene):
+    _load(dock, scene.photo_path)
+    c = dock.controller
+    x, y = scene.camera.position[:2]
+    assert dock.pitchSpin.value() == 0.0
+    cam = c.prior_from_map(x, y, 0.0, 60.0, 0.0, 2.0)
+    assert cam is not None and cam.pitch != 0.0 and -60.0 <= cam.pitch <= 30.0
+    assert dock.pitchSpin.value() == pytest.approx(cam.pitch, abs=0.05)  # the box shows it, editable
+    # the skyline lies in the upper part of the picture: terrain below it, sky above
+    from monoplot_plugin.core.render import render_dem
+
+    view = render_dem(cam.scaled(0.25), scene.dem)
+    rows_with_sky = np.isnan(view.depth).any(axis=1)
+    assert rows_with_sky[: view.depth.shape[0] // 3].any() and not rows_with_sky[-view.depth.shape[0] // 3:].all()
+    assert c.prior_from_map(x, y, 0.0, 60.0, -3.0, 2.0).pitch == -3.0  # a given pitch is kept
