@@ -8,7 +8,6 @@ import numpy as np
 import pytest
 from qgis.core import QgsProject, QgsRasterLayer
 
-from monoplot_plugin.core.camera import Camera
 from monoplot_plugin.gui import io_actions
 from monoplot_plugin.state import ACCEPTED, CHECK, MAP, PHOTO
 from monoplot_plugin.workflow.points_csv import read_points_csv, write_points_csv
