@@ -23,6 +23,7 @@ from qgis.PyQt.QtWidgets import (QAction, QDockWidget, QFileDialog, QHeaderView,
 from .. import PLUGIN_DIR
 from ..adapters import layers as camera_layers
 from ..state import MAP, PHOTO
+from .chips import ChipView
 from .controller import MonoplotController
 from .fit_settings import FitSettingsPanel, LensPanel
 from .io_actions import IoActions
@@ -151,6 +152,8 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.lens_panel = LensPanel(c, self.fovSpin, self.cameraTab)  # what the user knows (gui/fit_settings.py)
         self.cameraTabLayout.insertWidget(self.cameraTabLayout.indexOf(self.cameraSummary), self.lens_panel)
         self.fit_settings = FitSettingsPanel(c, self.fitScrollContents)
+        self.chips = ChipView(c, self.pointsTab)  # photo | DEM chips of the selected point (gui/chips.py)
+        self.pointsTabLayout.insertWidget(self.pointsTabLayout.indexOf(self.pointTable), self.chips)
         self.fitTabLayout.insertWidget(self.fitTabLayout.indexOf(self.resultLabel) + 1, self.fit_settings)
         self._fit_minimum_width()
         if self.project.readEntry("monoplot", "/state", "")[1] and c.restore() and c.fitted is not None:
@@ -496,6 +499,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self._unloaded = True
         c = self.controller
         c.cancel()
+        self.chips.unload()
         c.save()
         c.detach()
         if self.output_tools is not None:

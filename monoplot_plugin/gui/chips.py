@@ -1,0 +1,245 @@
+"""Judge a pair at a glance: for the selected point, a zoomed chip of the photo and a chip of the DEM rendered from
+the current camera, side by side, over the same photo pixels, with the partner's position marked.
+
+A photo point is shown where it is; a map point where the current camera projects it. On the DEM chip the map
+points (suggestions small, the partner large) are drawn where the camera projects them; on the photo chip the
+partner of a map point. The DEM view is the fitted camera's overlay when there is one, else a rendering of the rough
+camera made once per camera in a task (a selection never waits for a z-buffer).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import List, Optional, Tuple
+
+import numpy as np
+from qgis.PyQt.QtCore import QCoreApplication, QPointF, QRectF, Qt
+from qgis.PyQt.QtGui import QColor, QImage, QPainter, QPen, QPixmap
+from qgis.PyQt.QtWidgets import QHBoxLayout, QLabel, QSizePolicy, QVBoxLayout, QWidget
+
+from ..adapters.photo import array_to_qimage
+from ..core.camera import Camera
+from ..state import MAP, PHOTO
+from .tasks import FunctionTask, start_task
+
+__all__ = ["ChipView", "chip_radius", "render_view"]
+
+#: side of each chip on screen (pixels)
+CHIP_PX = 150
+#: most pixels of the rough camera's rendering (chips need detail, not a full-size z-buffer)
+VIEW_MAX_PIXELS = 600_000
+
+
+def tr(text: str) -> str:
+    return QCoreApplication.translate("MonoplotChips", text)
+
+
+def chip_radius(width: int) -> float:
+    """Half the side (photo pixels) of the region a chip shows: a 24th of the photo width, at least 32 px.
+
+    >>> chip_radius(1024), chip_radius(4290)
+    (42.666666666666664, 178.75)
+    """
+    return max(32.0, width / 24.0)
+
+
+def render_view(camera: Camera, dem) -> np.ndarray:
+    """(h, w, 4) uint8 shaded relief of ``dem`` seen by ``camera`` at up to :data:`VIEW_MAX_PIXELS` (the dock's
+    overlay colours, :func:`.engine.colorize_relief`)."""
+    from ..core.render import render_dem
+    from ..core.xyz import compute_xyz_full
+    from .engine import colorize_relief
+
+    w, h = camera.image_size
+    small = camera.scaled(min(1.0, math.sqrt(VIEW_MAX_PIXELS / float(w * h))))
+    res = compute_xyz_full(small, dem, visibility=False)
+    return colorize_relief(np.asarray(render_dem(small, dem, result=res).shade), res.xyz)
+
+
+class ChipView(QWidget):
+    """Two chips (photo | DEM from the camera) of the selected point, under the dock's point buttons."""
+
+    def __init__(self, controller, parent=None):
+        super().__init__(parent)
+        self.controller = c = controller
+        self.setObjectName("MonoplotChips")
+        outer = QVBoxLayout(self)
+        outer.setContentsMargins(0, 0, 0, 0)
+        row = QHBoxLayout()
+        self.photo_chip, self.dem_chip = QLabel(), QLabel()
+        for label, tip in ((self.photo_chip, tr("The photo around the selected point")),
+                           (self.dem_chip, tr("The DEM rendered from the current camera, same pixels"))):
+            label.setFixedSize(CHIP_PX, CHIP_PX)
+            label.setAlignment(Qt.AlignmentFlag.AlignCenter)
+            label.setToolTip(tip)
+            label.setStyleSheet("background: #222; color: #ccc;")
+            row.addWidget(label)
+        self.caption = QLabel()
+        self.caption.setWordWrap(True)
+        self.caption.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Preferred)
+        row.addWidget(self.caption, 1)
+        outer.addLayout(row)
+        self._view: Optional[Tuple[dict, QImage]] = None  # (camera dict, rendering) of the rough camera
+        self._tasks: List[FunctionTask] = []
+        self._selected: Tuple[str, str] = ("", "")
+        c.selectionChanged.connect(self.show_point)
+        c.cameraChanged.connect(self._camera_changed)
+        c.pointsChanged.connect(lambda changed: self.refresh())
+        self.setVisible(False)
+
+    # --- what to show -------------------------------------------------------------------------------------------
+    def show_point(self, space: str, pid: str) -> None:
+        self._selected = (space, pid)
+        self.refresh()
+
+    def refresh(self) -> None:
+        space, pid = self._selected
+        c = self.controller
+        p = c.state.points.get(pid) if pid else None
+        if p is None or c.image is None:
+            self.setVisible(False)
+            return
+        self.setVisible(True)
+        camera = c.camera()
+        centre = self._centre(p, camera)
+        if centre is None:
+            self.photo_chip.setText(tr("No camera:\nnot in the photo"))
+            self.dem_chip.setText(tr("Give a rough\ncamera first"))
+            self.caption.setText(tr("A map point shows on the photo once there is a camera."))
+            return
+        partner = c.state.points.get(c.state.partner(pid) or "")
+        photo_marks, dem_marks = self._marks(p, partner, camera)
+        radius = chip_radius(c.image.width())
+        self.photo_chip.setPixmap(self._chip(c.image, 1.0, centre, radius, photo_marks))
+        view = self._dem_view(camera)
+        if view is None:
+            self.dem_chip.setText(tr("Rendering…") if camera is not None else tr("No camera yet"))
+        else:
+            self.dem_chip.setPixmap(self._chip(view, view.width() / float(c.image.width()), centre, radius,
+                                               dem_marks))
+        kind = tr("photo point") if space == PHOTO else tr("map point")
+        text = tr("{0} {1}").format(kind, p.label or "")
+        if partner is not None:
+            text += tr(" · paired (cyan)")
+        if camera is None:
+            text += tr(" · no camera: no DEM view")
+        else:
+            text += tr(" · DEM from the {0} camera").format(tr("fitted") if c.fitted is not None else tr("rough"))
+        self.caption.setText(text)
+
+    def _centre(self, p, camera) -> Optional[Tuple[float, float]]:
+        if p.space == PHOTO:
+            return p.x, p.y
+        if camera is None:
+            return None
+        uv = self._project(camera, [p])
+        return None if uv is None or not np.isfinite(uv[0]).all() else (float(uv[0, 0]), float(uv[0, 1]))
+
+    def _project(self, camera: Camera, points) -> Optional[np.ndarray]:
+        c = self.controller
+        xyz = np.array([(q.x, q.y, q.z if q.z is not None else (float(c.dem.sample(q.x, q.y)) if c.dem is not None
+                                                                 else np.nan)) for q in points], dtype=float)
+        if not len(xyz):
+            return None
+        uv, depth = camera.project_with_depth(xyz)
+        uv = np.asarray(uv, dtype=float)
+        uv[~(np.asarray(depth) > 0)] = np.nan
+        return uv
+
+    def _marks(self, p, partner, camera):
+        """(photo chip marks, DEM chip marks): lists of (u, v, kind) with kind "self", "partner" or "point"."""
+        photo, dem = [], []
+        if p.space == PHOTO:
+            photo.append((p.x, p.y, "self"))
+            dem.append((p.x, p.y, "self"))
+        else:
+            uv = self._project(camera, [p])
+            photo.append((uv[0, 0], uv[0, 1], "self"))
+            dem.append((uv[0, 0], uv[0, 1], "self"))
+        if partner is not None:
+            if partner.space == PHOTO:
+                photo.append((partner.x, partner.y, "partner"))
+            elif camera is not None:
+                uv = self._project(camera, [partner])
+                dem.append((uv[0, 0], uv[0, 1], "partner"))
+        if camera is not None:  # the map points near it, where the camera sees them
+            near = [q for q in self.controller.state.in_space(MAP) if q.id != p.id and
+                    (partner is None or q.id != partner.id) and q.status != "rejected"]
+            uv = self._project(camera, near) if near else None
+            if uv is not None:
+                dem.extend((u, v, "point") for u, v in uv if np.isfinite(u) and np.isfinite(v))
+        return photo, dem
+
+    # --- the DEM view -----------------------------------------------------------------------------------------
+    def _dem_view(self, camera: Optional[Camera]) -> Optional[QImage]:
+        c = self.controller
+        if camera is None or c.dem is None:
+            return None
+        if c.fitted is not None and c.overlay is not None:
+            return c.overlay
+        key = camera.to_dict()
+        if self._view is not None and self._view[0] == key:
+            return self._view[1]
+        if not any(getattr(t, "monoplot_key", None) == key for t in self._tasks):
+            self._start_render(camera, c.dem, key)
+        return None
+
+    def _start_render(self, camera: Camera, dem, key: dict) -> None:
+        def done(result) -> None:
+            self._tasks.remove(task)
+            if result.ok:
+                self._view = (key, array_to_qimage(result.value))
+                self.refresh()
+
+        task = FunctionTask(tr("Monoplot: DEM view for the chips"),
+                            lambda progress, is_canceled: render_view(camera, dem), done)
+        task.monoplot_key = key
+        self._tasks.append(task)
+        start_task(task)
+
+    def _camera_changed(self) -> None:
+        if not self.isHidden():
+            self.refresh()
+
+    # --- drawing ----------------------------------------------------------------------------------------------
+    @staticmethod
+    def _chip(image: QImage, scale: float, centre, radius: float, marks) -> QPixmap:
+        """The square of ``image`` (``scale`` image pixels per photo pixel) around photo pixel ``centre``, zoomed to
+        the chip, with the marks (photo pixels) drawn on it."""
+        u, v = centre
+        src = QRectF((u - radius) * scale, (v - radius) * scale, 2 * radius * scale, 2 * radius * scale)
+        pixmap = QPixmap(CHIP_PX, CHIP_PX)
+        pixmap.fill(QColor(34, 34, 34))
+        painter = QPainter(pixmap)
+        painter.setRenderHint(QPainter.RenderHint.SmoothPixmapTransform)
+        painter.drawImage(QRectF(0, 0, CHIP_PX, CHIP_PX), image, src)
+        zoom = CHIP_PX / (2.0 * radius)
+
+        def at(pu, pv) -> QPointF:
+            return QPointF((pu - (u - radius)) * zoom, (pv - (v - radius)) * zoom)
+
+        for pu, pv, kind in sorted(marks, key=lambda m: m[2] != "point"):  # small ones below
+            if not (np.isfinite(pu) and np.isfinite(pv)):
+                continue
+            q = at(pu, pv)
+            if not (-10 <= q.x() <= CHIP_PX + 10 and -10 <= q.y() <= CHIP_PX + 10):
+                continue
+            if kind == "point":
+                painter.setPen(QPen(QColor(255, 220, 0), 1.5))
+                painter.drawEllipse(q, 2.5, 2.5)
+                continue
+            colour = QColor(255, 60, 60) if kind == "self" else QColor(0, 230, 255)
+            painter.setPen(QPen(QColor(0, 0, 0, 160), 4.0))
+            painter.drawLine(q + QPointF(-9, 0), q + QPointF(9, 0))
+            painter.drawLine(q + QPointF(0, -9), q + QPointF(0, 9))
+            painter.setPen(QPen(colour, 2.0))
+            painter.drawLine(q + QPointF(-9, 0), q + QPointF(9, 0))
+            painter.drawLine(q + QPointF(0, -9), q + QPointF(0, 9))
+            if kind == "partner":
+                painter.drawEllipse(q, 6.0, 6.0)
+        painter.end()
+        return pixmap
+
+    def unload(self) -> None:
+        for task in self._tasks:
+            task.cancel()

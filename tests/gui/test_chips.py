@@ -1,0 +1,73 @@
+"""The photo | DEM chips of the selected point in the real dock: where they look, and the partner's mark."""
+
+from __future__ import annotations
+
+import numpy as np
+from qgis.core import QgsProject
+
+from monoplot_plugin.gui.chips import CHIP_PX, chip_radius
+from monoplot_plugin.state import MAP, PHOTO, Point, add_points, link
+
+
+def _load(dock, scene):
+    dock.photoFile.setFilePath(scene.photo_path)
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+
+
+def _pixels(pixmap, rgb, tol=30):
+    """(row, col) arrays of the chip's pixels of colour ``rgb``."""
+    img = pixmap.toImage()
+    found = [(y, x) for y in range(img.height()) for x in range(img.width())
+             if all(abs(a - b) <= tol for a, b in zip(img.pixelColor(x, y).getRgb()[:3], rgb))]
+    return np.array(found, dtype=float).reshape(-1, 2)
+
+
+def test_chips_show_the_selected_photo_point_and_its_partner(dock, scene, qtbot):
+    _load(dock, scene)
+    c = dock.controller
+    c.set_fitted(scene.camera)  # the DEM view is the fitted camera's overlay
+    u, v = scene.uv[3]
+    # the partner lies 12 px to the right of the photo point under the camera: a wrong pair
+    a = Point.new(PHOTO, u, v)
+    from monoplot_plugin.core.transforms import photo_points_to_map
+
+    ground = photo_points_to_map(np.array([[u + 12.0, v]]), scene.camera, scene.dem)[0][0]
+    assert np.isfinite(ground).all()
+    b = Point.new(MAP, ground[0], ground[1], ground[2])
+    c.stack.push(add_points(c.state, [a, b]))
+    c.stack.push(link(c.state, a.id, b.id))
+    assert dock.chips.isHidden()
+    c.select(PHOTO, a.id)
+    assert not dock.chips.isHidden()
+    assert not dock.chips.photo_chip.pixmap().isNull() and not dock.chips.dem_chip.pixmap().isNull()
+    zoom = CHIP_PX / (2 * chip_radius(scene.camera.width))
+    red = _pixels(dock.chips.dem_chip.pixmap(), (255, 60, 60))
+    cyan = _pixels(dock.chips.dem_chip.pixmap(), (0, 230, 255))
+    assert len(red) and len(cyan)
+    assert abs(red[:, 1].mean() - CHIP_PX / 2) < 3 and abs(red[:, 0].mean() - CHIP_PX / 2) < 3  # the point: centre
+    assert abs(cyan[:, 1].mean() - (CHIP_PX / 2 + 12 * zoom)) < 4  # the partner where the camera puts it
+    assert abs(cyan[:, 0].mean() - CHIP_PX / 2) < 4
+    assert "paired" in dock.chips.caption.text()
+    # the photo chip is the photo, zoomed: its corner pixel is the photo's pixel there
+    img = dock.chips.photo_chip.pixmap().toImage()
+    r = chip_radius(scene.camera.width)
+    photo_px = c.image.pixelColor(int(u + r * 0.8), int(v + r * 0.8)).getRgb()[:3]
+    chip_px = img.pixelColor(int(CHIP_PX * 0.9), int(CHIP_PX * 0.9)).getRgb()[:3]
+    assert max(abs(p - q) for p, q in zip(photo_px, chip_px)) < 40
+
+
+def test_map_point_with_the_rough_camera_renders_in_a_task(dock, scene, qtbot):
+    _load(dock, scene)
+    c = dock.controller
+    b = Point.new(MAP, *scene.xyz[5])
+    c.stack.push(add_points(c.state, [b]))
+    c.select(MAP, b.id)
+    assert "camera" in dock.chips.dem_chip.text().lower()  # no camera: it says so
+    c.set_prior(scene.prior)
+    qtbot.waitUntil(lambda: dock.chips.dem_chip.pixmap() is not None and not dock.chips.dem_chip.pixmap().isNull(),
+                    timeout=30000)
+    red = _pixels(dock.chips.dem_chip.pixmap(), (255, 60, 60))
+    assert len(red) and abs(red[:, 1].mean() - CHIP_PX / 2) < 3  # the map point at the centre of its projection
+    assert "rough" in dock.chips.caption.text()
+    c.select(MAP, "")
+    assert dock.chips.isHidden()
