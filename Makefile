@@ -88,6 +88,7 @@ qgis: setup
 bench: setup
 	$(PY) bench/run_bench.py
 	$(PY) bench/bench_fit.py
+	$(PY) bench/bench_dock.py
 
 # Camera fit on the real Aletsch case (../shared/data/aletsch), smapshot's 100 real small GCP sets and the synthetic
 # suite (232 generated scenes): one JSON line per case or stratum.

@@ -13,9 +13,9 @@ import math
 from typing import List, Optional, Tuple
 
 import numpy as np
-from qgis.PyQt.QtCore import QCoreApplication, QPointF, QRectF, Qt
+from qgis.PyQt.QtCore import QCoreApplication, QEvent, QPointF, QRectF, Qt
 from qgis.PyQt.QtGui import QColor, QImage, QPainter, QPen, QPixmap
-from qgis.PyQt.QtWidgets import QHBoxLayout, QLabel, QSizePolicy, QVBoxLayout, QWidget
+from qgis.PyQt.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 
 from ..adapters.photo import array_to_qimage
 from ..core.camera import Camera
@@ -25,7 +25,7 @@ from .tasks import FunctionTask, start_task
 __all__ = ["ChipView", "chip_radius", "render_view"]
 
 #: side of each chip on screen (pixels)
-CHIP_PX = 150
+CHIP_PX = 120
 #: most pixels of the rough camera's rendering (chips need detail, not a full-size z-buffer)
 VIEW_MAX_PIXELS = 600_000
 
@@ -57,15 +57,21 @@ def render_view(camera: Camera, dem) -> np.ndarray:
 
 
 class ChipView(QWidget):
-    """Two chips (photo | DEM from the camera) of the selected point, under the dock's point buttons."""
+    """Two chips (photo | DEM from the camera) of the selected point, floating in a corner of ``parent`` (the photo
+    canvas), shown while a point is selected."""
 
     def __init__(self, controller, parent=None):
         super().__init__(parent)
         self.controller = c = controller
         self.setObjectName("MonoplotChips")
+        self.setAttribute(Qt.WidgetAttribute.WA_StyledBackground, True)
+        self.setStyleSheet("#MonoplotChips { background: rgba(20, 20, 20, 215); border-radius: 4px; }"
+                           "#MonoplotChips QLabel { color: #eee; }")
         outer = QVBoxLayout(self)
-        outer.setContentsMargins(0, 0, 0, 0)
+        outer.setContentsMargins(4, 4, 4, 4)
+        outer.setSpacing(3)
         row = QHBoxLayout()
+        row.setSpacing(4)
         self.photo_chip, self.dem_chip = QLabel(), QLabel()
         for label, tip in ((self.photo_chip, tr("The photo around the selected point")),
                            (self.dem_chip, tr("The DEM rendered from the current camera, same pixels"))):
@@ -74,18 +80,32 @@ class ChipView(QWidget):
             label.setToolTip(tip)
             label.setStyleSheet("background: #222; color: #ccc;")
             row.addWidget(label)
+        outer.addLayout(row)
         self.caption = QLabel()
         self.caption.setWordWrap(True)
-        self.caption.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Preferred)
-        row.addWidget(self.caption, 1)
-        outer.addLayout(row)
+        self.caption.setFixedWidth(2 * CHIP_PX + 4)
+        outer.addWidget(self.caption)
         self._view: Optional[Tuple[dict, QImage]] = None  # (camera dict, rendering) of the rough camera
         self._tasks: List[FunctionTask] = []
         self._selected: Tuple[str, str] = ("", "")
         c.selectionChanged.connect(self.show_point)
         c.cameraChanged.connect(self._camera_changed)
         c.pointsChanged.connect(lambda changed: self.refresh())
+        if parent is not None:  # floats in the photo canvas's lower left corner: no room taken from the table
+            parent.installEventFilter(self)
         self.setVisible(False)
+
+    def eventFilter(self, watched, event) -> bool:  # noqa: N802
+        if watched is self.parent() and event.type() == QEvent.Type.Resize:
+            self._place()
+        return False
+
+    def _place(self) -> None:
+        parent = self.parentWidget()
+        if parent is not None:
+            self.adjustSize()
+            self.move(6, max(0, parent.height() - self.height() - 6))
+            self.raise_()
 
     # --- what to show -------------------------------------------------------------------------------------------
     def show_point(self, space: str, pid: str) -> None:
@@ -106,6 +126,7 @@ class ChipView(QWidget):
             self.photo_chip.setText(tr("No camera:\nnot in the photo"))
             self.dem_chip.setText(tr("Give a rough\ncamera first"))
             self.caption.setText(tr("A map point shows on the photo once there is a camera."))
+            self._place()
             return
         partner = c.state.points.get(c.state.partner(pid) or "")
         photo_marks, dem_marks = self._marks(p, partner, camera)
@@ -117,8 +138,8 @@ class ChipView(QWidget):
         else:
             self.dem_chip.setPixmap(self._chip(view, view.width() / float(c.image.width()), centre, radius,
                                                dem_marks))
-        kind = tr("photo point") if space == PHOTO else tr("map point")
-        text = tr("{0} {1}").format(kind, p.label or "")
+        kind = tr("Photo point") if space == PHOTO else tr("Map point")
+        text = tr("{0} {1}").format(kind, p.label or "").strip()
         if partner is not None:
             text += tr(" · paired (cyan)")
         if camera is None:
@@ -126,6 +147,7 @@ class ChipView(QWidget):
         else:
             text += tr(" · DEM from the {0} camera").format(tr("fitted") if c.fitted is not None else tr("rough"))
         self.caption.setText(text)
+        self._place()
 
     def _centre(self, p, camera) -> Optional[Tuple[float, float]]:
         if p.space == PHOTO:

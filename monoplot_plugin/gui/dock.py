@@ -152,8 +152,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.lens_panel = LensPanel(c, self.fovSpin, self.cameraTab)  # what the user knows (gui/fit_settings.py)
         self.cameraTabLayout.insertWidget(self.cameraTabLayout.indexOf(self.cameraSummary), self.lens_panel)
         self.fit_settings = FitSettingsPanel(c, self.fitScrollContents)
-        self.chips = ChipView(c, self.pointsTab)  # photo | DEM chips of the selected point (gui/chips.py)
-        self.pointsTabLayout.insertWidget(self.pointsTabLayout.indexOf(self.pointTable), self.chips)
+        self.chips = ChipView(c, self.photo_canvas)  # photo | DEM chips of the selected point (gui/chips.py)
         self.fitTabLayout.insertWidget(self.fitTabLayout.indexOf(self.resultLabel) + 1, self.fit_settings)
         self._fit_minimum_width()
         if self.project.readEntry("monoplot", "/state", "")[1] and c.restore() and c.fitted is not None:
