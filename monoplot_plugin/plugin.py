@@ -28,20 +28,28 @@ def plugin_icon_path():
     return ICON_RESOURCE if QFile.exists(ICON_RESOURCE) else str(ICON_FILE)
 
 
+#: warm-up tasks still running: Python must keep them while their thread runs (also after the plugin's unload)
+_WARMING = []
+
+
 def start_warm_up():
     """Compile or load numba's kernels and import torch, OpenCV, SciPy in a background task (never the main thread),
     so the first Suggest, the first fit and a reopened project do not pay for it (``workflow/warmup.py``).
-    Returns the task (keep a reference while it runs), or None when it could not start."""
+    Returns the task, or None when it could not start."""
     try:
         from .gui.tasks import FunctionTask, start_task
         from .workflow.warmup import warm_up
 
         def done(result):
+            if task in _WARMING:
+                _WARMING.remove(task)
             if result.ok:
                 LOG.info("Monoplot warmed up: %s", ", ".join(f"{k} {v:.1f} s" for k, v in result.value.items()))
 
-        return start_task(FunctionTask("Monoplot: preparing", lambda progress, is_canceled: warm_up(
-            progress, is_canceled), done))
+        task = FunctionTask("Monoplot: preparing", lambda progress, is_canceled: warm_up(progress, is_canceled),
+                            done)
+        _WARMING.append(task)
+        return start_task(task)
     except Exception:  # noqa: BLE001 — a warm-up is an optimisation, never a reason to fail loading
         LOG.exception("Monoplot warm-up not started")
         return None

@@ -62,6 +62,16 @@ def test_init_gui_adds_action_to_plugins_toolbar_and_raster_menu(plugin, qgis_if
     qgis_iface.addPluginToRasterMenu.assert_called_with(plugin.menu, action)
 
 
+def test_init_gui_warms_the_kernels_in_a_background_task(plugin, qtbot):
+    """The first Suggest of a session must not compile numba's kernels or import torch: initGui starts a task that
+    does it (workflow/warmup.py), on a worker thread."""
+    task = plugin.warmup_task
+    assert task is not None and task in plugin_module._WARMING
+    qtbot.waitUntil(lambda: task not in plugin_module._WARMING, timeout=120000)
+    assert task.result is not None and task.result.ok, task.result
+    assert set(task.result.value) == {"render", "suggest", "fit"}
+
+
 def test_action_opens_and_closes_the_dock(plugin, qgis_iface, qtbot):
     qgis_iface.mainWindow().show()  # visibility signals only flow in a shown window
     assert plugin.dock is None  # created lazily: nothing heavy at QGIS start-up

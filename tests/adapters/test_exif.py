@@ -1,0 +1,64 @@
+"""EXIF of real JPEG files (written by GDAL's JPEG driver) -> the lens and the field of view."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from osgeo import gdal
+
+from monoplot_plugin.adapters.exif import lens_fov, read_exif_prior
+
+
+def _jpeg(path, size, **tags):
+    w, h = size
+    mem = gdal.GetDriverByName("MEM").Create("", w, h, 3)
+    for b in range(3):
+        mem.GetRasterBand(b + 1).WriteArray(np.full((h, w), 60, np.uint8))
+    for key, value in tags.items():
+        mem.SetMetadataItem("EXIF_" + key, value)
+    gdal.GetDriverByName("JPEG").CreateCopy(str(path), mem, options=["WRITE_EXIF_METADATA=YES"])
+    return str(path)
+
+
+def test_35mm_equivalent_wins(tmp_path):
+    path = _jpeg(tmp_path / "a.jpg", (300, 200), FocalLength="(5.6)", FocalLengthIn35mmFilm="28")
+    exif = read_exif_prior(path, (300, 200))
+    assert exif.focal_mm == pytest.approx(5.6) and exif.focal_35mm == 28.0
+    assert exif.fov == pytest.approx(65.5, abs=0.05) and not exif.has_position
+
+
+def test_focal_plane_resolution_in_inches_gives_the_sensor_width(tmp_path):
+    # a 6000 px wide APS-C picture (23.5 mm): 6000 / (23.5 / 25.4) px per inch, the full image in PixelXDimension;
+    # the file itself is a small copy (300 px): the sensor comes from the full-size width
+    ppi = 6000 / (23.5 / 25.4)
+    path = _jpeg(tmp_path / "b.jpg", (300, 200), FocalLength="(35)", FocalPlaneXResolution=f"({ppi:.4f})",
+                 FocalPlaneResolutionUnit="2", PixelXDimension="6000", PixelYDimension="4000")
+    exif = read_exif_prior(path, (300, 200))
+    assert exif.sensor_width_mm == pytest.approx(23.5, abs=0.01)
+    assert exif.fov == pytest.approx(lens_fov(35.0, 23.5), abs=1e-3)
+    assert exif.fov == pytest.approx(37.1, abs=0.05)
+
+
+def test_rotated_picture_uses_the_sensor_height(tmp_path):
+    """EXIF orientation 6 (turned 90 degrees): the displayed width is the sensor's height."""
+    ppmm = 6000 / 23.5
+    path = _jpeg(tmp_path / "c.jpg", (300, 200), FocalLength="(35)", FocalPlaneXResolution=f"({ppmm:.4f})",
+                 FocalPlaneYResolution=f"({ppmm:.4f})", FocalPlaneResolutionUnit="4", PixelXDimension="6000",
+                 PixelYDimension="4000", Orientation="6")
+    exif = read_exif_prior(path, (200, 300))  # displayed portrait
+    assert exif.sensor_width_mm == pytest.approx(4000 / ppmm, abs=0.01)
+
+
+def test_focal_length_alone_is_kept_without_a_field_of_view(tmp_path):
+    path = _jpeg(tmp_path / "d.jpg", (300, 200), FocalLength="(30)")
+    exif = read_exif_prior(path, (300, 200))
+    assert exif is not None and exif.focal_mm == 30.0 and exif.fov is None and exif.sensor_width_mm is None
+
+
+def test_no_exif_at_all(tmp_path):
+    assert read_exif_prior(_jpeg(tmp_path / "e.jpg", (300, 200)), (300, 200)) is None
+
+
+def test_lens_fov_needs_enough():
+    with pytest.raises(ValueError):
+        lens_fov(30.0)
