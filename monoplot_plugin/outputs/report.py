@@ -11,7 +11,6 @@ module uses the object API with the Agg/PDF canvases, never pyplot, so it does n
 
 from __future__ import annotations
 
-import csv
 import datetime
 import math
 import os
@@ -23,7 +22,7 @@ import numpy as np
 from ._gdal import image_verifier
 from .safe_write import atomic_output
 
-__all__ = ["write_report", "read_points_csv", "parameter_sigmas", "ReportPoints"]
+__all__ = ["write_report", "parameter_sigmas", "ReportPoints"]
 
 FIT_PARAMETERS = ("x", "y", "z", "heading", "pitch", "roll", "fov")
 _UNITS = {"x": "m", "y": "m", "z": "m", "heading": "°", "pitch": "°", "roll": "°", "fov": "°", "cx": "px",
@@ -39,39 +38,6 @@ class ReportPoints:
         if len(self.uv) != len(self.xyz):
             raise ValueError("as many photo points as map points are needed")
         self.names = list(names) if names is not None else [str(i + 1) for i in range(len(self.uv))]
-
-
-def read_points_csv(path) -> ReportPoints:
-    """Read paired points: columns u, v, X, Y, Z (names as in gcps.csv: ``u_px,v_px,X_lv03,Y_lv03,Z_m``; any
-    header whose first five numeric columns are u, v, X, Y, Z in that order); an optional ``name``/``id`` column."""
-    with open(path, newline="", encoding="utf-8-sig") as fh:
-        rows = list(csv.reader(fh))
-    if not rows:
-        raise ValueError(f"{path}: empty point file")
-    header = [h.strip().lower() for h in rows[0]]
-    body = rows[1:] if any(not _is_number(h) for h in header) else rows
-    if body is rows:
-        header = []
-    name_col = next((header.index(n) for n in ("name", "id", "label") if n in header), None)
-    uv, xyz, names = [], [], []
-    for row in body:
-        if not row:
-            continue
-        values = [float(v) for i, v in enumerate(row) if i != name_col and _is_number(v)]
-        if len(values) < 5:
-            raise ValueError(f"{path}: a row needs u, v, X, Y, Z, got {row}")
-        uv.append(values[:2])
-        xyz.append(values[2:5])
-        names.append(row[name_col] if name_col is not None else str(len(names) + 1))
-    return ReportPoints(uv, xyz, names)
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True
 
 
 def parameter_sigmas(camera, points: ReportPoints, names: Sequence[str] = FIT_PARAMETERS) -> Dict[str, float]:
@@ -106,7 +72,7 @@ def parameter_sigmas(camera, points: ReportPoints, names: Sequence[str] = FIT_PA
     return {n: float(math.sqrt(max(cov[i, i], 0.0))) for i, n in enumerate(names)}
 
 
-def write_report(path, photo: np.ndarray, camera, dem, points_csv=None, *, points: Optional[ReportPoints] = None,
+def write_report(path, photo: np.ndarray, camera, dem, points: Optional[ReportPoints] = None, *,
                  xyz: Optional[np.ndarray] = None, visible: Optional[np.ndarray] = None,
                  sigmas: Optional[Dict[str, float]] = None, title: str = "", overwrite: bool = False,
                  verdict: str = "") -> Path:
@@ -116,7 +82,7 @@ def write_report(path, photo: np.ndarray, camera, dem, points_csv=None, *, point
         path: ``.png`` (150 dpi) or ``.pdf``.
         photo: (H, W) or (H, W, 3) uint8 photo.
         camera: the fitted Camera. dem: core Dem in the camera's CRS.
-        points_csv: paired points file (see :func:`read_points_csv`), or ``points`` directly.
+        points: the paired control points to draw (a CSV table is read by ``workflow.points_csv``), or None.
         xyz: (H, W, 3) per-pixel map coordinates; computed with core's rasteriser when None.
         visible: (rows, cols) bool DEM cells the camera sees; computed with the XYZ raster when None.
         sigmas: parameter standard deviations by name; from the points (:func:`parameter_sigmas`) when None.
@@ -133,8 +99,6 @@ def write_report(path, photo: np.ndarray, camera, dem, points_csv=None, *, point
     fmt = target.suffix.lower().lstrip(".")
     if fmt not in ("png", "pdf"):
         raise ValueError(f"report format must be .png or .pdf, got {target.suffix!r}")
-    if points is None and points_csv:
-        points = read_points_csv(points_csv)
     if xyz is None or visible is None:
         from ..core.xyz import compute_xyz_full
 

@@ -7,6 +7,8 @@ Every product reads the per-pixel XYZ from :mod:`.xyz` (one cache), writes throu
 
 from __future__ import annotations
 
+import os
+
 from pathlib import Path
 from typing import Dict, Optional
 
@@ -71,14 +73,35 @@ def report(path, photo: np.ndarray, camera: Camera, dem, points=None, points_csv
     message, printed on the page."""
     from ..outputs.report import write_report
 
+    if points is None and points_csv:
+        points = report_points(points_csv, dem)
     result = xyz_result(camera, dem, visibility=True, progress=part(progress, 0.0, 0.6), is_canceled=is_canceled)
     check_canceled(is_canceled)
-    written = write_report(path, photo, camera, dem, points_csv=points_csv, points=points, xyz=result.xyz,
+    written = write_report(path, photo, camera, dem, points=points, xyz=result.xyz,
                            visible=result.visible, sigmas=sigmas, title=title, overwrite=overwrite,
                            verdict=verdict)
     if progress is not None:
         progress(1.0, "")
     return written
+
+
+def report_points(path, dem):
+    """The paired points of a CSV table (:func:`~.points_csv.read_points_csv`) as the report's ``ReportPoints``;
+    a missing Z is the DEM's.
+
+    Raises:
+        InputError: the table is not paired (it needs u, v and X, Y columns on each row).
+    """
+    from ..outputs.report import ReportPoints
+    from .inputs import InputError
+    from .points_csv import read_points_csv
+    from .vectors import fill_missing_z
+
+    table = read_points_csv(str(path))
+    if "uv" not in table or "xyz" not in table:
+        raise InputError(f"{os.path.basename(str(path))}: the report needs paired points (u_px, v_px and X, Y, Z "
+                         f"on each row)")
+    return ReportPoints(table["uv"], fill_missing_z(table["xyz"], dem), [str(i) for i in table["ids"]])
 
 
 def dem_at_resolution(dem, resolution: float):

@@ -5,7 +5,8 @@ import pytest
 from osgeo import gdal
 
 from monoplot_plugin.outputs import OutputExistsError
-from monoplot_plugin.outputs.report import ReportPoints, parameter_sigmas, read_points_csv, write_report
+from monoplot_plugin.outputs.report import ReportPoints, parameter_sigmas, write_report
+from monoplot_plugin.workflow.products import report_points
 
 
 def scene_points(scene, n=12, noise_px=1.5, seed=3):
@@ -24,8 +25,9 @@ def test_report_png_and_pdf(plane_scene, tmp_path):
     csv = tmp_path / "points.csv"
     csv.write_text("u_px,v_px,X,Y,Z\n" + "\n".join(
         ",".join(f"{v:.3f}" for v in (*uv, *p)) for uv, p in zip(points.uv, points.xyz)), encoding="utf-8")
-    assert np.allclose(read_points_csv(csv).xyz, points.xyz, atol=1e-3)
-    png = write_report(tmp_path / "rapport été.png", scene.photo, scene.camera, scene.dem, csv, xyz=scene.xyz,
+    assert np.allclose(report_points(csv, scene.dem).xyz, points.xyz, atol=1e-3)
+    png = write_report(tmp_path / "rapport été.png", scene.photo, scene.camera, scene.dem,
+                       report_points(csv, scene.dem), xyz=scene.xyz,
                        title="Plane test")
     ds = gdal.Open(str(png))
     assert ds.GetDriver().ShortName == "PNG"
