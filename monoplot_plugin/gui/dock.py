@@ -269,10 +269,10 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
             self.controller.set_prior(prior.with_parameters(fov=self.fovSpin.value(), pitch=self.pitchSpin.value()))
 
     def _import_kml(self) -> None:
-        path, _ = QFileDialog.getOpenFileName(self, self.tr("Rough camera from KML"), "",
-                                              self.tr("KML PhotoOverlay (*.kml)"))
+        path, _ = QFileDialog.getOpenFileName(self, self.tr("Rough camera from KML or camera JSON"), "",
+                                              self.tr(IoActions.OPEN_CAMERA_FILTER))
         if path:
-            self.controller.import_kml(path)
+            self.io_actions.open_camera(path)
 
     def _on_camera(self) -> None:
         c = self.controller

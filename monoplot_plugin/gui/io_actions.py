@@ -341,7 +341,11 @@ class IoActions:
     def _open_camera(self, as_fitted: bool) -> None:
         path, _ = QFileDialog.getOpenFileName(self.dock, tr("Load camera"), self._folder(), self.OPEN_CAMERA_FILTER)
         if path:
-            load_camera_file(self.dock.controller, path, as_fitted)
+            self.open_camera(path, as_fitted)
+
+    def open_camera(self, path: str, as_fitted: bool = False) -> bool:
+        """Load a camera file (KML or JSON) as the rough (or fitted) camera; the dock's Import button calls it."""
+        return load_camera_file(self.dock.controller, path, as_fitted) is not None
 
     def _save_camera(self, which: str) -> None:
         path, chosen = QFileDialog.getSaveFileName(self.dock, tr("Save camera"), self._folder(), self.CAMERA_FILTER)
