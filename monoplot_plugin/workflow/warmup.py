@@ -28,6 +28,7 @@ def warm_up(progress: Optional[Progress] = None, is_canceled: Optional[IsCancele
     ``Canceled`` when ``is_canceled()`` turns true between steps."""
     from ..core.camera import Camera
     from ..core.dem import Dem
+    from ..core.fit import FitOptions
     from ..core.render import render_dem
     from ..core.synthetic import render_photo, synthetic_terrain
     from ..core.xyz import compute_xyz_full
@@ -61,8 +62,11 @@ def warm_up(progress: Optional[Progress] = None, is_canceled: Optional[IsCancele
     ok = np.isfinite(xyz).all(axis=1)
     if ok.sum() >= 6:
         pairs = np.column_stack([np.arange(ok.sum()), np.arange(ok.sum())])
-        fit_step.fit(uv[ok], xyz[ok], camera.with_parameters(heading=1.0), terrain, pairs=pairs,
-                     on_ground=False, is_canceled=is_canceled)
+        start = camera.with_parameters(heading=1.0)
+        fit_step.fit(uv[ok], xyz[ok], start, terrain, pairs=pairs, on_ground=False, is_canceled=is_canceled)
+        # the unpaired descent (torch): one short start, no consensus, no bootstrap
+        quick = FitOptions(n_starts=1, n_escapes=0, consensus=False, bootstrap=0, coarse=False, time_budget_s=1.0)
+        fit_step.fit(uv[ok], xyz[ok], start, terrain, on_ground=False, is_canceled=is_canceled, options=quick)
     seconds["fit"] = time.perf_counter() - t
     report(1.0, "fit")
     return seconds
