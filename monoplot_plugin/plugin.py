@@ -10,7 +10,7 @@ import importlib.util
 import logging
 
 from qgis.core import QgsApplication
-from qgis.PyQt.QtCore import QCoreApplication, QFile, Qt
+from qgis.PyQt.QtCore import QCoreApplication, QFile, Qt, QTimer
 from qgis.PyQt.QtGui import QIcon
 from qgis.PyQt.QtWidgets import QAction
 
@@ -28,6 +28,8 @@ def plugin_icon_path():
     return ICON_RESOURCE if QFile.exists(ICON_RESOURCE) else str(ICON_FILE)
 
 
+#: the warm-up starts this long after initGui (milliseconds); unload waits at most WARM_UP_WAIT_MS for its step
+WARM_UP_DELAY_MS, WARM_UP_WAIT_MS = 2000, 60000
 #: warm-up tasks still running: Python must keep them while their thread runs (also after the plugin's unload)
 _WARMING = []
 
@@ -97,7 +99,15 @@ class MonoplotPlugin:
         self.iface.addPluginToRasterMenu(self.menu, self.action)
         self.initProcessing()
         self.dependency_notice = deps.notify_missing(self.iface)
-        self.warmup_task = None if self.dependency_notice is not None else start_warm_up()
+        self.warmup_task = None
+        if self.dependency_notice is None:  # a moment after start-up, so that a quick reload starts nothing
+            self._warmup_timer = QTimer()
+            self._warmup_timer.setSingleShot(True)
+            self._warmup_timer.timeout.connect(self._start_warm_up)
+            self._warmup_timer.start(WARM_UP_DELAY_MS)
+
+    def _start_warm_up(self):
+        self.warmup_task = start_warm_up()
 
     def toggle_dock(self, visible):
         """Show or hide the dock, creating it on first use (keeps QGIS start-up light)."""
@@ -112,13 +122,17 @@ class MonoplotPlugin:
         self.dock.setVisible(visible)
 
     def unload(self):
-        task = getattr(self, "warmup_task", None)
-        if task is not None:
-            try:
-                task.cancel()  # stops between steps; a kernel being compiled finishes first
+        timer = getattr(self, "_warmup_timer", None)
+        if timer is not None:
+            timer.stop()
+            self._warmup_timer = None
+        task, self.warmup_task = getattr(self, "warmup_task", None), None
+        if task is not None and task in _WARMING:
+            try:  # stops between steps; wait for the step running (a kernel being compiled): QGIS may be quitting,
+                task.cancel()  # and Python must not go away under a running worker thread
+                task.waitForFinished(WARM_UP_WAIT_MS)
             except RuntimeError:  # already deleted by the task manager
                 pass
-            self.warmup_task = None
         if self.dock is not None:
             self.dock.visibilityChanged.disconnect(self.action.setChecked)
             self.dock.unload()  # main-map markers, map tools, project signals (gui/dock.py)

@@ -65,11 +65,25 @@ def test_init_gui_adds_action_to_plugins_toolbar_and_raster_menu(plugin, qgis_if
 def test_init_gui_warms_the_kernels_in_a_background_task(plugin, qtbot):
     """The first Suggest of a session must not compile numba's kernels or import torch: initGui starts a task that
     does it (workflow/warmup.py), on a worker thread."""
+    qtbot.waitUntil(lambda: plugin.warmup_task is not None, timeout=plugin_module.WARM_UP_DELAY_MS + 5000)
     task = plugin.warmup_task
-    assert task is not None and task in plugin_module._WARMING
+    assert task in plugin_module._WARMING
     qtbot.waitUntil(lambda: task not in plugin_module._WARMING, timeout=120000)
     assert task.result is not None and task.result.ok, task.result
     assert set(task.result.value) == {"render", "suggest", "fit"}
+
+
+def test_unload_during_the_warm_up_waits_for_its_thread(qgis_iface, qtbot):
+    """QGIS quitting (or a reload) while the warm-up runs: unload cancels it and waits for the step in progress, so
+    no worker thread outlives the plugin's Python."""
+    instance = MonoplotPlugin(qgis_iface)
+    instance.initGui()
+    qtbot.waitUntil(lambda: instance.warmup_task is not None, timeout=plugin_module.WARM_UP_DELAY_MS + 5000)
+    task = instance.warmup_task
+    instance.unload()
+    assert instance.warmup_task is None
+    qtbot.waitUntil(lambda: task not in plugin_module._WARMING, timeout=2000)  # its run() had ended already
+    flush_deletes()
 
 
 def test_action_opens_and_closes_the_dock(plugin, qgis_iface, qtbot):
