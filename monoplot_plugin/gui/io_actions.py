@@ -25,7 +25,7 @@ from ..adapters.photo_space import photo_point, pixel_of
 from ..core.camera import Camera
 from ..state import ACCEPTED, CHECK, MAP, PHOTO, Edit, Point
 from ..workflow.camera_files import load_camera, save_camera
-from ..workflow.inputs import InputError, points_to_dem_crs
+from ..workflow.inputs import InputError, _transform, points_to_dem_crs
 from ..workflow.points_csv import read_points_csv, write_points_csv
 
 __all__ = ["import_points_csv", "export_points_csv", "import_point_layers", "export_point_layers",
@@ -115,7 +115,8 @@ def _outside_photo(c, photo: List[Point]) -> int:
 
 def export_points_csv(controller, path: str) -> int:
     """Write the pairs (accepted and check pairs) as a CSV table ``id, u_px, v_px, X, Y, Z, check``; the height
-    is the point's own (surveyed) Z, else the DEM's. Returns the number of rows written."""
+    is the point's own (surveyed) Z, else the DEM's; X, Y in the DEM file's CRS. Returns the number of rows
+    written."""
     c = controller
     pairs = c.state.valid_pairs() + c.state.check_pairs()
     if not pairs:
@@ -124,6 +125,8 @@ def export_points_csv(controller, path: str) -> int:
     uv = np.array([(a.x, a.y) for a, _ in pairs], dtype=float)
     xyz = np.array([(b.x, b.y, b.z if b.z is not None else _dem_z(c, b)) for _, b in pairs], dtype=float)
     ids = [a.label or b.label or a.id for a, b in pairs]
+    if getattr(c.dem, "source_crs_wkt", ""):  # a DEM in degrees used in UTM: the table in the file's CRS, as it
+        xyz = _transform(xyz, c.dem.crs_wkt, c.dem.source_crs_wkt)  # is read back (and as Processing reads it)
     try:
         write_points_csv(path, uv=uv, xyz=xyz, ids=ids, check=[a.status == CHECK for a, _ in pairs])
     except (OSError, ValueError) as exc:

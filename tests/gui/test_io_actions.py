@@ -195,3 +195,42 @@ def test_unpaired_photo_only_table(dock, scene, tmp_path):
     assert io_actions.import_points_csv(c, path) == 5
     assert all(p.space == PHOTO and p.status == ACCEPTED for p in c.state.points.values())
     assert not c.state.pairs and CHECK not in {p.status for p in c.state.points.values()}
+
+
+def test_gcp_table_of_a_dem_in_degrees_round_trips_in_degrees(dock, tmp_path, qtbot):
+    """A DEM in degrees is used in UTM metres: its table is read in degrees (the file's CRS) and written back so."""
+    from osgeo import osr
+
+    from monoplot_plugin.core.dem import Dem
+
+    wgs84 = osr.SpatialReference()
+    wgs84.ImportFromEPSG(4326)
+    rows, cols = np.mgrid[0:120, 0:120]
+    hills = 1500.0 + 300.0 * np.sin(rows / 9.0) * np.cos(cols / 13.0)
+    dem = Dem.from_array(hills, (8.0, 0.0005, 0.0, 46.56, 0.0, -0.0005), crs_wkt=wgs84.ExportToWkt())
+    path = str(tmp_path / "dem_degrees.tif")
+    dem.save(path)
+    layer = QgsRasterLayer(path, "DEM in degrees")
+    assert layer.isValid() and layer.crs().isGeographic()
+    QgsProject.instance().addMapLayer(layer)
+    c = dock.controller
+    assert c.set_dem_layer(layer) and c.dem.source_crs_wkt  # reprojected to UTM
+    from monoplot_plugin.adapters.photo import array_to_qimage
+
+    photo = str(tmp_path / "p.png")
+    assert array_to_qimage(np.zeros((200, 300, 3), np.uint8)).save(photo)
+    assert c.load_photo(photo)
+    x0, y0, x1, y1 = dem.bounds()
+    lonlat = np.array([[x0 + (x1 - x0) * f, y0 + (y1 - y0) * g, 1000.0 + 100 * f] for f, g in
+                       ((0.2, 0.3), (0.5, 0.5), (0.7, 0.8), (0.4, 0.6))])
+    src = str(tmp_path / "gcps_degrees.csv")
+    write_points_csv(src, uv=np.array([[10, 20], [50, 60], [100, 120], [200, 150.0]]), xyz=lonlat)
+    assert io_actions.import_points_csv(c, src) == 4
+    world = np.array([(p.x, p.y) for p in c.state.in_space(MAP)])
+    x0u, y0u, x1u, y1u = c.dem.bounds()
+    assert ((world[:, 0] > x0u) & (world[:, 0] < x1u) & (world[:, 1] > y0u) & (world[:, 1] < y1u)).all()  # metres
+    out = str(tmp_path / "out.csv")
+    assert io_actions.export_points_csv(c, out) == 4
+    back = read_points_csv(out)
+    order = np.argsort(back["uv"][:, 0])
+    assert np.allclose(back["xyz"][order], lonlat, atol=1e-6)  # degrees again (1e-6 deg: < 0.1 m), Z as given
