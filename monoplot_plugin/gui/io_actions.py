@@ -80,14 +80,15 @@ def import_points_csv(controller, path: str) -> int:
     photo, world, pairs = [], [], []
     n = len(ids)
     for i in range(n):
-        paired = uv is not None and xyz is not None
-        status = _status(bool(check[i]) and paired)
+        has_uv = uv is not None and bool(np.isfinite(uv[i]).all())
+        has_xyz = xyz is not None and bool(np.isfinite(xyz[i, :2]).all())
+        status = _status(bool(check[i]) and has_uv and has_xyz)  # a check point needs both sides
         label = str(ids[i])
         a = b = None
-        if uv is not None and np.isfinite(uv[i]).all():
+        if has_uv:
             a = Point.new(PHOTO, uv[i, 0], uv[i, 1], status=status, manual=True, label=label)
             photo.append(a)
-        if xyz is not None and np.isfinite(xyz[i, :2]).all():
+        if has_xyz:
             z = float(xyz[i, 2]) if math.isfinite(xyz[i, 2]) else None  # surveyed Z as entered, else the DEM's
             b = Point.new(MAP, xyz[i, 0], xyz[i, 1], z, status=status, manual=True, label=label)
             world.append(b)
