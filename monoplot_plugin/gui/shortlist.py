@@ -29,7 +29,7 @@ import numpy as np
 from ..core.recommend import agreement, likely_pairs, priority, spread_order
 from ..state import ACCEPTED, CHECK, MAP, PHOTO, REJECTED, SUGGESTED, Point, ProjectState
 
-__all__ = ["Shortlist", "DEFAULT_PER_PAGE"]
+__all__ = ["Shortlist", "Recommendation", "recommendation", "DEFAULT_PER_PAGE"]
 
 DEFAULT_PER_PAGE = 30
 SPACES = (PHOTO, MAP)
@@ -53,6 +53,8 @@ class Shortlist:
         self.distance: Dict[str, float] = {}  # id -> px to the nearest partner under the camera
         self.partner: Dict[str, str] = {}  # id -> nearest partner's id (other space)
         self.outliers: Set[str] = set()  # accepted photo ids the current fit calls outliers
+        self.threshold = 8.0  # px: how close a likely pair's two ends are under the camera
+        self._pairs: List[Tuple[str, str, float, Tuple[float, float]]] = []
         self.rebuild()
 
     # --- following the state ----------------------------------------------------------------------------------
@@ -202,61 +204,59 @@ class Shortlist:
         return ids[(ids.index(current) + step) % len(ids)]
 
     # --- the camera's view of the suggestions -----------------------------------------------------------------
-    def _projected(self, camera):
-        """(photo points, (N, 2) uv, map points, (M, 2) projected uv) of the undecided and accepted ones."""
+    def snapshot(self):
+        """(photo ids, (N, 2) uv, map ids, (M, 3) xyz) of the undecided and accepted suggestions: what
+        :func:`recommendation` needs, copied on the main thread so that a task can compute it."""
         keep = (SUGGESTED, ACCEPTED, CHECK)
         photo = [p for p in self.state.points.values() if p.space == PHOTO and p.status in keep]
         world = [p for p in self.state.points.values() if p.space == MAP and p.status in keep and p.z is not None]
         uv = np.array([(p.x, p.y) for p in photo], dtype=np.float64).reshape(-1, 2)
         xyz = np.array([(p.x, p.y, p.z) for p in world], dtype=np.float64).reshape(-1, 3)
-        proj = camera.project(xyz) if len(world) else np.zeros((0, 2))
-        if len(proj):
-            proj[~camera.in_image(proj)] = np.nan
-        return photo, uv, world, proj
+        return [p.id for p in photo], uv, [p.id for p in world], xyz
 
-    def set_camera(self, camera, sigma: float = 25.0) -> None:
+    def set_camera(self, camera, sigma: float = 25.0, rec: Optional["Recommendation"] = None) -> None:
         """Re-rank both views by agreement with ``camera`` (None: by strength only); ``sigma`` (px): how far a
-        partner may be under this camera (its uncertainty)."""
+        partner may be under this camera (its uncertainty). ``rec``: :func:`recommendation` already computed
+        (in a task) for this camera, sigma and :attr:`threshold`."""
         self.camera, self.sigma = camera, float(sigma)
-        self.distance, self.partner = {}, {}
-        if camera is not None:
-            photo, uv, world, proj = self._projected(camera)
-            pi, pd, di, dd = agreement(uv, proj, 3.0 * self.sigma)
-            for p, j, d in zip(photo, pi, pd):
-                if j >= 0:
-                    self.distance[p.id], self.partner[p.id] = float(d), world[j].id
-            for p, j, d in zip(world, di, dd):
-                if j >= 0:
-                    self.distance[p.id], self.partner[p.id] = float(d), photo[j].id
+        if camera is None:
+            rec = Recommendation()
+        elif rec is None:
+            rec = recommendation(camera, *self.snapshot(), self.sigma, self.threshold)
+        self.distance, self.partner, self._pairs = rec.distance, rec.partner, rec.pairs
         for space in SPACES:
             self._rerank(space, keep=len(self.shown[space]))
 
-    def likely(self, threshold: float) -> List[Tuple[str, str, float]]:
-        """(photo id, map id, px) of mutual nearest photo / projected DEM suggestions within ``threshold`` px
-        under the current camera, at least one end undecided; closest first."""
-        if self.camera is None:
-            return []
-        photo, uv, world, proj = self._projected(self.camera)
-        pairs = likely_pairs(uv, proj, threshold)
+    def set_threshold(self, px: float) -> None:
+        self.threshold = float(px)
+        self._pairs_from_camera()
+
+    def _pairs_from_camera(self) -> None:
+        if self.camera is not None:
+            self._pairs = recommendation(self.camera, *self.snapshot(), self.sigma, self.threshold).pairs
+
+    def likely(self) -> List[Tuple[str, str, float]]:
+        """(photo id, map id, px) of mutual nearest photo / projected DEM suggestions within :attr:`threshold` px
+        under the current camera, neither rejected and at least one end undecided; closest first."""
+        return [(a, b, d) for a, b, d, _ in self._live_pairs()]
+
+    def links(self) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:
+        """(photo pixel, partner's projected pixel) of the likely pairs whose photo end is visible."""
+        shown = self.shown[PHOTO]
+        pts = self.state.points
         out = []
-        for i, j in pairs:
-            a, b = photo[i], world[j]
-            if SUGGESTED in (a.status, b.status):
-                out.append((a.id, b.id, float(np.hypot(*(uv[i] - proj[j])))))
+        for a, _b, _, q in self._live_pairs():
+            if a in shown or (a in pts and pts[a].status == ACCEPTED and self.filters[ACCEPTED]):
+                out.append(((pts[a].x, pts[a].y), q))
         return out
 
-    def links(self, threshold: float) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:
-        """(photo pixel, partner's projected pixel) of the likely pairs whose photo end is visible."""
-        if self.camera is None:
-            return []
-        visible = {p.id for p in self.visible(PHOTO)}
-        out = []
-        for a, b, _ in self.likely(threshold):
-            if a in visible:
-                pa, pb = self.state.points[a], self.state.points[b]
-                q = self.camera.project(np.array([[pb.x, pb.y, pb.z]], dtype=np.float64))[0]
-                out.append(((pa.x, pa.y), (float(q[0]), float(q[1]))))
-        return out
+    def _live_pairs(self):
+        pts = self.state.points
+        for a, b, d, q in self._pairs:
+            pa, pb = pts.get(a), pts.get(b)
+            if pa is not None and pb is not None and SUGGESTED in (pa.status, pb.status) and \
+                    REJECTED not in (pa.status, pb.status):
+                yield a, b, d, q
 
     def set_outliers(self, ids) -> None:
         self.outliers = set(ids)
@@ -265,3 +265,32 @@ class Shortlist:
         """Flagged ids that are still accepted."""
         pts = self.state.points
         return [i for i in self.outliers if i in pts and pts[i].status == ACCEPTED]
+
+
+class Recommendation:
+    """What a camera says about the suggestions: ``distance`` / ``partner`` (id -> px / id of the nearest
+    suggestion of the other view within 3 sigma) and ``pairs`` [(photo id, map id, px, projected (u, v))]."""
+
+    def __init__(self, distance=None, partner=None, pairs=None):
+        self.distance: Dict[str, float] = distance or {}
+        self.partner: Dict[str, str] = partner or {}
+        self.pairs: List[Tuple[str, str, float, Tuple[float, float]]] = pairs or []
+
+
+def recommendation(camera, photo_ids: List[str], uv: np.ndarray, map_ids: List[str], xyz: np.ndarray,
+                   sigma: float, threshold: float) -> Recommendation:
+    """:class:`Recommendation` of ``camera`` for photo points ``uv`` (N, 2) and DEM points ``xyz`` (M, 3) (no Qt:
+    runs in a task). O(N + M)."""
+    proj = camera.project(xyz) if len(xyz) else np.zeros((0, 2))
+    if len(proj):
+        proj[~camera.in_image(proj)] = np.nan
+    pi, pd, di, dd = agreement(uv, proj, 3.0 * sigma)
+    rec = Recommendation()
+    for k in np.flatnonzero(pi >= 0):
+        rec.distance[photo_ids[k]], rec.partner[photo_ids[k]] = float(pd[k]), map_ids[pi[k]]
+    for k in np.flatnonzero(di >= 0):
+        rec.distance[map_ids[k]], rec.partner[map_ids[k]] = float(dd[k]), photo_ids[di[k]]
+    for i, j in likely_pairs(uv, proj, threshold):
+        rec.pairs.append((photo_ids[i], map_ids[j], float(np.hypot(*(uv[i] - proj[j]))),
+                          (float(proj[j][0]), float(proj[j][1]))))
+    return rec
