@@ -24,7 +24,7 @@ from __future__ import annotations
 import itertools
 import json
 import uuid
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 from typing import Callable, Dict, Iterable, List, Optional, Sequence, Tuple
 
 __all__ = [
@@ -182,7 +182,7 @@ class ProjectState:
             "photo_path": self.photo_path,
             "dem_layer_id": self.dem_layer_id,
             "dem_source": self.dem_source,
-            "points": [asdict(p) for p in self.points.values()],
+            "points": [dict(vars(p)) for p in self.points.values()],  # asdict deep-copies: 20x slower
             "pairs": [list(p) for p in self.pairs],
             "prior": self.prior,
             "fitted": self.fitted,
@@ -205,7 +205,8 @@ class ProjectState:
                    settings=dict(d.get("settings") or {}))
 
     def to_json(self) -> str:
-        return json.dumps(self.to_dict(), indent=1)
+        # compact: an indent makes json use its pure-Python encoder (seconds for 20,000 points)
+        return json.dumps(self.to_dict(), separators=(",", ":"))
 
     @classmethod
     def from_json(cls, text: str) -> "ProjectState":

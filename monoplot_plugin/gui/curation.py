@@ -64,8 +64,9 @@ class CurationMixin:
     # --- bulk actions on the shown suggestions ----------------------------------------------------------------
     def more_suggestions(self) -> int:
         """Show the next few undecided suggestions on each view; returns how many came."""
+        before = set(self.shortlist.shown_undecided())
         n = self.shortlist.more()
-        self.pointsChanged.emit(set())
+        self.pointsChanged.emit(set(self.shortlist.shown_undecided()) - before)  # the newly shown
         return n
 
     def reject_rest(self) -> int:

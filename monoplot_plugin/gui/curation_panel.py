@@ -13,8 +13,9 @@ The logic lives in the controller (:mod:`.curation`) and :class:`~.shortlist.Sho
 
 from __future__ import annotations
 
-from qgis.PyQt.QtWidgets import (QCheckBox, QDoubleSpinBox, QHBoxLayout, QLabel, QSizePolicy, QSpinBox,
-                                 QToolButton, QWidget)
+from qgis.PyQt.QtCore import QTimer
+from qgis.PyQt.QtWidgets import (QCheckBox, QDoubleSpinBox, QHBoxLayout, QHeaderView, QLabel, QSizePolicy,
+                                 QSpinBox, QToolButton, QWidget)
 
 from ..state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED
 from .refit import Refitter, sigma_of
@@ -248,5 +249,15 @@ def install_curation_panel(dock) -> CurationPanel:
     """Put the curation actions under the point buttons and make the table list the points on show."""
     panel = CurationPanel(dock)
     dock.table_model.ids = dock.controller.visible_ids
+    # column widths follow the contents after a change, not during it: ResizeToContents measured every row on
+    # every click (and on every scrollTo of the selection)
+    header = dock.pointTable.horizontalHeader()
+    header.setSectionResizeMode(QHeaderView.ResizeMode.Interactive)
+    timer = QTimer(panel)
+    timer.setSingleShot(True)
+    timer.setInterval(300)
+    timer.timeout.connect(dock.pointTable.resizeColumnsToContents)
+    dock.table_model.modelReset.connect(timer.start)
+    panel.column_timer = timer
     return panel
 

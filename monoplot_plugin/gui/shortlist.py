@@ -55,6 +55,8 @@ class Shortlist:
         self.outliers: Set[str] = set()  # accepted photo ids the current fit calls outliers
         self.threshold = 8.0  # px: how close a likely pair's two ends are under the camera
         self._pairs: List[Tuple[str, str, float, Tuple[float, float]]] = []
+        self._pair_ids: Set[str] = set()
+        self._likely: Optional[List[Tuple[str, str, float]]] = None  # cache of likely(), per camera and edits
         self.rebuild()
 
     # --- following the state ----------------------------------------------------------------------------------
@@ -74,6 +76,8 @@ class Shortlist:
             self.rebuild()
             return
         pts = self.state.points
+        if self._likely is not None and not self._pair_ids.isdisjoint(changed):
+            self._likely = None
         fresh = {s: False for s in SPACES}
         touched = set()
         for pid in changed:
@@ -223,7 +227,8 @@ class Shortlist:
             rec = Recommendation()
         elif rec is None:
             rec = recommendation(camera, *self.snapshot(), self.sigma, self.threshold)
-        self.distance, self.partner, self._pairs = rec.distance, rec.partner, rec.pairs
+        self.distance, self.partner = rec.distance, rec.partner
+        self._set_pairs(rec.pairs)
         for space in SPACES:
             self._rerank(space, keep=len(self.shown[space]))
 
@@ -233,22 +238,26 @@ class Shortlist:
 
     def _pairs_from_camera(self) -> None:
         if self.camera is not None:
-            self._pairs = recommendation(self.camera, *self.snapshot(), self.sigma, self.threshold).pairs
+            self._set_pairs(recommendation(self.camera, *self.snapshot(), self.sigma, self.threshold).pairs)
+
+    def _set_pairs(self, pairs) -> None:
+        self._pairs = list(pairs)
+        self._pair_ids = {i for a, b, _, _ in self._pairs for i in (a, b)}
+        self._likely = None
 
     def likely(self) -> List[Tuple[str, str, float]]:
         """(photo id, map id, px) of mutual nearest photo / projected DEM suggestions within :attr:`threshold` px
         under the current camera, neither rejected and at least one end undecided; closest first."""
-        return [(a, b, d) for a, b, d, _ in self._live_pairs()]
+        if self._likely is None:
+            self._likely = [(a, b, d) for a, b, d, _ in self._live_pairs()]
+        return self._likely
 
     def links(self) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:
         """(photo pixel, partner's projected pixel) of the likely pairs whose photo end is visible."""
-        shown = self.shown[PHOTO]
+        visible = {p.id for p in self.visible(PHOTO)}
         pts = self.state.points
-        out = []
-        for a, _b, _, q in self._live_pairs():
-            if a in shown or (a in pts and pts[a].status == ACCEPTED and self.filters[ACCEPTED]):
-                out.append(((pts[a].x, pts[a].y), q))
-        return out
+        live = {a for a, _, _ in self.likely()}
+        return [((pts[a].x, pts[a].y), q) for a, _, _, q in self._pairs if a in live and a in visible]
 
     def _live_pairs(self):
         pts = self.state.points
