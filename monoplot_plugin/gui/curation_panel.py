@@ -3,8 +3,7 @@
 Installed by :func:`install_curation_panel` (one line in ``dock.py``) into the points tab's button grid:
 
     [More suggestions] [Reject the rest] [Accept likely]
-    [Reject outliers]  [x] undecided [x] accepted [ ] rejected
-    Per view [30]  Pairs within [8 px]  [x] Refit while I click
+    [Reject outliers]  [Show: undecided, accepted ▾] [Options ▾ (per view 30, pairs within 8 px, refit while I click)]
     (under the counts) Showing 30 of 9,970 undecided photo and 30 of 9,970 DEM suggestions · camera: refit, 6.2 px
 
 The logic lives in the controller (:mod:`.curation`) and :class:`~.shortlist.Shortlist`; the background refit in
@@ -14,8 +13,8 @@ The logic lives in the controller (:mod:`.curation`) and :class:`~.shortlist.Sho
 from __future__ import annotations
 
 from qgis.PyQt.QtCore import QTimer
-from qgis.PyQt.QtWidgets import (QCheckBox, QDoubleSpinBox, QHBoxLayout, QHeaderView, QLabel, QSizePolicy,
-                                 QSpinBox, QToolButton, QWidget)
+from qgis.PyQt.QtWidgets import (QDoubleSpinBox, QFormLayout, QHeaderView, QMenu, QSizePolicy, QSpinBox,
+                                 QToolButton, QWidget, QWidgetAction)
 
 from ..state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED
 from .refit import Refitter, sigma_of
@@ -76,31 +75,35 @@ class CurationPanel(QWidget):
         self.rejectOutliersButton = button(self.tr("Reject outliers"),
                                            self.tr("Reject the accepted photo points the current fit explains by "
                                                    "no DEM point (red rings)"), self.reject_outliers)
+        # "Show ▾": the filters; "Options ▾": per view, pairs within, the live refit (menus: two rows in all, so
+        # the point table keeps its rows)
+        self.showButton = button(self.tr("Show"), self.tr("Which points the photo, the map and the table show"),
+                                 lambda: None)
+        self.showButton.setPopupMode(QToolButton.ToolButtonPopupMode.InstantPopup)
+        show_menu = QMenu(self.showButton)
         self.filter_checks = {}
-        filters = QHBoxLayout()
-        filters.setContentsMargins(0, 0, 0, 0)
-        for status, text in ((SUGGESTED, self.tr("undecided")), (ACCEPTED, self.tr("accepted")),
-                             (REJECTED, self.tr("rejected"))):
-            box = QCheckBox(text, self)
-            box.setToolTip(self.tr("Show the {0} points on the photo, the map and in the table").format(text))
-            box.setChecked(c.shortlist.filters[status])
-            box.toggled.connect(lambda on, s=status: self.set_filter(s, on))
-            filters.addWidget(box)
-            self.filter_checks[status] = box
-        self.filtersWidget = QWidget(self)
-        self.filtersWidget.setLayout(filters)
+        for status, text in ((SUGGESTED, self.tr("Undecided (the few on show)")), (ACCEPTED, self.tr("Accepted")),
+                             (REJECTED, self.tr("Rejected"))):
+            action = show_menu.addAction(text)
+            action.setCheckable(True)
+            action.setChecked(c.shortlist.filters[status])
+            action.toggled.connect(lambda on, s=status: self.set_filter(s, on))
+            self.filter_checks[status] = action
+        self.showButton.setMenu(show_menu)
 
-        numbers = QHBoxLayout()
-        numbers.setContentsMargins(0, 0, 0, 0)
-        numbers.addWidget(QLabel(self.tr("Per view:"), self))
-        self.perPageSpin = QSpinBox(self)
+        self.optionsButton = button(self.tr("Options"), self.tr("How many at a time, when a pair is likely, the "
+                                                                "background refit"), lambda: None)
+        self.optionsButton.setPopupMode(QToolButton.ToolButtonPopupMode.InstantPopup)
+        options_menu = QMenu(self.optionsButton)
+        form_widget = QWidget(options_menu)
+        form = QFormLayout(form_widget)
+        self.perPageSpin = QSpinBox(form_widget)
         self.perPageSpin.setRange(5, 500)
         self.perPageSpin.setValue(c.shortlist.per_page)
         self.perPageSpin.setToolTip(self.tr("How many undecided suggestions each view shows at a time"))
         self.perPageSpin.valueChanged.connect(self._per_page)
-        numbers.addWidget(self.perPageSpin)
-        numbers.addWidget(QLabel(self.tr("Pairs within:"), self))
-        self.thresholdSpin = QDoubleSpinBox(self)
+        form.addRow(self.tr("Suggestions on show per view:"), self.perPageSpin)
+        self.thresholdSpin = QDoubleSpinBox(form_widget)
         self.thresholdSpin.setRange(1.0, 100.0)
         self.thresholdSpin.setDecimals(0)
         self.thresholdSpin.setSuffix(" px")
@@ -108,25 +111,25 @@ class CurationPanel(QWidget):
         self.thresholdSpin.setToolTip(self.tr("A photo and a DEM suggestion this close under the current camera "
                                               "are a likely pair (linked in cyan)"))
         self.thresholdSpin.valueChanged.connect(self._threshold)
-        numbers.addWidget(self.thresholdSpin)
-        self.refitCheck = QCheckBox(self.tr("Refit while I click"), self)
+        form.addRow(self.tr("Likely pair within:"), self.thresholdSpin)
+        holder = QWidgetAction(options_menu)
+        holder.setDefaultWidget(form_widget)
+        options_menu.addAction(holder)
+        self.refitCheck = options_menu.addAction(self.tr("Refit while I click"))
         self.refitCheck.setToolTip(self.tr("Fit the camera in the background after every change of the accepted "
                                            "points; the suggestions are re-ranked by it"))
+        self.refitCheck.setCheckable(True)
         self.refitCheck.setChecked(True)
         self.refitCheck.toggled.connect(self._refit_toggled)
-        numbers.addWidget(self.refitCheck)
-        numbers.addStretch(1)
-        self.numbersWidget = QWidget(self)
-        self.numbersWidget.setLayout(numbers)
+        self.optionsButton.setMenu(options_menu)
+        self._show_text()
 
-        # into the point buttons' grid (ui/dock.ui, three columns): two rows of actions, one of settings
+        # into the point buttons' grid (ui/dock.ui, three columns): two rows
         grid = dock.pointButtons
         row = grid.rowCount()
-        for i, b in enumerate((self.moreButton, self.rejectRestButton, self.acceptLikelyButton)):
-            grid.addWidget(b, row, i)
-        grid.addWidget(self.rejectOutliersButton, row + 1, 0)
-        grid.addWidget(self.filtersWidget, row + 1, 1, 1, 2)
-        grid.addWidget(self.numbersWidget, row + 2, 0, 1, 3)
+        for i, b in enumerate((self.moreButton, self.rejectRestButton, self.acceptLikelyButton,
+                               self.rejectOutliersButton, self.showButton, self.optionsButton)):
+            grid.addWidget(b, row + i // 3, i % 3)
         self.hide()  # the widgets live in the grid; this object only owns them
 
         c.pointsChanged.connect(self._on_points)
@@ -163,7 +166,13 @@ class CurationPanel(QWidget):
 
     def set_filter(self, status: str, on: bool) -> None:
         self.c.shortlist.set_filter(status, on)
+        self._show_text()
         self._redraw()
+
+    def _show_text(self) -> None:
+        names = {SUGGESTED: self.tr("undecided"), ACCEPTED: self.tr("accepted"), REJECTED: self.tr("rejected")}
+        on = [names[s] for s, a in self.filter_checks.items() if a.isChecked()]
+        self.showButton.setText(self.tr("Show: {0}").format(", ".join(on) if on else self.tr("nothing")))
 
     def _per_page(self, n: int) -> None:
         sl = self.c.shortlist
@@ -201,11 +210,12 @@ class CurationPanel(QWidget):
             camera, sigma, self.refit_info = c.prior, PRIOR_SIGMA_PX, self.tr("rough camera")
         else:
             camera, sigma, self.refit_info = None, PRIOR_SIGMA_PX, ""
-        sl = c.shortlist
-        if camera is not sl.camera:
-            sl.set_camera(camera, sigma)
+        key = (c.state.fitted, c.state.prior)
+        if key != getattr(self, "_camera_key", None):  # cameraChanged also fires for the overlay, the photo...
+            self._camera_key = key
+            c.shortlist.set_camera(camera, sigma)
             self._redraw()
-        self.refitter.schedule(force=camera is not None)
+            self.refitter.schedule(force=camera is not None)
         self._update_info()
 
     def _on_refit(self, outcome) -> None:
