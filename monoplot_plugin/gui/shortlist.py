@@ -259,6 +259,11 @@ class Shortlist:
         live = {a for a, _, _ in self.likely()}
         return [((pts[a].x, pts[a].y), q) for a, _, _, q in self._pairs if a in live and a in visible]
 
+    def likely_visible(self, space: str) -> List[Point]:
+        """The visible points of ``space`` that are one end of a likely pair (ringed in cyan)."""
+        ends = {(a if space == PHOTO else b) for a, b, _ in self.likely()}
+        return [p for p in self.visible(space) if p.id in ends]
+
     def _live_pairs(self):
         pts = self.state.points
         for a, b, d, q in self._pairs:

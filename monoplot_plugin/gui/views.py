@@ -43,6 +43,7 @@ class PhotoPresenter:
         self.cursor = _cursor_marker(canvas, QColor(0, 230, 255))
         # a likely partner: from a photo suggestion to where its DEM partner projects under the current camera
         self.links = LineBand(canvas, QColor(0, 230, 255, 200), width=2, z=29)
+        self.likely = IconBand(canvas, QColor(0, 230, 255), size=19, width=2, z=28)  # ring: has a likely partner
         self.outliers = IconBand(canvas, QColor(255, 30, 30), size=17, width=3, z=36)
         self.show_residuals = True
 
@@ -58,6 +59,7 @@ class PhotoPresenter:
     def redraw_recommendations(self) -> None:
         sl = self.c.shortlist
         self.links.set_segments([(uv_to_map(*a), uv_to_map(*b)) for a, b in sl.links()])
+        self.likely.set_points([uv_to_map(p.x, p.y) for p in sl.likely_visible(PHOTO)])
         pts = self.c.state.points
         self.outliers.set_points([uv_to_map(pts[i].x, pts[i].y) for i in sl.current_outliers()])
 
@@ -89,6 +91,7 @@ class PhotoPresenter:
         self.residuals.remove()
         self.check_residuals.remove()
         self.links.remove()
+        self.likely.remove()
         self.outliers.remove()
         self.canvas.scene().removeItem(self.cursor)
 
@@ -106,6 +109,7 @@ class MapPresenter:
         self.camera_marker.setIconType(QgsVertexMarker.IconType.ICON_CIRCLE)
         self.camera_marker.setIconSize(14)
         self.cursor = _cursor_marker(canvas, QColor(0, 230, 255))
+        self.likely = IconBand(canvas, QColor(0, 230, 255), size=19, width=2, z=28)  # ring: has a likely partner
 
     @property
     def crs(self) -> QgsCoordinateReferenceSystem:
@@ -120,6 +124,8 @@ class MapPresenter:
         self.markers.crs = self.crs
         self.prior_band.crs = self.fitted_band.crs = self.crs
         self.markers.set_points((p.x, p.y, p.status, p.manual) for p in self.c.visible(MAP))
+        self.likely.crs = self.crs
+        self.likely.set_points([QgsPointXY(p.x, p.y) for p in self.c.shortlist.likely_visible(MAP)])
         self.redraw_selection()
 
     def redraw_selection(self) -> None:
@@ -161,6 +167,7 @@ class MapPresenter:
 
     def remove(self) -> None:
         self.markers.remove()
+        self.likely.remove()
         self.prior_band.remove()
         self.fitted_band.remove()
         for item in (self.camera_marker, self.cursor):

@@ -124,6 +124,8 @@ def test_background_refit_links_likely_pairs_and_flags_outliers(dock, scene, qtb
     truth = {(p.id, w.id) for p, w in zip(photo, world)}
     assert len(likely) >= 30 and sum((a, b) in truth for a, b, _ in likely) >= 0.9 * len(likely)
     assert dock.photo_view.links.band.numberOfVertices() > 0
+    ringed = c.shortlist.likely_visible(PHOTO)
+    assert ringed and dock.photo_view.likely.band.numberOfVertices() == len(ringed)
     # "Accept likely": both ends of every pair, one undo entry
     n_before = c.state.counts()[PHOTO][ACCEPTED]
     assert panel.acceptLikelyButton.isEnabled()
