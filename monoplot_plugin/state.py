@@ -116,16 +116,26 @@ class ProjectState:
         """(N, 2) list of accepted point coordinates of one space (suggested and rejected ones excluded)."""
         return [(p.x, p.y) for p in self.in_space(space, (ACCEPTED,))]
 
-    def counts(self) -> Dict[str, Dict[str, int]]:
-        """{space: {status: count}}.
+    #: bumped by every :class:`Edit` applied (the cache key of :meth:`counts`; not a field, not saved)
+    _version = 0
 
-        >>> ProjectState().counts()["photo"]["accepted"]
+    def counts(self) -> Dict[str, Dict[str, int]]:
+        """{space: {status: count}}; cached until the next edit (the dock asks after every click).
+
+        >>> s = ProjectState(); s.counts()["photo"]["accepted"]
         0
+        >>> Edit("add", after={"a": Point("a", "photo", 1, 2, status=ACCEPTED)}).redo(s)
+        >>> s.counts()["photo"]["accepted"]
+        1
         """
-        out = {s: {st: 0 for st in STATUSES} for s in (PHOTO, MAP)}
-        for p in self.points.values():
-            out[p.space][p.status] += 1
-        return out
+        key = (id(self.points), len(self.points), self._version)
+        cached = self.__dict__.get("_counts")
+        if cached is None or cached[0] != key:
+            out = {s: {st: 0 for st in STATUSES} for s in (PHOTO, MAP)}
+            for p in self.points.values():
+                out[p.space][p.status] += 1
+            cached = self.__dict__["_counts"] = (key, out)
+        return {s: dict(v) for s, v in cached[1].items()}
 
     def pairs_with_status(self, status: str) -> List[Tuple[Point, Point]]:
         """Pairs whose two points exist and both have ``status``, as (photo point, map point)."""
@@ -216,6 +226,7 @@ class ProjectState:
         """Replace every field by those of ``other`` (keeps this object's identity for listeners)."""
         for name in self.__dataclass_fields__:
             setattr(self, name, getattr(other, name))
+        self._version += 1
 
 
 # --- edits (undoable) -----------------------------------------------------------------------------------------
@@ -235,6 +246,7 @@ class Edit:
 
     @staticmethod
     def _apply(state: ProjectState, points: Dict[str, Optional[Point]], pairs) -> None:
+        state._version += 1
         for pid, p in points.items():
             if p is None:
                 state.points.pop(pid, None)

@@ -160,13 +160,7 @@ class Shortlist:
 
     def remaining(self, space: str) -> int:
         """Undecided suggestions of ``space`` not on show."""
-        return max(0, len(self._ranking[space]) - self._cursor[space]) + \
-            sum(1 for pid in self._ranking[space][:self._cursor[space]]
-                if pid not in self.shown[space] and self._status(pid) == SUGGESTED)
-
-    def _status(self, pid: str) -> str:
-        p = self.state.points.get(pid)
-        return "" if p is None else p.status
+        return max(0, self.state.counts()[space][SUGGESTED] - len(self.shown[space]))
 
     def set_filter(self, status: str, on: bool) -> None:
         self.filters[status] = bool(on)
