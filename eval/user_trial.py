@@ -14,7 +14,7 @@ with ``--suggestions`` per view. Then a simulated person, who knows the 11 GCPs 
 Printed: the check-point RMSE (the 11 GCPs projected by the fitted camera, never given to the fit; target <= 9 px),
 the number of clicks (target <= 60), the wall time, and how the clicks were spent.
 
-    .venv/bin/python -m eval.user_trial [--data DIR] [--suggestions 2000] [--threshold 6]
+    .venv/bin/python -m eval.user_trial [--data DIR] [--suggestions 2000] [--threshold 4] [--judge-first]
 """
 
 from __future__ import annotations
