@@ -172,7 +172,8 @@ class CurationPanel(QWidget):
     def _show_text(self) -> None:
         names = {SUGGESTED: self.tr("undecided"), ACCEPTED: self.tr("accepted"), REJECTED: self.tr("rejected")}
         on = [names[s] for s, a in self.filter_checks.items() if a.isChecked()]
-        self.showButton.setText(self.tr("Show: {0}").format(", ".join(on) if on else self.tr("nothing")))
+        text = self.tr("all") if len(on) == len(names) else ", ".join(on) if on else self.tr("nothing")
+        self.showButton.setText(self.tr("Show: {0}").format(text))
 
     def _per_page(self, n: int) -> None:
         sl = self.c.shortlist
