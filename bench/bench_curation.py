@@ -176,9 +176,8 @@ def main(argv=None) -> int:
                           "undecided": counts[PHOTO][SUGGESTED] + counts[MAP][SUGGESTED],
                           "load_1min": round(os.getloadavg()[0], 2)}), flush=True)
         dock.unload()
-        dock.deleteLater()
-        wait(0)
-    return 0
+    sys.stdout.flush()
+    os._exit(0)  # QGIS's own teardown at interpreter exit can crash after a session; the lines are written
 
 
 if __name__ == "__main__":

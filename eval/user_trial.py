@@ -201,7 +201,8 @@ def main(argv=None) -> int:
         return 1
     print(json.dumps(run(args.data, args.suggestions, args.max_clicks, args.good_sigma, args.likely_rounds,
                          args.threshold, args.per_page, args.judge_first)), flush=True)
-    return 0
+    sys.stderr.flush()
+    os._exit(0)  # QGIS's own teardown at interpreter exit can crash after a session; the line is written
 
 
 if __name__ == "__main__":

@@ -253,7 +253,8 @@ class CurationPanel(QWidget):
         counts.setText(base + "\n" + text)
 
     def unload(self) -> None:
-        self.refitter.cancel()
+        self.refitter.enabled = False
+        self.refitter.cancel(wait_ms=10000)  # no refit left running once the dock is gone
 
 
 def install_curation_panel(dock) -> CurationPanel:

@@ -77,11 +77,14 @@ class Refitter(QObject):
         if force or key != self._key:
             self._timer.start()
 
-    def cancel(self) -> None:
+    def cancel(self, wait_ms: int = 0) -> None:
+        """Stop the pending and the running refit; ``wait_ms``: block until the task has stopped (unload)."""
         self._timer.stop()
         self._again = False
         if self.task is not None:
             self.task.cancel()
+            if wait_ms:
+                self.task.waitForFinished(wait_ms)
 
     def _run(self) -> None:
         if self.task is not None:  # a newer change: stop the running refit, start again when it ends
