@@ -58,7 +58,6 @@ class CurationPanel(QWidget):
             b = QToolButton(self)
             b.setText(text)
             b.setToolTip(tip)
-            b.setToolButtonStyle(b.toolButtonStyle())
             b.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
             b.clicked.connect(slot)
             return b
