@@ -36,6 +36,7 @@ class RefitOutcome:
     outlier_ids: List[str] = field(default_factory=list)
     rec: Optional[Recommendation] = None
     seconds: float = 0.0
+    n_photo: int = 0  # accepted photo points the refit used
 
 
 def sigma_of(rmse_px: float) -> float:
@@ -114,7 +115,7 @@ class Refitter(QObject):
             rec = recommendation(done.camera, *snapshot, sigma, threshold) if r.status in USABLE else None
             flags = np.asarray(r.photo_outliers, dtype=bool).reshape(-1)
             outliers = [pid for pid, f in zip(photo_ids, flags) if f] if len(flags) == len(photo_ids) else []
-            return RefitOutcome(done.camera, r.status, rmse, sigma, outliers, rec, float(r.elapsed_s))
+            return RefitOutcome(done.camera, r.status, rmse, sigma, outliers, rec, float(r.elapsed_s), len(uv))
 
         self.task = FunctionTask("Monoplot refit", work, self._done)
         self.running.emit(True)

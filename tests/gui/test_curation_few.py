@@ -147,3 +147,21 @@ def test_background_refit_links_likely_pairs_and_flags_outliers(dock, scene, qtb
     assert dock.photo_view.outliers.band.numberOfVertices() == 0
     c.stack.undo()
     assert all(c.state.points[p.id].status == ACCEPTED for p in wrong)  # one undo entry
+
+
+def test_a_change_during_a_refit_cancels_it_and_the_next_refit_uses_the_new_points(dock, scene, qtbot):
+    load_inputs(dock, scene, qtbot)
+    c, refit = dock.controller, dock.curation_panel.refitter
+    photo, world = add_scene_points(dock, scene)
+    c.set_prior(scene.prior)
+    outcomes, statuses = [], []
+    refit.refitted.connect(outcomes.append)
+    done = refit._done
+    refit._done = lambda result: (statuses.append(result.status), done(result))  # the tasks' callback
+    c.set_status([p.id for p in photo[:15]] + [w.id for w in world[:15]], ACCEPTED)
+    qtbot.waitUntil(lambda: refit.task is not None, timeout=10000)  # debounced: started after the pause
+    c.set_status([p.id for p in photo[15:25]] + [w.id for w in world[15:25]], ACCEPTED)
+    refit._run()  # the debounce timer of the second change fires while the first refit runs
+    qtbot.waitUntil(lambda: bool(outcomes) and outcomes[-1].n_photo == 25, timeout=120000)
+    assert statuses[0] == "canceled"  # the newer change stopped the refit of the older points
+    assert all(o.n_photo == 25 for o in outcomes)  # no result of the canceled refit was applied
