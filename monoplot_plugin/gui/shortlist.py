@@ -8,6 +8,7 @@ read :meth:`Shortlist.visible` / :meth:`Shortlist.hit`, which cost O(shown), not
 * Filters: undecided / accepted (with check points) / rejected (hidden by default).
 * With a camera (:meth:`set_camera`: the prior, a fit or the background refit) suggestions are re-ranked by
   agreement: a photo suggestion with a DEM suggestion projecting near it comes first, and the other way round.
+  The page on show stays as it is (nothing vanishes under the cursor); the next pages follow the new ranking.
 
 >>> from monoplot_plugin.state import CommandStack, Point, add_points, set_status
 >>> s = ProjectState(); st = CommandStack(s); sl = Shortlist(s, per_page=2); st.add_listener(sl.update)
@@ -109,8 +110,9 @@ class Shortlist:
     def _undecided(self, space: str) -> List[Point]:
         return [p for p in self.state.points.values() if p.space == space and p.status == SUGGESTED]
 
-    def _rerank(self, space: str, keep: int) -> None:
-        """New ranking of the undecided suggestions of ``space``; show the best max(``keep``, per_page)."""
+    def _rerank(self, space: str, keep: int, stable: bool = False) -> None:
+        """New ranking of the undecided suggestions of ``space``; show the best max(``keep``, per_page), or, when
+        ``stable``, keep the ones on show (the next pages follow the new ranking)."""
         cands = self._undecided(space)
         if cands:
             xy = np.array([(p.x, p.y) for p in cands], dtype=np.float64)
@@ -124,8 +126,11 @@ class Shortlist:
             self._ranking[space] = []
         self._ranked[space] = set(self._ranking[space])
         self._cursor[space] = 0
-        self.shown[space] = {}
-        self._take(space, max(keep, self.per_page))
+        if stable and self.shown[space]:
+            self.shown[space] = {i: None for i in self.shown[space] if i in self._ranked[space]}
+        else:
+            self.shown[space] = {}
+            self._take(space, max(keep, self.per_page))
         self._cache[space] = None
 
     def _take(self, space: str, n: int) -> int:
@@ -224,7 +229,8 @@ class Shortlist:
         self.distance, self.partner = rec.distance, rec.partner
         self._set_pairs(rec.pairs)
         for space in SPACES:
-            self._rerank(space, keep=len(self.shown[space]))
+            # the page on show stays (a suggestion must not vanish under the cursor); the next pages follow
+            self._rerank(space, keep=len(self.shown[space]), stable=True)
 
     def set_threshold(self, px: float) -> None:
         self.threshold = float(px)
