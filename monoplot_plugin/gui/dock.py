@@ -25,6 +25,7 @@ from ..adapters import layers as camera_layers
 from ..state import MAP, PHOTO
 from .chips import ChipView
 from .controller import MonoplotController
+from .curation_panel import MessageOnce, install_curation_panel
 from .fit_settings import FitSettingsPanel, LensPanel
 from .io_actions import IoActions
 from .photo_canvas import PhotoCanvas
@@ -148,6 +149,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self._unloaded = False
         QgsApplication.instance().aboutToQuit.connect(self.unload)
         self.output_tools = self._install_outputs()
+        self.curation_panel = install_curation_panel(self)  # few at a time, bulk actions, live refit
         self.io_actions = IoActions(self)  # camera files, GCP tables and point layers (gui/io_actions.py)
         self.lens_panel = LensPanel(c, self.fovSpin, self.cameraTab)  # what the user knows (gui/fit_settings.py)
         self.cameraTabLayout.insertWidget(self.cameraTabLayout.indexOf(self.cameraSummary), self.lens_panel)
@@ -191,9 +193,9 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         """Message bar (never a traceback); also the dock's status line."""
         self.statusLabel.setText(text)
         bar = self.iface.messageBar() if self.iface is not None else None
-        if bar is not None:
+        if bar is not None:  # once: the previous Monoplot message leaves the bar (no replay of old ones)
             duration = 0 if level == Qgis.MessageLevel.Critical else 6
-            bar.pushMessage(self.tr("Monoplot"), text, level, duration)
+            self.__dict__.setdefault("_messages", MessageOnce()).push(bar, self.tr("Monoplot"), text, level, duration)
 
     # --- inputs -----------------------------------------------------------------------------------------------
     def _photo_chosen(self, path: str) -> None:
@@ -498,6 +500,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self._unloaded = True
         c = self.controller
         c.cancel()
+        self.curation_panel.unload()
         self.chips.unload()
         c.save()
         c.detach()
