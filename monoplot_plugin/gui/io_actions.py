@@ -313,7 +313,7 @@ class IoActions:
             (tr("Save rough camera…"), lambda: self._save_camera("prior")),
         ])
         dock.cameraButtons.insertWidget(dock.cameraButtons.count() - 1, self.camera_button)
-        self.points_button = self._menu_button(tr("Import / export points"), [
+        self.points_button = self._menu_button(tr("Import / export"), [
             (tr("Import GCP table (CSV: u, v, X, Y, Z, id, check)…"), self._import_csv),
             (tr("Export pairs as GCP table (CSV)…"), self._export_csv),
             None,
@@ -321,6 +321,19 @@ class IoActions:
             (tr("Export points as layers"), lambda: export_point_layers(c, dock.project)),
         ])
         self.points_button.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
+        self._place_points_button(dock)
+
+    def _place_points_button(self, dock) -> None:
+        """Beside the Suggestions box (which spans two columns of the point buttons' grid in ui/dock.ui): no row
+        of its own, the point table keeps its height; else in a row of its own above the counts."""
+        grid, spin = dock.pointButtons, dock.suggestCountSpin
+        index = grid.indexOf(spin)
+        if index >= 0:
+            row, column, rows, columns = grid.getItemPosition(index)
+            if columns >= 2:
+                grid.addWidget(spin, row, column, rows, columns - 1)
+                grid.addWidget(self.points_button, row, column + columns - 1, rows, 1)
+                return
         layout = dock.pointsTabLayout
         layout.insertWidget(layout.indexOf(dock.countsLabel), self.points_button)
 
