@@ -18,6 +18,7 @@ from ..adapters.dem import DemError, read_dem_layer
 from ..adapters.photo import PhotoError, array_to_qimage, qimage_to_array, read_photo
 from ..core.camera import Camera
 from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, replace_suggestions
+from ..workflow import warmup
 from . import engine, persistence
 from .curation import CurationMixin
 from .fit_settings import fit_arguments
@@ -197,6 +198,7 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
             self.taskFinished.emit(result)
             self.task_kind = ""
 
+        warmup.yield_to_work()  # a warm-up still running stops after its step: this work comes first
         self.task = FunctionTask(description, work, done)
         self.task_kind = kind
         self.task.progressChanged.connect(self.progressChanged.emit)

@@ -11,6 +11,7 @@ tiny generated scene (both DEM dtypes the readers produce), so the plugin can ca
 
 from __future__ import annotations
 
+import threading
 import time
 from typing import Dict, Optional
 
@@ -18,14 +19,23 @@ import numpy as np
 
 from .progress import IsCanceled, Progress, check_canceled
 
-__all__ = ["warm_up"]
+__all__ = ["warm_up", "yield_to_work"]
+
+#: set when real work starts (the dock's first Suggest or fit): a warm-up still running stops after its step,
+#: rather than compete with that work for the two cores (the work compiles what it needs itself)
+_REAL_WORK = threading.Event()
+
+
+def yield_to_work() -> None:
+    """Real work begins: a running :func:`warm_up` stops after the step it is in."""
+    _REAL_WORK.set()
 
 
 def warm_up(progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None) -> Dict[str, float]:
     """Run suggest, fit and render once on a 48 x 48 cell scene; returns the seconds each took (by step name).
 
     No result is kept; the point is the side effect (kernels compiled or loaded, modules imported). Raises
-    ``Canceled`` when ``is_canceled()`` turns true between steps."""
+    ``Canceled`` when ``is_canceled()`` turns true between steps, or :func:`yield_to_work` was called."""
     from ..core.camera import Camera
     from ..core.dem import Dem
     from ..core.fit import FitOptions
@@ -36,6 +46,12 @@ def warm_up(progress: Optional[Progress] = None, is_canceled: Optional[IsCancele
     from . import suggest as suggest_step
 
     report = progress or (lambda fraction, message="": None)
+    _REAL_WORK.clear()
+    asked = is_canceled
+
+    def is_canceled() -> bool:
+        return _REAL_WORK.is_set() or bool(asked and asked())
+
     seconds: Dict[str, float] = {}
     terrain = synthetic_terrain((48, 48), cell=50.0, seed=1)
     x, y = terrain.cell_to_map(24, 46)
