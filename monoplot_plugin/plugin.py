@@ -28,10 +28,23 @@ def plugin_icon_path():
     return ICON_RESOURCE if QFile.exists(ICON_RESOURCE) else str(ICON_FILE)
 
 
-#: the warm-up starts this long after initGui (milliseconds); unload waits at most WARM_UP_WAIT_MS for its step
+#: the warm-up starts this long after initGui (milliseconds); QGIS quitting waits at most WARM_UP_WAIT_MS for the
+#: step it is in
 WARM_UP_DELAY_MS, WARM_UP_WAIT_MS = 2000, 60000
 #: warm-up tasks still running: Python must keep them while their thread runs (also after the plugin's unload)
 _WARMING = []
+_QUIT_HOOK = []
+
+
+def _wait_for_warm_up():
+    """QGIS is quitting: stop the warm-up and wait for the step it is in, so that Python does not go away under a
+    running worker thread."""
+    for task in list(_WARMING):
+        try:
+            task.cancel()
+            task.waitForFinished(WARM_UP_WAIT_MS)
+        except RuntimeError:  # already deleted by the task manager
+            pass
 
 
 def start_warm_up():
@@ -51,6 +64,9 @@ def start_warm_up():
         task = FunctionTask("Monoplot: preparing", lambda progress, is_canceled: warm_up(progress, is_canceled),
                             done)
         _WARMING.append(task)
+        if not _QUIT_HOOK:
+            QgsApplication.instance().aboutToQuit.connect(_wait_for_warm_up)
+            _QUIT_HOOK.append(True)
         return start_task(task)
     except Exception:  # noqa: BLE001 — a warm-up is an optimisation, never a reason to fail loading
         LOG.exception("Monoplot warm-up not started")
@@ -128,9 +144,8 @@ class MonoplotPlugin:
             self._warmup_timer = None
         task, self.warmup_task = getattr(self, "warmup_task", None), None
         if task is not None and task in _WARMING:
-            try:  # stops between steps; wait for the step running (a kernel being compiled): QGIS may be quitting,
-                task.cancel()  # and Python must not go away under a running worker thread
-                task.waitForFinished(WARM_UP_WAIT_MS)
+            try:  # stops after the step it is in (a reload does not wait: _WARMING keeps the task until it ends;
+                task.cancel()  # QGIS quitting waits for it, _wait_for_warm_up)
             except RuntimeError:  # already deleted by the task manager
                 pass
         if self.dock is not None:

@@ -73,16 +73,17 @@ def test_init_gui_warms_the_kernels_in_a_background_task(plugin, qtbot):
     assert set(task.result.value) == {"render", "suggest", "fit"}
 
 
-def test_unload_during_the_warm_up_waits_for_its_thread(qgis_iface, qtbot):
-    """QGIS quitting (or a reload) while the warm-up runs: unload cancels it and waits for the step in progress, so
-    no worker thread outlives the plugin's Python."""
+def test_unload_during_the_warm_up_cancels_it(qgis_iface, qtbot):
+    """A reload while the warm-up runs: unload cancels it without waiting (a reload must stay quick); the task stops
+    after the step it is in and stays referenced until then."""
     instance = MonoplotPlugin(qgis_iface)
     instance.initGui()
     qtbot.waitUntil(lambda: instance.warmup_task is not None, timeout=plugin_module.WARM_UP_DELAY_MS + 5000)
     task = instance.warmup_task
     instance.unload()
     assert instance.warmup_task is None
-    qtbot.waitUntil(lambda: task not in plugin_module._WARMING, timeout=2000)  # its run() had ended already
+    qtbot.waitUntil(lambda: task not in plugin_module._WARMING, timeout=120000)
+    assert task.result is not None and task.result.status in ("canceled", "success")
     flush_deletes()
 
 
