@@ -8,11 +8,12 @@ covers ``[j, j+1) x [i, i+1)``, so the lookup of ``(u, v)`` is pixel ``(floor(v)
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Optional, Tuple
 
 import numpy as np
 
-__all__ = ["sample_xyz", "visibility_of_points", "orthorectify"]
+__all__ = ["sample_xyz", "visibility_of_points", "orthorectify", "OrthoLookup", "ortho_lookup"]
 
 
 def sample_xyz(xyz: np.ndarray, uv, origin=None, max_jump: float = 0.05) -> np.ndarray:
@@ -91,7 +92,8 @@ def orthorectify(photo: np.ndarray, camera, dem, xyz: np.ndarray) -> np.ndarray:
     """The photo draped onto the DEM grid.
 
     Every DEM cell centre (on the terrain) is projected into the photo; it takes the colour of that photo pixel
-    when the camera sees it (:func:`visibility_of_points`).
+    when the camera sees it (:func:`visibility_of_points`). The same as ``ortho_lookup(camera, dem, xyz)
+    .apply(photo)``: a time-lapse computes the lookup once per camera and applies it to every frame.
 
     Args:
         photo: (H, W) or (H, W, bands) uint8 photo.
@@ -101,20 +103,60 @@ def orthorectify(photo: np.ndarray, camera, dem, xyz: np.ndarray) -> np.ndarray:
     Returns:
         (rows, cols, bands + 1) uint8: photo bands then an alpha band (255 seen, 0 unseen: nodata).
     """
-    photo = np.asarray(photo)
-    if photo.ndim == 2:
-        photo = photo[..., None]
-    if photo.shape[1] != camera.width or photo.shape[0] != camera.height:
-        raise ValueError(f"photo is {photo.shape[1]}x{photo.shape[0]} px, camera expects {camera.image_size}")
-    rows, cols = dem.elevation.shape
+    return ortho_lookup(camera, dem, xyz).apply(photo)
+
+
+@dataclass(frozen=True)
+class OrthoLookup:
+    """Which photo pixel colours each DEM cell: what an orthophoto depends on besides the photo (camera, DEM and
+    the XYZ raster's occlusion), computed once by :func:`ortho_lookup` and applied to any photo of that camera.
+
+    Attributes:
+        shape: (rows, cols) of the DEM grid.
+        image_size: (width, height) of the camera's photo.
+        cells: (N,) int64 flat indices of the DEM cells the camera sees.
+        pixels: (N,) int64 flat photo pixel indices (row * width + column) of those cells.
+
+    >>> lut = OrthoLookup((1, 3), (2, 1), np.array([0, 2]), np.array([1, 0]))
+    >>> lut.apply(np.array([[[10, 11, 12], [20, 21, 22]]], dtype=np.uint8))[0].tolist()
+    [[20, 21, 22, 255], [0, 0, 0, 0], [10, 11, 12, 255]]
+    """
+
+    shape: Tuple[int, int]
+    image_size: Tuple[int, int]
+    cells: np.ndarray
+    pixels: np.ndarray
+
+    @property
+    def seen(self) -> int:
+        """How many DEM cells take a colour."""
+        return int(self.cells.size)
+
+    def apply(self, photo: np.ndarray) -> np.ndarray:
+        """(rows, cols, bands + 1) uint8 orthophoto of ``photo`` ((H, W) or (H, W, bands) uint8), alpha last."""
+        photo = np.asarray(photo)
+        if photo.ndim == 2:
+            photo = photo[..., None]
+        width, height = self.image_size
+        if photo.shape[1] != width or photo.shape[0] != height:
+            raise ValueError(f"photo is {photo.shape[1]}x{photo.shape[0]} px, camera expects {self.image_size}")
+        rows, cols = self.shape
+        bands = photo.shape[2]
+        out = np.zeros((rows * cols, bands + 1), dtype=np.uint8)
+        out[self.cells, :bands] = photo.reshape(-1, bands)[self.pixels]
+        out[self.cells, bands] = 255
+        return out.reshape(rows, cols, bands + 1)
+
+
+def ortho_lookup(camera, dem, xyz: np.ndarray) -> OrthoLookup:
+    """The :class:`OrthoLookup` of ``camera`` over ``dem``'s grid (arguments as :func:`orthorectify`): every DEM
+    cell centre projected into the photo, kept when the camera sees it (:func:`visibility_of_points`)."""
     pts = dem.vertices().reshape(-1, 3)
-    out = np.zeros((rows * cols, photo.shape[2] + 1), dtype=np.uint8)
     finite = np.isfinite(pts[:, 2])
     uv, visible = visibility_of_points(camera, pts[finite], xyz)
-    idx = np.flatnonzero(finite)[visible]
+    cells = np.flatnonzero(finite)[visible]
     uv = uv[visible]
-    r = np.clip(np.floor(uv[:, 1]).astype(int), 0, camera.height - 1)
-    c = np.clip(np.floor(uv[:, 0]).astype(int), 0, camera.width - 1)
-    out[idx, :-1] = photo[r, c]
-    out[idx, -1] = 255
-    return out.reshape(rows, cols, -1)
+    r = np.clip(np.floor(uv[:, 1]).astype(np.int64), 0, camera.height - 1)
+    c = np.clip(np.floor(uv[:, 0]).astype(np.int64), 0, camera.width - 1)
+    return OrthoLookup(tuple(dem.elevation.shape), tuple(camera.image_size), cells.astype(np.int64),
+                       r * camera.width + c)
