@@ -1,7 +1,10 @@
-"""Many photos at once, without qgis: a time-lapse folder sharing one camera, or a CSV table of photos each with
-its own prior and points. One bad photo is reported and skipped; the others go on.
+"""Many photos at once, without Qt or qgis: a time-lapse folder sharing one camera, or a CSV table of photos each
+with its own prior and points. One bad photo is reported and skipped; the others go on.
 
-A job is a list of :class:`PhotoJob`; :func:`run_batch` runs them and returns one :class:`PhotoResult` per photo.
+A job is a list of :class:`PhotoJob`; :func:`run_batch` runs them and returns one :class:`PhotoResult` per photo, in
+job order. The frames of one shared camera share what depends only on camera and DEM (computed once, see
+:mod:`.frames`), run on every core (threads: decoding, GDAL writes and OpenCV release the GIL), and optionally are
+re-registered on a reference frame (``register``). :mod:`.cluster` runs the same frames as Dask tasks.
 """
 
 from __future__ import annotations
@@ -9,17 +12,25 @@ from __future__ import annotations
 import csv
 import fnmatch
 import os
-from dataclasses import dataclass, field
-from typing import Callable, List, Optional
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Callable, Iterable, List, Optional
 
 import numpy as np
 
 from ..outputs.safe_write import write_text
-from ..workflow.progress import IsCanceled, Progress, never_canceled, no_progress
-from . import pipeline
-from .inputs import InputError, load_camera, read_photo, read_points_csv
+from .files import InputError, load_camera, read_photo, read_points_csv
+from .fit import fit_points
+from .frames import SHARED_XYZ, FrameTask, PhotoResult, Timelapse, process_frame, shared_for
+from .progress import IsCanceled, Progress, never_canceled, no_progress
+from .vectors import fill_missing_z
+
+__all__ = ["PhotoJob", "PhotoResult", "folder_jobs", "table_jobs", "run_batch", "output_stems", "fit_shared_camera",
+           "fit_job", "write_log", "frame_tasks", "batch_setup", "IMAGE_PATTERNS"]
 
 IMAGE_PATTERNS = ("*.jpg", "*.jpeg", "*.png", "*.tif", "*.tiff", "*.bmp")
+
+Log = Callable[[str, bool], None]
 
 
 @dataclass
@@ -32,16 +43,6 @@ class PhotoJob:
     points: str = ""       # paired GCP CSV (u_px, v_px, X, Y, Z) or photo points CSV
     dem_points: str = ""   # DEM points CSV (unpaired fit)
     label: str = ""        # where the job comes from (table line), for messages about a row without a photo
-
-
-@dataclass
-class PhotoResult:
-    photo: str
-    ok: bool
-    message: str = ""
-    outputs: List[str] = field(default_factory=list)
-    rmse_px: float = float("nan")
-    canceled: bool = False  # not processed because the user canceled the batch
 
 
 def folder_jobs(folder: str, camera, patterns: str = "") -> List[PhotoJob]:
@@ -102,78 +103,110 @@ def table_jobs(path: str) -> List[PhotoJob]:
 
 def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: bool = True,
               write_ortho: bool = True, resolution: Optional[float] = None,
-              log: Callable[[str, bool], None] = lambda message, error: None,
-              progress: Progress = no_progress, is_canceled: IsCanceled = never_canceled) -> List[PhotoResult]:
+              log: Log = lambda message, error: None,
+              progress: Progress = no_progress, is_canceled: IsCanceled = never_canceled,
+              workers: Optional[int] = None, register: bool = False, reference: str = "") -> List[PhotoResult]:
     """Run every job; never raises for one photo's problem.
 
-    Outputs per photo ``<stem>_camera.json`` (fitted jobs), ``<stem>_xyz.tif``, ``<stem>_ortho.tif``; jobs sharing
-    one camera share one ``xyz.tif`` (the XYZ raster depends only on the camera and the DEM). ``log(message,
-    is_error)`` receives one line per photo; ``progress(fraction, message)`` and ``is_canceled()`` follow the
-    workflow's protocol; on a cancel the remaining photos are reported as not processed.
+    Outputs per photo ``<stem>_camera.json`` (fitted jobs, and re-registered frames that turned), ``<stem>_xyz.tif``,
+    ``<stem>_ortho.tif``; jobs sharing one camera share one ``xyz.tif`` (the XYZ raster depends only on the camera
+    and the DEM). ``log(message, is_error)`` receives one line per photo; ``progress(fraction, message)`` and
+    ``is_canceled()`` follow the workflow's protocol; on a cancel the remaining photos are reported as not processed.
+
+    ``workers``: frames processed at once (threads; default: the number of cores). ``register``: match every frame
+    of a shared camera to ``reference`` (a photo; default the first job's) and make its products with the corrected
+    camera; the drift is in the log and the results. All jobs share one camera, or none does (a table).
     """
     os.makedirs(out_dir, exist_ok=True)
     stems = output_stems(jobs)
-    for job, stem in zip(jobs, stems):
-        if job.photo and stem != os.path.splitext(os.path.basename(job.photo))[0]:
-            log(f"{job.photo}: another photo of the batch has the same name; its outputs are named {stem}_*", False)
+    tasks = frame_tasks(jobs, stems, log)
+    setup = batch_setup(jobs, crs_wkt, out_dir, write_xyz, write_ortho, resolution, register, reference)
     existing = [n for n in _planned_outputs(jobs, stems, write_xyz, write_ortho)
                 if os.path.exists(os.path.join(out_dir, n))]
     if existing:
         log(f"{len(existing)} file(s) of an earlier run in {out_dir} are replaced (e.g. {existing[0]})", False)
-    results: List[PhotoResult] = []
-    shared_xyz_written = set()
-    for index, job in enumerate(jobs):
+    try:
+        shared = shared_for(setup, dem)
+    except InputError as exc:  # the reference frame cannot be read: nothing can be registered
+        results = [PhotoResult(t.photo, False, f"{exc}", index=t.index) for t in tasks]
+        log(f"every photo FAILED: {exc}", True)
+        return results
+    if setup.camera_json and write_xyz and shared.products.sees_ground:
+        shared.products.write_xyz(os.path.join(out_dir, SHARED_XYZ), crs_wkt)
+    return collect(_threaded(tasks, lambda t: process_frame(t, shared), workers, is_canceled), tasks, log,
+                   progress)
+
+
+def batch_setup(jobs: List[PhotoJob], crs_wkt: str, out_dir: str, write_xyz: bool = True, write_ortho: bool = True,
+                resolution: Optional[float] = None, register: bool = False, reference: str = "",
+                dem_path: str = "", void_value: Optional[float] = None) -> Timelapse:
+    """The :class:`~.frames.Timelapse` of a batch: the shared camera of its jobs (all or none), the reference."""
+    cameras = {j.camera.to_json() for j in jobs if j.camera is not None}
+    if len(cameras) > 1 or (cameras and any(j.camera is None for j in jobs)):
+        raise ValueError("the jobs of one batch share one camera, or each is fitted")
+    camera_json = cameras.pop() if cameras else ""
+    if register and not camera_json:
+        raise InputError("re-registration needs the frames' shared camera (time-lapse mode)")
+    if register and not reference:
+        reference = next((j.photo for j in jobs if j.photo), "")
+    return Timelapse(out_dir, crs_wkt, camera_json, write_xyz, write_ortho, resolution, register,
+                     reference if register else "", dem_path=dem_path, void_value=void_value)
+
+
+def frame_tasks(jobs: List[PhotoJob], stems: List[str], log: Log) -> List[FrameTask]:
+    """One :class:`~.frames.FrameTask` per job (a job without camera carries itself, to be fitted)."""
+    tasks = []
+    for index, (job, stem) in enumerate(zip(jobs, stems)):
+        if job.photo and stem != os.path.splitext(os.path.basename(job.photo))[0]:
+            log(f"{job.photo}: another photo of the batch has the same name; its outputs are named {stem}_*", False)
         name = os.path.basename(job.photo) or job.label or f"job {index + 1}"
-        stem = stems[index]
-        progress(index / max(1, len(jobs)), name)
-        if is_canceled():
-            results.extend(PhotoResult(j.photo, False, "canceled before processing", canceled=True)
-                           for j in jobs[index:])
-            log(f"canceled: {len(jobs) - index} photos not processed", True)
-            break
-        result = PhotoResult(job.photo, False)
-        try:
-            photo = read_photo(job.photo)
-            size = (photo.shape[1], photo.shape[0])
-            camera = job.camera
-            fit_status, fit_message = "ok", ""
-            if camera is None:
-                camera, result.rmse_px, fit_status, fit_message = _fit_job(job, size, dem, crs_wkt)
-                camera_path = os.path.join(out_dir, f"{stem}_camera.json")
-                write_text(camera_path, camera.to_json(), overwrite=True)
-                result.outputs.append(camera_path)
-            elif tuple(camera.image_size) != size:
-                raise InputError(f"photo is {size[0]}x{size[1]} px but the shared camera is for "
-                                 f"{camera.width}x{camera.height} px")
-            if (write_xyz or write_ortho) and not np.isfinite(pipeline.xyz_raster(camera, dem)[..., 2]).any():
-                raise InputError("the camera sees no cell of the DEM (every pixel is sky): wrong camera or DEM?")
-            if write_xyz:
-                if job.camera is not None:
-                    xyz_path = os.path.join(out_dir, "xyz.tif")
-                    if camera.to_json() not in shared_xyz_written:
-                        pipeline.write_xyz(xyz_path, camera, dem, crs_wkt)
-                        shared_xyz_written.add(camera.to_json())
-                else:
-                    xyz_path = os.path.join(out_dir, f"{stem}_xyz.tif")
-                    pipeline.write_xyz(xyz_path, camera, dem, crs_wkt, name)
-                result.outputs.append(xyz_path)
-            if write_ortho:
-                ortho_path = os.path.join(out_dir, f"{stem}_ortho.tif")
-                pipeline.orthophoto(ortho_path, photo, camera, dem, resolution)
-                result.outputs.append(ortho_path)
-            result.ok = True
-            result.message = "ok" if np.isnan(result.rmse_px) else f"ok, fit RMSE {result.rmse_px:.2f} px"
-            if fit_status != "ok":  # products written, but the fitted camera is doubtful
-                result.message = f"fit {fit_status}, RMSE {result.rmse_px:.2f} px: {fit_message}"
-            if job.photo and stem != os.path.splitext(name)[0]:
-                result.message += f" (outputs {stem}_*)"
-            log(f"[{index + 1}/{len(jobs)}] {name}: {result.message}", False)
-        except Exception as exc:  # one photo's failure must not lose the batch
-            result.message = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
-            log(f"[{index + 1}/{len(jobs)}] {name}: FAILED, skipped: {result.message}", True)
-        results.append(result)
+        tasks.append(FrameTask(index, job.photo, stem, name, None if job.camera is not None else job))
+    return tasks
+
+
+def _threaded(tasks: List[FrameTask], work: Callable[[FrameTask], PhotoResult], workers: Optional[int],
+              is_canceled: IsCanceled) -> Iterable[Optional[PhotoResult]]:
+    """Results of ``work`` on every task, in task order, ``workers`` at a time (one: in this thread, strictly one
+    after the other); a task that has not started when ``is_canceled()`` turns true comes back None (canceled)."""
+    workers = max(1, workers or os.cpu_count() or 1)
+    if workers == 1:
+        for task in tasks:
+            yield None if is_canceled() else work(task)
+        return
+
+    def guarded(task):
+        return None if is_canceled() else work(task)
+
+    window = 2 * workers  # frames in flight: the decoded photos and products held at once stay few
+    with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="monoplot-batch") as pool:
+        pending = []
+        for task in tasks:
+            pending.append(pool.submit(guarded, task))
+            if len(pending) > window:
+                yield pending.pop(0).result()
+        for future in pending:
+            yield future.result()
+
+
+def collect(results: Iterable[Optional[PhotoResult]], tasks: List[FrameTask], log: Log,
+            progress: Progress) -> List[PhotoResult]:
+    """The results in task order (None: canceled before processing), logged one line each, with progress."""
+    out: List[PhotoResult] = []
+    total = len(tasks)
+    for task, result in zip(tasks, results):
+        if result is None:
+            result = PhotoResult(task.photo, False, "canceled before processing", canceled=True, index=task.index)
+        elif result.ok:
+            log(f"[{task.index + 1}/{total}] {task.name}: {result.message}", False)
+        else:
+            log(f"[{task.index + 1}/{total}] {task.name}: FAILED, skipped: {result.message}", True)
+        out.append(result)
+        progress(len(out) / max(1, total), task.name)
+    canceled = sum(r.canceled for r in out)
+    if canceled:
+        log(f"canceled: {canceled} photos not processed", True)
     progress(1.0, "")
-    return results
+    return out
 
 
 def output_stems(jobs: List[PhotoJob]) -> List[str]:
@@ -211,7 +244,7 @@ def _planned_outputs(jobs: List[PhotoJob], stems: List[str], write_xyz: bool, wr
 
 
 def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_points: str, dem, crs_wkt: str,
-                      log: Callable[[str, bool], None] = lambda message, error: None):
+                      log: Log = lambda message, error: None):
     """Fit one camera for a whole time-lapse on its first readable photo (the frames share the camera).
 
     Returns (camera, photo used, rmse px). Raises InputError when no photo can be fitted."""
@@ -224,14 +257,14 @@ def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_poi
             log(f"{os.path.basename(path)}: skipped for the shared fit: {exc}", True)
             continue
         job = PhotoJob(path, prior=prior, points=points, dem_points=dem_points)
-        camera, rmse, status, message = _fit_job(job, (photo.shape[1], photo.shape[0]), dem, crs_wkt)
+        camera, rmse, status, message = fit_job(job, (photo.shape[1], photo.shape[0]), dem, crs_wkt)
         if status != "ok":
             log(f"{os.path.basename(path)}: the shared camera's fit is {status}: {message}", True)
         return camera, path, rmse
     raise InputError("no photo of the folder could be read for the shared fit: " + "; ".join(problems[:3]))
 
 
-def _fit_job(job: PhotoJob, size, dem, crs_wkt: str):
+def fit_job(job: PhotoJob, size, dem, crs_wkt: str):
     """Fit one job's camera from its prior and point files; returns (camera, rmse in px, fit status, message)."""
     prior = load_camera(job.prior, size, crs_wkt)
     table = read_points_csv(job.points)
@@ -246,20 +279,24 @@ def _fit_job(job: PhotoJob, size, dem, crs_wkt: str):
         xyz, paired = table["xyz"], True
     else:
         raise InputError(f"{os.path.basename(job.points)}: no map columns (X, Y, Z) and no dem_points file")
-    xyz = pipeline.fill_missing_z(xyz, dem)
-    camera, info = pipeline.fit(size, uv, xyz, prior, dem, paired)
+    xyz = fill_missing_z(xyz, dem)
+    camera, info = fit_points(size, uv, xyz, prior, dem, paired)
     camera.crs_wkt = crs_wkt
     return camera, float(info["rmse_px"]), info["status"], info["message"]
 
 
 def write_log(path: str, results: List[PhotoResult]) -> None:
-    """CSV summary: photo, status (ok, failed or canceled), message, rmse_px, outputs (semicolon-separated)."""
+    """CSV summary: photo, status (ok, failed or canceled), message, rmse_px, drift_px, drift_deg (re-registered
+    frames), outputs (semicolon-separated)."""
     import io
+
+    def number(value, digits):
+        return "" if not np.isfinite(value) else f"{value:.{digits}f}"
 
     text = io.StringIO(newline="")
     writer = csv.writer(text)
-    writer.writerow(["photo", "status", "message", "rmse_px", "outputs"])
+    writer.writerow(["photo", "status", "message", "rmse_px", "drift_px", "drift_deg", "outputs"])
     for r in results:
         writer.writerow([r.photo, "ok" if r.ok else "canceled" if r.canceled else "failed", r.message,
-                         "" if np.isnan(r.rmse_px) else f"{r.rmse_px:.3f}", ";".join(r.outputs)])
+                         number(r.rmse_px, 3), number(r.drift_px, 3), number(r.drift_deg, 4), ";".join(r.outputs)])
     write_text(path, text.getvalue(), overwrite=True)
