@@ -43,6 +43,8 @@ __all__ = ["Drift", "Reference", "stable_mask", "register", "fit_rotation", "cor
 
 #: fewer consistent matches than this and a frame is not registered
 MIN_INLIERS = 12
+#: pixels: what is coarser than this is shading (removed before matching), finer is texture
+HIGH_PASS_SIGMA = 3.0
 
 
 @dataclass
@@ -89,12 +91,16 @@ def stable_mask(xyz: np.ndarray, camera: Camera, near_m: float = 150.0, border_p
 
 
 def _grey(photo: np.ndarray) -> np.ndarray:
-    """Contrast-equalised grey image (CLAHE): lighting changes between frames matter less."""
+    """The photo's texture as a grey uint8 image: grey, minus its blur (shading by the sun and exposure vary from
+    frame to frame, the texture of the ground does not), contrast-equalised (CLAHE)."""
     import cv2
 
     photo = np.asarray(photo)
     grey = photo if photo.ndim == 2 else cv2.cvtColor(np.ascontiguousarray(photo[..., :3]), cv2.COLOR_RGB2GRAY)
-    return cv2.createCLAHE(clipLimit=2.0, tileGridSize=(8, 8)).apply(np.ascontiguousarray(grey, dtype=np.uint8))
+    grey = np.ascontiguousarray(grey, dtype=np.uint8)
+    detail = cv2.subtract(grey, cv2.GaussianBlur(grey, (0, 0), HIGH_PASS_SIGMA), dtype=cv2.CV_16S)
+    texture = np.clip(detail.astype(np.float32) * 2.0 + 128.0, 0, 255).astype(np.uint8)
+    return cv2.createCLAHE(clipLimit=2.0, tileGridSize=(8, 8)).apply(texture)
 
 
 class Reference:

@@ -121,7 +121,7 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
     stems = output_stems(jobs)
     tasks = frame_tasks(jobs, stems, log)
     setup = batch_setup(jobs, crs_wkt, out_dir, write_xyz, write_ortho, resolution, register, reference)
-    existing = [n for n in _planned_outputs(jobs, stems, write_xyz, write_ortho)
+    existing = [n for n in planned_outputs(jobs, stems, write_xyz, write_ortho)
                 if os.path.exists(os.path.join(out_dir, n))]
     if existing:
         log(f"{len(existing)} file(s) of an earlier run in {out_dir} are replaced (e.g. {existing[0]})", False)
@@ -230,7 +230,7 @@ def output_stems(jobs: List[PhotoJob]) -> List[str]:
     return stems
 
 
-def _planned_outputs(jobs: List[PhotoJob], stems: List[str], write_xyz: bool, write_ortho: bool) -> List[str]:
+def planned_outputs(jobs: List[PhotoJob], stems: List[str], write_xyz: bool, write_ortho: bool) -> List[str]:
     """File names :func:`run_batch` writes into the output folder."""
     names = []
     for job, stem in zip(jobs, stems):
