@@ -131,10 +131,41 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
         results = [PhotoResult(t.photo, False, f"{exc}", index=t.index) for t in tasks]
         log(f"every photo FAILED: {exc}", True)
         return results
-    if setup.camera_json and write_xyz and shared.products.sees_ground:
-        shared.products.write_xyz(os.path.join(out_dir, SHARED_XYZ), crs_wkt)
-    return collect(_threaded(tasks, lambda t: process_frame(t, shared), workers, is_canceled), tasks, log,
-                   progress)
+    writer = None
+    if setup.camera_json and write_xyz and shared.products.sees_ground:  # written while the frames run
+        writer = _Background(shared.products.write_xyz, os.path.join(out_dir, SHARED_XYZ), crs_wkt)
+    results = collect(_threaded(tasks, lambda t: process_frame(t, shared), workers, is_canceled), tasks, log,
+                      progress)
+    if writer is not None and writer.wait() is not None:
+        log(f"{SHARED_XYZ} FAILED: {writer.error}", True)
+        shared_path = os.path.join(out_dir, SHARED_XYZ)
+        for r in results:
+            if shared_path in r.outputs:
+                r.outputs.remove(shared_path)
+                r.message += f"; {SHARED_XYZ} not written"
+    return results
+
+
+class _Background:
+    """``function(*args)`` in a thread; :meth:`wait` returns the exception it raised, or None."""
+
+    def __init__(self, function, *args):
+        import threading
+
+        self.error = None
+
+        def run():
+            try:
+                function(*args)
+            except Exception as exc:  # reported by the caller after the frames
+                self.error = exc
+
+        self.thread = threading.Thread(target=run, name="monoplot-shared-xyz", daemon=True)
+        self.thread.start()
+
+    def wait(self):
+        self.thread.join()
+        return self.error
 
 
 def batch_setup(jobs: List[PhotoJob], crs_wkt: str, out_dir: str, write_xyz: bool = True, write_ortho: bool = True,

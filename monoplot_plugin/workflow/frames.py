@@ -72,7 +72,7 @@ class CameraProducts:
     def write_orthophoto(self, path: str, photo: np.ndarray) -> str:
         from ..outputs.orthophoto import write_orthophoto
 
-        image = self.lookup.apply(np.ascontiguousarray(photo[..., :3]) if photo.ndim == 3 else photo)
+        image = self.lookup.apply(photo[..., :3] if photo.ndim == 3 and photo.shape[2] > 3 else photo)
         return str(write_orthophoto(path, image, self.grid.geotransform, self.grid.crs_wkt, overwrite=True))
 
     def write_xyz(self, path: str, crs_wkt: str, photo_name: str = "") -> str:
