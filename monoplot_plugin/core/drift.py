@@ -45,6 +45,8 @@ __all__ = ["Drift", "Reference", "stable_mask", "register", "fit_rotation", "cor
 MIN_INLIERS = 12
 #: pixels: what is coarser than this is shading (removed before matching), finer is texture
 HIGH_PASS_SIGMA = 3.0
+#: standard deviation of the texture image (grey levels)
+TEXTURE_CONTRAST = 32.0
 
 
 @dataclass
@@ -91,16 +93,18 @@ def stable_mask(xyz: np.ndarray, camera: Camera, near_m: float = 150.0, border_p
 
 
 def _grey(photo: np.ndarray) -> np.ndarray:
-    """The photo's texture as a grey uint8 image: grey, minus its blur (shading by the sun and exposure vary from
-    frame to frame, the texture of the ground does not), contrast-equalised (CLAHE)."""
+    """The photo's texture as a grey uint8 image: grey minus its blur (shading by the sun varies from frame to frame,
+    the texture of the ground does not), scaled to a fixed contrast (exposure varies too), around 128."""
     import cv2
 
     photo = np.asarray(photo)
     grey = photo if photo.ndim == 2 else cv2.cvtColor(np.ascontiguousarray(photo[..., :3]), cv2.COLOR_RGB2GRAY)
     grey = np.ascontiguousarray(grey, dtype=np.uint8)
-    detail = cv2.subtract(grey, cv2.GaussianBlur(grey, (0, 0), HIGH_PASS_SIGMA), dtype=cv2.CV_16S)
-    texture = np.clip(detail.astype(np.float32) * 2.0 + 128.0, 0, 255).astype(np.uint8)
-    return cv2.createCLAHE(clipLimit=2.0, tileGridSize=(8, 8)).apply(texture)
+    size = 2 * int(round(HIGH_PASS_SIGMA * 3)) + 1
+    blur = cv2.stackBlur(grey, (size, size))
+    sample = grey[::4, ::4].astype(np.float32) - blur[::4, ::4]
+    gain = TEXTURE_CONTRAST / max(float(sample.std()), 1.0)
+    return cv2.addWeighted(grey, gain, blur, -gain, 128.0)  # saturated to uint8
 
 
 class Reference:
@@ -114,7 +118,7 @@ class Reference:
     """
 
     def __init__(self, photo: np.ndarray, camera: Camera, mask: np.ndarray, features: int = 1500,
-                 scale: Optional[float] = None, corners: int = 600):
+                 scale: Optional[float] = None, corners: int = 400):
         import cv2
 
         if tuple(camera.image_size) != (photo.shape[1], photo.shape[0]):
@@ -123,7 +127,7 @@ class Reference:
         self.camera = camera
         self.scale = scale if scale is not None else min(1.0, 1000.0 / max(camera.width, camera.height))
         self.grey = _grey(photo)
-        self.orb = cv2.ORB_create(nfeatures=features, fastThreshold=10)
+        self.orb = cv2.ORB_create(nfeatures=features, nlevels=3, fastThreshold=10)  # no zoom between frames
         small_mask = _resized(mask, self.scale, cv2.INTER_NEAREST)
         small = _resized(self.grey, self.scale, cv2.INTER_AREA)
         self.keypoints, self.descriptors = self.orb.detectAndCompute(small, small_mask)
@@ -190,18 +194,25 @@ def register(reference: Reference, photo: np.ndarray, threshold_px: float = 2.0,
                  residual)
 
 
-def _mutual_matches(a: np.ndarray, b: np.ndarray, allowed: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
-    """Indices (into ``a``, into ``b``) of descriptor pairs that are each other's nearest (Hamming) among the pairs
-    ``allowed`` ((len(a), len(b)) uint8)."""
+def _mutual_matches(a: np.ndarray, b: np.ndarray, allowed: np.ndarray, ratio: float = 0.85
+                    ) -> Tuple[np.ndarray, np.ndarray]:
+    """Indices (into ``a``, into ``b``) of distinctive descriptor pairs among those ``allowed`` ((len(a), len(b))
+    uint8): the nearest (Hamming) clearly nearer than the second (``ratio``), each ``b`` used once."""
     import cv2
 
-    matcher = cv2.BFMatcher(cv2.NORM_HAMMING)
-    forward = {m.queryIdx: m.trainIdx for m in matcher.match(a, b, allowed)}
-    backward = {m.queryIdx: m.trainIdx for m in matcher.match(b, a, np.ascontiguousarray(allowed.T))}
-    pairs = [(i, j) for i, j in forward.items() if backward.get(j) == i]
-    if not pairs:
+    pairs = {}
+    for found in cv2.BFMatcher(cv2.NORM_HAMMING).knnMatch(a, b, k=2, mask=allowed):
+        if not found or (len(found) == 2 and found[0].distance > ratio * found[1].distance):
+            continue
+        best = found[0]
+        if best.trainIdx in pairs:  # two reference points want this one: neither is sure
+            pairs[best.trainIdx] = None
+        else:
+            pairs[best.trainIdx] = best.queryIdx
+    kept = [(i, j) for j, i in pairs.items() if i is not None]
+    if not kept:
         return np.zeros(0, dtype=int), np.zeros(0, dtype=int)
-    ia, ib = np.array(pairs).T
+    ia, ib = np.array(kept).T
     return ia, ib
 
 
@@ -219,7 +230,7 @@ def _refine(reference: Reference, grey: np.ndarray, rotation: np.ndarray, thresh
     predicted = _project_rays(cam, reference.corner_rays @ rotation.T) - 0.5
     start = np.ascontiguousarray(predicted, dtype=np.float32).reshape(-1, 1, 2)
     tracked, status, _ = cv2.calcOpticalFlowPyrLK(
-        reference.grey, grey, reference.corners.reshape(-1, 1, 2), start, winSize=(21, 21), maxLevel=2,
+        reference.grey, grey, reference.corners.reshape(-1, 1, 2), start, winSize=(15, 15), maxLevel=2,
         flags=cv2.OPTFLOW_USE_INITIAL_FLOW,
         criteria=(cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 30, 0.01))
     good = status.reshape(-1) == 1
