@@ -13,7 +13,8 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-__all__ = ["sample_xyz", "visibility_of_points", "orthorectify", "OrthoLookup", "ortho_lookup"]
+__all__ = ["sample_xyz", "visibility_of_points", "orthorectify", "OrthoLookup", "ortho_lookup", "TurnableLookup",
+           "turnable_lookup", "widened"]
 
 
 def sample_xyz(xyz: np.ndarray, uv, origin=None, max_jump: float = 0.05) -> np.ndarray:
@@ -160,3 +161,84 @@ def ortho_lookup(camera, dem, xyz: np.ndarray) -> OrthoLookup:
     c = np.clip(np.floor(uv[:, 0]).astype(np.int64), 0, camera.width - 1)
     return OrthoLookup(tuple(dem.elevation.shape), tuple(camera.image_size), cells.astype(np.int64),
                        r * camera.width + c)
+
+
+@dataclass(frozen=True)
+class TurnableLookup:
+    """The :class:`OrthoLookup` of one camera centre for any small turn of the camera, without a new z-buffer.
+
+    Turning a camera about its centre changes which pixel sees a DEM cell, not whether the cell is hidden: the
+    cells seen through a wider image (``margin`` pixels on each side) and their rays are kept once
+    (:func:`turnable_lookup`); :meth:`turned` projects the rays of a turned camera (a re-registered time-lapse
+    frame) into its image.
+
+    Attributes:
+        shape: (rows, cols) of the DEM grid. margin: pixels added on each side of the image.
+        cells: (N,) int64 flat indices of the DEM cells seen by the wider image; rays: (N, 3) their directions in the
+        camera frame of ``rotation``. rotation: (3, 3) world-to-camera rotation they were taken in.
+    """
+
+    shape: Tuple[int, int]
+    margin: int
+    cells: np.ndarray
+    rays: np.ndarray
+    rotation: np.ndarray
+
+    def turned(self, camera) -> Optional[OrthoLookup]:
+        """The lookup of ``camera`` (same centre and intrinsics, any rotation), or None when it turned farther than
+        the margin covers (the caller then computes :func:`ortho_lookup`)."""
+        from .camera import project_points
+
+        delta = camera.rotation @ self.rotation.T
+        uv, depth = project_points(self.rays @ delta.T, np.zeros(3), np.eye(3), camera.focal_px, camera.cx,
+                                   camera.cy, camera.k1, camera.k2)
+        f = camera.focal_px
+        corners = np.array([[(u - camera.cx) / f, (v - camera.cy) / f, 1.0]
+                            for u in (0.0, camera.width) for v in (0.0, camera.height)])
+        back = corners @ delta  # the image's corners among the kept rays (the wider image's frame)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u_wide = f * back[:, 0] / back[:, 2] + camera.cx + self.margin
+            v_wide = f * back[:, 1] / back[:, 2] + camera.cy + self.margin
+        if not ((back[:, 2] > 0).all() and (u_wide >= 0).all() and (u_wide <= camera.width + 2 * self.margin).all()
+                and (v_wide >= 0).all() and (v_wide <= camera.height + 2 * self.margin).all()):
+            return None
+        with np.errstate(invalid="ignore"):
+            inside = ((depth > 0) & (uv[:, 0] >= 0) & (uv[:, 0] < camera.width) & (uv[:, 1] >= 0)
+                      & (uv[:, 1] < camera.height))
+        r = np.floor(uv[inside, 1]).astype(np.int64)
+        c = np.floor(uv[inside, 0]).astype(np.int64)
+        return OrthoLookup(self.shape, tuple(camera.image_size), self.cells[inside], r * camera.width + c)
+
+
+def widened(camera, margin: int):
+    """``camera`` with ``margin`` pixels more on each side of its image (same centre, focal length and rays).
+
+    >>> from monoplot_plugin.core.camera import Camera
+    >>> wide = widened(Camera((0, 0, 0), 0, 0, 0, 60, (100, 80)), 10)
+    >>> wide.image_size, wide.principal_point
+    ((120, 100), (60.0, 50.0))
+    """
+    from dataclasses import replace
+
+    from .camera import focal_from_fov, fov_from_focal
+
+    width, height = camera.width + 2 * margin, camera.height + 2 * margin
+    fov = fov_from_focal(focal_from_fov(camera.fov, camera.width), width)
+    return replace(camera, image_size=(width, height), fov=fov,
+                   principal_point=(camera.cx + margin, camera.cy + margin))
+
+
+def turnable_lookup(camera, dem, xyz_of, max_degrees: float = 3.0) -> TurnableLookup:
+    """The :class:`TurnableLookup` of ``camera`` over ``dem`` for turns up to ``max_degrees``; ``xyz_of(camera)``
+    computes a z-buffer (core :func:`~monoplot_plugin.core.xyz.compute_xyz`), here of the wider image."""
+    import math
+
+    margin = int(math.ceil(camera.focal_px * math.tan(math.radians(max_degrees)) * 1.5)) + 2
+    wide = widened(camera, margin)
+    xyz = xyz_of(wide)
+    pts = dem.vertices().reshape(-1, 3)
+    finite = np.isfinite(pts[:, 2])
+    _, visible = visibility_of_points(wide, pts[finite], xyz)
+    cells = np.flatnonzero(finite)[visible]
+    rays = (pts[cells] - np.asarray(wide.position)) @ wide.rotation.T
+    return TurnableLookup(tuple(dem.elevation.shape), margin, cells.astype(np.int64), rays, wide.rotation)

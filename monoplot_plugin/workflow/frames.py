@@ -69,6 +69,14 @@ class CameraProducts:
             self.grid = dem if not resolution else dem_at_resolution(dem, resolution)
             self.lookup = ortho_lookup(camera, self.grid, self.xyz)
 
+    @classmethod
+    def of_lookup(cls, camera: Camera, grid, lookup) -> "CameraProducts":
+        """Products of a camera whose orthophoto lookup is known (a turned frame): orthophotos only, no XYZ."""
+        products = cls.__new__(cls)
+        products.camera, products.grid, products.lookup = camera, grid, lookup
+        products.xyz, products.sees_ground = None, True
+        return products
+
     def write_orthophoto(self, path: str, photo: np.ndarray) -> str:
         from ..outputs.orthophoto import write_orthophoto
 
@@ -127,6 +135,7 @@ class Shared:
         self.camera = Camera.from_json(setup.camera_json) if setup.camera_json else None
         self.products = None
         self.reference = None
+        self.turnable = None  # the orthophoto lookup of any small turn of the camera (re-registration)
         if self.camera is not None:
             self.products = CameraProducts(self.camera, dem, setup.resolution, setup.write_ortho)
             if setup.register and self.products.sees_ground:
@@ -135,6 +144,13 @@ class Shared:
                 photo = read_photo(setup.reference)
                 self.reference = Reference(photo, self.camera, stable_mask(self.products.xyz, self.camera,
                                                                            setup.near_m))
+                if setup.write_ortho and not setup.write_xyz:  # turned frames need no z-buffer of their own
+                    from ..core.lookup import turnable_lookup
+                    from ..core.xyz import compute_xyz
+
+                    with _compute_lock:
+                        self.turnable = turnable_lookup(self.camera, self.products.grid,
+                                                        lambda wide: compute_xyz(wide, dem))
 
 
 _shared_lock = threading.Lock()
@@ -211,6 +227,10 @@ def _registered(shared: Shared, photo: np.ndarray, result: PhotoResult):
     if drift.pixels < DRIFT_TOLERANCE_PX:
         return shared.products, False
     camera = corrected_camera(shared.camera, drift.rotation)
+    if shared.turnable is not None:
+        lookup = shared.turnable.turned(camera)
+        if lookup is not None:
+            return CameraProducts.of_lookup(camera, shared.products.grid, lookup), True
     return CameraProducts(camera, shared.dem, shared.setup.resolution, shared.setup.write_ortho, cached=False), True
 
 

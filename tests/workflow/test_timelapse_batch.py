@@ -109,3 +109,23 @@ def test_cancel_with_frames_in_flight_marks_the_rest_canceled(still_timelapse, t
     for r in canceled:
         stem = os.path.splitext(os.path.basename(r.photo))[0]
         assert not (tmp_path / "out" / f"{stem}_ortho.tif").exists() and not r.outputs
+
+
+def test_turned_frames_orthophotos_without_xyz_need_no_z_buffer_of_their_own(drifting_timelapse, tmp_path):
+    from monoplot_plugin.workflow.frames import CameraProducts
+
+    scene = drifting_timelapse
+    cam = Camera.load(scene["camera"])
+    dem = Dem.open(scene["dem"])
+    out = tmp_path / "out"
+    results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(out), register=True,
+                              write_xyz=False)
+    assert all(r.ok for r in results) and not list(out.glob("*_xyz.tif"))
+    for i in (1, 3):
+        corrected = Camera.load(out / f"frame_{i:03d}_camera.json")
+        direct = CameraProducts(corrected, dem, cached=False).write_orthophoto(str(tmp_path / f"d{i}.tif"),
+                                                                               read_photo(scene["frames"][i]))
+        fast, slow = band_arrays(out / f"frame_{i:03d}_ortho.tif"), band_arrays(direct)
+        both = (fast[..., 3] > 0) & (slow[..., 3] > 0)
+        assert both.sum() >= 0.95 * max((fast[..., 3] > 0).sum(), (slow[..., 3] > 0).sum())
+        assert np.array_equal(fast[both], slow[both])
