@@ -137,13 +137,17 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
     results = collect(_threaded(tasks, lambda t: process_frame(t, shared), workers, is_canceled), tasks, log,
                       progress)
     if writer is not None and writer.wait() is not None:
-        log(f"{SHARED_XYZ} FAILED: {writer.error}", True)
-        shared_path = os.path.join(out_dir, SHARED_XYZ)
-        for r in results:
-            if shared_path in r.outputs:
-                r.outputs.remove(shared_path)
-                r.message += f"; {SHARED_XYZ} not written"
+        shared_xyz_failed(results, os.path.join(out_dir, SHARED_XYZ), writer.error, log)
     return results
+
+
+def shared_xyz_failed(results: List[PhotoResult], path: str, error: Exception, log: Log) -> None:
+    """The shared ``xyz.tif`` could not be written: said once, and taken off every frame's outputs."""
+    log(f"{SHARED_XYZ} FAILED: {error}", True)
+    for r in results:
+        if path in r.outputs:
+            r.outputs.remove(path)
+            r.message += f"; {SHARED_XYZ} not written"
 
 
 class _Background:

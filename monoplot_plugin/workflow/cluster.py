@@ -25,7 +25,7 @@ import os
 from pathlib import Path
 from typing import Dict, List, Optional
 
-from .batch import PhotoJob, Log, batch_setup, frame_tasks, output_stems, planned_outputs
+from .batch import Log, PhotoJob, batch_setup, frame_tasks, output_stems, planned_outputs, shared_xyz_failed
 from .frames import SHARED_XYZ, FrameTask, PhotoResult, Timelapse, process_frame, shared_for
 from .progress import IsCanceled, Progress, never_canceled, no_progress
 
@@ -85,9 +85,15 @@ def run_batch_dask(jobs: List[PhotoJob], dem_path: str, crs_wkt: str, out_dir: s
             log(f"{len(existing)} file(s) of an earlier run in {out_dir} are replaced (e.g. {existing[0]})", False)
         workers = len(client.scheduler_info().get("workers", {}))
         log(f"Dask: {len(tasks)} frames on {workers} worker(s) of {client.scheduler.address}", False)
-        if setup.camera_json and write_xyz:
-            client.submit(_shared_xyz_task, setup, pure=False).result()
+        shared_xyz = None
+        if setup.camera_json and write_xyz:  # one task, beside the frames
+            shared_xyz = client.submit(_shared_xyz_task, setup, pure=False)
         results = _gather(client, tasks, setup, log, progress, is_canceled)
+        if shared_xyz is not None:
+            try:
+                shared_xyz.result()
+            except Exception as exc:  # the frames' products are there; the shared raster is not
+                shared_xyz_failed(results, os.path.join(setup.out_dir, SHARED_XYZ), exc, log)
         _remove_orphans(out_dir, planned_outputs(jobs, stems, write_xyz, write_ortho))
         return results
     finally:

@@ -129,3 +129,17 @@ def test_turned_frames_orthophotos_without_xyz_need_no_z_buffer_of_their_own(dri
         both = (fast[..., 3] > 0) & (slow[..., 3] > 0)
         assert both.sum() >= 0.95 * max((fast[..., 3] > 0).sum(), (slow[..., 3] > 0).sum())
         assert np.array_equal(fast[both], slow[both])
+
+
+def test_a_shared_xyz_that_cannot_be_written_is_said_once_and_left_off_the_frames(still_timelapse, tmp_path):
+    scene = still_timelapse
+    cam = Camera.load(scene["camera"])
+    dem = Dem.open(scene["dem"])
+    out = tmp_path / "out"
+    (out / "xyz.tif").mkdir(parents=True)  # a folder in the way: the rename into place fails
+    lines = []
+    results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(out), workers=2,
+                              log=lambda m, e: lines.append((m, e)))
+    assert all(r.ok for r in results) and len(list(out.glob("*_ortho.tif"))) == 6
+    assert all(str(out / "xyz.tif") not in r.outputs and "xyz.tif not written" in r.message for r in results)
+    assert sum(e and m.startswith("xyz.tif FAILED") for m, e in lines) == 1
