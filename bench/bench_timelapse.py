@@ -111,11 +111,18 @@ def bench_registration(work: Path, count: int) -> None:
             failed += 1
             continue
         errors.append(drift.pixel_shift(cam, found.rotation, true.rotation @ cam.rotation.T))
+    from concurrent.futures import ThreadPoolExecutor
+
+    cores = os.cpu_count() or 1
+    start = time.perf_counter()
+    with ThreadPoolExecutor(cores) as pool:  # as the batch runs it: a frame per core (OpenCV releases the GIL)
+        list(pool.map(lambda frame: drift.register(reference, frame[0]), frames))
+    parallel_s = time.perf_counter() - start
     emit(name="reregistration", image=f"{WIDTH}x{HEIGHT}", frames=count, registered=count - failed,
          max_error_px=round(max(errors), 3) if errors else None,
          median_error_px=round(float(np.median(errors)), 3) if errors else None,
-         frames_per_s=round(count / sum(times), 2), reference_s=round(reference_s, 2), target_error_px=0.5,
-         target_frames_per_s=5.0)
+         frames_per_s=round(count / sum(times), 2), frames_per_s_all_cores=round(count / parallel_s, 2),
+         reference_s=round(reference_s, 2), target_error_px=0.5, target_frames_per_s=5.0)
     folder = work / "turned"
     folder.mkdir(parents=True, exist_ok=True)
     cv2.imwrite(str(folder / "frame_0000.png"), reference_photo[..., ::-1])
