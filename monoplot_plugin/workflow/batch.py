@@ -19,11 +19,9 @@ from typing import Callable, Iterable, List, Optional
 import numpy as np
 
 from ..outputs.safe_write import write_text
-from .files import InputError, load_camera, read_photo, read_points_csv
-from .fit import fit_points
-from .frames import SHARED_XYZ, FrameTask, PhotoResult, Timelapse, process_frame, shared_for
+from .files import InputError, read_photo
+from .frames import SHARED_XYZ, FrameTask, PhotoResult, Timelapse, fit_job, process_frame, shared_for
 from .progress import IsCanceled, Progress, never_canceled, no_progress
-from .vectors import fill_missing_z
 
 __all__ = ["PhotoJob", "PhotoResult", "folder_jobs", "table_jobs", "run_batch", "output_stems", "fit_shared_camera",
            "fit_job", "write_log", "frame_tasks", "batch_setup", "IMAGE_PATTERNS"]
@@ -69,7 +67,7 @@ def table_jobs(path: str) -> List[PhotoJob]:
     base = os.path.dirname(os.path.abspath(path))
     import io
 
-    from ..workflow.inputs import read_text
+    from .inputs import read_text
 
     with io.StringIO(read_text(path), newline="") as fh:  # UTF-8 with or without BOM, UTF-16
         sample = fh.read(4096)
@@ -297,27 +295,6 @@ def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_poi
             log(f"{os.path.basename(path)}: the shared camera's fit is {status}: {message}", True)
         return camera, path, rmse
     raise InputError("no photo of the folder could be read for the shared fit: " + "; ".join(problems[:3]))
-
-
-def fit_job(job: PhotoJob, size, dem, crs_wkt: str):
-    """Fit one job's camera from its prior and point files; returns (camera, rmse in px, fit status, message)."""
-    prior = load_camera(job.prior, size, crs_wkt)
-    table = read_points_csv(job.points)
-    if "uv" not in table:
-        raise InputError(f"{os.path.basename(job.points)}: no photo point columns (u_px, v_px)")
-    uv = table["uv"]
-    if job.dem_points:
-        xyz, paired = read_points_csv(job.dem_points).get("xyz"), False
-        if xyz is None:
-            raise InputError(f"{os.path.basename(job.dem_points)}: no X, Y, Z columns")
-    elif "xyz" in table:
-        xyz, paired = table["xyz"], True
-    else:
-        raise InputError(f"{os.path.basename(job.points)}: no map columns (X, Y, Z) and no dem_points file")
-    xyz = fill_missing_z(xyz, dem)
-    camera, info = fit_points(size, uv, xyz, prior, dem, paired)
-    camera.crs_wkt = crs_wkt
-    return camera, float(info["rmse_px"]), info["status"], info["message"]
 
 
 def write_log(path: str, results: List[PhotoResult]) -> None:

@@ -21,12 +21,21 @@ from typing import List, Optional
 import numpy as np
 
 from ..core.camera import Camera
-from ..core.lookup import ortho_lookup
-from .files import InputError, read_photo
+from ..core.drift import Reference, corrected_camera, register, stable_mask
+from ..core.lookup import ortho_lookup, turnable_lookup
+from ..core.xyz import compute_xyz
+from ..outputs.orthophoto import write_orthophoto
+from ..outputs.safe_write import write_text
+from ..outputs.xyz_raster import write_xyz_raster
+from .files import InputError, load_camera, read_photo, read_points_csv
+from .fit import fit_points
+from .inputs import load_dem
+from .products import dem_at_resolution
+from .vectors import fill_missing_z
 from .xyz import xyz_raster
 
 __all__ = ["PhotoResult", "CameraProducts", "Timelapse", "Shared", "shared_for", "process_frame", "FrameTask",
-           "SHARED_XYZ", "DRIFT_TOLERANCE_PX"]
+           "fit_job", "SHARED_XYZ", "DRIFT_TOLERANCE_PX"]
 
 #: file name of the XYZ raster the frames of one shared camera share
 SHARED_XYZ = "xyz.tif"
@@ -56,16 +65,12 @@ class CameraProducts:
 
     def __init__(self, camera: Camera, dem, resolution: Optional[float] = None, ortho: bool = True,
                  cached: bool = True):
-        from ..core.xyz import compute_xyz
-
         self.camera = camera
         with _compute_lock:
             self.xyz = xyz_raster(camera, dem) if cached else compute_xyz(camera, dem)
         self.sees_ground = bool(np.isfinite(self.xyz[..., 2]).any())
         self.grid = self.lookup = None
         if ortho and self.sees_ground:
-            from .products import dem_at_resolution
-
             self.grid = dem if not resolution else dem_at_resolution(dem, resolution)
             self.lookup = ortho_lookup(camera, self.grid, self.xyz)
 
@@ -78,14 +83,10 @@ class CameraProducts:
         return products
 
     def write_orthophoto(self, path: str, photo: np.ndarray) -> str:
-        from ..outputs.orthophoto import write_orthophoto
-
         image = self.lookup.apply(photo[..., :3] if photo.ndim == 3 and photo.shape[2] > 3 else photo)
         return str(write_orthophoto(path, image, self.grid.geotransform, self.grid.crs_wkt, overwrite=True))
 
     def write_xyz(self, path: str, crs_wkt: str, photo_name: str = "") -> str:
-        from ..outputs.xyz_raster import write_xyz_raster
-
         return str(write_xyz_raster(path, self.xyz, crs_wkt, overwrite=True, camera=self.camera,
                                     photo_name=photo_name))
 
@@ -128,8 +129,6 @@ class Shared:
     def __init__(self, setup: Timelapse, dem=None):
         self.setup = setup
         if dem is None:
-            from .inputs import load_dem
-
             dem, _ = load_dem(setup.dem_path, setup.void_value)
         self.dem = dem
         self.camera = Camera.from_json(setup.camera_json) if setup.camera_json else None
@@ -139,15 +138,10 @@ class Shared:
         if self.camera is not None:
             self.products = CameraProducts(self.camera, dem, setup.resolution, setup.write_ortho)
             if setup.register and self.products.sees_ground:
-                from ..core.drift import Reference, stable_mask
-
                 photo = read_photo(setup.reference)
                 self.reference = Reference(photo, self.camera, stable_mask(self.products.xyz, self.camera,
                                                                            setup.near_m))
                 if setup.write_ortho and not setup.write_xyz:  # turned frames need no z-buffer of their own
-                    from ..core.lookup import turnable_lookup
-                    from ..core.xyz import compute_xyz
-
                     with _compute_lock:
                         self.turnable = turnable_lookup(self.camera, self.products.grid,
                                                         lambda wide: compute_xyz(wide, dem))
@@ -169,8 +163,6 @@ def shared_for(setup: Timelapse, dem=None) -> Shared:
 
 def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
     """Read, (re-register,) and write the products of one frame; every problem becomes a failed result."""
-    from .batch import fit_job
-
     setup = shared.setup
     result = PhotoResult(task.photo, False, index=task.index)
     try:
@@ -218,8 +210,6 @@ def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
 
 def _registered(shared: Shared, photo: np.ndarray, result: PhotoResult):
     """(products, turned) of a frame re-registered on the reference; InputError when it cannot be."""
-    from ..core.drift import corrected_camera, register
-
     drift = register(shared.reference, photo)
     if not drift.ok:
         raise InputError(f"not registered on the reference frame: {drift.message}")
@@ -235,8 +225,28 @@ def _registered(shared: Shared, photo: np.ndarray, result: PhotoResult):
 
 
 def _write_camera(setup: Timelapse, stem: str, camera: Camera) -> str:
-    from ..outputs.safe_write import write_text
-
     path = os.path.join(setup.out_dir, f"{stem}_camera.json")
     write_text(path, camera.to_json(), overwrite=True)
     return path
+
+
+def fit_job(job, size, dem, crs_wkt: str):
+    """Fit the camera of a batch job (``prior``, ``points``, ``dem_points`` paths) from its files; returns (camera,
+    rmse in px, fit status, message)."""
+    prior = load_camera(job.prior, size, crs_wkt)
+    table = read_points_csv(job.points)
+    if "uv" not in table:
+        raise InputError(f"{os.path.basename(job.points)}: no photo point columns (u_px, v_px)")
+    uv = table["uv"]
+    if job.dem_points:
+        xyz, paired = read_points_csv(job.dem_points).get("xyz"), False
+        if xyz is None:
+            raise InputError(f"{os.path.basename(job.dem_points)}: no X, Y, Z columns")
+    elif "xyz" in table:
+        xyz, paired = table["xyz"], True
+    else:
+        raise InputError(f"{os.path.basename(job.points)}: no map columns (X, Y, Z) and no dem_points file")
+    xyz = fill_missing_z(xyz, dem)
+    camera, info = fit_points(size, uv, xyz, prior, dem, paired)
+    camera.crs_wkt = crs_wkt
+    return camera, float(info["rmse_px"]), info["status"], info["message"]
