@@ -139,6 +139,10 @@ class Shared:
             self.products = CameraProducts(self.camera, dem, setup.resolution, setup.write_ortho)
             if setup.register and self.products.sees_ground:
                 photo = read_photo(setup.reference)
+                if (photo.shape[1], photo.shape[0]) != tuple(self.camera.image_size):
+                    raise InputError(f"the reference frame {os.path.basename(setup.reference)} is "
+                                     f"{photo.shape[1]}x{photo.shape[0]} px but the shared camera is for "
+                                     f"{self.camera.width}x{self.camera.height} px")
                 self.reference = Reference(photo, self.camera, stable_mask(self.products.xyz, self.camera,
                                                                            setup.near_m))
                 if setup.write_ortho and not setup.write_xyz:  # turned frames need no z-buffer of their own

@@ -143,3 +143,16 @@ def test_a_shared_xyz_that_cannot_be_written_is_said_once_and_left_off_the_frame
     assert all(r.ok for r in results) and len(list(out.glob("*_ortho.tif"))) == 6
     assert all(str(out / "xyz.tif") not in r.outputs and "xyz.tif not written" in r.message for r in results)
     assert sum(e and m.startswith("xyz.tif FAILED") for m, e in lines) == 1
+
+
+def test_a_reference_frame_of_another_size_fails_every_frame_with_the_reason(drifting_timelapse, tmp_path):
+    import cv2
+
+    scene = drifting_timelapse
+    cam = Camera.load(scene["camera"])
+    dem = Dem.open(scene["dem"])
+    small = tmp_path / "small.png"
+    cv2.imwrite(str(small), np.zeros((50, 60, 3), np.uint8))
+    results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(tmp_path / "out"),
+                              register=True, reference=str(small))
+    assert not any(r.ok for r in results) and all("small.png is 60x50 px" in r.message for r in results)
