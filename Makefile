@@ -88,6 +88,7 @@ qgis: setup
 bench: setup
 	$(PY) bench/run_bench.py
 	$(PY) bench/bench_fit.py
+	$(PY) bench/bench_curation.py
 	$(PY) bench/bench_timelapse.py
 
 # Camera fit on the real Aletsch case (../shared/data/aletsch), smapshot's 100 real small GCP sets and the synthetic
@@ -96,6 +97,7 @@ eval: setup
 	$(PY) -m eval.aletsch
 	$(PY) -m eval.smapshot
 	$(PY) -m eval.synthetic_suite
+	$(PY) -m eval.user_trial
 
 package: setup
 	$(PY) scripts/package.py --output dist
