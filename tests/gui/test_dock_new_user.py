@@ -150,3 +150,29 @@ def test_product_buttons_come_first_in_the_fit_tab(narrow_dock):
     texts = [bar.itemAt(i).widget().text() for i in range(bar.count())]
     assert texts[:5] == ["XYZ raster…", "Orthophoto…", "Report…", "Save drawn features…",
                          "Active map layer on photo"]
+
+
+
+def test_a_short_points_tab_scrolls_instead_of_squashing_its_buttons(dock, qtbot):
+    """On a 1280 x 800 desktop the Points tab got ~300 px for ~500 px of contents: its five button rows were squashed
+    to half their height (texts cut through) and the point table to one row. Now the tab scrolls (as the Fit tab)."""
+    d = dock
+    d.stepTabs.setCurrentWidget(d.pointsTab)
+    d.resize(440, 900)  # as narrow as it goes (the dock's minimum width)
+    d.splitter.setSizes([2000, 1])  # the photo takes all it can: the tabs at their minimum
+    qtbot.wait(50)
+    assert d.stepTabs.height() < 400
+    panel = d.curation_panel
+    buttons = [d.suggestButton, d.mapToolButton, d.undoButton, panel.moreButton, panel.rejectRestButton,
+               panel.acceptLikelyButton, panel.rejectOutliersButton, panel.showButton]
+    assert [b.text() for b in buttons if b.height() < b.sizeHint().height()] == []
+    panel.acceptLikelyButton.setText("Accept likely (153)")  # the texts the refit gives them later
+    panel.rejectOutliersButton.setText("Reject outliers (12)")
+    qtbot.wait(50)
+    viewport = d.pointsScroll.viewport()  # nothing cut on the right by the scroll bar or the dock's edge
+    right = min(viewport.width(), viewport.mapFrom(d, d.rect().topRight()).x())
+    assert [b.text() for b in buttons if b.mapTo(viewport, b.rect().topRight()).x() > right] == []
+    rows = d.pointTable.verticalHeader().defaultSectionSize()
+    assert d.pointTable.height() >= 3 * rows
+    assert d.pointsScroll.verticalScrollBar().maximum() > 0  # the rest is a scroll away
+    assert d.photoHolder.height() > 300  # and the photo keeps most of the dock
