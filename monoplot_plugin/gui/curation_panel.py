@@ -214,8 +214,12 @@ class CurationPanel(QWidget):
         if key != getattr(self, "_camera_key", None):  # cameraChanged also fires for the overlay, the photo...
             self._camera_key = key
             c.shortlist.set_camera(camera, sigma)
+            if c.fitted is not None and "outliers" in info:  # the Fit button's own verdict on these points
+                c.shortlist.set_outliers(list(info["outliers"]))
+                self.refitter.adopt_fit(self.refitter.accepted_key())
+            else:
+                self.refitter.schedule(force=camera is not None)
             self._redraw()
-            self.refitter.schedule(force=camera is not None)
         self._update_info()
 
     def _on_refit(self, outcome) -> None:
