@@ -450,13 +450,14 @@ def utm_wkt_for_lonlat(lon: float, lat: float) -> str:
 
 
 def view_window(camera, geotransform: Sequence[float], shape: Tuple[int, int], zmin: float, zmax: float,
-                max_range: Optional[float] = None, margin_cells: int = 2, samples: int = 64):
+                max_range: Optional[float] = None, margin_cells: int = 2, samples: int = 64, min_range: float = 0.0):
     """The rectangle of cells a camera can see: (row0, col0, rows, cols) clipped to the grid, or None.
 
     Rays along the image border and over a grid inside it are cut to the height slab ``[zmin, zmax]`` and to
     ``max_range`` metres; the window is the bounding box (in cell space, so rotated grids work) of the ends of those
     ray pieces, widened by ``margin_cells`` plus the gap between neighbouring sample rays. A view that reaches
     infinity (rays that stay in the slab) without ``max_range`` keeps the whole grid along that direction.
+    ``min_range``: leave out what is nearer than that (metres), for the far bands of a level-of-detail view.
     """
     rows, cols = int(shape[0]), int(shape[1])
     if rows == 0 or cols == 0 or not (np.isfinite(zmin) and np.isfinite(zmax)):
@@ -475,7 +476,7 @@ def view_window(camera, geotransform: Sequence[float], shape: Tuple[int, int], z
         t2 = (zmax - cz) / dz
     lo = np.where(dz != 0, np.minimum(t1, t2), np.where((cz >= zmin) & (cz <= zmax), 0.0, np.inf))
     hi = np.where(dz != 0, np.maximum(t1, t2), np.where((cz >= zmin) & (cz <= zmax), np.inf, -np.inf))
-    lo = np.maximum(lo, 0.0)
+    lo = np.maximum(lo, max(0.0, float(min_range)))
     ok = hi >= lo
     if max_range is not None:
         # A ray reaching the slab beyond max_range still bounds the view: keep its point at max_range (the sphere

@@ -110,7 +110,8 @@ def _chunk_count(H: int, W: int) -> int:
 
 
 def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, crop: bool = True,
-                     visibility: bool = True, rel_tol: float = 0.005, abs_tol: Optional[float] = None) -> XyzResult:
+                     visibility: bool = True, rel_tol: float = 0.005, abs_tol: Optional[float] = None,
+                     near: float = NEAR_PLANE_M) -> XyzResult:
     """Z-buffer ``dem`` from ``cam``: per-pixel XYZ and distance, and per-cell visibility.
 
     Args:
@@ -123,6 +124,8 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
             own range minus ``rel_tol * range + abs_tol`` (abs_tol defaults to one cell). Decided at pixel
             resolution: cells that project within a pixel of an occluding ridge can be misjudged; for exact
             line-of-sight tests use :func:`segment_first_hit` (``transforms.orthorectify(exact=True)`` does).
+        near: terrain nearer than this depth (metres along the optical axis) is clipped away; the far bands of a
+            level-of-detail view (:mod:`..xyz_lod`) start at their own depth.
     Returns:
         :class:`XyzResult`.
     """
@@ -149,7 +152,7 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
     C = np.asarray(cam.position, dtype=np.float64)
     R = np.ascontiguousarray(cam.rotation, dtype=np.float64)
     intr = _intrinsics(cam)
-    near = NEAR_PLANE_M
+    near = max(float(near), NEAR_PLANE_M)
     n = _chunk_count(H, W)
     xyz = np.empty((H, W, 3))  # scratch for the depth buffers first; every pixel is written by _exact_hits
     zbufs, tbufs = _depth_buffers(xyz, n)

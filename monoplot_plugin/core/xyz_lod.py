@@ -1,0 +1,145 @@
+"""Per-pixel XYZ over a DEM larger than memory: the camera's distance bands z-buffered near to far.
+
+:meth:`~.dem_window.DemSource.bands` cuts the view into depth bands, the first at full resolution, each farther one
+at a coarser level (cells at most ``lod`` pixel footprints). Each band is z-buffered on its own with its near plane
+at the band's start (:func:`~.xyz.compute_xyz_full` with ``near``), over only the image rows that still need it (a
+strip camera, :func:`~.xyz_strips.strip_camera`); a pixel takes the first band, near to far, whose hit lies before
+that band's far depth (plus :data:`~.dem_window.LOD_OVERLAP`). Terrain of a farther band cannot hide a nearer
+band's, and a nearer band's has been searched before, so each pixel gets its first hit, exact on the mesh of the
+level it falls in. One band's DEM is in memory at a time.
+
+>>> import os, tempfile
+>>> from .camera import Camera
+>>> from .dem_window import DemSource, build_overviews
+>>> from .synthetic import synthetic_terrain
+>>> dem = synthetic_terrain((512, 512), cell=20.0, seed=1)
+>>> path = os.path.join(tempfile.mkdtemp(), "dem.tif"); dem.save(path); _ = build_overviews(path, min_size=64)
+>>> x, y = dem.cell_to_map(50, 460)
+>>> cam = Camera((x, y, float(dem.elevation.max()) + 200), 45, -8, 0, 60, (300, 200))
+>>> res = compute_xyz_lod(cam, DemSource(path), lod=2.0)
+>>> sorted(set(res.factor[res.factor > 0].tolist()))     # near field at full resolution, then coarser
+[1, 2, 4]
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+from typing import Callable, List, Optional, Tuple
+
+import numpy as np
+
+from .camera import Camera
+from .dem_window import LOD_OVERLAP, DemSource, _cos_edge
+from .xyz import compute_xyz_full
+from .xyz_strips import strip_camera
+
+__all__ = ["LodXyz", "compute_xyz_lod"]
+
+logger = logging.getLogger("monoplot")
+
+
+@dataclass
+class LodXyz:
+    """Per-pixel XYZ of a level-of-detail view.
+
+    Attributes:
+        xyz: (H, W, 3) float64 map coordinates of each pixel's first terrain hit; NaN = none.
+        distance: (H, W) float32 metres from the camera; NaN = none.
+        factor: (H, W) int16 level of the hit (1 = full resolution, 2, 4, ... = overview factor; 0 = none).
+        bands: (factor, near, far, (rows, cols) of the window read, seconds) of each band z-buffered.
+        camera: the camera.
+    """
+
+    xyz: np.ndarray
+    distance: np.ndarray
+    factor: np.ndarray
+    camera: Camera
+    bands: List[Tuple[int, float, float, Tuple[int, int], float]] = field(default_factory=list)
+
+    @property
+    def hit(self) -> np.ndarray:
+        return self.factor > 0
+
+
+def compute_xyz_lod(cam: Camera, source: DemSource, max_range: Optional[float] = None, lod: float = 1.0,
+                    progress: Optional[Callable[[float, str], None]] = None) -> LodXyz:
+    """Z-buffer the DEM file of ``source`` from ``cam`` band by band, near to far (see the module docstring).
+
+    Args:
+        cam: camera in the DEM's CRS.
+        source: the DEM file.
+        max_range: ignore terrain farther than this (metres); None = no limit.
+        lod: a band's cells are at most this many pixel footprints at its near depth (1: sub-pixel everywhere;
+            larger is faster and coarser far away).
+        progress: ``progress(fraction, message)`` after each band.
+    """
+    import time
+
+    H, W = cam.height, cam.width
+    xyz = np.full((H, W, 3), np.nan)
+    dist = np.full((H, W), np.nan, dtype=np.float32)
+    factor = np.zeros((H, W), dtype=np.int16)
+    todo_rows = np.ones(H, dtype=bool)
+    todo = None  # (H, W) bool once the first band has run
+    C = np.asarray(cam.position, dtype=np.float64)
+    forward = cam.forward
+    cos_edge = _cos_edge(cam)
+    plan = source.plan(cam, max_range, lod)
+    out = LodXyz(xyz, dist, factor, cam)
+    rising = _rising_rows(cam)
+    for i, (level, near, far) in enumerate(plan):
+        # rows whose rays all rise and are above the highest terrain at this depth see nothing farther
+        todo_rows &= ~((rising > 0.0) & (C[2] + near * rising > source.zmax))
+        rows = np.flatnonzero(todo_rows)
+        if rows.size == 0:
+            break
+        r0, r1 = int(rows[0]), int(rows[-1]) + 1
+        t0 = time.perf_counter()
+        last = i == len(plan) - 1
+        keep = math.inf if last else far * (1.0 + LOD_OVERLAP)
+        reach = keep / cos_edge
+        if max_range is not None:
+            reach = min(reach, float(max_range))
+        sub = strip_camera(cam, r0, r1 - r0)
+        window = source.window(sub, level, min_range=near, max_range=None if math.isinf(reach) else reach)
+        if window is None:
+            continue
+        dem = source.read(window, level)
+        res = compute_xyz_full(sub, dem, max_range=max_range, crop=False, visibility=False, near=near)
+        del dem
+        hit = res.triangle >= 0
+        if not last:
+            depth = np.full(hit.shape, np.inf)
+            depth[hit] = (res.xyz[hit] - C) @ forward
+            hit &= depth < keep
+        if todo is not None:
+            hit &= todo[r0:r1]
+        xyz[r0:r1][hit] = res.xyz[hit]
+        dist[r0:r1][hit] = res.distance[hit]
+        factor[r0:r1][hit] = level
+        del res
+        if todo is None:
+            todo = np.ones((H, W), dtype=bool)
+        todo[r0:r1] &= ~hit
+        todo_rows &= todo.any(axis=1)
+        seconds = time.perf_counter() - t0
+        out.bands.append((level, near, far, (int(window[2]), int(window[3])), seconds))
+        logger.debug("LOD band x%d, depth %.0f-%.0f m: rows %d-%d, %d x %d cells, %.2f s", level, near, far, r0, r1,
+                     window[2], window[3], seconds)
+        if progress is not None:
+            progress((i + 1) / len(plan), f"terrain {near / 1000:.1f}-{far / 1000:.1f} km at 1/{level} resolution")
+    return out
+
+
+def _rising_rows(cam: Camera, samples: int = 33) -> np.ndarray:
+    """(H,) per image row, the least height its rays gain per metre of depth (sampled along the row; > 0: all
+    rise)."""
+    u = np.linspace(0.0, cam.width, samples)
+    v = np.arange(cam.height) + 0.5
+    uu, vv = np.meshgrid(u, v)
+    rays = cam.pixel_to_camera_ray(np.stack([uu.ravel(), vv.ravel()], 1))
+    world = rays @ cam.rotation
+    rise = (world[:, 2] / rays[:, 2]).reshape(cam.height, samples).min(axis=1)  # height gained per metre of depth
+    return rise
