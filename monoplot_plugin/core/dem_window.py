@@ -37,9 +37,10 @@ from typing import Callable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .dem import Dem, _wkt_or_empty, mark_voids, view_window
+from .dem import Dem, _wkt_or_empty, mark_voids
+from .dem_window_view import view_footprint, view_window
 
-__all__ = ["DemSource", "DemBand", "build_overviews", "overview_factors", "LOD_OVERLAP"]
+__all__ = ["DemSource", "DemBand", "build_overviews", "overview_factors", "footprint_spans", "LOD_OVERLAP"]
 
 logger = logging.getLogger("monoplot")
 
@@ -52,12 +53,14 @@ Progress = Callable[[float, str], None]
 
 @dataclass
 class DemBand:
-    """One distance band of a camera's view: ``dem`` (one level, one window) for depths ``[near, far)`` metres."""
+    """One distance band of a camera's view: ``dem`` (one level, one window) for depths ``[near, far)`` metres, of
+    which the cells ``[lo[r], hi[r])`` of each row r were read (``spans`` = (lo, hi); NaN elsewhere)."""
 
     dem: Dem
     level: int
     near: float
     far: float
+    spans: Tuple[np.ndarray, np.ndarray]
 
 
 def overview_factors(size: Tuple[int, int], min_size: int = 256) -> List[int]:
@@ -210,6 +213,49 @@ class DemSource:
         return view_window(camera, self.level_geotransform(factor), self.level_shape(factor), self.zmin, self.zmax,
                            max_range, margin_cells, min_range=min_range)
 
+    def read_view(self, camera, factor: int = 1, min_depth: float = 0.0, max_depth: Optional[float] = None,
+                  max_range: Optional[float] = None, margin_cells: int = 2):
+        """(Dem, (lo, hi)) of what ``camera`` sees between the depths ``min_depth`` and ``max_depth`` (metres along the
+        optical axis; and within ``max_range`` metres) at level ``factor``:
+        a window whose rows hold, each, a span of cells ``[lo[r], hi[r])`` (the view's footprint, block by block);
+        only those are read, the others are NaN (not voids: ``compute_xyz_full(..., spans=(lo, hi))``). None when
+        the camera sees nothing there."""
+        found = view_footprint(camera, self.level_geotransform(factor), self.level_shape(factor), self.zmin,
+                               self.zmax, max_range, margin_cells, min_depth=min_depth, max_depth=max_depth)
+        if found is None:
+            return None
+        window, ends, pad = found
+        row0, col0, rows, cols = window
+        lo, hi = footprint_spans(window, ends, pad)
+        from osgeo import gdal
+
+        elevation = np.full((rows, cols), np.nan, dtype=np.float32)
+        g = self.level_geotransform(factor)
+        dem = Dem(elevation, (g[0] + col0 * g[1] + row0 * g[2], g[1], g[2], g[3] + col0 * g[4] + row0 * g[5], g[4],
+                              g[5]), self.crs_wkt)
+        dem.window = (row0, col0)
+        band = self._band if factor == 1 else self._overviews.get(factor)
+        notes = []
+        for r in range(0, rows, _SPAN_BLOCK):
+            r1 = min(rows, r + _SPAN_BLOCK)
+            c0, c1 = int(lo[r:r1].min()), int(hi[r:r1].max())
+            if c1 <= c0:
+                continue
+            if band is not None:
+                data = band.ReadAsArray(col0 + c0, row0 + r, c1 - c0, r1 - r)
+            else:  # no overview of this factor: GDAL decimates (averages) the full resolution
+                sx, sy = self.shape[1] / self.level_shape(factor)[1], self.shape[0] / self.level_shape(factor)[0]
+                x0, y0 = int(round((col0 + c0) * sx)), int(round((row0 + r) * sy))
+                w = min(self.shape[1] - x0, int(round((c1 - c0) * sx)))
+                h = min(self.shape[0] - y0, int(round((r1 - r) * sy)))
+                data = self._band.ReadAsArray(x0, y0, w, h, buf_xsize=c1 - c0, buf_ysize=r1 - r,
+                                              resample_alg=gdal.GRIORA_Average)
+            block = np.array(data, dtype=np.float32)
+            notes += mark_voids(block, nodata=self.nodata, void_value=self.void_value, sentinels=self.sentinels)
+            elevation[r:r1, c0:c1] = block
+        dem.void_notes = notes
+        return dem, (lo, hi)
+
     def plan(self, camera, max_range: Optional[float] = None, lod: float = 1.0) -> List[Tuple[int, float, float]]:
         """(factor, near depth, far depth) of each band, near to far (see the module docstring); the last band's
         far depth is ``inf`` (or ``max_range``)."""
@@ -230,22 +276,73 @@ class DemSource:
         return plan
 
     def bands(self, camera, max_range: Optional[float] = None, lod: float = 1.0) -> List[DemBand]:
-        """The :class:`DemBand` s of ``camera``'s view, near to far, read now (empty bands left out)."""
+        """The :class:`DemBand` s of ``camera``'s view, near to far, read now (empty ones left out); for callers that
+        want them all at once (:func:`~.xyz_lod.compute_xyz_lod` reads one at a time)."""
         out = []
-        cos_edge = _cos_edge(camera)
         for factor, near, far in self.plan(camera, max_range, lod):
-            reach = far * (1.0 + LOD_OVERLAP) / cos_edge
-            if max_range is not None:
-                reach = min(reach, float(max_range))
-            window = self.window(camera, factor, min_range=near, max_range=None if math.isinf(reach) else reach)
-            if window is None:
-                continue
-            out.append(DemBand(self.read(window, factor), factor, near, far))
+            keep = None if math.isinf(far) else far * (1.0 + LOD_OVERLAP)
+            view = self.read_view(camera, factor, min_depth=near, max_depth=keep, max_range=max_range)
+            if view is not None and (view[1][1] > view[1][0]).any():
+                out.append(DemBand(view[0], factor, near, far, view[1]))
         return out
 
 
-def _cos_edge(camera) -> float:
-    """Smallest cosine between the optical axis and the rays through the image corners (depth / distance)."""
-    corners = np.array([[0, 0], [camera.width, 0], [0, camera.height], [camera.width, camera.height]], dtype=float)
-    rays = camera.pixel_to_camera_ray(corners)
-    return float(max(0.05, rays[:, 2].min()))
+#: Rows (and columns) of the blocks in which :meth:`DemSource.read_view` reads a view's footprint.
+_SPAN_BLOCK = 64
+
+
+def footprint_spans(window, ends, pad: float, block: int = _SPAN_BLOCK):
+    """(lo, hi): per row of ``window`` (row0, col0, rows, cols), the columns [lo, hi) (relative to the window) that
+    the convex hull of ``ends`` ((N, 2) grid row, col), widened by ``pad`` cells, touches, in whole blocks of
+    ``block`` cells; the whole width when ``ends`` is None.
+
+    >>> lo, hi = footprint_spans((0, 0, 1024, 1024), np.array([[0.0, 0.0], [0.0, 10.0], [1000.0, 1000.0]]), 2.0)
+    >>> (int(lo[0]), int(hi[0])), (int(lo[1023]), int(hi[1023]))    # the hull and two blocks of margin every way
+    ((0, 384), (704, 1024))
+    """
+    import cv2
+
+    row0, col0, rows, cols = (int(w) for w in window)
+    if ends is None:
+        return np.zeros(rows, dtype=np.int64), np.full(rows, cols, dtype=np.int64)
+    nr, nc = -(-rows // block), -(-cols // block)
+    pts = ((ends - np.array([row0, col0])) / block)[:, ::-1].astype(np.float32)  # (x = col, y = row) in blocks
+    hull = _clip_polygon(cv2.convexHull(pts).reshape(-1, 2).astype(np.float64), -1.0, -1.0, nc + 1.0, nr + 1.0)
+    first = np.full(nr, nc, dtype=np.int64)
+    last = np.full(nr, -1, dtype=np.int64)
+    for i in range(nr):  # the blocks of row i that the hull touches: its part between y = i and y = i + 1
+        part = _clip_polygon(hull, -np.inf, float(i), np.inf, float(i + 1))
+        if len(part):
+            first[i] = max(0, int(math.floor(part[:, 0].min())))
+            last[i] = min(nc - 1, int(math.floor(part[:, 0].max())))
+    grow = int(math.ceil(pad / block)) + 1
+    lo_b = np.full(nr, nc, dtype=np.int64)
+    hi_b = np.full(nr, -1, dtype=np.int64)
+    for i in range(nr):  # widened by ``grow`` blocks every way
+        j0, j1 = max(0, i - grow), min(nr, i + grow + 1)
+        if (last[j0:j1] >= 0).any():
+            lo_b[i] = max(0, int(first[j0:j1].min()) - grow)
+            hi_b[i] = min(nc - 1, int(last[j0:j1].max()) + grow)
+    empty = hi_b < lo_b
+    lo = np.repeat(np.where(empty, 0, lo_b * block), block)[:rows]
+    hi = np.minimum(np.repeat(np.where(empty, 0, (hi_b + 1) * block), block)[:rows], cols)
+    return lo.astype(np.int64), hi.astype(np.int64)
+
+
+def _clip_polygon(poly: np.ndarray, x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
+    """A convex polygon ((N, 2) x, y) clipped to the box [x0, x1] x [y0, y1] (Sutherland-Hodgman), so that drawing
+    it stays within the coordinates OpenCV can draw."""
+    for axis, bound, keep_below in ((0, x0, False), (0, x1, True), (1, y0, False), (1, y1, True)):
+        if len(poly) == 0:
+            break
+        out = []
+        for a, b in zip(poly, np.roll(poly, -1, axis=0)):
+            a_in = a[axis] <= bound if keep_below else a[axis] >= bound
+            b_in = b[axis] <= bound if keep_below else b[axis] >= bound
+            if a_in:
+                out.append(a)
+            if a_in != b_in:
+                t = (bound - a[axis]) / (b[axis] - a[axis])
+                out.append(a + t * (b - a))
+        poly = np.array(out).reshape(-1, 2)
+    return poly

@@ -31,8 +31,9 @@ from typing import Callable, List, Optional, Tuple
 import numpy as np
 
 from .camera import Camera
-from .dem_window import LOD_OVERLAP, DemSource, _cos_edge
+from .dem_window import LOD_OVERLAP, DemSource
 from .xyz import compute_xyz_full
+from .xyz._jit import njit, prange
 from .xyz_strips import strip_camera
 
 __all__ = ["LodXyz", "compute_xyz_lod"]
@@ -48,7 +49,7 @@ class LodXyz:
         xyz: (H, W, 3) float64 map coordinates of each pixel's first terrain hit; NaN = none.
         distance: (H, W) float32 metres from the camera; NaN = none.
         factor: (H, W) int16 level of the hit (1 = full resolution, 2, 4, ... = overview factor; 0 = none).
-        bands: (factor, near, far, (rows, cols) of the window read, seconds) of each band z-buffered.
+        bands: (factor, near, far, (rows, cols) of the window, cells read in it, seconds) of each band z-buffered.
         camera: the camera.
     """
 
@@ -56,7 +57,7 @@ class LodXyz:
     distance: np.ndarray
     factor: np.ndarray
     camera: Camera
-    bands: List[Tuple[int, float, float, Tuple[int, int], float]] = field(default_factory=list)
+    bands: List[Tuple[int, float, float, Tuple[int, int], int, float]] = field(default_factory=list)
 
     @property
     def hit(self) -> np.ndarray:
@@ -82,10 +83,9 @@ def compute_xyz_lod(cam: Camera, source: DemSource, max_range: Optional[float] =
     dist = np.full((H, W), np.nan, dtype=np.float32)
     factor = np.zeros((H, W), dtype=np.int16)
     todo_rows = np.ones(H, dtype=bool)
-    todo = None  # (H, W) bool once the first band has run
+    todo = np.ones((H, W), dtype=np.bool_)
     C = np.asarray(cam.position, dtype=np.float64)
     forward = cam.forward
-    cos_edge = _cos_edge(cam)
     plan = source.plan(cam, max_range, lod)
     out = LodXyz(xyz, dist, factor, cam)
     rising = _rising_rows(cam)
@@ -94,38 +94,31 @@ def compute_xyz_lod(cam: Camera, source: DemSource, max_range: Optional[float] =
         todo_rows &= ~((rising > 0.0) & (C[2] + near * rising > source.zmax))
         rows = np.flatnonzero(todo_rows)
         if rows.size == 0:
+            logger.debug("LOD: every pixel done before band x%d", level)
             break
         r0, r1 = int(rows[0]), int(rows[-1]) + 1
         t0 = time.perf_counter()
         last = i == len(plan) - 1
         keep = math.inf if last else far * (1.0 + LOD_OVERLAP)
-        reach = keep / cos_edge
-        if max_range is not None:
-            reach = min(reach, float(max_range))
         sub = strip_camera(cam, r0, r1 - r0)
-        window = source.window(sub, level, min_range=near, max_range=None if math.isinf(reach) else reach)
-        if window is None:
+        view = source.read_view(sub, level, min_depth=near, max_depth=None if math.isinf(keep) else keep,
+                                max_range=max_range)
+        if view is None:
+            logger.debug("LOD band x%d: nothing in view", level)
             continue
-        dem = source.read(window, level)
-        res = compute_xyz_full(sub, dem, max_range=max_range, crop=False, visibility=False, near=near)
+        dem, spans = view
+        window = (*dem.window, *dem.shape)
+        cells = int((spans[1] - spans[0]).clip(0).sum())
+        if cells == 0:  # the window's rectangle meets the grid, the view's footprint does not
+            logger.debug("LOD band x%d: no cell in view (rows %d-%d)", level, r0, r1)
+            continue
+        res = compute_xyz_full(sub, dem, max_range=max_range, crop=False, visibility=False, near=near, spans=spans)
         del dem
-        hit = res.triangle >= 0
-        if not last:
-            depth = np.full(hit.shape, np.inf)
-            depth[hit] = (res.xyz[hit] - C) @ forward
-            hit &= depth < keep
-        if todo is not None:
-            hit &= todo[r0:r1]
-        xyz[r0:r1][hit] = res.xyz[hit]
-        dist[r0:r1][hit] = res.distance[hit]
-        factor[r0:r1][hit] = level
+        _take_hits(res.triangle, res.xyz, res.distance, C, forward, keep, level, r0, todo, xyz, dist, factor)
         del res
-        if todo is None:
-            todo = np.ones((H, W), dtype=bool)
-        todo[r0:r1] &= ~hit
         todo_rows &= todo.any(axis=1)
         seconds = time.perf_counter() - t0
-        out.bands.append((level, near, far, (int(window[2]), int(window[3])), seconds))
+        out.bands.append((level, near, far, (int(window[2]), int(window[3])), cells, seconds))
         logger.debug("LOD band x%d, depth %.0f-%.0f m: rows %d-%d, %d x %d cells, %.2f s", level, near, far, r0, r1,
                      window[2], window[3], seconds)
         if progress is not None:
@@ -143,3 +136,22 @@ def _rising_rows(cam: Camera, samples: int = 33) -> np.ndarray:
     world = rays @ cam.rotation
     rise = (world[:, 2] / rays[:, 2]).reshape(cam.height, samples).min(axis=1)  # height gained per metre of depth
     return rise
+
+
+@njit(parallel=True, cache=True)
+def _take_hits(tri, sxyz, sdist, C, forward, keep, level, r0, todo, xyz, dist, factor):
+    """Copy a band's hits (strip of rows from r0) that lie before the depth ``keep`` into the pixels still to do."""
+    h, W = tri.shape
+    for i in prange(h):
+        for j in range(W):
+            if tri[i, j] < 0 or not todo[r0 + i, j]:
+                continue
+            depth = ((sxyz[i, j, 0] - C[0]) * forward[0] + (sxyz[i, j, 1] - C[1]) * forward[1]
+                     + (sxyz[i, j, 2] - C[2]) * forward[2])
+            if depth < keep:
+                xyz[r0 + i, j, 0] = sxyz[i, j, 0]
+                xyz[r0 + i, j, 1] = sxyz[i, j, 1]
+                xyz[r0 + i, j, 2] = sxyz[i, j, 2]
+                dist[r0 + i, j] = sdist[i, j]
+                factor[r0 + i, j] = level
+                todo[r0 + i, j] = False

@@ -69,7 +69,7 @@ def _visibility(tri, elev, gt, C, R, intr, near, rel_tol, abs_tol, vis):
     H, W = tri.shape
     for r in prange(rows):
         proj = np.empty((3, cols), dtype=np.float32)
-        _project_row(elev, gt, C, R, intr, near, r, proj[0], proj[1], proj[2])
+        _project_row(elev, gt, C, R, intr, near, r, 0, cols, proj[0], proj[1], proj[2])
         for c in range(cols):
             vis[r, c] = False
             if not (proj[2, c] > 0.0):  # void, behind the camera or too close

@@ -93,6 +93,16 @@ def _drop_void_hits(tri, void):
                 tri[i, j] = -1
 
 
+@njit(cache=True)
+def _spans_have_nan(elev, lo, hi):
+    """Whether a void (NaN) lies in the cells [lo[r], hi[r]) of some row r."""
+    for r in range(elev.shape[0]):
+        for c in range(lo[r], hi[r]):
+            if elev[r, c] != elev[r, c]:
+                return True
+    return False
+
+
 def _filled_voids(elev: np.ndarray, void: np.ndarray):
     """(elevations with interior voids closed, bool mask of those cells) for the z-buffer.
 

@@ -22,13 +22,12 @@ RASTER_BLOCK_ROWS = 16
 
 
 @njit(cache=True)
-def _project_row(elev, gt, C, R, intr, near, r, u, v, w):
-    """Project the mesh vertices of DEM row r into (cols,) float32 u, v (pixels; NaN if not in front) and w: inverse
-    camera depth 1/z for vertices more than ``near`` in front, -1 for the others, NaN for voids and for vertices
-    outside the distortion's valid radius."""
-    cols = elev.shape[1]
+def _project_row(elev, gt, C, R, intr, near, r, c0, c1, u, v, w):
+    """Project the mesh vertices of DEM row r, columns [c0, c1), into (cols,) float32 u, v (pixels; NaN if not in
+    front) and w: inverse camera depth 1/z for vertices more than ``near`` in front, -1 for the others, NaN for voids
+    and for vertices outside the distortion's valid radius."""
     f, cx, cy, k1, k2, r2max = intr[0], intr[1], intr[2], intr[3], intr[4], intr[5]
-    for c in range(cols):
+    for c in range(c0, c1):
         if elev[r, c] != elev[r, c]:
             u[c] = np.nan
             v[c] = np.nan
@@ -196,12 +195,12 @@ def _row_pick(top, bottom, r, rr, c):
 
 
 @njit(cache=True)
-def _raster_quad_row(ut, vt, wt, ub, vb, wb, r, elev, gt, C, R, intr, near, cull, zbuf, tbuf):
+def _raster_quad_row(ut, vt, wt, ub, vb, wb, r, c0, c1, elev, gt, C, R, intr, near, cull, zbuf, tbuf):
     """Z-buffer the two triangles of every quad between DEM rows r (projected into ut, vt, wt) and r + 1 (ub, vb,
-    wb)."""
+    wb), for the quads of columns [c0, c1 - 1)."""
     cols = elev.shape[1]
     H, W = zbuf.shape
-    for c in range(cols - 1):
+    for c in range(c0, c1 - 1):
         w00 = wt[c]
         w01 = wt[c + 1]
         w10 = wb[c]
@@ -251,10 +250,11 @@ def _raster_quad_row(ut, vt, wt, ub, vb, wb, r, elev, gt, C, R, intr, near, cull
 
 
 @njit(parallel=True, cache=True)
-def _rasterise(elev, gt, C, R, intr, near, cull, zbufs, tbufs):
+def _rasterise(elev, gt, C, R, intr, near, cull, zbufs, tbufs, lo, hi):
     """Z-buffer all mesh triangles. Chunk k handles the blocks of RASTER_BLOCK_ROWS DEM rows b = k, k + nchunks, ...
     into its own buffers (no write races, balanced load); the caller merges the chunks. Vertices are projected
-    row by row as the block goes (two rows held, no DEM-sized arrays)."""
+    row by row as the block goes (two rows held, no DEM-sized arrays). Only the columns [lo[r], hi[r]) of each row
+    r are drawn (the span of the grid a level-of-detail band needs; 0 and cols for a whole grid)."""
     rows, cols = elev.shape
     nchunks = zbufs.shape[0]
     nblocks = (rows - 1 + RASTER_BLOCK_ROWS - 1) // RASTER_BLOCK_ROWS
@@ -266,11 +266,13 @@ def _rasterise(elev, gt, C, R, intr, near, cull, zbufs, tbufs):
         for b in range(k, nblocks, nchunks):
             r0 = b * RASTER_BLOCK_ROWS
             r1 = min(r0 + RASTER_BLOCK_ROWS, rows - 1)
-            _project_row(elev, gt, C, R, intr, near, r0, top[0], top[1], top[2])
+            _project_row(elev, gt, C, R, intr, near, r0, lo[r0], hi[r0], top[0], top[1], top[2])
             for r in range(r0, r1):
-                _project_row(elev, gt, C, R, intr, near, r + 1, bottom[0], bottom[1], bottom[2])
-                _raster_quad_row(top[0], top[1], top[2], bottom[0], bottom[1], bottom[2], r, elev, gt, C, R, intr,
-                                 near, cull, zbuf, tbuf)
+                _project_row(elev, gt, C, R, intr, near, r + 1, lo[r + 1], hi[r + 1], bottom[0], bottom[1],
+                             bottom[2])
+                _raster_quad_row(top[0], top[1], top[2], bottom[0], bottom[1], bottom[2], r,
+                                 max(lo[r], lo[r + 1]), min(hi[r], hi[r + 1]), elev, gt, C, R, intr, near, cull,
+                                 zbuf, tbuf)
                 top, bottom = bottom, top
 
 

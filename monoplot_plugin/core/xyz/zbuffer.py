@@ -15,7 +15,7 @@ from ..dem import Dem
 from ..distortion import valid_radius2
 from ._jit import _threads
 from .exact import _exact_hits, _visibility
-from .mesh import _drop_void_hits, _filled_voids
+from .mesh import _drop_void_hits, _filled_voids, _spans_have_nan
 from .raster import _clear_buffers, _merge, _rasterise
 
 __all__ = ["compute_xyz", "compute_xyz_full", "XyzResult", "NEAR_PLANE_M"]
@@ -111,7 +111,7 @@ def _chunk_count(H: int, W: int) -> int:
 
 def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, crop: bool = True,
                      visibility: bool = True, rel_tol: float = 0.005, abs_tol: Optional[float] = None,
-                     near: float = NEAR_PLANE_M) -> XyzResult:
+                     near: float = NEAR_PLANE_M, spans=None) -> XyzResult:
     """Z-buffer ``dem`` from ``cam``: per-pixel XYZ and distance, and per-cell visibility.
 
     Args:
@@ -126,6 +126,8 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
             line-of-sight tests use :func:`segment_first_hit` (``transforms.orthorectify(exact=True)`` does).
         near: terrain nearer than this depth (metres along the optical axis) is clipped away; the far bands of a
             level-of-detail view (:mod:`..xyz_lod`) start at their own depth.
+        spans: None, or (lo, hi): (rows,) integer arrays; only the cells [lo[r], hi[r]) of each row r are terrain
+            (the part of a window a level-of-detail band needs); the cells outside, NaN, are not voids. No crop.
     Returns:
         :class:`XyzResult`.
     """
@@ -134,11 +136,18 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
                          "dem.reprojected_to_utm() and a camera in that CRS")
     W, H = cam.width, cam.height
     full_shape = dem.shape
-    work = dem.crop_to_view(cam, max_range) if crop else dem
+    work = dem.crop_to_view(cam, max_range) if crop and spans is None else dem
     elev = np.ascontiguousarray(work.elevation)
     rows, cols = elev.shape
     visible = np.zeros(full_shape, dtype=bool)
-    has_voids = elev.size > 0 and bool(np.isnan(np.min(elev)))  # one pass, no mask for a DEM without voids
+    if spans is None:
+        lo = np.zeros(rows, dtype=np.int64)
+        hi = np.full(rows, cols, dtype=np.int64)
+        has_voids = elev.size > 0 and bool(np.isnan(np.min(elev)))  # one pass, no mask for a DEM without voids
+    else:
+        lo = np.ascontiguousarray(spans[0], dtype=np.int64)
+        hi = np.ascontiguousarray(spans[1], dtype=np.int64)
+        has_voids = elev.size > 0 and _spans_have_nan(elev, lo, hi)
     void = np.isnan(elev) if has_voids else None
     if has_voids and not void.all() and rows >= 2 and cols >= 2:
         elev, void = _filled_voids(elev, void)
@@ -156,7 +165,7 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
     n = _chunk_count(H, W)
     xyz = np.empty((H, W, 3))  # scratch for the depth buffers first; every pixel is written by _exact_hits
     zbufs, tbufs = _depth_buffers(xyz, n)
-    _rasterise(elev, gt, C, R, intr, near, _cull_sign(cam, work), zbufs, tbufs)
+    _rasterise(elev, gt, C, R, intr, near, _cull_sign(cam, work), zbufs, tbufs, lo, hi)
     tri = np.empty((H, W), dtype=np.int32)
     _merge(zbufs, tbufs, tri)
     del zbufs, tbufs
