@@ -40,7 +40,8 @@ import numpy as np
 from .dem import Dem, _wkt_or_empty, mark_voids
 from .dem_window_view import view_footprint, view_window
 
-__all__ = ["DemSource", "DemBand", "build_overviews", "overview_factors", "footprint_spans", "LOD_OVERLAP"]
+__all__ = ["DemSource", "DemBand", "open_dem_source", "build_overviews", "overview_factors", "footprint_spans",
+           "LOD_OVERLAP"]
 
 logger = logging.getLogger("monoplot")
 
@@ -104,6 +105,25 @@ def build_overviews(path: str, progress: Optional[Progress] = None, min_size: in
     ds.BuildOverviews(resampling, factors, callback=callback)
     ds = None
     return factors
+
+
+def open_dem_source(path: str, progress: Optional[Progress] = None, build: bool = True,
+                    void_value: Optional[float] = None) -> Tuple["DemSource", List[str]]:
+    """(DemSource, notes for the user) of a large DEM file: its overviews are built first when it has none (with
+    ``progress``, and a note that says so); a DEM folder that cannot be written to is noted (far terrain is then
+    decimated as it is read, which is slower)."""
+    notes: List[str] = []
+    if build:
+        try:
+            built = build_overviews(path, progress)
+        except RuntimeError as exc:
+            notes.append(f"could not build overviews of {os.path.basename(path)} ({str(exc).strip()}): far terrain "
+                         f"is decimated as it is read, which is slower")
+        else:
+            if built:
+                notes.append(f"built overviews 1/{built[0]} to 1/{built[-1]} of {os.path.basename(path)} (once, saved "
+                             f"as {os.path.basename(path)}.ovr) to read far terrain at a coarser resolution")
+    return DemSource(path, void_value=void_value), notes
 
 
 class DemSource:
@@ -255,6 +275,20 @@ class DemSource:
             elevation[r:r1, c0:c1] = block
         dem.void_notes = notes
         return dem, (lo, hi)
+
+    def view_dem(self, camera, max_cells: float = 25e6, max_range: Optional[float] = None) -> Dem:
+        """One ordinary :class:`Dem` of what ``camera`` sees, at the finest level whose window has at most
+        ``max_cells`` cells: for the steps that take a single DEM at preview resolution (rendering for suggestions,
+        the orthophoto's grid). Raises ValueError when the camera sees none of the DEM."""
+        levels = self.levels if len(self.levels) > 1 else [1] + overview_factors(self.shape)
+        window = None
+        for factor in levels:
+            window = self.window(camera, factor, max_range=max_range)
+            if window is None:
+                raise ValueError(f"the camera sees no part of {self.path}")
+            if window[2] * window[3] <= max_cells:
+                break
+        return self.read(window, factor)
 
     def plan(self, camera, max_range: Optional[float] = None, lod: float = 1.0) -> List[Tuple[int, float, float]]:
         """(factor, near depth, far depth) of each band, near to far (see the module docstring); the last band's

@@ -8,7 +8,7 @@ import pytest
 
 from monoplot_plugin.core.camera import Camera
 from monoplot_plugin.core.dem import Dem
-from monoplot_plugin.core.dem_window import DemSource, build_overviews, footprint_spans
+from monoplot_plugin.core.dem_window import DemSource, build_overviews, footprint_spans, open_dem_source
 from monoplot_plugin.core.synthetic import synthetic_terrain
 from monoplot_plugin.core.xyz import compute_xyz, compute_xyz_full
 from monoplot_plugin.core.xyz_lod import compute_xyz_lod
@@ -123,3 +123,28 @@ def test_geographic_dem_is_refused(tmp_path):
     Dem.from_array(np.ones((10, 10)), (8.0, 0.001, 0, 46.0, 0, -0.001), "EPSG:4326").save(path)
     with pytest.raises(ValueError, match="geographic"):
         DemSource(path)
+
+
+def test_open_dem_source_builds_overviews_once_and_says_so(tmp_path):
+    path = str(tmp_path / "big.tif")
+    synthetic_terrain((600, 600), cell=10.0, seed=2).save(path)
+    fractions = []
+    src, notes = open_dem_source(path, progress=lambda f, m: fractions.append(f))
+    assert src.levels == [1, 2] and len(notes) == 1 and "overviews" in notes[0] and fractions
+    src, notes = open_dem_source(path)
+    assert notes == [] and src.levels == [1, 2]
+
+
+def test_view_dem_is_one_dem_of_the_view_within_a_cell_budget(terrain):
+    dem, path, cam = terrain
+    src = DemSource(path)
+    fine = src.view_dem(cam, max_cells=1e9)
+    assert fine.cell_size == pytest.approx(dem.cell_size) and fine.rows * fine.cols <= dem.rows * dem.cols
+    r0, c0 = fine.window
+    assert np.array_equal(fine.elevation, dem.elevation[r0:r0 + fine.rows, c0:c0 + fine.cols])
+    coarse = src.view_dem(cam, max_cells=fine.rows * fine.cols / 3)
+    assert coarse.cell_size == pytest.approx(2 * dem.cell_size) and coarse.rows * coarse.cols <= fine.rows * fine.cols / 3
+    # the same view either way: the z-buffer over both sees terrain in the same pixels, nearly
+    a = np.isfinite(compute_xyz(cam, fine)[..., 0])
+    b = np.isfinite(compute_xyz(cam, coarse)[..., 0])
+    assert (a == b).mean() > 0.97
