@@ -235,16 +235,17 @@ class DemSource:
 
     def read_view(self, camera, factor: int = 1, min_depth: float = 0.0, max_depth: Optional[float] = None,
                   max_range: Optional[float] = None, margin_cells: int = 2):
-        """(Dem, (lo, hi)) of what ``camera`` sees between the depths ``min_depth`` and ``max_depth`` (metres along the
-        optical axis; and within ``max_range`` metres) at level ``factor``:
+        """(Dem, (lo, hi), image rows) of what ``camera`` sees between the depths ``min_depth`` and ``max_depth``
+        (metres along the optical axis; and within ``max_range`` metres) at level ``factor``:
         a window whose rows hold, each, a span of cells ``[lo[r], hi[r])`` (the view's footprint, block by block);
-        only those are read, the others are NaN (not voids: ``compute_xyz_full(..., spans=(lo, hi))``). None when
-        the camera sees nothing there."""
+        only those are read, the others are NaN (not voids: ``compute_xyz_full(..., spans=(lo, hi))``); image rows:
+        (first, last), the rows of the image whose rays can meet them. None when the camera sees nothing there."""
         found = view_footprint(camera, self.level_geotransform(factor), self.level_shape(factor), self.zmin,
-                               self.zmax, max_range, margin_cells, min_depth=min_depth, max_depth=max_depth)
+                               self.zmax, max_range, margin_cells, samples=256, min_depth=min_depth,
+                               max_depth=max_depth)
         if found is None:
             return None
-        window, ends, pad = found
+        window, ends, pad, image_rows = found
         row0, col0, rows, cols = window
         lo, hi = footprint_spans(window, ends, pad)
         from osgeo import gdal
@@ -274,7 +275,7 @@ class DemSource:
             notes += mark_voids(block, nodata=self.nodata, void_value=self.void_value, sentinels=self.sentinels)
             elevation[r:r1, c0:c1] = block
         dem.void_notes = notes
-        return dem, (lo, hi)
+        return dem, (lo, hi), image_rows
 
     def view_dem(self, camera, max_cells: float = 25e6, max_range: Optional[float] = None) -> Dem:
         """One ordinary :class:`Dem` of what ``camera`` sees, at the finest level whose window has at most
@@ -290,9 +291,12 @@ class DemSource:
                 break
         return self.read(window, factor)
 
-    def plan(self, camera, max_range: Optional[float] = None, lod: float = 1.0) -> List[Tuple[int, float, float]]:
+    def plan(self, camera, max_range: Optional[float] = None, lod: float = 1.0,
+             split: bool = True) -> List[Tuple[int, float, float]]:
         """(factor, near depth, far depth) of each band, near to far (see the module docstring); the last band's
-        far depth is ``inf`` (or ``max_range``)."""
+        far depth is ``inf`` (or ``max_range``). With ``split``, bands are cut into thinner slabs of the same level
+        (the first, from the camera, at 1/8, 1/4 and 1/2 of its depth; the others in two): a slab draws only the
+        terrain in front of what nearer slabs left unanswered, so terrain hidden behind them costs little."""
         f = camera.focal_px
         plan = []
         near = 0.0
@@ -303,7 +307,13 @@ class DemSource:
             if max_range is not None:
                 far = min(far, float(max_range))
             if far > near:
-                plan.append((factor, near, far))
+                if not split or math.isinf(far):
+                    cuts = [near, far]
+                elif near == 0.0:
+                    cuts = [0.0, far / 8, far / 4, far / 2, far]
+                else:
+                    cuts = [near, math.sqrt(near * far), far]
+                plan += [(factor, a, b) for a, b in zip(cuts[:-1], cuts[1:])]
             near = far
             if max_range is not None and near >= max_range:
                 break
@@ -322,7 +332,7 @@ class DemSource:
 
 
 #: Rows (and columns) of the blocks in which :meth:`DemSource.read_view` reads a view's footprint.
-_SPAN_BLOCK = 64
+_SPAN_BLOCK = 32
 
 
 def footprint_spans(window, ends, pad: float, block: int = _SPAN_BLOCK):
@@ -349,7 +359,7 @@ def footprint_spans(window, ends, pad: float, block: int = _SPAN_BLOCK):
         if len(part):
             first[i] = max(0, int(math.floor(part[:, 0].min())))
             last[i] = min(nc - 1, int(math.floor(part[:, 0].max())))
-    grow = int(math.ceil(pad / block)) + 1
+    grow = int(math.ceil(pad / block))
     lo_b = np.full(nr, nc, dtype=np.int64)
     hi_b = np.full(nr, -1, dtype=np.int64)
     for i in range(nr):  # widened by ``grow`` blocks every way

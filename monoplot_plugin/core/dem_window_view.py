@@ -29,9 +29,10 @@ def view_window(camera, geotransform: Sequence[float], shape: Tuple[int, int], z
 def view_footprint(camera, geotransform: Sequence[float], shape: Tuple[int, int], zmin: float, zmax: float,
                    max_range: Optional[float] = None, margin_cells: int = 2, samples: int = 64,
                    min_range: float = 0.0, min_depth: float = 0.0, max_depth: Optional[float] = None):
-    """(window, ends, pad) of what a camera can see, or None: ``window`` = (row0, col0, rows, cols), the rectangle of
-    cells clipped to the grid; ``ends``: (N, 2) fractional (row, col) of the sample ray pieces' ends, whose convex
-    hull widened by ``pad`` cells holds the view (None when the view reaches infinity: then the window spans the grid).
+    """(window, ends, pad, image_rows) of what a camera can see, or None: ``window`` = (row0, col0, rows, cols), the
+    rectangle of cells clipped to the grid; ``ends``: (N, 2) fractional (row, col) of the sample ray pieces' ends,
+    whose convex hull widened by ``pad`` cells holds the view (None when the view reaches infinity: then the window
+    spans the grid); ``image_rows``: (first, last), the image rows whose rays can meet that part of the grid.
 
     Rays along the image border and over a grid inside it are cut to the height slab ``[zmin, zmax]`` and to
     ``max_range`` metres; the window is the bounding box (in cell space, so rotated grids work) of the ends of those
@@ -74,7 +75,7 @@ def view_footprint(camera, geotransform: Sequence[float], shape: Tuple[int, int]
     g = geotransform
     det = g[1] * g[5] - g[2] * g[4]
     if np.isinf(hi[ok]).any():
-        return (0, 0, rows, cols), None, 0.0
+        return (0, 0, rows, cols), None, 0.0, _rows_of(uv[ok, 1], h, samples)
     ends = np.concatenate([origin + dirs[ok] * lo[ok, None], origin + dirs[ok] * hi[ok, None]])
     dx, dy = ends[:, 0] - g[0], ends[:, 1] - g[3]
     col = (g[5] * dx - g[2] * dy) / det
@@ -90,4 +91,10 @@ def view_footprint(camera, geotransform: Sequence[float], shape: Tuple[int, int]
     c1 = min(cols, int(math.ceil(col.max() + pad)))
     if r1 <= r0 or c1 <= c0:
         return None
-    return (r0, c0, r1 - r0, c1 - c0), np.stack([row, col], axis=1), pad
+    return (r0, c0, r1 - r0, c1 - c0), np.stack([row, col], axis=1), pad, _rows_of(uv[ok, 1], h, samples)
+
+
+def _rows_of(v: np.ndarray, height: int, samples: int) -> Tuple[int, int]:
+    """Image rows [first, last) that the sample rays at heights ``v`` stand for, widened by two sample steps."""
+    step = 2.0 * height / samples
+    return max(0, int(math.floor(v.min() - step))), min(int(height), int(math.ceil(v.max() + step)))

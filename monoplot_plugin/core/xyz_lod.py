@@ -33,6 +33,7 @@ import numpy as np
 from .camera import Camera
 from .dem_window import LOD_OVERLAP, DemSource
 from .xyz import compute_xyz_full
+from .xyz.zbuffer import DONE_TILE
 from .xyz._jit import njit, prange
 from .xyz_strips import strip_camera
 
@@ -65,7 +66,7 @@ class LodXyz:
 
 
 def compute_xyz_lod(cam: Camera, source: DemSource, max_range: Optional[float] = None, lod: float = 1.0,
-                    progress: Optional[Callable[[float, str], None]] = None) -> LodXyz:
+                    progress: Optional[Callable[[float, str], None]] = None, split: bool = True) -> LodXyz:
     """Z-buffer the DEM file of ``source`` from ``cam`` band by band, near to far (see the module docstring).
 
     Args:
@@ -75,6 +76,8 @@ def compute_xyz_lod(cam: Camera, source: DemSource, max_range: Optional[float] =
         lod: a band's cells are at most this many pixel footprints at its near depth (1: sub-pixel everywhere;
             larger is faster and coarser far away).
         progress: ``progress(fraction, message)`` after each band.
+        split: z-buffer each band in thinner slabs (:meth:`~.dem_window.DemSource.plan`), the same result faster
+            when nearer terrain hides much of the farther one.
     """
     import time
 
@@ -86,9 +89,10 @@ def compute_xyz_lod(cam: Camera, source: DemSource, max_range: Optional[float] =
     todo = np.ones((H, W), dtype=np.bool_)
     C = np.asarray(cam.position, dtype=np.float64)
     forward = cam.forward
-    plan = source.plan(cam, max_range, lod)
+    plan = source.plan(cam, max_range, lod, split=split)
     out = LodXyz(xyz, dist, factor, cam)
     rising = _rising_rows(cam)
+    scratch = np.empty(H * W * 3)  # the z-buffer's depth buffers and XYZ, one allocation for every band
     for i, (level, near, far) in enumerate(plan):
         # rows whose rays all rise and are above the highest terrain at this depth see nothing farther
         todo_rows &= ~((rising > 0.0) & (C[2] + near * rising > source.zmax))
@@ -106,13 +110,17 @@ def compute_xyz_lod(cam: Camera, source: DemSource, max_range: Optional[float] =
         if view is None:
             logger.debug("LOD band x%d: nothing in view", level)
             continue
-        dem, spans = view
+        dem, spans, (v0, v1) = view
         window = (*dem.window, *dem.shape)
         cells = int((spans[1] - spans[0]).clip(0).sum())
-        if cells == 0:  # the window's rectangle meets the grid, the view's footprint does not
+        if cells == 0 or v1 <= v0:  # the window's rectangle meets the grid, the view's footprint does not
             logger.debug("LOD band x%d: no cell in view (rows %d-%d)", level, r0, r1)
             continue
-        res = compute_xyz_full(sub, dem, max_range=max_range, crop=False, visibility=False, near=near, spans=spans)
+        r0, r1 = r0 + v0, r0 + v1  # only the rows whose rays can reach this band's terrain
+        sub = strip_camera(cam, r0, r1 - r0)
+        res = compute_xyz_full(sub, dem, max_range=max_range, crop=False, visibility=False, near=near, spans=spans,
+                               done=None if i == 0 else _done_tiles(todo[r0:r1]),
+                               scratch=scratch[:(r1 - r0) * W * 3])
         del dem
         _take_hits(res.triangle, res.xyz, res.distance, C, forward, keep, level, r0, todo, xyz, dist, factor)
         del res
@@ -155,3 +163,12 @@ def _take_hits(tri, sxyz, sdist, C, forward, keep, level, r0, todo, xyz, dist, f
                 dist[r0 + i, j] = sdist[i, j]
                 factor[r0 + i, j] = level
                 todo[r0 + i, j] = False
+
+
+def _done_tiles(todo: np.ndarray) -> np.ndarray:
+    """(ceil(h / DONE_TILE), ceil(w / DONE_TILE)) uint8: 1 for the tiles without a pixel still to do."""
+    h, w = todo.shape
+    t = DONE_TILE
+    padded = np.zeros((-(-h // t) * t, -(-w // t) * t), dtype=bool)
+    padded[:h, :w] = todo
+    return (~padded.reshape(padded.shape[0] // t, t, padded.shape[1] // t, t).any(axis=(1, 3))).astype(np.uint8)

@@ -34,7 +34,8 @@ def test_windowed_read_equals_the_full_read(terrain):
     assert np.array_equal(part.elevation, full.elevation[37:157, 81:176])
     assert np.allclose(part.geotransform, full.crop(37, 81, 120, 95).geotransform)
     # the camera's footprint: cells inside the spans are the file's, the rest NaN (not read)
-    view, (lo, hi) = src.read_view(cam, 1, min_depth=0.0, max_depth=4000.0)
+    view, (lo, hi), (v0, v1) = src.read_view(cam, 1, min_depth=0.0, max_depth=4000.0)
+    assert 0 <= v0 < v1 <= cam.height
     r0, c0 = view.window
     assert (hi > lo).any()
     for r in range(0, view.rows, 17):

@@ -194,10 +194,20 @@ def _row_pick(top, bottom, r, rr, c):
     return top[c] if rr == r else bottom[c]
 
 
+@njit(cache=True, inline="always")
+def _all_done(done, tile, i0, i1, j0, j1):
+    """Every tile of ``done`` that the pixel box [i0, i1] x [j0, j1] touches is done."""
+    for ti in range(i0 // tile, i1 // tile + 1):
+        for tj in range(j0 // tile, j1 // tile + 1):
+            if done[ti, tj] == 0:
+                return False
+    return True
+
+
 @njit(cache=True)
-def _raster_quad_row(ut, vt, wt, ub, vb, wb, r, c0, c1, elev, gt, C, R, intr, near, cull, zbuf, tbuf):
+def _raster_quad_row(ut, vt, wt, ub, vb, wb, r, c0, c1, elev, gt, C, R, intr, near, cull, zbuf, tbuf, done, tile):
     """Z-buffer the two triangles of every quad between DEM rows r (projected into ut, vt, wt) and r + 1 (ub, vb,
-    wb), for the quads of columns [c0, c1 - 1)."""
+    wb), for the quads of columns [c0, c1 - 1); quads whose pixels all lie in tiles of ``done`` are skipped."""
     cols = elev.shape[1]
     H, W = zbuf.shape
     for c in range(c0, c1 - 1):
@@ -222,6 +232,8 @@ def _raster_quad_row(ut, vt, wt, ub, vb, wb, r, c0, c1, elev, gt, C, R, intr, ne
             j1 = min(W - 1, int(math.floor(umax - 0.5)))
             i0 = max(0, int(math.ceil(vmin - 0.5)))
             i1 = min(H - 1, int(math.floor(vmax - 0.5)))
+            if _all_done(done, tile, i0, i1, j0, j1):
+                continue
             if not _raster_quad(u00, v00, w00, u01, v01, w01, u11, v11, w11, u10, v10, w10,
                                 i0, i1, j0, j1, base, zbuf, tbuf, cull):
                 _raster_triangle(u00, v00, w00, u01, v01, w01, u11, v11, w11, base, zbuf, tbuf, cull)
@@ -250,11 +262,13 @@ def _raster_quad_row(ut, vt, wt, ub, vb, wb, r, c0, c1, elev, gt, C, R, intr, ne
 
 
 @njit(parallel=True, cache=True)
-def _rasterise(elev, gt, C, R, intr, near, cull, zbufs, tbufs, lo, hi):
+def _rasterise(elev, gt, C, R, intr, near, cull, zbufs, tbufs, lo, hi, done, tile):
     """Z-buffer all mesh triangles. Chunk k handles the blocks of RASTER_BLOCK_ROWS DEM rows b = k, k + nchunks, ...
     into its own buffers (no write races, balanced load); the caller merges the chunks. Vertices are projected
     row by row as the block goes (two rows held, no DEM-sized arrays). Only the columns [lo[r], hi[r]) of each row
-    r are drawn (the span of the grid a level-of-detail band needs; 0 and cols for a whole grid)."""
+    r are drawn (the span of the grid a level-of-detail band needs; 0 and cols for a whole grid). ``done``: (Ht, Wt)
+    uint8 per tile of ``tile`` x ``tile`` pixels, 1 where every pixel already has its answer (a nearer band's), so
+    that terrain hidden there is not drawn (a (1, 1) zero array and a huge tile: draw everything)."""
     rows, cols = elev.shape
     nchunks = zbufs.shape[0]
     nblocks = (rows - 1 + RASTER_BLOCK_ROWS - 1) // RASTER_BLOCK_ROWS
@@ -272,7 +286,7 @@ def _rasterise(elev, gt, C, R, intr, near, cull, zbufs, tbufs, lo, hi):
                              bottom[2])
                 _raster_quad_row(top[0], top[1], top[2], bottom[0], bottom[1], bottom[2], r,
                                  max(lo[r], lo[r + 1]), min(hi[r], hi[r + 1]), elev, gt, C, R, intr, near, cull,
-                                 zbuf, tbuf)
+                                 zbuf, tbuf, done, tile)
                 top, bottom = bottom, top
 
 

@@ -18,12 +18,14 @@ from .exact import _exact_hits, _visibility
 from .mesh import _drop_void_hits, _filled_voids, _spans_have_nan
 from .raster import _clear_buffers, _merge, _rasterise
 
-__all__ = ["compute_xyz", "compute_xyz_full", "XyzResult", "NEAR_PLANE_M"]
+__all__ = ["compute_xyz", "compute_xyz_full", "XyzResult", "NEAR_PLANE_M", "DONE_TILE"]
 
 logger = logging.getLogger("monoplot")
 
 #: Terrain closer than this to the camera plane (metres) is clipped away.
 NEAR_PLANE_M = 0.01
+#: Pixels per side of the tiles of ``compute_xyz_full(done=...)``.
+DONE_TILE = 16
 
 
 @dataclass
@@ -111,7 +113,7 @@ def _chunk_count(H: int, W: int) -> int:
 
 def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, crop: bool = True,
                      visibility: bool = True, rel_tol: float = 0.005, abs_tol: Optional[float] = None,
-                     near: float = NEAR_PLANE_M, spans=None) -> XyzResult:
+                     near: float = NEAR_PLANE_M, spans=None, done=None, scratch=None) -> XyzResult:
     """Z-buffer ``dem`` from ``cam``: per-pixel XYZ and distance, and per-cell visibility.
 
     Args:
@@ -128,6 +130,11 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
             level-of-detail view (:mod:`..xyz_lod`) start at their own depth.
         spans: None, or (lo, hi): (rows,) integer arrays; only the cells [lo[r], hi[r]) of each row r are terrain
             (the part of a window a level-of-detail band needs); the cells outside, NaN, are not voids. No crop.
+        done: None, or a (ceil(H / DONE_TILE), ceil(W / DONE_TILE)) uint8 array, 1 for the tiles of
+            :data:`DONE_TILE` x :data:`DONE_TILE` pixels whose every pixel is answered already (by a nearer band):
+            terrain that falls only there is not drawn, and those pixels' results are not to be used.
+        scratch: None, or a float64 array of H * W * 3 elements that becomes the result's ``xyz`` (reused memory
+            for a caller that z-buffers many times; the result is overwritten by the next call).
     Returns:
         :class:`XyzResult`.
     """
@@ -163,9 +170,14 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
     intr = _intrinsics(cam)
     near = max(float(near), NEAR_PLANE_M)
     n = _chunk_count(H, W)
-    xyz = np.empty((H, W, 3))  # scratch for the depth buffers first; every pixel is written by _exact_hits
+    # scratch for the depth buffers first; every pixel is written by _exact_hits
+    xyz = np.empty((H, W, 3)) if scratch is None else scratch[:H * W * 3].reshape(H, W, 3)
     zbufs, tbufs = _depth_buffers(xyz, n)
-    _rasterise(elev, gt, C, R, intr, near, _cull_sign(cam, work), zbufs, tbufs, lo, hi)
+    if done is None:
+        done, tile = np.zeros((1, 1), dtype=np.uint8), 1 << 30
+    else:
+        done, tile = np.ascontiguousarray(done, dtype=np.uint8), DONE_TILE
+    _rasterise(elev, gt, C, R, intr, near, _cull_sign(cam, work), zbufs, tbufs, lo, hi, done, tile)
     tri = np.empty((H, W), dtype=np.int32)
     _merge(zbufs, tbufs, tri)
     del zbufs, tbufs
