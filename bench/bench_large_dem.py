@@ -4,14 +4,15 @@ Two JSON lines, on generated terrain only (a periodic procedural block of 2048 x
 explicit overview levels: seconds to make, nothing of 1.6 G cells computed in Python; written to a temporary folder,
 ``MONOPLOT_BENCH_DIR`` if set, and deleted after):
 
-- ``xyz_lod_24mp_dem1.7g``: 24 MP over a 40,960 x 40,960 DEM (1.68 G cells, 1 m, 40 km square, overviews 2-128):
-  seconds (median of the timed runs, after one warm-up), peak MB of the process (the DEM reads included), the bands.
-- ``xyz_lod_vs_full_24mp_dem105m``: a 10,240 x 10,240 DEM (105 M cells, 2 m) that fits in memory: the level-of-
+- ``xyz_lod<lod>_24mp_dem1.7g`` (one per ``--lod`` value): 24 MP over a 40,960 x 40,960 DEM (1.68 G cells, 1 m,
+  40 km square, overviews 2-128): seconds (median of the timed runs, after one warm-up), peak MB of the process (the
+  DEM reads included), the bands.
+- ``xyz_lod<lod>_vs_full_24mp_dem105m``: a 10,240 x 10,240 DEM (105 M cells, 2 m) that fits in memory: the level-of-
   detail result against the full-resolution z-buffer, pixel by pixel where both see terrain: ground distance in cells
   of the level used, and the displacement seen from the camera in pixels (|delta| f / distance); the share of pixels
   within one cell and within half a pixel, with percentiles; and both timings.
 
-    .venv/bin/python bench/bench_large_dem.py [--repeat 2] [--lod 1.0] [--only big,compare]
+    .venv/bin/python bench/bench_large_dem.py [--repeat 2] [--lod 1,2] [--only big,compare]
 """
 
 from __future__ import annotations
@@ -99,8 +100,8 @@ def write_vrt(folder: str, tiles: int, cell: float, name: str) -> str:
 
 
 def camera_for(source, width: int, height: int):
-    """1 km... the run_bench scene's camera: near the south-west corner, 300 m above the highest terrain, looking
-    north-east across the DEM, 6 degrees down, 60 degree field of view."""
+    """The run_bench scene's camera: near the south-west corner, 300 m above the highest terrain, looking north-east
+    across the DEM, 6 degrees down, 60 degree field of view."""
     from monoplot_plugin.core.camera import Camera
 
     rows, cols = source.shape
@@ -111,7 +112,7 @@ def camera_for(source, width: int, height: int):
                   image_size=(width, height))
 
 
-def bench_big(folder: str, args) -> dict:
+def bench_big(folder: str, args, lod_value: float) -> dict:
     from monoplot_plugin.core.dem_window import DemSource
     from monoplot_plugin.core.xyz_lod import compute_xyz_lod
 
@@ -119,7 +120,7 @@ def bench_big(folder: str, args) -> dict:
     source = DemSource(path)
     cam = camera_for(source, 6000, 4000)
     t0 = time.perf_counter()
-    res = compute_xyz_lod(cam, source, lod=args.lod)
+    res = compute_xyz_lod(cam, source, lod=lod_value)
     first = time.perf_counter() - t0
     hit = float(res.hit.mean())
     del res
@@ -128,13 +129,13 @@ def bench_big(folder: str, args) -> dict:
     for _ in range(args.repeat):
         source = DemSource(path)  # reopened: nothing cached in the source between runs (GDAL's block cache stays)
         t0 = time.perf_counter()
-        res = compute_xyz_lod(cam, source, lod=args.lod)
+        res = compute_xyz_lod(cam, source, lod=lod_value)
         times.append(time.perf_counter() - t0)
         bands = res.bands
         del res
-    return {"name": "xyz_lod_24mp_dem1.7g", "image": list(cam.image_size), "dem": list(source.shape),
+    return {"name": f"xyz_lod{lod_value:g}_24mp_dem1.7g", "image": list(cam.image_size), "dem": list(source.shape),
             "gcells": round(source.cells / 1e9, 2), "cell_m": source.cell_size, "levels": source.levels,
-            "lod": args.lod, "seconds": round(float(np.median(times)), 3), "first_s": round(first, 3),
+            "lod": lod_value, "seconds": round(float(np.median(times)), 3), "first_s": round(first, 3),
             "min_s": round(min(times), 3), "peak_mb": round(peak_mb(), 1), "hit_fraction": round(hit, 3),
             "bands": [{"factor": f, "near_m": round(a), "far_m": None if not np.isfinite(b) else round(b),
                        "window": list(shape), "mcells_read": round(n / 1e6, 1), "s": round(s, 3)}
@@ -142,7 +143,7 @@ def bench_big(folder: str, args) -> dict:
             "repeat": args.repeat, "load_avg_1min": round(os.getloadavg()[0], 2)}
 
 
-def bench_compare(folder: str, args) -> dict:
+def bench_compare(folder: str, args, lods) -> list:
     from monoplot_plugin.core.dem import Dem
     from monoplot_plugin.core.dem_window import DemSource
     from monoplot_plugin.core.xyz import compute_xyz
@@ -151,50 +152,58 @@ def bench_compare(folder: str, args) -> dict:
     path = write_vrt(folder, 5, 2.0, "mid")
     source = DemSource(path)
     cam = camera_for(source, 6000, 4000)
-    t0 = time.perf_counter()
-    lod = compute_xyz_lod(cam, source, lod=args.lod)
-    lod_s = time.perf_counter() - t0
     dem = Dem.open(path)
+    reset_peak()
     t0 = time.perf_counter()
     full = compute_xyz(cam, dem)
     full_s = time.perf_counter() - t0
     cell0 = dem.cell_size
     del dem
-    both = lod.hit & np.isfinite(full[..., 0])
-    p, q = lod.xyz[both], full[both]
-    ground = np.hypot(p[:, 0] - q[:, 0], p[:, 1] - q[:, 1])
-    cells = ground / (cell0 * lod.factor[both])
-    rng = np.linalg.norm(q - np.asarray(cam.position), axis=1)
-    px = np.linalg.norm(p - q, axis=1) * cam.focal_px / rng
-    coarse = lod.factor[both] > 1
-    pct = lambda a: [round(float(v), 3) for v in np.percentile(a, [50, 95, 99])] if a.size else None  # noqa: E731
-    return {"name": "xyz_lod_vs_full_24mp_dem105m", "image": list(cam.image_size), "dem": list(source.shape),
-            "cell_m": cell0, "lod": args.lod, "lod_s": round(lod_s, 3), "full_s": round(full_s, 3),
-            "hit_lod": round(float(lod.hit.mean()), 4), "hit_full": round(float(np.isfinite(full[..., 0]).mean()), 4),
-            "pixels_compared": int(both.sum()), "pixels_coarse": int(coarse.sum()),
-            "within_1_cell": round(float((cells <= 1.0).mean()), 4),
-            "within_half_px": round(float((px <= 0.5).mean()), 4),
-            "coarse_within_1_cell": round(float((cells[coarse] <= 1.0).mean()), 4) if coarse.any() else None,
-            "coarse_within_half_px": round(float((px[coarse] <= 0.5).mean()), 4) if coarse.any() else None,
-            "cells_p50_p95_p99": pct(cells), "px_p50_p95_p99": pct(px),
-            "coarse_px_p50_p95_p99": pct(px[coarse]), "peak_mb": round(peak_mb(), 1),
-            "load_avg_1min": round(os.getloadavg()[0], 2)}
+    lines = []
+    for lod_value in lods:
+        t0 = time.perf_counter()
+        lod = compute_xyz_lod(cam, source, lod=lod_value)
+        lod_s = time.perf_counter() - t0
+        both = lod.hit & np.isfinite(full[..., 0])
+        p, q = lod.xyz[both], full[both]
+        ground = np.hypot(p[:, 0] - q[:, 0], p[:, 1] - q[:, 1])
+        cells = ground / (cell0 * lod.factor[both])
+        rng = np.linalg.norm(q - np.asarray(cam.position), axis=1)
+        px = np.linalg.norm(p - q, axis=1) * cam.focal_px / rng
+        coarse = lod.factor[both] > 1
+        pct = lambda a: [round(float(v), 3) for v in np.percentile(a, [50, 95, 99])] if a.size else None  # noqa
+        share = lambda m: round(float(m.mean()), 4) if m.size else None  # noqa: E731
+        lines.append({
+            "name": f"xyz_lod{lod_value:g}_vs_full_24mp_dem105m", "image": list(cam.image_size),
+            "dem": list(source.shape), "cell_m": cell0, "lod": lod_value, "lod_s": round(lod_s, 3),
+            "full_s": round(full_s, 3), "hit_lod": round(float(lod.hit.mean()), 4),
+            "hit_full": round(float(np.isfinite(full[..., 0]).mean()), 4), "pixels_compared": int(both.sum()),
+            "pixels_coarse": int(coarse.sum()), "within_1_cell": share(cells <= 1.0),
+            "within_half_px": share(px <= 0.5), "coarse_within_1_cell": share(cells[coarse] <= 1.0),
+            "coarse_within_half_px": share(px[coarse] <= 0.5), "cells_p50_p95_p99": pct(cells),
+            "px_p50_p95_p99": pct(px), "coarse_px_p50_p95_p99": pct(px[coarse]), "peak_mb": round(peak_mb(), 1),
+            "load_avg_1min": round(os.getloadavg()[0], 2)})
+        del lod
+    return lines
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=2)
-    parser.add_argument("--lod", type=float, default=1.0)
+    parser.add_argument("--lod", default="1,2", help="comma-separated lod values (cells per pixel footprint)")
     parser.add_argument("--only", default="big,compare")
     args = parser.parse_args()
     only = set(args.only.split(","))
     folder = tempfile.mkdtemp(prefix="monoplot-large-dem-", dir=os.environ.get("MONOPLOT_BENCH_DIR"))
     try:
         write_tiles(folder, periodic_terrain())
+        lods = [float(v) for v in args.lod.split(",")]
         if "big" in only:
-            print(json.dumps(bench_big(folder, args)), flush=True)
+            for lod_value in lods:
+                print(json.dumps(bench_big(folder, args, lod_value)), flush=True)
         if "compare" in only:
-            print(json.dumps(bench_compare(folder, args)), flush=True)
+            for line in bench_compare(folder, args, lods):
+                print(json.dumps(line), flush=True)
     finally:
         shutil.rmtree(folder, ignore_errors=True)
     return 0
