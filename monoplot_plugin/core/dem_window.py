@@ -199,24 +199,28 @@ class DemSource:
         g = self.level_geotransform(factor)
         return math.sqrt(abs(g[1] * g[5] - g[2] * g[4]))
 
-    def read(self, window: Optional[Sequence[int]] = None, factor: int = 1) -> Dem:
-        """The Dem of ``window`` = (row0, col0, rows, cols) in the cells of level ``factor`` (None = all of it);
-        read from the overview of that factor, else decimated by GDAL's averaging read."""
+    def _read_block(self, factor: int, row0: int, col0: int, rows: int, cols: int) -> np.ndarray:
+        """The cells [row0, row0 + rows) x [col0, col0 + cols) of level ``factor`` as GDAL gives them: from the
+        band or its overview of that factor, else decimated (averaged) from the full resolution."""
+        if factor == 1:
+            return self._band.ReadAsArray(col0, row0, cols, rows)
+        if factor in self._overviews:
+            return self._overviews[factor].ReadAsArray(col0, row0, cols, rows)
         from osgeo import gdal
 
         rows_l, cols_l = self.level_shape(factor)
+        sx, sy = self.shape[1] / cols_l, self.shape[0] / rows_l
+        x0, y0 = int(round(col0 * sx)), int(round(row0 * sy))
+        w = min(self.shape[1] - x0, int(round(cols * sx)))
+        h = min(self.shape[0] - y0, int(round(rows * sy)))
+        return self._band.ReadAsArray(x0, y0, w, h, buf_xsize=cols, buf_ysize=rows, resample_alg=gdal.GRIORA_Average)
+
+    def read(self, window: Optional[Sequence[int]] = None, factor: int = 1) -> Dem:
+        """The Dem of ``window`` = (row0, col0, rows, cols) in the cells of level ``factor`` (None = all of it);
+        read from the overview of that factor, else decimated by GDAL's averaging read."""
+        rows_l, cols_l = self.level_shape(factor)
         row0, col0, rows, cols = (0, 0, rows_l, cols_l) if window is None else (int(w) for w in window)
-        if factor == 1:
-            data = self._band.ReadAsArray(col0, row0, cols, rows)
-        elif factor in self._overviews:
-            data = self._overviews[factor].ReadAsArray(col0, row0, cols, rows)
-        else:
-            sx, sy = self.shape[1] / cols_l, self.shape[0] / rows_l
-            x0, y0 = int(round(col0 * sx)), int(round(row0 * sy))
-            w = min(self.shape[1] - x0, int(round(cols * sx)))
-            h = min(self.shape[0] - y0, int(round(rows * sy)))
-            data = self._band.ReadAsArray(x0, y0, w, h, buf_xsize=cols, buf_ysize=rows,
-                                          resample_alg=gdal.GRIORA_Average)
+        data = self._read_block(factor, row0, col0, rows, cols)
         elevation = np.array(data, dtype=np.float32)
         notes = mark_voids(elevation, nodata=self.nodata, void_value=self.void_value, sentinels=self.sentinels)
         g = self.level_geotransform(factor)
@@ -248,29 +252,18 @@ class DemSource:
         window, ends, pad, image_rows = found
         row0, col0, rows, cols = window
         lo, hi = footprint_spans(window, ends, pad)
-        from osgeo import gdal
-
         elevation = np.full((rows, cols), np.nan, dtype=np.float32)
         g = self.level_geotransform(factor)
         dem = Dem(elevation, (g[0] + col0 * g[1] + row0 * g[2], g[1], g[2], g[3] + col0 * g[4] + row0 * g[5], g[4],
                               g[5]), self.crs_wkt)
         dem.window = (row0, col0)
-        band = self._band if factor == 1 else self._overviews.get(factor)
         notes = []
         for r in range(0, rows, _SPAN_BLOCK):
             r1 = min(rows, r + _SPAN_BLOCK)
             c0, c1 = int(lo[r:r1].min()), int(hi[r:r1].max())
             if c1 <= c0:
                 continue
-            if band is not None:
-                data = band.ReadAsArray(col0 + c0, row0 + r, c1 - c0, r1 - r)
-            else:  # no overview of this factor: GDAL decimates (averages) the full resolution
-                sx, sy = self.shape[1] / self.level_shape(factor)[1], self.shape[0] / self.level_shape(factor)[0]
-                x0, y0 = int(round((col0 + c0) * sx)), int(round((row0 + r) * sy))
-                w = min(self.shape[1] - x0, int(round((c1 - c0) * sx)))
-                h = min(self.shape[0] - y0, int(round((r1 - r) * sy)))
-                data = self._band.ReadAsArray(x0, y0, w, h, buf_xsize=c1 - c0, buf_ysize=r1 - r,
-                                              resample_alg=gdal.GRIORA_Average)
+            data = self._read_block(factor, row0 + r, col0 + c0, r1 - r, c1 - c0)
             block = np.array(data, dtype=np.float32)
             notes += mark_voids(block, nodata=self.nodata, void_value=self.void_value, sentinels=self.sentinels)
             elevation[r:r1, c0:c1] = block

@@ -54,6 +54,10 @@ def test_building_overviews_leaves_the_dem_alone_and_reports_progress(tmp_path):
     with open(path, "rb") as fh:
         before = fh.read()
     assert DemSource(path).levels == [1]
+    # without overviews a coarse level is decimated as it is read: the average of each 2 x 2 block
+    blocks = Dem.open(path).elevation.reshape(150, 2, 150, 2).mean(axis=(1, 3))
+    assert np.allclose(DemSource(path).read(None, 2).elevation, blocks, atol=1e-3)
+    assert np.allclose(DemSource(path).read((10, 20, 30, 40), 2).elevation, blocks[10:40, 20:60], atol=1e-3)
     seen = []
     built = build_overviews(path, progress=lambda f, m: seen.append((f, m)), min_size=64)
     assert built == [2, 4]
