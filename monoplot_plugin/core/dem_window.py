@@ -40,8 +40,8 @@ import numpy as np
 from .dem import Dem, _wkt_or_empty, mark_voids
 from .dem_window_view import view_footprint, view_window
 
-__all__ = ["DemSource", "DemBand", "open_dem_source", "build_overviews", "overview_factors", "footprint_spans",
-           "LOD_OVERLAP"]
+__all__ = ["DemSource", "DemBand", "as_dem", "open_dem_source", "build_overviews", "overview_factors",
+           "footprint_spans", "LOD_OVERLAP"]
 
 logger = logging.getLogger("monoplot")
 
@@ -105,6 +105,22 @@ def build_overviews(path: str, progress: Optional[Progress] = None, min_size: in
     ds.BuildOverviews(resampling, factors, callback=callback)
     ds = None
     return factors
+
+
+def as_dem(dem, camera=None, max_range: Optional[float] = None, max_cells: float = 25e6) -> Dem:
+    """``dem`` itself when it is a :class:`Dem`; for a :class:`DemSource`, one Dem to work on: what ``camera`` sees
+    (:meth:`DemSource.view_dem`), or without a camera the whole grid at the finest level of at most ``max_cells``
+    cells. The steps that take one DEM (rendering, suggestions) call it, so that they take a large DEM file too."""
+    if not isinstance(dem, DemSource):
+        return dem
+    if camera is not None:
+        return dem.view_dem(camera, max_cells=max_cells, max_range=max_range)
+    levels = dem.levels if len(dem.levels) > 1 else [1] + overview_factors(dem.shape)
+    for factor in levels:
+        rows, cols = dem.level_shape(factor)
+        if rows * cols <= max_cells:
+            break
+    return dem.read(None, factor)
 
 
 def open_dem_source(path: str, progress: Optional[Progress] = None, build: bool = True,

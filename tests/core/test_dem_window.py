@@ -153,3 +153,17 @@ def test_view_dem_is_one_dem_of_the_view_within_a_cell_budget(terrain):
     a = np.isfinite(compute_xyz(cam, fine)[..., 0])
     b = np.isfinite(compute_xyz(cam, coarse)[..., 0])
     assert (a == b).mean() > 0.97
+
+
+def test_rendering_and_suggestions_take_a_dem_source(terrain):
+    from monoplot_plugin.core.render import render_dem
+    from monoplot_plugin.core.suggest import suggest_dem_points
+
+    dem, path, cam = terrain
+    src = DemSource(path)
+    view = src.view_dem(cam)
+    small = cam.scaled(0.5)
+    a, b = render_dem(small, src), render_dem(small, view)
+    assert np.isfinite(a.shade).mean() > 0.3 and np.array_equal(a.shade, b.shade, equal_nan=True)
+    points = suggest_dem_points(src, cam, max_points=200)
+    assert 20 <= len(points.xyz) <= 200 and np.isfinite(points.xyz).all()
