@@ -3,11 +3,13 @@
 A :class:`DemSource` keeps the file open and reads nothing up front. For a camera it plans distance bands
 (:meth:`DemSource.bands`): band ``k`` covers the depths (distance along the optical axis) ``[near_k, far_k)`` and is
 read at the coarsest level whose cells are at most ``lod`` times the footprint of a pixel at ``near_k``
-(``near_k / f`` metres, f = focal length in pixels), through a window that holds the camera's view frustum between
-those depths (:func:`~.dem.view_window`). The first band is always at full resolution. Levels are the file's GDAL
-overviews (:func:`build_overviews` makes them, as a ``.ovr`` beside the file, when they are missing); without
-overviews a coarse level is read by decimating (GDAL's averaging read), which touches every full-resolution block
-of the window. :func:`~.xyz_lod.compute_xyz_lod` z-buffers the bands near to far.
+(``near_k / f`` metres, f = focal length in pixels), through the cells that the camera's view frustum between those
+depths covers, row by row (:meth:`DemSource.read_view`, :func:`~.dem_window_view.view_footprint`). The first band is
+always at full resolution. Levels are the file's GDAL overviews (:func:`build_overviews` makes them, as a ``.ovr``
+beside the file, when they are missing; :func:`open_dem_source` does it and says so); without overviews a coarse
+level is read by decimating (GDAL's averaging read), which touches every full-resolution block it covers.
+:func:`~.xyz_lod.compute_xyz_lod` z-buffers the bands near to far; the steps that take one DEM (rendering,
+suggestions) take :meth:`DemSource.view_dem`, one ordinary Dem of the view within a cell budget (:func:`as_dem`).
 
 Each band is an ordinary :class:`~.dem.Dem` (a window of one level), voids marked as :meth:`Dem.open` marks them.
 

@@ -1,12 +1,14 @@
 """Per-pixel XYZ over a DEM larger than memory: the camera's distance bands z-buffered near to far.
 
-:meth:`~.dem_window.DemSource.bands` cuts the view into depth bands, the first at full resolution, each farther one
-at a coarser level (cells at most ``lod`` pixel footprints). Each band is z-buffered on its own with its near plane
-at the band's start (:func:`~.xyz.compute_xyz_full` with ``near``), over only the image rows that still need it (a
-strip camera, :func:`~.xyz_strips.strip_camera`); a pixel takes the first band, near to far, whose hit lies before
-that band's far depth (plus :data:`~.dem_window.LOD_OVERLAP`). Terrain of a farther band cannot hide a nearer
-band's, and a nearer band's has been searched before, so each pixel gets its first hit, exact on the mesh of the
-level it falls in. One band's DEM is in memory at a time.
+:meth:`~.dem_window.DemSource.plan` cuts the view into depth bands, the first at full resolution, each farther one
+at a coarser level (cells at most ``lod`` pixel footprints), and the bands into thinner slabs. Each slab is read
+(:meth:`~.dem_window.DemSource.read_view`: only the cells its part of the frustum covers) and z-buffered on its own
+with its near plane at the slab's start (:func:`~.xyz.compute_xyz_full` with ``near`` and ``spans``), over only the
+image rows that still need it and that its terrain can reach (a strip camera, :func:`~.xyz_strips.strip_camera`);
+terrain that would fall only on pixels answered by nearer slabs is not drawn (``done`` tiles). A pixel takes the
+first slab, near to far, whose hit lies before that slab's far depth (plus :data:`~.dem_window.LOD_OVERLAP`).
+Terrain of a farther slab cannot hide a nearer one's, and the nearer one has been searched before, so each pixel
+gets its first hit, exact on the mesh of the level it falls in. One slab's DEM is in memory at a time.
 
 >>> import os, tempfile
 >>> from .camera import Camera
