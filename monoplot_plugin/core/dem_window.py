@@ -352,8 +352,8 @@ def footprint_spans(window, ends, pad: float, block: int = _SPAN_BLOCK):
     ``block`` cells; the whole width when ``ends`` is None.
 
     >>> lo, hi = footprint_spans((0, 0, 1024, 1024), np.array([[0.0, 0.0], [0.0, 10.0], [1000.0, 1000.0]]), 2.0)
-    >>> (int(lo[0]), int(hi[0])), (int(lo[1023]), int(hi[1023]))    # the hull and two blocks of margin every way
-    ((0, 384), (704, 1024))
+    >>> (int(lo[0]), int(hi[0])), (int(lo[1023]), int(hi[1023]))    # the hull and a block of margin every way
+    ((0, 128), (928, 1024))
     """
     import cv2
 
