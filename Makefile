@@ -89,6 +89,7 @@ qgis: setup
 bench: setup
 	$(PY) bench/run_bench.py
 	$(PY) bench/bench_fit.py
+	$(PY) bench/bench_curation.py
 	$(PY) bench/bench_large_dem.py
 
 # Camera fit on the real Aletsch case (../shared/data/aletsch), smapshot's 100 real small GCP sets and the synthetic
@@ -97,6 +98,7 @@ eval: setup
 	$(PY) -m eval.aletsch
 	$(PY) -m eval.smapshot
 	$(PY) -m eval.synthetic_suite
+	$(PY) -m eval.user_trial
 
 package: setup
 	$(PY) scripts/package.py --output dist
