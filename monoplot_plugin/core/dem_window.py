@@ -16,7 +16,8 @@ Each band is an ordinary :class:`~.dem.Dem` (a window of one level), voids marke
 >>> import os, tempfile
 >>> import numpy as np
 >>> from .dem import Dem
->>> path = os.path.join(tempfile.mkdtemp(), "dem.tif")
+>>> folder = tempfile.TemporaryDirectory()
+>>> path = os.path.join(folder.name, "dem.tif")
 >>> Dem.from_array(np.arange(64.0 * 64).reshape(64, 64), (0, 1, 0, 64, 0, -1), "EPSG:2056").save(path)
 >>> src = DemSource(path)
 >>> src.shape, src.levels
@@ -27,6 +28,7 @@ Each band is an ordinary :class:`~.dem.Dem` (a window of one level), voids marke
 [1, 2, 4]
 >>> src.read((2, 3, 4, 5)).elevation.shape, src.read((2, 3, 4, 5)).window
 ((4, 5), (2, 3))
+>>> del src; folder.cleanup()
 """
 
 from __future__ import annotations

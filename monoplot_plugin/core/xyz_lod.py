@@ -15,12 +15,14 @@ gets its first hit, exact on the mesh of the level it falls in. One slab's DEM i
 >>> from .dem_window import DemSource, build_overviews
 >>> from .synthetic import synthetic_terrain
 >>> dem = synthetic_terrain((512, 512), cell=20.0, seed=1)
->>> path = os.path.join(tempfile.mkdtemp(), "dem.tif"); dem.save(path); _ = build_overviews(path, min_size=64)
+>>> folder = tempfile.TemporaryDirectory()
+>>> path = os.path.join(folder.name, "dem.tif"); dem.save(path); _ = build_overviews(path, min_size=64)
 >>> x, y = dem.cell_to_map(50, 460)
 >>> cam = Camera((x, y, float(dem.elevation.max()) + 200), 45, -8, 0, 60, (300, 200))
 >>> res = compute_xyz_lod(cam, DemSource(path), lod=2.0)
 >>> sorted(set(res.factor[res.factor > 0].tolist()))     # near field at full resolution, then coarser
 [1, 2, 4]
+>>> folder.cleanup()
 """
 
 from __future__ import annotations
