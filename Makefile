@@ -23,7 +23,7 @@ help:
 	@echo "make test-installer  the Install button's pip for real: QGIS's Python + a throwaway user site"
 	@echo "make test-qgis340    the whole suite on QGIS 3.40 (Debian 13 root file system in .cache/, needs root)"
 	@echo "make package  build dist/monoplot-<version>.zip for plugins.qgis.org"
-	@echo "make bench    core speed benchmarks (per-pixel XYZ, render, orthophoto, fit, suggestions), one JSON line each"
+	@echo "make bench    core speed benchmarks (per-pixel XYZ, render, orthophoto, fit, suggestions, time-lapse), one JSON line each"
 	@echo "make eval     camera fit measured on the real Aletsch case and a synthetic scene, one JSON line per case"
 
 setup: apt venv resources
@@ -90,6 +90,7 @@ bench: setup
 	$(PY) bench/run_bench.py
 	$(PY) bench/bench_fit.py
 	$(PY) bench/bench_curation.py
+	$(PY) bench/bench_timelapse.py
 	$(PY) bench/bench_large_dem.py
 
 # Camera fit on the real Aletsch case (../shared/data/aletsch), smapshot's 100 real small GCP sets and the synthetic
