@@ -178,16 +178,16 @@ class Aligner:
         return self.photo.mask[r, c]
 
     def pattern_search(self, start, steps, min_steps, max_iter: int = 60):
-        """Batched compass search from ``start``: all ± steps (and pairs of angle steps) scored at once, move to
-        the best, halve the steps when nothing improves. Returns (offset, score)."""
+        """Batched compass search from ``start``: all ± steps (and angle-position pairs of steps) scored at once,
+        move to the best, halve the steps when nothing improves. Returns (offset, score)."""
         x = np.asarray(start, dtype=np.float64).copy()
         steps = np.asarray(steps, dtype=np.float64).copy()
         min_steps = np.asarray(min_steps, dtype=np.float64)
         best = float(self.score(x[None])[0])
         eye = np.eye(7)
-        combos = []
+        combos = []  # an angle with a position coordinate: turning while moving keeps far terrain in place
         for i in range(4):
-            for j in range(i + 1, 7):
+            for j in range(4, 7):
                 for si in (-1, 1):
                     for sj in (-1, 1):
                         e = np.zeros(7)

@@ -143,12 +143,12 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     step = max(0.25, 4.0 * prior.fov / p0.width)
     grid = offsets_grid(sig, step)
     scores = coarse.score(grid)
-    starts = [grid[i] for i in _distinct(grid, scores, 8, 2.0 * step)]
+    starts = [grid[i] for i in _distinct(grid, scores, 5, 2.0 * step)]
     # Medium: compass search over the seven parameters from each distinct start.
     report(0.3, "automatic registration: refining the best hypotheses")
     p1 = photos[WIDTHS[1]]
     medium = Aligner(prior, p1, dem_edges(prior, align_dem, margin, prior.focal_px * p1.scale), sig, tau=5.0,
-                     is_canceled=is_canceled, max_points=1500)
+                     is_canceled=is_canceled, max_points=800)
     steps = np.array([1.0, 1.0, 1.0, 1.0] + [0.5 * sig["position_m"]] * 3)
     mins = np.array([0.1, 0.1, 0.1, 0.1] + [0.05 * sig["position_m"]] * 3)
     refined = []
@@ -168,7 +168,7 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
             edges = dem_edges(cam, align_dem, 2.0, cam.focal_px * fine.scale)
             prior_off = _offset_between(cam, prior)
             al = Aligner(cam, fine, edges, sig, tau=tau, prior_offset=prior_off, is_canceled=is_canceled,
-                         max_points=2500)
+                         max_points=1200)
             o2, s2 = al.pattern_search(np.zeros(7), steps * scale, mins * scale, max_iter=30)
             cam = camera_from_offset(cam, o2)
         o2 = np.zeros(7)
