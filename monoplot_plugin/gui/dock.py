@@ -144,6 +144,9 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self._unloaded = False
         QgsApplication.instance().aboutToQuit.connect(self.unload)
         self.output_tools = self._install_outputs()
+        from .auto_panel import install_auto_panel  # issue 13: "Find camera automatically"
+
+        self.auto_panel = install_auto_panel(self)
         self._fit_minimum_width()
         if self.project.readEntry("monoplot", "/state", "")[1] and c.restore() and c.fitted is not None:
             # a dock opened on an already open project: its camera layers came back empty from the file
