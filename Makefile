@@ -88,6 +88,7 @@ qgis: setup
 bench: setup
 	$(PY) bench/run_bench.py
 	$(PY) bench/bench_fit.py
+	$(PY) bench/bench_auto.py
 
 # Camera fit on the real Aletsch case (../shared/data/aletsch), smapshot's 100 real small GCP sets and the synthetic
 # suite (232 generated scenes): one JSON line per case or stratum.
@@ -95,6 +96,7 @@ eval: setup
 	$(PY) -m eval.aletsch
 	$(PY) -m eval.smapshot
 	$(PY) -m eval.synthetic_suite
+	$(PY) -m eval.auto
 
 package: setup
 	$(PY) scripts/package.py --output dist
