@@ -142,6 +142,7 @@ def case_synthetic(n: int, seed: int = 0, fog: bool = False):
         ok = e["position_share"] <= 0.01 and e["angle_deg"] <= 0.2
         rows.append({"scene": k, "status": r.status, "success": bool(ok), **e, "range_m": round(rng_m),
                      "prior": errors(prior, truth, rng_m), "seconds": round(r.elapsed_s, 1)})
+        emit({"case": "auto_fog_scene" if fog else "auto_synthetic_scene", **rows[-1]})
     if fog:
         emit({"case": "auto_fog", "n": n, "statuses": [x["status"] for x in rows],
               "pass": all(x["status"] != "ok" for x in rows)})
@@ -156,8 +157,6 @@ def case_synthetic(n: int, seed: int = 0, fog: bool = False):
           "median_angle_deg": round(float(np.median([x["angle_deg"] for x in rows])), 3),
           "median_s": round(float(np.median([x["seconds"] for x in rows])), 1),
           "target": ">= 95 % within 1 % of range and 0.2 deg", "pass": bool(np.mean(succ) >= 0.95)})
-    for x in rows:
-        emit({"case": "auto_synthetic_scene", **x})
 
 
 def main(argv=None) -> int:
@@ -165,6 +164,7 @@ def main(argv=None) -> int:
     ap.add_argument("--data", default=str(REPO.parent / "shared" / "data" / "aletsch"))
     ap.add_argument("--scenes", type=int, default=50)
     ap.add_argument("--perturbed", type=int, default=20)
+    ap.add_argument("--fog", type=int, default=3, help="fogged synthetic scenes")
     ap.add_argument("--cases", default="aletsch,synthetic,fog")
     args = ap.parse_args(argv)
     cases = set(args.cases.split(","))
@@ -174,7 +174,7 @@ def main(argv=None) -> int:
     if "synthetic" in cases:
         case_synthetic(args.scenes)
     if "fog" in cases:
-        case_synthetic(min(3, args.scenes), fog=True)
+        case_synthetic(min(args.fog, args.scenes), fog=True)
     emit({"case": "auto_runtime", "seconds": round(time.perf_counter() - t0, 1)})
     return 0
 

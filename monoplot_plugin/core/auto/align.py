@@ -206,6 +206,72 @@ class Aligner:
                 steps = np.maximum(steps * 0.5, min_steps * 0.999)
         return x, best
 
+    def residuals(self, offsets: np.ndarray) -> np.ndarray:
+        """(N, R) residuals (working px) of (N, 7) offsets: per clear skyline column the DEM's top row less the
+        photo's (0 where the DEM shows no skyline), then per contour point the bilinear distance to the nearest
+        photo edge of its direction (0 outside the picture)."""
+        N = len(offsets)
+        W, H = self.photo.width, self.photo.height
+        parts = []
+        if self.use_sky:
+            u, v, z = self._project(offsets, self.sky)
+            col = np.floor(u).astype(np.int64)
+            ok = (z > 0) & (col >= 0) & (col < W)
+            top = np.full(N * W, np.inf)
+            np.minimum.at(top, (np.arange(N)[:, None] * W + col)[ok], v[ok])
+            d = top.reshape(N, W)[:, self.sky_cols] - self.sky_rows[None, :]
+            parts.append(np.where(np.isfinite(d), d, 0.0))
+        if len(self.contour):
+            u, v, z = self._project(offsets, self.contour)
+            un, vn, _ = self._project(offsets, self.contour_next)
+            b = orientation_bin(np.arctan2(vn - v, un - u))
+            x, y = np.clip(u - 0.5, 0, W - 1.001), np.clip(v - 0.5, 0, H - 1.001)
+            c0, r0 = x.astype(np.int64), y.astype(np.int64)
+            fx, fy = x - c0, y - r0
+            dt = self.photo.oriented_dt
+            d = ((dt[b, r0, c0] * (1 - fx) + dt[b, r0, c0 + 1] * fx) * (1 - fy)
+                 + (dt[b, r0 + 1, c0] * (1 - fx) + dt[b, r0 + 1, c0 + 1] * fx) * fy)
+            inside = (z > 0) & (u >= 0) & (u < W) & (v >= 0) & (v < H)
+            w = math.sqrt(CONTOUR_WEIGHT * max(1, len(self.sky_cols)) / len(self.contour)) if self.use_sky else 1.0
+            parts.append(np.where(inside, d, 0.0) * w)
+        return np.concatenate(parts, axis=1) if parts else np.zeros((N, 0))
+
+    def least_squares(self, start, iterations: int = 12):
+        """Robust Gauss-Newton (Cauchy weights at ``tau``) on :meth:`residuals` from ``start``; the Jacobian by
+        finite differences, all seven perturbations scored in one batch. Returns (offset, score)."""
+        x = np.asarray(start, dtype=np.float64).copy()
+        h = np.array([0.01, 0.01, 0.01, 0.01, 0.5, 0.5, 0.5])
+        lam = 1e-2
+        best = float(self.score(x[None])[0])
+        for _ in range(iterations):
+            if self.is_canceled is not None and self.is_canceled():
+                from ..fit import FitCanceled
+
+                raise FitCanceled()
+            batch = np.vstack([x[None], x[None] + np.diag(h)])
+            r = self.residuals(batch)
+            J = (r[1:] - r[0][None, :]).T / h[None, :]  # (R, 7)
+            w = 1.0 / (1.0 + (r[0] / self.tau) ** 2)
+            A = (J * w[:, None]).T @ J
+            g = (J * w[:, None]).T @ r[0]
+            scale = self.scale_vec
+            A += np.diag(PRIOR_WEIGHT * len(r[0]) / scale ** 2 * 0.1)
+            improved = False
+            for _ in range(4):
+                try:
+                    step = -np.linalg.solve(A + lam * np.diag(np.diag(A) + 1e-9), g)
+                except np.linalg.LinAlgError:
+                    break
+                cand = x + step
+                s = float(self.score(cand[None])[0])
+                if s < best - 1e-7:
+                    x, best, lam, improved = cand, s, max(lam / 3.0, 1e-4), True
+                    break
+                lam *= 4.0
+            if not improved or np.all(np.abs(step) < h):
+                break
+        return x, best
+
     def skyline_agreement(self, offset, within_px: float) -> float:
         """Share of the photo's clear skyline columns whose DEM skyline lies within ``within_px`` working pixels."""
         if not self.use_sky:

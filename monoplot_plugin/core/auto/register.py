@@ -154,6 +154,7 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     refined = []
     for i, s in enumerate(starts):
         off, sc = medium.pattern_search(s, steps, mins, max_iter=40)
+        off, sc = medium.least_squares(off, iterations=8)
         refined.append((sc, off))
         state["camera"] = camera_from_offset(prior, min(refined, key=lambda t: t[0])[1])
         report(0.3 + 0.25 * (i + 1) / len(starts), "automatic registration: refining the best hypotheses")
@@ -170,6 +171,7 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
             al = Aligner(cam, fine, edges, sig, tau=tau, prior_offset=prior_off, is_canceled=is_canceled,
                          max_points=1200)
             o2, s2 = al.pattern_search(np.zeros(7), steps * scale, mins * scale, max_iter=30)
+            o2, s2 = al.least_squares(o2)
             cam = camera_from_offset(cam, o2)
         o2 = np.zeros(7)
         finals.append((float(al.score(o2[None])[0]), cam, al, o2))
