@@ -171,6 +171,18 @@ def prior_penalty(ctx, camera, sigmas: dict) -> float:
     return 0.5 * m2
 
 
+def candidate_count(n_photo: int, n_dem: int, at_least: int, budget: int = 2_000_000) -> int:
+    """Candidate DEM points per photo point: every DEM point in the gate when ``n_photo x n_dem`` fits the budget.
+
+    A fixed few nearest would silently shrink the gate: the true partner of a photo point lies a whole rotation
+    error away from where the prior projects it, behind dozens of nearer DEM points when the sets are dense.
+
+    >>> candidate_count(149, 300, 60), candidate_count(20_000, 5_000, 60), candidate_count(10, 3, 60)
+    (300, 100, 3)
+    """
+    return int(min(n_dem, max(at_least, budget // max(1, n_photo))))
+
+
 def _gates(ctx, sigmas: dict) -> Tuple[float, float]:
     """(candidate gate, hypothesis inlier radius) in pixels from the prior's σ."""
     cam = ctx.initial
@@ -207,7 +219,7 @@ def hypotheses(ctx, sigmas: dict, n_max: int) -> List[dict]:
     rng = np.random.default_rng(ctx.options.seed + 7)
     # Candidate correspondences: each photo point with the DEM points the prior puts within the gate.
     tree = cKDTree(uv0[dem_idx])
-    k = min(40, len(dem_idx))
+    k = candidate_count(len(q), len(dem_idx), 40)
     dist, nn = tree.query(q, k=k, distance_upper_bound=gate)
     dist, nn = np.atleast_2d(dist), np.atleast_2d(nn)
     ok = np.isfinite(dist)
@@ -327,7 +339,7 @@ def shift_hypotheses(ctx, sigmas: dict, n_keep: int = 6) -> List[dict]:
     dem_idx = np.flatnonzero(front & cam.in_image(np.nan_to_num(uv0, nan=-1e9), margin=gate))
     if len(dem_idx) < 2:
         return []
-    k = min(60, len(dem_idx))
+    k = candidate_count(len(ctx.q), len(dem_idx), 60)
     dist, nn = cKDTree(uv0[dem_idx]).query(ctx.q, k=k, distance_upper_bound=gate)
     dist, nn = np.atleast_2d(dist), np.atleast_2d(nn)
     ok = np.isfinite(dist)
