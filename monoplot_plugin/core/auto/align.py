@@ -32,6 +32,8 @@ __all__ = ["Aligner", "offsets_grid", "CONTOUR_WEIGHT", "PRIOR_WEIGHT", "camera_
 
 CONTOUR_WEIGHT = 0.5
 PRIOR_WEIGHT = 0.01
+#: How many σ of the prior the search may go (a steep penalty beyond).
+BOUND_SIGMAS = 3.0
 #: Offsets vector: heading, pitch, roll, fov (degrees), x, y, z (metres).
 NAMES = ("heading", "pitch", "roll", "fov", "x", "y", "z")
 
@@ -170,7 +172,9 @@ class Aligner:
             weight += w
         total /= max(weight, 1e-9)
         dev = (off - self.prior_offset[None, :]) / self.scale_vec[None, :]
-        return total + PRIOR_WEIGHT * np.mean(dev * dev, axis=1)
+        # Beyond BOUND_SIGMAS of the prior the score rises steeply: the search stays where the prior allows.
+        beyond = np.maximum(np.abs(dev) - BOUND_SIGMAS, 0.0)
+        return total + PRIOR_WEIGHT * np.mean(dev * dev, axis=1) + np.sum(beyond * beyond, axis=1)
 
     def _in_mask(self, u, v):
         r = np.clip(v.astype(np.int64), 0, self.photo.height - 1)

@@ -60,10 +60,12 @@ def coarse_dem(dem: Dem, max_cells: int) -> Dem:
     if factor <= 1:
         return dem
     r, c = rows // factor, cols // factor
-    blocks = np.asarray(dem.elevation[:r * factor, :c * factor], dtype=np.float64).reshape(r, factor, c, factor)
-    with np.errstate(invalid="ignore"), np.testing.suppress_warnings() as sup:
-        sup.filter(RuntimeWarning)
-        elev = np.nanmean(blocks, axis=(1, 3)).astype(np.float32)
+    blocks = np.asarray(dem.elevation[:r * factor, :c * factor], dtype=np.float32).reshape(r, factor, c, factor)
+    elev = blocks.mean(axis=(1, 3), dtype=np.float32)
+    if np.isnan(elev).any():  # blocks with voids: the mean of their valid cells (NaN when none)
+        with np.errstate(invalid="ignore"), np.testing.suppress_warnings() as sup:
+            sup.filter(RuntimeWarning)
+            elev = np.nanmean(blocks, axis=(1, 3)).astype(np.float32)
     g = dem.geotransform
     gt = (g[0], g[1] * factor, g[2] * factor, g[3], g[4] * factor, g[5] * factor)
     return Dem.from_array(elev, gt, dem.crs_wkt)

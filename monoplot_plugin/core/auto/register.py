@@ -127,12 +127,21 @@ def _poll(is_canceled) -> None:
 def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     h, w = image.shape[:2]
     report(0.0, "automatic registration: photo skyline and edges")
+    import cv2
+
+    # One reduction of a large photo first (a 24 MP resize per working size would take seconds).
+    reduced = image if w <= WIDTHS[-1] else cv2.resize(image, (WIDTHS[-1], max(8, round(h * WIDTHS[-1] / w))),
+                                                      interpolation=cv2.INTER_AREA)
     photos = {}
     for width in WIDTHS:
         _poll(is_canceled)
-        photos[width] = detect_photo_edges(image, width=min(width, w))
+        pe = detect_photo_edges(reduced, width=min(width, w))
+        pe.scale = pe.width / float(w)  # working pixels per full-size pixel
+        photos[width] = pe
     fine = photos[WIDTHS[-1]]
+    _poll(is_canceled)
     align_dem = coarse_dem(dem, ALIGN_DEM_CELLS)
+    _poll(is_canceled)
     margin = 2.5 * sig["angle_deg"] + 1.25 * sig["fov_deg"] + 2.0
     # Coarse: a grid at the prior's position.
     report(0.1, "automatic registration: coarse search of the view direction")
@@ -180,6 +189,7 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     state["camera"] = aligned
     report(0.7, "automatic registration: suggestions consistent with the aligned camera")
     evidence = _alignment_evidence(al, off, best_score, refined, fine, w)
+    _poll(is_canceled)
     image_points, world_points = _consistent_points(image, dem, aligned, is_canceled)
     report(0.8, "automatic registration: consensus fit")
     fit_sig = {"position_sigma_m": sig["position_m"], "angle_sigma_deg": 1.0,
@@ -234,7 +244,9 @@ def _consistent_points(image, dem, camera: Camera, is_canceled):
         if scale < 1.0 else image
     photo = suggest_photo_points(small, max_points=1500)
     _poll(is_canceled)
-    demsug = suggest_dem_points(coarse_dem(dem, FIT_DEM_CELLS), camera, max_points=1500)
+    fit_dem = coarse_dem(dem, FIT_DEM_CELLS)
+    _poll(is_canceled)
+    demsug = suggest_dem_points(fit_dem, camera, max_points=1500)
     _poll(is_canceled)
     q = photo.uv / scale
     uv = camera.project(demsug.xyz)
