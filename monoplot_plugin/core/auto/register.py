@@ -38,6 +38,8 @@ FIT_DEM_CELLS = 6_000_000
 WIDTHS = (256, 512, 1024)
 #: Least share of the photo's clear skyline on the DEM's (within 0.4 % of the width) for an "ok".
 SKY_AGREEMENT_OK = 0.6
+#: Largest ratio of the prior's position σ to the median distance of the terrain edges for an "ok".
+NEAR_RATIO = 0.25
 #: (distance scale in working px, step factor) of the fine rounds.
 FINE_ROUNDS = ((8.0, 0.5), (4.0, 0.25), (2.5, 0.1))
 
@@ -189,6 +191,8 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     state["camera"] = aligned
     report(0.7, "automatic registration: suggestions consistent with the aligned camera")
     evidence = _alignment_evidence(al, off, best_score, refined, fine, w)
+    evidence["auto_range_m"] = _typical_range(aligned, align_dem)
+    evidence["auto_position_sigma_m"] = float(sig["position_m"])
     _poll(is_canceled)
     image_points, world_points = _consistent_points(image, dem, aligned, is_canceled)
     report(0.8, "automatic registration: consensus fit")
@@ -216,6 +220,15 @@ def _offset_between(cam: Camera, ref: Camera) -> np.ndarray:
     d = np.subtract(ref.position, cam.position)
     return np.array([(ref.heading - cam.heading + 180.0) % 360.0 - 180.0, ref.pitch - cam.pitch,
                      ref.roll - cam.roll, ref.fov - cam.fov, d[0], d[1], d[2]])
+
+
+def _typical_range(camera: Camera, dem) -> float:
+    """Median distance (m) of the terrain over the picture (a 64 px wide z-buffer), NaN when none is seen."""
+    from ..xyz import compute_xyz_full
+
+    res = compute_xyz_full(camera.scaled(min(1.0, 64.0 / camera.width)), dem, visibility=False)
+    d = res.distance[res.hit]
+    return float(np.median(d)) if len(d) else float("nan")
 
 
 def _alignment_evidence(al: Aligner, off, score: float, refined, photo: PhotoEdges, full_width: int) -> dict:
@@ -273,6 +286,10 @@ def _combine(result: AutoFitResult, ev: dict) -> None:
     elif ev["auto_sky_agreement"] < SKY_AGREEMENT_OK:
         weak.append(f"only {100 * ev['auto_sky_agreement']:.0f} % of the photo's skyline lies on the DEM's "
                     "skyline under the camera")
+    rng = ev.get("auto_range_m", float("nan"))
+    if not np.isfinite(rng) or ev.get("auto_position_sigma_m", 0.0) > NEAR_RATIO * rng:
+        weak.append(f"the prior position's uncertainty ({ev.get('auto_position_sigma_m', 0.0):.0f} m) is a large "
+                    f"part of the distance to the terrain seen ({rng:.0f} m): edges alone cannot place the camera")
     if ev["auto_rival_ratio"] > 0.9:
         weak.append("a clearly different view direction aligns the edges almost as well")
     text = (f" Automatic: skyline on {100 * ev['auto_sky_fraction']:.0f} % of the columns, "
