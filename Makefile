@@ -23,7 +23,7 @@ help:
 	@echo "make test-installer  the Install button's pip for real: QGIS's Python + a throwaway user site"
 	@echo "make test-qgis340    the whole suite on QGIS 3.40 (Debian 13 root file system in .cache/, needs root)"
 	@echo "make package  build dist/monoplot-<version>.zip for plugins.qgis.org"
-	@echo "make bench    core speed benchmarks (per-pixel XYZ, render, orthophoto, fit, suggestions), one JSON line each"
+	@echo "make bench    core speed benchmarks (per-pixel XYZ, render, orthophoto, fit, suggestions, time-lapse), one JSON line each"
 	@echo "make eval     camera fit measured on the real Aletsch case and a synthetic scene, one JSON line per case"
 
 setup: apt venv resources
@@ -89,6 +89,8 @@ bench: setup
 	$(PY) bench/run_bench.py
 	$(PY) bench/bench_fit.py
 	$(PY) bench/bench_auto.py
+	$(PY) bench/bench_curation.py
+	$(PY) bench/bench_timelapse.py
 
 # Camera fit on the real Aletsch case (../shared/data/aletsch), smapshot's 100 real small GCP sets and the synthetic
 # suite (232 generated scenes): one JSON line per case or stratum.
@@ -97,6 +99,7 @@ eval: setup
 	$(PY) -m eval.smapshot
 	$(PY) -m eval.synthetic_suite
 	$(PY) -m eval.auto
+	$(PY) -m eval.user_trial
 
 package: setup
 	$(PY) scripts/package.py --output dist

@@ -29,7 +29,15 @@ TORCH_INDEX_ENV = "MONOPLOT_TORCH_INDEX"
 
 #: Pure-Python dependencies of torch that Debian 12 ships too old (sympy 1.11, mpmath "0.0.0", setuptools 66) and
 #: that QGIS does not import: may be upgraded in the user site (``>=`` installed); everything else is pinned ``==``.
-UPGRADABLE = frozenset({"sympy", "mpmath", "networkx", "filelock", "fsspec", "typing-extensions", "setuptools"})
+UPGRADABLE = frozenset({"sympy", "mpmath", "networkx", "filelock", "fsspec", "typing-extensions", "setuptools",
+                        # the same for dask[distributed] (the cluster batch): Debian 12 ships cloudpickle 2.2, toolz
+                        # 0.12, which QGIS does not import either
+                        "cloudpickle", "toolz", "partd", "locket", "zict", "tblib", "sortedcontainers"})
+
+#: The optional cluster engine of the batch (``workflow/cluster.py``), as requirements.txt pins it; not needed for
+#: anything else, so not in the Install button's list: ``install(CLUSTER_PACKAGES, python)`` adds it with the pins
+#: above (it needs no numpy: it resolves under numpy 1.24 and 2.2 alike).
+CLUSTER_PACKAGES = ("dask[distributed]==2026.8.0", "distributed==2026.8.0")
 
 Target = namedtuple("Target", "python platform in_venv externally_managed distributions")
 Target.__doc__ = """What :func:`probe` found: ``distributions`` maps a normalized name to ``(name, version)``."""

@@ -8,11 +8,13 @@ covers ``[j, j+1) x [i, i+1)``, so the lookup of ``(u, v)`` is pixel ``(floor(v)
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Optional, Tuple
 
 import numpy as np
 
-__all__ = ["sample_xyz", "visibility_of_points", "orthorectify"]
+__all__ = ["sample_xyz", "visibility_of_points", "orthorectify", "OrthoLookup", "ortho_lookup", "TurnableLookup",
+           "turnable_lookup", "widened"]
 
 
 def sample_xyz(xyz: np.ndarray, uv, origin=None, max_jump: float = 0.05) -> np.ndarray:
@@ -91,7 +93,8 @@ def orthorectify(photo: np.ndarray, camera, dem, xyz: np.ndarray) -> np.ndarray:
     """The photo draped onto the DEM grid.
 
     Every DEM cell centre (on the terrain) is projected into the photo; it takes the colour of that photo pixel
-    when the camera sees it (:func:`visibility_of_points`).
+    when the camera sees it (:func:`visibility_of_points`). The same as ``ortho_lookup(camera, dem, xyz)
+    .apply(photo)``: a time-lapse computes the lookup once per camera and applies it to every frame.
 
     Args:
         photo: (H, W) or (H, W, bands) uint8 photo.
@@ -101,20 +104,141 @@ def orthorectify(photo: np.ndarray, camera, dem, xyz: np.ndarray) -> np.ndarray:
     Returns:
         (rows, cols, bands + 1) uint8: photo bands then an alpha band (255 seen, 0 unseen: nodata).
     """
-    photo = np.asarray(photo)
-    if photo.ndim == 2:
-        photo = photo[..., None]
-    if photo.shape[1] != camera.width or photo.shape[0] != camera.height:
-        raise ValueError(f"photo is {photo.shape[1]}x{photo.shape[0]} px, camera expects {camera.image_size}")
-    rows, cols = dem.elevation.shape
+    return ortho_lookup(camera, dem, xyz).apply(photo)
+
+
+@dataclass(frozen=True)
+class OrthoLookup:
+    """Which photo pixel colours each DEM cell: what an orthophoto depends on besides the photo (camera, DEM and
+    the XYZ raster's occlusion), computed once by :func:`ortho_lookup` and applied to any photo of that camera.
+
+    Attributes:
+        shape: (rows, cols) of the DEM grid.
+        image_size: (width, height) of the camera's photo.
+        cells: (N,) int64 flat indices of the DEM cells the camera sees.
+        pixels: (N,) int64 flat photo pixel indices (row * width + column) of those cells.
+
+    >>> lut = OrthoLookup((1, 3), (2, 1), np.array([0, 2]), np.array([1, 0]))
+    >>> lut.apply(np.array([[[10, 11, 12], [20, 21, 22]]], dtype=np.uint8))[0].tolist()
+    [[20, 21, 22, 255], [0, 0, 0, 0], [10, 11, 12, 255]]
+    """
+
+    shape: Tuple[int, int]
+    image_size: Tuple[int, int]
+    cells: np.ndarray
+    pixels: np.ndarray
+
+    @property
+    def seen(self) -> int:
+        """How many DEM cells take a colour."""
+        return int(self.cells.size)
+
+    def apply(self, photo: np.ndarray) -> np.ndarray:
+        """(rows, cols, bands + 1) uint8 orthophoto of ``photo`` ((H, W) or (H, W, bands) uint8), alpha last."""
+        photo = np.asarray(photo)
+        if photo.ndim == 2:
+            photo = photo[..., None]
+        width, height = self.image_size
+        if photo.shape[1] != width or photo.shape[0] != height:
+            raise ValueError(f"photo is {photo.shape[1]}x{photo.shape[0]} px, camera expects {self.image_size}")
+        rows, cols = self.shape
+        bands = photo.shape[2]
+        out = np.zeros((rows * cols, bands + 1), dtype=np.uint8)
+        out[self.cells, :bands] = photo.reshape(-1, bands)[self.pixels]
+        out[self.cells, bands] = 255
+        return out.reshape(rows, cols, bands + 1)
+
+
+def ortho_lookup(camera, dem, xyz: np.ndarray) -> OrthoLookup:
+    """The :class:`OrthoLookup` of ``camera`` over ``dem``'s grid (arguments as :func:`orthorectify`): every DEM
+    cell centre projected into the photo, kept when the camera sees it (:func:`visibility_of_points`)."""
     pts = dem.vertices().reshape(-1, 3)
-    out = np.zeros((rows * cols, photo.shape[2] + 1), dtype=np.uint8)
     finite = np.isfinite(pts[:, 2])
     uv, visible = visibility_of_points(camera, pts[finite], xyz)
-    idx = np.flatnonzero(finite)[visible]
+    cells = np.flatnonzero(finite)[visible]
     uv = uv[visible]
-    r = np.clip(np.floor(uv[:, 1]).astype(int), 0, camera.height - 1)
-    c = np.clip(np.floor(uv[:, 0]).astype(int), 0, camera.width - 1)
-    out[idx, :-1] = photo[r, c]
-    out[idx, -1] = 255
-    return out.reshape(rows, cols, -1)
+    r = np.clip(np.floor(uv[:, 1]).astype(np.int64), 0, camera.height - 1)
+    c = np.clip(np.floor(uv[:, 0]).astype(np.int64), 0, camera.width - 1)
+    return OrthoLookup(tuple(dem.elevation.shape), tuple(camera.image_size), cells.astype(np.int64),
+                       r * camera.width + c)
+
+
+@dataclass(frozen=True)
+class TurnableLookup:
+    """The :class:`OrthoLookup` of one camera centre for any small turn of the camera, without a new z-buffer.
+
+    Turning a camera about its centre changes which pixel sees a DEM cell, not whether the cell is hidden: the
+    cells seen through a wider image (``margin`` pixels on each side) and their rays are kept once
+    (:func:`turnable_lookup`); :meth:`turned` projects the rays of a turned camera (a re-registered time-lapse
+    frame) into its image.
+
+    Attributes:
+        shape: (rows, cols) of the DEM grid. margin: pixels added on each side of the image.
+        cells: (N,) int64 flat indices of the DEM cells seen by the wider image; rays: (N, 3) their directions in the
+        camera frame of ``rotation``. rotation: (3, 3) world-to-camera rotation they were taken in.
+    """
+
+    shape: Tuple[int, int]
+    margin: int
+    cells: np.ndarray
+    rays: np.ndarray
+    rotation: np.ndarray
+
+    def turned(self, camera) -> Optional[OrthoLookup]:
+        """The lookup of ``camera`` (same centre and intrinsics, any rotation), or None when it turned farther than
+        the margin covers (the caller then computes :func:`ortho_lookup`)."""
+        from .camera import project_points
+
+        delta = camera.rotation @ self.rotation.T
+        uv, depth = project_points(self.rays @ delta.T, np.zeros(3), np.eye(3), camera.focal_px, camera.cx,
+                                   camera.cy, camera.k1, camera.k2)
+        f = camera.focal_px
+        corners = np.array([[(u - camera.cx) / f, (v - camera.cy) / f, 1.0]
+                            for u in (0.0, camera.width) for v in (0.0, camera.height)])
+        back = corners @ delta  # the image's corners among the kept rays (the wider image's frame)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            u_wide = f * back[:, 0] / back[:, 2] + camera.cx + self.margin
+            v_wide = f * back[:, 1] / back[:, 2] + camera.cy + self.margin
+        if not ((back[:, 2] > 0).all() and (u_wide >= 0).all() and (u_wide <= camera.width + 2 * self.margin).all()
+                and (v_wide >= 0).all() and (v_wide <= camera.height + 2 * self.margin).all()):
+            return None
+        with np.errstate(invalid="ignore"):
+            inside = ((depth > 0) & (uv[:, 0] >= 0) & (uv[:, 0] < camera.width) & (uv[:, 1] >= 0)
+                      & (uv[:, 1] < camera.height))
+        r = np.floor(uv[inside, 1]).astype(np.int64)
+        c = np.floor(uv[inside, 0]).astype(np.int64)
+        return OrthoLookup(self.shape, tuple(camera.image_size), self.cells[inside], r * camera.width + c)
+
+
+def widened(camera, margin: int):
+    """``camera`` with ``margin`` pixels more on each side of its image (same centre, focal length and rays).
+
+    >>> from monoplot_plugin.core.camera import Camera
+    >>> wide = widened(Camera((0, 0, 0), 0, 0, 0, 60, (100, 80)), 10)
+    >>> wide.image_size, wide.principal_point
+    ((120, 100), (60.0, 50.0))
+    """
+    from dataclasses import replace
+
+    from .camera import focal_from_fov, fov_from_focal
+
+    width, height = camera.width + 2 * margin, camera.height + 2 * margin
+    fov = fov_from_focal(focal_from_fov(camera.fov, camera.width), width)
+    return replace(camera, image_size=(width, height), fov=fov,
+                   principal_point=(camera.cx + margin, camera.cy + margin))
+
+
+def turnable_lookup(camera, dem, xyz_of, max_degrees: float = 3.0) -> TurnableLookup:
+    """The :class:`TurnableLookup` of ``camera`` over ``dem`` for turns up to ``max_degrees``; ``xyz_of(camera)``
+    computes a z-buffer (core :func:`~monoplot_plugin.core.xyz.compute_xyz`), here of the wider image."""
+    import math
+
+    margin = int(math.ceil(camera.focal_px * math.tan(math.radians(max_degrees)) * 1.5)) + 2
+    wide = widened(camera, margin)
+    xyz = xyz_of(wide)
+    pts = dem.vertices().reshape(-1, 3)
+    finite = np.isfinite(pts[:, 2])
+    _, visible = visibility_of_points(wide, pts[finite], xyz)
+    cells = np.flatnonzero(finite)[visible]
+    rays = (pts[cells] - np.asarray(wide.position)) @ wide.rotation.T
+    return TurnableLookup(tuple(dem.elevation.shape), margin, cells.astype(np.int64), rays, wide.rotation)

@@ -1,15 +1,20 @@
 """Point curation of a :class:`~monoplot_plugin.gui.controller.MonoplotController` (a mixin): hit testing,
-selection, accept / reject / reset, manual points, moves, deletes and links, all as undoable edits."""
+selection, accept / reject / reset, manual points, moves, deletes and links, all as undoable edits; the few
+suggestions on show (:class:`~monoplot_plugin.gui.shortlist.Shortlist`) and their bulk actions.
+
+Every click and key costs O(shown points), not O(all suggestions): hit tests and stepping use the shortlist, and the
+project entry is written debounced (with the autosave, and whenever the project itself is written)."""
 
 from __future__ import annotations
 
 import math
-from typing import Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 from qgis.core import Qgis
 
 from ..state import (ACCEPTED, CHECK, MAP, PHOTO, REJECTED, SUGGESTED, Point, add_points, link, move_point,
                      remove_points, set_check, set_status, unlink)
+from .shortlist import Shortlist
 
 __all__ = ["CurationMixin"]
 
@@ -17,14 +22,24 @@ __all__ = ["CurationMixin"]
 class CurationMixin:
     """Needs the controller's ``state``, ``stack``, ``dem``, ``current``, ``message`` and ``selectionChanged``."""
 
+    @property
+    def shortlist(self) -> Shortlist:
+        """The points each view shows (created on first use; follows every edit)."""
+        sl = self.__dict__.get("_shortlist")
+        if sl is None:
+            sl = self.__dict__["_shortlist"] = Shortlist(self.state)
+        return sl
+
+    def visible(self, space: str) -> List[Point]:
+        """Points of ``space`` on show (the few undecided suggestions, and the decided ones the filters show)."""
+        return self.shortlist.visible(space)
+
+    def visible_ids(self) -> List[str]:
+        return [p.id for space in (PHOTO, MAP) for p in self.shortlist.visible(space)]
+
     def point_near(self, space: str, x: float, y: float, tolerance: float) -> Optional[str]:
-        """Id of the point of ``space`` nearest to (x, y) within ``tolerance`` (same units), or None."""
-        best, best_d = None, tolerance
-        for p in self.state.in_space(space):
-            d = math.hypot(p.x - x, p.y - y)
-            if d <= best_d:
-                best, best_d = p.id, d
-        return best
+        """Id of the *visible* point of ``space`` nearest to (x, y) within ``tolerance`` (same units), or None."""
+        return self.shortlist.hit(space, x, y, tolerance)
 
     def select(self, space: str, pid: Optional[str]) -> None:
         self.current[space] = pid or ""
@@ -32,19 +47,48 @@ class CurationMixin:
 
     def step(self, space: str, step: int = 1, only_suggested: bool = False) -> Optional[str]:
         """Select the next/previous point of ``space`` (only the undecided ones if asked); returns its id."""
-        statuses = (SUGGESTED,) if only_suggested else (SUGGESTED, ACCEPTED, REJECTED, CHECK)
-        pid = self.state.next_point(space, self.current[space] or None, step, statuses)
+        pid = self.shortlist.step(space, self.current[space] or None, step, only_suggested)
         self.select(space, pid)
         return pid
 
-    def set_status(self, ids: Sequence[str], status: str) -> None:
-        self.stack.push(set_status(self.state, ids, status))
+    def set_status(self, ids: Sequence[str], status: str, text: Optional[str] = None) -> bool:
+        """Returns whether anything changed (a no-op gets no undo entry)."""
+        return self.stack.push(set_status(self.state, ids, status, text))
 
-    def accept(self, pid: str) -> None:
-        self.set_status([pid], ACCEPTED)
+    def accept(self, pid: str) -> bool:
+        return self.set_status([pid], ACCEPTED)
 
-    def reject(self, pid: str) -> None:
-        self.set_status([pid], REJECTED)
+    def reject(self, pid: str) -> bool:
+        return self.set_status([pid], REJECTED)
+
+    # --- bulk actions on the shown suggestions ----------------------------------------------------------------
+    def more_suggestions(self) -> int:
+        """Show the next few undecided suggestions on each view; returns how many came."""
+        before = set(self.shortlist.shown_undecided())
+        n = self.shortlist.more()
+        self.pointsChanged.emit(set(self.shortlist.shown_undecided()) - before)  # the newly shown
+        return n
+
+    def reject_rest(self) -> int:
+        """Reject the undecided suggestions on show (one undo entry); the next few come. Returns how many."""
+        ids = self.shortlist.shown_undecided()
+        self.set_status(ids, REJECTED, self.tr("Reject {0} shown suggestions").format(len(ids)))
+        return len(ids)
+
+    def accept_likely(self) -> int:
+        """Accept both ends of every likely pair (mutual nearest under the current camera within the shortlist's
+        threshold), one undo entry; returns how many pairs."""
+        pairs = self.shortlist.likely()
+        ids = [i for a, b, _ in pairs for i in (a, b)]
+        self.set_status(ids, ACCEPTED, self.tr("Accept {0} likely pairs").format(len(pairs)))
+        return len(pairs)
+
+    def reject_outliers(self) -> int:
+        """Reject the accepted photo points the current fit calls outliers (one undo entry); returns how many."""
+        ids = self.shortlist.current_outliers()
+        self.set_status(ids, REJECTED, self.tr("Reject {0} outliers").format(len(ids)))
+        self.shortlist.set_outliers([])
+        return len(ids)
 
     def toggle_check(self, pid: str) -> bool:
         """Make a paired point (and its partner) a check point, kept out of the fit to measure it, or back;
@@ -60,9 +104,11 @@ class CurationMixin:
         return True
 
     def accept_all_in(self, space: str, rect: Tuple[float, float, float, float]) -> int:
-        """Accept every *suggested* point of ``space`` within (xmin, ymin, xmax, ymax); returns how many."""
+        """Accept every *suggested* point of ``space`` on show within (xmin, ymin, xmax, ymax) (the hidden ones
+        were never looked at); returns how many."""
         x0, y0, x1, y1 = rect
-        ids = [p.id for p in self.state.in_space(space, (SUGGESTED,)) if x0 <= p.x <= x1 and y0 <= p.y <= y1]
+        pts = self.state.points
+        ids = [i for i in self.shortlist.shown_undecided(space) if x0 <= pts[i].x <= x1 and y0 <= pts[i].y <= y1]
         self.stack.push(set_status(self.state, ids, ACCEPTED, self.tr("Accept {0} points in view").format(len(ids))))
         return len(ids)
 
@@ -103,6 +149,13 @@ class CurationMixin:
         self.stack.push(unlink(self.state, pid))
 
     def _on_points_changed(self, changed: set) -> None:
+        self.shortlist.update(changed)
         self.pointsChanged.emit(changed)
-        self._changed()
+        if not changed:
+            self._changed()
+        elif not self._restoring:
+            # not the whole state into the project on every click (O(all points)): the autosave writes it,
+            # debounced, and so does the project's own writing (writeProject)
+            self.project.setDirty(True)
+            self._autosave.start()
 

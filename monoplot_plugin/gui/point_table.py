@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Dict, List, Optional
+from typing import Callable, Dict, List, Optional
 
 from qgis.PyQt.QtCore import QAbstractTableModel, QModelIndex, QSortFilterProxyModel, Qt
 from qgis.PyQt.QtGui import QBrush, QColor
@@ -17,12 +17,15 @@ _STATUS_COLORS = {ACCEPTED: QColor(0, 150, 60), REJECTED: QColor(200, 40, 40), C
 
 
 class PointTableModel(QAbstractTableModel):
-    """One row per point of a :class:`ProjectState`; call :meth:`refresh` after the state changed."""
+    """One row per point of a :class:`ProjectState` (or per id :attr:`ids` returns: the points on show); call
+    :meth:`refresh` after the state changed."""
 
-    def __init__(self, state: ProjectState, parent=None):
+    def __init__(self, state: ProjectState, parent=None, ids: Optional[Callable[[], List[str]]] = None):
         super().__init__(parent)
         self.state = state
+        self.ids = ids or (lambda: list(self.state.points))
         self._ids: List[str] = []
+        self._rows: Dict[str, int] = {}
         self.residuals: Dict[str, float] = {}
 
     def refresh(self, residuals: Optional[Dict[str, float]] = None) -> None:
@@ -30,19 +33,20 @@ class PointTableModel(QAbstractTableModel):
         place so the view keeps its scroll position and selection; otherwise the model is reset."""
         if residuals is not None:
             self.residuals = dict(residuals)
-        ids = list(self.state.points)
+        ids = self.ids()
         if ids == self._ids and ids:
             self.dataChanged.emit(self.index(0, 0), self.index(len(ids) - 1, len(_COLUMNS) - 1))
             return
         self.beginResetModel()
         self._ids = ids
+        self._rows = {pid: i for i, pid in enumerate(ids)}
         self.endResetModel()
 
     def point_id(self, row: int) -> str:
         return self._ids[row]
 
     def row_of(self, pid: str) -> int:
-        return self._ids.index(pid) if pid in self._ids else -1
+        return self._rows.get(pid, -1)
 
     def rowCount(self, parent=QModelIndex()) -> int:  # noqa: N802 (Qt API)
         return 0 if parent.isValid() else len(self._ids)

@@ -3,7 +3,7 @@
 CurationTool, on either canvas:
     left click on a point ........ select it and accept it
     right click on a point ....... select it and reject it
-    Ctrl+click on empty ground ... add a manual point (accepted)
+    Ctrl+click ................... add a manual point (accepted), even on top of an existing one
     drag a point ................. move it (manual points; suggestions become manual once moved)
     Shift+click on a point ....... link it to the selected point of the other canvas (a pair)
     keys: N / Space next undecided, P previous, A accept, R reject, U undecide, Delete delete,
@@ -84,12 +84,13 @@ class CurationTool(QgsMapTool):
         return self.controller.point_near(self.space, xy[0], xy[1], self.mapping.tolerance()), xy
 
     def canvasPressEvent(self, event: QgsMapMouseEvent) -> None:  # noqa: N802 (QGIS API)
-        pid, xy = self._hit(event)
         mods = event.modifiers()
+        if event.button() == Qt.MouseButton.LeftButton and mods & Qt.KeyboardModifier.ControlModifier:
+            # always a new point: selecting or accepting a suggestion 8 px away put pairs 14-88 m off (issue 12)
+            self.controller.add_manual(self.space, *self.mapping.to_space(event.mapPoint()))
+            return
+        pid, xy = self._hit(event)
         if event.button() == Qt.MouseButton.LeftButton:
-            if pid is None and mods & Qt.KeyboardModifier.ControlModifier:
-                self.controller.add_manual(self.space, *xy)
-                return
             if pid is not None:
                 self._drag_id, self._dragged = pid, False
                 self._press_pos = event.pos()

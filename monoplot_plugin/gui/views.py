@@ -1,6 +1,8 @@
 """Presenters: draw the controller's state on the photo canvas and on the main map canvas (no logic of their own).
 
-PhotoPresenter: photo, overlay, point markers, residual vectors, the "map cursor" marker.
+PhotoPresenter: photo, overlay, point markers, residual vectors, likely-pair links, outlier rings, the "map cursor"
+marker. Both draw only the points on show (``controller.visible``: a few undecided suggestions and the filtered
+decided ones), so a click redraws tens of markers, not thousands.
 MapPresenter: DEM point markers, prior wedge, fitted footprint, the "photo cursor" marker.
 """
 
@@ -14,7 +16,7 @@ from qgis.PyQt.QtGui import QColor
 
 from ..state import MAP, PHOTO
 from . import engine
-from .markers import LineBand, PointMarkers, PolygonBand
+from .markers import IconBand, LineBand, PointMarkers, PolygonBand
 from .photo_canvas import PhotoCanvas, uv_to_map
 
 __all__ = ["PhotoPresenter", "MapPresenter"]
@@ -39,15 +41,27 @@ class PhotoPresenter:
         self.residuals = LineBand(canvas, QColor(255, 0, 200), width=2, z=30)
         self.check_residuals = LineBand(canvas, QColor(170, 60, 255), width=2, z=31)  # the check points' colour
         self.cursor = _cursor_marker(canvas, QColor(0, 230, 255))
+        # a likely partner: from a photo suggestion to where its DEM partner projects under the current camera
+        self.links = LineBand(canvas, QColor(0, 230, 255, 200), width=2, z=29)
+        self.likely = IconBand(canvas, QColor(0, 230, 255), size=19, width=2, z=28)  # ring: has a likely partner
+        self.outliers = IconBand(canvas, QColor(255, 30, 30), size=17, width=3, z=36)
         self.show_residuals = True
 
     def redraw_photo(self) -> None:
         self.canvas.set_photo(self.c.image)
 
     def redraw_points(self) -> None:
-        self.markers.set_points((p.x, p.y, p.status, p.manual) for p in self.c.state.in_space(PHOTO))
+        self.markers.set_points((p.x, p.y, p.status, p.manual) for p in self.c.visible(PHOTO))
         self.redraw_selection()
         self.redraw_residuals()
+        self.redraw_recommendations()
+
+    def redraw_recommendations(self) -> None:
+        sl = self.c.shortlist
+        self.links.set_segments([(uv_to_map(*a), uv_to_map(*b)) for a, b in sl.links()])
+        self.likely.set_points([uv_to_map(p.x, p.y) for p in sl.likely_visible(PHOTO)])
+        pts = self.c.state.points
+        self.outliers.set_points([uv_to_map(pts[i].x, pts[i].y) for i in sl.current_outliers()])
 
     def redraw_selection(self) -> None:
         p = self.c.state.points.get(self.c.current[PHOTO])
@@ -76,6 +90,9 @@ class PhotoPresenter:
         self.markers.remove()
         self.residuals.remove()
         self.check_residuals.remove()
+        self.links.remove()
+        self.likely.remove()
+        self.outliers.remove()
         self.canvas.scene().removeItem(self.cursor)
 
 
@@ -92,6 +109,7 @@ class MapPresenter:
         self.camera_marker.setIconType(QgsVertexMarker.IconType.ICON_CIRCLE)
         self.camera_marker.setIconSize(14)
         self.cursor = _cursor_marker(canvas, QColor(0, 230, 255))
+        self.likely = IconBand(canvas, QColor(0, 230, 255), size=19, width=2, z=28)  # ring: has a likely partner
 
     @property
     def crs(self) -> QgsCoordinateReferenceSystem:
@@ -105,7 +123,9 @@ class MapPresenter:
     def redraw_points(self) -> None:
         self.markers.crs = self.crs
         self.prior_band.crs = self.fitted_band.crs = self.crs
-        self.markers.set_points((p.x, p.y, p.status, p.manual) for p in self.c.state.in_space(MAP))
+        self.markers.set_points((p.x, p.y, p.status, p.manual) for p in self.c.visible(MAP))
+        self.likely.crs = self.crs
+        self.likely.set_points([QgsPointXY(p.x, p.y) for p in self.c.shortlist.likely_visible(MAP)])
         self.redraw_selection()
 
     def redraw_selection(self) -> None:
@@ -147,6 +167,7 @@ class MapPresenter:
 
     def remove(self) -> None:
         self.markers.remove()
+        self.likely.remove()
         self.prior_band.remove()
         self.fitted_band.remove()
         for item in (self.camera_marker, self.cursor):

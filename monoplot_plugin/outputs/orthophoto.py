@@ -3,7 +3,8 @@
 Layout: the photo's bands (1 grey or 3 RGB, Byte) plus an alpha band; cells the camera does not see (hidden behind
 terrain, outside the photo, DEM voids) have alpha 0, which GDAL exposes as the mask of every band (``GMF_ALPHA``) and
 QGIS draws transparent. Geotransform and CRS are the DEM's, so it lines up with the DEM cell for cell. Tiled,
-DEFLATE-compressed.
+DEFLATE-compressed at level 1 with the horizontal predictor (a time-lapse writes one per frame: level 6 took 13 times
+longer for 10 % fewer bytes).
 """
 
 from __future__ import annotations
@@ -38,7 +39,7 @@ def write_orthophoto(path, image: np.ndarray, geotransform: Sequence[float], crs
         raise ValueError(f"image must be uint8 (rows, cols, 2 or 4), got {image.dtype} {image.shape}")
     rows, cols, nbands = image.shape
     srs = srs_from_user(crs_wkt)
-    options = ["TILED=YES", "COMPRESS=DEFLATE", "BIGTIFF=IF_SAFER", "ALPHA=YES",
+    options = ["TILED=YES", "COMPRESS=DEFLATE", "ZLEVEL=1", "PREDICTOR=2", "BIGTIFF=IF_SAFER", "ALPHA=YES",
                f"PHOTOMETRIC={'RGB' if nbands == 4 else 'MINISBLACK'}"]
     target = Path(os.fspath(path))
     with atomic_output(target, overwrite, verify=raster_verifier(cols, rows, nbands)) as tmp:

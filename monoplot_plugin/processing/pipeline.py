@@ -61,19 +61,8 @@ def fit(image_size, uv: np.ndarray, xyz: np.ndarray, prior: Camera, dem, paired:
     ``"message"`` and ``"summary"`` (the fit's JSON digest). Raises :class:`InputError` when the fit refuses the
     points (the message says what to add) and :class:`~..workflow.progress.Canceled` when canceled.
     """
-    if tuple(image_size) != tuple(prior.image_size):
-        raise InputError(f"the prior camera is for a {prior.width}x{prior.height} image, the photo is "
-                         f"{image_size[0]}x{image_size[1]}")
-    pairs = np.column_stack([np.arange(len(uv)), np.arange(len(uv))]) if paired else None
-    try:
-        done = fit_step.fit(uv, xyz, prior, dem, pairs=pairs, on_ground=on_ground, eye_height=eye_height,
-                            progress=progress, is_canceled=is_canceled)
-    except fit_step.FitRefused as exc:
-        raise InputError(f"the fit refused these points: {exc}") from exc
-    result, camera = done.result, done.camera
-    rmse = float(result.rmse_px) if np.isfinite(result.rmse_px) else fit_step.point_rmse(camera, uv, xyz, paired)
-    return camera, {"rmse_px": rmse, "status": result.status, "message": result.message,
-                    "summary": result.summary()}
+    return fit_step.fit_points(image_size, uv, xyz, prior, dem, paired, progress=progress, is_canceled=is_canceled,
+                               on_ground=on_ground, eye_height=eye_height)
 
 
 # --- products ---------------------------------------------------------------------------------------------------

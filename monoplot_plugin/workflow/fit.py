@@ -17,7 +17,7 @@ from ..core.fit import FitResult, fit_camera
 from .progress import Canceled, IsCanceled, Progress, check_canceled
 
 __all__ = ["ON_GROUND_MAX_M", "DEFAULT_EYE_HEIGHT_M", "FitRefused", "FitDone", "ground_clearance", "on_ground_rule",
-           "fit", "point_rmse"]
+           "fit", "point_rmse", "fit_points"]
 
 #: a start camera at most this high above the terrain is taken as a photographer on the ground (a hill, a ridge,
 #: a summit): the fit keeps its height above the terrain (z follows the DEM, one unknown less), which also keeps
@@ -109,3 +109,27 @@ def point_rmse(camera: Camera, uv: np.ndarray, xyz: np.ndarray, paired: bool) ->
         d = np.linalg.norm(uv[:, None, :] - projected[None, ok, :], axis=2).min(axis=1)
     d = d[np.isfinite(d)]
     return float(np.sqrt(np.mean(d ** 2))) if len(d) else float("inf")
+
+
+def fit_points(image_size, uv: np.ndarray, xyz: np.ndarray, prior: Camera, dem, paired: bool,
+               progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None,
+               on_ground: bool = False, eye_height: float = DEFAULT_EYE_HEIGHT_M) -> Tuple[Camera, dict]:
+    """:func:`fit` of (N, 2) photo points and (M, 3) DEM points from ``prior``, with the file-based callers'
+    conventions (Processing, the batch): ``paired`` means row i of ``uv`` and of ``xyz`` are the same point; a
+    refusal or a prior of another image size is an :class:`~.inputs.InputError`. Returns (camera, info) with
+    ``info["rmse_px"]``, ``"status"``, ``"message"`` and ``"summary"`` (the fit's JSON digest)."""
+    from .inputs import InputError
+
+    if tuple(image_size) != tuple(prior.image_size):
+        raise InputError(f"the prior camera is for a {prior.width}x{prior.height} image, the photo is "
+                         f"{image_size[0]}x{image_size[1]}")
+    pairs = np.column_stack([np.arange(len(uv)), np.arange(len(uv))]) if paired else None
+    try:
+        done = fit(uv, xyz, prior, dem, pairs=pairs, on_ground=on_ground, eye_height=eye_height,
+                   progress=progress, is_canceled=is_canceled)
+    except FitRefused as exc:
+        raise InputError(f"the fit refused these points: {exc}") from exc
+    result, camera = done.result, done.camera
+    rmse = float(result.rmse_px) if np.isfinite(result.rmse_px) else point_rmse(camera, uv, xyz, paired)
+    return camera, {"rmse_px": rmse, "status": result.status, "message": result.message,
+                    "summary": result.summary()}

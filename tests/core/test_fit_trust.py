@@ -123,3 +123,26 @@ def test_check_points_that_disagree_make_the_verdict_poor():
     bad = fit_camera(uv[inside], world[inside], TRUTH.with_parameters(heading=TRUTH.heading + 1), pairs=pairs,
                      check_image_points=uv[inside][:3] + 80.0, check_world_points=world[inside][:3])
     assert bad.status == "poor" and "check points" in bad.message
+
+
+def test_close_range_prior_far_off_in_position_is_found_by_position_hypotheses():
+    """A scene 80-250 m away and a prior 90 m off (the stated position σ is 100 m): the parallax (about 30°) is
+    far beyond the angle error, so no rotation at the prior's position explains the points; cameras drawn at
+    other positions the prior allows do."""
+    rng = np.random.default_rng(11)
+    truth = TRUTH.with_parameters(z=400.0)
+    heading = math.radians(truth.heading)
+    fwd = np.array([math.sin(heading), math.cos(heading), 0.0])
+    right = np.array([fwd[1], -fwd[0], 0.0])
+    dist = rng.uniform(80, 250, 60)
+    world = (np.asarray(truth.position) + dist[:, None] * fwd + rng.uniform(-0.5, 0.5, 60)[:, None] * dist[:, None]
+             * right)
+    world[:, 2] = rng.uniform(340, 420, 60)
+    uv = truth.project(world)
+    seen = truth.in_image(uv, margin=-5)
+    world, uv = world[seen], uv[seen]
+    photo = rng.permutation(uv + rng.normal(0, 0.5, uv.shape))
+    start = truth.with_parameters(x=truth.position[0] - 80.0, y=truth.position[1] + 40.0, heading=truth.heading + 4)
+    result = fit_camera(photo, world, start, position_sigma_m=100.0, n_starts=1, n_escapes=0)
+    assert float(np.linalg.norm(np.subtract(result.camera.position, truth.position))) < 1.0
+    assert result.status == "ok"

@@ -40,10 +40,8 @@ def add_scene_points(dock, scene, n=None):
 
 
 def accept_everything(c) -> None:
-    """Accept every point of both views (a curation that trusts all suggestions)."""
-    everywhere = (-1e12, -1e12, 1e12, 1e12)
-    c.accept_all_in(PHOTO, everywhere)
-    c.accept_all_in(MAP, everywhere)
+    """Accept every point of both views, shown or not (a curation that trusts all suggestions)."""
+    c.set_status([p.id for p in c.state.points.values() if p.status == SUGGESTED], ACCEPTED)
 
 
 def start_fit_on_scene(dock, scene, qtbot):
@@ -108,7 +106,9 @@ def test_accept_reject_by_clicks_and_keys_with_undo(dock, scene, qtbot):
     qtbot.keyClick(dock.photo_canvas, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
     assert c.state.points[first].status == SUGGESTED and c.state.points[second].status == SUGGESTED
     assert c.state.points[photo[0].id].status == ACCEPTED
-    # table shows every point, sortable by status
+    # the table lists the points on show (rejected ones hidden by default), sortable by status
+    assert dock.table_proxy.rowCount() == 11
+    dock.curation_panel.filter_checks[REJECTED].setChecked(True)
     assert dock.table_proxy.rowCount() == 12
     dock.pointTable.sortByColumn(1, Qt.SortOrder.AscendingOrder)
     statuses = [dock.table_proxy.index(r, 1).data() for r in range(12)]
@@ -127,16 +127,17 @@ def test_manual_point_add_move_delete_and_accept_all_in_view(dock, scene, qtbot)
     qtbot.keyClick(dock.photo_canvas, Qt.Key.Key_Delete)
     assert not c.state.in_space(PHOTO)
     add_scene_points(dock, scene)
+    shown = len(c.shortlist.shown_undecided(PHOTO))
+    assert 0 < shown < len(scene.uv)  # a few at a time: "accept all in view" takes the ones on show only
     n = dock.accept_all_in_view()
-    assert n > 0 and c.state.counts()[PHOTO][ACCEPTED] == len(scene.uv)
+    assert n > 0 and c.state.counts()[PHOTO][ACCEPTED] == shown
 
 
 def test_fit_task_runs_to_completion(dock, scene, qtbot):
     load_inputs(dock, scene, qtbot)
     add_scene_points(dock, scene)
-    dock.accept_all_in_view()
     c = dock.controller
-    c.accept_all_in(MAP, (-1e12, -1e12, 1e12, 1e12))
+    accept_everything(c)
     c.set_prior(scene.prior)
     qtbot.mouseClick(dock.fitButton, Qt.MouseButton.LeftButton)
     assert c.busy and dock.cancelButton.isEnabled()
@@ -215,9 +216,10 @@ def test_suggest_fills_both_canvases_and_keeps_decisions(dock, scene, qtbot):
     counts = c.state.counts()
     assert counts[PHOTO][SUGGESTED] > 10 and counts[MAP][SUGGESTED] > 10
     assert manual in c.state.points  # a new suggestion run keeps the user's own points
-    # the suggestions are drawn: one vertex per suggested point on each canvas
-    assert dock.photo_view.markers.bands[SUGGESTED].numberOfVertices() == counts[PHOTO][SUGGESTED]
-    assert dock.map_view.markers.bands[SUGGESTED].numberOfVertices() == counts[MAP][SUGGESTED]
+    # a few suggestions at a time are drawn: one vertex per shown suggestion on each canvas, the rest hidden
+    per_page = c.shortlist.per_page
+    assert dock.photo_view.markers.bands[SUGGESTED].numberOfVertices() == min(per_page, counts[PHOTO][SUGGESTED])
+    assert dock.map_view.markers.bands[SUGGESTED].numberOfVertices() == min(per_page, counts[MAP][SUGGESTED])
     # DEM points are curated on the main map: the map tool is switched on
     assert dock.map_canvas.mapTool() is dock.map_tool
     # every DEM suggestion lies on the terrain (mesh or bilinear surface of 50 m cells: a few metres apart)

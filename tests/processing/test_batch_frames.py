@@ -222,7 +222,7 @@ def test_cancel_marks_the_rest_canceled_not_failed(run_alg, small_scene, tmp_pat
         write_photo(folder / f"f{i}.png", seed=i)
     feedback = QgsProcessingFeedback()
     feedback.progressChanged.connect(lambda value: feedback.cancel() if value >= 40 else None)
-    result = run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(folder),
+    result = run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(folder), "WORKERS": 1,
                                "CAMERA": small_scene["camera"], "OUTPUT": str(tmp_path / "out")}, feedback)
     statuses = [r["status"] for r in log_rows(result["LOG"])]
     assert statuses == ["ok", "ok", "ok", "canceled", "canceled", "canceled"]

@@ -319,18 +319,20 @@ def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.eye(3) + vx + vx @ vx / (1.0 + c)
 
 
-def shift_hypotheses(ctx, sigmas: dict, n_keep: int = 6) -> List[dict]:
+def shift_hypotheses(ctx, sigmas: dict, n_keep: int = 6, camera=None) -> List[dict]:
     """Hypotheses from a vote: every candidate correspondence votes for the image shift that would bring the
     prior's projection of its DEM point onto its photo point; true correspondences agree on one shift (the prior's
     rotation error), wrong ones spread over the gate. The strongest peaks become rotations of the prior camera.
 
     Cheaper and far less sensitive to the share of wrong points than drawing pairs at random, because one true
     correspondence is enough for a vote.
+
+    ``camera``: vote from this camera (default the prior; :func:`position_hypotheses` gives others).
     """
     from scipy import ndimage
     from scipy.spatial import cKDTree
 
-    cam = ctx.initial
+    cam = ctx.initial if camera is None else camera
     if len(ctx.q) < 2 or len(ctx.P) < 2:
         return []
     gate, _ = _gates(ctx, sigmas)
@@ -369,6 +371,28 @@ def shift_hypotheses(ctx, sigmas: dict, n_keep: int = 6) -> List[dict]:
         out.append({"heading": heading, "pitch": pitch, "roll": roll, "fov": cam.fov, "score": float(smooth[ix[n],
                                                                                                         iy[n]])})
     return out
+
+
+def position_hypotheses(ctx, sigmas: dict) -> list:
+    """Cameras at other positions the prior allows, for the shift vote, when its position error could turn the
+    view by more than its angle error: a rotation at the prior's position cannot explain the parallax of a camera
+    moved by a large fraction of the range (close-range scenes).
+
+    Returns:
+        list of :class:`~monoplot_plugin.core.camera.Camera` (empty when the parallax is small or the position is
+        fixed): eight at one σ around the prior horizontally, one σ above and one below.
+    """
+    if not {"x", "y"} <= set(ctx.free):
+        return []
+    parallax_deg = math.degrees(math.atan2(sigmas["position_m"], ctx.typical_range))
+    if parallax_deg <= sigmas["angle_deg"]:
+        return []
+    s = sigmas["position_m"]
+    x, y, z = ctx.initial.position
+    offsets = [(s * math.cos(a), s * math.sin(a), 0.0) for a in np.arange(8) * math.pi / 4]
+    if "z" in ctx.free and ctx.ground is None:
+        offsets += [(0.0, 0.0, s), (0.0, 0.0, -s)]
+    return [ctx.initial.with_parameters(x=x + dx, y=y + dy, z=z + dz) for dx, dy, dz in offsets]
 
 
 def kernel_align(ctx, space: ParameterSpace, u0, start_scale: float, final_scale: float, max_points: int = 400):

@@ -36,7 +36,8 @@ class FitOptions:
         robust: True = saturating distances at 6 % of the diagonal; a number = that scale in pixels; False/None =
             the paper's loss exactly.
         centroid_weight: factor on the paper's adaptive centroid weight in the first descent.
-        time_budget_s: no new start begins after this many seconds.
+        time_budget_s: no new start begins after this many seconds of CPU time (the process's, so that the result
+            does not depend on the machine's load).
         switch_ratio: another start replaces the initial camera's descent only below this ratio of its score.
         consensus: also search camera hypotheses drawn from the prior's uncertainty (minimal two-point solves
             verified by their mutual-nearest inliers) and keep whichever camera the consensus score prefers.

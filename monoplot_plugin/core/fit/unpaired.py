@@ -20,7 +20,7 @@ from typing import List, Tuple
 import numpy as np
 
 from .consensus import (_gates, chance_inliers, consensus_score, hypotheses, inlier_radius, kernel_align,
-                        local_optimise, prior_penalty, shift_hypotheses)
+                        local_optimise, position_hypotheses, prior_penalty, shift_hypotheses)
 from .descent import descend_from_prior
 from .losses import nearest_distances
 from .lsq import bootstrap_std, jacobian, parameter_std
@@ -69,9 +69,13 @@ def _fit_unpaired(ctx) -> FitResult:
         ctx.report(0.9, "unpaired fit: consensus search")
         _, hyp_radius = _gates(ctx, sigmas)
         starts = []
-        for h in shift_hypotheses(ctx, sigmas, 8) + hypotheses(ctx, sigmas, opts.consensus_hypotheses)[:6]:
+        origins = [(ctx.initial, h) for h in shift_hypotheses(ctx, sigmas, 8) +
+                   hypotheses(ctx, sigmas, opts.consensus_hypotheses)[:6]]
+        for camera in position_hypotheses(ctx, sigmas):
+            origins += [(camera, h) for h in shift_hypotheses(ctx, sigmas, 3, camera=camera)]
+        for camera, h in origins:
             values = {k: h[k] for k in ("heading", "pitch", "roll", "fov") if k in ctx.free}
-            u0 = space.from_camera(ctx.restrict_to_free(ctx.initial.with_parameters(**values)))
+            u0 = space.from_camera(ctx.restrict_to_free(camera.with_parameters(**values)))
             if space.valid(u0):
                 starts.append((_score(ctx, space, u0, hyp_radius), u0))
         # Only the most promising starts are aligned (the alignment is what costs).

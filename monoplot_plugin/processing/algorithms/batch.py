@@ -35,7 +35,16 @@ class BatchPhotos(MonoplotAlgorithm):
              "fitted, or whose size differs from the shared camera's, is reported and skipped; the others are "
              "processed. batch_log.csv in the output folder lists every photo's status. Photos with the same name "
              "(frame.jpg and frame.png, or in different folders) get numbered outputs (frame_2_ortho.tif); files of "
-             "an earlier run in the output folder are replaced, and the log says so.")
+             "an earlier run in the output folder are replaced, and the log says so.\n\n"
+             "Time-lapse speed: what depends only on the camera and the DEM (XYZ raster, sky, the orthophoto's "
+             "lookup) is computed once; WORKERS frames are processed at once (0 = one per core).\n\n"
+             "REGISTER (time-lapse mode): every frame is matched to the REFERENCE frame (default: the first) on "
+             "stable terrain (no sky, no foreground) and the camera is turned by the drift found; the drift (pixels "
+             "and degrees) is in the log, a frame that turned gets its own frame_camera.json and frame_xyz.tif, and "
+             "a frame that cannot be registered is reported as failed (never given the reference camera).\n\n"
+             "SCHEDULER: the address of a Dask scheduler (tcp://host:8786) whose workers process the frames (each "
+             "frame a task; a worker that dies has its frames retried elsewhere); the workers must see the photo "
+             "folder, the DEM and the output folder at the same paths. Empty: this machine.")
 
     MODES = ["Time-lapse folder (one shared camera)", "CSV table (each photo with its prior and points)"]
 
@@ -67,6 +76,17 @@ class BatchPhotos(MonoplotAlgorithm):
         self.addParameter(QgsProcessingParameterNumber("RESOLUTION",
                                                        self.tr("Orthophoto cell size (map units, 0 = DEM's)"),
                                                        QgsProcessingParameterNumber.Double, 0.0, minValue=0.0))
+        self.addParameter(QgsProcessingParameterBoolean("REGISTER", self.tr("Re-register every frame on the reference "
+                                                                            "frame (time-lapse mode)"),
+                                                        defaultValue=False))
+        self.addParameter(QgsProcessingParameterFile("REFERENCE", self.tr("Reference frame (default: the first "
+                                                                          "frame)"),
+                                                     QgsProcessingParameterFile.File, optional=True))
+        self.addParameter(QgsProcessingParameterNumber("WORKERS", self.tr("Frames at once (0 = one per core)"),
+                                                       QgsProcessingParameterNumber.Integer, 0, minValue=0))
+        self.addParameter(QgsProcessingParameterString("SCHEDULER", self.tr("Dask scheduler address (empty = this "
+                                                                            "machine)"),
+                                                       defaultValue="", optional=True))
         self.addParameter(QgsProcessingParameterFolderDestination("OUTPUT", self.tr("Output folder")))
         self.addOutput(QgsProcessingOutputNumber("SUCCEEDED", self.tr("Photos processed")))
         self.addOutput(QgsProcessingOutputNumber("FAILED", self.tr("Photos skipped")))
@@ -117,11 +137,22 @@ class BatchPhotos(MonoplotAlgorithm):
         def progress(fraction, message=""):
             feedback.setProgress(100.0 * fraction)
 
-        results = batch.run_batch(jobs, dem, crs.toWkt(), out_dir,
-                                  write_xyz=self.parameterAsBool(parameters, "XYZ", context),
-                                  write_ortho=self.parameterAsBool(parameters, "ORTHO", context),
-                                  resolution=self.parameterAsDouble(parameters, "RESOLUTION", context) or None,
-                                  log=log, progress=progress, is_canceled=feedback.isCanceled)
+        register = self.parameterAsBool(parameters, "REGISTER", context)
+        if register and mode != 0:
+            raise QgsProcessingException(self.tr("REGISTER needs the time-lapse mode (frames of one camera)."))
+        options = dict(write_xyz=self.parameterAsBool(parameters, "XYZ", context),
+                       write_ortho=self.parameterAsBool(parameters, "ORTHO", context),
+                       resolution=self.parameterAsDouble(parameters, "RESOLUTION", context) or None,
+                       log=log, progress=progress, is_canceled=feedback.isCanceled, register=register,
+                       reference=self.parameterAsFile(parameters, "REFERENCE", context) or "")
+        scheduler = (self.parameterAsString(parameters, "SCHEDULER", context) or "").strip()
+        if scheduler:
+            path, _ = self.dem_path(parameters, context)
+            results = checked(batch.run_batch_dask, jobs, path, crs.toWkt(), out_dir, address=scheduler,
+                              void_value=self.void_value(parameters, context), **options)
+        else:
+            results = checked(batch.run_batch, jobs, dem, crs.toWkt(), out_dir,
+                              workers=self.parameterAsInt(parameters, "WORKERS", context) or None, **options)
         log_path = os.path.join(out_dir, "batch_log.csv")
         with cancel_before_commit(lambda: False):  # the log says what was done, canceled or not
             batch.write_log(log_path, results)

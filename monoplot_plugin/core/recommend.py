@@ -1,0 +1,186 @@
+"""Which suggestions to show first: a spread-out ranking by strength, re-ranked by agreement with a camera.
+
+The person judges a few suggestions at a time (issue 12). This module decides which, with plain arrays (numpy only):
+
+* :func:`spread_order`: an order of N points in which every prefix is spread over the view: the strongest point of
+  each cell of a grid first (cells by strength of their best point), then the second strongest of each cell, ...
+* :func:`nearest`: for each query point, the nearest reference point and its distance (bucketed, O(N + M)).
+* :func:`agreement`: how well each photo / DEM suggestion agrees with a camera: the distance (pixels) from a photo
+  suggestion to the nearest projected DEM suggestion, and the other way round.
+* :func:`priority`: strength and agreement combined into one ranking key.
+* :func:`likely_pairs`: mutual nearest photo / projected-DEM suggestions closer than a threshold.
+
+Shapes: ``xy`` (N, 2) float coordinates (photo pixels ``(u, v)`` or map metres), ``score`` (N,) float (larger =
+stronger), projected DEM points ``dem_uv`` (M, 2) pixels with NaN rows for points the camera does not see.
+"""
+
+from __future__ import annotations
+
+from typing import Optional, Tuple
+
+import numpy as np
+
+__all__ = ["spread_order", "nearest", "agreement", "priority", "likely_pairs"]
+
+
+def spread_order(xy: np.ndarray, score: np.ndarray, per_page: int = 30,
+                 bounds: Optional[Tuple[float, float, float, float]] = None) -> np.ndarray:
+    """(N,) indices of ``xy`` in showing order: each of the first ``per_page`` falls in its own cell of a grid of
+    about ``per_page`` cells over ``bounds`` (xmin, ymin, xmax, ymax; default: the points' bounding box), strongest
+    cells first; then the runners-up of every cell, and so on. Ties keep the input order.
+
+    >>> xy = np.array([[1, 1], [2, 2], [9, 9], [1, 9]], float)
+    >>> spread_order(xy, np.array([5.0, 4.0, 1.0, 2.0]), per_page=4).tolist()
+    [0, 3, 2, 1]
+    >>> spread_order(np.zeros((0, 2)), np.zeros(0)).tolist()
+    []
+    """
+    xy = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+    score = np.asarray(score, dtype=np.float64).reshape(-1)
+    n = len(xy)
+    if n == 0:
+        return np.zeros(0, dtype=np.int64)
+    if bounds is None:
+        finite = np.isfinite(xy).all(axis=1)
+        lo = xy[finite].min(axis=0) if finite.any() else np.zeros(2)
+        hi = xy[finite].max(axis=0) if finite.any() else np.ones(2)
+    else:
+        lo, hi = np.array(bounds[:2], float), np.array(bounds[2:], float)
+    span = np.maximum(hi - lo, 1e-9)
+    # cells about square, about per_page of them over the bounds
+    aspect = span[0] / span[1]
+    nx = min(max(per_page, 1), max(1, int(round(np.sqrt(max(per_page, 1) * aspect)))))
+    ny = max(1, int(round(max(per_page, 1) / nx)))
+    cx = np.clip(((xy[:, 0] - lo[0]) / span[0] * nx).astype(np.int64, copy=False), 0, nx - 1)
+    cy = np.clip(((xy[:, 1] - lo[1]) / span[1] * ny).astype(np.int64, copy=False), 0, ny - 1)
+    cell = np.where(np.isfinite(xy).all(axis=1), cy * nx + cx, nx * ny)  # non-finite: a cell of their own
+    s = np.where(np.isfinite(score), score, -np.inf)
+    by_score = np.lexsort((np.arange(n), -s))  # strongest first, stable
+    # rank of each point within its cell (0 = strongest of the cell)
+    cells_sorted = cell[by_score]
+    order_in_cell = np.lexsort((np.arange(n), cells_sorted))
+    grouped = cells_sorted[order_in_cell]
+    starts = np.r_[0, np.flatnonzero(np.diff(grouped)) + 1]
+    rank_grouped = np.arange(n) - np.repeat(starts, np.diff(np.r_[starts, n]))
+    rank = np.empty(n, dtype=np.int64)
+    rank[by_score[order_in_cell]] = rank_grouped
+    # within one round (same rank), the stronger point first: by_score position breaks the tie
+    position = np.empty(n, dtype=np.int64)
+    position[by_score] = np.arange(n)
+    return np.lexsort((position, rank)).astype(np.int64)
+
+
+def nearest(query: np.ndarray, ref: np.ndarray, max_distance: float) -> Tuple[np.ndarray, np.ndarray]:
+    """For each row of ``query`` (N, 2): (index (N,) of the nearest finite row of ``ref`` (M, 2) within
+    ``max_distance``, -1 if none; its distance (N,), inf if none).
+
+    Buckets of about two reference points each, searched ring by ring outwards; a query stops as soon as no nearer
+    point can lie in the next ring, so the cost stays about O((N + M) log M) whatever ``max_distance`` is.
+
+    >>> i, d = nearest(np.array([[0, 0], [10, 10.0]]), np.array([[3, 4.0], [50, 50]]), 6.0)
+    >>> i.tolist(), d.tolist()
+    ([0, -1], [5.0, inf])
+    """
+    query = np.asarray(query, dtype=np.float64).reshape(-1, 2)
+    ref = np.asarray(ref, dtype=np.float64).reshape(-1, 2)
+    n = len(query)
+    best_i = np.full(n, -1, dtype=np.int64)
+    best_d = np.full(n, np.inf)
+    ok_ref = np.flatnonzero(np.isfinite(ref).all(axis=1))
+    active = np.flatnonzero(np.isfinite(query).all(axis=1))
+    if not len(ok_ref) or not len(active) or not max_distance > 0:
+        return best_i, best_d
+    r_xy = ref[ok_ref]
+    lo = np.minimum(r_xy.min(axis=0), query[active].min(axis=0))
+    span = np.maximum(r_xy.max(axis=0), query[active].max(axis=0)) - lo
+    area = max(float(span[0] * span[1]), 1e-9)
+    # cells of about two reference points (at most max_distance wide, and at most 64 rings)
+    cell = float(min(max_distance, max(np.sqrt(2.0 * area / len(ok_ref)), max_distance / 64.0)))
+    rc = np.floor((r_xy - lo) / cell).astype(np.int64)
+    width = int(max(rc[:, 0].max(), np.floor(span[0] / cell))) + 3
+    rkey = (rc[:, 1] + 1) * width + rc[:, 0] + 1
+    sort = np.argsort(rkey, kind="stable")
+    rkey_sorted = rkey[sort]
+    rings = int(np.ceil(max_distance / cell))
+    for r in range(rings + 1):
+        if not len(active):
+            break
+        qc = np.floor((query[active] - lo) / cell).astype(np.int64)
+        offsets = [(dx, dy) for dy in range(-r, r + 1) for dx in range(-r, r + 1) if max(abs(dx), abs(dy)) == r]
+        for dx, dy in offsets:
+            cx, cy = qc[:, 0] + dx, qc[:, 1] + dy
+            inside = (cx >= -1) & (cx < width - 1) & (cy >= -1)
+            key = np.where(inside, (cy + 1) * width + cx + 1, -1)
+            first = np.searchsorted(rkey_sorted, key, "left")
+            counts = np.searchsorted(rkey_sorted, key, "right") - first
+            if not counts.any():
+                continue
+            qi = np.repeat(np.arange(len(active)), counts)
+            # the positions first[q] .. first[q] + counts[q] - 1 of every query q, without a Python loop
+            ri = sort[np.repeat(first - np.cumsum(counts) + counts, counts) + np.arange(int(counts.sum()))]
+            d = np.hypot(*(query[active[qi]] - r_xy[ri]).T)
+            order = np.lexsort((d, qi))  # per query, its nearest candidate of this cell first
+            head = np.r_[True, qi[order][1:] != qi[order][:-1]]
+            qs, ds, rs = active[qi[order][head]], d[order][head], ri[order][head]
+            better = ds < best_d[qs]
+            best_d[qs[better]] = ds[better]
+            best_i[qs[better]] = ok_ref[rs[better]]
+        # a point of the next ring is at least r * cell away: the queries with a nearer one are done
+        active = active[best_d[active] > r * cell]
+    too_far = best_d > max_distance
+    best_i[too_far], best_d[too_far] = -1, np.inf
+    return best_i, best_d
+
+
+def agreement(photo_uv: np.ndarray, dem_uv: np.ndarray, radius: float) -> Tuple[np.ndarray, np.ndarray,
+                                                                                   np.ndarray, np.ndarray]:
+    """How each suggestion agrees with a camera, given ``photo_uv`` (N, 2) and the DEM suggestions projected by it,
+    ``dem_uv`` (M, 2) (NaN rows: not seen).
+
+    Returns (photo partner (N,) index into ``dem_uv`` or -1, photo distance (N,) px or inf, DEM partner (M,) index
+    into ``photo_uv`` or -1, DEM distance (M,) px or inf), each within ``radius`` pixels.
+
+    >>> p, dp, q, dq = agreement(np.array([[0, 0.0], [100, 0]]), np.array([[1, 0.0], [np.nan, np.nan]]), 10)
+    >>> p.tolist(), dp.tolist(), q.tolist(), dq.tolist()
+    ([0, -1], [1.0, inf], [0, -1], [1.0, inf])
+    """
+    pi, pd = nearest(photo_uv, dem_uv, radius)
+    di, dd = nearest(dem_uv, photo_uv, radius)
+    return pi, pd, di, dd
+
+
+def priority(score: np.ndarray, distance: Optional[np.ndarray] = None, sigma: float = 15.0) -> np.ndarray:
+    """(N,) ranking key, larger first: the detector ``score`` ranked to [0, 1), plus, with a camera, the agreement
+    ``exp(-(distance / sigma)^2 / 2)`` (``distance`` (N,) px, inf = no partner), which dominates: a suggestion with
+    a partner where the camera says goes before a strong one without.
+
+    >>> priority(np.array([1.0, 3.0, 2.0])).round(2).tolist()
+    [0.0, 0.67, 0.33]
+    >>> priority(np.array([1.0, 3.0]), np.array([0.0, np.inf])).argmax()
+    0
+    """
+    score = np.asarray(score, dtype=np.float64).reshape(-1)
+    n = len(score)
+    rank = np.empty(n)
+    rank[np.argsort(np.where(np.isfinite(score), score, -np.inf), kind="stable")] = np.arange(n)
+    key = rank / max(n, 1)
+    if distance is None:
+        return key
+    d = np.asarray(distance, dtype=np.float64).reshape(-1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        agree = np.where(np.isfinite(d), np.exp(-0.5 * (d / max(sigma, 1e-9)) ** 2), 0.0)
+    return 2.0 * agree + key
+
+
+def likely_pairs(photo_uv: np.ndarray, dem_uv: np.ndarray, threshold: float) -> np.ndarray:
+    """(K, 2) int (photo index, DEM index) of mutual nearest neighbours closer than ``threshold`` pixels, closest
+    first. ``photo_uv`` (N, 2), ``dem_uv`` (M, 2) projected DEM suggestions (NaN rows: not seen).
+
+    >>> likely_pairs(np.array([[0, 0.0], [5, 0], [50, 50]]), np.array([[4, 0.0], [52, 50], [90, 90]]), 3).tolist()
+    [[1, 0], [2, 1]]
+    """
+    pi, pd, di, _ = agreement(photo_uv, dem_uv, threshold)
+    idx = np.flatnonzero((pi >= 0) & (pd <= threshold))
+    mutual = idx[di[pi[idx]] == idx]
+    order = np.argsort(pd[mutual], kind="stable")
+    return np.column_stack([mutual[order], pi[mutual[order]]]).astype(np.int64).reshape(-1, 2)

@@ -1,0 +1,274 @@
+"""The dock's curation bar: a few suggestions at a time, bulk actions, filters, the live refit, messages once.
+
+Installed by :func:`install_curation_panel` (one line in ``dock.py``) into the points tab's button grid:
+
+    [More suggestions] [Reject the rest] [Accept likely]
+    [Reject outliers]  [Show: undecided, accepted ▾] [Options ▾ (per view 30, pairs within 8 px, refit while I click)]
+    (under the counts) Showing 30 of 9,970 undecided photo and 30 of 9,970 DEM suggestions · camera: refit, 6.2 px
+
+The logic lives in the controller (:mod:`.curation`) and :class:`~.shortlist.Shortlist`; the background refit in
+:mod:`.refit`.
+"""
+
+from __future__ import annotations
+
+from qgis.PyQt.QtCore import QTimer
+from qgis.PyQt.QtWidgets import (QDoubleSpinBox, QFormLayout, QHeaderView, QMenu, QSizePolicy, QSpinBox,
+                                 QToolButton, QWidget, QWidgetAction)
+
+from ..state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED
+from .refit import Refitter, sigma_of
+
+__all__ = ["CurationPanel", "install_curation_panel", "MessageOnce"]
+
+#: sigma (px) of the prior camera: a rough guess is tens of pixels off
+PRIOR_SIGMA_PX = 30.0
+
+
+class MessageOnce:
+    """Push to QGIS's message bar so that each message shows once: the previous Monoplot message is taken off the
+    bar first (a message bar keeps older messages under the newest and shows them again when it expires)."""
+
+    def __init__(self):
+        self._item = None
+
+    def push(self, bar, title: str, text: str, level, duration: int) -> None:
+        if self._item is not None:
+            try:
+                bar.popWidget(self._item)
+            except (RuntimeError, TypeError, AttributeError):  # already gone (expired, closed)
+                pass
+            self._item = None
+        bar.pushMessage(title, text, level, duration)
+        try:
+            self._item = bar.currentItem()
+        except AttributeError:
+            self._item = None
+
+
+class CurationPanel(QWidget):
+    def __init__(self, dock):
+        super().__init__(dock)
+        self.dock = dock
+        self.c = c = dock.controller
+        self.refitter = Refitter(c, parent=self)
+        self.refit_info = ""
+
+        def button(text, tip, slot):
+            b = QToolButton(self)
+            b.setText(text)
+            b.setToolTip(tip)
+            b.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
+            b.clicked.connect(slot)
+            return b
+
+        self.moreButton = button(self.tr("More suggestions"), self.tr("Show the next few undecided suggestions"),
+                                 self.more)
+        self.rejectRestButton = button(self.tr("Reject the rest"),
+                                       self.tr("Reject the undecided suggestions on show; the next few come"),
+                                       self.reject_rest)
+        self.acceptLikelyButton = button(self.tr("Accept likely"),
+                                         self.tr("Accept both ends of every linked pair (a photo suggestion and a "
+                                                 "DEM suggestion the current camera puts close together)"),
+                                         self.accept_likely)
+        self.rejectOutliersButton = button(self.tr("Reject outliers"),
+                                           self.tr("Reject the accepted photo points the current fit explains by "
+                                                   "no DEM point (red rings)"), self.reject_outliers)
+        # "Show ▾": the filters; "Options ▾": per view, pairs within, the live refit (menus: two rows in all, so
+        # the point table keeps its rows)
+        self.showButton = button(self.tr("Show"), self.tr("Which points the photo, the map and the table show"),
+                                 lambda: None)
+        self.showButton.setPopupMode(QToolButton.ToolButtonPopupMode.InstantPopup)
+        show_menu = QMenu(self.showButton)
+        self.filter_checks = {}
+        for status, text in ((SUGGESTED, self.tr("Undecided (the few on show)")), (ACCEPTED, self.tr("Accepted")),
+                             (REJECTED, self.tr("Rejected"))):
+            action = show_menu.addAction(text)
+            action.setCheckable(True)
+            action.setChecked(c.shortlist.filters[status])
+            action.toggled.connect(lambda on, s=status: self.set_filter(s, on))
+            self.filter_checks[status] = action
+        self.showButton.setMenu(show_menu)
+
+        self.optionsButton = button(self.tr("Options"), self.tr("How many at a time, when a pair is likely, the "
+                                                                "background refit"), lambda: None)
+        self.optionsButton.setPopupMode(QToolButton.ToolButtonPopupMode.InstantPopup)
+        options_menu = QMenu(self.optionsButton)
+        form_widget = QWidget(options_menu)
+        form = QFormLayout(form_widget)
+        self.perPageSpin = QSpinBox(form_widget)
+        self.perPageSpin.setRange(5, 500)
+        self.perPageSpin.setValue(c.shortlist.per_page)
+        self.perPageSpin.setToolTip(self.tr("How many undecided suggestions each view shows at a time"))
+        self.perPageSpin.valueChanged.connect(self._per_page)
+        form.addRow(self.tr("Suggestions on show per view:"), self.perPageSpin)
+        self.thresholdSpin = QDoubleSpinBox(form_widget)
+        self.thresholdSpin.setRange(1.0, 100.0)
+        self.thresholdSpin.setDecimals(0)
+        self.thresholdSpin.setSuffix(" px")
+        self.thresholdSpin.setValue(c.shortlist.threshold)
+        self.thresholdSpin.setToolTip(self.tr("A photo and a DEM suggestion this close under the current camera "
+                                              "are a likely pair (linked in cyan)"))
+        self.thresholdSpin.valueChanged.connect(self._threshold)
+        form.addRow(self.tr("Likely pair within:"), self.thresholdSpin)
+        holder = QWidgetAction(options_menu)
+        holder.setDefaultWidget(form_widget)
+        options_menu.addAction(holder)
+        self.refitCheck = options_menu.addAction(self.tr("Refit while I click"))
+        self.refitCheck.setToolTip(self.tr("Fit the camera in the background after every change of the accepted "
+                                           "points; the suggestions are re-ranked by it"))
+        self.refitCheck.setCheckable(True)
+        self.refitCheck.setChecked(True)
+        self.refitCheck.toggled.connect(self._refit_toggled)
+        self.optionsButton.setMenu(options_menu)
+        self._show_text()
+
+        # into the point buttons' grid (ui/dock.ui, three columns): two rows
+        grid = dock.pointButtons
+        row = grid.rowCount()
+        for i, b in enumerate((self.moreButton, self.rejectRestButton, self.acceptLikelyButton,
+                               self.rejectOutliersButton, self.showButton, self.optionsButton)):
+            grid.addWidget(b, row + i // 3, i % 3)
+        self.hide()  # the widgets live in the grid; this object only owns them
+
+        c.pointsChanged.connect(self._on_points)
+        c.cameraChanged.connect(self._on_camera)
+        self.refitter.refitted.connect(self._on_refit)
+        self.refitter.running.connect(lambda on: self._update_info())
+        self._on_camera()
+
+    # --- actions ----------------------------------------------------------------------------------------------
+    def _redraw(self) -> None:
+        self.dock._on_points(set())
+        self._update_info()
+
+    def more(self) -> int:
+        n = self.c.more_suggestions()
+        if not n:
+            self.dock.show_message(self.tr("No more undecided suggestions: run Suggest points again for others."))
+        return n
+
+    def reject_rest(self) -> int:
+        return self.c.reject_rest()
+
+    def accept_likely(self) -> int:
+        n = self.c.accept_likely()
+        if not n:
+            self.dock.show_message(self.tr("No likely pairs under the current camera: accept a few points you "
+                                           "recognise, the refit links the rest."))
+        return n
+
+    def reject_outliers(self) -> int:
+        n = self.c.reject_outliers()
+        self.dock.photo_view.redraw_recommendations()
+        return n
+
+    def set_filter(self, status: str, on: bool) -> None:
+        self.c.shortlist.set_filter(status, on)
+        self._show_text()
+        self._redraw()
+
+    def _show_text(self) -> None:
+        names = {SUGGESTED: self.tr("undecided"), ACCEPTED: self.tr("accepted"), REJECTED: self.tr("rejected")}
+        on = [names[s] for s, a in self.filter_checks.items() if a.isChecked()]
+        text = self.tr("all") if len(on) == len(names) else ", ".join(on) if on else self.tr("nothing")
+        self.showButton.setText(self.tr("Show: {0}").format(text))
+
+    def _per_page(self, n: int) -> None:
+        sl = self.c.shortlist
+        sl.per_page = int(n)
+        for space in (PHOTO, MAP):
+            sl._rerank(space, keep=0)
+        self._redraw()
+
+    def _threshold(self, px: float) -> None:
+        self.c.shortlist.set_threshold(px)
+        self._redraw()
+
+    def _refit_toggled(self, on: bool) -> None:
+        self.refitter.enabled = on
+        if on:
+            self.refitter.schedule(force=True)
+        else:
+            self.refitter.cancel()
+
+    # --- following the controller -----------------------------------------------------------------------------
+    def _on_points(self, changed) -> None:
+        self.dock.statusLabel.clear()  # a message about the state before this edit is stale now
+        self.refitter.schedule()
+        self._update_info()
+
+    def _on_camera(self) -> None:
+        """A new prior or Fit-button camera: re-rank by it (a later refit re-ranks again)."""
+        c = self.c
+        info = c.state.fit_info or {}
+        if c.fitted is not None:
+            camera, sigma = c.fitted, sigma_of(float(info.get("rmse_px") or float("nan")))
+            self.refit_info = self.tr("fit, {0:.1f} px").format(info["rmse_px"]) if info.get("rmse_px") else \
+                self.tr("fit")
+        elif c.prior is not None:
+            camera, sigma, self.refit_info = c.prior, PRIOR_SIGMA_PX, self.tr("rough camera")
+        else:
+            camera, sigma, self.refit_info = None, PRIOR_SIGMA_PX, ""
+        key = (c.state.fitted, c.state.prior)
+        if key != getattr(self, "_camera_key", None):  # cameraChanged also fires for the overlay, the photo...
+            self._camera_key = key
+            c.shortlist.set_camera(camera, sigma)
+            self._redraw()
+            self.refitter.schedule(force=camera is not None)
+        self._update_info()
+
+    def _on_refit(self, outcome) -> None:
+        sl = self.c.shortlist
+        sl.set_outliers(outcome.outlier_ids)
+        if outcome.rec is not None:
+            sl.set_camera(outcome.camera, outcome.sigma, outcome.rec)
+            self.refit_info = self.tr("refit, {0:.1f} px ({1})").format(outcome.rmse_px, self.tr(outcome.status))
+        else:
+            self.refit_info = self.tr("refit {0}: ranking kept").format(self.tr(outcome.status))
+        self._redraw()
+
+    def _update_info(self) -> None:
+        sl = self.c.shortlist
+        n_out = len(sl.current_outliers())
+        n_likely = len(sl.likely())
+        self.acceptLikelyButton.setEnabled(n_likely > 0)
+        self.acceptLikelyButton.setText(self.tr("Accept likely ({0})").format(n_likely) if n_likely
+                                        else self.tr("Accept likely"))
+        self.rejectOutliersButton.setEnabled(n_out > 0)
+        self.rejectOutliersButton.setText(self.tr("Reject outliers ({0})").format(n_out) if n_out
+                                          else self.tr("Reject outliers"))
+        shown = {s: len(sl.shown[s]) for s in (PHOTO, MAP)}
+        left = {s: sl.remaining(s) + shown[s] for s in (PHOTO, MAP)}
+        text = self.tr("Showing {0} of {1} undecided photo and {2} of {3} DEM suggestions").format(
+            shown[PHOTO], left[PHOTO], shown[MAP], left[MAP])
+        if self.refit_info:
+            text += " · " + self.tr("camera: {0}").format(self.refit_info)
+        if self.refitter.task is not None:
+            text += " · " + self.tr("refitting…")
+        self.info = text
+        counts = self.dock.countsLabel
+        base = counts.text().split("\n")[0]
+        counts.setText(base + "\n" + text)
+
+    def unload(self) -> None:
+        self.refitter.enabled = False
+        self.refitter.cancel(wait_ms=10000)  # no refit left running once the dock is gone
+
+
+def install_curation_panel(dock) -> CurationPanel:
+    """Put the curation actions under the point buttons and make the table list the points on show."""
+    panel = CurationPanel(dock)
+    dock.table_model.ids = dock.controller.visible_ids
+    # column widths follow the contents after a change, not during it: ResizeToContents measured every row on
+    # every click (and on every scrollTo of the selection)
+    header = dock.pointTable.horizontalHeader()
+    header.setSectionResizeMode(QHeaderView.ResizeMode.Interactive)
+    timer = QTimer(panel)
+    timer.setSingleShot(True)
+    timer.setInterval(300)
+    timer.timeout.connect(dock.pointTable.resizeColumnsToContents)
+    dock.table_model.modelReset.connect(timer.start)
+    panel.column_timer = timer
+    return panel
+

@@ -1,0 +1,133 @@
+"""The background refit while the person clicks: debounced, cancelable, one QgsTask at a time.
+
+Every change of the accepted points restarts a short timer; when it fires, the accepted points, the start camera
+and the suggestions are copied on the main thread, and a :class:`~monoplot_plugin.gui.tasks.FunctionTask` runs the
+one fit step (:func:`workflow.fit.fit`) and the camera's :func:`~monoplot_plugin.gui.shortlist.recommendation`
+(agreement, likely pairs) in the background. A newer change cancels the running refit and starts again after it.
+The result (:class:`RefitOutcome`) re-ranks the suggestions and flags the outliers; it never replaces the camera
+of the Fit button.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import List, Optional
+
+import numpy as np
+from qgis.PyQt.QtCore import QObject, QTimer, pyqtSignal
+
+from ..workflow import fit as fit_step
+from .shortlist import Recommendation, recommendation
+from .tasks import FunctionTask, start_task
+
+__all__ = ["Refitter", "RefitOutcome", "sigma_of"]
+
+#: statuses of a refit good enough to re-rank by
+USABLE = ("ok", "uncertain")
+
+
+@dataclass
+class RefitOutcome:
+    camera: object
+    status: str
+    rmse_px: float
+    sigma: float
+    outlier_ids: List[str] = field(default_factory=list)
+    rec: Optional[Recommendation] = None
+    seconds: float = 0.0
+    n_photo: int = 0  # accepted photo points the refit used
+
+
+def sigma_of(rmse_px: float) -> float:
+    """How far (px) a partner may be under a fitted camera of this RMSE (at least 4 px).
+
+    >>> sigma_of(3.0), sigma_of(float("nan"))
+    (6.0, 25.0)
+    """
+    return max(4.0, 2.0 * rmse_px) if math.isfinite(rmse_px) else 25.0
+
+
+class Refitter(QObject):
+    """Signals: ``refitted(RefitOutcome)`` on the main thread; ``running(bool)``."""
+
+    refitted = pyqtSignal(object)
+    running = pyqtSignal(bool)
+
+    def __init__(self, controller, delay_ms: int = 600, parent=None):
+        super().__init__(parent)
+        self.c = controller
+        self.enabled = True
+        self.task: Optional[FunctionTask] = None
+        self._again = False
+        self._key = None
+        self._timer = QTimer(self)
+        self._timer.setSingleShot(True)
+        self._timer.setInterval(delay_ms)
+        self._timer.timeout.connect(self._run)
+
+    def accepted_key(self):
+        sl = self.c.shortlist
+        return frozenset(pid for space in sl.decided.values() for pid, st in space.items() if st == "accepted")
+
+    def schedule(self, force: bool = False) -> None:
+        """Refit soon if the accepted points changed since the last refit (or ``force``)."""
+        if not self.enabled:
+            return
+        key = self.accepted_key()
+        if force or key != self._key:
+            self._timer.start()
+
+    def cancel(self, wait_ms: int = 0) -> None:
+        """Stop the pending and the running refit; ``wait_ms``: block until the task has stopped (unload)."""
+        self._timer.stop()
+        self._again = False
+        if self.task is not None:
+            self.task.cancel()
+            if wait_ms:
+                self.task.waitForFinished(wait_ms)
+
+    def _run(self) -> None:
+        if self.task is not None:  # a newer change: stop the running refit, start again when it ends
+            self._again = True
+            self.task.cancel()
+            return
+        c = self.c
+        start = c.prior or c.fitted
+        if start is None or c.dem is None or c.image is None:
+            return
+        inputs = c.fit_inputs()
+        if isinstance(inputs, str):
+            return
+        self._key = self.accepted_key()
+        uv, xyz, pairs = inputs
+        photo_ids = list(c._fit_ids[0])
+        snapshot = c.shortlist.snapshot()
+        threshold = c.shortlist.threshold
+        dem = c.dem
+
+        def work(progress, is_canceled):
+            done = fit_step.fit(uv, xyz, start, dem, pairs=pairs or None, progress=progress,
+                                is_canceled=is_canceled)
+            r = done.result
+            rmse = float(r.rmse_px) if r.rmse_px is not None else float("nan")
+            sigma = sigma_of(rmse)
+            rec = recommendation(done.camera, *snapshot, sigma, threshold) if r.status in USABLE else None
+            flags = np.asarray(r.photo_outliers, dtype=bool).reshape(-1)
+            outliers = [pid for pid, f in zip(photo_ids, flags) if f] if len(flags) == len(photo_ids) else []
+            return RefitOutcome(done.camera, r.status, rmse, sigma, outliers, rec, float(r.elapsed_s), len(uv))
+
+        self.task = FunctionTask("Monoplot refit", work, self._done)
+        self.running.emit(True)
+        start_task(self.task)
+
+    def _done(self, result) -> None:
+        self.task = None
+        self.running.emit(False)
+        if result.ok:
+            self.refitted.emit(result.value)
+        else:
+            self._key = None  # canceled or refused: the same points may be tried again
+        if self._again:
+            self._again = False
+            self._timer.start()

@@ -1,0 +1,314 @@
+"""Many photos at once, without Qt or qgis: a time-lapse folder sharing one camera, or a CSV table of photos each
+with its own prior and points. One bad photo is reported and skipped; the others go on.
+
+A job is a list of :class:`PhotoJob`; :func:`run_batch` runs them and returns one :class:`PhotoResult` per photo, in
+job order. The frames of one shared camera share what depends only on camera and DEM (computed once, see
+:mod:`.frames`), run on every core (threads: decoding, GDAL writes and OpenCV release the GIL), and optionally are
+re-registered on a reference frame (``register``). :mod:`.cluster` runs the same frames as Dask tasks.
+"""
+
+from __future__ import annotations
+
+import csv
+import fnmatch
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Callable, Iterable, List, Optional
+
+import numpy as np
+
+from ..outputs.safe_write import write_text
+from .files import InputError, read_photo
+from .frames import SHARED_XYZ, FrameTask, PhotoResult, Timelapse, fit_job, process_frame, shared_for
+from .progress import IsCanceled, Progress, never_canceled, no_progress
+
+__all__ = ["PhotoJob", "PhotoResult", "folder_jobs", "table_jobs", "run_batch", "output_stems", "fit_shared_camera",
+           "fit_job", "write_log", "frame_tasks", "batch_setup", "IMAGE_PATTERNS"]
+
+IMAGE_PATTERNS = ("*.jpg", "*.jpeg", "*.png", "*.tif", "*.tiff", "*.bmp")
+
+Log = Callable[[str, bool], None]
+
+
+@dataclass
+class PhotoJob:
+    """One photo of a batch: ``camera`` (shared, already fitted) or ``prior`` + point files (fit per photo)."""
+
+    photo: str
+    camera: Optional[object] = None
+    prior: str = ""
+    points: str = ""       # paired GCP CSV (u_px, v_px, X, Y, Z) or photo points CSV
+    dem_points: str = ""   # DEM points CSV (unpaired fit)
+    label: str = ""        # where the job comes from (table line), for messages about a row without a photo
+
+
+def folder_jobs(folder: str, camera, patterns: str = "") -> List[PhotoJob]:
+    """Jobs for every image in ``folder`` (sorted by name), all sharing ``camera``.
+
+    ``patterns``: semicolon-separated globs (default: common image extensions)."""
+    if not folder or not os.path.isdir(folder):
+        raise InputError(f"photo folder not found: {folder}")
+    globs = [p.strip() for p in patterns.split(";") if p.strip()] or list(IMAGE_PATTERNS)
+    names = sorted(n for n in os.listdir(folder)
+                   if os.path.isfile(os.path.join(folder, n)) and any(fnmatch.fnmatch(n.lower(), g.lower())
+                                                                      for g in globs))
+    if not names:
+        raise InputError(f"no photos matching {';'.join(globs)} in {folder}")
+    return [PhotoJob(os.path.join(folder, n), camera=camera) for n in names]
+
+
+def table_jobs(path: str) -> List[PhotoJob]:
+    """Jobs from a CSV table with columns ``photo, prior, points`` and optionally ``dem_points``; relative paths
+    are relative to the table's folder. ``points`` is a paired GCP CSV, or photo points when ``dem_points`` is
+    given (unpaired)."""
+    if not path or not os.path.isfile(path):
+        raise InputError(f"batch table not found: {path}")
+    base = os.path.dirname(os.path.abspath(path))
+    import io
+
+    from .inputs import read_text
+
+    with io.StringIO(read_text(path), newline="") as fh:  # UTF-8 with or without BOM, UTF-16
+        sample = fh.read(4096)
+        fh.seek(0)
+        try:  # spreadsheets in many locales save CSV with ';' (or tabs)
+            dialect = csv.Sniffer().sniff(sample.splitlines()[0] if sample else "", delimiters=",;\t")
+        except csv.Error:
+            dialect = csv.excel
+        reader = csv.DictReader(fh, dialect=dialect)
+        rows = []  # (line number in the file, row), blank rows left out
+        for row in reader:
+            if any(isinstance(v, str) and v.strip() for v in row.values()):
+                rows.append((reader.line_num, row))
+        header = [k for k in (reader.fieldnames or []) if k]
+    if not rows:
+        raise InputError(f"{os.path.basename(path)}: no photos listed")
+    lowered = {k.strip().lower(): k for k in header}
+    missing = [c for c in ("photo", "prior", "points") if c not in lowered]
+    if missing:
+        raise InputError(f"{os.path.basename(path)}: missing column(s) {', '.join(missing)} (expected photo, prior, "
+                         f"points[, dem_points]; found {', '.join(header) or 'no header'})")
+
+    def resolve(row, column):
+        value = (row.get(lowered.get(column, ""), "") or "").strip()
+        return os.path.join(base, value) if value and not os.path.isabs(value) else value
+
+    return [PhotoJob(resolve(r, "photo"), prior=resolve(r, "prior"), points=resolve(r, "points"),
+                     dem_points=resolve(r, "dem_points"), label=f"{os.path.basename(path)} line {line}")
+            for line, r in rows]
+
+
+def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: bool = True,
+              write_ortho: bool = True, resolution: Optional[float] = None,
+              log: Log = lambda message, error: None,
+              progress: Progress = no_progress, is_canceled: IsCanceled = never_canceled,
+              workers: Optional[int] = None, register: bool = False, reference: str = "") -> List[PhotoResult]:
+    """Run every job; never raises for one photo's problem.
+
+    Outputs per photo ``<stem>_camera.json`` (fitted jobs, and re-registered frames that turned), ``<stem>_xyz.tif``,
+    ``<stem>_ortho.tif``; jobs sharing one camera share one ``xyz.tif`` (the XYZ raster depends only on the camera
+    and the DEM). ``log(message, is_error)`` receives one line per photo; ``progress(fraction, message)`` and
+    ``is_canceled()`` follow the workflow's protocol; on a cancel the remaining photos are reported as not processed.
+
+    ``workers``: frames processed at once (threads; default: the number of cores). ``register``: match every frame
+    of a shared camera to ``reference`` (a photo; default the first job's) and make its products with the corrected
+    camera; the drift is in the log and the results. All jobs share one camera, or none does (a table).
+    """
+    os.makedirs(out_dir, exist_ok=True)
+    stems = output_stems(jobs)
+    tasks = frame_tasks(jobs, stems, log)
+    setup = batch_setup(jobs, crs_wkt, out_dir, write_xyz, write_ortho, resolution, register, reference)
+    existing = [n for n in planned_outputs(jobs, stems, write_xyz, write_ortho)
+                if os.path.exists(os.path.join(out_dir, n))]
+    if existing:
+        log(f"{len(existing)} file(s) of an earlier run in {out_dir} are replaced (e.g. {existing[0]})", False)
+    try:
+        shared = shared_for(setup, dem)
+    except InputError as exc:  # the reference frame cannot be read: nothing can be registered
+        results = [PhotoResult(t.photo, False, f"{exc}", index=t.index) for t in tasks]
+        log(f"every photo FAILED: {exc}", True)
+        return results
+    writer = None
+    if setup.camera_json and write_xyz and shared.products.sees_ground:  # written while the frames run
+        writer = _Background(shared.products.write_xyz, os.path.join(out_dir, SHARED_XYZ), crs_wkt)
+    results = collect(_threaded(tasks, lambda t: process_frame(t, shared), workers, is_canceled), tasks, log,
+                      progress)
+    if writer is not None and writer.wait() is not None:
+        shared_xyz_failed(results, os.path.join(out_dir, SHARED_XYZ), writer.error, log)
+    return results
+
+
+def shared_xyz_failed(results: List[PhotoResult], path: str, error: Exception, log: Log) -> None:
+    """The shared ``xyz.tif`` could not be written: said once, and taken off every frame's outputs."""
+    log(f"{SHARED_XYZ} FAILED: {error}", True)
+    for r in results:
+        if path in r.outputs:
+            r.outputs.remove(path)
+            r.message += f"; {SHARED_XYZ} not written"
+
+
+class _Background:
+    """``function(*args)`` in a thread; :meth:`wait` returns the exception it raised, or None."""
+
+    def __init__(self, function, *args):
+        import threading
+
+        self.error = None
+
+        def run():
+            try:
+                function(*args)
+            except Exception as exc:  # reported by the caller after the frames
+                self.error = exc
+
+        self.thread = threading.Thread(target=run, name="monoplot-shared-xyz", daemon=True)
+        self.thread.start()
+
+    def wait(self):
+        self.thread.join()
+        return self.error
+
+
+def batch_setup(jobs: List[PhotoJob], crs_wkt: str, out_dir: str, write_xyz: bool = True, write_ortho: bool = True,
+                resolution: Optional[float] = None, register: bool = False, reference: str = "",
+                dem_path: str = "", void_value: Optional[float] = None) -> Timelapse:
+    """The :class:`~.frames.Timelapse` of a batch: the shared camera of its jobs (all or none), the reference."""
+    cameras = {j.camera.to_json() for j in jobs if j.camera is not None}
+    if len(cameras) > 1 or (cameras and any(j.camera is None for j in jobs)):
+        raise ValueError("the jobs of one batch share one camera, or each is fitted")
+    camera_json = cameras.pop() if cameras else ""
+    if register and not camera_json:
+        raise InputError("re-registration needs the frames' shared camera (time-lapse mode)")
+    if register and not reference:
+        reference = next((j.photo for j in jobs if j.photo), "")
+    return Timelapse(out_dir, crs_wkt, camera_json, write_xyz, write_ortho, resolution, register,
+                     reference if register else "", dem_path=dem_path, void_value=void_value)
+
+
+def frame_tasks(jobs: List[PhotoJob], stems: List[str], log: Log) -> List[FrameTask]:
+    """One :class:`~.frames.FrameTask` per job (a job without camera carries itself, to be fitted)."""
+    tasks = []
+    for index, (job, stem) in enumerate(zip(jobs, stems)):
+        if job.photo and stem != os.path.splitext(os.path.basename(job.photo))[0]:
+            log(f"{job.photo}: another photo of the batch has the same name; its outputs are named {stem}_*", False)
+        name = os.path.basename(job.photo) or job.label or f"job {index + 1}"
+        tasks.append(FrameTask(index, job.photo, stem, name, None if job.camera is not None else job))
+    return tasks
+
+
+def _threaded(tasks: List[FrameTask], work: Callable[[FrameTask], PhotoResult], workers: Optional[int],
+              is_canceled: IsCanceled) -> Iterable[Optional[PhotoResult]]:
+    """Results of ``work`` on every task, in task order, ``workers`` at a time (one: in this thread, strictly one
+    after the other); a task that has not started when ``is_canceled()`` turns true comes back None (canceled)."""
+    workers = max(1, workers or os.cpu_count() or 1)
+    if workers == 1:
+        for task in tasks:
+            yield None if is_canceled() else work(task)
+        return
+
+    def guarded(task):
+        return None if is_canceled() else work(task)
+
+    window = 2 * workers  # frames in flight: the decoded photos and products held at once stay few
+    with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="monoplot-batch") as pool:
+        pending = []
+        for task in tasks:
+            pending.append(pool.submit(guarded, task))
+            if len(pending) > window:
+                yield pending.pop(0).result()
+        for future in pending:
+            yield future.result()
+
+
+def collect(results: Iterable[Optional[PhotoResult]], tasks: List[FrameTask], log: Log,
+            progress: Progress) -> List[PhotoResult]:
+    """The results in task order (None: canceled before processing), logged one line each, with progress."""
+    out: List[PhotoResult] = []
+    total = len(tasks)
+    for task, result in zip(tasks, results):
+        if result is None:
+            result = PhotoResult(task.photo, False, "canceled before processing", canceled=True, index=task.index)
+        elif result.ok:
+            log(f"[{task.index + 1}/{total}] {task.name}: {result.message}", False)
+        else:
+            log(f"[{task.index + 1}/{total}] {task.name}: FAILED, skipped: {result.message}", True)
+        out.append(result)
+        progress(len(out) / max(1, total), task.name)
+    canceled = sum(r.canceled for r in out)
+    if canceled:
+        log(f"canceled: {canceled} photos not processed", True)
+    progress(1.0, "")
+    return out
+
+
+def output_stems(jobs: List[PhotoJob]) -> List[str]:
+    """The name stem of each job's outputs: the photo's name without extension, made unique within the batch
+    (case-insensitively, for Windows and macOS file systems) by ``_2``, ``_3``... in job order, so that
+    ``frame.jpg`` and ``frame.png``, or two ``frame.jpg`` of different folders, never write the same files.
+
+    >>> output_stems([PhotoJob("a/frame.jpg"), PhotoJob("b/frame.jpg"), PhotoJob("Frame.png"), PhotoJob("x.jpg")])
+    ['frame', 'frame_2', 'Frame_3', 'x']
+    """
+    plain = [os.path.splitext(os.path.basename(j.photo))[0] or "photo" for j in jobs]
+    taken = {p.lower() for p in plain}
+    seen, stems = set(), []
+    for stem in plain:
+        unique, n = stem, 1
+        while unique.lower() in seen or (n > 1 and unique.lower() in taken):  # nor another photo's own name
+            n += 1
+            unique = f"{stem}_{n}"
+        seen.add(unique.lower())
+        stems.append(unique)
+    return stems
+
+
+def planned_outputs(jobs: List[PhotoJob], stems: List[str], write_xyz: bool, write_ortho: bool) -> List[str]:
+    """File names :func:`run_batch` writes into the output folder."""
+    names = []
+    for job, stem in zip(jobs, stems):
+        if job.camera is None:
+            names.append(f"{stem}_camera.json")
+        if write_xyz:
+            names.append("xyz.tif" if job.camera is not None else f"{stem}_xyz.tif")
+        if write_ortho:
+            names.append(f"{stem}_ortho.tif")
+    return sorted(set(names))
+
+
+def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_points: str, dem, crs_wkt: str,
+                      log: Log = lambda message, error: None):
+    """Fit one camera for a whole time-lapse on its first readable photo (the frames share the camera).
+
+    Returns (camera, photo used, rmse px). Raises InputError when no photo can be fitted."""
+    problems = []
+    for path in folder_photos:
+        try:
+            photo = read_photo(path)
+        except InputError as exc:
+            problems.append(str(exc))
+            log(f"{os.path.basename(path)}: skipped for the shared fit: {exc}", True)
+            continue
+        job = PhotoJob(path, prior=prior, points=points, dem_points=dem_points)
+        camera, rmse, status, message = fit_job(job, (photo.shape[1], photo.shape[0]), dem, crs_wkt)
+        if status != "ok":
+            log(f"{os.path.basename(path)}: the shared camera's fit is {status}: {message}", True)
+        return camera, path, rmse
+    raise InputError("no photo of the folder could be read for the shared fit: " + "; ".join(problems[:3]))
+
+
+def write_log(path: str, results: List[PhotoResult]) -> None:
+    """CSV summary: photo, status (ok, failed or canceled), message, rmse_px, drift_px, drift_deg (re-registered
+    frames), outputs (semicolon-separated)."""
+    import io
+
+    def number(value, digits):
+        return "" if not np.isfinite(value) else f"{value:.{digits}f}"
+
+    text = io.StringIO(newline="")
+    writer = csv.writer(text)
+    writer.writerow(["photo", "status", "message", "rmse_px", "drift_px", "drift_deg", "outputs"])
+    for r in results:
+        writer.writerow([r.photo, "ok" if r.ok else "canceled" if r.canceled else "failed", r.message,
+                         number(r.rmse_px, 3), number(r.drift_px, 3), number(r.drift_deg, 4), ";".join(r.outputs)])
+    write_text(path, text.getvalue(), overwrite=True)

@@ -1,0 +1,162 @@
+"""The batch on a Dask ``distributed`` cluster: each frame a task, the results and failures in one table.
+
+:func:`run_batch_dask` takes a ``Client`` (or a scheduler ``address``; neither: a ``LocalCluster`` of processes on
+this machine, one per core). The workers rebuild what the frames share from a picklable
+:class:`~.frames.Timelapse` (they open the DEM and the reference frame by path: on a cluster, every worker must see
+the photos, the DEM and the output folder at the same paths) and keep it for the next frames
+(:func:`~.frames.shared_for`).
+
+A worker that dies (killed, out of memory, its machine gone) loses its running frames; the scheduler runs them again
+on another worker, up to ``distributed.scheduler.allowed-failures`` times (then the frame is reported failed). No
+frame is lost or written twice: a frame's result is taken once, by its index, and every file is written to a
+temporary name and renamed into place (:mod:`..outputs.safe_write`), so a worker killed while writing leaves an
+orphan temporary file, which is removed at the end, never a half file under the output's name.
+
+Start a cluster (README, "Batches on a Dask cluster")::
+
+    dask scheduler                                   # on one machine: prints tcp://host:8786
+    MALLOC_MMAP_THRESHOLD_=67108864 dask worker tcp://host:8786 --nthreads 1 --nworkers N   # on each machine
+"""
+
+from __future__ import annotations
+
+import asyncio
+import os
+from pathlib import Path
+from typing import Dict, List, Optional
+
+from .batch import Log, PhotoJob, batch_setup, frame_tasks, output_stems, planned_outputs, shared_xyz_failed
+from .frames import SHARED_XYZ, FrameTask, PhotoResult, Timelapse, process_frame, shared_for
+from .progress import IsCanceled, Progress, never_canceled, no_progress
+
+__all__ = ["run_batch_dask", "local_client"]
+
+#: seconds between two looks at ``is_canceled`` while waiting for results
+POLL_S = 0.5
+#: environment of the worker processes :func:`local_client` starts. Dask sets ``MALLOC_TRIM_THRESHOLD_``, which
+#: turns off glibc's adaptive mmap threshold: every photo-sized array would be a fresh mmap, zeroed page by page
+#: (frames took 1.5-2 times longer on a worker than in this process); arrays up to 64 MB come from the heap again.
+WORKER_ENVIRON = {"MALLOC_MMAP_THRESHOLD_": 64 << 20}
+
+
+def local_client(workers: Optional[int] = None):
+    """A ``Client`` of a ``LocalCluster``: ``workers`` processes (default: one per core) of one thread each."""
+    import dask
+    from distributed import Client, LocalCluster
+
+    with dask.config.set({f"distributed.nanny.pre-spawn-environ.{k}": v for k, v in WORKER_ENVIRON.items()}):
+        cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
+                               dashboard_address=None)
+    return Client(cluster)
+
+
+def _frame_task(task: FrameTask, setup: Timelapse) -> PhotoResult:
+    """What a worker runs for one frame."""
+    return process_frame(task, shared_for(setup))
+
+
+def _shared_xyz_task(setup: Timelapse) -> str:
+    """What a worker runs once before the frames of a shared camera: the one ``xyz.tif``."""
+    shared = shared_for(setup)
+    if not shared.products.sees_ground:
+        return ""
+    return shared.products.write_xyz(os.path.join(setup.out_dir, SHARED_XYZ), setup.crs_wkt)
+
+
+def run_batch_dask(jobs: List[PhotoJob], dem_path: str, crs_wkt: str, out_dir: str, write_xyz: bool = True,
+                   write_ortho: bool = True, resolution: Optional[float] = None,
+                   log: Log = lambda message, error: None, progress: Progress = no_progress,
+                   is_canceled: IsCanceled = never_canceled, register: bool = False, reference: str = "",
+                   client=None, address: str = "", void_value: Optional[float] = None) -> List[PhotoResult]:
+    """:func:`~.batch.run_batch` with every frame a Dask task (arguments as there; the DEM as a file path).
+
+    ``client``: a ``distributed.Client``; else ``address`` of a scheduler ("tcp://host:8786"); else a local
+    cluster of processes (:func:`local_client`), closed at the end. Results come back in job order.
+    """
+    from distributed import Client
+
+    own = None
+    if client is None:
+        own = client = Client(address) if address else local_client()
+    try:
+        os.makedirs(out_dir, exist_ok=True)
+        stems = output_stems(jobs)
+        tasks = frame_tasks(jobs, stems, log)
+        setup = batch_setup(jobs, crs_wkt, os.path.abspath(out_dir), write_xyz, write_ortho, resolution, register,
+                            os.path.abspath(reference) if reference else "", dem_path=os.path.abspath(dem_path),
+                            void_value=void_value)
+        existing = [n for n in planned_outputs(jobs, stems, write_xyz, write_ortho)
+                    if os.path.exists(os.path.join(out_dir, n))]
+        if existing:
+            log(f"{len(existing)} file(s) of an earlier run in {out_dir} are replaced (e.g. {existing[0]})", False)
+        workers = len(client.scheduler_info().get("workers", {}))
+        log(f"Dask: {len(tasks)} frames on {workers} worker(s) of {client.scheduler.address}", False)
+        shared_xyz = None
+        if setup.camera_json and write_xyz:  # one task, beside the frames
+            shared_xyz = client.submit(_shared_xyz_task, setup, pure=False)
+        results = _gather(client, tasks, setup, log, progress, is_canceled)
+        if shared_xyz is not None:
+            try:
+                shared_xyz.result()
+            except Exception as exc:  # the frames' products are there; the shared raster is not
+                shared_xyz_failed(results, os.path.join(setup.out_dir, SHARED_XYZ), exc, log)
+        _remove_orphans(out_dir, planned_outputs(jobs, stems, write_xyz, write_ortho))
+        return results
+    finally:
+        if own is not None:
+            cluster = getattr(own, "cluster", None)
+            own.close()
+            if cluster is not None and not address:
+                cluster.close()
+
+
+def _gather(client, tasks: List[FrameTask], setup: Timelapse, log: Log, progress: Progress,
+            is_canceled: IsCanceled) -> List[PhotoResult]:
+    """Submit every frame, take each result once (by index) as it comes, cancel the rest on a cancel."""
+    from distributed import wait
+
+    futures = {client.submit(_frame_task, t, setup, pure=False): t for t in tasks}
+    done: Dict[int, PhotoResult] = {}
+    pending = set(futures)
+    total = len(tasks)
+    while pending:
+        if is_canceled():
+            client.cancel(list(pending))
+            for future in pending:
+                t = futures[future]
+                done[t.index] = PhotoResult(t.photo, False, "canceled before processing", canceled=True,
+                                            index=t.index)
+            log(f"canceled: {len(pending)} photos not processed", True)
+            break
+        try:
+            finished, pending = wait(pending, timeout=POLL_S, return_when="FIRST_COMPLETED")
+        except (TimeoutError, asyncio.TimeoutError):  # nothing finished yet: look at is_canceled again
+            continue
+        for future in finished:
+            t = futures[future]
+            if t.index in done:
+                continue
+            try:
+                result = future.result()
+            except Exception as exc:  # KilledWorker: the frame killed its workers again and again
+                result = PhotoResult(t.photo, False, f"{type(exc).__name__}: {exc}", index=t.index)
+            done[t.index] = result
+            if result.ok:
+                log(f"[{t.index + 1}/{total}] {t.name}: {result.message}", False)
+            else:
+                log(f"[{t.index + 1}/{total}] {t.name}: FAILED, skipped: {result.message}", True)
+            progress(len(done) / max(1, total), t.name)
+    progress(1.0, "")
+    return [done[t.index] for t in tasks]
+
+
+def _remove_orphans(out_dir: str, names: List[str]) -> None:
+    """Temporary files of outputs a killed worker was writing (the retry wrote the output itself)."""
+    folder = Path(out_dir)
+    for name in names:
+        stem = name[: len(name) - len(Path(name).suffix)]
+        for orphan in folder.glob(f".{stem}.monoplot-tmp-*"):
+            try:
+                orphan.unlink()
+            except OSError:
+                pass

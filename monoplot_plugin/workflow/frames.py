@@ -1,0 +1,256 @@
+"""One frame of a batch, and what the frames of one camera share (computed once, reused by every frame).
+
+What depends only on the camera and the DEM is :class:`CameraProducts`: the XYZ raster, whether the camera sees any
+ground, and the orthophoto's index map (:class:`~..core.lookup.OrthoLookup`), so a frame of a time-lapse costs a
+decode, a gather and a write. With re-registration (:class:`Timelapse` ``register``) each frame is first matched to
+the reference frame (:mod:`..core.drift`); a frame that turned gets products of its own corrected camera, a frame
+that cannot be registered fails with the reason (it is never given the reference camera).
+
+:func:`process_frame` never raises for one frame's problem: it returns a :class:`PhotoResult`. It runs in threads
+(:func:`..workflow.batch.run_batch`) and on Dask workers (:mod:`.cluster`), which rebuild the shared part from a
+picklable :class:`Timelapse` (:func:`shared_for`, cached per process).
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from dataclasses import dataclass, field
+from typing import List, Optional
+
+import numpy as np
+
+from ..core.camera import Camera
+from ..core.drift import Reference, corrected_camera, register, stable_mask
+from ..core.lookup import ortho_lookup, turnable_lookup
+from ..core.xyz import compute_xyz
+from ..outputs.orthophoto import write_orthophoto
+from ..outputs.safe_write import write_text
+from ..outputs.xyz_raster import write_xyz_raster
+from .files import InputError, load_camera, read_photo, read_points_csv
+from .fit import fit_points
+from .inputs import load_dem
+from .products import dem_at_resolution
+from .vectors import fill_missing_z
+from .xyz import xyz_raster
+
+__all__ = ["PhotoResult", "CameraProducts", "Timelapse", "Shared", "shared_for", "process_frame", "FrameTask",
+           "fit_job", "SHARED_XYZ", "DRIFT_TOLERANCE_PX"]
+
+#: file name of the XYZ raster the frames of one shared camera share
+SHARED_XYZ = "xyz.tif"
+#: a registered frame turned by less than this (pixels) keeps the reference camera's products (below the accuracy
+#: of the registration itself); its drift is reported all the same
+DRIFT_TOLERANCE_PX = 0.1
+
+_compute_lock = threading.Lock()  # one z-buffer at a time: it is parallel inside (numba)
+
+
+@dataclass
+class PhotoResult:
+    photo: str
+    ok: bool
+    message: str = ""
+    outputs: List[str] = field(default_factory=list)
+    rmse_px: float = float("nan")
+    canceled: bool = False  # not processed because the user canceled the batch
+    drift_px: float = float("nan")  # re-registration: mean image shift from the reference frame
+    drift_deg: float = float("nan")  # and the angle of the turn
+    index: int = -1  # position in the batch
+
+
+class CameraProducts:
+    """What every frame of ``camera`` shares over ``dem``: ``xyz`` (H, W, 3), ``sees_ground``, and the orthophoto
+    grid (``resolution`` map units, None: the DEM's) with its ``lookup``."""
+
+    def __init__(self, camera: Camera, dem, resolution: Optional[float] = None, ortho: bool = True,
+                 cached: bool = True):
+        self.camera = camera
+        with _compute_lock:
+            self.xyz = xyz_raster(camera, dem) if cached else compute_xyz(camera, dem)
+        self.sees_ground = bool(np.isfinite(self.xyz[..., 2]).any())
+        self.grid = self.lookup = None
+        if ortho and self.sees_ground:
+            self.grid = dem if not resolution else dem_at_resolution(dem, resolution)
+            self.lookup = ortho_lookup(camera, self.grid, self.xyz)
+
+    @classmethod
+    def of_lookup(cls, camera: Camera, grid, lookup) -> "CameraProducts":
+        """Products of a camera whose orthophoto lookup is known (a turned frame): orthophotos only, no XYZ."""
+        products = cls.__new__(cls)
+        products.camera, products.grid, products.lookup = camera, grid, lookup
+        products.xyz, products.sees_ground = None, True
+        return products
+
+    def write_orthophoto(self, path: str, photo: np.ndarray) -> str:
+        image = self.lookup.apply(photo[..., :3] if photo.ndim == 3 and photo.shape[2] > 3 else photo)
+        return str(write_orthophoto(path, image, self.grid.geotransform, self.grid.crs_wkt, overwrite=True))
+
+    def write_xyz(self, path: str, crs_wkt: str, photo_name: str = "") -> str:
+        return str(write_xyz_raster(path, self.xyz, crs_wkt, overwrite=True, camera=self.camera,
+                                    photo_name=photo_name))
+
+
+@dataclass(frozen=True)
+class Timelapse:
+    """What the frames of a batch share, picklable (Dask ships it to workers, which open the DEM themselves).
+
+    ``camera_json``: the shared camera ("" for a table of photos each fitted). ``register``: re-register every
+    frame on ``reference`` (a photo path). ``dem_path``/``void_value``: how a worker opens the DEM."""
+
+    out_dir: str
+    crs_wkt: str
+    camera_json: str = ""
+    write_xyz: bool = True
+    write_ortho: bool = True
+    resolution: Optional[float] = None
+    register: bool = False
+    reference: str = ""
+    near_m: float = 150.0
+    dem_path: str = ""
+    void_value: Optional[float] = None
+
+
+@dataclass(frozen=True)
+class FrameTask:
+    """One frame to process: ``index`` in the batch, its ``photo``, output ``stem``, display ``name`` and, for a
+    table row, the job itself (prior and points to fit)."""
+
+    index: int
+    photo: str
+    stem: str
+    name: str
+    job: object = None
+
+
+class Shared:
+    """The computed side of a :class:`Timelapse`: the DEM, the shared camera's products, the reference frame."""
+
+    def __init__(self, setup: Timelapse, dem=None):
+        self.setup = setup
+        if dem is None:
+            dem, _ = load_dem(setup.dem_path, setup.void_value)
+        self.dem = dem
+        self.camera = Camera.from_json(setup.camera_json) if setup.camera_json else None
+        self.products = None
+        self.reference = None
+        self.turnable = None  # the orthophoto lookup of any small turn of the camera (re-registration)
+        if self.camera is not None:
+            self.products = CameraProducts(self.camera, dem, setup.resolution, setup.write_ortho)
+            if setup.register and self.products.sees_ground:
+                photo = read_photo(setup.reference)
+                if (photo.shape[1], photo.shape[0]) != tuple(self.camera.image_size):
+                    raise InputError(f"the reference frame {os.path.basename(setup.reference)} is "
+                                     f"{photo.shape[1]}x{photo.shape[0]} px but the shared camera is for "
+                                     f"{self.camera.width}x{self.camera.height} px")
+                self.reference = Reference(photo, self.camera, stable_mask(self.products.xyz, self.camera,
+                                                                           setup.near_m))
+                if setup.write_ortho and not setup.write_xyz:  # turned frames need no z-buffer of their own
+                    with _compute_lock:
+                        self.turnable = turnable_lookup(self.camera, self.products.grid,
+                                                        lambda wide: compute_xyz(wide, dem))
+
+
+_shared_lock = threading.Lock()
+_shared: dict = {}  # per process: {Timelapse: Shared}, the last one only
+
+
+def shared_for(setup: Timelapse, dem=None) -> Shared:
+    """The :class:`Shared` of ``setup``, built once per process (threads wait for the first build)."""
+    with _shared_lock:
+        found = _shared.get(setup)
+        if found is None:
+            _shared.clear()
+            found = _shared[setup] = Shared(setup, dem)
+        return found
+
+
+def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
+    """Read, (re-register,) and write the products of one frame; every problem becomes a failed result."""
+    setup = shared.setup
+    result = PhotoResult(task.photo, False, index=task.index)
+    try:
+        photo = read_photo(task.photo)
+        size = (photo.shape[1], photo.shape[0])
+        camera, products = shared.camera, shared.products
+        fit_status, fit_message = "ok", ""
+        if camera is None:  # a table row: fit this photo's camera
+            camera, result.rmse_px, fit_status, fit_message = fit_job(task.job, size, shared.dem, setup.crs_wkt)
+            result.outputs.append(_write_camera(setup, task.stem, camera))
+            products = CameraProducts(camera, shared.dem, setup.resolution, setup.write_ortho, cached=False)
+        elif tuple(camera.image_size) != size:
+            raise InputError(f"photo is {size[0]}x{size[1]} px but the shared camera is for "
+                             f"{camera.width}x{camera.height} px")
+        own_camera = shared.camera is None
+        if shared.reference is not None:
+            products, turned = _registered(shared, photo, result)
+            if turned:
+                camera, own_camera = products.camera, True
+                result.outputs.append(_write_camera(setup, task.stem, camera))
+        if (setup.write_xyz or setup.write_ortho) and not products.sees_ground:
+            raise InputError("the camera sees no cell of the DEM (every pixel is sky): wrong camera or DEM?")
+        if setup.write_xyz:
+            if own_camera:
+                result.outputs.append(products.write_xyz(os.path.join(setup.out_dir, f"{task.stem}_xyz.tif"),
+                                                         setup.crs_wkt, task.name))
+            else:  # written once before the frames (see batch.run_batch)
+                result.outputs.append(os.path.join(setup.out_dir, SHARED_XYZ))
+        if setup.write_ortho:
+            result.outputs.append(products.write_orthophoto(os.path.join(setup.out_dir, f"{task.stem}_ortho.tif"),
+                                                            photo))
+        result.ok = True
+        result.message = "ok" if np.isnan(result.rmse_px) else f"ok, fit RMSE {result.rmse_px:.2f} px"
+        if fit_status != "ok":  # products written, but the fitted camera is doubtful
+            result.message = f"fit {fit_status}, RMSE {result.rmse_px:.2f} px: {fit_message}"
+        if np.isfinite(result.drift_px):
+            result.message += f", drift {result.drift_px:.2f} px ({result.drift_deg:.3f} deg)"
+        if task.photo and task.stem != os.path.splitext(task.name)[0]:
+            result.message += f" (outputs {task.stem}_*)"
+    except Exception as exc:  # one photo's failure must not lose the batch
+        result.ok = False
+        result.message = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
+    return result
+
+
+def _registered(shared: Shared, photo: np.ndarray, result: PhotoResult):
+    """(products, turned) of a frame re-registered on the reference; InputError when it cannot be."""
+    drift = register(shared.reference, photo)
+    if not drift.ok:
+        raise InputError(f"not registered on the reference frame: {drift.message}")
+    result.drift_px, result.drift_deg = drift.pixels, drift.degrees
+    if drift.pixels < DRIFT_TOLERANCE_PX:
+        return shared.products, False
+    camera = corrected_camera(shared.camera, drift.rotation)
+    if shared.turnable is not None:
+        lookup = shared.turnable.turned(camera)
+        if lookup is not None:
+            return CameraProducts.of_lookup(camera, shared.products.grid, lookup), True
+    return CameraProducts(camera, shared.dem, shared.setup.resolution, shared.setup.write_ortho, cached=False), True
+
+
+def _write_camera(setup: Timelapse, stem: str, camera: Camera) -> str:
+    path = os.path.join(setup.out_dir, f"{stem}_camera.json")
+    write_text(path, camera.to_json(), overwrite=True)
+    return path
+
+
+def fit_job(job, size, dem, crs_wkt: str):
+    """Fit the camera of a batch job (``prior``, ``points``, ``dem_points`` paths) from its files; returns (camera,
+    rmse in px, fit status, message)."""
+    prior = load_camera(job.prior, size, crs_wkt)
+    table = read_points_csv(job.points)
+    if "uv" not in table:
+        raise InputError(f"{os.path.basename(job.points)}: no photo point columns (u_px, v_px)")
+    uv = table["uv"]
+    if job.dem_points:
+        xyz, paired = read_points_csv(job.dem_points).get("xyz"), False
+        if xyz is None:
+            raise InputError(f"{os.path.basename(job.dem_points)}: no X, Y, Z columns")
+    elif "xyz" in table:
+        xyz, paired = table["xyz"], True
+    else:
+        raise InputError(f"{os.path.basename(job.points)}: no map columns (X, Y, Z) and no dem_points file")
+    xyz = fill_missing_z(xyz, dem)
+    camera, info = fit_points(size, uv, xyz, prior, dem, paired)
+    camera.crs_wkt = crs_wkt
+    return camera, float(info["rmse_px"]), info["status"], info["message"]

@@ -1,0 +1,167 @@
+"""Issue 12 in the real dock: a few suggestions at a time, bulk actions, clicks that do what they say, messages once,
+the background refit, likely pairs and outliers (real QGIS, real clicks on the dock's canvases, real fits)."""
+
+from __future__ import annotations
+
+import numpy as np
+from qgis.core import Qgis
+from qgis.gui import QgsMessageBar
+from qgis.PyQt.QtCore import Qt
+
+from monoplot_plugin.gui.curation_panel import MessageOnce
+from monoplot_plugin.state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, add_points
+from test_dock import add_scene_points, load_inputs, photo_pos
+
+
+def press(qtbot, button):
+    qtbot.mouseClick(button, Qt.MouseButton.LeftButton)
+
+
+def drawn(markers, status) -> int:
+    return markers.bands[status].numberOfVertices()
+
+
+def test_each_view_shows_a_few_and_the_bulk_actions_page_through(dock, scene, qtbot):
+    load_inputs(dock, scene, qtbot)
+    c, panel = dock.controller, dock.curation_panel
+    add_scene_points(dock, scene)
+    n = len(scene.uv)
+    per_page = c.shortlist.per_page
+    assert n > 2 * per_page
+    shown = c.shortlist.shown_undecided(PHOTO)
+    assert len(shown) == per_page and drawn(dock.photo_view.markers, SUGGESTED) == per_page
+    assert drawn(dock.map_view.markers, SUGGESTED) == per_page
+    assert dock.table_proxy.rowCount() == 2 * per_page  # the table lists what the views show
+    # the shown ones are spread over the photo, not the strongest corner
+    uv = np.array([(c.state.points[i].x, c.state.points[i].y) for i in shown])
+    assert np.ptp(uv[:, 0]) > 0.6 * 480 and np.ptp(uv[:, 1]) > 0.5 * 320
+    # a click on a hidden suggestion does nothing: only what is drawn can be hit
+    hidden = next(p for p in c.state.in_space(PHOTO) if p.id not in shown
+                  and min(np.hypot(*(uv - (p.x, p.y)).T)) > 25)
+    qtbot.mouseClick(dock.photo_canvas.viewport(), Qt.MouseButton.LeftButton, pos=photo_pos(dock, hidden.x, hidden.y))
+    assert c.state.points[hidden.id].status == SUGGESTED
+    # accept one, then "Reject the rest": the other shown ones of both views are rejected in one undo entry
+    qtbot.mouseClick(dock.photo_canvas.viewport(), Qt.MouseButton.LeftButton,
+                     pos=photo_pos(dock, *uv[0]))
+    assert c.state.points[shown[0]].status == ACCEPTED
+    press(qtbot, panel.rejectRestButton)
+    counts = c.state.counts()
+    assert counts[PHOTO][REJECTED] == per_page - 1 and counts[MAP][REJECTED] == per_page
+    # rejected points are hidden by default; the next few came
+    assert drawn(dock.photo_view.markers, REJECTED) == 0
+    assert set(c.shortlist.shown_undecided(PHOTO)).isdisjoint(shown)
+    assert len(c.shortlist.shown_undecided(PHOTO)) == per_page
+    panel.filter_checks[REJECTED].setChecked(True)
+    assert drawn(dock.photo_view.markers, REJECTED) == per_page - 1
+    panel.filter_checks[SUGGESTED].setChecked(False)
+    assert drawn(dock.photo_view.markers, SUGGESTED) == 0
+    panel.filter_checks[SUGGESTED].setChecked(True)
+    # one undo takes the whole "Reject the rest" back, and they are on show again
+    c.stack.undo()
+    assert c.state.counts()[PHOTO][REJECTED] == 0 and c.state.points[shown[0]].status == ACCEPTED
+    assert set(shown[1:]) <= set(c.shortlist.shown_undecided(PHOTO))
+    # "More suggestions" adds the next few
+    before = len(c.shortlist.shown_undecided(MAP))
+    press(qtbot, panel.moreButton)
+    assert len(c.shortlist.shown_undecided(MAP)) == min(before + per_page, n)
+
+
+def test_ctrl_click_always_adds_and_undo_after_a_no_op_click_keeps_the_edit(dock, scene, qtbot):
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    photo, _ = add_scene_points(dock, scene, n=6)
+    viewport = dock.photo_canvas.viewport()
+    target = photo[0]
+    # Ctrl+click 2 px from a suggestion: a new manual point, the suggestion untouched
+    qtbot.mouseClick(viewport, Qt.MouseButton.LeftButton, Qt.KeyboardModifier.ControlModifier,
+                     pos=photo_pos(dock, target.x + 2, target.y))
+    manual = [p for p in c.state.in_space(PHOTO) if p.manual]
+    assert len(manual) == 1 and manual[0].status == ACCEPTED
+    assert c.state.points[target.id].status == SUGGESTED
+    # accept a suggestion, click it again (changes nothing): the undo after that must not take the accept back
+    other = photo[3]
+    qtbot.mouseClick(viewport, Qt.MouseButton.LeftButton, pos=photo_pos(dock, other.x, other.y))
+    assert c.state.points[other.id].status == ACCEPTED
+    qtbot.mouseClick(viewport, Qt.MouseButton.LeftButton, pos=photo_pos(dock, other.x, other.y))
+    dock.photo_canvas.setFocus()
+    qtbot.keyClick(dock.photo_canvas, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    assert c.state.points[other.id].status == ACCEPTED
+    qtbot.keyClick(dock.photo_canvas, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    assert c.state.points[other.id].status == SUGGESTED
+    assert len([p for p in c.state.in_space(PHOTO) if p.manual]) == 1  # the Ctrl+click add is the edit before
+
+
+def test_messages_show_once_and_the_status_line_follows_the_state(dock, scene, qtbot):
+    bar = QgsMessageBar()
+    once = MessageOnce()
+    for text in ("300 photo and 300 DEM suggestions", "2000 photo and 2000 DEM suggestions"):
+        once.push(bar, "Monoplot", text, Qgis.MessageLevel.Info, 6)
+    assert [item.text() for item in bar.items()] == ["2000 photo and 2000 DEM suggestions"]
+    load_inputs(dock, scene, qtbot)
+    photo, _ = add_scene_points(dock, scene, n=6)
+    dock.show_message("Camera fitted: 3.1 px")
+    assert dock.statusLabel.text() == "Camera fitted: 3.1 px"
+    qtbot.mouseClick(dock.photo_canvas.viewport(), Qt.MouseButton.RightButton,
+                     pos=photo_pos(dock, photo[1].x, photo[1].y))
+    assert dock.statusLabel.text() == ""  # the message was about the state before this edit
+
+
+def test_background_refit_links_likely_pairs_and_flags_outliers(dock, scene, qtbot):
+    load_inputs(dock, scene, qtbot)
+    c, panel = dock.controller, dock.curation_panel
+    photo, world = add_scene_points(dock, scene)
+    c.set_prior(scene.prior)
+    # the person recognised 20 features on each view (any order, not paired)
+    rng = np.random.default_rng(0)
+    chosen = rng.choice(len(photo), 20, replace=False)
+    with qtbot.waitSignal(panel.refitter.refitted, timeout=120000) as blocker:
+        c.set_status([photo[i].id for i in chosen] + [world[i].id for i in chosen], ACCEPTED)
+    outcome = blocker.args[0]
+    assert outcome.status in ("ok", "uncertain") and outcome.rmse_px < 3.0
+    # the refit camera re-ranks: likely pairs are linked on the photo, and the shown ones agree with it
+    qtbot.waitUntil(lambda: c.shortlist.camera is outcome.camera, timeout=5000)
+    likely = c.shortlist.likely()
+    truth = {(p.id, w.id) for p, w in zip(photo, world)}
+    assert len(likely) >= 30 and sum((a, b) in truth for a, b, _ in likely) >= 0.9 * len(likely)
+    assert dock.photo_view.links.band.numberOfVertices() > 0
+    ringed = c.shortlist.likely_visible(PHOTO)
+    assert ringed and dock.photo_view.likely.band.numberOfVertices() == len(ringed)
+    # "Accept likely": both ends of every pair, one undo entry
+    n_before = c.state.counts()[PHOTO][ACCEPTED]
+    assert panel.acceptLikelyButton.isEnabled()
+    with qtbot.waitSignal(panel.refitter.refitted, timeout=120000):
+        press(qtbot, panel.acceptLikelyButton)
+    gained = c.state.counts()[PHOTO][ACCEPTED] - n_before
+    assert gained >= 30 and c.state.counts()[MAP][ACCEPTED] - 20 == gained
+    # wrong photo points accepted: the next refit calls them outliers (red rings), one click rejects them all
+    wrong = [Point.new(PHOTO, u, v, status=ACCEPTED, manual=True) for u, v in ((30.5, 30.5), (450.5, 25.5),
+                                                                                  (240.5, 20.5))]
+    with qtbot.waitSignal(panel.refitter.refitted, timeout=120000) as blocker:
+        c.stack.push(add_points(c.state, wrong, "Add wrong points"))
+    flagged = set(blocker.args[0].outlier_ids)
+    assert {p.id for p in wrong} <= flagged
+    assert dock.photo_view.outliers.band.numberOfVertices() == len(c.shortlist.current_outliers())
+    assert panel.rejectOutliersButton.isEnabled()
+    press(qtbot, panel.rejectOutliersButton)
+    assert all(c.state.points[p.id].status == REJECTED for p in wrong)
+    assert dock.photo_view.outliers.band.numberOfVertices() == 0
+    c.stack.undo()
+    assert all(c.state.points[p.id].status == ACCEPTED for p in wrong)  # one undo entry
+
+
+def test_a_change_during_a_refit_cancels_it_and_the_next_refit_uses_the_new_points(dock, scene, qtbot):
+    load_inputs(dock, scene, qtbot)
+    c, refit = dock.controller, dock.curation_panel.refitter
+    photo, world = add_scene_points(dock, scene)
+    c.set_prior(scene.prior)
+    outcomes, statuses = [], []
+    refit.refitted.connect(outcomes.append)
+    done = refit._done
+    refit._done = lambda result: (statuses.append(result.status), done(result))  # the tasks' callback
+    c.set_status([p.id for p in photo[:15]] + [w.id for w in world[:15]], ACCEPTED)
+    qtbot.waitUntil(lambda: refit.task is not None, timeout=10000)  # debounced: started after the pause
+    c.set_status([p.id for p in photo[15:25]] + [w.id for w in world[15:25]], ACCEPTED)
+    refit._run()  # the debounce timer of the second change fires while the first refit runs
+    qtbot.waitUntil(lambda: bool(outcomes) and outcomes[-1].n_photo == 25, timeout=120000)
+    assert statuses[0] == "canceled"  # the newer change stopped the refit of the older points
+    assert all(o.n_photo == 25 for o in outcomes)  # no result of the canceled refit was applied

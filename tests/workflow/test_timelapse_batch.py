@@ -1,0 +1,158 @@
+"""The time-lapse batch of the workflow on real files: shared camera products computed once and equal to the
+per-photo products, frames in threads, re-registration of turned frames, refusal of a frame that cannot be
+registered, cancel with frames in flight."""
+
+import csv
+import os
+
+import numpy as np
+import pytest
+from osgeo import gdal
+
+from monoplot_plugin.core import drift
+from monoplot_plugin.core.camera import Camera
+from monoplot_plugin.core.dem import Dem
+from monoplot_plugin.workflow import batch, products
+from monoplot_plugin.workflow.files import read_photo
+
+
+def band_arrays(path):
+    ds = gdal.Open(str(path))
+    return np.stack([ds.GetRasterBand(i + 1).ReadAsArray() for i in range(ds.RasterCount)], axis=-1)
+
+
+def log_rows(path):
+    with open(path, newline="", encoding="utf-8") as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_shared_camera_products_equal_the_per_photo_products(still_timelapse, tmp_path):
+    scene = still_timelapse
+    cam = Camera.load(scene["camera"])
+    dem = Dem.open(scene["dem"])
+    jobs = batch.folder_jobs(scene["folder"], cam)
+    lines = []
+    results = batch.run_batch(jobs, dem, dem.crs_wkt, str(tmp_path / "out"), workers=2,
+                              log=lambda m, e: lines.append(m))
+    assert [r.ok for r in results] == [True] * 6 and [r.index for r in results] == list(range(6))
+    assert sorted(os.listdir(tmp_path / "out")) == sorted([f"frame_{i:03d}_ortho.tif" for i in range(6)]
+                                                          + ["xyz.tif"])
+    for i in (0, 5):  # what the dock and the single-photo algorithm write for the same photo
+        single = products.orthophoto(tmp_path / f"single_{i}.tif", read_photo(scene["frames"][i]), cam, dem)
+        assert np.array_equal(band_arrays(tmp_path / "out" / f"frame_{i:03d}_ortho.tif"), band_arrays(single))
+    single_xyz = products.write_xyz(tmp_path / "single_xyz.tif", cam, dem)
+    assert np.array_equal(band_arrays(tmp_path / "out" / "xyz.tif"), band_arrays(single_xyz), equal_nan=True)
+    assert sum("/6] frame_" in line and ": ok" in line for line in lines) == 6
+    assert all(np.isnan(r.drift_px) for r in results)  # not re-registered: no drift claimed
+
+
+def test_turned_frames_are_registered_and_get_their_corrected_camera(drifting_timelapse, tmp_path):
+    scene = drifting_timelapse
+    cam = Camera.load(scene["camera"])
+    dem = Dem.open(scene["dem"])
+    out = tmp_path / "out"
+    results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(out), workers=2,
+                              register=True)
+    assert all(r.ok for r in results), [r.message for r in results]
+    batch.write_log(str(out / "batch_log.csv"), results)
+    rows = log_rows(out / "batch_log.csv")
+    for i, (result, row, true) in enumerate(zip(results, rows, scene["cameras"])):
+        truth = true.rotation @ cam.rotation.T
+        assert result.drift_deg == pytest.approx(drift.rotation_angle_deg(truth), abs=0.05)
+        assert float(row["drift_px"]) == pytest.approx(result.drift_px, abs=1e-3) and row["drift_deg"]
+        assert "drift" in result.message
+        own = out / f"frame_{i:03d}_camera.json"
+        if i == 0:  # the reference itself: no turn, the shared camera's products
+            assert result.drift_px < 0.1 and not own.exists()
+            assert str(out / "xyz.tif") in result.outputs
+            continue
+        corrected = Camera.load(own)  # its own camera, XYZ raster and orthophoto
+        assert drift.pixel_shift(cam, corrected.rotation @ cam.rotation.T, truth) <= 0.5
+        assert (out / f"frame_{i:03d}_xyz.tif").is_file() and str(own) in result.outputs
+        xyz = band_arrays(out / f"frame_{i:03d}_xyz.tif")
+        assert np.array_equal(xyz, products.xyz_result(corrected, dem).xyz.astype(xyz.dtype), equal_nan=True)
+
+
+def test_a_frame_that_cannot_be_registered_is_reported_not_given_the_reference_camera(drifting_timelapse,
+                                                                                         tmp_path):
+    import shutil
+
+    import cv2
+
+    scene = drifting_timelapse
+    folder = tmp_path / "frames"
+    shutil.copytree(scene["folder"], folder)
+    cam = Camera.load(scene["camera"])
+    cv2.imwrite(str(folder / "frame_002.png"), np.full((cam.height, cam.width, 3), 210, np.uint8))  # fog
+    dem = Dem.open(scene["dem"])
+    out = tmp_path / "out"
+    lines = []
+    results = batch.run_batch(batch.folder_jobs(str(folder), cam), dem, dem.crs_wkt, str(out), register=True,
+                              log=lambda m, e: lines.append((m, e)))
+    assert [r.ok for r in results] == [True, True, False, True, True]
+    assert "not registered" in results[2].message and np.isnan(results[2].drift_px)
+    assert not list(out.glob("frame_002_*"))  # no product made with the reference camera
+    assert any(e and "frame_002.png: FAILED, skipped: not registered" in m for m, e in lines)
+
+
+def test_cancel_with_frames_in_flight_marks_the_rest_canceled(still_timelapse, tmp_path):
+    scene = still_timelapse
+    cam = Camera.load(scene["camera"])
+    dem = Dem.open(scene["dem"])
+    seen = []
+    results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(tmp_path / "out"),
+                              workers=2, progress=lambda f, m="": seen.append(f), is_canceled=lambda: len(seen) >= 1)
+    assert len(results) == 6 and [r.index for r in results] == list(range(6))
+    done = [r for r in results if r.ok]
+    canceled = [r for r in results if r.canceled]
+    assert len(done) + len(canceled) == 6 and canceled and done
+    for r in canceled:
+        stem = os.path.splitext(os.path.basename(r.photo))[0]
+        assert not (tmp_path / "out" / f"{stem}_ortho.tif").exists() and not r.outputs
+
+
+def test_turned_frames_orthophotos_without_xyz_need_no_z_buffer_of_their_own(drifting_timelapse, tmp_path):
+    from monoplot_plugin.workflow.frames import CameraProducts
+
+    scene = drifting_timelapse
+    cam = Camera.load(scene["camera"])
+    dem = Dem.open(scene["dem"])
+    out = tmp_path / "out"
+    results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(out), register=True,
+                              write_xyz=False)
+    assert all(r.ok for r in results) and not list(out.glob("*_xyz.tif"))
+    for i in (1, 3):
+        corrected = Camera.load(out / f"frame_{i:03d}_camera.json")
+        direct = CameraProducts(corrected, dem, cached=False).write_orthophoto(str(tmp_path / f"d{i}.tif"),
+                                                                               read_photo(scene["frames"][i]))
+        fast, slow = band_arrays(out / f"frame_{i:03d}_ortho.tif"), band_arrays(direct)
+        both = (fast[..., 3] > 0) & (slow[..., 3] > 0)
+        assert both.sum() >= 0.95 * max((fast[..., 3] > 0).sum(), (slow[..., 3] > 0).sum())
+        assert np.array_equal(fast[both], slow[both])
+
+
+def test_a_shared_xyz_that_cannot_be_written_is_said_once_and_left_off_the_frames(still_timelapse, tmp_path):
+    scene = still_timelapse
+    cam = Camera.load(scene["camera"])
+    dem = Dem.open(scene["dem"])
+    out = tmp_path / "out"
+    (out / "xyz.tif").mkdir(parents=True)  # a folder in the way: the rename into place fails
+    lines = []
+    results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(out), workers=2,
+                              log=lambda m, e: lines.append((m, e)))
+    assert all(r.ok for r in results) and len(list(out.glob("*_ortho.tif"))) == 6
+    assert all(str(out / "xyz.tif") not in r.outputs and "xyz.tif not written" in r.message for r in results)
+    assert sum(e and m.startswith("xyz.tif FAILED") for m, e in lines) == 1
+
+
+def test_a_reference_frame_of_another_size_fails_every_frame_with_the_reason(drifting_timelapse, tmp_path):
+    import cv2
+
+    scene = drifting_timelapse
+    cam = Camera.load(scene["camera"])
+    dem = Dem.open(scene["dem"])
+    small = tmp_path / "small.png"
+    cv2.imwrite(str(small), np.zeros((50, 60, 3), np.uint8))
+    results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(tmp_path / "out"),
+                              register=True, reference=str(small))
+    assert not any(r.ok for r in results) and all("small.png is 60x50 px" in r.message for r in results)
