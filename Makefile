@@ -89,6 +89,7 @@ qgis: setup
 bench: setup
 	$(PY) bench/run_bench.py
 	$(PY) bench/bench_fit.py
+	$(PY) bench/bench_auto.py
 	$(PY) bench/bench_curation.py
 	$(PY) bench/bench_timelapse.py
 	$(PY) bench/bench_large_dem.py
@@ -99,6 +100,7 @@ eval: setup
 	$(PY) -m eval.aletsch
 	$(PY) -m eval.smapshot
 	$(PY) -m eval.synthetic_suite
+	$(PY) -m eval.auto
 	$(PY) -m eval.user_trial
 
 package: setup

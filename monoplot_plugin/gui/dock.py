@@ -24,6 +24,7 @@ from .. import PLUGIN_DIR
 from ..adapters import layers as camera_layers
 from ..state import MAP, PHOTO
 from .controller import MonoplotController
+from .auto_panel import install_auto_panel
 from .curation_panel import MessageOnce, install_curation_panel
 from .photo_canvas import PhotoCanvas
 from .point_table import ID_ROLE, PointTableModel, make_proxy
@@ -147,6 +148,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self._unloaded = False
         QgsApplication.instance().aboutToQuit.connect(self.unload)
         self.output_tools = self._install_outputs()
+        self.auto_panel = install_auto_panel(self)  # issue 13: "Find camera automatically"
         self.curation_panel = install_curation_panel(self)  # few at a time, bulk actions, live refit
         self._scroll_points_tab()
         self._fit_minimum_width()
