@@ -84,12 +84,15 @@ demo: setup
 qgis: setup
 	$(PY) demo/qgis_desktop.py
 
-# Core benchmarks on generated terrain: one JSON line per benchmark (median seconds, peak MB).
+# Core benchmarks on generated terrain: one JSON line per benchmark (median seconds, peak MB). bench_large_dem.py
+# writes a 1.7 G-cell DEM (tiled VRTs, ~40 MB of files) to a temporary folder and deletes it after.
 bench: setup
 	$(PY) bench/run_bench.py
 	$(PY) bench/bench_fit.py
+	$(PY) bench/bench_auto.py
 	$(PY) bench/bench_curation.py
 	$(PY) bench/bench_timelapse.py
+	$(PY) bench/bench_large_dem.py
 	$(PY) bench/bench_dock.py
 
 # Camera fit on the real Aletsch case (../shared/data/aletsch), smapshot's 100 real small GCP sets and the synthetic
@@ -98,6 +101,7 @@ eval: setup
 	$(PY) -m eval.aletsch
 	$(PY) -m eval.smapshot
 	$(PY) -m eval.synthetic_suite
+	$(PY) -m eval.auto
 	$(PY) -m eval.user_trial
 
 package: setup

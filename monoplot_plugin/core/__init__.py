@@ -29,3 +29,8 @@ __all__ += ["XyzResult", "compute_xyz", "compute_xyz_full"]
 from .render import RenderedDem, render_dem  # noqa: E402,F401
 
 __all__ += ["RenderedDem", "render_dem"]
+
+# auto (issue 13): fully automatic registration from a rough prior.
+from .auto import AutoFitResult, register_automatic  # noqa: E402,F401
+
+__all__ += ["AutoFitResult", "register_automatic"]

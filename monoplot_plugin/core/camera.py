@@ -19,7 +19,7 @@ Angles, in degrees:
 Intrinsics: ``fov`` is the horizontal field of view; the focal length in pixels is
 ``f = (width / 2) / tan(fov / 2)``. ``principal_point = (cx, cy)`` in pixels (None = image centre ``(W/2, H/2)``).
 ``k1``, ``k2``: radial distortion as in OpenCV, applied to normalised coordinates:
-``x_d = x (1 + k1 r^2 + k2 r^4)``.
+``x_d = x (1 + k1 r^2 + k2 r^4)`` (:mod:`.distortion`, the one model, shared with the z-buffer's kernels).
 
 Projection: ``p_cam = R (P - C)`` with ``R`` the world-to-camera rotation (rows = camera x, y, z axes in world
 coordinates) and ``C`` the camera position; ``T = -C`` gives the paper's ``p = K R (P + T)``.
@@ -45,6 +45,8 @@ from dataclasses import asdict, dataclass, field, replace
 from typing import Optional, Tuple
 
 import numpy as np
+
+from .distortion import distort, undistort
 
 __all__ = [
     "Camera",
@@ -133,11 +135,8 @@ def project_points(points, position, rotation, focal, cx, cy, k1=0.0, k2=0.0):
         safe = torch.where(depth > 1e-9, depth, torch.ones_like(depth))
     else:
         safe = np.where(depth > 1e-9, depth, 1.0)
-    xn = cam[:, 0] / safe
-    yn = cam[:, 1] / safe
-    r2 = xn * xn + yn * yn
-    scale = 1.0 + k1 * r2 + k2 * r2 * r2
-    uv = _stack([focal * xn * scale + cx, focal * yn * scale + cy], 1, xn)
+    xd, yd = distort(cam[:, 0] / safe, cam[:, 1] / safe, k1, k2)
+    uv = _stack([focal * xd + cx, focal * yd + cy], 1, xd)
     return uv, depth
 
 
@@ -153,25 +152,6 @@ def focal_from_fov(fov_deg: float, width: float) -> float:
 def fov_from_focal(focal_px: float, width: float) -> float:
     """Horizontal field of view in degrees from a focal length in pixels (inverse of :func:`focal_from_fov`)."""
     return math.degrees(2.0 * math.atan((width / 2.0) / focal_px))
-
-
-def _undistort_normalised(xd: np.ndarray, yd: np.ndarray, k1: float, k2: float, iterations: int = 30):
-    """Invert ``x_d = x (1 + k1 r^2 + k2 r^4)`` (radial only, so solve for the radius with Newton's method).
-
-    Exact for k1 = k2 = 0; converges wherever the distortion is monotonic in the radius (any usable lens).
-    """
-    if k1 == 0.0 and k2 == 0.0:
-        return xd.copy(), yd.copy()
-    rd = np.hypot(xd, yd)
-    r = rd.copy()
-    for _ in range(iterations):
-        r2 = r * r
-        residual = r * (1.0 + k1 * r2 + k2 * r2 * r2) - rd
-        slope = 1.0 + 3.0 * k1 * r2 + 5.0 * k2 * r2 * r2
-        r = r - residual / np.where(np.abs(slope) > 1e-12, slope, 1e-12)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        ratio = np.where(rd > 0, r / rd, 1.0)
-    return xd * ratio, yd * ratio
 
 
 @dataclass
@@ -275,7 +255,8 @@ class Camera:
         uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
         xd = (uv[:, 0] - self.cx) / self.focal_px
         yd = (uv[:, 1] - self.cy) / self.focal_px
-        x, y = _undistort_normalised(xd, yd, self.k1, self.k2)
+        with np.errstate(invalid="ignore", divide="ignore"):  # beyond the valid radius: not finite
+            x, y = undistort(xd, yd, self.k1, self.k2)
         rays = np.stack([x, y, np.ones_like(x)], axis=1)
         return rays / np.linalg.norm(rays, axis=1, keepdims=True)
 

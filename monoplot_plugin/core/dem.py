@@ -33,7 +33,9 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-__all__ = ["Dem", "utm_wkt_for_lonlat", "view_window", "mark_voids", "zero_voids", "VOID_SENTINELS"]
+from .dem_window_view import view_footprint, view_window  # noqa: F401 (view_footprint: re-exported)
+
+__all__ = ["Dem", "utm_wkt_for_lonlat", "view_window", "view_footprint", "mark_voids", "zero_voids", "VOID_SENTINELS"]
 
 logger = logging.getLogger("monoplot")
 
@@ -447,63 +449,6 @@ def utm_wkt_for_lonlat(lon: float, lat: float) -> str:
     srs = osr.SpatialReference()
     srs.ImportFromEPSG((32600 if lat >= 0 else 32700) + zone)
     return srs.ExportToWkt()
-
-
-def view_window(camera, geotransform: Sequence[float], shape: Tuple[int, int], zmin: float, zmax: float,
-                max_range: Optional[float] = None, margin_cells: int = 2, samples: int = 64):
-    """The rectangle of cells a camera can see: (row0, col0, rows, cols) clipped to the grid, or None.
-
-    Rays along the image border and over a grid inside it are cut to the height slab ``[zmin, zmax]`` and to
-    ``max_range`` metres; the window is the bounding box (in cell space, so rotated grids work) of the ends of those
-    ray pieces, widened by ``margin_cells`` plus the gap between neighbouring sample rays. A view that reaches
-    infinity (rays that stay in the slab) without ``max_range`` keeps the whole grid along that direction.
-    """
-    rows, cols = int(shape[0]), int(shape[1])
-    if rows == 0 or cols == 0 or not (np.isfinite(zmin) and np.isfinite(zmax)):
-        return None
-    w, h = camera.width, camera.height
-    t = np.linspace(0.0, 1.0, samples + 1)
-    border = np.concatenate([np.stack([t * w, np.zeros_like(t)], 1), np.stack([t * w, np.full_like(t, h)], 1),
-                             np.stack([np.zeros_like(t), t * h], 1), np.stack([np.full_like(t, w), t * h], 1)])
-    gu, gv = np.meshgrid(np.linspace(0, w, 9), np.linspace(0, h, 9))
-    uv = np.concatenate([border, np.stack([gu.ravel(), gv.ravel()], 1)])
-    origin, dirs = camera.pixel_to_world_ray(uv)
-    cz = origin[2]
-    dz = dirs[:, 2]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t1 = (zmin - cz) / dz
-        t2 = (zmax - cz) / dz
-    lo = np.where(dz != 0, np.minimum(t1, t2), np.where((cz >= zmin) & (cz <= zmax), 0.0, np.inf))
-    hi = np.where(dz != 0, np.maximum(t1, t2), np.where((cz >= zmin) & (cz <= zmax), np.inf, -np.inf))
-    lo = np.maximum(lo, 0.0)
-    ok = hi >= lo
-    if max_range is not None:
-        # A ray reaching the slab beyond max_range still bounds the view: keep its point at max_range (the sphere
-        # cap between sample rays is otherwise missed).
-        hi = np.minimum(hi, float(max_range))
-        lo = np.minimum(lo, float(max_range))
-    if not ok.any():
-        return None
-    g = geotransform
-    det = g[1] * g[5] - g[2] * g[4]
-    if np.isinf(hi[ok]).any():
-        return (0, 0, rows, cols)
-    ends = np.concatenate([origin + dirs[ok] * lo[ok, None], origin + dirs[ok] * hi[ok, None]])
-    dx, dy = ends[:, 0] - g[0], ends[:, 1] - g[3]
-    col = (g[5] * dx - g[2] * dy) / det
-    row = (-g[4] * dx + g[1] * dy) / det
-    # Gap between neighbouring sample rays at the farthest distance, in cells.
-    step = math.radians(max(camera.fov, camera.vertical_fov)) / samples * 2.0
-    cell = math.sqrt(abs(det))
-    gap = float(np.max(hi[ok])) * step / cell
-    pad = margin_cells + gap + 1.0
-    r0 = max(0, int(math.floor(row.min() - pad)))
-    c0 = max(0, int(math.floor(col.min() - pad)))
-    r1 = min(rows, int(math.ceil(row.max() + pad)))
-    c1 = min(cols, int(math.ceil(col.max() + pad)))
-    if r1 <= r0 or c1 <= c0:
-        return None
-    return (r0, c0, r1 - r0, c1 - c0)
 
 
 def _finite_min_max(a: np.ndarray) -> Tuple[float, float]:

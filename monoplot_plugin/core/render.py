@@ -96,11 +96,16 @@ def render_dem(cam: Camera, dem: Dem, azimuth: float = 315.0, altitude: float = 
     """Shaded relief and depth of ``dem`` as the camera sees it, photo-sized (H, W).
 
     Args:
-        cam, dem: camera (in the DEM's CRS) and terrain.
+        cam, dem: camera (in the DEM's CRS) and terrain (a Dem, or a large DEM file's
+            :class:`~monoplot_plugin.core.dem_window.DemSource`: what the camera sees of it, see ``as_dem``).
         azimuth, altitude: sun direction in degrees (clockwise from grid north; above the horizon).
         max_range: ignore terrain farther than this (metres).
         result: a :func:`~monoplot_plugin.core.xyz.compute_xyz_full` result to reuse (skips the z-buffer).
     """
+    if result is None:
+        from .dem_window import as_dem
+
+        dem = as_dem(dem, cam, max_range)
     res = result if result is not None else compute_xyz_full(cam, dem, max_range=max_range, visibility=False)
     H, W = cam.height, cam.width
     shade = np.full((H, W), np.nan)

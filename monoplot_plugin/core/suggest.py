@@ -173,7 +173,8 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
     """Suggest DEM points worth pairing with the photo.
 
     Args:
-        dem: :class:`~monoplot_plugin.core.dem.Dem`.
+        dem: :class:`~monoplot_plugin.core.dem.Dem`, or a large DEM file's
+            :class:`~monoplot_plugin.core.dem_window.DemSource` (what the camera sees of it, see ``as_dem``).
         camera: optional approximate :class:`~monoplot_plugin.core.camera.Camera`. With it, only points it sees
             (z-buffer visibility) inside its picture plus ``view_margin`` are suggested, and key points come from a
             rendering of the DEM from it.
@@ -192,6 +193,9 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
     Returns:
         :class:`DemSuggestions` (``uv`` = pixels in ``camera``, NaN without one).
     """
+    from .dem_window import as_dem
+
+    dem = as_dem(dem, camera, max_range)
     xyz_list, score_list, kind_list, prom_list = [], [], [], []
     res = None
     if camera is not None:

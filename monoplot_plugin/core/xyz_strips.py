@@ -37,7 +37,7 @@ __all__ = ["MemoryBudgetError", "available_memory", "xyz_bytes_per_pixel", "xyz_
 
 #: Bytes per photo pixel while the XYZ raster of a strip is computed and written: float64 X, Y, Z (24, which also
 #: hold up to three depth buffers), the triangle ids (4), the distance (4) and a margin (8); more threads than three
-#: add 8 bytes each (their depth buffers, see core.xyz._depth_buffers).
+#: add 8 bytes each (their depth buffers, see core.xyz.zbuffer._depth_buffers).
 XYZ_BYTES_PER_PIXEL = 40
 #: Bytes needed whatever the strips: GDAL's block cache while writing (capped by the writer) and the interpreter.
 FIXED_OVERHEAD = 384 << 20

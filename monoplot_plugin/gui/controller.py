@@ -300,6 +300,7 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
             # the matches the fit used, by point id (indices would drift with later edits)
             outcome.info["matched"] = [[photo_ids[i], world_ids[j]] for i, j in outcome.info.pop("matched_idx", [])]
             outcome.info["check_error_px"] = dict(zip(check_ids, outcome.info.pop("check_errors", [])))
+            outcome.info["outliers"] = [photo_ids[i] for i in outcome.info.pop("outlier_idx", [])]
             self._apply_fit(outcome)
 
         return self._start("fit", self.tr("Fit camera"), work, apply)

@@ -161,6 +161,11 @@ class CurationPanel(QWidget):
     def reject_outliers(self) -> int:
         n = self.c.reject_outliers()
         self.dock.photo_view.redraw_recommendations()
+        left = self.c.state.counts()[PHOTO][ACCEPTED]
+        if n and left < self.c.MIN_POINTS:
+            self.dock.show_message(self.tr("{0} outliers rejected; {1} accepted photo points are left, too few to "
+                                           "fit: accept at least {2} more you recognise.").format(
+                n, left, self.c.MIN_POINTS - left))
         return n
 
     def set_filter(self, status: str, on: bool) -> None:
@@ -172,7 +177,11 @@ class CurationPanel(QWidget):
         names = {SUGGESTED: self.tr("undecided"), ACCEPTED: self.tr("accepted"), REJECTED: self.tr("rejected")}
         on = [names[s] for s, a in self.filter_checks.items() if a.isChecked()]
         text = self.tr("all") if len(on) == len(names) else ", ".join(on) if on else self.tr("nothing")
-        self.showButton.setText(self.tr("Show: {0}").format(text))
+        # the button is a third of the dock wide: the full list goes in the tooltip, the text stays short
+        short = {self.tr("all"): self.tr("all"), self.tr("nothing"): self.tr("nothing")}.get(
+            text, self.tr("{0} of {1}").format(len(on), len(names)) if len(on) > 1 else text)
+        self.showButton.setText(self.tr("Show: {0}").format(short))
+        self.showButton.setToolTip(self.tr("Points on show: {0}. Click to choose.").format(text))
 
     def _per_page(self, n: int) -> None:
         sl = self.c.shortlist
@@ -214,8 +223,12 @@ class CurationPanel(QWidget):
         if key != getattr(self, "_camera_key", None):  # cameraChanged also fires for the overlay, the photo...
             self._camera_key = key
             c.shortlist.set_camera(camera, sigma)
+            if c.fitted is not None and "outliers" in info:  # the Fit button's own verdict on these points
+                c.shortlist.set_outliers(list(info["outliers"]))
+                self.refitter.adopt_fit(self.refitter.accepted_key())
+            else:
+                self.refitter.schedule(force=camera is not None)
             self._redraw()
-            self.refitter.schedule(force=camera is not None)
         self._update_info()
 
     def _on_refit(self, outcome) -> None:
@@ -225,7 +238,9 @@ class CurationPanel(QWidget):
             sl.set_camera(outcome.camera, outcome.sigma, outcome.rec)
             self.refit_info = self.tr("refit, {0:.1f} px ({1})").format(outcome.rmse_px, self.tr(outcome.status))
         else:
-            self.refit_info = self.tr("refit {0}: ranking kept").format(self.tr(outcome.status))
+            # no camera to rank by yet: say what to do next rather than how the ranking was computed
+            self.refit_info = self.tr("refit {0}, ranking unchanged: accept a few more points you recognise on "
+                                      "the photo and on the map").format(self.tr(outcome.status))
         self._redraw()
 
     def _update_info(self) -> None:

@@ -25,6 +25,7 @@ from ..adapters import layers as camera_layers
 from ..state import MAP, PHOTO
 from .chips import ChipView
 from .controller import MonoplotController
+from .auto_panel import install_auto_panel
 from .curation_panel import MessageOnce, install_curation_panel
 from .fit_settings import FitSettingsPanel, LensPanel
 from .io_actions import IoActions
@@ -151,6 +152,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self._unloaded = False
         QgsApplication.instance().aboutToQuit.connect(self.unload)
         self.output_tools = self._install_outputs()
+        self.auto_panel = install_auto_panel(self)  # issue 13: "Find camera automatically"
         self.curation_panel = install_curation_panel(self)  # few at a time, bulk actions, live refit
         self.io_actions = IoActions(self)  # camera files, GCP tables and point layers (gui/io_actions.py)
         self.lens_panel = LensPanel(c, self.fovSpin, self.cameraTab)  # what the user knows (gui/fit_settings.py)

@@ -91,6 +91,8 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         "n_matched": int(len(result.pairs)),
         "matched_idx": [[int(i), int(j)] for (i, j), ok in zip(np.asarray(result.pairs).reshape(-1, 2),
                                                               _inliers(result)) if ok],
+        "outlier_idx": [int(i) for i in np.flatnonzero(np.asarray(result.photo_outliers, dtype=bool).reshape(-1))]
+        if len(np.asarray(result.photo_outliers).reshape(-1)) == len(uv) else [],
         "elapsed_s": float(result.elapsed_s),
         "check_rmse_px": _float(result.check_rmse_px),
         "n_check": int(len(result.check_residuals_px)),

@@ -79,6 +79,14 @@ class Refitter(QObject):
         if force or key != self._key:
             self._timer.start()
 
+    def adopt_fit(self, accepted_key) -> None:
+        """The Fit button has just fitted the accepted points of ``accepted_key``: no refit of the same points
+        (it would repeat the fit, with a second progress bar); a later change refits as usual. A change made
+        while the fit ran (a pending or running refit) is left to refit."""
+        if self._timer.isActive() or self.task is not None:
+            return
+        self._key = accepted_key
+
     def cancel(self, wait_ms: int = 0) -> None:
         """Stop the pending and the running refit; ``wait_ms``: block until the task has stopped (unload)."""
         self._timer.stop()

@@ -165,3 +165,24 @@ def test_a_change_during_a_refit_cancels_it_and_the_next_refit_uses_the_new_poin
     qtbot.waitUntil(lambda: bool(outcomes) and outcomes[-1].n_photo == 25, timeout=120000)
     assert statuses[0] == "canceled"  # the newer change stopped the refit of the older points
     assert all(o.n_photo == 25 for o in outcomes)  # no result of the canceled refit was applied
+
+
+def test_the_fit_button_flags_its_own_outliers_and_is_not_refitted_again(dock, scene, qtbot):
+    load_inputs(dock, scene, qtbot)
+    c, panel = dock.controller, dock.curation_panel
+    photo, world = add_scene_points(dock, scene)
+    c.set_prior(scene.prior)
+    panel.refitCheck.setChecked(False)  # no background refit before the Fit: only the Fit's verdict counts
+    wrong = [Point.new(PHOTO, u, v, status=ACCEPTED, manual=True) for u, v in ((30.5, 30.5), (450.5, 25.5),
+                                                                                  (240.5, 20.5))]
+    c.set_status([p.id for p in photo[:20]] + [w.id for w in world[:20]], ACCEPTED)
+    c.stack.push(add_points(c.state, wrong, "Add wrong points"))
+    panel.refitCheck.setChecked(True)
+    panel.refitter.cancel()  # the refit the toggle scheduled: the Fit runs on the same points
+    assert c.fit()
+    qtbot.waitUntil(lambda: c.fitted is not None, timeout=120000)
+    assert {p.id for p in wrong} <= set(c.state.fit_info["outliers"])
+    assert {p.id for p in wrong} <= set(c.shortlist.current_outliers())  # red rings from the Fit itself
+    assert panel.rejectOutliersButton.isEnabled()
+    qtbot.wait(1000)  # longer than the refit's debounce
+    assert panel.refitter.task is None  # the same points are not fitted a second time

@@ -2,10 +2,11 @@
 
 
 def all_algorithms():
+    from .autoregister import AutoRegister
     from .batch import BatchPhotos
     from .fit import FitCamera
     from .products import ComputeXyz, MapToPhoto, Orthophoto, PhotoToMap, Report
     from .suggest import SuggestDemPoints, SuggestPhotoPoints
 
     return [SuggestPhotoPoints(), SuggestDemPoints(), FitCamera(), ComputeXyz(), PhotoToMap(), MapToPhoto(),
-            Orthophoto(), Report(), BatchPhotos()]
+            Orthophoto(), Report(), BatchPhotos(), AutoRegister()]

@@ -1,0 +1,10 @@
+"""Fully automatic registration (issue 13): a camera from the photo, the DEM and a rough prior, with no clicks.
+
+Modules: :mod:`.photo_edges` (the photo's skyline and oriented edges), :mod:`.dem_edges` (the DEM's skyline and
+occluding contours from a camera, as 3-D points), :mod:`.align` (the oriented chamfer score and the coarse-to-fine
+search), :mod:`.register` (:func:`register_automatic`: alignment, consistent suggestions, consensus fit, verdict).
+"""
+
+from .register import AutoFitResult, register_automatic
+
+__all__ = ["register_automatic", "AutoFitResult"]

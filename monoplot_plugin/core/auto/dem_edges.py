@@ -1,0 +1,147 @@
+"""The DEM's side of the automatic registration: its skyline and occluding contours seen from a camera, as 3-D
+points, so that camera hypotheses score them by projecting points instead of rendering again.
+
+One z-buffer (:func:`~monoplot_plugin.core.xyz.compute_xyz_full`) from a *widened* camera (the hypothesis's
+rotation and focal length, a picture enlarged to cover the angles and fields of view still to search) gives every
+terrain point next to sky (the skyline) and the near side of every depth step (occluding contours,
+:meth:`~monoplot_plugin.core.render.RenderedDem.edges`). Each edge point comes with a second point one pixel along
+the edge, so a hypothesis projects the edge's direction too (the oriented chamfer). Points on the DEM's border or
+next to voids are dropped: there the terrain ends, not the view.
+
+For a DEM much finer than the camera needs, :func:`coarse_dem` averages blocks of cells first.
+
+>>> from ..synthetic import synthetic_terrain
+>>> from ..camera import Camera
+>>> dem = synthetic_terrain((120, 120), cell=100.0, seed=3)
+>>> x, y = dem.cell_to_map(60, 115)
+>>> cam = Camera((x, y, float(dem.sample(x, y)) + 300), 0.0, 2.0, 0.0, 60.0, (160, 120))
+>>> de = dem_edges(cam, dem, margin_deg=5.0)
+>>> len(de.sky) > 50, de.sky.shape[1], de.camera.fov > 60.0
+(True, 3, True)
+>>> coarse_dem(dem, 3600).shape
+(60, 60)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..camera import Camera, fov_from_focal
+from ..dem import Dem
+
+__all__ = ["DemEdges", "dem_edges", "coarse_dem", "widened_camera"]
+
+
+@dataclass
+class DemEdges:
+    """Edge points of the terrain seen from ``camera`` (the widened render camera).
+
+    Attributes:
+        sky, sky_next: (S, 3) skyline points (terrain with sky right above) and a point one pixel along the edge.
+        contour, contour_next: (K, 3) occluding-contour points (near side of a depth step) and their neighbours.
+        camera: the widened camera that rendered them.
+    """
+
+    sky: np.ndarray
+    sky_next: np.ndarray
+    contour: np.ndarray
+    contour_next: np.ndarray
+    camera: Camera
+
+
+def coarse_dem(dem: Dem, max_cells: int) -> Dem:
+    """``dem`` averaged over square blocks of cells so that it has at most about ``max_cells`` cells (itself when
+    it already has). Voids stay voids where a whole block is void."""
+    rows, cols = dem.shape
+    factor = int(math.ceil(math.sqrt(rows * cols / float(max_cells))))
+    if factor <= 1:
+        return dem
+    r, c = rows // factor, cols // factor
+    blocks = np.asarray(dem.elevation[:r * factor, :c * factor], dtype=np.float32).reshape(r, factor, c, factor)
+    elev = blocks.mean(axis=(1, 3), dtype=np.float32)
+    if np.isnan(elev).any():  # blocks with voids: the mean of their valid cells (NaN when none)
+        with np.errstate(invalid="ignore"), np.testing.suppress_warnings() as sup:
+            sup.filter(RuntimeWarning)
+            elev = np.nanmean(blocks, axis=(1, 3)).astype(np.float32)
+    g = dem.geotransform
+    gt = (g[0], g[1] * factor, g[2] * factor, g[3], g[4] * factor, g[5] * factor)
+    return Dem.from_array(elev, gt, dem.crs_wkt)
+
+
+def widened_camera(camera: Camera, focal_px: float, margin_deg: float, max_fov: float = 140.0) -> Camera:
+    """``camera``'s rotation with focal length ``focal_px`` and a picture ``margin_deg`` wider on every side."""
+    vfov = 2.0 * math.degrees(math.atan(camera.height / 2.0 / camera.focal_px))
+    fov = min(max_fov, camera.fov + 2.0 * margin_deg)
+    vfov = min(max_fov, vfov + 2.0 * margin_deg)
+    width = max(16, int(round(2.0 * focal_px * math.tan(math.radians(fov) / 2.0))))
+    height = max(16, int(round(2.0 * focal_px * math.tan(math.radians(vfov) / 2.0))))
+    return Camera(camera.position, camera.heading, camera.pitch, camera.roll, fov_from_focal(focal_px, width),
+                  (width, height), crs_wkt=camera.crs_wkt)
+
+
+def _border(dem: Dem, xyz: np.ndarray, cells: float = 2.5) -> np.ndarray:
+    """(N,) bool, map points within ``cells`` cells of the DEM's edge or of a void."""
+    col, row = dem.map_to_cell(xyz[:, 0], xyz[:, 1])
+    col, row = np.asarray(col), np.asarray(row)
+    out = (col < cells) | (row < cells) | (col > dem.cols - cells) | (row > dem.rows - cells)
+    void = np.isnan(dem.elevation)
+    if void.any():
+        from scipy import ndimage
+
+        near = ndimage.binary_dilation(void, iterations=int(math.ceil(cells)))
+        r = np.clip(row.astype(np.int64), 0, dem.rows - 1)
+        c = np.clip(col.astype(np.int64), 0, dem.cols - 1)
+        out |= near[r, c]
+    return out
+
+
+def _thin(idx: np.ndarray, most: int) -> np.ndarray:
+    return idx if len(idx) <= most else idx[np.linspace(0, len(idx) - 1, most).astype(np.int64)]
+
+
+def dem_edges(camera: Camera, dem: Dem, margin_deg: float, focal_px: float = None, max_points: int = 4000,
+              max_range: float = None) -> DemEdges:
+    """Skyline and occluding-contour points of ``dem`` seen from ``camera``'s position, over its view widened by
+    ``margin_deg`` on each side, rendered at ``focal_px`` (default: the camera's own)."""
+    import cv2
+
+    from ..render import RenderedDem
+    from ..xyz import compute_xyz_full
+
+    cam = widened_camera(camera, camera.focal_px if focal_px is None else focal_px, margin_deg)
+    res = compute_xyz_full(cam, dem, max_range=max_range, visibility=False)
+    hit = res.hit
+    depth = np.where(hit, res.distance, np.nan).astype(np.float64)
+    edges = RenderedDem(shade=depth, depth=depth, result=res).edges()
+    above = np.vstack([np.zeros((1, hit.shape[1]), dtype=bool), hit[:-1]])
+    sky = hit & ~above
+    sky[0] = False  # the render's top row: terrain may continue above it
+    contour = edges & ~sky
+    # Direction along the edge: perpendicular to the gradient of log depth (sky = far).
+    logd = np.log(np.where(hit, depth, np.nanmax(depth) * 4.0 if hit.any() else 1.0)).astype(np.float32)
+    logd = cv2.GaussianBlur(logd, (0, 0), 1.0)
+    gx = cv2.Sobel(logd, cv2.CV_32F, 1, 0, ksize=3)
+    gy = cv2.Sobel(logd, cv2.CV_32F, 0, 1, ksize=3)
+    out = []
+    for mask, most in ((sky, max_points), (contour, max_points)):
+        rows, cols = np.nonzero(mask)
+        keep = _thin(np.arange(len(rows)), most)
+        rows, cols = rows[keep], cols[keep]
+        xyz = res.xyz[rows, cols]
+        ok = np.isfinite(xyz).all(axis=1)
+        ok[ok] &= ~_border(dem, xyz[ok])
+        rows, cols, xyz = rows[ok], cols[ok], xyz[ok]
+        tx, ty = -gy[rows, cols], gx[rows, cols]
+        norm = np.hypot(tx, ty)
+        tx = np.where(norm > 1e-9, tx / np.maximum(norm, 1e-12), 1.0)
+        ty = np.where(norm > 1e-9, ty / np.maximum(norm, 1e-12), 0.0)
+        uv = np.stack([cols + 0.5 + tx, rows + 0.5 + ty], axis=1)
+        origin, dirs = cam.pixel_to_world_ray(uv)
+        dist = np.linalg.norm(xyz - origin, axis=1)
+        out.append((xyz, origin + dirs * dist[:, None]))
+    (s, sn), (c, cn) = out
+    return DemEdges(s, sn, c, cn, cam)
+

@@ -1,0 +1,186 @@
+"""The photo's side of the automatic registration: its skyline and its strong terrain edges, at a working size.
+
+The skyline is the path across the columns that, from the top, first meets a strong edge under a smooth sky
+(dynamic programming: each column's row maximises the edge strength less the texture above it, with a penalty on
+row jumps between neighbouring columns). A column counts as skyline only when the edge is clearly stronger than the
+sky's own texture and there is some sky above it; fog, close-ups and blank pictures leave few such columns, and
+:attr:`PhotoEdges.usable` then says so.
+
+Edges: Canny on the smoothed grey picture below the skyline, inside :func:`~..suggest_photo.picture_mask` (no
+frame, caption or margin), each with its orientation (modulo 180 degrees) for the oriented chamfer score.
+
+>>> img = np.zeros((60, 80, 3), np.uint8); img[:25] = (120, 160, 230)          # sky above row 25
+>>> img[25:] = np.random.default_rng(0).integers(40, 120, (35, 80, 1))          # textured terrain
+>>> pe = detect_photo_edges(img, width=80)
+>>> pe.usable, abs(float(np.median(pe.sky_row[pe.sky_valid])) - 25.0) <= 1.0
+(True, True)
+>>> blank = detect_photo_edges(np.full((60, 80, 3), 128, np.uint8), width=80)
+>>> blank.usable, blank.sky_fraction
+(False, 0.0)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..suggest_photo import picture_mask, to_gray
+
+__all__ = ["PhotoEdges", "detect_photo_edges", "N_ORIENTATIONS", "orientation_bin"]
+
+#: Orientation bins of the oriented chamfer score (edge directions modulo 180 degrees).
+N_ORIENTATIONS = 6
+#: Skyline search: edge strength saturates at CAP (in noise-floor units: any clear edge counts the same, so the
+#: first one from the top wins over a stronger one lower down, e.g. snow against a pale sky above a rock band),
+#: PEN weighs the texture above the path.
+CAP = 10.0
+PEN = 0.3
+
+
+def orientation_bin(theta: np.ndarray) -> np.ndarray:
+    """Bin index of edge directions ``theta`` (radians, any range; modulo pi)."""
+    t = np.mod(theta, np.pi)
+    return np.minimum((t / np.pi * N_ORIENTATIONS).astype(np.int64), N_ORIENTATIONS - 1)
+
+
+@dataclass
+class PhotoEdges:
+    """Skyline and edges of a photo at the working size ``(width, height)`` (``scale`` = working / full size).
+
+    Attributes:
+        sky_row: (W,) float v of the skyline in each column (working pixels, the top edge of the first terrain row).
+        sky_valid: (W,) bool, the column has a clear skyline.
+        edges: (H, W) bool edge pixels (skyline included).
+        sky_dt: (H, W) float32 distance (working px) to the nearest valid skyline pixel.
+        oriented_dt: (N_ORIENTATIONS, H, W) float32 distance to the nearest edge of a similar direction.
+        mask: (H, W) bool, the picture area.
+        usable: enough clear skyline columns to align on.
+        sky_fraction: share of the picture's columns with a clear skyline.
+        contrast: median ratio of the skyline's edge strength to the sky's texture.
+    """
+
+    width: int
+    height: int
+    scale: float
+    sky_row: np.ndarray
+    sky_valid: np.ndarray
+    edges: np.ndarray
+    sky_dt: np.ndarray
+    oriented_dt: np.ndarray
+    mask: np.ndarray
+    usable: bool
+    sky_fraction: float
+    contrast: float
+
+
+def _skyline_dp(strength: np.ndarray, texture: np.ndarray, mask: np.ndarray, jump: int, jump_cost: float,
+                gap: int = 1):
+    """(W,) row per column maximising strength - cumulated texture above - jump_cost * |row change|; the texture
+    of the ``gap`` rows right above a row is not counted (the edge's own blur)."""
+    H, W = strength.shape
+    above = np.vstack([np.zeros((gap + 1, W)), np.cumsum(texture, axis=0)[:-gap - 1]])
+    gain = np.where(mask, strength - above, -1e9)
+    score = gain[:, 0].copy()
+    back = np.zeros((H, W), dtype=np.int16)
+    offsets = np.arange(-jump, jump + 1)
+    rows = np.arange(H)
+    for c in range(1, W):
+        best = np.full(H, -np.inf)
+        arg = np.zeros(H, dtype=np.int16)
+        for d in offsets:
+            src = rows + d
+            ok = (src >= 0) & (src < H)
+            cand = np.full(H, -np.inf)
+            cand[ok] = score[src[ok]] - jump_cost * abs(int(d))
+            better = cand > best
+            best[better] = cand[better]
+            arg[better] = d
+        score = best + gain[:, c]
+        back[:, c] = arg
+    path = np.zeros(W, dtype=np.int64)
+    path[-1] = int(np.argmax(score))
+    for c in range(W - 1, 0, -1):
+        path[c - 1] = path[c] + back[path[c], c]
+    return path
+
+
+def detect_photo_edges(image: np.ndarray, width: int = 512, mask=None) -> PhotoEdges:
+    """Skyline and oriented edges of an (H, W, 3) uint8 RGB photo reduced to ``width`` columns (never enlarged).
+
+    Args:
+        image: the photo.
+        width: working width in pixels.
+        mask: optional (H, W) bool picture area at full size (default :func:`picture_mask`).
+    """
+    import cv2
+
+    full_h, full_w = image.shape[:2]
+    scale = min(1.0, float(width) / full_w)
+    W, H = max(8, int(round(full_w * scale))), max(8, int(round(full_h * scale)))
+    rgb = cv2.resize(np.ascontiguousarray(image[..., :3]), (W, H), interpolation=cv2.INTER_AREA) \
+        if (W, H) != (full_w, full_h) else np.ascontiguousarray(image[..., :3])
+    gray = to_gray(rgb)
+    if mask is None:
+        pic = picture_mask(gray)
+    else:
+        pic = cv2.resize(np.asarray(mask, np.uint8), (W, H), interpolation=cv2.INTER_NEAREST).astype(bool)
+    sigma = max(0.8, W / 600.0)
+    blur = cv2.GaussianBlur(rgb.astype(np.float32), (0, 0), sigma)
+    gy = np.abs(cv2.Sobel(blur, cv2.CV_32F, 0, 1, ksize=3)).sum(axis=2) / 8.0
+    gx = np.abs(cv2.Sobel(blur, cv2.CV_32F, 1, 0, ksize=3)).sum(axis=2) / 8.0
+    mag = np.hypot(gx, gy)
+    # Noise floor: the texture of the smoothest tenth of the picture; the sky's texture counts above it only.
+    inside = mag[pic] if pic.any() else mag.ravel()
+    floor = float(np.percentile(inside, 30)) + 1.0
+    texture = np.maximum(mag - 1.5 * floor, 0.0) / floor
+    raw = gy / floor
+    strength = np.minimum(raw, CAP)
+    jump = max(2, int(round(H / 40)))
+    path = _skyline_dp(strength, PEN * texture, pic, jump, 0.3, int(np.ceil(2 * sigma)) + 1)
+    cols = np.arange(W)
+    top = np.argmax(pic, axis=0)  # first picture row of each column
+    at = raw[path, cols]
+    # Clear skyline: an edge well above the noise with at least a few rows of sky over it, in the picture.
+    sky_rows = path - top
+    sky_tex = np.array([float(np.mean(mag[top[c]:max(top[c] + 1, path[c] - 1), c])) for c in cols]) / floor
+    valid = (at >= 6.0) & (sky_rows >= max(2, H // 50)) & (at >= 4.0 * np.maximum(sky_tex, 0.5)) & pic[path, cols]
+    # Isolated valid columns are chance: keep runs of at least 3 % of the width.
+    run = max(3, W // 33)
+    k = np.convolve(valid.astype(float), np.ones(run), mode="same")
+    valid &= k >= 0.6 * run
+    sky_fraction = float(valid.sum()) / max(1, int(pic.any(axis=0).sum()))
+    contrast = float(np.median(at[valid] / np.maximum(sky_tex[valid], 0.5))) if valid.any() else 0.0
+    usable = sky_fraction >= 0.25
+    # Terrain edges: Canny below the skyline (clouds are not terrain), inside the picture.
+    g8 = cv2.GaussianBlur(gray, (0, 0), sigma)
+    med = float(np.median(g8[pic])) if pic.any() else 128.0
+    edges = cv2.Canny(g8, max(10.0, 0.33 * med), max(30.0, 0.9 * med), L2gradient=True) > 0
+    below = np.arange(H)[:, None] >= (path[None, :] + 1)
+    edges &= pic & below
+    sky = np.zeros((H, W), dtype=bool)
+    sky[path[valid], cols[valid]] = True
+    edges |= sky
+    theta = np.arctan2(cv2.Sobel(g8.astype(np.float32), cv2.CV_32F, 0, 1, ksize=3),
+                       cv2.Sobel(g8.astype(np.float32), cv2.CV_32F, 1, 0, ksize=3)) + np.pi / 2  # edge direction
+    # The skyline's direction is that of the path.
+    slope = np.gradient(path.astype(np.float64))
+    theta[path, cols] = np.arctan2(slope, 1.0)
+    sky_dt = _dt(sky, H, W)
+    bins = orientation_bin(theta)
+    oriented = np.empty((N_ORIENTATIONS, H, W), dtype=np.float32)
+    for b in range(N_ORIENTATIONS):
+        # Each bin also takes its neighbours' edges: directions near a bin boundary must not be lost.
+        near = (bins == b) | (bins == (b + 1) % N_ORIENTATIONS) | (bins == (b - 1) % N_ORIENTATIONS)
+        oriented[b] = _dt(edges & near, H, W)
+    # The boundary lies below the last sky row: v = path + 1 in pixel coordinates (pixel centres at + 0.5).
+    return PhotoEdges(W, H, scale, path + 1.0, valid, edges, sky_dt, oriented, pic, bool(usable),
+                      round(sky_fraction, 3), round(contrast, 2))
+
+
+def _dt(on: np.ndarray, H: int, W: int) -> np.ndarray:
+    import cv2
+
+    if not on.any():
+        return np.full((H, W), float(H + W), dtype=np.float32)
+    return cv2.distanceTransform((~on).astype(np.uint8), cv2.DIST_L2, 3).astype(np.float32)

@@ -1,0 +1,302 @@
+""":func:`register_automatic`: a camera from the photo, the DEM and a rough prior, with no clicks.
+
+1. The photo's skyline and oriented edges (:mod:`.photo_edges`) at three working sizes (256, 512, 1024 px).
+2. The DEM's skyline and occluding contours seen from the prior (:mod:`.dem_edges`), over a view widened by the
+   angles still to search.
+3. Coarse grid over heading, pitch, roll and field of view at 256 px; the best distinct hypotheses are refined by a
+   compass search over all seven parameters (position within its σ) at 512 px; the two best are rendered again
+   from where they stand and refined at full working size (:mod:`.align`).
+4. With the aligned camera: Monoplot's own photo and DEM suggestions (:mod:`~monoplot_plugin.core.suggest`), the
+   pairs that camera brings within a few pixels of each other kept, and the ordinary unpaired fit
+   (:func:`~monoplot_plugin.core.fit.fit_camera`: consensus, refinement, verdict) run on them from the aligned
+   camera. The result is that fit's :class:`~monoplot_plugin.core.fit.FitResult`, with its status, message and σ.
+5. The alignment's own evidence can only lower the status: without a clear skyline, or when the skyline does not
+   agree with the DEM's, or when a clearly different camera aligns nearly as well, an "ok" becomes "uncertain"
+   with the reason in the message (never a confident camera from a photo that says little).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+import numpy as np
+
+from ..camera import Camera
+from ..fit import FitCanceled, FitResult, fit_camera
+from .align import Aligner, camera_from_offset, offsets_grid
+from .dem_edges import coarse_dem, dem_edges
+from .photo_edges import PhotoEdges, detect_photo_edges
+
+__all__ = ["register_automatic", "AutoFitResult", "ALIGN_DEM_CELLS", "FIT_DEM_CELLS"]
+
+#: Most DEM cells used by the alignment and by the final DEM suggestions (finer DEMs are averaged by blocks).
+ALIGN_DEM_CELLS = 2_000_000
+FIT_DEM_CELLS = 6_000_000
+WIDTHS = (256, 512, 1024)
+#: Least share of the photo's clear skyline on the DEM's (within 0.4 % of the width) for an "ok".
+SKY_AGREEMENT_OK = 0.6
+#: Largest ratio of the prior's position σ to the median distance of the terrain edges for an "ok".
+NEAR_RATIO = 0.25
+#: (distance scale in working px, step factor) of the fine rounds.
+FINE_ROUNDS = ((8.0, 0.5), (4.0, 0.25), (2.5, 0.1))
+
+
+@dataclass
+class AutoFitResult(FitResult):
+    """A :class:`~monoplot_plugin.core.fit.FitResult` with what the automatic registration matched.
+
+    Extra attributes:
+        image_points, world_points: (N, 2) photo and (M, 3) DEM points given to the final fit (``pairs`` and
+            ``inliers`` index them): the "accepted points" of a semi-automatic session.
+        aligned: the camera after the edge alignment, before the fit.
+        skyline: (W, 2) photo skyline (u, v) in full-size pixels, NaN where the photo shows no clear skyline.
+    """
+
+    image_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    world_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    aligned: Optional[Camera] = None
+    skyline: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+
+
+def _sigmas(prior: Camera, position_sigma_m, angle_sigma_deg, fov_sigma_deg) -> dict:
+    return {"position_m": float(200.0 if position_sigma_m is None else position_sigma_m),
+            "angle_deg": float(5.0 if angle_sigma_deg is None else angle_sigma_deg),
+            "fov_deg": float(0.1 * prior.fov if fov_sigma_deg is None else fov_sigma_deg)}
+
+
+def _distinct(offsets: np.ndarray, scores: np.ndarray, k: int, min_deg: float) -> list:
+    """Indices of the ``k`` best offsets, each at least ``min_deg`` from the others in heading or pitch."""
+    kept = []
+    for i in np.argsort(scores):
+        if all(np.max(np.abs(offsets[i, :2] - offsets[j, :2])) >= min_deg for j in kept):
+            kept.append(int(i))
+        if len(kept) >= k:
+            break
+    return kept
+
+
+def _check_inputs(image, prior: Camera) -> np.ndarray:
+    image = np.asarray(image)
+    if image.ndim != 3 or image.shape[2] < 3 or image.dtype != np.uint8:
+        raise ValueError(f"image must be an (H, W, 3) uint8 RGB array, got {image.shape} {image.dtype}")
+    h, w = image.shape[:2]
+    if (w, h) != tuple(prior.image_size):
+        raise ValueError(f"the prior camera's image size {prior.image_size} is not the photo's ({w}, {h})")
+    return image[..., :3]
+
+
+def register_automatic(image, dem, prior: Camera, *, position_sigma_m: Optional[float] = None,
+                       angle_sigma_deg: Optional[float] = None, fov_sigma_deg: Optional[float] = None,
+                       progress: Optional[Callable[[float, str], None]] = None,
+                       is_canceled: Optional[Callable[[], bool]] = None) -> FitResult:
+    """Register a photo on a DEM from a rough camera, with no points given.
+
+    Args:
+        image: (H, W, 3) uint8 RGB photo.
+        dem: :class:`~monoplot_plugin.core.dem.Dem` (projected CRS, metres).
+        prior: rough :class:`~monoplot_plugin.core.camera.Camera` in the DEM's CRS, image size of the photo.
+        position_sigma_m, angle_sigma_deg, fov_sigma_deg: one σ of the prior's position, heading / pitch (roll
+            half of it) and horizontal field of view (defaults 200 m, 5°, 10 % of the field of view).
+        progress: optional ``callable(fraction, message)``.
+        is_canceled: optional ``callable() -> bool``; polled at least every few tenths of a second.
+    Returns:
+        :class:`AutoFitResult` (a :class:`~monoplot_plugin.core.fit.FitResult`): status "ok", "uncertain",
+        "poor", "refused" or "canceled", with the message saying why.
+    """
+    t0 = time.perf_counter()
+    image = _check_inputs(image, prior)
+    report = progress or (lambda f, m="": None)
+    sig = _sigmas(prior, position_sigma_m, angle_sigma_deg, fov_sigma_deg)
+    state = {"camera": prior}
+    try:
+        result = _register(image, dem, prior, sig, report, is_canceled, state)
+    except FitCanceled:
+        result = AutoFitResult(state["camera"], "canceled", "The automatic registration was canceled; the camera "
+                               "is the best found so far.", "unpaired", aligned=state["camera"])
+    result.elapsed_s = time.perf_counter() - t0
+    report(1.0, result.status)
+    return result
+
+
+def _poll(is_canceled) -> None:
+    if is_canceled is not None and is_canceled():
+        raise FitCanceled()
+
+
+def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
+    h, w = image.shape[:2]
+    report(0.0, "automatic registration: photo skyline and edges")
+    import cv2
+
+    # One reduction of a large photo first (a 24 MP resize per working size would take seconds).
+    reduced = image if w <= WIDTHS[-1] else cv2.resize(image, (WIDTHS[-1], max(8, round(h * WIDTHS[-1] / w))),
+                                                      interpolation=cv2.INTER_AREA)
+    photos = {}
+    for width in WIDTHS:
+        _poll(is_canceled)
+        pe = detect_photo_edges(reduced, width=min(width, w))
+        pe.scale = pe.width / float(w)  # working pixels per full-size pixel
+        photos[width] = pe
+    fine = photos[WIDTHS[-1]]
+    _poll(is_canceled)
+    align_dem = coarse_dem(dem, ALIGN_DEM_CELLS)
+    _poll(is_canceled)
+    margin = 2.5 * sig["angle_deg"] + 1.25 * sig["fov_deg"] + 2.0
+    # Coarse: a grid at the prior's position.
+    report(0.1, "automatic registration: coarse search of the view direction")
+    p0 = photos[WIDTHS[0]]
+    f0 = prior.focal_px * p0.scale
+    coarse = Aligner(prior, p0, dem_edges(prior, align_dem, margin, f0), sig, tau=6.0, is_canceled=is_canceled,
+                     max_points=700)
+    step = max(0.25, 4.0 * prior.fov / p0.width)
+    grid = offsets_grid(sig, step)
+    scores = coarse.score(grid)
+    starts = [grid[i] for i in _distinct(grid, scores, 5, 2.0 * step)]
+    # Medium: compass search over the seven parameters from each distinct start.
+    report(0.3, "automatic registration: refining the best hypotheses")
+    p1 = photos[WIDTHS[1]]
+    medium = Aligner(prior, p1, dem_edges(prior, align_dem, margin, prior.focal_px * p1.scale), sig, tau=5.0,
+                     is_canceled=is_canceled, max_points=800)
+    steps = np.array([1.0, 1.0, 1.0, 1.0] + [0.5 * sig["position_m"]] * 3)
+    mins = np.array([0.1, 0.1, 0.1, 0.1] + [0.05 * sig["position_m"]] * 3)
+    refined = []
+    for i, s in enumerate(starts):
+        off, sc = medium.pattern_search(s, steps, mins, max_iter=40)
+        off, sc = medium.least_squares(off, iterations=8)
+        refined.append((sc, off))
+        state["camera"] = camera_from_offset(prior, min(refined, key=lambda t: t[0])[1])
+        report(0.3 + 0.25 * (i + 1) / len(starts), "automatic registration: refining the best hypotheses")
+    refined.sort(key=lambda t: t[0])
+    # Fine: render again from the two best cameras and refine at full working size, the distance scale shrinking
+    # (a wide scale first smooths the score's many shallow minima), rendering again from where each round ends.
+    finals = []
+    for _, off in refined[:2]:
+        cam = camera_from_offset(prior, off)
+        for tau, scale in FINE_ROUNDS:
+            _poll(is_canceled)
+            edges = dem_edges(cam, align_dem, 2.0, cam.focal_px * fine.scale)
+            prior_off = _offset_between(cam, prior)
+            al = Aligner(cam, fine, edges, sig, tau=tau, prior_offset=prior_off, is_canceled=is_canceled,
+                         max_points=1200)
+            o2, s2 = al.pattern_search(np.zeros(7), steps * scale, mins * scale, max_iter=30)
+            o2, s2 = al.least_squares(o2)
+            cam = camera_from_offset(cam, o2)
+        o2 = np.zeros(7)
+        finals.append((float(al.score(o2[None])[0]), cam, al, o2))
+    finals.sort(key=lambda t: t[0])
+    best_score, aligned, al, off = finals[0]
+    state["camera"] = aligned
+    report(0.7, "automatic registration: suggestions consistent with the aligned camera")
+    evidence = _alignment_evidence(al, off, best_score, refined, fine, w)
+    evidence["auto_range_m"] = _typical_range(aligned, align_dem)
+    evidence["auto_position_sigma_m"] = float(sig["position_m"])
+    _poll(is_canceled)
+    image_points, world_points = _consistent_points(image, dem, aligned, is_canceled)
+    report(0.8, "automatic registration: consensus fit")
+    fit_sig = {"position_sigma_m": sig["position_m"], "angle_sigma_deg": 1.0,
+               "fov_sigma_deg": max(0.5, 0.25 * sig["fov_deg"])}
+    fit = fit_camera(image_points, world_points, aligned, is_canceled=is_canceled,
+                     progress=lambda f, m="": report(0.8 + 0.2 * f, m), time_budget_s=3.0,
+                     consensus_hypotheses=1500, consensus_starts=4, bootstrap=5, **fit_sig)
+    if fit.status == "canceled":
+        raise FitCanceled()
+    result = AutoFitResult(**vars(fit))
+    result.image_points, result.world_points, result.aligned = image_points, world_points, aligned
+    cols = (np.arange(fine.width) + 0.5) / fine.scale
+    rows = np.where(fine.sky_valid, fine.sky_row / fine.scale, np.nan)
+    result.skyline = np.stack([cols, rows], axis=1)
+    # The skyline judged again under the camera returned (the fit may have moved it).
+    evidence["auto_sky_agreement"] = al.skyline_agreement(_offset_between(al.ref, result.camera), 0.004 * fine.width
+                                                          if fine.width >= 250 else 1.0)
+    _combine(result, evidence)
+    return result
+
+
+def _offset_between(cam: Camera, ref: Camera) -> np.ndarray:
+    """The offsets vector (see :mod:`.align`) that takes ``cam`` to ``ref``."""
+    d = np.subtract(ref.position, cam.position)
+    return np.array([(ref.heading - cam.heading + 180.0) % 360.0 - 180.0, ref.pitch - cam.pitch,
+                     ref.roll - cam.roll, ref.fov - cam.fov, d[0], d[1], d[2]])
+
+
+def _typical_range(camera: Camera, dem) -> float:
+    """Median distance (m) of the terrain over the picture (a 64 px wide z-buffer), NaN when none is seen."""
+    from ..xyz import compute_xyz_full
+
+    res = compute_xyz_full(camera.scaled(min(1.0, 64.0 / camera.width)), dem, visibility=False)
+    d = res.distance[res.hit]
+    return float(np.median(d)) if len(d) else float("nan")
+
+
+def _alignment_evidence(al: Aligner, off, score: float, refined, photo: PhotoEdges, full_width: int) -> dict:
+    # Distinct competitor: the best refined hypothesis more than 1 degree away in heading or pitch.
+    best_off = refined[0][1]
+    rival = [sc for sc, o in refined[1:] if np.max(np.abs(o[:2] - best_off[:2])) > 1.0]
+    within = max(1.0, 0.004 * photo.width)  # 4 px on a 1000 px picture
+    return {"auto_skyline_usable": bool(photo.usable), "auto_sky_fraction": float(photo.sky_fraction),
+            "auto_sky_contrast": float(photo.contrast), "auto_align_score": float(score),
+            "auto_sky_agreement": al.skyline_agreement(off, within),
+            "auto_rival_ratio": float(refined[0][0] / rival[0]) if rival and rival[0] > 0 else 0.0,
+            "auto_evaluations": int(al.evaluations)}
+
+
+def _consistent_points(image, dem, camera: Camera, is_canceled):
+    """Photo and DEM suggestions, kept when the camera brings a DEM suggestion within a few pixels of a photo
+    suggestion (each photo point's nearest, mutual)."""
+    import cv2
+    from scipy.spatial import cKDTree
+
+    from ..suggest import suggest_dem_points, suggest_photo_points
+
+    h, w = image.shape[:2]
+    scale = min(1.0, 2048.0 / max(h, w))
+    small = cv2.resize(image, (round(w * scale), round(h * scale)), interpolation=cv2.INTER_AREA) \
+        if scale < 1.0 else image
+    photo = suggest_photo_points(small, max_points=1500)
+    _poll(is_canceled)
+    fit_dem = coarse_dem(dem, FIT_DEM_CELLS)
+    _poll(is_canceled)
+    demsug = suggest_dem_points(fit_dem, camera, max_points=1500)
+    _poll(is_canceled)
+    q = photo.uv / scale
+    uv = camera.project(demsug.xyz)
+    ok = np.isfinite(uv).all(axis=1) & camera.in_image(uv)
+    if len(q) == 0 or not ok.any():
+        return q[:0], demsug.xyz[:0]
+    gate = max(3.0, 0.012 * math.hypot(w, h))
+    idx_dem = np.nonzero(ok)[0]
+    d_q, j = cKDTree(uv[idx_dem]).query(q, distance_upper_bound=gate)
+    d_p, i = cKDTree(q).query(uv[idx_dem], distance_upper_bound=gate)
+    keep_q = np.isfinite(d_q)
+    keep_q[keep_q] &= i[j[keep_q]] == np.nonzero(keep_q)[0]
+    jj = np.unique(j[keep_q])
+    return q[keep_q], demsug.xyz[idx_dem[jj]]
+
+
+def _combine(result: AutoFitResult, ev: dict) -> None:
+    """Add the alignment's evidence; it can only lower the fit's status."""
+    result.evidence.update(ev)
+    weak = []
+    if not ev["auto_skyline_usable"]:
+        weak.append(f"the photo shows no clear skyline ({100 * ev['auto_sky_fraction']:.0f} % of its columns): the "
+                    "camera rests on suggestions alone")
+    elif ev["auto_sky_agreement"] < SKY_AGREEMENT_OK:
+        weak.append(f"only {100 * ev['auto_sky_agreement']:.0f} % of the photo's skyline lies on the DEM's "
+                    "skyline under the camera")
+    rng = ev.get("auto_range_m", float("nan"))
+    if not np.isfinite(rng) or ev.get("auto_position_sigma_m", 0.0) > NEAR_RATIO * rng:
+        weak.append(f"the prior position's uncertainty ({ev.get('auto_position_sigma_m', 0.0):.0f} m) is a large "
+                    f"part of the distance to the terrain seen ({rng:.0f} m): edges alone cannot place the camera")
+    if ev["auto_rival_ratio"] > 0.9:
+        weak.append("a clearly different view direction aligns the edges almost as well")
+    text = (f" Automatic: skyline on {100 * ev['auto_sky_fraction']:.0f} % of the columns, "
+            f"{100 * ev['auto_sky_agreement']:.0f} % of it on the DEM's; {len(result.image_points)} photo and "
+            f"{len(result.world_points)} DEM suggestions kept as consistent with the aligned camera.")
+    if weak and result.status == "ok":
+        result.status = "uncertain"
+        result.message += text + " Uncertain: " + "; ".join(weak) + ": check the matched points."
+    else:
+        result.message += text + (" Also: " + "; ".join(weak) + "." if weak else "")

@@ -1,0 +1,87 @@
+"""The dock's "Find camera automatically" button (issue 13): the automatic registration in a background task.
+
+The dock calls :func:`install_auto_panel` once; the button sits in the "Fit and results" tab (the dock's
+``add_output_action`` extension point). The registration runs as the controller's task (progress bar, Cancel
+button, busy state shared with the fit); when it ends, the camera is shown like a fit's (overlay, XYZ, status and
+message in the fit tab) and the photo and DEM points it matched are added as *accepted* points, so the person checks
+them (reject the wrong ones, pair a few, mark check points) and the semi-automatic fit takes over.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Optional
+
+from qgis.core import Qgis
+from qgis.PyQt.QtCore import QObject
+from qgis.PyQt.QtWidgets import QAction
+
+from ..adapters.photo import qimage_to_array
+from ..state import ACCEPTED, MAP, PHOTO, Point, replace_suggestions
+from ..workflow import auto as auto_step
+from ..workflow.progress import part
+from . import engine
+
+__all__ = ["install_auto_panel", "AutoPanel"]
+
+
+def install_auto_panel(dock) -> "AutoPanel":
+    """Add the "Find camera automatically" button to ``dock`` (a MonoplotDock); returns its owner."""
+    return AutoPanel(dock)
+
+
+class AutoPanel(QObject):
+    """The button and its task of one dock."""
+
+    def __init__(self, dock):
+        super().__init__(dock)
+        self.dock = dock
+        self.controller = dock.controller
+        self.action = QAction(self.tr("Find camera automatically"), dock)
+        self.action.setToolTip(self.tr("Align the photo's skyline and ridges with the DEM's from the rough camera, "
+                                       "then fit Monoplot's suggestions: no clicks. The matched points become "
+                                       "accepted points to check."))
+        self.action.triggered.connect(self.run)
+        dock.add_output_action(self.action)
+
+    def run(self) -> bool:
+        """Start the registration from the rough camera (prior, else the fitted camera) in a task."""
+        c = self.controller
+        if c.image is None or c.dem is None:
+            c.message.emit(self.tr("Load a photo and choose a DEM first."), Qgis.MessageLevel.Warning)
+            return False
+        start = c.prior or c.fitted
+        if start is None:
+            c.message.emit(self.tr("Give a rough camera first (map tool, KML or EXIF)."), Qgis.MessageLevel.Warning)
+            return False
+        photo = qimage_to_array(c.image)  # a copy: the task must not share Qt objects
+        dem = c.dem
+
+        def work(progress, is_canceled):
+            done = auto_step.register(photo, dem, start, progress=part(progress, 0.0, 0.9), is_canceled=is_canceled)
+            overlay, xyz, footprint = engine.render_products(done.camera, dem, is_canceled)
+            progress(1.0, "")
+            return done, overlay, xyz, footprint
+
+        return c._start("auto", self.tr("Find camera automatically"), work, self._apply)
+
+    def _apply(self, value) -> None:
+        done, overlay, xyz, footprint = value
+        c = self.controller
+        uv, world = done.matched_points()
+        photo_pts = [Point.new(PHOTO, float(u), float(v), status=ACCEPTED) for u, v in uv]
+        map_pts = [Point.new(MAP, float(x), float(y), float(z), status=ACCEPTED) for x, y, z in world]
+        if photo_pts:
+            c.stack.push(replace_suggestions(c.state, PHOTO, photo_pts, self.tr("Automatic photo points")))
+            c.stack.push(replace_suggestions(c.state, MAP, map_pts, self.tr("Automatic DEM points")))
+        r = done.result
+        info = {"status": r.status, "rmse_px": _finite(r.rmse_px), "loo_rmse_px": _finite(r.loo_rmse_px),
+                "sigma": {k: float(v) for k, v in (r.std or {}).items()}, "converged": r.status == "ok",
+                "message": str(r.message), "mode": "automatic", "n_photo": len(photo_pts), "n_map": len(map_pts),
+                "n_pairs": 0, "n_matched": len(photo_pts), "elapsed_s": float(r.elapsed_s)}
+        c._apply_fit(engine.FitOutcome(done.camera, info, overlay, xyz, footprint))
+
+
+def _finite(v) -> Optional[float]:
+    return float(v) if v is not None and math.isfinite(float(v)) else None
+

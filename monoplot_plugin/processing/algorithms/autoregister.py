@@ -1,0 +1,110 @@
+"""Register a photo on the DEM automatically (issue 13): the camera from the photo, the DEM and a rough prior."""
+
+import json
+import math
+
+from qgis.core import (
+    QgsProcessingException,
+    QgsProcessingOutputNumber,
+    QgsProcessingOutputString,
+    QgsProcessingParameterFileDestination,
+    QgsProcessingParameterNumber,
+)
+
+from ...core.camera import Camera, lonlat_to_crs
+from ...outputs.safe_write import write_text
+from ...workflow import auto
+from ...workflow.progress import Canceled
+from ..base import MonoplotAlgorithm, cancel_callback, check_canceled, checked, progress_callback
+from ..inputs import read_photo
+
+
+def camera_from_exif(path: str, size, dem) -> Camera:
+    """A rough camera from the photo's EXIF GPS tags (position, altitude, direction, 35 mm focal length)."""
+    from ...adapters.exif import read_exif_prior
+
+    exif = read_exif_prior(path, size)
+    if exif is None or not exif.has_position:
+        raise QgsProcessingException("No prior camera given and the photo has no GPS position in its EXIF tags: "
+                                     "give a Monoplot JSON or KML PhotoOverlay camera.")
+    if exif.heading is None:
+        raise QgsProcessingException("The photo's EXIF tags have no direction of view (GPSImgDirection): give a "
+                                     "prior camera file.")
+    x, y, convergence = lonlat_to_crs(exif.lon, exif.lat, dem.crs_wkt)
+    ground = float(dem.sample(x, y))
+    if not math.isfinite(ground):
+        raise QgsProcessingException("The photo's GPS position lies outside the DEM.")
+    z = exif.altitude if exif.altitude is not None else ground + 2.0
+    return Camera((x, y, max(z, ground + 1.0)), exif.heading - convergence, 0.0, 0.0, exif.fov or 60.0, size,
+                  crs_wkt=dem.crs_wkt)
+
+
+class AutoRegister(MonoplotAlgorithm):
+    _name = "autoregister"
+    _display = "Register photo automatically"
+    _help = ("Finds the camera with no points given: the photo's skyline and terrain edges are aligned with the "
+             "DEM's silhouettes seen from camera hypotheses within the prior's uncertainty, then Monoplot's photo "
+             "and DEM suggestions consistent with the aligned camera are fitted like any unpaired fit. The prior "
+             "is a Monoplot JSON or KML PhotoOverlay camera, or (when none is given) the photo's EXIF GPS "
+             "position and direction. Writes the camera as JSON; STATUS says whether the evidence supports it "
+             "(ok / uncertain / poor) and MESSAGE why. In a batch, give each photo its own prior.")
+
+    def initAlgorithm(self, config=None):
+        self.add_photo_parameter()
+        self.add_dem_parameter()
+        self.add_camera_parameter("PRIOR", optional=True,
+                                  description="Prior camera (Monoplot JSON or KML PhotoOverlay; empty = EXIF GPS)")
+        self.addParameter(QgsProcessingParameterNumber(
+            "POSITION_SIGMA", self.tr("Uncertainty of the prior position (m, one sigma)"),
+            QgsProcessingParameterNumber.Double, auto.DEFAULT_POSITION_SIGMA_M, minValue=1.0))
+        self.addParameter(QgsProcessingParameterNumber(
+            "ANGLE_SIGMA", self.tr("Uncertainty of the prior heading and pitch (degrees, one sigma)"),
+            QgsProcessingParameterNumber.Double, auto.DEFAULT_ANGLE_SIGMA_DEG, minValue=0.1, maxValue=30.0))
+        self.addParameter(QgsProcessingParameterNumber(
+            "FOV_SIGMA", self.tr("Uncertainty of the field of view (degrees, one sigma; empty = 10 %)"),
+            QgsProcessingParameterNumber.Double, optional=True, minValue=0.1, maxValue=40.0))
+        self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", self.tr("Camera"),
+                                                                "Monoplot camera (*.json)"))
+        self.addOutput(QgsProcessingOutputNumber("RMSE_PX", self.tr("Reprojection error of the matched points (px)")))
+        self.addOutput(QgsProcessingOutputNumber("N_MATCHED", self.tr("Matched point pairs")))
+        self.addOutput(QgsProcessingOutputString("STATUS", self.tr("Status (ok / uncertain / poor)")))
+        self.addOutput(QgsProcessingOutputString("MESSAGE", self.tr("What was found and, unless ok, what to do")))
+
+    def run_algorithm(self, parameters, context, feedback):
+        photo_path = self.photo_path(parameters, context)
+        dem, crs = self.dem(parameters, context)
+        image = checked(read_photo, photo_path)
+        size = (image.shape[1], image.shape[0])
+        if self.parameterAsFile(parameters, "PRIOR", context):
+            prior = self.camera(parameters, context, "PRIOR", crs=crs, image_size=size)
+        else:
+            prior = camera_from_exif(photo_path, size, dem)
+            feedback.pushInfo(self.tr("Prior camera from the photo's EXIF GPS tags."))
+        fov_sigma = parameters.get("FOV_SIGMA")
+        fov_sigma = None if fov_sigma in (None, "") else self.parameterAsDouble(parameters, "FOV_SIGMA", context)
+        try:
+            done = auto.register(image, dem, prior,
+                                 position_sigma_m=self.parameterAsDouble(parameters, "POSITION_SIGMA", context),
+                                 angle_sigma_deg=self.parameterAsDouble(parameters, "ANGLE_SIGMA", context),
+                                 fov_sigma_deg=fov_sigma, progress=progress_callback(feedback, 0, 95),
+                                 is_canceled=cancel_callback(feedback))
+        except Canceled:
+            raise QgsProcessingException(self.tr("Registration canceled; no camera written.")) from None
+        result = done.result
+        if result.status != "ok":
+            feedback.reportError(self.tr("Registration {0}: {1}").format(result.status, result.message), False)
+        else:
+            feedback.pushInfo(result.message)
+        camera = done.camera
+        camera.crs_wkt = crs.toWkt()
+        out = self.parameterAsFileOutput(parameters, "OUTPUT", context)
+        check_canceled(feedback)
+        write_text(out, camera.to_json(), overwrite=True)
+        feedback.pushInfo(self.tr("Camera: {0}").format(json.dumps(camera.parameters())))
+        if result.std:
+            feedback.pushInfo(self.tr("One standard deviation: {0}").format(
+                ", ".join(f"{k} ± {v:.3g}" for k, v in result.std.items())))
+        feedback.setProgress(100)
+        uv, _ = done.matched_points()
+        return {"OUTPUT": out, "RMSE_PX": float(result.rmse_px), "N_MATCHED": int(len(uv)),
+                "STATUS": result.status, "MESSAGE": result.message}

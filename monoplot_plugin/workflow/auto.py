@@ -1,0 +1,65 @@
+"""The automatic registration step (issue 13): a camera from the photo, the DEM and a rough prior, for the dock and
+Processing. One call of :func:`~monoplot_plugin.core.register_automatic`; the progress and cancel conventions of
+:mod:`.progress`.
+
+Shapes: ``photo`` (H, W, 3) uint8 RGB; the result's ``image_points`` (N, 2) pixels and ``world_points`` (M, 3) map
+coordinates are the points the final fit used (``pairs`` index them), shown to the person as accepted points.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Optional
+
+import numpy as np
+
+from ..core.auto import AutoFitResult, register_automatic
+from ..core.camera import Camera
+from .progress import Canceled, IsCanceled, Progress, check_canceled
+
+__all__ = ["AutoDone", "register", "DEFAULT_POSITION_SIGMA_M", "DEFAULT_ANGLE_SIGMA_DEG"]
+
+#: the prior's uncertainty when nothing else says it (a position read off a map or EXIF GPS, a heading guessed)
+DEFAULT_POSITION_SIGMA_M = 200.0
+DEFAULT_ANGLE_SIGMA_DEG = 5.0
+
+
+@dataclass
+class AutoDone:
+    """A finished automatic registration: the core result and the points it matched."""
+
+    result: AutoFitResult
+
+    @property
+    def camera(self) -> Camera:
+        return self.result.camera
+
+    def matched_points(self):
+        """((K, 2) photo pixels, (K, 3) map points) of the inlier pairs of the final fit (the points to show as
+        accepted); empty arrays when the fit kept none."""
+        r = self.result
+        pairs = np.asarray(r.pairs, dtype=np.int64).reshape(-1, 2)
+        if len(pairs) and len(r.inliers) == len(pairs):
+            pairs = pairs[np.asarray(r.inliers, dtype=bool)]
+        if not len(pairs) or not len(r.image_points) or not len(r.world_points):
+            return np.zeros((0, 2)), np.zeros((0, 3))
+        return r.image_points[pairs[:, 0]], r.world_points[pairs[:, 1]]
+
+
+def register(photo: np.ndarray, dem, prior: Camera, position_sigma_m: Optional[float] = None,
+             angle_sigma_deg: Optional[float] = None, fov_sigma_deg: Optional[float] = None,
+             progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None) -> AutoDone:
+    """Register ``photo`` on ``dem`` from ``prior`` with no points given.
+
+    Raises:
+        Canceled: ``is_canceled()`` turned true (nothing to keep).
+    """
+    result = register_automatic(
+        photo, dem, prior,
+        position_sigma_m=DEFAULT_POSITION_SIGMA_M if position_sigma_m is None else float(position_sigma_m),
+        angle_sigma_deg=DEFAULT_ANGLE_SIGMA_DEG if angle_sigma_deg is None else float(angle_sigma_deg),
+        fov_sigma_deg=fov_sigma_deg, progress=progress, is_canceled=is_canceled)
+    if result.status == "canceled":
+        raise Canceled(result.message or "canceled")
+    check_canceled(is_canceled)
+    return AutoDone(result)

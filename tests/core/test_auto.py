@@ -1,0 +1,92 @@
+"""Automatic registration (issue 13): real alignments and fits on small generated scenes."""
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from monoplot_plugin.core import FitResult, register_automatic
+from monoplot_plugin.core.auto.align import Aligner
+from monoplot_plugin.core.auto.dem_edges import dem_edges
+from monoplot_plugin.core.auto.photo_edges import detect_photo_edges
+from monoplot_plugin.core.camera import Camera
+from monoplot_plugin.core.synthetic import render_photo, synthetic_terrain
+
+SIGMAS = {"angle_deg": 3.0, "fov_deg": 2.5, "position_m": 100.0}
+
+
+@pytest.fixture(scope="module")
+def scene():
+    """A ridge-lined valley seen from its south end: skyline across the picture, a prior 3 deg / 60 m off."""
+    dem = synthetic_terrain((160, 160), cell=60.0, seed=1)
+    x0, y0, x1, y1 = dem.bounds()
+    x, y = (x0 + x1) / 2, y0 + 0.03 * (y1 - y0)
+    truth = Camera((x, y, float(dem.sample(x, y)) + 400.0), -5.0, -3.0, 0.5, 55.0, (480, 320), crs_wkt=dem.crs_wkt)
+    photo = render_photo(truth, dem, seed=1)
+    prior = truth.with_parameters(heading=truth.heading + 3.0, pitch=truth.pitch - 1.5, fov=truth.fov * 1.04,
+                                  x=x + 60.0, y=y - 40.0)
+    return dem, truth, photo, prior
+
+
+def test_photo_skyline_found_on_a_rendered_photo(scene):
+    dem, truth, photo, _ = scene
+    pe = detect_photo_edges(photo, width=480)
+    assert pe.usable and pe.sky_fraction > 0.6
+    # The DEM's skyline under the true camera lies on the photo's skyline in most columns.
+    al = Aligner(truth, pe, dem_edges(truth, dem, 2.0), SIGMAS, tau=3.0)
+    assert al.skyline_agreement(np.zeros(7), 2.0) > 0.5
+
+
+def test_score_prefers_the_true_camera_to_the_prior(scene):
+    dem, truth, photo, prior = scene
+    pe = detect_photo_edges(photo, width=240)
+    al = Aligner(prior, pe, dem_edges(prior, dem, 8.0, prior.focal_px * pe.scale), SIGMAS, tau=5.0)
+    d = np.subtract(truth.position, prior.position)
+    truth_offset = np.array([truth.heading - prior.heading, truth.pitch - prior.pitch, truth.roll - prior.roll,
+                             truth.fov - prior.fov, d[0], d[1], d[2]])
+    assert al.score(truth_offset[None])[0] < al.score(np.zeros((1, 7)))[0] - 0.05
+
+
+def test_register_automatic_recovers_the_view(scene):
+    dem, truth, photo, prior = scene
+    result = register_automatic(photo, dem, prior, position_sigma_m=100.0, angle_sigma_deg=3.0)
+    assert isinstance(result, FitResult) and result.status in ("ok", "uncertain", "poor")
+    cam = result.camera
+    # The view direction: from 3 deg off to within a few tenths; the pixels of the terrain near the true ones.
+    assert abs(cam.heading - truth.heading) < 0.6 and abs(cam.pitch - truth.pitch) < 0.6
+    world = dem_edges(truth, dem, 0.0).sky[::10]
+    err = np.linalg.norm(cam.project(world) - truth.project(world), axis=1)
+    assert np.nanmedian(err) < 6.0
+    assert len(result.image_points) and len(result.world_points) and result.aligned is not None
+    assert result.evidence["auto_skyline_usable"] and np.isfinite(result.skyline[:, 1]).any()
+    assert result.message
+
+
+def test_fog_is_never_ok(scene):
+    dem, _, photo, prior = scene
+    fog = np.clip(np.random.default_rng(0).normal(205, 2.5, photo.shape), 0, 255).astype(np.uint8)
+    result = register_automatic(fog, dem, prior)
+    assert result.status in ("uncertain", "poor", "refused")
+    assert not result.evidence.get("auto_skyline_usable", False) or result.status != "ok"
+    assert "skyline" in result.message or result.status in ("poor", "refused")
+
+
+def test_cancel_is_honoured_promptly(scene):
+    dem, _, photo, prior = scene
+    asked = threading.Event()
+    threading.Timer(0.3, asked.set).start()
+    t0 = time.perf_counter()
+    result = register_automatic(photo, dem, prior, is_canceled=asked.is_set)
+    assert result.status == "canceled"
+    # honoured, not ignored: the 1 s target itself is measured by bench/bench_auto.py (a loaded CI machine would
+    # make a tight bound here flaky)
+    assert time.perf_counter() - t0 < 0.3 + 3.0
+
+
+def test_inputs_are_checked(scene):
+    dem, _, photo, prior = scene
+    with pytest.raises(ValueError, match="uint8"):
+        register_automatic(photo.astype(np.float32), dem, prior)
+    with pytest.raises(ValueError, match="image size"):
+        register_automatic(photo[:100], dem, prior)

@@ -1,0 +1,47 @@
+"""monoplot:autoregister through processing.run: a rendered scene from a JSON prior, and a clear refusal."""
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+from qgis.core import QgsProcessingException
+
+from monoplot_plugin.core.camera import Camera
+from monoplot_plugin.core.synthetic import render_photo, synthetic_terrain
+
+
+@pytest.fixture(scope="module")
+def rendered_scene(tmp_path_factory):
+    """A generated DEM (GeoTIFF), a photo rendered from a hidden camera (PNG) and a prior 2.5 deg / 50 m off."""
+    folder = tmp_path_factory.mktemp("auto")
+    dem = synthetic_terrain((120, 120), cell=80.0, seed=3)
+    x0, y0, x1, y1 = dem.bounds()
+    x, y = (x0 + x1) / 2, y0 + 0.03 * (y1 - y0)
+    truth = Camera((x, y, float(dem.sample(x, y)) + 400.0), -5.0, -3.0, 0.0, 55.0, (360, 240), crs_wkt=dem.crs_wkt)
+    dem.save(folder / "dem.tif")
+    cv2.imwrite(str(folder / "photo.png"), render_photo(truth, dem, seed=2)[..., ::-1])
+    prior = truth.with_parameters(heading=truth.heading + 2.5, pitch=truth.pitch + 1.0, x=x + 50.0)
+    prior.save(folder / "prior.json")
+    return {"dir": folder, "truth": truth}
+
+
+def test_autoregister_writes_a_camera_and_its_status(run_alg, rendered_scene, tmp_path):
+    d = rendered_scene["dir"]
+    out = tmp_path / "camera.json"
+    result = run_alg("autoregister", {"PHOTO": str(d / "photo.png"), "DEM": str(d / "dem.tif"),
+                                      "PRIOR": str(d / "prior.json"), "POSITION_SIGMA": 100.0, "ANGLE_SIGMA": 3.0,
+                                      "OUTPUT": str(out)})
+    assert result["STATUS"] in ("ok", "uncertain", "poor") and result["MESSAGE"]
+    cam = Camera.load(out)
+    truth = rendered_scene["truth"]
+    assert abs(cam.heading - truth.heading) < 1.0 and abs(cam.pitch - truth.pitch) < 1.0
+    assert json.loads(out.read_text())["crs_wkt"]
+    assert result["N_MATCHED"] >= 0 and np.isfinite(result["RMSE_PX"]) or result["STATUS"] == "poor"
+
+
+def test_autoregister_without_prior_or_gps_says_what_to_give(run_alg, rendered_scene, tmp_path):
+    d = rendered_scene["dir"]
+    with pytest.raises(QgsProcessingException, match="GPS|prior"):
+        run_alg("autoregister", {"PHOTO": str(d / "photo.png"), "DEM": str(d / "dem.tif"),
+                                 "OUTPUT": str(tmp_path / "c.json")})
