@@ -17,8 +17,7 @@ from typing import Optional
 from qgis.core import Qgis, QgsApplication, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer, QgsSettings
 from qgis.PyQt import uic
 from qgis.PyQt.QtCore import QItemSelectionModel, Qt
-from qgis.PyQt.QtWidgets import (QAction, QDockWidget, QFileDialog, QFrame, QHeaderView, QScrollArea, QSizePolicy,
-                                 QToolBar, QToolButton, QVBoxLayout, QWidget)
+from qgis.PyQt.QtWidgets import QAction, QDockWidget, QFileDialog, QSizePolicy, QToolBar, QToolButton
 
 from .. import PLUGIN_DIR
 from ..adapters import layers as camera_layers
@@ -27,6 +26,7 @@ from .chips import ChipView
 from .controller import MonoplotController
 from .auto_panel import install_auto_panel
 from .curation_panel import MessageOnce, install_curation_panel
+from .dock_layout import fit_minimum_width, lay_out, scroll_points_tab
 from .fit_settings import FitSettingsPanel, LensPanel
 from .io_actions import IoActions
 from .photo_canvas import PhotoCanvas
@@ -98,27 +98,9 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.table_model = PointTableModel(c.state, self)
         self.table_proxy = make_proxy(self.table_model, self)
         self.pointTable.setModel(self.table_proxy)
-        self.pointTable.verticalHeader().setVisible(False)
-        rows = self.pointTable.verticalHeader().defaultSectionSize()  # the header and three rows, never one
-        self.pointTable.setMinimumHeight(4 * rows + self.pointTable.horizontalScrollBar().sizeHint().height())
-        self.pointTable.horizontalHeader().setStretchLastSection(True)
         self.pointTable.clicked.connect(self._table_clicked)
-        header = self.pointTable.horizontalHeader()
-        header.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
-        header.setSortIndicator(-1, Qt.SortOrder.AscendingOrder)  # detector order until a header is clicked
-        self.table_proxy.sort(-1)
-        for button in (self.suggestButton, self.mapToolButton, self.acceptViewButton, self.resetButton,
-                       self.undoButton, self.redoButton):  # two even rows (ui/dock.ui): one row was clipped
-            button.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
-        self.splitter.setStretchFactor(0, 3)
-        self.splitter.setStretchFactor(1, 2)
+        lay_out(self)  # table, size policies, stretches, minimum sizes (gui/dock_layout.py)
         self._sized = False
-        self.overlaySlider.setMinimumWidth(90)
-        self.dockContents.setMinimumWidth(440)  # narrower squeezes the photo bar
-        for label in (self.cameraSummary, self.resultLabel, self.countsLabel):
-            label.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
-        self.cameraTabLayout.setStretch(self.cameraTabLayout.count() - 1, 1)
-        self.fitTabLayout.setStretch(self.fitTabLayout.count() - 1, 1)
 
         # fit and view
         self.fitButton.clicked.connect(lambda: c.fit())
@@ -160,8 +142,8 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.fit_settings = FitSettingsPanel(c, self.fitScrollContents)
         self.chips = ChipView(c, self.photo_canvas)  # photo | DEM chips of the selected point (gui/chips.py)
         self.fitTabLayout.insertWidget(self.fitTabLayout.indexOf(self.resultLabel) + 1, self.fit_settings)
-        self._scroll_points_tab()
-        self._fit_minimum_width()
+        scroll_points_tab(self)
+        fit_minimum_width(self)
         if self.project.readEntry("monoplot", "/state", "")[1] and c.restore() and c.fitted is not None:
             # a dock opened on an already open project: its camera layers came back empty from the file
             self._update_camera_layers()
@@ -169,46 +151,6 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self._on_points(set())
         self._on_busy("")
         self._on_camera()
-
-    def _fit_minimum_width(self) -> None:
-        """At least 440 px (narrower squeezes the photo bar), and never narrower than the button rows and the photo
-        tool bar need: a fixed minimum below that clipped the button texts ("uggest poin") with wide fonts."""
-        need = self.dockContents.minimumSizeHint().width()
-        if self._photo_toolbar is not None:
-            margins = self.photoPaneLayout.contentsMargins()
-            need = max(need, self._photo_toolbar.sizeHint().width() + margins.left() + margins.right() + 12)
-        self.dockContents.setMinimumWidth(max(440, need))
-        # the Points tab's wrapped labels get the height they take at this width: a layout reserves one line for
-        # them (the tab widget and the splitter pass no height-for-width up) and squashed the buttons to fit them
-        self.helpLabel.setMinimumHeight(self.helpLabel.heightForWidth(max(440, need) - 40))
-        self.countsLabel.setMinimumHeight(4 * self.countsLabel.fontMetrics().lineSpacing())
-
-    def _scroll_points_tab(self) -> None:
-        """The Points tab scrolls when the splitter gives it less than it needs, as the Fit tab does: on a laptop
-        (a dock of ~800 px) its five button rows were squashed to half their height and the table to one row.
-        """
-        page = QWidget()
-        page_layout = QVBoxLayout(page)
-        layout = self.pointsTabLayout
-        page_layout.setContentsMargins(layout.contentsMargins())
-        page_layout.setSpacing(layout.spacing())
-        layout.setContentsMargins(0, 0, 0, 0)
-        while layout.count():
-            item = layout.takeAt(0)
-            if item.widget() is not None:
-                page_layout.addWidget(item.widget())
-            elif item.layout() is not None:
-                item.layout().setParent(None)
-                page_layout.addLayout(item.layout())
-        self.pointsScroll = QScrollArea(self.pointsTab)
-        self.pointsScroll.setWidgetResizable(True)
-        self.pointsScroll.setFrameShape(QFrame.Shape.NoFrame)
-        self.pointsScroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
-        self.pointsScroll.setWidget(page)
-        layout.addWidget(self.pointsScroll)
-        # no horizontal scrolling: the page is as wide as the view (its rows share the width as before the
-        # scroll area), never wider (else the right column, "Accept likely (15)", was cut off under the scroll bar)
-        page.setMinimumWidth(1)
 
     def _install_outputs(self):
         """Digitising tools and export buttons of the outputs package (optional: a failure is logged, not fatal)."""

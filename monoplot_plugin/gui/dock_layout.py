@@ -1,0 +1,74 @@
+"""The dock's widget geometry (no behaviour): the point table's sizing, size policies, stretches, minimum widths,
+and the Points tab's scroll area. Split from :mod:`.dock`, which wires the widgets to the controller."""
+
+from __future__ import annotations
+
+from qgis.PyQt.QtCore import Qt
+from qgis.PyQt.QtWidgets import QFrame, QHeaderView, QScrollArea, QSizePolicy, QVBoxLayout, QWidget
+
+__all__ = ["lay_out", "fit_minimum_width", "scroll_points_tab"]
+
+
+def lay_out(dock) -> None:
+    """Sizes of the widgets of ``ui/dock.ui`` that the designer file cannot express."""
+    dock.pointTable.verticalHeader().setVisible(False)
+    rows = dock.pointTable.verticalHeader().defaultSectionSize()  # the header and three rows, never one
+    dock.pointTable.setMinimumHeight(4 * rows + dock.pointTable.horizontalScrollBar().sizeHint().height())
+    dock.pointTable.horizontalHeader().setStretchLastSection(True)
+    header = dock.pointTable.horizontalHeader()
+    header.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
+    header.setSortIndicator(-1, Qt.SortOrder.AscendingOrder)  # detector order until a header is clicked
+    dock.table_proxy.sort(-1)
+    for button in (dock.suggestButton, dock.mapToolButton, dock.acceptViewButton, dock.resetButton,
+                   dock.undoButton, dock.redoButton):  # two even rows (ui/dock.ui): one row was clipped
+        button.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
+    dock.splitter.setStretchFactor(0, 3)
+    dock.splitter.setStretchFactor(1, 2)
+    dock.overlaySlider.setMinimumWidth(90)
+    dock.dockContents.setMinimumWidth(440)  # narrower squeezes the photo bar
+    for label in (dock.cameraSummary, dock.resultLabel, dock.countsLabel):
+        label.setAlignment(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignTop)
+    dock.cameraTabLayout.setStretch(dock.cameraTabLayout.count() - 1, 1)
+    dock.fitTabLayout.setStretch(dock.fitTabLayout.count() - 1, 1)
+
+
+def fit_minimum_width(dock) -> None:
+    """At least 440 px (narrower squeezes the photo bar), and never narrower than the button rows and the photo
+    tool bar need: a fixed minimum below that clipped the button texts ("uggest poin") with wide fonts."""
+    need = dock.dockContents.minimumSizeHint().width()
+    if dock._photo_toolbar is not None:
+        margins = dock.photoPaneLayout.contentsMargins()
+        need = max(need, dock._photo_toolbar.sizeHint().width() + margins.left() + margins.right() + 12)
+    dock.dockContents.setMinimumWidth(max(440, need))
+    # the Points tab's wrapped labels get the height they take at this width: a layout reserves one line for
+    # them (the tab widget and the splitter pass no height-for-width up) and squashed the buttons to fit them
+    dock.helpLabel.setMinimumHeight(dock.helpLabel.heightForWidth(max(440, need) - 40))
+    dock.countsLabel.setMinimumHeight(4 * dock.countsLabel.fontMetrics().lineSpacing())
+
+
+def scroll_points_tab(dock) -> None:
+    """The Points tab scrolls when the splitter gives it less than it needs, as the Fit tab does: on a laptop
+    (a dock of ~800 px) its five button rows were squashed to half their height and the table to one row.
+    """
+    page = QWidget()
+    page_layout = QVBoxLayout(page)
+    layout = dock.pointsTabLayout
+    page_layout.setContentsMargins(layout.contentsMargins())
+    page_layout.setSpacing(layout.spacing())
+    layout.setContentsMargins(0, 0, 0, 0)
+    while layout.count():
+        item = layout.takeAt(0)
+        if item.widget() is not None:
+            page_layout.addWidget(item.widget())
+        elif item.layout() is not None:
+            item.layout().setParent(None)
+            page_layout.addLayout(item.layout())
+    dock.pointsScroll = QScrollArea(dock.pointsTab)
+    dock.pointsScroll.setWidgetResizable(True)
+    dock.pointsScroll.setFrameShape(QFrame.Shape.NoFrame)
+    dock.pointsScroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+    dock.pointsScroll.setWidget(page)
+    layout.addWidget(dock.pointsScroll)
+    # no horizontal scrolling: the page is as wide as the view (its rows share the width as before the
+    # scroll area), never wider (else the right column, "Accept likely (15)", was cut off under the scroll bar)
+    page.setMinimumWidth(1)
