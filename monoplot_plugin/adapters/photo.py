@@ -1,11 +1,14 @@
-"""Photo files -> QImage (EXIF orientation applied) and numpy arrays for the core."""
+"""Photo files -> QImage (EXIF orientation applied; the core's one decoder) and numpy arrays for the core."""
 
 from __future__ import annotations
 
+import os
 from typing import Tuple
 
 import numpy as np
-from qgis.PyQt.QtGui import QImage, QImageReader
+from qgis.PyQt.QtGui import QImage
+
+from ..core.photo_file import PhotoFileError, decode_photo
 
 __all__ = ["PhotoError", "read_photo", "qimage_to_array", "array_to_qimage"]
 
@@ -15,19 +18,22 @@ class PhotoError(ValueError):
 
 
 def read_photo(path: str) -> QImage:
-    """Read a JPEG/PNG/TIFF photo, turned upright according to its EXIF orientation.
+    """Read a JPEG/PNG/TIFF photo, turned upright according to its EXIF orientation, with the decoder Processing
+    uses (:func:`~..core.photo_file.decode_photo`: the same pixels, the same refusals of broken files).
 
     Raises:
-        PhotoError: unreadable or empty file.
+        PhotoError: unreadable, empty, damaged or truncated file; or a photo under 16 px.
     """
-    reader = QImageReader(path)
-    reader.setAutoTransform(True)  # EXIF orientation: pixels are addressed as the user sees the picture
-    image = reader.read()
-    if image.isNull():
-        raise PhotoError(f"cannot read the photo {path!r}: {reader.errorString()}")
-    if image.width() < 16 or image.height() < 16:
-        raise PhotoError(f"the photo {path!r} is too small ({image.width()} x {image.height()} px)")
-    return image.convertToFormat(QImage.Format.Format_RGB888)
+    if not os.path.isfile(path):
+        raise PhotoError(f"cannot read the photo {path!r}: " + ("it is a folder" if os.path.isdir(path) else
+                                                                 "no such file"))
+    try:
+        array = decode_photo(path)
+    except PhotoFileError as exc:
+        raise PhotoError(str(exc)) from exc
+    if array.shape[1] < 16 or array.shape[0] < 16:
+        raise PhotoError(f"the photo {path!r} is too small ({array.shape[1]} x {array.shape[0]} px)")
+    return array_to_qimage(array)
 
 
 def qimage_to_array(image: QImage) -> np.ndarray:
