@@ -156,7 +156,7 @@ def priority(score: np.ndarray, distance: Optional[np.ndarray] = None, sigma: fl
 
     >>> priority(np.array([1.0, 3.0, 2.0])).round(2).tolist()
     [0.0, 0.67, 0.33]
-    >>> priority(np.array([1.0, 3.0]), np.array([0.0, np.inf])).argmax()
+    >>> int(priority(np.array([1.0, 3.0]), np.array([0.0, np.inf])).argmax())
     0
     """
     score = np.asarray(score, dtype=np.float64).reshape(-1)

@@ -3,7 +3,7 @@ interior voids closed by lids (see :mod:`.`, the package docstring, for the surf
 
 >>> import numpy as np
 >>> elev = np.array([[0.0, np.nan, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
->>> _filled_voids(elev, np.isnan(elev))[1].any()   # a void on the edge of the grid stays a hole
+>>> bool(_filled_voids(elev, np.isnan(elev))[1].any())   # a void on the edge of the grid stays a hole
 False
 >>> [int(v) for v in _triangle_vertices(3, 3)]      # triangle 3 = quad (0, 1), second half
 [0, 1, 1, 2, 1, 1]
