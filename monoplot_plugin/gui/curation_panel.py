@@ -178,8 +178,7 @@ class CurationPanel(QWidget):
         on = [names[s] for s, a in self.filter_checks.items() if a.isChecked()]
         text = self.tr("all") if len(on) == len(names) else ", ".join(on) if on else self.tr("nothing")
         # the button is a third of the dock wide: the full list goes in the tooltip, the text stays short
-        short = {self.tr("all"): self.tr("all"), self.tr("nothing"): self.tr("nothing")}.get(
-            text, self.tr("{0} of {1}").format(len(on), len(names)) if len(on) > 1 else text)
+        short = text if len(on) in (0, 1, len(names)) else self.tr("{0} of {1}").format(len(on), len(names))
         self.showButton.setText(self.tr("Show: {0}").format(short))
         self.showButton.setToolTip(self.tr("Points on show: {0}. Click to choose.").format(text))
 
