@@ -52,12 +52,13 @@ def suggest_dem(dem, max_points: int, camera: Optional[Camera] = None) -> Tuple[
 
 # --- fit ------------------------------------------------------------------------------------------------------
 def fit(image_size, uv: np.ndarray, xyz: np.ndarray, prior: Camera, dem, paired: bool,
-        progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None, on_ground: bool = False,
-        eye_height: float = fit_step.DEFAULT_EYE_HEIGHT_M) -> Tuple[Camera, Dict]:
+        progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None,
+        on_ground: Optional[bool] = None, eye_height: Optional[float] = None) -> Tuple[Camera, Dict]:
     """Fit a camera to (N, 2) photo points and (M, 3) DEM points, from ``prior`` (:func:`workflow.fit.fit`).
 
-    Paired: row i of ``uv`` and of ``xyz`` are the same point. ``on_ground``: the camera stands ``eye_height``
-    metres above the DEM. Returns (camera, info) with ``info["rmse_px"]``, ``"status"`` ("ok", "uncertain" or "poor"),
+    Paired: row i of ``uv`` and of ``xyz`` are the same point. ``on_ground`` / ``eye_height``: the workflow's one
+    rule (:func:`workflow.fit.on_ground_rule`; None: automatic, as in the dock). Returns (camera, info) with
+    ``info["rmse_px"]``, ``"status"`` ("ok", "uncertain" or "poor"),
     ``"message"`` and ``"summary"`` (the fit's JSON digest). Raises :class:`InputError` when the fit refuses the
     points (the message says what to add) and :class:`~..workflow.progress.Canceled` when canceled.
     """

@@ -53,13 +53,14 @@ def on_ground_rule(start: Camera, dem, on_ground: Optional[bool] = None,
                    eye_height: Optional[float] = None) -> Tuple[bool, float]:
     """(on the ground?, eye height in metres) of a fit from ``start``.
 
-    ``on_ground`` None: automatic, a start within :data:`ON_GROUND_MAX_M` of the terrain is on the ground at its
-    present height above it. True / False: as asked, at ``eye_height`` (default :data:`DEFAULT_EYE_HEIGHT_M`).
+    ``on_ground`` None: automatic, a start within :data:`ON_GROUND_MAX_M` of the terrain is on the ground, at
+    ``eye_height`` when given, else at its present height above it. True / False: as asked, at ``eye_height``
+    (default :data:`DEFAULT_EYE_HEIGHT_M`).
     """
     if on_ground is None:
         clearance = ground_clearance(start, dem)
         if math.isfinite(clearance) and clearance < ON_GROUND_MAX_M:
-            return True, max(clearance, 0.0)
+            return True, max(clearance, 0.0) if eye_height is None else float(eye_height)
         return False, DEFAULT_EYE_HEIGHT_M
     return bool(on_ground), DEFAULT_EYE_HEIGHT_M if eye_height is None else float(eye_height)
 
@@ -116,9 +117,10 @@ def point_rmse(camera: Camera, uv: np.ndarray, xyz: np.ndarray, paired: bool) ->
 
 def fit_points(image_size, uv: np.ndarray, xyz: np.ndarray, prior: Camera, dem, paired: bool,
                progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None,
-               on_ground: bool = False, eye_height: float = DEFAULT_EYE_HEIGHT_M) -> Tuple[Camera, dict]:
+               on_ground: Optional[bool] = None, eye_height: Optional[float] = None) -> Tuple[Camera, dict]:
     """:func:`fit` of (N, 2) photo points and (M, 3) DEM points from ``prior``, with the file-based callers'
-    conventions (Processing, the batch): ``paired`` means row i of ``uv`` and of ``xyz`` are the same point; a
+    conventions (Processing, the batch): ``on_ground`` / ``eye_height`` as in :func:`on_ground_rule` (None:
+    automatic, the dock's default too); ``paired`` means row i of ``uv`` and of ``xyz`` are the same point; a
     refusal or a prior of another image size is an :class:`~.inputs.InputError`. Returns (camera, info) with
     ``info["rmse_px"]``, ``"status"``, ``"message"`` and ``"summary"`` (the fit's JSON digest)."""
     from .inputs import InputError

@@ -115,3 +115,34 @@ def test_canceled_feedback_stops_the_fit(run_alg, small_scene, ground_truth, tmp
         run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"],
                               "PRIOR": ground_truth["prior"], "PHOTO_CSV": str(gcps), "OUTPUT": str(out)}, feedback)
     assert not out.exists()
+
+
+def test_camera_height_is_automatic_by_default_as_in_the_dock(run_alg, small_scene, tmp_path):
+    """A prior 25 m above the terrain is held on the ground at that height by default (the dock's rule), although
+    the points say 40 m; "in the air" frees the height; "on the ground" (index 1, the former boolean's true) holds
+    it at the eye height given."""
+    dem = Dem.open(small_scene["dem"])
+    high = small_scene["cam"]
+    x, y = high.position[0], high.position[1] + 1500.0  # over the DEM (the scene camera stands south of it)
+    truth = high.with_parameters(y=y, z=float(dem.sample(x, y)) + 40.0, pitch=-5.0)
+    xyz = compute_xyz(truth, dem)
+    rows, cols = np.nonzero(np.isfinite(xyz[..., 2]))
+    pick = np.random.default_rng(5).choice(len(rows), 20, replace=False)
+    world = xyz[rows[pick], cols[pick]]
+    gcps = tmp_path / "gcps.csv"
+    write_points_csv(str(gcps), uv=truth.project(world), xyz=world)
+    px, py = x + 20.0, y - 15.0
+    prior = truth.with_parameters(x=px, y=py, z=float(dem.sample(px, py)) + 25.0, heading=truth.heading + 1.0)
+    prior_path = tmp_path / "low_prior.json"
+    prior.save(prior_path)
+
+    def clearance(params):
+        out = tmp_path / "camera.json"
+        run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"], "PRIOR": str(prior_path),
+                              "PHOTO_CSV": str(gcps), "OUTPUT": str(out), **params})
+        fitted = Camera.load(out)
+        return fitted.position[2] - float(dem.sample(fitted.position[0], fitted.position[1]))
+
+    assert clearance({}) == pytest.approx(25.0, abs=0.05)
+    assert clearance({"ON_GROUND": 2}) == pytest.approx(40.0, abs=1.0)
+    assert clearance({"ON_GROUND": 1, "EYE_HEIGHT": 2.0}) == pytest.approx(2.0, abs=0.05)

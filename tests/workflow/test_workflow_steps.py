@@ -52,6 +52,7 @@ def test_on_ground_rule(scene):
     assert fit_step.on_ground_rule(high, dem) == (False, fit_step.DEFAULT_EYE_HEIGHT_M)
     assert fit_step.on_ground_rule(high, dem, on_ground=True, eye_height=3.0) == (True, 3.0)
     assert fit_step.on_ground_rule(camera, dem, on_ground=False) == (False, fit_step.DEFAULT_EYE_HEIGHT_M)
+    assert fit_step.on_ground_rule(camera, dem, eye_height=2.0) == (True, 2.0)  # automatic, at the height asked
 
 
 def test_fit_cancel_and_refusal(scene):

@@ -10,6 +10,7 @@ from qgis.core import (
     QgsProcessingOutputNumber,
     QgsProcessingOutputString,
     QgsProcessingParameterBoolean,
+    QgsProcessingParameterEnum,
     QgsProcessingParameterFeatureSource,
     QgsProcessingParameterFile,
     QgsProcessingParameterFileDestination,
@@ -45,6 +46,10 @@ class FitCamera(MonoplotAlgorithm):
              "point to the nearest projected DEM point. Writes the fitted camera as JSON, the input of every other "
              "algorithm.")
 
+    #: ON_GROUND's options, in index order; see :func:`on_ground_choice`.
+    HEIGHT_OPTIONS = ("Automatic: on the ground when the prior is within 200 m of the terrain",
+                      "On the ground (hand-held or tripod photo)", "In the air (drone, aircraft, tower)")
+
     def initAlgorithm(self, config=None):
         self.add_photo_parameter()
         self.add_dem_parameter()
@@ -61,11 +66,15 @@ class FitCamera(MonoplotAlgorithm):
                                                      fileFilter=CSV_FILTER))
         self.addParameter(QgsProcessingParameterBoolean("PAIRED", self.tr("Points are paired (row i <-> row i)"),
                                                         defaultValue=False))
-        self.addParameter(QgsProcessingParameterBoolean("ON_GROUND", self.tr("Camera stands on the ground "
-                                                                             "(hand-held photo)"),
-                                                        defaultValue=False))
-        self.addParameter(QgsProcessingParameterNumber("EYE_HEIGHT", self.tr("Height above the ground (m)"),
-                                                       QgsProcessingParameterNumber.Double, 1.7, minValue=0.0))
+        # The dock's rule (workflow.fit.on_ground_rule): automatic unless the person says otherwise. The index
+        # order keeps old scripts meaning what they said: ON_GROUND=1 (formerly true) is "on the ground".
+        self.addParameter(QgsProcessingParameterEnum(
+            "ON_GROUND", self.tr("Camera height"), [self.tr(option) for option in self.HEIGHT_OPTIONS],
+            defaultValue=0))
+        self.addParameter(QgsProcessingParameterNumber(
+            "EYE_HEIGHT", self.tr("Height above the ground (m; empty: the prior's own height when automatic, "
+                                  "1.7 m on the ground)"),
+            QgsProcessingParameterNumber.Double, None, optional=True, minValue=0.0))
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", self.tr("Fitted camera"),
                                                                 "Monoplot camera (*.json)"))
         self.addOutput(QgsProcessingOutputNumber("RMSE_PX", self.tr("Reprojection error (px)")))
@@ -114,6 +123,12 @@ class FitCamera(MonoplotAlgorithm):
             uv, xyz = uv[np.isfinite(uv).all(axis=1)], xyz[good_xyz]
         return uv, xyz, paired
 
+    def eye_height(self, parameters, context):
+        """EYE_HEIGHT in metres, or None when left empty (the workflow's default for the chosen height)."""
+        if parameters.get("EYE_HEIGHT") in (None, ""):
+            return None
+        return self.parameterAsDouble(parameters, "EYE_HEIGHT", context)
+
     def run_algorithm(self, parameters, context, feedback):
         photo = self.photo_path(parameters, context)
         dem, crs = self.dem(parameters, context)
@@ -135,8 +150,8 @@ class FitCamera(MonoplotAlgorithm):
         try:
             camera, info = checked(pipeline.fit, photo_size, uv, xyz, prior, dem, paired,
                                    progress_callback(feedback, 0, 95), cancel_callback(feedback),
-                                   on_ground=self.parameterAsBool(parameters, "ON_GROUND", context),
-                                   eye_height=self.parameterAsDouble(parameters, "EYE_HEIGHT", context))
+                                   on_ground=on_ground_choice(self.parameterAsEnum(parameters, "ON_GROUND", context)),
+                                   eye_height=self.eye_height(parameters, context))
         except Canceled:
             raise QgsProcessingException(self.tr("Fit canceled; no camera written.")) from None
         if info["status"] != "ok":
@@ -157,6 +172,15 @@ class FitCamera(MonoplotAlgorithm):
         feedback.setProgress(100)
         return {"OUTPUT": out, "RMSE_PX": rmse, "N_PHOTO": len(uv), "N_DEM": len(xyz), "STATUS": info["status"],
                 "MESSAGE": info["message"]}
+
+
+def on_ground_choice(index: int):
+    """ON_GROUND's option index -> the workflow's ``on_ground``: None (automatic), True or False.
+
+    >>> [on_ground_choice(i) for i in range(3)]
+    [None, True, False]
+    """
+    return (None, True, False)[int(index)]
 
 
 def pipeline_photo_size(path):
