@@ -24,17 +24,6 @@ visibility = vectors.visibility
 fill_missing_z = vectors.fill_missing_z
 
 
-# --- DEM ------------------------------------------------------------------------------------------------------
-def load_dem(path: str, void_value: Optional[float] = None):
-    """A core :class:`Dem` from a raster file (``void_value``: elevation meaning 'no data', e.g. 0)."""
-    from ..core.dem import Dem
-
-    try:
-        return Dem.open(path, void_value=void_value)
-    except Exception as exc:  # GDAL cannot read it: say which file
-        raise InputError(f"cannot read the DEM {path}: {exc}") from exc
-
-
 # --- suggestions ----------------------------------------------------------------------------------------------
 def suggest_photo(photo: np.ndarray, max_points: int) -> Tuple[np.ndarray, np.ndarray]:
     """(uv (N, 2) pixels, scores (N,) in [0, 1]) of suggested points on an (H, W, 3) uint8 photo."""
