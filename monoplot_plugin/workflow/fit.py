@@ -19,10 +19,12 @@ from .progress import Canceled, IsCanceled, Progress, check_canceled
 __all__ = ["ON_GROUND_MAX_M", "DEFAULT_EYE_HEIGHT_M", "FitRefused", "FitDone", "ground_clearance", "on_ground_rule",
            "fit", "point_rmse", "fit_points"]
 
-#: a start camera at most this high above the terrain is taken as a photographer on the ground (a hill, a ridge,
-#: a summit): the fit keeps its height above the terrain (z follows the DEM, one unknown less), which also keeps
-#: it from ending underground; a higher start (aircraft, balloon, drone) keeps z free
-ON_GROUND_MAX_M = 200.0
+#: a start camera at most this high above the terrain is taken as a photographer on the ground (a person, a
+#: tripod, a lookout tower, a rooftop): the fit keeps its height above the terrain (z follows the DEM, one unknown
+#: less), which also keeps it from ending underground. A higher start keeps z free: drones, aircraft and balloons,
+#: and the rough priors whose height is only known to tens of metres (KML from a virtual globe, GPS altitude), whose
+#: error the hold would carry into the fit (a 150 m-high drone held at 150 m over other terrain ends 100 m off).
+ON_GROUND_MAX_M = 20.0
 #: eye height of a photographer standing on the ground, when nothing else says it
 DEFAULT_EYE_HEIGHT_M = 1.7
 

@@ -118,7 +118,7 @@ def test_canceled_feedback_stops_the_fit(run_alg, small_scene, ground_truth, tmp
 
 
 def test_camera_height_is_automatic_by_default_as_in_the_dock(run_alg, small_scene, tmp_path):
-    """A prior 25 m above the terrain is held on the ground at that height by default (the dock's rule), although
+    """A prior 15 m above the terrain is held on the ground at that height by default (the dock's rule), although
     the points say 40 m; "in the air" frees the height; "on the ground" (index 1, the former boolean's true) holds
     it at the eye height given."""
     dem = Dem.open(small_scene["dem"])
@@ -132,7 +132,7 @@ def test_camera_height_is_automatic_by_default_as_in_the_dock(run_alg, small_sce
     gcps = tmp_path / "gcps.csv"
     write_points_csv(str(gcps), uv=truth.project(world), xyz=world)
     px, py = x + 20.0, y - 15.0
-    prior = truth.with_parameters(x=px, y=py, z=float(dem.sample(px, py)) + 25.0, heading=truth.heading + 1.0)
+    prior = truth.with_parameters(x=px, y=py, z=float(dem.sample(px, py)) + 15.0, heading=truth.heading + 1.0)
     prior_path = tmp_path / "low_prior.json"
     prior.save(prior_path)
 
@@ -143,6 +143,6 @@ def test_camera_height_is_automatic_by_default_as_in_the_dock(run_alg, small_sce
         fitted = Camera.load(out)
         return fitted.position[2] - float(dem.sample(fitted.position[0], fitted.position[1]))
 
-    assert clearance({}) == pytest.approx(25.0, abs=0.05)
+    assert clearance({}) == pytest.approx(15.0, abs=0.05)
     assert clearance({"ON_GROUND": 2}) == pytest.approx(40.0, abs=1.0)
     assert clearance({"ON_GROUND": 1, "EYE_HEIGHT": 2.0}) == pytest.approx(2.0, abs=0.05)

@@ -47,12 +47,14 @@ def test_xyz_cache_is_keyed_on_content_not_on_the_object(scene):
 
 def test_on_ground_rule(scene):
     dem, camera, ground = scene
-    assert fit_step.on_ground_rule(camera, dem) == (True, pytest.approx(80.0))  # within 200 m: on the ground
+    low = camera.with_parameters(z=ground + 12.0)
+    assert fit_step.on_ground_rule(low, dem) == (True, pytest.approx(12.0))  # within 20 m: on the ground
+    assert fit_step.on_ground_rule(camera, dem) == (False, fit_step.DEFAULT_EYE_HEIGHT_M)  # 80 m: a drone
     high = camera.with_parameters(z=ground + 1500.0)
     assert fit_step.on_ground_rule(high, dem) == (False, fit_step.DEFAULT_EYE_HEIGHT_M)
     assert fit_step.on_ground_rule(high, dem, on_ground=True, eye_height=3.0) == (True, 3.0)
-    assert fit_step.on_ground_rule(camera, dem, on_ground=False) == (False, fit_step.DEFAULT_EYE_HEIGHT_M)
-    assert fit_step.on_ground_rule(camera, dem, eye_height=2.0) == (True, 2.0)  # automatic, at the height asked
+    assert fit_step.on_ground_rule(low, dem, on_ground=False) == (False, fit_step.DEFAULT_EYE_HEIGHT_M)
+    assert fit_step.on_ground_rule(low, dem, eye_height=2.0) == (True, 2.0)  # automatic, at the height asked
 
 
 def test_fit_cancel_and_refusal(scene):
@@ -69,7 +71,7 @@ def test_fit_cancel_and_refusal(scene):
     seen = []
     done = fit_step.fit(uv, world, camera.with_parameters(heading=1.0), dem,
                         pairs=np.column_stack([np.arange(30)] * 2), progress=lambda f, m="": seen.append(f))
-    assert done.on_ground and done.result.status != "refused"
+    assert not done.on_ground and done.result.status != "refused"  # 80 m above the terrain: z stays free
     assert seen and all(0.0 <= f <= 1.0 for f in seen)
     assert abs(done.camera.heading) < 0.5
 

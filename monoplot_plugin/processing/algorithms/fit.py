@@ -47,7 +47,7 @@ class FitCamera(MonoplotAlgorithm):
              "algorithm.")
 
     #: ON_GROUND's options, in index order; see :func:`on_ground_choice`.
-    HEIGHT_OPTIONS = ("Automatic: on the ground when the prior is within 200 m of the terrain",
+    HEIGHT_OPTIONS = ("Automatic: on the ground when the prior is within 20 m of the terrain",
                       "On the ground (hand-held or tripod photo)", "In the air (drone, aircraft, tower)")
 
     def initAlgorithm(self, config=None):
