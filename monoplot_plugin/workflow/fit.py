@@ -25,6 +25,8 @@ __all__ = ["ON_GROUND_MAX_M", "DEFAULT_EYE_HEIGHT_M", "FitRefused", "FitDone", "
 #: and the rough priors whose height is only known to tens of metres (KML from a virtual globe, GPS altitude), whose
 #: error the hold would carry into the fit (a 150 m-high drone held at 150 m over other terrain ends 100 m off).
 ON_GROUND_MAX_M = 20.0
+#: a free fit whose camera ends more than this far under the terrain is refitted on the ground (DEM error margin)
+UNDERGROUND_TOLERANCE_M = 2.0
 #: eye height of a photographer standing on the ground, when nothing else says it
 DEFAULT_EYE_HEIGHT_M = 1.7
 
@@ -74,6 +76,10 @@ def fit(uv: np.ndarray, xyz: np.ndarray, start: Camera, dem, pairs=None, on_grou
         options: Optional[FitOptions] = None) -> FitDone:
     """Fit the camera from ``start`` (core :func:`fit_camera`), held on the ground by :func:`on_ground_rule`.
 
+    Automatic (``on_ground`` None) and free in height, a camera that ends under the terrain (by more than
+    :data:`UNDERGROUND_TOLERANCE_M`) is refitted on the ground at ``eye_height`` (default
+    :data:`DEFAULT_EYE_HEIGHT_M`), from where the free fit ended.
+
     ``check_uv`` (C, 2) / ``check_xyz`` (C, 3): paired check points, kept out of the fit and measured.
     ``free``: the parameter names to fit (None: the core's default); ``options``: a core ``FitOptions`` (the prior's
     uncertainty...), None for the defaults.
@@ -85,15 +91,29 @@ def fit(uv: np.ndarray, xyz: np.ndarray, start: Camera, dem, pairs=None, on_grou
     grounded, eye = on_ground_rule(start, dem, on_ground, eye_height)
     pairs = None if pairs is None or len(pairs) == 0 else np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
     has_check = check_uv is not None and len(check_uv) > 0
-    result = fit_camera(uv, xyz, start, pairs=pairs, ground=dem if grounded else None, eye_height=eye,
-                        check_image_points=check_uv if has_check else None,
-                        check_world_points=check_xyz if has_check else None, free=free, options=options,
-                        progress=progress, is_canceled=is_canceled)
-    if result.status == "canceled":
-        raise Canceled(str(result.message) or "canceled")
-    check_canceled(is_canceled)
-    if result.status == "refused":
-        raise FitRefused(result.message)
+
+    def run(from_camera, held, at, report):
+        result = fit_camera(uv, xyz, from_camera, pairs=pairs, ground=dem if held else None, eye_height=at,
+                            check_image_points=check_uv if has_check else None,
+                            check_world_points=check_xyz if has_check else None, free=free, options=options,
+                            progress=report, is_canceled=is_canceled)
+        if result.status == "canceled":
+            raise Canceled(str(result.message) or "canceled")
+        check_canceled(is_canceled)
+        if result.status == "refused":
+            raise FitRefused(result.message)
+        return result
+
+    result = run(start, grounded, eye, progress)
+    height_free = free is None or "z" in free
+    if on_ground is None and not grounded and height_free and \
+            ground_clearance(result.camera, dem) < -UNDERGROUND_TOLERANCE_M:
+        # A camera cannot stand under the terrain: the points left its height undetermined. Refit as a
+        # photographer on the ground, from where the free fit ended.
+        report = None if progress is None else (
+            lambda f, m="": progress(0.5 + 0.5 * f, m or "camera under the terrain: refitting on the ground"))
+        grounded, eye = True, DEFAULT_EYE_HEIGHT_M if eye_height is None else float(eye_height)
+        result = run(result.camera, grounded, eye, report)
     return FitDone(result, grounded, eye if grounded else None)
 
 

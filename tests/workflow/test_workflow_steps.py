@@ -57,6 +57,24 @@ def test_on_ground_rule(scene):
     assert fit_step.on_ground_rule(low, dem, eye_height=2.0) == (True, 2.0)  # automatic, at the height asked
 
 
+def test_a_free_fit_under_the_terrain_is_refitted_on_the_ground(scene):
+    """Points that place the camera 30 m inside the hill: automatic and free in height, the fit ends on the ground
+    at eye height instead; with the height asked free (on_ground=False) it stays where the points put it."""
+    dem, camera, ground = scene
+    full = xyz.xyz_raster(camera, dem)
+    rows, cols = np.nonzero(np.isfinite(full[..., 2]))
+    world = full[rows, cols][np.random.default_rng(2).choice(len(rows), 30, replace=False)]
+    under = camera.with_parameters(z=ground - 30.0)
+    uv = under.project(world)
+    pairs = np.column_stack([np.arange(30)] * 2)
+    prior = camera.with_parameters(heading=1.0)  # 80 m above the terrain: not held on the ground at the start
+    done = fit_step.fit(uv, world, prior, dem, pairs=pairs)
+    assert done.on_ground and done.eye_height == fit_step.DEFAULT_EYE_HEIGHT_M
+    assert fit_step.ground_clearance(done.camera, dem) == pytest.approx(fit_step.DEFAULT_EYE_HEIGHT_M, abs=0.05)
+    free = fit_step.fit(uv, world, prior, dem, pairs=pairs, on_ground=False)
+    assert not free.on_ground and fit_step.ground_clearance(free.camera, dem) == pytest.approx(-30.0, abs=1.0)
+
+
 def test_fit_cancel_and_refusal(scene):
     dem, camera, _ = scene
     full = xyz.xyz_raster(camera, dem)
