@@ -125,6 +125,24 @@ def test_check_points_that_disagree_make_the_verdict_poor():
     assert bad.status == "poor" and "check points" in bad.message
 
 
+def test_check_points_far_worse_than_the_residuals_make_the_verdict_uncertain():
+    """Check points 10 px off (1 % of the picture) while the pairs fit to a fraction of a pixel: the residuals
+    flatter the camera; seen in the desktop as "ok, 2.7 px" with check points at 19.4 px."""
+    rng = np.random.default_rng(9)
+    world = terrain_points(40, rng)
+    uv = TRUTH.project(world)
+    inside = np.flatnonzero(TRUTH.in_image(uv))[:16]
+    pairs = np.column_stack([np.arange(12)] * 2)
+    fit_uv, fit_world = uv[inside[:12]], world[inside[:12]]
+    check_uv, check_world = uv[inside[12:]] + [7.0, -7.0], world[inside[12:]]
+    result = fit_camera(fit_uv, fit_world, TRUTH.with_parameters(heading=TRUTH.heading + 1), pairs=pairs,
+                        check_image_points=check_uv, check_world_points=check_world)
+    assert result.status == "uncertain" and "times the fit's residuals" in result.message, result.message
+    fair = fit_camera(fit_uv, fit_world, TRUTH.with_parameters(heading=TRUTH.heading + 1), pairs=pairs,
+                      check_image_points=check_uv - [6.0, -6.0], check_world_points=check_world)
+    assert fair.status == "ok", fair.message  # about a pixel off: as good as the clicks
+
+
 def test_close_range_prior_far_off_in_position_is_found_by_position_hypotheses():
     """A scene 80-250 m away and a prior 90 m off (the stated position σ is 100 m): the parallax (about 30°) is
     far beyond the angle error, so no rotation at the prior's position explains the points; cameras drawn at

@@ -15,6 +15,9 @@ Processing and the report show the same figures.
 'ok'
 >>> judge({"mode": "paired", "n_free": 7, "n_pairs": 11, "rmse_px": 80.0, "diag": 1000.0})[0]
 'poor'
+>>> judge({"mode": "paired", "n_free": 7, "n_pairs": 11, "rmse_px": 2.0, "diag": 1000.0, "check_rmse_px": 12.0,
+...        "n_check": 10})[0]
+'uncertain'
 """
 
 from __future__ import annotations
@@ -25,6 +28,10 @@ from typing import Tuple
 import numpy as np
 
 __all__ = ["degenerate_points", "weakest_parameter", "weak_direction_matters", "judge", "photo_spread"]
+
+#: check points more than this many times the fit's own RMSE off (and over 0.5 % of the picture) make it uncertain:
+#: a person's clicks on check points err by about as much as on the fitted points, not several times more
+CHECK_OVER_RESIDUALS = 3.0
 
 
 def degenerate_points(q: np.ndarray, world: np.ndarray, needed: int) -> str:
@@ -127,6 +134,14 @@ def judge(e: dict) -> Tuple[str, str]:
         poor.append("the independent check points disagree with the camera")
     elif np.isfinite(check) and check > 0.015 * diag:
         weak.append("the check points are off by more than 1.5 % of the picture")
+    # Check points far worse than the fit's own residuals: the residuals flatter the camera (pairs that agree with
+    # each other, not with the terrain), whatever the share of the picture.
+    check_far = np.isfinite(check) and np.isfinite(rmse) and check > CHECK_OVER_RESIDUALS * max(rmse, 1.0) \
+        and check > 0.005 * diag
+    if check_far and not poor and check <= 0.015 * diag:
+        weak.append(f"the check points are off by {check:.1f} px, {check / max(rmse, 1.0):.0f} times the fit's "
+                    f"residuals: the camera is less accurate than its residuals say; add points near the check "
+                    f"points or pair a few")
     cond = float(e.get("condition", 1.0))
     if cond > 1e6:
         weak.append(f"the points barely determine {e.get('weakest', 'a parameter')}: fix it or add points that "
@@ -159,7 +174,8 @@ def judge(e: dict) -> Tuple[str, str]:
         if not e.get("has_check", False) and not poor:
             text += " The residuals measure how well the automatic pairs agree: check points measure accuracy."
     # Independent check points that agree outweigh weak matching evidence: they measure the camera itself.
-    checked_ok = np.isfinite(check) and check <= 0.015 * diag and int(e.get("n_check", 0)) >= 4
+    checked_ok = (np.isfinite(check) and check <= 0.015 * diag and not check_far
+                  and int(e.get("n_check", 0)) >= 4)
     if checked_ok and not poor and weak:
         text += " Verified by the check points despite: " + "; ".join(weak) + "."
         weak = []
