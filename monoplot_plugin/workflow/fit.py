@@ -114,7 +114,21 @@ def fit(uv: np.ndarray, xyz: np.ndarray, start: Camera, dem, pairs=None, on_grou
             lambda f, m="": progress(0.5 + 0.5 * f, m or "camera under the terrain: refitting on the ground"))
         grounded, eye = True, DEFAULT_EYE_HEIGHT_M if eye_height is None else float(eye_height)
         result = run(result.camera, grounded, eye, report)
+    elif not grounded:
+        flag_under_terrain(result, ground_clearance(result.camera, dem))
     return FitDone(result, grounded, eye if grounded else None)
+
+
+def flag_under_terrain(result: FitResult, clearance: float) -> None:
+    """A camera more than :data:`UNDERGROUND_TOLERANCE_M` under the terrain is no photographer's: say so in
+    ``result.message``, and an "ok" becomes "uncertain" (in place)."""
+    if not (math.isfinite(clearance) and clearance < -UNDERGROUND_TOLERANCE_M):
+        return
+    result.message = (f"{result.message} The camera ends {-clearance:.0f} m under the terrain, where no photo "
+                      f"can be taken: fit it on the ground (camera height: automatic or on the ground), or check "
+                      f"the points and the DEM.")
+    if result.status == "ok":
+        result.status = "uncertain"
 
 
 def point_rmse(camera: Camera, uv: np.ndarray, xyz: np.ndarray, paired: bool) -> float:

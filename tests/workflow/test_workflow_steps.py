@@ -59,7 +59,8 @@ def test_on_ground_rule(scene):
 
 def test_a_free_fit_under_the_terrain_is_refitted_on_the_ground(scene):
     """Points that place the camera 30 m inside the hill: automatic and free in height, the fit ends on the ground
-    at eye height instead; with the height asked free (on_ground=False) it stays where the points put it."""
+    at eye height instead; with the height asked free (on_ground=False) it stays where the points put it, and
+    the verdict says it is under the terrain."""
     dem, camera, ground = scene
     full = xyz.xyz_raster(camera, dem)
     rows, cols = np.nonzero(np.isfinite(full[..., 2]))
@@ -73,6 +74,7 @@ def test_a_free_fit_under_the_terrain_is_refitted_on_the_ground(scene):
     assert fit_step.ground_clearance(done.camera, dem) == pytest.approx(fit_step.DEFAULT_EYE_HEIGHT_M, abs=0.05)
     free = fit_step.fit(uv, world, prior, dem, pairs=pairs, on_ground=False)
     assert not free.on_ground and fit_step.ground_clearance(free.camera, dem) == pytest.approx(-30.0, abs=1.0)
+    assert free.result.status != "ok" and "30 m under the terrain" in free.result.message
 
 
 def test_fit_cancel_and_refusal(scene):
