@@ -20,7 +20,7 @@ from qgis.PyQt.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 from ..adapters.photo import array_to_qimage
 from ..core.camera import Camera
 from ..state import MAP, PHOTO
-from .tasks import FunctionTask, start_task
+from .tasks import HiddenTask, start_task
 
 __all__ = ["ChipView", "chip_radius", "render_view"]
 
@@ -86,7 +86,7 @@ class ChipView(QWidget):
         self.caption.setFixedWidth(2 * CHIP_PX + 4)
         outer.addWidget(self.caption)
         self._view: Optional[Tuple[dict, QImage]] = None  # (camera dict, rendering) of the rough camera
-        self._tasks: List[FunctionTask] = []
+        self._tasks: List[HiddenTask] = []
         self._selected: Tuple[str, str] = ("", "")
         c.selectionChanged.connect(self.show_point)
         c.cameraChanged.connect(self._camera_changed)
@@ -213,7 +213,7 @@ class ChipView(QWidget):
                 self._view = (key, array_to_qimage(result.value))
                 self.refresh()
 
-        task = FunctionTask(tr("Monoplot: DEM view for the chips"),
+        task = HiddenTask(tr("Monoplot: DEM view for the chips"),
                             lambda progress, is_canceled: render_view(camera, dem), done)
         task.monoplot_key = key
         self._tasks.append(task)

@@ -1,7 +1,7 @@
-"""The background refit while the person clicks: debounced, cancelable, one QgsTask at a time.
+"""The background refit while the person clicks: debounced, cancelable, one silent task at a time.
 
 Every change of the accepted points restarts a short timer; when it fires, the accepted points, the start camera
-and the suggestions are copied on the main thread, and a :class:`~monoplot_plugin.gui.tasks.FunctionTask` runs the
+and the suggestions are copied on the main thread, and a :class:`~monoplot_plugin.gui.tasks.HiddenTask` runs the
 one fit step (:func:`workflow.fit.fit`) and the camera's :func:`~monoplot_plugin.gui.shortlist.recommendation`
 (agreement, likely pairs) in the background. A newer change cancels the running refit and starts again after it.
 The result (:class:`RefitOutcome`) re-ranks the suggestions and flags the outliers; it never replaces the camera
@@ -10,6 +10,7 @@ of the Fit button.
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, field
 from typing import List, Optional
@@ -20,9 +21,11 @@ from qgis.PyQt.QtCore import QObject, QTimer, pyqtSignal
 from ..workflow import fit as fit_step
 from .fit_settings import fit_arguments
 from .shortlist import Recommendation, recommendation
-from .tasks import FunctionTask, start_task
+from .tasks import HiddenTask, start_task
 
 __all__ = ["Refitter", "RefitOutcome", "sigma_of"]
+
+LOG = logging.getLogger(__name__)
 
 #: statuses of a refit good enough to re-rank by
 USABLE = ("ok", "uncertain")
@@ -59,7 +62,7 @@ class Refitter(QObject):
         super().__init__(parent)
         self.c = controller
         self.enabled = True
-        self.task: Optional[FunctionTask] = None
+        self.task: Optional[HiddenTask] = None
         self._again = False
         self._key = None
         self._timer = QTimer(self)
@@ -127,7 +130,7 @@ class Refitter(QObject):
             outliers = [pid for pid, f in zip(photo_ids, flags) if f] if len(flags) == len(photo_ids) else []
             return RefitOutcome(done.camera, r.status, rmse, sigma, outliers, rec, float(r.elapsed_s), len(uv))
 
-        self.task = FunctionTask("Monoplot refit", work, self._done)
+        self.task = HiddenTask("Monoplot refit", work, self._done)  # silent: no status-bar entry, no "Task complete"
         self.running.emit(True)
         start_task(self.task)
 
@@ -135,6 +138,9 @@ class Refitter(QObject):
         self.task = None
         self.running.emit(False)
         if result.ok:
+            o = result.value
+            LOG.info("Background refit on %d photo points: status %s, RMSE %.2f px, %d outlier(s), %.2f s",
+                     o.n_photo, o.status, o.rmse_px, len(o.outlier_ids), o.seconds)
             self.refitted.emit(result.value)
         else:
             self._key = None  # canceled or refused: the same points may be tried again
