@@ -6,7 +6,9 @@ All point edits go through ``self.stack`` (undo/redo); every change is written t
 
 from __future__ import annotations
 
+import logging
 import math
+import time
 from typing import List, Optional, Tuple
 
 import numpy as np
@@ -29,6 +31,10 @@ __all__ = ["MonoplotController"]
 
 INFO, WARNING, CRITICAL, SUCCESS = (Qgis.MessageLevel.Info, Qgis.MessageLevel.Warning,
                                     Qgis.MessageLevel.Critical, Qgis.MessageLevel.Success)
+#: the plugin's log (QGIS's Log Messages panel, tab "Monoplot", through logging_bridge): every message the dock
+#: shows, and what each suggest and fit did
+LOG = logging.getLogger(__name__)
+_LOG_LEVELS = {WARNING: logging.WARNING, CRITICAL: logging.ERROR}
 
 
 class MonoplotController(PriorsMixin, CurationMixin, QObject):
@@ -87,6 +93,11 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
         self.project.layersWillBeRemoved.connect(self._layers_removed)
         # (re)write the entry while the project is being written: paths are made relative to its (new) file
         self.project.writeProject.connect(self._project_writing)
+        self.message.connect(self._log_message)
+
+    @staticmethod
+    def _log_message(text: str, level) -> None:
+        LOG.log(_LOG_LEVELS.get(level, logging.INFO), "%s", text)
 
     def detach(self) -> None:
         """Stop listening to the project (the dock is going away)."""
@@ -186,8 +197,11 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
             self.message.emit(self.tr("Monoplot is busy ({0}); wait or cancel it.").format(self.task_kind), WARNING)
             return False
 
+        t0 = time.perf_counter()
+
         def done(result: TaskResult) -> None:
             self.task = None
+            LOG.info("%s: %s in %.2f s", description, result.status, time.perf_counter() - t0)
             if result.ok:
                 on_success(result.value)
             elif result.status == CANCELED:
@@ -323,6 +337,11 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
             self._changed()
 
     def _apply_fit(self, outcome: "engine.FitOutcome") -> None:
+        i = outcome.info
+        LOG.info("Fit (%s): status %s, RMSE %s px, check RMSE %s px on %s, %s photo / %s map points, %s pairs "
+                 "given, %s matched, core fit %.2f s; %s", i.get("mode"), i.get("status"), _num(i.get("rmse_px")),
+                 _num(i.get("check_rmse_px")), i.get("n_check"), i.get("n_photo"), i.get("n_map"), i.get("n_pairs"),
+                 i.get("n_matched"), float(i.get("elapsed_s") or 0.0), i.get("message", ""))
         self.state.fitted = outcome.camera.to_dict()
         self.state.fit_info = outcome.info
         self.overlay = None if outcome.overlay is None else array_to_qimage(outcome.overlay)
@@ -494,3 +513,7 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
             return True
         finally:
             self._restoring = False
+
+
+def _num(v) -> str:
+    return "-" if v is None else f"{float(v):.2f}"

@@ -1,0 +1,88 @@
+"""What a new user saw in the real desktop (issue 12): background refits in QGIS's task list and message bar, the
+product buttons enabled before a fit, an empty "Monoplot" log tab. Real dock, real clicks, real fits."""
+
+from __future__ import annotations
+
+import numpy as np
+from qgis.core import QgsApplication
+from qgis.PyQt.QtCore import Qt
+from qgis.PyQt.QtWidgets import QToolButton
+
+from monoplot_plugin import logging_bridge
+from monoplot_plugin.gui.product_panel import NEEDS_FIT
+from monoplot_plugin.state import ACCEPTED
+from test_dock import accept_everything, add_scene_points, load_inputs
+
+
+def product_buttons(dock):
+    """{action name: its button in the fit tab} of the products that need a fitted camera."""
+    tools = dock.output_tools
+    buttons = {b.defaultAction(): b for b in dock.findChildren(QToolButton) if b.defaultAction() is not None}
+    return {name: buttons[tools.actions[name]] for name in NEEDS_FIT}
+
+
+def test_background_refit_is_silent_and_the_fit_button_is_not(dock, scene, qtbot):
+    """The refit runs outside QGIS's task manager (no status-bar entry, no "Task complete" in the message bar on
+    every refit); the Fit the person clicked is a task of the task manager as before."""
+    load_inputs(dock, scene, qtbot)
+    c, panel = dock.controller, dock.curation_panel
+    photo, world = add_scene_points(dock, scene)
+    c.set_prior(scene.prior)
+    added = []
+    manager = QgsApplication.taskManager()
+    manager.taskAdded.connect(lambda tid: added.append(manager.task(tid).description()))
+    chosen = np.random.default_rng(0).choice(len(photo), 20, replace=False)
+    with qtbot.waitSignal(panel.refitter.refitted, timeout=120000) as blocker:
+        c.set_status([photo[i].id for i in chosen] + [world[i].id for i in chosen], ACCEPTED)
+    assert blocker.args[0].status in ("ok", "uncertain")
+    assert added == []  # neither the refit nor the chips' DEM view went to the task manager
+    panel.refitCheck.setChecked(False)
+    accept_everything(c)
+    qtbot.mouseClick(dock.fitButton, Qt.MouseButton.LeftButton)
+    with qtbot.waitSignal(c.taskFinished, timeout=60000):
+        pass
+    assert any("Fit" in text for text in added), added
+
+
+def test_products_wait_for_a_fit_and_the_log_tab_tells_what_happened(dock, scene, qtbot):
+    """Before a fit the XYZ / orthophoto / report buttons are disabled and say why; a fit enables them. The fit, the
+    refusal before it and the messages go to QGIS's Log Messages panel, tab "Monoplot"."""
+    logged = []
+    log = QgsApplication.messageLog()
+
+    def received(message, tag, level):
+        if tag == logging_bridge.TAB:
+            logged.append((message, level))
+
+    log.messageReceived.connect(received)
+    logging_bridge.install()
+    try:
+        load_inputs(dock, scene, qtbot)
+        buttons = product_buttons(dock)
+        for name, button in buttons.items():
+            assert not button.isEnabled(), name
+            assert "Needs a fitted camera" in button.toolTip() and "Fit the camera first" in button.toolTip()
+        c = dock.controller
+        dock.curation_panel.refitCheck.setChecked(False)
+        qtbot.mouseClick(dock.fitButton, Qt.MouseButton.LeftButton)  # no camera yet: refused, with a warning
+        add_scene_points(dock, scene)
+        accept_everything(c)
+        c.set_prior(scene.prior)
+        qtbot.mouseClick(dock.fitButton, Qt.MouseButton.LeftButton)
+        with qtbot.waitSignal(c.taskFinished, timeout=60000) as blocker:
+            pass
+        assert blocker.args[0].ok
+        for name, button in buttons.items():
+            assert button.isEnabled(), name
+            assert "Needs a fitted camera" not in button.toolTip() and button.toolTip()
+        qtbot.waitUntil(lambda: any("Camera fitted" in m for m, _ in logged), timeout=5000)
+        texts = [m for m, _ in logged]
+        assert any("Give a rough camera first" in m for m in texts)  # the warning of the refused click
+        assert any("Fit (" in m and "RMSE" in m and "core fit" in m for m in texts)  # what the fit did
+        assert any("Fit camera: success in" in m for m in texts)  # and how long it took
+        # the camera dropped: the products are disabled again
+        c.set_fitted(None)
+        assert all(not b.isEnabled() for b in buttons.values())
+    finally:
+        logging_bridge.uninstall()
+        log.messageReceived.disconnect(received)
