@@ -1,12 +1,14 @@
 """What a new user saw in the real desktop (issue 12): background refits in QGIS's task list and message bar, the
-product buttons enabled before a fit, an empty "Monoplot" log tab. Real dock, real clicks, real fits."""
+product buttons enabled before a fit, an empty "Monoplot" log tab, the lens row's button over its check box at a
+narrow dock. Real dock, real clicks, real fits."""
 
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from qgis.core import QgsApplication
-from qgis.PyQt.QtCore import Qt
-from qgis.PyQt.QtWidgets import QToolButton
+from qgis.PyQt.QtCore import QPoint, Qt
+from qgis.PyQt.QtWidgets import QToolButton, QWidget
 
 from monoplot_plugin import logging_bridge
 from monoplot_plugin.gui.product_panel import NEEDS_FIT
@@ -86,3 +88,27 @@ def test_products_wait_for_a_fit_and_the_log_tab_tells_what_happened(dock, scene
     finally:
         logging_bridge.uninstall()
         log.messageReceived.disconnect(received)
+
+
+@pytest.mark.parametrize("width", [440, 580, 900])
+def test_lens_row_never_overlaps_and_its_button_works(dock, scene, qtbot, width):
+    """At a narrow dock "Set field of view" was drawn over the "35 mm equiv." box: the row wraps instead, and the
+    box and the button stay clickable at every width."""
+    load_inputs(dock, scene, qtbot)
+    dock.resize(width, 800)
+    dock.stepTabs.setCurrentWidget(dock.cameraTab)
+    qtbot.wait(50)
+    lens = dock.lens_panel
+    widgets = lens.row.findChildren(QWidget)
+    shown = [w for w in widgets if w.isVisible() and w.parent() is lens.row]
+    assert len(shown) == 6
+    for i, a in enumerate(shown):
+        assert lens.row.rect().contains(a.geometry()), a
+        assert a.width() >= a.minimumSizeHint().width(), a
+        for b in shown[i + 1:]:
+            assert not a.geometry().intersects(b.geometry()), (a, b)
+    qtbot.mouseClick(lens.equivalent_check, Qt.MouseButton.LeftButton, pos=QPoint(6, lens.equivalent_check.height() // 2))
+    assert lens.equivalent_check.isChecked()
+    lens.focal_spin.setValue(35.0)
+    qtbot.mouseClick(lens.apply_button, Qt.MouseButton.LeftButton)
+    assert abs(dock.fovSpin.value() - 54.4) < 0.2  # 35 mm equivalent on a landscape photo: 2 atan(18 / 35)
