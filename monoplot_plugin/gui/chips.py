@@ -184,8 +184,8 @@ class ChipView(QWidget):
             elif camera is not None:
                 uv = self._project(camera, [partner])
                 dem.append((uv[0, 0], uv[0, 1], "partner"))
-        if camera is not None:  # the map points near it, where the camera sees them
-            near = [q for q in self.controller.state.in_space(MAP) if q.id != p.id and
+        if camera is not None:  # the map points on show near it, where the camera sees them: O(shown) per click
+            near = [q for q in self.controller.visible(MAP) if q.id != p.id and
                     (partner is None or q.id != partner.id) and q.status != "rejected"]
             uv = self._project(camera, near) if near else None
             if uv is not None:
