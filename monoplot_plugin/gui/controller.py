@@ -89,7 +89,7 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
         self._autosave = QTimer(self)
         self._autosave.setSingleShot(True)
         self._autosave.setInterval(autosave_delay_ms)
-        self._autosave.timeout.connect(self.save)
+        self._autosave.timeout.connect(self._autosave_now)
         self.project.layersWillBeRemoved.connect(self._layers_removed)
         # (re)write the entry while the project is being written: paths are made relative to its (new) file
         self.project.writeProject.connect(self._project_writing)
@@ -471,13 +471,18 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
 
     # --- persistence ------------------------------------------------------------------------------------------
     def _changed(self) -> None:
-        """Every change goes into the project at once (saved with it); the autosave file follows, debounced."""
+        """Every change marks the project modified (the state goes into it when it is written) and restarts the
+        debounced autosave: no O(points) work on the main thread per change."""
         if not self._restoring:
-            persistence.store_in_project(self.project, self.state)
+            self.project.setDirty(True)
             self._autosave.start()
 
+    def _autosave_now(self) -> None:
+        """The debounced autosave: a snapshot here, the file written in a worker thread (gui/persistence.py)."""
+        self._autosave_worker = persistence.autosave(self.project, self.state)
+
     def save(self) -> None:
-        """Write the state into the project and the autosave file now."""
+        """Write the state into the project and the autosave file now (synchronously)."""
         self._autosave.stop()
         persistence.save(self.project, self.state)
 

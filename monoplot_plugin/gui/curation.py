@@ -151,11 +151,5 @@ class CurationMixin:
     def _on_points_changed(self, changed: set) -> None:
         self.shortlist.update(changed)
         self.pointsChanged.emit(changed)
-        if not changed:
-            self._changed()
-        elif not self._restoring:
-            # not the whole state into the project on every click (O(all points)): the autosave writes it,
-            # debounced, and so does the project's own writing (writeProject)
-            self.project.setDirty(True)
-            self._autosave.start()
+        self._changed()  # O(1): the project marked modified, the autosave debounced (controller._changed)
 
