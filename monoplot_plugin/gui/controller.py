@@ -25,6 +25,7 @@ from . import engine, persistence
 from .curation import CurationMixin
 from .fit_settings import fit_arguments
 from .priors import PriorsMixin
+from .refit import inputs_key
 from .tasks import CANCELED, FunctionTask, TaskResult, start_task
 
 __all__ = ["MonoplotController"]
@@ -86,6 +87,7 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
         self.footprint_wkt = ""  # visible area of the fitted camera (DEM CRS)
         self._restoring = False
         self._fit_ids: Tuple[List[str], List[str]] = ([], [])
+        self._known_fit: Tuple[tuple, object] = ((), None)  # (inputs key, FitDone) of the last background refit
         self._autosave = QTimer(self)
         self._autosave.setSingleShot(True)
         self._autosave.setInterval(autosave_delay_ms)
@@ -305,10 +307,12 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
         dem = self.dem
 
         free, options = fit_arguments(self.state.settings)  # the dock's fit settings (gui/fit_settings.py)
+        key = inputs_key(uv, xyz, pairs, start, free, options, check_uv, check_xyz)
+        known = self._known_fit[1] if self._known_fit[0] == key else None  # the background refit's, if the same
 
         def work(progress, is_canceled):
             return engine.fit_and_render(uv, xyz, pairs, start, dem, progress, is_canceled, check_uv, check_xyz,
-                                         free=free, options=options)
+                                         free=free, options=options, done=known)
 
         def apply(outcome):
             # the matches the fit used, by point id (indices would drift with later edits)
@@ -317,7 +321,13 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
             outcome.info["outliers"] = [photo_ids[i] for i in outcome.info.pop("outlier_idx", [])]
             self._apply_fit(outcome)
 
-        return self._start("fit", self.tr("Fit camera"), work, apply)
+        return self._start("fit", self.tr("Fit camera") if known is None else self.tr("Fit camera (known fit)"),
+                           work, apply)
+
+    def remember_fit(self, key: tuple, done) -> None:
+        """A background refit finished: the Fit button's fit of the same inputs (``refit.inputs_key``) renders its
+        camera instead of fitting again."""
+        self._known_fit = (key, done)
 
     def set_fitted(self, camera: Optional[Camera], info: Optional[dict] = None, background: bool = False) -> None:
         """Use ``camera`` as the fitted camera (e.g. loaded from a file); overlay and XYZ are recomputed here (in a

@@ -36,14 +36,23 @@ def test_background_refit_is_silent_and_the_fit_button_is_not(dock, scene, qtbot
     chosen = np.random.default_rng(0).choice(len(photo), 20, replace=False)
     with qtbot.waitSignal(panel.refitter.refitted, timeout=120000) as blocker:
         c.set_status([photo[i].id for i in chosen] + [world[i].id for i in chosen], ACCEPTED)
-    assert blocker.args[0].status in ("ok", "uncertain")
+    outcome = blocker.args[0]
+    assert outcome.status in ("ok", "uncertain")
     assert added == []  # neither the refit nor the chips' DEM view went to the task manager
-    panel.refitCheck.setChecked(False)
+    # Fit on the same points: the refit's fit is reused (only the overlay is rendered), in a visible task
+    qtbot.mouseClick(dock.fitButton, Qt.MouseButton.LeftButton)
+    with qtbot.waitSignal(c.taskFinished, timeout=60000) as done:
+        pass
+    assert done.args[0].ok and added == ["Fit camera (known fit)"]
+    assert c.fitted == outcome.camera and c.overlay is not None
+    assert c.state.fit_info["n_photo"] == 20 and len(c.state.fit_info["matched"]) >= 15
+    # more points: a fit of its own, and no background refit beside it
     accept_everything(c)
     qtbot.mouseClick(dock.fitButton, Qt.MouseButton.LeftButton)
+    assert panel.refitter.task is None
     with qtbot.waitSignal(c.taskFinished, timeout=60000):
         pass
-    assert any("Fit" in text for text in added), added
+    assert added[-1] == "Fit camera" and c.state.fit_info["n_photo"] == len(photo)
 
 
 def test_products_wait_for_a_fit_and_the_log_tab_tells_what_happened(dock, scene, qtbot):
@@ -81,7 +90,7 @@ def test_products_wait_for_a_fit_and_the_log_tab_tells_what_happened(dock, scene
         texts = [m for m, _ in logged]
         assert any("Give a rough camera first" in m for m in texts)  # the warning of the refused click
         assert any("Fit (" in m and "RMSE" in m and "core fit" in m for m in texts)  # what the fit did
-        assert any("Fit camera: success in" in m for m in texts)  # and how long it took
+        assert any("Fit camera" in m and ": success in" in m for m in texts)  # and how long it took
         # the camera dropped: the products are disabled again
         c.set_fitted(None)
         assert all(not b.isEnabled() for b in buttons.values())
