@@ -111,6 +111,7 @@ def test_lens_row_never_overlaps_and_its_button_works(dock, scene, qtbot, width)
     widgets = lens.row.findChildren(QWidget)
     shown = [w for w in widgets if w.isVisible() and w.parent() is lens.row]
     assert len(shown) == 6
+    assert lens.row.one_line == (width >= 900)  # one line when wide, two when narrow
     for i, a in enumerate(shown):
         assert lens.row.rect().contains(a.geometry()), a
         assert a.width() >= a.minimumSizeHint().width(), a
