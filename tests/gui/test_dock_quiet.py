@@ -27,12 +27,24 @@ def test_background_refit_is_silent_and_the_fit_button_is_not(dock, scene, qtbot
     """The refit runs outside QGIS's task manager (no status-bar entry, no "Task complete" in the message bar on
     every refit); the Fit the person clicked is a task of the task manager as before."""
     load_inputs(dock, scene, qtbot)
-    c, panel = dock.controller, dock.curation_panel
     photo, world = add_scene_points(dock, scene)
-    c.set_prior(scene.prior)
+    dock.controller.set_prior(scene.prior)
     added = []
     manager = QgsApplication.taskManager()
-    manager.taskAdded.connect(lambda tid: added.append(manager.task(tid).description()))
+
+    def task_added(tid):
+        task = manager.task(tid)
+        added.append(task.description() if task is not None else "?")
+
+    manager.taskAdded.connect(task_added)
+    try:
+        _fit_after_refit(dock, scene, qtbot, photo, world, added)
+    finally:
+        manager.taskAdded.disconnect(task_added)  # the task manager outlives this test
+
+
+def _fit_after_refit(dock, scene, qtbot, photo, world, added):
+    c, panel = dock.controller, dock.curation_panel
     chosen = np.random.default_rng(0).choice(len(photo), 20, replace=False)
     with qtbot.waitSignal(panel.refitter.refitted, timeout=120000) as blocker:
         c.set_status([photo[i].id for i in chosen] + [world[i].id for i in chosen], ACCEPTED)
