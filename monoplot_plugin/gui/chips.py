@@ -265,3 +265,5 @@ class ChipView(QWidget):
     def unload(self) -> None:
         for task in self._tasks:
             task.cancel()
+        for task in self._tasks:  # a worker thread of its own: not left running when QGIS quits
+            task.waitForFinished(5000)
