@@ -13,7 +13,7 @@ import math
 from typing import List, Optional, Tuple
 
 import numpy as np
-from qgis.PyQt.QtCore import QCoreApplication, QEvent, QPointF, QRectF, Qt
+from qgis.PyQt.QtCore import QCoreApplication, QEvent, QPointF, QRectF, Qt, QTimer
 from qgis.PyQt.QtGui import QColor, QImage, QPainter, QPen, QPixmap
 from qgis.PyQt.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 
@@ -90,7 +90,13 @@ class ChipView(QWidget):
         self._selected: Tuple[str, str] = ("", "")
         c.selectionChanged.connect(self.show_point)
         c.cameraChanged.connect(self._camera_changed)
-        c.pointsChanged.connect(lambda changed: self.refresh())
+        # an edit redraws the chips once the event is handled: a click that edits and then selects (most do)
+        # draws them once, for the selection
+        self._pending = QTimer(self)
+        self._pending.setSingleShot(True)
+        self._pending.setInterval(0)
+        self._pending.timeout.connect(self.refresh)
+        c.pointsChanged.connect(lambda changed: self._pending.start())
         if parent is not None:  # floats in the photo canvas's lower left corner: no room taken from the table
             parent.installEventFilter(self)
         self.setVisible(False)
@@ -113,6 +119,7 @@ class ChipView(QWidget):
         self.refresh()
 
     def refresh(self) -> None:
+        self._pending.stop()
         space, pid = self._selected
         c = self.controller
         p = c.state.points.get(pid) if pid else None
