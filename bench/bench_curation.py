@@ -8,7 +8,9 @@ redrawn), ``--repeat`` times: median and worst milliseconds. Target (issue 12): 
 
 The background refit is switched off while timing (it runs in a task on the other core and would only add noise);
 ``rerank_s`` gives the main-thread cost of a new rough camera (all suggestions re-ranked), ``autosave_s`` that of
-the debounced autosave (once the person pauses).
+the debounced autosave (once the person pauses: the snapshot on the main thread; ``autosave_worker_s`` the
+encoding and writing in its worker thread, ``autosave_stall_s`` the longest gap of a 5 ms main-thread timer while
+it runs), ``save_s`` a synchronous save (project entry and file, as at unload), ``autosave_mb`` the file's size.
 
     .venv/bin/python bench/bench_curation.py [--n 10000] [--repeat 15]
 """
@@ -67,6 +69,30 @@ def timed(action, repeat: int):
         wait(0)  # the paint and queued events the action caused
         times.append(time.perf_counter() - t0)
     return times
+
+
+def autosave_cost(c):
+    """(main-thread seconds of the debounced autosave's call, its worker's seconds, the longest gap of a 5 ms timer
+    on the main thread while the worker ran)."""
+    from qgis.PyQt.QtCore import QTimer
+
+    ticks = []
+    timer = QTimer()
+    timer.setInterval(5)
+    timer.timeout.connect(lambda: ticks.append(time.perf_counter()))
+    timer.start()
+    wait(20)
+    t0 = time.perf_counter()
+    c._autosave_now()
+    call_s = time.perf_counter() - t0
+    ticks.append(time.perf_counter())
+    while c._autosave_worker.is_alive():
+        wait(5)
+    worker_s = time.perf_counter() - t0
+    wait(20)
+    timer.stop()
+    gaps = [b - a for a, b in zip(ticks, ticks[1:]) if b >= t0]
+    return call_s, worker_s, max(gaps, default=0.0)
 
 
 def main(argv=None) -> int:
@@ -166,12 +192,18 @@ def main(argv=None) -> int:
                               "repeat": len(during), "target_ms": 30, "pass": bool(statistics.median(during) <= 30),
                               "load_1min": round(os.getloadavg()[0], 2)}), flush=True)
         panel.refitCheck.setChecked(False)
+        autosave_s, worker_s, stall_s = autosave_cost(c)
         t0 = time.perf_counter()
-        c.save()  # what the debounced autosave costs the main thread once the person pauses
+        c.save()  # synchronous: project entry and autosave file (unload)
         save_s = time.perf_counter() - t0
+        from monoplot_plugin.gui import persistence
+
+        size_mb = os.path.getsize(persistence.autosave_path(c.project)) / 1e6
         counts = c.state.counts()
         print(json.dumps({"name": "curation_setup", "suggestions_per_view": args.n, "load_suggestions_s":
-                          round(load_s, 2), "rerank_s": round(rerank_s, 2), "autosave_s": round(save_s, 2),
+                          round(load_s, 2), "rerank_s": round(rerank_s, 2), "autosave_s": round(autosave_s, 3),
+                          "autosave_worker_s": round(worker_s, 3), "autosave_stall_s": round(stall_s, 3),
+                          "save_s": round(save_s, 3), "autosave_mb": round(size_mb, 2),
                           "accepted": counts[PHOTO][ACCEPTED] + counts[MAP][ACCEPTED],
                           "undecided": counts[PHOTO][SUGGESTED] + counts[MAP][SUGGESTED],
                           "load_1min": round(os.getloadavg()[0], 2)}), flush=True)

@@ -1,8 +1,10 @@
 """Python ``logging`` of the whole plugin shown in QGIS's Log Messages panel, tab "Monoplot".
 
-Every module logs with ``logging.getLogger(__name__)``; :func:`install` attaches one handler to the plugin's
-package logger (``monoplot.monoplot_plugin`` when installed in QGIS, ``monoplot_plugin`` in tests), so modules need
-no qgis import to log. ``uninstall`` removes it again (plugin unload).
+Every module logs with ``logging.getLogger(__name__)`` (some core modules with ``logging.getLogger("monoplot")``);
+:func:`install` attaches one handler to the loggers that hold them all: the plugin's package logger
+(``monoplot.monoplot_plugin`` when installed in QGIS, ``monoplot_plugin`` in tests) and ``monoplot``, once each (a
+record reaches one handler only), so modules need no qgis import to log. ``uninstall`` removes it again (plugin
+unload). The dock logs its fits, suggestions and every message it shows (``gui/controller.py``).
 """
 
 import logging
@@ -12,6 +14,8 @@ from qgis.core import Qgis, QgsMessageLog
 TAB = "Monoplot"
 #: Parent logger of every plugin module, whatever the folder is called when installed.
 PACKAGE_LOGGER = __name__.rpartition(".")[0]
+#: the loggers the handler goes on: "monoplot" (core's) and the package's, unless the package is under "monoplot"
+ROOTS = tuple(dict.fromkeys(["monoplot"] + ([] if PACKAGE_LOGGER.startswith("monoplot.") else [PACKAGE_LOGGER])))
 
 
 def qgis_level(levelno):
@@ -39,17 +43,19 @@ class QgsMessageLogHandler(logging.Handler):
 
 def install(level=logging.INFO):
     """Attach the handler (idempotent) and return the package logger."""
-    logger = logging.getLogger(PACKAGE_LOGGER)
-    if not any(isinstance(h, QgsMessageLogHandler) for h in logger.handlers):
-        handler = QgsMessageLogHandler()
-        handler.setFormatter(logging.Formatter("%(name)s: %(message)s"))
-        logger.addHandler(handler)
-    logger.setLevel(level)
-    return logger
+    for name in ROOTS:
+        logger = logging.getLogger(name)
+        if not any(isinstance(h, QgsMessageLogHandler) for h in logger.handlers):
+            handler = QgsMessageLogHandler()
+            handler.setFormatter(logging.Formatter("%(name)s: %(message)s"))
+            logger.addHandler(handler)
+        logger.setLevel(level)
+    return logging.getLogger(PACKAGE_LOGGER)
 
 
 def uninstall():
     """Remove the handlers added by :func:`install`."""
-    logger = logging.getLogger(PACKAGE_LOGGER)
-    for handler in [h for h in logger.handlers if isinstance(h, QgsMessageLogHandler)]:
-        logger.removeHandler(handler)
+    for name in ROOTS:
+        logger = logging.getLogger(name)
+        for handler in [h for h in logger.handlers if isinstance(h, QgsMessageLogHandler)]:
+            logger.removeHandler(handler)

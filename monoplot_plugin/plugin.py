@@ -52,7 +52,7 @@ def start_warm_up():
     so the first Suggest, the first fit and a reopened project do not pay for it (``workflow/warmup.py``).
     Returns the task, or None when it could not start."""
     try:
-        from .gui.tasks import FunctionTask, start_task
+        from .gui.tasks import HiddenTask, start_task
         from .workflow.warmup import warm_up
 
         def done(result):
@@ -61,7 +61,7 @@ def start_warm_up():
             if result.ok:
                 LOG.info("Monoplot warmed up: %s", ", ".join(f"{k} {v:.1f} s" for k, v in result.value.items()))
 
-        task = FunctionTask("Monoplot: preparing", lambda progress, is_canceled: warm_up(progress, is_canceled),
+        task = HiddenTask("Monoplot: preparing", lambda progress, is_canceled: warm_up(progress, is_canceled),
                             done)
         _WARMING.append(task)
         if not _QUIT_HOOK:

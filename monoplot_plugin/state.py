@@ -21,9 +21,14 @@ True
 
 from __future__ import annotations
 
+import base64
 import itertools
 import json
+import math
+import sys
 import uuid
+from array import array
+from operator import attrgetter
 from dataclasses import dataclass, field, replace
 from typing import Callable, Dict, Iterable, List, Optional, Sequence, Tuple
 
@@ -31,6 +36,7 @@ __all__ = [
     "SUGGESTED", "ACCEPTED", "REJECTED", "CHECK", "STATUSES", "PHOTO", "MAP",
     "Point", "ProjectState", "Edit", "CommandStack",
     "add_points", "remove_points", "set_status", "move_point", "replace_suggestions", "link", "unlink", "set_check",
+    "points_table", "points_from_table",
 ]
 
 SUGGESTED, ACCEPTED, REJECTED = "suggested", "accepted", "rejected"
@@ -39,7 +45,11 @@ SUGGESTED, ACCEPTED, REJECTED = "suggested", "accepted", "rejected"
 CHECK = "check"
 STATUSES = (SUGGESTED, ACCEPTED, REJECTED, CHECK)
 PHOTO, MAP = "photo", "map"
-FORMAT = "monoplot-state/1"
+#: format 2 stores the points as columns (their numbers as one base64 block: 20,000 points in ~0.05 s, not 0.4);
+#: format 1 (a list of point objects) is still read
+FORMAT, FORMATS = "monoplot-state/2", ("monoplot-state/1", "monoplot-state/2")
+_TEXT_FIELDS = ("id", "space", "status", "label")
+_NUMBER_FIELDS = ("x", "y", "z", "score")  # z: NaN for None
 
 _counter = itertools.count(1)
 
@@ -128,7 +138,7 @@ class ProjectState:
         >>> s.counts()["photo"]["accepted"]
         1
         """
-        key = (id(self.points), len(self.points), self._version)
+        key = self._counts_key()
         cached = self.__dict__.get("_counts")
         if cached is None or cached[0] != key:
             out = {s: {st: 0 for st in STATUSES} for s in (PHOTO, MAP)}
@@ -136,6 +146,9 @@ class ProjectState:
                 out[p.space][p.status] += 1
             cached = self.__dict__["_counts"] = (key, out)
         return {s: dict(v) for s, v in cached[1].items()}
+
+    def _counts_key(self):
+        return id(self.points), len(self.points), self._version
 
     def pairs_with_status(self, status: str) -> List[Tuple[Point, Point]]:
         """Pairs whose two points exist and both have ``status``, as (photo point, map point)."""
@@ -186,27 +199,21 @@ class ProjectState:
         return ids[(ids.index(current) + step) % len(ids)]
 
     # --- serialisation ----------------------------------------------------------------------------------------
+    def _header(self) -> dict:
+        return {"format": FORMAT, "photo_path": self.photo_path, "dem_layer_id": self.dem_layer_id,
+                "dem_source": self.dem_source, "pairs": [list(p) for p in self.pairs], "prior": self.prior,
+                "fitted": self.fitted, "fit_info": self.fit_info, "settings": self.settings}
+
     def to_dict(self) -> dict:
-        return {
-            "format": FORMAT,
-            "photo_path": self.photo_path,
-            "dem_layer_id": self.dem_layer_id,
-            "dem_source": self.dem_source,
-            "points": [dict(vars(p)) for p in self.points.values()],  # asdict deep-copies: 20x slower
-            "pairs": [list(p) for p in self.pairs],
-            "prior": self.prior,
-            "fitted": self.fitted,
-            "fit_info": self.fit_info,
-            "settings": self.settings,
-        }
+        return {**self._header(), "points": points_table(self.points.values())}
 
     @classmethod
     def from_dict(cls, d: dict) -> "ProjectState":
-        if d.get("format", FORMAT) != FORMAT:
+        if d.get("format", FORMAT) not in FORMATS:
             raise ValueError(f"unsupported Monoplot state format {d.get('format')!r}")
+        raw = d.get("points", [])
         points = {}
-        for pd in d.get("points", []):
-            p = Point(**pd)
+        for p in (points_from_table(raw) if isinstance(raw, dict) else (Point(**pd) for pd in raw)):
             points[p.id] = p
         return cls(photo_path=d.get("photo_path", ""), dem_layer_id=d.get("dem_layer_id", ""),
                    dem_source=d.get("dem_source", ""), points=points,
@@ -215,8 +222,19 @@ class ProjectState:
                    settings=dict(d.get("settings") or {}))
 
     def to_json(self) -> str:
-        # compact: an indent makes json use its pure-Python encoder (seconds for 20,000 points)
-        return json.dumps(self.to_dict(), separators=(",", ":"))
+        return self.snapshot()()
+
+    def snapshot(self, **header) -> Callable[[], str]:
+        """``to_json`` of the state as it is now, as a function that another thread may call later: the small
+        fields are encoded now (``header`` replaces some, e.g. a relative photo path), the points (immutable) are
+        only referenced, and encoded when the function is called (O(points), off the main thread)."""
+        head = json.dumps({**self._header(), **header}, separators=(",", ":"))  # compact: json's C encoder
+        points = list(self.points.values())
+
+        def text() -> str:
+            return head[:-1] + ',"points":' + json.dumps(points_table(points), separators=(",", ":")) + "}"
+
+        return text
 
     @classmethod
     def from_json(cls, text: str) -> "ProjectState":
@@ -227,6 +245,39 @@ class ProjectState:
         for name in self.__dataclass_fields__:
             setattr(self, name, getattr(other, name))
         self._version += 1
+
+
+def points_table(points: Iterable[Point]) -> dict:
+    """The points as columns: ``id``, ``space``, ``status``, ``label`` lists, ``manual`` 0/1 list, and ``numbers``:
+    base64 of little-endian float64 (x, y, z, score) per point (z NaN = None).
+
+    >>> pts = [Point("a", PHOTO, 1.5, 2.0, score=0.5), Point("b", MAP, 3.0, 4.0, 1800.25, ACCEPTED, True)]
+    >>> points_from_table(points_table(pts)) == pts
+    True
+    """
+    pts = list(points)
+    table = {f: list(map(attrgetter(f), pts)) for f in _TEXT_FIELDS}
+    table["manual"] = [1 if p.manual else 0 for p in pts]
+    numbers = array("d", [v for p in pts for v in (p.x, p.y, math.nan if p.z is None else p.z, p.score)])
+    if sys.byteorder == "big":
+        numbers.byteswap()
+    table["numbers"] = base64.b64encode(numbers.tobytes()).decode("ascii")
+    return table
+
+
+def points_from_table(table: dict) -> List[Point]:
+    """The points of :func:`points_table`."""
+    numbers = array("d")
+    numbers.frombytes(base64.b64decode(table.get("numbers", "")))
+    if sys.byteorder == "big":
+        numbers.byteswap()
+    ids, spaces, statuses, labels = (table[f] for f in _TEXT_FIELDS)
+    manual = table["manual"]
+    if not (len(ids) == len(spaces) == len(statuses) == len(labels) == len(manual) == len(numbers) // 4):
+        raise ValueError("inconsistent point table")
+    return [Point(str(ids[i]), str(spaces[i]), numbers[4 * i], numbers[4 * i + 1],
+                  None if math.isnan(numbers[4 * i + 2]) else numbers[4 * i + 2], str(statuses[i]), bool(manual[i]),
+                  numbers[4 * i + 3], str(labels[i])) for i in range(len(ids))]
 
 
 # --- edits (undoable) -----------------------------------------------------------------------------------------
@@ -246,12 +297,21 @@ class Edit:
 
     @staticmethod
     def _apply(state: ProjectState, points: Dict[str, Optional[Point]], pairs) -> None:
+        cached = state.__dict__.get("_counts")
+        counts = cached[1] if cached is not None and cached[0] == state._counts_key() else None
         state._version += 1
         for pid, p in points.items():
+            old = state.points.get(pid)
+            if counts is not None and old is not None:  # the counts follow the edit: O(edited), not O(points)
+                counts[old.space][old.status] -= 1
             if p is None:
                 state.points.pop(pid, None)
             else:
                 state.points[pid] = p
+                if counts is not None:
+                    counts[p.space][p.status] += 1
+        if counts is not None:
+            state.__dict__["_counts"] = (state._counts_key(), counts)
         if pairs is not None:
             state.pairs = list(pairs)
 

@@ -13,14 +13,14 @@ import math
 from typing import List, Optional, Tuple
 
 import numpy as np
-from qgis.PyQt.QtCore import QCoreApplication, QEvent, QPointF, QRectF, Qt
+from qgis.PyQt.QtCore import QCoreApplication, QEvent, QPointF, QRectF, Qt, QTimer
 from qgis.PyQt.QtGui import QColor, QImage, QPainter, QPen, QPixmap
 from qgis.PyQt.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 
 from ..adapters.photo import array_to_qimage
 from ..core.camera import Camera
 from ..state import MAP, PHOTO
-from .tasks import FunctionTask, start_task
+from .tasks import HiddenTask, start_task
 
 __all__ = ["ChipView", "chip_radius", "render_view"]
 
@@ -86,11 +86,17 @@ class ChipView(QWidget):
         self.caption.setFixedWidth(2 * CHIP_PX + 4)
         outer.addWidget(self.caption)
         self._view: Optional[Tuple[dict, QImage]] = None  # (camera dict, rendering) of the rough camera
-        self._tasks: List[FunctionTask] = []
+        self._tasks: List[HiddenTask] = []
         self._selected: Tuple[str, str] = ("", "")
         c.selectionChanged.connect(self.show_point)
         c.cameraChanged.connect(self._camera_changed)
-        c.pointsChanged.connect(lambda changed: self.refresh())
+        # an edit redraws the chips once the event is handled: a click that edits and then selects (most do)
+        # draws them once, for the selection
+        self._pending = QTimer(self)
+        self._pending.setSingleShot(True)
+        self._pending.setInterval(0)
+        self._pending.timeout.connect(self.refresh)
+        c.pointsChanged.connect(lambda changed: self._pending.start())
         if parent is not None:  # floats in the photo canvas's lower left corner: no room taken from the table
             parent.installEventFilter(self)
         self.setVisible(False)
@@ -113,6 +119,7 @@ class ChipView(QWidget):
         self.refresh()
 
     def refresh(self) -> None:
+        self._pending.stop()
         space, pid = self._selected
         c = self.controller
         p = c.state.points.get(pid) if pid else None
@@ -184,8 +191,8 @@ class ChipView(QWidget):
             elif camera is not None:
                 uv = self._project(camera, [partner])
                 dem.append((uv[0, 0], uv[0, 1], "partner"))
-        if camera is not None:  # the map points near it, where the camera sees them
-            near = [q for q in self.controller.state.in_space(MAP) if q.id != p.id and
+        if camera is not None:  # the map points on show near it, where the camera sees them: O(shown) per click
+            near = [q for q in self.controller.visible(MAP) if q.id != p.id and
                     (partner is None or q.id != partner.id) and q.status != "rejected"]
             uv = self._project(camera, near) if near else None
             if uv is not None:
@@ -213,7 +220,7 @@ class ChipView(QWidget):
                 self._view = (key, array_to_qimage(result.value))
                 self.refresh()
 
-        task = FunctionTask(tr("Monoplot: DEM view for the chips"),
+        task = HiddenTask(tr("Monoplot: DEM view for the chips"),
                             lambda progress, is_canceled: render_view(camera, dem), done)
         task.monoplot_key = key
         self._tasks.append(task)
@@ -265,3 +272,5 @@ class ChipView(QWidget):
     def unload(self) -> None:
         for task in self._tasks:
             task.cancel()
+        for task in self._tasks:  # a worker thread of its own: not left running when QGIS quits
+            task.waitForFinished(5000)

@@ -6,7 +6,9 @@ All point edits go through ``self.stack`` (undo/redo); every change is written t
 
 from __future__ import annotations
 
+import logging
 import math
+import time
 from typing import List, Optional, Tuple
 
 import numpy as np
@@ -23,15 +25,21 @@ from . import engine, persistence
 from .curation import CurationMixin
 from .fit_settings import fit_arguments
 from .priors import PriorsMixin
+from .results import ResultsMixin
+from .refit import inputs_key
 from .tasks import CANCELED, FunctionTask, TaskResult, start_task
 
 __all__ = ["MonoplotController"]
 
 INFO, WARNING, CRITICAL, SUCCESS = (Qgis.MessageLevel.Info, Qgis.MessageLevel.Warning,
                                     Qgis.MessageLevel.Critical, Qgis.MessageLevel.Success)
+#: the plugin's log (QGIS's Log Messages panel, tab "Monoplot", through logging_bridge): every message the dock
+#: shows, and what each suggest and fit did
+LOG = logging.getLogger(__name__)
+_LOG_LEVELS = {WARNING: logging.WARNING, CRITICAL: logging.ERROR}
 
 
-class MonoplotController(PriorsMixin, CurationMixin, QObject):
+class MonoplotController(PriorsMixin, CurationMixin, ResultsMixin, QObject):
     """State holder and workflow of one Monoplot session (one QGIS project).
 
     Signals:
@@ -80,13 +88,19 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
         self.footprint_wkt = ""  # visible area of the fitted camera (DEM CRS)
         self._restoring = False
         self._fit_ids: Tuple[List[str], List[str]] = ([], [])
+        self._known_fit: Tuple[tuple, object] = ((), None)  # (inputs key, FitDone) of the last background refit
         self._autosave = QTimer(self)
         self._autosave.setSingleShot(True)
         self._autosave.setInterval(autosave_delay_ms)
-        self._autosave.timeout.connect(self.save)
+        self._autosave.timeout.connect(self._autosave_now)
         self.project.layersWillBeRemoved.connect(self._layers_removed)
         # (re)write the entry while the project is being written: paths are made relative to its (new) file
         self.project.writeProject.connect(self._project_writing)
+        self.message.connect(self._log_message)
+
+    @staticmethod
+    def _log_message(text: str, level) -> None:
+        LOG.log(_LOG_LEVELS.get(level, logging.INFO), "%s", text)
 
     def detach(self) -> None:
         """Stop listening to the project (the dock is going away)."""
@@ -186,8 +200,11 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
             self.message.emit(self.tr("Monoplot is busy ({0}); wait or cancel it.").format(self.task_kind), WARNING)
             return False
 
+        t0 = time.perf_counter()
+
         def done(result: TaskResult) -> None:
             self.task = None
+            LOG.info("%s: %s in %.2f s", description, result.status, time.perf_counter() - t0)
             if result.ok:
                 on_success(result.value)
             elif result.status == CANCELED:
@@ -291,10 +308,12 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
         dem = self.dem
 
         free, options = fit_arguments(self.state.settings)  # the dock's fit settings (gui/fit_settings.py)
+        key = inputs_key(uv, xyz, pairs, start, free, options, check_uv, check_xyz)
+        known = self._known_fit[1] if self._known_fit[0] == key else None  # the background refit's, if the same
 
         def work(progress, is_canceled):
             return engine.fit_and_render(uv, xyz, pairs, start, dem, progress, is_canceled, check_uv, check_xyz,
-                                         free=free, options=options)
+                                         free=free, options=options, done=known)
 
         def apply(outcome):
             # the matches the fit used, by point id (indices would drift with later edits)
@@ -303,7 +322,13 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
             outcome.info["outliers"] = [photo_ids[i] for i in outcome.info.pop("outlier_idx", [])]
             self._apply_fit(outcome)
 
-        return self._start("fit", self.tr("Fit camera"), work, apply)
+        return self._start("fit", self.tr("Fit camera") if known is None else self.tr("Fit camera (known fit)"),
+                           work, apply)
+
+    def remember_fit(self, key: tuple, done) -> None:
+        """A background refit finished: the Fit button's fit of the same inputs (``refit.inputs_key``) renders its
+        camera instead of fitting again."""
+        self._known_fit = (key, done)
 
     def set_fitted(self, camera: Optional[Camera], info: Optional[dict] = None, background: bool = False) -> None:
         """Use ``camera`` as the fitted camera (e.g. loaded from a file); overlay and XYZ are recomputed here (in a
@@ -323,6 +348,11 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
             self._changed()
 
     def _apply_fit(self, outcome: "engine.FitOutcome") -> None:
+        i = outcome.info
+        LOG.info("Fit (%s): status %s, RMSE %s px, check RMSE %s px on %s, %s photo / %s map points, %s pairs "
+                 "given, %s matched, core fit %.2f s; %s", i.get("mode"), i.get("status"), _num(i.get("rmse_px")),
+                 _num(i.get("check_rmse_px")), i.get("n_check"), i.get("n_photo"), i.get("n_map"), i.get("n_pairs"),
+                 i.get("n_matched"), float(i.get("elapsed_s") or 0.0), i.get("message", ""))
         self.state.fitted = outcome.camera.to_dict()
         self.state.fit_info = outcome.info
         self.overlay = None if outcome.overlay is None else array_to_qimage(outcome.overlay)
@@ -392,73 +422,20 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
         """True while :meth:`ensure_products` renders in the background."""
         return bool(self._products_tasks)
 
-    # --- results ----------------------------------------------------------------------------------------------
-    def residuals(self) -> List[Tuple[str, Tuple[float, float], Tuple[float, float]]]:
-        """(photo point id, its pixel, the pixel of its DEM match under the fitted camera) for each accepted photo
-        point the last fit matched (its pairs, or the automatic pairs of an unpaired fit); without that record
-        (older state), each point's nearest projected accepted DEM point."""
-        cam = self.fitted
-        if cam is None:
-            return []
-        matched = self.state.fit_info.get("matched")
-        if matched:
-            out = []
-            pts = self.state.points
-            links = [(pts[a], pts[b]) for a, b in matched if a in pts and b in pts
-                     and pts[a].status == ACCEPTED and pts[b].status == ACCEPTED]
-            if not links:
-                return []
-            world = np.array([(b.x, b.y, b.z if b.z is not None else float(self.dem.sample(b.x, b.y))
-                               if self.dem is not None else 0.0) for _, b in links])
-            proj = cam.project(world)
-            for (a, _), q in zip(links, proj):
-                if np.isfinite(q).all():
-                    out.append((a.id, (a.x, a.y), (float(q[0]), float(q[1]))))
-            return out
-        inputs = self.fit_inputs()
-        if isinstance(inputs, str):
-            return []
-        uv, xyz, pairs = inputs
-        photo_ids = self._fit_ids[0]
-        segs = engine.residual_segments(cam, uv, xyz, pairs)
-        return [(pid, a, b) for pid, (a, b) in zip(photo_ids, segs)]
-
-    def check_residuals(self) -> List[Tuple[str, Tuple[float, float], Tuple[float, float]]]:
-        """(photo point id, its pixel, the pixel of its map partner under the fitted camera) per check pair."""
-        cam = self.fitted
-        ids, uv, xyz = self.check_points()
-        if cam is None or not ids:
-            return []
-        proj = cam.project(xyz)
-        return [(pid, (float(a[0]), float(a[1])), (float(q[0]), float(q[1])))
-                for pid, a, q in zip(ids, uv, proj) if np.isfinite(q).all()]
-
-    def residual_segments(self) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:
-        """(photo pixel, matched DEM point's pixel) segments of :meth:`residuals`."""
-        return [(a, b) for _, a, b in self.residuals()]
-
-    def ground_at_pixel(self, u: float, v: float) -> Optional[Tuple[float, float, float]]:
-        """Map (X, Y, Z) seen at photo pixel (u, v), or None (sky, outside, no fit)."""
-        if self.xyz is None:
-            return None
-        return engine.lookup_xyz(self.xyz, self.photo_size, u, v)
-
-    def pixel_of_ground(self, x: float, y: float) -> Tuple[Optional[Tuple[float, float]], str]:
-        """(pixel, "visible" | "hidden" | "outside" | "") of map point (x, y) under the fitted camera."""
-        cam = self.fitted
-        if cam is None or self.dem is None:
-            return None, ""
-        return engine.locate_in_photo(cam, self.dem, self.xyz, x, y)
-
     # --- persistence ------------------------------------------------------------------------------------------
     def _changed(self) -> None:
-        """Every change goes into the project at once (saved with it); the autosave file follows, debounced."""
+        """Every change marks the project modified (the state goes into it when it is written) and restarts the
+        debounced autosave: no O(points) work on the main thread per change."""
         if not self._restoring:
-            persistence.store_in_project(self.project, self.state)
+            self.project.setDirty(True)
             self._autosave.start()
 
+    def _autosave_now(self) -> None:
+        """The debounced autosave: a snapshot here, the file written in a worker thread (gui/persistence.py)."""
+        self._autosave_worker = persistence.autosave(self.project, self.state)
+
     def save(self) -> None:
-        """Write the state into the project and the autosave file now."""
+        """Write the state into the project and the autosave file now (synchronously)."""
         self._autosave.stop()
         persistence.save(self.project, self.state)
 
@@ -494,3 +471,7 @@ class MonoplotController(PriorsMixin, CurationMixin, QObject):
             return True
         finally:
             self._restoring = False
+
+
+def _num(v) -> str:
+    return "-" if v is None else f"{float(v):.2f}"

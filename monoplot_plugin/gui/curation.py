@@ -3,12 +3,13 @@ selection, accept / reject / reset, manual points, moves, deletes and links, all
 suggestions on show (:class:`~monoplot_plugin.gui.shortlist.Shortlist`) and their bulk actions.
 
 Every click and key costs O(shown points), not O(all suggestions): hit tests and stepping use the shortlist, and the
-project entry is written debounced (with the autosave, and whenever the project itself is written)."""
+project entry is written debounced (with the autosave, and whenever the project itself is written). Its needs are
+:class:`CurationHost`, checked by ``tests/gui/test_controller_interfaces.py``."""
 
 from __future__ import annotations
 
 import math
-from typing import List, Optional, Sequence, Tuple
+from typing import Callable, Dict, List, Optional, Protocol, Sequence, Tuple
 
 from qgis.core import Qgis
 
@@ -16,11 +17,25 @@ from ..state import (ACCEPTED, CHECK, MAP, PHOTO, REJECTED, SUGGESTED, Point, ad
                      remove_points, set_check, set_status, unlink)
 from .shortlist import Shortlist
 
-__all__ = ["CurationMixin"]
+__all__ = ["CurationMixin", "CurationHost"]
+
+
+class CurationHost(Protocol):
+    """What :class:`CurationMixin` uses of the controller."""
+
+    state: object  # ProjectState
+    stack: object  # CommandStack: every edit goes through it
+    dem: object  # core Dem or None (heights of map points added or moved)
+    current: Dict[str, str]  # selected point id per space
+    message: object  # pyqtSignal(str, Qgis.MessageLevel)
+    selectionChanged: object  # pyqtSignal(str, str)
+    pointsChanged: object  # pyqtSignal(set)
+    _changed: Callable[[], None]  # the project is modified: autosave soon (O(1))
+    tr: Callable[[str], str]
 
 
 class CurationMixin:
-    """Needs the controller's ``state``, ``stack``, ``dem``, ``current``, ``message`` and ``selectionChanged``."""
+    """Clicks, keys and bulk actions on the points; needs a :class:`CurationHost`."""
 
     @property
     def shortlist(self) -> Shortlist:
@@ -151,11 +166,5 @@ class CurationMixin:
     def _on_points_changed(self, changed: set) -> None:
         self.shortlist.update(changed)
         self.pointsChanged.emit(changed)
-        if not changed:
-            self._changed()
-        elif not self._restoring:
-            # not the whole state into the project on every click (O(all points)): the autosave writes it,
-            # debounced, and so does the project's own writing (writeProject)
-            self.project.setDirty(True)
-            self._autosave.start()
+        self._changed()  # O(1): the project marked modified, the autosave debounced (controller._changed)
 

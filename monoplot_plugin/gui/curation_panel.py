@@ -134,6 +134,7 @@ class CurationPanel(QWidget):
         c.pointsChanged.connect(self._on_points)
         c.cameraChanged.connect(self._on_camera)
         self.refitter.refitted.connect(self._on_refit)
+        c.busyChanged.connect(self._on_busy)
         self.refitter.running.connect(lambda on: self._update_info())
         self._on_camera()
 
@@ -229,6 +230,11 @@ class CurationPanel(QWidget):
                 self.refitter.schedule(force=camera is not None)
             self._redraw()
         self._update_info()
+
+    def _on_busy(self, description: str) -> None:
+        """The Fit button's fit gets the cores: no background refit beside it (its result re-ranks)."""
+        if self.c.task_kind == "fit":
+            self.refitter.cancel()
 
     def _on_refit(self, outcome) -> None:
         sl = self.c.shortlist

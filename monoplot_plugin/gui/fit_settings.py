@@ -28,7 +28,7 @@ from qgis.PyQt.QtWidgets import (QCheckBox, QDoubleSpinBox, QGridLayout, QHBoxLa
 from ..adapters.exif import lens_fov
 from ..core.fit import DEFAULT_FREE, FitOptions
 
-__all__ = ["SETTINGS_KEY", "FREE_GROUPS", "fit_arguments", "FitSettingsPanel", "LensPanel"]
+__all__ = ["SETTINGS_KEY", "FREE_GROUPS", "fit_arguments", "FitSettingsPanel", "LensPanel", "WrappingRow"]
 
 SETTINGS_KEY = "fit"
 #: The toggles of the dock (label, camera parameter names): checked = the fit may change them.
@@ -50,6 +50,50 @@ def fit_arguments(settings: Dict) -> Tuple[Optional[Tuple[str, ...]], Optional[F
     free = tuple(fit["free"]) if fit.get("free") is not None else None
     sigmas = {name: float(fit[name]) for name, *_ in _SIGMAS if fit.get(name)}
     return free, (FitOptions(**sigmas) if sigmas else None)
+
+
+class WrappingRow(QWidget):
+    """Two groups of widgets on one line when the width allows, else the second group on a line of its own (the
+    lens row of a ~580 px dock: "Set field of view" was drawn over the "35 mm equiv." box)."""
+
+    def __init__(self, first: Sequence[QWidget], second: Sequence[QWidget], parent=None):
+        super().__init__(parent)
+        self._first, self._second = list(first), list(second)
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        self._rows = (QHBoxLayout(), QHBoxLayout())
+        for row in self._rows:
+            layout.addLayout(row)
+            row.addStretch(1)
+        for w in self._first:
+            self._rows[0].insertWidget(self._rows[0].count() - 1, w)
+        self.one_line = None
+        self._place(True)
+
+    def _width(self, widgets) -> int:
+        spacing = max(0, self._rows[0].spacing())
+        return sum(w.sizeHint().width() for w in widgets) + spacing * max(0, len(widgets) - 1)
+
+    def _place(self, one_line: bool) -> None:
+        if one_line == self.one_line:
+            return
+        self.one_line = one_line
+        row = self._rows[0 if one_line else 1]
+        for w in self._second:
+            for r in self._rows:
+                r.removeWidget(w)
+            row.insertWidget(row.count() - 1, w)
+        self.updateGeometry()
+
+    def minimumSizeHint(self):  # noqa: N802 (Qt's name)
+        """As narrow as the wider of the two groups: the row wraps rather than making the dock wider."""
+        hint = super().minimumSizeHint()
+        hint.setWidth(max(self._width(self._first), self._width(self._second)))
+        return hint
+
+    def resizeEvent(self, event):  # noqa: N802 (Qt's name)
+        self._place(event.size().width() >= self._width(self._first + self._second) + 8)
+        super().resizeEvent(event)
 
 
 class _Panel:
@@ -149,18 +193,15 @@ class LensPanel(QWidget, _Panel):
         self.setObjectName("MonoplotLens")
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
-        row = QHBoxLayout()
         self.focal_spin = self._spin(0.0, 5000.0, " mm", tr("Focal length of the lens (as printed on it, or EXIF)"))
         self.sensor_spin = self._spin(0.0, 500.0, " mm", tr("Width of the sensor or film (e.g. 22.2 mm APS-C, "
                                                             "36 mm full frame)"))
         self.equivalent_check = QCheckBox(tr("35 mm equiv."))
         self.equivalent_check.setToolTip(tr("The focal length is a 35 mm equivalent (no sensor width needed)"))
         self.apply_button = QPushButton(tr("Set field of view"))
-        for w in (QLabel(tr("Lens")), self.focal_spin, QLabel(tr("on sensor")), self.sensor_spin,
-                  self.equivalent_check, self.apply_button):
-            row.addWidget(w)
-        row.addStretch(1)
-        layout.addLayout(row)
+        self.row = WrappingRow([QLabel(tr("Lens")), self.focal_spin, QLabel(tr("on sensor")), self.sensor_spin],
+                               [self.equivalent_check, self.apply_button])
+        layout.addWidget(self.row)
         self.note = QLabel("")
         self.note.setWordWrap(True)
         self.note.setObjectName("MonoplotLensNote")

@@ -4,19 +4,25 @@
 * Autosave: ``<project>.monoplot-autosave.json`` next to a saved project, else
   ``<profile>/monoplot/autosave-unsaved-project.json``. On reopening, the autosave wins when it is newer than the
   project file (the user curated points, then QGIS crashed before saving).
+
+The debounced autosave (:func:`autosave`) costs the main thread a snapshot only (the small fields encoded, the
+points referenced); the points are encoded and the file written in a worker thread, the newest snapshot last.
+The project entry is written when the project is (``writeProject``) and by :func:`save`.
 """
 
 from __future__ import annotations
 
 import json
 import os
-from typing import Optional, Tuple
+import threading
+from typing import Callable, Optional, Tuple
 
 from qgis.core import QgsApplication, QgsMessageLog, QgsProject, Qgis
 
 from ..state import ProjectState
 
-__all__ = ["SCOPE", "KEY", "store_in_project", "save", "load", "load_with_source", "autosave_path", "read_autosave"]
+__all__ = ["SCOPE", "KEY", "store_in_project", "save", "autosave", "load", "load_with_source", "autosave_path",
+           "read_autosave"]
 
 SCOPE, KEY = "monoplot", "/state"
 
@@ -35,10 +41,7 @@ def autosave_path(project: QgsProject) -> str:
 def _for_project(project: QgsProject, state: ProjectState) -> str:
     """JSON for the project file: the photo path written the way the project writes its layer paths (relative to
     the project when it is saved with relative paths, the default), so a moved project folder keeps its photo."""
-    d = state.to_dict()
-    if d["photo_path"]:
-        d["photo_path"] = project.writePath(d["photo_path"])
-    return json.dumps(d, separators=(",", ":"))  # no indent: json's C encoder (20,000 points in 0.1 s, not 4)
+    return state.snapshot(photo_path=project.writePath(state.photo_path) if state.photo_path else "")()
 
 
 def store_in_project(project: QgsProject, state: ProjectState) -> str:
@@ -51,17 +54,43 @@ def store_in_project(project: QgsProject, state: ProjectState) -> str:
 
 
 def save(project: QgsProject, state: ProjectState) -> None:
-    """Store ``state`` in the project and in the autosave file (atomic replace; absolute paths)."""
+    """Store ``state`` in the project and in the autosave file now (atomic replace; absolute paths)."""
     store_in_project(project, state)
-    text = state.to_json()
-    path = autosave_path(project)
-    try:
-        tmp = path + ".tmp"
-        with open(tmp, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except OSError as exc:  # read-only folder: the project entry still holds the state
-        QgsMessageLog.logMessage(f"Monoplot autosave failed: {exc}", "Monoplot", Qgis.MessageLevel.Warning)
+    _write(autosave_path(project), state.snapshot(), _next_ticket())
+
+
+_LOCK = threading.Lock()
+_TICKETS = {"issued": 0, "written": {}}  # the last snapshot number written, per autosave file
+
+
+def _next_ticket() -> int:
+    with _LOCK:
+        _TICKETS["issued"] += 1
+        return _TICKETS["issued"]
+
+
+def _write(path: str, text: Callable[[], str], ticket: int) -> None:
+    """Write the snapshot ``text()`` to ``path`` unless a newer snapshot was written there already."""
+    with _LOCK:  # one writer at a time: an older snapshot never replaces a newer one
+        if _TICKETS["written"].get(path, 0) > ticket:
+            return
+        try:
+            tmp = path + ".tmp"
+            with open(tmp, "w", encoding="utf-8") as fh:
+                fh.write(text())
+            os.replace(tmp, path)
+            _TICKETS["written"][path] = ticket
+        except OSError as exc:  # read-only folder: the project entry still holds the state
+            QgsMessageLog.logMessage(f"Monoplot autosave failed: {exc}", "Monoplot", Qgis.MessageLevel.Warning)
+
+
+def autosave(project: QgsProject, state: ProjectState) -> threading.Thread:
+    """Write the autosave file of ``state`` as it is now, in a worker thread (returned, already started): the main
+    thread only takes the snapshot."""
+    worker = threading.Thread(target=_write, args=(autosave_path(project), state.snapshot(), _next_ticket()),
+                              name="Monoplot autosave", daemon=True)
+    worker.start()
+    return worker
 
 
 def read_autosave(path: str) -> Optional[ProjectState]:

@@ -1,12 +1,13 @@
 """Rough and fitted cameras of a :class:`~monoplot_plugin.gui.controller.MonoplotController` (a mixin).
 
 Sources of a rough camera: drawn on the map (position + direction), a KML PhotoOverlay, the photo's EXIF GPS tags.
+Its needs are :class:`PriorsHost`, checked by ``tests/gui/test_controller_interfaces.py``.
 """
 
 from __future__ import annotations
 
 import math
-from typing import Optional
+from typing import Callable, Optional, Protocol, Tuple
 
 import numpy as np
 from qgis.core import Qgis
@@ -15,7 +16,7 @@ from ..adapters.exif import read_exif_prior
 from ..core.camera import Camera, lonlat_to_crs
 from . import engine
 
-__all__ = ["PriorsMixin", "terrain_pitch"]
+__all__ = ["PriorsMixin", "PriorsHost", "terrain_pitch"]
 
 INFO, WARNING, CRITICAL = Qgis.MessageLevel.Info, Qgis.MessageLevel.Warning, Qgis.MessageLevel.Critical
 
@@ -48,9 +49,22 @@ def terrain_pitch(camera: Camera, dem, rays: int = 9, samples: int = 160) -> Opt
     return float(np.clip(np.median(best) - 0.2 * camera.vertical_fov, -60.0, 30.0))
 
 
+class PriorsHost(Protocol):
+    """What :class:`PriorsMixin` uses of the controller."""
+
+    state: object  # ProjectState: prior and fitted camera dicts
+    image: object  # QImage of the photo or None
+    dem: object  # core Dem or None
+    photo_size: Optional[Tuple[int, int]]
+    _restoring: bool  # a project is being restored: no EXIF prior over the stored one
+    message: object  # pyqtSignal(str, Qgis.MessageLevel)
+    cameraChanged: object  # pyqtSignal()
+    _changed: Callable[[], None]
+    tr: Callable[[str], str]
+
+
 class PriorsMixin:
-    """Needs the controller's ``state``, ``image``, ``dem``, ``photo_size``, ``message``, ``cameraChanged`` and
-    ``_changed``."""
+    """The rough camera (from the map, a KML, EXIF) and the fitted one; needs a :class:`PriorsHost`."""
 
     @property
     def prior(self) -> Optional[Camera]:

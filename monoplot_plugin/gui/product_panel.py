@@ -1,8 +1,11 @@
 """The product panel of the Monoplot dock: digitising tools on the photo canvas and the export buttons.
 
 The dock calls :func:`install_output_tools` once (end of its ``__init__``) and :meth:`OutputTools.unload` in its
-``unload``; everything else lives here, plugged into the dock's extension points ``add_photo_tool`` and
-``add_output_action``. Each export asks for a file with the standard save dialog (which asks before replacing a
+``unload``; everything else lives here. What the panel needs of the dock is one small explicit interface,
+:class:`ProductHost` (the controller, the project, the photo canvas, the extension points ``add_photo_tool`` and
+``add_output_action``, the message and status lines): the panel never reaches into the dock's widgets.
+The products that need a fitted camera are disabled until there is one, with the reason as their tooltip.
+Each export asks for a file with the standard save dialog (which asks before replacing a
 file; only then is ``overwrite=True`` passed) and reports success or the reason of a failure in the message bar;
 the ``export_*`` methods take the path directly for scripts and tests.
 """
@@ -10,13 +13,14 @@ the ``export_*`` methods take the path directly for scripts and tests.
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
-from typing import List, Optional
+from typing import Any, Callable, List, Optional
 
 import numpy as np
-from qgis.core import Qgis, QgsMapLayer, QgsVectorLayer
+from qgis.core import Qgis, QgsMapLayer, QgsProject, QgsVectorLayer
 from qgis.PyQt.QtCore import QObject, pyqtSignal
-from qgis.PyQt.QtWidgets import QAction, QFileDialog
+from qgis.PyQt.QtWidgets import QAction, QFileDialog, QWidget
 
 from .digitise_tools import PhotoCaptureTool, PhotoEditTool
 from ..outputs.safe_write import OutputError
@@ -25,15 +29,51 @@ from ..workflow import xyz as xyz_step
 from .digitising import KINDS, DigitisingSession, drawn_entry_key
 from .map_layers import add_orthophoto_layer, add_xyz_layer, map_layer_on_photo, photo_group
 
-__all__ = ["install_output_tools", "OutputTools", "LAST_FOLDER_KEY"]
+__all__ = ["install_output_tools", "OutputTools", "ProductHost", "LAST_FOLDER_KEY", "NEEDS_FIT"]
 
 #: QgsSettings key of the folder the last product was saved to (the next save dialog opens there).
 LAST_FOLDER_KEY = "monoplot/last_output_folder"
 
 
+#: the actions that need a fitted camera (disabled before the first fit, the reason in their tooltip)
+NEEDS_FIT = ("xyz", "ortho", "report", "features", "overlay", "field", "attributes")
+
+
+@dataclass
+class ProductHost:
+    """What the product panel uses of the dock, passed in explicitly.
+
+    Attributes:
+        controller: the :class:`~.controller.MonoplotController` (fitted camera, DEM, photo, state, its signals).
+        project: the QgsProject the layers go into.
+        photo_canvas: the dock's photo canvas (the digitising tools draw on it; ``set_extra_layers``).
+        widget: parent of the actions and the file dialogs.
+        add_photo_tool: ``(QAction, map tool)`` -> a checkable tool in the photo bar.
+        add_output_action: ``QAction`` -> a button in the "Fit and results" tab.
+        show_message: ``(text, Qgis.MessageLevel)`` -> the dock's status line and QGIS's message bar.
+        show_status: ``text`` -> the dock's status line only.
+        iface: QGIS's interface (attribute tables, the active layer), or None.
+    """
+
+    controller: Any
+    project: QgsProject
+    photo_canvas: Any
+    widget: QWidget
+    add_photo_tool: Callable[[QAction, Any], Any]
+    add_output_action: Callable[[QAction], Any]
+    show_message: Callable[[str, Any], None]
+    show_status: Callable[[str], None]
+    iface: Any = None
+
+    @classmethod
+    def of_dock(cls, dock) -> "ProductHost":
+        return cls(dock.controller, dock.project, dock.photo_canvas, dock, dock.add_photo_tool,
+                   dock.add_output_action, dock.show_message, dock.statusLabel.setText, getattr(dock, "iface", None))
+
+
 def install_output_tools(dock) -> "OutputTools":
     """Add the digitising tools and export actions to ``dock`` (a MonoplotDock); returns their owner."""
-    return OutputTools(dock)
+    return OutputTools(ProductHost.of_dock(dock))
 
 
 class OutputTools(QObject):
@@ -45,16 +85,19 @@ class OutputTools(QObject):
 
     exported = pyqtSignal(str, str)
 
-    def __init__(self, dock):
-        super().__init__(dock)
-        self.dock = dock
-        self.controller = dock.controller
+    def __init__(self, host: ProductHost):
+        super().__init__(host.widget)
+        self.host = host
+        self.controller = host.controller
+        self.project = host.project
+        self.canvas = host.photo_canvas
+        parent = host.widget
         self.session: Optional[DigitisingSession] = None
         self.overlays: List[QgsVectorLayer] = []
         self._overlay_ids: List[str] = []  # the map layers drawn on the photo, redrawn after a refit or a reopen
         self._tasks: list = []  # running export tasks (kept referenced until done)
         self._sky_told: dict = {}  # kind -> (sky pieces, dropped features) last reported
-        canvas = dock.photo_canvas
+        canvas = self.canvas
         self.capture_tools = {kind: PhotoCaptureTool(canvas, self.current_session, kind) for kind in KINDS}
         self.edit_tool = PhotoEditTool(canvas, self.current_session)
         # short button texts: all four tools must fit the photo bar of a 440 px dock (longer ones went into the
@@ -62,32 +105,38 @@ class OutputTools(QObject):
         labels = {"point": self.tr("Draw points"), "line": self.tr("Draw lines"), "polygon": self.tr("Draw polygons")}
         self.actions = {}
         for kind, tool in self.capture_tools.items():
-            action = QAction(labels[kind], dock)
+            action = QAction(labels[kind], parent)
             action.setToolTip(labels[kind] + self.tr(" on the photo: click vertices, right click to finish, "
                                                      "Backspace undoes a vertex, Esc cancels"))
-            dock.add_photo_tool(action, tool)
+            host.add_photo_tool(action, tool)
             tool.message.connect(lambda text: self._message(text, Qgis.MessageLevel.Warning))
             self.actions[kind] = action
-        self.actions["edit"] = QAction(self.tr("Edit drawn features"), dock)
+        self.actions["edit"] = QAction(self.tr("Edit drawn features"), parent)
         self.actions["edit"].setToolTip(self.tr("Drag a vertex to move it; right click a feature to delete it"))
-        dock.add_photo_tool(self.actions["edit"], self.edit_tool)
+        host.add_photo_tool(self.actions["edit"], self.edit_tool)
         # the products first: at the default dock height the fit tab scrolls and its last row is out of sight
         # (it used to be "Active map layer on photo"); the attribute helpers are also in the Layers panel
-        for name, label, slot in (("xyz", self.tr("XYZ raster…"), self._ask_xyz),
-                                  ("ortho", self.tr("Orthophoto…"), self._ask_ortho),
-                                  ("report", self.tr("Report…"), self._ask_report),
-                                  ("features", self.tr("Save drawn features…"), self._ask_features),
-                                  ("overlay", self.tr("Active map layer on photo"), self._overlay_active_layer),
-                                  ("field", self.tr("Add attribute field…"), self._ask_field),
-                                  ("attributes", self.tr("Attributes of drawn features"), self._open_attributes)):
-            action = QAction(label, dock)
+        tr = self.tr
+        for name, label, slot, tip in (
+                ("xyz", tr("XYZ raster…"), self._ask_xyz, tr("The X, Y, Z of every photo pixel (3-band GeoTIFF)")),
+                ("ortho", tr("Orthophoto…"), self._ask_ortho, tr("The photo draped on the DEM (map GeoTIFF)")),
+                ("report", tr("Report…"), self._ask_report, tr("Camera, residuals, check points (PDF or PNG)")),
+                ("features", tr("Save drawn features…"), self._ask_features, tr("The drawn features as map layers")),
+                ("overlay", tr("Active map layer on photo"), self._overlay_active_layer,
+                 tr("Draw the layer selected in the Layers panel on the photo")),
+                ("field", tr("Add attribute field…"), self._ask_field, tr("A new field of the drawn layers")),
+                ("attributes", tr("Attributes of drawn features"), self._open_attributes,
+                 tr("The attribute tables of the drawn layers"))):
+            action = QAction(label, parent)
             action.triggered.connect(slot)
-            dock.add_output_action(action)
+            action.setProperty("monoplot_tip", tip)
+            host.add_output_action(action)
             self.actions[name] = action
         self.controller.cameraChanged.connect(self._camera_changed)
         self.controller.demChanged.connect(self._camera_changed)
         self.controller.photoChanged.connect(self._forget)
-        self.dock.project.cleared.connect(self._forget)
+        self.project.cleared.connect(self._forget)
+        self._update_enabled()
 
     # --- state ------------------------------------------------------------------------------------------------
     def ready(self) -> Optional[str]:
@@ -101,6 +150,16 @@ class OutputTools(QObject):
             return self.tr("Fit the camera first.")
         return None
 
+    def _update_enabled(self) -> None:
+        """Products need a fitted camera: disabled before, the reason in the tooltip (a disabled button still
+        shows it); enabled with their own tooltip after a fit."""
+        reason = self.ready()
+        for name in NEEDS_FIT:
+            action = self.actions[name]
+            action.setEnabled(reason is None)
+            tip = action.property("monoplot_tip") or ""
+            action.setToolTip(tip if reason is None else self.tr("Needs a fitted camera: {0}").format(reason))
+
     def photo_name(self) -> str:
         return Path(self.controller.state.photo_path or "photo").name
 
@@ -113,23 +172,24 @@ class OutputTools(QObject):
         # The session intersects rays with the DEM exactly: no full-resolution XYZ raster needed (fast start).
         camera, dem, xyz = self.controller.fitted, self.controller.dem, None
         if self.session is None:
-            self.session = DigitisingSession(self.dock.project, camera, dem, xyz, self.photo_name(), parent=self)
+            self.session = DigitisingSession(self.project, camera, dem, xyz, self.photo_name(), parent=self)
             self.session.mapLayerUpdated.connect(self._report_sky)
             # Layers deleted under us (project cleared, QGIS closing): the photo canvas must drop them at once.
-            self.session.closedByLayers.connect(lambda: self.dock.photo_canvas.set_extra_layers([]))
+            self.session.closedByLayers.connect(lambda: self.canvas.set_extra_layers([]))
             for kind in KINDS:
                 self.session.photo_layer(kind)
             self._show_on_photo()
         return self.session
 
     def _camera_changed(self) -> None:
+        self._update_enabled()
         if self.ready() is not None:
             return
         if self.session is not None and self.session.closed:
             self._forget_session()
         if self.session is not None:
             self.session.update_camera(self.controller.fitted, self.controller.dem, None)
-        elif self.dock.project.readEntry("monoplot", drawn_entry_key(self.photo_name()), "")[0]:
+        elif self.project.readEntry("monoplot", drawn_entry_key(self.photo_name()), "")[0]:
             self.current_session()  # a reopened project with features drawn on this photo: show them again
         self._redraw_overlays()
 
@@ -141,14 +201,14 @@ class OutputTools(QObject):
         fit put them), or, in a reopened project, the ones stored with it; layers removed since are dropped."""
         ids = list(self._overlay_ids)
         if not ids:
-            text = self.dock.project.readEntry("monoplot", self._overlay_entry(), "")[0]
+            text = self.project.readEntry("monoplot", self._overlay_entry(), "")[0]
             try:
                 ids = [str(i) for i in json.loads(text)] if text else []
             except ValueError:
                 ids = []
         self.overlays, self._overlay_ids = [], []
         for layer_id in ids:
-            layer = self.dock.project.mapLayer(layer_id)
+            layer = self.project.mapLayer(layer_id)
             if isinstance(layer, QgsVectorLayer) and layer.isValid():
                 try:
                     self.draw_layer_on_photo(layer)
@@ -164,7 +224,7 @@ class OutputTools(QObject):
         self.session = None
         self.overlays = []
         self._overlay_ids = []
-        self.dock.photo_canvas.set_extra_layers([])
+        self.canvas.set_extra_layers([])
 
     def _forget(self) -> None:
         """Another photo or project: drop the session (its layers belong to the old one; the drawn features are
@@ -172,7 +232,7 @@ class OutputTools(QObject):
         self._forget_session()
         xyz_step.clear_cache()
         self._sky_told = {}
-        self.dock.photo_canvas.set_extra_layers([])
+        self.canvas.set_extra_layers([])
         self._camera_changed()
 
     def _report_sky(self, kind: str, sky: int, dropped: int) -> None:
@@ -198,20 +258,20 @@ class OutputTools(QObject):
         layers: List[QgsMapLayer] = list(self.overlays)
         if self.session is not None:
             layers = self.session.all_photo_layers() + layers
-        self.dock.photo_canvas.set_extra_layers(layers)
+        self.canvas.set_extra_layers(layers)
 
     def _message(self, text: str, level=Qgis.MessageLevel.Info) -> None:
-        self.dock.show_message(text, level)  # the dock's status line and QGIS's message bar
+        self.host.show_message(text, level)  # the dock's status line and QGIS's message bar
 
     # --- exports (paths given) --------------------------------------------------------------------------------
     def export_xyz(self, path, overwrite: bool = False, distance: bool = False):
         """The product card's 3-band X, Y, Z raster (a distance band when asked), added to the photo's group."""
         written = self._work("xyz", path, overwrite, distance=distance)()
-        return add_xyz_layer(written, self.dock.project, photo_group(self.dock.project, self.photo_name()))
+        return add_xyz_layer(written, self.project, photo_group(self.project, self.photo_name()))
 
     def export_orthophoto(self, path, overwrite: bool = False):
         written = self._work("ortho", path, overwrite)()
-        return add_orthophoto_layer(written, self.dock.project, photo_group(self.dock.project, self.photo_name()))
+        return add_orthophoto_layer(written, self.project, photo_group(self.project, self.photo_name()))
 
     def export_report(self, path, overwrite: bool = False):
         return self._work("report", path, overwrite)()
@@ -251,12 +311,12 @@ class OutputTools(QObject):
     def draw_layer_on_photo(self, layer: QgsVectorLayer) -> QgsVectorLayer:
         """Project ``layer`` onto the photo (hidden parts dashed) and show it on the photo canvas."""
         camera, dem = self.controller.fitted, self.controller.dem  # exact line of sight: no XYZ raster needed
-        overlay = map_layer_on_photo(layer, camera, dem, self.dock.project)
+        overlay = map_layer_on_photo(layer, camera, dem, self.project)
         self.overlays = [o for o in self.overlays if o.name() != overlay.name()] + [overlay]
         self._overlay_ids = [i for i in self._overlay_ids if i != layer.id()] + [layer.id()]
         text = json.dumps(self._overlay_ids)
-        if self.dock.project.readEntry("monoplot", self._overlay_entry(), "")[0] != text:
-            self.dock.project.writeEntry("monoplot", self._overlay_entry(), text)  # kept with the project
+        if self.project.readEntry("monoplot", self._overlay_entry(), "")[0] != text:
+            self.project.writeEntry("monoplot", self._overlay_entry(), text)  # kept with the project
         self._show_on_photo()
         return overlay
 
@@ -280,7 +340,7 @@ class OutputTools(QObject):
 
         last = QgsSettings().value(LAST_FOLDER_KEY, "", type=str)
         photo_folder = str(Path(self.controller.state.photo_path or ".").parent)
-        candidates = [last, self.dock.project.absolutePath(), photo_folder]
+        candidates = [last, self.project.absolutePath(), photo_folder]
         for folder in candidates:
             if folder and Path(folder).is_dir():
                 return Path(folder)
@@ -291,7 +351,7 @@ class OutputTools(QObject):
 
         stem = Path(self.photo_name()).stem
         start = str(self.output_folder() / f"{stem}_{suffix}")
-        path, _ = QFileDialog.getSaveFileName(self.dock, title, start, filters)
+        path, _ = QFileDialog.getSaveFileName(self.host.widget, title, start, filters)
         if path:
             QgsSettings().setValue(LAST_FOLDER_KEY, str(Path(path).parent))
         return path or None
@@ -335,11 +395,11 @@ class OutputTools(QObject):
                                   Qgis.MessageLevel.Critical)
                 return
             written = result.value
-            group = photo_group(self.dock.project, name)
+            group = photo_group(self.project, name)
             if what == "xyz":
-                add_xyz_layer(written, self.dock.project, group)
+                add_xyz_layer(written, self.project, group)
             elif what == "ortho":
-                add_orthophoto_layer(written, self.dock.project, group)
+                add_orthophoto_layer(written, self.project, group)
             self._message(self.tr("Written: {0}").format(written), Qgis.MessageLevel.Success)
             self.exported.emit(what, str(written))
 
@@ -348,7 +408,7 @@ class OutputTools(QObject):
         self._tasks.append(task)
         # said in the dock's status line (not the message bar, where it would pile up under "Written"): the task
         # bar's progress is easy to miss, and the dock gave no sign for seconds
-        self.dock.statusLabel.setText(self.tr("{0}: computing {1}… (progress and Cancel in QGIS's task bar)")
+        self.host.show_status(self.tr("{0}: computing {1}… (progress and Cancel in QGIS's task bar)")
                                       .format(labels[what], Path(str(path)).name))
         return start_task(task)
 
@@ -400,11 +460,11 @@ class OutputTools(QObject):
         if session is None:
             self._message(self.ready() or "", Qgis.MessageLevel.Warning)
             return
-        name, ok = QInputDialog.getText(self.dock, self.tr("Add attribute field"),
+        name, ok = QInputDialog.getText(self.host.widget, self.tr("Add attribute field"),
                                         self.tr("Field name (10 characters at most for Shapefiles):"))
         if not ok or not name.strip():
             return
-        ftype, ok = QInputDialog.getItem(self.dock, self.tr("Add attribute field"), self.tr("Type:"),
+        ftype, ok = QInputDialog.getItem(self.host.widget, self.tr("Add attribute field"), self.tr("Type:"),
                                          ["string", "integer", "real", "date"], 0, False)
         if ok:
             self._run(lambda: session.add_field(name.strip(), ftype) or name.strip(),
@@ -413,7 +473,7 @@ class OutputTools(QObject):
     def _open_attributes(self) -> None:
         """Open the attribute tables of the photo layers (edits there update the live map layers)."""
         session = self.current_session()
-        iface = getattr(self.dock, "iface", None)
+        iface = self.host.iface
         if session is None or iface is None:
             self._message(self.ready() or "", Qgis.MessageLevel.Warning)
             return
@@ -423,7 +483,7 @@ class OutputTools(QObject):
                 iface.showAttributeTable(layer)
 
     def _overlay_active_layer(self) -> None:
-        iface = getattr(self.dock, "iface", None)
+        iface = self.host.iface
         layer = iface.activeLayer() if iface is not None else None
         if not isinstance(layer, QgsVectorLayer):
             self._message(self.tr("Select a vector layer in the Layers panel first."), Qgis.MessageLevel.Warning)
@@ -433,7 +493,7 @@ class OutputTools(QObject):
     # --- life cycle -------------------------------------------------------------------------------------------
     def unload(self) -> None:
         """Undo the installation: tools off the canvas, canvas items removed, signals disconnected."""
-        canvas = self.dock.photo_canvas
+        canvas = self.canvas
         for tool in [*self.capture_tools.values(), self.edit_tool]:
             if canvas.mapTool() is tool:
                 canvas.unsetMapTool(tool)
@@ -441,7 +501,7 @@ class OutputTools(QObject):
         for signal, slot in ((self.controller.cameraChanged, self._camera_changed),
                              (self.controller.demChanged, self._camera_changed),
                              (self.controller.photoChanged, self._forget),
-                             (self.dock.project.cleared, self._forget)):
+                             (self.project.cleared, self._forget)):
             try:
                 signal.disconnect(slot)
             except TypeError:

@@ -1,7 +1,7 @@
-"""The background refit while the person clicks: debounced, cancelable, one QgsTask at a time.
+"""The background refit while the person clicks: debounced, cancelable, one silent task at a time.
 
 Every change of the accepted points restarts a short timer; when it fires, the accepted points, the start camera
-and the suggestions are copied on the main thread, and a :class:`~monoplot_plugin.gui.tasks.FunctionTask` runs the
+and the suggestions are copied on the main thread, and a :class:`~monoplot_plugin.gui.tasks.HiddenTask` runs the
 one fit step (:func:`workflow.fit.fit`) and the camera's :func:`~monoplot_plugin.gui.shortlist.recommendation`
 (agreement, likely pairs) in the background. A newer change cancels the running refit and starts again after it.
 The result (:class:`RefitOutcome`) re-ranks the suggestions and flags the outliers; it never replaces the camera
@@ -10,6 +10,7 @@ of the Fit button.
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, field
 from typing import List, Optional
@@ -20,9 +21,11 @@ from qgis.PyQt.QtCore import QObject, QTimer, pyqtSignal
 from ..workflow import fit as fit_step
 from .fit_settings import fit_arguments
 from .shortlist import Recommendation, recommendation
-from .tasks import FunctionTask, start_task
+from .tasks import HiddenTask, start_task
 
 __all__ = ["Refitter", "RefitOutcome", "sigma_of"]
+
+LOG = logging.getLogger(__name__)
 
 #: statuses of a refit good enough to re-rank by
 USABLE = ("ok", "uncertain")
@@ -38,6 +41,24 @@ class RefitOutcome:
     rec: Optional[Recommendation] = None
     seconds: float = 0.0
     n_photo: int = 0  # accepted photo points the refit used
+    key: tuple = ()  # :func:`inputs_key` of the fit
+    done: object = None  # the workflow's FitDone (the Fit button reuses it for the same inputs)
+
+
+def inputs_key(uv, xyz, pairs, start, free, options, check_uv, check_xyz) -> tuple:
+    """What a fit depends on, comparable: two fits of equal keys give the same camera.
+
+    >>> a = inputs_key(np.zeros((4, 2)), np.ones((4, 3)), [], None, None, None, np.zeros((0, 2)), np.zeros((0, 3)))
+    >>> a == inputs_key(np.zeros((4, 2)), np.ones((4, 3)), (), None, None, None, np.zeros((0, 2)), np.zeros((0, 3)))
+    True
+    """
+    def arr(a):
+        a = np.ascontiguousarray(a, dtype=np.float64)
+        return a.shape, a.tobytes()
+
+    cam = None if start is None else repr(sorted(start.to_dict().items()))
+    return (arr(uv), arr(xyz), tuple(map(tuple, pairs or ())), cam, None if free is None else tuple(free),
+            repr(options), arr(check_uv), arr(check_xyz))
 
 
 def sigma_of(rmse_px: float) -> float:
@@ -59,7 +80,7 @@ class Refitter(QObject):
         super().__init__(parent)
         self.c = controller
         self.enabled = True
-        self.task: Optional[FunctionTask] = None
+        self.task: Optional[HiddenTask] = None
         self._again = False
         self._key = None
         self._timer = QTimer(self)
@@ -103,8 +124,8 @@ class Refitter(QObject):
             return
         c = self.c
         start = c.prior or c.fitted
-        if start is None or c.dem is None or c.image is None:
-            return
+        if start is None or c.dem is None or c.image is None or c.task_kind == "fit":
+            return  # (the Fit button's fit is running: its result re-ranks, and it must not share the cores)
         inputs = c.fit_inputs()
         if isinstance(inputs, str):
             return
@@ -115,19 +136,22 @@ class Refitter(QObject):
         threshold = c.shortlist.threshold
         dem = c.dem
         free, options = fit_arguments(c.state.settings)  # what the user fixed, how sure the prior is
+        _, check_uv, check_xyz = c.check_points()  # measured as the Fit button does: its fit can reuse this one
+        key = inputs_key(uv, xyz, pairs, start, free, options, check_uv, check_xyz)
 
         def work(progress, is_canceled):
-            done = fit_step.fit(uv, xyz, start, dem, pairs=pairs or None, progress=progress,
-                                is_canceled=is_canceled, free=free, options=options)
+            done = fit_step.fit(uv, xyz, start, dem, pairs=pairs or None, progress=progress, check_uv=check_uv,
+                                check_xyz=check_xyz, is_canceled=is_canceled, free=free, options=options)
             r = done.result
             rmse = float(r.rmse_px) if r.rmse_px is not None else float("nan")
             sigma = sigma_of(rmse)
             rec = recommendation(done.camera, *snapshot, sigma, threshold) if r.status in USABLE else None
             flags = np.asarray(r.photo_outliers, dtype=bool).reshape(-1)
             outliers = [pid for pid, f in zip(photo_ids, flags) if f] if len(flags) == len(photo_ids) else []
-            return RefitOutcome(done.camera, r.status, rmse, sigma, outliers, rec, float(r.elapsed_s), len(uv))
+            return RefitOutcome(done.camera, r.status, rmse, sigma, outliers, rec, float(r.elapsed_s), len(uv),
+                                key, done)
 
-        self.task = FunctionTask("Monoplot refit", work, self._done)
+        self.task = HiddenTask("Monoplot refit", work, self._done)  # silent: no status-bar entry, no "Task complete"
         self.running.emit(True)
         start_task(self.task)
 
@@ -135,6 +159,10 @@ class Refitter(QObject):
         self.task = None
         self.running.emit(False)
         if result.ok:
+            o = result.value
+            LOG.info("Background refit on %d photo points: status %s, RMSE %.2f px, %d outlier(s), %.2f s",
+                     o.n_photo, o.status, o.rmse_px, len(o.outlier_ids), o.seconds)
+            self.c.remember_fit(o.key, o.done)
             self.refitted.emit(result.value)
         else:
             self._key = None  # canceled or refused: the same points may be tried again

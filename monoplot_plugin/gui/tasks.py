@@ -9,21 +9,28 @@ The pattern every Monoplot task follows:
   acts within a second); it may stop by raising the workflow's ``Canceled``;
 * ``finished()`` runs on the main thread and hands the :class:`TaskResult` to ``on_done``.
 
+Work the person started (Suggest, Fit, a product) runs as a :class:`FunctionTask` in QGIS's task manager: it shows
+in the status bar and QGIS announces it when it took long. Work the dock starts on its own (the background refit,
+the chips' DEM view, the warm-up) runs as a :class:`HiddenTask`, same protocol, in a plain worker thread: no
+status-bar entry and no "Task complete" message on every refit (QGIS 3.22 has no ``QgsTask.Flag.Silent``).
+
 >>> TaskResult.success(42).ok, TaskResult.failed("no points").reason
 (True, 'no points')
 """
 
 from __future__ import annotations
 
+import threading
 import traceback
 from dataclasses import dataclass
 from typing import Any, Callable, Optional
 
 from qgis.core import Qgis, QgsApplication, QgsMessageLog, QgsTask
+from qgis.PyQt.QtCore import QObject, pyqtSignal
 
 from ..workflow.progress import Canceled  # raised by work that stops at once when is_canceled() turns true
 
-__all__ = ["TaskResult", "FunctionTask", "start_task", "SUCCESS", "FAILED", "CANCELED"]
+__all__ = ["TaskResult", "FunctionTask", "HiddenTask", "start_task", "SUCCESS", "FAILED", "CANCELED"]
 
 SUCCESS, FAILED, CANCELED = "success", "failed", "canceled"
 
@@ -70,18 +77,7 @@ class FunctionTask(QgsTask):
         self.result: Optional[TaskResult] = None
 
     def run(self) -> bool:  # worker thread
-        try:
-            value = self._work(self._report_progress, self.isCanceled)
-            self.result = TaskResult.canceled() if self.isCanceled() else TaskResult.success(value)
-        except Canceled:
-            self.result = TaskResult.canceled()
-        except MemoryError:
-            self.result = TaskResult.failed("not enough memory for this computation")
-        except Exception as exc:  # never raise out of run(): QGIS would show a traceback dialog
-            if self.isCanceled():  # work interrupted by the cancel itself
-                self.result = TaskResult.canceled()
-            else:
-                self.result = TaskResult.failed(str(exc) or type(exc).__name__, traceback.format_exc())
+        self.result = _run_work(self._work, self._report_progress, self.isCanceled)
         return self.result.ok
 
     def _report_progress(self, fraction: float, message: str = "") -> None:
@@ -90,17 +86,99 @@ class FunctionTask(QgsTask):
     def finished(self, ok: bool) -> None:  # main thread
         if self.result is None:  # canceled before run() started
             self.result = TaskResult.canceled()
-        if self.result.status == FAILED and self.result.details:
-            QgsMessageLog.logMessage(self.result.details, "Monoplot", Qgis.MessageLevel.Warning)
-        if self._on_done is not None:
-            try:
-                self._on_done(self.result)
-            except Exception:  # a failing callback must not take QGIS down either
-                QgsMessageLog.logMessage(traceback.format_exc(), "Monoplot", Qgis.MessageLevel.Critical)
+        _deliver(self.result, self._on_done)
 
 
-def start_task(task: FunctionTask) -> FunctionTask:
-    """Hand ``task`` to the QGIS task manager (progress appears in the status-bar task list). Keep a reference to
-    the returned task until ``on_done`` ran: Python must not collect it while it runs."""
-    QgsApplication.taskManager().addTask(task)
+def _run_work(work, progress, is_canceled) -> TaskResult:
+    """``work(progress, is_canceled)`` as a :class:`TaskResult`; never raises (QGIS would show a traceback)."""
+    try:
+        value = work(progress, is_canceled)
+        return TaskResult.canceled() if is_canceled() else TaskResult.success(value)
+    except Canceled:
+        return TaskResult.canceled()
+    except MemoryError:
+        return TaskResult.failed("not enough memory for this computation")
+    except Exception as exc:  # noqa: BLE001 — never raise out of a worker thread
+        if is_canceled():  # work interrupted by the cancel itself
+            return TaskResult.canceled()
+        return TaskResult.failed(str(exc) or type(exc).__name__, traceback.format_exc())
+
+
+def _deliver(result: TaskResult, on_done) -> None:
+    """Main thread: log a failure's traceback, hand the result to ``on_done`` (whose errors are logged too)."""
+    if result.status == FAILED and result.details:
+        QgsMessageLog.logMessage(result.details, "Monoplot", Qgis.MessageLevel.Warning)
+    if on_done is not None:
+        try:
+            on_done(result)
+        except Exception:  # noqa: BLE001 — a failing callback must not take QGIS down either
+            QgsMessageLog.logMessage(traceback.format_exc(), "Monoplot", Qgis.MessageLevel.Critical)
+
+
+class HiddenTask(QObject):
+    """A :class:`FunctionTask` the person does not see: the same ``work`` / ``on_done`` protocol in a worker thread
+    of its own, outside QGIS's task manager (no status-bar entry, no "Task complete" message).
+
+    The methods the callers use of a QgsTask: ``cancel``, ``isCanceled``, ``waitForFinished``, ``description``,
+    the signals ``progressChanged(float)`` (percent), ``taskCompleted`` and ``taskTerminated``. ``on_done`` runs on
+    the main thread (a queued signal), after the worker has ended.
+    """
+
+    progressChanged = pyqtSignal(float)
+    taskCompleted = pyqtSignal()
+    taskTerminated = pyqtSignal()
+    _ended = pyqtSignal()
+
+    def __init__(self, description: str, work: Callable[[Callable[..., None], Callable[[], bool]], Any],
+                 on_done: Optional[Callable[[TaskResult], None]] = None):
+        super().__init__()
+        self._description = description
+        self._work = work
+        self._on_done = on_done
+        self._canceled = threading.Event()
+        self._thread: Optional[threading.Thread] = None
+        self.result: Optional[TaskResult] = None
+        self._ended.connect(self._finished)  # emitted by the worker: queued to this object's (the main) thread
+
+    def description(self) -> str:
+        return self._description
+
+    def isCanceled(self) -> bool:  # noqa: N802 (QgsTask's name)
+        return self._canceled.is_set()
+
+    def cancel(self) -> None:
+        self._canceled.set()
+
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self._run, name=self._description, daemon=True)
+        self._thread.start()
+
+    def waitForFinished(self, timeout_ms: int = 30000) -> bool:  # noqa: N802 (QgsTask's name)
+        """Block until the worker has ended (its ``on_done`` follows from the event loop); False on timeout."""
+        if self._thread is None:
+            return True
+        self._thread.join(max(0, timeout_ms) / 1000.0)
+        return not self._thread.is_alive()
+
+    def _run(self) -> None:  # worker thread
+        self.result = _run_work(self._work, self._report_progress, self.isCanceled)
+        self._ended.emit()
+
+    def _report_progress(self, fraction: float, message: str = "") -> None:
+        self.progressChanged.emit(max(0.0, min(100.0, 100.0 * float(fraction))))
+
+    def _finished(self) -> None:  # main thread
+        result = self.result or TaskResult.canceled()
+        _deliver(result, self._on_done)
+        (self.taskCompleted if result.ok else self.taskTerminated).emit()
+
+
+def start_task(task):
+    """Start ``task``: a :class:`FunctionTask` goes to the QGIS task manager (progress appears in the status-bar
+    task list), a :class:`HiddenTask` into its own thread. Keep a reference to the returned task until ``on_done``
+    ran: Python must not collect it while it runs."""
+    if isinstance(task, HiddenTask):
+        task.start()
+    else:
+        QgsApplication.taskManager().addTask(task)
     return task

@@ -77,3 +77,33 @@ def test_link_requires_one_photo_and_one_map_point():
     assert state.pairs == [(photo[1].id, world[0].id)]
     assert state.points[photo[1].id].status == ACCEPTED
     assert [a.id for a, _ in state.valid_pairs()] == [photo[1].id]
+
+
+def test_projects_of_format_1_still_open_and_counts_follow_edits():
+    """Format 2 stores the points as columns (a cheap autosave); a project written with format 1 (a list of point
+    objects) reads the same, and the cached counts stay right through edits, undo and redo."""
+    import json
+
+    state, stack, photo, world = filled()
+    stack.push(set_status(state, [photo[0].id, world[0].id], ACCEPTED))
+    old = {**json.loads(state.to_json()), "format": "monoplot-state/1",
+           "points": [dict(vars(p)) for p in state.points.values()]}
+    assert ProjectState.from_json(json.dumps(old)) == state
+    with pytest.raises(ValueError):
+        ProjectState.from_json(json.dumps({**old, "format": "monoplot-state/9"}))
+
+    def recount():
+        out = {s: {st: 0 for st in (SUGGESTED, ACCEPTED, REJECTED, "check")} for s in (PHOTO, MAP)}
+        for p in state.points.values():
+            out[p.space][p.status] += 1
+        return out
+
+    assert state.counts() == recount()
+    stack.push(set_status(state, [photo[1].id], REJECTED))
+    stack.push(remove_points(state, [world[2].id]))
+    assert state.counts() == recount()
+    stack.undo()
+    stack.undo()
+    assert state.counts() == recount()
+    stack.redo()
+    assert state.counts() == recount() and state.counts()[MAP][ACCEPTED] == 1

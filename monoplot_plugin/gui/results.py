@@ -1,0 +1,90 @@
+"""What a fitted camera says about the points, for a :class:`~monoplot_plugin.gui.controller.MonoplotController`
+(a mixin): residual segments of the matched and the check points, the ground under a photo pixel and the pixel of
+a map point. Its needs are :class:`ResultsHost`, checked by ``tests/gui/test_controller_interfaces.py``."""
+
+from __future__ import annotations
+
+from typing import List, Optional, Protocol, Tuple
+
+import numpy as np
+
+from ..state import ACCEPTED
+from . import engine
+
+__all__ = ["ResultsMixin", "ResultsHost"]
+
+
+class ResultsHost(Protocol):
+    """What :class:`ResultsMixin` uses of the controller."""
+
+    state: object  # ProjectState
+    dem: object  # core Dem or None
+    xyz: Optional[np.ndarray]  # (H, W, 3) per-pixel map XYZ of the fitted camera, NaN = sky
+    fitted: object  # Camera or None
+    photo_size: Optional[Tuple[int, int]]
+    _fit_ids: Tuple[List[str], List[str]]
+
+    def fit_inputs(self): ...
+
+    def check_points(self): ...
+
+
+class ResultsMixin:
+    """Residuals and lookups under the fitted camera; needs a :class:`ResultsHost`."""
+
+    def residuals(self) -> List[Tuple[str, Tuple[float, float], Tuple[float, float]]]:
+        """(photo point id, its pixel, the pixel of its DEM match under the fitted camera) for each accepted photo
+        point the last fit matched (its pairs, or the automatic pairs of an unpaired fit); without that record
+        (older state), each point's nearest projected accepted DEM point."""
+        cam = self.fitted
+        if cam is None:
+            return []
+        matched = self.state.fit_info.get("matched")
+        if matched:
+            out = []
+            pts = self.state.points
+            links = [(pts[a], pts[b]) for a, b in matched if a in pts and b in pts
+                     and pts[a].status == ACCEPTED and pts[b].status == ACCEPTED]
+            if not links:
+                return []
+            world = np.array([(b.x, b.y, b.z if b.z is not None else float(self.dem.sample(b.x, b.y))
+                               if self.dem is not None else 0.0) for _, b in links])
+            proj = cam.project(world)
+            for (a, _), q in zip(links, proj):
+                if np.isfinite(q).all():
+                    out.append((a.id, (a.x, a.y), (float(q[0]), float(q[1]))))
+            return out
+        inputs = self.fit_inputs()
+        if isinstance(inputs, str):
+            return []
+        uv, xyz, pairs = inputs
+        photo_ids = self._fit_ids[0]
+        segs = engine.residual_segments(cam, uv, xyz, pairs)
+        return [(pid, a, b) for pid, (a, b) in zip(photo_ids, segs)]
+
+    def check_residuals(self) -> List[Tuple[str, Tuple[float, float], Tuple[float, float]]]:
+        """(photo point id, its pixel, the pixel of its map partner under the fitted camera) per check pair."""
+        cam = self.fitted
+        ids, uv, xyz = self.check_points()
+        if cam is None or not ids:
+            return []
+        proj = cam.project(xyz)
+        return [(pid, (float(a[0]), float(a[1])), (float(q[0]), float(q[1])))
+                for pid, a, q in zip(ids, uv, proj) if np.isfinite(q).all()]
+
+    def residual_segments(self) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:
+        """(photo pixel, matched DEM point's pixel) segments of :meth:`residuals`."""
+        return [(a, b) for _, a, b in self.residuals()]
+
+    def ground_at_pixel(self, u: float, v: float) -> Optional[Tuple[float, float, float]]:
+        """Map (X, Y, Z) seen at photo pixel (u, v), or None (sky, outside, no fit)."""
+        if self.xyz is None:
+            return None
+        return engine.lookup_xyz(self.xyz, self.photo_size, u, v)
+
+    def pixel_of_ground(self, x: float, y: float) -> Tuple[Optional[Tuple[float, float]], str]:
+        """(pixel, "visible" | "hidden" | "outside" | "") of map point (x, y) under the fitted camera."""
+        cam = self.fitted
+        if cam is None or self.dem is None:
+            return None, ""
+        return engine.locate_in_photo(cam, self.dem, self.xyz, x, y)
