@@ -116,7 +116,10 @@ def as_dem(dem, camera=None, max_range: Optional[float] = None, max_cells: float
     (:meth:`DemSource.view_dem`), or without a camera the whole grid at the finest level of at most ``max_cells``
     cells. The steps that take one DEM (rendering, suggestions) call it, so that they take a large DEM file too."""
     if not isinstance(dem, DemSource):
-        return dem
+        source = getattr(dem, "source", None)  # a LargeDem (core.dem_large): its file, for what the camera sees
+        if camera is None or not isinstance(source, DemSource):
+            return dem
+        dem = source
     if camera is not None:
         return dem.view_dem(camera, max_cells=max_cells, max_range=max_range)
     levels = dem.levels if len(dem.levels) > 1 else [1] + overview_factors(dem.shape)
@@ -177,6 +180,12 @@ class DemSource:
         self._overviews = {max(1, round(self.shape[1] / b.XSize)): b for b in overviews}
         self.levels = [1] + sorted(f for f in self._overviews if f > 1)
         self.zmin, self.zmax = self._height_range()
+
+    def __getstate__(self):  # GDAL handles do not pickle: a copy (a Dask worker's) reopens the file
+        return {"path": self.path, "void_value": self.void_value, "sentinels": self.sentinels}
+
+    def __setstate__(self, state):
+        self.__init__(state["path"], void_value=state["void_value"], sentinels=state["sentinels"])
 
     @property
     def cells(self) -> int:

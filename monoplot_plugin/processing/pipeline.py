@@ -25,12 +25,13 @@ fill_missing_z = vectors.fill_missing_z
 
 
 # --- DEM ------------------------------------------------------------------------------------------------------
-def load_dem(path: str, void_value: Optional[float] = None):
-    """A core :class:`Dem` from a raster file (``void_value``: elevation meaning 'no data', e.g. 0)."""
-    from ..core.dem import Dem
+def load_dem(path: str, void_value: Optional[float] = None, progress: Optional[Progress] = None):
+    """A core :class:`Dem` from a raster file (``void_value``: elevation meaning 'no data', e.g. 0); a DEM too
+    large to read whole is opened by windows (core :func:`~..core.dem_large.open_dem`)."""
+    from ..core.dem_large import open_dem
 
     try:
-        return Dem.open(path, void_value=void_value)
+        return open_dem(path, void_value=void_value, progress=progress)[0]
     except Exception as exc:  # GDAL cannot read it: say which file
         raise InputError(f"cannot read the DEM {path}: {exc}") from exc
 
@@ -74,11 +75,11 @@ def write_xyz(path: str, camera: Camera, dem, crs_wkt: str, photo_name: str = ""
 
 
 def orthophoto(path: str, photo: np.ndarray, camera: Camera, dem, resolution: Optional[float],
-               progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None):
+               progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None, grid=None):
     """Write the photo draped on the DEM (:func:`workflow.products.orthophoto`)."""
     try:
         return products.orthophoto(path, photo, camera, dem, resolution, overwrite=True, progress=progress,
-                                   is_canceled=is_canceled)
+                                   is_canceled=is_canceled, grid=grid)
     except products.ProductError as exc:
         raise InputError(str(exc)) from exc
 
