@@ -208,8 +208,19 @@ def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
             result.message += f" (outputs {task.stem}_*)"
     except Exception as exc:  # one photo's failure must not lose the batch
         result.ok = False
-        result.message = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
+        result.canceled = _is_cancel(exc)
+        if result.canceled:  # the user canceled while this frame was written: its outputs were not put in place
+            result.message = "canceled while processing (its outputs not written)"
+        else:
+            result.message = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
     return result
+
+
+def _is_cancel(exc: Exception) -> bool:
+    from ..outputs.safe_write import OutputCanceled
+    from .progress import Canceled
+
+    return isinstance(exc, (Canceled, OutputCanceled))
 
 
 def _registered(shared: Shared, photo: np.ndarray, result: PhotoResult):
