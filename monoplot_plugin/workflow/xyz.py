@@ -26,7 +26,7 @@ from ..core.xyz import XyzResult, compute_xyz_full
 from ..core.xyz_lod import compute_xyz_lod
 from .progress import IsCanceled, Progress, check_canceled
 
-__all__ = ["dem_digest", "xyz_key", "xyz_result", "xyz_raster", "clear_cache"]
+__all__ = ["dem_digest", "xyz_key", "xyz_result", "xyz_raster", "xyz_uncached", "large_dem_result", "clear_cache"]
 
 #: Level of detail of the XYZ raster over a DEM file read by windows: a band's cells are at most this many pixel
 #: footprints (see :func:`~..core.xyz_lod.compute_xyz_lod`).
@@ -98,6 +98,14 @@ def xyz_result(camera: Camera, dem, visibility: bool = True, progress: Optional[
     if progress is not None:
         progress(1.0, "")
     return result
+
+
+def xyz_uncached(camera: Camera, dem) -> np.ndarray:
+    """(H, W, 3) XYZ of ``camera`` over ``dem`` without the cache (a batch's per-frame cameras): core
+    ``compute_xyz``, or the level-of-detail z-buffer of a DEM file read by windows."""
+    if is_large(dem):
+        return large_dem_result(camera, dem).xyz
+    return compute_xyz_full(camera, dem, visibility=False).xyz
 
 
 def xyz_raster(camera: Camera, dem, progress: Optional[Progress] = None,
