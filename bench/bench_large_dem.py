@@ -162,7 +162,6 @@ def bench_compare(folder: str, args, lods) -> list:
     full = compute_xyz(cam, dem)
     full_s = time.perf_counter() - t0
     cell0 = dem.cell_size
-    del dem
     lines = []
     for lod_value in lods:
         t0 = time.perf_counter()
@@ -175,6 +174,12 @@ def bench_compare(folder: str, args, lods) -> list:
         rng = np.linalg.norm(q - np.asarray(cam.position), axis=1)
         px = np.linalg.norm(p - q, axis=1) * cam.focal_px / rng
         coarse = lod.factor[both] > 1
+        # how the coarse misses (beyond one cell) miss: the LOD point's height above or below the full-resolution
+        # surface (on the terrain, or not), and the depth jump (> 5 %: a different surface, a ridge the averaged
+        # level lowered; less: the same slope met a little farther or nearer along a grazing ray)
+        miss = coarse & (cells > 1.0)
+        dz = np.abs(p[miss, 2] - dem.sample(p[miss, 0], p[miss, 1]))
+        jump = np.abs(np.linalg.norm(p[miss] - np.asarray(cam.position), axis=1) - rng[miss]) / rng[miss]
         pct = lambda a: [round(float(v), 3) for v in np.percentile(a, [50, 95, 99])] if a.size else None  # noqa
         share = lambda m: round(float(m.mean()), 4) if m.size else None  # noqa: E731
         lines.append({
@@ -185,9 +190,12 @@ def bench_compare(folder: str, args, lods) -> list:
             "pixels_coarse": int(coarse.sum()), "within_1_cell": share(cells <= 1.0),
             "within_half_px": share(px <= 0.5), "coarse_within_1_cell": share(cells[coarse] <= 1.0),
             "coarse_within_half_px": share(px[coarse] <= 0.5), "cells_p50_p95_p99": pct(cells),
-            "px_p50_p95_p99": pct(px), "coarse_px_p50_p95_p99": pct(px[coarse]), "peak_mb": round(peak_mb(), 1),
+            "px_p50_p95_p99": pct(px), "coarse_px_p50_p95_p99": pct(px[coarse]),
+            "coarse_misses": int(miss.sum()), "misses_other_surface": share(jump > 0.05),
+            "misses_height_off_full_m_p50_p95": pct(dz)[:2] if dz.size else None, "peak_mb": round(peak_mb(), 1),
             "load_avg_1min": round(os.getloadavg()[0], 2)})
         del lod
+    del dem
     return lines
 
 

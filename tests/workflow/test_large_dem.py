@@ -75,6 +75,11 @@ def test_a_large_dem_is_opened_by_windows_and_says_so(scene, limit, tmp_path):
     # heights at points are the full resolution's, not the preview's
     x, y = full.cell_to_map(np.array([10.2, 500.7, 1000.1]), np.array([3.3, 640.5, 1020.0]))
     assert np.allclose(dem.sample(x, y), full.sample(x, y), atol=1e-3)
+    # the dock's DEM adapter takes the same path
+    from monoplot_plugin.adapters.dem import read_dem_file
+
+    docked, notes = read_dem_file(copy)
+    assert isinstance(docked, LargeDem) and "read by windows" in notes[0]
     # under the limit a DEM is read whole, as before
     os.environ["MONOPLOT_DEM_MAX_CELLS"] = str(full.elevation.size)
     assert type(load_dem(path)[0]) is Dem
