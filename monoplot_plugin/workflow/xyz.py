@@ -21,16 +21,12 @@ from typing import Optional, Tuple
 import numpy as np
 
 from ..core.camera import Camera
-from ..core.dem_large import is_large
+from ..core.dem_large import PRODUCT_LOD, is_large
 from ..core.xyz import XyzResult, compute_xyz_full
 from ..core.xyz_lod import compute_xyz_lod
 from .progress import IsCanceled, Progress, check_canceled
 
 __all__ = ["dem_digest", "xyz_key", "xyz_result", "xyz_raster", "xyz_uncached", "large_dem_result", "clear_cache"]
-
-#: Level of detail of the XYZ raster over a DEM file read by windows: a band's cells are at most this many pixel
-#: footprints (see :func:`~..core.xyz_lod.compute_xyz_lod`).
-LOD = 1.0
 
 _lock = threading.Lock()
 _cache: dict = {}  # one entry: {"key": (camera JSON, DEM digest), "result": XyzResult, "visibility": bool}
@@ -65,12 +61,12 @@ def xyz_key(camera: Camera, dem, visibility: bool = False) -> Tuple:
 def large_dem_result(camera: Camera, dem, visibility: bool = False,
                      progress: Optional[Progress] = None) -> XyzResult:
     """The XyzResult of a DEM file read by windows: without ``visibility`` the level-of-detail z-buffer of the file
-    (:func:`~..core.xyz_lod.compute_xyz_lod`, lod 1: cells at most one pixel footprint; ``triangle`` is then only
+    (:func:`~..core.xyz_lod.compute_xyz_lod` at core ``PRODUCT_LOD``; ``triangle`` is then only
     0 for a hit and -1 for none, ``visible`` empty, ``dem`` the preview); with it, the z-buffer of the preview (for
     the report's map of what the camera sees)."""
     if visibility:
         return compute_xyz_full(camera, dem.preview(), visibility=True)
-    lod = compute_xyz_lod(camera, dem.source, lod=LOD, progress=progress)
+    lod = compute_xyz_lod(camera, dem.source, lod=PRODUCT_LOD, progress=progress)
     triangle = np.where(lod.factor > 0, 0, -1).astype(np.int32)
     return XyzResult(lod.xyz, lod.distance, triangle, np.zeros((0, 0), dtype=bool), dem, camera)
 

@@ -101,6 +101,13 @@ def test_products_of_a_large_dem_match_the_full_resolution(scene, limit, tmp_pat
     both = seen & got
     ground = np.hypot(*(xyz[both, :2] - reference[both, :2]).T)
     assert np.mean(ground <= 2 * full.cell_size) > 0.97  # within a cell of the level used (1/1 or 1/2 here)
+    # in strips (memory short): each strip the file's own z-buffer, the same raster
+    from monoplot_plugin.core.xyz_strips import xyz_strips
+
+    strips = np.concatenate([x for _, x, _ in xyz_strips(cam, dem, rows_per_strip=100)])
+    assert np.mean(np.isfinite(strips[..., 0]) == got) > 0.99
+    same = both & np.isfinite(strips[..., 0])
+    assert np.median(np.hypot(*(strips[same, :2] - xyz[same, :2]).T)) < 0.01
     # the orthophoto: on the part of the file the camera sees, not the whole grid; the photo's colours on it
     photo = np.random.default_rng(0).integers(0, 255, (cam.height, cam.width, 3), dtype=np.uint8)
     ortho = gdal.Open(str(products.orthophoto(tmp_path / "ortho.tif", photo, cam, dem)))
