@@ -12,7 +12,11 @@ explicit overview levels: seconds to make, nothing of 1.6 G cells computed in Py
   of the level used, and the displacement seen from the camera in pixels (|delta| f / distance); the share of pixels
   within one cell and within half a pixel, with percentiles; and both timings.
 
-    .venv/bin/python bench/bench_large_dem.py [--repeat 2] [--lod 1,2] [--only big,compare]
+- ``xyz_product_24mp_dem1.7g`` and ``qgis_process_computexyz_24mp_dem1.7g`` (``--only product``): the same DEM
+  through the product path (the workflow's DEM input opens it by windows on its own; the XYZ GeoTIFF written), in
+  this process and with ``qgis_process``.
+
+    .venv/bin/python bench/bench_large_dem.py [--repeat 2] [--lod 1,2] [--only big,compare,product]
 """
 
 from __future__ import annotations
@@ -158,7 +162,6 @@ def bench_compare(folder: str, args, lods) -> list:
     full = compute_xyz(cam, dem)
     full_s = time.perf_counter() - t0
     cell0 = dem.cell_size
-    del dem
     lines = []
     for lod_value in lods:
         t0 = time.perf_counter()
@@ -171,6 +174,12 @@ def bench_compare(folder: str, args, lods) -> list:
         rng = np.linalg.norm(q - np.asarray(cam.position), axis=1)
         px = np.linalg.norm(p - q, axis=1) * cam.focal_px / rng
         coarse = lod.factor[both] > 1
+        # how the coarse misses (beyond one cell) miss: the LOD point's height above or below the full-resolution
+        # surface (on the terrain, or not), and the depth jump (> 5 %: a different surface, a ridge the averaged
+        # level lowered; less: the same slope met a little farther or nearer along a grazing ray)
+        miss = coarse & (cells > 1.0)
+        dz = np.abs(p[miss, 2] - dem.sample(p[miss, 0], p[miss, 1]))
+        jump = np.abs(np.linalg.norm(p[miss] - np.asarray(cam.position), axis=1) - rng[miss]) / rng[miss]
         pct = lambda a: [round(float(v), 3) for v in np.percentile(a, [50, 95, 99])] if a.size else None  # noqa
         share = lambda m: round(float(m.mean()), 4) if m.size else None  # noqa: E731
         lines.append({
@@ -181,9 +190,61 @@ def bench_compare(folder: str, args, lods) -> list:
             "pixels_coarse": int(coarse.sum()), "within_1_cell": share(cells <= 1.0),
             "within_half_px": share(px <= 0.5), "coarse_within_1_cell": share(cells[coarse] <= 1.0),
             "coarse_within_half_px": share(px[coarse] <= 0.5), "cells_p50_p95_p99": pct(cells),
-            "px_p50_p95_p99": pct(px), "coarse_px_p50_p95_p99": pct(px[coarse]), "peak_mb": round(peak_mb(), 1),
+            "px_p50_p95_p99": pct(px), "coarse_px_p50_p95_p99": pct(px[coarse]),
+            "coarse_misses": int(miss.sum()), "misses_other_surface": share(jump > 0.05),
+            "misses_height_off_full_m_p50_p95": pct(dz)[:2] if dz.size else None, "peak_mb": round(peak_mb(), 1),
             "load_avg_1min": round(os.getloadavg()[0], 2)})
         del lod
+    del dem
+    return lines
+
+
+def bench_product(folder: str, args) -> list:
+    """The product path on the 1.68 G-cell DEM, as the dock and Processing run it: the workflow's DEM input (which
+    opens it by windows on its own, since it does not fit in memory) and the XYZ product written to a file; then the
+    same through ``qgis_process run monoplot:computexyz`` (a process of its own: its wall time and peak)."""
+    import resource
+    import subprocess
+
+    from monoplot_plugin.core.dem_window import DemSource
+    from monoplot_plugin.processing import cli
+    from monoplot_plugin.workflow import products
+    from monoplot_plugin.workflow.inputs import load_dem
+    from monoplot_plugin.workflow.xyz import clear_cache
+
+    path = write_vrt(folder, 20, 1.0, "big")
+    cam = camera_for(DemSource(path), 6000, 4000)
+    out = os.path.join(folder, "xyz.tif")
+    lines = []
+    reset_peak()
+    times = []
+    for _ in range(args.repeat):
+        clear_cache()
+        t0 = time.perf_counter()
+        dem, notes = load_dem(path)
+        t1 = time.perf_counter()
+        products.write_xyz(out, cam, dem, overwrite=True)
+        times.append((t1 - t0, time.perf_counter() - t1))
+        kind = type(dem).__name__
+        del dem
+    clear_cache()
+    lines.append({"name": "xyz_product_24mp_dem1.7g", "dem_type": kind, "load_s": round(min(t[0] for t in times), 3),
+                  "xyz_and_write_s": round(float(np.median([t[1] for t in times])), 3),
+                  "peak_mb": round(peak_mb(), 1), "note": notes[0] if notes else "", "repeat": args.repeat,
+                  "load_avg_1min": round(os.getloadavg()[0], 2)})
+    cam_path = os.path.join(folder, "camera.json")
+    cam.save(cam_path)
+    env = cli.prepare_environment()
+    command = [cli.qgis_process_binary(), "--json", "run", "monoplot:computexyz", "--",
+               *cli.parameter_arguments({"CAMERA": cam_path, "DEM": path, "OUTPUT": out})]
+    t0 = time.perf_counter()
+    proc = subprocess.run(command, env=env, capture_output=True, text=True, timeout=1800)
+    seconds = time.perf_counter() - t0
+    lines.append({"name": "qgis_process_computexyz_24mp_dem1.7g", "ok": proc.returncode == 0,
+                  "seconds": round(seconds, 3), "peak_mb": round(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+                                                                / 1024.0, 1),
+                  "error": "" if proc.returncode == 0 else (proc.stdout + proc.stderr)[-500:],
+                  "load_avg_1min": round(os.getloadavg()[0], 2)})
     return lines
 
 
@@ -201,6 +262,9 @@ def main() -> int:
         if "big" in only:
             for lod_value in lods:
                 print(json.dumps(bench_big(folder, args, lod_value)), flush=True)
+        if "product" in only:
+            for line in bench_product(folder, args):
+                print(json.dumps(line), flush=True)
         if "compare" in only:
             for line in bench_compare(folder, args, lods):
                 print(json.dumps(line), flush=True)

@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import pickle
 import shutil
 import sys
 import tempfile
@@ -149,22 +150,58 @@ def bench_dask(work: Path, frames: int) -> None:
     dem_path = str(work / "dem.tif")
     dem.save(dem_path)
     jobs = batch.folder_jobs(str(folder), cam)
-    rates = {}
+    rates, per_frame = {}, {}
     for workers in (1, 2):
         client = local_client(workers)
         try:
             out = str(work / f"dask_out{workers}")
             run_batch_dask(jobs[: 2 * workers], dem_path, dem.crs_wkt, out, client=client)  # warm-up
+            cpu0 = _cpu_seconds()
             start = time.perf_counter()
             results = run_batch_dask(jobs, dem_path, dem.crs_wkt, out, client=client)
             seconds = time.perf_counter() - start
+            machine = (_cpu_seconds() - cpu0) / seconds  # cores busy, every process of the machine
+            roundtrip = _roundtrip_ms(client)
         finally:
             client.close()
             client.cluster.close()
         rates[workers] = frames / seconds
+        busy = float(np.nansum([r.seconds for r in results]))
+        per_frame[workers] = busy / max(1, len(results))
+        # busy: the share of the workers' wall time spent inside the frames (the rest: scheduling, transfers);
+        # frame_s: a frame's own time on its worker (grows with two workers when they compete for the cores)
         emit(name="dask_batch", image=f"{WIDTH}x{HEIGHT}", frames=frames, workers=workers,
-             ok=sum(r.ok for r in results), seconds=round(seconds, 2), frames_per_s=round(rates[workers], 2))
-    emit(name="dask_scaling", ratio_to_twice_one_worker=round(rates[2] / (2.0 * rates[1]), 3), target=0.8)
+             ok=sum(r.ok for r in results), seconds=round(seconds, 2), frames_per_s=round(rates[workers], 2),
+             frame_s=round(per_frame[workers], 4), workers_busy=round(busy / (workers * seconds), 3),
+             machine_cores_busy=round(machine, 2), noop_task_roundtrip_ms=round(roundtrip, 2),
+             task_bytes=_pickled(jobs, dem_path, dem.crs_wkt, out), result_bytes=len(pickle.dumps(results[0])))
+    emit(name="dask_scaling", ratio_to_twice_one_worker=round(rates[2] / (2.0 * rates[1]), 3), target=0.8,
+         frame_time_growth=round(per_frame[2] / per_frame[1], 3))
+
+
+def _cpu_seconds() -> float:
+    """CPU seconds the whole machine has spent (user + system, every core), from /proc/stat."""
+    with open("/proc/stat") as fh:
+        fields = [float(v) for v in fh.readline().split()[1:]]
+    return (fields[0] + fields[1] + fields[2]) / os.sysconf("SC_CLK_TCK")
+
+
+def _roundtrip_ms(client, count: int = 50) -> float:
+    """Milliseconds from submitting a task that does nothing to having its result, the median of ``count``."""
+    times = []
+    for i in range(count):
+        t0 = time.perf_counter()
+        client.submit(abs, -i, pure=False).result()
+        times.append(time.perf_counter() - t0)
+    return 1000.0 * float(np.median(times))
+
+
+def _pickled(jobs, dem_path: str, crs_wkt: str, out: str) -> int:
+    """Bytes of one frame's task as sent: the task and the shared set-up (which carries paths, not arrays)."""
+    from monoplot_plugin.workflow.batch import batch_setup, frame_tasks, output_stems
+
+    task = frame_tasks(jobs[:1], output_stems(jobs[:1]), lambda message, error: None)[0]
+    return len(pickle.dumps((task, batch_setup(jobs, crs_wkt, out, dem_path=dem_path))))
 
 
 def main() -> None:

@@ -28,11 +28,12 @@ class DemError(ValueError):
 
 def read_dem_file(path: str, void_value: Optional[float] = None) -> Tuple[Dem, List[str]]:
     """(Dem, notes for the user) from a raster file; ``void_value`` = cells to treat as voids."""
-    try:
-        dem = Dem.open(path, void_value=void_value)
+    from ..core.dem_large import open_dem
+
+    try:  # a DEM too large to read whole is opened by windows (its overviews built once, said in the notes)
+        dem, notes = open_dem(path, void_value=void_value)
     except Exception as exc:  # GDAL errors, missing CRS...: say it in words
         raise DemError(f"cannot read the DEM {path!r}: {exc}") from exc
-    notes = []
     if dem.source_crs_wkt:
         notes.append("geographic DEM reprojected to UTM metres")
     if dem.void_notes:  # core's one rule: nodata, NaN, sentinels, zero-filled voids

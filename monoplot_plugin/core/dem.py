@@ -411,6 +411,14 @@ def mark_voids(elevation: np.ndarray, nodata: Optional[float] = None, void_value
     2
     """
     notes: List[str] = []
+    if elevation.size:  # one pass for the common case: every height is finite and none is a void's value
+        lo, hi = float(np.min(elevation)), float(np.max(elevation))
+        special = [v for v in (nodata, void_value) if v is not None and not math.isnan(v)]
+        if sentinels:
+            special += list(VOID_SENTINELS) + ([0.0] if nodata is None and void_value is None else [])
+        if (math.isfinite(lo) and math.isfinite(hi) and not any(lo <= v <= hi for v in special)
+                and (not sentinels or (lo >= LOWEST_TERRAIN_M and hi <= HIGHEST_TERRAIN_M))):
+            return notes
 
     def mark(mask: np.ndarray, text: str) -> None:
         n = int(mask.sum())

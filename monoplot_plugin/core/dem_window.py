@@ -116,7 +116,10 @@ def as_dem(dem, camera=None, max_range: Optional[float] = None, max_cells: float
     (:meth:`DemSource.view_dem`), or without a camera the whole grid at the finest level of at most ``max_cells``
     cells. The steps that take one DEM (rendering, suggestions) call it, so that they take a large DEM file too."""
     if not isinstance(dem, DemSource):
-        return dem
+        source = getattr(dem, "source", None)  # a LargeDem (core.dem_large): its file, for what the camera sees
+        if camera is None or not isinstance(source, DemSource):
+            return dem
+        dem = source
     if camera is not None:
         return dem.view_dem(camera, max_cells=max_cells, max_range=max_range)
     levels = dem.levels if len(dem.levels) > 1 else [1] + overview_factors(dem.shape)
@@ -177,6 +180,12 @@ class DemSource:
         self._overviews = {max(1, round(self.shape[1] / b.XSize)): b for b in overviews}
         self.levels = [1] + sorted(f for f in self._overviews if f > 1)
         self.zmin, self.zmax = self._height_range()
+
+    def __getstate__(self):  # GDAL handles do not pickle: a copy (a Dask worker's) reopens the file
+        return {"path": self.path, "void_value": self.void_value, "sentinels": self.sentinels}
+
+    def __setstate__(self, state):
+        self.__init__(state["path"], void_value=state["void_value"], sentinels=state["sentinels"])
 
     @property
     def cells(self) -> int:
@@ -258,12 +267,14 @@ class DemSource:
                            max_range, margin_cells, min_range=min_range)
 
     def read_view(self, camera, factor: int = 1, min_depth: float = 0.0, max_depth: Optional[float] = None,
-                  max_range: Optional[float] = None, margin_cells: int = 2):
+                  max_range: Optional[float] = None, margin_cells: int = 2, placeholders: bool = True):
         """(Dem, (lo, hi), image rows) of what ``camera`` sees between the depths ``min_depth`` and ``max_depth``
         (metres along the optical axis; and within ``max_range`` metres) at level ``factor``:
         a window whose rows hold, each, a span of cells ``[lo[r], hi[r])`` (the view's footprint, block by block);
         only those are read, the others are NaN (not voids: ``compute_xyz_full(..., spans=(lo, hi))``); image rows:
-        (first, last), the rows of the image whose rays can meet them. None when the camera sees nothing there."""
+        (first, last), the rows of the image whose rays can meet them. None when the camera sees nothing there.
+        Without ``placeholders`` the cells outside the spans are left unset (the z-buffer never reads them: it skips
+        allocating and writing a window-sized array) unless the view has voids, whose lids need them NaN."""
         found = view_footprint(camera, self.level_geotransform(factor), self.level_shape(factor), self.zmin,
                                self.zmax, max_range, margin_cells, samples=256, min_depth=min_depth,
                                max_depth=max_depth)
@@ -272,12 +283,13 @@ class DemSource:
         window, ends, pad, image_rows = found
         row0, col0, rows, cols = window
         lo, hi = footprint_spans(window, ends, pad)
-        elevation = np.full((rows, cols), np.nan, dtype=np.float32)
+        elevation = (np.full if placeholders else _empty)((rows, cols), np.nan, dtype=np.float32)
         g = self.level_geotransform(factor)
         dem = Dem(elevation, (g[0] + col0 * g[1] + row0 * g[2], g[1], g[2], g[3] + col0 * g[4] + row0 * g[5], g[4],
                               g[5]), self.crs_wkt)
         dem.window = (row0, col0)
         notes = []
+        voids = False
         for r in range(0, rows, _SPAN_BLOCK):
             r1 = min(rows, r + _SPAN_BLOCK)
             c0, c1 = int(lo[r:r1].min()), int(hi[r:r1].max())
@@ -285,8 +297,14 @@ class DemSource:
                 continue
             data = self._read_block(factor, row0 + r, col0 + c0, r1 - r, c1 - c0)
             block = np.array(data, dtype=np.float32)
-            notes += mark_voids(block, nodata=self.nodata, void_value=self.void_value, sentinels=self.sentinels)
+            found = mark_voids(block, nodata=self.nodata, void_value=self.void_value, sentinels=self.sentinels)
+            notes += found
+            voids = voids or bool(found)
             elevation[r:r1, c0:c1] = block
+        if voids and not placeholders:
+            for r in range(rows):
+                elevation[r, :lo[r]] = np.nan
+                elevation[r, max(lo[r], hi[r]):] = np.nan
         dem.void_notes = notes
         return dem, (lo, hi), image_rows
 
@@ -342,6 +360,10 @@ class DemSource:
             if view is not None and (view[1][1] > view[1][0]).any():
                 out.append(DemBand(view[0], factor, near, far, view[1]))
         return out
+
+
+def _empty(shape, _fill, dtype):
+    return np.empty(shape, dtype=dtype)
 
 
 #: Rows (and columns) of the blocks in which :meth:`DemSource.read_view` reads a view's footprint.

@@ -110,7 +110,7 @@ def compute_xyz_lod(cam: Camera, source: DemSource, max_range: Optional[float] =
         keep = math.inf if last else far * (1.0 + LOD_OVERLAP)
         sub = strip_camera(cam, r0, r1 - r0)
         view = source.read_view(sub, level, min_depth=near, max_depth=None if math.isinf(keep) else keep,
-                                max_range=max_range)
+                                max_range=max_range, placeholders=False)
         if view is None:
             logger.debug("LOD band x%d: nothing in view", level)
             continue

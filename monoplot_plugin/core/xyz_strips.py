@@ -140,12 +140,20 @@ def xyz_strips(camera: Camera, dem: Dem, rows_per_strip: Optional[int] = None, m
                budget: Optional[int] = None, distance: bool = False) \
         -> Iterator[Tuple[int, np.ndarray, Optional[np.ndarray]]]:
     """(row0, (rows, W, 3) XYZ, (rows, W) distance or None) strip after strip, top to bottom; ``rows_per_strip``
-    from :func:`plan_strips` unless given."""
+    from :func:`plan_strips` unless given. Over a DEM file read by windows (core :class:`~.dem_large.LargeDem`) each
+    strip is the level-of-detail z-buffer of the file (:data:`~.dem_large.PRODUCT_LOD`), as the whole raster is."""
     rows = rows_per_strip or plan_strips(camera, budget)
+    source = getattr(dem, "source", None)  # a DEM file read by windows (core.dem_large.LargeDem): its own z-buffer
     for row0 in range(0, camera.height, rows):
         n = min(rows, camera.height - row0)
         cam = strip_camera(camera, row0, n)
-        if distance:
+        if source is not None:
+            from .dem_large import PRODUCT_LOD
+            from .xyz_lod import compute_xyz_lod
+
+            result = compute_xyz_lod(cam, source, max_range=max_range, lod=PRODUCT_LOD)
+            yield row0, result.xyz, result.distance if distance else None
+        elif distance:
             result = compute_xyz_full(cam, dem, max_range=max_range, visibility=False)
             yield row0, result.xyz, result.distance
         else:

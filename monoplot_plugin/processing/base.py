@@ -154,8 +154,14 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         CRS returned is then that UTM CRS: cameras, points and products are in metres."""
         path, crs = self.dem_path(parameters, context)
         # the workflow's one set of DEM checks (as the dock): CRS, size, voids from nodata, NaN and sentinels
-        dem, notes = checked(load_checked_dem, path, self.void_value(parameters, context))
         feedback = context.feedback() if hasattr(context, "feedback") else None
+
+        def building(fraction: float, message: str = "") -> None:  # a large DEM's overviews, built once
+            if feedback is not None:
+                feedback.setProgressText(message)
+                feedback.setProgress(100.0 * fraction)
+
+        dem, notes = checked(load_checked_dem, path, self.void_value(parameters, context), building)
         for note in notes:
             if feedback is not None:
                 feedback.pushInfo(note)

@@ -229,10 +229,8 @@ def collect(results: Iterable[Optional[PhotoResult]], tasks: List[FrameTask], lo
     for task, result in zip(tasks, results):
         if result is None:
             result = PhotoResult(task.photo, False, "canceled before processing", canceled=True, index=task.index)
-        elif result.ok:
-            log(f"[{task.index + 1}/{total}] {task.name}: {result.message}", False)
         else:
-            log(f"[{task.index + 1}/{total}] {task.name}: FAILED, skipped: {result.message}", True)
+            log_result(log, task, total, result)
         out.append(result)
         progress(len(out) / max(1, total), task.name)
     canceled = sum(r.canceled for r in out)
@@ -240,6 +238,18 @@ def collect(results: Iterable[Optional[PhotoResult]], tasks: List[FrameTask], lo
         log(f"canceled: {canceled} photos not processed", True)
     progress(1.0, "")
     return out
+
+
+def log_result(log: Log, task: FrameTask, total: int, result: PhotoResult) -> None:
+    """One line of the batch log for a frame: its message, "canceled" (the user canceled while it was processed,
+    not a failure) or "FAILED, skipped"."""
+    head = f"[{task.index + 1}/{total}] {task.name}"
+    if result.ok:
+        log(f"{head}: {result.message}", False)
+    elif result.canceled:
+        log(f"{head}: canceled: {result.message}", True)
+    else:
+        log(f"{head}: FAILED, skipped: {result.message}", True)
 
 
 def output_stems(jobs: List[PhotoJob]) -> List[str]:

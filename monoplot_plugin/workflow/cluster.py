@@ -25,7 +25,8 @@ import os
 from pathlib import Path
 from typing import Dict, List, Optional
 
-from .batch import Log, PhotoJob, batch_setup, frame_tasks, output_stems, planned_outputs, shared_xyz_failed
+from .batch import (Log, PhotoJob, batch_setup, frame_tasks, log_result, output_stems, planned_outputs,
+                    shared_xyz_failed)
 from .frames import SHARED_XYZ, FrameTask, PhotoResult, Timelapse, process_frame, shared_for
 from .progress import IsCanceled, Progress, never_canceled, no_progress
 
@@ -141,10 +142,7 @@ def _gather(client, tasks: List[FrameTask], setup: Timelapse, log: Log, progress
             except Exception as exc:  # KilledWorker: the frame killed its workers again and again
                 result = PhotoResult(t.photo, False, f"{type(exc).__name__}: {exc}", index=t.index)
             done[t.index] = result
-            if result.ok:
-                log(f"[{t.index + 1}/{total}] {t.name}: {result.message}", False)
-            else:
-                log(f"[{t.index + 1}/{total}] {t.name}: FAILED, skipped: {result.message}", True)
+            log_result(log, t, total, result)
             progress(len(done) / max(1, total), t.name)
     progress(1.0, "")
     return [done[t.index] for t in tasks]

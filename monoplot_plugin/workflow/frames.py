@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 import threading
+import time
 from dataclasses import dataclass, field
 from typing import List, Optional
 
@@ -23,16 +24,15 @@ import numpy as np
 from ..core.camera import Camera
 from ..core.drift import Reference, corrected_camera, register, stable_mask
 from ..core.lookup import ortho_lookup, turnable_lookup
-from ..core.xyz import compute_xyz
 from ..outputs.orthophoto import write_orthophoto
 from ..outputs.safe_write import write_text
 from ..outputs.xyz_raster import write_xyz_raster
 from .files import InputError, load_camera, read_photo, read_points_csv
 from .fit import fit_points
 from .inputs import load_dem
-from .products import dem_at_resolution
+from .products import ortho_grid
 from .vectors import fill_missing_z
-from .xyz import xyz_raster
+from .xyz import xyz_raster, xyz_uncached
 
 __all__ = ["PhotoResult", "CameraProducts", "Timelapse", "Shared", "shared_for", "process_frame", "FrameTask",
            "fit_job", "SHARED_XYZ", "DRIFT_TOLERANCE_PX"]
@@ -57,6 +57,7 @@ class PhotoResult:
     drift_px: float = float("nan")  # re-registration: mean image shift from the reference frame
     drift_deg: float = float("nan")  # and the angle of the turn
     index: int = -1  # position in the batch
+    seconds: float = float("nan")  # spent processing it (where it ran: a Dask worker's own clock)
 
 
 class CameraProducts:
@@ -67,11 +68,11 @@ class CameraProducts:
                  cached: bool = True):
         self.camera = camera
         with _compute_lock:
-            self.xyz = xyz_raster(camera, dem) if cached else compute_xyz(camera, dem)
+            self.xyz = xyz_raster(camera, dem) if cached else xyz_uncached(camera, dem)
         self.sees_ground = bool(np.isfinite(self.xyz[..., 2]).any())
         self.grid = self.lookup = None
         if ortho and self.sees_ground:
-            self.grid = dem if not resolution else dem_at_resolution(dem, resolution)
+            self.grid = ortho_grid(camera, dem, resolution)  # of a DEM read by windows: the part it sees
             self.lookup = ortho_lookup(camera, self.grid, self.xyz)
 
     @classmethod
@@ -148,7 +149,7 @@ class Shared:
                 if setup.write_ortho and not setup.write_xyz:  # turned frames need no z-buffer of their own
                     with _compute_lock:
                         self.turnable = turnable_lookup(self.camera, self.products.grid,
-                                                        lambda wide: compute_xyz(wide, dem))
+                                                        lambda wide: xyz_uncached(wide, dem))
 
 
 _shared_lock = threading.Lock()
@@ -169,6 +170,7 @@ def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
     """Read, (re-register,) and write the products of one frame; every problem becomes a failed result."""
     setup = shared.setup
     result = PhotoResult(task.photo, False, index=task.index)
+    start = time.perf_counter()
     try:
         photo = read_photo(task.photo)
         size = (photo.shape[1], photo.shape[0])
@@ -208,8 +210,20 @@ def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
             result.message += f" (outputs {task.stem}_*)"
     except Exception as exc:  # one photo's failure must not lose the batch
         result.ok = False
-        result.message = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
+        result.canceled = _is_cancel(exc)
+        if result.canceled:  # the user canceled while this frame was written: its outputs were not put in place
+            result.message = "canceled while processing (its outputs not written)"
+        else:
+            result.message = str(exc) if isinstance(exc, InputError) else f"{type(exc).__name__}: {exc}"
+    result.seconds = time.perf_counter() - start
     return result
+
+
+def _is_cancel(exc: Exception) -> bool:
+    from ..outputs.safe_write import OutputCanceled
+    from .progress import Canceled
+
+    return isinstance(exc, (Canceled, OutputCanceled))
 
 
 def _registered(shared: Shared, photo: np.ndarray, result: PhotoResult):

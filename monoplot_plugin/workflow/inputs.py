@@ -65,8 +65,9 @@ def check_dem_file(path: str) -> str:
     return wkt
 
 
-def load_dem(path: str, void_value: Optional[float] = None) -> Tuple[object, List[str]]:
-    """(core Dem, notes for the user) of a DEM file, checked.
+def load_dem(path: str, void_value: Optional[float] = None, progress=None) -> Tuple[object, List[str]]:
+    """(core Dem, notes for the user) of a DEM file, checked. A DEM too large to read whole is opened by windows
+    (core :func:`~..core.dem_large.open_dem`: its overviews built first when missing, with ``progress``).
 
     Raises InputError for: no file or a folder; a file GDAL cannot read (a text file, a damaged raster); no
     georeferencing (a photo given as DEM); no CRS; fewer than 2 x 2 cells; no valid cell.
@@ -76,15 +77,14 @@ def load_dem(path: str, void_value: Optional[float] = None) -> Tuple[object, Lis
     ...
     monoplot_plugin.workflow.inputs.InputError: DEM not found: /no/such/dem.tif
     """
-    from ..core.dem import Dem
+    from ..core.dem_large import open_dem
 
     check_dem_file(path)
     name = os.path.basename(path)
     try:
-        dem = Dem.open(path, void_value=void_value)
+        dem, notes = open_dem(path, void_value=void_value, progress=progress)
     except Exception as exc:  # GDAL read errors, a CRS PROJ does not know
         raise InputError(f"cannot read the DEM {name}: {_first_line(exc)}") from exc
-    notes: List[str] = []
     if dem.source_crs_wkt:
         notes.append(f"the DEM is in degrees: used in {_crs_name(dem.crs_wkt)} (metres); results are in that CRS")
     void_text = "; ".join(dem.void_notes)

@@ -19,7 +19,7 @@ from ..core.dem import Dem
 from .progress import IsCanceled, Progress, check_canceled, part
 from .xyz import xyz_result
 
-__all__ = ["ProductError", "write_xyz", "orthophoto", "report", "dem_at_resolution", "MAX_ORTHO_CELLS"]
+__all__ = ["ProductError", "write_xyz", "orthophoto", "report", "ortho_grid", "dem_at_resolution", "MAX_ORTHO_CELLS"]
 
 #: an orthophoto grid larger than this many cells is refused (memory)
 MAX_ORTHO_CELLS = 50_000_000
@@ -48,9 +48,10 @@ def write_xyz(path, camera: Camera, dem, crs_wkt: Optional[str] = None, photo_na
 
 def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution: Optional[float] = None,
                overwrite: bool = False, progress: Optional[Progress] = None,
-               is_canceled: Optional[IsCanceled] = None) -> Path:
+               is_canceled: Optional[IsCanceled] = None, grid=None) -> Path:
     """The photo (H, W, 3) draped on the DEM: a north-up RGBA GeoTIFF on the DEM's grid, or on a grid of cell size
-    ``resolution`` over the same extent (elevations resampled bilinearly)."""
+    ``resolution`` over the same extent (elevations resampled bilinearly); ``grid``: :func:`ortho_grid` when the
+    caller has it already."""
     from ..outputs.orthophoto import orthophoto_from_camera
 
     if (photo.shape[1], photo.shape[0]) != tuple(camera.image_size):
@@ -58,7 +59,7 @@ def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution: Optiona
                            f"{camera.width}x{camera.height} px")
     xyz = xyz_result(camera, dem, visibility=False, progress=part(progress, 0.0, 0.5), is_canceled=is_canceled).xyz
     check_canceled(is_canceled)
-    grid = dem if not resolution else dem_at_resolution(dem, resolution)
+    grid = ortho_grid(camera, dem, resolution) if grid is None else grid
     written = orthophoto_from_camera(path, photo, camera, grid, xyz, overwrite=overwrite)
     if progress is not None:
         progress(1.0, "")
@@ -102,6 +103,21 @@ def report_points(path, dem):
         raise InputError(f"{os.path.basename(str(path))}: the report needs paired points (u_px, v_px and X, Y, Z "
                          f"on each row)")
     return ReportPoints(table["uv"], fill_missing_z(table["xyz"], dem), [str(i) for i in table["ids"]])
+
+
+def ortho_grid(camera: Camera, dem, resolution: Optional[float] = None):
+    """The grid of the orthophoto: the DEM's, or one of cell size ``resolution`` over its extent. For a DEM file
+    read by windows (core :class:`~..core.dem_large.LargeDem`) the part of it the camera sees, at the finest level
+    of at most half :data:`MAX_ORTHO_CELLS` cells and the cells read whole (``in_memory_limit``); ``resolution``
+    then resamples that part."""
+    from ..core.dem_large import in_memory_limit, is_large
+
+    if is_large(dem):
+        try:
+            dem = dem.source.view_dem(camera, max_cells=min(MAX_ORTHO_CELLS // 2, in_memory_limit()))
+        except ValueError as exc:
+            raise ProductError(str(exc)) from None
+    return dem if not resolution else dem_at_resolution(dem, resolution)
 
 
 def dem_at_resolution(dem, resolution: float):

@@ -167,3 +167,18 @@ def test_rendering_and_suggestions_take_a_dem_source(terrain):
     assert np.isfinite(a.shade).mean() > 0.3 and np.array_equal(a.shade, b.shade, equal_nan=True)
     points = suggest_dem_points(src, cam, max_points=200)
     assert 20 <= len(points.xyz) <= 200 and np.isfinite(points.xyz).all()
+
+
+def test_lod_over_voids_equals_the_z_buffer(terrain, tmp_path):
+    """Cells outside a band's spans are left unset unless the band has voids: then they are NaN again, so that an
+    interior void still gets its lid and a pixel that sees it is nodata, as in the full-resolution z-buffer."""
+    dem, _, cam = terrain
+    holed = Dem(dem.elevation.copy(), dem.geotransform, dem.crs_wkt)
+    holed.elevation[200:260, 150:230] = np.nan
+    path = str(tmp_path / "holed.tif")
+    holed.save(path)
+    holed = Dem.open(path)
+    lod = compute_xyz_lod(cam, DemSource(path), lod=1e-3)
+    full = compute_xyz_full(cam, holed, visibility=False)
+    assert np.array_equal(lod.hit, full.hit)
+    assert np.allclose(lod.xyz[lod.hit], full.xyz[full.hit], atol=1e-6)

@@ -99,10 +99,12 @@ def test_cancel_with_frames_in_flight_marks_the_rest_canceled(still_timelapse, t
     scene = still_timelapse
     cam = Camera.load(scene["camera"])
     dem = Dem.open(scene["dem"])
-    seen = []
+    seen, lines = [], []
     results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(tmp_path / "out"),
-                              workers=2, progress=lambda f, m="": seen.append(f), is_canceled=lambda: len(seen) >= 1)
+                              workers=2, progress=lambda f, m="": seen.append(f), is_canceled=lambda: len(seen) >= 1,
+                              log=lambda m, e: lines.append(m))
     assert len(results) == 6 and [r.index for r in results] == list(range(6))
+    assert not any("FAILED" in m for m in lines)  # a cancel is no failure, in flight or not
     done = [r for r in results if r.ok]
     canceled = [r for r in results if r.canceled]
     assert len(done) + len(canceled) == 6 and canceled and done

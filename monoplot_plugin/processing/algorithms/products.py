@@ -24,7 +24,7 @@ from .. import pipeline
 from ..base import PHOTO_Y_SIGN, MonoplotAlgorithm, cancel_callback, check_canceled, checked, progress_callback
 from ..inputs import read_photo
 from ...core.xyz_strips import plan_strips
-from ...workflow.products import dem_at_resolution
+from ...workflow.products import ProductError, ortho_grid
 from ...workflow.inputs import check_not_empty, check_view
 from ..safe_sink import safe_sink
 
@@ -247,7 +247,10 @@ class Orthophoto(_CameraDemAlgorithm):
                 photo.shape[1], photo.shape[0], camera.width, camera.height))
         resolution = self.parameterAsDouble(parameters, "RESOLUTION", context) or None
         out = self.parameterAsOutputLayer(parameters, "OUTPUT", context)
-        grid = dem_at_resolution(dem, resolution) if resolution else dem
+        try:  # of a DEM read by windows: the part the camera sees
+            grid = ortho_grid(camera, dem, resolution)
+        except ProductError as exc:
+            raise QgsProcessingException(str(exc)) from exc
         rows = plan_strips(camera, extra_per_row=3 * camera.width,
                            fixed=grid.elevation.size * 40 + 3 * dem.elevation.nbytes, what="orthophoto")
         if rows < camera.height:  # the XYZ raster does not fit at once: the photo is draped strip by strip
@@ -261,7 +264,7 @@ class Orthophoto(_CameraDemAlgorithm):
         ground = int(np.isfinite(pipeline.xyz_raster(camera, dem)[..., 2]).any())
         self.check_not_empty(parameters, context, ground, "orthophoto", NO_GROUND)
         checked(pipeline.orthophoto, out, photo, camera, dem, resolution, progress_callback(feedback, 0, 95),
-                cancel_callback(feedback))
+                cancel_callback(feedback), grid)
         feedback.setProgress(100)
         return {"OUTPUT": out}
 

@@ -1,0 +1,177 @@
+"""A DEM file too large to read whole, as a :class:`~.dem.Dem` the rest of Monoplot can take unchanged.
+
+:func:`open_dem` is the one place that decides: a DEM whose cells do not fit in what memory is free
+(:func:`in_memory_limit`, ``MONOPLOT_DEM_MAX_CELLS`` overrides it) is opened as a :class:`LargeDem` instead of being
+read whole. A LargeDem *is* a Dem: its ``elevation`` is one overview level of the file, the finest of at most
+:data:`PREVIEW_CELLS` cells and a quarter of the limit (the "preview": checks, fits, the dock's previews and the
+maps work on it), and it keeps the file's :class:`~.dem_window.DemSource` (``source``) for what needs the full
+resolution:
+
+- the per-pixel XYZ (the workflow's XYZ step uses :func:`~.xyz_lod.compute_xyz_lod`: full resolution near the
+  camera, coarser levels where a cell is smaller than a pixel's footprint);
+- rendering, suggestions and the orthophoto's grid (:func:`~.dem_window.as_dem`: what the camera sees, at the
+  finest level within a cell budget);
+- heights at points (:meth:`LargeDem.sample` reads the full-resolution cells around them).
+
+Overviews are built when the file has none (once, as a ``.ovr`` beside it, with progress), and the notes say so.
+A cut of a LargeDem (:meth:`LargeDem.crop`) is an ordinary Dem of the preview.
+
+>>> import os, tempfile
+>>> import numpy as np
+>>> from .synthetic import synthetic_terrain
+>>> folder = tempfile.TemporaryDirectory()
+>>> path = os.path.join(folder.name, "dem.tif")
+>>> synthetic_terrain((512, 512), cell=10.0, seed=2).save(path)
+>>> dem, notes = open_dem(path, max_cells=100_000)           # more than 100,000 cells: opened by windows
+>>> type(dem).__name__, dem.source.shape, dem.shape, dem.level
+('LargeDem', (512, 512), (256, 256), 2)
+>>> full = Dem.open(path)
+>>> x, y = full.cell_to_map(100.3, 200.7)
+>>> bool(abs(dem.sample(x, y) - full.sample(x, y)) < 1e-3)  # heights at points come from the full resolution
+True
+>>> type(open_dem(path)[0]).__name__                         # the same file fits in memory: read whole
+'Dem'
+>>> del dem; folder.cleanup()
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from dataclasses import dataclass, field
+from typing import Callable, List, Optional, Tuple
+
+import numpy as np
+
+from .dem import Dem
+from .dem_window import DemSource, as_dem, open_dem_source
+
+__all__ = ["LargeDem", "open_dem", "in_memory_limit", "is_large", "PREVIEW_CELLS", "DEM_BYTES_PER_CELL",
+           "PRODUCT_LOD"]
+
+logger = logging.getLogger("monoplot")
+
+#: The preview of a LargeDem (its ``elevation``) has at most this many cells.
+PREVIEW_CELLS = 25e6
+#: Bytes per DEM cell that the in-memory products need (the heights, the view's crop, the mesh, the hillshade of
+#: the report); a DEM of more cells than the free memory holds at this rate is opened by windows.
+DEM_BYTES_PER_CELL = 32
+#: Level of detail of the products over a LargeDem (the XYZ raster): a band's cells are at most this many pixel
+#: footprints (:func:`~.xyz_lod.compute_xyz_lod`; 1: 99.98 % of the pixels within 0.5 px of the full resolution on
+#: the benchmark's 105 M-cell DEM, 2: 99.1 % and about twice as fast).
+PRODUCT_LOD = 1.0
+#: Points farther apart than this many full-resolution cells are sampled from separate reads.
+_SAMPLE_BLOCK = 512
+
+Progress = Callable[[float, str], None]
+
+
+@dataclass(eq=False)
+class LargeDem(Dem):
+    """A Dem of one overview level of a DEM file (the preview, see the module docstring), with the file's
+    :class:`~.dem_window.DemSource` as ``source`` and the level's factor as ``level``."""
+
+    source: Optional[DemSource] = field(default=None, repr=False, compare=False)
+    level: int = 1
+
+    @property
+    def key(self) -> Tuple:
+        """What the file is, for caches: path, size, modification time, voids asked for."""
+        st = os.stat(self.source.path)
+        return (os.path.abspath(self.source.path), st.st_size, st.st_mtime_ns, self.source.void_value)
+
+    def crop(self, row0: int, col0: int, rows: int, cols: int) -> Dem:
+        """A cut of the preview: an ordinary Dem (the file's other cells are not in it)."""
+        part = Dem.crop(self, row0, col0, rows, cols)
+        return Dem(part.elevation, part.geotransform, part.crs_wkt, part.source_crs_wkt, part.window, part.void_notes)
+
+    def preview(self) -> Dem:
+        """The preview as an ordinary Dem."""
+        return self.crop(0, 0, self.rows, self.cols)
+
+    def sample(self, x, y, method: str = "bilinear"):
+        """Heights at map points from the file's full resolution (the cells around the points are read, block by
+        block); a great many points spread over the whole file are sampled from the preview instead."""
+        src = self.source
+        full = Dem(np.zeros((1, 1), dtype=np.float32), src.geotransform, self.crs_wkt)
+        col, row = full.map_to_cell(x, y)
+        scalar = np.ndim(col) == 0
+        fc = np.atleast_1d(np.asarray(col, dtype=np.float64)).ravel()
+        fr = np.atleast_1d(np.asarray(row, dtype=np.float64)).ravel()
+        xs = np.broadcast_to(np.asarray(x, dtype=np.float64), np.shape(col)).ravel()
+        ys = np.broadcast_to(np.asarray(y, dtype=np.float64), np.shape(col)).ravel()
+        out = np.full(fc.shape, np.nan)
+        ok = np.isfinite(fc) & np.isfinite(fr)
+        block = np.where(ok, np.floor(np.nan_to_num(fr) / _SAMPLE_BLOCK) * 1e6
+                         + np.floor(np.nan_to_num(fc) / _SAMPLE_BLOCK), np.nan)
+        keys = np.unique(block[ok])
+        if len(keys) > 2000:
+            logger.debug("LargeDem.sample: %d points over %d blocks, sampled from the preview", ok.sum(), len(keys))
+            out = np.asarray(Dem.sample(self, xs, ys, method), dtype=np.float64)
+        else:
+            rows, cols = src.shape
+            for k in keys:
+                sel = block == k
+                r0 = max(0, int(np.floor(fr[sel].min() - 1.5)))
+                c0 = max(0, int(np.floor(fc[sel].min() - 1.5)))
+                r1 = min(rows, int(np.ceil(fr[sel].max() + 1.5)))
+                c1 = min(cols, int(np.ceil(fc[sel].max() + 1.5)))
+                if r1 - r0 < 2 or c1 - c0 < 2:
+                    continue
+                out[sel] = src.read((r0, c0, r1 - r0, c1 - c0)).sample(xs[sel], ys[sel], method)
+        if scalar:
+            return float(out.ravel()[0])
+        return out.reshape(np.shape(col))
+
+
+def in_memory_limit() -> int:
+    """The most cells a DEM may have to be read whole: ``MONOPLOT_DEM_MAX_CELLS`` when set, else what the free
+    memory (:func:`~.xyz_strips.available_memory`) holds at :data:`DEM_BYTES_PER_CELL` bytes a cell."""
+    from .xyz_strips import available_memory
+
+    limit = os.environ.get("MONOPLOT_DEM_MAX_CELLS")
+    if limit:
+        return int(float(limit))
+    return int(available_memory() // DEM_BYTES_PER_CELL)
+
+
+def is_large(dem) -> bool:
+    return isinstance(dem, LargeDem)
+
+
+def _geographic(path: str) -> bool:
+    from osgeo import gdal, osr
+
+    gdal.UseExceptions()
+    wkt = gdal.Open(str(path)).GetProjection() or ""
+    srs = osr.SpatialReference()
+    return bool(wkt) and srs.ImportFromWkt(wkt) == 0 and bool(srs.IsGeographic())
+
+
+def open_dem(path: str, void_value: Optional[float] = None, progress: Optional[Progress] = None,
+             max_cells: Optional[int] = None) -> Tuple[Dem, List[str]]:
+    """(Dem, notes for the user) of a DEM file: read whole when it has at most ``max_cells`` cells (default
+    :func:`in_memory_limit`) or is in geographic degrees (reprojected whole, see :meth:`Dem.open`), else a
+    :class:`LargeDem` (its overviews built first when missing, with ``progress(fraction, message)``; the notes say
+    so)."""
+    from osgeo import gdal
+
+    gdal.UseExceptions()
+    ds = gdal.Open(str(path))
+    cells = ds.RasterXSize * ds.RasterYSize
+    ds = None
+    limit = in_memory_limit() if max_cells is None else int(max_cells)
+    if cells <= limit or _geographic(path):
+        return Dem.open(path, void_value=void_value), []
+    source, notes = open_dem_source(str(path), progress, void_value=void_value)
+    preview = as_dem(source, max_cells=min(PREVIEW_CELLS, limit // 4))
+    factor = int(round(source.shape[1] / max(1, preview.cols)))
+    dem = LargeDem(preview.elevation, preview.geotransform, preview.crs_wkt, window=(0, 0),
+                   void_notes=list(preview.void_notes), source=source, level=factor)
+    name = os.path.basename(str(path))
+    notes.insert(0, f"the DEM {name} has {cells / 1e6:,.0f} M cells, more than are read whole here "
+                    f"({limit / 1e6:,.0f} M): it is read by windows (the XYZ raster at full resolution near the "
+                    f"camera, coarser far away where a cell is smaller than a pixel; previews and checks on a 1/"
+                    f"{factor} copy of {source.level_cell_size(factor):.3g} m cells)")
+    logger.info("%s", notes[0])
+    return dem, notes
