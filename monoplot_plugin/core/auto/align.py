@@ -30,7 +30,7 @@ from .photo_edges import PhotoEdges, orientation_bin
 
 __all__ = ["Aligner", "offsets_grid", "CONTOUR_WEIGHT", "PRIOR_WEIGHT", "camera_from_offset"]
 
-CONTOUR_WEIGHT = 0.5
+CONTOUR_WEIGHT = 0.15
 PRIOR_WEIGHT = 0.01
 #: How many σ of the prior the search may go (a steep penalty beyond).
 BOUND_SIGMAS = 3.0
@@ -119,6 +119,19 @@ class Aligner:
         v = f[:, None] * cam[..., 1] / safe + cy
         return u, v, z
 
+    def _sky_top(self, u, v, z) -> np.ndarray:
+        """(N, W) top-most projected DEM skyline row in each working column (inf where none). Each point counts
+        for the two columns whose centres lie within a pixel of it: points rendered one per column, or projected
+        exactly onto a column boundary, leave no gaps (a gap would count as a miss and favour wider views)."""
+        N, W = u.shape[0], self.photo.width
+        top = np.full(N * W, np.inf)
+        rows = np.arange(N)[:, None] * W
+        left = np.floor(u - 0.5).astype(np.int64)
+        for col in (left, left + 1):
+            ok = (z > 0) & (col >= 0) & (col < W)
+            np.minimum.at(top, (rows + col)[ok], v[ok])
+        return top.reshape(N, W)
+
     def _rho(self, d):
         d2 = d * d
         return d2 / (d2 + self.tau * self.tau)
@@ -143,13 +156,7 @@ class Aligner:
         total = np.zeros(N)
         weight = 0.0
         if self.use_sky:
-            u, v, z = self._project(off, self.sky)
-            col = np.floor(u).astype(np.int64)
-            ok = (z > 0) & (col >= 0) & (col < W)
-            top = np.full(N * W, np.inf)
-            idx = (np.arange(N)[:, None] * W + col)[ok]
-            np.minimum.at(top, idx, v[ok])
-            top = top.reshape(N, W)[:, self.sky_cols]
+            top = self._sky_top(*self._project(off, self.sky))[:, self.sky_cols]
             d = np.abs(top - self.sky_rows[None, :])
             cost = np.where(np.isfinite(d), self._rho(np.where(np.isfinite(d), d, 0.0)), 1.0)
             total += cost.mean(axis=1)
@@ -218,12 +225,7 @@ class Aligner:
         W, H = self.photo.width, self.photo.height
         parts = []
         if self.use_sky:
-            u, v, z = self._project(offsets, self.sky)
-            col = np.floor(u).astype(np.int64)
-            ok = (z > 0) & (col >= 0) & (col < W)
-            top = np.full(N * W, np.inf)
-            np.minimum.at(top, (np.arange(N)[:, None] * W + col)[ok], v[ok])
-            d = top.reshape(N, W)[:, self.sky_cols] - self.sky_rows[None, :]
+            d = self._sky_top(*self._project(offsets, self.sky))[:, self.sky_cols] - self.sky_rows[None, :]
             parts.append(np.where(np.isfinite(d), d, 0.0))
         if len(self.contour):
             u, v, z = self._project(offsets, self.contour)
@@ -281,12 +283,7 @@ class Aligner:
         if not self.use_sky:
             return 0.0
         off = np.asarray(offset, dtype=np.float64)[None]
-        u, v, z = self._project(off, self.sky)
-        W = self.photo.width
-        col = np.floor(u[0]).astype(np.int64)
-        ok = (z[0] > 0) & (col >= 0) & (col < W)
-        top = np.full(W, np.inf)
-        np.minimum.at(top, col[ok], v[0][ok])
+        top = self._sky_top(*self._project(off, self.sky))[0]
         d = np.abs(top[self.sky_cols] - self.sky_rows)
         return float(np.mean(d <= within_px))
 
