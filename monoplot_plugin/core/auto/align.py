@@ -96,6 +96,8 @@ class Aligner:
         self.use_sky = photo.usable and len(self.sky_cols) > 0 and len(self.sky) > 0
         self.is_canceled = is_canceled
         self.evaluations = 0
+        #: False: :meth:`score` is the edges' agreement alone (no pull to the prior, no bound).
+        self.with_prior = True
 
     def _project(self, offsets: np.ndarray, pts: np.ndarray):
         """(N, M) u, v, depth of the points under every hypothesis (working pixels)."""
@@ -178,6 +180,8 @@ class Aligner:
             total += w * cost
             weight += w
         total /= max(weight, 1e-9)
+        if not self.with_prior:
+            return total
         dev = (off - self.prior_offset[None, :]) / self.scale_vec[None, :]
         # Beyond BOUND_SIGMAS of the prior the score rises steeply: the search stays where the prior allows.
         beyond = np.maximum(np.abs(dev) - BOUND_SIGMAS, 0.0)
