@@ -48,8 +48,9 @@ def draw_alignment(rgba: np.ndarray, camera: Camera, skyline: np.ndarray, dem, m
             c, r = np.floor(uv[ok, 0]).astype(np.int64), np.floor(uv[ok, 1]).astype(np.int64)
             inside = (c >= 0) & (c < w) & (r >= 0) & (r < h)
             dots[r[inside], c[inside]] = 1
-    if w >= 400:  # lines of two pixels on a large overlay
-        dots = cv2.dilate(dots, np.ones((2, 2), np.uint8))
+    width = max(1, int(round(w / 400.0)))  # lines that stay visible when the dock shows the photo reduced
+    if width > 1:
+        dots = cv2.dilate(dots, np.ones((width, width), np.uint8))
     out[dots > 0] = (*SILHOUETTE, 255)
     sky = np.asarray(skyline, dtype=np.float64).reshape(-1, 2) * s
     valid = np.isfinite(sky).all(axis=1)
@@ -58,6 +59,6 @@ def draw_alignment(rgba: np.ndarray, camera: Camera, skyline: np.ndarray, dem, m
     breaks = np.flatnonzero(np.diff(valid.astype(np.int8)) != 0) + 1
     for run in np.split(np.arange(len(sky)), breaks):
         if len(run) >= 2 and valid[run[0]]:
-            cv2.polylines(lines, [np.round(sky[run]).astype(np.int32)], False, 1, 2 if w >= 400 else 1)
+            cv2.polylines(lines, [np.round(sky[run]).astype(np.int32)], False, 1, width)
     out[lines > 0] = (*SKYLINE, 255)
     return out
