@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..suggest_photo import picture_mask, to_gray
+from ..xyz._jit import HAVE_NUMBA, njit
 
 __all__ = ["PhotoEdges", "detect_photo_edges", "N_ORIENTATIONS", "orientation_bin"]
 
@@ -83,6 +84,8 @@ def _skyline_dp(strength: np.ndarray, texture: np.ndarray, mask: np.ndarray, jum
     H, W = strength.shape
     above = np.vstack([np.zeros((gap + 1, W)), np.cumsum(texture, axis=0)[:-gap - 1]])
     gain = np.where(mask, strength - above, -1e9)
+    if HAVE_NUMBA:
+        return _dp_path(np.ascontiguousarray(gain, dtype=np.float64), int(jump), float(jump_cost))
     score = gain[:, 0].copy()
     back = np.zeros((H, W), dtype=np.int16)
     offsets = np.arange(-jump, jump + 1)
@@ -102,6 +105,34 @@ def _skyline_dp(strength: np.ndarray, texture: np.ndarray, mask: np.ndarray, jum
         back[:, c] = arg
     path = np.zeros(W, dtype=np.int64)
     path[-1] = int(np.argmax(score))
+    for c in range(W - 1, 0, -1):
+        path[c - 1] = path[c] + back[path[c], c]
+    return path
+
+
+@njit(cache=True)
+def _dp_path(gain, jump, jump_cost):  # pragma: no cover - compiled
+    """The dynamic programme of :func:`_skyline_dp` compiled (the same ties: the smallest row change wins)."""
+    H, W = gain.shape
+    score = gain[:, 0].copy()
+    new = np.empty(H)
+    back = np.zeros((H, W), dtype=np.int16)
+    for c in range(1, W):
+        for r in range(H):
+            best = -np.inf
+            arg = 0
+            for d in range(-jump, jump + 1):
+                s = r + d
+                if 0 <= s < H:
+                    v = score[s] - jump_cost * abs(d)
+                    if v > best:
+                        best = v
+                        arg = d
+            new[r] = best + gain[r, c]
+            back[r, c] = arg
+        score[:] = new
+    path = np.zeros(W, dtype=np.int64)
+    path[-1] = np.argmax(score)
     for c in range(W - 1, 0, -1):
         path[c - 1] = path[c] + back[path[c], c]
     return path
