@@ -179,7 +179,8 @@ class Aligner:
             w = CONTOUR_WEIGHT if self.use_sky else 1.0
             total += w * cost
             weight += w
-        total /= max(weight, 1e-9)
+        # No edge at all to compare (no skyline, no contour point): no evidence, the worst score.
+        total = total / weight if weight > 0 else np.ones(N)
         if not self.with_prior:
             return total
         dev = (off - self.prior_offset[None, :]) / self.scale_vec[None, :]
