@@ -203,8 +203,10 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     fit_sig = {"position_sigma_m": sig["position_m"], "angle_sigma_deg": 1.0,
                "fov_sigma_deg": max(0.5, 0.25 * sig["fov_deg"])}
     fit = fit_camera(image_points, world_points, aligned, is_canceled=is_canceled,
-                     progress=lambda f, m="": report(0.8 + 0.2 * f, m), time_budget_s=3.0,
-                     consensus_hypotheses=1500, consensus_starts=4, bootstrap=5, **fit_sig)
+                     progress=lambda f, m="": report(0.8 + 0.2 * f, m), time_budget_s=2.0,
+                     # the aligned camera is already close: one start, a small consensus search
+                     n_starts=1, n_escapes=0, consensus_hypotheses=800, consensus_starts=2, bootstrap=5,
+                     **fit_sig)
     if fit.status == "canceled":
         raise FitCanceled()
     result = AutoFitResult(**vars(fit))
