@@ -13,6 +13,9 @@
 5. The alignment's own evidence can only lower the status: without a clear skyline, or when the skyline does not
    agree with the DEM's, or when a clearly different camera aligns nearly as well, an "ok" becomes "uncertain"
    with the reason in the message (never a confident camera from a photo that says little).
+6. Never worse than the prior: when the camera returned does not fit the photo's edges clearly better than the prior
+   did (the same score, each rendered from where it stands, no pull to the prior), the prior is returned,
+   "uncertain" (or the fit's "poor"), with what the fit found in the message.
 """
 
 from __future__ import annotations
