@@ -15,7 +15,8 @@ import re
 from dataclasses import dataclass
 from typing import Dict, Optional, Tuple
 
-__all__ = ["ExifPrior", "read_exif_prior", "parse_exif_prior", "horizontal_fov_from_35mm", "lens_fov"]
+__all__ = ["ExifPrior", "read_exif_prior", "parse_exif_prior", "horizontal_fov_from_35mm", "lens_fov",
+           "exif_camera"]
 
 #: Millimetres per FocalPlaneResolutionUnit (EXIF: 1 none, 2 inch, 3 cm; 4 mm and 5 µm in some writers).
 _UNIT_MM = {1: 25.4, 2: 25.4, 3: 10.0, 4: 1.0, 5: 0.001}
@@ -161,3 +162,29 @@ def read_exif_prior(path: str, size: Tuple[int, int]) -> Optional[ExifPrior]:
         return None
     prior = parse_exif_prior(ds.GetMetadata() or {}, size)
     return prior if (prior.has_position or prior.fov is not None or prior.focal_mm is not None) else None
+
+
+def exif_camera(exif: Optional[ExifPrior], size: Tuple[int, int], dem, heading: Optional[float] = None):
+    """A level rough :class:`~monoplot_plugin.core.camera.Camera` in ``dem``'s CRS from the EXIF tags: GPS position,
+    altitude (else 2 m above the DEM, never below 1 m above it), GPSImgDirection (else ``heading``, degrees from
+    grid north), field of view (else 60 degrees).
+
+    Raises:
+        ValueError: no GPS position, no direction and no ``heading`` given, or the position outside the DEM (the
+            message says which).
+    """
+    from ..core.camera import Camera, lonlat_to_crs
+
+    if exif is None or not exif.has_position:
+        raise ValueError("the photo has no GPS position in its EXIF tags")
+    x, y, convergence = lonlat_to_crs(exif.lon, exif.lat, dem.crs_wkt)
+    if exif.heading is not None:
+        heading = exif.heading - convergence
+    elif heading is None:
+        raise ValueError("the photo's EXIF tags have no direction of view (GPSImgDirection)")
+    ground = float(dem.sample(x, y))
+    if not math.isfinite(ground):
+        raise ValueError("the photo's GPS position lies outside the DEM")
+    z = exif.altitude if exif.altitude is not None else ground + 2.0
+    return Camera((x, y, max(z, ground + 1.0)), float(heading), 0.0, 0.0, exif.fov or 60.0, tuple(size),
+                  crs_wkt=dem.crs_wkt)

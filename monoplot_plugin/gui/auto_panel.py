@@ -4,7 +4,9 @@ The dock calls :func:`install_auto_panel` once; the button sits in the "Fit and 
 ``add_output_action`` extension point). The registration runs as the controller's task (progress bar, Cancel
 button, busy state shared with the fit); when it ends, the camera is shown like a fit's (overlay, XYZ, status and
 message in the fit tab) and the photo and DEM points it matched are added as *accepted* points, so the person checks
-them (reject the wrong ones, pair a few, mark check points) and the semi-automatic fit takes over.
+them (reject the wrong ones, pair a few, mark check points) and the semi-automatic fit takes over. The overlay then
+also shows the DEM's skyline and occluding contours under the camera found (magenta) over the photo's detected
+skyline (cyan): where they part, the camera or the skyline is wrong.
 """
 
 from __future__ import annotations
@@ -17,6 +19,7 @@ from qgis.PyQt.QtCore import QObject
 from qgis.PyQt.QtWidgets import QAction
 
 from ..adapters.photo import qimage_to_array
+from ..core.auto.overlay import draw_alignment
 from ..state import ACCEPTED, MAP, PHOTO, Point, replace_suggestions
 from ..workflow import auto as auto_step
 from ..workflow.progress import part
@@ -60,10 +63,12 @@ class AutoPanel(QObject):
         def work(progress, is_canceled):
             done = auto_step.register(photo, dem, start, progress=part(progress, 0.0, 0.9), is_canceled=is_canceled)
             overlay, xyz, footprint = engine.render_products(done.camera, dem, is_canceled)
+            # the DEM's silhouettes under the camera found over the photo's detected skyline
+            overlay = draw_alignment(overlay, done.camera, done.result.skyline, dem)
             progress(1.0, "")
             return done, overlay, xyz, footprint
 
-        return c._start("auto", self.tr("Find camera automatically"), work, self._apply)
+        return c.run_task("auto", self.tr("Find camera automatically"), work, self._apply)
 
     def _apply(self, value) -> None:
         done, overlay, xyz, footprint = value
@@ -79,7 +84,7 @@ class AutoPanel(QObject):
                 "sigma": {k: float(v) for k, v in (r.std or {}).items()}, "converged": r.status == "ok",
                 "message": str(r.message), "mode": "automatic", "n_photo": len(photo_pts), "n_map": len(map_pts),
                 "n_pairs": 0, "n_matched": len(photo_pts), "elapsed_s": float(r.elapsed_s)}
-        c._apply_fit(engine.FitOutcome(done.camera, info, overlay, xyz, footprint))
+        c.show_fit(engine.FitOutcome(done.camera, info, overlay, xyz, footprint))
 
 
 def _finite(v) -> Optional[float]:

@@ -223,6 +223,15 @@ class MonoplotController(PriorsMixin, CurationMixin, ResultsMixin, QObject):
         start_task(self.task)
         return True
 
+    def run_task(self, kind: str, description: str, work, on_success) -> bool:
+        """Run ``work(progress, is_canceled)`` as the dock's task (progress bar, Cancel, busy state); on success
+        ``on_success(value)`` in the main thread. False when another task is running."""
+        return self._start(kind, description, work, on_success)
+
+    def show_fit(self, outcome: "engine.FitOutcome") -> None:
+        """Show a finished fit's camera (overlay, XYZ, status and message) as the fitted camera."""
+        self._apply_fit(outcome)
+
     def cancel(self) -> None:
         if self.task is not None:
             self.task.cancel()

@@ -70,6 +70,8 @@ def test_fog_is_never_ok(scene):
     assert result.status in ("uncertain", "poor", "refused")
     assert not result.evidence.get("auto_skyline_usable", False) or result.status != "ok"
     assert "skyline" in result.message or result.status in ("poor", "refused")
+    # nothing in the photo to align on: the prior comes back, not a camera the edges do not support
+    assert result.camera.parameters() == prior.parameters() and "prior is kept" in result.message
 
 
 def test_cancel_is_honoured_promptly(scene):

@@ -30,7 +30,7 @@ from .photo_edges import PhotoEdges, orientation_bin
 
 __all__ = ["Aligner", "offsets_grid", "CONTOUR_WEIGHT", "PRIOR_WEIGHT", "camera_from_offset"]
 
-CONTOUR_WEIGHT = 0.5
+CONTOUR_WEIGHT = 0.15
 PRIOR_WEIGHT = 0.01
 #: How many σ of the prior the search may go (a steep penalty beyond).
 BOUND_SIGMAS = 3.0
@@ -96,6 +96,8 @@ class Aligner:
         self.use_sky = photo.usable and len(self.sky_cols) > 0 and len(self.sky) > 0
         self.is_canceled = is_canceled
         self.evaluations = 0
+        #: False: :meth:`score` is the edges' agreement alone (no pull to the prior, no bound).
+        self.with_prior = True
 
     def _project(self, offsets: np.ndarray, pts: np.ndarray):
         """(N, M) u, v, depth of the points under every hypothesis (working pixels)."""
@@ -118,6 +120,19 @@ class Aligner:
         u = f[:, None] * cam[..., 0] / safe + cx
         v = f[:, None] * cam[..., 1] / safe + cy
         return u, v, z
+
+    def _sky_top(self, u, v, z) -> np.ndarray:
+        """(N, W) top-most projected DEM skyline row in each working column (inf where none). Each point counts
+        for the two columns whose centres lie within a pixel of it: points rendered one per column, or projected
+        exactly onto a column boundary, leave no gaps (a gap would count as a miss and favour wider views)."""
+        N, W = u.shape[0], self.photo.width
+        top = np.full(N * W, np.inf)
+        rows = np.arange(N)[:, None] * W
+        left = np.floor(u - 0.5).astype(np.int64)
+        for col in (left, left + 1):
+            ok = (z > 0) & (col >= 0) & (col < W)
+            np.minimum.at(top, (rows + col)[ok], v[ok])
+        return top.reshape(N, W)
 
     def _rho(self, d):
         d2 = d * d
@@ -143,13 +158,7 @@ class Aligner:
         total = np.zeros(N)
         weight = 0.0
         if self.use_sky:
-            u, v, z = self._project(off, self.sky)
-            col = np.floor(u).astype(np.int64)
-            ok = (z > 0) & (col >= 0) & (col < W)
-            top = np.full(N * W, np.inf)
-            idx = (np.arange(N)[:, None] * W + col)[ok]
-            np.minimum.at(top, idx, v[ok])
-            top = top.reshape(N, W)[:, self.sky_cols]
+            top = self._sky_top(*self._project(off, self.sky))[:, self.sky_cols]
             d = np.abs(top - self.sky_rows[None, :])
             cost = np.where(np.isfinite(d), self._rho(np.where(np.isfinite(d), d, 0.0)), 1.0)
             total += cost.mean(axis=1)
@@ -170,7 +179,10 @@ class Aligner:
             w = CONTOUR_WEIGHT if self.use_sky else 1.0
             total += w * cost
             weight += w
-        total /= max(weight, 1e-9)
+        # No edge at all to compare (no skyline, no contour point): no evidence, the worst score.
+        total = total / weight if weight > 0 else np.ones(N)
+        if not self.with_prior:
+            return total
         dev = (off - self.prior_offset[None, :]) / self.scale_vec[None, :]
         # Beyond BOUND_SIGMAS of the prior the score rises steeply: the search stays where the prior allows.
         beyond = np.maximum(np.abs(dev) - BOUND_SIGMAS, 0.0)
@@ -218,12 +230,7 @@ class Aligner:
         W, H = self.photo.width, self.photo.height
         parts = []
         if self.use_sky:
-            u, v, z = self._project(offsets, self.sky)
-            col = np.floor(u).astype(np.int64)
-            ok = (z > 0) & (col >= 0) & (col < W)
-            top = np.full(N * W, np.inf)
-            np.minimum.at(top, (np.arange(N)[:, None] * W + col)[ok], v[ok])
-            d = top.reshape(N, W)[:, self.sky_cols] - self.sky_rows[None, :]
+            d = self._sky_top(*self._project(offsets, self.sky))[:, self.sky_cols] - self.sky_rows[None, :]
             parts.append(np.where(np.isfinite(d), d, 0.0))
         if len(self.contour):
             u, v, z = self._project(offsets, self.contour)
@@ -281,12 +288,7 @@ class Aligner:
         if not self.use_sky:
             return 0.0
         off = np.asarray(offset, dtype=np.float64)[None]
-        u, v, z = self._project(off, self.sky)
-        W = self.photo.width
-        col = np.floor(u[0]).astype(np.int64)
-        ok = (z[0] > 0) & (col >= 0) & (col < W)
-        top = np.full(W, np.inf)
-        np.minimum.at(top, col[ok], v[0][ok])
+        top = self._sky_top(*self._project(off, self.sky))[0]
         d = np.abs(top[self.sky_cols] - self.sky_rows)
         return float(np.mean(d <= within_px))
 

@@ -52,20 +52,31 @@ class DemEdges:
     camera: Camera
 
 
-def coarse_dem(dem: Dem, max_cells: int) -> Dem:
+def coarse_dem(dem: Dem, max_cells: int, is_canceled=None) -> Dem:
     """``dem`` averaged over square blocks of cells so that it has at most about ``max_cells`` cells (itself when
-    it already has). Voids stay voids where a whole block is void."""
+    it already has). Voids stay voids where a whole block is void. Works in bands of rows, polling
+    ``is_canceled`` (raising :class:`~monoplot_plugin.core.fit.FitCanceled`) between them."""
     rows, cols = dem.shape
     factor = int(math.ceil(math.sqrt(rows * cols / float(max_cells))))
     if factor <= 1:
         return dem
     r, c = rows // factor, cols // factor
-    blocks = np.asarray(dem.elevation[:r * factor, :c * factor], dtype=np.float32).reshape(r, factor, c, factor)
-    elev = blocks.mean(axis=(1, 3), dtype=np.float32)
-    if np.isnan(elev).any():  # blocks with voids: the mean of their valid cells (NaN when none)
-        with np.errstate(invalid="ignore"), np.testing.suppress_warnings() as sup:
-            sup.filter(RuntimeWarning)
-            elev = np.nanmean(blocks, axis=(1, 3)).astype(np.float32)
+    elev = np.empty((r, c), dtype=np.float32)
+    band = max(1, int(2_000_000 // (factor * factor * max(c, 1))))  # output rows per band (~2 M input cells)
+    for a in range(0, r, band):
+        if is_canceled is not None and is_canceled():
+            from ..fit import FitCanceled
+
+            raise FitCanceled()
+        b = min(r, a + band)
+        blocks = np.asarray(dem.elevation[a * factor:b * factor, :c * factor], dtype=np.float32)
+        blocks = blocks.reshape(b - a, factor, c, factor)
+        part = blocks.mean(axis=(1, 3), dtype=np.float32)
+        if np.isnan(part).any():  # blocks with voids: the mean of their valid cells (NaN when none)
+            with np.errstate(invalid="ignore"), np.testing.suppress_warnings() as sup:
+                sup.filter(RuntimeWarning)
+                part = np.nanmean(blocks, axis=(1, 3)).astype(np.float32)
+        elev[a:b] = part
     g = dem.geotransform
     gt = (g[0], g[1] * factor, g[2] * factor, g[3], g[4] * factor, g[5] * factor)
     return Dem.from_array(elev, gt, dem.crs_wkt)

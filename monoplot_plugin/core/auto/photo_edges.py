@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..suggest_photo import picture_mask, to_gray
+from ..xyz._jit import HAVE_NUMBA, njit
 
 __all__ = ["PhotoEdges", "detect_photo_edges", "N_ORIENTATIONS", "orientation_bin"]
 
@@ -34,7 +35,9 @@ N_ORIENTATIONS = 6
 #: Skyline search: edge strength saturates at CAP (in noise-floor units: any clear edge counts the same, so the
 #: first one from the top wins over a stronger one lower down, e.g. snow against a pale sky above a rock band),
 #: PEN weighs the texture above the path.
-CAP = 10.0
+CAP = 4.0
+#: Least edge strength (noise-floor units) of a clear skyline column.
+VALID = 3.0
 PEN = 0.3
 
 
@@ -81,6 +84,8 @@ def _skyline_dp(strength: np.ndarray, texture: np.ndarray, mask: np.ndarray, jum
     H, W = strength.shape
     above = np.vstack([np.zeros((gap + 1, W)), np.cumsum(texture, axis=0)[:-gap - 1]])
     gain = np.where(mask, strength - above, -1e9)
+    if HAVE_NUMBA:
+        return _dp_path(np.ascontiguousarray(gain, dtype=np.float64), int(jump), float(jump_cost))
     score = gain[:, 0].copy()
     back = np.zeros((H, W), dtype=np.int16)
     offsets = np.arange(-jump, jump + 1)
@@ -100,6 +105,34 @@ def _skyline_dp(strength: np.ndarray, texture: np.ndarray, mask: np.ndarray, jum
         back[:, c] = arg
     path = np.zeros(W, dtype=np.int64)
     path[-1] = int(np.argmax(score))
+    for c in range(W - 1, 0, -1):
+        path[c - 1] = path[c] + back[path[c], c]
+    return path
+
+
+@njit(cache=True)
+def _dp_path(gain, jump, jump_cost):  # pragma: no cover - compiled
+    """The dynamic programme of :func:`_skyline_dp` compiled (the same ties: the smallest row change wins)."""
+    H, W = gain.shape
+    score = gain[:, 0].copy()
+    new = np.empty(H)
+    back = np.zeros((H, W), dtype=np.int16)
+    for c in range(1, W):
+        for r in range(H):
+            best = -np.inf
+            arg = 0
+            for d in range(-jump, jump + 1):
+                s = r + d
+                if 0 <= s < H:
+                    v = score[s] - jump_cost * abs(d)
+                    if v > best:
+                        best = v
+                        arg = d
+            new[r] = best + gain[r, c]
+            back[r, c] = arg
+        score[:] = new
+    path = np.zeros(W, dtype=np.int64)
+    path[-1] = np.argmax(score)
     for c in range(W - 1, 0, -1):
         path[c - 1] = path[c] + back[path[c], c]
     return path
@@ -137,14 +170,18 @@ def detect_photo_edges(image: np.ndarray, width: int = 512, mask=None) -> PhotoE
     raw = gy / floor
     strength = np.minimum(raw, CAP)
     jump = max(2, int(round(H / 40)))
-    path = _skyline_dp(strength, PEN * texture, pic, jump, 0.3, int(np.ceil(2 * sigma)) + 1)
+    gap = int(np.ceil(2 * sigma)) + 1
+    # The picture's own border (a print's margin, a frame) is an edge too: the skyline starts a blur width inside.
+    inner = cv2.erode(pic.astype(np.uint8), np.ones((2 * gap + 1, 2 * gap + 1), np.uint8)).astype(bool)
+    inner = inner if inner.any() else pic
+    path = _skyline_dp(strength, PEN * texture, inner, jump, 0.3, gap)
     cols = np.arange(W)
-    top = np.argmax(pic, axis=0)  # first picture row of each column
+    top = np.argmax(inner, axis=0)  # first picture row of each column
     at = raw[path, cols]
     # Clear skyline: an edge well above the noise with at least a few rows of sky over it, in the picture.
     sky_rows = path - top
     sky_tex = np.array([float(np.mean(mag[top[c]:max(top[c] + 1, path[c] - 1), c])) for c in cols]) / floor
-    valid = (at >= 6.0) & (sky_rows >= max(2, H // 50)) & (at >= 4.0 * np.maximum(sky_tex, 0.5)) & pic[path, cols]
+    valid = (at >= VALID) & (sky_rows >= max(2, H // 50)) & (at >= 4.0 * np.maximum(sky_tex, 0.5)) & inner[path, cols]
     # Isolated valid columns are chance: keep runs of at least 3 % of the width.
     run = max(3, W // 33)
     k = np.convolve(valid.astype(float), np.ones(run), mode="same")

@@ -13,6 +13,9 @@
 5. The alignment's own evidence can only lower the status: without a clear skyline, or when the skyline does not
    agree with the DEM's, or when a clearly different camera aligns nearly as well, an "ok" becomes "uncertain"
    with the reason in the message (never a confident camera from a photo that says little).
+6. Never worse than the prior: when the camera returned does not fit the photo's edges clearly better than the prior
+   did (the same score, each rendered from where it stands, no pull to the prior), the prior is returned,
+   "uncertain" (or the fit's "poor"), with what the fit found in the message.
 """
 
 from __future__ import annotations
@@ -42,6 +45,10 @@ SKY_AGREEMENT_OK = 0.6
 NEAR_RATIO = 0.25
 #: (distance scale in working px, step factor) of the fine rounds.
 FINE_ROUNDS = ((8.0, 0.5), (4.0, 0.25), (2.5, 0.1))
+#: Distance scale (px per 1024 working px) of the final comparison with the prior, and the least improvement
+#: of that score for the automatic camera to be returned instead of the prior.
+CHECK_TAU = 4.0
+PRIOR_MARGIN = 0.01
 
 
 @dataclass
@@ -142,7 +149,7 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
         photos[width] = pe
     fine = photos[WIDTHS[-1]]
     _poll(is_canceled)
-    align_dem = coarse_dem(dem, ALIGN_DEM_CELLS)
+    align_dem = coarse_dem(dem, ALIGN_DEM_CELLS, is_canceled)
     _poll(is_canceled)
     margin = 2.5 * sig["angle_deg"] + 1.25 * sig["fov_deg"] + 2.0
     # Coarse: a grid at the prior's position.
@@ -199,8 +206,10 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     fit_sig = {"position_sigma_m": sig["position_m"], "angle_sigma_deg": 1.0,
                "fov_sigma_deg": max(0.5, 0.25 * sig["fov_deg"])}
     fit = fit_camera(image_points, world_points, aligned, is_canceled=is_canceled,
-                     progress=lambda f, m="": report(0.8 + 0.2 * f, m), time_budget_s=3.0,
-                     consensus_hypotheses=1500, consensus_starts=4, bootstrap=5, **fit_sig)
+                     progress=lambda f, m="": report(0.8 + 0.2 * f, m), time_budget_s=2.0,
+                     # the aligned camera is already close: one start, a small consensus search
+                     n_starts=1, n_escapes=0, consensus_hypotheses=800, consensus_starts=2, bootstrap=5,
+                     **fit_sig)
     if fit.status == "canceled":
         raise FitCanceled()
     result = AutoFitResult(**vars(fit))
@@ -211,8 +220,39 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     # The skyline judged again under the camera returned (the fit may have moved it).
     evidence["auto_sky_agreement"] = al.skyline_agreement(_offset_between(al.ref, result.camera), 0.004 * fine.width
                                                           if fine.width >= 250 else 1.0)
+    # Never a camera that fits the photo's edges worse than the prior did: judged by the same score, each camera
+    # rendered from where it stands, without the pull to the prior.
+    evidence["auto_prior_edge_score"] = _edge_score(prior, fine, align_dem, sig, is_canceled)
+    evidence["auto_edge_score"] = _edge_score(result.camera, fine, align_dem, sig, is_canceled)
     _combine(result, evidence)
+    if evidence["auto_edge_score"] > evidence["auto_prior_edge_score"] - PRIOR_MARGIN:
+        result = _prior_kept(result, prior)
     return result
+
+
+def _edge_score(camera: Camera, photo: PhotoEdges, dem, sig: dict, is_canceled) -> float:
+    """How well the DEM's skyline and contours seen from ``camera`` fall on the photo's (lower is better)."""
+    edges = dem_edges(camera, dem, 1.0, camera.focal_px * photo.scale)
+    al = Aligner(camera, photo, edges, sig, tau=CHECK_TAU * photo.width / 1024.0, is_canceled=is_canceled,
+                 max_points=2000)
+    al.with_prior = False
+    return float(al.score(np.zeros((1, 7)))[0])
+
+
+def _prior_kept(result: AutoFitResult, prior: Camera) -> AutoFitResult:
+    """The prior camera back, "uncertain" (or the fit's "poor"), when the automatic camera does not fit the photo's
+    edges clearly better than the prior did."""
+    ev = result.evidence
+    kept = AutoFitResult(prior, "poor" if result.status == "poor" else "uncertain",
+                         f"The automatic registration did not improve on the prior camera (edge score "
+                         f"{ev['auto_edge_score']:.3f} against the prior's {ev['auto_prior_edge_score']:.3f}): the "
+                         "prior is kept. Check it, pair a few points by hand, or give a closer prior. "
+                         f"(What the automatic fit found: {result.message})", result.mode, result.free,
+                         evidence=dict(ev))
+    kept.image_points, kept.world_points, kept.aligned, kept.skyline = (result.image_points, result.world_points,
+                                                                        result.aligned, result.skyline)
+    kept.elapsed_s = result.elapsed_s
+    return kept
 
 
 def _offset_between(cam: Camera, ref: Camera) -> np.ndarray:
@@ -257,7 +297,7 @@ def _consistent_points(image, dem, camera: Camera, is_canceled):
         if scale < 1.0 else image
     photo = suggest_photo_points(small, max_points=1500)
     _poll(is_canceled)
-    fit_dem = coarse_dem(dem, FIT_DEM_CELLS)
+    fit_dem = coarse_dem(dem, FIT_DEM_CELLS, is_canceled)
     _poll(is_canceled)
     demsug = suggest_dem_points(fit_dem, camera, max_points=1500)
     _poll(is_canceled)

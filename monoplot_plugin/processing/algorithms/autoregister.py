@@ -1,7 +1,6 @@
 """Register a photo on the DEM automatically (issue 13): the camera from the photo, the DEM and a rough prior."""
 
 import json
-import math
 
 from qgis.core import (
     QgsProcessingException,
@@ -11,7 +10,7 @@ from qgis.core import (
     QgsProcessingParameterNumber,
 )
 
-from ...core.camera import Camera, lonlat_to_crs
+from ...core.camera import Camera
 from ...outputs.safe_write import write_text
 from ...workflow import auto
 from ...workflow.progress import Canceled
@@ -20,23 +19,14 @@ from ..inputs import read_photo
 
 
 def camera_from_exif(path: str, size, dem) -> Camera:
-    """A rough camera from the photo's EXIF GPS tags (position, altitude, direction, 35 mm focal length)."""
-    from ...adapters.exif import read_exif_prior
+    """A rough camera from the photo's EXIF GPS tags (:func:`~...adapters.exif.exif_camera`)."""
+    from ...adapters.exif import exif_camera, read_exif_prior
 
-    exif = read_exif_prior(path, size)
-    if exif is None or not exif.has_position:
-        raise QgsProcessingException("No prior camera given and the photo has no GPS position in its EXIF tags: "
-                                     "give a Monoplot JSON or KML PhotoOverlay camera.")
-    if exif.heading is None:
-        raise QgsProcessingException("The photo's EXIF tags have no direction of view (GPSImgDirection): give a "
-                                     "prior camera file.")
-    x, y, convergence = lonlat_to_crs(exif.lon, exif.lat, dem.crs_wkt)
-    ground = float(dem.sample(x, y))
-    if not math.isfinite(ground):
-        raise QgsProcessingException("The photo's GPS position lies outside the DEM.")
-    z = exif.altitude if exif.altitude is not None else ground + 2.0
-    return Camera((x, y, max(z, ground + 1.0)), exif.heading - convergence, 0.0, 0.0, exif.fov or 60.0, size,
-                  crs_wkt=dem.crs_wkt)
+    try:
+        return exif_camera(read_exif_prior(path, size), size, dem)
+    except ValueError as e:
+        raise QgsProcessingException(f"No prior camera given and {e}: give a Monoplot JSON or KML PhotoOverlay "
+                                     "camera.") from None
 
 
 class AutoRegister(MonoplotAlgorithm):
