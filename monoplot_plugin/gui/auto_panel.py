@@ -20,7 +20,7 @@ from qgis.PyQt.QtWidgets import QAction
 
 from ..adapters.photo import qimage_to_array
 from ..core.auto.overlay import draw_alignment
-from ..state import ACCEPTED, MAP, PHOTO, Point, replace_suggestions
+from ..state import ACCEPTED, MAP, PHOTO, SUGGESTED, Point, replace_suggestions
 from ..workflow import auto as auto_step
 from ..workflow.progress import part
 from . import engine
@@ -73,18 +73,30 @@ class AutoPanel(QObject):
     def _apply(self, value) -> None:
         done, overlay, xyz, footprint = value
         c = self.controller
+        r = done.result
+        kept = (c.state.fit_info or {}).get("status")
+        if c.fitted is not None and kept in ("ok", "uncertain") and r.status != "ok":
+            # Nothing lost: a doubtful automatic camera never replaces the person's own fit and points.
+            c.message.emit(self.tr("Automatic registration ended {0}; your fitted camera ({1}) and your points are "
+                                   "kept. {2}").format(r.status, kept, r.message), Qgis.MessageLevel.Warning)
+            return
         uv, world = done.matched_points()
         photo_pts = [Point.new(PHOTO, float(u), float(v), status=ACCEPTED) for u, v in uv]
         map_pts = [Point.new(MAP, float(x), float(y), float(z), status=ACCEPTED) for x, y, z in world]
+        replaced = 0
         if photo_pts:
+            replaced = len([p for p in c.state.points.values() if p.status == SUGGESTED and not p.manual])
             c.stack.push(replace_suggestions(c.state, PHOTO, photo_pts, self.tr("Automatic photo points")))
             c.stack.push(replace_suggestions(c.state, MAP, map_pts, self.tr("Automatic DEM points")))
-        r = done.result
         info = {"status": r.status, "rmse_px": _finite(r.rmse_px), "loo_rmse_px": _finite(r.loo_rmse_px),
                 "sigma": {k: float(v) for k, v in (r.std or {}).items()}, "converged": r.status == "ok",
                 "message": str(r.message), "mode": "automatic", "n_photo": len(photo_pts), "n_map": len(map_pts),
                 "n_pairs": 0, "n_matched": len(photo_pts), "elapsed_s": float(r.elapsed_s)}
         c.show_fit(engine.FitOutcome(done.camera, info, overlay, xyz, footprint))
+        if replaced:
+            c.message.emit(self.tr("The {0} undecided suggestions were replaced by the {1} + {2} matched points "
+                                   "(Undo brings them back).").format(replaced, len(photo_pts), len(map_pts)),
+                           Qgis.MessageLevel.Info)
 
 
 def _finite(v) -> Optional[float]:

@@ -63,3 +63,32 @@ def test_find_camera_automatically_gives_a_camera_and_accepted_points(dock, vall
 
     rgb = qimage_to_array(c.overlay)[..., :3]
     assert (rgb == SILHOUETTE).all(axis=2).sum() > 100 and (rgb == SKYLINE).all(axis=2).sum() > 100
+
+
+def test_a_doubtful_automatic_camera_never_replaces_the_persons_fit(dock, valley, qtbot, tmp_path):
+    """A photo without a skyline (a blank grey print): the registration ends "uncertain"; the person's fitted
+    camera, its status and the points stay as they were, and the message says so."""
+    from qgis.PyQt.QtGui import QColor, QImage
+
+    blank = QImage(480, 320, QImage.Format.Format_RGB32)
+    blank.fill(QColor(128, 128, 128))
+    path = str(tmp_path / "blank.png")
+    assert blank.save(path)
+    layer = QgsRasterLayer(valley["dem"], "valley DEM")
+    QgsProject.instance().addMapLayer(layer)
+    dock.photoFile.setFilePath(path)
+    dock.demCombo.setLayer(layer)
+    c = dock.controller
+    c.set_prior(valley["prior"])
+    mine = valley["truth"]
+    c.set_fitted(mine, {"status": "ok", "message": "my own fit"})
+    points_before = dict(c.state.points)
+    messages = []
+    c.message.connect(lambda text, *_: messages.append(text))
+    dock.auto_panel.action.trigger()
+    with qtbot.waitSignal(c.taskFinished, timeout=240000) as blocker:
+        pass
+    assert blocker.args[0].ok, blocker.args[0].reason
+    assert c.fitted.parameters() == mine.parameters() and c.state.fit_info["status"] == "ok"
+    assert dict(c.state.points) == points_before
+    assert any("are kept" in m for m in messages), messages
