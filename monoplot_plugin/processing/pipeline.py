@@ -64,11 +64,11 @@ def write_xyz(path: str, camera: Camera, dem, crs_wkt: str, photo_name: str = ""
 
 
 def orthophoto(path: str, photo: np.ndarray, camera: Camera, dem, resolution: Optional[float],
-               progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None):
+               progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None, grid=None):
     """Write the photo draped on the DEM (:func:`workflow.products.orthophoto`)."""
     try:
         return products.orthophoto(path, photo, camera, dem, resolution, overwrite=True, progress=progress,
-                                   is_canceled=is_canceled)
+                                   is_canceled=is_canceled, grid=grid)
     except products.ProductError as exc:
         raise InputError(str(exc)) from exc
 
