@@ -31,6 +31,7 @@ from .fit_settings import FitSettingsPanel, LensPanel
 from .io_actions import IoActions
 from .photo_canvas import PhotoCanvas
 from .point_table import ID_ROLE, PointTableModel, make_proxy
+from .prior_height import PriorHeightBox
 from .summary import fit_summary_html
 from .tools import CurationTool, RoughCameraTool, SpaceMapping
 from .views import MapPresenter, PhotoPresenter
@@ -82,6 +83,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.clearPriorButton.clicked.connect(lambda: c.set_prior(None))
         self.fovSpin.valueChanged.connect(self._prior_spin_changed)
         self.pitchSpin.valueChanged.connect(self._prior_spin_changed)
+        self.prior_height = PriorHeightBox(c, self.heightSpin, self.show_message)  # gui/prior_height.py
 
         # points
         # how many suggestions: a user preference (QgsSettings), not part of the project
