@@ -23,7 +23,7 @@ from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, rep
 from ..workflow import warmup
 from . import engine, persistence
 from .curation import CurationMixin
-from .fit_settings import fit_arguments
+from .fit_settings import fit_arguments, height_arguments
 from .priors import PriorsMixin
 from .results import ResultsMixin
 from .refit import inputs_key
@@ -308,12 +308,13 @@ class MonoplotController(PriorsMixin, CurationMixin, ResultsMixin, QObject):
         dem = self.dem
 
         free, options = fit_arguments(self.state.settings)  # the dock's fit settings (gui/fit_settings.py)
-        key = inputs_key(uv, xyz, pairs, start, free, options, check_uv, check_xyz)
+        height = height_arguments(self.state.settings)  # on the ground / in the air / automatic
+        key = inputs_key(uv, xyz, pairs, start, free, (options, height), check_uv, check_xyz)
         known = self._known_fit[1] if self._known_fit[0] == key else None  # the background refit's, if the same
 
         def work(progress, is_canceled):
             return engine.fit_and_render(uv, xyz, pairs, start, dem, progress, is_canceled, check_uv, check_xyz,
-                                         free=free, options=options, done=known)
+                                         free=free, options=options, done=known, **height)
 
         def apply(outcome):
             # the matches the fit used, by point id (indices would drift with later edits)
