@@ -26,7 +26,7 @@ from .chips import ChipView
 from .controller import MonoplotController
 from .auto_panel import install_auto_panel
 from .curation_panel import MessageOnce, install_curation_panel
-from .dock_layout import fit_minimum_width, lay_out, scroll_points_tab
+from .dock_layout import fit_minimum_width, lay_out, narrow_tabs, scroll_points_tab
 from .fit_settings import FitSettingsPanel, LensPanel
 from .io_actions import IoActions
 from .photo_canvas import PhotoCanvas
@@ -145,6 +145,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.chips = ChipView(c, self.photo_canvas)  # photo | DEM chips of the selected point (gui/chips.py)
         self.fitTabLayout.insertWidget(self.fitTabLayout.indexOf(self.resultLabel) + 1, self.fit_settings)
         scroll_points_tab(self)
+        narrow_tabs(self)
         fit_minimum_width(self)
         if self.project.readEntry("monoplot", "/state", "")[1] and c.restore() and c.fitted is not None:
             # a dock opened on an already open project: its camera layers came back empty from the file

@@ -132,7 +132,7 @@ class FitSettingsPanel(QgsCollapsibleGroupBox, _Panel):
     """"Fit settings" in the fit tab: a fix / free toggle per parameter and the rough camera's uncertainty."""
 
     def __init__(self, controller, parent=None):
-        super().__init__(tr("Fit settings: what the fit may change, how sure the rough camera is"), parent)
+        super().__init__(tr("Fit settings"), parent)  # a long title made the Fit tab scroll sideways at ~450 px
         self.controller = controller
         self.setObjectName("MonoplotFitSettings")
         layout = QVBoxLayout(self)
@@ -143,12 +143,15 @@ class FitSettingsPanel(QgsCollapsibleGroupBox, _Panel):
             box.setToolTip(tr("Checked: the fit adjusts it; unchecked: it keeps the rough camera's value."))
             box.toggled.connect(self._free_toggled)
             self.free_checks[label] = box
-            grid.addWidget(box, i // 4, i % 4)
-        layout.addWidget(QLabel(tr("Free parameters (unchecked = fixed at the rough camera's value):")))
+            grid.addWidget(box, i // 3, i % 3)
+        intro = QLabel(tr("What the fit may change, how sure the rough camera is, where the camera is. Free "
+                          "parameters (unchecked = fixed at the rough camera's value):"))
+        intro.setWordWrap(True)
+        layout.addWidget(intro)
         layout.addLayout(grid)
-        row = QHBoxLayout()
+        row = QGridLayout()  # two boxes a row: three were wider than a dock opened from the tool bar
         self.sigma_spins: Dict[str, QDoubleSpinBox] = {}
-        for name, label, suffix, low, high, step in _SIGMAS:
+        for i, (name, label, suffix, low, high, step) in enumerate(_SIGMAS):
             spin = QDoubleSpinBox()
             spin.setRange(low, high)
             spin.setSingleStep(step)
@@ -158,8 +161,8 @@ class FitSettingsPanel(QgsCollapsibleGroupBox, _Panel):
             spin.setToolTip(tr("One standard deviation of the rough camera; auto = the fit's default."))
             spin.valueChanged.connect(self._sigma_changed)
             self.sigma_spins[name] = spin
-            row.addWidget(QLabel(tr(label)))
-            row.addWidget(spin)
+            row.addWidget(QLabel(tr(label)), i // 2, 2 * (i % 2))
+            row.addWidget(spin, i // 2, 2 * (i % 2) + 1)
         layout.addWidget(QLabel(tr("Rough camera's uncertainty:")))
         layout.addLayout(row)
         self.height_combo = QComboBox()
