@@ -64,6 +64,9 @@ def scroll_points_tab(dock) -> None:
         elif item.layout() is not None:
             item.layout().setParent(None)
             page_layout.addLayout(item.layout())
+    # the help text under the table: above it, at 760 px the table began below the tab's visible part
+    page_layout.removeWidget(dock.helpLabel)
+    page_layout.addWidget(dock.helpLabel)
     dock.pointsScroll = QScrollArea(dock.pointsTab)
     dock.pointsScroll.setWidgetResizable(True)
     dock.pointsScroll.setFrameShape(QFrame.Shape.NoFrame)
