@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import logging
 import math
+import sys
 import time
 from typing import List, Optional, Tuple
 
@@ -23,11 +24,11 @@ from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, rep
 from ..workflow import warmup
 from . import engine, persistence
 from .curation import CurationMixin
-from .fit_settings import fit_arguments
+from .fit_settings import fit_arguments, height_arguments
 from .priors import PriorsMixin
 from .results import ResultsMixin
 from .refit import inputs_key
-from .tasks import CANCELED, FunctionTask, TaskResult, start_task
+from .tasks import CANCELED, FunctionTask, HiddenTask, TaskResult, start_task
 
 __all__ = ["MonoplotController"]
 
@@ -83,6 +84,7 @@ class MonoplotController(PriorsMixin, CurationMixin, ResultsMixin, QObject):
         self.task: Optional[FunctionTask] = None
         self._products_tasks: List[FunctionTask] = []  # referenced until done: Python must not collect them
         self.task_kind = ""
+        self._preparing = None  # the warm-up a Suggest interrupted, finished afterwards (_prepare_fit)
         self.overlay: Optional[QImage] = None
         self.xyz: Optional[np.ndarray] = None  # (H, W, 3) map X, Y, Z of each photo pixel (NaN = sky)
         self.footprint_wkt = ""  # visible area of the fitted camera (DEM CRS)
@@ -105,6 +107,9 @@ class MonoplotController(PriorsMixin, CurationMixin, ResultsMixin, QObject):
     def detach(self) -> None:
         """Stop listening to the project (the dock is going away)."""
         self._autosave.stop()
+        if self._preparing is not None:  # no thread left importing when QGIS quits
+            self._preparing.cancel()
+            self._preparing.waitForFinished(30000)
         for signal, slot in ((self.project.layersWillBeRemoved, self._layers_removed),
                              (self.project.writeProject, self._project_writing)):
             try:
@@ -207,6 +212,8 @@ class MonoplotController(PriorsMixin, CurationMixin, ResultsMixin, QObject):
             LOG.info("%s: %s in %.2f s", description, result.status, time.perf_counter() - t0)
             if result.ok:
                 on_success(result.value)
+                if kind == "suggest":
+                    self._prepare_fit()
             elif result.status == CANCELED:
                 self.message.emit(self.tr("{0} canceled.").format(description), INFO)
             else:
@@ -231,6 +238,19 @@ class MonoplotController(PriorsMixin, CurationMixin, ResultsMixin, QObject):
     def show_fit(self, outcome: "engine.FitOutcome") -> None:
         """Show a finished fit's camera (overlay, XYZ, status and message) as the fitted camera."""
         self._apply_fit(outcome)
+
+    def _prepare_fit(self) -> None:
+        """After a Suggest, finish the warm-up it interrupted (``workflow.warmup``) while the person curates: else
+        the first fit imported torch and compiled its kernels itself, 10-20 s at load 5-8 that no Cancel can cut
+        short (an import cannot be interrupted; the trial's Cancel of a first fit took 7-20 s)."""
+        if "torch" in sys.modules or self._preparing is not None:
+            return
+
+        def done(result) -> None:
+            self._preparing = None
+
+        self._preparing = HiddenTask("Monoplot: preparing the fit", warmup.warm_up, done)
+        start_task(self._preparing)
 
     def cancel(self) -> None:
         if self.task is not None:
@@ -317,12 +337,13 @@ class MonoplotController(PriorsMixin, CurationMixin, ResultsMixin, QObject):
         dem = self.dem
 
         free, options = fit_arguments(self.state.settings)  # the dock's fit settings (gui/fit_settings.py)
-        key = inputs_key(uv, xyz, pairs, start, free, options, check_uv, check_xyz)
+        height = height_arguments(self.state.settings)  # on the ground / in the air / automatic
+        key = inputs_key(uv, xyz, pairs, start, free, (options, height), check_uv, check_xyz)
         known = self._known_fit[1] if self._known_fit[0] == key else None  # the background refit's, if the same
 
         def work(progress, is_canceled):
             return engine.fit_and_render(uv, xyz, pairs, start, dem, progress, is_canceled, check_uv, check_xyz,
-                                         free=free, options=options, done=known)
+                                         free=free, options=options, done=known, **height)
 
         def apply(outcome):
             # the matches the fit used, by point id (indices would drift with later edits)

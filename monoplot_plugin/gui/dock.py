@@ -26,11 +26,12 @@ from .chips import ChipView
 from .controller import MonoplotController
 from .auto_panel import install_auto_panel
 from .curation_panel import MessageOnce, install_curation_panel
-from .dock_layout import fit_minimum_width, lay_out, scroll_points_tab
+from .dock_layout import fit_minimum_width, lay_out, narrow_tabs, scroll_points_tab
 from .fit_settings import FitSettingsPanel, LensPanel
 from .io_actions import IoActions
 from .photo_canvas import PhotoCanvas
 from .point_table import ID_ROLE, PointTableModel, make_proxy
+from .prior_height import PriorHeightBox
 from .summary import fit_summary_html
 from .tools import CurationTool, RoughCameraTool, SpaceMapping
 from .views import MapPresenter, PhotoPresenter
@@ -82,6 +83,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.clearPriorButton.clicked.connect(lambda: c.set_prior(None))
         self.fovSpin.valueChanged.connect(self._prior_spin_changed)
         self.pitchSpin.valueChanged.connect(self._prior_spin_changed)
+        self.prior_height = PriorHeightBox(c, self.heightSpin, self.show_message)  # gui/prior_height.py
 
         # points
         # how many suggestions: a user preference (QgsSettings), not part of the project
@@ -143,6 +145,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.chips = ChipView(c, self.photo_canvas)  # photo | DEM chips of the selected point (gui/chips.py)
         self.fitTabLayout.insertWidget(self.fitTabLayout.indexOf(self.resultLabel) + 1, self.fit_settings)
         scroll_points_tab(self)
+        narrow_tabs(self)
         fit_minimum_width(self)
         if self.project.readEntry("monoplot", "/state", "")[1] and c.restore() and c.fitted is not None:
             # a dock opened on an already open project: its camera layers came back empty from the file

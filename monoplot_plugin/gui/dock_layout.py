@@ -4,9 +4,10 @@ and the Points tab's scroll area. Split from :mod:`.dock`, which wires the widge
 from __future__ import annotations
 
 from qgis.PyQt.QtCore import Qt
-from qgis.PyQt.QtWidgets import QFrame, QHeaderView, QScrollArea, QSizePolicy, QVBoxLayout, QWidget
+from qgis.PyQt.QtWidgets import (QFrame, QGridLayout, QHeaderView, QScrollArea, QSizePolicy, QVBoxLayout,
+                                 QWidget)
 
-__all__ = ["lay_out", "fit_minimum_width", "scroll_points_tab"]
+__all__ = ["lay_out", "fit_minimum_width", "scroll_points_tab", "narrow_tabs"]
 
 
 def lay_out(dock) -> None:
@@ -63,6 +64,9 @@ def scroll_points_tab(dock) -> None:
         elif item.layout() is not None:
             item.layout().setParent(None)
             page_layout.addLayout(item.layout())
+    # the help text under the table: above it, at 760 px the table began below the tab's visible part
+    page_layout.removeWidget(dock.helpLabel)
+    page_layout.addWidget(dock.helpLabel)
     dock.pointsScroll = QScrollArea(dock.pointsTab)
     dock.pointsScroll.setWidgetResizable(True)
     dock.pointsScroll.setFrameShape(QFrame.Shape.NoFrame)
@@ -72,3 +76,27 @@ def scroll_points_tab(dock) -> None:
     # no horizontal scrolling: the page is as wide as the view (its rows share the width as before the
     # scroll area), never wider (else the right column, "Accept likely (15)", was cut off under the scroll bar)
     page.setMinimumWidth(1)
+
+
+def narrow_tabs(dock) -> None:
+    """The Camera and Fit tabs at the width QGIS gives a dock opened from the tool bar (~450 px): the camera buttons
+    in rows of three (one row of five made the dock wider than its window: "35 mm e", "t field of vie" cut off),
+    and the Fit tab scrolls up and down only (it scrolled sideways, its verdict text cut off at the right)."""
+    old = dock.cameraButtons
+    grid = QGridLayout()
+    grid.setSpacing(old.spacing())
+    buttons = []
+    while old.count():
+        item = old.takeAt(0)
+        if item.widget() is not None:
+            buttons.append(item.widget())
+    for i, button in enumerate(buttons):
+        button.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
+        grid.addWidget(button, i // 3, i % 3)
+    index = dock.cameraTabLayout.indexOf(old)
+    dock.cameraTabLayout.removeItem(old)
+    old.setParent(None)
+    dock.cameraTabLayout.insertLayout(index, grid)
+    dock.cameraButtons = grid
+    dock.fitScroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+    dock.fitScrollContents.setMinimumWidth(1)  # as wide as the view, never wider (the labels wrap instead)

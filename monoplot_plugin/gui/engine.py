@@ -58,12 +58,14 @@ class FitOutcome:
 def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, int]], start: Camera, dem,
                    progress: Progress, is_canceled: IsCanceled,
                    check_uv: Optional[np.ndarray] = None, check_xyz: Optional[np.ndarray] = None,
-                   free: Optional[Sequence[str]] = None, options=None, done=None) -> FitOutcome:
+                   free: Optional[Sequence[str]] = None, options=None, done=None, on_ground: Optional[bool] = None,
+                   eye_height: Optional[float] = None) -> FitOutcome:
     """Fit the camera (0-85 %, :func:`workflow.fit.fit`), then render the overlay and per-pixel XYZ (85-100 %).
 
     ``check_uv`` (C, 2) / ``check_xyz`` (C, 3): paired check points, not fitted; their error goes into the info
     (``check_rmse_px``, ``n_check``, ``check_errors`` in pixels). The camera is held on the ground by the
-    workflow's one rule (:func:`workflow.fit.on_ground_rule`, automatic here). ``free`` / ``options``: the fitted
+    workflow's one rule (:func:`workflow.fit.on_ground_rule`; ``on_ground`` / ``eye_height`` as there, None
+    automatic). ``free`` / ``options``: the fitted
     parameters and the core ``FitOptions`` (the dock's fit settings, :mod:`.fit_settings`), None for the defaults.
     ``done``: a finished :class:`workflow.fit.FitDone` of these very inputs (the background refit's): only the
     products are rendered.
@@ -74,7 +76,8 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
     """
     if done is None:
         done = fit_step.fit(uv, xyz, start, dem, pairs=pairs or None, check_uv=check_uv, check_xyz=check_xyz,
-                            progress=part(progress, 0.0, 0.85), is_canceled=is_canceled, free=free, options=options)
+                            progress=part(progress, 0.0, 0.85), is_canceled=is_canceled, free=free, options=options,
+                            on_ground=on_ground, eye_height=eye_height)
     result, camera = done.result, done.camera
     info = {
         "status": result.status,

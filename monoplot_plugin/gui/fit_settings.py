@@ -5,15 +5,19 @@ is (the core's ``FitOptions`` prior sigmas).
 Stored with the project in ``state.settings["fit"]``::
 
     {"free": ["x", "y", "z", "heading", "pitch", "roll", "fov"], "position_sigma_m": 50.0, "angle_sigma_deg": null,
-     "fov_sigma_deg": null, "focal_mm": 30.0, "sensor_width_mm": 22.2, "focal_35mm": null}
+     "fov_sigma_deg": null, "focal_mm": 30.0, "sensor_width_mm": 22.2, "focal_35mm": null,
+     "on_ground": null, "eye_height_m": null}
 
-:func:`fit_arguments` turns it into what ``engine.fit_and_render`` passes to the fit.
+:func:`fit_arguments` turns it into what ``engine.fit_and_render`` passes to the fit, :func:`height_arguments` into
+the camera height mode of :func:`workflow.fit.fit` (``on_ground`` None automatic / True / False, ``eye_height``).
 
 >>> fit_arguments({})
 (None, None)
 >>> free, options = fit_arguments({"fit": {"free": ["heading", "pitch", "roll", "fov"], "position_sigma_m": 20}})
 >>> free, options.position_sigma_m, options.angle_sigma_deg
 (('heading', 'pitch', 'roll', 'fov'), 20.0, None)
+>>> height_arguments({}), height_arguments({"fit": {"on_ground": True, "eye_height_m": 1.5}})
+({'on_ground': None, 'eye_height': None}, {'on_ground': True, 'eye_height': 1.5})
 """
 
 from __future__ import annotations
@@ -21,14 +25,15 @@ from __future__ import annotations
 from typing import Dict, Optional, Sequence, Tuple
 
 from qgis.gui import QgsCollapsibleGroupBox
-from qgis.PyQt.QtCore import QCoreApplication
-from qgis.PyQt.QtWidgets import (QCheckBox, QDoubleSpinBox, QGridLayout, QHBoxLayout, QLabel, QPushButton,
+from qgis.PyQt.QtCore import QCoreApplication, Qt
+from qgis.PyQt.QtWidgets import (QCheckBox, QComboBox, QDoubleSpinBox, QGridLayout, QHBoxLayout, QLabel, QPushButton,
                                  QVBoxLayout, QWidget)
 
 from ..adapters.exif import lens_fov
 from ..core.fit import DEFAULT_FREE, FitOptions
 
-__all__ = ["SETTINGS_KEY", "FREE_GROUPS", "fit_arguments", "FitSettingsPanel", "LensPanel", "WrappingRow"]
+__all__ = ["SETTINGS_KEY", "FREE_GROUPS", "HEIGHT_MODES", "fit_arguments", "height_arguments", "FitSettingsPanel",
+           "LensPanel", "WrappingRow"]
 
 SETTINGS_KEY = "fit"
 #: The toggles of the dock (label, camera parameter names): checked = the fit may change them.
@@ -38,6 +43,12 @@ FREE_GROUPS: Tuple[Tuple[str, Tuple[str, ...]], ...] = (
 _SIGMAS = (("position_sigma_m", "Position ±", " m", 0.0, 100000.0, 10.0),
            ("angle_sigma_deg", "Angles ±", "°", 0.0, 90.0, 0.5),
            ("fov_sigma_deg", "Field of view ±", "°", 0.0, 90.0, 0.5))
+#: The camera height modes (label, tooltip, ``on_ground`` of :func:`workflow.fit.fit`), as Processing's ON_GROUND.
+HEIGHT_MODES = (("Automatic", "On the ground when the rough camera is within 20 m of the terrain, else in the air",
+                 None),
+                ("On the ground", "A hand-held or tripod photo: the camera stays at the given height above the DEM",
+                 True),
+                ("In the air", "A drone, aircraft or tower: the fit finds the camera's height", False))
 
 
 def tr(text: str) -> str:
@@ -50,6 +61,15 @@ def fit_arguments(settings: Dict) -> Tuple[Optional[Tuple[str, ...]], Optional[F
     free = tuple(fit["free"]) if fit.get("free") is not None else None
     sigmas = {name: float(fit[name]) for name, *_ in _SIGMAS if fit.get(name)}
     return free, (FitOptions(**sigmas) if sigmas else None)
+
+
+def height_arguments(settings: Dict) -> Dict[str, Optional[object]]:
+    """``on_ground`` and ``eye_height`` of :func:`workflow.fit.fit` from the dock's settings (None: automatic)."""
+    fit = (settings or {}).get(SETTINGS_KEY) or {}
+    on_ground = fit.get("on_ground")
+    eye = fit.get("eye_height_m")
+    return {"on_ground": None if on_ground is None else bool(on_ground),
+            "eye_height": None if eye is None else float(eye)}
 
 
 class WrappingRow(QWidget):
@@ -112,7 +132,7 @@ class FitSettingsPanel(QgsCollapsibleGroupBox, _Panel):
     """"Fit settings" in the fit tab: a fix / free toggle per parameter and the rough camera's uncertainty."""
 
     def __init__(self, controller, parent=None):
-        super().__init__(tr("Fit settings: what the fit may change, how sure the rough camera is"), parent)
+        super().__init__(tr("Fit settings"), parent)  # a long title made the Fit tab scroll sideways at ~450 px
         self.controller = controller
         self.setObjectName("MonoplotFitSettings")
         layout = QVBoxLayout(self)
@@ -123,12 +143,15 @@ class FitSettingsPanel(QgsCollapsibleGroupBox, _Panel):
             box.setToolTip(tr("Checked: the fit adjusts it; unchecked: it keeps the rough camera's value."))
             box.toggled.connect(self._free_toggled)
             self.free_checks[label] = box
-            grid.addWidget(box, i // 4, i % 4)
-        layout.addWidget(QLabel(tr("Free parameters (unchecked = fixed at the rough camera's value):")))
+            grid.addWidget(box, i // 3, i % 3)
+        intro = QLabel(tr("What the fit may change, how sure the rough camera is, where the camera is. Free "
+                          "parameters (unchecked = fixed at the rough camera's value):"))
+        intro.setWordWrap(True)
+        layout.addWidget(intro)
         layout.addLayout(grid)
-        row = QHBoxLayout()
+        row = QGridLayout()  # two boxes a row: three were wider than a dock opened from the tool bar
         self.sigma_spins: Dict[str, QDoubleSpinBox] = {}
-        for name, label, suffix, low, high, step in _SIGMAS:
+        for i, (name, label, suffix, low, high, step) in enumerate(_SIGMAS):
             spin = QDoubleSpinBox()
             spin.setRange(low, high)
             spin.setSingleStep(step)
@@ -138,10 +161,29 @@ class FitSettingsPanel(QgsCollapsibleGroupBox, _Panel):
             spin.setToolTip(tr("One standard deviation of the rough camera; auto = the fit's default."))
             spin.valueChanged.connect(self._sigma_changed)
             self.sigma_spins[name] = spin
-            row.addWidget(QLabel(tr(label)))
-            row.addWidget(spin)
+            row.addWidget(QLabel(tr(label)), i // 2, 2 * (i % 2))
+            row.addWidget(spin, i // 2, 2 * (i % 2) + 1)
         layout.addWidget(QLabel(tr("Rough camera's uncertainty:")))
         layout.addLayout(row)
+        self.height_combo = QComboBox()
+        for label, tip, _ in HEIGHT_MODES:
+            self.height_combo.addItem(tr(label))
+            self.height_combo.setItemData(self.height_combo.count() - 1, tr(tip), Qt.ItemDataRole.ToolTipRole)
+        self.height_combo.setToolTip(tr("Is the camera on the ground (hand-held, tripod) or in the air (drone, "
+                                        "aircraft)? Automatic: on the ground when the rough camera is within 20 m "
+                                        "of the terrain."))
+        self.eye_spin = QDoubleSpinBox()
+        self.eye_spin.setRange(0.0, 1000.0)
+        self.eye_spin.setDecimals(1)
+        self.eye_spin.setSuffix(" m")
+        self.eye_spin.setSpecialValueText(tr("auto"))
+        self.eye_spin.setToolTip(tr("Height above the ground of a camera on the ground; auto = the rough camera's "
+                                    "own height when automatic, 1.7 m on the ground."))
+        self.height_combo.currentIndexChanged.connect(self._height_changed)
+        self.eye_spin.valueChanged.connect(self._height_changed)
+        self.height_row = WrappingRow([QLabel(tr("Camera height")), self.height_combo],
+                                      [QLabel(tr("above ground")), self.eye_spin])
+        layout.addWidget(self.height_row)
         self.setCollapsed(True)
         self._updating = False
         controller.photoChanged.connect(self.refresh)
@@ -167,6 +209,10 @@ class FitSettingsPanel(QgsCollapsibleGroupBox, _Panel):
             self.set_free(DEFAULT_FREE if free is None else free)
             for name, spin in self.sigma_spins.items():
                 spin.setValue(float(fit.get(name) or 0.0))
+            height = height_arguments({SETTINGS_KEY: fit})
+            self.height_combo.setCurrentIndex([m[2] for m in HEIGHT_MODES].index(height["on_ground"]))
+            self.eye_spin.setValue(height["eye_height"] or 0.0)
+            self.eye_spin.setEnabled(height["on_ground"] is not False)
         finally:
             self._updating = False
 
@@ -174,6 +220,12 @@ class FitSettingsPanel(QgsCollapsibleGroupBox, _Panel):
         if not self._updating:
             free = self.free()
             self._store(free=None if set(free) == set(DEFAULT_FREE) else list(free))
+
+    def _height_changed(self) -> None:
+        on_ground = HEIGHT_MODES[self.height_combo.currentIndex()][2]
+        self.eye_spin.setEnabled(on_ground is not False)  # a camera in the air has no eye height
+        if not self._updating:
+            self._store(on_ground=on_ground, eye_height_m=self.eye_spin.value() or None)
 
     def _sigma_changed(self) -> None:
         if not self._updating:

@@ -19,7 +19,7 @@ import numpy as np
 from qgis.PyQt.QtCore import QObject, QTimer, pyqtSignal
 
 from ..workflow import fit as fit_step
-from .fit_settings import fit_arguments
+from .fit_settings import fit_arguments, height_arguments
 from .shortlist import Recommendation, recommendation
 from .tasks import HiddenTask, start_task
 
@@ -46,7 +46,8 @@ class RefitOutcome:
 
 
 def inputs_key(uv, xyz, pairs, start, free, options, check_uv, check_xyz) -> tuple:
-    """What a fit depends on, comparable: two fits of equal keys give the same camera.
+    """What a fit depends on, comparable: two fits of equal keys give the same camera (``options``: anything with
+    a stable repr, e.g. the FitOptions and the height mode).
 
     >>> a = inputs_key(np.zeros((4, 2)), np.ones((4, 3)), [], None, None, None, np.zeros((0, 2)), np.zeros((0, 3)))
     >>> a == inputs_key(np.zeros((4, 2)), np.ones((4, 3)), (), None, None, None, np.zeros((0, 2)), np.zeros((0, 3)))
@@ -136,12 +137,14 @@ class Refitter(QObject):
         threshold = c.shortlist.threshold
         dem = c.dem
         free, options = fit_arguments(c.state.settings)  # what the user fixed, how sure the prior is
+        height = height_arguments(c.state.settings)  # on the ground / in the air / automatic
         _, check_uv, check_xyz = c.check_points()  # measured as the Fit button does: its fit can reuse this one
-        key = inputs_key(uv, xyz, pairs, start, free, options, check_uv, check_xyz)
+        key = inputs_key(uv, xyz, pairs, start, free, (options, height), check_uv, check_xyz)
 
         def work(progress, is_canceled):
             done = fit_step.fit(uv, xyz, start, dem, pairs=pairs or None, progress=progress, check_uv=check_uv,
-                                check_xyz=check_xyz, is_canceled=is_canceled, free=free, options=options)
+                                check_xyz=check_xyz, is_canceled=is_canceled, free=free, options=options,
+                                **height)
             r = done.result
             rmse = float(r.rmse_px) if r.rmse_px is not None else float("nan")
             sigma = sigma_of(rmse)

@@ -7,10 +7,21 @@ from typing import Callable, Optional
 
 from ..core.camera import Camera
 
-__all__ = ["fit_summary_html"]
+__all__ = ["fit_summary_html", "sigma_text"]
 
 #: Colour of each fit status (core.fit.STATUSES): "uncertain" must look different from "ok".
 _STATUS_STYLE = {"ok": "#1a7f37", "uncertain": "#b35900", "poor": "#c00", "refused": "#c00", "canceled": "#666"}
+
+
+def sigma_text(value: float) -> str:
+    """A standard deviation with two significant digits (whole units from 10 up): never "± 0" for 0.3.
+
+    >>> [sigma_text(v) for v in (148.2, 44.0, 7.26, 0.34, 0.004, 0.0)]
+    ['148', '44', '7.3', '0.34', '0.0040', '0']
+    """
+    if not value > 0:
+        return "0"
+    return f"{value:.{min(6, max(0, 1 - math.floor(math.log10(value))))}f}"
 
 
 def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], str] = str) -> str:
@@ -31,14 +42,17 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     >>> html = fit_summary_html(cam, {"rmse_px": 6.4, "status": "uncertain", "message": "Uncertain: add points."})
     >>> "uncertain</b>" in html and "Uncertain: add points." in html
     True
+    >>> html = fit_summary_html(cam, {"status": "uncertain", "mode": "unpaired", "sigma": {"x": 0.31}})
+    >>> "600000 m ± 0.31" in html and "assume the automatic pairs are right" in html
+    True
     """
     if fitted is None:
         return tr("Not fitted yet.")
     x, y, z = fitted.position
     sigma = info.get("sigma") or {}
 
-    def sig(name: str, fmt: str = "{:.1f}") -> str:
-        return (" ± " + fmt.format(sigma[name])) if name in sigma and math.isfinite(sigma[name]) else ""
+    def sig(name: str) -> str:
+        return (" ± " + sigma_text(sigma[name])) if name in sigma and math.isfinite(sigma[name]) else ""
 
     rmse = info.get("rmse_px")
     loo = info.get("loo_rmse_px")
@@ -53,20 +67,19 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     elif info.get("mode") == "unpaired":
         head += "<br><small>" + tr("RMSE of the automatic pairs (agreement, not accuracy): mark a few paired "
                                   "points as check points (key C) to measure the camera.") + "</small>"
-    deg = "{:.2f}"
-    z_text = f"{z:.0f} m{sig('z', '{:.0f}')}"
+    z_text = f"{z:.0f} m{sig('z')}"
     clearance = info.get("clearance_m")
     under = not info.get("on_ground") and clearance is not None and math.isfinite(clearance) and clearance < 0
     if under:  # a coarse DEM at the camera, or a fit that ended low: say so, the overlay needs it explained
         z_text += " " + tr("({0:.1f} m under the DEM)").format(-clearance)
-    cells = [("X", f"{x:.0f} m{sig('x', '{:.0f}')}"),
-             (tr("Heading"), f"{fitted.heading % 360:.2f}°{sig('heading', deg)}"),
-             ("Y", f"{y:.0f} m{sig('y', '{:.0f}')}"),
-             (tr("Pitch"), f"{fitted.pitch:.2f}°{sig('pitch', deg)}"),
+    cells = [("X", f"{x:.0f} m{sig('x')}"),
+             (tr("Heading"), f"{fitted.heading % 360:.2f}°{sig('heading')}"),
+             ("Y", f"{y:.0f} m{sig('y')}"),
+             (tr("Pitch"), f"{fitted.pitch:.2f}°{sig('pitch')}"),
              ("Z", z_text if not info.get("on_ground") else
               tr("{0:.0f} m (ground + {1:.0f} m)").format(z, info.get("eye_height_m") or 0.0)),
-             (tr("Roll"), f"{fitted.roll:.2f}°{sig('roll', deg)}"),
-             ("", ""), (tr("Field of view"), f"{fitted.fov:.2f}°{sig('fov', deg)}")]
+             (tr("Roll"), f"{fitted.roll:.2f}°{sig('roll')}"),
+             ("", ""), (tr("Field of view"), f"{fitted.fov:.2f}°{sig('fov')}")]
     html = "".join("<tr>" + "".join(f"<td>{k}&nbsp;</td><td>{v}&nbsp;&nbsp;&nbsp;</td>" for k, v in pair)
                    + "</tr>" for pair in zip(cells[0::2], cells[1::2]))
     status = info.get("status") or ("ok" if info.get("converged", True) else "poor")
@@ -74,6 +87,11 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     head = tr("Status: <b style='color:{0}'>{1}</b>").format(badge, tr(status)) + " · " + head
     # Anything but "ok" shows the verdict's own words: what is weak and what to do.
     note = "" if status == "ok" else f"<p style='color:{badge}'>" + info.get("message", "") + "</p>"
+    if status != "ok" and sigma:  # the ± come from the residuals of the pairs used: a wrong match is not in them
+        note += "<p><small>" + (tr("The ± assume the automatic pairs are right: this {0} fit may be off by far "
+                                   "more. Check points (key C) measure it.") if info.get("mode") == "unpaired" else
+                                tr("The ± assume the pairs are right: this {0} fit may be off by far more. Check "
+                                   "points (key C) measure it.")).format(tr(status)) + "</small></p>"
     if under:
         note += "<p><small>" + tr("The camera is below the DEM surface at its own position (the DEM is coarse "
                                   "there, or the fit ended low): rays start by leaving the ground, and the terrain "

@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 from osgeo import gdal
 from qgis.core import QgsProject
+from qgis.PyQt.QtCore import Qt
 
 from monoplot_plugin.adapters.exif import read_exif_prior
-from monoplot_plugin.gui.fit_settings import fit_arguments
+from monoplot_plugin.gui.fit_settings import fit_arguments, height_arguments
 from monoplot_plugin.state import MAP, PHOTO, Point, replace_suggestions
 
 
@@ -103,6 +104,7 @@ def test_settings_come_back_with_the_project(dock, scene, qtbot, tmp_path):
     panel = dock.fit_settings
     panel.free_checks["k1"].setChecked(True)
     panel.sigma_spins["position_sigma_m"].setValue(25.0)
+    panel.height_combo.setCurrentIndex(2)  # in the air
     path = str(tmp_path / "settings.qgz")
     assert QgsProject.instance().write(path)
     QgsProject.instance().clear()
@@ -111,6 +113,43 @@ def test_settings_come_back_with_the_project(dock, scene, qtbot, tmp_path):
     qtbot.waitUntil(lambda: dock.controller.image is not None, timeout=5000)
     assert panel.free_checks["k1"].isChecked() and panel.sigma_spins["position_sigma_m"].value() == 25.0
     assert "k1" in fit_arguments(dock.controller.state.settings)[0]
+    assert panel.height_combo.currentIndex() == 2 and not panel.eye_spin.isEnabled()
+    assert height_arguments(dock.controller.state.settings)["on_ground"] is False
+
+
+def test_on_the_ground_mode_holds_the_fit_at_the_eye_height(dock, scene, qtbot):
+    _load(dock, scene.photo_path)
+    c = dock.controller
+    _scene_points(dock, scene)
+    c.set_prior(scene.prior)
+    panel = dock.fit_settings
+    assert panel.height_combo.currentIndex() == 0  # automatic by default
+    panel.height_combo.setCurrentIndex(1)
+    panel.eye_spin.setValue(1.5)
+    assert height_arguments(c.state.settings) == {"on_ground": True, "eye_height": 1.5}
+    assert c.fit()
+    with qtbot.waitSignal(c.taskFinished, timeout=120000) as blocker:
+        pass
+    assert blocker.args[0].ok, blocker.args[0].reason
+    x, y, z = c.fitted.position
+    assert c.state.fit_info["on_ground"] and c.state.fit_info["eye_height_m"] == 1.5
+    assert z - float(scene.dem.sample(x, y)) == pytest.approx(1.5, abs=0.5)
+
+
+def test_above_ground_box_shows_and_moves_the_prior(dock, scene, qtbot):
+    _load(dock, scene.photo_path)
+    c = dock.controller
+    prior = scene.prior.with_parameters(z=float(scene.dem.sample(*scene.prior.position[:2])) + 114.0)
+    c.set_prior(prior)  # as from a KML or a camera JSON: the box shows its height, not the last drawn one's
+    assert dock.heightSpin.value() == pytest.approx(114.0, abs=0.5)
+    dock.heightSpin.selectAll()
+    qtbot.keyClicks(dock.heightSpin.lineEdit(), "50")
+    assert c.prior.position == prior.position  # not yet: on Enter
+    qtbot.keyClick(dock.heightSpin.lineEdit(), Qt.Key.Key_Return)
+    x, y, z = c.prior.position
+    assert z - float(scene.dem.sample(x, y)) == pytest.approx(50.0, abs=0.01)
+    assert (x, y) == prior.position[:2] and c.prior.heading == prior.heading
+    assert "50 m above the DEM" in dock.statusLabel.text()
 
 
 def test_drawn_camera_gets_a_pitch_from_the_terrain(dock, scene):
