@@ -44,11 +44,14 @@ class FitCamera(MonoplotAlgorithm):
              "(u_px, v_px and/or X, Y, Z columns); a single CSV with both sets of columns is a list of paired "
              "ground-control points. Unpaired point sets may have different counts: the fit matches each photo "
              "point to the nearest projected DEM point. Writes the fitted camera as JSON, the input of every other "
-             "algorithm.")
+             "algorithm.\n\n"
+             "Camera height: Automatic (the dock's rule) holds a prior within 20 m of the terrain at its height "
+             "above it and leaves a higher one free, and refits on the ground a free camera that ends under the "
+             "terrain; On the ground holds it at the height above the ground given (default 1.7 m, hand-held or "
+             "tripod); In the air leaves it free (drone, aircraft, tower).")
 
     #: ON_GROUND's options, in index order; see :func:`on_ground_choice`.
-    HEIGHT_OPTIONS = ("Automatic: on the ground when the prior is within 20 m of the terrain",
-                      "On the ground (hand-held or tripod photo)", "In the air (drone, aircraft, tower)")
+    HEIGHT_OPTIONS = ("Automatic", "On the ground", "In the air")
 
     def initAlgorithm(self, config=None):
         self.add_photo_parameter()
@@ -72,8 +75,7 @@ class FitCamera(MonoplotAlgorithm):
             "ON_GROUND", self.tr("Camera height"), [self.tr(option) for option in self.HEIGHT_OPTIONS],
             defaultValue=0))
         self.addParameter(QgsProcessingParameterNumber(
-            "EYE_HEIGHT", self.tr("Height above the ground (m; empty: the prior's own height when automatic, "
-                                  "1.7 m on the ground)"),
+            "EYE_HEIGHT", self.tr("Height above the ground (m)"),
             QgsProcessingParameterNumber.Double, None, optional=True, minValue=0.0))
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", self.tr("Fitted camera"),
                                                                 "Monoplot camera (*.json)"))
