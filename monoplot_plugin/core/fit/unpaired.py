@@ -24,7 +24,7 @@ from .consensus import (_gates, chance_inliers, consensus_score, hypotheses, inl
 from .descent import descend_from_prior
 from .losses import nearest_distances
 from .lsq import bootstrap_std, jacobian, parameter_std
-from .pairing import refine_by_pairs
+from .pairing import converge_on_pairs, refine_by_pairs
 from .params import ParameterSpace
 from .result import FitResult, rms, rmse
 from .verdict import judge, photo_spread, weak_direction_matters, weakest_parameter
@@ -111,6 +111,7 @@ def _fit_unpaired(ctx) -> FitResult:
                     result.residuals_px = space.project(u_pol, ctx.P[p[:, 1]])[0] - ctx.q[p[:, 0]]
                     kept = result.inliers if len(result.inliers) == len(p) else np.ones(len(p), dtype=bool)
                     result.rmse_px = rmse(result.residuals_px[kept])
+            _converge(ctx, space, result, radius)
     if result is None:
         uv, usable = ctx.project_usable(space, u)
         nearest = nearest_distances(ctx.q, uv, usable)
@@ -123,6 +124,24 @@ def _fit_unpaired(ctx) -> FitResult:
     result.loss_history = ctx.history
     _judge_unpaired(ctx, space, result, candidates, radius, chosen[2], sigmas)
     return result
+
+
+def _converge(ctx, space: ParameterSpace, result: FitResult, radius: float) -> None:
+    """Last step (:func:`~.pairing.converge_on_pairs`), kept when its camera explains the points as well (consensus
+    score within 1 %); the result's pairs, residuals and RMSE become the converged ones (a pair's leave-one-out
+    error carries over when the pair was already there)."""
+    u_res = space.from_camera(result.camera)
+    u_conv, pairs = converge_on_pairs(ctx, space, u_res, radius)
+    if pairs is None or _score(ctx, space, u_conv, radius) < 0.99 * _score(ctx, space, u_res, radius):
+        return
+    loo = {tuple(p): e for p, e in zip(result.pairs.tolist(), result.loo_residuals_px)} \
+        if len(result.loo_residuals_px) == len(result.pairs) else {}
+    result.camera = space.camera(u_conv)
+    result.pairs, result.inliers = pairs, np.ones(len(pairs), dtype=bool)
+    result.residuals_px = space.project(u_conv, ctx.P[pairs[:, 1]])[0] - ctx.q[pairs[:, 0]]
+    result.rmse_px = rmse(result.residuals_px)
+    result.loo_residuals_px = np.array([loo.get(tuple(p), np.nan) for p in pairs.tolist()])
+    result.std = {}  # of the camera before: recomputed by the verdict on the final pairs
 
 
 def _score(ctx, space: ParameterSpace, u, radius: float) -> float:
