@@ -15,7 +15,8 @@ from .result import FitResult, rmse, rms
 __all__ = ["refine_by_pairs", "converge_on_pairs"]
 
 
-def refine_by_pairs(ctx, space: ParameterSpace, u, gate_px: Optional[float]) -> Optional[FitResult]:
+def refine_by_pairs(ctx, space: ParameterSpace, u, gate_px: Optional[float],
+                    with_loo: bool = True) -> Optional[FitResult]:
     """Mutual-nearest-neighbour pairs within a gate, robust least squares, outlier rejection, re-pairing.
 
     The refined camera is kept only if it fits the whole point sets (truncated two-sided Chamfer distance) at
@@ -81,7 +82,7 @@ def refine_by_pairs(ctx, space: ParameterSpace, u, gate_px: Optional[float]) -> 
     inliers = r <= 3.0 * sigma
     qi, Pi = q[inliers], P[inliers]
     std = parameter_std(ctx, space, u, qi, Pi)
-    loo = leave_one_out(ctx, space, u, qi, Pi)
+    loo = leave_one_out(ctx, space, u, qi, Pi) if with_loo else np.full(len(qi), np.nan)
     loo_all = np.full(len(pairs), np.nan)
     loo_all[inliers] = loo
     rmse_px = rmse(residuals[inliers])

@@ -23,7 +23,7 @@ from .consensus import (_gates, chance_inliers, consensus_score, hypotheses, inl
                         local_optimise, position_hypotheses, prior_penalty, shift_hypotheses)
 from .descent import descend_from_prior
 from .losses import nearest_distances
-from .lsq import bootstrap_std, jacobian, parameter_std
+from .lsq import bootstrap_std, jacobian, leave_one_out, parameter_std
 from .pairing import converge_on_pairs, refine_by_pairs
 from .params import ParameterSpace
 from .result import FitResult, rms, rmse
@@ -98,7 +98,7 @@ def _fit_unpaired(ctx) -> FitResult:
     result = None
     if opts.refine:
         ctx.report(0.95, "unpaired fit: automatic pairing and robust refinement")
-        result = refine_by_pairs(ctx, space, u, opts.gate_px)
+        result = refine_by_pairs(ctx, space, u, opts.gate_px, with_loo=False)
         # Polish: least squares on the camera's own tight inliers (the gate shrinks with the residuals down to 2 px),
         # kept when it explains the points at least as well; the automatic pairing's gate can be wide.
         if result is not None:
@@ -128,20 +128,25 @@ def _fit_unpaired(ctx) -> FitResult:
 
 def _converge(ctx, space: ParameterSpace, result: FitResult, radius: float) -> None:
     """Last step (:func:`~.pairing.converge_on_pairs`), kept when its camera explains the points as well (consensus
-    score within 1 %); the result's pairs, residuals and RMSE become the converged ones (a pair's leave-one-out
-    error carries over when the pair was already there)."""
+    score within 1 %); the result's pairs, residuals and RMSE become the converged ones. The leave-one-out check is
+    made here, on the final pairs, so that it judges the same pairs as the RMSE."""
     u_res = space.from_camera(result.camera)
     u_conv, pairs = converge_on_pairs(ctx, space, u_res, radius)
-    if pairs is None or _score(ctx, space, u_conv, radius) < 0.99 * _score(ctx, space, u_res, radius):
+    if pairs is not None and _score(ctx, space, u_conv, radius) >= 0.99 * _score(ctx, space, u_res, radius):
+        result.camera = space.camera(u_conv)
+        result.pairs, result.inliers = pairs, np.ones(len(pairs), dtype=bool)
+        result.residuals_px = space.project(u_conv, ctx.P[pairs[:, 1]])[0] - ctx.q[pairs[:, 0]]
+        result.rmse_px = rmse(result.residuals_px)
+        result.std = {}  # of the camera before: the verdict computes it on the final pairs
+    if not len(result.pairs):
         return
-    loo = {tuple(p): e for p, e in zip(result.pairs.tolist(), result.loo_residuals_px)} \
-        if len(result.loo_residuals_px) == len(result.pairs) else {}
-    result.camera = space.camera(u_conv)
-    result.pairs, result.inliers = pairs, np.ones(len(pairs), dtype=bool)
-    result.residuals_px = space.project(u_conv, ctx.P[pairs[:, 1]])[0] - ctx.q[pairs[:, 0]]
-    result.rmse_px = rmse(result.residuals_px)
-    result.loo_residuals_px = np.array([loo.get(tuple(p), np.nan) for p in pairs.tolist()])
-    result.std = {}  # of the camera before: recomputed by the verdict on the final pairs
+    u = space.from_camera(result.camera)
+    kept = result.inliers if len(result.inliers) == len(result.pairs) else np.ones(len(result.pairs), dtype=bool)
+    p = result.pairs[kept]
+    loo = leave_one_out(ctx, space, u, ctx.q[p[:, 0]], ctx.P[p[:, 1]])
+    result.loo_residuals_px = np.full(len(result.pairs), np.nan)
+    result.loo_residuals_px[kept] = loo
+    result.loo_rmse_px = rms(loo)
 
 
 def _score(ctx, space: ParameterSpace, u, radius: float) -> float:
