@@ -7,7 +7,8 @@ Two searches propose cameras and one score judges them:
    each locally optimised on its own mutual-nearest pairs.
 
 The camera with the best consensus score (soft count of photo points explained within
-:func:`~.consensus.inlier_radius`) is refined by automatic pairing (:mod:`.pairing`), then judged
+:func:`~.consensus.inlier_radius`) is refined by automatic pairing (:mod:`.pairing`), converged on its
+mutual-nearest pairs within that radius (:func:`~.pairing.converge_on_pairs`), then judged
 (:mod:`.verdict`) on evidence that a small residual cannot fake: its inliers against the chance level of cameras
 turned away, the best clearly different competing camera, the spread of the inliers, the Jacobian.
 """
