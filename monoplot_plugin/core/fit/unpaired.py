@@ -138,7 +138,6 @@ def _converge(ctx, space: ParameterSpace, result: FitResult, radius: float) -> N
         result.pairs, result.inliers = pairs, np.ones(len(pairs), dtype=bool)
         result.residuals_px = space.project(u_conv, ctx.P[pairs[:, 1]])[0] - ctx.q[pairs[:, 0]]
         result.rmse_px = rmse(result.residuals_px)
-        result.std = {}  # of the camera before: the verdict computes it on the final pairs
     if not len(result.pairs):
         return
     u = space.from_camera(result.camera)
@@ -185,8 +184,12 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
     if not weak_direction_matters(result.camera, weakest):
         cond = 1.0
     # σ: the covariance of the final pairs, widened by a bootstrap over them when that is larger (a few wrong
-    # automatic pairs widen the bootstrap, not the covariance).
-    std = dict(result.std) if result.std else (parameter_std(ctx, space, u, q_in, P_in) if len(pairs) else {})
+    # automatic pairs widen the bootstrap, not the covariance), and by the automatic pairing's covariance (its
+    # gate follows the residuals: where the inlier radius is smaller than the noise, the pairs within the radius
+    # have truncated residuals and too small a covariance).
+    std = parameter_std(ctx, space, u, q_in, P_in) if len(pairs) else {}
+    for name, value in (result.std or {}).items():
+        std[name] = max(std.get(name, 0.0), value)
     boot = bootstrap_std(ctx, space, u, q_in, P_in, ctx.options.bootstrap) if len(pairs) else {}
     for name, value in boot.items():
         std[name] = max(std.get(name, 0.0), value)
