@@ -33,7 +33,7 @@ from .verdict import judge, photo_spread, weak_direction_matters, weakest_parame
 __all__ = ["fit_unpaired", "AUTOMATIC_PAIRS_WIDENING"]
 
 #: Factor on the σ of an unpaired fit (see :func:`_judge_unpaired`).
-AUTOMATIC_PAIRS_WIDENING = 1.3
+AUTOMATIC_PAIRS_WIDENING = 1.4
 
 
 def fit_unpaired(ctx) -> FitResult:
@@ -193,9 +193,10 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
     boot = bootstrap_std(ctx, space, u, q_in, P_in, ctx.options.bootstrap) if len(pairs) else {}
     for name, value in boot.items():
         std[name] = max(std.get(name, 0.0), value)
-    # The pairs were chosen by the fit itself (mutual nearest within a radius, outliers cut at 3 sigma), which
-    # trims the residuals the covariance is scaled by: widen by AUTOMATIC_PAIRS_WIDENING (measured on the synthetic
-    # suite, the true camera then lies within 2 sigma in every parameter at once in about 9 fits of 10).
+    # The pairs were chosen by the fit itself (mutual nearest within a radius), which trims the residuals the
+    # covariance is scaled by, and a coarse DEM's height errors are systematic, not noise: widen by
+    # AUTOMATIC_PAIRS_WIDENING (measured on the synthetic suite, 2026-12-02, after the converging step: with 1.3 the
+    # true camera lay within 2 sigma in every parameter at once in 0.899 of the successes, with 1.4 in 0.918).
     result.std = {name: AUTOMATIC_PAIRS_WIDENING * value for name, value in std.items()}
     used = result.inliers.sum() if len(result.inliers) else 0
     evidence = {"mode": "unpaired", "n_free": len(ctx.free), "diag": ctx.diag, "n_photo": len(ctx.q),
