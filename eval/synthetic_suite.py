@@ -46,9 +46,9 @@ the targets. Per-scene records (parameters, status, message, success, errors) go
 ``test-artifacts/synthetic_suite.jsonl`` (``--records``).
 
 Run: ``.venv/bin/python -m eval.synthetic_suite [--scenes 200] [--seed 0] [--jobs 2] [--only wrong60,range3]
-[--scene u17]``. ``--only`` keeps the scenes having all the given tags (``unpaired paired degenerate``, ``range0-3
-fov0-2 count0-3 wrong0 wrong10 ... wrong60 prior0-3 noise0-2 cell0-2``); ``--scene`` runs one scene by id (same
-``--scenes`` and ``--seed``) and prints its record.
+[--scene u17,u42]``. ``--only`` keeps the scenes having all the given tags (``unpaired paired degenerate``, ``range0-3
+fov0-2 count0-3 wrong0 wrong10 ... wrong60 prior0-3 noise0-2 cell0-2``); ``--scene`` runs scenes by id (same
+``--scenes`` and ``--seed``) and prints their records.
 """
 
 from __future__ import annotations
@@ -535,13 +535,15 @@ def main(argv=None) -> int:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--only", default="", help="comma-separated tags, all required (e.g. wrong60,range3)")
-    parser.add_argument("--scene", default="", help="one scene id (e.g. u17, p3, d2): print its record")
+    parser.add_argument("--scene", default="", help="scene ids, comma-separated (e.g. u17,p3,d2): print their "
+                        "records")
     parser.add_argument("--records", default=str(REPO / "test-artifacts" / "synthetic_suite.jsonl"))
     args = parser.parse_args(argv)
     _init_worker()
     specs = make_specs(args.scenes, args.seed)
     if args.scene:
-        specs = [s for s in specs if s["id"] == args.scene]
+        wanted = set(args.scene.split(","))
+        specs = [s for s in specs if s["id"] in wanted]
     only = set(filter(None, args.only.split(",")))
     specs = [s for s in specs if only <= set(s["tags"])]
     if not specs:
@@ -564,7 +566,8 @@ def main(argv=None) -> int:
     records.sort(key=lambda r: [s["id"] for s in specs].index(r["id"]))
     runtime = time.perf_counter() - t0
     if args.scene:
-        print(json.dumps(records[0]))
+        for r in records:
+            print(json.dumps(r))
         return 0
     path = Path(args.records)
     path.parent.mkdir(parents=True, exist_ok=True)

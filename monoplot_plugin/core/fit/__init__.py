@@ -26,7 +26,10 @@ Then, beyond the paper (the package's modules):
    starts around the initial camera (heading, pitch, field of view, position) are tried and the best kept (judged by
    a truncated nearest-distance score, robust to unmatched points);
 2. automatic pairing: mutual nearest neighbours within a gate, refined by robust least squares (``soft_l1`` loss)
-   with outlier rejection, re-paired until the pairs stop changing;
+   with outlier rejection, re-paired until the pairs stop changing; in unpaired mode the camera then converges on
+   every mutual-nearest pair within the consensus inlier radius (Cauchy loss at that scale,
+   :func:`~.pairing.converge_on_pairs`): cutting the pairs at a few σ biased it where a coarse DEM gives true pairs
+   a long tail of residuals;
 3. paired mode (``pairs`` given): PnP / DLT starts, then Levenberg-Marquardt;
 4. any subset of parameters free (``free``), others kept from ``initial``;
 5. camera on the ground (``ground`` callable or :class:`~monoplot_plugin.core.dem.Dem`): ``z`` is the terrain

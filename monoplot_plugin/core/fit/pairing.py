@@ -12,10 +12,11 @@ from .lsq import leave_one_out, least_squares, parameter_std
 from .params import ParameterSpace
 from .result import FitResult, rmse, rms
 
-__all__ = ["refine_by_pairs"]
+__all__ = ["refine_by_pairs", "converge_on_pairs"]
 
 
-def refine_by_pairs(ctx, space: ParameterSpace, u, gate_px: Optional[float]) -> Optional[FitResult]:
+def refine_by_pairs(ctx, space: ParameterSpace, u, gate_px: Optional[float],
+                    with_loo: bool = True) -> Optional[FitResult]:
     """Mutual-nearest-neighbour pairs within a gate, robust least squares, outlier rejection, re-pairing.
 
     The refined camera is kept only if it fits the whole point sets (truncated two-sided Chamfer distance) at
@@ -81,7 +82,7 @@ def refine_by_pairs(ctx, space: ParameterSpace, u, gate_px: Optional[float]) -> 
     inliers = r <= 3.0 * sigma
     qi, Pi = q[inliers], P[inliers]
     std = parameter_std(ctx, space, u, qi, Pi)
-    loo = leave_one_out(ctx, space, u, qi, Pi)
+    loo = leave_one_out(ctx, space, u, qi, Pi) if with_loo else np.full(len(qi), np.nan)
     loo_all = np.full(len(pairs), np.nan)
     loo_all[inliers] = loo
     rmse_px = rmse(residuals[inliers])
@@ -93,3 +94,37 @@ def refine_by_pairs(ctx, space: ParameterSpace, u, gate_px: Optional[float]) -> 
                    "two-sided fit, which was kept (the automatic pairs are probably not exact correspondences).")
     return FitResult(camera, "ok", message, "unpaired", ctx.free, rmse_px, pairs, residuals, inliers, nearest,
                      std, rms(loo), loo_all, loss_history=ctx.history, n_starts=ctx.starts_tried)
+
+
+
+def converge_on_pairs(ctx, space: ParameterSpace, u, radius: float, rounds: int = 8):
+    """The last refinement of an unpaired fit: least squares on the camera's mutual-nearest pairs within the
+    inlier ``radius``, re-paired until the pairs no longer change.
+
+    Every pair within the radius takes part, with a Cauchy loss whose scale is the radius itself: nearly plain least
+    squares for the residuals of true pairs, less pull from a wrong pair near the radius. Cutting the pairs at a
+    few σ of their residuals (as the automatic pairing does) was measured to leave the camera 1.5-2 x farther from
+    the paired optimum on the synthetic suite: a coarse DEM's height errors give true pairs a long tail of
+    residuals, and dropping that tail biases the camera.
+
+    Returns:
+        (u, pairs): the refined vector and the (K, 2) final pairs; ``(u, None)`` when too few pairs form.
+    """
+    u = np.asarray(u, dtype=np.float64).copy()
+    min_pairs = len(space.names) // 2 + 2
+    pairs = None
+    for _ in range(rounds):
+        ctx.poll()
+        uv, usable = ctx.project_usable(space, u)
+        new_pairs = mutual_nearest_pairs(ctx.q, uv, usable, radius)
+        if len(new_pairs) < min_pairs:
+            break
+        if pairs is not None and len(new_pairs) == len(pairs) and (new_pairs == pairs).all():
+            break
+        try:
+            u_new, _ = least_squares(ctx, space, u, ctx.q[new_pairs[:, 0]], ctx.P[new_pairs[:, 1]], loss="cauchy",
+                                     f_scale=float(radius), max_nfev=50 * (len(u) + 1))
+        except (ValueError, np.linalg.LinAlgError):
+            break
+        pairs, u = new_pairs, u_new
+    return u, pairs

@@ -7,7 +7,8 @@ Two searches propose cameras and one score judges them:
    each locally optimised on its own mutual-nearest pairs.
 
 The camera with the best consensus score (soft count of photo points explained within
-:func:`~.consensus.inlier_radius`) is refined by automatic pairing (:mod:`.pairing`), then judged
+:func:`~.consensus.inlier_radius`) is refined by automatic pairing (:mod:`.pairing`), converged on its
+mutual-nearest pairs within that radius (:func:`~.pairing.converge_on_pairs`), then judged
 (:mod:`.verdict`) on evidence that a small residual cannot fake: its inliers against the chance level of cameras
 turned away, the best clearly different competing camera, the spread of the inliers, the Jacobian.
 """
@@ -23,8 +24,8 @@ from .consensus import (_gates, chance_inliers, consensus_score, hypotheses, inl
                         local_optimise, position_hypotheses, prior_penalty, shift_hypotheses)
 from .descent import descend_from_prior
 from .losses import nearest_distances
-from .lsq import bootstrap_std, jacobian, parameter_std
-from .pairing import refine_by_pairs
+from .lsq import bootstrap_std, jacobian, leave_one_out, parameter_std
+from .pairing import converge_on_pairs, refine_by_pairs
 from .params import ParameterSpace
 from .result import FitResult, rms, rmse
 from .verdict import judge, photo_spread, weak_direction_matters, weakest_parameter
@@ -32,7 +33,7 @@ from .verdict import judge, photo_spread, weak_direction_matters, weakest_parame
 __all__ = ["fit_unpaired", "AUTOMATIC_PAIRS_WIDENING"]
 
 #: Factor on the σ of an unpaired fit (see :func:`_judge_unpaired`).
-AUTOMATIC_PAIRS_WIDENING = 1.3
+AUTOMATIC_PAIRS_WIDENING = 1.4
 
 
 def fit_unpaired(ctx) -> FitResult:
@@ -98,7 +99,7 @@ def _fit_unpaired(ctx) -> FitResult:
     result = None
     if opts.refine:
         ctx.report(0.95, "unpaired fit: automatic pairing and robust refinement")
-        result = refine_by_pairs(ctx, space, u, opts.gate_px)
+        result = refine_by_pairs(ctx, space, u, opts.gate_px, with_loo=False)
         # Polish: least squares on the camera's own tight inliers (the gate shrinks with the residuals down to 2 px),
         # kept when it explains the points at least as well; the automatic pairing's gate can be wide.
         if result is not None:
@@ -111,6 +112,7 @@ def _fit_unpaired(ctx) -> FitResult:
                     result.residuals_px = space.project(u_pol, ctx.P[p[:, 1]])[0] - ctx.q[p[:, 0]]
                     kept = result.inliers if len(result.inliers) == len(p) else np.ones(len(p), dtype=bool)
                     result.rmse_px = rmse(result.residuals_px[kept])
+            _converge(ctx, space, result, radius)
     if result is None:
         uv, usable = ctx.project_usable(space, u)
         nearest = nearest_distances(ctx.q, uv, usable)
@@ -123,6 +125,28 @@ def _fit_unpaired(ctx) -> FitResult:
     result.loss_history = ctx.history
     _judge_unpaired(ctx, space, result, candidates, radius, chosen[2], sigmas)
     return result
+
+
+def _converge(ctx, space: ParameterSpace, result: FitResult, radius: float) -> None:
+    """Last step (:func:`~.pairing.converge_on_pairs`), kept when its camera explains the points as well (consensus
+    score within 1 %); the result's pairs, residuals and RMSE become the converged ones. The leave-one-out check is
+    made here, on the final pairs, so that it judges the same pairs as the RMSE."""
+    u_res = space.from_camera(result.camera)
+    u_conv, pairs = converge_on_pairs(ctx, space, u_res, radius)
+    if pairs is not None and _score(ctx, space, u_conv, radius) >= 0.99 * _score(ctx, space, u_res, radius):
+        result.camera = space.camera(u_conv)
+        result.pairs, result.inliers = pairs, np.ones(len(pairs), dtype=bool)
+        result.residuals_px = space.project(u_conv, ctx.P[pairs[:, 1]])[0] - ctx.q[pairs[:, 0]]
+        result.rmse_px = rmse(result.residuals_px)
+    if not len(result.pairs):
+        return
+    u = space.from_camera(result.camera)
+    kept = result.inliers if len(result.inliers) == len(result.pairs) else np.ones(len(result.pairs), dtype=bool)
+    p = result.pairs[kept]
+    loo = leave_one_out(ctx, space, u, ctx.q[p[:, 0]], ctx.P[p[:, 1]])
+    result.loo_residuals_px = np.full(len(result.pairs), np.nan)
+    result.loo_residuals_px[kept] = loo
+    result.loo_rmse_px = rms(loo)
 
 
 def _score(ctx, space: ParameterSpace, u, radius: float) -> float:
@@ -160,14 +184,19 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
     if not weak_direction_matters(result.camera, weakest):
         cond = 1.0
     # σ: the covariance of the final pairs, widened by a bootstrap over them when that is larger (a few wrong
-    # automatic pairs widen the bootstrap, not the covariance).
-    std = dict(result.std) if result.std else (parameter_std(ctx, space, u, q_in, P_in) if len(pairs) else {})
+    # automatic pairs widen the bootstrap, not the covariance), and by the automatic pairing's covariance (its
+    # gate follows the residuals: where the inlier radius is smaller than the noise, the pairs within the radius
+    # have truncated residuals and too small a covariance).
+    std = parameter_std(ctx, space, u, q_in, P_in) if len(pairs) else {}
+    for name, value in (result.std or {}).items():
+        std[name] = max(std.get(name, 0.0), value)
     boot = bootstrap_std(ctx, space, u, q_in, P_in, ctx.options.bootstrap) if len(pairs) else {}
     for name, value in boot.items():
         std[name] = max(std.get(name, 0.0), value)
-    # The pairs were chosen by the fit itself (mutual nearest within a radius, outliers cut at 3 sigma), which
-    # trims the residuals the covariance is scaled by: widen by AUTOMATIC_PAIRS_WIDENING (measured on the synthetic
-    # suite, the true camera then lies within 2 sigma in every parameter at once in about 9 fits of 10).
+    # The pairs were chosen by the fit itself (mutual nearest within a radius), which trims the residuals the
+    # covariance is scaled by, and a coarse DEM's height errors are systematic, not noise: widen by
+    # AUTOMATIC_PAIRS_WIDENING (measured on the synthetic suite, 2026-12-02, after the converging step: with 1.3 the
+    # true camera lay within 2 sigma in every parameter at once in 0.899 of the successes, with 1.4 in 0.918).
     result.std = {name: AUTOMATIC_PAIRS_WIDENING * value for name, value in std.items()}
     used = result.inliers.sum() if len(result.inliers) else 0
     evidence = {"mode": "unpaired", "n_free": len(ctx.free), "diag": ctx.diag, "n_photo": len(ctx.q),
