@@ -53,6 +53,8 @@ class CurationPanel(QWidget):
         self.c = c = dock.controller
         self.refitter = Refitter(c, parent=self)
         self.refit_info = ""
+        #: status of the camera the likely pairs come from ("ok", "uncertain", "rough" for the prior, "" for none)
+        self.ranking_status = ""
 
         def button(text, tip, slot):
             b = QToolButton(self)
@@ -215,10 +217,13 @@ class CurationPanel(QWidget):
             camera, sigma = c.fitted, sigma_of(float(info.get("rmse_px") or float("nan")))
             self.refit_info = self.tr("fit, {0:.1f} px").format(info["rmse_px"]) if info.get("rmse_px") else \
                 self.tr("fit")
+            self.ranking_status = str(info.get("status", ""))
         elif c.prior is not None:
             camera, sigma, self.refit_info = c.prior, PRIOR_SIGMA_PX, self.tr("rough camera")
+            self.ranking_status = "rough"
         else:
             camera, sigma, self.refit_info = None, PRIOR_SIGMA_PX, ""
+            self.ranking_status = ""
         key = (c.state.fitted, c.state.prior)
         if key != getattr(self, "_camera_key", None):  # cameraChanged also fires for the overlay, the photo...
             self._camera_key = key
@@ -241,6 +246,7 @@ class CurationPanel(QWidget):
         sl.set_outliers(outcome.outlier_ids)
         if outcome.rec is not None:
             sl.set_camera(outcome.camera, outcome.sigma, outcome.rec)
+            self.ranking_status = outcome.status
             self.refit_info = self.tr("refit, {0:.1f} px ({1})").format(outcome.rmse_px, self.tr(outcome.status))
         else:
             # no camera to rank by yet: say what to do next rather than how the ranking was computed
@@ -252,7 +258,15 @@ class CurationPanel(QWidget):
         sl = self.c.shortlist
         n_out = len(sl.current_outliers())
         n_likely = len(sl.likely())
-        self.acceptLikelyButton.setEnabled(n_likely > 0)
+        # The machine accepts points only on the word of a camera its verdict calls ok: pairs that agree with a
+        # doubtful camera confirm it (the scripted Aletsch user ended "ok" 1.9x the paired optimum that way).
+        trusted = self.ranking_status == "ok"
+        self.acceptLikelyButton.setEnabled(n_likely > 0 and trusted)
+        self.acceptLikelyButton.setToolTip(
+            self.tr("Accept both ends of every linked pair (a photo suggestion and a DEM suggestion the current "
+                    "camera puts close together)") if trusted or not n_likely else
+            self.tr("The current camera is not yet ok ({0}): its links are shown, but judge a few more points "
+                    "yourself before accepting them all").format(self.tr(self.ranking_status or "none")))
         self.acceptLikelyButton.setText(self.tr("Accept likely ({0})").format(n_likely) if n_likely
                                         else self.tr("Accept likely"))
         self.rejectOutliersButton.setEnabled(n_out > 0)

@@ -106,6 +106,18 @@ def test_messages_show_once_and_the_status_line_follows_the_state(dock, scene, q
     assert dock.statusLabel.text() == ""  # the message was about the state before this edit
 
 
+def test_accept_likely_waits_for_a_camera_the_verdict_calls_ok(dock, scene, qtbot):
+    """Under the rough camera (here the hidden camera itself, given as the prior: every shown pair is linked) the
+    links show, but the machine does not accept them in bulk until a fit or refit says ok."""
+    load_inputs(dock, scene, qtbot)
+    c, panel = dock.controller, dock.curation_panel
+    add_scene_points(dock, scene)
+    c.set_prior(scene.camera)
+    qtbot.waitUntil(lambda: len(c.shortlist.likely()) >= 10, timeout=10000)
+    assert not panel.acceptLikelyButton.isEnabled()
+    assert "not yet ok" in panel.acceptLikelyButton.toolTip()
+
+
 def test_background_refit_links_likely_pairs_and_flags_outliers(dock, scene, qtbot):
     load_inputs(dock, scene, qtbot)
     c, panel = dock.controller, dock.curation_panel
