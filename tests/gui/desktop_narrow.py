@@ -7,36 +7,21 @@ Not a pytest module: run with
 MONOPLOT_DOCK_WIDTH: 390 by default). Writes test-artifacts/narrow_*.png and narrow_session.json.
 """
 
-import json
 import os
 import sys
 import traceback
-from pathlib import Path
 
 import qgis.utils
 from qgis.core import QgsApplication, QgsCoordinateReferenceSystem, QgsProject, QgsRasterLayer
 from qgis.PyQt.QtCore import Qt, QTimer
 
-ROOT = Path(os.environ["MONOPLOT_REPO"])
-DATA = ROOT.parent / "shared" / "data" / "aletsch"
-OUT = ROOT / "test-artifacts"
-OUT.mkdir(exist_ok=True)
-sys.path.insert(0, str(ROOT))
+sys.path.insert(0, os.path.join(os.environ["MONOPLOT_REPO"], "tests", "gui"))
+from desktop_kit import DATA, DesktopSession  # noqa: E402
+
 WIDTH = int(os.environ.get("MONOPLOT_DOCK_WIDTH", "390"))
 iface = qgis.utils.iface
-report = {"steps": [], "errors": [], "dock_width": WIDTH}
-
-
-def shot(name, widget=None):
-    QgsApplication.processEvents()
-    (widget or iface.mainWindow()).grab().save(str(OUT / name))
-    report["steps"].append(name)
-
-
-def finish():
-    (OUT / "narrow_session.json").write_text(json.dumps(report, indent=1))
-    QgsProject.instance().setDirty(False)
-    QTimer.singleShot(300, lambda: os._exit(0))
+session = DesktopSession("narrow", dock_width=WIDTH)
+report, shot, finish, guarded = session.report, session.shot, session.finish, session.guarded
 
 
 def widths(layout):

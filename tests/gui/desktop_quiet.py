@@ -8,50 +8,23 @@ Not a pytest module: run with
 MONOPLOT_DOCK_WIDTH: the dock's width, 580 by default). Writes test-artifacts/quiet_*.png and quiet_session.json.
 """
 
-import json
 import os
 import sys
 import time
-import traceback
-from pathlib import Path
 
 import qgis.utils
 from qgis.core import QgsApplication, QgsCoordinateReferenceSystem, QgsProject, QgsRasterLayer
 from qgis.PyQt.QtCore import Qt, QTimer
 from qgis.PyQt.QtWidgets import QDockWidget, QLabel, QTabWidget, QToolButton
 
-ROOT = Path(os.environ["MONOPLOT_REPO"])
-DATA = ROOT.parent / "shared" / "data" / "aletsch"
-OUT = ROOT / "test-artifacts"
-OUT.mkdir(exist_ok=True)
-sys.path.insert(0, str(ROOT))
+sys.path.insert(0, os.path.join(os.environ["MONOPLOT_REPO"], "tests", "gui"))
+from desktop_kit import DATA, DesktopSession  # noqa: E402
+
 WIDTH = int(os.environ.get("MONOPLOT_DOCK_WIDTH", "580"))
 iface = qgis.utils.iface
-report = {"steps": [], "errors": [], "dock_width": WIDTH}
+session = DesktopSession("quiet", dock_width=WIDTH)
+report, shot, finish, guarded = session.report, session.shot, session.finish, session.guarded
 state = {}
-
-
-def shot(name, widget=None):
-    QgsApplication.processEvents()
-    (widget or iface.mainWindow()).grab().save(str(OUT / name))
-    report["steps"].append(name)
-
-
-def finish():
-    (OUT / "quiet_session.json").write_text(json.dumps(report, indent=1))
-    QgsProject.instance().setDirty(False)
-    QTimer.singleShot(300, lambda: os._exit(0))
-
-
-def guarded(fn):
-    def run(*args):
-        try:
-            fn(*args)
-        except Exception:  # noqa: BLE001
-            report["errors"].append(traceback.format_exc())
-            print(traceback.format_exc(), flush=True)
-            finish()
-    return run
 
 
 def bar_texts():
