@@ -144,7 +144,8 @@ def run(data: Path, n_suggest: int, max_clicks: int, good_sigma: float, likely_r
         if sl.current_outliers():
             person.press(panel.rejectOutliersButton, "reject_outliers")
             continue
-        if likely_rounds and not judge_first and panel.refit_info.startswith("refit") and \
+        # a person presses "Accept likely" only when the dock offers it (enabled: a refit the verdict calls ok)
+        if likely_rounds and not judge_first and panel.acceptLikelyButton.isEnabled() and \
                 sl.sigma <= good_sigma and len(sl.likely()) >= 10:
             break
         if not sl.shown_undecided():
