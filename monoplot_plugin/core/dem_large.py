@@ -44,10 +44,10 @@ from typing import Callable, List, Optional, Tuple
 import numpy as np
 
 from .dem import Dem
-from .dem_window import DemSource, as_dem, open_dem_source
+from .dem_window import DemSource, as_dem, missing_overviews, open_dem_source
 
-__all__ = ["LargeDem", "open_dem", "in_memory_limit", "is_large", "PREVIEW_CELLS", "DEM_BYTES_PER_CELL",
-           "PRODUCT_LOD"]
+__all__ = ["LargeDem", "open_dem", "read_by_windows", "overviews_to_build", "in_memory_limit", "is_large",
+           "PREVIEW_CELLS", "DEM_BYTES_PER_CELL", "PRODUCT_LOD"]
 
 logger = logging.getLogger("monoplot")
 
@@ -148,22 +148,39 @@ def _geographic(path: str) -> bool:
     return bool(wkt) and srs.ImportFromWkt(wkt) == 0 and bool(srs.IsGeographic())
 
 
-def open_dem(path: str, void_value: Optional[float] = None, progress: Optional[Progress] = None,
-             max_cells: Optional[int] = None) -> Tuple[Dem, List[str]]:
-    """(Dem, notes for the user) of a DEM file: read whole when it has at most ``max_cells`` cells (default
-    :func:`in_memory_limit`) or is in geographic degrees (reprojected whole, see :meth:`Dem.open`), else a
-    :class:`LargeDem` (its overviews built first when missing, with ``progress(fraction, message)``; the notes say
-    so)."""
+def _cells(path: str) -> int:
     from osgeo import gdal
 
     gdal.UseExceptions()
     ds = gdal.Open(str(path))
-    cells = ds.RasterXSize * ds.RasterYSize
-    ds = None
+    return ds.RasterXSize * ds.RasterYSize
+
+
+def read_by_windows(path: str, max_cells: Optional[int] = None) -> bool:
+    """True when :func:`open_dem` opens the DEM file as a :class:`LargeDem` (more cells than ``max_cells``,
+    default :func:`in_memory_limit`, and not in degrees)."""
     limit = in_memory_limit() if max_cells is None else int(max_cells)
-    if cells <= limit or _geographic(path):
+    return _cells(path) > limit and not _geographic(path)
+
+
+def overviews_to_build(path: str, max_cells: Optional[int] = None) -> List[int]:
+    """The overview factors :func:`open_dem` would build first ([] = it opens the file at once): for the dock,
+    which then opens it in a task with progress and Cancel rather than freezing QGIS for minutes."""
+    return missing_overviews(path) if read_by_windows(path, max_cells) else []
+
+
+def open_dem(path: str, void_value: Optional[float] = None, progress: Optional[Progress] = None,
+             max_cells: Optional[int] = None,
+             is_canceled: Optional[Callable[[], bool]] = None) -> Tuple[Dem, List[str]]:
+    """(Dem, notes for the user) of a DEM file: read whole when it has at most ``max_cells`` cells (default
+    :func:`in_memory_limit`) or is in geographic degrees (reprojected whole, see :meth:`Dem.open`), else a
+    :class:`LargeDem` (its overviews built first when missing, with ``progress(fraction, message)``; the notes say
+    so; :class:`~.dem_window.OverviewsCanceled` when ``is_canceled()`` turns true while they are built)."""
+    cells = _cells(path)
+    limit = in_memory_limit() if max_cells is None else int(max_cells)
+    if not read_by_windows(path, limit):
         return Dem.open(path, void_value=void_value), []
-    source, notes = open_dem_source(str(path), progress, void_value=void_value)
+    source, notes = open_dem_source(str(path), progress, void_value=void_value, is_canceled=is_canceled)
     preview = as_dem(source, max_cells=min(PREVIEW_CELLS, limit // 4))
     factor = int(round(source.shape[1] / max(1, preview.cols)))
     dem = LargeDem(preview.elevation, preview.geotransform, preview.crs_wkt, window=(0, 0),

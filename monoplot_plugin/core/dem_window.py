@@ -44,7 +44,8 @@ import numpy as np
 from .dem import Dem, _wkt_or_empty, mark_voids
 from .dem_window_view import view_footprint, view_window
 
-__all__ = ["DemSource", "DemBand", "as_dem", "open_dem_source", "build_overviews", "overview_factors",
+__all__ = ["DemSource", "DemBand", "as_dem", "open_dem_source", "build_overviews", "missing_overviews",
+           "OverviewsCanceled", "overview_factors",
            "footprint_spans", "LOD_OVERLAP"]
 
 logger = logging.getLogger("monoplot")
@@ -84,30 +85,61 @@ def overview_factors(size: Tuple[int, int], min_size: int = 256) -> List[int]:
     return factors
 
 
-def build_overviews(path: str, progress: Optional[Progress] = None, min_size: int = 256,
-                    resampling: str = "AVERAGE") -> List[int]:
-    """Build the missing GDAL overviews of a DEM file (2, 4, ... down to ``min_size`` cells), as an external
-    ``.ovr`` beside it (the DEM itself is not modified); ``progress(fraction, message)`` as they are computed.
-    Returns the factors built ([] when the file has them already or is too small); says so on the log."""
+class OverviewsCanceled(Exception):
+    """The person canceled while the overviews were built (the partial ``.ovr`` file was removed)."""
+
+
+def missing_overviews(path: str, min_size: int = 256) -> List[int]:
+    """The overview factors :func:`build_overviews` would build for the DEM file at ``path`` ([] = none)."""
     from osgeo import gdal
 
     gdal.UseExceptions()
     ds = gdal.Open(str(path), gdal.GA_ReadOnly)
     band = ds.GetRasterBand(1)
     have = {round(ds.RasterXSize / band.GetOverview(i).XSize) for i in range(band.GetOverviewCount())}
-    factors = [f for f in overview_factors((ds.RasterYSize, ds.RasterXSize), min_size) if f not in have]
+    return [f for f in overview_factors((ds.RasterYSize, ds.RasterXSize), min_size) if f not in have]
+
+
+def build_overviews(path: str, progress: Optional[Progress] = None, min_size: int = 256,
+                    resampling: str = "AVERAGE", is_canceled: Optional[Callable[[], bool]] = None) -> List[int]:
+    """Build the missing GDAL overviews of a DEM file (2, 4, ... down to ``min_size`` cells), as an external
+    ``.ovr`` beside it (the DEM itself is not modified); ``progress(fraction, message)`` as they are computed.
+    Returns the factors built ([] when the file has them already or is too small); says so on the log.
+
+    Raises :class:`OverviewsCanceled` when ``is_canceled()`` turns true; a ``.ovr`` file this call started is then
+    removed, so that a half-written one never serves as the DEM's far terrain."""
+    from osgeo import gdal
+
+    gdal.UseExceptions()
+    factors = missing_overviews(path, min_size)
     if not factors:
         return []
     message = f"building overviews {factors} of the DEM {os.path.basename(str(path))} (once; saved beside it)"
     logger.info("%s", message)
+    ovr = str(path) + ".ovr"
+    existed = os.path.exists(ovr)
+    canceled = []
 
     def callback(fraction, _msg, _data):
+        if is_canceled is not None and is_canceled():
+            canceled.append(True)
+            return 0  # GDAL stops and raises
         if progress is not None:
             progress(float(fraction), message)
         return 1
 
-    ds.BuildOverviews(resampling, factors, callback=callback)
-    ds = None
+    ds = gdal.Open(str(path), gdal.GA_ReadOnly)
+    try:
+        ds.BuildOverviews(resampling, factors, callback=callback)
+    except RuntimeError:
+        if not canceled:
+            raise
+    finally:
+        ds = None
+    if canceled:
+        if not existed and os.path.exists(ovr):
+            os.remove(ovr)
+        raise OverviewsCanceled("canceled while building the DEM's overviews")
     return factors
 
 
@@ -131,14 +163,16 @@ def as_dem(dem, camera=None, max_range: Optional[float] = None, max_cells: float
 
 
 def open_dem_source(path: str, progress: Optional[Progress] = None, build: bool = True,
-                    void_value: Optional[float] = None) -> Tuple["DemSource", List[str]]:
+                    void_value: Optional[float] = None,
+                    is_canceled: Optional[Callable[[], bool]] = None) -> Tuple["DemSource", List[str]]:
     """(DemSource, notes for the user) of a large DEM file: its overviews are built first when it has none (with
-    ``progress``, and a note that says so); a DEM folder that cannot be written to is noted (far terrain is then
-    decimated as it is read, which is slower)."""
+    ``progress``, and a note that says so; :class:`OverviewsCanceled` when ``is_canceled()`` turns true meanwhile);
+    a DEM folder that cannot be written to is noted (far terrain is then decimated as it is read, which is
+    slower)."""
     notes: List[str] = []
     if build:
         try:
-            built = build_overviews(path, progress)
+            built = build_overviews(path, progress, is_canceled=is_canceled)
         except RuntimeError as exc:
             notes.append(f"could not build overviews of {os.path.basename(path)} ({str(exc).strip()}): far terrain "
                          f"is decimated as it is read, which is slower")
@@ -180,6 +214,11 @@ class DemSource:
         self._overviews = {max(1, round(self.shape[1] / b.XSize)): b for b in overviews}
         self.levels = [1] + sorted(f for f in self._overviews if f > 1)
         self.zmin, self.zmax = self._height_range()
+
+    def close(self) -> None:
+        """Release the GDAL file now, overview bands first (an application that quits frees GDAL before Python's
+        last objects: a dataset still open then crashed QGIS on exit)."""
+        self._overviews, self._band, self._ds = {}, None, None
 
     def __getstate__(self):  # GDAL handles do not pickle: a copy (a Dask worker's) reopens the file
         return {"path": self.path, "void_value": self.void_value, "sentinels": self.sentinels}

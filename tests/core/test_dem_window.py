@@ -8,7 +8,8 @@ import pytest
 
 from monoplot_plugin.core.camera import Camera
 from monoplot_plugin.core.dem import Dem
-from monoplot_plugin.core.dem_window import DemSource, build_overviews, footprint_spans, open_dem_source
+from monoplot_plugin.core.dem_window import (DemSource, OverviewsCanceled, build_overviews, footprint_spans,
+                                             missing_overviews, open_dem_source)
 from monoplot_plugin.core.synthetic import synthetic_terrain
 from monoplot_plugin.core.xyz import compute_xyz, compute_xyz_full
 from monoplot_plugin.core.xyz_lod import compute_xyz_lod
@@ -128,6 +129,25 @@ def test_geographic_dem_is_refused(tmp_path):
     Dem.from_array(np.ones((10, 10)), (8.0, 0.001, 0, 46.0, 0, -0.001), "EPSG:4326").save(path)
     with pytest.raises(ValueError, match="geographic"):
         DemSource(path)
+
+
+def test_a_canceled_overview_build_leaves_no_half_written_file(tmp_path):
+    path = str(tmp_path / "dem.tif")
+    synthetic_terrain((600, 600), cell=10.0, seed=2).save(path)
+    assert missing_overviews(path) == [2]
+    calls = []
+
+    def cancel_after_the_first_report():
+        calls.append(1)
+        return len(calls) > 1
+
+    with pytest.raises(OverviewsCanceled):
+        build_overviews(path, is_canceled=cancel_after_the_first_report)
+    assert not os.path.exists(path + ".ovr") and missing_overviews(path) == [2]
+    assert DemSource(path).levels == [1]
+    with pytest.raises(OverviewsCanceled):  # open_dem_source passes the cancel on instead of noting a failure
+        open_dem_source(path, is_canceled=lambda: True)
+    assert build_overviews(path) == [2] and missing_overviews(path) == []
 
 
 def test_open_dem_source_builds_overviews_once_and_says_so(tmp_path):
