@@ -19,19 +19,25 @@ from qgis.core import QgsRasterLayer
 
 from ..core.dem import Dem, zero_voids  # noqa: F401 (zero_voids: re-exported)
 
-__all__ = ["DemError", "read_dem_layer", "read_dem_file", "zero_voids"]
+__all__ = ["DemError", "dem_layer_path", "overviews_to_build", "read_dem_layer", "read_dem_file", "zero_voids"]
 
 
 class DemError(ValueError):
     """The layer cannot serve as a DEM (the message is meant for the user)."""
 
 
-def read_dem_file(path: str, void_value: Optional[float] = None) -> Tuple[Dem, List[str]]:
-    """(Dem, notes for the user) from a raster file; ``void_value`` = cells to treat as voids."""
+def read_dem_file(path: str, void_value: Optional[float] = None, progress=None,
+                  is_canceled=None) -> Tuple[Dem, List[str]]:
+    """(Dem, notes for the user) from a raster file; ``void_value`` = cells to treat as voids; ``progress`` and
+    ``is_canceled`` while the overviews of a DEM too large to read whole are built (core
+    :class:`~..core.dem_window.OverviewsCanceled` on a cancel)."""
     from ..core.dem_large import open_dem
+    from ..core.dem_window import OverviewsCanceled
 
     try:  # a DEM too large to read whole is opened by windows (its overviews built once, said in the notes)
-        dem, notes = open_dem(path, void_value=void_value)
+        dem, notes = open_dem(path, void_value=void_value, progress=progress, is_canceled=is_canceled)
+    except OverviewsCanceled:
+        raise
     except Exception as exc:  # GDAL errors, missing CRS...: say it in words
         raise DemError(f"cannot read the DEM {path!r}: {exc}") from exc
     if dem.source_crs_wkt:
@@ -43,11 +49,11 @@ def read_dem_file(path: str, void_value: Optional[float] = None) -> Tuple[Dem, L
     return dem, notes
 
 
-def read_dem_layer(layer: QgsRasterLayer, void_value: Optional[float] = None) -> Tuple[Dem, List[str]]:
-    """Copy a raster layer into a core Dem (first band).
+def dem_layer_path(layer: QgsRasterLayer) -> str:
+    """The file of a raster layer that can serve as the DEM.
 
     Raises:
-        DemError: invalid layer, not a GDAL raster file, no CRS, nothing valid.
+        DemError: invalid layer, not a GDAL raster file, no CRS.
     """
     if layer is None or not layer.isValid():
         raise DemError("choose a valid DEM raster layer")
@@ -55,4 +61,25 @@ def read_dem_layer(layer: QgsRasterLayer, void_value: Optional[float] = None) ->
         raise DemError(f"the DEM layer {layer.name()!r} is not a raster file (provider {layer.providerType()})")
     if not layer.crs().isValid():
         raise DemError(f"the DEM layer {layer.name()!r} has no CRS; set one in its properties")
-    return read_dem_file(layer.source().split("|")[0], void_value)
+    return layer.source().split("|")[0]
+
+
+def overviews_to_build(path: str) -> List[int]:
+    """The overviews a DEM file too large to read whole still needs before it opens (core
+    :func:`~..core.dem_large.overviews_to_build`); [] for any other file, and for one GDAL cannot read (reading it
+    then says why)."""
+    from ..core.dem_large import overviews_to_build as needed
+
+    try:
+        return needed(path)
+    except Exception:  # noqa: BLE001 (the read that follows gives the message)
+        return []
+
+
+def read_dem_layer(layer: QgsRasterLayer, void_value: Optional[float] = None) -> Tuple[Dem, List[str]]:
+    """Copy a raster layer into a core Dem (first band).
+
+    Raises:
+        DemError: invalid layer, not a GDAL raster file, no CRS, nothing valid.
+    """
+    return read_dem_file(dem_layer_path(layer), void_value)

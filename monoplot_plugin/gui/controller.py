@@ -17,11 +17,13 @@ from qgis.core import Qgis, QgsCoordinateReferenceSystem, QgsProject, QgsRasterL
 from qgis.PyQt.QtCore import QObject, QTimer, pyqtSignal
 from qgis.PyQt.QtGui import QImage
 
-from ..adapters.dem import DemError, read_dem_layer
+from ..adapters.dem import DemError, dem_layer_path, overviews_to_build, read_dem_file
 from ..adapters.photo import PhotoError, array_to_qimage, qimage_to_array, read_photo
 from ..core.camera import Camera
+from ..core.dem_window import OverviewsCanceled
 from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, replace_suggestions
 from ..workflow import warmup
+from ..workflow.progress import Canceled
 from . import engine, persistence
 from .curation import CurationMixin
 from .fit_settings import fit_arguments, height_arguments
@@ -105,8 +107,12 @@ class MonoplotController(PriorsMixin, CurationMixin, ResultsMixin, QObject):
         LOG.log(_LOG_LEVELS.get(level, logging.INFO), "%s", text)
 
     def detach(self) -> None:
-        """Stop listening to the project (the dock is going away)."""
+        """Stop listening to the project (the dock is going away); close a DEM file read by windows while GDAL is
+        still there."""
         self._autosave.stop()
+        if getattr(self.dem, "source", None) is not None:
+            self.dem.source.close()
+            self.dem = None
         if self._preparing is not None:  # no thread left importing when QGIS quits
             self._preparing.cancel()
             self._preparing.waitForFinished(30000)
@@ -170,17 +176,37 @@ class MonoplotController(PriorsMixin, CurationMixin, ResultsMixin, QObject):
         return None if self.image is None else (self.image.width(), self.image.height())
 
     def set_dem_layer(self, layer: Optional[QgsRasterLayer], void_value: Optional[float] = None) -> bool:
-        """Use ``layer`` as the DEM (its file is read into memory now)."""
+        """Use ``layer`` as the DEM (its file is read into memory now). A DEM too large to read whole whose
+        overviews are missing is opened in a task instead (building them takes minutes: progress and Cancel, QGIS
+        stays responsive); False until it is ready (``demChanged`` then)."""
         if layer is None:
             self.dem, self.dem_layer = None, None
             self.state.dem_layer_id = ""
             self.demChanged.emit()
             return False
         try:
-            dem, notes = read_dem_layer(layer, void_value)
+            path = dem_layer_path(layer)
+            if overviews_to_build(path):
+                self._open_dem_in_task(layer, path, void_value)
+                return False
+            dem, notes = read_dem_file(path, void_value)
         except DemError as exc:
             self.message.emit(str(exc), CRITICAL)
             return False
+        self._use_dem(layer, dem, notes)
+        return True
+
+    def _open_dem_in_task(self, layer: QgsRasterLayer, path: str, void_value: Optional[float]) -> None:
+        def work(progress, is_canceled):
+            try:
+                return read_dem_file(path, void_value, progress, is_canceled)
+            except OverviewsCanceled:
+                raise Canceled() from None  # the half-built .ovr was removed: the next try starts afresh
+
+        self._start("dem", self.tr("Opening the large DEM {0}").format(layer.name()), work,
+                    lambda read: self._use_dem(layer, *read))
+
+    def _use_dem(self, layer: QgsRasterLayer, dem, notes) -> None:
         self.dem, self.dem_layer = dem, layer
         # The CRS of the in-memory DEM, which all map points and cameras use: a geographic layer was reprojected
         # to UTM metres, so the layer's own CRS (degrees) would put every marker and click in the wrong place.
@@ -193,7 +219,6 @@ class MonoplotController(PriorsMixin, CurationMixin, ResultsMixin, QObject):
         self.demChanged.emit()
         self._changed()
         self._maybe_exif_prior()
-        return True
 
     # --- background work --------------------------------------------------------------------------------------
     @property
