@@ -123,6 +123,56 @@ class LargeDem(Dem):
             return float(out.ravel()[0])
         return out.reshape(np.shape(col))
 
+    def refine_hits(self, origin, dirs: np.ndarray, xyz: np.ndarray, ok: np.ndarray,
+                    margin_cells: float = 4.0) -> Tuple[np.ndarray, np.ndarray]:
+        """Ray hits traced on the preview, moved onto the file's full-resolution mesh.
+
+        Each hit's ray is searched again over ``margin_cells`` preview cells either side of it, on the full
+        resolution cells around it (read block by block, as :meth:`sample`). A hit keeps its preview position when
+        the ray's start there is already under the full-resolution terrain (the true hit lies farther back, on a
+        feature the preview averaged away) or when the full resolution has no hit within the margin.
+
+        Args:
+            origin: (3,) the camera centre (map coordinates); dirs: (N, 3) unit ray directions.
+            xyz: (N, 3) hits on the preview (NaN rows: none); ok: (N,) bool, a hit.
+        Returns:
+            ((N, 3) hits, (N,) bool): the refined copy.
+        """
+        from .xyz import segment_first_hit
+
+        xyz, ok = np.array(xyz, dtype=np.float64), np.asarray(ok, dtype=bool)
+        idx = np.flatnonzero(ok)
+        if not len(idx) or self.level <= 1:
+            return xyz, ok
+        src = self.source
+        step = margin_cells * self.cell_size
+        dirs = np.broadcast_to(np.asarray(dirs, dtype=np.float64), (len(ok), 3))
+        start = xyz[idx] - step * dirs[idx]
+        end = xyz[idx] + step * dirs[idx]
+        full = Dem(np.zeros((1, 1), dtype=np.float32), src.geotransform, self.crs_wkt)
+        cols = np.stack([full.map_to_cell(p[:, 0], p[:, 1])[0] for p in (start, end)], axis=1)
+        rows = np.stack([full.map_to_cell(p[:, 0], p[:, 1])[1] for p in (start, end)], axis=1)
+        block = np.floor(rows.min(axis=1) / _SAMPLE_BLOCK) * 1e6 + np.floor(cols.min(axis=1) / _SAMPLE_BLOCK)
+        keys = np.unique(block)
+        if len(keys) > 2000:  # a great many points spread over the file: the preview's hits stay
+            return xyz, ok
+        n_rows, n_cols = src.shape
+        for k in keys:
+            sel = np.flatnonzero(block == k)
+            r0, c0 = max(0, int(rows[sel].min()) - 2), max(0, int(cols[sel].min()) - 2)
+            r1, c1 = min(n_rows, int(np.ceil(rows[sel].max())) + 3), min(n_cols, int(np.ceil(cols[sel].max())) + 3)
+            if r1 - r0 < 2 or c1 - c0 < 2:
+                continue
+            window = src.read((r0, c0, r1 - r0, c1 - c0))
+            above = start[sel, 2] > np.nan_to_num(window.sample(start[sel, 0], start[sel, 1]), nan=np.inf)
+            sel = sel[above]
+            if not len(sel):
+                continue
+            t = segment_first_hit(window, start[sel], end[sel], voids_stop=True)
+            hit = np.isfinite(t)
+            xyz[idx[sel[hit]]] = start[sel[hit]] + t[hit, None] * (end[sel[hit]] - start[sel[hit]])
+        return xyz, ok
+
 
 def in_memory_limit() -> int:
     """The most cells a DEM may have to be read whole: ``MONOPLOT_DEM_MAX_CELLS`` when set, else what the free

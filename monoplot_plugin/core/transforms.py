@@ -181,6 +181,9 @@ def photo_points_to_map(uv, cam: Camera, dem: Dem) -> Tuple[np.ndarray, np.ndarr
     s = segment_first_hit(dem, origin, targets, voids_stop=True)  # a ray meeting a void sees no ground
     ok = np.isfinite(s)
     xyz = np.where(ok[:, None], origin + dirs * (far * np.nan_to_num(s))[:, None], np.nan)
+    refine = getattr(dem, "refine_hits", None)  # a DEM read by windows: traced on its preview, then at full resolution
+    if refine is not None:
+        xyz, ok = refine(origin, dirs, xyz, ok)
     return xyz, ok
 
 

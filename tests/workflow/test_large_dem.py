@@ -136,3 +136,28 @@ def test_qgis_process_computes_xyz_over_a_large_dem(scene, tmp_path):
     assert result["results"]["GROUND_FRACTION"] == pytest.approx(np.isfinite(reference).mean(), abs=0.01)
     both = np.isfinite(reference) & np.isfinite(z) & (z > -1e30)
     assert np.median(np.abs(z[both] - reference[both])) < 1.0
+
+
+def test_photo_points_on_a_large_dem_hit_the_full_resolution(scene, limit):
+    """Features drawn on the photo (the dock's digitising, ``phototomap``) land on the file's full-resolution mesh,
+    not on the preview's coarser one."""
+    from monoplot_plugin.core.transforms import photo_points_to_map
+    from monoplot_plugin.workflow.vectors import photo_to_map
+
+    path, full, cam = scene
+    dem, _ = load_dem(path)
+    assert isinstance(dem, LargeDem) and dem.level >= 2
+    rng = np.random.default_rng(3)
+    uv = np.column_stack([rng.uniform(0, cam.width, 400), rng.uniform(0.35 * cam.height, cam.height, 400)])
+    exact, seen = photo_points_to_map(uv, cam, full)
+    got, hit = photo_points_to_map(uv, cam, dem)
+    coarse, _ = photo_points_to_map(uv, cam, dem.preview())
+    assert seen.mean() > 0.5 and abs(hit.mean() - seen.mean()) < 0.03
+    both = seen & hit
+    err = np.linalg.norm(got[both] - exact[both], axis=1)
+    err_coarse = np.linalg.norm(coarse[both] - exact[both], axis=1)
+    # most points on the full-resolution mesh (the rest: a ridge the preview averaged away hides them there)
+    assert np.mean(err < 0.05 * full.cell_size) > 0.9
+    assert np.median(err) < 0.1 * np.median(err_coarse)
+    # the workflow's photo -> map (Processing's phototomap, the dock's drawn features) takes the same path
+    assert np.allclose(photo_to_map(cam, dem, uv[both]), got[both], equal_nan=True)
