@@ -17,15 +17,13 @@ from qgis.core import Qgis, QgsCoordinateReferenceSystem, QgsProject, QgsRasterL
 from qgis.PyQt.QtCore import QObject, QTimer, pyqtSignal
 from qgis.PyQt.QtGui import QImage
 
-from ..adapters.dem import DemError, dem_layer_path, overviews_to_build, read_dem_file
 from ..adapters.photo import PhotoError, array_to_qimage, qimage_to_array, read_photo
 from ..core.camera import Camera
-from ..core.dem_window import OverviewsCanceled
 from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, replace_suggestions
 from ..workflow import warmup
-from ..workflow.progress import Canceled
 from . import engine, persistence
 from .curation import CurationMixin
+from .dem_input import DemInputMixin
 from .fit_settings import fit_arguments, height_arguments
 from .priors import PriorsMixin
 from .results import ResultsMixin
@@ -42,7 +40,7 @@ LOG = logging.getLogger(__name__)
 _LOG_LEVELS = {WARNING: logging.WARNING, CRITICAL: logging.ERROR}
 
 
-class MonoplotController(PriorsMixin, CurationMixin, ResultsMixin, QObject):
+class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin, QObject):
     """State holder and workflow of one Monoplot session (one QGIS project).
 
     Signals:
@@ -123,25 +121,9 @@ class MonoplotController(PriorsMixin, CurationMixin, ResultsMixin, QObject):
             except (TypeError, RuntimeError):
                 pass
 
-    def _readd_dem(self, source: str) -> Optional[QgsRasterLayer]:
-        """The DEM layer was removed from the project: add its file back (the curation needs it)."""
-        layer = QgsRasterLayer(source, self.tr("DEM (Monoplot)"))
-        if not layer.isValid():
-            self.message.emit(self.tr("The DEM of this Monoplot session is missing: {0}").format(source), WARNING)
-            return None
-        self.project.addMapLayer(layer)
-        self.message.emit(self.tr("The DEM layer was missing from the project; Monoplot added {0} again.")
-                          .format(source), INFO)
-        return layer
-
     def _project_writing(self, *args) -> None:
         if not self._restoring:
             persistence.store_in_project(self.project, self.state)
-
-    def _layers_removed(self, layer_ids) -> None:
-        """Forget the layer object (not the in-memory DEM) when the user removes the DEM layer."""
-        if self.dem_layer is not None and self.state.dem_layer_id in layer_ids:
-            self.dem_layer = None
 
     # --- inputs -----------------------------------------------------------------------------------------------
     def load_photo(self, path: str) -> bool:
@@ -174,51 +156,6 @@ class MonoplotController(PriorsMixin, CurationMixin, ResultsMixin, QObject):
     @property
     def photo_size(self) -> Optional[Tuple[int, int]]:
         return None if self.image is None else (self.image.width(), self.image.height())
-
-    def set_dem_layer(self, layer: Optional[QgsRasterLayer], void_value: Optional[float] = None) -> bool:
-        """Use ``layer`` as the DEM (its file is read into memory now). A DEM too large to read whole whose
-        overviews are missing is opened in a task instead (building them takes minutes: progress and Cancel, QGIS
-        stays responsive); False until it is ready (``demChanged`` then)."""
-        if layer is None:
-            self.dem, self.dem_layer = None, None
-            self.state.dem_layer_id = ""
-            self.demChanged.emit()
-            return False
-        try:
-            path = dem_layer_path(layer)
-            if overviews_to_build(path):
-                self._open_dem_in_task(layer, path, void_value)
-                return False
-            dem, notes = read_dem_file(path, void_value)
-        except DemError as exc:
-            self.message.emit(str(exc), CRITICAL)
-            return False
-        self._use_dem(layer, dem, notes)
-        return True
-
-    def _open_dem_in_task(self, layer: QgsRasterLayer, path: str, void_value: Optional[float]) -> None:
-        def work(progress, is_canceled):
-            try:
-                return read_dem_file(path, void_value, progress, is_canceled)
-            except OverviewsCanceled:
-                raise Canceled() from None  # the half-built .ovr was removed: the next try starts afresh
-
-        self._start("dem", self.tr("Opening the large DEM {0}").format(layer.name()), work,
-                    lambda read: self._use_dem(layer, *read))
-
-    def _use_dem(self, layer: QgsRasterLayer, dem, notes) -> None:
-        self.dem, self.dem_layer = dem, layer
-        # The CRS of the in-memory DEM, which all map points and cameras use: a geographic layer was reprojected
-        # to UTM metres, so the layer's own CRS (degrees) would put every marker and click in the wrong place.
-        crs = QgsCoordinateReferenceSystem.fromWkt(dem.crs_wkt) if dem.crs_wkt else QgsCoordinateReferenceSystem()
-        self.dem_crs = crs if crs.isValid() else QgsCoordinateReferenceSystem(layer.crs())
-        self.state.dem_layer_id, self.state.dem_source = layer.id(), layer.source()
-        for note in notes:
-            self.message.emit(self.tr("DEM: {0}").format(note), INFO)
-        self.overlay, self.xyz, self.footprint_wkt = None, None, ""
-        self.demChanged.emit()
-        self._changed()
-        self._maybe_exif_prior()
 
     # --- background work --------------------------------------------------------------------------------------
     @property

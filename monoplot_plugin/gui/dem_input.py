@@ -1,0 +1,106 @@
+"""The DEM of a :class:`~monoplot_plugin.gui.controller.MonoplotController` (a mixin): the layer chosen in the
+dock read into a core Dem, a DEM too large to read whole whose overviews are missing opened in a task (progress,
+Cancel), the layer added back when the person removed it. Its needs are :class:`DemInputHost`, checked by
+``tests/gui/test_controller_interfaces.py``."""
+
+from __future__ import annotations
+
+from typing import Optional, Protocol
+
+from qgis.core import Qgis, QgsCoordinateReferenceSystem, QgsRasterLayer
+
+from ..adapters.dem import DemError, dem_layer_path, overviews_to_build, read_dem_file
+from ..core.dem_window import OverviewsCanceled
+from ..workflow.progress import Canceled
+
+__all__ = ["DemInputMixin", "DemInputHost"]
+
+INFO, WARNING, CRITICAL = Qgis.MessageLevel.Info, Qgis.MessageLevel.Warning, Qgis.MessageLevel.Critical
+
+
+class DemInputHost(Protocol):
+    """What :class:`DemInputMixin` uses of the controller."""
+
+    state: object  # ProjectState
+    project: object  # QgsProject
+    dem: object  # core Dem or None
+    dem_layer: Optional[QgsRasterLayer]
+    dem_crs: QgsCoordinateReferenceSystem
+    overlay: object
+    xyz: object
+    footprint_wkt: str
+    message: object  # pyqtSignal(str, level)
+    demChanged: object  # pyqtSignal()
+
+    def tr(self, text: str) -> str: ...
+
+    def _start(self, kind: str, description: str, work, on_success) -> bool: ...
+
+    def _changed(self) -> None: ...
+
+    def _maybe_exif_prior(self) -> None: ...
+
+
+class DemInputMixin:
+    """The DEM layer -> core Dem; needs a :class:`DemInputHost`."""
+
+    def _readd_dem(self, source: str) -> Optional[QgsRasterLayer]:
+        """The DEM layer was removed from the project: add its file back (the curation needs it)."""
+        layer = QgsRasterLayer(source, self.tr("DEM (Monoplot)"))
+        if not layer.isValid():
+            self.message.emit(self.tr("The DEM of this Monoplot session is missing: {0}").format(source), WARNING)
+            return None
+        self.project.addMapLayer(layer)
+        self.message.emit(self.tr("The DEM layer was missing from the project; Monoplot added {0} again.")
+                          .format(source), INFO)
+        return layer
+
+    def _layers_removed(self, layer_ids) -> None:
+        """Forget the layer object (not the in-memory DEM) when the user removes the DEM layer."""
+        if self.dem_layer is not None and self.state.dem_layer_id in layer_ids:
+            self.dem_layer = None
+
+    def set_dem_layer(self, layer: Optional[QgsRasterLayer], void_value: Optional[float] = None) -> bool:
+        """Use ``layer`` as the DEM (its file is read into memory now). A DEM too large to read whole whose
+        overviews are missing is opened in a task instead (building them takes minutes: progress and Cancel, QGIS
+        stays responsive); False until it is ready (``demChanged`` then)."""
+        if layer is None:
+            self.dem, self.dem_layer = None, None
+            self.state.dem_layer_id = ""
+            self.demChanged.emit()
+            return False
+        try:
+            path = dem_layer_path(layer)
+            if overviews_to_build(path):
+                self._open_dem_in_task(layer, path, void_value)
+                return False
+            dem, notes = read_dem_file(path, void_value)
+        except DemError as exc:
+            self.message.emit(str(exc), CRITICAL)
+            return False
+        self._use_dem(layer, dem, notes)
+        return True
+
+    def _open_dem_in_task(self, layer: QgsRasterLayer, path: str, void_value: Optional[float]) -> None:
+        def work(progress, is_canceled):
+            try:
+                return read_dem_file(path, void_value, progress, is_canceled)
+            except OverviewsCanceled:
+                raise Canceled() from None  # the half-built .ovr was removed: the next try starts afresh
+
+        self._start("dem", self.tr("Opening the large DEM {0}").format(layer.name()), work,
+                    lambda read: self._use_dem(layer, *read))
+
+    def _use_dem(self, layer: QgsRasterLayer, dem, notes) -> None:
+        self.dem, self.dem_layer = dem, layer
+        # The CRS of the in-memory DEM, which all map points and cameras use: a geographic layer was reprojected
+        # to UTM metres, so the layer's own CRS (degrees) would put every marker and click in the wrong place.
+        crs = QgsCoordinateReferenceSystem.fromWkt(dem.crs_wkt) if dem.crs_wkt else QgsCoordinateReferenceSystem()
+        self.dem_crs = crs if crs.isValid() else QgsCoordinateReferenceSystem(layer.crs())
+        self.state.dem_layer_id, self.state.dem_source = layer.id(), layer.source()
+        for note in notes:
+            self.message.emit(self.tr("DEM: {0}").format(note), INFO)
+        self.overlay, self.xyz, self.footprint_wkt = None, None, ""
+        self.demChanged.emit()
+        self._changed()
+        self._maybe_exif_prior()
