@@ -129,12 +129,15 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
     def dem_path(self, parameters, context) -> Tuple[str, QgsCoordinateReferenceSystem]:
         """File path and CRS of the DEM parameter, checked: a GDAL-readable file."""
         value = parameters.get("DEM")
-        if isinstance(value, str) and value and not value.startswith(("memory:", "ogr:")) and \
-                (os.path.exists(value) or not os.path.isabs(value)):
+        is_text = isinstance(value, str) and bool(value) and not value.startswith(("memory:", "ogr:"))
+        if is_text and os.path.exists(value):
             # a path: the workflow's checks say what is wrong with it (a folder, text, no CRS...), not "not found"
             return value, QgsCoordinateReferenceSystem.fromWkt(checked(check_dem_file, value))
+        # a layer of the project, by its id or name (the dialog passes a project layer's id, even for a typed path)
         layer = self.parameterAsRasterLayer(parameters, "DEM", context)
         if layer is None or not layer.isValid():
+            if is_text:  # neither a layer nor a file: say so in the workflow's words
+                return value, QgsCoordinateReferenceSystem.fromWkt(checked(check_dem_file, value))
             raise QgsProcessingException(self.tr("The DEM could not be loaded as a raster layer."))
         path = layer.source().split("|")[0]
         if not os.path.isfile(path):

@@ -305,3 +305,23 @@ def test_map_polygon_whose_corners_are_outside_the_photo_is_still_drawn(run_alg,
     u = [p.x() for p in kept[0].geometry().vertices()]
     assert min(u) < 80 < max(u)  # across the middle of the 160 px wide photo
     assert any("1 of 2 feature(s) are not visible" in e for e in feedback.errors), feedback.errors
+
+
+def test_a_dem_layer_of_the_project_is_taken_by_its_id_or_as_a_layer(run_alg, small_scene, tmp_path):
+    """The Processing dialog passes a DEM that is a layer of the project by its layer id (even when a path was
+    typed): that must read the layer's file, not look for a file named like the id."""
+    from qgis.core import QgsProject, QgsRasterLayer
+
+    layer = QgsRasterLayer(small_scene["dem"], "the DEM")
+    assert layer.isValid()
+    QgsProject.instance().addMapLayer(layer)
+    try:
+        for value in (layer.id(), layer, small_scene["dem"]):
+            out = tmp_path / f"xyz_{type(value).__name__}.tif"
+            result = run_alg("computexyz", {"CAMERA": small_scene["camera"], "DEM": value, "OUTPUT": str(out)})
+            assert 0.2 < result["GROUND_FRACTION"] < 0.98 and out.is_file()
+        with pytest.raises(QgsProcessingException, match="not found"):  # neither a layer nor a file
+            run_alg("computexyz", {"CAMERA": small_scene["camera"], "DEM": "no_such_dem.tif",
+                                   "OUTPUT": str(tmp_path / "x.tif")})
+    finally:
+        QgsProject.instance().removeMapLayer(layer.id())
