@@ -236,9 +236,19 @@ def open_dem(path: str, void_value: Optional[float] = None, progress: Optional[P
     dem = LargeDem(preview.elevation, preview.geotransform, preview.crs_wkt, window=(0, 0),
                    void_notes=list(preview.void_notes), source=source, level=factor)
     name = os.path.basename(str(path))
-    notes.insert(0, f"the DEM {name} has {cells / 1e6:,.0f} M cells, more than are read whole here "
-                    f"({limit / 1e6:,.0f} M): it is read by windows (the XYZ raster at full resolution near the "
+    notes.insert(0, f"the DEM {name} has {_millions(cells)} M cells, more than are read whole here "
+                    f"({_millions(limit)} M): it is read by windows (the XYZ raster at full resolution near the "
                     f"camera, coarser far away where a cell is smaller than a pixel; previews and checks on a 1/"
                     f"{factor} copy of {source.level_cell_size(factor):.3g} m cells)")
     logger.info("%s", notes[0])
     return dem, notes
+
+
+def _millions(cells: int) -> str:
+    """Millions of cells for a message, to two significant digits below 10 M.
+
+    >>> _millions(1_680_000_000), _millions(360_000), _millions(200_000)
+    ('1,680', '0.36', '0.2')
+    """
+    m = cells / 1e6
+    return f"{m:,.0f}" if m >= 10 else f"{m:.2g}"
