@@ -23,6 +23,7 @@ from qgis.PyQt.QtWidgets import QFileDialog, QMenu, QSizePolicy, QToolButton
 
 from ..adapters.photo_space import photo_point, pixel_of
 from ..core.camera import Camera
+from ..core.fit.verdict import judge_by_checks
 from ..state import ACCEPTED, CHECK, MAP, PHOTO, Edit, Point
 from ..workflow.camera_files import load_camera, save_camera
 from ..workflow.inputs import InputError, _transform, points_to_dem_crs
@@ -264,13 +265,17 @@ def load_camera_file(controller, path: str, as_fitted: bool = False) -> Optional
         c.set_prior(camera)
         c.message.emit(tr("Rough camera loaded from {0}.").format(name), INFO)
         return camera
-    info = {"message": tr("Camera loaded from {0}; not fitted in this session.").format(name), "loaded_from": path}
+    info = {"loaded_from": path}
     ids, cuv, cxyz = c.check_points()
     if ids:
         d = np.hypot(*(camera.project(cxyz) - cuv).T)
         d = d[np.isfinite(d)]
         if len(d):
             info.update(check_rmse_px=float(np.sqrt(np.mean(d ** 2))), n_check=int(len(d)))
+    # nothing here fitted it: only check points can say it is right (never a green "ok" by default)
+    info["status"], verdict = judge_by_checks(info.get("check_rmse_px", float("nan")), info.get("n_check", 0),
+                                              float(np.hypot(*c.photo_size)))
+    info["message"] = tr("Camera loaded from {0}; not fitted in this session.").format(name) + " " + verdict
     c.set_fitted(camera, info, background=True)
     c.message.emit(tr("Fitted camera loaded from {0}.").format(name), INFO)
     return camera

@@ -131,8 +131,18 @@ def test_processing_camera_json_loads_as_the_fitted_camera(dock, scene, tmp_path
     assert io_actions.load_camera_file(c, str(path), as_fitted=True) is not None
     assert c.fitted is not None and c.fitted.position == pytest.approx(scene.camera.position)
     assert c.state.fit_info["n_check"] == 6 and c.state.fit_info["check_rmse_px"] < 1.0
+    assert c.state.fit_info["status"] == "ok"  # verified by the 6 check points
     qtbot.waitUntil(lambda: c.overlay is not None and c.xyz is not None, timeout=30000)
     assert "Check points" in dock.resultLabel.text()
+    # a camera 200 m off, loaded as the fitted one: the check points say it is wrong (not a green "ok")
+    path.write_text(scene.camera.with_parameters(x=scene.camera.position[0] + 200.0).to_json())
+    assert io_actions.load_camera_file(c, str(path), as_fitted=True) is not None
+    assert c.state.fit_info["status"] in ("poor", "uncertain")
+    # without check points nothing has verified a loaded camera: "uncertain", and the message says what to do
+    c.set_status([p.id for p in c.state.points.values()], "accepted")
+    path.write_text(scene.camera.to_json())
+    assert io_actions.load_camera_file(c, str(path), as_fitted=True) is not None
+    assert c.state.fit_info["status"] == "uncertain" and "check points" in c.state.fit_info["message"]
 
 
 def test_camera_for_another_photo_size_is_refused(dock, scene, tmp_path):

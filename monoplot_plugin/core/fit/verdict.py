@@ -27,11 +27,15 @@ from typing import Tuple
 
 import numpy as np
 
-__all__ = ["degenerate_points", "weakest_parameter", "weak_direction_matters", "judge", "photo_spread"]
+__all__ = ["degenerate_points", "weakest_parameter", "weak_direction_matters", "judge", "judge_by_checks",
+           "photo_spread"]
 
 #: check points more than this many times the fit's own RMSE off (and over 0.5 % of the picture) make it uncertain:
 #: a person's clicks on check points err by about as much as on the fitted points, not several times more
 CHECK_OVER_RESIDUALS = 3.0
+#: shares of the picture's diagonal: residuals or check points beyond POOR_SHARE make a fit poor; check points beyond
+#: WEAK_SHARE make it uncertain (and within it, with at least MIN_CHECKS of them, they verify it)
+POOR_SHARE, WEAK_SHARE, MIN_CHECKS = 0.03, 0.015, 4
 
 
 def degenerate_points(q: np.ndarray, world: np.ndarray, needed: int) -> str:
@@ -128,17 +132,17 @@ def judge(e: dict) -> Tuple[str, str]:
     if np.isfinite(check):
         text += f"; check points {check:.1f} px"
     text += "."
-    if not np.isfinite(rmse) or rmse > 0.03 * diag:
+    if not np.isfinite(rmse) or rmse > POOR_SHARE * diag:
         poor.append("the residuals are large: check the pairs (a wrong link?) or the free parameters")
-    if np.isfinite(check) and check > 0.03 * diag:
+    if np.isfinite(check) and check > POOR_SHARE * diag:
         poor.append("the independent check points disagree with the camera")
-    elif np.isfinite(check) and check > 0.015 * diag:
+    elif np.isfinite(check) and check > WEAK_SHARE * diag:
         weak.append("the check points are off by more than 1.5 % of the picture")
     # Check points far worse than the fit's own residuals: the residuals flatter the camera (pairs that agree with
     # each other, not with the terrain), whatever the share of the picture.
     check_far = np.isfinite(check) and np.isfinite(rmse) and check > CHECK_OVER_RESIDUALS * max(rmse, 1.0) \
         and check > 0.005 * diag
-    if check_far and not poor and check <= 0.015 * diag:
+    if check_far and not poor and check <= WEAK_SHARE * diag:
         weak.append(f"the check points are off by {check:.1f} px, {check / max(rmse, 1.0):.0f} times the fit's "
                     f"residuals: the camera is less accurate than its residuals say; add points near the check "
                     f"points or pair a few")
@@ -174,8 +178,8 @@ def judge(e: dict) -> Tuple[str, str]:
         if not e.get("has_check", False) and not poor:
             text += " The residuals measure how well the automatic pairs agree: check points measure accuracy."
     # Independent check points that agree outweigh weak matching evidence: they measure the camera itself.
-    checked_ok = (np.isfinite(check) and check <= 0.015 * diag and not check_far
-                  and int(e.get("n_check", 0)) >= 4)
+    checked_ok = (np.isfinite(check) and check <= WEAK_SHARE * diag and not check_far
+                  and int(e.get("n_check", 0)) >= MIN_CHECKS)
     if checked_ok and not poor and weak:
         text += " Verified by the check points despite: " + "; ".join(weak) + "."
         weak = []
@@ -189,3 +193,25 @@ def judge(e: dict) -> Tuple[str, str]:
     if weak:
         return "uncertain", text + " Uncertain: " + "; ".join(weak) + "." + note
     return "ok", text + note
+
+
+def judge_by_checks(check_rmse_px: float, n_check: int, diag: float) -> Tuple[str, str]:
+    """(status, message) of a camera nobody fitted here (loaded from a file), from its independent check points
+    alone: "ok" only when at least :data:`MIN_CHECKS` of them agree as a fit's would; without them it is unverified.
+
+    >>> judge_by_checks(float("nan"), 0, 1000.0)[0], judge_by_checks(4.0, 6, 1000.0)[0]
+    ('uncertain', 'ok')
+    >>> judge_by_checks(40.0, 6, 1000.0)[0], judge_by_checks(4.0, 2, 1000.0)[0]
+    ('poor', 'uncertain')
+    """
+    if not n_check or not np.isfinite(check_rmse_px):
+        return "uncertain", ("Not checked: this camera was not fitted here and no check points measure it. Mark "
+                             f"{MIN_CHECKS} or more pairs as check points (key C), or fit it again.")
+    text = f"Check points: {check_rmse_px:.1f} px on {n_check}."
+    if check_rmse_px > POOR_SHARE * diag:
+        return "poor", text + " Probably wrong: the independent check points disagree with the camera."
+    if check_rmse_px > WEAK_SHARE * diag:
+        return "uncertain", text + " Uncertain: the check points are off by more than 1.5 % of the picture."
+    if n_check < MIN_CHECKS:
+        return "uncertain", text + f" Uncertain: too few check points to verify it ({MIN_CHECKS} at least)."
+    return "ok", text
