@@ -49,7 +49,7 @@ class PhotoSuggestions:
         uv: (N, 2) float64 pixels (u = column, v = row; pixel centres at +0.5, like the rest of Monoplot).
         score: (N,) float64 in [0, 1], decreasing.
         ids: N stable ids "p0000", ...
-        source: (N,) str: "orb" or "corner".
+        source: (N,) str: "orb", "corner", or "summit" / "notch" (of the skyline).
     """
 
     uv: np.ndarray
@@ -116,7 +116,7 @@ DEM_DETECTOR = dict(orb_features=4000, fast_threshold=10, corner_count=8000, cor
 
 def suggest_photo_points(image: np.ndarray, max_points: int = 8000, cell_px: Optional[float] = None,
                          per_cell: int = 3, min_distance_px: Optional[float] = None, work_size: int = 2000,
-                         mask: Optional[np.ndarray] = None, ignore_captions: bool = True,
+                         mask: Optional[np.ndarray] = None, ignore_captions: bool = True, skyline: bool = True,
                          **detector) -> PhotoSuggestions:
     """Suggest photo points worth pairing with the DEM.
 
@@ -133,6 +133,7 @@ def suggest_photo_points(image: np.ndarray, max_points: int = 8000, cell_px: Opt
         mask: optional (H, W) bool, where to look (default :func:`~monoplot_plugin.core.suggest_photo.picture_mask`:
             no blank margins, frame or caption).
         ignore_captions: with the default mask, also remove printed text lines.
+        skyline: add the skyline's summits and notches (:func:`~.skyline.skyline_features`) at the top score.
         **detector: settings of :func:`detect_keypoints` (ORB and corner detector), over :data:`PHOTO_DETECTOR`.
     Returns:
         :class:`PhotoSuggestions`.
@@ -153,6 +154,14 @@ def suggest_photo_points(image: np.ndarray, max_points: int = 8000, cell_px: Opt
                                     interpolation=cv2.INTER_NEAREST).astype(bool)
     uv, score, source = detect_keypoints(small, small_mask, **{**PHOTO_DETECTOR, **detector})
     uv = uv / scale
+    if skyline and image.ndim == 3:
+        # the skyline's summits and notches first: what a person recognises at once on a mountain photo
+        from .skyline import skyline_features
+
+        sky_uv, sky_kind = skyline_features(image, mask=mask)
+        uv = np.vstack([sky_uv, uv])
+        score = np.concatenate([np.ones(len(sky_uv)), score])
+        source = np.concatenate([sky_kind, source]).astype("<U8")
     cell = float(cell_px) if cell_px else max(w, h) / 170.0
     min_dist = cell / 2.0 if min_distance_px is None else float(min_distance_px)
     keep = spread_by_grid(uv, score, (w, h), cell, per_cell, min_dist)

@@ -181,6 +181,27 @@ def test_silhouette_peaks_find_the_summit_on_the_skyline():
     assert "skyline" in set(kinds)
 
 
+def test_photo_suggestions_put_the_skyline_summit_first():
+    """The photo's counterpart of the DEM's skyline peaks: a summit on the photo's skyline is suggested first, within
+    a few pixels of where the camera sees the DEM's summit."""
+    from monoplot_plugin.core.synthetic import render_photo
+    from monoplot_plugin.core.xyz import compute_xyz_full
+
+    y, x = np.mgrid[0:200, 0:200].astype(float)
+    z = 1000.0 + 800.0 * np.exp(-((x - 100) ** 2 + (y - 60) ** 2) / 300.0)
+    dem = Dem.from_array(z, (0.0, 10.0, 0.0, 2000.0, 0.0, -10.0))
+    cam = Camera((1005.0, 100.0, 1300.0), heading=0, pitch=12, roll=0, fov=50, image_size=(640, 400))
+    xyz = compute_xyz_full(cam, dem, visibility=False).xyz
+    ground = np.isfinite(xyz[..., 0])
+    top_row = np.argmax(ground, axis=0).astype(float)
+    top_row[~ground.any(axis=0)] = np.inf
+    col = int(np.argmin(top_row))  # the highest terrain pixel of the picture: the summit on the skyline
+    s = suggest_photo_points(render_photo(cam, dem, seed=1))
+    assert s.source[0] == "summit"
+    assert np.hypot(s.uv[0, 0] - (col + 0.5), s.uv[0, 1] - top_row[col]) <= 4.0
+    assert "summit" not in set(suggest_photo_points(render_photo(cam, dem, seed=1), skyline=False).source)
+
+
 def test_short_photo_lists_cover_the_whole_picture():
     """A strongly textured corner would take every place of a list cut by score; the thinned list covers all four
     quadrants of the picture."""
