@@ -357,6 +357,11 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         level = SUCCESS if status == "ok" else WARNING
         text = self.tr("Camera fitted: RMSE {0:.1f} px on {1} photo points.").format(
             rmse if rmse is not None else float("nan"), outcome.info.get("n_photo", 0))
+        n_matched, n_photo = outcome.info.get("n_matched"), outcome.info.get("n_photo", 0)
+        if outcome.info.get("mode") == "unpaired" and n_matched is not None and n_matched < n_photo:
+            # the RMSE is over the matched points only: say how many, or "30 photo points" overstates a weak fit
+            text = self.tr("Camera fitted: RMSE {0:.1f} px on the {1} of {2} photo points that matched a DEM "
+                           "point.").format(rmse if rmse is not None else float("nan"), n_matched, n_photo)
         check = outcome.info.get("check_rmse_px")
         if check is not None:  # the real accuracy first: the message bar shows only its start
             text = self.tr("Camera fitted: {0:.1f} px RMSE on {1} check points (fit: {2:.1f} px on {3} photo "

@@ -42,8 +42,11 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     >>> html = fit_summary_html(cam, {"rmse_px": 6.4, "status": "uncertain", "message": "Uncertain: add points."})
     >>> "uncertain</b>" in html and "Uncertain: add points." in html
     True
+    >>> "5 of 30 photo matched / 30 DEM" in fit_summary_html(cam, {"mode": "unpaired", "n_photo": 30, "n_map": 30,
+    ...                                                          "n_matched": 5})
+    True
     >>> html = fit_summary_html(cam, {"status": "uncertain", "mode": "unpaired", "sigma": {"x": 0.31}})
-    >>> "600000 m ± 0.31" in html and "assume the automatic pairs are right" in html
+    >>> "± 0.31*" in html and html.index("assume the automatic pairs are right") < html.index("<table>")
     True
     """
     if fitted is None:
@@ -51,15 +54,25 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     x, y, z = fitted.position
     sigma = info.get("sigma") or {}
 
+    status = info.get("status") or ("ok" if info.get("converged", True) else "poor")
+    trusted = status == "ok"
+
     def sig(name: str) -> str:
-        return (" ± " + sigma_text(sigma[name])) if name in sigma and math.isfinite(sigma[name]) else ""
+        if name not in sigma or not math.isfinite(sigma[name]):
+            return ""
+        # the ± of a doubtful fit hold only if its pairs are right: greyed, with the caveat right above the table
+        text = " ± " + sigma_text(sigma[name])
+        return text if trusted else f"<span style='color:#888'>{text}*</span>"
 
     rmse = info.get("rmse_px")
     loo = info.get("loo_rmse_px")
-    head = tr("RMSE <b>{0}</b>{1} · {2} photo / {3} DEM points{4}").format(
+    n_photo, n_matched = info.get("n_photo", 0), info.get("n_matched")
+    photo_text = tr("{0} photo").format(n_photo) if info.get("mode") != "unpaired" or n_matched is None else \
+        tr("{0} of {1} photo matched").format(n_matched, n_photo)  # the RMSE is over the matched ones only
+    head = tr("RMSE <b>{0}</b>{1} · {2} / {3} DEM points{4}").format(
         "—" if rmse is None else f"{rmse:.1f} px",
         "" if loo is None else tr(" (leave-one-out {0:.1f} px)").format(loo),
-        info.get("n_photo", 0), info.get("n_map", 0),
+        photo_text, info.get("n_map", 0),
         tr(", {0} pairs").format(info["n_pairs"]) if info.get("n_pairs") else "")
     if info.get("check_rmse_px") is not None:
         head = tr("Check points <b>{0:.1f} px</b> RMSE on {1} (not fitted)").format(
@@ -82,16 +95,16 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
              ("", ""), (tr("Field of view"), f"{fitted.fov:.2f}°{sig('fov')}")]
     html = "".join("<tr>" + "".join(f"<td>{k}&nbsp;</td><td>{v}&nbsp;&nbsp;&nbsp;</td>" for k, v in pair)
                    + "</tr>" for pair in zip(cells[0::2], cells[1::2]))
-    status = info.get("status") or ("ok" if info.get("converged", True) else "poor")
     badge = _STATUS_STYLE.get(status, _STATUS_STYLE["poor"])
     head = tr("Status: <b style='color:{0}'>{1}</b>").format(badge, tr(status)) + " · " + head
     # Anything but "ok" shows the verdict's own words: what is weak and what to do.
     note = "" if status == "ok" else f"<p style='color:{badge}'>" + info.get("message", "") + "</p>"
     if status != "ok" and sigma:  # the ± come from the residuals of the pairs used: a wrong match is not in them
-        note += "<p><small>" + (tr("The ± assume the automatic pairs are right: this {0} fit may be off by far "
-                                   "more. Check points (key C) measure it.") if info.get("mode") == "unpaired" else
-                                tr("The ± assume the pairs are right: this {0} fit may be off by far more. Check "
-                                   "points (key C) measure it.")).format(tr(status)) + "</small></p>"
+        head += "<br><small>* " + (tr("The ± assume the automatic pairs are right: this {0} fit may be off by "
+                                      "far more. Check points (key C) measure it.")
+                                   if info.get("mode") == "unpaired" else
+                                   tr("The ± assume the pairs are right: this {0} fit may be off by far more. "
+                                      "Check points (key C) measure it.")).format(tr(status)) + "</small>"
     if under:
         note += "<p><small>" + tr("The camera is below the DEM surface at its own position (the DEM is coarse "
                                   "there, or the fit ended low): rays start by leaving the ground, and the terrain "
