@@ -275,7 +275,7 @@ def load_camera_file(controller, path: str, as_fitted: bool = False) -> Optional
     # nothing here fitted it: only check points can say it is right (never a green "ok" by default)
     info["status"], verdict = judge_by_checks(info.get("check_rmse_px", float("nan")), info.get("n_check", 0),
                                               float(np.hypot(*c.photo_size)))
-    info["message"] = tr("Camera loaded from {0}; not fitted in this session.").format(name) + " " + verdict
+    info["message"] = tr("Camera loaded from {0}.").format(name) + " " + verdict
     c.set_fitted(camera, info, background=True)
     c.message.emit(tr("Fitted camera loaded from {0}.").format(name), INFO)
     return camera
