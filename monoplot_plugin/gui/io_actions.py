@@ -59,9 +59,10 @@ def _status(check: bool) -> str:
     return CHECK if check else ACCEPTED
 
 
-def import_points_csv(controller, path: str) -> int:
+def import_points_csv(controller, path: str, all_check: bool = False) -> int:
     """Add the points of a CSV table (:func:`~..workflow.points_csv.read_points_csv`): rows with u, v and X, Y, Z
-    become pairs (check pairs where the check column says so), rows with only one side single accepted points.
+    become pairs (check pairs where the check column says so, or all of them with ``all_check``: independent
+    points that measure the camera and stay out of the fit), rows with only one side single accepted points.
     Map coordinates are taken in the DEM file's CRS (converted like Processing's). Returns the number of rows
     imported (0 and a message on failure)."""
     c = controller
@@ -74,7 +75,7 @@ def import_points_csv(controller, path: str) -> int:
     if (uv is not None and c.image is None) or (xyz is not None and c.dem is None):
         c.message.emit(tr("Load the photo and choose the DEM before importing points."), WARNING)
         return 0
-    check = table.get("check", np.zeros(len(ids), bool))
+    check = np.ones(len(ids), bool) if all_check else table.get("check", np.zeros(len(ids), bool))
     notes: List[str] = []
     if xyz is not None:
         xyz, notes = points_to_dem_crs(xyz, c.dem, name=os.path.basename(path))
@@ -320,6 +321,7 @@ class IoActions:
         dock.cameraButtons.insertWidget(dock.cameraButtons.count() - 1, self.camera_button)
         self.points_button = self._menu_button(tr("Import / export"), [
             (tr("Import GCP table (CSV: u, v, X, Y, Z, id, check)…"), self._import_csv),
+            (tr("Import GCP table as check points…"), lambda: self._import_csv(all_check=True)),
             (tr("Export pairs as GCP table (CSV)…"), self._export_csv),
             None,
             (tr("Import selected point layers"), self._import_layers),
@@ -376,11 +378,11 @@ class IoActions:
                 path += ".kml" if "kml" in chosen.lower() else ".json"
             save_camera_file(self.dock.controller, path, which)
 
-    def _import_csv(self) -> None:
-        path, _ = QFileDialog.getOpenFileName(self.dock, tr("Import ground-control points"), self._folder(),
-                                              tr("CSV table (*.csv *.txt)"))
+    def _import_csv(self, all_check: bool = False) -> None:
+        title = tr("Import check points (kept out of the fit)") if all_check else tr("Import ground-control points")
+        path, _ = QFileDialog.getOpenFileName(self.dock, title, self._folder(), tr("CSV table (*.csv *.txt)"))
         if path:
-            import_points_csv(self.dock.controller, path)
+            import_points_csv(self.dock.controller, path, all_check=all_check)
 
     def _export_csv(self) -> None:
         path, _ = QFileDialog.getSaveFileName(self.dock, tr("Export pairs"), self._folder(), tr("CSV table (*.csv)"))

@@ -53,6 +53,22 @@ def test_gcp_csv_import_keeps_surveyed_z_and_check_flags(dock, scene, tmp_path):
     assert not c.state.points and not c.state.pairs
 
 
+def test_the_menu_imports_a_gcp_table_as_check_points(dock, scene, tmp_path, monkeypatch):
+    """The trial's Aletsch case: surveyed GCPs to measure a fit, not to fit on; one menu entry instead of a click
+    and the C key on each."""
+    _load(dock, scene)
+    c = dock.controller
+    uv, xyz = _surveyed(scene)
+    path = str(tmp_path / "gcps.csv")
+    write_points_csv(path, uv=uv, xyz=xyz, ids=[f"g{i}" for i in range(len(uv))])  # no check column
+    monkeypatch.setattr(io_actions.QFileDialog, "getOpenFileName", staticmethod(lambda *a, **k: (path, "")))
+    entry = next(a for a in dock.io_actions.points_button.menu().actions() if "as check points" in a.text())
+    entry.trigger()
+    assert len(c.state.check_pairs()) == len(uv) and not c.state.valid_pairs()
+    inputs = c.fit_inputs()  # nothing of them goes into the fit: no points to fit (a message), or none of these
+    assert isinstance(inputs, str) or len(inputs[0]) == 0
+
+
 def test_gcp_csv_export_round_trip(dock, scene, tmp_path):
     _load(dock, scene)
     c = dock.controller
