@@ -119,7 +119,9 @@ class OutputTools(QObject):
         tr = self.tr
         for name, label, slot, tip in (
                 ("xyz", tr("XYZ raster…"), self._ask_xyz, tr("The X, Y, Z of every photo pixel (3-band GeoTIFF)")),
-                ("ortho", tr("Orthophoto…"), self._ask_ortho, tr("The photo draped on the DEM (map GeoTIFF)")),
+                ("ortho", tr("Orthophoto…"), self._ask_ortho,
+                 tr("The photo draped on the DEM (map GeoTIFF), over what the camera sees, at the photo's own detail "
+                    "(a pixel's footprint at the median distance, never coarser than the DEM)")),
                 ("report", tr("Report…"), self._ask_report, tr("Camera, residuals, check points (PDF or PNG)")),
                 ("features", tr("Save drawn features…"), self._ask_features, tr("The drawn features as map layers")),
                 ("overlay", tr("Active map layer on photo"), self._overlay_active_layer,
@@ -294,8 +296,8 @@ class OutputTools(QObject):
                 return product_step.write_xyz(path, camera, dem, photo_name=name, distance=distance,
                                           overwrite=overwrite, progress=progress, is_canceled=is_canceled)
             if what == "ortho":
-                return product_step.orthophoto(path, photo, camera, dem, overwrite=overwrite, progress=progress,
-                                           is_canceled=is_canceled)
+                return product_step.orthophoto(path, photo, camera, dem, product_step.AUTO, overwrite=overwrite,
+                                               progress=progress, is_canceled=is_canceled)
             return product_step.report(path, photo, camera, dem, points=points, sigmas=sigmas, title=Path(name).stem,
                                        overwrite=overwrite, progress=progress, is_canceled=is_canceled,
                                        verdict=verdict)

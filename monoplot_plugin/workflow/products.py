@@ -19,10 +19,13 @@ from ..core.dem import Dem
 from .progress import IsCanceled, Progress, check_canceled, part
 from .xyz import xyz_result
 
-__all__ = ["ProductError", "write_xyz", "orthophoto", "report", "ortho_grid", "dem_at_resolution", "MAX_ORTHO_CELLS"]
+__all__ = ["ProductError", "write_xyz", "orthophoto", "report", "ortho_grid", "dem_at_resolution", "auto_resolution",
+           "MAX_ORTHO_CELLS", "AUTO"]
 
 #: an orthophoto grid larger than this many cells is refused (memory)
 MAX_ORTHO_CELLS = 50_000_000
+#: ``resolution`` of :func:`orthophoto` / :func:`ortho_grid`: the photo's own detail (:func:`auto_resolution`)
+AUTO = "auto"
 
 
 class ProductError(ValueError):
@@ -46,12 +49,13 @@ def write_xyz(path, camera: Camera, dem, crs_wkt: Optional[str] = None, photo_na
     return written
 
 
-def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution: Optional[float] = None,
+def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution=None,
                overwrite: bool = False, progress: Optional[Progress] = None,
                is_canceled: Optional[IsCanceled] = None, grid=None) -> Path:
     """The photo (H, W, 3) draped on the DEM: a north-up RGBA GeoTIFF on the DEM's grid, or on a grid of cell size
-    ``resolution`` over the same extent (elevations resampled bilinearly); ``grid``: :func:`ortho_grid` when the
-    caller has it already."""
+    ``resolution`` over the same extent (elevations resampled bilinearly), or (:data:`AUTO`) at the photo's own
+    detail over the part the camera sees (:func:`auto_resolution`); ``grid``: :func:`ortho_grid` when the caller has
+    it already."""
     from ..outputs.orthophoto import orthophoto_from_camera
 
     if (photo.shape[1], photo.shape[0]) != tuple(camera.image_size):
@@ -105,12 +109,18 @@ def report_points(path, dem):
     return ReportPoints(table["uv"], fill_missing_z(table["xyz"], dem), [str(i) for i in table["ids"]])
 
 
-def ortho_grid(camera: Camera, dem, resolution: Optional[float] = None):
-    """The grid of the orthophoto: the DEM's, or one of cell size ``resolution`` over its extent. For a DEM file
-    read by windows (core :class:`~..core.dem_large.LargeDem`) the part of it the camera sees, at the finest level
-    of at most half :data:`MAX_ORTHO_CELLS` cells and the cells read whole (``in_memory_limit``); ``resolution``
-    then resamples that part."""
+def ortho_grid(camera: Camera, dem, resolution=None):
+    """The grid of the orthophoto: the DEM's, or one of cell size ``resolution`` over its extent, or (:data:`AUTO`)
+    one of :func:`auto_resolution` over the part of the DEM the camera sees. For a DEM file read by windows (core
+    :class:`~..core.dem_large.LargeDem`) the part of it the camera sees, at the finest level of at most half
+    :data:`MAX_ORTHO_CELLS` cells and the cells read whole (``in_memory_limit``); ``resolution`` then resamples
+    that part."""
     from ..core.dem_large import in_memory_limit, is_large
+
+    if resolution == AUTO:
+        seen = xyz_result(camera, dem, visibility=False).xyz
+        cell, bounds = auto_resolution(camera, dem, seen)
+        return dem_at_resolution(dem, cell, bounds)
 
     if is_large(dem):
         try:
@@ -120,14 +130,40 @@ def ortho_grid(camera: Camera, dem, resolution: Optional[float] = None):
     return dem if not resolution else dem_at_resolution(dem, resolution)
 
 
-def dem_at_resolution(dem, resolution: float):
-    """A north-up copy of ``dem`` with square cells of ``resolution`` map units over the same extent.
+def auto_resolution(camera: Camera, dem, xyz: np.ndarray):
+    """(cell size, (xmin, ymin, xmax, ymax)) of an orthophoto that keeps the photo's detail: the ground footprint of
+    one pixel at the median distance of the terrain it sees (``xyz`` (H, W, 3) per-pixel map coordinates, NaN for
+    sky), never coarser than the DEM's cell, never finer than half :data:`MAX_ORTHO_CELLS` cells allow over the
+    seen area, which is the extent (one cell of margin).
+
+    Raises:
+        ProductError: the camera sees no terrain.
+    """
+    pts = xyz.reshape(-1, 3)
+    pts = pts[::max(1, len(pts) // 200_000)]
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    if not len(pts):
+        raise ProductError("the camera sees no terrain of the DEM: no orthophoto")
+    distance = float(np.median(np.linalg.norm(pts - np.asarray(camera.position), axis=1)))
+    lo, hi = pts[:, :2].min(axis=0), pts[:, :2].max(axis=0)
+    area = float(np.prod(np.maximum(hi - lo, dem.cell_size)))
+    cell = min(float(dem.cell_size), max(distance / camera.focal_px, (area / (MAX_ORTHO_CELLS / 2)) ** 0.5))
+    bx0, by0, bx1, by1 = dem.bounds()
+    bounds = (max(bx0, lo[0] - cell), max(by0, lo[1] - cell), min(bx1, hi[0] + cell), min(by1, hi[1] + cell))
+    return cell, bounds
+
+
+def dem_at_resolution(dem, resolution: float, bounds=None):
+    """A north-up copy of ``dem`` with square cells of ``resolution`` map units over the same extent (or over
+    ``bounds`` = (xmin, ymin, xmax, ymax)).
 
     >>> d = Dem.from_array(np.arange(16.0).reshape(4, 4), (0, 10, 0, 40, 0, -10))
     >>> dem_at_resolution(d, 20).elevation.shape
     (2, 2)
+    >>> dem_at_resolution(d, 5, (0, 0, 20, 10)).elevation.shape
+    (2, 4)
     """
-    xmin, ymin, xmax, ymax = dem.bounds()
+    xmin, ymin, xmax, ymax = dem.bounds() if bounds is None else bounds
     cols = max(2, int(round((xmax - xmin) / resolution)))
     rows = max(2, int(round((ymax - ymin) / resolution)))
     if rows * cols > MAX_ORTHO_CELLS:

@@ -110,3 +110,25 @@ def test_products_in_the_one_layout(scene, tmp_path):
     with pytest.raises(Canceled):
         products.write_xyz(tmp_path / "never.tif", camera, dem, is_canceled=lambda: True)
     assert not (tmp_path / "never.tif").exists()
+
+
+def test_an_automatic_orthophoto_keeps_the_photos_detail_over_what_it_sees(scene, tmp_path):
+    """The dock's orthophoto (AUTO): cells of about a pixel's footprint at the median distance, finer than the
+    DEM's, over the seen part of the DEM only; the same colours where it overlaps the DEM-grid orthophoto."""
+    dem, camera, _ = scene
+    near = camera.scaled(4.0)  # 4x the pixels: a pixel's footprint under a DEM cell
+    photo = render_photo(near, dem)
+    seen = xyz.xyz_result(near, dem, visibility=False).xyz
+    cell, bounds = products.auto_resolution(near, dem, seen)
+    pts = seen[np.isfinite(seen).all(axis=2)]
+    footprint = np.median(np.linalg.norm(pts - np.asarray(near.position), axis=1)) / near.focal_px
+    assert cell < dem.cell_size and cell == pytest.approx(footprint, rel=0.05)
+    x0, y0, x1, y1 = dem.bounds()
+    assert bounds[0] >= x0 and bounds[3] <= y1 and (bounds[2] - bounds[0]) * (bounds[3] - bounds[1]) < \
+        0.8 * (x1 - x0) * (y1 - y0)
+    path = products.orthophoto(tmp_path / "auto.tif", photo, near, dem, products.AUTO)
+    ds = gdal.Open(str(path))
+    g = ds.GetGeoTransform()
+    assert g[1] == pytest.approx(cell) and ds.RasterXSize == pytest.approx((bounds[2] - bounds[0]) / cell, abs=1)
+    alpha = ds.GetRasterBand(4).ReadAsArray()
+    assert alpha.mean() > 0.3 * 255  # mostly seen: the extent follows what the camera sees
