@@ -26,6 +26,8 @@ __all__ = ["ProductError", "write_xyz", "orthophoto", "report", "ortho_grid", "d
 MAX_ORTHO_CELLS = 50_000_000
 #: ``resolution`` of :func:`orthophoto` / :func:`ortho_grid`: the photo's own detail (:func:`auto_resolution`)
 AUTO = "auto"
+#: at most this many cells in an automatic orthophoto (about 40 MB of RGBA, seconds to make)
+AUTO_ORTHO_CELLS = 10_000_000
 
 
 class ProductError(ValueError):
@@ -133,8 +135,8 @@ def ortho_grid(camera: Camera, dem, resolution=None):
 def auto_resolution(camera: Camera, dem, xyz: np.ndarray):
     """(cell size, (xmin, ymin, xmax, ymax)) of an orthophoto that keeps the photo's detail: the ground footprint of
     one pixel at the median distance of the terrain it sees (``xyz`` (H, W, 3) per-pixel map coordinates, NaN for
-    sky), never coarser than the DEM's cell, never finer than half :data:`MAX_ORTHO_CELLS` cells allow over the
-    seen area, which is the extent (one cell of margin).
+    sky), never coarser than the DEM's cell, never finer than :data:`AUTO_ORTHO_CELLS` cells allow over the seen
+    area, which is the extent (one cell of margin).
 
     Raises:
         ProductError: the camera sees no terrain.
@@ -147,7 +149,7 @@ def auto_resolution(camera: Camera, dem, xyz: np.ndarray):
     distance = float(np.median(np.linalg.norm(pts - np.asarray(camera.position), axis=1)))
     lo, hi = pts[:, :2].min(axis=0), pts[:, :2].max(axis=0)
     area = float(np.prod(np.maximum(hi - lo, dem.cell_size)))
-    cell = min(float(dem.cell_size), max(distance / camera.focal_px, (area / (MAX_ORTHO_CELLS / 2)) ** 0.5))
+    cell = min(float(dem.cell_size), max(distance / camera.focal_px, (area / AUTO_ORTHO_CELLS) ** 0.5))
     bx0, by0, bx1, by1 = dem.bounds()
     bounds = (max(bx0, lo[0] - cell), max(by0, lo[1] - cell), min(bx1, hi[0] + cell), min(by1, hi[1] + cell))
     return cell, bounds
