@@ -198,3 +198,45 @@ def test_the_fit_button_flags_its_own_outliers_and_is_not_refitted_again(dock, s
     assert panel.rejectOutliersButton.isEnabled()
     qtbot.wait(1000)  # longer than the refit's debounce
     assert panel.refitter.task is None  # the same points are not fitted a second time
+
+
+def test_a_fit_clicked_during_a_refit_of_the_same_points_waits_for_it(dock, scene, qtbot):
+    """The Fit button soon after the last accept: the refit of those points under way is awaited, not canceled and
+    fitted again; its camera is the Fit's, and the Fit only renders."""
+    load_inputs(dock, scene, qtbot)
+    c, refit = dock.controller, dock.curation_panel.refitter
+    photo, world = add_scene_points(dock, scene)
+    c.set_prior(scene.prior)
+    statuses = []
+    done = refit._done
+    refit._done = lambda result: (statuses.append((result.status, result.value)), done(result))
+    c.set_status([p.id for p in photo[:20]] + [w.id for w in world[:20]], ACCEPTED)
+    qtbot.waitUntil(lambda: refit.task is not None, timeout=10000)  # debounced: started after the pause
+    running = refit.current
+    assert not running.ended
+    assert c.fit()
+    assert c.awaited_refit is running and refit.task is not None  # the Fit did not cancel it
+    with qtbot.waitSignal(c.taskFinished, timeout=120000) as blocker:
+        pass
+    assert blocker.args[0].ok
+    qtbot.waitUntil(lambda: bool(statuses), timeout=10000)
+    status, outcome = statuses[0]
+    assert status == "success"  # the refit ran to its end
+    assert c.fitted.to_dict() == outcome.camera.to_dict()  # and its camera is the Fit's
+    assert c.state.fit_info["elapsed_s"] == outcome.done.result.elapsed_s  # the same fit, not a second one
+    assert c.overlay is not None
+
+
+def test_a_fit_waiting_for_a_refit_that_is_canceled_fits_itself(dock, scene, qtbot):
+    load_inputs(dock, scene, qtbot)
+    c, refit = dock.controller, dock.curation_panel.refitter
+    photo, world = add_scene_points(dock, scene)
+    c.set_prior(scene.prior)
+    c.set_status([p.id for p in photo[:20]] + [w.id for w in world[:20]], ACCEPTED)
+    qtbot.waitUntil(lambda: refit.task is not None, timeout=10000)
+    assert c.fit() and c.awaited_refit is not None
+    refit.cancel()  # e.g. the refit toggle turned off while the Fit waits
+    with qtbot.waitSignal(c.taskFinished, timeout=120000) as blocker:
+        pass
+    assert blocker.args[0].ok and c.fitted is not None and c.overlay is not None
+    assert c.state.fit_info["n_photo"] == 20
