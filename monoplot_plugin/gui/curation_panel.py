@@ -259,7 +259,7 @@ class CurationPanel(QWidget):
     def _update_info(self) -> None:
         sl = self.c.shortlist
         n_out = len(sl.current_outliers())
-        n_likely = len(sl.likely())
+        n_likely = sl.n_likely()
         # The machine accepts points only on the word of a camera its verdict calls ok: pairs that agree with a
         # doubtful camera confirm it (the scripted Aletsch user ended "ok" 1.9x the paired optimum that way).
         trusted = self.ranking_status == "ok"
