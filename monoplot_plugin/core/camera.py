@@ -152,9 +152,25 @@ def _rotation_torch(heading, pitch, roll, like):
     sc = torch.cat([torch.sin(rad), torch.cos(rad), torch.ones(1, dtype=rad.dtype)])  # sh sp sr ch cp cr 1
     h, p, r = sc[[0, 3, 6]], sc[[1, 4, 6]], sc[[5, 2, 6]]
     products = (h[:, None] * p[None, :]).reshape(9)
-    frame = (products @ torch.as_tensor(_PRODUCTS_TO_FRAME, dtype=rad.dtype)).reshape(3, 3)
-    turn = (r @ torch.as_tensor(_ROLL, dtype=rad.dtype)).reshape(3, 3)
+    to_frame, roll_map = _torch_maps(rad.dtype)
+    frame = (products @ to_frame).reshape(3, 3)
+    turn = (r @ roll_map).reshape(3, 3)
     return turn @ frame
+
+
+_TORCH_MAPS: dict = {}
+
+
+def _torch_maps(dtype):
+    """:data:`_PRODUCTS_TO_FRAME` and :data:`_ROLL` as tensors of ``dtype`` (made once: a fit projects thousands
+    of times)."""
+    maps = _TORCH_MAPS.get(dtype)
+    if maps is None:
+        import torch
+
+        maps = _TORCH_MAPS[dtype] = (torch.as_tensor(_PRODUCTS_TO_FRAME, dtype=dtype),
+                                     torch.as_tensor(_ROLL, dtype=dtype))
+    return maps
 
 
 def project_points(points, position, rotation, focal, cx, cy, k1=0.0, k2=0.0):
