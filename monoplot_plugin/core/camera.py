@@ -128,49 +128,33 @@ def _rotation_scalar(heading: float, pitch: float, roll: float) -> np.ndarray:
                      [sh * cp, ch * cp, sp]])
 
 
-#: :func:`_rotation_torch`'s constant maps: the 9 products (sh, ch, 1) x (sp, cp, 1) -> the rows right0, down0,
-#: forward before the roll (right0 = (ch, -sh, 0), down0 = (sh sp, ch sp, -cp), forward = (sh cp, ch cp, sp)), and
-#: (cr, sr, 1) -> the roll's rotation within the image plane (right = cr right0 + sr down0, down = cr down0 - sr
-#: right0). Matrix products keep the autograd graph of a fit's every projection short.
-_PRODUCTS_TO_FRAME = np.zeros((9, 9))
-for _k, (_product, _sign) in enumerate([(5, 1), (2, -1), (None, 0), (0, 1), (3, 1), (7, -1), (1, 1), (4, 1),
-                                        (6, 1)]):
-    if _product is not None:
-        _PRODUCTS_TO_FRAME[_product, _k] = _sign
-_ROLL = np.zeros((3, 9))
-_ROLL[0, 0] = _ROLL[0, 4] = _ROLL[1, 1] = _ROLL[2, 8] = 1.0
-_ROLL[1, 3] = -1.0
-
-
 def _rotation_torch(heading, pitch, roll, like):
-    """:func:`rotation_matrix` of 0-d tensors (or floats beside them): the same matrix in a third of the graph."""
+    """:func:`rotation_matrix` of 0-d tensors (or floats beside them), in a third of the autograd graph: the
+    products (sh, ch, 1) x (sp, cp, 1) map to the rows right0 = (ch, -sh, 0), down0 = (sh sp, ch sp, -cp), forward
+    = (sh cp, ch cp, sp), then (cr, sr, 1) to the roll within the image plane (right = cr right0 + sr down0, down =
+    cr down0 - sr right0), both by constant matrices (:data:`_TORCH_MAPS`)."""
     import torch
 
-    dtype = like.dtype
-    angles = torch.stack([a if _is_torch(a) else torch.tensor(float(a), dtype=dtype) for a in (heading, pitch, roll)])
+    angles = torch.stack([a if _is_torch(a) else torch.tensor(float(a), dtype=like.dtype)
+                          for a in (heading, pitch, roll)])
     rad = torch.deg2rad(angles)
     sc = torch.cat([torch.sin(rad), torch.cos(rad), torch.ones(1, dtype=rad.dtype)])  # sh sp sr ch cp cr 1
     h, p, r = sc[[0, 3, 6]], sc[[1, 4, 6]], sc[[5, 2, 6]]
-    products = (h[:, None] * p[None, :]).reshape(9)
-    to_frame, roll_map = _torch_maps(rad.dtype)
-    frame = (products @ to_frame).reshape(3, 3)
-    turn = (r @ roll_map).reshape(3, 3)
-    return turn @ frame
+    if rad.dtype not in _TORCH_MAPS:  # made once: a fit projects thousands of times
+        to_frame = np.zeros((9, 9))  # product index (3 h + p) -> frame entry, with its sign
+        for entry, (product, sign) in enumerate([(5, 1), (2, -1), (0, 0), (0, 1), (3, 1), (7, -1), (1, 1), (4, 1),
+                                                 (6, 1)]):
+            to_frame[product, entry] = sign
+        roll_map = np.zeros((3, 9))
+        roll_map[0, [0, 4]] = roll_map[1, 1] = roll_map[2, 8] = 1.0
+        roll_map[1, 3] = -1.0
+        _TORCH_MAPS[rad.dtype] = tuple(torch.as_tensor(m, dtype=rad.dtype) for m in (to_frame, roll_map))
+    to_frame, roll_map = _TORCH_MAPS[rad.dtype]
+    frame = ((h[:, None] * p[None, :]).reshape(9) @ to_frame).reshape(3, 3)
+    return (r @ roll_map).reshape(3, 3) @ frame
 
 
 _TORCH_MAPS: dict = {}
-
-
-def _torch_maps(dtype):
-    """:data:`_PRODUCTS_TO_FRAME` and :data:`_ROLL` as tensors of ``dtype`` (made once: a fit projects thousands
-    of times)."""
-    maps = _TORCH_MAPS.get(dtype)
-    if maps is None:
-        import torch
-
-        maps = _TORCH_MAPS[dtype] = (torch.as_tensor(_PRODUCTS_TO_FRAME, dtype=dtype),
-                                     torch.as_tensor(_ROLL, dtype=dtype))
-    return maps
 
 
 def project_points(points, position, rotation, focal, cx, cy, k1=0.0, k2=0.0):
