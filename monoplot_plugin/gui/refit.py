@@ -141,9 +141,12 @@ class Refitter(QObject):
         self._key = accepted_key
 
     def running_fit(self, key: tuple) -> Optional[RunningFit]:
-        """The refit under way of inputs ``key`` (:func:`inputs_key`), for the Fit button to wait for; else None."""
+        """The refit of inputs ``key`` (:func:`inputs_key`) under way, or just ended with a fit whose result has not
+        reached the main thread yet, for the Fit button to wait for; else None."""
         r = self.current
-        return r if self.task is not None and r is not None and not r.ended and r.key == key else None
+        if r is None or r.key != key:
+            return None
+        return r if (r.done is not None if r.ended else self.task is not None) else None
 
     def cancel(self, wait_ms: int = 0) -> None:
         """Stop the pending and the running refit; ``wait_ms``: block until the task has stopped (unload)."""
