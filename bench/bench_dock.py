@@ -14,7 +14,11 @@ an empty folder (a first run after installing).
 - ``dock_fit``: the 11 GCPs imported with their surveyed Z, *Fit camera* (paired, and the same points unpaired) from
   the click to the overlay applied, with the core fit's own seconds (``core_fit_s``); ``unpaired_after_refit``: the
   same unpaired click after the background refit of these points finished (the dock reuses its fit and only
-  renders). Target: <= 2 s.
+  renders); ``unpaired_during_refit``: the click 0.5 s after such a refit started (the person clicked Fit right
+  after the last accept: the Fit waits for that refit rather than fit again). Target: <= 2 s.
+- ``cancel_first_fit``: the first unpaired fit of a fresh session without warm-up (torch not yet imported),
+  *Cancel* clicked 1 s after *Fit camera*: ``cancel_s`` from the Cancel to the task's end (an import cannot be
+  interrupted: the fit must not be stuck in it).
 
     .venv/bin/python bench/bench_dock.py [--only dock_fit] [--cold]
 """
@@ -31,7 +35,7 @@ import time
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 ALETSCH = os.path.join(os.path.dirname(ROOT), "shared", "data", "aletsch")
-SCENARIOS = ("first_suggest", "reopen_project", "dock_fit")
+SCENARIOS = ("first_suggest", "reopen_project", "dock_fit", "cancel_first_fit")
 
 
 # --- in the child process ---------------------------------------------------------------------------------------
@@ -201,9 +205,13 @@ def child_dock_fit(warmup: str) -> list:
     io_actions.import_points_csv(c, os.path.join(ALETSCH, "gcps.csv"))
     out = []
     refitter = dock.curation_panel.refitter
-    for mode in ("paired", "unpaired", "unpaired_after_refit"):
+    for mode in ("paired", "unpaired", "unpaired_during_refit", "unpaired_after_refit"):
         if mode == "unpaired":
             c.state.pairs = []
+        if mode == "unpaired_during_refit":  # the person clicked Fit right after the last accept
+            refitter.schedule(force=True)
+            _wait(refitter.running)
+            _pause(0.5)
         if mode == "unpaired_after_refit":  # the person paused after the last accept: the refit ran meanwhile
             refitter.schedule(force=True)
             _wait(refitter.refitted)
@@ -217,6 +225,34 @@ def child_dock_fit(warmup: str) -> list:
                     "core_fit_s": round(float(info.get("elapsed_s", float("nan"))), 3),
                     "rmse_px": info.get("rmse_px"), "ok": bool(result and result[0].ok and c.overlay is not None)})
     return out
+
+
+def _pause(seconds: float) -> None:
+    """Run the event loop for ``seconds``."""
+    from qgis.PyQt.QtCore import QEventLoop, QTimer
+
+    loop = QEventLoop()
+    QTimer.singleShot(int(seconds * 1000), loop.quit)
+    loop.exec()
+
+
+def child_cancel_first_fit() -> dict:
+    app, iface, layer = _session()
+    from monoplot_plugin.gui import io_actions
+
+    dock = _dock(iface)
+    c = _inputs(dock, layer)
+    dock.curation_panel.refitCheck.setChecked(False)  # only the Fit button's fit
+    io_actions.import_points_csv(c, os.path.join(ALETSCH, "gcps.csv"))
+    c.state.pairs = []
+    torch_before = "torch" in sys.modules
+    dock.fitButton.click()
+    _pause(1.0)
+    t0 = time.perf_counter()
+    dock.cancelButton.click()
+    result = _wait(c.taskFinished)
+    return {"cancel_s": round(time.perf_counter() - t0, 3), "status": result[0].status if result else None,
+            "torch_imported_before": torch_before}
 
 
 # --- the parent: one fresh process per scenario -----------------------------------------------------------------
@@ -245,8 +281,8 @@ def main(argv=None) -> int:
     if args.child:
         name, *rest = args.child
         value = {"first_suggest": lambda: child_first_suggest(*rest), "make_project": lambda: child_make_project(*rest),
-                 "reopen_project": lambda: child_reopen_project(*rest), "dock_fit": lambda: child_dock_fit(*rest)
-                 }[name]()
+                 "reopen_project": lambda: child_reopen_project(*rest), "dock_fit": lambda: child_dock_fit(*rest),
+                 "cancel_first_fit": lambda: child_cancel_first_fit(*rest)}[name]()
         print("@@" + json.dumps(value), flush=True)
         os._exit(0)  # QGIS's exit handlers are slow and irrelevant here
     if not os.path.isdir(ALETSCH):
@@ -273,6 +309,10 @@ def main(argv=None) -> int:
             for value in _run_child(["dock_fit", warmup], env):
                 print(json.dumps({"bench": "dock_fit_aletsch", "warmup": warmup, "numba_cache": cache, **value,
                                   "target_s": 2.0, "load": _load()}), flush=True)
+    if "cancel_first_fit" in todo:
+        value = _run_child(["cancel_first_fit"], env)
+        print(json.dumps({"bench": "dock_cancel_first_fit", "numba_cache": cache, **value, "target_s": 1.0,
+                          "load": _load()}), flush=True)
     return 0
 
 

@@ -99,7 +99,12 @@ def rotation_matrix(heading, pitch, roll):
     [[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]]
     """
     like = heading if _is_torch(heading) else (pitch if _is_torch(pitch) else roll)
-    if not _is_torch(like):
+    if _is_torch(like):
+        if all(not _is_torch(a) or a.dim() == 0 for a in (heading, pitch, roll)):
+            return _rotation_torch(heading, pitch, roll, like)
+    elif all(np.ndim(a) == 0 for a in (heading, pitch, roll)):
+        return _rotation_scalar(float(heading), float(pitch), float(roll))
+    else:
         heading, pitch, roll = (np.float64(a) for a in (heading, pitch, roll))
     sh, ch = _sin_cos_deg(heading)
     sp, cp = _sin_cos_deg(pitch)
@@ -111,6 +116,45 @@ def rotation_matrix(heading, pitch, roll):
     right = cr * right0 + sr * down0
     down = cr * down0 - sr * right0
     return _stack([right, down, forward], 0, like)
+
+
+def _rotation_scalar(heading: float, pitch: float, roll: float) -> np.ndarray:
+    """:func:`rotation_matrix` of three floats (the fit's numpy projections: math on floats, one array)."""
+    h, p, r = math.radians(heading), math.radians(pitch), math.radians(roll)
+    sh, ch, sp, cp, sr, cr = math.sin(h), math.cos(h), math.sin(p), math.cos(p), math.sin(r), math.cos(r)
+    # the terms of the general case, in its order (the same floats, signed zeros included)
+    return np.array([[cr * ch + sr * (sh * sp), cr * -sh + sr * (ch * sp), cr * 0.0 + sr * -cp],
+                     [cr * (sh * sp) - sr * ch, cr * (ch * sp) - sr * -sh, cr * -cp - sr * 0.0],
+                     [sh * cp, ch * cp, sp]])
+
+
+def _rotation_torch(heading, pitch, roll, like):
+    """:func:`rotation_matrix` of 0-d tensors (or floats beside them), in a third of the autograd graph: the
+    products (sh, ch, 1) x (sp, cp, 1) map to the rows right0 = (ch, -sh, 0), down0 = (sh sp, ch sp, -cp), forward
+    = (sh cp, ch cp, sp), then (cr, sr, 1) to the roll within the image plane (right = cr right0 + sr down0, down =
+    cr down0 - sr right0), both by constant matrices (:data:`_TORCH_MAPS`)."""
+    import torch
+
+    angles = torch.stack([a if _is_torch(a) else torch.tensor(float(a), dtype=like.dtype)
+                          for a in (heading, pitch, roll)])
+    rad = torch.deg2rad(angles)
+    sc = torch.cat([torch.sin(rad), torch.cos(rad), torch.ones(1, dtype=rad.dtype)])  # sh sp sr ch cp cr 1
+    h, p, r = sc[[0, 3, 6]], sc[[1, 4, 6]], sc[[5, 2, 6]]
+    if rad.dtype not in _TORCH_MAPS:  # made once: a fit projects thousands of times
+        to_frame = np.zeros((9, 9))  # product index (3 h + p) -> frame entry, with its sign
+        for entry, (product, sign) in enumerate([(5, 1), (2, -1), (0, 0), (0, 1), (3, 1), (7, -1), (1, 1), (4, 1),
+                                                 (6, 1)]):
+            to_frame[product, entry] = sign
+        roll_map = np.zeros((3, 9))
+        roll_map[0, [0, 4]] = roll_map[1, 1] = roll_map[2, 8] = 1.0
+        roll_map[1, 3] = -1.0
+        _TORCH_MAPS[rad.dtype] = tuple(torch.as_tensor(m, dtype=rad.dtype) for m in (to_frame, roll_map))
+    to_frame, roll_map = _TORCH_MAPS[rad.dtype]
+    frame = ((h[:, None] * p[None, :]).reshape(9) @ to_frame).reshape(3, 3)
+    return (r @ roll_map).reshape(3, 3) @ frame
+
+
+_TORCH_MAPS: dict = {}
 
 
 def project_points(points, position, rotation, focal, cx, cy, k1=0.0, k2=0.0):
@@ -135,7 +179,10 @@ def project_points(points, position, rotation, focal, cx, cy, k1=0.0, k2=0.0):
         safe = torch.where(depth > 1e-9, depth, torch.ones_like(depth))
     else:
         safe = np.where(depth > 1e-9, depth, 1.0)
-    xd, yd = distort(cam[:, 0] / safe, cam[:, 1] / safe, k1, k2)
+    if isinstance(k1, float) and isinstance(k2, float) and k1 == 0.0 and k2 == 0.0:
+        xd, yd = cam[:, 0] / safe, cam[:, 1] / safe  # no distortion: the same values, a shorter torch graph
+    else:
+        xd, yd = distort(cam[:, 0] / safe, cam[:, 1] / safe, k1, k2)
     uv = _stack([focal * xd + cx, focal * yd + cy], 1, xd)
     return uv, depth
 

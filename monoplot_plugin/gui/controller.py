@@ -10,7 +10,7 @@ import logging
 import math
 import sys
 import time
-from typing import List, Optional, Tuple
+from typing import Callable, List, Optional, Tuple
 
 import numpy as np
 from qgis.core import Qgis, QgsCoordinateReferenceSystem, QgsProject, QgsRasterLayer
@@ -91,6 +91,10 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         self._restoring = False
         self._fit_ids: Tuple[List[str], List[str]] = ([], [])
         self._known_fit: Tuple[tuple, object] = ((), None)  # (inputs key, FitDone) of the last background refit
+        #: inputs key -> the background refit under way of those inputs (a ``refit.RunningFit``) or None; set by
+        #: the curation panel's refitter
+        self.running_refit: Callable[[tuple], Optional[object]] = lambda key: None
+        self.awaited_refit = None  # the refit the running Fit waits for (it must not be canceled), or None
         self._autosave = QTimer(self)
         self._autosave.setSingleShot(True)
         self._autosave.setInterval(autosave_delay_ms)
@@ -302,10 +306,18 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         height = height_arguments(self.state.settings)  # on the ground / in the air / automatic
         key = inputs_key(uv, xyz, pairs, start, free, (options, height), check_uv, check_xyz)
         known = self._known_fit[1] if self._known_fit[0] == key else None  # the background refit's, if the same
+        # A refit of these very inputs under way (the person clicked Fit soon after the last accept): wait for it
+        # rather than cancel it and start the same fit again; the Fit fits itself when the refit fails.
+        awaited = None if known is not None else self.running_refit(key)
+        self.awaited_refit = awaited
 
         def work(progress, is_canceled):
+            done = known
+            if awaited is not None:
+                progress(0.0, "waiting for the background fit of these points")
+                done = awaited.wait(is_canceled)
             return engine.fit_and_render(uv, xyz, pairs, start, dem, progress, is_canceled, check_uv, check_xyz,
-                                         free=free, options=options, done=known, **height)
+                                         free=free, options=options, done=done, **height)
 
         def apply(outcome):
             # the matches the fit used, by point id (indices would drift with later edits)

@@ -52,6 +52,7 @@ class CurationPanel(QWidget):
         self.dock = dock
         self.c = c = dock.controller
         self.refitter = Refitter(c, parent=self)
+        c.running_refit = self.refitter.running_fit  # the Fit button waits for a refit of the same inputs
         self.refit_info = ""
         #: status of the camera the likely pairs come from ("ok", "uncertain", "rough" for the prior, "" for none)
         self.ranking_status = ""
@@ -237,8 +238,9 @@ class CurationPanel(QWidget):
         self._update_info()
 
     def _on_busy(self, description: str) -> None:
-        """The Fit button's fit gets the cores: no background refit beside it (its result re-ranks)."""
-        if self.c.task_kind == "fit":
+        """The Fit button's fit gets the cores: no background refit beside it (its result re-ranks), unless the
+        Fit waits for that refit (same inputs, see ``controller.fit``)."""
+        if self.c.task_kind == "fit" and self.c.awaited_refit is None:
             self.refitter.cancel()
 
     def _on_refit(self, outcome) -> None:
@@ -257,7 +259,7 @@ class CurationPanel(QWidget):
     def _update_info(self) -> None:
         sl = self.c.shortlist
         n_out = len(sl.current_outliers())
-        n_likely = len(sl.likely())
+        n_likely = sl.n_likely()
         # The machine accepts points only on the word of a camera its verdict calls ok: pairs that agree with a
         # doubtful camera confirm it (the scripted Aletsch user ended "ok" 1.9x the paired optimum that way).
         trusted = self.ranking_status == "ok"

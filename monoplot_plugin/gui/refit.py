@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import logging
 import math
+import threading
 from dataclasses import dataclass, field
 from typing import List, Optional
 
@@ -19,11 +20,12 @@ import numpy as np
 from qgis.PyQt.QtCore import QObject, QTimer, pyqtSignal
 
 from ..workflow import fit as fit_step
+from ..workflow.progress import check_canceled
 from .fit_settings import fit_arguments, height_arguments
 from .shortlist import Recommendation, recommendation
 from .tasks import HiddenTask, start_task
 
-__all__ = ["Refitter", "RefitOutcome", "sigma_of"]
+__all__ = ["Refitter", "RefitOutcome", "RunningFit", "sigma_of"]
 
 LOG = logging.getLogger(__name__)
 
@@ -43,6 +45,34 @@ class RefitOutcome:
     n_photo: int = 0  # accepted photo points the refit used
     key: tuple = ()  # :func:`inputs_key` of the fit
     done: object = None  # the workflow's FitDone (the Fit button reuses it for the same inputs)
+
+
+class RunningFit:
+    """A background refit under way, of inputs ``key`` (:func:`inputs_key`): the Fit button, clicked for the same
+    inputs, waits for it (:meth:`wait`) instead of cancelling it and fitting them again from the start."""
+
+    def __init__(self, key: tuple):
+        self.key = key
+        self.done = None
+        self._ended = threading.Event()
+
+    @property
+    def ended(self) -> bool:
+        return self._ended.is_set()
+
+    def end(self, done=None) -> None:
+        """The refit ended: ``done`` its workflow ``FitDone``, None when it was canceled or failed (the first call
+        counts)."""
+        if not self._ended.is_set():
+            self.done = done
+            self._ended.set()
+
+    def wait(self, is_canceled=None, poll_s: float = 0.05):
+        """The refit's ``FitDone`` once it has ended (None: canceled or failed); ``Canceled`` when
+        ``is_canceled()`` turns true first."""
+        while not self._ended.wait(poll_s):
+            check_canceled(is_canceled)
+        return self.done
 
 
 def inputs_key(uv, xyz, pairs, start, free, options, check_uv, check_xyz) -> tuple:
@@ -84,6 +114,7 @@ class Refitter(QObject):
         self.task: Optional[HiddenTask] = None
         self._again = False
         self._key = None
+        self.current: Optional[RunningFit] = None  # the refit under way, or the last one
         self._timer = QTimer(self)
         self._timer.setSingleShot(True)
         self._timer.setInterval(delay_ms)
@@ -108,6 +139,14 @@ class Refitter(QObject):
         if self._timer.isActive() or self.task is not None:
             return
         self._key = accepted_key
+
+    def running_fit(self, key: tuple) -> Optional[RunningFit]:
+        """The refit of inputs ``key`` (:func:`inputs_key`) under way, or just ended with a fit whose result has not
+        reached the main thread yet, for the Fit button to wait for; else None."""
+        r = self.current
+        if r is None or r.key != key:
+            return None
+        return r if (r.done is not None if r.ended else self.task is not None) else None
 
     def cancel(self, wait_ms: int = 0) -> None:
         """Stop the pending and the running refit; ``wait_ms``: block until the task has stopped (unload)."""
@@ -141,10 +180,16 @@ class Refitter(QObject):
         _, check_uv, check_xyz = c.check_points()  # measured as the Fit button does: its fit can reuse this one
         key = inputs_key(uv, xyz, pairs, start, free, (options, height), check_uv, check_xyz)
 
+        running = RunningFit(key)
+
         def work(progress, is_canceled):
-            done = fit_step.fit(uv, xyz, start, dem, pairs=pairs or None, progress=progress, check_uv=check_uv,
-                                check_xyz=check_xyz, is_canceled=is_canceled, free=free, options=options,
-                                **height)
+            done = None
+            try:
+                done = fit_step.fit(uv, xyz, start, dem, pairs=pairs or None, progress=progress, check_uv=check_uv,
+                                    check_xyz=check_xyz, is_canceled=is_canceled, free=free, options=options,
+                                    **height)
+            finally:
+                running.end(done)  # a Fit button waiting for this refit goes on at once (None: fit itself)
             r = done.result
             rmse = float(r.rmse_px) if r.rmse_px is not None else float("nan")
             sigma = sigma_of(rmse)
@@ -155,11 +200,14 @@ class Refitter(QObject):
                                 key, done)
 
         self.task = HiddenTask("Monoplot refit", work, self._done)  # silent: no status-bar entry, no "Task complete"
+        self.current = running
         self.running.emit(True)
         start_task(self.task)
 
     def _done(self, result) -> None:
         self.task = None
+        if self.current is not None:
+            self.current.end(None)  # (ended already when the fit ran; this covers a refit stopped before it)
         self.running.emit(False)
         if result.ok:
             o = result.value

@@ -56,7 +56,8 @@ class Shortlist:
         self.outliers: Set[str] = set()  # accepted photo ids the current fit calls outliers
         self.threshold = 8.0  # px: how close a likely pair's two ends are under the camera
         self._pairs: List[Tuple[str, str, float, Tuple[float, float]]] = []
-        self._pair_ids: Set[str] = set()
+        self._pairs_of: Dict[str, List[int]] = {}  # point id -> indices in _pairs of the pairs it is an end of
+        self._live: Set[int] = set()  # indices in _pairs of the likely ones (kept up to date by each edit)
         self._likely: Optional[List[Tuple[str, str, float]]] = None  # cache of likely(), per camera and edits
         self.rebuild()
 
@@ -70,6 +71,8 @@ class Shortlist:
                 self.decided[p.space][p.id] = p.status
         for space in SPACES:
             self._rerank(space, keep=0)
+        self._live = {k for k in range(len(self._pairs)) if self._is_live(k)}
+        self._likely = None
 
     def update(self, changed: set) -> None:
         """Follow an edit: ``changed`` ids (empty: anything may have changed). O(len(changed))."""
@@ -77,8 +80,11 @@ class Shortlist:
             self.rebuild()
             return
         pts = self.state.points
-        if self._likely is not None and not self._pair_ids.isdisjoint(changed):
-            self._likely = None
+        for pid in changed:  # the likely pairs with a changed end, only: O(len(changed)), not O(pairs)
+            for k in self._pairs_of.get(pid, ()):
+                if self._is_live(k) != (k in self._live):
+                    self._live ^= {k}
+                    self._likely = None
         fresh = {s: False for s in SPACES}
         touched = set()
         for pid in changed:
@@ -242,35 +248,44 @@ class Shortlist:
 
     def _set_pairs(self, pairs) -> None:
         self._pairs = list(pairs)
-        self._pair_ids = {i for a, b, _, _ in self._pairs for i in (a, b)}
+        self._pairs_of = {}
+        for k, (a, b, _, _) in enumerate(self._pairs):
+            self._pairs_of.setdefault(a, []).append(k)
+            self._pairs_of.setdefault(b, []).append(k)
+        self._live = {k for k in range(len(self._pairs)) if self._is_live(k)}
         self._likely = None
 
     def likely(self) -> List[Tuple[str, str, float]]:
         """(photo id, map id, px) of mutual nearest photo / projected DEM suggestions within :attr:`threshold` px
         under the current camera, neither rejected and at least one end undecided; closest first."""
         if self._likely is None:
-            self._likely = [(a, b, d) for a, b, d, _ in self._live_pairs()]
+            self._likely = [(a, b, d) for k, (a, b, d, _) in enumerate(self._pairs) if k in self._live]
         return self._likely
 
+    def n_likely(self) -> int:
+        """len(:meth:`likely`), in O(1) (the dock's counts after every click)."""
+        return len(self._live)
+
     def links(self) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:
-        """(photo pixel, partner's projected pixel) of the likely pairs whose photo end is visible."""
-        visible = {p.id for p in self.visible(PHOTO)}
-        pts = self.state.points
-        live = {a for a, _, _ in self.likely()}
-        return [((pts[a].x, pts[a].y), q) for a, _, _, q in self._pairs if a in live and a in visible]
+        """(photo pixel, partner's projected pixel) of the likely pairs whose photo end is visible. O(visible)."""
+        return [((p.x, p.y), self._pairs[k][3]) for p in self.visible(PHOTO) for k in self._live_of(p.id, 0)]
 
     def likely_visible(self, space: str) -> List[Point]:
-        """The visible points of ``space`` that are one end of a likely pair (ringed in cyan)."""
-        ends = {(a if space == PHOTO else b) for a, b, _ in self.likely()}
-        return [p for p in self.visible(space) if p.id in ends]
+        """The visible points of ``space`` that are one end of a likely pair (ringed in cyan). O(visible)."""
+        end = 0 if space == PHOTO else 1
+        return [p for p in self.visible(space) if self._live_of(p.id, end)]
 
-    def _live_pairs(self):
+    def _live_of(self, pid: str, end: int) -> List[int]:
+        """Indices of the likely pairs whose end ``end`` (0 photo, 1 map) is ``pid``."""
+        return [k for k in self._pairs_of.get(pid, ()) if k in self._live and self._pairs[k][end] == pid]
+
+    def _is_live(self, k: int) -> bool:
+        """Pair ``k`` is likely: both ends exist, neither rejected, at least one undecided."""
         pts = self.state.points
-        for a, b, d, q in self._pairs:
-            pa, pb = pts.get(a), pts.get(b)
-            if pa is not None and pb is not None and SUGGESTED in (pa.status, pb.status) and \
-                    REJECTED not in (pa.status, pb.status):
-                yield a, b, d, q
+        a, b = self._pairs[k][0], self._pairs[k][1]
+        pa, pb = pts.get(a), pts.get(b)
+        return pa is not None and pb is not None and SUGGESTED in (pa.status, pb.status) and \
+            REJECTED not in (pa.status, pb.status)
 
     def set_outliers(self, ids) -> None:
         self.outliers = set(ids)

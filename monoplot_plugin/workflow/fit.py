@@ -15,6 +15,7 @@ import numpy as np
 from ..core.camera import Camera
 from ..core.fit import FitOptions, FitResult, fit_camera
 from .progress import Canceled, IsCanceled, Progress, check_canceled
+from .warmup import import_torch
 
 __all__ = ["ON_GROUND_MAX_M", "DEFAULT_EYE_HEIGHT_M", "FitRefused", "FitDone", "ground_clearance", "on_ground_rule",
            "fit", "point_rmse", "fit_points"]
@@ -90,6 +91,8 @@ def fit(uv: np.ndarray, xyz: np.ndarray, start: Camera, dem, pairs=None, on_grou
     """
     grounded, eye = on_ground_rule(start, dem, on_ground, eye_height)
     pairs = None if pairs is None or len(pairs) == 0 else np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    if pairs is None:  # the unpaired fit's descent needs torch: its import waited for cancelably
+        import_torch(is_canceled, progress)
     has_check = check_uv is not None and len(check_uv) > 0
 
     def run(from_camera, held, at, report):

@@ -19,11 +19,55 @@ import numpy as np
 
 from .progress import IsCanceled, Progress, check_canceled
 
-__all__ = ["warm_up", "yield_to_work"]
+__all__ = ["warm_up", "yield_to_work", "import_torch"]
 
 #: set when real work starts (the dock's first Suggest or fit): a warm-up still running stops after its step,
 #: rather than compete with that work for the two cores (the work compiles what it needs itself)
 _REAL_WORK = threading.Event()
+
+
+#: set once torch, and what its optimisers import on their first use, are imported (see :func:`import_torch`)
+_TORCH_READY = threading.Event()
+_TORCH_LOCK = threading.Lock()
+_TORCH_THREAD: list = []
+
+
+def import_torch(is_canceled: Optional[IsCanceled] = None, progress: Optional[Progress] = None,
+                 poll_s: float = 0.05) -> None:
+    """Import torch and ``torch._dynamo`` in a thread of their own and wait for them, polling ``is_canceled``.
+
+    torch takes seconds to import, and its optimisers import ``torch._dynamo`` (3-5 s more under load) when the
+    first one is made. An import cannot be interrupted: a fit that imported them itself could not be canceled
+    for that long (a Fit clicked soon after a Suggest, a refit started by the first accept). Here the import runs
+    in a daemon thread (started once; later calls wait for the same one) and only the wait is given up on a
+    cancel, raising ``Canceled``; the import goes on for the next fit. An import error is left to the caller's
+    own import, which reports it. ``progress(0, message)`` is told when there is a wait.
+
+    >>> import_torch()
+    >>> import sys; "torch._dynamo" in sys.modules
+    True
+    """
+    if _TORCH_READY.is_set():
+        return
+    with _TORCH_LOCK:
+        if not _TORCH_THREAD:
+            thread = threading.Thread(target=_import_torch, name="monoplot-import-torch", daemon=True)
+            _TORCH_THREAD.append(thread)
+            thread.start()
+    if progress is not None:
+        progress(0.0, "loading torch")
+    while not _TORCH_READY.wait(poll_s):
+        check_canceled(is_canceled)
+
+
+def _import_torch() -> None:
+    try:
+        import torch  # noqa: F401
+        import torch._dynamo  # noqa: F401  (what torch.optim's first optimiser imports)
+    except Exception:  # noqa: BLE001 — the fit's own import reports it
+        pass
+    finally:
+        _TORCH_READY.set()
 
 
 def yield_to_work() -> None:

@@ -81,6 +81,25 @@ def test_torch_projection_equals_numpy_and_has_gradients():
     assert torch.isfinite(angles.grad).all() and angles.grad.abs().sum() > 0
 
 
+def test_rotation_of_scalars_and_of_tensors_equals_the_array_rotation():
+    """The fit's fast paths (three floats; three 0-d tensors) give the matrix of the general one (arrays of
+    angles), and the tensors' gradient is that of the array path's."""
+    torch = pytest.importorskip("torch")
+    rng = np.random.default_rng(5)
+    h, p, r = rng.uniform(-400, 400, (3, 50))
+    many = rotation_matrix(h, p, r)  # (3, 3, 50)
+    for k in range(50):
+        assert np.array_equal(rotation_matrix(h[k], p[k], r[k]), many[..., k])
+        t = torch.tensor([h[k], p[k], r[k]], dtype=torch.float64, requires_grad=True)
+        R = rotation_matrix(t[0], t[1], t[2])
+        assert np.allclose(R.detach().numpy(), many[..., k], rtol=0, atol=1e-15)
+        weights = torch.as_tensor(rng.normal(size=(3, 3)))
+        (R * weights).sum().backward()
+        t2 = torch.tensor([h[k], p[k], r[k]], dtype=torch.float64, requires_grad=True)
+        (rotation_matrix(t2[0:1], t2[1:2], t2[2:3])[..., 0] * weights).sum().backward()
+        assert np.allclose(t.grad.numpy(), t2.grad.numpy(), rtol=1e-12, atol=1e-15)
+
+
 def test_opencv_round_trip_and_agreement():
     cv2 = pytest.importorskip("cv2")
     rng = np.random.default_rng(11)

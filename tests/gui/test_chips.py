@@ -71,3 +71,24 @@ def test_map_point_with_the_rough_camera_renders_in_a_task(dock, scene, qtbot):
     assert "rough" in dock.chips.caption.text()
     c.select(MAP, "")
     assert dock.chips.isHidden()
+
+
+def test_an_edit_that_changes_nothing_shown_does_not_redraw_the_chips(dock, scene, qtbot):
+    """A click selects a point and accepts it: the chips are drawn once, for the selection; an edit that moves the
+    point draws them again."""
+    _load(dock, scene)
+    c = dock.controller
+    c.set_fitted(scene.camera)
+    u, v = scene.uv[3]
+    a = Point.new(PHOTO, u, v)
+    c.stack.push(add_points(c.state, [a]))
+    c.select(PHOTO, a.id)
+    drawn = dock.chips.photo_chip.pixmap().cacheKey(), dock.chips.dem_chip.pixmap().cacheKey()
+    c.set_status([a.id], "accepted")
+    qtbot.wait(50)  # the edit's refresh runs from the event loop
+    assert (dock.chips.photo_chip.pixmap().cacheKey(), dock.chips.dem_chip.pixmap().cacheKey()) == drawn
+    c.move(a.id, u + 20.0, v)
+    qtbot.wait(50)
+    assert dock.chips.photo_chip.pixmap().cacheKey() != drawn[0]
+    red = _pixels(dock.chips.photo_chip.pixmap(), (255, 60, 60))
+    assert len(red) and abs(red[:, 1].mean() - CHIP_PX / 2) < 3  # centred on the moved point

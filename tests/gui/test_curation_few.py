@@ -118,6 +118,48 @@ def test_accept_likely_waits_for_a_camera_the_verdict_calls_ok(dock, scene, qtbo
     assert "not yet ok" in panel.acceptLikelyButton.toolTip()
 
 
+def test_likely_pairs_follow_every_edit_as_a_fresh_look_would_find_them(dock, scene, qtbot):
+    """The likely pairs, their rings and links are kept up to date edit by edit (O(edit), not O(pairs)): after
+    accepts, rejects, undo and a deletion they are what the definition gives from scratch."""
+    load_inputs(dock, scene, qtbot)
+    c, sl = dock.controller, dock.controller.shortlist
+    add_scene_points(dock, scene)
+    c.set_prior(scene.camera)
+    qtbot.waitUntil(lambda: len(sl.likely()) >= 10, timeout=10000)
+
+    def from_scratch():
+        pts = c.state.points
+        return [(a, b, d) for a, b, d, _ in sl._pairs if a in pts and b in pts
+                and SUGGESTED in (pts[a].status, pts[b].status) and REJECTED not in (pts[a].status, pts[b].status)]
+
+    def check():
+        expected = from_scratch()
+        assert sl.likely() == expected and sl.n_likely() == len(expected)
+        ends = {a for a, _, _ in expected}
+        assert [p.id for p in sl.likely_visible(PHOTO)] == [p.id for p in sl.visible(PHOTO) if p.id in ends]
+        shown = {p.id for p in sl.visible(PHOTO)}
+        assert sorted(sl.links()) == sorted(((c.state.points[a].x, c.state.points[a].y), q)
+                                            for a, b, d, q in sl._pairs if (a, b, d) in expected and a in shown)
+        assert dock.photo_view.likely.band.numberOfVertices() == len(sl.likely_visible(PHOTO))
+
+    (a1, b1, _), (a2, b2, _), (a3, b3, _) = sl.likely()[:3]
+    check()
+    c.set_status([a1], ACCEPTED)  # one end decided: still likely
+    check()
+    assert (a1, b1) in {(a, b) for a, b, _ in sl.likely()}
+    c.set_status([b1], ACCEPTED)  # both ends decided: no longer
+    check()
+    assert (a1, b1) not in {(a, b) for a, b, _ in sl.likely()}
+    c.set_status([b2], REJECTED)
+    check()
+    c.stack.undo()
+    check()
+    assert (a2, b2) in {(a, b) for a, b, _ in sl.likely()}
+    c.delete([a3])
+    check()
+    assert (a3, b3) not in {(a, b) for a, b, _ in sl.likely()}
+
+
 def test_background_refit_links_likely_pairs_and_flags_outliers(dock, scene, qtbot):
     load_inputs(dock, scene, qtbot)
     c, panel = dock.controller, dock.curation_panel
@@ -198,3 +240,45 @@ def test_the_fit_button_flags_its_own_outliers_and_is_not_refitted_again(dock, s
     assert panel.rejectOutliersButton.isEnabled()
     qtbot.wait(1000)  # longer than the refit's debounce
     assert panel.refitter.task is None  # the same points are not fitted a second time
+
+
+def test_a_fit_clicked_during_a_refit_of_the_same_points_waits_for_it(dock, scene, qtbot):
+    """The Fit button soon after the last accept: the refit of those points under way is awaited, not canceled and
+    fitted again; its camera is the Fit's, and the Fit only renders."""
+    load_inputs(dock, scene, qtbot)
+    c, refit = dock.controller, dock.curation_panel.refitter
+    photo, world = add_scene_points(dock, scene)
+    c.set_prior(scene.prior)
+    statuses = []
+    done = refit._done
+    refit._done = lambda result: (statuses.append((result.status, result.value)), done(result))
+    c.set_status([p.id for p in photo[:20]] + [w.id for w in world[:20]], ACCEPTED)
+    qtbot.waitUntil(lambda: refit.task is not None, timeout=10000)  # debounced: started after the pause
+    running = refit.current
+    assert not running.ended
+    assert c.fit()
+    assert c.awaited_refit is running and refit.task is not None  # the Fit did not cancel it
+    with qtbot.waitSignal(c.taskFinished, timeout=120000) as blocker:
+        pass
+    assert blocker.args[0].ok
+    qtbot.waitUntil(lambda: bool(statuses), timeout=10000)
+    status, outcome = statuses[0]
+    assert status == "success"  # the refit ran to its end
+    assert c.fitted.to_dict() == outcome.camera.to_dict()  # and its camera is the Fit's
+    assert c.state.fit_info["elapsed_s"] == outcome.done.result.elapsed_s  # the same fit, not a second one
+    assert c.overlay is not None
+
+
+def test_a_fit_waiting_for_a_refit_that_is_canceled_fits_itself(dock, scene, qtbot):
+    load_inputs(dock, scene, qtbot)
+    c, refit = dock.controller, dock.curation_panel.refitter
+    photo, world = add_scene_points(dock, scene)
+    c.set_prior(scene.prior)
+    c.set_status([p.id for p in photo[:20]] + [w.id for w in world[:20]], ACCEPTED)
+    qtbot.waitUntil(lambda: refit.task is not None, timeout=10000)
+    assert c.fit() and c.awaited_refit is not None
+    refit.cancel()  # e.g. the refit toggle turned off while the Fit waits
+    with qtbot.waitSignal(c.taskFinished, timeout=120000) as blocker:
+        pass
+    assert blocker.args[0].ok and c.fitted is not None and c.overlay is not None
+    assert c.state.fit_info["n_photo"] == 20

@@ -151,24 +151,45 @@ class ParameterSpace:
         Returns:
             (uv (N, 2) pixels, depth (N,) metres along the optical axis).
         """
+        if type(points_c).__module__.startswith("torch") or type(u).__module__.startswith("torch"):
+            return self._project_torch(u, points_c)
         v = self.values(u)
-        is_torch = type(points_c).__module__.startswith("torch")
-        if is_torch:
-            import torch
-
-            def t(value):
-                return value if torch.is_tensor(value) else torch.tensor(float(value), dtype=points_c.dtype)
-
-            position = torch.stack([t(v["x"]), t(v["y"]), t(v["z"])])
-            rotation = rotation_matrix(t(v["heading"]), t(v["pitch"]), t(v["roll"]))
-            fov = t(v["fov"])
-            focal = (self.width / 2.0) / torch.tan(torch.deg2rad(fov) / 2.0)
-            return project_points(points_c, position, rotation, focal, t(v["cx"]), t(v["cy"]), t(v["k1"]),
-                                  t(v["k2"]))
         position = np.array([v["x"], v["y"], v["z"]], dtype=np.float64)
         rotation = rotation_matrix(v["heading"], v["pitch"], v["roll"])
         focal = (self.width / 2.0) / math.tan(math.radians(float(v["fov"])) / 2.0)
         return project_points(points_c, position, rotation, focal, v["cx"], v["cy"], v["k1"], v["k2"])
+
+    def _project_torch(self, u, points_c):
+        """:meth:`project` for torch: every value in one tensor (base + scales * u at the free places), so that
+        the graph the fit differentiates hundreds of times stays short; fixed intrinsics stay plain floats."""
+        import torch
+
+        if not torch.is_tensor(u):
+            u = torch.as_tensor(np.asarray(u, dtype=np.float64), dtype=points_c.dtype)
+        if not torch.is_tensor(points_c):
+            points_c = torch.as_tensor(points_c, dtype=u.dtype)
+        base, index, scales = self._torch_constants(u.dtype)
+        full = base.index_add(0, index, scales * u)  # (11,) in PARAMETER_NAMES order, centred position
+        if self.ground is not None:
+            position = torch.stack([full[0], full[1], self._ground_z(full[0], full[1])])
+        else:
+            position = full[0:3]
+        rotation = rotation_matrix(full[3], full[4], full[5])
+        focal = (self.width / 2.0) / torch.tan(torch.deg2rad(full[6]) / 2.0)
+        cx, cy, k1, k2 = (full[i] if name in self.names else float(self.base[name])
+                          for i, name in zip(range(7, 11), PARAMETER_NAMES[7:11]))
+        return project_points(points_c, position, rotation, focal, cx, cy, k1, k2)
+
+    def _torch_constants(self, dtype):
+        """(base values (11,), indices of the free names (n,), their scales (n,)) as tensors of ``dtype``."""
+        cache = self.__dict__.setdefault("_torch_cache", {})
+        if dtype not in cache:
+            import torch
+
+            cache[dtype] = (torch.tensor([float(self.base[n]) for n in PARAMETER_NAMES], dtype=dtype),
+                            torch.tensor([PARAMETER_NAMES.index(n) for n in self.names], dtype=torch.int64),
+                            torch.as_tensor(self.scales, dtype=dtype))
+        return cache[dtype]
 
     def camera(self, u) -> Camera:
         """The :class:`Camera` (map coordinates) for vector ``u``."""
