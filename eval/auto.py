@@ -139,6 +139,8 @@ def case_synthetic(n: int, seed: int = 0, fog: bool = False):
                                fov_sigma_deg=0.05 * prior.fov)
         e = errors(r.camera, truth, rng_m)
         e["grid_px"] = grid_error(r.camera, truth, dem)
+        if getattr(r, "aligned", None) is not None:  # the edge alignment alone, before the suggestions' fit
+            e["aligned"] = {**errors(r.aligned, truth, rng_m), "grid_px": grid_error(r.aligned, truth, dem)}
         ok = e["position_share"] <= 0.01 and e["angle_deg"] <= 0.2
         rows.append({"scene": k, "status": r.status, "success": bool(ok), **e, "range_m": round(rng_m),
                      "prior": errors(prior, truth, rng_m), "seconds": round(r.elapsed_s, 1)})
