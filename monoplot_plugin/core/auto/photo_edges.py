@@ -211,11 +211,11 @@ def detect_photo_edges(image: np.ndarray, width: int = 512, mask=None) -> PhotoE
         # Each bin also takes its neighbours' edges: directions near a bin boundary must not be lost.
         near = (bins == b) | (bins == (b + 1) % N_ORIENTATIONS) | (bins == (b - 1) % N_ORIENTATIONS)
         oriented[b] = _dt(edges & near, H, W)
-    return PhotoEdges(W, H, scale, _boundary_rows(gy, path, gap), valid, edges, sky_dt, oriented, pic, bool(usable),
-                      round(sky_fraction, 3), round(contrast, 2))
+    return PhotoEdges(W, H, scale, _boundary_rows(raw, path, gap, VALID), valid, edges, sky_dt, oriented, pic,
+                      bool(usable), round(sky_fraction, 3), round(contrast, 2))
 
 
-def _boundary_rows(gy: np.ndarray, path: np.ndarray, gap: int) -> np.ndarray:
+def _boundary_rows(gy: np.ndarray, path: np.ndarray, gap: int, least: float) -> np.ndarray:
     """(W,) sub-pixel v of the sky/terrain boundary in each column: the peak of the vertical gradient ``gy`` (H, W)
     from the path's row down to ``gap`` rows below it, refined by a parabola through the peak and its neighbours.
 
@@ -226,7 +226,14 @@ def _boundary_rows(gy: np.ndarray, path: np.ndarray, gap: int) -> np.ndarray:
     H, W = gy.shape
     cols = np.arange(W)
     rows = np.clip(path[None, :] + np.arange(-1, gap + 1)[:, None], 0, H - 1)  # (K, W) candidate rows
-    peak = rows[np.argmax(gy[rows, cols[None, :]], axis=0), cols]
+    g = gy[rows, cols[None, :]]
+    # The first clear peak from the top (a stronger edge lower down, e.g. a rock band under a pale summit, is not
+    # the skyline): a local maximum of at least ``least``, else the window's strongest.
+    up = np.vstack([np.full((1, W), -np.inf), g[:-1]])
+    down = np.vstack([g[1:], np.full((1, W), -np.inf)])
+    peaks = (g >= up) & (g >= down) & (g >= least)
+    k = np.where(peaks.any(axis=0), np.argmax(peaks, axis=0), np.argmax(g, axis=0))
+    peak = rows[k, cols]
     a, b, c = gy[np.maximum(peak - 1, 0), cols], gy[peak, cols], gy[np.minimum(peak + 1, H - 1), cols]
     den = a - 2.0 * b + c
     shift = np.where(den < -1e-9, 0.5 * (a - c) / np.where(den < -1e-9, den, -1.0), 0.0)
