@@ -202,6 +202,9 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     evidence["auto_position_sigma_m"] = float(sig["position_m"])
     _poll(is_canceled)
     image_points, world_points = _consistent_points(image, dem, aligned, is_canceled)
+    sky_uv, sky_xyz = _skyline_points(aligned, fine, align_dem)
+    image_points, world_points = np.vstack([image_points, sky_uv]), np.vstack([world_points, sky_xyz])
+    evidence["auto_skyline_points"] = int(len(sky_uv))
     report(0.8, "automatic registration: consensus fit")
     fit_sig = {"position_sigma_m": sig["position_m"], "angle_sigma_deg": 1.0,
                "fov_sigma_deg": max(0.5, 0.25 * sig["fov_deg"])}
@@ -306,7 +309,7 @@ def _consistent_points(image, dem, camera: Camera, is_canceled):
     ok = np.isfinite(uv).all(axis=1) & camera.in_image(uv)
     if len(q) == 0 or not ok.any():
         return q[:0], demsug.xyz[:0]
-    gate = max(3.0, 0.012 * math.hypot(w, h))
+    gate = _gate(camera)
     idx_dem = np.nonzero(ok)[0]
     d_q, j = cKDTree(uv[idx_dem]).query(q, distance_upper_bound=gate)
     d_p, i = cKDTree(q).query(uv[idx_dem], distance_upper_bound=gate)
@@ -314,6 +317,39 @@ def _consistent_points(image, dem, camera: Camera, is_canceled):
     keep_q[keep_q] &= i[j[keep_q]] == np.nonzero(keep_q)[0]
     jj = np.unique(j[keep_q])
     return q[keep_q], demsug.xyz[idx_dem[jj]]
+
+
+def _gate(camera: Camera) -> float:
+    """Pixels within which the aligned camera brings a DEM point to a photo point for the two to be kept."""
+    return max(3.0, 0.012 * math.hypot(camera.width, camera.height))
+
+
+def _skyline_points(camera: Camera, photo: PhotoEdges, dem, most: int = 120):
+    """((K, 2) photo pixels, (K, 3) map points) along the skyline: photo skyline points at evenly spaced clear
+    columns, each with the DEM silhouette point the aligned ``camera`` projects nearest to it (within
+    :func:`_gate`, one photo point per DEM point).
+
+    The suggestions are corners and peaks; these tie the final fit to the skyline the alignment matched, the
+    photo's most precise edge (sub-pixel, :mod:`.photo_edges`), so that the fit refines the aligned camera instead
+    of trading the skyline's agreement for the suggestions' pairing noise. The fit pairs them again by itself
+    (unpaired), so a point the camera moves off the skyline is not forced."""
+    from scipy.spatial import cKDTree
+
+    cols = np.nonzero(photo.sky_valid)[0]
+    empty = (np.zeros((0, 2)), np.zeros((0, 3)))
+    if not photo.usable or not len(cols):
+        return empty
+    cols = cols[np.unique(np.linspace(0, len(cols) - 1, min(most, len(cols))).astype(np.int64))]
+    uv = np.stack([(cols + 0.5) / photo.scale, photo.sky_row[cols] / photo.scale], axis=1)
+    sky = dem_edges(camera, dem, 0.5, camera.focal_px * photo.scale).sky
+    proj = camera.project(sky) if len(sky) else np.zeros((0, 2))
+    ok = np.isfinite(proj).all(axis=1) & camera.in_image(proj) if len(sky) else np.zeros(0, bool)
+    if not ok.any():
+        return empty
+    d, j = cKDTree(proj[ok]).query(uv, distance_upper_bound=_gate(camera))
+    keep = np.isfinite(d)
+    j, first = np.unique(j[keep], return_index=True)
+    return uv[np.nonzero(keep)[0][first]], sky[ok][j]
 
 
 def _combine(result: AutoFitResult, ev: dict) -> None:
