@@ -4,10 +4,11 @@
 2. The DEM's skyline and occluding contours seen from the prior (:mod:`.dem_edges`), over a view widened by the
    angles still to search.
 3. Coarse grid over heading, pitch, roll and field of view at 256 px; the best distinct hypotheses are refined by a
-   compass search over all seven parameters (position within its σ) at 512 px; the two best are rendered again
+   compass search over all seven parameters (position within its σ) at 512 px; the three best are rendered again
    from where they stand and refined at full working size (:mod:`.align`).
 4. With the aligned camera: Monoplot's own photo and DEM suggestions (:mod:`~monoplot_plugin.core.suggest`), the
-   pairs that camera brings within a few pixels of each other kept, and the ordinary unpaired fit
+   pairs that camera brings within a few pixels of each other kept, with points along the skyline (the photo's
+   sub-pixel skyline, the DEM silhouette the aligned camera puts next to it), and the ordinary unpaired fit
    (:func:`~monoplot_plugin.core.fit.fit_camera`: consensus, refinement, verdict) run on them from the aligned
    camera. The result is that fit's :class:`~monoplot_plugin.core.fit.FitResult`, with its status, message and σ.
 5. The alignment's own evidence can only lower the status: without a clear skyline, or when the skyline does not
@@ -45,6 +46,10 @@ WIDTHS = (256, 512, 1024)
 SKY_AGREEMENT_OK = 0.8
 #: Largest ratio of the prior's position σ to the median distance of the terrain edges for an "ok".
 NEAR_RATIO = 0.25
+#: Distinct view directions of the coarse grid refined at 512 px (at 256 px and the prior's position the grid's
+#: best is often not the right basin), and how many of the refined are refined again at full size.
+N_STARTS = 8
+N_FINALS = 3
 #: (distance scale in working px, step factor) of the fine rounds.
 FINE_ROUNDS = ((8.0, 0.5), (4.0, 0.25), (2.5, 0.1))
 #: Distance scale (px per 1024 working px) of the final comparison with the prior, and the least improvement
@@ -163,7 +168,7 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     step = max(0.25, 4.0 * prior.fov / p0.width)
     grid = offsets_grid(sig, step)
     scores = coarse.score(grid)
-    starts = [grid[i] for i in _distinct(grid, scores, 5, 2.0 * step)]
+    starts = [grid[i] for i in _distinct(grid, scores, N_STARTS, 2.0 * step)]
     # Medium: compass search over the seven parameters from each distinct start.
     report(0.3, "automatic registration: refining the best hypotheses")
     p1 = photos[WIDTHS[1]]
@@ -179,10 +184,10 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
         state["camera"] = camera_from_offset(prior, min(refined, key=lambda t: t[0])[1])
         report(0.3 + 0.25 * (i + 1) / len(starts), "automatic registration: refining the best hypotheses")
     refined.sort(key=lambda t: t[0])
-    # Fine: render again from the two best cameras and refine at full working size, the distance scale shrinking
+    # Fine: render again from the best cameras and refine at full working size, the distance scale shrinking
     # (a wide scale first smooths the score's many shallow minima), rendering again from where each round ends.
     finals = []
-    for _, off in refined[:2]:
+    for _, off in refined[:N_FINALS]:
         cam = camera_from_offset(prior, off)
         for tau, scale in FINE_ROUNDS:
             _poll(is_canceled)
