@@ -140,6 +140,9 @@ def case_synthetic(n: int, seed: int = 0, fog: bool = False):
                                fov_sigma_deg=0.05 * prior.fov)
         e = errors(r.camera, truth, rng_m)
         e["grid_px"] = grid_error(r.camera, truth, dem)
+        # the alignment's evidence, for calibrating the verdict (which of it separates right from wrong cameras)
+        e["evidence"] = {k: round(v, 3) if isinstance(v, float) else v for k, v in r.evidence.items()
+                         if k.startswith("auto_") and isinstance(v, (bool, int, float))}
         if getattr(r, "aligned", None) is not None:  # the edge alignment alone, before the suggestions' fit
             e["aligned"] = {**errors(r.aligned, truth, rng_m), "grid_px": grid_error(r.aligned, truth, dem)}
         ok = e["position_share"] <= 0.01 and e["angle_deg"] <= 0.2
