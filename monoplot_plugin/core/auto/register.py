@@ -44,6 +44,9 @@ WIDTHS = (256, 512, 1024)
 #: the synthetic scenes: right cameras 0.95-0.99, a camera 4 deg off in field of view whose suggestions still
 #: paired (the pairs are drawn near the aligned camera, so they agree with it) 0.65.
 SKY_AGREEMENT_OK = 0.8
+#: Largest edge score (:func:`_edge_score`, lower is better) of the camera returned for an "ok". Calibrated on 20
+#: synthetic scenes: right cameras 0.12-0.21; a camera 21 % of the range off whose skyline still agreed 0.26.
+EDGE_SCORE_OK = 0.23
 #: Largest ratio of the prior's position σ to the median distance of the terrain seen for an "ok". Calibrated on
 #: 20 synthetic scenes: cameras 2.5 % and 21 % of the range off were "ok" at ratios 0.14 and 0.20 (their
 #: suggestions paired with the wrong camera: pairs drawn near it agree with it); right ones lost at 0.14 and 0.16.
@@ -371,6 +374,9 @@ def _combine(result: AutoFitResult, ev: dict) -> None:
     elif ev["auto_sky_agreement"] < SKY_AGREEMENT_OK:
         weak.append(f"only {100 * ev['auto_sky_agreement']:.0f} % of the photo's skyline lies on the DEM's "
                     "skyline under the camera")
+    if ev.get("auto_edge_score", 1.0) > EDGE_SCORE_OK:
+        weak.append(f"the DEM's skyline and contours fit the photo's edges only loosely under the camera (edge "
+                    f"score {ev.get('auto_edge_score', 1.0):.2f}, over {EDGE_SCORE_OK})")
     rng = ev.get("auto_range_m", float("nan"))
     if not np.isfinite(rng) or ev.get("auto_position_sigma_m", 0.0) > NEAR_RATIO * rng:
         weak.append(f"the prior position's uncertainty ({ev.get('auto_position_sigma_m', 0.0):.0f} m) is a large "
