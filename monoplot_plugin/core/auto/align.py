@@ -32,6 +32,8 @@ __all__ = ["Aligner", "offsets_grid", "CONTOUR_WEIGHT", "PRIOR_WEIGHT", "camera_
 
 CONTOUR_WEIGHT = 0.15
 PRIOR_WEIGHT = 0.01
+#: Largest gap (working px) between neighbouring projected DEM skyline points bridged by interpolation.
+SKY_GAP_PX = 3.0
 #: How many σ of the prior the search may go (a steep penalty beyond).
 BOUND_SIGMAS = 3.0
 #: Offsets vector: heading, pitch, roll, fov (degrees), x, y, z (metres).
@@ -122,17 +124,36 @@ class Aligner:
         return u, v, z
 
     def _sky_top(self, u, v, z) -> np.ndarray:
-        """(N, W) top-most projected DEM skyline row in each working column (inf where none). Each point counts
-        for the two columns whose centres lie within a pixel of it: points rendered one per column, or projected
-        exactly onto a column boundary, leave no gaps (a gap would count as a miss and favour wider views)."""
-        N, W = u.shape[0], self.photo.width
-        top = np.full(N * W, np.inf)
-        rows = np.arange(N)[:, None] * W
-        left = np.floor(u - 0.5).astype(np.int64)
-        for col in (left, left + 1):
-            ok = (z > 0) & (col >= 0) & (col < W)
-            np.minimum.at(top, (rows + col)[ok], v[ok])
-        return top.reshape(N, W)
+        """(N, W) projected DEM skyline row at each working column's centre (inf where none): linear between the
+        two skyline points on either side of the centre, when they lie within :data:`SKY_GAP_PX` of each other.
+
+        The DEM's skyline has one point per rendered column (below a terrain point every lower ray hits the
+        terrain too), so neighbours in ``u`` are neighbours along the skyline. Interpolating, not taking the
+        top-most point near the column, keeps a sloping skyline where it is: the top-most of the points within a
+        pixel lies up to a pixel above it on a slope, a bias in pitch and field of view."""
+        N, M = u.shape
+        W = self.photo.width
+        if M == 0:
+            return np.full((N, W), np.inf)
+        uu = np.where(z > 0, u, np.inf)
+        order = np.argsort(uu, axis=1)
+        us = np.take_along_axis(uu, order, axis=1)
+        vs = np.take_along_axis(v, order, axis=1)
+        span = W + 8.0  # rows of hypotheses laid end to end for one search
+        key = (np.clip(us, -2.0, W + 2.0) + np.arange(N)[:, None] * span).ravel()
+        centre = np.arange(W) + 0.5
+        q = (centre[None, :] + np.arange(N)[:, None] * span).ravel()
+        right = np.searchsorted(key, q, side="right")
+        left = right - 1
+        row = np.repeat(np.arange(N), W)
+        ok = (left >= row * M) & (right < (row + 1) * M)
+        left, right = np.where(ok, left, 0), np.where(ok, right, 0)
+        u0, u1 = us.ravel()[left], us.ravel()[right]
+        v0, v1 = vs.ravel()[left], vs.ravel()[right]
+        gap = u1 - u0
+        ok &= np.isfinite(gap) & (gap <= SKY_GAP_PX)
+        t = np.where(ok & (gap > 1e-9), (np.tile(centre, N) - u0) / np.where(gap > 1e-9, gap, 1.0), 0.0)
+        return np.where(ok, v0 + t * (v1 - v0), np.inf).reshape(N, W)
 
     def _rho(self, d):
         d2 = d * d

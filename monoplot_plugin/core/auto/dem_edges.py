@@ -149,10 +149,18 @@ def dem_edges(camera: Camera, dem: Dem, margin_deg: float, focal_px: float = Non
         norm = np.hypot(tx, ty)
         tx = np.where(norm > 1e-9, tx / np.maximum(norm, 1e-12), 1.0)
         ty = np.where(norm > 1e-9, ty / np.maximum(norm, 1e-12), 0.0)
-        uv = np.stack([cols + 0.5 + tx, rows + 0.5 + ty], axis=1)
-        origin, dirs = cam.pixel_to_world_ray(uv)
+        origin, dirs = cam.pixel_to_world_ray(np.stack([cols + 0.5 + tx, rows + 0.5 + ty], axis=1))
         dist = np.linalg.norm(xyz - origin, axis=1)
-        out.append((xyz, origin + dirs * dist[:, None]))
+        nxt = origin + dirs * dist[:, None]
+        if mask is sky:
+            # The terrain point of the top terrain pixel lies under the silhouette, which crosses that pixel
+            # anywhere in its upper half or the sky pixel's lower half: on average at the pixel's top edge. The
+            # point at the same distance on the ray through that edge projects where the silhouette lies (the
+            # photo's skyline is the sub-pixel boundary, :mod:`.photo_edges`); its neighbour likewise.
+            _, up = cam.pixel_to_world_ray(np.stack([cols + 0.5, rows + 0.0], axis=1))
+            lifted = origin + up * dist[:, None]
+            xyz, nxt = lifted, nxt + (lifted - xyz)
+        out.append((xyz, nxt))
     (s, sn), (c, cn) = out
     return DemEdges(s, sn, c, cn, cam)
 

@@ -52,7 +52,8 @@ class PhotoEdges:
     """Skyline and edges of a photo at the working size ``(width, height)`` (``scale`` = working / full size).
 
     Attributes:
-        sky_row: (W,) float v of the skyline in each column (working pixels, the top edge of the first terrain row).
+        sky_row: (W,) float v of the skyline in each column (working pixels, sub-pixel: the boundary between the
+            last sky row and the first terrain row).
         sky_valid: (W,) bool, the column has a clear skyline.
         edges: (H, W) bool edge pixels (skyline included).
         sky_dt: (H, W) float32 distance (working px) to the nearest valid skyline pixel.
@@ -210,9 +211,33 @@ def detect_photo_edges(image: np.ndarray, width: int = 512, mask=None) -> PhotoE
         # Each bin also takes its neighbours' edges: directions near a bin boundary must not be lost.
         near = (bins == b) | (bins == (b + 1) % N_ORIENTATIONS) | (bins == (b - 1) % N_ORIENTATIONS)
         oriented[b] = _dt(edges & near, H, W)
-    # The boundary lies below the last sky row: v = path + 1 in pixel coordinates (pixel centres at + 0.5).
-    return PhotoEdges(W, H, scale, path + 1.0, valid, edges, sky_dt, oriented, pic, bool(usable),
-                      round(sky_fraction, 3), round(contrast, 2))
+    return PhotoEdges(W, H, scale, _boundary_rows(raw, path, gap, VALID), valid, edges, sky_dt, oriented, pic,
+                      bool(usable), round(sky_fraction, 3), round(contrast, 2))
+
+
+def _boundary_rows(gy: np.ndarray, path: np.ndarray, gap: int, least: float) -> np.ndarray:
+    """(W,) sub-pixel v of the sky/terrain boundary in each column: the peak of the vertical gradient ``gy`` (H, W)
+    from the path's row down to ``gap`` rows below it, refined by a parabola through the peak and its neighbours.
+
+    The path stops at the first row whose (capped) edge strength is clear, which on a blurred boundary lies a blur
+    width above it; the gradient's peak does not. The central difference at row ``r`` is centred on ``v = r + 0.5``,
+    so a step between rows ``b - 1`` and ``b`` peaks at ``v = b``, the boundary.
+    """
+    H, W = gy.shape
+    cols = np.arange(W)
+    rows = np.clip(path[None, :] + np.arange(-1, gap + 1)[:, None], 0, H - 1)  # (K, W) candidate rows
+    g = gy[rows, cols[None, :]]
+    # The first clear peak from the top (a stronger edge lower down, e.g. a rock band under a pale summit, is not
+    # the skyline): a local maximum of at least ``least``, else the window's strongest.
+    up = np.vstack([np.full((1, W), -np.inf), g[:-1]])
+    down = np.vstack([g[1:], np.full((1, W), -np.inf)])
+    peaks = (g >= up) & (g >= down) & (g >= least)
+    k = np.where(peaks.any(axis=0), np.argmax(peaks, axis=0), np.argmax(g, axis=0))
+    peak = rows[k, cols]
+    a, b, c = gy[np.maximum(peak - 1, 0), cols], gy[peak, cols], gy[np.minimum(peak + 1, H - 1), cols]
+    den = a - 2.0 * b + c
+    shift = np.where(den < -1e-9, 0.5 * (a - c) / np.where(den < -1e-9, den, -1.0), 0.0)
+    return peak + 0.5 + np.clip(shift, -0.5, 0.5)
 
 
 def _dt(on: np.ndarray, H: int, W: int) -> np.ndarray:

@@ -4,10 +4,11 @@
 2. The DEM's skyline and occluding contours seen from the prior (:mod:`.dem_edges`), over a view widened by the
    angles still to search.
 3. Coarse grid over heading, pitch, roll and field of view at 256 px; the best distinct hypotheses are refined by a
-   compass search over all seven parameters (position within its σ) at 512 px; the two best are rendered again
+   compass search over all seven parameters (position within its σ) at 512 px; the three best are rendered again
    from where they stand and refined at full working size (:mod:`.align`).
 4. With the aligned camera: Monoplot's own photo and DEM suggestions (:mod:`~monoplot_plugin.core.suggest`), the
-   pairs that camera brings within a few pixels of each other kept, and the ordinary unpaired fit
+   pairs that camera brings within a few pixels of each other kept, with points along the skyline (the photo's
+   sub-pixel skyline, the DEM silhouette the aligned camera puts next to it), and the ordinary unpaired fit
    (:func:`~monoplot_plugin.core.fit.fit_camera`: consensus, refinement, verdict) run on them from the aligned
    camera. The result is that fit's :class:`~monoplot_plugin.core.fit.FitResult`, with its status, message and σ.
 5. The alignment's own evidence can only lower the status: without a clear skyline, or when the skyline does not
@@ -39,10 +40,21 @@ __all__ = ["register_automatic", "AutoFitResult", "ALIGN_DEM_CELLS", "FIT_DEM_CE
 ALIGN_DEM_CELLS = 2_000_000
 FIT_DEM_CELLS = 6_000_000
 WIDTHS = (256, 512, 1024)
-#: Least share of the photo's clear skyline on the DEM's (within 0.4 % of the width) for an "ok".
-SKY_AGREEMENT_OK = 0.6
-#: Largest ratio of the prior's position σ to the median distance of the terrain edges for an "ok".
-NEAR_RATIO = 0.25
+#: Least share of the photo's clear skyline on the DEM's (within 0.4 % of the width) for an "ok". Calibrated on
+#: the synthetic scenes: right cameras 0.95-0.99, a camera 4 deg off in field of view whose suggestions still
+#: paired (the pairs are drawn near the aligned camera, so they agree with it) 0.65.
+SKY_AGREEMENT_OK = 0.8
+#: Largest edge score (:func:`_edge_score`, lower is better) of the camera returned for an "ok". Calibrated on 20
+#: synthetic scenes: right cameras 0.12-0.21; a camera 21 % of the range off whose skyline still agreed 0.26.
+EDGE_SCORE_OK = 0.23
+#: Largest ratio of the prior's position σ to the median distance of the terrain seen for an "ok". Calibrated on
+#: 20 synthetic scenes: cameras 2.5 % and 21 % of the range off were "ok" at ratios 0.14 and 0.20 (their
+#: suggestions paired with the wrong camera: pairs drawn near it agree with it); right ones lost at 0.14 and 0.16.
+NEAR_RATIO = 0.1
+#: Distinct view directions of the coarse grid refined at 512 px (at 256 px and the prior's position the grid's
+#: best is often not the right basin), and how many of the refined are refined again at full size.
+N_STARTS = 8
+N_FINALS = 3
 #: (distance scale in working px, step factor) of the fine rounds.
 FINE_ROUNDS = ((8.0, 0.5), (4.0, 0.25), (2.5, 0.1))
 #: Distance scale (px per 1024 working px) of the final comparison with the prior, and the least improvement
@@ -161,7 +173,7 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     step = max(0.25, 4.0 * prior.fov / p0.width)
     grid = offsets_grid(sig, step)
     scores = coarse.score(grid)
-    starts = [grid[i] for i in _distinct(grid, scores, 5, 2.0 * step)]
+    starts = [grid[i] for i in _distinct(grid, scores, N_STARTS, 2.0 * step)]
     # Medium: compass search over the seven parameters from each distinct start.
     report(0.3, "automatic registration: refining the best hypotheses")
     p1 = photos[WIDTHS[1]]
@@ -177,10 +189,10 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
         state["camera"] = camera_from_offset(prior, min(refined, key=lambda t: t[0])[1])
         report(0.3 + 0.25 * (i + 1) / len(starts), "automatic registration: refining the best hypotheses")
     refined.sort(key=lambda t: t[0])
-    # Fine: render again from the two best cameras and refine at full working size, the distance scale shrinking
+    # Fine: render again from the best cameras and refine at full working size, the distance scale shrinking
     # (a wide scale first smooths the score's many shallow minima), rendering again from where each round ends.
     finals = []
-    for _, off in refined[:2]:
+    for _, off in refined[:N_FINALS]:
         cam = camera_from_offset(prior, off)
         for tau, scale in FINE_ROUNDS:
             _poll(is_canceled)
@@ -202,6 +214,9 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     evidence["auto_position_sigma_m"] = float(sig["position_m"])
     _poll(is_canceled)
     image_points, world_points = _consistent_points(image, dem, aligned, is_canceled)
+    sky_uv, sky_xyz = _skyline_points(aligned, fine, align_dem)
+    image_points, world_points = np.vstack([image_points, sky_uv]), np.vstack([world_points, sky_xyz])
+    evidence["auto_skyline_points"] = int(len(sky_uv))
     report(0.8, "automatic registration: consensus fit")
     fit_sig = {"position_sigma_m": sig["position_m"], "angle_sigma_deg": 1.0,
                "fov_sigma_deg": max(0.5, 0.25 * sig["fov_deg"])}
@@ -306,7 +321,7 @@ def _consistent_points(image, dem, camera: Camera, is_canceled):
     ok = np.isfinite(uv).all(axis=1) & camera.in_image(uv)
     if len(q) == 0 or not ok.any():
         return q[:0], demsug.xyz[:0]
-    gate = max(3.0, 0.012 * math.hypot(w, h))
+    gate = _gate(camera)
     idx_dem = np.nonzero(ok)[0]
     d_q, j = cKDTree(uv[idx_dem]).query(q, distance_upper_bound=gate)
     d_p, i = cKDTree(q).query(uv[idx_dem], distance_upper_bound=gate)
@@ -314,6 +329,39 @@ def _consistent_points(image, dem, camera: Camera, is_canceled):
     keep_q[keep_q] &= i[j[keep_q]] == np.nonzero(keep_q)[0]
     jj = np.unique(j[keep_q])
     return q[keep_q], demsug.xyz[idx_dem[jj]]
+
+
+def _gate(camera: Camera) -> float:
+    """Pixels within which the aligned camera brings a DEM point to a photo point for the two to be kept."""
+    return max(3.0, 0.012 * math.hypot(camera.width, camera.height))
+
+
+def _skyline_points(camera: Camera, photo: PhotoEdges, dem, most: int = 120):
+    """((K, 2) photo pixels, (K, 3) map points) along the skyline: photo skyline points at evenly spaced clear
+    columns, each with the DEM silhouette point the aligned ``camera`` projects nearest to it (within
+    :func:`_gate`, one photo point per DEM point).
+
+    The suggestions are corners and peaks; these tie the final fit to the skyline the alignment matched, the
+    photo's most precise edge (sub-pixel, :mod:`.photo_edges`), so that the fit refines the aligned camera instead
+    of trading the skyline's agreement for the suggestions' pairing noise. The fit pairs them again by itself
+    (unpaired), so a point the camera moves off the skyline is not forced."""
+    from scipy.spatial import cKDTree
+
+    cols = np.nonzero(photo.sky_valid)[0]
+    empty = (np.zeros((0, 2)), np.zeros((0, 3)))
+    if not photo.usable or not len(cols):
+        return empty
+    cols = cols[np.unique(np.linspace(0, len(cols) - 1, min(most, len(cols))).astype(np.int64))]
+    uv = np.stack([(cols + 0.5) / photo.scale, photo.sky_row[cols] / photo.scale], axis=1)
+    sky = dem_edges(camera, dem, 0.5, camera.focal_px * photo.scale).sky
+    proj = camera.project(sky) if len(sky) else np.zeros((0, 2))
+    ok = np.isfinite(proj).all(axis=1) & camera.in_image(proj) if len(sky) else np.zeros(0, bool)
+    if not ok.any():
+        return empty
+    d, j = cKDTree(proj[ok]).query(uv, distance_upper_bound=_gate(camera))
+    keep = np.isfinite(d)
+    j, first = np.unique(j[keep], return_index=True)
+    return uv[np.nonzero(keep)[0][first]], sky[ok][j]
 
 
 def _combine(result: AutoFitResult, ev: dict) -> None:
@@ -326,6 +374,9 @@ def _combine(result: AutoFitResult, ev: dict) -> None:
     elif ev["auto_sky_agreement"] < SKY_AGREEMENT_OK:
         weak.append(f"only {100 * ev['auto_sky_agreement']:.0f} % of the photo's skyline lies on the DEM's "
                     "skyline under the camera")
+    if ev.get("auto_edge_score", 1.0) > EDGE_SCORE_OK:
+        weak.append(f"the DEM's skyline and contours fit the photo's edges only loosely under the camera (edge "
+                    f"score {ev.get('auto_edge_score', 1.0):.2f}, over {EDGE_SCORE_OK})")
     rng = ev.get("auto_range_m", float("nan"))
     if not np.isfinite(rng) or ev.get("auto_position_sigma_m", 0.0) > NEAR_RATIO * rng:
         weak.append(f"the prior position's uncertainty ({ev.get('auto_position_sigma_m', 0.0):.0f} m) is a large "
