@@ -8,6 +8,7 @@ coordinates are the points the final fit used (``pairs`` index them), shown to t
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Optional
 
@@ -15,9 +16,10 @@ import numpy as np
 
 from ..core.auto import AutoFitResult, register_automatic
 from ..core.camera import Camera
+from .fit import ON_GROUND_MAX_M, flag_under_terrain, ground_clearance, on_ground_rule
 from .progress import Canceled, IsCanceled, Progress, check_canceled
 
-__all__ = ["AutoDone", "register", "DEFAULT_POSITION_SIGMA_M", "DEFAULT_ANGLE_SIGMA_DEG"]
+__all__ = ["AutoDone", "register", "check_height", "DEFAULT_POSITION_SIGMA_M", "DEFAULT_ANGLE_SIGMA_DEG"]
 
 #: the prior's uncertainty when nothing else says it (a position read off a map or EXIF GPS, a heading guessed)
 DEFAULT_POSITION_SIGMA_M = 200.0
@@ -62,4 +64,22 @@ def register(photo: np.ndarray, dem, prior: Camera, position_sigma_m: Optional[f
     if result.status == "canceled":
         raise Canceled(result.message or "canceled")
     check_canceled(is_canceled)
+    check_height(result, prior, dem)
     return AutoDone(result)
+
+
+def check_height(result, prior: Camera, dem) -> None:
+    """The fit's rule on the camera's height, for a camera found with no points (in place): under the terrain it is
+    no photographer's; from a rough camera standing on the ground (:func:`~.fit.on_ground_rule`), one that ends far
+    above or under it has moved where the person said it was not. Either makes an "ok" "uncertain", and the message
+    says so."""
+    clearance = ground_clearance(result.camera, dem)
+    grounded, eye = on_ground_rule(prior, dem)
+    if grounded and math.isfinite(clearance) and abs(clearance - eye) > ON_GROUND_MAX_M:
+        result.message = (f"{result.message} The camera found is {clearance:.0f} m above the terrain, but the "
+                          f"rough camera stood on the ground ({eye:.0f} m): check it, or fit it on points with the "
+                          f"camera height on the ground.")
+        if result.status == "ok":
+            result.status = "uncertain"
+        return
+    flag_under_terrain(result, clearance)

@@ -132,3 +132,23 @@ def test_an_automatic_orthophoto_keeps_the_photos_detail_over_what_it_sees(scene
     assert g[1] == pytest.approx(cell) and ds.RasterXSize == pytest.approx((bounds[2] - bounds[0]) / cell, abs=1)
     alpha = ds.GetRasterBand(4).ReadAsArray()
     assert alpha.mean() > 0.3 * 255  # mostly seen: the extent follows what the camera sees
+
+
+def test_a_camera_found_automatically_keeps_to_the_height_the_person_gave(scene):
+    """The trial's hand-held case: a rough camera 2 m above the ground, and "Find camera automatically" ended 96 m
+    above it (or 75 m inside the mountain), reported ok. Such a height makes the result uncertain, with a reason."""
+    from types import SimpleNamespace
+
+    from monoplot_plugin.workflow.auto import check_height
+
+    dem, camera, ground = scene
+    prior = camera.with_parameters(z=ground + 2.0)
+    for dz, expected in ((1.7, "ok"), (96.0, "uncertain"), (-75.0, "uncertain")):
+        found = SimpleNamespace(camera=camera.with_parameters(z=ground + dz), status="ok", message="Fitted.")
+        check_height(found, prior, dem)
+        assert found.status == expected
+        assert (expected == "ok") == (found.message == "Fitted.")
+    # a drone's rough camera keeps its height free: 80 m up, found 20 m higher, is no contradiction
+    found = SimpleNamespace(camera=camera.with_parameters(z=ground + 100.0), status="ok", message="Fitted.")
+    check_height(found, camera, dem)
+    assert found.status == "ok"
