@@ -53,7 +53,9 @@ def start_warm_up():
     Returns the task, or None when it could not start."""
     try:
         from .gui.tasks import HiddenTask, start_task
-        from .workflow.warmup import warm_up
+        from .workflow.warmup import import_plugin_modules, warm_up
+
+        import_plugin_modules()  # here, on the main thread: the warm-up thread then imports none of them
 
         def done(result):
             if task in _WARMING:

@@ -18,6 +18,7 @@ from ..core.auto import AutoFitResult, register_automatic
 from ..core.camera import Camera
 from .fit import ON_GROUND_MAX_M, flag_under_terrain, ground_clearance, on_ground_rule
 from .progress import Canceled, IsCanceled, Progress, check_canceled
+from .warmup import import_torch
 
 __all__ = ["AutoDone", "register", "check_height", "DEFAULT_POSITION_SIGMA_M", "DEFAULT_ANGLE_SIGMA_DEG"]
 
@@ -56,6 +57,8 @@ def register(photo: np.ndarray, dem, prior: Camera, position_sigma_m: Optional[f
     Raises:
         Canceled: ``is_canceled()`` turned true (nothing to keep).
     """
+    # torch through the one import thread (cancelable wait; two threads importing torch at once can fail)
+    import_torch(is_canceled, progress)
     result = register_automatic(
         photo, dem, prior,
         position_sigma_m=DEFAULT_POSITION_SIGMA_M if position_sigma_m is None else float(position_sigma_m),
