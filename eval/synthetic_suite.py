@@ -23,6 +23,12 @@ Scenes (all deterministic from ``--seed``; terrain from :func:`~monoplot_plugin.
 - **paired** (``--scenes`` / 10): the same generator, no wrong points, the true pairs given, half with 6-11 points.
 - **degenerate** (paired, must be refused): one point duplicated 8-11 times (exact, or with noisy photo copies),
   three points repeated to 9, 8-11 collinear points (a straight 3-D segment between two terrain points).
+- **careless** (``--careless N``, default none; tag ``careless``): a careless user's sets, beyond the issue's 60 %:
+  6-30 true correspondences, 90 % of the photo points and 75 % of the DEM points wrong (:data:`CARELESS_WRONG`, as
+  Aletsch's careless +5 % user), every wrong point on a real feature (visible terrain; on the DEM side also hidden or
+  just outside). Own random stream: the other scenes do not change. Own line, not part of the targets.
+  For every unpaired or careless miss the record says why (``miss``): "search" when the truth's basin, scored as the
+  fit scores its candidates (``core/fit/diagnose.py``), beats the fit's camera, "points" when it does not.
 
 When ``fit_camera`` takes ``position_sigma_m``, ``angle_sigma_deg``, ``fov_sigma_deg`` (the prior's stated
 uncertainty; in its signature or as ``FitOptions`` fields), they are set to 1.5 x the scene's drawn error bounds
