@@ -36,6 +36,7 @@ sys.path.insert(0, str(REPO))
 from monoplot_plugin.core.camera import Camera  # noqa: E402
 from monoplot_plugin.core.dem import Dem  # noqa: E402
 from monoplot_plugin.core.fit import fit_camera  # noqa: E402
+from monoplot_plugin.core.fit.diagnose import basin_score  # noqa: E402
 from monoplot_plugin.core.suggest import suggest_dem_points, suggest_photo_points  # noqa: E402
 
 PHOTO_GATE_PX = 10.0
@@ -74,6 +75,28 @@ def gcp_errors(camera: Camera, gcps: np.ndarray, dem: Dem) -> dict:
             "rays_hitting_dem": int(finite.sum())}
 
 
+def reference_camera(gcps: np.ndarray, prior: Camera) -> Camera:
+    """The paired least-squares camera on the 11 GCPs (the 7.72 px optimum): the truth's stand-in."""
+    pairs = np.stack([np.arange(len(gcps))] * 2, axis=1)
+    return fit_camera(gcps[:, :2], gcps[:, 2:], prior, pairs=pairs).camera
+
+
+def diagnosis(result, q: np.ndarray, world: np.ndarray, start: Camera, reference: Camera, gcps: np.ndarray,
+              dem: Dem) -> dict:
+    """Why a fit missed (:mod:`monoplot_plugin.core.fit.diagnose`): the fit's camera and the best camera of the
+    truth's basin (the fit's local steps from the GCP camera), both scored as the fit scores its candidates.
+    ``miss`` = "search" when the truth's basin scores higher (the search never reached it), "points" when the fit's
+    camera explains the accepted points at least as well (they cannot tell the cameras apart)."""
+    radius = (result.evidence or {}).get("radius_px")
+    if not radius:
+        return {}
+    fit = basin_score(q, world, start, result.camera, radius)
+    basin = basin_score(q, world, start, reference, radius, optimise=True)
+    return {"fit_net_score": round(fit["net"], 2), "truth_basin_net_score": round(basin["net"], 2),
+            "truth_basin_gcp_rmse_px": gcp_errors(basin["camera"], gcps, dem)["gcp_rmse_px"],
+            "miss": "search" if basin["net"] > fit["net"] else "points"}
+
+
 def curate(photo_uv: np.ndarray, dem_xyz: np.ndarray, gcps: np.ndarray):
     """The simulated user: (photo accepted mask, DEM accepted mask)."""
     dp = np.linalg.norm(photo_uv[:, None, :] - gcps[None, :, :2], axis=2).min(axis=1) if len(photo_uv) else \
@@ -107,6 +130,7 @@ def case_paired(dem, gcps, prior):
 
 def case_semi(dem, gcps, image, prior, careless_fraction=0.2, seed=0):
     photo, demsug, timing = suggestions(image, dem, prior)
+    reference = reference_camera(gcps, prior)
     pa, da = curate(photo.uv, demsug.xyz, gcps)
     r = fit_camera(photo.uv[pa], demsug.xyz[da], prior)
     e = gcp_errors(r.camera, gcps, dem)
@@ -114,6 +138,7 @@ def case_semi(dem, gcps, image, prior, careless_fraction=0.2, seed=0):
           "photo_accepted": int(pa.sum()), "dem_accepted": int(da.sum()), **e, "target_px": 10.0,
           "pass": bool(e["gcp_rmse_px"] <= 10.0), "stretch_pass": bool(e["gcp_rmse_px"] <= 8.0),
           "auto_pairs": int(r.inliers.sum()), "prior": gcp_errors(prior, gcps, dem)["gcp_rmse_px"],
+          **diagnosis(r, photo.uv[pa], demsug.xyz[da], prior, reference, gcps, dem),
           "fit_s": round(r.elapsed_s, 2), **timing})
     # The paper's method exactly (its loss alone, one descent from the prior), on the same points, for comparison.
     rp = fit_camera(photo.uv[pa], demsug.xyz[da], prior, refine=False, coarse=False, robust=False,
@@ -140,7 +165,9 @@ def case_semi(dem, gcps, image, prior, careless_fraction=0.2, seed=0):
               "extra_dem": int((dc & ~da).sum()), **ec, "photo_outliers": int(flagged.sum()),
               "extra_flagged": int(flagged[extra].sum()), "target_px": target,
               "pass": None if target is None else bool(ec["gcp_rmse_px"] <= target or (fraction > 0.1 and honest)),
-              "wrong_but_ok": bool(rc.status == "ok" and ec["gcp_rmse_px"] > 15.0), "fit_s": round(rc.elapsed_s, 2)})
+              "wrong_but_ok": bool(rc.status == "ok" and ec["gcp_rmse_px"] > 15.0),
+              **diagnosis(rc, photo.uv[pc], demsug.xyz[dc], prior, reference, gcps, dem),
+              "fit_s": round(rc.elapsed_s, 2)})
     return photo, demsug, pa, da
 
 
@@ -148,9 +175,10 @@ def case_robustness(dem, gcps, image, prior, photo, demsug, pa, da, n=20, seed=1
     """Two lines: the same accepted points fitted from 20 perturbed starts; and (``robustness_resuggested``) the
     DEM suggestions recomputed from each perturbed start (they depend on the camera's view), curated by the same
     rule, then fitted from that start: what a user who only had the perturbed camera would get."""
+    reference = reference_camera(gcps, prior)
     for name, resuggest in (("robustness", False), ("robustness_resuggested", True)):
         rng = np.random.default_rng(seed)
-        errors, times, accepted, statuses = [], [], [], []
+        errors, times, accepted, statuses, diagnoses = [], [], [], [], []
         for _ in range(n):
             start = prior.with_parameters(
                 x=prior.position[0] + rng.uniform(-300, 300), y=prior.position[1] + rng.uniform(-300, 300),
@@ -167,6 +195,7 @@ def case_robustness(dem, gcps, image, prior, photo, demsug, pa, da, n=20, seed=1
             errors.append(gcp_errors(r.camera, gcps, dem)["gcp_rmse_px"])
             times.append(r.elapsed_s)
             statuses.append(r.status)
+            diagnoses.append(diagnosis(r, photo.uv[pa], world, start, reference, gcps, dem))
         errors = np.array(errors)
         ok = float(np.mean(errors <= 12.0))
         wrong_ok = int(sum(1 for e, st in zip(errors, statuses) if st == "ok" and e > 15.0))
@@ -176,6 +205,9 @@ def case_robustness(dem, gcps, image, prior, photo, demsug, pa, da, n=20, seed=1
               "median_gcp_rmse_px": round(float(np.median(errors)), 2),
               "worst_gcp_rmse_px": round(float(errors.max()), 2),
               "gcp_rmse_px_each": [round(float(e), 1) for e in errors], "dem_accepted_each": accepted,
+              # The best camera of the truth's basin on the same points, and which cause each miss has.
+              "truth_basin_gcp_rmse_px_each": [dg.get("truth_basin_gcp_rmse_px") for dg in diagnoses],
+              "miss_each": [dg.get("miss") if e > 12.0 else None for dg, e in zip(diagnoses, errors)],
               "mean_fit_s": round(float(np.mean(times)), 2),
               "note": ("DEM suggestions recomputed from each perturbed start, same curation" if resuggest else
                        "suggestions and curation from the prior (as case semi_automatic); each start perturbed")})

@@ -197,17 +197,21 @@ def _gates(ctx, sigmas: dict) -> Tuple[float, float]:
     return gate, radius
 
 
-def hypotheses(ctx, sigmas: dict, n_max: int) -> List[dict]:
+def hypotheses(ctx, sigmas: dict, n_max: int, camera=None) -> List[dict]:
     """Camera hypotheses at the prior position from pairs of candidate correspondences, best first.
+
+    ``camera``: draw around this camera instead of the prior (its position, rotation and field of view; the gate
+    still follows ``sigmas``).
 
     Returns:
         list of dicts ``{"heading", "pitch", "roll", "fov", "score"}`` (distinct rotations only).
     """
     from scipy.spatial import cKDTree
 
-    cam = ctx.initial
+    cam = ctx.initial if camera is None else camera
     q = ctx.q
-    if len(q) < 2 or len(ctx.P) < 2:
+    P = ctx.P if camera is None else ctx.world - np.asarray(cam.position, dtype=np.float64)
+    if len(q) < 2 or len(P) < 2:
         return []
     gate, radius = _gates(ctx, sigmas)
     uv0, depth0 = cam.project_with_depth(ctx.world)
@@ -243,8 +247,8 @@ def hypotheses(ctx, sigmas: dict, n_max: int) -> List[dict]:
     if len(i1) == 0:
         return []
     c = np.array([cam.cx, cam.cy])
-    w1 = ctx.P[j1] / np.linalg.norm(ctx.P[j1], axis=1, keepdims=True)
-    w2 = ctx.P[j2] / np.linalg.norm(ctx.P[j2], axis=1, keepdims=True)
+    w1 = P[j1] / np.linalg.norm(P[j1], axis=1, keepdims=True)
+    w2 = P[j2] / np.linalg.norm(P[j2], axis=1, keepdims=True)
     cos_w = np.clip(np.sum(w1 * w2, axis=1), -1.0, 1.0)
     o1, o2 = q[i1] - c, q[i2] - c
     f0 = cam.focal_px
@@ -267,7 +271,7 @@ def hypotheses(ctx, sigmas: dict, n_max: int) -> List[dict]:
     focal = focal[:n_hyp]
     # Score every hypothesis: project the scored DEM points, count photo points with one within the radius.
     photo_tree = cKDTree(q)
-    Ps = ctx.P[score_idx]
+    Ps = P[score_idx]
     w, h = cam.image_size
     scores = np.zeros(len(R))
     chunk = max(1, 200_000 // max(1, len(score_idx)))
