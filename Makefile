@@ -100,7 +100,7 @@ bench: setup
 eval: setup
 	$(PY) -m eval.aletsch
 	$(PY) -m eval.smapshot
-	$(PY) -m eval.synthetic_suite
+	$(PY) -m eval.synthetic_suite --careless 24
 	$(PY) -m eval.auto
 	$(PY) -m eval.user_trial
 
