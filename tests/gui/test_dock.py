@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 from qgis.core import Qgis, QgsPointXY, QgsProject, QgsRectangle
@@ -170,7 +172,11 @@ def test_fit_task_runs_to_completion(dock, scene, qtbot):
 
 def test_cancel_a_running_fit(dock, scene, qtbot):
     c = start_fit_on_scene(dock, scene, qtbot)
-    qtbot.waitUntil(lambda: c.task is not None and c.task.progress() > 0, timeout=20000)
+    # under way: past its first step, or still waiting for torch's import (a cancel must work there too; under a
+    # heavy load that wait alone took over 20 s)
+    started = time.perf_counter()
+    qtbot.waitUntil(lambda: c.task is not None and (c.task.progress() > 0 or time.perf_counter() - started > 2.0),
+                    timeout=20000)
     # the issue asks for less than a second; 3 s here so that a loaded machine does not fail a cancel that works
     with qtbot.waitSignal(c.taskFinished, timeout=3000) as blocker:
         qtbot.mouseClick(dock.cancelButton, Qt.MouseButton.LeftButton)
