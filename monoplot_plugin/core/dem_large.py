@@ -150,8 +150,8 @@ class LargeDem(Dem):
         start = xyz[idx] - step * dirs[idx]
         end = xyz[idx] + step * dirs[idx]
         full = Dem(np.zeros((1, 1), dtype=np.float32), src.geotransform, self.crs_wkt)
-        cols = np.stack([full.map_to_cell(p[:, 0], p[:, 1])[0] for p in (start, end)], axis=1)
-        rows = np.stack([full.map_to_cell(p[:, 0], p[:, 1])[1] for p in (start, end)], axis=1)
+        (c_start, r_start), (c_end, r_end) = (full.map_to_cell(p[:, 0], p[:, 1]) for p in (start, end))
+        cols, rows = np.stack([c_start, c_end], axis=1), np.stack([r_start, r_end], axis=1)
         block = np.floor(rows.min(axis=1) / _SAMPLE_BLOCK) * 1e6 + np.floor(cols.min(axis=1) / _SAMPLE_BLOCK)
         keys = np.unique(block)
         if len(keys) > 2000:  # a great many points spread over the file: the preview's hits stay
@@ -210,7 +210,11 @@ def read_by_windows(path: str, max_cells: Optional[int] = None) -> bool:
     """True when :func:`open_dem` opens the DEM file as a :class:`LargeDem` (more cells than ``max_cells``,
     default :func:`in_memory_limit`, and not in degrees)."""
     limit = in_memory_limit() if max_cells is None else int(max_cells)
-    return _cells(path) > limit and not _geographic(path)
+    return _windowed(path, _cells(path), limit)
+
+
+def _windowed(path: str, cells: int, limit: int) -> bool:
+    return cells > limit and not _geographic(path)
 
 
 def overviews_to_build(path: str, max_cells: Optional[int] = None) -> List[int]:
@@ -228,7 +232,7 @@ def open_dem(path: str, void_value: Optional[float] = None, progress: Optional[P
     so; :class:`~.dem_window.OverviewsCanceled` when ``is_canceled()`` turns true while they are built)."""
     cells = _cells(path)
     limit = in_memory_limit() if max_cells is None else int(max_cells)
-    if not read_by_windows(path, limit):
+    if not _windowed(path, cells, limit):
         return Dem.open(path, void_value=void_value), []
     source, notes = open_dem_source(str(path), progress, void_value=void_value, is_canceled=is_canceled)
     preview = as_dem(source, max_cells=min(PREVIEW_CELLS, limit // 4))

@@ -65,7 +65,7 @@ def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution=None,
                            f"{camera.width}x{camera.height} px")
     xyz = xyz_result(camera, dem, visibility=False, progress=part(progress, 0.0, 0.5), is_canceled=is_canceled).xyz
     check_canceled(is_canceled)
-    grid = ortho_grid(camera, dem, resolution) if grid is None else grid
+    grid = ortho_grid(camera, dem, resolution, xyz) if grid is None else grid
     written = orthophoto_from_camera(path, photo, camera, grid, xyz, overwrite=overwrite)
     if progress is not None:
         progress(1.0, "")
@@ -111,16 +111,16 @@ def report_points(path, dem):
     return ReportPoints(table["uv"], fill_missing_z(table["xyz"], dem), [str(i) for i in table["ids"]])
 
 
-def ortho_grid(camera: Camera, dem, resolution=None):
+def ortho_grid(camera: Camera, dem, resolution=None, xyz: Optional[np.ndarray] = None):
     """The grid of the orthophoto: the DEM's, or one of cell size ``resolution`` over its extent, or (:data:`AUTO`)
     one of :func:`auto_resolution` over the part of the DEM the camera sees. For a DEM file read by windows (core
     :class:`~..core.dem_large.LargeDem`) the part of it the camera sees, at the finest level of at most half
     :data:`MAX_ORTHO_CELLS` cells and the cells read whole (``in_memory_limit``); ``resolution`` then resamples
-    that part."""
+    that part. ``xyz``: the camera's per-pixel XYZ when the caller has it (for :data:`AUTO`)."""
     from ..core.dem_large import in_memory_limit, is_large
 
     if resolution == AUTO:
-        seen = xyz_result(camera, dem, visibility=False).xyz
+        seen = xyz_result(camera, dem, visibility=False).xyz if xyz is None else xyz
         cell, bounds = auto_resolution(camera, dem, seen)
         return dem_at_resolution(dem, cell, bounds)
 
