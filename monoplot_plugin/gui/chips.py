@@ -22,10 +22,12 @@ from ..core.camera import Camera
 from ..state import MAP, PHOTO
 from .tasks import HiddenTask, start_task
 
-__all__ = ["ChipView", "chip_radius", "render_view"]
+__all__ = ["ChipView", "chip_radius", "chip_side", "render_view"]
 
-#: side of each chip on screen (pixels)
+#: largest side of each chip on screen (pixels)
 CHIP_PX = 120
+#: smallest side of each chip on screen (pixels): the chips are a zoom, not a thumbnail
+CHIP_MIN_PX = 72
 #: most pixels of the rough camera's rendering (chips need detail, not a full-size z-buffer)
 VIEW_MAX_PIXELS = 600_000
 
@@ -43,6 +45,18 @@ def chip_radius(width: int) -> float:
     return max(32.0, width / 24.0)
 
 
+def chip_side(canvas_width: int, canvas_height: int) -> int:
+    """Side (screen pixels) of each chip over a photo canvas of this size: a quarter of its shorter side in steps of
+    8 px (a status line that comes and goes resizes the canvas a little: the chips stay), within
+    :data:`CHIP_MIN_PX` .. :data:`CHIP_PX`. At 120 px the two chips covered a quarter of the docked photo canvas
+    (546 x 333 at 1600 x 1000); a floated, larger canvas gets larger chips.
+
+    >>> chip_side(546, 333), chip_side(546, 310), chip_side(1380, 800), chip_side(300, 200)
+    (80, 72, 120, 72)
+    """
+    return int(min(CHIP_PX, max(CHIP_MIN_PX, min(canvas_width, canvas_height) // 32 * 8)))
+
+
 def render_view(camera: Camera, dem) -> np.ndarray:
     """(h, w, 4) uint8 shaded relief of ``dem`` seen by ``camera`` at up to :data:`VIEW_MAX_PIXELS` (the dock's
     overlay colours, :func:`.engine.colorize_relief`)."""
@@ -57,12 +71,17 @@ def render_view(camera: Camera, dem) -> np.ndarray:
 
 
 class ChipView(QWidget):
-    """Two chips (photo | DEM from the camera) of the selected point, floating in a corner of ``parent`` (the photo
-    canvas), shown while a point is selected."""
+    """Two chips (photo | DEM from the camera) of the selected point, floating in the corner of ``parent`` (the photo
+    canvas) away from the point, shown while a point is selected and :attr:`wanted` (the photo bar's "Chips")."""
 
     def __init__(self, controller, parent=None):
         super().__init__(parent)
         self.controller = c = controller
+        #: the person's choice (the photo bar's "Chips" box): off, the chips never show
+        self.wanted = True
+        #: side of each chip (screen pixels, :func:`chip_side` of the canvas)
+        self.side = CHIP_PX
+        self._at: Optional[Tuple[float, float]] = None  # photo pixel of the selected point (where not to be)
         self.setObjectName("MonoplotChips")
         self.setAttribute(Qt.WidgetAttribute.WA_StyledBackground, True)
         self.setStyleSheet("#MonoplotChips { background: rgba(20, 20, 20, 215); border-radius: 4px; }"
@@ -75,16 +94,14 @@ class ChipView(QWidget):
         self.photo_chip, self.dem_chip = QLabel(), QLabel()
         for label, tip in ((self.photo_chip, tr("The photo around the selected point")),
                            (self.dem_chip, tr("The DEM rendered from the current camera, same pixels"))):
-            label.setFixedSize(CHIP_PX, CHIP_PX)
             label.setAlignment(Qt.AlignmentFlag.AlignCenter)
             label.setToolTip(tip)
             label.setStyleSheet("background: #222; color: #ccc;")
             row.addWidget(label)
         outer.addLayout(row)
-        self.caption = QLabel()
-        self.caption.setWordWrap(True)
-        self.caption.setFixedWidth(2 * CHIP_PX + 4)
+        self.caption = QLabel()  # one line, elided (the whole text in its tool tip): no lines of text over the photo
         outer.addWidget(self.caption)
+        self._resize_chips(CHIP_PX)
         self._view: Optional[Tuple[dict, QImage]] = None  # (camera dict, rendering) of the rough camera
         self._tasks: List[HiddenTask] = []
         self._selected: Tuple[str, str] = ("", "")
@@ -98,21 +115,61 @@ class ChipView(QWidget):
         self._pending.setInterval(0)
         self._pending.timeout.connect(self.refresh)
         c.pointsChanged.connect(lambda changed: self._pending.start())
-        if parent is not None:  # floats in the photo canvas's lower left corner: no room taken from the table
+        if parent is not None:  # floats over the photo canvas: no room taken from the table
             parent.installEventFilter(self)
+            # the canvas pans and zooms: the corner away from the selected point changes with it
+            extents = getattr(parent, "extentsChanged", None)
+            if extents is not None:
+                extents.connect(self._place)
         self.setVisible(False)
+
+    def set_wanted(self, on: bool) -> None:
+        """Show the chips of the selected point (on) or never (off)."""
+        self.wanted = bool(on)
+        self._drawn = None
+        self.refresh()
 
     def eventFilter(self, watched, event) -> bool:  # noqa: N802
         if watched is self.parent() and event.type() == QEvent.Type.Resize:
+            parent = self.parentWidget()
+            side = chip_side(parent.width(), parent.height())
+            if side != self.side:
+                self._resize_chips(side)
+                self._drawn = None
+                if not self.isHidden():
+                    self._pending.start()  # drawn again at the new size
             self._place()
         return False
 
+    def _resize_chips(self, side: int) -> None:
+        self.side = side
+        for label in (self.photo_chip, self.dem_chip):
+            label.setFixedSize(side, side)
+        self.caption.setFixedWidth(2 * side + 4)
+        self._set_caption(self.caption.toolTip())
+
+    def _set_caption(self, text: str) -> None:
+        self.caption.setToolTip(text)
+        metrics = self.caption.fontMetrics()
+        self.caption.setText(metrics.elidedText(text, Qt.TextElideMode.ElideRight, self.caption.width()))
+
     def _place(self) -> None:
+        """In the corner of the canvas diagonally away from the selected point: it is never under its own chips
+        (in the lower left corner they hid the photo points there)."""
         parent = self.parentWidget()
-        if parent is not None:
-            self.adjustSize()
-            self.move(6, max(0, parent.height() - self.height() - 6))
-            self.raise_()
+        if parent is None or self.isHidden():
+            return
+        self.adjustSize()
+        left, top = True, False  # lower left while the point is not on the canvas
+        if self._at is not None and hasattr(parent, "getCoordinateTransform"):
+            from qgis.core import QgsPointXY
+
+            at = parent.getCoordinateTransform().transform(QgsPointXY(self._at[0], -self._at[1]))  # x = u, y = -v
+            left, top = at.x() > parent.width() / 2.0, at.y() > parent.height() / 2.0
+        x = 6 if left else max(0, parent.width() - self.width() - 6)
+        y = 6 if top else max(0, parent.height() - self.height() - 6)
+        self.move(x, y)
+        self.raise_()
 
     # --- what to show -------------------------------------------------------------------------------------------
     def show_point(self, space: str, pid: str) -> None:
@@ -124,7 +181,7 @@ class ChipView(QWidget):
         space, pid = self._selected
         c = self.controller
         p = c.state.points.get(pid) if pid else None
-        if p is None or c.image is None:
+        if p is None or c.image is None or not self.wanted:
             self.setVisible(False)
             self._drawn = None
             return
@@ -142,31 +199,32 @@ class ChipView(QWidget):
         self._drawn = drawn
         camera = c.camera()
         centre = self._centre(p, camera)
+        self._at = centre
         if centre is None:
             self.photo_chip.setText(tr("No camera:\nnot in the photo"))
             self.dem_chip.setText(tr("Give a rough\ncamera first"))
-            self.caption.setText(tr("A map point shows on the photo once there is a camera."))
+            self._set_caption(tr("A map point shows on the photo once there is a camera."))
             self._place()
             return
         partner = c.state.points.get(partner_id)
         photo_marks, dem_marks = self._marks(p, partner, camera)
         radius = chip_radius(c.image.width())
-        self.photo_chip.setPixmap(self._chip(c.image, 1.0, centre, radius, photo_marks))
+        self.photo_chip.setPixmap(self._chip(c.image, 1.0, centre, radius, photo_marks, self.side))
         view = self._dem_view(camera)
         if view is None:
             self.dem_chip.setText(tr("Rendering…") if camera is not None else tr("No camera yet"))
         else:
             self.dem_chip.setPixmap(self._chip(view, view.width() / float(c.image.width()), centre, radius,
-                                               dem_marks))
+                                               dem_marks, self.side))
         kind = tr("Photo point") if space == PHOTO else tr("Map point")
         text = tr("{0} {1}").format(kind, p.label or "").strip()
         if partner is not None:
             text += tr(" · paired (cyan)")
         if camera is None:
             text += tr(" · no camera: no DEM view")
-        else:
-            text += tr(" · DEM from the {0} camera").format(tr("fitted") if c.fitted is not None else tr("rough"))
-        self.caption.setText(text)
+        else:  # short: one line under the chips
+            text += tr(" · {0} camera").format(tr("fitted") if c.fitted is not None else tr("rough"))
+        self._set_caption(text)
         self._place()
 
     def _centre(self, p, camera) -> Optional[Tuple[float, float]]:
@@ -245,17 +303,17 @@ class ChipView(QWidget):
 
     # --- drawing ----------------------------------------------------------------------------------------------
     @staticmethod
-    def _chip(image: QImage, scale: float, centre, radius: float, marks) -> QPixmap:
+    def _chip(image: QImage, scale: float, centre, radius: float, marks, side: int = CHIP_PX) -> QPixmap:
         """The square of ``image`` (``scale`` image pixels per photo pixel) around photo pixel ``centre``, zoomed to
-        the chip, with the marks (photo pixels) drawn on it."""
+        a chip of ``side`` screen pixels, with the marks (photo pixels) drawn on it."""
         u, v = centre
         src = QRectF((u - radius) * scale, (v - radius) * scale, 2 * radius * scale, 2 * radius * scale)
-        pixmap = QPixmap(CHIP_PX, CHIP_PX)
+        pixmap = QPixmap(side, side)
         pixmap.fill(QColor(34, 34, 34))
         painter = QPainter(pixmap)
         painter.setRenderHint(QPainter.RenderHint.SmoothPixmapTransform)
-        painter.drawImage(QRectF(0, 0, CHIP_PX, CHIP_PX), image, src)
-        zoom = CHIP_PX / (2.0 * radius)
+        painter.drawImage(QRectF(0, 0, side, side), image, src)
+        zoom = side / (2.0 * radius)
 
         def at(pu, pv) -> QPointF:
             return QPointF((pu - (u - radius)) * zoom, (pv - (v - radius)) * zoom)
@@ -264,7 +322,7 @@ class ChipView(QWidget):
             if not (np.isfinite(pu) and np.isfinite(pv)):
                 continue
             q = at(pu, pv)
-            if not (-10 <= q.x() <= CHIP_PX + 10 and -10 <= q.y() <= CHIP_PX + 10):
+            if not (-10 <= q.x() <= side + 10 and -10 <= q.y() <= side + 10):
                 continue
             if kind == "point":
                 painter.setPen(QPen(QColor(255, 220, 0), 1.5))

@@ -39,6 +39,8 @@ from .views import MapPresenter, PhotoPresenter
 FORM_CLASS, _ = uic.loadUiType(str(PLUGIN_DIR / "ui" / "dock.ui"))
 #: QgsSettings key (the plugin's "monoplot/" prefix) of the number of suggestions per view.
 SUGGESTION_COUNT_KEY = "monoplot/suggestions_per_view"
+#: QgsSettings key: whether the photo shows the chips of the selected point.
+SHOW_CHIPS_KEY = "monoplot/show_chips"
 
 
 class MonoplotDock(QDockWidget, FORM_CLASS):
@@ -143,6 +145,10 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.cameraTabLayout.insertWidget(self.cameraTabLayout.indexOf(self.cameraSummary), self.lens_panel)
         self.fit_settings = FitSettingsPanel(c, self.fitScrollContents)
         self.chips = ChipView(c, self.photo_canvas)  # photo | DEM chips of the selected point (gui/chips.py)
+        # the chips on or off: a user preference (QgsSettings), not part of the project
+        self.chipsCheck.setChecked(QgsSettings().value(SHOW_CHIPS_KEY, True, type=bool))
+        self.chips.set_wanted(self.chipsCheck.isChecked())
+        self.chipsCheck.toggled.connect(self._chips_toggled)
         self.fitTabLayout.insertWidget(self.fitTabLayout.indexOf(self.resultLabel) + 1, self.fit_settings)
         scroll_points_tab(self)
         narrow_tabs(self)
@@ -393,6 +399,10 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
     def _residuals_toggled(self, on: bool) -> None:
         self.photo_view.show_residuals = on
         self.photo_view.redraw_residuals()
+
+    def _chips_toggled(self, on: bool) -> None:
+        QgsSettings().setValue(SHOW_CHIPS_KEY, on)
+        self.chips.set_wanted(on)
 
     def _float(self, on: bool) -> None:
         if self.isFloating() != on:

@@ -5,13 +5,14 @@ from __future__ import annotations
 import numpy as np
 from qgis.core import QgsProject
 
-from monoplot_plugin.gui.chips import CHIP_PX, chip_radius
+from monoplot_plugin.gui.chips import chip_radius
 from monoplot_plugin.state import MAP, PHOTO, Point, add_points, link
 
 
-def _load(dock, scene):
+def _load(dock, scene, qtbot):
     dock.photoFile.setFilePath(scene.photo_path)
     dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    qtbot.wait(50)  # the dock's layout settles (the chips' size follows the photo canvas's)
 
 
 def _pixels(pixmap, rgb, tol=30):
@@ -23,7 +24,7 @@ def _pixels(pixmap, rgb, tol=30):
 
 
 def test_chips_show_the_selected_photo_point_and_its_partner(dock, scene, qtbot):
-    _load(dock, scene)
+    _load(dock, scene, qtbot)
     c = dock.controller
     c.set_fitted(scene.camera)  # the DEM view is the fitted camera's overlay
     u, v = scene.uv[3]
@@ -40,24 +41,25 @@ def test_chips_show_the_selected_photo_point_and_its_partner(dock, scene, qtbot)
     c.select(PHOTO, a.id)
     assert not dock.chips.isHidden()
     assert not dock.chips.photo_chip.pixmap().isNull() and not dock.chips.dem_chip.pixmap().isNull()
-    zoom = CHIP_PX / (2 * chip_radius(scene.camera.width))
+    side = dock.chips.side
+    zoom = side / (2 * chip_radius(scene.camera.width))
     red = _pixels(dock.chips.dem_chip.pixmap(), (255, 60, 60))
     cyan = _pixels(dock.chips.dem_chip.pixmap(), (0, 230, 255))
     assert len(red) and len(cyan)
-    assert abs(red[:, 1].mean() - CHIP_PX / 2) < 3 and abs(red[:, 0].mean() - CHIP_PX / 2) < 3  # the point: centre
-    assert abs(cyan[:, 1].mean() - (CHIP_PX / 2 + 12 * zoom)) < 4  # the partner where the camera puts it
-    assert abs(cyan[:, 0].mean() - CHIP_PX / 2) < 4
-    assert "paired" in dock.chips.caption.text()
+    assert abs(red[:, 1].mean() - side / 2) < 3 and abs(red[:, 0].mean() - side / 2) < 3  # the point: centre
+    assert abs(cyan[:, 1].mean() - (side / 2 + 12 * zoom)) < 4  # the partner where the camera puts it
+    assert abs(cyan[:, 0].mean() - side / 2) < 4
+    assert "paired" in dock.chips.caption.toolTip()
     # the photo chip is the photo, zoomed: its corner pixel is the photo's pixel there
     img = dock.chips.photo_chip.pixmap().toImage()
     r = chip_radius(scene.camera.width)
     photo_px = c.image.pixelColor(int(u + r * 0.8), int(v + r * 0.8)).getRgb()[:3]
-    chip_px = img.pixelColor(int(CHIP_PX * 0.9), int(CHIP_PX * 0.9)).getRgb()[:3]
+    chip_px = img.pixelColor(int(side * 0.9), int(side * 0.9)).getRgb()[:3]
     assert max(abs(p - q) for p, q in zip(photo_px, chip_px)) < 40
 
 
 def test_map_point_with_the_rough_camera_renders_in_a_task(dock, scene, qtbot):
-    _load(dock, scene)
+    _load(dock, scene, qtbot)
     c = dock.controller
     b = Point.new(MAP, *scene.xyz[5])
     c.stack.push(add_points(c.state, [b]))
@@ -67,8 +69,8 @@ def test_map_point_with_the_rough_camera_renders_in_a_task(dock, scene, qtbot):
     qtbot.waitUntil(lambda: dock.chips.dem_chip.pixmap() is not None and not dock.chips.dem_chip.pixmap().isNull(),
                     timeout=30000)
     red = _pixels(dock.chips.dem_chip.pixmap(), (255, 60, 60))
-    assert len(red) and abs(red[:, 1].mean() - CHIP_PX / 2) < 3  # the map point at the centre of its projection
-    assert "rough" in dock.chips.caption.text()
+    assert len(red) and abs(red[:, 1].mean() - dock.chips.side / 2) < 3  # the map point: its projection, centred
+    assert "rough" in dock.chips.caption.toolTip()
     c.select(MAP, "")
     assert dock.chips.isHidden()
 
@@ -76,7 +78,7 @@ def test_map_point_with_the_rough_camera_renders_in_a_task(dock, scene, qtbot):
 def test_an_edit_that_changes_nothing_shown_does_not_redraw_the_chips(dock, scene, qtbot):
     """A click selects a point and accepts it: the chips are drawn once, for the selection; an edit that moves the
     point draws them again."""
-    _load(dock, scene)
+    _load(dock, scene, qtbot)
     c = dock.controller
     c.set_fitted(scene.camera)
     u, v = scene.uv[3]
@@ -91,4 +93,41 @@ def test_an_edit_that_changes_nothing_shown_does_not_redraw_the_chips(dock, scen
     qtbot.wait(50)
     assert dock.chips.photo_chip.pixmap().cacheKey() != drawn[0]
     red = _pixels(dock.chips.photo_chip.pixmap(), (255, 60, 60))
-    assert len(red) and abs(red[:, 1].mean() - CHIP_PX / 2) < 3  # centred on the moved point
+    assert len(red) and abs(red[:, 1].mean() - dock.chips.side / 2) < 3  # centred on the moved point
+
+
+def test_chips_keep_to_the_corner_away_from_the_point_and_can_be_switched_off(dock, scene, qtbot):
+    """At 120 px the chips covered a quarter of the docked photo, always in its lower left corner (over the points
+    there): now they are smaller on a small canvas, sit diagonally away from the selected point, and the photo
+    bar's "Chips" box hides them."""
+    _load(dock, scene, qtbot)
+    c = dock.controller
+    c.set_fitted(scene.camera)
+    dock.photo_canvas.zoom_to_photo()
+    canvas = dock.photo_canvas
+    qtbot.waitUntil(lambda: canvas.width() > 200 and canvas.height() > 150)
+    assert dock.chips.side <= max(72, min(canvas.width(), canvas.height()) // 4)
+    w, h = scene.camera.image_size
+    corners = {}
+    for name, (u, v) in {"upper left": (0.1 * w, 0.1 * h), "lower right": (0.9 * w, 0.9 * h),
+                         "lower left": (0.1 * w, 0.9 * h)}.items():
+        a = Point.new(PHOTO, u, v)
+        c.stack.push(add_points(c.state, [a]))
+        c.select(PHOTO, a.id)
+        qtbot.wait(20)
+        assert not dock.chips.isHidden()
+        chips = dock.chips.geometry()
+        at = canvas.getCoordinateTransform().transform(u, -v)
+        assert not chips.contains(int(at.x()), int(at.y())), name  # never over the point it shows
+        corners[name] = (chips.center().x() > canvas.width() / 2, chips.center().y() > canvas.height() / 2)
+    assert corners == {"upper left": (True, True), "lower right": (False, False), "lower left": (True, False)}
+    area = dock.chips.width() * dock.chips.height() / float(canvas.width() * canvas.height())
+    assert area < 0.2
+    try:
+        dock.chipsCheck.setChecked(False)
+        assert dock.chips.isHidden()
+        c.select(PHOTO, a.id)
+        assert dock.chips.isHidden()  # a new selection does not bring them back
+    finally:
+        dock.chipsCheck.setChecked(True)  # a user setting (QgsSettings): on again for the other tests
+    assert not dock.chips.isHidden()
