@@ -17,6 +17,7 @@ from qgis.PyQt.QtWidgets import (QDoubleSpinBox, QFormLayout, QHeaderView, QMenu
                                  QToolButton, QWidget, QWidgetAction)
 
 from ..state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED
+from .dock_layout import fit_text_height
 from .refit import Refitter, sigma_of
 
 __all__ = ["CurationPanel", "install_curation_panel", "MessageOnce"]
@@ -220,7 +221,7 @@ class CurationPanel(QWidget):
                 self.tr("fit")
             self.ranking_status = str(info.get("status", ""))
         elif c.prior is not None:
-            camera, sigma, self.refit_info = c.prior, PRIOR_SIGMA_PX, self.tr("rough camera")
+            camera, sigma, self.refit_info = c.prior, PRIOR_SIGMA_PX, self.tr("rough")
             self.ranking_status = "rough"
         else:
             camera, sigma, self.refit_info = None, PRIOR_SIGMA_PX, ""
@@ -274,18 +275,19 @@ class CurationPanel(QWidget):
         self.rejectOutliersButton.setEnabled(n_out > 0)
         self.rejectOutliersButton.setText(self.tr("Reject outliers ({0})").format(n_out) if n_out
                                           else self.tr("Reject outliers"))
-        shown = {s: len(sl.shown[s]) for s in (PHOTO, MAP)}
-        left = {s: sl.remaining(s) + shown[s] for s in (PHOTO, MAP)}
-        text = self.tr("Showing {0} of {1} undecided photo and {2} of {3} DEM suggestions").format(
-            shown[PHOTO], left[PHOTO], shown[MAP], left[MAP])
+        # one line a view, how many are on show folded in (it was a line of its own: four lines at 560 px, above
+        # the point table, which was left one row in sight at 1600 x 1000)
+        counts = self.c.state.counts()
+        lines = [self.tr("{0}: {1} accepted, {2} to decide ({3} on show), {4} rejected").format(
+            name, counts[space][ACCEPTED], counts[space][SUGGESTED], len(sl.shown[space]), counts[space][REJECTED])
+            for space, name in ((PHOTO, self.tr("Photo")), (MAP, self.tr("Map")))]
         if self.refit_info:
-            text += " · " + self.tr("camera: {0}").format(self.refit_info)
+            lines[-1] += " · " + self.tr("camera: {0}").format(self.refit_info)
         if self.refitter.task is not None:
-            text += " · " + self.tr("refitting…")
-        self.info = text
-        counts = self.dock.countsLabel
-        base = counts.text().split("\n")[0]
-        counts.setText(base + "\n" + text)
+            lines[-1] += " · " + self.tr("refitting…")
+        label = self.dock.countsLabel
+        label.setText("\n".join(lines))
+        fit_text_height(label)  # all its lines (a layout reserves one)
 
     def unload(self) -> None:
         self.refitter.enabled = False

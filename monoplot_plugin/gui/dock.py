@@ -26,7 +26,7 @@ from .chips import ChipView
 from .controller import MonoplotController
 from .auto_panel import install_auto_panel
 from .curation_panel import MessageOnce, install_curation_panel
-from .dock_layout import fit_minimum_width, lay_out, narrow_tabs, scroll_points_tab
+from .dock_layout import fit_minimum_width, lay_out, narrow_tabs, scroll_points_tab, split_photo_and_tabs
 from .fit_settings import FitSettingsPanel, LensPanel
 from .io_actions import IoActions
 from .photo_canvas import PhotoCanvas
@@ -316,12 +316,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
     def _on_points(self, changed) -> None:
         self.photo_view.redraw_points()
         self.map_view.redraw_points()
-        self.table_model.refresh(self._residual_by_id())
-        counts = self.controller.state.counts()
-        self.countsLabel.setText(self.tr(
-            "Photo: {0} accepted, {1} to decide, {2} rejected · Map: {3} accepted, {4} to decide, {5} rejected"
-        ).format(counts[PHOTO]["accepted"], counts[PHOTO]["suggested"], counts[PHOTO]["rejected"],
-                 counts[MAP]["accepted"], counts[MAP]["suggested"], counts[MAP]["rejected"]))
+        self.table_model.refresh(self._residual_by_id())  # the counts: the curation panel's (curation_panel.py)
         st = self.controller.stack
         self.undoButton.setEnabled(st.can_undo())
         self.redoButton.setEnabled(st.can_redo())
@@ -512,10 +507,9 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
 
     def showEvent(self, event) -> None:  # noqa: N802
         super().showEvent(event)
-        if not self._sized:  # first show: most of the height to the photo
+        if not self._sized:  # first show: the photo the most, the Points tab its buttons and a few table rows
             self._sized = True
-            total = max(self.splitter.height(), 600)
-            self.splitter.setSizes([int(total * 0.62), int(total * 0.38)])
+            split_photo_and_tabs(self, max(self.splitter.height(), 600))
 
     def closeEvent(self, event) -> None:  # noqa: N802
         if self.mapToolButton.isChecked():

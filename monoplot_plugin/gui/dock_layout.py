@@ -3,16 +3,24 @@ and the Points tab's scroll area. Split from :mod:`.dock`, which wires the widge
 
 from __future__ import annotations
 
-from qgis.PyQt.QtCore import Qt
+from qgis.PyQt.QtCore import QEvent, QObject, Qt
 from qgis.PyQt.QtWidgets import (QFrame, QGridLayout, QHeaderView, QScrollArea, QSizePolicy, QVBoxLayout,
                                  QWidget)
 
-__all__ = ["lay_out", "fit_minimum_width", "scroll_points_tab", "narrow_tabs"]
+__all__ = ["lay_out", "fit_minimum_width", "scroll_points_tab", "narrow_tabs", "split_photo_and_tabs",
+           "fit_text_height", "TextHeight"]
+
+#: rows of the point table in sight under the Points tab's buttons and counts at the first show
+TABLE_ROWS = 4
+#: share of the splitter the tabs get at least and at most at the first show (the photo keeps the rest)
+TABS_SHARE = (0.38, 0.5)
 
 
 def lay_out(dock) -> None:
     """Sizes of the widgets of ``ui/dock.ui`` that the designer file cannot express."""
     dock.pointTable.verticalHeader().setVisible(False)
+    # rows as tall as their text needs: the style's default (30 px in the QGIS desktop) left room for three rows
+    dock.pointTable.verticalHeader().setDefaultSectionSize(dock.pointTable.fontMetrics().height() + 8)
     rows = dock.pointTable.verticalHeader().defaultSectionSize()  # the header and three rows, never one
     dock.pointTable.setMinimumHeight(4 * rows + dock.pointTable.horizontalScrollBar().sizeHint().height())
     dock.pointTable.horizontalHeader().setStretchLastSection(True)
@@ -44,7 +52,33 @@ def fit_minimum_width(dock) -> None:
     # the Points tab's wrapped labels get the height they take at this width: a layout reserves one line for
     # them (the tab widget and the splitter pass no height-for-width up) and squashed the buttons to fit them
     dock.helpLabel.setMinimumHeight(dock.helpLabel.heightForWidth(max(440, need) - 40))
-    dock.countsLabel.setMinimumHeight(4 * dock.countsLabel.fontMetrics().lineSpacing())
+    dock.countsLabel.monoplot_floor_width = max(440, need) - 40
+    dock.countsLabel.monoplot_text_height = TextHeight(dock.countsLabel)  # its lines as its width changes
+
+
+def fit_text_height(label) -> None:
+    """A wrapped label's minimum height: the height of its text at its width (before it is laid out, at the dock's
+    narrowest, ``label.monoplot_floor_width``). A layout in a tab reserves one line for it and clipped the rest; a
+    fixed four lines left the point table one row in sight at 1600 x 1000 when the text takes two."""
+    floor = getattr(label, "monoplot_floor_width", 400)
+    width = label.width() if label.isVisible() and label.width() >= floor else floor
+    label.setMinimumHeight(max(label.heightForWidth(width), label.fontMetrics().lineSpacing()))
+
+
+class TextHeight(QObject):
+    """Keeps :func:`fit_text_height` of a label as its width changes (the dock widened, floated)."""
+
+    def __init__(self, label):
+        super().__init__(label)
+        self._width = -1
+        label.installEventFilter(self)
+        fit_text_height(label)
+
+    def eventFilter(self, watched, event) -> bool:  # noqa: N802
+        if event.type() == QEvent.Type.Resize and watched.width() != self._width:
+            self._width = watched.width()
+            fit_text_height(watched)
+        return False
 
 
 def scroll_points_tab(dock) -> None:
@@ -67,6 +101,7 @@ def scroll_points_tab(dock) -> None:
     # the help text under the table: above it, at 760 px the table began below the tab's visible part
     page_layout.removeWidget(dock.helpLabel)
     page_layout.addWidget(dock.helpLabel)
+    page_layout.setStretchFactor(dock.pointTable, 1)  # a taller tab shows more rows, not more space between
     dock.pointsScroll = QScrollArea(dock.pointsTab)
     dock.pointsScroll.setWidgetResizable(True)
     dock.pointsScroll.setFrameShape(QFrame.Shape.NoFrame)
@@ -100,3 +135,26 @@ def narrow_tabs(dock) -> None:
     dock.cameraButtons = grid
     dock.fitScroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
     dock.fitScrollContents.setMinimumWidth(1)  # as wide as the view, never wider (the labels wrap instead)
+
+
+def split_photo_and_tabs(dock, total: int) -> None:
+    """The splitter's sizes at the first show: the tabs get what the Points tab needs to show its buttons, its counts
+    and :data:`TABLE_ROWS` rows of the point table without scrolling, within :data:`TABS_SHARE` of ``total``; the
+    photo the rest. A fixed 62 / 38 split left the table one row in sight at 1600 x 1000 (the page's rows above
+    the table took the whole tab, the table was a scroll away)."""
+    page = dock.pointsScroll.widget()
+    layout = page.layout()
+    margins = layout.contentsMargins()
+    width = max(dock.dockContents.width(), dock.dockContents.minimumWidth()) - 24 - margins.left() - margins.right()
+    need = margins.top() + margins.bottom()
+    for i in range(layout.indexOf(dock.pointTable)):
+        item = layout.itemAt(i)
+        height = item.heightForWidth(width) if item.hasHeightForWidth() else -1
+        need += max(height, item.sizeHint().height(), item.minimumSize().height()) + layout.spacing()
+    table = dock.pointTable
+    need += (table.horizontalHeader().sizeHint().height() + TABLE_ROWS * table.verticalHeader().defaultSectionSize()
+             + 2 * table.frameWidth())
+    need += dock.stepTabs.tabBar().sizeHint().height() + 8  # the tab bar and the tab's frame
+    low, high = TABS_SHARE
+    tabs = int(min(max(need, low * total), high * total))
+    dock.splitter.setSizes([total - tabs, tabs])

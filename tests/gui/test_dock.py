@@ -25,6 +25,7 @@ def load_inputs(dock, scene, qtbot):
     dock.photoFile.setFilePath(scene.photo_path)
     dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
     assert dock.controller.image is not None and dock.controller.dem is not None
+    dock.splitter.setSizes([2000, 1])  # room for the canvas of 600 x 400 (not clipped by the photo pane)
     dock.photo_canvas.resize(600, 400)
     dock.photo_canvas.zoom_to_photo()
     qtbot.wait(10)

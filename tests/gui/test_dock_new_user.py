@@ -176,3 +176,31 @@ def test_a_short_points_tab_scrolls_instead_of_squashing_its_buttons(dock, qtbot
     assert d.pointTable.height() >= 3 * rows
     assert d.pointsScroll.verticalScrollBar().maximum() > 0  # the rest is a scroll away
     assert d.photoHolder.height() > 300  # and the photo keeps most of the dock
+
+
+def test_the_point_table_is_in_sight_under_the_points_buttons(dock, qtbot):
+    """At 1600 x 1000 the dock (560 x 870) showed one row of the point table: the first show gave the tabs 38 % of
+    the splitter, less than the Points tab's buttons and counts take. Now its first rows are in sight, unscrolled,
+    as many as the tabs' largest share (the photo keeps the rest) allows (the offscreen platform's fonts are
+    larger than the desktop's: 870 px show fewer rows here than the 3 of the desktop)."""
+    from monoplot_plugin.gui.dock_layout import TABLE_ROWS, TABS_SHARE, split_photo_and_tabs
+
+    d = dock
+    d.stepTabs.setCurrentWidget(d.pointsTab)
+    for height in (870, 1100):
+        d.resize(560, height)
+        qtbot.wait(50)
+        total = sum(d.splitter.sizes())
+        split_photo_and_tabs(d, total)  # what the first show does
+        qtbot.wait(50)
+        viewport = d.pointsScroll.viewport()
+        assert d.pointsScroll.verticalScrollBar().value() == 0
+        table_top = d.pointTable.mapTo(viewport, d.pointTable.rect().topLeft()).y()
+        rows = d.pointTable.verticalHeader().defaultSectionSize()
+        in_sight = (viewport.height() - table_top - d.pointTable.horizontalHeader().height()) // rows
+        photo, tabs = d.splitter.sizes()
+        assert in_sight >= 1 and photo >= (1 - TABS_SHARE[1]) * total - 2
+        at_most = tabs >= TABS_SHARE[1] * total - 2 or photo <= d.photoPane.minimumSizeHint().height() + 2
+        assert in_sight >= TABLE_ROWS or at_most, (height, in_sight, photo, tabs)
+        if height == 1100:
+            assert in_sight >= TABLE_ROWS and photo >= 0.5 * total  # room for both: the photo keeps the rest
