@@ -7,7 +7,9 @@ The person judges a few suggestions at a time (issue 12). This module decides wh
 * :func:`nearest`: for each query point, the nearest reference point and its distance (bucketed, O(N + M)).
 * :func:`agreement`: how well each photo / DEM suggestion agrees with a camera: the distance (pixels) from a photo
   suggestion to the nearest projected DEM suggestion, and the other way round.
-* :func:`priority`: strength and agreement combined into one ranking key.
+* :func:`priority`: strength and agreement combined into one ranking key (the agreement weighed by how much it
+  says: little where the other view's points are dense for the camera's uncertainty).
+* :func:`clutter`: the density of points over a picture, for :func:`priority`.
 * :func:`likely_pairs`: mutual nearest photo / projected-DEM suggestions closer than a threshold.
 
 Shapes: ``xy`` (N, 2) float coordinates (photo pixels ``(u, v)`` or map metres), ``score`` (N,) float (larger =
@@ -20,7 +22,7 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-__all__ = ["spread_order", "nearest", "agreement", "priority", "likely_pairs"]
+__all__ = ["spread_order", "nearest", "agreement", "priority", "clutter", "likely_pairs"]
 
 
 def spread_order(xy: np.ndarray, score: np.ndarray, per_page: int = 30,
@@ -149,15 +151,26 @@ def agreement(photo_uv: np.ndarray, dem_uv: np.ndarray, radius: float) -> Tuple[
     return pi, pd, di, dd
 
 
-def priority(score: np.ndarray, distance: Optional[np.ndarray] = None, sigma: float = 15.0) -> np.ndarray:
+def priority(score: np.ndarray, distance: Optional[np.ndarray] = None, sigma: float = 15.0,
+             clutter: float = 0.0) -> np.ndarray:
     """(N,) ranking key, larger first: the detector ``score`` ranked to [0, 1), plus, with a camera, the agreement
-    ``exp(-(distance / sigma)^2 / 2)`` (``distance`` (N,) px, inf = no partner), which dominates: a suggestion with
-    a partner where the camera says goes before a strong one without.
+    ``w * exp(-(distance / sigma)^2 / 2)`` (``distance`` (N,) px, inf = no partner).
+
+    ``clutter``: the other view's points per square pixel under the camera (the density a partner is found by
+    chance). A nearest partner says little when about ``2 pi clutter sigma^2`` of them lie that close to any spot
+    (a rough camera's sigma of 30 px over 2,000 projected DEM points: ~14): the agreement's weight is
+    ``w = 1 / (1 + 2 pi clutter sigma^2)``. Then the detector's ranking leads, the agreement only breaks near-ties;
+    under a fitted camera (sigma of a few px) w is about 1 and the agreement dominates: a suggestion with a partner
+    where the camera says goes before a strong one without. (Without the weight, the rough camera ranked first the
+    suggestions in dense texture, which always have some partner near: of the photo suggestions near the features
+    a person recognises, half as many on the first 30 pages, on Aletsch and on synthetic scenes.)
 
     >>> priority(np.array([1.0, 3.0, 2.0])).round(2).tolist()
     [0.0, 0.67, 0.33]
     >>> int(priority(np.array([1.0, 3.0]), np.array([0.0, np.inf])).argmax())
     0
+    >>> int(priority(np.array([1.0, 3.0]), np.array([0.0, np.inf]), sigma=30.0, clutter=0.0025).argmax())
+    1
     """
     score = np.asarray(score, dtype=np.float64).reshape(-1)
     n = len(score)
@@ -169,7 +182,21 @@ def priority(score: np.ndarray, distance: Optional[np.ndarray] = None, sigma: fl
     d = np.asarray(distance, dtype=np.float64).reshape(-1)
     with np.errstate(over="ignore", invalid="ignore"):
         agree = np.where(np.isfinite(d), np.exp(-0.5 * (d / max(sigma, 1e-9)) ** 2), 0.0)
-    return 2.0 * agree + key
+    weight = 1.0 / (1.0 + 2.0 * np.pi * max(float(clutter), 0.0) * float(sigma) ** 2)
+    return 2.0 * weight * agree + key
+
+
+def clutter(uv: np.ndarray, size) -> float:
+    """Points per square pixel of ``uv`` (N, 2) (NaN rows: not seen) inside a picture of ``size`` (width, height).
+
+    >>> clutter(np.array([[1.0, 1.0], [np.nan, np.nan], [5.0, 2.0], [50.0, 2.0]]), (10, 10))
+    0.02
+    """
+    uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+    w, h = size
+    inside = np.isfinite(uv).all(axis=1)
+    inside[inside] = (uv[inside, 0] >= 0) & (uv[inside, 0] <= w) & (uv[inside, 1] >= 0) & (uv[inside, 1] <= h)
+    return float(inside.sum()) / max(float(w) * float(h), 1.0)
 
 
 def likely_pairs(photo_uv: np.ndarray, dem_uv: np.ndarray, threshold: float) -> np.ndarray:

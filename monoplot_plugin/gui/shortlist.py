@@ -27,7 +27,7 @@ from typing import Dict, List, Optional, Set, Tuple
 
 import numpy as np
 
-from ..core.recommend import agreement, likely_pairs, priority, spread_order
+from ..core.recommend import agreement, clutter, likely_pairs, priority, spread_order
 from ..state import ACCEPTED, CHECK, MAP, PHOTO, REJECTED, SUGGESTED, Point, ProjectState
 
 __all__ = ["Shortlist", "Recommendation", "recommendation", "DEFAULT_PER_PAGE"]
@@ -52,6 +52,7 @@ class Shortlist:
         self.camera = None
         self.sigma = 25.0
         self.distance: Dict[str, float] = {}  # id -> px to the nearest partner under the camera
+        self.clutter: Dict[str, float] = {}  # space -> the other view's points per px^2 under the camera
         self.partner: Dict[str, str] = {}  # id -> nearest partner's id (other space)
         self.outliers: Set[str] = set()  # accepted photo ids the current fit calls outliers
         self.threshold = 8.0  # px: how close a likely pair's two ends are under the camera
@@ -126,7 +127,8 @@ class Shortlist:
             dist = None
             if self.camera is not None:
                 dist = np.array([self.distance.get(p.id, np.inf) for p in cands], dtype=np.float64)
-            order = spread_order(xy, priority(score, dist, self.sigma), self.per_page)
+            order = spread_order(xy, priority(score, dist, self.sigma, self.clutter.get(space, 0.0)),
+                                 self.per_page)
             self._ranking[space] = [cands[i].id for i in order]
         else:
             self._ranking[space] = []
@@ -232,7 +234,7 @@ class Shortlist:
             rec = Recommendation()
         elif rec is None:
             rec = recommendation(camera, *self.snapshot(), self.sigma, self.threshold)
-        self.distance, self.partner = rec.distance, rec.partner
+        self.distance, self.partner, self.clutter = rec.distance, rec.partner, rec.clutter
         self._set_pairs(rec.pairs)
         for space in SPACES:
             # the page on show stays (a suggestion must not vanish under the cursor); the next pages follow
@@ -298,12 +300,15 @@ class Shortlist:
 
 class Recommendation:
     """What a camera says about the suggestions: ``distance`` / ``partner`` (id -> px / id of the nearest
-    suggestion of the other view within 3 sigma) and ``pairs`` [(photo id, map id, px, projected (u, v))]."""
+    suggestion of the other view within 3 sigma), ``clutter`` (space -> the other view's points per px^2 in the
+    picture: how much a near partner says, see :func:`~..core.recommend.priority`) and ``pairs`` [(photo id, map id,
+    px, projected (u, v))]."""
 
-    def __init__(self, distance=None, partner=None, pairs=None):
+    def __init__(self, distance=None, partner=None, pairs=None, clutter=None):
         self.distance: Dict[str, float] = distance or {}
         self.partner: Dict[str, str] = partner or {}
         self.pairs: List[Tuple[str, str, float, Tuple[float, float]]] = pairs or []
+        self.clutter: Dict[str, float] = clutter or {}
 
 
 def recommendation(camera, photo_ids: List[str], uv: np.ndarray, map_ids: List[str], xyz: np.ndarray,
@@ -315,6 +320,8 @@ def recommendation(camera, photo_ids: List[str], uv: np.ndarray, map_ids: List[s
         proj[~camera.in_image(proj)] = np.nan
     pi, pd, di, dd = agreement(uv, proj, 3.0 * sigma)
     rec = Recommendation()
+    size = camera.image_size
+    rec.clutter = {PHOTO: clutter(proj, size), MAP: clutter(uv, size)}
     for k in np.flatnonzero(pi >= 0):
         rec.distance[photo_ids[k]], rec.partner[photo_ids[k]] = float(pd[k]), map_ids[pi[k]]
     for k in np.flatnonzero(di >= 0):

@@ -74,3 +74,30 @@ def test_likely_pairs_of_a_camera_find_the_true_correspondences():
     assert len(set(pairs[:, 0])) == len(pairs) and len(set(pairs[:, 1])) == len(pairs)
     pi, pd, di, dd = agreement(photo, proj, 3.0)
     assert np.all(pd[pairs[:, 0]] <= 3.0) and np.all(dd[pairs[:, 1]] <= 3.0)
+
+
+def test_a_rough_camera_does_not_rank_dense_texture_before_strong_features():
+    """A rough camera (sigma 30 px) finds a near partner for every photo suggestion in dense texture (the DEM
+    points project densely on the terrain) and a farther one for the strong features of sparse parts (summits under
+    the sky): its agreement says little there, and the detector's strongest, the features, lead. A sharp camera's
+    agreement still ranks first the suggestions it explains."""
+    from monoplot_plugin.core.recommend import clutter
+
+    rng = np.random.default_rng(5)
+    size = (800, 600)
+    dense = rng.uniform([0, 300], [800, 600], (2000, 2))  # DEM points projected on the terrain, lower half
+    peaks = rng.uniform([20, 20], [780, 280], (40, 2))  # DEM summits and skyline points, upper half
+    truth = np.vstack([peaks, dense])
+    features = peaks + rng.normal(0, 0.7, (40, 2))  # strong photo corners on the summits
+    texture = rng.uniform([0, 300], [800, 600], (400, 2))  # weak photo texture on the terrain
+    photo = np.vstack([features, texture])
+    score = np.r_[rng.uniform(0.6, 1.0, 40), rng.uniform(0.0, 0.6, 400)]
+    is_feature = np.r_[np.ones(40, bool), np.zeros(400, bool)]
+    for shift, sigma, expect in ((np.array([22.0, 12.0]), 30.0, 34), (np.zeros(2), 3.0, 36)):
+        proj = truth + shift  # a rough camera: every point some 25 px off; a sharp one: where they are
+        _, dist, _, _ = agreement(photo, proj, 3.0 * sigma)
+        weighed = np.argsort(-priority(score, dist, sigma, clutter(proj, size)), kind="stable")
+        assert is_feature[weighed[:40]].sum() >= expect, sigma
+        if sigma > 10:  # without the weight, the texture's chance partners led
+            plain = np.argsort(-priority(score, dist, sigma), kind="stable")
+            assert is_feature[plain[:40]].sum() < 10
