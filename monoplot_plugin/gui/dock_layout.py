@@ -57,11 +57,11 @@ def fit_minimum_width(dock) -> None:
 
 
 def fit_text_height(label) -> None:
-    """A wrapped label's minimum height: the height of its text at its width (before it is laid out, at the dock's
-    narrowest, ``label.monoplot_floor_width``). A layout in a tab reserves one line for it and clipped the rest; a
-    fixed four lines left the point table one row in sight at 1600 x 1000 when the text takes two."""
-    floor = getattr(label, "monoplot_floor_width", 400)
-    width = label.width() if label.isVisible() and label.width() >= floor else floor
+    """A wrapped label's minimum height: the height of its text at its width, at least the dock's narrowest
+    (``label.monoplot_floor_width``: a label not laid out yet is 100 px wide). A layout in a tab reserves one line
+    for it and clipped the rest; a fixed four lines left the point table one row in sight at 1600 x 1000 when the
+    text takes two."""
+    width = max(label.width(), getattr(label, "monoplot_floor_width", 400))
     label.setMinimumHeight(max(label.heightForWidth(width), label.fontMetrics().lineSpacing()))
 
 
