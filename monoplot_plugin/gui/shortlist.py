@@ -9,6 +9,7 @@ read :meth:`Shortlist.visible` / :meth:`Shortlist.hit`, which cost O(shown), not
 * With a camera (:meth:`set_camera`: the prior, a fit or the background refit) suggestions are re-ranked by
   agreement: a photo suggestion with a DEM suggestion projecting near it comes first, and the other way round.
   The page on show stays as it is (nothing vanishes under the cursor); the next pages follow the new ranking.
+  Suggestions that come after the camera (a Suggest run once the rough camera is set) are ranked by it at once.
 
 >>> from monoplot_plugin.state import CommandStack, Point, add_points, set_status
 >>> s = ProjectState(); st = CommandStack(s); sl = Shortlist(s, per_page=2); st.add_listener(sl.update)
@@ -60,6 +61,7 @@ class Shortlist:
         self._pairs_of: Dict[str, List[int]] = {}  # point id -> indices in _pairs of the pairs it is an end of
         self._live: Set[int] = set()  # indices in _pairs of the likely ones (kept up to date by each edit)
         self._likely: Optional[List[Tuple[str, str, float]]] = None  # cache of likely(), per camera and edits
+        self._new_page = {s: False for s in SPACES}  # the page on show came with a new run, nothing decided on it
         self.rebuild()
 
     # --- following the state ----------------------------------------------------------------------------------
@@ -107,10 +109,20 @@ class Shortlist:
             else:
                 self.shown[p.space].pop(pid, None)
                 self.decided[p.space][pid] = p.status
+        if any(fresh.values()) and self.camera is not None:
+            # new suggestions: how they agree with the camera on show (it was set before they came), and the
+            # pairs they make; the other view's points have new partners too
+            self._recommend(self.camera, self.sigma)
         for space in SPACES:
             if fresh[space]:
                 self._rerank(space, keep=0)
+                self._new_page[space] = True
+            elif any(fresh.values()) and self.camera is not None:
+                # a page nothing was decided on yet (the photo's, when the DEM's suggestions of the same run
+                # come) is ranked again; else the page on show stays and the next pages follow
+                self._rerank(space, keep=0, stable=not self._new_page[space])
             elif space in touched:
+                self._new_page[space] = False
                 self._refill(space)
                 self._cache[space] = None
 
@@ -165,6 +177,7 @@ class Shortlist:
         for s in (SPACES if space is None else (space,)):
             n += self._take(s, self.per_page)
             self._cache[s] = None
+            self._new_page[s] = False
         return n
 
     def shown_undecided(self, space: Optional[str] = None) -> List[str]:
@@ -229,6 +242,14 @@ class Shortlist:
         """Re-rank both views by agreement with ``camera`` (None: by strength only); ``sigma`` (px): how far a
         partner may be under this camera (its uncertainty). ``rec``: :func:`recommendation` already computed
         (in a task) for this camera, sigma and :attr:`threshold`."""
+        self._recommend(camera, sigma, rec)
+        for space in SPACES:
+            # the page on show stays (a suggestion must not vanish under the cursor); the next pages follow
+            self._rerank(space, keep=len(self.shown[space]), stable=True)
+
+    def _recommend(self, camera, sigma: float, rec: Optional["Recommendation"] = None) -> None:
+        """Agreement, partners and pairs of the suggestions now in the state with ``camera`` (``rec``: already
+        computed for it)."""
         self.camera, self.sigma = camera, float(sigma)
         if camera is None:
             rec = Recommendation()
@@ -236,9 +257,6 @@ class Shortlist:
             rec = recommendation(camera, *self.snapshot(), self.sigma, self.threshold)
         self.distance, self.partner, self.clutter = rec.distance, rec.partner, rec.clutter
         self._set_pairs(rec.pairs)
-        for space in SPACES:
-            # the page on show stays (a suggestion must not vanish under the cursor); the next pages follow
-            self._rerank(space, keep=len(self.shown[space]), stable=True)
 
     def set_threshold(self, px: float) -> None:
         self.threshold = float(px)

@@ -9,7 +9,7 @@ from qgis.gui import QgsMessageBar
 from qgis.PyQt.QtCore import Qt
 
 from monoplot_plugin.gui.curation_panel import MessageOnce
-from monoplot_plugin.state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, add_points
+from monoplot_plugin.state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, add_points, replace_suggestions
 from test_dock import add_scene_points, load_inputs, photo_pos
 
 
@@ -116,6 +116,53 @@ def test_accept_likely_waits_for_a_camera_the_verdict_calls_ok(dock, scene, qtbo
     qtbot.waitUntil(lambda: len(c.shortlist.likely()) >= 10, timeout=10000)
     assert not panel.acceptLikelyButton.isEnabled()
     assert "not yet ok" in panel.acceptLikelyButton.toolTip()
+
+
+def scored_suggestions(scene, rng):
+    """The scene's correspondences as suggestions of random strength, with as many photo decoys (no partner)."""
+    decoys = rng.uniform([5, 5], [475, 315], (len(scene.uv), 2))
+    photo = [Point.new(PHOTO, u, v, score=s) for (u, v), s in zip(np.vstack([scene.uv, decoys]),
+                                                                  rng.uniform(0, 1, 2 * len(scene.uv)))]
+    world = [Point.new(MAP, x, y, z, score=s) for (x, y, z), s in zip(scene.xyz, rng.uniform(0, 1, len(scene.xyz)))]
+    return photo, world
+
+
+def test_suggestions_made_after_the_camera_are_ranked_by_it(dock, scene, qtbot):
+    """The usual order: the rough camera first (KML, EXIF, drawn on the map), then Suggest. The new suggestions are
+    ranked by their agreement with that camera at once, as they are when the camera comes after them (no waiting
+    for a refit that needs accepted points first); a page nothing was decided on follows a later run, a page with a
+    decision stays on show."""
+    from monoplot_plugin.gui.curation_panel import PRIOR_SIGMA_PX
+    from monoplot_plugin.gui.shortlist import Shortlist
+
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    c.set_prior(scene.prior)
+    photo, world = scored_suggestions(scene, np.random.default_rng(3))
+    c.stack.push(replace_suggestions(c.state, PHOTO, photo))  # as Suggest does: the photo's, then the DEM's
+    c.stack.push(replace_suggestions(c.state, MAP, world))
+    sl = c.shortlist
+    # the same pages as the camera set after the suggestions gives, once the pages on show are ranked again
+    after = Shortlist(c.state)
+    after.set_camera(c.prior, PRIOR_SIGMA_PX)
+    after.rebuild()
+    for space in (PHOTO, MAP):
+        assert sl.shown_undecided(space) == after.shown_undecided(space)
+    assert sl.likely() == after.likely() and sl.distance == after.distance
+    # and not the detectors' pages: the camera ranked them
+    plain = Shortlist(c.state)
+    assert sl.shown_undecided(PHOTO) != plain.shown_undecided(PHOTO)
+    partnered = {p.id for p in photo[:len(scene.uv)]}
+    assert sum(i in partnered for i in sl.shown_undecided(PHOTO)) > \
+        sum(i in partnered for i in plain.shown_undecided(PHOTO))
+    # a decision on the photo's page: a new DEM run re-ranks the DEM's page, the photo's stays on show
+    shown = sl.shown_undecided(PHOTO)
+    c.set_status([shown[0]], ACCEPTED)
+    _, world2 = scored_suggestions(scene, np.random.default_rng(4))
+    c.stack.push(replace_suggestions(c.state, MAP, world2))
+    assert sl.shown_undecided(PHOTO) == shown[1:]
+    assert set(sl.shown_undecided(MAP)) <= {w.id for w in world2}
+    assert sl.distance.keys() & {w.id for w in world2}  # the new run's agreement with the camera
 
 
 def test_likely_pairs_follow_every_edit_as_a_fresh_look_would_find_them(dock, scene, qtbot):
