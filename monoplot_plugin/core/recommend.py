@@ -9,8 +9,10 @@ The person judges a few suggestions at a time (issue 12). This module decides wh
   suggestion to the nearest projected DEM suggestion, and the other way round.
 * :func:`priority`: strength and agreement combined into one ranking key (the agreement weighed by how much it
   says: little where the other view's points are dense for the camera's uncertainty).
-* :func:`clutter`: the density of points over a picture, for :func:`priority`.
-* :func:`likely_pairs`: mutual nearest photo / projected-DEM suggestions closer than a threshold.
+* :func:`clutter`: the density of points over a picture, for :func:`priority`; :func:`chance`: how many of them lie
+  by chance as near as a camera of some uncertainty puts a true partner.
+* :func:`likely_pairs`: mutual nearest photo / projected-DEM suggestions closer than a threshold (and than the
+  distance at which a partner is more likely the camera's than chance's).
 
 Shapes: ``xy`` (N, 2) float coordinates (photo pixels ``(u, v)`` or map metres), ``score`` (N,) float (larger =
 stronger), projected DEM points ``dem_uv`` (M, 2) pixels with NaN rows for points the camera does not see.
@@ -22,7 +24,7 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-__all__ = ["spread_order", "nearest", "agreement", "priority", "clutter", "likely_pairs"]
+__all__ = ["spread_order", "nearest", "agreement", "priority", "clutter", "chance", "likely_pairs"]
 
 
 def spread_order(xy: np.ndarray, score: np.ndarray, per_page: int = 30,
@@ -182,7 +184,7 @@ def priority(score: np.ndarray, distance: Optional[np.ndarray] = None, sigma: fl
     d = np.asarray(distance, dtype=np.float64).reshape(-1)
     with np.errstate(over="ignore", invalid="ignore"):
         agree = np.where(np.isfinite(d), np.exp(-0.5 * (d / max(sigma, 1e-9)) ** 2), 0.0)
-    weight = 1.0 / (1.0 + 2.0 * np.pi * max(float(clutter), 0.0) * float(sigma) ** 2)
+    weight = 1.0 / (1.0 + chance(sigma, clutter))
     return 2.0 * weight * agree + key
 
 
@@ -199,13 +201,35 @@ def clutter(uv: np.ndarray, size) -> float:
     return float(inside.sum()) / max(float(w) * float(h), 1.0)
 
 
-def likely_pairs(photo_uv: np.ndarray, dem_uv: np.ndarray, threshold: float) -> np.ndarray:
+def chance(sigma: float, clutter: float) -> float:
+    """About how many points of a view with ``clutter`` points per square pixel lie, by chance, as near to a spot
+    as a camera of uncertainty ``sigma`` px puts a true partner: ``2 pi clutter sigma^2``. A nearest partner at
+    distance d is the camera's rather than chance's when ``exp(-d^2 / (2 sigma^2)) > chance`` (the density of a
+    true partner's position against the density of chance points).
+
+    >>> round(chance(30.0, 0.0025), 1), round(chance(4.0, 0.0025), 2)
+    (14.1, 0.25)
+    """
+    return 2.0 * np.pi * max(float(clutter), 0.0) * float(sigma) ** 2
+
+
+def likely_pairs(photo_uv: np.ndarray, dem_uv: np.ndarray, threshold: float, sigma: float = 0.0,
+                 clutter: float = 0.0) -> np.ndarray:
     """(K, 2) int (photo index, DEM index) of mutual nearest neighbours closer than ``threshold`` pixels, closest
     first. ``photo_uv`` (N, 2), ``dem_uv`` (M, 2) projected DEM suggestions (NaN rows: not seen).
 
+    With the camera's uncertainty ``sigma`` (px) and the views' ``clutter`` (points per px^2, the denser view's),
+    also closer than the distance at which a partner is more likely the camera's than chance's (:func:`chance`):
+    under a rough camera over dense suggestions, none (a link there is drawn by chance and would be accepted so).
+
     >>> likely_pairs(np.array([[0, 0.0], [5, 0], [50, 50]]), np.array([[4, 0.0], [52, 50], [90, 90]]), 3).tolist()
     [[1, 0], [2, 1]]
+    >>> likely_pairs(np.array([[0, 0.0], [5, 0]]), np.array([[4, 0.0], [90, 90]]), 3, 30.0, 0.0025).tolist()
+    []
     """
+    c = chance(sigma, clutter)
+    if c > 0:
+        threshold = min(threshold, sigma * np.sqrt(2.0 * np.log(1.0 / c))) if c < 1.0 else 0.0
     pi, pd, di, _ = agreement(photo_uv, dem_uv, threshold)
     idx = np.flatnonzero((pi >= 0) & (pd <= threshold))
     mutual = idx[di[pi[idx]] == idx]

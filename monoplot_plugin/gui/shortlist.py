@@ -277,7 +277,9 @@ class Shortlist:
 
     def likely(self) -> List[Tuple[str, str, float]]:
         """(photo id, map id, px) of mutual nearest photo / projected DEM suggestions within :attr:`threshold` px
-        under the current camera, neither rejected and at least one end undecided; closest first."""
+        under the current camera (and nearer than a chance partner would be for its :attr:`sigma`: none under a
+        rough camera over dense suggestions, :func:`~..core.recommend.likely_pairs`), neither rejected and at least
+        one end undecided; closest first."""
         if self._likely is None:
             self._likely = [(a, b, d) for k, (a, b, d, _) in enumerate(self._pairs) if k in self._live]
         return self._likely
@@ -344,7 +346,7 @@ def recommendation(camera, photo_ids: List[str], uv: np.ndarray, map_ids: List[s
         rec.distance[photo_ids[k]], rec.partner[photo_ids[k]] = float(pd[k]), map_ids[pi[k]]
     for k in np.flatnonzero(di >= 0):
         rec.distance[map_ids[k]], rec.partner[map_ids[k]] = float(dd[k]), photo_ids[di[k]]
-    for i, j in likely_pairs(uv, proj, threshold):
+    for i, j in likely_pairs(uv, proj, threshold, sigma, max(rec.clutter.values())):
         rec.pairs.append((photo_ids[i], map_ids[j], float(np.hypot(*(uv[i] - proj[j]))),
                           (float(proj[j][0]), float(proj[j][1]))))
     return rec

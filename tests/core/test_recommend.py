@@ -101,3 +101,30 @@ def test_a_rough_camera_does_not_rank_dense_texture_before_strong_features():
         if sigma > 10:  # without the weight, the texture's chance partners led
             plain = np.argsort(-priority(score, dist, sigma), kind="stable")
             assert is_feature[plain[:40]].sum() < 10
+
+
+def test_a_rough_camera_links_no_chance_pairs_and_a_sharp_one_the_true_ones():
+    """Likely pairs are what "Accept likely" accepts. Under a rough camera (sigma 30 px, every point some 25 px
+    off) over dense suggestions, the mutual nearest pairs within a few pixels are chance pairs: none is linked.
+    Under a sharp camera (sigma 4 px) over the same suggestions, the true pairs are, with fewer chance ones."""
+    from monoplot_plugin.core.recommend import clutter
+
+    rng = np.random.default_rng(6)
+    size = (800, 600)
+    truth = rng.uniform([0, 0], [800, 600], (1500, 2))  # DEM points as the true camera projects them
+    photo = np.vstack([truth[:600] + rng.normal(0, 0.7, (600, 2)),  # 600 of them found on the photo
+                       rng.uniform([0, 0], [800, 600], (900, 2))])  # and texture with no partner
+    is_true = {(k, k) for k in range(600)}
+    for shift, sigma in ((np.array([22.0, 12.0]), 30.0), (np.zeros(2), 4.0)):
+        proj = truth + shift
+        dense = max(clutter(proj, size), clutter(photo, size))
+        plain = {(int(a), int(b)) for a, b in likely_pairs(photo, proj, 8.0)}
+        weighed = {(int(a), int(b)) for a, b in likely_pairs(photo, proj, 8.0, sigma, dense)}
+        assert weighed <= plain
+        if sigma > 10:
+            assert len(plain) > 50 and len(plain & is_true) < 0.1 * len(plain)  # without sigma: chance pairs
+            assert not weighed
+        else:
+            # nearer than the plain threshold: as many true pairs, fewer by chance (unmatched texture remains)
+            assert len(weighed & is_true) >= 0.97 * len(plain & is_true) >= 550
+            assert len(weighed - is_true) / len(weighed) < 0.8 * len(plain - is_true) / len(plain)
