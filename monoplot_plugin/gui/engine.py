@@ -245,8 +245,9 @@ def locate_in_photo(camera: Camera, dem, xyz: Optional[np.ndarray], x: float, y:
     return (u, v), ("hidden" if seen_dist < dist - tolerance else "visible")
 
 
-def camera_sees_dem(camera: Camera, dem, samples: int = 40) -> bool:
-    """True when some DEM cells project into the photo in front of the camera (coarse grid of samples)."""
+def _dem_in_view(camera: Camera, dem, samples: int = 40) -> Tuple[np.ndarray, np.ndarray]:
+    """(K, 3) DEM cells of a coarse grid of samples that project into the photo in front of ``camera``, and their
+    (K,) depths (m)."""
     rows, cols = dem.elevation.shape
     r = np.linspace(0, rows - 1, min(samples, rows)).astype(int)
     c = np.linspace(0, cols - 1, min(samples, cols)).astype(int)
@@ -254,7 +255,23 @@ def camera_sees_dem(camera: Camera, dem, samples: int = 40) -> bool:
     z = dem.elevation[rr, cc].ravel()
     x, y = dem.cell_to_map(cc.ravel() + 0.5, rr.ravel() + 0.5)
     pts = np.column_stack([np.asarray(x, float), np.asarray(y, float), z])[np.isfinite(z)]
-    return bool(camera.in_image(camera.project(pts)).any()) if len(pts) else False
+    if not len(pts):
+        return pts, np.zeros(0)
+    uv, depth = camera.project_with_depth(pts)
+    seen = camera.in_image(uv) & (depth > 0)
+    return pts[seen], depth[seen]
+
+
+def camera_sees_dem(camera: Camera, dem, samples: int = 40) -> bool:
+    """True when some DEM cells project into the photo in front of the camera (coarse grid of samples)."""
+    return bool(len(_dem_in_view(camera, dem, samples)[0]))
+
+
+def typical_range(camera: Camera, dem, samples: int = 40) -> Optional[float]:
+    """Median distance (m) from ``camera`` to the DEM cells it looks at (coarse grid of samples; hidden ones too),
+    None when it looks at none."""
+    depth = _dem_in_view(camera, dem, samples)[1]
+    return float(np.median(depth)) if len(depth) else None
 
 
 def view_wedge(camera: Camera, distance: float, steps: int = 24) -> List[Tuple[float, float]]:

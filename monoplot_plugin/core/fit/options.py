@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 from typing import Dict, Optional, Union
 
@@ -82,3 +83,21 @@ class FitOptions:
         return {"position_m": float(position),
                 "angle_deg": float(5.0 if self.angle_sigma_deg is None else self.angle_sigma_deg),
                 "fov_deg": float(0.1 * fov if self.fov_sigma_deg is None else self.fov_sigma_deg)}
+
+    def prior_sigma_px(self, camera, typical_range: float) -> float:
+        """One σ (pixels, along each image axis) of where the rough ``camera`` puts a point ``typical_range``
+        metres away: the prior's angle, position and field-of-view uncertainty (:meth:`prior_sigmas`) through its
+        lens (the field of view's at a quarter of the width from the centre).
+
+        >>> from monoplot_plugin.core.camera import Camera
+        >>> cam = Camera((0.0, 0.0, 0.0), 0.0, 0.0, 0.0, 60.0, (1000, 700))
+        >>> round(FitOptions().prior_sigma_px(cam, 4000.0)), round(FitOptions(angle_sigma_deg=1.0,
+        ...     position_sigma_m=10.0, fov_sigma_deg=0.5).prior_sigma_px(cam, 4000.0))
+        (92, 15)
+        """
+        s = self.prior_sigmas(camera.fov, typical_range)
+        f = camera.focal_px
+        angle = f * math.radians(s["angle_deg"])
+        position = f * s["position_m"] / max(float(typical_range), 1.0)
+        fov = 0.25 * camera.width * math.radians(s["fov_deg"]) / math.sin(math.radians(min(camera.fov, 179.0)))
+        return math.sqrt(angle ** 2 + position ** 2 + fov ** 2)
