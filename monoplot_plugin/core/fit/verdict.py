@@ -36,6 +36,12 @@ CHECK_OVER_RESIDUALS = 3.0
 #: shares of the picture's diagonal: residuals or check points beyond POOR_SHARE make a fit poor; check points beyond
 #: WEAK_SHARE make it uncertain (and within it, with at least MIN_CHECKS of them, they verify it)
 POOR_SHARE, WEAK_SHARE, MIN_CHECKS = 0.03, 0.015, 4
+#: a clearly different camera whose score is at least this share of the fit's makes it uncertain (the search's
+#: competitors, ``competitor_ratio``, and the stability probes' rivals, ``rival_ratio``)
+COMPETITOR_RATIO = 0.8
+#: pairs beyond the inlier radius (within twice it, more than chance adds) above this share of the inliers make an
+#: unpaired fit uncertain: the residuals are truncated by the radius (see :func:`judge`, ``beyond_radius``)
+TRUNCATED_SHARE = 0.25
 
 
 def degenerate_points(q: np.ndarray, world: np.ndarray, needed: int) -> str:
@@ -115,7 +121,19 @@ def judge(e: dict) -> Tuple[str, str]:
     ``chance_mean`` (the same score for cameras turned away, see
     :func:`~monoplot_plugin.core.fit.consensus.chance_inliers`), ``score`` (the fit's consensus score),
     ``competitor_ratio`` (best distinct competing camera's score / ``score``), ``spread`` (hull share of the
-    inliers), ``photo_outliers`` (accepted photo points that fit no DEM point).
+    inliers), ``photo_outliers`` (accepted photo points that fit no DEM point), ``rival_px`` / ``rival_m`` (a
+    camera the stability probes reached that moves the inliers by more than the fit's precision: how far, RMS in
+    pixels, and its distance in metres; 0 for none, see :mod:`~monoplot_plugin.core.fit.stability`), ``rival_ratio``
+    (its net score / the fit's),
+    ``beyond_radius`` (mutual-nearest pairs within twice the radius but not within it, less what chance adds).
+
+    >>> e = {"mode": "unpaired", "n_free": 7, "diag": 2000.0, "rmse_px": 3.0, "n_photo": 40, "n_dem": 30,
+    ...      "n_inliers": 25, "radius_px": 20.0, "score": 20.0, "chance_max": 1.0, "spread": 0.4}
+    >>> rival = dict(e, rival_px=9.0, rival_m=480.0, rival_ratio=0.9)
+    >>> judge(e)[0], judge(rival)[0], judge(dict(e, beyond_radius=12.0))[0]
+    ('ok', 'uncertain', 'uncertain')
+    >>> judge(rival)[1].split("Uncertain: ")[1][:60]
+    'two cameras 480 m apart explain your points about equally we'
     """
     diag = float(e.get("diag", 1000.0))
     n_free = int(e.get("n_free", 7))
@@ -170,11 +188,21 @@ def judge(e: dict) -> Tuple[str, str]:
                 weak.append(f"only {n_in} of the {smaller} points of the smaller set match: either most accepted "
                             f"points are wrong or the camera is; reject the flagged points and fit again")
             ratio = float(e.get("competitor_ratio", 0.0))
-            if ratio >= 0.8:
+            if ratio >= COMPETITOR_RATIO:
                 weak.append("another camera, clearly different, explains the points almost as well: add two paired "
                             "points or check points")
             if float(e.get("spread", 1.0)) < 0.05:
                 weak.append("the matched points cover a small part of the picture: add points elsewhere")
+            if float(e.get("rival_ratio", 0.0)) >= COMPETITOR_RATIO and ratio < COMPETITOR_RATIO:
+                weak.append(f"two cameras {float(e.get('rival_m', 0.0)):.0f} m apart explain your points about "
+                            f"equally well (they place the matched points {float(e['rival_px']):.0f} px apart): add "
+                            f"two paired points or check points")
+            beyond = float(e.get("beyond_radius", 0.0))
+            if beyond > TRUNCATED_SHARE * n_in:
+                weak.append(f"{beyond:.0f} more photo points lie just beyond the {float(e.get('radius_px', 0)):.0f} "
+                            f"px matching radius than chance explains: the points or the DEM (a coarse one?) err by "
+                            f"about that much, so the camera rests on a cut-off share of its pairs; add paired or "
+                            f"check points, or use a finer DEM")
         if not e.get("has_check", False) and not poor:
             text += " The residuals measure how well the automatic pairs agree: check points measure accuracy."
     # Independent check points that agree outweigh weak matching evidence: they measure the camera itself.
