@@ -30,7 +30,7 @@ from .pairing import converge_on_pairs, refine_by_pairs
 from .params import ParameterSpace
 from .result import FitResult, rms, rmse
 from .stability import pixel_precision, weak_direction_probes
-from .verdict import judge, photo_spread, weak_direction_matters, weakest_parameter
+from .verdict import TRUNCATED_SHARE, judge, photo_spread, weak_direction_matters, weakest_parameter
 
 __all__ = ["fit_unpaired", "AUTOMATIC_PAIRS_WIDENING"]
 
@@ -227,6 +227,11 @@ def _stability(ctx, space: ParameterSpace, result: FitResult, radius: float, sig
     return False, ends
 
 
+def _moved(space: ParameterSpace, u, u_other, P: np.ndarray) -> float:
+    """RMS pixel distance between where the cameras ``u`` and ``u_other`` project the centred points ``P``."""
+    return float(np.sqrt(np.mean(np.sum((space.project(u_other, P)[0] - space.project(u, P)[0]) ** 2, axis=1))))
+
+
 def _score(ctx, space: ParameterSpace, u, radius: float) -> float:
     if not space.valid(u):
         return -math.inf
@@ -265,16 +270,22 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
     precision = pixel_precision(space, u, q_in, P_in) if len(pairs) else math.nan
     rival_net, rival_px, rival_m = -math.inf, 0.0, 0.0
     for net, u_r in rivals if len(pairs) else ():
-        moved = float(np.sqrt(np.mean(np.sum((space.project(u_r, P_in)[0] - space.project(u, P_in)[0]) ** 2,
-                                             axis=1))))
+        moved = _moved(space, u, u_r, P_in)
         if moved > max(2.0, 3.0 * precision) and net > rival_net:
             rival_net, rival_px = net, moved
             rival_m = float(np.linalg.norm(np.subtract(space.camera(u_r).position, result.camera.position)))
     # Truncated residuals: many more pairs within twice the radius than chance adds there (three times the area of
     # the radius, about twice as many pairs as the soft chance score): the points or the DEM (a coarse one) err by
-    # about the radius, and the pairs it cuts off held the camera in place.
+    # about the radius. It matters when the camera converged on the pairs within twice the radius moves the inliers
+    # by more than this camera's precision, as a rival would (synthetic suite, 2026-12-02: u101 on a coarse DEM,
+    # 10.4 px from the truth, moves; u4, 0.7 px, with as many pairs beyond, does not).
     wide = len(mutual_nearest_pairs(ctx.q, uv, usable, 2.0 * radius)) if len(pairs) else 0
     beyond = max(0.0, wide - len(pairs) - 6.0 * float(chance.mean()))
+    truncation_px = 0.0
+    if beyond > TRUNCATED_SHARE * len(pairs):
+        u_wide, wide_pairs = converge_on_pairs(ctx, space, u, 2.0 * radius)
+        if wide_pairs is not None:
+            truncation_px = _moved(space, u, u_wide, P_in)
     cond, weakest = (weakest_parameter(jacobian(space, u, q_in, P_in), space.names, space.scales)
                      if 2 * len(pairs) > len(u) else (math.inf, ""))
     if not weak_direction_matters(result.camera, weakest):
@@ -302,7 +313,7 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
                 "competitor_ratio": competitor / own if own > 0 else 0.0,
                 "precision_px": precision, "rival_px": rival_px, "rival_m": rival_m,
                 "rival_ratio": rival_net / own if own > 0 and np.isfinite(rival_net) else 0.0,
-                "beyond_radius": beyond,
+                "beyond_radius": beyond, "truncation_px": truncation_px,
                 "spread": photo_spread(ctx.q[pairs[:, 0]], ctx.initial.image_size) if len(pairs) else 0.0,
                 "photo_outliers": int(outliers.sum()), "condition": cond, "weakest": weakest,
                 "rmse_px": rmse(space.project(u, P_in)[0] - q_in) if len(pairs) else math.nan,

@@ -39,8 +39,9 @@ POOR_SHARE, WEAK_SHARE, MIN_CHECKS = 0.03, 0.015, 4
 #: a clearly different camera whose score is at least this share of the fit's makes it uncertain (the search's
 #: competitors, ``competitor_ratio``, and the stability probes' rivals, ``rival_ratio``)
 COMPETITOR_RATIO = 0.8
-#: pairs beyond the inlier radius (within twice it, more than chance adds) above this share of the inliers make an
-#: unpaired fit uncertain: the residuals are truncated by the radius (see :func:`judge`, ``beyond_radius``)
+#: pairs beyond the inlier radius (within twice it, more than chance adds) above this share of the inliers: the
+#: residuals are truncated by the radius, which makes an unpaired fit uncertain when converging on the pairs within
+#: twice the radius moves the camera (see :func:`judge`, ``beyond_radius`` and ``truncation_px``)
 TRUNCATED_SHARE = 0.25
 
 
@@ -125,12 +126,14 @@ def judge(e: dict) -> Tuple[str, str]:
     camera the stability probes reached that moves the inliers by more than the fit's precision: how far, RMS in
     pixels, and its distance in metres; 0 for none, see :mod:`~monoplot_plugin.core.fit.stability`), ``rival_ratio``
     (its net score / the fit's),
-    ``beyond_radius`` (mutual-nearest pairs within twice the radius but not within it, less what chance adds).
+    ``beyond_radius`` (mutual-nearest pairs within twice the radius but not within it, less what chance adds),
+    ``truncation_px`` (how far the camera converged on the pairs within twice the radius moves the inliers, RMS),
+    ``precision_px`` (the pixel σ of the inliers' projections under the fit's covariance).
 
     >>> e = {"mode": "unpaired", "n_free": 7, "diag": 2000.0, "rmse_px": 3.0, "n_photo": 40, "n_dem": 30,
     ...      "n_inliers": 25, "radius_px": 20.0, "score": 20.0, "chance_max": 1.0, "spread": 0.4}
     >>> rival = dict(e, rival_px=9.0, rival_m=480.0, rival_ratio=0.9)
-    >>> judge(e)[0], judge(rival)[0], judge(dict(e, beyond_radius=12.0))[0]
+    >>> judge(e)[0], judge(rival)[0], judge(dict(e, beyond_radius=12.0, truncation_px=9.0))[0]
     ('ok', 'uncertain', 'uncertain')
     >>> judge(rival)[1].split("Uncertain: ")[1][:60]
     'two cameras 480 m apart explain your points about equally we'
@@ -198,11 +201,12 @@ def judge(e: dict) -> Tuple[str, str]:
                             f"equally well (they place the matched points {float(e['rival_px']):.0f} px apart): add "
                             f"two paired points or check points")
             beyond = float(e.get("beyond_radius", 0.0))
-            if beyond > TRUNCATED_SHARE * n_in:
+            moved = float(e.get("truncation_px", 0.0))
+            if beyond > TRUNCATED_SHARE * n_in and moved > max(2.0, 3.0 * float(e.get("precision_px", 0.0))):
                 weak.append(f"{beyond:.0f} more photo points lie just beyond the {float(e.get('radius_px', 0)):.0f} "
-                            f"px matching radius than chance explains: the points or the DEM (a coarse one?) err by "
-                            f"about that much, so the camera rests on a cut-off share of its pairs; add paired or "
-                            f"check points, or use a finer DEM")
+                            f"px matching radius than chance explains, and counting them moves the camera by "
+                            f"{moved:.0f} px: the points or the DEM (a coarse one?) err by about the radius; add "
+                            f"paired or check points, or use a finer DEM")
         if not e.get("has_check", False) and not poor:
             text += " The residuals measure how well the automatic pairs agree: check points measure accuracy."
     # Independent check points that agree outweigh weak matching evidence: they measure the camera itself.
