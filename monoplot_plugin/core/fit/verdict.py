@@ -137,6 +137,8 @@ def judge(e: dict) -> Tuple[str, str]:
     ('ok', 'uncertain', 'uncertain')
     >>> judge(rival)[1].split("Uncertain: ")[1][:60]
     'two cameras 480 m apart explain your points about equally we'
+    >>> judge(dict(rival, rival_m=2.0))[1].split("Uncertain: ")[1][:60]
+    'two cameras at nearly the same place, turned differently, ex'
     """
     diag = float(e.get("diag", 1000.0))
     n_free = int(e.get("n_free", 7))
@@ -197,9 +199,11 @@ def judge(e: dict) -> Tuple[str, str]:
             if float(e.get("spread", 1.0)) < 0.05:
                 weak.append("the matched points cover a small part of the picture: add points elsewhere")
             if float(e.get("rival_ratio", 0.0)) >= COMPETITOR_RATIO and ratio < COMPETITOR_RATIO:
-                weak.append(f"two cameras {float(e.get('rival_m', 0.0)):.0f} m apart explain your points about "
-                            f"equally well (they place the matched points {float(e['rival_px']):.0f} px apart): add "
-                            f"two paired points or check points")
+                metres = float(e.get("rival_m", 0.0))
+                where = f"{metres:.0f} m apart" if metres >= 10.0 else "at nearly the same place, turned differently,"
+                weak.append(f"two cameras {where} explain your points about equally well (they place the matched "
+                            f"points {float(e.get('rival_px', 0.0)):.0f} px apart): add two paired points or check "
+                            f"points")
             beyond = float(e.get("beyond_radius", 0.0))
             moved = float(e.get("truncation_px", 0.0))
             if beyond > TRUNCATED_SHARE * n_in and moved > max(2.0, 3.0 * float(e.get("precision_px", 0.0))):
