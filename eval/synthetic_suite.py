@@ -48,7 +48,7 @@ sigma counts as not covered.
 
 Output: one JSON line per stratum (n, success rate, the verdict's confusion matrix status x success/failure,
 ``ok_precision`` = share of "ok" fits that are successes, sigma coverage, median fit seconds) and an overall line with
-the targets. Per-scene records (parameters, status, message, success, errors) go to
+the targets. Per-scene records (parameters, status, message, the fit's evidence, success, errors) go to
 ``test-artifacts/synthetic_suite.jsonl`` (``--records``).
 
 Run: ``.venv/bin/python -m eval.synthetic_suite [--scenes 200] [--seed 0] [--jobs 2] [--only wrong60,range3]
@@ -421,13 +421,16 @@ def run_scene(spec) -> dict:
         status, message, cam, std, fit_s = r.status, r.message, r.camera, dict(r.std), r.elapsed_s
         rmse_px = float(r.rmse_px)
         radius = (r.evidence or {}).get("radius_px") if s["pairs"] is None else None
+        evidence = {k: v if isinstance(v, (str, bool)) else _round(float(v), 4)
+                    for k, v in (r.evidence or {}).items() if k != "note" and isinstance(v, (int, float, str))}
     except Exception as exc:  # a crash is a failure of the fit, recorded, not the end of the suite
         status, message, cam, std, fit_s, rmse_px = "error", f"{type(exc).__name__}: {exc}", s["prior"], {}, 0.0, \
             float("nan")
-        radius = None
+        radius, evidence = None, {}
     rec = {"id": spec["id"], "kind": spec["kind"], "tags": spec["tags"], "degenerate": spec.get("degenerate"),
            "params": s["params"], "status": status, "message": message, "fit_s": round(fit_s, 3),
-           "fit_rmse_px": None if not np.isfinite(rmse_px) else round(rmse_px, 3), "sigma_kwargs": sorted(kw)}
+           "fit_rmse_px": None if not np.isfinite(rmse_px) else round(rmse_px, 3), "sigma_kwargs": sorted(kw),
+           "evidence": evidence}
     if spec["kind"] == "degenerate":
         rec.update(success=status == "refused", err_px=None, threshold_px=None, opt_px=None)
     else:

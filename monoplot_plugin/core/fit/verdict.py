@@ -36,6 +36,13 @@ CHECK_OVER_RESIDUALS = 3.0
 #: shares of the picture's diagonal: residuals or check points beyond POOR_SHARE make a fit poor; check points beyond
 #: WEAK_SHARE make it uncertain (and within it, with at least MIN_CHECKS of them, they verify it)
 POOR_SHARE, WEAK_SHARE, MIN_CHECKS = 0.03, 0.015, 4
+#: a clearly different camera whose score is at least this share of the fit's makes it uncertain (the search's
+#: competitors, ``competitor_ratio``, and the stability probes' rivals, ``rival_ratio``)
+COMPETITOR_RATIO = 0.8
+#: pairs beyond the inlier radius (within twice it, more than chance adds) above this share of the inliers: the
+#: residuals are truncated by the radius, which makes an unpaired fit uncertain when converging on the pairs within
+#: twice the radius moves the camera (see :func:`judge`, ``beyond_radius`` and ``truncation_px``)
+TRUNCATED_SHARE = 0.25
 
 
 def degenerate_points(q: np.ndarray, world: np.ndarray, needed: int) -> str:
@@ -115,7 +122,23 @@ def judge(e: dict) -> Tuple[str, str]:
     ``chance_mean`` (the same score for cameras turned away, see
     :func:`~monoplot_plugin.core.fit.consensus.chance_inliers`), ``score`` (the fit's consensus score),
     ``competitor_ratio`` (best distinct competing camera's score / ``score``), ``spread`` (hull share of the
-    inliers), ``photo_outliers`` (accepted photo points that fit no DEM point).
+    inliers), ``photo_outliers`` (accepted photo points that fit no DEM point), ``rival_px`` / ``rival_m`` (a
+    camera the stability probes reached that moves the inliers by more than the fit's precision: how far, RMS in
+    pixels, and its distance in metres; 0 for none, see :mod:`~monoplot_plugin.core.fit.stability`), ``rival_ratio``
+    (its net score / the fit's),
+    ``beyond_radius`` (mutual-nearest pairs within twice the radius but not within it, less what chance adds),
+    ``truncation_px`` (how far the camera converged on the pairs within twice the radius moves the inliers, RMS),
+    ``precision_px`` (the pixel σ of the inliers' projections under the fit's covariance).
+
+    >>> e = {"mode": "unpaired", "n_free": 7, "diag": 2000.0, "rmse_px": 3.0, "n_photo": 40, "n_dem": 30,
+    ...      "n_inliers": 25, "radius_px": 20.0, "score": 20.0, "chance_max": 1.0, "spread": 0.4}
+    >>> rival = dict(e, rival_px=9.0, rival_m=480.0, rival_ratio=0.9)
+    >>> judge(e)[0], judge(rival)[0], judge(dict(e, beyond_radius=12.0, truncation_px=9.0))[0]
+    ('ok', 'uncertain', 'uncertain')
+    >>> judge(rival)[1].split("Uncertain: ")[1][:60]
+    'two cameras 480 m apart explain your points about equally we'
+    >>> judge(dict(rival, rival_m=2.0))[1].split("Uncertain: ")[1][:60]
+    'two cameras at nearly the same place, turned differently, ex'
     """
     diag = float(e.get("diag", 1000.0))
     n_free = int(e.get("n_free", 7))
@@ -170,11 +193,24 @@ def judge(e: dict) -> Tuple[str, str]:
                 weak.append(f"only {n_in} of the {smaller} points of the smaller set match: either most accepted "
                             f"points are wrong or the camera is; reject the flagged points and fit again")
             ratio = float(e.get("competitor_ratio", 0.0))
-            if ratio >= 0.8:
+            if ratio >= COMPETITOR_RATIO:
                 weak.append("another camera, clearly different, explains the points almost as well: add two paired "
                             "points or check points")
             if float(e.get("spread", 1.0)) < 0.05:
                 weak.append("the matched points cover a small part of the picture: add points elsewhere")
+            if float(e.get("rival_ratio", 0.0)) >= COMPETITOR_RATIO and ratio < COMPETITOR_RATIO:
+                metres = float(e.get("rival_m", 0.0))
+                where = f"{metres:.0f} m apart" if metres >= 10.0 else "at nearly the same place, turned differently,"
+                weak.append(f"two cameras {where} explain your points about equally well (they place the matched "
+                            f"points {float(e.get('rival_px', 0.0)):.0f} px apart): add two paired points or check "
+                            f"points")
+            beyond = float(e.get("beyond_radius", 0.0))
+            moved = float(e.get("truncation_px", 0.0))
+            if beyond > TRUNCATED_SHARE * n_in and moved > max(2.0, 3.0 * float(e.get("precision_px", 0.0))):
+                weak.append(f"{beyond:.0f} more photo points lie just beyond the {float(e.get('radius_px', 0)):.0f} "
+                            f"px matching radius than chance explains, and counting them moves the camera by "
+                            f"{moved:.0f} px: the points or the DEM (a coarse one?) err by about the radius; add "
+                            f"paired or check points, or use a finer DEM")
         if not e.get("has_check", False) and not poor:
             text += " The residuals measure how well the automatic pairs agree: check points measure accuracy."
     # Independent check points that agree outweigh weak matching evidence: they measure the camera itself.
