@@ -308,14 +308,18 @@ class DemSource:
                            max_range, margin_cells, min_range=min_range)
 
     def read_view(self, camera, factor: int = 1, min_depth: float = 0.0, max_depth: Optional[float] = None,
-                  max_range: Optional[float] = None, margin_cells: int = 2, placeholders: bool = True):
+                  max_range: Optional[float] = None, margin_cells: int = 2, placeholders: bool = True,
+                  out: Optional[np.ndarray] = None):
         """(Dem, (lo, hi), image rows) of what ``camera`` sees between the depths ``min_depth`` and ``max_depth``
         (metres along the optical axis; and within ``max_range`` metres) at level ``factor``:
         a window whose rows hold, each, a span of cells ``[lo[r], hi[r])`` (the view's footprint, block by block);
         only those are read, the others are NaN (not voids: ``compute_xyz_full(..., spans=(lo, hi))``); image rows:
         (first, last), the rows of the image whose rays can meet them. None when the camera sees nothing there.
         Without ``placeholders`` the cells outside the spans are left unset (the z-buffer never reads them: it skips
-        allocating and writing a window-sized array) unless the view has voids, whose lids need them NaN."""
+        allocating and writing a window-sized array) unless the view has voids, whose lids need them NaN; ``out``
+        (without placeholders): a 1-D float32 array whose memory holds the window when it is large enough (a caller
+        reading slab after slab reuses one allocation: the first touch of fresh memory is a page fault the kernel
+        must zero, which cost more than the reads themselves)."""
         found = view_footprint(camera, self.level_geotransform(factor), self.level_shape(factor), self.zmin,
                                self.zmax, max_range, margin_cells, samples=256, min_depth=min_depth,
                                max_depth=max_depth)
@@ -324,7 +328,12 @@ class DemSource:
         window, ends, pad, image_rows = found
         row0, col0, rows, cols = window
         lo, hi = footprint_spans(window, ends, pad)
-        elevation = (np.full if placeholders else _empty)((rows, cols), np.nan, dtype=np.float32)
+        if placeholders:
+            elevation = np.full((rows, cols), np.nan, dtype=np.float32)
+        elif out is not None and out.dtype == np.float32 and out.size >= rows * cols:
+            elevation = out[:rows * cols].reshape(rows, cols)
+        else:
+            elevation = np.empty((rows, cols), dtype=np.float32)
         g = self.level_geotransform(factor)
         dem = Dem(elevation, (g[0] + col0 * g[1] + row0 * g[2], g[1], g[2], g[3] + col0 * g[4] + row0 * g[5], g[4],
                               g[5]), self.crs_wkt)
@@ -399,10 +408,6 @@ class DemSource:
             if view is not None and (view[1][1] > view[1][0]).any():
                 out.append(DemBand(view[0], factor, near, far, view[1]))
         return out
-
-
-def _empty(shape, _fill, dtype):
-    return np.empty(shape, dtype=dtype)
 
 
 #: Rows (and columns) of the blocks in which :meth:`DemSource.read_view` reads a view's footprint.
