@@ -8,7 +8,10 @@
   Targets <= 0.5 px, >= 5 frames/s. ``reregistered_batch``: the same frames through the batch with ``register``,
   orthophotos only (a turned frame's lookup from the rays kept once), then with an XYZ raster per turned frame.
 - ``dask_batch``: the batch as Dask tasks on a LocalCluster of 1 then 2 worker processes (after a warm-up run that
-  builds each worker's shared products): frames/s and the ratio to twice the one-worker rate (target >= 0.8).
+  builds each worker's shared products): frames/s and the ratio to twice the one-worker rate (target >= 0.8). The
+  timed run is a whole batch (submission, the frames, the shared ``xyz.tif`` written once, the last result back);
+  the CPU seconds per frame of this process (client and scheduler) and of the workers (all their threads) say how
+  much of the two cores Dask itself takes, whatever the load.
 
 Every line carries the 1-minute load average (shared cores: other people's work slows the timings).
 
@@ -157,10 +160,16 @@ def bench_dask(work: Path, frames: int) -> None:
             out = str(work / f"dask_out{workers}")
             run_batch_dask(jobs[: 2 * workers], dem_path, dem.crs_wkt, out, client=client)  # warm-up
             cpu0 = _cpu_seconds()
+            own0, workers0 = time.process_time(), client.run(time.process_time)
             start = time.perf_counter()
             results = run_batch_dask(jobs, dem_path, dem.crs_wkt, out, client=client)
             seconds = time.perf_counter() - start
             machine = (_cpu_seconds() - cpu0) / seconds  # cores busy, every process of the machine
+            workers1 = client.run(time.process_time)
+            # CPU per frame, which the load of other jobs changes little: this process (client and scheduler) and
+            # the workers (every thread: the frames, Dask's own work, the shared XYZ raster's write)
+            own_ms = 1000.0 * (time.process_time() - own0) / frames
+            workers_ms = 1000.0 * sum(workers1[w] - workers0[w] for w in workers1 if w in workers0) / frames
             roundtrip = _roundtrip_ms(client)
         finally:
             client.close()
@@ -174,7 +183,8 @@ def bench_dask(work: Path, frames: int) -> None:
              ok=sum(r.ok for r in results), seconds=round(seconds, 2), frames_per_s=round(rates[workers], 2),
              frame_s=round(per_frame[workers], 4), workers_busy=round(busy / (workers * seconds), 3),
              machine_cores_busy=round(machine, 2), noop_task_roundtrip_ms=round(roundtrip, 2),
-             task_bytes=_pickled(jobs, dem_path, dem.crs_wkt, out), result_bytes=len(pickle.dumps(results[0])))
+             task_bytes=_pickled(jobs, dem_path, dem.crs_wkt, out), result_bytes=len(pickle.dumps(results[0])),
+             cpu_ms_per_frame_scheduler_client=round(own_ms, 2), cpu_ms_per_frame_workers=round(workers_ms, 2))
     emit(name="dask_scaling", ratio_to_twice_one_worker=round(rates[2] / (2.0 * rates[1]), 3), target=0.8,
          frame_time_growth=round(per_frame[2] / per_frame[1], 3))
 

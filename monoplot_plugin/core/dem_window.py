@@ -267,13 +267,15 @@ class DemSource:
         g = self.level_geotransform(factor)
         return math.sqrt(abs(g[1] * g[5] - g[2] * g[4]))
 
-    def _read_block(self, factor: int, row0: int, col0: int, rows: int, cols: int) -> np.ndarray:
+    def _read_block(self, factor: int, row0: int, col0: int, rows: int, cols: int,
+                    out: Optional[np.ndarray] = None) -> np.ndarray:
         """The cells [row0, row0 + rows) x [col0, col0 + cols) of level ``factor`` as GDAL gives them: from the
-        band or its overview of that factor, else decimated (averaged) from the full resolution."""
+        band or its overview of that factor, else decimated (averaged) from the full resolution. ``out``: a
+        (rows, cols) array (a view is fine) that GDAL fills, converting to its type, and that is returned."""
         if factor == 1:
-            return self._band.ReadAsArray(col0, row0, cols, rows)
+            return self._band.ReadAsArray(col0, row0, cols, rows, buf_obj=out)
         if factor in self._overviews:
-            return self._overviews[factor].ReadAsArray(col0, row0, cols, rows)
+            return self._overviews[factor].ReadAsArray(col0, row0, cols, rows, buf_obj=out)
         from osgeo import gdal
 
         rows_l, cols_l = self.level_shape(factor)
@@ -281,15 +283,15 @@ class DemSource:
         x0, y0 = int(round(col0 * sx)), int(round(row0 * sy))
         w = min(self.shape[1] - x0, int(round(cols * sx)))
         h = min(self.shape[0] - y0, int(round(rows * sy)))
-        return self._band.ReadAsArray(x0, y0, w, h, buf_xsize=cols, buf_ysize=rows, resample_alg=gdal.GRIORA_Average)
+        return self._band.ReadAsArray(x0, y0, w, h, buf_xsize=cols, buf_ysize=rows, resample_alg=gdal.GRIORA_Average,
+                                      buf_obj=out)
 
     def read(self, window: Optional[Sequence[int]] = None, factor: int = 1) -> Dem:
         """The Dem of ``window`` = (row0, col0, rows, cols) in the cells of level ``factor`` (None = all of it);
         read from the overview of that factor, else decimated by GDAL's averaging read."""
         rows_l, cols_l = self.level_shape(factor)
         row0, col0, rows, cols = (0, 0, rows_l, cols_l) if window is None else (int(w) for w in window)
-        data = self._read_block(factor, row0, col0, rows, cols)
-        elevation = np.array(data, dtype=np.float32)
+        elevation = self._read_block(factor, row0, col0, rows, cols, out=np.empty((rows, cols), dtype=np.float32))
         notes = mark_voids(elevation, nodata=self.nodata, void_value=self.void_value, sentinels=self.sentinels)
         g = self.level_geotransform(factor)
         gt = (g[0] + col0 * g[1] + row0 * g[2], g[1], g[2], g[3] + col0 * g[4] + row0 * g[5], g[4], g[5])
@@ -306,14 +308,18 @@ class DemSource:
                            max_range, margin_cells, min_range=min_range)
 
     def read_view(self, camera, factor: int = 1, min_depth: float = 0.0, max_depth: Optional[float] = None,
-                  max_range: Optional[float] = None, margin_cells: int = 2, placeholders: bool = True):
+                  max_range: Optional[float] = None, margin_cells: int = 2, placeholders: bool = True,
+                  out: Optional[np.ndarray] = None):
         """(Dem, (lo, hi), image rows) of what ``camera`` sees between the depths ``min_depth`` and ``max_depth``
         (metres along the optical axis; and within ``max_range`` metres) at level ``factor``:
         a window whose rows hold, each, a span of cells ``[lo[r], hi[r])`` (the view's footprint, block by block);
         only those are read, the others are NaN (not voids: ``compute_xyz_full(..., spans=(lo, hi))``); image rows:
         (first, last), the rows of the image whose rays can meet them. None when the camera sees nothing there.
         Without ``placeholders`` the cells outside the spans are left unset (the z-buffer never reads them: it skips
-        allocating and writing a window-sized array) unless the view has voids, whose lids need them NaN."""
+        allocating and writing a window-sized array) unless the view has voids, whose lids need them NaN; ``out``
+        (without placeholders): a 1-D float32 array whose memory holds the window when it is large enough (a caller
+        reading slab after slab reuses one allocation: the first touch of fresh memory is a page fault the kernel
+        must zero, which cost more than the reads themselves)."""
         found = view_footprint(camera, self.level_geotransform(factor), self.level_shape(factor), self.zmin,
                                self.zmax, max_range, margin_cells, samples=256, min_depth=min_depth,
                                max_depth=max_depth)
@@ -322,7 +328,12 @@ class DemSource:
         window, ends, pad, image_rows = found
         row0, col0, rows, cols = window
         lo, hi = footprint_spans(window, ends, pad)
-        elevation = (np.full if placeholders else _empty)((rows, cols), np.nan, dtype=np.float32)
+        if placeholders:
+            elevation = np.full((rows, cols), np.nan, dtype=np.float32)
+        elif out is not None and out.dtype == np.float32 and out.size >= rows * cols:
+            elevation = out[:rows * cols].reshape(rows, cols)
+        else:
+            elevation = np.empty((rows, cols), dtype=np.float32)
         g = self.level_geotransform(factor)
         dem = Dem(elevation, (g[0] + col0 * g[1] + row0 * g[2], g[1], g[2], g[3] + col0 * g[4] + row0 * g[5], g[4],
                               g[5]), self.crs_wkt)
@@ -334,12 +345,10 @@ class DemSource:
             c0, c1 = int(lo[r:r1].min()), int(hi[r:r1].max())
             if c1 <= c0:
                 continue
-            data = self._read_block(factor, row0 + r, col0 + c0, r1 - r, c1 - c0)
-            block = np.array(data, dtype=np.float32)
+            block = self._read_block(factor, row0 + r, col0 + c0, r1 - r, c1 - c0, out=elevation[r:r1, c0:c1])
             found = mark_voids(block, nodata=self.nodata, void_value=self.void_value, sentinels=self.sentinels)
             notes += found
             voids = voids or bool(found)
-            elevation[r:r1, c0:c1] = block
         if voids and not placeholders:
             for r in range(rows):
                 elevation[r, :lo[r]] = np.nan
@@ -401,10 +410,6 @@ class DemSource:
         return out
 
 
-def _empty(shape, _fill, dtype):
-    return np.empty(shape, dtype=dtype)
-
-
 #: Rows (and columns) of the blocks in which :meth:`DemSource.read_view` reads a view's footprint.
 _SPAN_BLOCK = 32
 
@@ -425,42 +430,50 @@ def footprint_spans(window, ends, pad: float, block: int = _SPAN_BLOCK):
         return np.zeros(rows, dtype=np.int64), np.full(rows, cols, dtype=np.int64)
     nr, nc = -(-rows // block), -(-cols // block)
     pts = ((ends - np.array([row0, col0])) / block)[:, ::-1].astype(np.float32)  # (x = col, y = row) in blocks
-    hull = _clip_polygon(cv2.convexHull(pts).reshape(-1, 2).astype(np.float64), -1.0, -1.0, nc + 1.0, nr + 1.0)
-    first = np.full(nr, nc, dtype=np.int64)
-    last = np.full(nr, -1, dtype=np.int64)
-    for i in range(nr):  # the blocks of row i that the hull touches: its part between y = i and y = i + 1
-        part = _clip_polygon(hull, -np.inf, float(i), np.inf, float(i + 1))
-        if len(part):
-            first[i] = max(0, int(math.floor(part[:, 0].min())))
-            last[i] = min(nc - 1, int(math.floor(part[:, 0].max())))
+    hull = cv2.convexHull(pts).reshape(-1, 2).astype(np.float64)
+    xmin, xmax = _strip_extents(hull, nr)  # the blocks of row i that the hull touches: its part between y = i, i + 1
+    found = (xmin <= xmax) & (xmax >= -1.0) & (xmin <= nc + 1.0)  # (the original clip box: -1 ... nc + 1)
+    first = np.where(found, np.maximum(0, np.floor(np.maximum(xmin, -1.0))), nc).astype(np.int64)
+    last = np.where(found, np.minimum(nc - 1, np.floor(np.minimum(xmax, nc + 1.0))), -1).astype(np.int64)
     grow = int(math.ceil(pad / block))
-    lo_b = np.full(nr, nc, dtype=np.int64)
-    hi_b = np.full(nr, -1, dtype=np.int64)
-    for i in range(nr):  # widened by ``grow`` blocks every way
-        j0, j1 = max(0, i - grow), min(nr, i + grow + 1)
-        if (last[j0:j1] >= 0).any():
-            lo_b[i] = max(0, int(first[j0:j1].min()) - grow)
-            hi_b[i] = min(nc - 1, int(last[j0:j1].max()) + grow)
+    # widened by ``grow`` blocks every way: the blocks of rows i - grow ... i + grow
+    window_min = np.lib.stride_tricks.sliding_window_view(
+        np.pad(first, grow, constant_values=np.iinfo(np.int64).max), 2 * grow + 1).min(axis=1)
+    window_max = np.lib.stride_tricks.sliding_window_view(np.pad(last, grow, constant_values=-1),
+                                                          2 * grow + 1).max(axis=1)
+    some = window_max >= 0
+    lo_b = np.where(some, np.maximum(0, window_min - grow), nc)
+    hi_b = np.where(some, np.minimum(nc - 1, window_max + grow), -1)
     empty = hi_b < lo_b
     lo = np.repeat(np.where(empty, 0, lo_b * block), block)[:rows]
     hi = np.minimum(np.repeat(np.where(empty, 0, (hi_b + 1) * block), block)[:rows], cols)
     return lo.astype(np.int64), hi.astype(np.int64)
 
 
-def _clip_polygon(poly: np.ndarray, x0: float, y0: float, x1: float, y1: float) -> np.ndarray:
-    """A convex polygon ((N, 2) x, y) clipped to the box [x0, x1] x [y0, y1] (Sutherland-Hodgman), so that drawing
-    it stays within the coordinates OpenCV can draw."""
-    for axis, bound, keep_below in ((0, x0, False), (0, x1, True), (1, y0, False), (1, y1, True)):
-        if len(poly) == 0:
-            break
-        out = []
-        for a, b in zip(poly, np.roll(poly, -1, axis=0)):
-            a_in = a[axis] <= bound if keep_below else a[axis] >= bound
-            b_in = b[axis] <= bound if keep_below else b[axis] >= bound
-            if a_in:
-                out.append(a)
-            if a_in != b_in:
-                t = (bound - a[axis]) / (b[axis] - a[axis])
-                out.append(a + t * (b - a))
-        poly = np.array(out).reshape(-1, 2)
-    return poly
+def _strip_extents(poly: np.ndarray, n: int):
+    """(xmin, xmax), (n,) each: the extent in x of the part of a convex polygon ((N, 2) x, y) between y = i and
+    y = i + 1, for i = 0 ... n - 1 (xmin > xmax where it has none): where its edges cross the lines y = 0 ... n,
+    and its vertices between them.
+
+    >>> xmin, xmax = _strip_extents(np.array([[0.0, 0.5], [4.0, 0.5], [2.0, 2.5]]), 4)
+    >>> xmin.tolist(), xmax.tolist()
+    ([0.0, 0.5, 1.5, inf], [4.0, 3.5, 2.5, -inf])
+    """
+    lines = np.arange(n + 1, dtype=np.float64)
+    a, b = poly, np.roll(poly, -1, axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (lines[None, :] - a[:, 1:2]) / (b[:, 1:2] - a[:, 1:2])  # NaN along horizontal edges: their ends count
+        x = a[:, 0:1] + t * (b[:, 0:1] - a[:, 0:1])
+    cross = (t >= 0.0) & (t <= 1.0)
+    on_min = np.where(cross, x, np.inf).min(axis=0)
+    on_max = np.where(cross, x, -np.inf).max(axis=0)
+    xmin = np.minimum(on_min[:-1], on_min[1:])
+    xmax = np.maximum(on_max[:-1], on_max[1:])
+    y = poly[:, 1]
+    inside = (y >= 0.0) & (y <= n)
+    for strip in (np.floor(y), np.ceil(y) - 1.0):  # a vertex on a line y = i lies in strips i - 1 and i
+        k = strip[inside & (strip >= 0) & (strip < n)].astype(np.int64)
+        px = poly[inside & (strip >= 0) & (strip < n), 0]
+        np.minimum.at(xmin, k, px)
+        np.maximum.at(xmax, k, px)
+    return xmin, xmax

@@ -97,6 +97,7 @@ def compute_xyz_lod(cam: Camera, source: DemSource, max_range: Optional[float] =
     out = LodXyz(xyz, dist, factor, cam)
     rising = _rising_rows(cam)
     scratch = np.empty(H * W * 3)  # the z-buffer's depth buffers and XYZ, one allocation for every band
+    held = np.empty(0, dtype=np.float32)  # the slabs' windows: the largest one read so far, reused
     for i, (level, near, far) in enumerate(plan):
         # rows whose rays all rise and are above the highest terrain at this depth see nothing farther
         todo_rows &= ~((rising > 0.0) & (C[2] + near * rising > source.zmax))
@@ -110,11 +111,13 @@ def compute_xyz_lod(cam: Camera, source: DemSource, max_range: Optional[float] =
         keep = math.inf if last else far * (1.0 + LOD_OVERLAP)
         sub = strip_camera(cam, r0, r1 - r0)
         view = source.read_view(sub, level, min_depth=near, max_depth=None if math.isinf(keep) else keep,
-                                max_range=max_range, placeholders=False)
+                                max_range=max_range, placeholders=False, out=held)
         if view is None:
             logger.debug("LOD band x%d: nothing in view", level)
             continue
         dem, spans, (v0, v1) = view
+        if dem.elevation.size > held.size:
+            held = dem.elevation.reshape(-1)
         window = (*dem.window, *dem.shape)
         cells = int((spans[1] - spans[0]).clip(0).sum())
         if cells == 0 or v1 <= v0:  # the window's rectangle meets the grid, the view's footprint does not

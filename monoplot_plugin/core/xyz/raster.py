@@ -195,17 +195,17 @@ def _row_pick(top, bottom, r, rr, c):
 
 
 @njit(cache=True, inline="always")
-def _all_done(done, tile, i0, i1, j0, j1):
-    """Every tile of ``done`` that the pixel box [i0, i1] x [j0, j1] touches is done."""
-    for ti in range(i0 // tile, i1 // tile + 1):
-        for tj in range(j0 // tile, j1 // tile + 1):
+def _all_done(done, shift, i0, i1, j0, j1):
+    """Every tile of ``done`` (of 2 ** shift pixels a side) that the pixel box [i0, i1] x [j0, j1] touches is done."""
+    for ti in range(i0 >> shift, (i1 >> shift) + 1):
+        for tj in range(j0 >> shift, (j1 >> shift) + 1):
             if done[ti, tj] == 0:
                 return False
     return True
 
 
 @njit(cache=True)
-def _raster_quad_row(ut, vt, wt, ub, vb, wb, r, c0, c1, elev, gt, C, R, intr, near, cull, zbuf, tbuf, done, tile):
+def _raster_quad_row(ut, vt, wt, ub, vb, wb, r, c0, c1, elev, gt, C, R, intr, near, cull, zbuf, tbuf, done, shift):
     """Z-buffer the two triangles of every quad between DEM rows r (projected into ut, vt, wt) and r + 1 (ub, vb,
     wb), for the quads of columns [c0, c1 - 1); quads whose pixels all lie in tiles of ``done`` are skipped."""
     cols = elev.shape[1]
@@ -218,11 +218,17 @@ def _raster_quad_row(ut, vt, wt, ub, vb, wb, r, c0, c1, elev, gt, C, R, intr, ne
         if w00 > 0.0 and w01 > 0.0 and w10 > 0.0 and w11 > 0.0:
             # fast path (most quads): skip quads whose bounding box holds no pixel centre
             u00, u01, u10, u11 = ut[c], ut[c + 1], ub[c], ub[c + 1]
+            v00, v01, v10, v11 = vt[c], vt[c + 1], vb[c], vb[c + 1]
+            if cull != 0.0:  # both triangles back-facing (the signs _raster_quad and _raster_triangle test): skip
+                acu = u11 - u00  # the quad before its pixel box is worked out (about half the quads of a view)
+                acv = v11 - v00
+                if (cull * (acu * (v01 - v00) - acv * (u01 - u00)) > 0.0
+                        and cull * (acu * (v10 - v00) - acv * (u10 - u00)) < 0.0):
+                    continue
             umin = min(min(u00, u01), min(u10, u11))
             umax = max(max(u00, u01), max(u10, u11))
             if math.floor(umax - 0.5) < math.ceil(umin - 0.5) or umax < 0.5 or umin > W - 0.5:
                 continue
-            v00, v01, v10, v11 = vt[c], vt[c + 1], vb[c], vb[c + 1]
             vmin = min(min(v00, v01), min(v10, v11))
             vmax = max(max(v00, v01), max(v10, v11))
             if math.floor(vmax - 0.5) < math.ceil(vmin - 0.5) or vmax < 0.5 or vmin > H - 0.5:
@@ -232,7 +238,7 @@ def _raster_quad_row(ut, vt, wt, ub, vb, wb, r, c0, c1, elev, gt, C, R, intr, ne
             j1 = min(W - 1, int(math.floor(umax - 0.5)))
             i0 = max(0, int(math.ceil(vmin - 0.5)))
             i1 = min(H - 1, int(math.floor(vmax - 0.5)))
-            if _all_done(done, tile, i0, i1, j0, j1):
+            if _all_done(done, shift, i0, i1, j0, j1):
                 continue
             if not _raster_quad(u00, v00, w00, u01, v01, w01, u11, v11, w11, u10, v10, w10,
                                 i0, i1, j0, j1, base, zbuf, tbuf, cull):
@@ -267,10 +273,14 @@ def _rasterise(elev, gt, C, R, intr, near, cull, zbufs, tbufs, lo, hi, done, til
     into its own buffers (no write races, balanced load); the caller merges the chunks. Vertices are projected
     row by row as the block goes (two rows held, no DEM-sized arrays). Only the columns [lo[r], hi[r]) of each row
     r are drawn (the span of the grid a level-of-detail band needs; 0 and cols for a whole grid). ``done``: (Ht, Wt)
-    uint8 per tile of ``tile`` x ``tile`` pixels, 1 where every pixel already has its answer (a nearer band's), so
-    that terrain hidden there is not drawn (a (1, 1) zero array and a huge tile: draw everything)."""
+    uint8 per tile of ``tile`` x ``tile`` pixels (a power of two), 1 where every pixel already has its answer (a
+    nearer band's), so that terrain hidden there is not drawn (a (1, 1) zero array and a huge tile: draw
+    everything)."""
     rows, cols = elev.shape
     nchunks = zbufs.shape[0]
+    shift = 0  # tile = 2 ** shift (a power of two: tile indices by shifts, not divisions)
+    while (1 << shift) < tile:
+        shift += 1
     nblocks = (rows - 1 + RASTER_BLOCK_ROWS - 1) // RASTER_BLOCK_ROWS
     for k in prange(nchunks):
         zbuf = zbufs[k]
@@ -286,7 +296,7 @@ def _rasterise(elev, gt, C, R, intr, near, cull, zbufs, tbufs, lo, hi, done, til
                              bottom[2])
                 _raster_quad_row(top[0], top[1], top[2], bottom[0], bottom[1], bottom[2], r,
                                  max(lo[r], lo[r + 1]), min(hi[r], hi[r + 1]), elev, gt, C, R, intr, near, cull,
-                                 zbuf, tbuf, done, tile)
+                                 zbuf, tbuf, done, shift)
                 top, bottom = bottom, top
 
 

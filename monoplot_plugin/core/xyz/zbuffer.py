@@ -24,7 +24,7 @@ logger = logging.getLogger("monoplot")
 
 #: Terrain closer than this to the camera plane (metres) is clipped away.
 NEAR_PLANE_M = 0.01
-#: Pixels per side of the tiles of ``compute_xyz_full(done=...)``.
+#: Pixels per side of the tiles of ``compute_xyz_full(done=...)`` (a power of two: the kernels shift, not divide).
 DONE_TILE = 16
 
 
