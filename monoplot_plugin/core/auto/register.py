@@ -55,6 +55,8 @@ NEAR_RATIO = 0.1
 #: best is often not the right basin), and how many of the refined are refined again at full size.
 N_STARTS = 8
 N_FINALS = 3
+#: Distance (prior position σ) of the coarse search's positions around the prior's (:func:`_positions`).
+POSITION_SIGMAS = 1.0
 #: (distance scale in working px, step factor) of the fine rounds.
 FINE_ROUNDS = ((8.0, 0.5), (4.0, 0.25), (2.5, 0.1))
 #: Distance scale (px per 1024 working px) of the final comparison with the prior, and the least improvement
@@ -86,15 +88,27 @@ def _sigmas(prior: Camera, position_sigma_m, angle_sigma_deg, fov_sigma_deg) -> 
             "fov_deg": float(0.1 * prior.fov if fov_sigma_deg is None else fov_sigma_deg)}
 
 
-def _distinct(offsets: np.ndarray, scores: np.ndarray, k: int, min_deg: float) -> list:
-    """Indices of the ``k`` best offsets, each at least ``min_deg`` from the others in heading or pitch."""
+def _distinct(offsets: np.ndarray, scores: np.ndarray, k: int, min_deg: float, min_m: float) -> list:
+    """Indices of the ``k`` best offsets, each distinct from the others: ``min_deg`` apart in heading or pitch, or
+    ``min_m`` apart in position (the two distances in units of these add up to at least 1)."""
     kept = []
     for i in np.argsort(scores):
-        if all(np.max(np.abs(offsets[i, :2] - offsets[j, :2])) >= min_deg for j in kept):
+        if all(np.max(np.abs(offsets[i, :2] - offsets[j, :2])) / min_deg
+               + np.linalg.norm(offsets[i, 4:7] - offsets[j, 4:7]) / min_m >= 1.0 for j in kept):
             kept.append(int(i))
         if len(kept) >= k:
             break
     return kept
+
+
+def _positions(sig: dict) -> np.ndarray:
+    """(P, 7) offsets of the coarse search's positions: the prior's and :data:`POSITION_SIGMAS` σ from it east,
+    west, north and south (a camera that far off sees near terrain from another side: no turn of the view at the
+    prior's position makes up for it)."""
+    d = POSITION_SIGMAS * sig["position_m"]
+    out = np.zeros((5, 7))
+    out[1:, 4:6] = [(d, 0.0), (-d, 0.0), (0.0, d), (0.0, -d)]
+    return out
 
 
 def _check_inputs(image, prior: Camera) -> np.ndarray:
@@ -164,27 +178,41 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     align_dem = coarse_dem(dem, ALIGN_DEM_CELLS, is_canceled)
     _poll(is_canceled)
     margin = 2.5 * sig["angle_deg"] + 1.25 * sig["fov_deg"] + 2.0
-    # Coarse: a grid at the prior's position.
+    # Coarse: a grid of view directions and fields of view at the prior's position and around it, each position
+    # rendered from where it stands.
     report(0.1, "automatic registration: coarse search of the view direction")
     p0 = photos[WIDTHS[0]]
-    f0 = prior.focal_px * p0.scale
-    coarse = Aligner(prior, p0, dem_edges(prior, align_dem, margin, f0), sig, tau=6.0, is_canceled=is_canceled,
-                     max_points=700)
     step = max(0.25, 4.0 * prior.fov / p0.width)
     grid = offsets_grid(sig, step)
-    scores = coarse.score(grid)
-    starts = [grid[i] for i in _distinct(grid, scores, N_STARTS, 2.0 * step)]
-    # Medium: compass search over the seven parameters from each distinct start.
+    offsets, scores = [], []
+    for pos in _positions(sig):
+        ref = camera_from_offset(prior, pos)
+        coarse = Aligner(ref, p0, dem_edges(ref, align_dem, margin, ref.focal_px * p0.scale), sig, tau=6.0,
+                         prior_offset=_offset_between(ref, prior), is_canceled=is_canceled, max_points=700)
+        scores.append(coarse.score(grid))
+        offsets.append(grid + pos[None, :])
+    offsets, scores = np.vstack(offsets), np.concatenate(scores)
+    starts = [offsets[i] for i in _distinct(offsets, scores, N_STARTS, 2.0 * step, POSITION_SIGMAS
+                                            * sig["position_m"])]
+    # Medium: compass search over the seven parameters from each distinct start, the DEM rendered from the start's
+    # position.
     report(0.3, "automatic registration: refining the best hypotheses")
     p1 = photos[WIDTHS[1]]
-    medium = Aligner(prior, p1, dem_edges(prior, align_dem, margin, prior.focal_px * p1.scale), sig, tau=5.0,
-                     is_canceled=is_canceled, max_points=800)
     steps = np.array([1.0, 1.0, 1.0, 1.0] + [0.5 * sig["position_m"]] * 3)
     mins = np.array([0.1, 0.1, 0.1, 0.1] + [0.05 * sig["position_m"]] * 3)
-    refined = []
+    refined, mediums = [], {}
     for i, s in enumerate(starts):
-        off, sc = medium.pattern_search(s, steps, mins, max_iter=40)
+        key = tuple(np.round(s[4:7], 3))
+        if key not in mediums:
+            ref = camera_from_offset(prior, np.r_[np.zeros(4), s[4:7]])
+            mediums[key] = (Aligner(ref, p1, dem_edges(ref, align_dem, margin, ref.focal_px * p1.scale), sig,
+                                    tau=5.0, prior_offset=_offset_between(ref, prior), is_canceled=is_canceled,
+                                    max_points=800), s[4:7])
+        medium, pos = mediums[key]
+        start = np.r_[s[:4], np.zeros(3)]
+        off, sc = medium.pattern_search(start, steps, mins, max_iter=40)
         off, sc = medium.least_squares(off, iterations=8)
+        off = off + np.r_[np.zeros(4), pos]  # from the prior
         refined.append((sc, off))
         state["camera"] = camera_from_offset(prior, min(refined, key=lambda t: t[0])[1])
         report(0.3 + 0.25 * (i + 1) / len(starts), "automatic registration: refining the best hypotheses")
