@@ -231,10 +231,12 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
             o2, s2 = al.pattern_search(np.zeros(7), steps * scale, mins * scale, max_iter=30)
             o2, s2 = al.least_squares(o2)
             cam = camera_from_offset(cam, o2)
-        o2 = np.zeros(7)
-        finals.append((float(al.score(o2[None])[0]), cam, al, o2))
+        # Judged by the edges alone, each rendered from where it stands (no pull to the prior, one distance
+        # scale). ``al`` is the last round's, ``o2`` the offset from its reference to ``cam``.
+        finals.append((_edge_score(cam, fine, align_dem, sig, is_canceled), cam, al, o2,
+                       float(al.score(o2[None])[0])))
     finals.sort(key=lambda t: t[0])
-    best_score, aligned, al, off = finals[0]
+    aligned_edge, aligned, al, off, best_score = finals[0]
     state["camera"] = aligned
     report(0.7, "automatic registration: suggestions consistent with the aligned camera")
     evidence = _alignment_evidence(al, off, best_score, refined, fine, w)
