@@ -75,6 +75,10 @@ def test_register_automatic_recovers_the_view(scene):
     assert np.nanmedian(err) < 6.0
     assert len(result.image_points) and len(result.world_points) and result.aligned is not None
     assert result.evidence["auto_skyline_usable"] and np.isfinite(result.skyline[:, 1]).any()
+    # σ covers the camera's error (the automatic pairs alone claimed hundredths of a degree on misses of degrees)
+    for name in ("heading", "pitch"):
+        assert abs(getattr(cam, name) - getattr(truth, name)) <= 3.0 * result.std[name]
+    assert np.linalg.norm(np.subtract(cam.position, truth.position)) <= 3.0 * max(result.std[k] for k in "xyz")
     assert result.message
 
 

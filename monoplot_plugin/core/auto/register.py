@@ -33,6 +33,7 @@ from ..fit import FitCanceled, FitResult, fit_camera
 from .align import Aligner, camera_from_offset, offsets_grid
 from .dem_edges import coarse_dem, dem_edges
 from .photo_edges import PhotoEdges, detect_photo_edges
+from .sigma import RIVAL_RATIO, camera_values, edge_std, widen_std
 
 __all__ = ["register_automatic", "AutoFitResult", "ALIGN_DEM_CELLS", "FIT_DEM_CELLS"]
 
@@ -259,6 +260,11 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
         raise FitCanceled()
     result = AutoFitResult(**vars(fit))
     result.image_points, result.world_points, result.aligned = image_points, world_points, aligned
+    # σ that also covers what the automatic pairs, drawn near the aligned camera, cannot see (:mod:`.sigma`)
+    rivals = [camera_values(c) for sc, c, *_ in finals[1:] if sc <= RIVAL_RATIO * aligned_edge]
+    result.std = widen_std(result.std, camera_values(result.camera), [camera_values(aligned)] + rivals,
+                           edge_std(al, off))
+    evidence["auto_rivals"] = len(rivals)
     cols = (np.arange(fine.width) + 0.5) / fine.scale
     rows = np.where(fine.sky_valid, fine.sky_row / fine.scale, np.nan)
     result.skyline = np.stack([cols, rows], axis=1)
@@ -270,8 +276,11 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     evidence["auto_prior_edge_score"] = _edge_score(prior, fine, align_dem, sig, is_canceled)
     evidence["auto_edge_score"] = _edge_score(result.camera, fine, align_dem, sig, is_canceled)
     _combine(result, evidence)
+    if evidence["auto_edge_score"] > EDGE_SCORE_OK:
+        # the photo's edges do not support the camera: it is known no better than the prior
+        result.std = widen_std(result.std, {}, [], _prior_std(sig))
     if evidence["auto_edge_score"] > evidence["auto_prior_edge_score"] - PRIOR_MARGIN:
-        result = _prior_kept(result, prior)
+        result = _prior_kept(result, prior, sig)
     return result
 
 
@@ -284,16 +293,22 @@ def _edge_score(camera: Camera, photo: PhotoEdges, dem, sig: dict, is_canceled) 
     return float(al.score(np.zeros((1, 7)))[0])
 
 
-def _prior_kept(result: AutoFitResult, prior: Camera) -> AutoFitResult:
+def _prior_std(sig: dict) -> dict:
+    """The prior's σ by parameter name (roll half the angle σ, as the search takes it)."""
+    return {"x": sig["position_m"], "y": sig["position_m"], "z": sig["position_m"], "heading": sig["angle_deg"],
+            "pitch": sig["angle_deg"], "roll": 0.5 * sig["angle_deg"], "fov": sig["fov_deg"]}
+
+
+def _prior_kept(result: AutoFitResult, prior: Camera, sig: dict) -> AutoFitResult:
     """The prior camera back, "uncertain" (or the fit's "poor"), when the automatic camera does not fit the photo's
-    edges clearly better than the prior did."""
+    edges clearly better than the prior did; its σ is the prior's."""
     ev = result.evidence
     kept = AutoFitResult(prior, "poor" if result.status == "poor" else "uncertain",
                          f"The automatic registration did not improve on the prior camera (edge score "
                          f"{ev['auto_edge_score']:.3f} against the prior's {ev['auto_prior_edge_score']:.3f}): the "
                          "prior is kept. Check it, pair a few points by hand, or give a closer prior. "
                          f"(What the automatic fit found: {result.message})", result.mode, result.free,
-                         evidence=dict(ev))
+                         evidence=dict(ev), std=_prior_std(sig))
     kept.image_points, kept.world_points, kept.aligned, kept.skyline = (result.image_points, result.world_points,
                                                                         result.aligned, result.skyline)
     kept.elapsed_s = result.elapsed_s
