@@ -260,6 +260,15 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
         raise FitCanceled()
     result = AutoFitResult(**vars(fit))
     result.image_points, result.world_points, result.aligned = image_points, world_points, aligned
+    # The fit on the suggestions refines the aligned camera only when its camera fits the photo's edges at least as
+    # well: pairs drawn near the aligned camera can also pull it off (each camera rendered from where it stands).
+    evidence["auto_edge_score"] = _edge_score(result.camera, fine, align_dem, sig, is_canceled)
+    evidence["auto_aligned_returned"] = bool(aligned_edge < evidence["auto_edge_score"])
+    if evidence["auto_aligned_returned"]:
+        result.message += (f" The edge alignment's camera is returned, not the fit's: it fits the photo's edges "
+                           f"better (edge score {aligned_edge:.3f} against {evidence['auto_edge_score']:.3f}); the "
+                           "figures above are the fit's.")
+        result.camera, evidence["auto_edge_score"] = aligned, aligned_edge
     # σ that also covers what the automatic pairs, drawn near the aligned camera, cannot see (:mod:`.sigma`)
     rivals = [camera_values(c) for sc, c, *_ in finals[1:] if sc <= RIVAL_RATIO * aligned_edge]
     result.std = widen_std(result.std, camera_values(result.camera), [camera_values(aligned)] + rivals,
@@ -274,7 +283,6 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     # Never a camera that fits the photo's edges worse than the prior did: judged by the same score, each camera
     # rendered from where it stands, without the pull to the prior.
     evidence["auto_prior_edge_score"] = _edge_score(prior, fine, align_dem, sig, is_canceled)
-    evidence["auto_edge_score"] = _edge_score(result.camera, fine, align_dem, sig, is_canceled)
     _combine(result, evidence)
     if evidence["auto_edge_score"] > EDGE_SCORE_OK:
         # the photo's edges do not support the camera: it is known no better than the prior
