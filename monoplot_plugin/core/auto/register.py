@@ -185,8 +185,11 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     p0 = photos[WIDTHS[0]]
     step = max(0.25, 4.0 * prior.fov / p0.width)
     grid = offsets_grid(sig, step)
+    # around the prior's position one roll (the medium search refines it): a third of the full grid's time
+    around = offsets_grid(sig, step, roll_steps=1)
     offsets, scores = [], []
-    for pos in _positions(sig):
+    for k, pos in enumerate(_positions(sig)):
+        grid = grid if k == 0 else around
         ref = camera_from_offset(prior, pos)
         coarse = Aligner(ref, p0, dem_edges(ref, align_dem, margin, ref.focal_px * p0.scale), sig, tau=6.0,
                          prior_offset=_offset_between(ref, prior), is_canceled=is_canceled, max_points=700)
