@@ -52,6 +52,11 @@ EDGE_SCORE_OK = 0.23
 #: 20 synthetic scenes: cameras 2.5 % and 21 % of the range off were "ok" at ratios 0.14 and 0.20 (their
 #: suggestions paired with the wrong camera: pairs drawn near it agree with it); right ones lost at 0.14 and 0.16.
 NEAR_RATIO = 0.1
+#: Largest σ (degrees) of heading and pitch (:mod:`.sigma`: the edges' covariance, rival hypotheses, the aligned
+#: camera) for an "ok". Calibrated on 20 synthetic scenes: right "ok" cameras 0.08-0.29; a camera 1.8 % of the
+#: range and 0.25 deg off, "ok" by every other rule (edge score 0.226), 0.70 from rivals the edges could not tell
+#: apart.
+ANGLE_SIGMA_OK = 0.5
 #: Distinct view directions of the coarse grid refined at 512 px (at 256 px and the prior's position the grid's
 #: best is often not the right basin), and how many of the refined are refined again at full size.
 N_STARTS = 8
@@ -437,6 +442,10 @@ def _combine(result: AutoFitResult, ev: dict) -> None:
     if not np.isfinite(rng) or ev.get("auto_position_sigma_m", 0.0) > NEAR_RATIO * rng:
         weak.append(f"the prior position's uncertainty ({ev.get('auto_position_sigma_m', 0.0):.0f} m) is a large "
                     f"part of the distance to the terrain seen ({rng:.0f} m): edges alone cannot place the camera")
+    spread = max(result.std.get("heading", 0.0), result.std.get("pitch", 0.0))
+    if spread > ANGLE_SIGMA_OK:
+        weak.append(f"views the photo's edges cannot tell apart leave the view direction uncertain by {spread:.2f} "
+                    "deg (σ)")
     if ev["auto_rival_ratio"] > 0.9:
         weak.append("a clearly different view direction aligns the edges almost as well")
     text = (f" Automatic: skyline on {100 * ev['auto_sky_fraction']:.0f} % of the columns, "
