@@ -38,6 +38,21 @@ def test_photo_skyline_found_on_a_rendered_photo(scene):
     assert al.skyline_agreement(np.zeros(7), 2.0) > 0.5
 
 
+@pytest.mark.parametrize("seed", [2, 4])
+def test_terrain_over_terrain_is_no_skyline(seed):
+    """A camera looking 30 deg down sees no sky: a smooth rock face over grass under it is not a skyline (it
+    was taken for one: 40-88 % of the columns, "usable")."""
+    dem = synthetic_terrain((260, 260), cell=80.0, seed=seed)
+    x0, y0, x1, y1 = dem.bounds()
+    x, y = (x0 + x1) / 2, y0 + 0.08 * (y1 - y0)
+    cam = Camera((x, y, float(dem.sample(x, y)) + 300.0), 0.0, -30.0, 0.0, 55.0, (800, 533), crs_wkt=dem.crs_wkt)
+    pe = detect_photo_edges(render_photo(cam, dem, seed=seed), width=512)
+    assert not pe.usable and pe.sky_like_below > 0.3
+    if seed == 2:  # the same terrain under the sky (looking level): a usable skyline, its sky a colour of its own
+        level = detect_photo_edges(render_photo(cam.with_parameters(pitch=-2.0), dem, seed=seed), width=512)
+        assert level.usable and level.sky_like_below < 0.1
+
+
 def test_score_prefers_the_true_camera_to_the_prior(scene):
     dem, truth, photo, prior = scene
     pe = detect_photo_edges(photo, width=240)
@@ -60,6 +75,10 @@ def test_register_automatic_recovers_the_view(scene):
     assert np.nanmedian(err) < 6.0
     assert len(result.image_points) and len(result.world_points) and result.aligned is not None
     assert result.evidence["auto_skyline_usable"] and np.isfinite(result.skyline[:, 1]).any()
+    # σ covers the camera's error (the automatic pairs alone claimed hundredths of a degree on misses of degrees)
+    for name in ("heading", "pitch"):
+        assert abs(getattr(cam, name) - getattr(truth, name)) <= 3.0 * result.std[name]
+    assert np.linalg.norm(np.subtract(cam.position, truth.position)) <= 3.0 * max(result.std[k] for k in "xyz")
     assert result.message
 
 

@@ -4,7 +4,10 @@ The skyline is the path across the columns that, from the top, first meets a str
 (dynamic programming: each column's row maximises the edge strength less the texture above it, with a penalty on
 row jumps between neighbouring columns). A column counts as skyline only when the edge is clearly stronger than the
 sky's own texture and there is some sky above it; fog, close-ups and blank pictures leave few such columns, and
-:attr:`PhotoEdges.usable` then says so.
+:attr:`PhotoEdges.usable` then says so. A smooth band of terrain over a contrasting one (a rock face over grass, seen
+from a camera looking down) passes those tests too; what it lacks is a sky's colour of its own: when much of the
+picture under the line has the colour of what lies above it (:data:`SKY_LIKE_MAX`), the line is no skyline and the
+photo has none usable.
 
 Edges: Canny on the smoothed grey picture below the skyline, inside :func:`~..suggest_photo.picture_mask` (no
 frame, caption or margin), each with its orientation (modulo 180 degrees) for the oriented chamfer score.
@@ -39,6 +42,11 @@ CAP = 4.0
 #: Least edge strength (noise-floor units) of a clear skyline column.
 VALID = 3.0
 PEN = 0.3
+#: Largest share of the picture under the skyline whose colour lies within the spread of the colour above it (CIE
+#: Lab, 2 standard deviations, each at least 2 units) for the skyline to be usable. Measured on rendered photos:
+#: skylines against the sky 0.00-0.05 (also the Aletsch print, in colour and in grey); a rock face over grass seen
+#: from a camera looking down, no sky in the picture, 0.56-0.70.
+SKY_LIKE_MAX = 0.3
 
 
 def orientation_bin(theta: np.ndarray) -> np.ndarray:
@@ -62,6 +70,8 @@ class PhotoEdges:
         usable: enough clear skyline columns to align on.
         sky_fraction: share of the picture's columns with a clear skyline.
         contrast: median ratio of the skyline's edge strength to the sky's texture.
+        sky_like_below: share of the picture under the skyline with the colour of what lies above it
+            (:data:`SKY_LIKE_MAX`); NaN when there is no clear skyline.
     """
 
     width: int
@@ -76,6 +86,7 @@ class PhotoEdges:
     usable: bool
     sky_fraction: float
     contrast: float
+    sky_like_below: float = float("nan")
 
 
 def _skyline_dp(strength: np.ndarray, texture: np.ndarray, mask: np.ndarray, jump: int, jump_cost: float,
@@ -189,7 +200,9 @@ def detect_photo_edges(image: np.ndarray, width: int = 512, mask=None) -> PhotoE
     valid &= k >= 0.6 * run
     sky_fraction = float(valid.sum()) / max(1, int(pic.any(axis=0).sum()))
     contrast = float(np.median(at[valid] / np.maximum(sky_tex[valid], 0.5))) if valid.any() else 0.0
-    usable = sky_fraction >= 0.25
+    boundary = _boundary_rows(raw, path, gap, VALID)
+    like = _sky_like_below(rgb, boundary, valid, top, pic, gap)
+    usable = sky_fraction >= 0.25 and not like > SKY_LIKE_MAX
     # Terrain edges: Canny below the skyline (clouds are not terrain), inside the picture.
     g8 = cv2.GaussianBlur(gray, (0, 0), sigma)
     med = float(np.median(g8[pic])) if pic.any() else 128.0
@@ -211,8 +224,28 @@ def detect_photo_edges(image: np.ndarray, width: int = 512, mask=None) -> PhotoE
         # Each bin also takes its neighbours' edges: directions near a bin boundary must not be lost.
         near = (bins == b) | (bins == (b + 1) % N_ORIENTATIONS) | (bins == (b - 1) % N_ORIENTATIONS)
         oriented[b] = _dt(edges & near, H, W)
-    return PhotoEdges(W, H, scale, _boundary_rows(raw, path, gap, VALID), valid, edges, sky_dt, oriented, pic,
-                      bool(usable), round(sky_fraction, 3), round(contrast, 2))
+    return PhotoEdges(W, H, scale, boundary, valid, edges, sky_dt, oriented, pic, bool(usable),
+                      round(sky_fraction, 3), round(contrast, 2), round(like, 3))
+
+
+def _sky_like_below(rgb: np.ndarray, boundary: np.ndarray, valid: np.ndarray, top: np.ndarray, pic: np.ndarray,
+                    gap: int) -> float:
+    """Share of the picture under the skyline (``gap`` rows clear of it) whose colour lies within 2 standard
+    deviations (each at least 2 Lab units) of the colour above it in the clear columns; NaN when either side is
+    empty."""
+    import cv2
+
+    H = rgb.shape[0]
+    rows = np.arange(H)[:, None]
+    above = (rows >= top[None, :]) & (rows < boundary[None, :] - gap) & valid[None, :] & pic
+    below = (rows > boundary[None, :] + gap) & pic
+    if above.sum() < 20 or below.sum() < 20:
+        return float("nan")
+    lab = cv2.cvtColor(rgb.astype(np.float32) / 255.0, cv2.COLOR_RGB2LAB)
+    sky = lab[above]
+    mean, spread = sky.mean(axis=0), np.maximum(sky.std(axis=0), 2.0)
+    d = np.linalg.norm((lab[below] - mean) / spread, axis=1)
+    return float(np.mean(d < 2.0))
 
 
 def _boundary_rows(gy: np.ndarray, path: np.ndarray, gap: int, least: float) -> np.ndarray:

@@ -33,6 +33,7 @@ from ..fit import FitCanceled, FitResult, fit_camera
 from .align import Aligner, camera_from_offset, offsets_grid
 from .dem_edges import coarse_dem, dem_edges
 from .photo_edges import PhotoEdges, detect_photo_edges
+from .sigma import RIVAL_RATIO, camera_values, edge_std, widen_std
 
 __all__ = ["register_automatic", "AutoFitResult", "ALIGN_DEM_CELLS", "FIT_DEM_CELLS"]
 
@@ -51,10 +52,17 @@ EDGE_SCORE_OK = 0.23
 #: 20 synthetic scenes: cameras 2.5 % and 21 % of the range off were "ok" at ratios 0.14 and 0.20 (their
 #: suggestions paired with the wrong camera: pairs drawn near it agree with it); right ones lost at 0.14 and 0.16.
 NEAR_RATIO = 0.1
+#: Largest σ (degrees) of heading and pitch (:mod:`.sigma`: the edges' covariance, rival hypotheses, the aligned
+#: camera) for an "ok". Calibrated on 20 synthetic scenes: right "ok" cameras 0.08-0.29; a camera 1.8 % of the
+#: range and 0.25 deg off, "ok" by every other rule (edge score 0.226), 0.70 from rivals the edges could not tell
+#: apart.
+ANGLE_SIGMA_OK = 0.5
 #: Distinct view directions of the coarse grid refined at 512 px (at 256 px and the prior's position the grid's
 #: best is often not the right basin), and how many of the refined are refined again at full size.
 N_STARTS = 8
 N_FINALS = 3
+#: Distance (prior position σ) of the coarse search's positions around the prior's (:func:`_positions`).
+POSITION_SIGMAS = 1.0
 #: (distance scale in working px, step factor) of the fine rounds.
 FINE_ROUNDS = ((8.0, 0.5), (4.0, 0.25), (2.5, 0.1))
 #: Distance scale (px per 1024 working px) of the final comparison with the prior, and the least improvement
@@ -86,15 +94,27 @@ def _sigmas(prior: Camera, position_sigma_m, angle_sigma_deg, fov_sigma_deg) -> 
             "fov_deg": float(0.1 * prior.fov if fov_sigma_deg is None else fov_sigma_deg)}
 
 
-def _distinct(offsets: np.ndarray, scores: np.ndarray, k: int, min_deg: float) -> list:
-    """Indices of the ``k`` best offsets, each at least ``min_deg`` from the others in heading or pitch."""
+def _distinct(offsets: np.ndarray, scores: np.ndarray, k: int, min_deg: float, min_m: float) -> list:
+    """Indices of the ``k`` best offsets, each distinct from the others: ``min_deg`` apart in heading or pitch, or
+    ``min_m`` apart in position (the two distances in units of these add up to at least 1)."""
     kept = []
     for i in np.argsort(scores):
-        if all(np.max(np.abs(offsets[i, :2] - offsets[j, :2])) >= min_deg for j in kept):
+        if all(np.max(np.abs(offsets[i, :2] - offsets[j, :2])) / min_deg
+               + np.linalg.norm(offsets[i, 4:7] - offsets[j, 4:7]) / min_m >= 1.0 for j in kept):
             kept.append(int(i))
         if len(kept) >= k:
             break
     return kept
+
+
+def _positions(sig: dict) -> np.ndarray:
+    """(P, 7) offsets of the coarse search's positions: the prior's and :data:`POSITION_SIGMAS` σ from it east,
+    west, north and south (a camera that far off sees near terrain from another side: no turn of the view at the
+    prior's position makes up for it)."""
+    d = POSITION_SIGMAS * sig["position_m"]
+    out = np.zeros((5, 7))
+    out[1:, 4:6] = [(d, 0.0), (-d, 0.0), (0.0, d), (0.0, -d)]
+    return out
 
 
 def _check_inputs(image, prior: Camera) -> np.ndarray:
@@ -164,27 +184,44 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     align_dem = coarse_dem(dem, ALIGN_DEM_CELLS, is_canceled)
     _poll(is_canceled)
     margin = 2.5 * sig["angle_deg"] + 1.25 * sig["fov_deg"] + 2.0
-    # Coarse: a grid at the prior's position.
+    # Coarse: a grid of view directions and fields of view at the prior's position and around it, each position
+    # rendered from where it stands.
     report(0.1, "automatic registration: coarse search of the view direction")
     p0 = photos[WIDTHS[0]]
-    f0 = prior.focal_px * p0.scale
-    coarse = Aligner(prior, p0, dem_edges(prior, align_dem, margin, f0), sig, tau=6.0, is_canceled=is_canceled,
-                     max_points=700)
     step = max(0.25, 4.0 * prior.fov / p0.width)
     grid = offsets_grid(sig, step)
-    scores = coarse.score(grid)
-    starts = [grid[i] for i in _distinct(grid, scores, N_STARTS, 2.0 * step)]
-    # Medium: compass search over the seven parameters from each distinct start.
+    # around the prior's position one roll (the medium search refines it): a third of the full grid's time
+    around = offsets_grid(sig, step, roll_steps=1)
+    offsets, scores = [], []
+    for k, pos in enumerate(_positions(sig)):
+        grid = grid if k == 0 else around
+        ref = camera_from_offset(prior, pos)
+        coarse = Aligner(ref, p0, dem_edges(ref, align_dem, margin, ref.focal_px * p0.scale), sig, tau=6.0,
+                         prior_offset=_offset_between(ref, prior), is_canceled=is_canceled, max_points=700)
+        scores.append(coarse.score(grid))
+        offsets.append(grid + pos[None, :])
+    offsets, scores = np.vstack(offsets), np.concatenate(scores)
+    starts = [offsets[i] for i in _distinct(offsets, scores, N_STARTS, 2.0 * step, POSITION_SIGMAS
+                                            * sig["position_m"])]
+    # Medium: compass search over the seven parameters from each distinct start, the DEM rendered from the start's
+    # position.
     report(0.3, "automatic registration: refining the best hypotheses")
     p1 = photos[WIDTHS[1]]
-    medium = Aligner(prior, p1, dem_edges(prior, align_dem, margin, prior.focal_px * p1.scale), sig, tau=5.0,
-                     is_canceled=is_canceled, max_points=800)
     steps = np.array([1.0, 1.0, 1.0, 1.0] + [0.5 * sig["position_m"]] * 3)
     mins = np.array([0.1, 0.1, 0.1, 0.1] + [0.05 * sig["position_m"]] * 3)
-    refined = []
+    refined, mediums = [], {}
     for i, s in enumerate(starts):
-        off, sc = medium.pattern_search(s, steps, mins, max_iter=40)
+        key = tuple(np.round(s[4:7], 3))
+        if key not in mediums:
+            ref = camera_from_offset(prior, np.r_[np.zeros(4), s[4:7]])
+            mediums[key] = (Aligner(ref, p1, dem_edges(ref, align_dem, margin, ref.focal_px * p1.scale), sig,
+                                    tau=5.0, prior_offset=_offset_between(ref, prior), is_canceled=is_canceled,
+                                    max_points=800), s[4:7])
+        medium, pos = mediums[key]
+        start = np.r_[s[:4], np.zeros(3)]
+        off, sc = medium.pattern_search(start, steps, mins, max_iter=40)
         off, sc = medium.least_squares(off, iterations=8)
+        off = off + np.r_[np.zeros(4), pos]  # from the prior
         refined.append((sc, off))
         state["camera"] = camera_from_offset(prior, min(refined, key=lambda t: t[0])[1])
         report(0.3 + 0.25 * (i + 1) / len(starts), "automatic registration: refining the best hypotheses")
@@ -203,10 +240,12 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
             o2, s2 = al.pattern_search(np.zeros(7), steps * scale, mins * scale, max_iter=30)
             o2, s2 = al.least_squares(o2)
             cam = camera_from_offset(cam, o2)
-        o2 = np.zeros(7)
-        finals.append((float(al.score(o2[None])[0]), cam, al, o2))
+        # Judged by the edges alone, each rendered from where it stands (no pull to the prior, one distance
+        # scale). ``al`` is the last round's, ``o2`` the offset from its reference to ``cam``.
+        finals.append((_edge_score(cam, fine, align_dem, sig, is_canceled), cam, al, o2,
+                       float(al.score(o2[None])[0])))
     finals.sort(key=lambda t: t[0])
-    best_score, aligned, al, off = finals[0]
+    aligned_edge, aligned, al, off, best_score = finals[0]
     state["camera"] = aligned
     report(0.7, "automatic registration: suggestions consistent with the aligned camera")
     evidence = _alignment_evidence(al, off, best_score, refined, fine, w)
@@ -229,6 +268,20 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
         raise FitCanceled()
     result = AutoFitResult(**vars(fit))
     result.image_points, result.world_points, result.aligned = image_points, world_points, aligned
+    # The fit on the suggestions refines the aligned camera only when its camera fits the photo's edges at least as
+    # well: pairs drawn near the aligned camera can also pull it off (each camera rendered from where it stands).
+    evidence["auto_edge_score"] = _edge_score(result.camera, fine, align_dem, sig, is_canceled)
+    evidence["auto_aligned_returned"] = bool(aligned_edge < evidence["auto_edge_score"])
+    if evidence["auto_aligned_returned"]:
+        result.message += (f" The edge alignment's camera is returned, not the fit's: it fits the photo's edges "
+                           f"better (edge score {aligned_edge:.3f} against {evidence['auto_edge_score']:.3f}); the "
+                           "figures above are the fit's.")
+        result.camera, evidence["auto_edge_score"] = aligned, aligned_edge
+    # σ that also covers what the automatic pairs, drawn near the aligned camera, cannot see (:mod:`.sigma`)
+    rivals = [camera_values(c) for sc, c, *_ in finals[1:] if sc <= RIVAL_RATIO * aligned_edge]
+    result.std = widen_std(result.std, camera_values(result.camera), [camera_values(aligned)] + rivals,
+                           edge_std(al, off))
+    evidence["auto_rivals"] = len(rivals)
     cols = (np.arange(fine.width) + 0.5) / fine.scale
     rows = np.where(fine.sky_valid, fine.sky_row / fine.scale, np.nan)
     result.skyline = np.stack([cols, rows], axis=1)
@@ -238,10 +291,12 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     # Never a camera that fits the photo's edges worse than the prior did: judged by the same score, each camera
     # rendered from where it stands, without the pull to the prior.
     evidence["auto_prior_edge_score"] = _edge_score(prior, fine, align_dem, sig, is_canceled)
-    evidence["auto_edge_score"] = _edge_score(result.camera, fine, align_dem, sig, is_canceled)
     _combine(result, evidence)
+    if evidence["auto_edge_score"] > EDGE_SCORE_OK:
+        # the photo's edges do not support the camera: it is known no better than the prior
+        result.std = widen_std(result.std, {}, [], _prior_std(sig))
     if evidence["auto_edge_score"] > evidence["auto_prior_edge_score"] - PRIOR_MARGIN:
-        result = _prior_kept(result, prior)
+        result = _prior_kept(result, prior, sig)
     return result
 
 
@@ -254,16 +309,22 @@ def _edge_score(camera: Camera, photo: PhotoEdges, dem, sig: dict, is_canceled) 
     return float(al.score(np.zeros((1, 7)))[0])
 
 
-def _prior_kept(result: AutoFitResult, prior: Camera) -> AutoFitResult:
+def _prior_std(sig: dict) -> dict:
+    """The prior's σ by parameter name (roll half the angle σ, as the search takes it)."""
+    return {"x": sig["position_m"], "y": sig["position_m"], "z": sig["position_m"], "heading": sig["angle_deg"],
+            "pitch": sig["angle_deg"], "roll": 0.5 * sig["angle_deg"], "fov": sig["fov_deg"]}
+
+
+def _prior_kept(result: AutoFitResult, prior: Camera, sig: dict) -> AutoFitResult:
     """The prior camera back, "uncertain" (or the fit's "poor"), when the automatic camera does not fit the photo's
-    edges clearly better than the prior did."""
+    edges clearly better than the prior did; its σ is the prior's."""
     ev = result.evidence
     kept = AutoFitResult(prior, "poor" if result.status == "poor" else "uncertain",
                          f"The automatic registration did not improve on the prior camera (edge score "
                          f"{ev['auto_edge_score']:.3f} against the prior's {ev['auto_prior_edge_score']:.3f}): the "
                          "prior is kept. Check it, pair a few points by hand, or give a closer prior. "
                          f"(What the automatic fit found: {result.message})", result.mode, result.free,
-                         evidence=dict(ev))
+                         evidence=dict(ev), std=_prior_std(sig))
     kept.image_points, kept.world_points, kept.aligned, kept.skyline = (result.image_points, result.world_points,
                                                                         result.aligned, result.skyline)
     kept.elapsed_s = result.elapsed_s
@@ -381,6 +442,10 @@ def _combine(result: AutoFitResult, ev: dict) -> None:
     if not np.isfinite(rng) or ev.get("auto_position_sigma_m", 0.0) > NEAR_RATIO * rng:
         weak.append(f"the prior position's uncertainty ({ev.get('auto_position_sigma_m', 0.0):.0f} m) is a large "
                     f"part of the distance to the terrain seen ({rng:.0f} m): edges alone cannot place the camera")
+    spread = max(result.std.get("heading", 0.0), result.std.get("pitch", 0.0))
+    if spread > ANGLE_SIGMA_OK:
+        weak.append(f"views the photo's edges cannot tell apart leave the view direction uncertain by {spread:.2f} "
+                    "deg (σ)")
     if ev["auto_rival_ratio"] > 0.9:
         weak.append("a clearly different view direction aligns the edges almost as well")
     text = (f" Automatic: skyline on {100 * ev['auto_sky_fraction']:.0f} % of the columns, "
