@@ -122,7 +122,7 @@ def _rotation_scalar(heading: float, pitch: float, roll: float) -> np.ndarray:
     """:func:`rotation_matrix` of three floats (the fit's numpy projections: math on floats, one array)."""
     h, p, r = math.radians(heading), math.radians(pitch), math.radians(roll)
     sh, ch, sp, cp, sr, cr = math.sin(h), math.cos(h), math.sin(p), math.cos(p), math.sin(r), math.cos(r)
-    # the terms of the general case, in its order (the same floats up to the last bit of sin and cos, signed zeros included)
+    # the terms of the general case, in its order (the same floats but for sin/cos ulps, signed zeros included)
     return np.array([[cr * ch + sr * (sh * sp), cr * -sh + sr * (ch * sp), cr * 0.0 + sr * -cp],
                      [cr * (sh * sp) - sr * ch, cr * (ch * sp) - sr * -sh, cr * -cp - sr * 0.0],
                      [sh * cp, ch * cp, sp]])
