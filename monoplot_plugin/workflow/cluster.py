@@ -128,7 +128,7 @@ def _gather(client, tasks: List[FrameTask], setup: Timelapse, log: Log, progress
     Each future reports its end into a queue (Dask calls the callback once, on a thread of its own), so that waiting
     costs nothing per frame still pending (waiting on all pending futures after each result cost this process, which
     runs the scheduler too, several milliseconds of CPU per frame, taken from the workers on a busy machine)."""
-    futures = {client.submit(_frame_task, t, setup, pure=False): t for t in tasks}
+    futures = dict(zip(client.map(_frame_task, tasks, setup=setup, pure=False), tasks))
     finished: "queue.SimpleQueue" = queue.SimpleQueue()
     for future in futures:
         future.add_done_callback(finished.put)
@@ -145,21 +145,41 @@ def _gather(client, tasks: List[FrameTask], setup: Timelapse, log: Log, progress
             log(f"canceled: {len(pending)} photos not processed", True)
             break
         try:
-            future = finished.get(timeout=POLL_S)
+            ended = [finished.get(timeout=POLL_S)]
         except queue.Empty:  # nothing finished yet: look at is_canceled again
             continue
-        t = futures[future]
-        if t.index in done:
-            continue
-        try:
-            result = future.result()
-        except Exception as exc:  # KilledWorker: the frame killed its workers again and again
-            result = PhotoResult(t.photo, False, f"{type(exc).__name__}: {exc}", index=t.index)
-        done[t.index] = result
-        log_result(log, t, total, result)
-        progress(len(done) / max(1, total), t.name)
+        while True:  # every other frame that has ended meanwhile: one gather for all of them
+            try:
+                ended.append(finished.get_nowait())
+            except queue.Empty:
+                break
+        for future, result in _results(client, [f for f in ended if futures[f].index not in done], futures):
+            t = futures[future]
+            if t.index in done:
+                continue
+            done[t.index] = result
+            log_result(log, t, total, result)
+            progress(len(done) / max(1, total), t.name)
     progress(1.0, "")
     return [done[t.index] for t in tasks]
+
+
+def _results(client, ended: list, futures: dict):
+    """(future, result) of futures that have ended, the results fetched in one gather (one trip per worker rather
+    than one per frame: each trip also takes the worker's event loop, and with it the GIL, from the frame it is
+    running). A frame that raised, or whose result went with its worker before the gather, is taken on its own."""
+    finished = [f for f in ended if f.status == "finished"]
+    values = client.gather(finished, errors="skip") if finished else []
+    gathered = dict(zip(finished, values)) if len(values) == len(finished) else {}
+    for future in ended:
+        if future in gathered:
+            yield future, gathered[future]
+            continue
+        try:
+            yield future, future.result()
+        except Exception as exc:  # KilledWorker: the frame killed its workers again and again
+            t = futures[future]
+            yield future, PhotoResult(t.photo, False, f"{type(exc).__name__}: {exc}", index=t.index)
 
 
 def _remove_orphans(out_dir: str, names: List[str]) -> None:
