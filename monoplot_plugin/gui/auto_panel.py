@@ -81,8 +81,10 @@ class AutoPanel(QObject):
                                    "kept. {2}").format(r.status, kept, r.message), Qgis.MessageLevel.Warning)
             return
         uv, world = done.matched_points()
-        photo_pts = [Point.new(PHOTO, float(u), float(v), status=ACCEPTED) for u, v in uv]
-        map_pts = [Point.new(MAP, float(x), float(y), float(z), status=ACCEPTED) for x, y, z in world]
+        label = auto_step.AUTOMATIC_LABEL  # a later fit on these points alone is capped by this verdict
+        photo_pts = [Point.new(PHOTO, float(u), float(v), status=ACCEPTED, label=label) for u, v in uv]
+        map_pts = [Point.new(MAP, float(x), float(y), float(z), status=ACCEPTED, label=label) for x, y, z in world]
+        c.state.settings["automatic_status"] = r.status
         replaced = 0
         if photo_pts:
             replaced = len([p for p in c.state.points.values() if p.status == SUGGESTED and not p.manual])

@@ -20,6 +20,7 @@ from qgis.PyQt.QtGui import QImage
 from ..adapters.photo import PhotoError, array_to_qimage, qimage_to_array, read_photo
 from ..core.camera import Camera
 from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, replace_suggestions
+from ..workflow import auto as auto_step
 from ..workflow import warmup
 from . import engine, persistence
 from .curation import CurationMixin
@@ -324,10 +325,20 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             outcome.info["matched"] = [[photo_ids[i], world_ids[j]] for i, j in outcome.info.pop("matched_idx", [])]
             outcome.info["check_error_px"] = dict(zip(check_ids, outcome.info.pop("check_errors", [])))
             outcome.info["outliers"] = [photo_ids[i] for i in outcome.info.pop("outlier_idx", [])]
+            outcome.info["status"], outcome.info["message"] = self.capped_by_automatic(
+                outcome.info.get("status", "ok"), outcome.info.get("message", ""), photo_ids + world_ids,
+                len(pairs), len(check_ids))
             self._apply_fit(outcome)
 
         return self._start("fit", self.tr("Fit camera") if known is None else self.tr("Fit camera (known fit)"),
                            work, apply)
+
+    def capped_by_automatic(self, status: str, message: str, ids, n_pairs: int, n_check: int):
+        """(status, message) of a fit on the points ``ids``, capped by the automatic registration's verdict while
+        they are all its own matches (:func:`~..workflow.auto.cap_by_automatic`)."""
+        labels = [self.state.points[i].label for i in ids if i in self.state.points]
+        return auto_step.cap_by_automatic(status, message, labels, n_pairs, n_check,
+                                          str(self.state.settings.get("automatic_status") or ""))
 
     def remember_fit(self, key: tuple, done) -> None:
         """A background refit finished: the Fit button's fit of the same inputs (``refit.inputs_key``) renders its

@@ -20,6 +20,7 @@ import numpy as np
 from qgis.PyQt.QtCore import QObject, QTimer, pyqtSignal
 
 from ..workflow import fit as fit_step
+from ..workflow.auto import cap_by_automatic
 from ..workflow.progress import check_canceled
 from .fit_settings import fit_arguments, height_arguments
 from .shortlist import Recommendation, recommendation
@@ -178,6 +179,9 @@ class Refitter(QObject):
         free, options = fit_arguments(c.state.settings)  # what the user fixed, how sure the prior is
         height = height_arguments(c.state.settings)  # on the ground / in the air / automatic
         _, check_uv, check_xyz = c.check_points()  # measured as the Fit button does: its fit can reuse this one
+        # the automatic registration's verdict caps a refit on its own points alone (as it caps the Fit button's)
+        labels = [c.state.points[i].label for i in photo_ids + list(c._fit_ids[1]) if i in c.state.points]
+        automatic = str(c.state.settings.get("automatic_status") or "")
         key = inputs_key(uv, xyz, pairs, start, free, (options, height), check_uv, check_xyz)
 
         running = RunningFit(key)
@@ -191,12 +195,13 @@ class Refitter(QObject):
             finally:
                 running.end(done)  # a Fit button waiting for this refit goes on at once (None: fit itself)
             r = done.result
+            status, _ = cap_by_automatic(r.status, "", labels, len(pairs), len(check_uv), automatic)
             rmse = float(r.rmse_px) if r.rmse_px is not None else float("nan")
             sigma = sigma_of(rmse)
-            rec = recommendation(done.camera, *snapshot, sigma, threshold) if r.status in USABLE else None
+            rec = recommendation(done.camera, *snapshot, sigma, threshold) if status in USABLE else None
             flags = np.asarray(r.photo_outliers, dtype=bool).reshape(-1)
             outliers = [pid for pid, f in zip(photo_ids, flags) if f] if len(flags) == len(photo_ids) else []
-            return RefitOutcome(done.camera, r.status, rmse, sigma, outliers, rec, float(r.elapsed_s), len(uv),
+            return RefitOutcome(done.camera, status, rmse, sigma, outliers, rec, float(r.elapsed_s), len(uv),
                                 key, done)
 
         self.task = HiddenTask("Monoplot refit", work, self._done)  # silent: no status-bar entry, no "Task complete"

@@ -63,6 +63,18 @@ def test_find_camera_automatically_gives_a_camera_and_accepted_points(dock, vall
 
     rgb = qimage_to_array(c.overlay)[..., :3]
     assert (rgb == SILHOUETTE).all(axis=2).sum() > 100 and (rgb == SKYLINE).all(axis=2).sum() > 100
+    # The person presses Fit on the matched points alone: they agree with the registration's camera whatever it
+    # is, so the fit cannot be surer than the registration was (a doubtful one: "uncertain" recorded as such).
+    assert all(p.label == "automatic" for p in photo + world)
+    c.state.settings["automatic_status"] = "uncertain"
+    assert c.fit()
+    with qtbot.waitSignal(c.taskFinished, timeout=240000) as blocker:
+        pass
+    assert blocker.args[0].ok, blocker.args[0].reason
+    refit = c.state.fit_info
+    assert refit["mode"] != "automatic" and refit["status"] in ("uncertain", "poor"), refit
+    if refit["status"] == "uncertain":
+        assert "as the automatic registration was" in refit["message"]
 
 
 def test_a_doubtful_automatic_camera_never_replaces_the_persons_fit(dock, valley, qtbot, tmp_path):
