@@ -22,15 +22,17 @@ from __future__ import annotations
 
 import os
 import queue
+import sys
 from pathlib import Path
 from typing import Dict, List, Optional
 
 from .batch import (Log, PhotoJob, batch_setup, frame_tasks, log_result, output_stems, planned_outputs,
                     shared_xyz_failed)
+from .files import InputError
 from .frames import SHARED_XYZ, FrameTask, PhotoResult, Timelapse, process_frame, shared_for
 from .progress import IsCanceled, Progress, never_canceled, no_progress
 
-__all__ = ["run_batch_dask", "local_client"]
+__all__ = ["run_batch_dask", "local_client", "check_importable"]
 
 #: seconds between two looks at ``is_canceled`` while waiting for results
 POLL_S = 0.5
@@ -59,6 +61,35 @@ def local_client(workers: Optional[int] = None):
         cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
                                dashboard_address=None)
     return Client(cluster)
+
+
+def check_importable(client, module: str) -> None:
+    """Raise an :class:`~.files.InputError` that says what to do when the scheduler or a worker of ``client``
+    cannot import ``module`` (the frames' functions travel by name: "monoplot.monoplot_plugin.workflow.cluster" in
+    QGIS, where the plugin's folder is the package "monoplot"; without this, every frame failed with "Error during
+    deserialization of the task graph" and only the scheduler's log said which module was missing)."""
+
+    def probe(name=module):  # a nested function travels by value: it needs nothing of the plugin
+        import importlib
+
+        try:
+            importlib.import_module(name)
+            return ""
+        except Exception as exc:  # noqa: BLE001 (any failure to import is the answer)
+            return f"{type(exc).__name__}: {exc}"
+
+    failures = {f"worker {w}": e for w, e in client.run(probe).items() if e}
+    scheduler = client.run_on_scheduler(probe)
+    if scheduler:
+        failures["the scheduler"] = scheduler
+    if not failures:
+        return
+    top = module.split(".")[0]
+    here = os.path.dirname(os.path.dirname(os.path.abspath(sys.modules[top].__file__)))
+    where, error = next(iter(failures.items()))
+    raise InputError(f"{where} cannot import {module} ({error}; {len(failures)} process(es) in all). Start the "
+                       f"scheduler and every worker with the folder that holds the package '{top}' on their "
+                       f"PYTHONPATH (here: PYTHONPATH={here}) and the same Python packages.")
 
 
 def _frame_task(task: FrameTask, setup: Timelapse) -> PhotoResult:
@@ -100,6 +131,7 @@ def run_batch_dask(jobs: List[PhotoJob], dem_path: str, crs_wkt: str, out_dir: s
                     if os.path.exists(os.path.join(out_dir, n))]
         if existing:
             log(f"{len(existing)} file(s) of an earlier run in {out_dir} are replaced (e.g. {existing[0]})", False)
+        check_importable(client, _frame_task.__module__)
         workers = len(client.scheduler_info().get("workers", {}))
         log(f"Dask: {len(tasks)} frames on {workers} worker(s) of {client.scheduler.address}", False)
         shared_xyz = None

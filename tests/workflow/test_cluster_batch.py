@@ -53,3 +53,17 @@ def test_a_killed_worker_has_its_frames_retried_none_lost_or_written_twice(still
     assert len(orthos) == 12 and len({r.outputs[-1] for r in results}) == 12
     assert (out / "xyz.tif").is_file()
     assert not [p.name for p in out.iterdir() if "monoplot-tmp" in p.name]  # no half file left behind
+
+
+def test_a_cluster_that_cannot_import_the_plugin_is_told_what_to_do(client):
+    """The frames' functions travel by module name: a scheduler or worker without the plugin on its path gets a
+    message naming the module and the PYTHONPATH to give, before any frame is sent."""
+    from monoplot_plugin.workflow.cluster import check_importable
+    from monoplot_plugin.workflow.files import InputError
+
+    check_importable(client, "monoplot_plugin.workflow.cluster")  # the test's own cluster can
+    with pytest.raises(InputError) as err:
+        check_importable(client, "monoplot_plugin.no_such_module")
+    text = str(err.value)
+    assert "cannot import monoplot_plugin.no_such_module" in text and "3 process(es)" in text, text
+    assert "PYTHONPATH=" in text and text.endswith("the same Python packages.")
