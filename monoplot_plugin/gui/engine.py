@@ -94,7 +94,7 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         "n_photo": int(len(uv)),
         "n_map": int(len(xyz)),
         "n_pairs": int(len(pairs)),
-        "n_matched": int(len(result.pairs)),
+        "n_matched": int(_inliers(result).sum()),  # the pairs kept, as the message counts them
         "matched_idx": [[int(i), int(j)] for (i, j), ok in zip(np.asarray(result.pairs).reshape(-1, 2),
                                                               _inliers(result)) if ok],
         "outlier_idx": [int(i) for i in np.flatnonzero(np.asarray(result.photo_outliers, dtype=bool).reshape(-1))]

@@ -210,3 +210,22 @@ def test_converging_on_the_pairs_keeps_the_long_tail_of_true_residuals():
     r = np.linalg.norm(space.project(u_opt, P)[0] - q, axis=1)
     assert r.max() > 3 * 1.4826 * np.median(r)  # the tail a 3-sigma cut would have dropped
     assert gap.max() < 0.1 * float(np.sqrt(np.mean(r ** 2)))
+
+
+def test_the_pairs_and_rmse_reported_are_those_the_message_counts():
+    """Six photo points, four of them true, twelve DEM points: the counts and the RMSE of the result agree with its
+    message (the dock's header shows the first, the message the second; they said "0 of 6" and "4 of 6")."""
+    import re
+
+    cam = Camera((0.0, 0.0, 100.0), heading=0.0, pitch=-5.0, roll=0.0, fov=60.0, image_size=(1000, 750))
+    for seed in range(4):
+        rng = np.random.default_rng(seed)
+        world = np.column_stack([rng.uniform(-800, 800, 12), rng.uniform(1500, 4000, 12), rng.uniform(0, 300, 12)])
+        uv = cam.project(world[:6]) + rng.normal(0, 3, (6, 2))
+        uv[4:] += rng.uniform(-60, 60, (2, 2))  # two photo points off their features
+        r = fit_camera(uv, world, cam.with_parameters(heading=1.0, pitch=-4.0))
+        said = re.search(r"(\d+) of 6 photo points matched .*?RMSE ([0-9.]+) px", r.message)
+        assert said, r.message
+        kept = int(np.asarray(r.inliers, dtype=bool).sum())
+        assert kept == int(said.group(1)) == r.evidence["n_inliers"] > 0, (kept, r.message)
+        assert abs(r.rmse_px - float(said.group(2))) < 0.051, (r.rmse_px, r.message)

@@ -329,3 +329,14 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
     result.evidence = evidence
     result.photo_outliers = outliers
     result.status, result.message = judge(evidence)
+    kept = result.inliers if len(result.inliers) == len(result.pairs) else np.ones(len(result.pairs), dtype=bool)
+    if ctx.options.refine and len(pairs) and int(kept.sum()) != len(pairs):
+        # The pairs, residuals and RMSE reported become those the message counts (the consensus pairs within the
+        # inlier radius; the verdict is made): with few points the camera kept can be the descent's, with no
+        # automatic pairs, or the automatic pairing's, with pairs beyond the radius; the dock's header said "0 of 6
+        # matched, RMSE 30 px" under a message "4 of 6 photo points matched ..., RMSE 2.4 px". The leave-one-out
+        # RMSE stays the one the verdict weighed (per pair: not computed for these pairs).
+        result.pairs, result.inliers = pairs, np.ones(len(pairs), dtype=bool)
+        result.residuals_px = space.project(u, P_in)[0] - q_in
+        result.rmse_px = rmse(result.residuals_px)
+        result.loo_residuals_px = np.full(len(pairs), np.nan)
