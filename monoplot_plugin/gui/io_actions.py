@@ -277,6 +277,18 @@ def load_camera_file(controller, path: str, as_fitted: bool = False) -> Optional
     info["status"], verdict = judge_by_checks(info.get("check_rmse_px", float("nan")), info.get("n_check", 0),
                                               float(np.hypot(*c.photo_size)))
     info["message"] = tr("Camera loaded from {0}.").format(name) + " " + verdict
+    pairs = [(a, b, c._ground_z(b)) for a, b in c.state.valid_pairs()]
+    pairs = [(a, b, z) for a, b, z in pairs if z is not None]
+    if pairs:  # how the camera fits the pairs already there (a measure of agreement, not of accuracy)
+        uv = np.array([(a.x, a.y) for a, _, _ in pairs], dtype=np.float64)
+        xyz = np.array([(b.x, b.y, z) for _, b, z in pairs], dtype=np.float64)
+        d = np.hypot(*(camera.project(xyz) - uv).T)
+        d = d[np.isfinite(d)]
+        if len(d):
+            info.update(rmse_px=float(np.sqrt(np.mean(d ** 2))), mode="paired", n_pairs=len(pairs),
+                        n_photo=len(pairs), n_map=len(pairs), n_matched=int(len(d)))
+            info["message"] += " " + tr("On the {0} pairs already there it gives {1:.1f} px RMSE.").format(
+                len(d), info["rmse_px"])
     c.set_fitted(camera, info, background=True)
     c.message.emit(tr("Fitted camera loaded from {0}.").format(name), INFO)
     return camera

@@ -159,6 +159,9 @@ def test_processing_camera_json_loads_as_the_fitted_camera(dock, scene, tmp_path
     path.write_text(scene.camera.to_json())
     assert io_actions.load_camera_file(c, str(path), as_fitted=True) is not None
     assert c.state.fit_info["status"] == "uncertain" and "check points" in c.state.fit_info["message"]
+    # ... but the pairs already there are measured on it (the header showed "RMSE -, 0 photo / 0 DEM points")
+    info = c.state.fit_info
+    assert info["n_pairs"] == 6 and info["rmse_px"] < 1.0 and "6 pairs already there" in info["message"], info
 
 
 def test_camera_for_another_photo_size_is_refused(dock, scene, tmp_path):
