@@ -402,7 +402,13 @@ class OutputTools(QObject):
                 add_xyz_layer(written, self.project, group)
             elif what == "ortho":
                 add_orthophoto_layer(written, self.project, group)
-            self._message(self.tr("Written: {0}").format(written), Qgis.MessageLevel.Success)
+            status = (self.controller.state.fit_info or {}).get("status", "ok")
+            if status in ("uncertain", "poor"):  # the product inherits the camera's errors: say so once, here
+                self._message(self.tr("Written: {0}, from a camera whose fit is \"{1}\": every position in it "
+                                      "inherits the camera's errors. Check the fit (pairs, check points) before "
+                                      "using it.").format(written, self.tr(status)), Qgis.MessageLevel.Warning)
+            else:
+                self._message(self.tr("Written: {0}").format(written), Qgis.MessageLevel.Success)
             self.exported.emit(what, str(written))
 
         labels = {"xyz": self.tr("XYZ raster"), "ortho": self.tr("Orthophoto"), "report": self.tr("Report")}

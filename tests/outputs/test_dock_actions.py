@@ -130,6 +130,13 @@ def test_exports_run_in_background_tasks(dock_with_fit, tmp_path, qtbot):
     qtbot.waitUntil(lambda: "Nothing was written" in dock.statusLabel.text(), timeout=30000)
     assert "already exists" in dock.statusLabel.text()
     assert (tmp_path / "bg_xyz.tif").read_bytes() == before
+    # From a camera whose fit is "poor" the product is written, and the message says it inherits the errors.
+    assert "from a camera" not in dock.statusLabel.text()
+    dock.controller.state.fit_info["status"] = "poor"
+    done.clear()
+    assert tools.start_export("ortho", tmp_path / "poor_ortho.tif") is not None
+    qtbot.waitUntil(lambda: bool(done) and done[-1][0] == "ortho", timeout=30000)
+    assert 'from a camera whose fit is "poor"' in dock.statusLabel.text(), dock.statusLabel.text()
 
 
 def _legend_order(group):
