@@ -174,13 +174,15 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     reduced = image if w <= WIDTHS[-1] else cv2.resize(image, (WIDTHS[-1], max(8, round(h * WIDTHS[-1] / w))),
                                                       interpolation=cv2.INTER_AREA)
     photos = {}
-    for width in WIDTHS:
+    for i, width in enumerate(WIDTHS):
         _poll(is_canceled)
         pe = detect_photo_edges(reduced, width=min(width, w))
         pe.scale = pe.width / float(w)  # working pixels per full-size pixel
         photos[width] = pe
+        report(0.05 * (i + 1) / len(WIDTHS), "automatic registration: photo skyline and edges")
     fine = photos[WIDTHS[-1]]
     _poll(is_canceled)
+    report(0.05, "automatic registration: DEM at the working resolution")
     align_dem = coarse_dem(dem, ALIGN_DEM_CELLS, is_canceled)
     _poll(is_canceled)
     margin = 2.5 * sig["angle_deg"] + 1.25 * sig["fov_deg"] + 2.0
@@ -193,7 +195,9 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     # around the prior's position one roll (the medium search refines it): a third of the full grid's time
     around = offsets_grid(sig, step, roll_steps=1)
     offsets, scores = [], []
-    for k, pos in enumerate(_positions(sig)):
+    positions = _positions(sig)
+    for k, pos in enumerate(positions):
+        report(0.1 + 0.2 * k / len(positions), "automatic registration: coarse search of the view direction")
         grid = grid if k == 0 else around
         ref = camera_from_offset(prior, pos)
         coarse = Aligner(ref, p0, dem_edges(ref, align_dem, margin, ref.focal_px * p0.scale), sig, tau=6.0,
