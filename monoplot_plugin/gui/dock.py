@@ -374,7 +374,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
             self.progressBar.setFormat("%p%")
 
     def _on_task_finished(self, result) -> None:
-        if result.ok and self.controller.task_kind == "fit":
+        if result.ok and self.controller.task_kind in ("fit", "auto"):  # a camera found either way
             self._update_camera_layers()
         elif result.ok and self.controller.task_kind == "suggest":
             self.mapToolButton.setChecked(True)  # DEM suggestions are curated on the main map

@@ -53,6 +53,11 @@ def test_find_camera_automatically_gives_a_camera_and_accepted_points(dock, vall
         assert abs(c.fitted.heading - truth.heading) < 0.5
     # a skyline across the picture: the view is found, not the prior kept
     assert abs(c.fitted.heading - truth.heading) < 1.0 and "prior is kept" not in info["message"]
+    # the camera and its footprint on the map, as after a fit
+    from monoplot_plugin.adapters.layers import GROUP_NAME
+
+    group = QgsProject.instance().layerTreeRoot().findGroup(GROUP_NAME)
+    assert group is not None and len(group.findLayers()) >= 2
     photo = c.state.in_space(PHOTO, (ACCEPTED,))
     world = c.state.in_space(MAP, (ACCEPTED,))
     assert len(photo) == info["n_photo"] and len(world) == info["n_map"]
