@@ -117,9 +117,10 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
                                                      optional=optional, fileFilter=CAMERA_FILTER))
 
     def add_dem_parameter(self, name: str = "DEM", optional: bool = False):
-        self.addParameter(QgsProcessingParameterRasterLayer(name, self.tr("DEM (elevation raster in metres; a "
-                                                                          "geographic one is used in its UTM zone)"),
-                                                            optional=optional))
+        dem = QgsProcessingParameterRasterLayer(name, self.tr("DEM (elevation in metres)"), optional=optional)
+        dem.setHelp(self.tr("Elevation raster in metres; a DEM in geographic coordinates is used in the UTM zone "
+                            "of its centre."))
+        self.addParameter(dem)
         void = QgsProcessingParameterNumber("VOID_VALUE", self.tr("DEM void value (e.g. 0; empty = none)"),
                                             QgsProcessingParameterNumber.Double, optional=True)
         void.setFlags(void.flags() | QgsProcessingParameterDefinition.FlagAdvanced)

@@ -58,14 +58,12 @@ class BatchPhotos(MonoplotAlgorithm):
                                                        defaultValue="*.jpg;*.jpeg;*.png;*.tif;*.tiff",
                                                        optional=True))
         self.add_camera_parameter("CAMERA", optional=True,
-                                  description="Shared camera, or its prior when POINTS is given (time-lapse mode)")
-        self.addParameter(QgsProcessingParameterFile("POINTS", self.tr("Points to fit the shared camera on the first "
-                                                                       "photo: paired GCP CSV or photo points CSV "
-                                                                       "(time-lapse mode)"),
+                                  description="Shared camera (the prior when POINTS is given)")
+        self.addParameter(QgsProcessingParameterFile("POINTS",
+                                                     self.tr("Points CSV for the shared fit (GCPs or photo points)"),
                                                      QgsProcessingParameterFile.File, optional=True,
                                                      fileFilter="CSV (*.csv *.txt)"))
-        self.addParameter(QgsProcessingParameterFile("DEM_POINTS", self.tr("DEM points CSV for an unpaired shared fit "
-                                                                           "(time-lapse mode)"),
+        self.addParameter(QgsProcessingParameterFile("DEM_POINTS", self.tr("DEM points CSV (unpaired shared fit)"),
                                                      QgsProcessingParameterFile.File, optional=True,
                                                      fileFilter="CSV (*.csv *.txt)"))
         self.addParameter(QgsProcessingParameterFile("TABLE", self.tr("Photo table CSV (table mode)"),
@@ -76,8 +74,8 @@ class BatchPhotos(MonoplotAlgorithm):
         self.addParameter(QgsProcessingParameterNumber("RESOLUTION",
                                                        self.tr("Orthophoto cell size (map units, 0 = DEM's)"),
                                                        QgsProcessingParameterNumber.Double, 0.0, minValue=0.0))
-        self.addParameter(QgsProcessingParameterBoolean("REGISTER", self.tr("Re-register every frame on the reference "
-                                                                            "frame (time-lapse mode)"),
+        self.addParameter(QgsProcessingParameterBoolean("REGISTER",
+                                                        self.tr("Re-register every frame (time-lapse mode)"),
                                                         defaultValue=False))
         self.addParameter(QgsProcessingParameterFile("REFERENCE", self.tr("Reference frame (default: the first "
                                                                           "frame)"),
