@@ -24,9 +24,9 @@ class BatchPhotos(MonoplotAlgorithm):
     _display = "Batch: many photos"
     _help = ("Processes many photos at once.\n\n"
              "Time-lapse folder: every image in FOLDER shares one fitted CAMERA; the XYZ raster is computed once "
-             "(xyz.tif) and an orthophoto is written per photo (frame_ortho.tif for frame.jpg). With POINTS (and "
-             "DEM_POINTS for unpaired points), CAMERA is the prior and the shared camera is fitted once on the first "
-             "readable photo (camera.json).\n\n"
+             "(xyz.tif) and an orthophoto is written per photo (frame_ortho.tif for frame.jpg). With POINTS (a GCP "
+             "CSV, or a photo points CSV with DEM_POINTS for unpaired points), CAMERA is the prior and the shared "
+             "camera is fitted once on the first readable photo (camera.json).\n\n"
              "CSV table: TABLE lists photos with their own prior camera and points (columns photo, prior, points "
              "and optionally dem_points; paths relative to the table); each photo is fitted (frame_camera.json) "
              "and gets its own XYZ raster and orthophoto.\n\n"
@@ -58,9 +58,9 @@ class BatchPhotos(MonoplotAlgorithm):
                                                        defaultValue="*.jpg;*.jpeg;*.png;*.tif;*.tiff",
                                                        optional=True))
         self.add_camera_parameter("CAMERA", optional=True,
-                                  description="Shared camera (the prior when POINTS is given)")
+                                  description="Shared camera (prior if POINTS given)")
         self.addParameter(QgsProcessingParameterFile("POINTS",
-                                                     self.tr("Points CSV for the shared fit (GCPs or photo points)"),
+                                                     self.tr("Points CSV for the shared fit"),
                                                      QgsProcessingParameterFile.File, optional=True,
                                                      fileFilter="CSV (*.csv *.txt)"))
         self.addParameter(QgsProcessingParameterFile("DEM_POINTS", self.tr("DEM points CSV (unpaired shared fit)"),
