@@ -277,10 +277,16 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     evidence["auto_edge_score"] = _edge_score(result.camera, fine, align_dem, sig, is_canceled)
     evidence["auto_aligned_returned"] = bool(aligned_edge < evidence["auto_edge_score"])
     if evidence["auto_aligned_returned"]:
-        result.message += (f" The edge alignment's camera is returned, not the fit's: it fits the photo's edges "
-                           f"better (edge score {aligned_edge:.3f} against {evidence['auto_edge_score']:.3f}); the "
-                           "figures above are the fit's.")
+        fit_edge = evidence["auto_edge_score"]
         result.camera, evidence["auto_edge_score"] = aligned, aligned_edge
+        pairs = np.asarray(result.pairs, dtype=np.int64).reshape(-1, 2)
+        if len(pairs):  # the residuals and RMSE of the camera returned, on the same pairs
+            result.residuals_px = aligned.project(world_points[pairs[:, 1]]) - image_points[pairs[:, 0]]
+            kept = result.inliers if len(result.inliers) == len(pairs) else np.ones(len(pairs), dtype=bool)
+            result.rmse_px = float(np.sqrt(np.nanmean(np.sum(result.residuals_px[kept] ** 2, axis=1))))
+        result.message += (f" The camera returned is the edge alignment's: it fits the photo's skyline and ridges "
+                           f"better than the fit on these points (edge score {aligned_edge:.3f} against "
+                           f"{fit_edge:.3f}); on the same pairs it gives {result.rmse_px:.1f} px RMSE.")
     # σ that also covers what the automatic pairs, drawn near the aligned camera, cannot see (:mod:`.sigma`)
     rivals = [camera_values(c) for sc, c, *_ in finals[1:] if sc <= RIVAL_RATIO * aligned_edge]
     result.std = widen_std(result.std, camera_values(result.camera), [camera_values(aligned)] + rivals,
