@@ -201,7 +201,11 @@ def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
             result.outputs.append(products.write_orthophoto(os.path.join(setup.out_dir, f"{task.stem}_ortho.tif"),
                                                             photo))
         result.ok = True
-        result.message = "ok" if np.isnan(result.rmse_px) else f"ok, fit RMSE {result.rmse_px:.2f} px"
+        # a frame of a shared camera has no fit of its own (its RMSE column stays empty): say whose camera it used
+        if np.isfinite(result.rmse_px):
+            result.message = f"ok, fit RMSE {result.rmse_px:.2f} px"
+        else:
+            result.message = "ok, the shared camera turned" if own_camera else "ok, the shared camera"
         if fit_status != "ok":  # products written, but the fitted camera is doubtful
             result.message = f"fit {fit_status}, RMSE {result.rmse_px:.2f} px: {fit_message}"
         if np.isfinite(result.drift_px):
