@@ -131,6 +131,9 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.photo_canvas.cursorMoved.connect(self._photo_cursor)
         self.photo_canvas.cursorLeft.connect(lambda: self.map_view.show_cursor(None))
         self.map_canvas.xyCoordinates.connect(self._map_cursor)
+        # canvas items keep map coordinates of the CRS they were drawn in: draw them again when it changes (QGIS
+        # takes the project's CRS from the first layer added a moment later: a wedge drawn in between was lost)
+        self.map_canvas.destinationCrsChanged.connect(self._map_crs_changed)
 
         # project life cycle
         self.project.readProject.connect(self._project_read)
@@ -497,6 +500,7 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
                 self.map_canvas.unsetMapTool(tool)
         self.map_view.remove()
         for signal, slot in ((self.map_canvas.xyCoordinates, self._map_cursor),
+                             (self.map_canvas.destinationCrsChanged, self._map_crs_changed),
                              (self.project.readProject, self._project_read),
                              (self.project.cleared, self._project_cleared),
                              (QgsApplication.instance().aboutToQuit, self.unload)):
@@ -504,6 +508,11 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
                 signal.disconnect(slot)
             except (TypeError, RuntimeError):
                 pass
+
+    def _map_crs_changed(self) -> None:
+        c = self.controller
+        self.map_view.redraw_camera(c.footprint_wkt if c.fitted is not None else "")
+        self.map_view.redraw_points()
 
     def showEvent(self, event) -> None:  # noqa: N802
         super().showEvent(event)

@@ -63,6 +63,17 @@ def test_kml_prior_import(dock, scene, tmp_path):
     assert abs(prior.pitch + 4.0) < 1e-6 and abs(prior.fov - 60.0) < 1e-6
     assert "Rough camera" in dock.cameraSummary.text()
     assert not dock.map_view.prior_band.band.asGeometry().isEmpty()  # the wedge is drawn at once
+    # The map's CRS changes after the wedge was drawn (QGIS takes the project's CRS from the first layer a moment
+    # after it is added): the wedge follows, its apex still at the camera.
+    from qgis.core import QgsCoordinateReferenceSystem, QgsCoordinateTransform
+
+    canvas = dock.map_canvas
+    for crs in (QgsCoordinateReferenceSystem("EPSG:4326"), QgsCoordinateReferenceSystem("EPSG:3857")):
+        canvas.setDestinationCrs(crs)
+        apex = QgsCoordinateTransform(dock.controller.dem_crs, crs, QgsProject.instance()).transform(
+            QgsPointXY(*prior.position[:2]))
+        box = dock.map_view.prior_band.band.asGeometry().boundingBox()
+        assert box.buffered(1e-6 * max(box.width(), box.height())).contains(apex), (crs.authid(), box, apex)
 
 
 def test_rough_camera_drawn_by_press_and_drag(dock, scene, qtbot):
