@@ -17,7 +17,7 @@ from typing import Optional
 from qgis.core import Qgis, QgsApplication, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer, QgsSettings
 from qgis.PyQt import uic
 from qgis.PyQt.QtCore import QItemSelectionModel, Qt
-from qgis.PyQt.QtWidgets import QAction, QDockWidget, QFileDialog, QSizePolicy, QToolBar, QToolButton
+from qgis.PyQt.QtWidgets import QAction, QDockWidget, QSizePolicy, QToolBar, QToolButton
 
 from .. import PLUGIN_DIR
 from ..adapters import layers as camera_layers
@@ -32,6 +32,7 @@ from .io_actions import IoActions
 from .photo_canvas import PhotoCanvas
 from .point_table import ID_ROLE, PointTableModel, make_proxy
 from .prior_height import PriorHeightBox
+from .rough_camera import RoughCameraMixin
 from .summary import fit_summary_html
 from .tools import CurationTool, RoughCameraTool, SpaceMapping
 from .views import MapPresenter, PhotoPresenter
@@ -43,7 +44,7 @@ SUGGESTION_COUNT_KEY = "monoplot/suggestions_per_view"
 SHOW_CHIPS_KEY = "monoplot/show_chips"
 
 
-class MonoplotDock(QDockWidget, FORM_CLASS):
+class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
     """The plugin's main panel, docked on the right of the QGIS window."""
 
     def __init__(self, iface, parent=None, project: Optional[QgsProject] = None):
@@ -231,41 +232,6 @@ class MonoplotDock(QDockWidget, FORM_CLASS):
         self.map_view.redraw_points()
 
     # --- camera -----------------------------------------------------------------------------------------------
-    def _toggle_camera_tool(self, on: bool) -> None:
-        if on:
-            if self.controller.dem is None or self.controller.image is None:
-                self.show_message(self.tr("Load a photo and choose a DEM first."), Qgis.MessageLevel.Warning)
-                self.drawCameraButton.setChecked(False)
-                return
-            self.mapToolButton.setChecked(False)
-            self.map_canvas.setMapTool(self.camera_tool)
-            self.show_message(self.tr("Press on the map at the camera position and drag towards the view."))
-        elif self.map_canvas.mapTool() is self.camera_tool:
-            self.map_canvas.unsetMapTool(self.camera_tool)
-
-    def _camera_dragging(self, x: float, y: float, heading: float) -> None:
-        """Live wedge while the rough camera is being dragged (DEM CRS)."""
-        from ..core.camera import Camera
-
-        size = self.controller.photo_size or (4, 3)
-        self.map_view.show_wedge(Camera((x, y, 0.0), heading, 0.0, 0.0, self.fovSpin.value(), size))
-
-    def _camera_drawn(self, x: float, y: float, heading: float) -> None:
-        self.controller.prior_from_map(x, y, heading, self.fovSpin.value(), self.pitchSpin.value(),
-                                       self.heightSpin.value())
-        self.drawCameraButton.setChecked(False)
-
-    def _prior_spin_changed(self) -> None:
-        prior = self.controller.prior
-        if prior is not None and (prior.fov, prior.pitch) != (self.fovSpin.value(), self.pitchSpin.value()):
-            self.controller.set_prior(prior.with_parameters(fov=self.fovSpin.value(), pitch=self.pitchSpin.value()))
-
-    def _import_kml(self) -> None:
-        path, _ = QFileDialog.getOpenFileName(self, self.tr("Rough camera from KML or camera JSON"), "",
-                                              self.tr(IoActions.OPEN_CAMERA_FILTER))
-        if path:
-            self.io_actions.open_camera(path)
-
     def _on_camera(self) -> None:
         c = self.controller
         prior, fitted = c.prior, c.fitted

@@ -1,0 +1,52 @@
+"""The dock's rough camera (a mixin of :class:`~.dock.MonoplotDock`): drawn on the map by press and drag (a live
+wedge while dragging), its field of view and pitch from the spin boxes, or read from a KML or camera JSON."""
+
+from __future__ import annotations
+
+from qgis.core import Qgis
+from qgis.PyQt.QtWidgets import QFileDialog
+
+from .io_actions import IoActions
+
+__all__ = ["RoughCameraMixin"]
+
+
+class RoughCameraMixin:
+    """Slots of the dock's rough-camera widgets (``drawCameraButton``, ``fovSpin``, ``pitchSpin``, ``heightSpin``,
+    the KML button); the dock provides ``controller``, ``map_canvas``, ``camera_tool``, ``map_view``,
+    ``io_actions`` and ``show_message``."""
+
+    def _toggle_camera_tool(self, on: bool) -> None:
+        if on:
+            if self.controller.dem is None or self.controller.image is None:
+                self.show_message(self.tr("Load a photo and choose a DEM first."), Qgis.MessageLevel.Warning)
+                self.drawCameraButton.setChecked(False)
+                return
+            self.mapToolButton.setChecked(False)
+            self.map_canvas.setMapTool(self.camera_tool)
+            self.show_message(self.tr("Press on the map at the camera position and drag towards the view."))
+        elif self.map_canvas.mapTool() is self.camera_tool:
+            self.map_canvas.unsetMapTool(self.camera_tool)
+
+    def _camera_dragging(self, x: float, y: float, heading: float) -> None:
+        """Live wedge while the rough camera is being dragged (DEM CRS)."""
+        from ..core.camera import Camera
+
+        size = self.controller.photo_size or (4, 3)
+        self.map_view.show_wedge(Camera((x, y, 0.0), heading, 0.0, 0.0, self.fovSpin.value(), size))
+
+    def _camera_drawn(self, x: float, y: float, heading: float) -> None:
+        self.controller.prior_from_map(x, y, heading, self.fovSpin.value(), self.pitchSpin.value(),
+                                       self.heightSpin.value())
+        self.drawCameraButton.setChecked(False)
+
+    def _prior_spin_changed(self) -> None:
+        prior = self.controller.prior
+        if prior is not None and (prior.fov, prior.pitch) != (self.fovSpin.value(), self.pitchSpin.value()):
+            self.controller.set_prior(prior.with_parameters(fov=self.fovSpin.value(), pitch=self.pitchSpin.value()))
+
+    def _import_kml(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(self, self.tr("Rough camera from KML or camera JSON"), "",
+                                              self.tr(IoActions.OPEN_CAMERA_FILTER))
+        if path:
+            self.io_actions.open_camera(path)
