@@ -147,7 +147,7 @@ def child_first_suggest(warmup: str) -> dict:
             warm_s = time.perf_counter() - t_start
     dock = _dock(iface)
     c = _inputs(dock, layer)
-    dock.suggestCountSpin.setValue(300)  # the default, whatever the profile's preference
+    dock.suggestCountSpin.setValue(2000)  # the default, whatever the profile's preference
     t0 = time.perf_counter()
     dock.suggestButton.click()
     result = _wait(c.taskFinished)
