@@ -229,3 +229,25 @@ def test_the_pairs_and_rmse_reported_are_those_the_message_counts():
         kept = int(np.asarray(r.inliers, dtype=bool).sum())
         assert kept == int(said.group(1)) == r.evidence["n_inliers"] > 0, (kept, r.message)
         assert abs(r.rmse_px - float(said.group(2))) < 0.051, (r.rmse_px, r.message)
+
+
+def test_check_points_far_off_and_beyond_the_residuals_make_a_camera_poor():
+    """A real fit on exact pairs, measured on check points of a camera turned 2 deg away: the check points are
+    1.5-3 % of the picture off and many times the residuals -> "poor"; the same check points of the true camera
+    leave it "ok"."""
+    rng = np.random.default_rng(5)
+    world = terrain_points(40, rng)
+    uv = TRUTH.project(world)
+    keep = np.isfinite(uv).all(axis=1) & TRUTH.in_image(np.nan_to_num(uv, nan=-1e9))
+    world, uv = world[keep], uv[keep] + rng.normal(0, 0.5, (int(keep.sum()), 2))
+    fit_w, fit_uv, chk_w = world[:12], uv[:12], world[12:20]
+    pairs = np.stack([np.arange(12)] * 2, axis=1)
+    turned = TRUTH.with_parameters(heading=TRUTH.heading + 1.2)
+    diag = math.hypot(*TRUTH.image_size)
+    for check_camera, expected in ((TRUTH, "ok"), (turned, "poor")):
+        chk_uv = check_camera.project(chk_w)
+        r = fit_camera(fit_uv, fit_w, TRUTH.with_parameters(heading=TRUTH.heading + 1.0), pairs=pairs,
+                       check_image_points=chk_uv, check_world_points=chk_w)
+        if expected == "poor":
+            assert 0.015 * diag < r.check_rmse_px < 0.03 * diag, r.check_rmse_px
+        assert r.status == expected, (r.status, r.check_rmse_px, r.message)

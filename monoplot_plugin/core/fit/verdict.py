@@ -18,6 +18,9 @@ Processing and the report show the same figures.
 >>> judge({"mode": "paired", "n_free": 7, "n_pairs": 11, "rmse_px": 2.0, "diag": 1000.0, "check_rmse_px": 12.0,
 ...        "n_check": 10})[0]
 'uncertain'
+>>> judge({"mode": "paired", "n_free": 7, "n_pairs": 11, "rmse_px": 2.0, "diag": 1000.0, "check_rmse_px": 25.0,
+...        "n_check": 8})[0]
+'poor'
 """
 
 from __future__ import annotations
@@ -157,14 +160,20 @@ def judge(e: dict) -> Tuple[str, str]:
     text += "."
     if not np.isfinite(rmse) or rmse > POOR_SHARE * diag:
         poor.append("the residuals are large: check the pairs (a wrong link?) or the free parameters")
-    if np.isfinite(check) and check > POOR_SHARE * diag:
-        poor.append("the independent check points disagree with the camera")
-    elif np.isfinite(check) and check > WEAK_SHARE * diag:
-        weak.append("the check points are off by more than 1.5 % of the picture")
     # Check points far worse than the fit's own residuals: the residuals flatter the camera (pairs that agree with
     # each other, not with the terrain), whatever the share of the picture.
     check_far = np.isfinite(check) and np.isfinite(rmse) and check > CHECK_OVER_RESIDUALS * max(rmse, 1.0) \
         and check > 0.005 * diag
+    if np.isfinite(check) and check > POOR_SHARE * diag:
+        poor.append("the independent check points disagree with the camera")
+    elif np.isfinite(check) and check > WEAK_SHARE * diag and check_far:
+        # off by more than 1.5 % of the picture AND several times the fit's own residuals: the independent evidence
+        # contradicts a camera its pairs agree on (a generated scene: check points 27.6 px, residuals 2 px, the
+        # camera 185 m off, was "uncertain")
+        poor.append(f"the independent check points are off by {check:.1f} px, {check / max(rmse, 1.0):.0f} times "
+                    f"the fit's residuals")
+    elif np.isfinite(check) and check > WEAK_SHARE * diag:
+        weak.append("the check points are off by more than 1.5 % of the picture")
     if check_far and not poor and check <= WEAK_SHARE * diag:
         weak.append(f"the check points are off by {check:.1f} px, {check / max(rmse, 1.0):.0f} times the fit's "
                     f"residuals: the camera is less accurate than its residuals say; add points near the check "
