@@ -381,6 +381,13 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         text = self.tr("Camera fitted: RMSE {0:.1f} px on {1} photo points.").format(
             rmse if rmse is not None else float("nan"), outcome.info.get("n_photo", 0))
         n_matched, n_photo = outcome.info.get("n_matched"), outcome.info.get("n_photo", 0)
+        n_pairs = outcome.info.get("n_pairs") or 0
+        if outcome.info.get("mode") == "paired" and n_pairs:  # its pairs only; the unpaired points wait
+            text = self.tr("Camera fitted: RMSE {0:.1f} px on {1} pairs.").format(
+                rmse if rmse is not None else float("nan"), n_pairs)
+            if n_photo > n_pairs:
+                text += " " + self.tr("{0} accepted photo points without a partner are not used by a paired "
+                                      "fit.").format(n_photo - n_pairs)
         if outcome.info.get("mode") == "unpaired" and n_matched is not None and n_matched < n_photo:
             # the RMSE is over the matched points only: say how many, or "30 photo points" overstates a weak fit
             text = self.tr("Camera fitted: RMSE {0:.1f} px on the {1} of {2} photo points that matched a DEM "

@@ -45,6 +45,9 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     >>> "5 of 30 photo matched / 30 DEM" in fit_summary_html(cam, {"mode": "unpaired", "n_photo": 30, "n_map": 30,
     ...                                                          "n_matched": 5})
     True
+    >>> "on 8 pairs (27 accepted photo points without a partner not used)" in fit_summary_html(
+    ...     cam, {"rmse_px": 0.4, "mode": "paired", "n_photo": 35, "n_map": 32, "n_pairs": 8})
+    True
     >>> html = fit_summary_html(cam, {"status": "uncertain", "mode": "unpaired", "sigma": {"x": 0.31}})
     >>> "± 0.31*" in html and html.index("assume the automatic pairs are right") < html.index("<table>")
     True
@@ -74,6 +77,12 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
         "" if loo is None else tr(" (leave-one-out {0:.1f} px)").format(loo),
         photo_text, info.get("n_map", 0),
         tr(", {0} pairs").format(info["n_pairs"]) if info.get("n_pairs") else "")
+    if info.get("mode") == "paired" and info.get("n_pairs"):  # a paired fit uses its pairs only: say so
+        unused = max(0, int(n_photo) - int(info["n_pairs"]))
+        head = tr("RMSE <b>{0}</b>{1} on {2} pairs{3}").format(
+            "—" if rmse is None else f"{rmse:.1f} px",
+            "" if loo is None else tr(" (leave-one-out {0:.1f} px)").format(loo), info["n_pairs"],
+            tr(" ({0} accepted photo points without a partner not used)").format(unused) if unused else "")
     if info.get("check_rmse_px") is not None:
         head = tr("Check points <b>{0:.1f} px</b> RMSE on {1} (not fitted)").format(
             info["check_rmse_px"], info.get("n_check", 0)) + "<br>" + tr("Fit: ") + head

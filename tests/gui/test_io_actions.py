@@ -208,6 +208,7 @@ def test_aletsch_gcps_with_surveyed_z_fit_in_the_dock_as_in_processing(qgis_ifac
         assert blocker.args[0].ok, blocker.args[0].reason
         assert c.state.fit_info["mode"] == "paired"
         assert c.state.fit_info["rmse_px"] < 8.5
+        assert "px on 11 pairs." in d.statusLabel.text(), d.statusLabel.text()  # what the paired fit used
     finally:
         d.controller.cancel()
         if d.controller.task is not None:
