@@ -275,7 +275,11 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
 
     def check_points(self):
         """(photo ids, uv (C, 2), xyz (C, 3)) of the check pairs: paired points kept out of the fit."""
-        pairs = [(a, b, self._ground_z(b)) for a, b in self.state.check_pairs()]
+        return self.pair_arrays(self.state.check_pairs())
+
+    def pair_arrays(self, point_pairs):
+        """(photo ids, uv (K, 2), xyz (K, 3)) of (photo point, map point) pairs whose ground height is known."""
+        pairs = [(a, b, self._ground_z(b)) for a, b in point_pairs]
         pairs = [(a, b, z) for a, b, z in pairs if z is not None]
         uv = np.array([(a.x, a.y) for a, _, _ in pairs], dtype=np.float64).reshape(-1, 2)
         xyz = np.array([(b.x, b.y, z) for _, b, z in pairs], dtype=np.float64).reshape(-1, 3)

@@ -267,31 +267,30 @@ def load_camera_file(controller, path: str, as_fitted: bool = False) -> Optional
         c.message.emit(tr("Rough camera loaded from {0}.").format(name), INFO)
         return camera
     info = {"loaded_from": path}
-    ids, cuv, cxyz = c.check_points()
-    if ids:
-        d = np.hypot(*(camera.project(cxyz) - cuv).T)
-        d = d[np.isfinite(d)]
-        if len(d):
-            info.update(check_rmse_px=float(np.sqrt(np.mean(d ** 2))), n_check=int(len(d)))
+    n_check, check_rmse = _measured(camera, *c.check_points()[1:])
+    if n_check:
+        info.update(check_rmse_px=check_rmse, n_check=n_check)
     # nothing here fitted it: only check points can say it is right (never a green "ok" by default)
     info["status"], verdict = judge_by_checks(info.get("check_rmse_px", float("nan")), info.get("n_check", 0),
                                               float(np.hypot(*c.photo_size)))
     info["message"] = tr("Camera loaded from {0}.").format(name) + " " + verdict
-    pairs = [(a, b, c._ground_z(b)) for a, b in c.state.valid_pairs()]
-    pairs = [(a, b, z) for a, b, z in pairs if z is not None]
-    if pairs:  # how the camera fits the pairs already there (a measure of agreement, not of accuracy)
-        uv = np.array([(a.x, a.y) for a, _, _ in pairs], dtype=np.float64)
-        xyz = np.array([(b.x, b.y, z) for _, b, z in pairs], dtype=np.float64)
-        d = np.hypot(*(camera.project(xyz) - uv).T)
-        d = d[np.isfinite(d)]
-        if len(d):
-            info.update(rmse_px=float(np.sqrt(np.mean(d ** 2))), mode="paired", n_pairs=len(pairs),
-                        n_photo=len(pairs), n_map=len(pairs), n_matched=int(len(d)))
-            info["message"] += " " + tr("On the {0} pairs already there it gives {1:.1f} px RMSE.").format(
-                len(d), info["rmse_px"])
+    ids, uv, xyz = c.pair_arrays(c.state.valid_pairs())
+    n_pairs, pairs_rmse = _measured(camera, uv, xyz)
+    if n_pairs:  # how the camera fits the pairs already there (a measure of agreement, not of accuracy)
+        info.update(rmse_px=pairs_rmse, mode="paired", n_pairs=len(ids), n_photo=len(ids), n_map=len(ids),
+                    n_matched=n_pairs)
+        info["message"] += " " + tr("On the {0} pairs already there it gives {1:.1f} px RMSE.").format(
+            n_pairs, pairs_rmse)
     c.set_fitted(camera, info, background=True)
     c.message.emit(tr("Fitted camera loaded from {0}.").format(name), INFO)
     return camera
+
+
+def _measured(camera: Camera, uv: np.ndarray, xyz: np.ndarray):
+    """(how many of the points (K, 2) pixels / (K, 3) map the camera projects, their RMSE in pixels)."""
+    d = np.hypot(*(camera.project(xyz) - uv).T) if len(uv) else np.zeros(0)
+    d = d[np.isfinite(d)]
+    return int(len(d)), float(np.sqrt(np.mean(d ** 2))) if len(d) else float("nan")
 
 
 def save_camera_file(controller, path: str, which: str = "fitted") -> bool:
