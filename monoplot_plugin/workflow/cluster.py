@@ -187,8 +187,6 @@ def _gather(client, tasks: List[FrameTask], setup: Timelapse, log: Log, progress
                 break
         for future, result in _results(client, [f for f in ended if futures[f].index not in done], futures):
             t = futures[future]
-            if t.index in done:
-                continue
             done[t.index] = result
             log_result(log, t, total, result)
             progress(len(done) / max(1, total), t.name)

@@ -30,6 +30,7 @@ import numpy as np
 
 from ..camera import Camera
 from ..fit import FitCanceled, FitResult, fit_camera
+from ..fit.result import rms
 from .align import Aligner, camera_from_offset, offsets_grid
 from .dem_edges import coarse_dem, dem_edges
 from .photo_edges import PhotoEdges, detect_photo_edges
@@ -283,7 +284,7 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
         if len(pairs):  # the residuals and RMSE of the camera returned, on the same pairs
             result.residuals_px = aligned.project(world_points[pairs[:, 1]]) - image_points[pairs[:, 0]]
             kept = result.inliers if len(result.inliers) == len(pairs) else np.ones(len(pairs), dtype=bool)
-            result.rmse_px = float(np.sqrt(np.nanmean(np.sum(result.residuals_px[kept] ** 2, axis=1))))
+            result.rmse_px = rms(np.linalg.norm(result.residuals_px[kept], axis=1))
         result.message += (f" The camera returned is the edge alignment's: it fits the photo's skyline and ridges "
                            f"better than the fit on these points (edge score {aligned_edge:.3f} against "
                            f"{fit_edge:.3f}); on the same pairs it gives {result.rmse_px:.1f} px RMSE.")
