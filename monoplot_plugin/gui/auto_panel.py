@@ -85,6 +85,7 @@ class AutoPanel(QObject):
         photo_pts = [Point.new(PHOTO, float(u), float(v), status=ACCEPTED, label=label) for u, v in uv]
         map_pts = [Point.new(MAP, float(x), float(y), float(z), status=ACCEPTED, label=label) for x, y, z in world]
         c.state.settings["automatic_status"] = r.status
+        c.state.settings["automatic_sigma"] = {k: float(v) for k, v in (r.std or {}).items()}
         replaced = 0
         if photo_pts:
             replaced = len([p for p in c.state.points.values() if p.status == SUGGESTED and not p.manual])

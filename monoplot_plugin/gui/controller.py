@@ -332,6 +332,10 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             outcome.info["status"], outcome.info["message"] = self.capped_by_automatic(
                 outcome.info.get("status", "ok"), outcome.info.get("message", ""), photo_ids + world_ids,
                 len(pairs), len(check_ids))
+            if self.rests_on_automatic(photo_ids + world_ids, len(pairs), len(check_ids)):
+                # its σ no smaller than the registration's (the greyed ± showed 0.5 m after a 200 m registration)
+                outcome.info["sigma"] = auto_step.sigma_at_least(outcome.info.get("sigma"),
+                                                                 self.state.settings.get("automatic_sigma"))
             self._apply_fit(outcome)
 
         return self._start("fit", self.tr("Fit camera") if known is None else self.tr("Fit camera (known fit)"),
@@ -343,6 +347,12 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         labels = [self.state.points[i].label for i in ids if i in self.state.points]
         return auto_step.cap_by_automatic(status, message, labels, n_pairs, n_check,
                                           str(self.state.settings.get("automatic_status") or ""))
+
+    def rests_on_automatic(self, ids, n_pairs: int, n_check: int) -> bool:
+        """True when the points ``ids`` are all the automatic registration's own matches, with no pair or check."""
+        labels = [self.state.points[i].label for i in ids if i in self.state.points]
+        return bool(self.state.settings.get("automatic_status")) and auto_step.rests_on_automatic(labels, n_pairs,
+                                                                                                  n_check)
 
     def remember_fit(self, key: tuple, done) -> None:
         """A background refit finished: the Fit button's fit of the same inputs (``refit.inputs_key``) renders its

@@ -21,7 +21,7 @@ from .progress import Canceled, IsCanceled, Progress, check_canceled
 from .warmup import import_torch
 
 __all__ = ["AutoDone", "register", "check_height", "DEFAULT_POSITION_SIGMA_M", "DEFAULT_ANGLE_SIGMA_DEG",
-           "AUTOMATIC_LABEL", "cap_by_automatic"]
+           "AUTOMATIC_LABEL", "cap_by_automatic", "rests_on_automatic", "sigma_at_least"]
 
 #: the prior's uncertainty when nothing else says it (a position read off a map or EXIF GPS, a heading guessed)
 DEFAULT_POSITION_SIGMA_M = 200.0
@@ -110,11 +110,34 @@ def cap_by_automatic(status: str, message: str, labels, n_pairs: int, n_check: i
     >>> cap_by_automatic("ok", "RMSE 1.5 px.", ["automatic"] * 4, 3, 0, "uncertain")[0]
     'ok'
     """
-    labels = list(labels)
-    if (_RANK.get(automatic_status, 0) <= _RANK.get(status, 0) or n_pairs or n_check or not labels
-            or any(label != AUTOMATIC_LABEL for label in labels)):
+    if _RANK.get(automatic_status, 0) <= _RANK.get(status, 0) or not rests_on_automatic(labels, n_pairs, n_check):
         return status, message
     return automatic_status, (f"{message} {automatic_status.capitalize()}, as the automatic registration was: every "
                               "point fitted is one it matched near its own camera, so they agree with that camera "
                               "whether it is right or not. Pair a few points you recognise, or mark check points, "
                               "to confirm it.")
+
+
+def rests_on_automatic(labels, n_pairs: int, n_check: int) -> bool:
+    """True when every point fitted (``labels``) is one the automatic registration matched and there is no pair or
+    check point: a fit that then has no evidence of its own beyond the registration's.
+
+    >>> rests_on_automatic(["automatic"] * 3, 0, 0), rests_on_automatic(["automatic", ""], 0, 0)
+    (True, False)
+    """
+    labels = list(labels)
+    return bool(labels) and not n_pairs and not n_check and all(label == AUTOMATIC_LABEL for label in labels)
+
+
+def sigma_at_least(sigma: Optional[dict], floor: Optional[dict]) -> dict:
+    """Each parameter's σ at least ``floor``'s: a fit on the registration's own points knows its camera no better
+    than the registration did (their agreement with it says nothing new), however small its own σ.
+
+    >>> sigma_at_least({"x": 0.5, "heading": 0.01}, {"x": 120.0, "heading": 0.3, "fov": 1.0})
+    {'x': 120.0, 'heading': 0.3, 'fov': 1.0}
+    """
+    out = {k: float(v) for k, v in (sigma or {}).items()}
+    for k, v in (floor or {}).items():
+        if v is not None and math.isfinite(float(v)):
+            out[k] = max(out.get(k, 0.0), float(v))
+    return out

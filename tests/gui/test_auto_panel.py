@@ -71,6 +71,8 @@ def test_find_camera_automatically_gives_a_camera_and_accepted_points(dock, vall
     # The person presses Fit on the matched points alone: they agree with the registration's camera whatever it
     # is, so the fit cannot be surer than the registration was (a doubtful one: "uncertain" recorded as such).
     assert all(p.label == "automatic" for p in photo + world)
+    registration_sigma = dict(c.state.settings["automatic_sigma"])
+    assert registration_sigma and registration_sigma == pytest.approx(info["sigma"])
     c.state.settings["automatic_status"] = "uncertain"
     assert c.fit()
     with qtbot.waitSignal(c.taskFinished, timeout=240000) as blocker:
@@ -80,6 +82,9 @@ def test_find_camera_automatically_gives_a_camera_and_accepted_points(dock, vall
     assert refit["mode"] != "automatic" and refit["status"] in ("uncertain", "poor"), refit
     if refit["status"] == "uncertain":
         assert "as the automatic registration was" in refit["message"]
+    # nor can its σ be smaller than the registration's (its own σ from those points alone would be)
+    for name, value in registration_sigma.items():
+        assert refit["sigma"][name] >= value - 1e-9, (name, refit["sigma"], registration_sigma)
 
 
 def test_a_doubtful_automatic_camera_never_replaces_the_persons_fit(dock, valley, qtbot, tmp_path):
