@@ -329,30 +329,22 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             outcome.info["matched"] = [[photo_ids[i], world_ids[j]] for i, j in outcome.info.pop("matched_idx", [])]
             outcome.info["check_error_px"] = dict(zip(check_ids, outcome.info.pop("check_errors", [])))
             outcome.info["outliers"] = [photo_ids[i] for i in outcome.info.pop("outlier_idx", [])]
-            outcome.info["status"], outcome.info["message"] = self.capped_by_automatic(
-                outcome.info.get("status", "ok"), outcome.info.get("message", ""), photo_ids + world_ids,
-                len(pairs), len(check_ids))
-            if self.rests_on_automatic(photo_ids + world_ids, len(pairs), len(check_ids)):
-                # its σ no smaller than the registration's (the greyed ± showed 0.5 m after a 200 m registration)
-                outcome.info["sigma"] = auto_step.sigma_at_least(outcome.info.get("sigma"),
-                                                                 self.state.settings.get("automatic_sigma"))
+            self.cap_by_automatic(outcome.info, photo_ids + world_ids, len(pairs), len(check_ids))
             self._apply_fit(outcome)
 
         return self._start("fit", self.tr("Fit camera") if known is None else self.tr("Fit camera (known fit)"),
                            work, apply)
 
-    def capped_by_automatic(self, status: str, message: str, ids, n_pairs: int, n_check: int):
-        """(status, message) of a fit on the points ``ids``, capped by the automatic registration's verdict while
-        they are all its own matches (:func:`~..workflow.auto.cap_by_automatic`)."""
+    def cap_by_automatic(self, info: dict, ids, n_pairs: int, n_check: int) -> None:
+        """A fit on the points ``ids`` while they are all the automatic registration's own matches: its status capped
+        by the registration's verdict (:func:`~..workflow.auto.cap_by_automatic`) and its σ no smaller than the
+        registration's (the greyed ± showed 0.5 m after a 200 m registration), in ``info``."""
         labels = [self.state.points[i].label for i in ids if i in self.state.points]
-        return auto_step.cap_by_automatic(status, message, labels, n_pairs, n_check,
-                                          str(self.state.settings.get("automatic_status") or ""))
-
-    def rests_on_automatic(self, ids, n_pairs: int, n_check: int) -> bool:
-        """True when the points ``ids`` are all the automatic registration's own matches, with no pair or check."""
-        labels = [self.state.points[i].label for i in ids if i in self.state.points]
-        return bool(self.state.settings.get("automatic_status")) and auto_step.rests_on_automatic(labels, n_pairs,
-                                                                                                  n_check)
+        automatic = str(self.state.settings.get("automatic_status") or "")
+        info["status"], info["message"] = auto_step.cap_by_automatic(
+            info.get("status", "ok"), info.get("message", ""), labels, n_pairs, n_check, automatic)
+        if automatic and auto_step.rests_on_automatic(labels, n_pairs, n_check):
+            info["sigma"] = auto_step.sigma_at_least(info.get("sigma"), self.state.settings.get("automatic_sigma"))
 
     def remember_fit(self, key: tuple, done) -> None:
         """A background refit finished: the Fit button's fit of the same inputs (``refit.inputs_key``) renders its
