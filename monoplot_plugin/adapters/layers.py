@@ -11,6 +11,7 @@ from typing import Optional
 from qgis.core import (QgsCoordinateReferenceSystem, QgsFeature, QgsField, QgsFillSymbol, QgsGeometry,
                        QgsMarkerSymbol, QgsPointXY, QgsProject, QgsSingleSymbolRenderer, QgsVectorLayer)
 from qgis.PyQt.QtCore import QVariant
+from qgis.PyQt.QtGui import QColor
 
 from ..core.camera import Camera
 
@@ -75,18 +76,30 @@ def footprint_layer(wkt: str, crs: QgsCoordinateReferenceSystem, name: str = "Mo
     return layer
 
 
-def remove_camera_layers(project: QgsProject) -> None:
-    ids = [lid for lid, lyr in project.mapLayers().items() if lyr.customProperty(_ROLE) in ("camera", "footprint")]
+def remove_camera_layers(project: QgsProject, other: bool = False) -> None:
+    """Remove the fitted camera's layers (``other``: those of a camera shown beside it)."""
+    roles = ("other camera", "other footprint") if other else ("camera", "footprint")
+    ids = [lid for lid, lyr in project.mapLayers().items() if lyr.customProperty(_ROLE) in roles]
     if ids:
         project.removeMapLayers(ids)
 
 
 def show_camera_layers(project: QgsProject, camera: Camera, footprint_wkt: str,
-                       crs: Optional[QgsCoordinateReferenceSystem] = None):
-    """Replace the camera and footprint layers of ``project`` (top of a "Monoplot" group); returns both."""
-    remove_camera_layers(project)
-    cam = camera_layer(camera, crs)
-    foot = footprint_layer(footprint_wkt, cam.crs())
+                       crs: Optional[QgsCoordinateReferenceSystem] = None, other: str = ""):
+    """Replace the camera and footprint layers of ``project`` (top of a "Monoplot" group); returns both.
+
+    ``other``: a camera shown beside the fitted one, not instead of it (e.g. ``"automatic, uncertain"``: a doubtful
+    automatic registration the person's own fit was kept over), in its own pair of layers named after it; grey.
+    """
+    remove_camera_layers(project, other=bool(other))
+    suffix = f" ({other})" if other else ""
+    cam = camera_layer(camera, crs, name="Monoplot camera" + suffix)
+    foot = footprint_layer(footprint_wkt, cam.crs(), name="Monoplot view footprint" + suffix)
+    if other:
+        cam.renderer().symbol().setColor(QColor(120, 120, 120))
+        foot.renderer().symbol().setColor(QColor(120, 120, 120, 40))
+        cam.setCustomProperty(_ROLE, "other camera")
+        foot.setCustomProperty(_ROLE, "other footprint")
     root = project.layerTreeRoot()
     group = root.findGroup(GROUP_NAME) or root.insertGroup(0, GROUP_NAME)
     for layer in (foot, cam):

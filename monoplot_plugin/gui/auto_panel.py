@@ -18,6 +18,7 @@ from qgis.core import Qgis
 from qgis.PyQt.QtCore import QObject
 from qgis.PyQt.QtWidgets import QAction
 
+from ..adapters import layers as camera_layers
 from ..adapters.photo import qimage_to_array
 from ..core.auto.overlay import draw_alignment
 from ..state import ACCEPTED, MAP, PHOTO, SUGGESTED, Point, replace_suggestions
@@ -77,9 +78,14 @@ class AutoPanel(QObject):
         kept = (c.state.fit_info or {}).get("status")
         if c.fitted is not None and kept in ("ok", "uncertain") and r.status != "ok":
             # Nothing lost: a doubtful automatic camera never replaces the person's own fit and points.
+            # ... but the person can look at it: its position and footprint on the map, beside their own
+            camera_layers.show_camera_layers(self.dock.project, done.camera, footprint, c.dem_crs,
+                                             other=self.tr("automatic, {0}").format(r.status))
             c.message.emit(self.tr("Automatic registration ended {0}; your fitted camera ({1}) and your points are "
-                                   "kept. {2}").format(r.status, kept, r.message), Qgis.MessageLevel.Warning)
+                                   "kept. The automatic camera is on the map, in grey, beside yours. {2}").format(
+                                       r.status, kept, r.message), Qgis.MessageLevel.Warning)
             return
+        camera_layers.remove_camera_layers(self.dock.project, other=True)  # an earlier one set aside is stale now
         uv, world = done.matched_points()
         label = auto_step.AUTOMATIC_LABEL  # a later fit on these points alone is capped by this verdict
         photo_pts = [Point.new(PHOTO, float(u), float(v), status=ACCEPTED, label=label) for u, v in uv]
