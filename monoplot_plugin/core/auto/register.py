@@ -13,7 +13,9 @@
    camera. The result is that fit's :class:`~monoplot_plugin.core.fit.FitResult`, with its status, message and σ.
 5. The alignment's own evidence can only lower the status: without a clear skyline, or when the skyline does not
    agree with the DEM's, or when a clearly different camera aligns nearly as well, an "ok" becomes "uncertain"
-   with the reason in the message (never a confident camera from a photo that says little).
+   with the reason in the message (never a confident camera from a photo that says little). Position probes
+   (:func:`.fine.position_probes`): the camera moved by the position σ four ways, aimed at the same terrain and
+   refined again; one ending elsewhere with nearly the same edge score is such a camera, and the σ covers it.
 6. Never worse than the prior: when the camera returned does not fit the photo's edges clearly better than the prior
    did (the same score, each rendered from where it stands, no pull to the prior), the prior is returned,
    "uncertain" (or the fit's "poor"), with what the fit found in the message.
@@ -33,6 +35,7 @@ from ..fit import FitCanceled, FitResult, fit_camera
 from ..fit.result import rms
 from .align import Aligner, camera_from_offset, offsets_grid
 from .dem_edges import coarse_dem, dem_edges
+from .fine import edge_score, fine_steps, offset_between, position_probes, refine_fine
 from .photo_edges import PhotoEdges, detect_photo_edges
 from .sigma import RIVAL_RATIO, camera_values, edge_std, widen_std
 
@@ -46,7 +49,7 @@ WIDTHS = (256, 512, 1024)
 #: the synthetic scenes: right cameras 0.95-0.99, a camera 4 deg off in field of view whose suggestions still
 #: paired (the pairs are drawn near the aligned camera, so they agree with it) 0.65.
 SKY_AGREEMENT_OK = 0.8
-#: Largest edge score (:func:`_edge_score`, lower is better) of the camera returned for an "ok". Calibrated on 20
+#: Largest edge score (:func:`.fine.edge_score`, lower is better) of the camera returned for an "ok". Calibrated on 20
 #: synthetic scenes: right cameras 0.12-0.21; a camera 21 % of the range off whose skyline still agreed 0.26.
 EDGE_SCORE_OK = 0.23
 #: Largest ratio of the prior's position σ to the median distance of the terrain seen for an "ok". Calibrated on
@@ -64,11 +67,8 @@ N_STARTS = 8
 N_FINALS = 3
 #: Distance (prior position σ) of the coarse search's positions around the prior's (:func:`_positions`).
 POSITION_SIGMAS = 1.0
-#: (distance scale in working px, step factor) of the fine rounds.
-FINE_ROUNDS = ((8.0, 0.5), (4.0, 0.25), (2.5, 0.1))
-#: Distance scale (px per 1024 working px) of the final comparison with the prior, and the least improvement
-#: of that score for the automatic camera to be returned instead of the prior.
-CHECK_TAU = 4.0
+#: Least improvement of the edge score (:func:`.fine.edge_score`) for the automatic camera to be returned instead
+#: of the prior.
 PRIOR_MARGIN = 0.01
 
 
@@ -202,7 +202,7 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
         grid = grid if k == 0 else around
         ref = camera_from_offset(prior, pos)
         coarse = Aligner(ref, p0, dem_edges(ref, align_dem, margin, ref.focal_px * p0.scale), sig, tau=6.0,
-                         prior_offset=_offset_between(ref, prior), is_canceled=is_canceled, max_points=700)
+                         prior_offset=offset_between(ref, prior), is_canceled=is_canceled, max_points=700)
         scores.append(coarse.score(grid))
         offsets.append(grid + pos[None, :])
     offsets, scores = np.vstack(offsets), np.concatenate(scores)
@@ -212,15 +212,14 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     # position.
     report(0.3, "automatic registration: refining the best hypotheses")
     p1 = photos[WIDTHS[1]]
-    steps = np.array([1.0, 1.0, 1.0, 1.0] + [0.5 * sig["position_m"]] * 3)
-    mins = np.array([0.1, 0.1, 0.1, 0.1] + [0.05 * sig["position_m"]] * 3)
+    steps, mins = fine_steps(sig)
     refined, mediums = [], {}
     for i, s in enumerate(starts):
         key = tuple(np.round(s[4:7], 3))
         if key not in mediums:
             ref = camera_from_offset(prior, np.r_[np.zeros(4), s[4:7]])
             mediums[key] = (Aligner(ref, p1, dem_edges(ref, align_dem, margin, ref.focal_px * p1.scale), sig,
-                                    tau=5.0, prior_offset=_offset_between(ref, prior), is_canceled=is_canceled,
+                                    tau=5.0, prior_offset=offset_between(ref, prior), is_canceled=is_canceled,
                                     max_points=800), s[4:7])
         medium, pos = mediums[key]
         start = np.r_[s[:4], np.zeros(3)]
@@ -235,19 +234,10 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     # (a wide scale first smooths the score's many shallow minima), rendering again from where each round ends.
     finals = []
     for _, off in refined[:N_FINALS]:
-        cam = camera_from_offset(prior, off)
-        for tau, scale in FINE_ROUNDS:
-            _poll(is_canceled)
-            edges = dem_edges(cam, align_dem, 2.0, cam.focal_px * fine.scale)
-            prior_off = _offset_between(cam, prior)
-            al = Aligner(cam, fine, edges, sig, tau=tau, prior_offset=prior_off, is_canceled=is_canceled,
-                         max_points=1200)
-            o2, s2 = al.pattern_search(np.zeros(7), steps * scale, mins * scale, max_iter=30)
-            o2, s2 = al.least_squares(o2)
-            cam = camera_from_offset(cam, o2)
+        cam, al, o2 = refine_fine(camera_from_offset(prior, off), prior, fine, align_dem, sig, is_canceled, _poll)
         # Judged by the edges alone, each rendered from where it stands (no pull to the prior, one distance
         # scale). ``al`` is the last round's, ``o2`` the offset from its reference to ``cam``.
-        finals.append((_edge_score(cam, fine, align_dem, sig, is_canceled), cam, al, o2,
+        finals.append((edge_score(cam, fine, align_dem, sig, is_canceled), cam, al, o2,
                        float(al.score(o2[None])[0])))
     finals.sort(key=lambda t: t[0])
     aligned_edge, aligned, al, off, best_score = finals[0]
@@ -265,7 +255,7 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     fit_sig = {"position_sigma_m": sig["position_m"], "angle_sigma_deg": 1.0,
                "fov_sigma_deg": max(0.5, 0.25 * sig["fov_deg"])}
     fit = fit_camera(image_points, world_points, aligned, is_canceled=is_canceled,
-                     progress=lambda f, m="": report(0.8 + 0.2 * f, m), time_budget_s=2.0,
+                     progress=lambda f, m="": report(0.8 + 0.1 * f, m), time_budget_s=2.0,
                      # the aligned camera is already close: one start, a small consensus search
                      n_starts=1, n_escapes=0, consensus_hypotheses=800, consensus_starts=2, bootstrap=5,
                      **fit_sig)
@@ -275,7 +265,7 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     result.image_points, result.world_points, result.aligned = image_points, world_points, aligned
     # The fit on the suggestions refines the aligned camera only when its camera fits the photo's edges at least as
     # well: pairs drawn near the aligned camera can also pull it off (each camera rendered from where it stands).
-    evidence["auto_edge_score"] = _edge_score(result.camera, fine, align_dem, sig, is_canceled)
+    evidence["auto_edge_score"] = edge_score(result.camera, fine, align_dem, sig, is_canceled)
     evidence["auto_aligned_returned"] = bool(aligned_edge < evidence["auto_edge_score"])
     if evidence["auto_aligned_returned"]:
         fit_edge = evidence["auto_edge_score"]
@@ -297,27 +287,41 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     rows = np.where(fine.sky_valid, fine.sky_row / fine.scale, np.nan)
     result.skyline = np.stack([cols, rows], axis=1)
     # The skyline judged again under the camera returned (the fit may have moved it).
-    evidence["auto_sky_agreement"] = al.skyline_agreement(_offset_between(al.ref, result.camera), 0.004 * fine.width
+    evidence["auto_sky_agreement"] = al.skyline_agreement(offset_between(al.ref, result.camera), 0.004 * fine.width
                                                           if fine.width >= 250 else 1.0)
     # Never a camera that fits the photo's edges worse than the prior did: judged by the same score, each camera
     # rendered from where it stands, without the pull to the prior.
-    evidence["auto_prior_edge_score"] = _edge_score(prior, fine, align_dem, sig, is_canceled)
+    evidence["auto_prior_edge_score"] = edge_score(prior, fine, align_dem, sig, is_canceled)
+    keep_prior = evidence["auto_edge_score"] > evidence["auto_prior_edge_score"] - PRIOR_MARGIN
+    if not keep_prior:
+        report(0.9, "automatic registration: probing the position")
+        _probe_position(result, prior, fine, align_dem, sig, evidence, is_canceled)
     _combine(result, evidence)
     if evidence["auto_edge_score"] > EDGE_SCORE_OK:
         # the photo's edges do not support the camera: it is known no better than the prior
         result.std = widen_std(result.std, {}, [], _prior_std(sig))
-    if evidence["auto_edge_score"] > evidence["auto_prior_edge_score"] - PRIOR_MARGIN:
+    if keep_prior:
         result = _prior_kept(result, prior, sig)
     return result
 
 
-def _edge_score(camera: Camera, photo: PhotoEdges, dem, sig: dict, is_canceled) -> float:
-    """How well the DEM's skyline and contours seen from ``camera`` fall on the photo's (lower is better)."""
-    edges = dem_edges(camera, dem, 1.0, camera.focal_px * photo.scale)
-    al = Aligner(camera, photo, edges, sig, tau=CHECK_TAU * photo.width / 1024.0, is_canceled=is_canceled,
-                 max_points=2000)
-    al.with_prior = False
-    return float(al.score(np.zeros((1, 7)))[0])
+def _probe_position(result: AutoFitResult, prior: Camera, photo: PhotoEdges, dem, sig: dict, evidence: dict,
+                    is_canceled) -> None:
+    """Cameras moved by the position σ and refined again (:func:`.fine.position_probes`): those that fit the edges
+    nearly as well elsewhere are recorded as evidence, and the σ widened to cover them."""
+    probes = position_probes(result.camera, prior, photo, dem, sig, is_canceled, _poll,
+                             base=evidence["auto_edge_score"])
+    rivals = [p for p in probes if p.rival]
+    evidence["auto_probe_rivals"] = len(rivals)
+    evidence["auto_probe_best_ratio"] = float(min(p.score_ratio for p in probes))
+    if rivals:
+        worst = max(rivals, key=lambda p: p.shift_px)
+        evidence["auto_probe_shift_px"] = float(worst.shift_px)
+        evidence["auto_probe_ratio"] = float(worst.score_ratio)
+        evidence["auto_probe_distance_m"] = float(np.linalg.norm(np.subtract(worst.camera.position,
+                                                                             result.camera.position)))
+        result.std = widen_std(result.std, camera_values(result.camera), [camera_values(p.camera) for p in rivals],
+                               {})
 
 
 def _prior_std(sig: dict) -> dict:
@@ -340,13 +344,6 @@ def _prior_kept(result: AutoFitResult, prior: Camera, sig: dict) -> AutoFitResul
                                                                         result.aligned, result.skyline)
     kept.elapsed_s = result.elapsed_s
     return kept
-
-
-def _offset_between(cam: Camera, ref: Camera) -> np.ndarray:
-    """The offsets vector (see :mod:`.align`) that takes ``cam`` to ``ref``."""
-    d = np.subtract(ref.position, cam.position)
-    return np.array([(ref.heading - cam.heading + 180.0) % 360.0 - 180.0, ref.pitch - cam.pitch,
-                     ref.roll - cam.roll, ref.fov - cam.fov, d[0], d[1], d[2]])
 
 
 def _typical_range(camera: Camera, dem) -> float:
@@ -459,6 +456,11 @@ def _combine(result: AutoFitResult, ev: dict) -> None:
                     "deg (σ)")
     if ev["auto_rival_ratio"] > 0.9:
         weak.append("a clearly different view direction aligns the edges almost as well")
+    if ev.get("auto_probe_rivals", 0):
+        weak.append(f"a camera {ev['auto_probe_distance_m']:.0f} m away, turned to the same terrain, fits the "
+                    f"photo's edges about as well (edge score {ev['auto_probe_ratio']:.2f} times this one's) and "
+                    f"puts the terrain {ev['auto_probe_shift_px']:.0f} px elsewhere: the edges cannot place the "
+                    "camera that closely")
     text = (f" Automatic: skyline on {100 * ev['auto_sky_fraction']:.0f} % of the columns, "
             f"{100 * ev['auto_sky_agreement']:.0f} % of it on the DEM's; {len(result.image_points)} photo and "
             f"{len(result.world_points)} DEM suggestions kept as consistent with the aligned camera.")

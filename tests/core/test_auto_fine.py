@@ -1,0 +1,74 @@
+"""The registration's fine stage helpers (:mod:`monoplot_plugin.core.auto.fine`): terrain shift between cameras,
+re-aiming a moved camera, and position probes on a generated scene."""
+
+import math
+
+import numpy as np
+import pytest
+
+from monoplot_plugin.core.auto.fine import (PROBE_RATIO, PROBE_SHIFT, Probe, aimed_from, edge_score,
+                                             position_probes, terrain_shift_px)
+from monoplot_plugin.core.auto.photo_edges import detect_photo_edges
+from monoplot_plugin.core.camera import Camera
+from monoplot_plugin.core.synthetic import render_photo, synthetic_terrain
+
+SIGMAS = {"angle_deg": 3.0, "fov_deg": 2.5, "position_m": 100.0}
+
+
+@pytest.fixture(scope="module")
+def scene():
+    dem = synthetic_terrain((160, 160), cell=60.0, seed=1)
+    x0, y0, x1, y1 = dem.bounds()
+    x, y = (x0 + x1) / 2, y0 + 0.03 * (y1 - y0)
+    truth = Camera((x, y, float(dem.sample(x, y)) + 400.0), -5.0, -3.0, 0.5, 55.0, (480, 320), crs_wkt=dem.crs_wkt)
+    photo = render_photo(truth, dem, seed=1)
+    edges = detect_photo_edges(photo, width=480)
+    edges.scale = 1.0
+    return dem, truth, edges
+
+
+def test_terrain_shift_is_zero_for_the_same_camera_and_follows_a_turn(scene):
+    dem, truth, _ = scene
+    assert terrain_shift_px(truth, truth, dem) == pytest.approx(0.0, abs=1e-6)
+    turned = truth.with_parameters(heading=truth.heading + 1.0)
+    # a turn of 1 degree moves every point by about focal * tan(1 deg) pixels
+    assert terrain_shift_px(turned, truth, dem) == pytest.approx(truth.focal_px * math.tan(math.radians(1.0)),
+                                                                 rel=0.15)
+
+
+def test_a_moved_camera_is_aimed_at_the_same_terrain(scene):
+    dem, truth, _ = scene
+    moved = aimed_from(truth, np.add(truth.position, (150.0, -80.0, 20.0)), dem)
+    assert np.allclose(moved.position, np.add(truth.position, (150.0, -80.0, 20.0)))
+    # turned towards the terrain: it moves (parallax), but less than the same move without the turn
+    unturned = truth.with_parameters(x=moved.position[0], y=moved.position[1], z=moved.position[2])
+    assert abs(moved.heading - truth.heading) > 0.1
+    assert 0.0 < terrain_shift_px(moved, truth, dem) < 0.8 * terrain_shift_px(unturned, truth, dem)
+
+
+def test_a_rival_fits_nearly_as_well_and_moves_the_terrain(scene):
+    _, truth, _ = scene
+    far = PROBE_SHIFT * math.hypot(*truth.image_size) + 1.0
+    assert Probe(truth, PROBE_RATIO - 0.01, far).rival
+    assert not Probe(truth, PROBE_RATIO + 0.01, far).rival  # clearly worse on the edges
+    assert not Probe(truth, 1.0, far - 2.0).rival  # the same camera, for the picture
+
+
+def test_probes_from_the_true_camera_find_their_way_back(scene):
+    dem, truth, edges = scene
+    base = edge_score(truth, edges, dem, SIGMAS)
+    probes = position_probes(truth, truth, edges, dem, SIGMAS)
+    assert len(probes) == 4
+    # moved by 100 m and re-aimed, each ends within a few pixels of the truth on the terrain: no rival
+    assert all(p.shift_px < 5.0 for p in probes), [(p.score_ratio, p.shift_px) for p in probes]
+    assert not any(p.rival for p in probes)
+    assert base < 0.3
+
+
+def test_a_probe_far_off_counts_as_a_rival_only_when_it_scores_as_well(scene):
+    dem, truth, edges = scene
+    wrong = aimed_from(truth, np.add(truth.position, (0.0, 300.0, 0.0)), dem)
+    shift = terrain_shift_px(wrong, truth, dem)
+    ratio = edge_score(wrong, edges, dem, SIGMAS) / edge_score(truth, edges, dem, SIGMAS)
+    assert shift > PROBE_SHIFT * math.hypot(*truth.image_size)
+    assert Probe(wrong, ratio, shift).rival == (ratio <= PROBE_RATIO)
