@@ -89,15 +89,17 @@ def show_camera_layers(project: QgsProject, camera: Camera, footprint_wkt: str,
     """Replace the camera and footprint layers of ``project`` (top of a "Monoplot" group); returns both.
 
     ``other``: a camera shown beside the fitted one, not instead of it (e.g. ``"automatic, uncertain"``: a doubtful
-    automatic registration the person's own fit was kept over), in its own pair of layers named after it; grey.
+    automatic registration the person's own fit was kept over), in its own pair of layers named after it; purple.
     """
     remove_camera_layers(project, other=bool(other))
     suffix = f" ({other})" if other else ""
     cam = camera_layer(camera, crs, name="Monoplot camera" + suffix)
     foot = footprint_layer(footprint_wkt, cam.crs(), name="Monoplot view footprint" + suffix)
-    if other:
-        cam.renderer().symbol().setColor(QColor(120, 120, 120))
-        foot.renderer().symbol().setColor(QColor(120, 120, 120, 40))
+    if other:  # purple: it stands out on a grey hillshade and from the fitted camera's red and blue
+        cam.renderer().symbol().setColor(QColor(150, 50, 210))
+        foot.setRenderer(QgsSingleSymbolRenderer(QgsFillSymbol.createSimple(
+            {"color": "150,50,210,35", "outline_color": "150,50,210", "outline_width": "0.7",
+             "outline_style": "dash"})))
         cam.setCustomProperty(_ROLE, "other camera")
         foot.setCustomProperty(_ROLE, "other footprint")
     root = project.layerTreeRoot()

@@ -82,7 +82,7 @@ class AutoPanel(QObject):
             camera_layers.show_camera_layers(self.dock.project, done.camera, footprint, c.dem_crs,
                                              other=self.tr("automatic, {0}").format(r.status))
             c.message.emit(self.tr("Automatic registration ended {0}; your fitted camera ({1}) and your points are "
-                                   "kept. The automatic camera is on the map, in grey, beside yours. {2}").format(
+                                   "kept. The automatic camera is on the map, in purple, beside yours. {2}").format(
                                        r.status, kept, r.message), Qgis.MessageLevel.Warning)
             return
         camera_layers.remove_camera_layers(self.dock.project, other=True)  # an earlier one set aside is stale now

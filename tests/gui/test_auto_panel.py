@@ -118,7 +118,7 @@ def test_a_doubtful_automatic_camera_never_replaces_the_persons_fit(dock, valley
     names = {layer.name(): layer for layer in QgsProject.instance().mapLayers().values()}
     auto_cam = [n for n in names if n.startswith("Monoplot camera (automatic")]
     assert len(auto_cam) == 1 and ("uncertain" in auto_cam[0] or "poor" in auto_cam[0]), list(names)
-    # a blank print: the registration kept the prior, and that is what the grey camera shows
+    # a blank print: the registration kept the prior, and that is what the purple camera shows
     point = next(names[auto_cam[0]].getFeatures())
     assert (point["x"], point["y"]) == pytest.approx(tuple(valley["prior"].position[:2]), abs=0.01)
     assert "Monoplot camera" in names  # the person's own, still there
