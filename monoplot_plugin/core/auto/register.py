@@ -23,7 +23,6 @@
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 from typing import Callable, Optional
@@ -37,13 +36,13 @@ from .align import Aligner, camera_from_offset, offsets_grid
 from .dem_edges import coarse_dem, dem_edges
 from .fine import edge_score, fine_steps, offset_between, position_probes, refine_fine
 from .photo_edges import PhotoEdges, detect_photo_edges
+from .points import FIT_DEM_CELLS, consistent_points, skyline_points
 from .sigma import RIVAL_RATIO, camera_values, edge_std, widen_std
 
 __all__ = ["register_automatic", "AutoFitResult", "ALIGN_DEM_CELLS", "FIT_DEM_CELLS"]
 
-#: Most DEM cells used by the alignment and by the final DEM suggestions (finer DEMs are averaged by blocks).
+#: Most DEM cells used by the alignment (finer DEMs are averaged by blocks).
 ALIGN_DEM_CELLS = 2_000_000
-FIT_DEM_CELLS = 6_000_000
 WIDTHS = (256, 512, 1024)
 #: Least share of the photo's clear skyline on the DEM's (within 0.4 % of the width) for an "ok". Calibrated on
 #: the synthetic scenes: right cameras 0.95-0.99, a camera 4 deg off in field of view whose suggestions still
@@ -247,8 +246,8 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     evidence["auto_range_m"] = _typical_range(aligned, align_dem)
     evidence["auto_position_sigma_m"] = float(sig["position_m"])
     _poll(is_canceled)
-    image_points, world_points = _consistent_points(image, dem, aligned, is_canceled)
-    sky_uv, sky_xyz = _skyline_points(aligned, fine, align_dem)
+    image_points, world_points = consistent_points(image, dem, aligned, is_canceled, _poll)
+    sky_uv, sky_xyz = skyline_points(aligned, fine, align_dem)
     image_points, world_points = np.vstack([image_points, sky_uv]), np.vstack([world_points, sky_xyz])
     evidence["auto_skyline_points"] = int(len(sky_uv))
     report(0.8, "automatic registration: consensus fit")
@@ -365,72 +364,6 @@ def _alignment_evidence(al: Aligner, off, score: float, refined, photo: PhotoEdg
             "auto_sky_agreement": al.skyline_agreement(off, within),
             "auto_rival_ratio": float(refined[0][0] / rival[0]) if rival and rival[0] > 0 else 0.0,
             "auto_evaluations": int(al.evaluations)}
-
-
-def _consistent_points(image, dem, camera: Camera, is_canceled):
-    """Photo and DEM suggestions, kept when the camera brings a DEM suggestion within a few pixels of a photo
-    suggestion (each photo point's nearest, mutual)."""
-    import cv2
-    from scipy.spatial import cKDTree
-
-    from ..suggest import suggest_dem_points, suggest_photo_points
-
-    h, w = image.shape[:2]
-    scale = min(1.0, 2048.0 / max(h, w))
-    small = cv2.resize(image, (round(w * scale), round(h * scale)), interpolation=cv2.INTER_AREA) \
-        if scale < 1.0 else image
-    photo = suggest_photo_points(small, max_points=1500)
-    _poll(is_canceled)
-    fit_dem = coarse_dem(dem, FIT_DEM_CELLS, is_canceled)
-    _poll(is_canceled)
-    demsug = suggest_dem_points(fit_dem, camera, max_points=1500)
-    _poll(is_canceled)
-    q = photo.uv / scale
-    uv = camera.project(demsug.xyz)
-    ok = np.isfinite(uv).all(axis=1) & camera.in_image(uv)
-    if len(q) == 0 or not ok.any():
-        return q[:0], demsug.xyz[:0]
-    gate = _gate(camera)
-    idx_dem = np.nonzero(ok)[0]
-    d_q, j = cKDTree(uv[idx_dem]).query(q, distance_upper_bound=gate)
-    d_p, i = cKDTree(q).query(uv[idx_dem], distance_upper_bound=gate)
-    keep_q = np.isfinite(d_q)
-    keep_q[keep_q] &= i[j[keep_q]] == np.nonzero(keep_q)[0]
-    jj = np.unique(j[keep_q])
-    return q[keep_q], demsug.xyz[idx_dem[jj]]
-
-
-def _gate(camera: Camera) -> float:
-    """Pixels within which the aligned camera brings a DEM point to a photo point for the two to be kept."""
-    return max(3.0, 0.012 * math.hypot(camera.width, camera.height))
-
-
-def _skyline_points(camera: Camera, photo: PhotoEdges, dem, most: int = 120):
-    """((K, 2) photo pixels, (K, 3) map points) along the skyline: photo skyline points at evenly spaced clear
-    columns, each with the DEM silhouette point the aligned ``camera`` projects nearest to it (within
-    :func:`_gate`, one photo point per DEM point).
-
-    The suggestions are corners and peaks; these tie the final fit to the skyline the alignment matched, the
-    photo's most precise edge (sub-pixel, :mod:`.photo_edges`), so that the fit refines the aligned camera instead
-    of trading the skyline's agreement for the suggestions' pairing noise. The fit pairs them again by itself
-    (unpaired), so a point the camera moves off the skyline is not forced."""
-    from scipy.spatial import cKDTree
-
-    cols = np.nonzero(photo.sky_valid)[0]
-    empty = (np.zeros((0, 2)), np.zeros((0, 3)))
-    if not photo.usable or not len(cols):
-        return empty
-    cols = cols[np.unique(np.linspace(0, len(cols) - 1, min(most, len(cols))).astype(np.int64))]
-    uv = np.stack([(cols + 0.5) / photo.scale, photo.sky_row[cols] / photo.scale], axis=1)
-    sky = dem_edges(camera, dem, 0.5, camera.focal_px * photo.scale).sky
-    proj = camera.project(sky) if len(sky) else np.zeros((0, 2))
-    ok = np.isfinite(proj).all(axis=1) & camera.in_image(proj) if len(sky) else np.zeros(0, bool)
-    if not ok.any():
-        return empty
-    d, j = cKDTree(proj[ok]).query(uv, distance_upper_bound=_gate(camera))
-    keep = np.isfinite(d)
-    j, first = np.unique(j[keep], return_index=True)
-    return uv[np.nonzero(keep)[0][first]], sky[ok][j]
 
 
 def _combine(result: AutoFitResult, ev: dict) -> None:
