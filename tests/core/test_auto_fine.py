@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from monoplot_plugin.core.auto.fine import (PROBE_RATIO, PROBE_SHIFT, Probe, aimed_from, edge_score,
-                                             position_probes, terrain_shift_px)
+                                             position_probes, refine_fine, terrain_shift_px)
 from monoplot_plugin.core.auto.photo_edges import detect_photo_edges
 from monoplot_plugin.core.camera import Camera
 from monoplot_plugin.core.synthetic import render_photo, synthetic_terrain
@@ -24,11 +24,11 @@ def scene():
     photo = render_photo(truth, dem, seed=1)
     edges = detect_photo_edges(photo, width=480)
     edges.scale = 1.0
-    return dem, truth, edges
+    return dem, truth, edges, photo
 
 
 def test_terrain_shift_is_zero_for_the_same_camera_and_follows_a_turn(scene):
-    dem, truth, _ = scene
+    dem, truth, *_ = scene
     assert terrain_shift_px(truth, truth, dem) == pytest.approx(0.0, abs=1e-6)
     turned = truth.with_parameters(heading=truth.heading + 1.0)
     # a turn of 1 degree moves every point by about focal * tan(1 deg) pixels
@@ -37,7 +37,7 @@ def test_terrain_shift_is_zero_for_the_same_camera_and_follows_a_turn(scene):
 
 
 def test_a_moved_camera_is_aimed_at_the_same_terrain(scene):
-    dem, truth, _ = scene
+    dem, truth, *_ = scene
     moved = aimed_from(truth, np.add(truth.position, (150.0, -80.0, 20.0)), dem)
     assert np.allclose(moved.position, np.add(truth.position, (150.0, -80.0, 20.0)))
     # turned towards the terrain: it moves (parallax), but less than the same move without the turn
@@ -47,7 +47,7 @@ def test_a_moved_camera_is_aimed_at_the_same_terrain(scene):
 
 
 def test_a_rival_fits_nearly_as_well_and_moves_the_terrain(scene):
-    _, truth, _ = scene
+    _, truth, *_ = scene
     far = PROBE_SHIFT * math.hypot(*truth.image_size) + 1.0
     assert Probe(truth, PROBE_RATIO - 0.01, far).rival
     assert not Probe(truth, PROBE_RATIO + 0.01, far).rival  # clearly worse on the edges
@@ -55,7 +55,7 @@ def test_a_rival_fits_nearly_as_well_and_moves_the_terrain(scene):
 
 
 def test_probes_from_the_true_camera_find_their_way_back(scene):
-    dem, truth, edges = scene
+    dem, truth, edges, photo = scene
     base = edge_score(truth, edges, dem, SIGMAS)
     probes = position_probes(truth, truth, edges, dem, SIGMAS)
     assert len(probes) == 4
@@ -66,9 +66,30 @@ def test_probes_from_the_true_camera_find_their_way_back(scene):
 
 
 def test_a_probe_far_off_counts_as_a_rival_only_when_it_scores_as_well(scene):
-    dem, truth, edges = scene
+    dem, truth, edges, photo = scene
     wrong = aimed_from(truth, np.add(truth.position, (0.0, 300.0, 0.0)), dem)
     shift = terrain_shift_px(wrong, truth, dem)
     ratio = edge_score(wrong, edges, dem, SIGMAS) / edge_score(truth, edges, dem, SIGMAS)
     assert shift > PROBE_SHIFT * math.hypot(*truth.image_size)
     assert Probe(wrong, ratio, shift).rival == (ratio <= PROBE_RATIO)
+
+
+def test_a_basin_the_search_missed_is_taken_when_a_probe_finds_it(scene):
+    """The registration's last stages started from a camera 250 m east of the truth, aimed at the same terrain and
+    refined there (a local basin, about 70 px off): a probe finds a camera that fits the edges clearly better, the
+    registration goes on from it and ends near the truth."""
+    from monoplot_plugin.core.auto import register
+
+    dem, truth, edges, photo = scene
+    wrong = aimed_from(truth, np.add(truth.position, (250.0, 0.0, 0.0)), dem)
+    wrong, al, off = refine_fine(wrong, wrong, edges, dem, SIGMAS)
+    assert terrain_shift_px(wrong, truth, dem) > 30.0
+    finals = [(edge_score(wrong, edges, dem, SIGMAS), wrong, al, off, float(al.score(off[None])[0]))]
+    args = (photo, dem, wrong, SIGMAS, lambda *a: None, None, edges, dem, [(0.0, np.zeros(7))],
+            edge_score(wrong.with_parameters(heading=wrong.heading + 20.0), edges, dem, SIGMAS))
+    first, probes = register._finish(finals, 0.7, *args)
+    assert min(p.score_ratio for p in probes) < register.ESCAPE_RATIO
+    found = register._escape(first, probes, finals, args, {})
+    assert found.evidence.get("auto_escapes", 0) >= 1 and "a position probe found" in found.message
+    assert found.evidence["auto_edge_score"] < first.evidence["auto_edge_score"]
+    assert terrain_shift_px(found.camera, truth, dem) < 0.5 * terrain_shift_px(first.camera, truth, dem)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -46,6 +47,9 @@ class Probe:
     camera: Camera
     score_ratio: float
     shift_px: float
+    #: the last fine round's :class:`Aligner` and the offset from its reference to ``camera``
+    aligner: Optional[Aligner] = None
+    offset: Optional[np.ndarray] = None
 
     @property
     def rival(self) -> bool:
@@ -140,8 +144,8 @@ def position_probes(camera: Camera, prior: Camera, photo: PhotoEdges, dem, sig: 
     probes = []
     for direction in (ahead, -ahead, left, -left):
         start = aimed_from(camera, np.asarray(camera.position) + sig["position_m"] * direction, dem)
-        ended, _, _ = refine_fine(start, prior, photo, dem, sig, is_canceled, poll)
+        ended, al, off = refine_fine(start, prior, photo, dem, sig, is_canceled, poll)
         score = edge_score(ended, photo, dem, sig, is_canceled)
         probes.append(Probe(ended, score / base if base > 0 else float("inf"),
-                            terrain_shift_px(ended, camera, dem)))
+                            terrain_shift_px(ended, camera, dem), al, off))
     return probes
