@@ -300,3 +300,23 @@ def test_camera_a_few_metres_under_the_dem_sees_the_terrain_beyond(offset_m, cap
     # exact lines of sight agree: a point 1 m above the ridge's south face is in the open from the buried camera
     face = np.array([[1000.0, 1700.0, float(dem.sample(1000.0, 1700.0, method="mesh")) + 1.0]])
     assert np.isnan(segment_first_hit(dem, np.asarray(cam.position)[None], face)[0])
+
+
+def test_a_search_rendering_cameras_it_only_tries_does_not_warn_for_each(caplog):
+    """The automatic registration renders dozens of trial cameras; one under the DEM is a debug line, not a
+    warning (the dock's log filled with them), while a real render still warns."""
+    import logging
+
+    from monoplot_plugin.core.xyz.zbuffer import trial_cameras
+
+    dem = _hill_and_ridge()
+    ground = float(dem.sample(1000.0, 1000.0, method="mesh"))
+    cam = Camera((1000.0, 1000.0, ground - 3.0), heading=0.0, pitch=-2.0, roll=0.0, fov=60.0, image_size=(80, 50))
+    caplog.set_level(logging.DEBUG, logger="monoplot")
+    with trial_cameras():
+        compute_xyz_full(cam, dem)
+    tried = [r for r in caplog.records if "below the DEM surface" in r.getMessage()]
+    assert tried and all(r.levelno == logging.DEBUG for r in tried)
+    caplog.clear()
+    compute_xyz_full(cam, dem)
+    assert any(r.levelno == logging.WARNING and "below the DEM surface" in r.getMessage() for r in caplog.records)

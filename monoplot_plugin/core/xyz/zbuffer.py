@@ -3,8 +3,10 @@ method), and the :class:`XyzResult` they return."""
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
+import threading
 from dataclasses import dataclass
 from typing import Optional
 
@@ -18,9 +20,22 @@ from .exact import _exact_hits, _visibility
 from .mesh import _drop_void_hits, _filled_voids, _spans_have_nan
 from .raster import _clear_buffers, _merge, _rasterise
 
-__all__ = ["compute_xyz", "compute_xyz_full", "XyzResult", "NEAR_PLANE_M", "DONE_TILE"]
+__all__ = ["compute_xyz", "compute_xyz_full", "XyzResult", "NEAR_PLANE_M", "DONE_TILE", "trial_cameras"]
 
 logger = logging.getLogger("monoplot")
+_TRIALS = threading.local()
+
+
+@contextlib.contextmanager
+def trial_cameras():
+    """In this thread, renders are of cameras a search only tries: a camera below the DEM is not worth a warning
+    each (the automatic registration tried dozens, and the log filled with them), only a debug line."""
+    before = getattr(_TRIALS, "on", False)
+    _TRIALS.on = True
+    try:
+        yield
+    finally:
+        _TRIALS.on = before
 
 #: Terrain closer than this to the camera plane (metres) is clipped away.
 NEAR_PLANE_M = 0.01
@@ -78,8 +93,9 @@ def _cull_sign(cam: Camera, dem: Dem) -> float:
     x, y, z = cam.position
     ground = dem.sample(x, y, method="mesh")
     if not math.isnan(ground) and z <= ground:
-        logger.warning("camera %.1f m below the DEM surface at its position: the terrain is seen from above only",
-                       ground - z)
+        level = logging.DEBUG if getattr(_TRIALS, "on", False) else logging.WARNING
+        logger.log(level, "camera %.1f m below the DEM surface at its position: the terrain is seen from above "
+                   "only", ground - z)
     g = dem.geotransform
     # triangle (r, c), (r, c+1), (r+1, c+1) is counter-clockwise in (col, row); the map flips it when the affine's
     # determinant is negative (north-up), and the image's downward v axis flips it once more
