@@ -31,7 +31,7 @@ from typing import Tuple
 import numpy as np
 
 __all__ = ["degenerate_points", "weakest_parameter", "weak_direction_matters", "judge", "judge_by_checks",
-           "photo_spread"]
+           "outlier_note", "photo_spread"]
 
 #: check points more than this many times the fit's own RMSE off (and over 0.5 % of the picture) make it uncertain:
 #: a person's clicks on check points err by about as much as on the fitted points, not several times more
@@ -229,15 +229,25 @@ def judge(e: dict) -> Tuple[str, str]:
         text += " Verified by the check points despite: " + "; ".join(weak) + "."
         weak = []
     note = (" " + e["note"]) if e.get("note") else ""
-    if e.get("mode") == "unpaired" and int(e.get("photo_outliers", 0)):
-        note = (f" {int(e['photo_outliers'])} of {int(e.get('n_photo', 0))} accepted photo points fit no terrain "
-                f"point under this camera (flagged as outliers): reject them if they are not on the DEM's "
-                f"terrain.") + note
+    note = outlier_note(e) + note
     if poor:
         return "poor", text + " Probably wrong: " + "; ".join(poor) + "." + note
     if weak:
         return "uncertain", text + " Uncertain: " + "; ".join(weak) + "." + note
     return "ok", text + note
+
+
+def outlier_note(e: dict) -> str:
+    """The verdict's sentence on the accepted photo points an unpaired fit explains by no terrain point ("" when
+    none); evidence ``e`` as :func:`judge` reads it.
+
+    >>> outlier_note({"mode": "unpaired", "photo_outliers": 3, "n_photo": 40})[:40]
+    ' 3 of 40 accepted photo points fit no te'
+    """
+    if e.get("mode") != "unpaired" or not int(e.get("photo_outliers", 0)):
+        return ""
+    return (f" {int(e['photo_outliers'])} of {int(e.get('n_photo', 0))} accepted photo points fit no terrain "
+            f"point under this camera (flagged as outliers): reject them if they are not on the DEM's terrain.")
 
 
 def judge_by_checks(check_rmse_px: float, n_check: int, diag: float) -> Tuple[str, str]:
