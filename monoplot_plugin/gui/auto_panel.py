@@ -11,6 +11,7 @@ skyline (cyan): where they part, the camera or the skyline is wrong.
 
 from __future__ import annotations
 
+import logging
 import math
 from typing import Optional
 
@@ -81,9 +82,12 @@ class AutoPanel(QObject):
             # ... but the person can look at it: its position and footprint on the map, beside their own
             camera_layers.show_camera_layers(self.dock.project, done.camera, footprint, c.dem_crs,
                                              other=self.tr("automatic, {0}").format(r.status))
+            # the registration's own report goes to the log: in the dock it pushed the fit tab's buttons out of view
+            logging.getLogger(__name__).info("Automatic registration set aside (%s): %s", r.status, r.message)
             c.message.emit(self.tr("Automatic registration ended {0}; your fitted camera ({1}) and your points are "
-                                   "kept. The automatic camera is on the map, in purple, beside yours. {2}").format(
-                                       r.status, kept, r.message), Qgis.MessageLevel.Warning)
+                                   "kept. The automatic camera is on the map in purple, as \"Monoplot camera "
+                                   "(automatic, {0})\"; its report is in the Monoplot log.").format(r.status, kept),
+                           Qgis.MessageLevel.Warning)
             return
         camera_layers.remove_camera_layers(self.dock.project, other=True)  # an earlier one set aside is stale now
         uv, world = done.matched_points()
