@@ -97,6 +97,7 @@ def show_camera_layers(project: QgsProject, camera: Camera, footprint_wkt: str,
     foot = footprint_layer(footprint_wkt, cam.crs(), name="Monoplot view footprint" + suffix)
     if other:  # purple: it stands out on a grey hillshade and from the fitted camera's red and blue
         cam.renderer().symbol().setColor(QColor(150, 50, 210))
+        cam.renderer().symbol().setSize(9.0)  # larger: a rim around the fitted camera's star when they are close
         foot.setRenderer(QgsSingleSymbolRenderer(QgsFillSymbol.createSimple(
             {"color": "150,50,210,35", "outline_color": "150,50,210", "outline_width": "0.7",
              "outline_style": "dash"})))
