@@ -17,13 +17,10 @@ SIGMAS = {"angle_deg": 3.0, "fov_deg": 2.5, "position_m": 100.0}
 
 
 @pytest.fixture(scope="module")
-def scene():
-    """A ridge-lined valley seen from its south end: skyline across the picture, a prior 3 deg / 60 m off."""
-    dem = synthetic_terrain((160, 160), cell=60.0, seed=1)
-    x0, y0, x1, y1 = dem.bounds()
-    x, y = (x0 + x1) / 2, y0 + 0.03 * (y1 - y0)
-    truth = Camera((x, y, float(dem.sample(x, y)) + 400.0), -5.0, -3.0, 0.5, 55.0, (480, 320), crs_wkt=dem.crs_wkt)
-    photo = render_photo(truth, dem, seed=1)
+def scene(valley):
+    """The valley (``conftest.valley``) with a prior 3 deg / 60 m off."""
+    dem, truth, photo = valley
+    x, y, _ = truth.position
     prior = truth.with_parameters(heading=truth.heading + 3.0, pitch=truth.pitch - 1.5, fov=truth.fov * 1.04,
                                   x=x + 60.0, y=y - 40.0)
     return dem, truth, photo, prior

@@ -9,19 +9,14 @@ import pytest
 from monoplot_plugin.core.auto.fine import (PROBE_RATIO, PROBE_SHIFT, Probe, aimed_from, edge_score,
                                              position_probes, refine_fine, terrain_shift_px)
 from monoplot_plugin.core.auto.photo_edges import detect_photo_edges
-from monoplot_plugin.core.camera import Camera
-from monoplot_plugin.core.synthetic import render_photo, synthetic_terrain
 
 SIGMAS = {"angle_deg": 3.0, "fov_deg": 2.5, "position_m": 100.0}
 
 
 @pytest.fixture(scope="module")
-def scene():
-    dem = synthetic_terrain((160, 160), cell=60.0, seed=1)
-    x0, y0, x1, y1 = dem.bounds()
-    x, y = (x0 + x1) / 2, y0 + 0.03 * (y1 - y0)
-    truth = Camera((x, y, float(dem.sample(x, y)) + 400.0), -5.0, -3.0, 0.5, 55.0, (480, 320), crs_wkt=dem.crs_wkt)
-    photo = render_photo(truth, dem, seed=1)
+def scene(valley):
+    """The valley (``conftest.valley``) with the photo's edges at full size."""
+    dem, truth, photo = valley
     edges = detect_photo_edges(photo, width=480)
     edges.scale = 1.0
     return dem, truth, edges, photo
