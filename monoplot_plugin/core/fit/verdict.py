@@ -197,10 +197,12 @@ def judge(e: dict) -> Tuple[str, str]:
             if score < 1.5 * chance + 2.0 or n_in < 2 * n_free:
                 weak.append("few points match compared with what a wrongly placed camera gets by chance: accept "
                             "more points on recognisable features, or pair a few")
-            smaller = min(int(e.get("n_photo", 0)), int(e.get("n_dem", 0)))
+            n_photo, n_dem = int(e.get("n_photo", 0)), int(e.get("n_dem", 0))
+            smaller, which = (n_photo, "photo") if n_photo <= n_dem else (n_dem, "DEM")
             if smaller and n_in < 0.4 * smaller:
-                weak.append(f"only {n_in} of the {smaller} points of the smaller set match: either most accepted "
-                            f"points are wrong or the camera is; reject the flagged points and fit again")
+                weak.append(f"only {n_in} of the {smaller} {which} points (the fewer side) match a partner: either "
+                            f"most accepted points are wrong or the camera is; reject the flagged points and fit "
+                            f"again")
             ratio = float(e.get("competitor_ratio", 0.0))
             if ratio >= COMPETITOR_RATIO:
                 weak.append("another camera, clearly different, explains the points almost as well: add two paired "
