@@ -88,3 +88,21 @@ def test_a_basin_the_search_missed_is_taken_when_a_probe_finds_it(scene):
     assert found.evidence.get("auto_escapes", 0) >= 1 and "a position probe found" in found.message
     assert found.evidence["auto_edge_score"] < first.evidence["auto_edge_score"]
     assert terrain_shift_px(found.camera, truth, dem) < 0.5 * terrain_shift_px(first.camera, truth, dem)
+
+
+def test_probes_that_never_come_back_make_an_ok_uncertain(scene):
+    """A camera in a basin narrower than the prior's uncertainty (no probe came back) is not "ok", whatever else the
+    evidence says; one probe back is enough."""
+    from monoplot_plugin.core.auto import register
+
+    _, truth, *_ = scene
+    good = {"auto_skyline_usable": True, "auto_sky_fraction": 0.98, "auto_sky_agreement": 0.97, "auto_edge_score": 0.15,
+            "auto_range_m": 5000.0, "auto_position_sigma_m": 100.0, "auto_rival_ratio": 0.5, "auto_probe_rivals": 0}
+    verdicts = {}
+    for returned in (0, 1):
+        result = register.AutoFitResult(truth, "ok", "unpaired fit.", "unpaired", std={"heading": 0.05})
+        register._combine(result, dict(good, auto_probe_returned=returned))
+        verdicts[returned] = (result.status, result.message)
+    assert verdicts[1][0] == "ok"
+    assert verdicts[0][0] == "uncertain" and "none of four cameras moved" in verdicts[0][1]
+    assert Probe(truth, 1.0, 1.0).returned and not Probe(truth, 1.0, 50.0).returned

@@ -52,6 +52,13 @@ class Probe:
     offset: Optional[np.ndarray] = None
 
     @property
+    def returned(self) -> bool:
+        """True when the probe came back to the camera, for the picture (within :data:`PROBE_SHIFT` of the
+        diagonal)."""
+        w, h = self.camera.image_size
+        return self.shift_px <= PROBE_SHIFT * math.hypot(w, h)
+
+    @property
     def rival(self) -> bool:
         """True when the probe fits the edges nearly as well and moves the terrain visibly."""
         w, h = self.camera.image_size

@@ -15,7 +15,8 @@
    agree with the DEM's, or when a clearly different camera aligns nearly as well, an "ok" becomes "uncertain"
    with the reason in the message (never a confident camera from a photo that says little). Position probes
    (:func:`.fine.position_probes`): the camera moved by the position σ four ways, aimed at the same terrain and
-   refined again; one ending elsewhere with nearly the same edge score is such a camera, and the σ covers it.
+   refined again; one ending elsewhere with nearly the same edge score is such a camera, and the σ covers it; when
+   none comes back, the camera sits in a basin narrower than the prior's uncertainty: "uncertain" too.
 6. Never worse than the prior: when the camera returned does not fit the photo's edges clearly better than the prior
    did (the same score, each rendered from where it stands, no pull to the prior), the prior is returned,
    "uncertain" (or the fit's "poor"), with what the fit found in the message.
@@ -364,6 +365,7 @@ def _probe_position(result: AutoFitResult, prior: Camera, photo: PhotoEdges, dem
     rivals = [p for p in probes if p.rival]
     evidence["auto_probe_rivals"] = len(rivals)
     evidence["auto_probe_best_ratio"] = float(min(p.score_ratio for p in probes))
+    evidence["auto_probe_returned"] = sum(p.returned for p in probes)
     if rivals:
         worst = max(rivals, key=lambda p: p.shift_px)
         evidence["auto_probe_shift_px"] = float(worst.shift_px)
@@ -441,6 +443,10 @@ def _combine(result: AutoFitResult, ev: dict) -> None:
                     "deg (σ)")
     if ev["auto_rival_ratio"] > 0.9:
         weak.append("a clearly different view direction aligns the edges almost as well")
+    if ev.get("auto_probe_returned", 1) == 0:
+        weak.append(f"none of four cameras moved by the position's σ ({ev.get('auto_position_sigma_m', 0.0):.0f} m) "
+                    "and refined again came back to this one: it sits in a basin narrower than the prior's "
+                    "uncertainty, and another camera may fit elsewhere")
     if ev.get("auto_probe_rivals", 0):
         weak.append(f"a camera {ev['auto_probe_distance_m']:.0f} m away, turned to the same terrain, fits the "
                     f"photo's edges about as well (its edge score is {ev['auto_probe_ratio']:.2f} times this "
