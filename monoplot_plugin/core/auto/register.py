@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Optional
+from typing import Callable, NamedTuple, Optional
 
 import numpy as np
 
@@ -250,16 +250,33 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
                        float(al.score(o2[None])[0])))
     finals.sort(key=lambda t: t[0])
     prior_edge = edge_score(prior, fine, align_dem, sig, is_canceled)
-    args = (image, dem, prior, sig, report, is_canceled, fine, align_dem, refined, prior_edge)
+    search = _Search(image, dem, prior, sig, report, is_canceled, fine, align_dem, refined, prior_edge)
     state["camera"] = finals[0][1]
-    result, probes = _finish(finals, 0.7, *args)
+    result, probes = _finish(finals, 0.7, search)
     state["camera"] = result.camera
-    return _escape(result, probes, finals, args, state)
+    return _escape(result, probes, finals, search, state)
 
 
-def _finish(finals, at: float, image, dem, prior, sig, report, is_canceled, fine, align_dem, refined, prior_edge):
+class _Search(NamedTuple):
+    """What the stages after the fine search share: the inputs, the working photo edges and DEM, the medium stage's
+    refined hypotheses (score, offset) and the prior's edge score."""
+
+    image: np.ndarray
+    dem: object
+    prior: Camera
+    sig: dict
+    report: Callable
+    is_canceled: Optional[Callable[[], bool]]
+    fine: PhotoEdges
+    align_dem: object
+    refined: list
+    prior_edge: float
+
+
+def _finish(finals, at: float, search: _Search):
     """From the best of ``finals`` ((edge score, camera, aligner, offset, aligner score), best first): consistent
     suggestions, the consensus fit, σ, the verdict, position probes; (result, probes). ``at``: progress start."""
+    image, dem, prior, sig, report, is_canceled, fine, align_dem, refined, prior_edge = search
     w = image.shape[1]
     aligned_edge, aligned, al, off, best_score = finals[0]
     report(at, "automatic registration: suggestions consistent with the aligned camera")
@@ -333,7 +350,7 @@ def _finish(finals, at: float, image, dem, prior, sig, report, is_canceled, fine
     return result, probes
 
 
-def _escape(result, probes, finals, args, state):
+def _escape(result, probes, finals, search: _Search, state):
     """A position probe that fits the edges clearly better than the camera found (:data:`ESCAPE_RATIO`) is a basin
     the search missed, by its own measure: go on from there (:func:`_finish`), and keep what that gives when its
     edge score is lower; at most :data:`MAX_ESCAPES` times."""
@@ -343,7 +360,7 @@ def _escape(result, probes, finals, args, state):
             break
         entry = (best.score_ratio * result.evidence["auto_edge_score"], best.camera, best.aligner, best.offset,
                  float(best.aligner.score(best.offset[None])[0]))
-        again, again_probes = _finish([entry] + finals, 0.95, *args)
+        again, again_probes = _finish([entry] + finals, 0.95, search)
         if again.evidence["auto_edge_score"] >= result.evidence["auto_edge_score"]:
             break
         moved = float(np.linalg.norm(np.subtract(best.camera.position, result.camera.position)))
