@@ -335,6 +335,9 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         self.cancelButton.setVisible(busy)
         if busy:
             self.statusLabel.setText(self.tr("{0}…").format(description))  # not a stale message of before
+            # then what the step is doing, as it goes (a registration sat at 0 % for seconds with no word)
+            self.controller.task.stageChanged.connect(lambda stage, d=description: self.controller.busy and
+                                                      self.statusLabel.setText(self.tr("{0}: {1}…").format(d, stage)))
             self.progressBar.setValue(0)
             self.progressBar.setFormat(description + " %p%")
             if self.controller.task_kind == "fit":

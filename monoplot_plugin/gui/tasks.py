@@ -69,11 +69,15 @@ class FunctionTask(QgsTask):
     or the project. ``on_done(result)`` is called on the main thread.
     """
 
+    #: the work's progress message when it changes ("automatic registration: coarse search ..."), main thread
+    stageChanged = pyqtSignal(str)
+
     def __init__(self, description: str, work: Callable[[Callable[..., None], Callable[[], bool]], Any],
                  on_done: Optional[Callable[[TaskResult], None]] = None):
         super().__init__(description, QgsTask.Flag.CanCancel)
         self._work = work
         self._on_done = on_done
+        self._stage = ""
         self.result: Optional[TaskResult] = None
 
     def run(self) -> bool:  # worker thread
@@ -82,6 +86,9 @@ class FunctionTask(QgsTask):
 
     def _report_progress(self, fraction: float, message: str = "") -> None:
         self.setProgress(max(0.0, min(100.0, 100.0 * float(fraction))))
+        if message and message != self._stage:  # queued to the main thread: the task object lives there
+            self._stage = message
+            self.stageChanged.emit(message)
 
     def finished(self, ok: bool) -> None:  # main thread
         if self.result is None:  # canceled before run() started

@@ -55,7 +55,7 @@ def import_torch(is_canceled: Optional[IsCanceled] = None, progress: Optional[Pr
             _TORCH_THREAD.append(thread)
             thread.start()
     if progress is not None:
-        progress(0.0, "loading torch")
+        progress(0.0, "loading PyTorch (once per QGIS session)")
     while not _TORCH_READY.wait(poll_s):
         check_canceled(is_canceled)
 

@@ -40,9 +40,13 @@ def test_find_camera_automatically_gives_a_camera_and_accepted_points(dock, vall
     assert action.text() == "Find camera automatically"
     action.trigger()
     assert c.busy and dock.cancelButton.isEnabled()
+    shown = []  # the status line at each stage of the registration (connected after the dock's own slot)
+    c.task.stageChanged.connect(lambda stage: shown.append(dock.statusLabel.text()))
     with qtbot.waitSignal(c.taskFinished, timeout=240000) as blocker:
         pass
     result = blocker.args[0]
+    # the person sees what it is doing, not a bar at 0 % with no word
+    assert any(t.startswith("Find camera automatically: automatic registration: coarse search") for t in shown), shown
     assert result.ok, result.reason
     info = c.state.fit_info
     assert info["status"] in ("ok", "uncertain", "poor") and info["message"]
