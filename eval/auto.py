@@ -27,6 +27,7 @@ import json
 import sys
 import time
 from pathlib import Path
+from typing import Optional
 
 import numpy as np
 
@@ -122,6 +123,19 @@ def errors(cam: Camera, truth: Camera, rng_m: float) -> dict:
             "fov_deg": round(abs(cam.fov - truth.fov), 3)}
 
 
+def within_two_sigma(cam: Camera, truth: Camera, std: dict) -> bool:
+    """True when every parameter of ``cam`` with a σ in ``std`` lies within 2 σ of ``truth``'s (heading wrapped)."""
+    a, b = cam.parameters(), truth.parameters()
+    for name, s in std.items():
+        if name not in a or not np.isfinite(s):
+            continue
+        d = a[name] - b[name]
+        d = (d + 180.0) % 360.0 - 180.0 if name == "heading" else d
+        if abs(d) > 2.0 * s:
+            return False
+    return True
+
+
 def grid_error(cam: Camera, truth: Camera, dem) -> float:
     """RMS pixel distance between ``cam`` and ``truth`` over the terrain ``truth`` sees on a 24 x 16 pixel grid."""
     from monoplot_plugin.core.xyz import compute_xyz_full
@@ -146,6 +160,7 @@ def case_synthetic(n: int, seed: int = 0, fog: bool = False, default_sigma: bool
         r = register_automatic(photo, dem, prior, **given)
         e = errors(r.camera, truth, rng_m)
         e["grid_px"] = grid_error(r.camera, truth, dem)
+        e["within_2sigma"] = within_two_sigma(r.camera, truth, r.std or {})
         # the alignment's evidence, for calibrating the verdict (which of it separates right from wrong cameras)
         e["evidence"] = {k: round(v, 3) if isinstance(v, float) else v for k, v in r.evidence.items()
                          if k.startswith("auto_") and isinstance(v, (bool, int, float))}
@@ -165,12 +180,19 @@ def case_synthetic(n: int, seed: int = 0, fog: bool = False, default_sigma: bool
           "wrong_but_ok": sum(x["status"] == "ok" and not x["success"] for x in rows),
           "ok_but_grid_over_1pct_diag": sum(x["status"] == "ok" and x["grid_px"] > 0.01 * 1000 for x in rows),
           "median_grid_px": round(float(np.median([x["grid_px"] for x in rows])), 2),
+          # honest σ: the true camera within 2 σ (every parameter), over the "ok" results and over all
+          "sigma_coverage_ok": _share([x["within_2sigma"] for x in rows if x["status"] == "ok"]),
+          "sigma_coverage_all": _share([x["within_2sigma"] for x in rows]),
           "median_position_share": round(float(np.median([x["position_share"] for x in rows])), 4),
           "median_angle_deg": round(float(np.median([x["angle_deg"] for x in rows])), 3),
           "median_s": round(float(np.median([x["seconds"] for x in rows])), 1),
           **({"target": "no wrong camera says ok",
               "pass": not any(x["status"] == "ok" and not x["success"] for x in rows)} if default_sigma else
              {"target": ">= 95 % within 1 % of range and 0.2 deg", "pass": bool(np.mean(succ) >= 0.95)})})
+
+
+def _share(flags) -> Optional[float]:
+    return round(float(np.mean(flags)), 3) if len(flags) else None
 
 
 def main(argv=None) -> int:
