@@ -113,19 +113,20 @@ def _terrain(camera: Camera, dem, width: float = 24.0) -> np.ndarray:
     return res.xyz[res.hit]
 
 
-def terrain_shift_px(other: Camera, camera: Camera, dem) -> float:
+def terrain_shift_px(other: Camera, camera: Camera, dem, seen=None) -> float:
     """RMS distance (full-size px) between where ``other`` and ``camera`` put the terrain ``camera`` sees (a grid
-    24 px wide); NaN when it sees none."""
-    xyz = _terrain(camera, dem)
+    24 px wide; ``seen``: those points when already known); NaN when it sees none."""
+    xyz = _terrain(camera, dem) if seen is None else seen
     if not len(xyz):
         return float("nan")
     d = other.project(xyz) - camera.project(xyz)
     return float(np.sqrt(np.nanmean(np.sum(d * d, axis=1))))
 
 
-def aimed_from(camera: Camera, position, dem) -> Camera:
-    """``camera`` moved to ``position`` and turned (heading, pitch) to look at the terrain it looked at."""
-    xyz = _terrain(camera, dem, width=32.0)
+def aimed_from(camera: Camera, position, dem, seen=None) -> Camera:
+    """``camera`` moved to ``position`` and turned (heading, pitch) to look at the terrain it looked at (a grid 32 px
+    wide; ``seen``: those points when already known)."""
+    xyz = _terrain(camera, dem, width=32.0) if seen is None else seen
     if not len(xyz):
         return camera.with_parameters(x=position[0], y=position[1], z=position[2])
     target = np.median(xyz, axis=0)
@@ -148,11 +149,12 @@ def position_probes(camera: Camera, prior: Camera, photo: PhotoEdges, dem, sig: 
     h = math.radians(camera.heading)
     ahead = np.array([math.sin(h), math.cos(h), 0.0])
     left = np.array([-ahead[1], ahead[0], 0.0])
+    aimed_at, shown = _terrain(camera, dem, width=32.0), _terrain(camera, dem)  # once for the four probes
     probes = []
     for direction in (ahead, -ahead, left, -left):
-        start = aimed_from(camera, np.asarray(camera.position) + sig["position_m"] * direction, dem)
+        start = aimed_from(camera, np.asarray(camera.position) + sig["position_m"] * direction, dem, aimed_at)
         ended, al, off = refine_fine(start, prior, photo, dem, sig, is_canceled, poll)
         score = edge_score(ended, photo, dem, sig, is_canceled)
         probes.append(Probe(ended, score / base if base > 0 else float("inf"),
-                            terrain_shift_px(ended, camera, dem), al, off))
+                            terrain_shift_px(ended, camera, dem, shown), al, off))
     return probes
