@@ -81,7 +81,8 @@ def test_a_basin_the_search_missed_is_taken_when_a_probe_finds_it(scene):
     assert terrain_shift_px(wrong, truth, dem) > 30.0
     finals = [(edge_score(wrong, edges, dem, SIGMAS), wrong, al, off, float(al.score(off[None])[0]))]
     search = register._Search(photo, dem, wrong, SIGMAS, lambda *a: None, None, edges, dem, [(0.0, np.zeros(7))],
-                              edge_score(wrong.with_parameters(heading=wrong.heading + 20.0), edges, dem, SIGMAS))
+                              edge_score(wrong.with_parameters(heading=wrong.heading + 20.0), edges, dem, SIGMAS),
+                              {})
     first, probes = register._finish(finals, 0.7, search)
     assert min(p.score_ratio for p in probes) < register.ESCAPE_RATIO
     found = register._escape(first, probes, finals, search, {})

@@ -8,6 +8,7 @@ Shapes: photo points (N, 2) full-size pixels; DEM points (N, 3) map coordinates 
 from __future__ import annotations
 
 import math
+from typing import Optional
 
 import numpy as np
 
@@ -21,26 +22,25 @@ __all__ = ["consistent_points", "skyline_points", "pairing_gate_px", "FIT_DEM_CE
 FIT_DEM_CELLS = 6_000_000
 
 
-def consistent_points(image, dem, camera: Camera, is_canceled=None, poll=None):
+def consistent_points(image, dem, camera: Camera, is_canceled=None, poll=None, cache: Optional[dict] = None):
     """Photo and DEM suggestions, kept when the camera brings a DEM suggestion within a few pixels of a photo
-    suggestion (each photo point's nearest, mutual)."""
-    import cv2
+    suggestion (each photo point's nearest, mutual). ``cache``: a dict kept between calls on the same photo and DEM
+    (the photo's suggestions and the reduced DEM do not depend on the camera)."""
     from scipy.spatial import cKDTree
 
-    from ..suggest import suggest_dem_points, suggest_photo_points
+    from ..suggest import suggest_dem_points
 
     poll = poll or (lambda is_canceled: None)
-    h, w = image.shape[:2]
-    scale = min(1.0, 2048.0 / max(h, w))
-    small = cv2.resize(image, (round(w * scale), round(h * scale)), interpolation=cv2.INTER_AREA) \
-        if scale < 1.0 else image
-    photo = suggest_photo_points(small, max_points=1500)
+    cache = {} if cache is None else cache
+    if "photo_uv" not in cache:
+        cache["photo_uv"] = _photo_suggestions(image)
+    q = cache["photo_uv"]
     poll(is_canceled)
-    fit_dem = coarse_dem(dem, FIT_DEM_CELLS, is_canceled)
+    if "fit_dem" not in cache:
+        cache["fit_dem"] = coarse_dem(dem, FIT_DEM_CELLS, is_canceled)
     poll(is_canceled)
-    demsug = suggest_dem_points(fit_dem, camera, max_points=1500)
+    demsug = suggest_dem_points(cache["fit_dem"], camera, max_points=1500)
     poll(is_canceled)
-    q = photo.uv / scale
     uv = camera.project(demsug.xyz)
     ok = np.isfinite(uv).all(axis=1) & camera.in_image(uv)
     if len(q) == 0 or not ok.any():
@@ -53,6 +53,19 @@ def consistent_points(image, dem, camera: Camera, is_canceled=None, poll=None):
     keep_q[keep_q] &= i[j[keep_q]] == np.nonzero(keep_q)[0]
     jj = np.unique(j[keep_q])
     return q[keep_q], demsug.xyz[idx_dem[jj]]
+
+
+def _photo_suggestions(image) -> np.ndarray:
+    """(N, 2) full-size pixels of Monoplot's photo suggestions (found on a copy at most 2048 px on its long side)."""
+    import cv2
+
+    from ..suggest import suggest_photo_points
+
+    h, w = image.shape[:2]
+    scale = min(1.0, 2048.0 / max(h, w))
+    small = cv2.resize(image, (round(w * scale), round(h * scale)), interpolation=cv2.INTER_AREA) \
+        if scale < 1.0 else image
+    return suggest_photo_points(small, max_points=1500).uv / scale
 
 
 def pairing_gate_px(camera: Camera) -> float:

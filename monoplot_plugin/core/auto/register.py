@@ -250,7 +250,7 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
                        float(al.score(o2[None])[0])))
     finals.sort(key=lambda t: t[0])
     prior_edge = edge_score(prior, fine, align_dem, sig, is_canceled)
-    search = _Search(image, dem, prior, sig, report, is_canceled, fine, align_dem, refined, prior_edge)
+    search = _Search(image, dem, prior, sig, report, is_canceled, fine, align_dem, refined, prior_edge, {})
     state["camera"] = finals[0][1]
     result, probes = _finish(finals, 0.7, search)
     state["camera"] = result.camera
@@ -259,7 +259,8 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
 
 class _Search(NamedTuple):
     """What the stages after the fine search share: the inputs, the working photo edges and DEM, the medium stage's
-    refined hypotheses (score, offset) and the prior's edge score."""
+    refined hypotheses (score, offset), the prior's edge score, and what the final fit's points need that does not
+    depend on the camera (:func:`.points.consistent_points`' cache: a retry does not find it again)."""
 
     image: np.ndarray
     dem: object
@@ -271,12 +272,13 @@ class _Search(NamedTuple):
     align_dem: object
     refined: list
     prior_edge: float
+    cache: dict
 
 
 def _finish(finals, at: float, search: _Search):
     """From the best of ``finals`` ((edge score, camera, aligner, offset, aligner score), best first): consistent
     suggestions, the consensus fit, σ, the verdict, position probes; (result, probes). ``at``: progress start."""
-    image, dem, prior, sig, report, is_canceled, fine, align_dem, refined, prior_edge = search
+    image, dem, prior, sig, report, is_canceled, fine, align_dem, refined, prior_edge, cache = search
     w = image.shape[1]
     aligned_edge, aligned, al, off, best_score = finals[0]
     report(at, "automatic registration: suggestions consistent with the aligned camera")
@@ -284,7 +286,7 @@ def _finish(finals, at: float, search: _Search):
     evidence["auto_range_m"] = _typical_range(aligned, align_dem)
     evidence["auto_position_sigma_m"] = float(sig["position_m"])
     _poll(is_canceled)
-    image_points, world_points = consistent_points(image, dem, aligned, is_canceled, _poll)
+    image_points, world_points = consistent_points(image, dem, aligned, is_canceled, _poll, cache)
     sky_uv, sky_xyz = skyline_points(aligned, fine, align_dem)
     image_points, world_points = np.vstack([image_points, sky_uv]), np.vstack([world_points, sky_xyz])
     evidence["auto_skyline_points"] = int(len(sky_uv))
