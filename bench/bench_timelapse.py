@@ -7,11 +7,11 @@
   on the reference (:func:`monoplot_plugin.core.drift.register`): largest and median error in pixels, frames/s.
   Targets <= 0.5 px, >= 5 frames/s. ``reregistered_batch``: the same frames through the batch with ``register``,
   orthophotos only (a turned frame's lookup from the rays kept once), then with an XYZ raster per turned frame.
-- ``dask_batch``: the batch as Dask tasks on a LocalCluster of 1 then 2 worker processes (after a warm-up run that
-  builds each worker's shared products): frames/s and the ratio to twice the one-worker rate (target >= 0.8). The
-  timed run is a whole batch (submission, the frames, the shared ``xyz.tif`` written once, the last result back);
-  the CPU seconds per frame of this process (client and scheduler) and of the workers (all their threads) say how
-  much of the two cores Dask itself takes, whatever the load.
+- ``dask_batch``: the batch as Dask tasks (several frames to a task) on a LocalCluster of 1 then 2 worker
+  processes (after a warm-up run that builds each worker's shared products): frames/s and the ratio to twice the
+  one-worker rate (target >= 0.8). The timed run is a whole batch (submission, the frames, the shared ``xyz.tif``
+  written once, the last result back); the CPU seconds per frame of this process (client and scheduler) and of the
+  workers (all their threads) say how much of the two cores Dask itself takes, whatever the load.
 
 Every line carries the 1-minute load average (shared cores: other people's work slows the timings).
 

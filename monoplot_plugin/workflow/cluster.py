@@ -1,4 +1,5 @@
-"""The batch on a Dask ``distributed`` cluster: each frame a task, the results and failures in one table.
+"""The batch on a Dask ``distributed`` cluster: the frames as tasks (a few to a task), the results and failures in one
+table.
 
 :func:`run_batch_dask` takes a ``Client`` (or a scheduler ``address``; neither: a ``LocalCluster`` of processes on
 this machine, one per core). The workers rebuild what the frames share from a picklable
@@ -32,7 +33,7 @@ from .files import InputError
 from .frames import SHARED_XYZ, FrameTask, PhotoResult, Timelapse, process_frame, shared_for
 from .progress import IsCanceled, Progress, never_canceled, no_progress
 
-__all__ = ["run_batch_dask", "local_client", "check_importable"]
+__all__ = ["run_batch_dask", "local_client", "check_importable", "frames_per_task"]
 
 #: seconds between two looks at ``is_canceled`` while waiting for results
 POLL_S = 0.5
@@ -49,6 +50,25 @@ WORKER_ENVIRON = {"MALLOC_MMAP_THRESHOLD_": 64 << 20, "NUMBA_NUM_THREADS": 1, "O
 #: this machine, fell from about 9 to 7 ms per frame.
 CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.worker.memory.monitor-interval": "1s",
                   "distributed.admin.system-monitor.interval": "2s", "distributed.scheduler.work-stealing": False}
+
+
+#: frames of a shared camera take 20-50 ms each on a worker, while every task costs a few ms besides (measured,
+#: 1.5 MP frames: 4 ms of the scheduler's CPU, and a fifth of the worker's wall time spent outside the frame); a task
+#: carries up to MAX_FRAMES_PER_TASK frames, yet every worker gets about TASKS_PER_WORKER tasks so that they end
+#: together and progress moves. Photos fitted one by one (seconds each) stay one per task.
+MAX_FRAMES_PER_TASK = 8
+TASKS_PER_WORKER = 8
+
+
+def frames_per_task(frames: int, workers: int, shared_camera: bool) -> int:
+    """How many frames one Dask task processes.
+
+    >>> frames_per_task(200, 2, True), frames_per_task(12, 2, True), frames_per_task(200, 2, False)
+    (8, 1, 1)
+    """
+    if not shared_camera:
+        return 1
+    return max(1, min(MAX_FRAMES_PER_TASK, frames // max(1, workers * TASKS_PER_WORKER)))
 
 
 def local_client(workers: Optional[int] = None):
@@ -92,9 +112,10 @@ def check_importable(client, module: str) -> None:
                        f"PYTHONPATH (here: PYTHONPATH={here}) and the same Python packages.")
 
 
-def _frame_task(task: FrameTask, setup: Timelapse) -> PhotoResult:
-    """What a worker runs for one frame."""
-    return process_frame(task, shared_for(setup))
+def _frames_task(tasks: List[FrameTask], setup: Timelapse) -> List[PhotoResult]:
+    """What a worker runs for a few frames, one after the other."""
+    shared = shared_for(setup)
+    return [process_frame(task, shared) for task in tasks]
 
 
 def _shared_xyz_task(setup: Timelapse) -> str:
@@ -109,11 +130,13 @@ def run_batch_dask(jobs: List[PhotoJob], dem_path: str, crs_wkt: str, out_dir: s
                    write_ortho: bool = True, resolution: Optional[float] = None,
                    log: Log = lambda message, error: None, progress: Progress = no_progress,
                    is_canceled: IsCanceled = never_canceled, register: bool = False, reference: str = "",
-                   client=None, address: str = "", void_value: Optional[float] = None) -> List[PhotoResult]:
-    """:func:`~.batch.run_batch` with every frame a Dask task (arguments as there; the DEM as a file path).
+                   client=None, address: str = "", void_value: Optional[float] = None,
+                   per_task: Optional[int] = None) -> List[PhotoResult]:
+    """:func:`~.batch.run_batch` with the frames as Dask tasks (arguments as there; the DEM as a file path).
 
     ``client``: a ``distributed.Client``; else ``address`` of a scheduler ("tcp://host:8786"); else a local
-    cluster of processes (:func:`local_client`), closed at the end. Results come back in job order.
+    cluster of processes (:func:`local_client`), closed at the end. ``per_task``: frames per task (default
+    :func:`frames_per_task`). Results come back in job order.
     """
     from distributed import Client
 
@@ -131,13 +154,15 @@ def run_batch_dask(jobs: List[PhotoJob], dem_path: str, crs_wkt: str, out_dir: s
                     if os.path.exists(os.path.join(out_dir, n))]
         if existing:
             log(f"{len(existing)} file(s) of an earlier run in {out_dir} are replaced (e.g. {existing[0]})", False)
-        check_importable(client, _frame_task.__module__)
+        check_importable(client, _frames_task.__module__)
         workers = len(client.scheduler_info().get("workers", {}))
-        log(f"Dask: {len(tasks)} frames on {workers} worker(s) of {client.scheduler.address}", False)
+        per_task = per_task or frames_per_task(len(tasks), workers, bool(setup.camera_json))
+        log(f"Dask: {len(tasks)} frames on {workers} worker(s) of {client.scheduler.address}"
+            + (f", {per_task} frames per task" if per_task > 1 else ""), False)
         shared_xyz = None
         if setup.camera_json and write_xyz:  # one task, beside the frames
             shared_xyz = client.submit(_shared_xyz_task, setup, pure=False)
-        results = _gather(client, tasks, setup, log, progress, is_canceled)
+        results = _gather(client, tasks, per_task, setup, log, progress, is_canceled)
         if shared_xyz is not None:
             try:
                 shared_xyz.result()
@@ -153,14 +178,16 @@ def run_batch_dask(jobs: List[PhotoJob], dem_path: str, crs_wkt: str, out_dir: s
                 cluster.close()
 
 
-def _gather(client, tasks: List[FrameTask], setup: Timelapse, log: Log, progress: Progress,
+def _gather(client, tasks: List[FrameTask], per_task: int, setup: Timelapse, log: Log, progress: Progress,
             is_canceled: IsCanceled) -> List[PhotoResult]:
-    """Submit every frame, take each result once (by index) as it comes, cancel the rest on a cancel.
+    """Submit the frames, ``per_task`` to a task; take each frame's result once (by index) as its task ends; cancel
+    the rest on a cancel.
 
     Each future reports its end into a queue (Dask calls the callback once, on a thread of its own), so that waiting
-    costs nothing per frame still pending (waiting on all pending futures after each result cost this process, which
-    runs the scheduler too, several milliseconds of CPU per frame, taken from the workers on a busy machine)."""
-    futures = dict(zip(client.map(_frame_task, tasks, setup=setup, pure=False), tasks))
+    costs nothing per task still pending (waiting on all pending futures after each result cost this process, which
+    runs the scheduler too, several milliseconds of CPU per task, taken from the workers on a busy machine)."""
+    chunks = [tasks[i: i + per_task] for i in range(0, len(tasks), per_task)]
+    futures = dict(zip(client.map(_frames_task, chunks, setup=setup, pure=False), chunks))
     finished: "queue.SimpleQueue" = queue.SimpleQueue()
     for future in futures:
         future.add_done_callback(finished.put)
@@ -168,25 +195,24 @@ def _gather(client, tasks: List[FrameTask], setup: Timelapse, log: Log, progress
     total = len(tasks)
     while len(done) < total:
         if is_canceled():
-            pending = [f for f, t in futures.items() if t.index not in done]
+            pending = [f for f, chunk in futures.items() if chunk[0].index not in done]
             client.cancel(pending)
             for future in pending:
-                t = futures[future]
-                done[t.index] = PhotoResult(t.photo, False, "canceled before processing", canceled=True,
-                                            index=t.index)
-            log(f"canceled: {len(pending)} photos not processed", True)
+                for t in futures[future]:
+                    done[t.index] = PhotoResult(t.photo, False, "canceled before processing", canceled=True,
+                                                index=t.index)
+            log(f"canceled: {sum(len(futures[f]) for f in pending)} photos not processed", True)
             break
         try:
             ended = [finished.get(timeout=POLL_S)]
         except queue.Empty:  # nothing finished yet: look at is_canceled again
             continue
-        while True:  # every other frame that has ended meanwhile: one gather for all of them
+        while True:  # every other task that has ended meanwhile: one gather for all of them
             try:
                 ended.append(finished.get_nowait())
             except queue.Empty:
                 break
-        for future, result in _results(client, [f for f in ended if futures[f].index not in done], futures):
-            t = futures[future]
+        for t, result in _results(client, [f for f in ended if futures[f][0].index not in done], futures):
             done[t.index] = result
             log_result(log, t, total, result)
             progress(len(done) / max(1, total), t.name)
@@ -195,21 +221,22 @@ def _gather(client, tasks: List[FrameTask], setup: Timelapse, log: Log, progress
 
 
 def _results(client, ended: list, futures: dict):
-    """(future, result) of futures that have ended, the results fetched in one gather (one trip per worker rather
-    than one per frame: each trip also takes the worker's event loop, and with it the GIL, from the frame it is
-    running). A frame that raised, or whose result went with its worker before the gather, is taken on its own."""
+    """(frame task, result) of every frame of the tasks that have ended, fetched in one gather (one trip per worker
+    rather than one per task: each trip also takes the worker's event loop, and with it the GIL, from the frame it is
+    running). A task that raised, or whose result went with its worker before the gather, is taken on its own."""
     finished = [f for f in ended if f.status == "finished"]
     values = client.gather(finished, errors="skip") if finished else []
     gathered = dict(zip(finished, values)) if len(values) == len(finished) else {}
     for future in ended:
+        chunk = futures[future]
         if future in gathered:
-            yield future, gathered[future]
+            yield from zip(chunk, gathered[future])
             continue
         try:
-            yield future, future.result()
-        except Exception as exc:  # KilledWorker: the frame killed its workers again and again
-            t = futures[future]
-            yield future, PhotoResult(t.photo, False, f"{type(exc).__name__}: {exc}", index=t.index)
+            yield from zip(chunk, future.result())
+        except Exception as exc:  # KilledWorker: the task killed its workers again and again
+            for t in chunk:
+                yield t, PhotoResult(t.photo, False, f"{type(exc).__name__}: {exc}", index=t.index)
 
 
 def _remove_orphans(out_dir: str, names: List[str]) -> None:

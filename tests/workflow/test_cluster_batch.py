@@ -1,5 +1,6 @@
 """The batch on a Dask LocalCluster of 2 worker processes, one of them killed while it processes frames: every
-frame comes back once in the table, with its outputs, and no temporary file is left."""
+frame comes back once in the table, with its outputs, and no temporary file is left, whether a task carries one
+frame or several."""
 
 import csv
 import os
@@ -22,7 +23,9 @@ def client():
     cluster.close()
 
 
-def test_a_killed_worker_has_its_frames_retried_none_lost_or_written_twice(still_timelapse, client, tmp_path):
+@pytest.mark.parametrize("per_task", [1, 3])
+def test_a_killed_worker_has_its_frames_retried_none_lost_or_written_twice(still_timelapse, client, tmp_path,
+                                                                            per_task):
     from monoplot_plugin.workflow.cluster import run_batch_dask
 
     scene = still_timelapse
@@ -42,7 +45,8 @@ def test_a_killed_worker_has_its_frames_retried_none_lost_or_written_twice(still
         killed.append((victim, len(busy[victim])))
 
     out = tmp_path / "out"
-    results = run_batch_dask(jobs, scene["dem"], cam.crs_wkt, str(out), client=client, progress=progress)
+    results = run_batch_dask(jobs, scene["dem"], cam.crs_wkt, str(out), client=client, progress=progress,
+                             per_task=per_task)
     assert killed and killed[0][1] >= 1  # it died holding frames
     assert [r.index for r in results] == list(range(12)) and all(r.ok for r in results), [r.message for r in results]
     batch.write_log(str(out / "batch_log.csv"), results)
