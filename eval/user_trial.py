@@ -153,8 +153,8 @@ def run(data: Path, n_suggest: int, max_clicks: int, good_sigma: float, likely_r
         person.press(panel.rejectRestButton, "reject_the_rest")
     # 2. take the linked pairs, reject what the refit then calls outliers; twice (the camera improves)
     for _ in range(likely_rounds):
-        if not c.shortlist.likely():
-            break
+        if not c.shortlist.likely() or not panel.acceptLikelyButton.isEnabled():
+            break  # a person does not press a greyed-out button
         person.press(panel.acceptLikelyButton, "accept_likely")
         person.settle()
         note("accept likely")
@@ -177,6 +177,7 @@ def run(data: Path, n_suggest: int, max_clicks: int, good_sigma: float, likely_r
             "clicks": person.total, "target_clicks": TARGET_CLICKS,
             "pass": bool(rmse is not None and rmse <= TARGET_PX and person.total <= TARGET_CLICKS),
             "status": c.state.fit_info.get("status"), "fit_rmse_px": c.state.fit_info.get("rmse_px"),
+            "fit_message": c.state.fit_info.get("message"),
             "photo_accepted": accepted(c, PHOTO), "map_accepted": accepted(c, MAP),
             "suggestions_per_view": n_suggest, "per_page": c.shortlist.per_page, "click_kinds": person.clicks,
             "prior_rmse_px": gcp_errors(c.prior, gcps, c.dem)["gcp_rmse_px"], **{k: v for k, v in errors.items()
