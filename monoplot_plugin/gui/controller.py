@@ -381,40 +381,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         self.footprint_wkt = outcome.footprint_wkt
         self.cameraChanged.emit()
         self._changed()
-        rmse = outcome.info.get("rmse_px")
-        status = outcome.info.get("status", "ok")
-        level = SUCCESS if status == "ok" else WARNING
-        text = self.tr("Camera fitted: RMSE {0:.1f} px on {1} photo points.").format(
-            rmse if rmse is not None else float("nan"), outcome.info.get("n_photo", 0))
-        n_matched, n_photo = outcome.info.get("n_matched"), outcome.info.get("n_photo", 0)
-        n_pairs = outcome.info.get("n_pairs") or 0
-        if outcome.info.get("mode") == "paired" and n_pairs:  # its pairs only; the unpaired points wait
-            text = self.tr("Camera fitted: RMSE {0:.1f} px on {1} pairs.").format(
-                rmse if rmse is not None else float("nan"), n_pairs)
-            if n_photo > n_pairs:
-                text += " " + self.tr("{0} accepted photo points without a partner are not used by a paired "
-                                      "fit.").format(n_photo - n_pairs)
-        if outcome.info.get("mode") == "unpaired" and n_matched is not None and n_matched < n_photo:
-            # the RMSE is over the matched points only: say how many, or "30 photo points" overstates a weak fit
-            text = self.tr("Camera fitted: RMSE {0:.1f} px on the {1} of {2} photo points that matched a DEM "
-                           "point.").format(rmse if rmse is not None else float("nan"), n_matched, n_photo)
-        check = outcome.info.get("check_rmse_px")
-        if check is not None:  # the real accuracy first: the message bar shows only its start
-            text = self.tr("Camera fitted: {0:.1f} px RMSE on {1} check points (fit: {2:.1f} px on {3} photo "
-                           "points).").format(check, outcome.info.get("n_check", 0),
-                                              rmse if rmse is not None else float("nan"),
-                                              outcome.info.get("n_photo", 0))
-        elif outcome.info.get("mode") == "unpaired":
-            text += " " + self.tr("(How well the automatic pairs agree, not the accuracy: pair a few points you "
-                                  "recognise and mark them as check points, key C.)")
-        if status != "ok":  # the verdict's reasons (its message) are in the fit tab
-            text += " " + self.tr("Status {0}: see the fit tab for why and what to do.").format(self.tr(status))
-        clearance = outcome.info.get("clearance_m")
-        if clearance is not None and clearance < 0:
-            level = WARNING
-            text += " " + self.tr("The camera ended {0:.0f} m below the terrain: the fit is wrong; reject "
-                                  "doubtful points or improve the rough camera.").format(-clearance)
-        self.message.emit(text, level)
+        self.message.emit(*self.fit_summary(outcome.info))
 
     def ensure_products(self, background: bool = True) -> None:
         """Recompute overlay and per-pixel XYZ of the fitted camera (a project was reopened, a camera loaded).

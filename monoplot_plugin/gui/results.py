@@ -1,12 +1,14 @@
 """What a fitted camera says about the points, for a :class:`~monoplot_plugin.gui.controller.MonoplotController`
 (a mixin): residual segments of the matched and the check points, the ground under a photo pixel and the pixel of
-a map point. Its needs are :class:`ResultsHost`, checked by ``tests/gui/test_controller_interfaces.py``."""
+a map point, the message bar's summary of a fit. Its needs are :class:`ResultsHost`, checked by
+``tests/gui/test_controller_interfaces.py``."""
 
 from __future__ import annotations
 
 from typing import List, Optional, Protocol, Tuple
 
 import numpy as np
+from qgis.core import Qgis
 
 from ..state import ACCEPTED
 from . import engine
@@ -27,6 +29,8 @@ class ResultsHost(Protocol):
     def fit_inputs(self): ...
 
     def check_points(self): ...
+
+    def tr(self, text: str) -> str: ...
 
 
 class ResultsMixin:
@@ -88,3 +92,41 @@ class ResultsMixin:
         if cam is None or self.dem is None:
             return None, ""
         return engine.locate_in_photo(cam, self.dem, self.xyz, x, y)
+
+    def fit_summary(self, info: dict) -> Tuple[str, object]:
+        """(message, Qgis message level) of a fit for the message bar: what the RMSE is over, the check points'
+        accuracy first when there are some, and the verdict when it is not "ok"."""
+        rmse = info.get("rmse_px")
+        status = info.get("status", "ok")
+        level = Qgis.MessageLevel.Success if status == "ok" else Qgis.MessageLevel.Warning
+        text = self.tr("Camera fitted: RMSE {0:.1f} px on {1} photo points.").format(
+            rmse if rmse is not None else float("nan"), info.get("n_photo", 0))
+        n_matched, n_photo = info.get("n_matched"), info.get("n_photo", 0)
+        n_pairs = info.get("n_pairs") or 0
+        if info.get("mode") == "paired" and n_pairs:  # its pairs only; the unpaired points wait
+            text = self.tr("Camera fitted: RMSE {0:.1f} px on {1} pairs.").format(
+                rmse if rmse is not None else float("nan"), n_pairs)
+            if n_photo > n_pairs:
+                text += " " + self.tr("{0} accepted photo points without a partner are not used by a paired "
+                                      "fit.").format(n_photo - n_pairs)
+        if info.get("mode") == "unpaired" and n_matched is not None and n_matched < n_photo:
+            # the RMSE is over the matched points only: say how many, or "30 photo points" overstates a weak fit
+            text = self.tr("Camera fitted: RMSE {0:.1f} px on the {1} of {2} photo points that matched a DEM "
+                           "point.").format(rmse if rmse is not None else float("nan"), n_matched, n_photo)
+        check = info.get("check_rmse_px")
+        if check is not None:  # the real accuracy first: the message bar shows only its start
+            text = self.tr("Camera fitted: {0:.1f} px RMSE on {1} check points (fit: {2:.1f} px on {3} photo "
+                           "points).").format(check, info.get("n_check", 0),
+                                              rmse if rmse is not None else float("nan"),
+                                              info.get("n_photo", 0))
+        elif info.get("mode") == "unpaired":
+            text += " " + self.tr("(How well the automatic pairs agree, not the accuracy: pair a few points you "
+                                  "recognise and mark them as check points, key C.)")
+        if status != "ok":  # the verdict's reasons (its message) are in the fit tab
+            text += " " + self.tr("Status {0}: see the fit tab for why and what to do.").format(self.tr(status))
+        clearance = info.get("clearance_m")
+        if clearance is not None and clearance < 0:
+            level = Qgis.MessageLevel.Warning
+            text += " " + self.tr("The camera ended {0:.0f} m below the terrain: the fit is wrong; reject "
+                                  "doubtful points or improve the rough camera.").format(-clearance)
+        return text, level
