@@ -17,7 +17,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable, List, Optional
 
-import numpy as np
 from qgis.core import Qgis, QgsMapLayer, QgsProject, QgsVectorLayer
 from qgis.PyQt.QtCore import QObject, pyqtSignal
 from qgis.PyQt.QtWidgets import QAction, QFileDialog, QWidget
@@ -287,7 +286,7 @@ class OutputTools(QObject):
         c = self.controller
         camera, dem, name = c.fitted, c.dem, self.photo_name()
         photo = qimage_to_array(c.image) if what in ("ortho", "report") else None
-        points, sigmas = (self._report_inputs() if what == "report" else (None, None))
+        points, sigmas = (self.controller.report_inputs() if what == "report" else (None, None))
         info = self.controller.state.fit_info if isinstance(self.controller.state.fit_info, dict) else {}
         verdict = f"{info.get('status', '')}: {info.get('message', '')}" if info.get("status") else ""
 
@@ -419,31 +418,6 @@ class OutputTools(QObject):
         self.host.show_status(self.tr("{0}: computing {1}… (progress and Cancel in QGIS's task bar)")
                                       .format(labels[what], Path(str(path)).name))
         return start_task(task)
-
-    def _report_inputs(self):
-        """(ReportPoints of the user's pairs or None, the fit's sigmas or None), read on the main thread."""
-        from ..outputs.report import ReportPoints
-
-        points = None
-        info = self.controller.state.fit_info or {}
-        info = info if isinstance(info, dict) else {}
-        inputs = self.controller.fit_inputs()
-        if not isinstance(inputs, str):
-            uv, world, pairs = inputs
-            if not pairs:
-                # An unpaired fit: the report shows the automatic pairs the fit matched (by id) and their RMSE;
-                # without them its photo panel promised control points and showed none.
-                photo_ids, world_ids = self.controller._fit_ids
-                index_photo = {pid: i for i, pid in enumerate(photo_ids)}
-                index_world = {pid: i for i, pid in enumerate(world_ids)}
-                pairs = [(index_photo[a], index_world[b]) for a, b in info.get("matched") or []
-                         if a in index_photo and b in index_world]
-            if pairs:
-                i, j = np.asarray(pairs, dtype=int).T
-                points = ReportPoints(np.asarray(uv)[i], np.asarray(world)[j])
-        # the dock's fit stores its standard deviations as "sigma" (gui/engine.py); a core summary says "std"
-        std = info.get("sigma") or info.get("std")
-        return points, (std or None)
 
     def _ask_features(self) -> None:
         session = self.current_session()

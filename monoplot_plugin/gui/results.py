@@ -1,7 +1,7 @@
 """What a fitted camera says about the points, for a :class:`~monoplot_plugin.gui.controller.MonoplotController`
 (a mixin): residual segments of the matched and the check points, the ground under a photo pixel and the pixel of
-a map point, the message bar's summary of a fit. Its needs are :class:`ResultsHost`, checked by
-``tests/gui/test_controller_interfaces.py``."""
+a map point, the message bar's summary of a fit, the report's points and σ. Its needs are :class:`ResultsHost`,
+checked by ``tests/gui/test_controller_interfaces.py``."""
 
 from __future__ import annotations
 
@@ -130,3 +130,29 @@ class ResultsMixin:
             text += " " + self.tr("The camera ended {0:.0f} m below the terrain: the fit is wrong; reject "
                                   "doubtful points or improve the rough camera.").format(-clearance)
         return text, level
+
+    def report_inputs(self):
+        """(ReportPoints of the fit's pairs or None, the fit's sigmas or None) for the report, read on the main
+        thread."""
+        from ..outputs.report import ReportPoints
+
+        points = None
+        info = self.state.fit_info or {}
+        info = info if isinstance(info, dict) else {}
+        inputs = self.fit_inputs()
+        if not isinstance(inputs, str):
+            uv, world, pairs = inputs
+            if not pairs:
+                # An unpaired fit: the report shows the automatic pairs the fit matched (by id) and their RMSE;
+                # without them its photo panel promised control points and showed none.
+                photo_ids, world_ids = self._fit_ids
+                index_photo = {pid: i for i, pid in enumerate(photo_ids)}
+                index_world = {pid: i for i, pid in enumerate(world_ids)}
+                pairs = [(index_photo[a], index_world[b]) for a, b in info.get("matched") or []
+                         if a in index_photo and b in index_world]
+            if pairs:
+                i, j = np.asarray(pairs, dtype=int).T
+                points = ReportPoints(np.asarray(uv)[i], np.asarray(world)[j])
+        # the dock's fit stores its standard deviations as "sigma" (gui/engine.py); a core summary says "std"
+        std = info.get("sigma") or info.get("std")
+        return points, (std or None)

@@ -29,7 +29,7 @@ def test_report_inputs_after_unpaired_fit(dock_with_fit, plane_scene):
     photo, world = _accepted_points(c, plane_scene)
     c.state.fit_info = {"rmse_px": 0.5, "matched": [[a.id, b.id] for a, b in zip(photo, world)][:6],
                         "sigma": {"x": 12.0, "heading": 0.1}}
-    points, sigmas = tools._report_inputs()
+    points, sigmas = c.report_inputs()
     assert points is not None and len(points.uv) == 6  # the pairs the fit used, not nothing
     assert np.allclose(points.uv[0], (photo[0].x, photo[0].y))
     assert np.allclose(points.xyz[0], (world[0].x, world[0].y, world[0].z))
@@ -39,4 +39,4 @@ def test_report_inputs_after_unpaired_fit(dock_with_fit, plane_scene):
 def test_report_inputs_core_summary_std_still_read(dock_with_fit):
     dock, tools = dock_with_fit
     dock.controller.state.fit_info = {"std": {"x": 3.0}}
-    assert tools._report_inputs() == (None, {"x": 3.0})
+    assert dock.controller.report_inputs() == (None, {"x": 3.0})
