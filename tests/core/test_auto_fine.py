@@ -91,19 +91,38 @@ def test_a_basin_the_search_missed_is_taken_when_a_probe_finds_it(scene):
     assert terrain_shift_px(found.camera, truth, dem) < 0.5 * terrain_shift_px(first.camera, truth, dem)
 
 
-def test_probes_that_never_come_back_make_an_ok_uncertain(scene):
-    """A camera in a basin narrower than the prior's uncertainty (no probe came back) is not "ok", whatever else the
-    evidence says; one probe back is enough."""
+def test_too_few_probes_back_make_an_ok_uncertain(scene):
+    """A camera in a basin narrower than the prior's uncertainty (fewer than two of the four probes came back) is not
+    "ok", whatever else the evidence says; two probes back are enough."""
     from monoplot_plugin.core.auto import register
 
     _, truth, *_ = scene
     good = {"auto_skyline_usable": True, "auto_sky_fraction": 0.98, "auto_sky_agreement": 0.97, "auto_edge_score": 0.15,
             "auto_range_m": 5000.0, "auto_position_sigma_m": 100.0, "auto_rival_ratio": 0.5, "auto_probe_rivals": 0}
     verdicts = {}
-    for returned in (0, 1):
+    for returned in (0, 1, 2):
         result = register.AutoFitResult(truth, "ok", "unpaired fit.", "unpaired", std={"heading": 0.05})
         register._combine(result, dict(good, auto_probe_returned=returned))
         verdicts[returned] = (result.status, result.message)
-    assert verdicts[1][0] == "ok"
+    assert verdicts[2][0] == "ok"
+    assert verdicts[1][0] == "uncertain" and "only 1 of four cameras moved" in verdicts[1][1]
     assert verdicts[0][0] == "uncertain" and "none of four cameras moved" in verdicts[0][1]
     assert Probe(truth, 1.0, 1.0).returned and not Probe(truth, 1.0, 50.0).returned
+
+
+@pytest.mark.parametrize("moved", [(40.0, -30.0, -15.0), (50.0, 0.0, 10.0)])
+def test_more_passes_walk_a_near_camera_back_where_one_stops(near_slopes, moved):
+    """Terrain about 100 m ahead: each round scores against silhouettes rendered where it starts, and one pass of
+    the rounds stops tens of pixels off; passes that render again and start wide again end near the truth, with a
+    lower edge score."""
+    dem, truth, photo = near_slopes
+    edges = detect_photo_edges(photo, width=photo.shape[1])
+    edges.scale = 1.0
+    start = truth.with_parameters(x=truth.position[0] + moved[0], y=truth.position[1] + moved[1],
+                                  z=truth.position[2] + moved[2])
+    ended = {passes: refine_fine(start, start, edges, dem, SIGMAS, passes=passes)[0] for passes in (1, 3)}
+    shift = {n: terrain_shift_px(cam, truth, dem) for n, cam in ended.items()}
+    score = {n: edge_score(cam, edges, dem, SIGMAS) for n, cam in ended.items()}
+    assert shift[1] > 30.0, shift  # the scene is one where a single pass stops short
+    assert shift[3] < 15.0 and shift[3] < 0.5 * shift[1], shift
+    assert score[3] < score[1], score

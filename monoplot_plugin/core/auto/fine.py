@@ -30,6 +30,11 @@ __all__ = ["refine_fine", "edge_score", "position_probes", "terrain_shift_px", "
 
 #: (distance scale in working px, step factor) of the fine rounds.
 FINE_ROUNDS = ((8.0, 0.5), (4.0, 0.25), (2.5, 0.1))
+#: Most passes of :data:`FINE_ROUNDS`, and the least move (share of the prior's position σ) of a pass for another.
+FINE_PASSES = 3
+PASS_MOVE = 0.05
+#: A pass of :func:`refine_fine` that moves the camera by at most this share of the prior's position σ: settled.
+PASS_SETTLED = 0.01
 #: Distance scale (px per 1024 working px) of :func:`edge_score`.
 CHECK_TAU = 4.0
 #: A probe whose edge score is at most this many times the returned camera's fits the edges "nearly as well".
@@ -80,19 +85,28 @@ def fine_steps(sig: dict) -> tuple:
 
 
 def refine_fine(cam: Camera, prior: Camera, photo: PhotoEdges, dem, sig: dict, is_canceled=None,
-                poll=None) -> tuple:
+                poll=None, passes: int = 1) -> tuple:
     """``cam`` refined at ``photo``'s working size: (camera, the last round's :class:`Aligner`, the offset from
-    that aligner's reference to the camera). A wide distance scale first smooths the score's shallow minima."""
+    that aligner's reference to the camera). A wide distance scale first smooths the score's shallow minima.
+
+    Each round scores cameras against the DEM's edges rendered from where the round starts; near terrain changes
+    its silhouette as the camera moves, so one pass of the rounds cannot walk far in position. ``passes``: the
+    rounds start over, from wide to narrow again, up to this many times (fewer when a pass no longer moves the
+    camera by :data:`PASS_SETTLED` of the prior's position σ)."""
     steps, mins = fine_steps(sig)
-    for tau, scale in FINE_ROUNDS:
-        if poll is not None:
-            poll(is_canceled)
-        edges = dem_edges(cam, dem, 2.0, cam.focal_px * photo.scale)
-        al = Aligner(cam, photo, edges, sig, tau=tau, prior_offset=offset_between(cam, prior),
-                     is_canceled=is_canceled, max_points=1200)
-        off, _ = al.pattern_search(np.zeros(7), steps * scale, mins * scale, max_iter=30)
-        off, _ = al.least_squares(off)
-        cam = camera_from_offset(cam, off)
+    for _ in range(max(1, passes)):
+        start = np.asarray(cam.position, dtype=np.float64)
+        for tau, scale in FINE_ROUNDS:
+            if poll is not None:
+                poll(is_canceled)
+            edges = dem_edges(cam, dem, 2.0, cam.focal_px * photo.scale)
+            al = Aligner(cam, photo, edges, sig, tau=tau, prior_offset=offset_between(cam, prior),
+                         is_canceled=is_canceled, max_points=1200)
+            off, _ = al.pattern_search(np.zeros(7), steps * scale, mins * scale, max_iter=30)
+            off, _ = al.least_squares(off)
+            cam = camera_from_offset(cam, off)
+        if np.linalg.norm(np.asarray(cam.position) - start) <= PASS_SETTLED * sig["position_m"]:
+            break
     return cam, al, off
 
 
