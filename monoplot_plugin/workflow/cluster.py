@@ -52,7 +52,7 @@ CLUSTER_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.work
                   "distributed.admin.system-monitor.interval": "2s", "distributed.scheduler.work-stealing": False}
 
 
-#: frames of a shared camera take 20-50 ms each on a worker, while every task costs a few ms besides (measured,
+#: frames of a shared camera take 10-50 ms each on a worker, while every task costs a few ms besides (measured,
 #: 1.5 MP frames: 4 ms of the scheduler's CPU, and a fifth of the worker's wall time spent outside the frame); a task
 #: carries up to MAX_FRAMES_PER_TASK frames, yet every worker gets about TASKS_PER_WORKER tasks so that they end
 #: together and progress moves. Photos fitted one by one (seconds each) stay one per task.

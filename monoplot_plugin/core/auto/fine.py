@@ -30,9 +30,6 @@ __all__ = ["refine_fine", "edge_score", "position_probes", "terrain_shift_px", "
 
 #: (distance scale in working px, step factor) of the fine rounds.
 FINE_ROUNDS = ((8.0, 0.5), (4.0, 0.25), (2.5, 0.1))
-#: Most passes of :data:`FINE_ROUNDS`, and the least move (share of the prior's position σ) of a pass for another.
-FINE_PASSES = 3
-PASS_MOVE = 0.05
 #: A pass of :func:`refine_fine` that moves the camera by at most this share of the prior's position σ: settled.
 PASS_SETTLED = 0.01
 #: Distance scale (px per 1024 working px) of :func:`edge_score`.

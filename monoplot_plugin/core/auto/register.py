@@ -67,9 +67,9 @@ ANGLE_SIGMA_OK = 0.5
 #: best is often not the right basin), and how many of the refined are refined again at full size.
 N_STARTS = 8
 N_FINALS = 3
-#: Passes of the fine stage (:func:`.fine.refine_fine`) for the best hypotheses: on 15 synthetic scenes that failed
-#: with one pass, mostly near terrain (100-1500 m), three passes brought 3 within 1 % of the range (a near camera's
-#: silhouettes change as it moves: each pass renders them again and starts with wide steps); probes keep one.
+#: Passes of the fine stage (:func:`.fine.refine_fine`) for the best hypotheses (a near camera's silhouettes change
+#: as it moves: each pass renders them again and starts with wide steps); probes keep one. Measured on the synthetic
+#: scenes against one pass: 25 -> 26 of 50 within 1 % of the range (eval σ), 9 -> 11 of 20 (default σ).
 FINE_PASSES = 3
 #: Distance (prior position σ) of the coarse search's positions around the prior's (:func:`_positions`).
 POSITION_SIGMAS = 1.0
