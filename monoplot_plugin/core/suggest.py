@@ -36,6 +36,12 @@ from .keypoints import detect_keypoints, percentile_rank, spread_by_grid, stable
 from .landmarks import terrain_landmarks
 from .silhouettes import foreground_xyz, render_for_keypoints, scaled_camera, silhouette_peaks
 from .suggest_photo import picture_mask, to_gray
+from .xyz.zbuffer import NEAR_PLANE_M
+
+#: Terrain nearer than this (metres) to a rough camera whose view it fills is left out of the DEM suggestions: the
+#: fit's default position uncertainty is at least this (:meth:`~.fit.options.FitOptions.prior_sigmas`), so such a
+#: slope may as well stand behind the true camera; and a view it fills offers nothing the photo shows from afar.
+BLOCKED_VIEW_NEAR_M = 100.0
 
 __all__ = ["PhotoSuggestions", "DemSuggestions", "suggest_photo_points", "suggest_dem_points", "detect_keypoints",
            "spread_by_grid", "thin_evenly", "terrain_landmarks", "silhouette_peaks", "PHOTO_DETECTOR", "DEM_DETECTOR"]
@@ -83,6 +89,7 @@ class DemSuggestions:
             "corner".
         uv: (M, 2) their pixels in the approximate camera (NaN without a camera).
         prominence: (M,) metres for summits (NaN for the others).
+        near_clip_m: terrain nearer than this to the camera was left out (0 = none; see :func:`blocked_view`).
     """
 
     xyz: np.ndarray
@@ -91,6 +98,7 @@ class DemSuggestions:
     kind: np.ndarray
     uv: np.ndarray
     prominence: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    near_clip_m: float = 0.0
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -99,7 +107,7 @@ class DemSuggestions:
         """The suggestions selected by a bool mask or an index array (ids unchanged)."""
         idx = np.flatnonzero(keep) if np.asarray(keep).dtype == bool else np.asarray(keep, dtype=np.int64)
         return DemSuggestions(self.xyz[idx], self.score[idx], [self.ids[i] for i in idx], self.kind[idx],
-                              self.uv[idx], self.prominence[idx])
+                              self.uv[idx], self.prominence[idx], self.near_clip_m)
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -178,7 +186,8 @@ def suggest_photo_points(image: np.ndarray, max_points: int = 8000, cell_px: Opt
 def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Optional[float] = None,
                        per_cell: int = 1, min_distance_px: Optional[float] = None, render_width: int = 1024,
                        view_margin: float = 0.05, max_range: Optional[float] = None, landmarks: bool = True,
-                       max_landmarks: int = 300, map_size: int = 2048, **detector) -> DemSuggestions:
+                       max_landmarks: int = 300, map_size: int = 2048, near_m: Optional[float] = None,
+                       **detector) -> DemSuggestions:
     """Suggest DEM points worth pairing with the photo.
 
     Args:
@@ -198,6 +207,8 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
         landmarks: add summits, saddles and ridge junctions (:func:`terrain_landmarks`).
         max_landmarks: most landmarks (best first).
         map_size: without a camera, the hillshade is reduced so that its long side is at most this.
+        near_m: terrain nearer than this (metres) is left out. None = automatic: :data:`BLOCKED_VIEW_NEAR_M` when
+            terrain near the rough camera fills its view (:func:`blocked_view`), else nothing.
         **detector: settings of :func:`detect_keypoints`, over :data:`DEM_DETECTOR`.
     Returns:
         :class:`DemSuggestions` (``uv`` = pixels in ``camera``, NaN without one).
@@ -205,13 +216,18 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
     from .dem_window import as_dem
 
     dem = as_dem(dem, camera, max_range)
+    near_m = 0.0 if camera is None else near_m
     xyz_list, score_list, kind_list, prom_list = [], [], [], []
     res = None
     if camera is not None:
         from .xyz import compute_xyz_full
 
         small, scale = scaled_camera(camera, render_width)
-        res = compute_xyz_full(small, dem, max_range=max_range, crop=True, visibility=False)
+        res = compute_xyz_full(small, dem, max_range=max_range, crop=True, visibility=False,
+                               near=max(near_m or 0.0, NEAR_PLANE_M))
+        if near_m is None and blocked_view(res, small, dem):
+            near_m = BLOCKED_VIEW_NEAR_M
+            res = compute_xyz_full(small, dem, max_range=max_range, crop=True, visibility=False, near=near_m)
         img = render_for_keypoints(res, dem)
         mask = np.asarray(res.hit)
         import cv2
@@ -270,11 +286,12 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
         kind_list.append(source[keep][ok])
         prom_list.append(np.full(int(ok.sum()), np.nan))
 
+    near_m = near_m or 0.0
     if landmarks:
         lxyz, lkind, lstrength, lprom = terrain_landmarks(dem)
         if len(lxyz):
             if res is not None:
-                seen = _visible_in_view(dem, camera, lxyz, view_margin)
+                seen = _visible_in_view(dem, camera, lxyz, view_margin, near_m)
                 lxyz, lkind, lstrength, lprom = lxyz[seen], lkind[seen], lstrength[seen], lprom[seen]
             lscore = np.zeros(len(lxyz))
             for k in np.unique(lkind):
@@ -292,7 +309,7 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
     prom = np.concatenate(prom_list) if prom_list else np.zeros(0)
     if camera is not None and len(xyz):
         uv, depth = camera.project_with_depth(xyz)
-        inside = camera.in_image(uv, margin=view_margin * max(camera.image_size)) & (depth > 0)
+        inside = camera.in_image(uv, margin=view_margin * max(camera.image_size)) & (depth > near_m)
         xyz, score, kind, prom, uv = xyz[inside], score[inside], kind[inside], prom[inside], uv[inside]
     else:
         uv = np.full((len(xyz), 2), np.nan)
@@ -304,23 +321,52 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
         order = order[thin_evenly(spread_uv[order], score[order], spread_size, max_points)]
         order = order[stable_order(score[order], xyz[order, 0], xyz[order, 1])]
     xyz, score, kind, prom, uv = xyz[order], score[order], kind[order], prom[order], uv[order]
-    return DemSuggestions(xyz, score, [f"d{i:04d}" for i in range(len(xyz))], kind, uv, prom)
+    return DemSuggestions(xyz, score, [f"d{i:04d}" for i in range(len(xyz))], kind, uv, prom, near_m)
 
 
-def _visible_in_view(dem, camera, xyz: np.ndarray, margin: float) -> np.ndarray:
-    """(K,) bool: DEM points inside the camera's view (plus margin) and in its line of sight (exact test with
-    :func:`~monoplot_plugin.core.xyz.segment_first_hit`; a point is seen when the first terrain hit on the way is
-    within one cell of it)."""
+def blocked_view(res, camera, dem, step: int = 4) -> bool:
+    """Whether terrain close to the rough camera fills its view: most pixels that see terrain see it nearer than
+    :data:`BLOCKED_VIEW_NEAR_M` and nearer than half the distance at which their ray would meet flat ground at the
+    camera's height above the terrain below it (a slope in the way, not the ground a camera looks down on).
+
+    Args:
+        res: :class:`~monoplot_plugin.core.xyz.XyzResult` of ``camera``.
+        camera: the rough :class:`~monoplot_plugin.core.camera.Camera` (the size ``res`` was rendered at).
+        dem: the terrain.
+        step: every ``step``-th pixel of every ``step``-th row is looked at (speed).
+    """
+    distance = np.asarray(res.distance, dtype=np.float64)[::step, ::step]
+    rows, cols = np.nonzero(np.isfinite(distance))
+    if len(rows) == 0:
+        return False
+    ground = float(dem.sample(camera.position[0], camera.position[1]))
+    height = camera.position[2] - ground if np.isfinite(ground) else np.inf
+    uv = np.stack([cols * step + 0.5, rows * step + 0.5], axis=1)
+    _, rays = camera.pixel_to_world_ray(uv)
+    down = -rays[:, 2] / np.linalg.norm(rays, axis=1)  # sine of the ray's angle below the horizontal
+    with np.errstate(divide="ignore", invalid="ignore"):
+        flat = np.where((down > 0) & (height > 0), height / down, np.inf)
+    seen = distance[rows, cols]
+    in_the_way = (seen < BLOCKED_VIEW_NEAR_M) & (seen < 0.5 * flat)
+    return bool(in_the_way.mean() > 0.5)
+
+
+def _visible_in_view(dem, camera, xyz: np.ndarray, margin: float, near_m: float = 0.0) -> np.ndarray:
+    """(K,) bool: DEM points inside the camera's view (plus margin), beyond ``near_m`` metres, and in its line of
+    sight (exact test with :func:`~monoplot_plugin.core.xyz.segment_first_hit`; a point is seen when the first
+    terrain hit on the way is within one cell of it; terrain nearer than ``near_m`` does not hide it)."""
     from .xyz import segment_first_hit
 
     uv, depth = camera.project_with_depth(xyz)
-    inside = camera.in_image(uv, margin=margin * max(camera.image_size)) & (depth > 0)
+    inside = camera.in_image(uv, margin=margin * max(camera.image_size)) & (depth > near_m)
     if not inside.any():
         return inside
     origin = np.asarray(camera.position, dtype=np.float64)
     targets = xyz[inside] + np.array([0.0, 0.0, 1.0])  # a metre above the ground: the point itself is on it
-    s = segment_first_hit(dem, np.broadcast_to(origin, targets.shape), targets)
     length = np.linalg.norm(targets - origin, axis=1)
+    starts = origin + (targets - origin) * (near_m / np.maximum(length, 1e-9))[:, None]
+    s = segment_first_hit(dem, starts, targets)
+    length = np.linalg.norm(targets - starts, axis=1)
     seen = ~np.isfinite(s) | ((1.0 - s) * length <= 1.5 * dem.cell_size)
     out = inside.copy()
     out[inside] = seen

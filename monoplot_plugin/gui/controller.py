@@ -237,11 +237,16 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             return engine.suggest(photo, dem, camera, n_photo, n_dem, progress, is_canceled)
 
         def apply(value):
-            photo_pts, map_pts = value
+            photo_pts, map_pts, near_clip_m = value
             self.stack.push(replace_suggestions(self.state, PHOTO, photo_pts, self.tr("Suggest photo points")))
             self.stack.push(replace_suggestions(self.state, MAP, map_pts, self.tr("Suggest DEM points")))
-            self.message.emit(self.tr("{0} photo and {1} DEM suggestions: accept (A / left click) or reject "
-                                      "(R / right click) them.").format(len(photo_pts), len(map_pts)), INFO)
+            text = self.tr("{0} photo and {1} DEM suggestions: accept (A / left click) or reject "
+                           "(R / right click) them.").format(len(photo_pts), len(map_pts))
+            if near_clip_m:
+                text += " " + self.tr("Terrain within {0:.0f} m fills the camera's view, nearer than its position "
+                                      "is known: it is left out of the DEM suggestions. If the photo shows it, "
+                                      "check the camera's position and height.").format(near_clip_m)
+            self.message.emit(text, INFO)
 
         return self._start("suggest", self.tr("Suggest points"), work, apply)
 

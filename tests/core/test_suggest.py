@@ -227,3 +227,46 @@ def test_thin_evenly_takes_the_best_of_every_cell_first():
     assert len(keep) == 12 and len(set(keep.tolist())) == 12
     assert (keep >= 50).sum() >= 6  # most of the scattered low scores make it in
     assert thin_evenly(uv, score, (100, 100), count=100).tolist() == np.lexsort((np.arange(60), -score)).tolist()
+
+
+
+def _terrain_and_ground(fraction_north: float):
+    """Synthetic mountains (6 km square, 25 m cells) and a ground point on their north-south centre line."""
+    from monoplot_plugin.core.synthetic import synthetic_terrain
+
+    dem = synthetic_terrain((240, 240), cell=25.0, seed=5)
+    x0, y0, x1, y1 = dem.bounds()
+    cx, cy = (x0 + x1) / 2, y0 + fraction_north * (y1 - y0)
+    return dem, (cx, cy, float(dem.sample(cx, cy)))
+
+
+def test_dem_suggestions_look_past_a_slope_that_fills_a_rough_cameras_view():
+    """A rough camera 10 m above a slope's foot, looking level into it, sees nothing but the slope; its position is
+    not known to 100 m, so the suggestions leave the near terrain out and come from the mountains behind."""
+    dem, (cx, cy, ground) = _terrain_and_ground(0.1)
+    cam = Camera((cx, cy, ground + 10.0), heading=0, pitch=0, roll=0, fov=50, image_size=(800, 533))
+    blind = suggest_dem_points(dem, cam, near_m=0.0)
+    far = suggest_dem_points(dem, cam)
+    dist = lambda s: np.linalg.norm(s.xyz[:, :2] - np.array([cx, cy]), axis=1)  # noqa: E731
+    assert len(blind) > 20 and np.median(dist(blind)) < 100.0 and blind.near_clip_m == 0.0
+    assert far.near_clip_m == 100.0
+    assert len(far) > len(blind) and np.median(dist(far)) > 1000.0
+    assert (cam.project_with_depth(far.xyz)[1] > 100.0).all()
+
+
+def test_a_camera_looking_down_on_near_ground_keeps_it():
+    """A camera 40 m above a plain looking 45° down, or 10 m above it looking level: the near ground is what it
+    looks at, not a slope in the way, though most of what it sees is within 100 m."""
+    from monoplot_plugin.core.suggest import blocked_view
+    from monoplot_plugin.core.xyz import compute_xyz_full
+
+    dem, (cx, cy, ground) = _terrain_and_ground(0.1)
+    dem = Dem.from_array(np.full(dem.shape, ground, np.float32), dem.geotransform, dem.crs_wkt)  # a plain
+    cam = Camera((cx, cy, ground + 40.0), heading=0, pitch=-45, roll=0, fov=50, image_size=(400, 266))
+    res = compute_xyz_full(cam, dem, visibility=False)
+    assert np.nanmedian(res.distance) < 100.0
+    assert not blocked_view(res, cam, dem)
+    assert suggest_dem_points(dem, cam).near_clip_m == 0.0
+    level = cam.with_parameters(pitch=0.0, z=ground + 10.0)
+    res = compute_xyz_full(level, dem, visibility=False)
+    assert np.nanmedian(res.distance) < 100.0 and not blocked_view(res, level, dem)

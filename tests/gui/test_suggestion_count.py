@@ -45,3 +45,35 @@ def test_a_new_dock_starts_with_the_remembered_count(qgis_iface, qtbot, dem_laye
         assert d.suggestCountSpin.value() == 750
     finally:
         d.unload()
+
+
+def test_a_camera_facing_a_near_slope_is_told_the_slope_is_left_out(dock, scene, qtbot, qgis_iface):
+    """A rough camera put 5 m above the ground, looking level into rising terrain: the DEM suggestions come from
+    beyond 100 m and the message bar says why and what to check."""
+    import numpy as np
+    from qgis.core import Qgis
+
+    from monoplot_plugin.core.suggest import blocked_view
+    from monoplot_plugin.core.xyz import compute_xyz_full
+
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    x, y, _ = scene.camera.position
+    blocked = None
+    for step in range(1, 40):  # walk north, into the terrain the photo looks at, until a slope fills the view
+        yy = y + 50.0 * step
+        cam = scene.camera.with_parameters(y=yy, z=float(scene.dem.sample(x, yy)) + 5.0, pitch=0.0)
+        if blocked_view(compute_xyz_full(cam, scene.dem, visibility=False), cam, scene.dem):
+            blocked = cam
+            break
+    assert blocked is not None
+    c.set_prior(blocked)
+    qtbot.mouseClick(dock.suggestButton, Qt.MouseButton.LeftButton)
+    with qtbot.waitSignal(c.taskFinished, timeout=60000) as finished:
+        pass
+    assert finished.args[0].ok, finished.args[0].reason
+    infos = " ".join(m[1] if isinstance(m, tuple) else str(m)
+                     for m in qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Info))
+    assert "Terrain within 100 m fills the camera's view" in infos
+    depth = blocked.project_with_depth(np.array([[p.x, p.y, p.z] for p in c.state.in_space(MAP)]))[1]
+    assert len(depth) and (depth > 100.0).all()
