@@ -184,6 +184,7 @@ def test_converging_on_the_pairs_keeps_the_long_tail_of_true_residuals():
     unpaired fit keeps them all and lands on the least squares of the true pairs, where a 3-sigma cut would not."""
     from monoplot_plugin.core.fit.consensus import inlier_radius
     from monoplot_plugin.core.fit.context import FitContext
+    from monoplot_plugin.core.fit.options import FitOptions
     from monoplot_plugin.core.fit.lsq import least_squares
     from monoplot_plugin.core.fit.options import FitOptions
     from monoplot_plugin.core.fit.pairing import converge_on_pairs
@@ -251,3 +252,23 @@ def test_check_points_far_off_and_beyond_the_residuals_make_a_camera_poor():
         if expected == "poor":
             assert 0.015 * diag < r.check_rmse_px < 0.03 * diag, r.check_rmse_px
         assert r.status == expected, (r.status, r.check_rmse_px, r.message)
+
+
+def test_the_alignments_prior_penalty_is_the_verdicts():
+    """The consensus alignment maximises the net score the candidates are judged by: its differentiable prior
+    penalty equals :func:`prior_penalty` of the camera, for every free parameter."""
+    from monoplot_plugin.core.fit.consensus import _torch_prior_penalty, prior_penalty
+    from monoplot_plugin.core.fit.context import FitContext
+    from monoplot_plugin.core.fit.options import FitOptions
+
+    rng = np.random.default_rng(2)
+    world = terrain_points(30, rng)
+    ctx = FitContext(TRUTH.project(world), world, CARELESS_START, None, None, 1.7, FitOptions())
+    space = ctx.space(ctx.initial)
+    sigmas = {"position_m": 150.0, "angle_deg": 4.0, "fov_deg": 3.0}
+    penalty = _torch_prior_penalty(ctx, space, sigmas)
+    for _ in range(5):
+        u = rng.normal(0, 2.0, space.size)
+        expected = prior_penalty(ctx, space.camera(u), sigmas)
+        assert expected > 0.1
+        assert float(penalty(torch.as_tensor(u))) == pytest.approx(expected, rel=1e-9)

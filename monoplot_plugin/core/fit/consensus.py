@@ -20,7 +20,7 @@ Conventions: pixels, camera frame x right / y down / z forward, see :mod:`~monop
 from __future__ import annotations
 
 import math
-from typing import List, Tuple
+from typing import List, Optional, Tuple
 
 import numpy as np
 
@@ -399,7 +399,8 @@ def position_hypotheses(ctx, sigmas: dict) -> list:
     return [ctx.initial.with_parameters(x=x + dx, y=y + dy, z=z + dz) for dx, dy, dz in offsets]
 
 
-def kernel_align(ctx, space: ParameterSpace, u0, start_scale: float, final_scale: float, max_points: int = 400):
+def kernel_align(ctx, space: ParameterSpace, u0, start_scale: float, final_scale: float, max_points: int = 400,
+                 sigmas: Optional[dict] = None):
     """Align by a soft mutual count, annealed: maximise ``sum_i max_j k_ij + sum_j max_i k_ij`` with
     ``k_ij = exp(-|q_i - p_j|^2 / (2 s^2))`` over the free parameters (L-BFGS, torch), ``s`` halving from
     ``start_scale`` to ``final_scale`` pixels.
@@ -407,6 +408,10 @@ def kernel_align(ctx, space: ParameterSpace, u0, start_scale: float, final_scale
     A wrongly accepted point adds a term that is flat almost everywhere, so it neither pulls nor pushes: unlike a
     mean distance, the maximum stays where the true correspondences coincide, however many wrong points there are.
     At most ``max_points`` points of each set take part (evenly drawn), which bounds the time.
+
+    With ``sigmas`` (:meth:`~.options.FitOptions.prior_sigmas`) half the soft count less :func:`prior_penalty` is
+    maximised, the net score the candidates are judged by: among hundreds of wrong points a wide kernel also
+    finds chance clusters far from the stated camera, and the penalty keeps the alignment from climbing them.
     """
     import torch
 
@@ -421,6 +426,7 @@ def kernel_align(ctx, space: ParameterSpace, u0, start_scale: float, final_scale
     q_t = torch.as_tensor(q, dtype=torch.float64)
     P_t = torch.as_tensor(ctx.P[idx], dtype=torch.float64)
     u = torch.tensor(np.asarray(u0, dtype=np.float64), requires_grad=True)
+    penalty = _torch_prior_penalty(ctx, space, sigmas) if sigmas is not None else None
     scale = float(start_scale)
     while True:
         ctx.poll()
@@ -438,6 +444,8 @@ def kernel_align(ctx, space: ParameterSpace, u0, start_scale: float, final_scale
             d2 = torch.cdist(q_t, proj).square() + (1.0 - front[None, :]) * 1e12
             k = torch.exp(-d2 / (2.0 * s * s))
             loss = -(k.max(dim=1).values.sum() + k.max(dim=0).values.sum()) / len(q)
+            if penalty is not None:  # in the count's units (the soft count is about twice the inliers), per point
+                loss = loss + 2.0 * penalty(u) / len(ctx.q)
             loss.backward()
             return loss
 
@@ -450,6 +458,27 @@ def kernel_align(ctx, space: ParameterSpace, u0, start_scale: float, final_scale
             break
         scale = max(final_scale, 0.5 * scale)
     return u.detach().numpy().copy()
+
+
+def _torch_prior_penalty(ctx, space: ParameterSpace, sigmas: dict):
+    """``u -> prior_penalty(ctx, space.camera(u), sigmas)`` as a differentiable torch function of the free
+    parameters (the position by its free coordinates; a height set by the ground does not count)."""
+    initial = ctx.initial.parameters()
+    centre = {"x": initial["x"] - space.origin[0], "y": initial["y"] - space.origin[1],
+              "z": initial["z"] - space.origin[2]}
+    sigma = {"x": sigmas["position_m"], "y": sigmas["position_m"], "z": sigmas["position_m"],
+             "heading": sigmas["angle_deg"], "pitch": sigmas["angle_deg"], "roll": sigmas["angle_deg"],
+             "fov": sigmas["fov_deg"]}
+    terms = [(i, space.base[n], float(space.scales[i]), centre.get(n, initial[n]), sigma[n])
+             for i, n in enumerate(space.names) if n in sigma and n in ctx.free]
+
+    def penalty(u):
+        total = u.new_zeros(())
+        for i, base, scale, centre_value, s in terms:
+            total = total + ((base + scale * u[i] - centre_value) / s) ** 2
+        return 0.5 * total
+
+    return penalty
 
 
 def local_optimise(ctx, space: ParameterSpace, u, start_gate: float, final_radius: float, rounds: int = 6):
