@@ -59,3 +59,31 @@ def test_unreadable_photo_is_a_clear_error(run_alg, tmp_path):
     bad.write_bytes(b"not an image")
     with pytest.raises(QgsProcessingException, match="cannot read the photo bad.jpg"):
         run_alg("suggestphotopoints", {"PHOTO": str(bad), "OUTPUT": str(tmp_path / "p.gpkg")})
+
+
+def test_a_camera_facing_a_near_slope_is_warned_that_it_is_left_out(run_alg, rendered, tmp_path):
+    """A prior camera 5 m above the ground, looking level into rising terrain: the suggestions come from beyond
+    100 m and the log says why."""
+    from qgis.core import QgsProcessingFeedback
+
+    from monoplot_plugin.core.suggest import blocked_view
+    from monoplot_plugin.core.xyz import compute_xyz_full
+
+    dem, cam = rendered["demobj"], rendered["cam"]
+    x, y, _ = cam.position
+    blocked = None
+    for step in range(1, 60):  # walk north, into the terrain the photo looks at, until a slope fills the view
+        yy = y + 50.0 * step
+        moved = cam.with_parameters(y=yy, z=float(dem.sample(x, yy)) + 5.0, pitch=0.0)
+        if blocked_view(compute_xyz_full(moved, dem, visibility=False), moved, dem):
+            blocked = moved
+            break
+    assert blocked is not None
+    blocked.save(tmp_path / "blocked.json")
+    feedback = QgsProcessingFeedback()
+    result = run_alg("suggestdempoints", {"DEM": rendered["dem"], "CAMERA": str(tmp_path / "blocked.json"),
+                                          "MAX_POINTS": 30, "OUTPUT": str(tmp_path / "d.gpkg")}, feedback)
+    assert "Terrain within 100 m fills the camera's view" in feedback.textLog()
+    layer = QgsVectorLayer(result["OUTPUT"], "d", "ogr")
+    xyz = np.array([(f["X"], f["Y"], f["Z"]) for f in layer.getFeatures()]).reshape(-1, 3)
+    assert len(xyz) and (blocked.project_with_depth(xyz)[1] > 100.0).all()

@@ -76,11 +76,15 @@ class SuggestDemPoints(MonoplotAlgorithm):
             camera = self.camera(parameters, context, photo=photo, crs=crs)
         count = self.parameterAsInt(parameters, "MAX_POINTS", context)
         feedback.setProgress(10)
-        xyz, scores, labels = pipeline.suggest_dem(dem, count, camera)
+        xyz, scores, labels, near_clip_m = pipeline.suggest_dem(dem, count, camera)
         check_canceled(feedback)
         sink = safe_sink(self, parameters, "OUTPUT", context, map_point_fields(), QgsWkbTypes.PointZ, crs)
         write_map_points(sink, xyz, scores, labels)
         dest = sink.commit()
         feedback.pushInfo(self.tr("{0} DEM points suggested").format(len(xyz)))
+        if near_clip_m:
+            feedback.pushWarning(self.tr("Terrain within {0:.0f} m fills the camera's view, nearer than its position "
+                                         "is known: it is left out of the suggestions. If the photo shows it, check "
+                                         "the camera's position and height.").format(near_clip_m))
         feedback.setProgress(100)
         return {"OUTPUT": dest, "COUNT": len(xyz)}
