@@ -173,7 +173,8 @@ def exif_camera(exif: Optional[ExifPrior], size: Tuple[int, int], dem, heading: 
         ValueError: no GPS position, no direction and no ``heading`` given, or the position outside the DEM (the
             message says which).
     """
-    from ..core.camera import Camera, lonlat_to_crs
+    from ..core.camera import Camera
+    from ..core.kml import lonlat_to_crs
 
     if exif is None or not exif.has_position:
         raise ValueError("the photo has no GPS position in its EXIF tags")

@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import json
 import math
-import re
 from dataclasses import asdict, dataclass, field, replace
 from typing import Optional, Tuple
 
@@ -54,7 +53,6 @@ __all__ = [
     "project_points",
     "focal_from_fov",
     "fov_from_focal",
-    "lonlat_to_crs",
     "PARAMETER_NAMES",
 ]
 
@@ -445,41 +443,11 @@ class Camera:
     # --- KML PhotoOverlay -------------------------------------------------------------------------------------
     @classmethod
     def from_kml(cls, kml, image_size, dst_crs_wkt: str, use_overlay_rotation: bool = True) -> "Camera":
-        """A camera from a KML PhotoOverlay (Google Earth), reprojected to ``dst_crs_wkt``.
+        """A camera from a KML PhotoOverlay (Google Earth), reprojected to ``dst_crs_wkt``
+        (:func:`~monoplot_plugin.core.kml.camera_from_kml`, which says how KML's angles are read)."""
+        from .kml import camera_from_kml
 
-        Args:
-            kml: path to a .kml file, or its text.
-            image_size: (width, height) of the photo in pixels.
-            dst_crs_wkt: WKT (or "EPSG:n") of the DEM's CRS.
-            use_overlay_rotation: add the PhotoOverlay's ``<rotation>`` (image rotation, counter-clockwise) to the
-                camera roll.
-        KML's ``tilt`` is 0 looking straight down and 90 at the horizon (pitch = tilt - 90); its ``heading`` is
-        measured from true north, converted here to grid north with the meridian convergence at the camera.
-        The horizontal field of view is ``rightFov - leftFov``. Altitude is taken as metres in the DEM's vertical
-        datum (the difference between datums is a few metres, far below a rough prior's error).
-        """
-        text = kml
-        if not str(kml).lstrip().startswith("<"):
-            with open(kml, encoding="utf-8") as fh:
-                text = fh.read()
-
-        def number(tag: str, default: Optional[float] = None) -> float:
-            match = re.search(rf"<(?:\w+:)?{tag}>\s*([-+0-9.eE]+)\s*</(?:\w+:)?{tag}>", text)
-            if match is None:
-                if default is None:
-                    raise ValueError(f"KML has no <{tag}> element")
-                return default
-            return float(match.group(1))
-
-        lon, lat, alt = number("longitude"), number("latitude"), number("altitude", 0.0)
-        heading_true, tilt, roll = number("heading", 0.0), number("tilt", 90.0), number("roll", 0.0)
-        left, right = number("leftFov"), number("rightFov")
-        if use_overlay_rotation:
-            roll += number("rotation", 0.0)
-        x, y, convergence = lonlat_to_crs(lon, lat, dst_crs_wkt)
-        heading = (heading_true - convergence + 180.0) % 360.0 - 180.0
-        return cls(position=(x, y, alt), heading=heading, pitch=tilt - 90.0, roll=roll, fov=right - left,
-                   image_size=image_size, crs_wkt=_wkt(dst_crs_wkt))
+        return camera_from_kml(kml, image_size, dst_crs_wkt, use_overlay_rotation)
 
 
 def angles_from_rotation(R: np.ndarray) -> Tuple[float, float, float]:
@@ -498,29 +466,3 @@ def angles_from_rotation(R: np.ndarray) -> Tuple[float, float, float]:
     down0 = np.array([sh * sp, ch * sp, -cp])
     roll = math.degrees(math.atan2(float(R[0] @ down0), float(R[0] @ right0)))
     return heading, pitch, roll
-
-
-def _wkt(crs: str) -> str:
-    from osgeo import osr
-
-    srs = osr.SpatialReference()
-    srs.SetFromUserInput(crs)
-    return srs.ExportToWkt()
-
-
-def lonlat_to_crs(lon: float, lat: float, crs: str) -> Tuple[float, float, float]:
-    """WGS 84 (lon, lat) -> (x, y) in ``crs`` (WKT or "EPSG:n") and the grid convergence there (degrees: true north
-    minus grid north, clockwise), so that ``grid heading = true heading - convergence``."""
-    from osgeo import osr
-
-    src = osr.SpatialReference()
-    src.ImportFromEPSG(4326)
-    dst = osr.SpatialReference()
-    dst.SetFromUserInput(crs)
-    for srs in (src, dst):
-        srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
-    transform = osr.CoordinateTransformation(src, dst)
-    x, y, _ = transform.TransformPoint(lon, lat)
-    x2, y2, _ = transform.TransformPoint(lon, lat + 1e-3)
-    convergence = math.degrees(math.atan2(x2 - x, y2 - y))
-    return x, y, convergence

@@ -13,7 +13,8 @@ import numpy as np
 from qgis.core import Qgis
 
 from ..adapters.exif import read_exif_prior
-from ..core.camera import Camera, lonlat_to_crs
+from ..core.camera import Camera
+from ..core.kml import lonlat_to_crs
 from . import engine
 
 __all__ = ["PriorsMixin", "PriorsHost", "terrain_pitch"]

@@ -25,7 +25,8 @@ from pathlib import Path
 from typing import Tuple
 from xml.sax.saxutils import escape
 
-from ..core.camera import Camera, lonlat_to_crs
+from ..core.camera import Camera
+from ..core.kml import lonlat_to_crs
 from .safe_write import write_text
 
 __all__ = ["camera_to_kml", "write_camera_kml", "crs_to_lonlat"]
