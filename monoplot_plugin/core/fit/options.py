@@ -43,7 +43,7 @@ class FitOptions:
         consensus: also search camera hypotheses drawn from the prior's uncertainty (minimal two-point solves
             verified by their mutual-nearest inliers) and keep whichever camera the consensus score prefers.
         consensus_hypotheses: most minimal-set hypotheses scored by the consensus search.
-        consensus_starts: how many of the best hypotheses are aligned and optimised.
+        consensus_starts: how many starts are aligned and optimised: the stated camera and the best hypotheses.
         bootstrap: resamplings of the inlier pairs for the σ of an unpaired fit (0 = Jacobian only).
         seed: random seed (results are deterministic for a given seed).
     """
