@@ -38,9 +38,9 @@ from .silhouettes import foreground_xyz, render_for_keypoints, scaled_camera, si
 from .suggest_photo import picture_mask, to_gray
 from .xyz.zbuffer import NEAR_PLANE_M
 
-#: Terrain nearer than this (metres) to a rough camera whose view it fills is left out of the DEM suggestions: the
-#: fit's default position uncertainty is at least this (:meth:`~.fit.options.FitOptions.prior_sigmas`), so such a
-#: slope may as well stand behind the true camera; and a view it fills offers nothing the photo shows from afar.
+#: Terrain nearer than this (metres) to a rough camera whose view it fills is left out of the DEM suggestions, unless
+#: the caller states the position's uncertainty: the fit's default position σ is at least this
+#: (:meth:`~.fit.options.FitOptions.prior_sigmas`), so such a slope may as well stand behind the true camera.
 BLOCKED_VIEW_NEAR_M = 100.0
 
 __all__ = ["PhotoSuggestions", "DemSuggestions", "suggest_photo_points", "suggest_dem_points", "detect_keypoints",
@@ -187,7 +187,7 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
                        per_cell: int = 1, min_distance_px: Optional[float] = None, render_width: int = 1024,
                        view_margin: float = 0.05, max_range: Optional[float] = None, landmarks: bool = True,
                        max_landmarks: int = 300, map_size: int = 2048, near_m: Optional[float] = None,
-                       **detector) -> DemSuggestions:
+                       position_sigma_m: Optional[float] = None, **detector) -> DemSuggestions:
     """Suggest DEM points worth pairing with the photo.
 
     Args:
@@ -207,8 +207,10 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
         landmarks: add summits, saddles and ridge junctions (:func:`terrain_landmarks`).
         max_landmarks: most landmarks (best first).
         map_size: without a camera, the hillshade is reduced so that its long side is at most this.
-        near_m: terrain nearer than this (metres) is left out. None = automatic: :data:`BLOCKED_VIEW_NEAR_M` when
-            terrain near the rough camera fills its view (:func:`blocked_view`), else nothing.
+        near_m: terrain nearer than this (metres) is left out. None = automatic: the position's uncertainty when
+            terrain nearer than it fills the rough camera's view (:func:`blocked_view`), else nothing.
+        position_sigma_m: metres, one σ of the rough camera's position, if the user stated it (a GPS position
+            known to 5 m keeps the street it stands in); None = :data:`BLOCKED_VIEW_NEAR_M`.
         **detector: settings of :func:`detect_keypoints`, over :data:`DEM_DETECTOR`.
     Returns:
         :class:`DemSuggestions` (``uv`` = pixels in ``camera``, NaN without one).
@@ -225,8 +227,9 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
         small, scale = scaled_camera(camera, render_width)
         res = compute_xyz_full(small, dem, max_range=max_range, crop=True, visibility=False,
                                near=max(near_m or 0.0, NEAR_PLANE_M))
-        if near_m is None and blocked_view(res, small, dem):
-            near_m = BLOCKED_VIEW_NEAR_M
+        clip = BLOCKED_VIEW_NEAR_M if position_sigma_m is None else float(position_sigma_m)
+        if near_m is None and clip > 0 and blocked_view(res, small, dem, clip):
+            near_m = clip
             res = compute_xyz_full(small, dem, max_range=max_range, crop=True, visibility=False, near=near_m)
         img = render_for_keypoints(res, dem)
         mask = np.asarray(res.hit)
@@ -324,9 +327,9 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
     return DemSuggestions(xyz, score, [f"d{i:04d}" for i in range(len(xyz))], kind, uv, prom, near_m)
 
 
-def blocked_view(res, camera, dem, step: int = 4) -> bool:
+def blocked_view(res, camera, dem, near_m: float = BLOCKED_VIEW_NEAR_M, step: int = 4) -> bool:
     """Whether terrain close to the rough camera fills its view: most pixels that see terrain see it nearer than
-    :data:`BLOCKED_VIEW_NEAR_M` and nearer than half the distance at which their ray would meet flat ground at the
+    ``near_m`` metres and nearer than half the distance at which their ray would meet flat ground at the
     camera's height above the terrain below it (a slope in the way, not the ground a camera looks down on).
 
     Args:
@@ -347,7 +350,7 @@ def blocked_view(res, camera, dem, step: int = 4) -> bool:
     with np.errstate(divide="ignore", invalid="ignore"):
         flat = np.where((down > 0) & (height > 0), height / down, np.inf)
     seen = distance[rows, cols]
-    in_the_way = (seen < BLOCKED_VIEW_NEAR_M) & (seen < 0.5 * flat)
+    in_the_way = (seen < near_m) & (seen < 0.5 * flat)
     return bool(in_the_way.mean() > 0.5)
 
 

@@ -232,9 +232,11 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             return False
         photo = qimage_to_array(self.image)  # copies: the task must not share Qt objects
         dem, camera = self.dem, self.camera()
+        options = fit_arguments(self.state.settings)[1]  # the prior's position σ, if the person set it
+        position_sigma_m = options.position_sigma_m if options is not None else None
 
         def work(progress, is_canceled):
-            return engine.suggest(photo, dem, camera, n_photo, n_dem, progress, is_canceled)
+            return engine.suggest(photo, dem, camera, n_photo, n_dem, progress, is_canceled, position_sigma_m)
 
         def apply(value):
             photo_pts, map_pts, near_clip_m = value
@@ -245,7 +247,8 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             if near_clip_m:
                 text += " " + self.tr("Terrain within {0:.0f} m fills the camera's view, nearer than its position "
                                       "is known: it is left out of the DEM suggestions. If the photo shows it, "
-                                      "check the camera's position and height.").format(near_clip_m)
+                                      "check the camera's position and height, or state how well the position is "
+                                      "known (Position ± in Fit settings).").format(near_clip_m)
             self.message.emit(text, INFO)
 
         return self._start("suggest", self.tr("Suggest points"), work, apply)

@@ -30,11 +30,13 @@ XYZ_MAX_PIXELS = 1_500_000
 # --- suggestions ----------------------------------------------------------------------------------------------
 
 def suggest(photo_rgb: np.ndarray, dem, camera: Optional[Camera], n_photo: int, n_dem: int,
-            progress: Progress, is_canceled: IsCanceled) -> Tuple[List[Point], List[Point], float]:
+            progress: Progress, is_canceled: IsCanceled,
+            position_sigma_m: Optional[float] = None) -> Tuple[List[Point], List[Point], float]:
     """Key points on the photo (pixels) and on the DEM (map X, Y, Z) as "suggested" :class:`Point` objects
     (:func:`workflow.suggest.suggest`), and the distance (m) within which terrain filling the rough camera's view
     was left out of the DEM suggestions (0 = none; :func:`core.suggest.blocked_view`)."""
-    photo, dem_pts = suggest_step.suggest(photo_rgb, dem, camera, n_photo, n_dem, progress, is_canceled)
+    photo, dem_pts = suggest_step.suggest(photo_rgb, dem, camera, n_photo, n_dem, progress, is_canceled,
+                                          position_sigma_m)
     photo_points = [Point.new(PHOTO, u, v, score=float(s)) for (u, v), s in zip(photo.uv, photo.score)]
     kinds = list(getattr(dem_pts, "kind", [""] * len(dem_pts.score)))
     map_points = [Point.new(MAP, x, y, z, score=float(s), label=str(k) if k in ("summit", "saddle", "junction")

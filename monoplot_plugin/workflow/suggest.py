@@ -21,22 +21,24 @@ def suggest_photo(photo: np.ndarray, max_points: int) -> PhotoSuggestions:
     return suggest_photo_points(photo, max_points=max_points)
 
 
-def suggest_dem(dem, max_points: int, camera: Optional[Camera] = None) -> DemSuggestions:
+def suggest_dem(dem, max_points: int, camera: Optional[Camera] = None,
+                position_sigma_m: Optional[float] = None) -> DemSuggestions:
     """Suggested terrain points: ``.xyz`` (M, 3) map coordinates, ``.score`` (M,), ``.kind`` ("summit", "saddle",
-    "junction", "orb"...); with a camera only those it sees."""
-    return suggest_dem_points(dem, camera=camera, max_points=max_points)
+    "junction", "orb"...); with a camera only those it sees, past terrain nearer than its position's uncertainty
+    (``position_sigma_m``, the user's, else 100 m) when such terrain fills its view (``.near_clip_m``)."""
+    return suggest_dem_points(dem, camera=camera, max_points=max_points, position_sigma_m=position_sigma_m)
 
 
 def suggest(photo: np.ndarray, dem, camera: Optional[Camera], n_photo: int, n_dem: int,
-            progress: Optional[Progress] = None,
-            is_canceled: Optional[IsCanceled] = None) -> Tuple[PhotoSuggestions, DemSuggestions]:
+            progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None,
+            position_sigma_m: Optional[float] = None) -> Tuple[PhotoSuggestions, DemSuggestions]:
     """Both sets of suggestions (photo, then DEM), with progress and cancel between them."""
     report = progress or (lambda fraction, message="": None)
     report(0.05, "photo")
     photo_points = suggest_photo(photo, n_photo)
     check_canceled(is_canceled)
     report(0.45, "DEM")
-    dem_points = suggest_dem(dem, n_dem, camera)
+    dem_points = suggest_dem(dem, n_dem, camera, position_sigma_m)
     check_canceled(is_canceled)
     report(0.95, "")
     return photo_points, dem_points

@@ -252,6 +252,8 @@ def test_dem_suggestions_look_past_a_slope_that_fills_a_rough_cameras_view():
     assert far.near_clip_m == 100.0
     assert len(far) > len(blind) and np.median(dist(far)) > 1000.0
     assert (cam.project_with_depth(far.xyz)[1] > 100.0).all()
+    known = suggest_dem_points(dem, cam, position_sigma_m=2.0)  # a position known to 2 m: the slope is the view
+    assert known.near_clip_m == 0.0 and len(known) == len(blind)
 
 
 def test_a_camera_looking_down_on_near_ground_keeps_it():

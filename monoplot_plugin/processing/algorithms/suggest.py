@@ -64,6 +64,11 @@ class SuggestDemPoints(MonoplotAlgorithm):
         self.addParameter(QgsProcessingParameterNumber("MAX_POINTS", self.tr("Maximum number of points"),
                                                        QgsProcessingParameterNumber.Integer, 60, minValue=1,
                                                        maxValue=10000))
+        sigma = QgsProcessingParameterNumber(
+            "POSITION_SIGMA", self.tr("Uncertainty of the prior position (m, one sigma; empty = 100 m): terrain "
+                                      "nearer than this that fills the camera's view is left out"),
+            QgsProcessingParameterNumber.Double, None, optional=True, minValue=0.0)
+        self.addParameter(sigma)
         self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Suggested DEM points"),
                                                             QgsProcessing.TypeVectorPoint))
         self.addOutput(QgsProcessingOutputNumber("COUNT", self.tr("Number of points")))
@@ -76,7 +81,9 @@ class SuggestDemPoints(MonoplotAlgorithm):
             camera = self.camera(parameters, context, photo=photo, crs=crs)
         count = self.parameterAsInt(parameters, "MAX_POINTS", context)
         feedback.setProgress(10)
-        xyz, scores, labels, near_clip_m = pipeline.suggest_dem(dem, count, camera)
+        sigma = parameters.get("POSITION_SIGMA")
+        sigma = None if sigma in (None, "") else self.parameterAsDouble(parameters, "POSITION_SIGMA", context)
+        xyz, scores, labels, near_clip_m = pipeline.suggest_dem(dem, count, camera, sigma)
         check_canceled(feedback)
         sink = safe_sink(self, parameters, "OUTPUT", context, map_point_fields(), QgsWkbTypes.PointZ, crs)
         write_map_points(sink, xyz, scores, labels)
