@@ -245,10 +245,11 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             text = self.tr("{0} photo and {1} DEM suggestions: accept (A / left click) or reject "
                            "(R / right click) them.").format(len(photo_pts), len(map_pts))
             if near_clip_m:
-                text += " " + self.tr("Terrain within {0:.0f} m fills the camera's view, nearer than its position "
-                                      "is known: it is left out of the DEM suggestions. If the photo shows it, "
-                                      "check the camera's position and height, or state how well the position is "
-                                      "known (Position ± in Fit settings).").format(near_clip_m)
+                text += " " + self.tr("Terrain within {0:.0f} m of the rough camera fills its view. Its position is "
+                                      "only known to about {0:.0f} m, so that terrain is left out of the DEM "
+                                      "suggestions. If the photo does show a slope that close, give the position's "
+                                      "uncertainty (Position ± in Fit settings, tab 4) and suggest again; if not, "
+                                      "check the camera's position and height.").format(near_clip_m)
             self.message.emit(text, INFO)
 
         return self._start("suggest", self.tr("Suggest points"), work, apply)

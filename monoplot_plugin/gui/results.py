@@ -107,8 +107,11 @@ class ResultsMixin:
             text = self.tr("Camera fitted: RMSE {0:.1f} px on {1} pairs.").format(
                 rmse if rmse is not None else float("nan"), n_pairs)
             if n_photo > n_pairs:
-                text += " " + self.tr("{0} accepted photo points without a partner are not used by a paired "
-                                      "fit.").format(n_photo - n_pairs)
+                unused = n_photo - n_pairs
+                text += " " + (self.tr("1 accepted photo point without a partner is not used by a paired fit.")
+                               if unused == 1 else
+                               self.tr("{0} accepted photo points without a partner are not used by a paired "
+                                       "fit.").format(unused))
         if info.get("mode") == "unpaired" and n_matched is not None and n_matched < n_photo:
             # the RMSE is over the matched points only: say how many, or "30 photo points" overstates a weak fit
             text = self.tr("Camera fitted: RMSE {0:.1f} px on the {1} of {2} photo points that matched a DEM "

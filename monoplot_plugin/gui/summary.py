@@ -48,6 +48,9 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     >>> "on 8 pairs (27 accepted photo points without a partner not used)" in fit_summary_html(
     ...     cam, {"rmse_px": 0.4, "mode": "paired", "n_photo": 35, "n_map": 32, "n_pairs": 8})
     True
+    >>> "on 8 pairs (1 accepted photo point without a partner not used)" in fit_summary_html(
+    ...     cam, {"rmse_px": 0.4, "mode": "paired", "n_photo": 9, "n_map": 8, "n_pairs": 8})
+    True
     >>> html = fit_summary_html(cam, {"status": "uncertain", "mode": "unpaired", "sigma": {"x": 0.31}})
     >>> "± 0.31*" in html and html.index("assume the automatic pairs are right") < html.index("<table>")
     True
@@ -82,7 +85,8 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
         head = tr("RMSE <b>{0}</b>{1} on {2} pairs{3}").format(
             "—" if rmse is None else f"{rmse:.1f} px",
             "" if loo is None else tr(" (leave-one-out {0:.1f} px)").format(loo), info["n_pairs"],
-            tr(" ({0} accepted photo points without a partner not used)").format(unused) if unused else "")
+            "" if not unused else tr(" (1 accepted photo point without a partner not used)") if unused == 1 else
+            tr(" ({0} accepted photo points without a partner not used)").format(unused))
     if info.get("check_rmse_px") is not None:
         head = tr("Check points <b>{0:.1f} px</b> RMSE on {1} (not fitted)").format(
             info["check_rmse_px"], info.get("n_check", 0)) + "<br>" + tr("Fit: ") + head

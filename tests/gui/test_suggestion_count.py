@@ -74,7 +74,7 @@ def test_a_camera_facing_a_near_slope_is_told_the_slope_is_left_out(dock, scene,
     assert finished.args[0].ok, finished.args[0].reason
     infos = " ".join(m[1] if isinstance(m, tuple) else str(m)
                      for m in qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Info))
-    assert "Terrain within 100 m fills the camera's view" in infos
+    assert "Terrain within 100 m of the rough camera fills its view" in infos
     depth = blocked.project_with_depth(np.array([[p.x, p.y, p.z] for p in c.state.in_space(MAP)]))[1]
     assert len(depth) and (depth > 100.0).all()
     # The person knows the position to 2 m (Fit settings, Position ±): the slope is what the camera sees.
@@ -85,6 +85,6 @@ def test_a_camera_facing_a_near_slope_is_told_the_slope_is_left_out(dock, scene,
         pass
     assert finished.args[0].ok, finished.args[0].reason
     infos = " ".join(str(m) for m in qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Info))
-    assert "DEM suggestions" in infos and "fills the camera's view" not in infos
+    assert "DEM suggestions" in infos and "fills its view" not in infos
     depth = blocked.project_with_depth(np.array([[p.x, p.y, p.z] for p in c.state.in_space(MAP)]))[1]
     assert (depth < 100.0).sum() >= 5  # the near slope is back among the suggestions

@@ -90,8 +90,10 @@ class SuggestDemPoints(MonoplotAlgorithm):
         dest = sink.commit()
         feedback.pushInfo(self.tr("{0} DEM points suggested").format(len(xyz)))
         if near_clip_m:
-            feedback.pushWarning(self.tr("Terrain within {0:.0f} m fills the camera's view, nearer than its position "
-                                         "is known: it is left out of the suggestions. If the photo shows it, check "
-                                         "the camera's position and height.").format(near_clip_m))
+            feedback.pushWarning(self.tr("Terrain within {0:.0f} m of the prior camera fills its view. Its position "
+                                         "is only known to about {0:.0f} m, so that terrain is left out of the "
+                                         "suggestions. If the photo does show a slope that close, give a smaller "
+                                         "POSITION_SIGMA; if not, check the camera's position and height."
+                                         ).format(near_clip_m))
         feedback.setProgress(100)
         return {"OUTPUT": dest, "COUNT": len(xyz)}
