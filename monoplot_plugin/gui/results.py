@@ -124,7 +124,8 @@ class ResultsMixin:
                                               info.get("n_photo", 0))
         elif info.get("mode") == "unpaired":
             text += " " + self.tr("(How well the automatic pairs agree, not the accuracy: pair a few points you "
-                                  "recognise and mark them as check points, key C.)")
+                                  "recognise, Shift+click a point then its partner in the other view, and mark "
+                                  "them as check points, key C.)")
         if status != "ok":  # the verdict's reasons (its message) are in the fit tab
             text += " " + self.tr("Status {0}: see the fit tab for why and what to do.").format(self.tr(status))
         clearance = info.get("clearance_m")
