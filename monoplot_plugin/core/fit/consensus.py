@@ -152,6 +152,11 @@ def chance_inliers(ctx, space: ParameterSpace, u, radius: float, trials: int = 2
     return scores
 
 
+#: Which of the prior's σ (:meth:`~.options.FitOptions.prior_sigmas`) each camera parameter is measured in.
+PRIOR_SIGMA_OF = {"x": "position_m", "y": "position_m", "z": "position_m", "heading": "angle_deg",
+                  "pitch": "angle_deg", "roll": "angle_deg", "fov": "fov_deg"}
+
+
 def prior_penalty(ctx, camera, sigmas: dict) -> float:
     """Half the squared Mahalanobis distance of ``camera`` from the initial camera under the prior's σ (position,
     heading, pitch, roll, field of view; fixed parameters do not count): the log-prior that a camera explaining
@@ -161,13 +166,12 @@ def prior_penalty(ctx, camera, sigmas: dict) -> float:
     if {"x", "y", "z"} & set(ctx.free):
         d = np.subtract(camera.position, cam0.position)
         m2 += float(d @ d) / sigmas["position_m"] ** 2
-    for name, sigma in (("heading", sigmas["angle_deg"]), ("pitch", sigmas["angle_deg"]),
-                        ("roll", sigmas["angle_deg"]), ("fov", sigmas["fov_deg"])):
+    for name in ("heading", "pitch", "roll", "fov"):
         if name in ctx.free:
             delta = getattr(camera, name) - getattr(cam0, name)
             if name == "heading":
                 delta = (delta + 180.0) % 360.0 - 180.0
-            m2 += (delta / sigma) ** 2
+            m2 += (delta / sigmas[PRIOR_SIGMA_OF[name]]) ** 2
     return 0.5 * m2
 
 
@@ -466,11 +470,8 @@ def _torch_prior_penalty(ctx, space: ParameterSpace, sigmas: dict):
     initial = ctx.initial.parameters()
     centre = {"x": initial["x"] - space.origin[0], "y": initial["y"] - space.origin[1],
               "z": initial["z"] - space.origin[2]}
-    sigma = {"x": sigmas["position_m"], "y": sigmas["position_m"], "z": sigmas["position_m"],
-             "heading": sigmas["angle_deg"], "pitch": sigmas["angle_deg"], "roll": sigmas["angle_deg"],
-             "fov": sigmas["fov_deg"]}
-    terms = [(i, space.base[n], float(space.scales[i]), centre.get(n, initial[n]), sigma[n])
-             for i, n in enumerate(space.names) if n in sigma and n in ctx.free]
+    terms = [(i, space.base[n], float(space.scales[i]), centre.get(n, initial[n]), sigmas[PRIOR_SIGMA_OF[n]])
+             for i, n in enumerate(space.names) if n in PRIOR_SIGMA_OF and n in ctx.free]
 
     def penalty(u):
         total = u.new_zeros(())
