@@ -98,6 +98,26 @@ def test_points_that_correspond_to_nothing_are_not_reported_ok():
     assert result.evidence["chance_max"] > 0
 
 
+def test_a_poor_fit_flags_no_outliers_and_gives_no_advice_to_reject():
+    """A camera judged probably wrong cannot say which points are wrong: with 8 photo and 7 DEM points that are
+    not partners, the fit is "poor" and flags nothing (an early refit like this one made the scripted Aletsch user
+    reject a correct point); the same points with many true partners added flag the unrelated ones."""
+    rng = np.random.default_rng(11)
+    photo = rng.uniform([0, 0], [1024, 768], (8, 2))
+    dem = terrain_points(7, rng)
+    start = TRUTH.with_parameters(heading=TRUTH.heading + 2)
+    poor = fit_camera(photo, dem, start)
+    assert poor.status == "poor", poor.message
+    assert poor.evidence["photo_outliers"] > 0  # the counting still happens: the evidence records it
+    assert not poor.photo_outliers.any() and "flagged" not in poor.message, poor.message
+    world = terrain_points(40, rng)
+    uv = TRUTH.project(world)
+    keep = TRUTH.in_image(uv, margin=-5)
+    flagged = fit_camera(np.vstack([uv[keep], photo]), np.vstack([world[keep], dem]), start)
+    assert flagged.status != "poor", flagged.message
+    assert flagged.photo_outliers[int(keep.sum()):].sum() >= 6 and "flagged" in flagged.message, flagged.message
+
+
 def test_clean_unpaired_points_are_ok_with_sigma_covering_the_truth():
     photo, dem, world = careless_problem(n_true=80, n_wrong_photo=0, n_wrong_dem=0, seed=2)
     start = TRUTH.with_parameters(heading=TRUTH.heading + 1.5, pitch=TRUTH.pitch + 1, fov=TRUTH.fov * 0.97)

@@ -44,7 +44,8 @@ class FitResult:
         evidence: the figures the verdict judged (inliers, chance level, competing camera, spread, Jacobian
             condition, ...; see :func:`~monoplot_plugin.core.fit.verdict.judge`).
         photo_outliers: (N,) bool, accepted photo points the fitted camera explains by no DEM point (unpaired mode;
-            shown red so that the person can reject them).
+            shown red so that the person can reject them; none when the fit is "poor": a camera that is probably
+            wrong cannot tell which points are).
         n_starts: how many starts the multi-start tried.
         elapsed_s: wall time of the fit.
     """

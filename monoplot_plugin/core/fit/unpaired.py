@@ -30,7 +30,7 @@ from .pairing import converge_on_pairs, refine_by_pairs
 from .params import ParameterSpace
 from .result import FitResult, rms, rmse
 from .stability import pixel_precision, weak_direction_probes
-from .verdict import TRUNCATED_SHARE, judge, photo_spread, weak_direction_matters, weakest_parameter
+from .verdict import TRUNCATED_SHARE, flags_outliers, judge, photo_spread, weak_direction_matters, weakest_parameter
 
 __all__ = ["fit_unpaired", "AUTOMATIC_PAIRS_WIDENING"]
 
@@ -333,8 +333,8 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
                 "loo_rmse_px": result.loo_rmse_px, "n_pairs": int(used), "camera_from": origin,
                 "note": result.message}
     result.evidence = evidence
-    result.photo_outliers = outliers
     result.status, result.message = judge(evidence)
+    result.photo_outliers = outliers if flags_outliers(result.status) else np.zeros_like(outliers)
     kept = result.inliers if len(result.inliers) == len(result.pairs) else np.ones(len(result.pairs), dtype=bool)
     if ctx.options.refine and len(pairs) and int(kept.sum()) != len(pairs):
         # The pairs, residuals and RMSE reported become those the message counts (the consensus pairs within the
