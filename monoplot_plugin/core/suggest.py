@@ -35,7 +35,7 @@ import numpy as np
 from .keypoints import detect_keypoints, percentile_rank, spread_by_grid, stable_order, thin_evenly
 from .landmarks import terrain_landmarks
 from .silhouettes import foreground_xyz, render_for_keypoints, scaled_camera, silhouette_peaks
-from .suggest_photo import picture_mask, to_gray
+from .suggest_photo import FEATURELESS_CONTRAST, coarse_contrast, picture_mask, to_gray
 from .xyz.zbuffer import NEAR_PLANE_M
 
 #: Terrain nearer than this (metres) to a rough camera whose view it fills is left out of the DEM suggestions, unless
@@ -56,12 +56,20 @@ class PhotoSuggestions:
         score: (N,) float64 in [0, 1], decreasing.
         ids: N stable ids "p0000", ...
         source: (N,) str: "orb", "corner", or "summit" / "notch" (of the skyline).
+        contrast: the photo's contrast at a coarse scale (grey levels, :func:`~.suggest_photo.coarse_contrast`);
+            below :data:`~.suggest_photo.FEATURELESS_CONTRAST` the suggestions are on noise (fog, a blank frame).
     """
 
     uv: np.ndarray
     score: np.ndarray
     ids: list
     source: np.ndarray
+    contrast: float = float("nan")
+
+    @property
+    def featureless(self) -> bool:
+        """True when the photo shows almost nothing (:data:`~.suggest_photo.FEATURELESS_CONTRAST`)."""
+        return bool(self.contrast < FEATURELESS_CONTRAST)
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -74,7 +82,8 @@ class PhotoSuggestions:
         (['p0001'], 1)
         """
         idx = np.flatnonzero(keep) if np.asarray(keep).dtype == bool else np.asarray(keep, dtype=np.int64)
-        return PhotoSuggestions(self.uv[idx], self.score[idx], [self.ids[i] for i in idx], self.source[idx])
+        return PhotoSuggestions(self.uv[idx], self.score[idx], [self.ids[i] for i in idx], self.source[idx],
+                                self.contrast)
 
 
 @dataclass
@@ -177,7 +186,8 @@ def suggest_photo_points(image: np.ndarray, max_points: int = 8000, cell_px: Opt
     uv, score, source = uv[keep], score[keep], source[keep]
     order = stable_order(score, uv[:, 0], uv[:, 1])
     uv, score, source = uv[order], score[order], source[order]
-    return PhotoSuggestions(uv, score, [f"p{i:04d}" for i in range(len(uv))], source)
+    return PhotoSuggestions(uv, score, [f"p{i:04d}" for i in range(len(uv))], source,
+                            coarse_contrast(small, small_mask))
 
 
 # ----------------------------------------------------------------------------------------------------------------

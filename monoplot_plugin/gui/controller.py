@@ -239,7 +239,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             return engine.suggest(photo, dem, camera, n_photo, n_dem, progress, is_canceled, position_sigma_m)
 
         def apply(value):
-            photo_pts, map_pts, near_clip_m = value
+            photo_pts, map_pts, near_clip_m, featureless = value
             self.stack.push(replace_suggestions(self.state, PHOTO, photo_pts, self.tr("Suggest photo points")))
             self.stack.push(replace_suggestions(self.state, MAP, map_pts, self.tr("Suggest DEM points")))
             text = self.tr("{0} photo and {1} DEM suggestions: accept (A / left click) or reject "
@@ -250,7 +250,9 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
                                       "suggestions. If the photo does show a slope that close, give the position's "
                                       "uncertainty (Position ± in Fit settings, tab 4) and suggest again; if not, "
                                       "check the camera's position and height.").format(near_clip_m)
-            self.message.emit(text, INFO)
+            if featureless:  # first: the message bar shows one line
+                text = featureless + " " + text
+            self.message.emit(text, WARNING if featureless else INFO)
 
         return self._start("suggest", self.tr("Suggest points"), work, apply)
 

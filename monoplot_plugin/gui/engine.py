@@ -31,10 +31,11 @@ XYZ_MAX_PIXELS = 1_500_000
 
 def suggest(photo_rgb: np.ndarray, dem, camera: Optional[Camera], n_photo: int, n_dem: int,
             progress: Progress, is_canceled: IsCanceled,
-            position_sigma_m: Optional[float] = None) -> Tuple[List[Point], List[Point], float]:
+            position_sigma_m: Optional[float] = None) -> Tuple[List[Point], List[Point], float, str]:
     """Key points on the photo (pixels) and on the DEM (map X, Y, Z) as "suggested" :class:`Point` objects
-    (:func:`workflow.suggest.suggest`), and the distance (m) within which terrain filling the rough camera's view
-    was left out of the DEM suggestions (0 = none; :func:`core.suggest.blocked_view`)."""
+    (:func:`workflow.suggest.suggest`), the distance (m) within which terrain filling the rough camera's view
+    was left out of the DEM suggestions (0 = none; :func:`core.suggest.blocked_view`), and a warning when the photo
+    shows almost nothing ("" otherwise; :func:`workflow.suggest.featureless_note`)."""
     photo, dem_pts = suggest_step.suggest(photo_rgb, dem, camera, n_photo, n_dem, progress, is_canceled,
                                           position_sigma_m)
     photo_points = [Point.new(PHOTO, u, v, score=float(s)) for (u, v), s in zip(photo.uv, photo.score)]
@@ -42,7 +43,8 @@ def suggest(photo_rgb: np.ndarray, dem, camera: Optional[Camera], n_photo: int, 
     map_points = [Point.new(MAP, x, y, z, score=float(s), label=str(k) if k in ("summit", "saddle", "junction")
                             else "")
                   for (x, y, z), s, k in zip(dem_pts.xyz, dem_pts.score, kinds)]
-    return photo_points, map_points, float(getattr(dem_pts, "near_clip_m", 0.0))
+    return (photo_points, map_points, float(getattr(dem_pts, "near_clip_m", 0.0)),
+            suggest_step.featureless_note(photo))
 
 
 # --- fit --------------------------------------------------------------------------------------------------------

@@ -25,10 +25,12 @@ fill_missing_z = vectors.fill_missing_z
 
 
 # --- suggestions ----------------------------------------------------------------------------------------------
-def suggest_photo(photo: np.ndarray, max_points: int) -> Tuple[np.ndarray, np.ndarray]:
-    """(uv (N, 2) pixels, scores (N,) in [0, 1]) of suggested points on an (H, W, 3) uint8 photo."""
+def suggest_photo(photo: np.ndarray, max_points: int) -> Tuple[np.ndarray, np.ndarray, str]:
+    """(uv (N, 2) pixels, scores (N,) in [0, 1], a warning or "") of suggested points on an (H, W, 3) uint8 photo;
+    the warning when the photo shows almost nothing (:func:`workflow.suggest.featureless_note`)."""
     result = suggest_step.suggest_photo(photo, max_points)
-    return np.asarray(result.uv, dtype=float).reshape(-1, 2), np.asarray(result.score, dtype=float)
+    return (np.asarray(result.uv, dtype=float).reshape(-1, 2), np.asarray(result.score, dtype=float),
+            suggest_step.featureless_note(result))
 
 
 def suggest_dem(dem, max_points: int, camera: Optional[Camera] = None, position_sigma_m: Optional[float] = None

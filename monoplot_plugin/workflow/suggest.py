@@ -13,12 +13,22 @@ from ..core.camera import Camera
 from ..core.suggest import DemSuggestions, PhotoSuggestions, suggest_dem_points, suggest_photo_points
 from .progress import IsCanceled, Progress, check_canceled
 
-__all__ = ["suggest", "suggest_photo", "suggest_dem"]
+__all__ = ["suggest", "suggest_photo", "suggest_dem", "featureless_note"]
 
 
 def suggest_photo(photo: np.ndarray, max_points: int) -> PhotoSuggestions:
     """Suggested points of an (H, W, 3) uint8 photo: ``.uv`` (N, 2) pixels, ``.score`` (N,) in [0, 1]."""
     return suggest_photo_points(photo, max_points=max_points)
+
+
+def featureless_note(photo_points: PhotoSuggestions) -> str:
+    """A warning when the photo shows almost nothing (its suggestions are on noise: fog, a blank or burnt-out frame,
+    the wrong file), else ""; the dock and Processing show the same words."""
+    if not photo_points.featureless:
+        return ""
+    return (f"The photo shows almost no structure (contrast {photo_points.contrast:.1f} grey levels at a coarse "
+            f"scale): its {len(photo_points)} suggestions are on noise, not on features anyone could recognise. "
+            "Check that it is the right photo; a photo in fog or a blank frame cannot be georeferenced.")
 
 
 def suggest_dem(dem, max_points: int, camera: Optional[Camera] = None,

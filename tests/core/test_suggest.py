@@ -272,3 +272,22 @@ def test_a_camera_looking_down_on_near_ground_keeps_it():
     level = cam.with_parameters(pitch=0.0, z=ground + 10.0)
     res = compute_xyz_full(level, dem, visibility=False)
     assert np.nanmedian(res.distance) < 100.0 and not blocked_view(res, level, dem)
+
+
+def test_suggestions_on_a_photo_of_noise_say_it_is_featureless():
+    """Noise gives key points all the same; the suggestions carry the photo's coarse contrast, which tells them
+    apart from a rendered mountain scene's."""
+    from monoplot_plugin.core.camera import Camera
+    from monoplot_plugin.core.suggest import suggest_photo_points
+    from monoplot_plugin.core.synthetic import render_photo, synthetic_terrain
+
+    noise = np.random.default_rng(2).normal(128, 9, (300, 400, 3)).clip(0, 255).astype(np.uint8)
+    fog = suggest_photo_points(noise, max_points=300)
+    assert len(fog) > 100 and fog.featureless
+    dem = synthetic_terrain((120, 120), cell=50.0, seed=2)
+    x, y = dem.cell_to_map(60, 112)
+    cam = Camera((float(x), float(y), float(dem.sample(x, y)) + 400), heading=0.0, pitch=-8.0, roll=0.0, fov=55.0,
+                 image_size=(400, 300))
+    scene = suggest_photo_points(render_photo(cam, dem, seed=2), max_points=300)
+    assert not scene.featureless and scene.contrast > 10 * fog.contrast
+    assert scene.subset([0, 1]).contrast == scene.contrast

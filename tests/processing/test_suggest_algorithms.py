@@ -41,6 +41,21 @@ def test_suggest_photo_points_in_pixel_space(run_alg, rendered, tmp_path):
     assert layer.crs().authid() == ""  # photo space has no CRS (GeoPackage reads it back as "undefined")
 
 
+def test_a_photo_of_noise_is_warned_about(run_alg, rendered, tmp_path):
+    """Key points on a grey frame of noise mean nothing: the log says so; the rendered scene gets no warning."""
+    import cv2
+    from qgis.core import QgsProcessingFeedback
+
+    noise = np.random.default_rng(1).normal(128, 9, (240, 320, 3)).clip(0, 255).astype(np.uint8)
+    cv2.imwrite(str(tmp_path / "fog.png"), noise)
+    for photo, warned in ((str(tmp_path / "fog.png"), True), (rendered["photo"], False)):
+        feedback = QgsProcessingFeedback()
+        result = run_alg("suggestphotopoints", {"PHOTO": photo, "MAX_POINTS": 40, "OUTPUT": str(tmp_path / "p.gpkg")},
+                         feedback)
+        assert ("almost no structure" in feedback.textLog()) == warned, feedback.textLog()
+        assert result["COUNT"] > 0
+
+
 def test_suggest_dem_points_seen_by_the_prior(run_alg, rendered, tmp_path):
     out = tmp_path / "dem_points.gpkg"
     result = run_alg("suggestdempoints", {"DEM": rendered["dem"], "CAMERA": rendered["camera"], "MAX_POINTS": 30,

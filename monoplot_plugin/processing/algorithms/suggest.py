@@ -38,8 +38,10 @@ class SuggestPhotoPoints(MonoplotAlgorithm):
         feedback.pushInfo(self.tr("Photo {0}x{1} px; detecting up to {2} points").format(
             photo.shape[1], photo.shape[0], count))
         feedback.setProgress(10)
-        uv, scores = pipeline.suggest_photo(photo, count)
+        uv, scores, warning = pipeline.suggest_photo(photo, count)
         check_canceled(feedback)
+        if warning:
+            feedback.pushWarning(warning)
         sink = safe_sink(self, parameters, "OUTPUT", context, photo_point_fields(), QgsWkbTypes.Point,
                          QgsCoordinateReferenceSystem())
         write_photo_points(sink, uv, scores)
