@@ -12,6 +12,8 @@ The logic lives in the controller (:mod:`.curation`) and :class:`~.shortlist.Sho
 
 from __future__ import annotations
 
+import time
+
 from qgis.PyQt.QtCore import QTimer
 from qgis.PyQt.QtWidgets import (QDoubleSpinBox, QFormLayout, QHeaderView, QMenu, QSizePolicy, QSpinBox,
                                  QToolButton, QWidget, QWidgetAction)
@@ -42,18 +44,26 @@ class MessageOnce:
 
     def __init__(self):
         self._item = None
+        self._pushed_at = 0.0
 
     def push(self, bar, title: str, text: str, level, duration: int) -> None:
-        if self._item is not None:
+        self.clear(bar)
+        bar.pushMessage(title, text, level, duration)
+        self._pushed_at = time.monotonic()
+        try:
+            self._item = bar.currentItem()
+        except AttributeError:
+            self._item = None
+
+
+    def clear(self, bar, older_than_s: float = 0.0) -> None:
+        """Take the last Monoplot message off ``bar``, if it was pushed more than ``older_than_s`` ago (a task
+        starting: the message of the step before is stale, one pushed as the task started is about it)."""
+        if self._item is not None and time.monotonic() - self._pushed_at >= older_than_s:
             try:
                 bar.popWidget(self._item)
             except (RuntimeError, TypeError, AttributeError):  # already gone (expired, closed)
                 pass
-            self._item = None
-        bar.pushMessage(title, text, level, duration)
-        try:
-            self._item = bar.currentItem()
-        except AttributeError:
             self._item = None
 
 
