@@ -26,7 +26,7 @@ from .chips import ChipView
 from .controller import MonoplotController
 from .auto_panel import install_auto_panel
 from .curation_panel import MessageOnce, install_curation_panel
-from .dock_layout import fit_minimum_width, lay_out, narrow_tabs, scroll_points_tab, split_photo_and_tabs
+from .dock_layout import fit_minimum_width, lay_out, narrow_tabs, scroll_points_tab, split_photo_and_tabs, status_line
 from .fit_settings import FitSettingsPanel, LensPanel
 from .io_actions import IoActions
 from .photo_canvas import PhotoCanvas
@@ -181,8 +181,10 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
 
     # --- messages ---------------------------------------------------------------------------------------------
     def show_message(self, text: str, level=Qgis.MessageLevel.Info) -> None:
-        """Message bar (never a traceback); also the dock's status line."""
-        self.statusLabel.setText(text)
+        """Message bar (never a traceback); also the dock's status line, cut to about three lines there (the
+        whole text in its tool tip and in the message log)."""
+        self.statusLabel.setText(status_line(text))
+        self.statusLabel.setToolTip(text if status_line(text) != text else "")
         bar = self.iface.messageBar() if self.iface is not None else None
         if bar is not None:  # once: the previous Monoplot message leaves the bar (no replay of old ones)
             duration = 0 if level == Qgis.MessageLevel.Critical else 6
@@ -335,6 +337,9 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         self.cancelButton.setVisible(busy)
         if busy:
             self.statusLabel.setText(self.tr("{0}…").format(description))  # not a stale message of before
+            bar = self.iface.messageBar() if self.iface is not None else None
+            if bar is not None and "_messages" in self.__dict__:  # nor in the message bar, during the task
+                self._messages.clear(bar, older_than_s=0.5)
             # then what the step is doing, as it goes (a registration sat at 0 % for seconds with no word)
             self.controller.task.stageChanged.connect(lambda stage, d=description: self.controller.busy and
                                                       self.statusLabel.setText(self.tr("{0}: {1}…").format(d, stage)))

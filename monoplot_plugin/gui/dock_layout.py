@@ -158,3 +158,20 @@ def split_photo_and_tabs(dock, total: int) -> None:
     low, high = TABS_SHARE
     tabs = int(min(max(need, low * total), high * total))
     dock.splitter.setSizes([total - tabs, tabs])
+
+
+#: Characters of a message the status line under the dock shows (about three lines at the dock's usual width): a
+#: featureless photo's Suggest message took eight lines there, pushing the tabs up.
+STATUS_CHARS = 300
+
+
+def status_line(text: str, limit: int = STATUS_CHARS) -> str:
+    """``text`` cut at a word before ``limit`` characters, with an ellipsis.
+
+    >>> status_line("short"), status_line("one two three four", 12)
+    ('short', 'one two …')
+    """
+    if len(text) <= limit:
+        return text
+    cut = text.rfind(" ", 0, limit - 1)
+    return text[:cut if cut > 0 else limit - 1].rstrip() + " …"

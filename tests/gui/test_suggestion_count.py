@@ -88,3 +88,38 @@ def test_a_camera_facing_a_near_slope_is_told_the_slope_is_left_out(dock, scene,
     assert "DEM suggestions" in infos and "fills its view" not in infos
     depth = blocked.project_with_depth(np.array([[p.x, p.y, p.z] for p in c.state.in_space(MAP)]))[1]
     assert (depth < 100.0).sum() >= 5  # the near slope is back among the suggestions
+
+
+def test_a_photo_of_noise_is_warned_that_its_suggestions_mean_nothing(dock, scene, qtbot, qgis_iface, tmp_path):
+    """A grey frame of sensor noise (fog, a blank exposure, the wrong file) still yields key points; the dock says
+    they are on noise, as a warning, first in the message. The scene's own photo gets no such warning."""
+    import cv2
+    import numpy as np
+    from qgis.core import Qgis
+
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    c.set_prior(scene.prior)
+    dock.suggestCountSpin.setValue(200)
+
+    def suggest():
+        qgis_iface.messageBar().clear_messages()
+        qtbot.mouseClick(dock.suggestButton, Qt.MouseButton.LeftButton)
+        with qtbot.waitSignal(c.taskFinished, timeout=60000) as finished:
+            pass
+        assert finished.args[0].ok, finished.args[0].reason
+        return " ".join(str(m) for m in qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Warning))
+
+    assert "almost no structure" not in suggest()
+    w, h = c.photo_size
+    noise = np.random.default_rng(4).normal(128, 9, (h, w, 3)).clip(0, 255).astype(np.uint8)
+    cv2.imwrite(str(tmp_path / "fog.png"), noise)
+    dock.photoFile.setFilePath(str(tmp_path / "fog.png"))
+    assert c.state.photo_path == str(tmp_path / "fog.png")
+    warnings = suggest()
+    assert warnings.index("almost no structure") < warnings.index("photo and")
+    assert c.state.counts()[PHOTO][SUGGESTED] > 0  # the suggestions are still there, for whoever wants them
+    # the status line under the dock keeps to about three lines; the whole message is in its tool tip
+    line, tip = dock.statusLabel.text(), dock.statusLabel.toolTip()
+    assert line.startswith("The photo shows almost no structure") and line.endswith(" …") and len(line) <= 302
+    assert tip.startswith(line[:-2]) and "accept (A / left click)" in tip
