@@ -97,6 +97,19 @@ def test_messages_show_once_and_the_status_line_follows_the_state(dock, scene, q
     for text in ("300 photo and 300 DEM suggestions", "2000 photo and 2000 DEM suggestions"):
         once.push(bar, "Monoplot", text, Qgis.MessageLevel.Info, 6)
     assert [item.text() for item in bar.items()] == ["2000 photo and 2000 DEM suggestions"]
+    once.clear(bar, older_than_s=60.0)  # a task starting right after its own message keeps it
+    assert len(bar.items()) == 1
+    once.clear(bar, older_than_s=0.0)  # one pushed before is stale: off the bar
+    assert bar.items() == []
+    # a fit's message leads with its verdict when it is not "ok" (the bar shows one line)
+    info = {"status": "poor", "mode": "unpaired", "rmse_px": 3.0, "n_photo": 8, "n_matched": 3}
+    poor, level = dock.controller.fit_summary(info)
+    assert poor.startswith("Camera fit probably wrong (status poor): RMSE 3.0 px on the 3 of 8") and \
+        "automatic pairs agree" not in poor and level == Qgis.MessageLevel.Warning
+    uncertain, _ = dock.controller.fit_summary(dict(info, status="uncertain"))
+    assert uncertain.startswith("Camera fitted, uncertain: RMSE 3.0 px") and "See the fit tab" in uncertain
+    ok, level = dock.controller.fit_summary(dict(info, status="ok"))
+    assert ok.startswith("Camera fitted: RMSE") and "fit tab" not in ok and level == Qgis.MessageLevel.Success
     load_inputs(dock, scene, qtbot)
     photo, _ = add_scene_points(dock, scene, n=6)
     dock.show_message("Camera fitted: 3.1 px")
