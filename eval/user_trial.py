@@ -6,8 +6,9 @@ with ``--suggestions`` per view. Then a simulated person, who knows the 11 GCPs 
 
 * accepts a suggestion *on show* with one click only if it lies within 10 px of a GCP pixel (photo) or 75 m
   horizontally of a GCP position (main map);
-* otherwise uses the dock's own bulk actions: "Reject outliers" when the background refit flags some, "Accept
-  likely" once the refit camera is good enough to link pairs, and "Reject the rest" to see the next few;
+* otherwise uses the dock's own bulk actions, when the dock enables them: "Reject outliers" when the background
+  refit flags some, "Accept likely" once the refit camera is good enough to link pairs, and "Reject the rest" to
+  see the next few;
 * once the refit is sure enough (sigma <= ``--good-sigma`` px) and links pairs: "Accept likely", then "Reject
   outliers" as the next refit flags them, ``--likely-rounds`` times; then clicks Fit camera.
 
@@ -141,7 +142,7 @@ def run(data: Path, n_suggest: int, max_clicks: int, good_sigma: float, likely_r
         person.settle()
         note("look", got)
         sl = c.shortlist
-        if sl.current_outliers():
+        if sl.current_outliers() and panel.rejectOutliersButton.isEnabled():
             person.press(panel.rejectOutliersButton, "reject_outliers")
             continue
         # a person presses "Accept likely" only when the dock offers it (enabled: a refit the verdict calls ok)
@@ -159,7 +160,7 @@ def run(data: Path, n_suggest: int, max_clicks: int, good_sigma: float, likely_r
         person.settle()
         note("accept likely")
         for _ in range(3):
-            if not c.shortlist.current_outliers():
+            if not c.shortlist.current_outliers() or not panel.rejectOutliersButton.isEnabled():
                 break
             person.press(panel.rejectOutliersButton, "reject_outliers")
             person.settle()

@@ -292,7 +292,16 @@ class CurationPanel(QWidget):
                     "yourself before accepting them all").format(self.tr(self.ranking_status or "none")))
         self.acceptLikelyButton.setText(self.tr("Accept likely ({0})").format(n_likely) if n_likely
                                         else self.tr("Accept likely"))
-        self.rejectOutliersButton.setEnabled(n_out > 0)
+        # ... and rejects them only on the word of such a camera: under a doubtful one the red points may be right
+        # and the camera wrong; rejecting them locks the camera in (a careless Aletsch set, "uncertain" 70 px off:
+        # rejecting its 389 flagged points, 24 of them correct, made the next fit "ok" 70 px off).
+        self.rejectOutliersButton.setEnabled(n_out > 0 and trusted)
+        self.rejectOutliersButton.setToolTip(
+            self.tr("Reject the accepted photo points the current fit explains by no DEM point (red rings)")
+            if trusted or not n_out else
+            self.tr("The current camera is not yet ok ({0}): the red points may be right and the camera wrong. "
+                    "Judge them one by one (R rejects the selected point), or accept more points you recognise "
+                    "first").format(self.tr(self.ranking_status or "none")))
         self.rejectOutliersButton.setText(self.tr("Reject outliers ({0})").format(n_out) if n_out
                                           else self.tr("Reject outliers"))
         # one line a view, how many are on show folded in (it was a line of its own: four lines at 560 px, above

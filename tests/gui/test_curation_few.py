@@ -312,6 +312,29 @@ def test_the_fit_button_flags_its_own_outliers_and_is_not_refitted_again(dock, s
     assert panel.refitter.task is None  # the same points are not fitted a second time
 
 
+def test_an_uncertain_camera_flags_outliers_but_does_not_reject_them_in_bulk(dock, scene, qtbot):
+    """Few true points among wrong ones: the fit is "uncertain" and flags the wrong photo points (red rings), but
+    "Reject outliers" stays greyed out, its tool tip says why; the message says to judge them one by one."""
+    load_inputs(dock, scene, qtbot)
+    c, panel = dock.controller, dock.curation_panel
+    photo, world = add_scene_points(dock, scene)
+    c.set_prior(scene.prior)
+    panel.refitCheck.setChecked(False)
+    rng = np.random.default_rng(3)
+    w, h = c.photo_size
+    wrong = [Point.new(PHOTO, float(u), float(v), status=ACCEPTED, manual=True)
+             for u, v in rng.uniform([0, 0], [w, h * 0.3], (25, 2))]
+    c.set_status([p.id for p in photo[:12]] + [x.id for x in world[:12]], ACCEPTED)
+    c.stack.push(add_points(c.state, wrong, "Add wrong points"))
+    assert c.fit()
+    qtbot.waitUntil(lambda: c.fitted is not None, timeout=120000)
+    info = c.state.fit_info
+    assert info["status"] == "uncertain", info["message"]
+    assert len(c.shortlist.current_outliers()) >= 10 and "judge them one by one" in info["message"]
+    assert not panel.rejectOutliersButton.isEnabled()
+    assert "not yet ok (uncertain)" in panel.rejectOutliersButton.toolTip()
+
+
 def test_a_fit_clicked_during_a_refit_of_the_same_points_waits_for_it(dock, scene, qtbot):
     """The Fit button soon after the last accept: the refit of those points under way is awaited, not canceled and
     fitted again; its camera is the Fit's, and the Fit only renders."""

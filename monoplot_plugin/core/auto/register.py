@@ -314,7 +314,7 @@ def _finish(finals, at: float, search: _Search):
     result = AutoFitResult(**vars(fit))
     result.image_points, result.world_points, result.aligned = image_points, world_points, aligned
     # the dock adds only the matched pairs as accepted points: no advice about "accepted" points it never shows
-    note = outlier_note(fit.evidence)
+    note = outlier_note(fit.evidence, sure=fit.status == "ok")
     if note:
         result.message = result.message.replace(note, "")
     # The fit on the suggestions refines the aligned camera only when its camera fits the photo's edges at least as

@@ -233,7 +233,7 @@ def judge(e: dict) -> Tuple[str, str]:
     note = (" " + e["note"]) if e.get("note") else ""
     # A camera judged probably wrong cannot say which points are wrong: no outlier advice under it (a person told to
     # reject them rejected a correct point, see :func:`flags_outliers`).
-    note = ("" if poor else outlier_note(e)) + note
+    note = ("" if poor else outlier_note(e, sure=not weak)) + note
     if poor:
         return "poor", text + " Probably wrong: " + "; ".join(poor) + "." + note
     if weak:
@@ -252,17 +252,24 @@ def flags_outliers(status: str) -> bool:
     return status in ("ok", "uncertain")
 
 
-def outlier_note(e: dict) -> str:
+def outlier_note(e: dict, sure: bool = True) -> str:
     """The verdict's sentence on the accepted photo points an unpaired fit explains by no terrain point ("" when
-    none); evidence ``e`` as :func:`judge` reads it.
+    none); evidence ``e`` as :func:`judge` reads it. ``sure``: the camera is "ok"; under an uncertain one the
+    flagged points may be right and the camera wrong, and the advice says so.
 
     >>> outlier_note({"mode": "unpaired", "photo_outliers": 3, "n_photo": 40})[:40]
     ' 3 of 40 accepted photo points fit no te'
+    >>> "one by one" in outlier_note({"mode": "unpaired", "photo_outliers": 3, "n_photo": 40}, sure=False)
+    True
     """
     if e.get("mode") != "unpaired" or not int(e.get("photo_outliers", 0)):
         return ""
-    return (f" {int(e['photo_outliers'])} of {int(e.get('n_photo', 0))} accepted photo points fit no terrain "
-            f"point under this camera (flagged as outliers): reject them if they are not on the DEM's terrain.")
+    text = (f" {int(e['photo_outliers'])} of {int(e.get('n_photo', 0))} accepted photo points fit no terrain "
+            f"point under this camera (flagged as outliers)")
+    if sure:
+        return text + ": reject them if they are not on the DEM's terrain."
+    return text + (": the camera is uncertain, so they may be right and the camera wrong; judge them one by one "
+                   "rather than rejecting them all.")
 
 
 def judge_by_checks(check_rmse_px: float, n_check: int, diag: float) -> Tuple[str, str]:
