@@ -388,7 +388,9 @@ class OutputTools(QObject):
 
         def done(result):
             self._tasks = [t for t in self._tasks if t is not task]
-            if not result.ok or result.value is None:
+            # canceled after the file was renamed into place: it is written, complete, and said so
+            late = result.status == "canceled" and result.value is not None
+            if (not result.ok and not late) or result.value is None:
                 if result.status == "canceled":
                     self._message(self.tr("Export canceled; nothing was replaced."), Qgis.MessageLevel.Info)
                 else:
@@ -406,6 +408,9 @@ class OutputTools(QObject):
                 self._message(self.tr("Written: {0}, from a camera whose fit is \"{1}\": every position in it "
                                       "inherits the camera's errors. Check the fit (pairs, check points) before "
                                       "using it.").format(written, self.tr(status)), Qgis.MessageLevel.Warning)
+            elif late:
+                self._message(self.tr("Written: {0} (the cancel came after the file was complete).").format(
+                    written), Qgis.MessageLevel.Info)
             else:
                 self._message(self.tr("Written: {0}").format(written), Qgis.MessageLevel.Success)
             self.exported.emit(what, str(written))

@@ -100,7 +100,9 @@ def _run_work(work, progress, is_canceled) -> TaskResult:
     """``work(progress, is_canceled)`` as a :class:`TaskResult`; never raises (QGIS would show a traceback)."""
     try:
         value = work(progress, is_canceled)
-        return TaskResult.canceled() if is_canceled() else TaskResult.success(value)
+        if is_canceled():  # the work may have stopped early and returned what it had: that value is kept
+            return TaskResult(CANCELED, value, "canceled")
+        return TaskResult.success(value)
     except Canceled:
         return TaskResult.canceled()
     except MemoryError:

@@ -19,6 +19,14 @@ from ..core.dem import Dem
 from .progress import IsCanceled, Progress, check_canceled, part
 from .xyz import xyz_result
 
+
+def _committed(is_canceled: Optional[IsCanceled]):
+    """A cancel up to the final rename of the written file leaves the earlier file as it was
+    (:func:`~..outputs.safe_write.cancel_before_commit`); after it, the product is written and says so."""
+    from ..outputs.safe_write import cancel_before_commit
+
+    return cancel_before_commit(is_canceled or (lambda: False))
+
 __all__ = ["ProductError", "write_xyz", "orthophoto", "report", "ortho_grid", "dem_at_resolution", "auto_resolution",
            "MAX_ORTHO_CELLS", "AUTO"]
 
@@ -43,9 +51,10 @@ def write_xyz(path, camera: Camera, dem, crs_wkt: Optional[str] = None, photo_na
 
     result = xyz_result(camera, dem, visibility=False, progress=part(progress, 0.0, 0.8), is_canceled=is_canceled)
     check_canceled(is_canceled)
-    written = write_xyz_raster(path, result.xyz, crs_wkt if crs_wkt is not None else dem.crs_wkt,
-                               result.distance if distance else None, overwrite=overwrite, camera=camera,
-                               photo_name=photo_name)
+    with _committed(is_canceled):
+        written = write_xyz_raster(path, result.xyz, crs_wkt if crs_wkt is not None else dem.crs_wkt,
+                                   result.distance if distance else None, overwrite=overwrite, camera=camera,
+                                   photo_name=photo_name)
     if progress is not None:
         progress(1.0, "")
     return written
@@ -66,7 +75,9 @@ def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution=None,
     xyz = xyz_result(camera, dem, visibility=False, progress=part(progress, 0.0, 0.5), is_canceled=is_canceled).xyz
     check_canceled(is_canceled)
     grid = ortho_grid(camera, dem, resolution, xyz) if grid is None else grid
-    written = orthophoto_from_camera(path, photo, camera, grid, xyz, overwrite=overwrite)
+    check_canceled(is_canceled)
+    with _committed(is_canceled):
+        written = orthophoto_from_camera(path, photo, camera, grid, xyz, overwrite=overwrite)
     if progress is not None:
         progress(1.0, "")
     return written
@@ -84,9 +95,10 @@ def report(path, photo: np.ndarray, camera: Camera, dem, points=None, points_csv
         points = report_points(points_csv, dem)
     result = xyz_result(camera, dem, visibility=True, progress=part(progress, 0.0, 0.6), is_canceled=is_canceled)
     check_canceled(is_canceled)
-    written = write_report(path, photo, camera, dem, points=points, xyz=result.xyz,
-                           visible=result.visible, sigmas=sigmas, title=title, overwrite=overwrite,
-                           verdict=verdict)
+    with _committed(is_canceled):
+        written = write_report(path, photo, camera, dem, points=points, xyz=result.xyz,
+                               visible=result.visible, sigmas=sigmas, title=title, overwrite=overwrite,
+                               verdict=verdict)
     if progress is not None:
         progress(1.0, "")
     return written

@@ -112,6 +112,34 @@ def test_products_in_the_one_layout(scene, tmp_path):
     assert not (tmp_path / "never.tif").exists()
 
 
+def test_a_cancel_while_a_product_is_written_leaves_the_earlier_file(scene, tmp_path):
+    """A cancel that comes while the writer runs (after the last check before writing) still stops the rename:
+    the XYZ raster, orthophoto and report written before stay byte for byte (a desktop trial saw them replaced
+    while the dock said "nothing was replaced")."""
+    import hashlib
+    import inspect
+
+    from monoplot_plugin.outputs.safe_write import OutputCanceled
+
+    dem, camera, _ = scene
+    photo = render_photo(camera, dem)
+
+    def while_writing():  # true only when asked from inside the writer's commit
+        return any(frame.filename.endswith("safe_write.py") for frame in inspect.stack()[1:4])
+
+    writers = {"xyz.tif": lambda path, **kw: products.write_xyz(path, camera, dem, **kw),
+               "ortho.tif": lambda path, **kw: products.orthophoto(path, photo, camera, dem, **kw),
+               "report.png": lambda path, **kw: products.report(path, photo, camera, dem, **kw)}
+    for name, write in writers.items():
+        first = write(tmp_path / name)
+        digest = hashlib.sha256(first.read_bytes()).hexdigest()
+        with pytest.raises(OutputCanceled):
+            write(tmp_path / name, overwrite=True, is_canceled=while_writing)
+        assert hashlib.sha256(first.read_bytes()).hexdigest() == digest, name
+        assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith(name.split(".")[0])) in (
+            [name], [name, name + ".aux.xml"]), name  # no temporary file left behind
+
+
 def test_an_automatic_orthophoto_keeps_the_photos_detail_over_what_it_sees(scene, tmp_path):
     """The dock's orthophoto (AUTO): cells of about a pixel's footprint at the median distance, finer than the
     DEM's, over the seen part of the DEM only; the same colours where it overlaps the DEM-grid orthophoto."""
