@@ -355,12 +355,18 @@ def move_point(state: ProjectState, pid: str, x: float, y: float, z: Optional[fl
 
 
 def replace_suggestions(state: ProjectState, space: str, points: Sequence[Point],
-                        text: str = "Suggest points") -> Edit:
+                        text: str = "Suggest points", machine_label: Optional[str] = None) -> Edit:
     """Drop the untouched (still ``suggested``, not manual) points of ``space`` and add ``points``.
 
-    Accepted/rejected decisions and manual points survive a new suggestion run.
+    Accepted/rejected decisions and manual points survive a new suggestion run. ``machine_label``: also drop the
+    points with this label that a machine accepted and nobody touched since (still accepted, not manual, in no
+    pair): the automatic registration's matches of an earlier run, which a new run replaces rather than adds to.
     """
+    paired = {i for pair in state.pairs for i in pair}
     old = [p for p in state.in_space(space, (SUGGESTED,)) if not p.manual]
+    if machine_label is not None:
+        old += [p for p in state.in_space(space, (ACCEPTED,)) if p.label == machine_label and not p.manual
+                and p.id not in paired]
     before: Dict[str, Optional[Point]] = {p.id: p for p in old}
     after: Dict[str, Optional[Point]] = {p.id: None for p in old}
     for p in points:

@@ -61,32 +61,36 @@ class AutoPanel(QObject):
             return False
         photo = qimage_to_array(c.image)  # a copy: the task must not share Qt objects
         dem = c.dem
+        _, check_uv, check_xyz = c.check_points()  # the person's check points measure the camera found
 
         def work(progress, is_canceled):
             done = auto_step.register(photo, dem, start, progress=part(progress, 0.0, 0.9), is_canceled=is_canceled)
             overlay, xyz, footprint = engine.render_products(done.camera, dem, is_canceled)
             # the DEM's silhouettes under the camera found over the photo's detected skyline
             overlay = draw_alignment(overlay, done.camera, done.result.skyline, dem)
+            checked = auto_step.judge_by_check_points(done.result.status, done.result.message, done.camera,
+                                                      check_uv, check_xyz)
             progress(1.0, "")
-            return done, overlay, xyz, footprint
+            return done, overlay, xyz, footprint, checked
 
         return c.run_task("auto", self.tr("Find camera automatically"), work, self._apply)
 
     def _apply(self, value) -> None:
-        done, overlay, xyz, footprint = value
+        done, overlay, xyz, footprint, checked = value
         c = self.controller
         r = done.result
+        status = checked["status"]
         kept = (c.state.fit_info or {}).get("status")
-        if c.fitted is not None and kept in ("ok", "uncertain") and r.status != "ok":
+        if c.fitted is not None and kept in ("ok", "uncertain") and status != "ok":
             # Nothing lost: a doubtful automatic camera never replaces the person's own fit and points.
             # ... but the person can look at it: its position and footprint on the map, beside their own
             camera_layers.show_camera_layers(self.dock.project, done.camera, footprint, c.dem_crs,
-                                             other=self.tr("automatic, {0}").format(r.status))
+                                             other=self.tr("automatic, {0}").format(status))
             # the registration's own report goes to the log: in the dock it pushed the fit tab's buttons out of view
-            logging.getLogger(__name__).info("Automatic registration set aside (%s): %s", r.status, r.message)
+            logging.getLogger(__name__).info("Automatic registration set aside (%s): %s", status, checked["message"])
             c.message.emit(self.tr("Automatic registration ended {0}; your fitted camera ({1}) and your points are "
                                    "kept. The automatic camera is on the map in purple, as \"Monoplot camera "
-                                   "(automatic, {0})\"; its report is in the Monoplot log.").format(r.status, kept),
+                                   "(automatic, {0})\"; its report is in the Monoplot log.").format(status, kept),
                            Qgis.MessageLevel.Warning)
             return
         camera_layers.remove_camera_layers(self.dock.project, other=True)  # an earlier one set aside is stale now
@@ -94,17 +98,19 @@ class AutoPanel(QObject):
         label = auto_step.AUTOMATIC_LABEL  # a later fit on these points alone is capped by this verdict
         photo_pts = [Point.new(PHOTO, float(u), float(v), status=ACCEPTED, label=label) for u, v in uv]
         map_pts = [Point.new(MAP, float(x), float(y), float(z), status=ACCEPTED, label=label) for x, y, z in world]
-        c.state.settings["automatic_status"] = r.status
+        c.state.settings["automatic_status"] = status
         c.state.settings["automatic_sigma"] = {k: float(v) for k, v in (r.std or {}).items()}
         replaced = 0
         if photo_pts:
             replaced = len([p for p in c.state.points.values() if p.status == SUGGESTED and not p.manual])
-            c.stack.push(replace_suggestions(c.state, PHOTO, photo_pts, self.tr("Automatic photo points")))
-            c.stack.push(replace_suggestions(c.state, MAP, map_pts, self.tr("Automatic DEM points")))
-        info = {"status": r.status, "rmse_px": _finite(r.rmse_px), "loo_rmse_px": _finite(r.loo_rmse_px),
-                "sigma": {k: float(v) for k, v in (r.std or {}).items()}, "converged": r.status == "ok",
-                "message": str(r.message), "mode": "automatic", "n_photo": len(photo_pts), "n_map": len(map_pts),
-                "n_pairs": 0, "n_matched": len(photo_pts), "elapsed_s": float(r.elapsed_s)}
+            # an earlier run's matches nobody touched go too: a second run replaces them (it had doubled them)
+            c.stack.push(replace_suggestions(c.state, PHOTO, photo_pts, self.tr("Automatic photo points"), label))
+            c.stack.push(replace_suggestions(c.state, MAP, map_pts, self.tr("Automatic DEM points"), label))
+        info = {"status": status, "rmse_px": _finite(r.rmse_px), "loo_rmse_px": _finite(r.loo_rmse_px),
+                "sigma": {k: float(v) for k, v in (r.std or {}).items()}, "converged": status == "ok",
+                "message": str(checked["message"]), "mode": "automatic", "n_photo": len(photo_pts),
+                "n_map": len(map_pts), "n_pairs": 0, "n_matched": len(photo_pts), "elapsed_s": float(r.elapsed_s),
+                "check_rmse_px": checked["check_rmse_px"], "n_check": checked["n_check"]}
         c.show_fit(engine.FitOutcome(done.camera, info, overlay, xyz, footprint))
         if replaced:
             c.message.emit(self.tr("The {0} undecided suggestions were replaced by the {1} + {2} matched points "

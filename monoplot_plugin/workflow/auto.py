@@ -21,7 +21,7 @@ from .progress import Canceled, IsCanceled, Progress, check_canceled
 from .warmup import import_torch
 
 __all__ = ["AutoDone", "register", "check_height", "DEFAULT_POSITION_SIGMA_M", "DEFAULT_ANGLE_SIGMA_DEG",
-           "AUTOMATIC_LABEL", "cap_by_automatic", "rests_on_automatic", "sigma_at_least"]
+           "AUTOMATIC_LABEL", "cap_by_automatic", "rests_on_automatic", "sigma_at_least", "judge_by_check_points"]
 
 #: the prior's uncertainty when nothing else says it (a position read off a map or EXIF GPS, a heading guessed)
 DEFAULT_POSITION_SIGMA_M = 200.0
@@ -140,4 +140,39 @@ def sigma_at_least(sigma: Optional[dict], floor: Optional[dict]) -> dict:
     for k, v in (floor or {}).items():
         if v is not None and math.isfinite(float(v)):
             out[k] = max(out.get(k, 0.0), float(v))
+    return out
+
+
+def judge_by_check_points(status: str, message: str, camera: Camera, check_uv: np.ndarray,
+                          check_xyz: np.ndarray) -> dict:
+    """The automatic camera measured by the person's check points (``check_uv`` (K, 2) pixels, ``check_xyz``
+    (K, 3) map points, kept out of the registration): {"status", "message", "check_rmse_px", "n_check"}.
+
+    The check points can only lower the registration's status (a run after a fit the check points called "poor"
+    came back "uncertain" with the same camera, the check points ignored): "poor" or "uncertain" by the same rule
+    as a camera loaded from a file (:func:`~..core.fit.verdict.judge_by_checks`).
+
+    >>> from monoplot_plugin.core.camera import Camera
+    >>> cam = Camera((0.0, 0.0, 100.0), 0.0, 0.0, 0.0, 60.0, (1000, 750))
+    >>> xyz = np.array([[x, 2000.0, z] for x in (-300.0, 0.0, 300.0) for z in (0.0, 200.0)])
+    >>> judge_by_check_points("uncertain", "m.", cam, cam.project(xyz) + 40.0, xyz)["status"]
+    'poor'
+    >>> judge_by_check_points("uncertain", "m.", cam, cam.project(xyz), xyz)["status"]
+    'uncertain'
+    """
+    from ..core.fit.verdict import judge_by_checks
+
+    check_uv = np.asarray(check_uv, dtype=float).reshape(-1, 2)
+    check_xyz = np.asarray(check_xyz, dtype=float).reshape(-1, 3)
+    out = {"status": status, "message": message, "check_rmse_px": None, "n_check": int(len(check_uv))}
+    if not len(check_uv):
+        return out
+    d = camera.project(check_xyz) - check_uv
+    d = d[np.isfinite(d).all(axis=1)]
+    rmse = float(np.sqrt(np.mean(np.sum(d * d, axis=1)))) if len(d) else math.nan
+    checked, text = judge_by_checks(rmse, len(d), math.hypot(*camera.image_size))
+    out["check_rmse_px"] = rmse if math.isfinite(rmse) else None
+    out["message"] = f"{message} {text}"
+    if _RANK.get(checked, 1) > _RANK.get(status, 0):
+        out["status"] = checked
     return out

@@ -127,3 +127,46 @@ def test_a_doubtful_automatic_camera_never_replaces_the_persons_fit(dock, valley
     assert (point["x"], point["y"]) == pytest.approx(tuple(valley["prior"].position[:2]), abs=0.01)
     assert "Monoplot camera" in names  # the person's own, still there
     assert any(n.startswith("Monoplot view footprint (automatic") for n in names)
+
+
+def test_a_second_run_replaces_the_first_ones_points_and_answers_to_the_check_points(dock, valley, qtbot):
+    """Find camera twice: the second run's matches replace the first run's untouched ones (they had doubled), and
+    the person's check points measure the camera found: 60 px off, the run ends "poor" whatever the edges say."""
+
+    from monoplot_plugin.core.xyz import compute_xyz_full
+    from monoplot_plugin.state import Point, add_points, link, set_check
+
+    layer = QgsRasterLayer(valley["dem"], "valley DEM")
+    QgsProject.instance().addMapLayer(layer)
+    dock.photoFile.setFilePath(valley["photo"])
+    dock.demCombo.setLayer(layer)
+    c = dock.controller
+    c.set_prior(valley["prior"])
+
+    def find_camera():
+        dock.auto_panel.action.trigger()
+        with qtbot.waitSignal(c.taskFinished, timeout=240000) as blocker:
+            pass
+        assert blocker.args[0].ok, blocker.args[0].reason
+        return c.state.fit_info
+
+    first = find_camera()
+    assert first["n_photo"] >= 6 and "check_rmse_px" in first and first["check_rmse_px"] is None
+    second = find_camera()
+    automatic = [p for p in c.state.points.values() if p.label == "automatic" and p.status == ACCEPTED]
+    assert len(automatic) == second["n_photo"] + second["n_map"]  # not the first run's as well
+    c.set_fitted(None)  # no camera of the person's to keep: the next run's result is shown whatever it says
+    # five check pairs, each photo point 60 px right of where the true camera sees its terrain point
+    truth = valley["truth"]
+    seen = compute_xyz_full(truth.scaled(0.05), c.dem, visibility=False)
+    xyz = seen.xyz[seen.hit][:: max(1, int(seen.hit.sum()) // 5)][:5]
+    uv = truth.project(xyz) + [60.0, 0.0]
+    for (u, v), (x, y, z) in zip(uv, xyz):
+        p, m = Point.new(PHOTO, float(u), float(v), manual=True), Point.new(MAP, float(x), float(y), float(z),
+                                                                           manual=True)
+        c.stack.push(add_points(c.state, [p, m], "Add a check pair"))
+        c.stack.push(link(c.state, p.id, m.id))
+        c.stack.push(set_check(c.state, p.id, True))
+    checked = find_camera()
+    assert checked["status"] == "poor" and checked["n_check"] == 5 and checked["check_rmse_px"] > 40.0
+    assert "Check points:" in checked["message"]
