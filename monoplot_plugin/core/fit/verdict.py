@@ -39,6 +39,9 @@ CHECK_OVER_RESIDUALS = 3.0
 #: shares of the picture's diagonal: residuals or check points beyond POOR_SHARE make a fit poor; check points beyond
 #: WEAK_SHARE make it uncertain (and within it, with at least MIN_CHECKS of them, they verify it)
 POOR_SHARE, WEAK_SHARE, MIN_CHECKS = 0.03, 0.015, 4
+#: What the verdict advises when few of the fewer side's points match (the automatic registration words it for its
+#: own matches, :mod:`..auto.register`).
+FEWER_SIDE_ADVICE = "reject the flagged points and fit again"
 #: a clearly different camera whose score is at least this share of the fit's makes it uncertain (the search's
 #: competitors, ``competitor_ratio``, and the stability probes' rivals, ``rival_ratio``)
 COMPETITOR_RATIO = 0.8
@@ -201,8 +204,7 @@ def judge(e: dict) -> Tuple[str, str]:
             smaller, which = (n_photo, "photo") if n_photo <= n_dem else (n_dem, "DEM")
             if smaller and n_in < 0.4 * smaller:
                 weak.append(f"only {n_in} of the {smaller} {which} points (the fewer side) match a partner: either "
-                            f"most accepted points are wrong or the camera is; reject the flagged points and fit "
-                            f"again")
+                            f"most accepted points are wrong or the camera is; {FEWER_SIDE_ADVICE}")
             ratio = float(e.get("competitor_ratio", 0.0))
             if ratio >= COMPETITOR_RATIO:
                 weak.append("another camera, clearly different, explains the points almost as well: add two paired "
