@@ -235,13 +235,18 @@ class CurationPanel(QWidget):
         """A new prior or Fit-button camera: re-rank by it (a later refit re-ranks again)."""
         c = self.c
         info = c.state.fit_info or {}
-        if c.fitted is not None:
+        # a fit its verdict calls poor does not rank the suggestions (a poor refit does not either): the rough
+        # camera goes on doing it
+        trusted_fit = c.fitted is not None and (info.get("status") != "poor" or c.prior is None)
+        if trusted_fit:
             camera, sigma = c.fitted, sigma_of(float(info.get("rmse_px") or float("nan")))
             self.refit_info = self.tr("fit, {0:.1f} px").format(info["rmse_px"]) if info.get("rmse_px") else \
                 self.tr("fit")
             self.ranking_status = str(info.get("status", ""))
         elif c.prior is not None:
             camera, sigma, self.refit_info = c.prior, prior_sigma_px(c), self.tr("rough")
+            if c.fitted is not None:
+                self.refit_info = self.tr("fit poor, ranking by the rough camera")
             self.ranking_status = "rough"
         else:
             camera, sigma, self.refit_info = None, sigma_of(float("nan")), ""

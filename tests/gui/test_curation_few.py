@@ -335,6 +335,28 @@ def test_an_uncertain_camera_flags_outliers_but_does_not_reject_them_in_bulk(doc
     assert "not yet ok (uncertain)" in panel.rejectOutliersButton.toolTip()
 
 
+def test_a_poor_fit_neither_ranks_the_suggestions_nor_flags_points(dock, scene, qtbot):
+    """Photo and map points that are not partners: the Fit is "poor"; the rough camera goes on ranking the
+    suggestions, nothing is flagged, and the counts line says so."""
+    load_inputs(dock, scene, qtbot)
+    c, panel = dock.controller, dock.curation_panel
+    photo, world = add_scene_points(dock, scene)
+    c.set_prior(scene.prior)
+    panel.refitCheck.setChecked(False)
+    rng = np.random.default_rng(5)
+    w, h = c.photo_size
+    lost = [Point.new(PHOTO, float(u), float(v), status=ACCEPTED, manual=True)
+            for u, v in rng.uniform([0, 0], [w, h], (8, 2))]
+    c.stack.push(add_points(c.state, lost, "Add photo points"))
+    c.set_status([x.id for x in world[:7]], ACCEPTED)
+    assert c.fit()
+    qtbot.waitUntil(lambda: c.fitted is not None, timeout=120000)
+    assert c.state.fit_info["status"] == "poor", c.state.fit_info["message"]
+    assert c.shortlist.camera.parameters() == c.prior.parameters() and panel.ranking_status == "rough"
+    assert not c.shortlist.current_outliers() and not panel.rejectOutliersButton.isEnabled()
+    assert "fit poor, ranking by the rough camera" in dock.countsLabel.text()
+
+
 def test_a_fit_clicked_during_a_refit_of_the_same_points_waits_for_it(dock, scene, qtbot):
     """The Fit button soon after the last accept: the refit of those points under way is awaited, not canceled and
     fitted again; its camera is the Fit's, and the Fit only renders."""
