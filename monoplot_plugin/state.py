@@ -492,13 +492,16 @@ class CommandStack:
             return True
         return False
 
-    def redo(self) -> None:
+    def redo(self) -> bool:
+        """Apply again the last undone edit; returns whether there was one."""
         self._noop = False
         if self._undone:
             edit = self._undone.pop()
             edit.redo(self.state)
             self._done.append(edit)
             self.notify(set(edit.after) | set(edit.before))
+            return True
+        return False
 
     def reset(self, state: Optional[ProjectState] = None) -> None:
         """Forget the history; optionally replace the whole state (e.g. a project was opened)."""

@@ -98,6 +98,17 @@ class CurationMixin:
         self.set_status(ids, ACCEPTED, self.tr("Accept {0} likely pairs").format(len(pairs)))
         return len(pairs)
 
+    def undo(self) -> str:
+        """Take back the last point edit; returns a sentence saying which ("" when nothing changed). Point edits
+        only: an Undo after drawing on the photo took back a GCP import, silently (desktop trial)."""
+        text = self.stack.undo_text()
+        return self.tr("Undone: {0} (Redo brings it back).").format(text) if self.stack.undo() else ""
+
+    def redo(self) -> str:
+        """Apply again the last undone point edit; returns a sentence saying which ("" when none)."""
+        text = self.stack.redo_text()
+        return self.tr("Redone: {0}.").format(text) if self.stack.redo() else ""
+
     def reject_outliers(self) -> int:
         """Reject the accepted photo points the current fit calls outliers (one undo entry); returns how many."""
         ids = self.shortlist.current_outliers()

@@ -98,8 +98,11 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         self.mapToolButton.toggled.connect(self._toggle_map_tool)
         self.acceptViewButton.clicked.connect(self.accept_all_in_view)
         self.resetButton.clicked.connect(lambda: c.reset_statuses())
-        self.undoButton.clicked.connect(c.stack.undo)
-        self.redoButton.clicked.connect(c.stack.redo)
+        # what an undo took back is said in the status line: the stack holds point edits only, and an Undo pressed
+        # after drawing took back a GCP import without a word
+        self.undoButton.clicked.connect(lambda: self._said(c.undo()))
+        self.redoButton.clicked.connect(lambda: self._said(c.redo()))
+        self.photo_tool.on_undo = self.map_tool.on_undo = self._said
         self.table_model = PointTableModel(c.state, self)
         self.table_proxy = make_proxy(self.table_model, self)
         self.pointTable.setModel(self.table_proxy)
@@ -189,6 +192,11 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         if bar is not None:  # once: the previous Monoplot message leaves the bar (no replay of old ones)
             duration = 0 if level == Qgis.MessageLevel.Critical else 6
             self.__dict__.setdefault("_messages", MessageOnce()).push(bar, self.tr("Monoplot"), text, level, duration)
+
+    def _said(self, text: str) -> None:
+        """``text`` in the status line only (no message bar for every undo)."""
+        if text:
+            self.statusLabel.setText(text)
 
     # --- inputs -----------------------------------------------------------------------------------------------
     def _photo_chosen(self, path: str) -> None:

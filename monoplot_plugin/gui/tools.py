@@ -77,6 +77,8 @@ class CurationTool(QgsMapTool):
         self._drag_id: Optional[str] = None
         self._dragged = False
         self._press_pos = None
+        #: called with the sentence of an undo or redo done by Ctrl+Z / Ctrl+Shift+Z here (the dock shows it)
+        self.on_undo = None
         self.setCursor(Qt.CursorShape.CrossCursor)
 
     def _hit(self, event: QgsMapMouseEvent) -> Tuple[Optional[str], Tuple[float, float]]:
@@ -127,7 +129,9 @@ class CurationTool(QgsMapTool):
         c = self.controller
         pid = c.current[self.space]
         if key == Qt.Key.Key_Z and mods & Qt.KeyboardModifier.ControlModifier:
-            c.stack.redo() if mods & Qt.KeyboardModifier.ShiftModifier else c.stack.undo()
+            said = c.redo() if mods & Qt.KeyboardModifier.ShiftModifier else c.undo()
+            if said and self.on_undo is not None:
+                self.on_undo(said)
         elif key in (Qt.Key.Key_N, Qt.Key.Key_Space):
             c.step(self.space, 1, only_suggested=True) or c.step(self.space, 1)
         elif key == Qt.Key.Key_P:

@@ -88,6 +88,11 @@ def test_ctrl_click_always_adds_and_undo_after_a_no_op_click_keeps_the_edit(dock
     assert c.state.points[other.id].status == ACCEPTED
     qtbot.keyClick(dock.photo_canvas, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
     assert c.state.points[other.id].status == SUGGESTED
+    assert dock.statusLabel.text().startswith("Undone: ") and "Redo brings it back" in dock.statusLabel.text()
+    qtbot.mouseClick(dock.redoButton, Qt.MouseButton.LeftButton)  # the buttons say it too
+    assert c.state.points[other.id].status == ACCEPTED and dock.statusLabel.text().startswith("Redone: ")
+    qtbot.mouseClick(dock.undoButton, Qt.MouseButton.LeftButton)
+    assert c.state.points[other.id].status == SUGGESTED and dock.statusLabel.text().startswith("Undone: ")
     assert len([p for p in c.state.in_space(PHOTO) if p.manual]) == 1  # the Ctrl+click add is the edit before
 
 
