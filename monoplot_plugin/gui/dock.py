@@ -84,8 +84,11 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         self.kmlButton.clicked.connect(self._import_kml)
         self.exifButton.clicked.connect(lambda: c.prior_from_exif())
         self.clearPriorButton.clicked.connect(lambda: c.set_prior(None))
-        self.fovSpin.valueChanged.connect(self._prior_spin_changed)
-        self.pitchSpin.valueChanged.connect(self._prior_spin_changed)
+        for spin in (self.fovSpin, self.pitchSpin):
+            # typing "55" moves the camera once, on Enter: not to 5 deg first, which warned that the camera did not
+            # look at the DEM (desktop trial)
+            spin.setKeyboardTracking(False)
+            spin.valueChanged.connect(self._prior_spin_changed)
         self.prior_height = PriorHeightBox(c, self.heightSpin, self.show_message)  # gui/prior_height.py
 
         # points

@@ -217,3 +217,23 @@ def test_main_map_in_another_crs(dock, scene, qtbot):
     dock.mapToolButton.setChecked(True)
     qtbot.mouseClick(canvas.viewport(), Qt.MouseButton.RightButton, pos=QPoint(round(screen.x()), round(screen.y())))
     assert c.state.points[p.id].status == "rejected"
+
+
+def test_typing_a_field_of_view_moves_the_rough_camera_once_on_enter(dock, scene, qtbot):
+    """Typing "55" in Field of view: the camera is not moved to 5 deg on the way (that warned it did not look at the
+    DEM), but to 55 deg on Enter."""
+    dock.photoFile.setFilePath(scene.photo_path)
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    c = dock.controller
+    c.set_prior(scene.prior)
+    fovs, messages = [], []
+    c.cameraChanged.connect(lambda: fovs.append(c.prior.fov if c.prior is not None else None))
+    c.message.connect(lambda text, *_: messages.append(text))
+    spin = dock.fovSpin
+    spin.setFocus()
+    spin.selectAll()
+    qtbot.keyClicks(spin, "55")
+    assert c.prior.fov == scene.prior.fov  # nothing yet
+    qtbot.keyClick(spin, Qt.Key.Key_Return)
+    assert c.prior.fov == 55.0 and 5.0 not in fovs
+    assert not any("does not look at the DEM" in m for m in messages)
