@@ -262,7 +262,9 @@ class OutputTools(QObject):
         self.canvas.set_extra_layers(layers)
 
     def _message(self, text: str, level=Qgis.MessageLevel.Info) -> None:
-        self.host.show_message(text, level)  # the dock's status line and QGIS's message bar
+        # through the controller: the dock's status line, QGIS's message bar and the Monoplot log tab (a direct
+        # call of the dock left "Written: ..." out of the log)
+        self.controller.message.emit(text, level)
 
     # --- exports (paths given) --------------------------------------------------------------------------------
     def export_xyz(self, path, overwrite: bool = False, distance: bool = False):

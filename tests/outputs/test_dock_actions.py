@@ -114,7 +114,10 @@ def test_drawn_features_come_back_with_the_project(dock_with_fit, tmp_path, qtbo
     assert tools.session.photo_layer("line") in dock.photo_canvas.layers()
 
 
-def test_exports_run_in_background_tasks(dock_with_fit, tmp_path, qtbot):
+def test_exports_run_in_background_tasks(dock_with_fit, tmp_path, qtbot, caplog):
+    import logging
+
+    caplog.set_level(logging.INFO, logger="monoplot_plugin")
     dock, tools = dock_with_fit
     done = []
     tools.exported.connect(lambda what, path: done.append((what, path)))
@@ -122,6 +125,8 @@ def test_exports_run_in_background_tasks(dock_with_fit, tmp_path, qtbot):
         assert tools.start_export(what, tmp_path / name) is not None
         qtbot.waitUntil(lambda: len(done) > 0 and done[-1][0] == what, timeout=30000)
     assert all((tmp_path / n).exists() for n in ("bg_xyz.tif", "bg_ortho.tif", "bg_report.pdf"))
+    # what was written goes to the plugin's log (the Monoplot tab), as every message of the dock
+    assert sum("Written:" in r.getMessage() for r in caplog.records) >= 3
     names = {node.name() for node in QgsProject.instance().layerTreeRoot().findGroup("Gletscher 1890").findLayers()}
     assert {"bg_xyz (X Y Z, photo pixels)", "bg_ortho (orthophoto)"} <= names
     # A refused overwrite is a message, not a traceback, and the file is untouched.
