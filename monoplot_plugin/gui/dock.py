@@ -391,7 +391,17 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         if self.isFloating() != on:
             self.setFloating(on)
             if on:
-                self.resize(1100, 850)
+                # on the screen, centred (it stayed where the dock had been: half off a 1600 px screen), and the
+                # photo given most of the height, the reason to float it
+                from qgis.PyQt.QtGui import QGuiApplication
+
+                screen = self.screen() or QGuiApplication.primaryScreen()
+                area = screen.availableGeometry()
+                w, h = min(1100, area.width() - 40), area.height() - 40  # the height a photo needs
+                self.resize(w, h)
+                w, h = self.width(), self.height()  # no smaller than the dock's minimum (a small screen)
+                self.move(area.x() + max(0, (area.width() - w) // 2), area.y() + max(0, (area.height() - h) // 2))
+                self.splitter.setSizes([int(0.65 * h), int(0.35 * h)])
 
     def _photo_cursor(self, u: float, v: float) -> None:
         ground = self.controller.ground_at_pixel(u, v)

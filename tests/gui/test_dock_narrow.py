@@ -36,3 +36,22 @@ def test_tabs_fit_the_narrowest_dock(dock, scene):
     assert not _outside(dock.fitScrollContents, dock.fitScroll.viewport().width())
     layout = dock.pointTable.parentWidget().layout()
     assert layout.indexOf(dock.pointTable) < layout.indexOf(dock.helpLabel)  # the table first, then the help
+
+
+def test_float_puts_the_dock_window_on_the_screen_with_the_photo_large(dock, qtbot, qgis_iface):
+    """Float makes the dock a window inside the screen's free area (it stayed where the dock had been, half off a
+    1600 px screen); Float again docks it."""
+    from qgis.PyQt.QtCore import Qt
+
+    qgis_iface.mainWindow().addDockWidget(Qt.DockWidgetArea.RightDockWidgetArea, dock)
+    assert not dock.isFloating()
+    qtbot.mouseClick(dock.floatButton, Qt.MouseButton.LeftButton)
+    assert dock.isFloating()
+    area = (dock.screen() or QApplication.primaryScreen()).availableGeometry()  # 800 x 600 offscreen
+    frame = dock.frameGeometry()
+    assert area.contains(frame.topLeft()) and frame.right() <= area.right()  # its title bar in reach
+    assert frame.bottom() <= area.bottom() or dock.height() <= dock.minimumSizeHint().height() + 1
+    # (the photo's share of the window is looked at in the desktop: here the 600 px screen leaves the tabs their
+    # minimum and the photo the rest)
+    qtbot.mouseClick(dock.floatButton, Qt.MouseButton.LeftButton)
+    assert not dock.isFloating()
