@@ -243,6 +243,10 @@ def parameter_lines(camera, sigmas) -> List[str]:
     return lines
 
 
+#: Lines of 8 pt text the page's bottom block holds (0.24 of an A4 page's height).
+REPORT_TEXT_LINES = 24
+
+
 def _draw_parameters(ax, camera, sigmas, rmse, points, xyz, verdict=""):
     ax.axis("off")
     lines = parameter_lines(camera, sigmas)
@@ -259,6 +263,10 @@ def _draw_parameters(ax, camera, sigmas, rmse, points, xyz, verdict=""):
         import textwrap
 
         lines.append("")
-        lines += textwrap.wrap("Fit status " + verdict, 110)
+        wrapped = textwrap.wrap("Fit status " + verdict, 110)
+        room = REPORT_TEXT_LINES - len(lines)  # a long automatic verdict ran off the bottom of the page
+        if len(wrapped) > room:
+            wrapped = wrapped[:max(1, room - 1)] + ["… (cut to fit the page)"]
+        lines += wrapped
     ax.text(0.0, 1.0, "\n".join(lines), va="top", ha="left", family="monospace", fontsize=8,
             transform=ax.transAxes)

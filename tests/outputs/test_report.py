@@ -63,3 +63,21 @@ def test_report_heading_is_the_azimuth_the_dock_shows(plane_scene, tmp_path):
     heading = next(line for line in parameter_lines(camera, {"heading": 0.295}) if line.strip().startswith("heading"))
     assert "296.3651 ± 0.295 °" in heading, heading
     assert write_report(tmp_path / "r.png", plane_scene.photo, camera, plane_scene.dem).exists()
+
+
+def test_a_long_fit_status_is_cut_to_the_page(plane_scene):
+    """An automatic registration's verdict of a dozen sentences ran off the bottom of the page: the block of text
+    keeps to the lines the page holds and says it was cut; a short one is printed whole."""
+    from matplotlib.figure import Figure
+
+    from monoplot_plugin.outputs.report import REPORT_TEXT_LINES, _draw_parameters
+
+    scene = plane_scene
+    points = scene_points(scene)
+    for verdict, cut in (("uncertain: " + "The residuals measure how well the automatic pairs agree. " * 40, True),
+                         ("ok: paired fit on 12 pairs.", False)):
+        ax = Figure().add_subplot()
+        _draw_parameters(ax, scene.camera, None, 1.0, points, scene.xyz, verdict)
+        text = ax.texts[0].get_text()
+        assert len(text.splitlines()) <= REPORT_TEXT_LINES
+        assert text.endswith("(cut to fit the page)") == cut and "Fit status" in text
