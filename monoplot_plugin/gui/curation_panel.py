@@ -290,11 +290,17 @@ class CurationPanel(QWidget):
         # doubtful camera confirm it (the scripted Aletsch user ended "ok" 1.9x the paired optimum that way).
         trusted = self.ranking_status == "ok"
         self.acceptLikelyButton.setEnabled(n_likely > 0 and trusted)
-        self.acceptLikelyButton.setToolTip(
-            self.tr("Accept both ends of every linked pair (a photo suggestion and a DEM suggestion the current "
-                    "camera puts close together)") if trusted or not n_likely else
-            self.tr("The current camera is not yet ok ({0}): its links are shown, but judge a few more points "
-                    "yourself before accepting them all").format(self.tr(self.ranking_status or "none")))
+        if n_likely and not trusted:
+            tip = self.tr("The current camera is not yet ok ({0}): its links are shown, but judge a few more points "
+                          "yourself before accepting them all").format(self.tr(self.ranking_status or "none"))
+        elif not n_likely and sl.camera is not None:  # greyed out: say why (the desktop trial could not tell)
+            tip = self.tr("No linked pairs: under the current camera no undecided suggestion has a partner in the "
+                          "other view within {0:.0f} px (Options: pairs within), nearer than chance").format(
+                sl.threshold)
+        else:
+            tip = self.tr("Accept both ends of every linked pair (a photo suggestion and a DEM suggestion the "
+                          "current camera puts close together)")
+        self.acceptLikelyButton.setToolTip(tip)
         self.acceptLikelyButton.setText(self.tr("Accept likely ({0})").format(n_likely) if n_likely
                                         else self.tr("Accept likely"))
         # ... and rejects them only on the word of such a camera: under a doubtful one the red points may be right
