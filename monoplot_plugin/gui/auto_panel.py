@@ -110,7 +110,10 @@ class AutoPanel(QObject):
                 "sigma": {k: float(v) for k, v in (r.std or {}).items()}, "converged": status == "ok",
                 "message": str(checked["message"]), "mode": "automatic", "n_photo": len(photo_pts),
                 "n_map": len(map_pts), "n_pairs": 0, "n_matched": len(photo_pts), "elapsed_s": float(r.elapsed_s),
-                "check_rmse_px": checked["check_rmse_px"], "n_check": checked["n_check"]}
+                "check_rmse_px": checked["check_rmse_px"], "n_check": checked["n_check"],
+                # the registration's pairs, as an unpaired fit records its own: residuals in the dock, points in
+                # the report (it showed none after a registration)
+                "matched": [(p.id, m.id) for p, m in zip(photo_pts, map_pts)]}
         c.show_fit(engine.FitOutcome(done.camera, info, overlay, xyz, footprint))
         if replaced:
             c.message.emit(self.tr("The {0} undecided suggestions were replaced by the {1} + {2} matched points "

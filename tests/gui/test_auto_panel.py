@@ -66,6 +66,10 @@ def test_find_camera_automatically_gives_a_camera_and_accepted_points(dock, vall
     world = c.state.in_space(MAP, (ACCEPTED,))
     assert len(photo) == info["n_photo"] and len(world) == info["n_map"]
     assert len(photo) >= 6 and len(world) >= 6
+    # its pairs are recorded as a fit's: residuals on the photo, points in the report
+    assert len(info["matched"]) == len(photo) and len(c.residuals()) == len(photo)
+    report_points, _ = c.report_inputs()
+    assert report_points is not None and len(report_points.uv) == len(photo)
     # the overlay carries the DEM's silhouettes (magenta) and the photo's skyline (cyan)
     from monoplot_plugin.adapters.photo import qimage_to_array
     from monoplot_plugin.core.auto.overlay import SILHOUETTE, SKYLINE
