@@ -435,9 +435,12 @@ class OutputTools(QObject):
         if not kinds:
             self._message(self.tr("Nothing drawn on the photo yet."), Qgis.MessageLevel.Warning)
             return
-        for kind in kinds:
-            path = self._ask(self.tr("Save the drawn {0}s").format(kind),
-                             "GeoPackage (*.gpkg);;ESRI Shapefile (*.shp)", f"{kind}s.gpkg")
+        for i, kind in enumerate(kinds):
+            # one file per geometry type: the title says which and how many dialogs follow (they came one after
+            # the other without a word)
+            title = (self.tr("Save the drawn {0}s ({1} of {2}: one file per geometry type)").format(
+                kind, i + 1, len(kinds)) if len(kinds) > 1 else self.tr("Save the drawn {0}s").format(kind))
+            path = self._ask(title, "GeoPackage (*.gpkg);;ESRI Shapefile (*.shp)", f"{kind}s.gpkg")
             if path:
                 self._run(lambda k=kind, p=path: self.export_features(k, p, overwrite=True),
                           self.tr("Features written: {0}"))

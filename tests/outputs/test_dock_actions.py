@@ -281,3 +281,25 @@ def test_map_layer_on_the_photo_follows_a_refit_and_comes_back_with_the_project(
     assert project.read(str(saved))
     qtbot.waitUntil(lambda: any(o.name() == "outline 2020 on photo" for o in tools.overlays), timeout=5000)
     assert np.allclose(pixels().mean(axis=0), after.mean(axis=0), atol=0.5)
+
+
+def test_saving_drawn_features_says_one_file_per_geometry_type(dock_with_fit, tmp_path, qtbot, monkeypatch):
+    """Lines and a polygon drawn: "Save drawn features…" asks twice, and each dialog's title says which type and
+    how many follow; both files are written."""
+    from qgis.PyQt.QtWidgets import QFileDialog
+
+    dock, tools = dock_with_fit
+    session = tools.current_session()
+    session.add_feature("line", [[40, 120], [200, 130]], {})
+    session.add_feature("polygon", [[60, 150], [160, 150], [160, 200], [60, 200], [60, 150]], {})
+    titles = []
+
+    def answer(parent, title, start, filters):
+        titles.append(title)
+        return str(tmp_path / f"drawn_{len(titles)}.gpkg"), ""
+
+    monkeypatch.setattr(QFileDialog, "getSaveFileName", staticmethod(answer))
+    tools.actions["features"].trigger()  # the fit tab's "Save drawn features…"
+    assert titles == ["Save the drawn lines (1 of 2: one file per geometry type)",
+                      "Save the drawn polygons (2 of 2: one file per geometry type)"]
+    assert (tmp_path / "drawn_1.gpkg").exists() and (tmp_path / "drawn_2.gpkg").exists()
