@@ -26,7 +26,8 @@ from .chips import ChipView
 from .controller import MonoplotController
 from .auto_panel import install_auto_panel
 from .curation_panel import MessageOnce, install_curation_panel
-from .dock_layout import fit_minimum_width, lay_out, narrow_tabs, scroll_points_tab, split_photo_and_tabs, status_line
+from .dock_layout import (fit_minimum_width, lay_out, narrow_tabs, place_floating, scroll_points_tab,
+                          split_photo_and_tabs, status_line)
 from .fit_settings import FitSettingsPanel, LensPanel
 from .io_actions import IoActions
 from .photo_canvas import PhotoCanvas
@@ -391,17 +392,7 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         if self.isFloating() != on:
             self.setFloating(on)
             if on:
-                # on the screen, centred (it stayed where the dock had been: half off a 1600 px screen), and the
-                # photo given most of the height, the reason to float it
-                from qgis.PyQt.QtGui import QGuiApplication
-
-                screen = self.screen() or QGuiApplication.primaryScreen()
-                area = screen.availableGeometry()
-                w, h = min(1100, area.width() - 40), area.height() - 40  # the height a photo needs
-                self.resize(w, h)
-                w, h = self.width(), self.height()  # no smaller than the dock's minimum (a small screen)
-                self.move(area.x() + max(0, (area.width() - w) // 2), area.y() + max(0, (area.height() - h) // 2))
-                self.splitter.setSizes([int(0.65 * h), int(0.35 * h)])
+                place_floating(self)
 
     def _photo_cursor(self, u: float, v: float) -> None:
         ground = self.controller.ground_at_pixel(u, v)

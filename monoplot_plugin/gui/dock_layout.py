@@ -175,3 +175,16 @@ def status_line(text: str, limit: int = STATUS_CHARS) -> str:
         return text
     cut = text.rfind(" ", 0, limit - 1)
     return text[:cut if cut > 0 else limit - 1].rstrip() + " …"
+
+
+def place_floating(dock) -> None:
+    """The floating dock window on the screen, centred (it stayed where the dock had been: half off a 1600 px
+    screen), as tall as the screen allows, and the photo given most of that height, the reason to float it."""
+    from qgis.PyQt.QtGui import QGuiApplication
+
+    screen = dock.screen() or QGuiApplication.primaryScreen()
+    area = screen.availableGeometry()
+    dock.resize(min(1100, area.width() - 40), area.height() - 40)
+    w, h = dock.width(), dock.height()  # no smaller than the dock's minimum (a small screen)
+    dock.move(area.x() + max(0, (area.width() - w) // 2), area.y() + max(0, (area.height() - h) // 2))
+    dock.splitter.setSizes([int(0.65 * h), int(0.35 * h)])
