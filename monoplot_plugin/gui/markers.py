@@ -30,6 +30,9 @@ _STYLES = {
     CHECK: (Icon.ICON_CROSS, 13, QColor(170, 60, 255), QColor(170, 60, 255), QColor(255, 255, 255, 230)),
 }
 STYLE_COLORS = {key: style[2] for key, style in _STYLES.items()}
+#: More accepted points than this in one view (an automatic registration's 200) are drawn as small hollow squares:
+#: the full ones covered the skyline and the silhouettes the person had to judge them by.
+CROWDED = 60
 
 
 def _style_key(status: str, manual: bool) -> str:
@@ -80,6 +83,10 @@ class PointMarkers:
             if self._drawn.get(key) == drawn:
                 continue
             self._drawn[key] = drawn
+            if key == ACCEPTED:
+                crowded = len(groups[key]) > CROWDED
+                band.setIcon(Icon.ICON_BOX if crowded else _STYLES[key][0])
+                band.setIconSize(5 if crowded else _STYLES[key][1])
             pts = [self.to_canvas(x, y) for x, y in groups[key]]
             if not pts:
                 band.reset(QgsWkbTypes.GeometryType.PointGeometry)

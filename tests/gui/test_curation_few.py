@@ -403,3 +403,24 @@ def test_a_fit_waiting_for_a_refit_that_is_canceled_fits_itself(dock, scene, qtb
         pass
     assert blocker.args[0].ok and c.fitted is not None and c.overlay is not None
     assert c.state.fit_info["n_photo"] == 20
+
+
+def test_many_accepted_points_are_drawn_small_and_hollow(dock, scene, qtbot):
+    """An automatic registration accepts about 200 points: drawn as the usual full squares they covered the skyline
+    the person judges them by; past a few dozen they are small hollow squares, and full again when fewer."""
+    from qgis.gui import QgsRubberBand
+
+    from monoplot_plugin.gui.markers import CROWDED
+
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    w, h = c.photo_size
+    rng = np.random.default_rng(2)
+    many = [Point.new(PHOTO, float(u), float(v), status=ACCEPTED) for u, v in rng.uniform([0, 0], [w, h], (90, 2))]
+    c.stack.push(add_points(c.state, many, "Add many"))
+    qtbot.waitUntil(lambda: drawn(dock.photo_view.markers, ACCEPTED) == 90, timeout=5000)
+    band = dock.photo_view.markers.bands[ACCEPTED]
+    assert 90 > CROWDED and band.icon() == QgsRubberBand.IconType.ICON_BOX and band.iconSize() == 5
+    c.delete([p.id for p in many[10:]])
+    qtbot.waitUntil(lambda: drawn(dock.photo_view.markers, ACCEPTED) == 10, timeout=5000)
+    assert band.icon() == QgsRubberBand.IconType.ICON_FULL_BOX and band.iconSize() == 7
