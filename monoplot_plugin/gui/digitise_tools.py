@@ -8,6 +8,8 @@ polygon (3+ vertices), Backspace removes the last vertex, Esc cancels. Vertices 
 already drawn on the photo within :data:`SNAP_PIXELS` screen pixels (a marker shows the snap).
 
 Edit: drag a vertex to move it; right click on a feature (or press Delete with the mouse over it) deletes it.
+
+Ctrl+Z in either tool takes back the last drawing edit (:meth:`~.digitising.DigitisingSession.undo`).
 """
 
 from __future__ import annotations
@@ -47,16 +49,31 @@ def _nearest_vertex(session, point: QgsPointXY, tolerance: float):
     return best
 
 
+def _undo_key(event) -> bool:
+    return event.key() == Qt.Key.Key_Z and bool(event.modifiers() & Qt.KeyboardModifier.ControlModifier)
+
+
+def _undo_drawing(tool) -> None:
+    """Ctrl+Z while drawing or editing on the photo: the last drawing edit is taken back, and said on ``tool``'s
+    ``undone`` signal (Ctrl+Z did nothing there, and the Points tab's Undo took back point edits instead)."""
+    session = tool.session_getter()
+    what = session.undo() if session is not None else ""
+    tool.undone.emit(tool.tr("Undone: {0}.").format(what) if what else
+                     tool.tr("Nothing drawn to undo (the Points tab's Undo takes back point edits)."))
+
+
 class PhotoCaptureTool(QgsMapTool):
     """Capture points, lines or polygons on the photo canvas into the session returned by ``session_getter``.
 
     Signals:
         captured(str kind, int fid): a feature was added.
         message(str): something the user should know (e.g. no fitted camera yet).
+        undone(str): Ctrl+Z took back a drawing edit (what, in words), or found none.
     """
 
     captured = pyqtSignal(str, int)
     message = pyqtSignal(str)
+    undone = pyqtSignal(str)
 
     def __init__(self, canvas: QgsMapCanvas, session_getter: Callable[[], object], kind: str):
         super().__init__(canvas)
@@ -117,7 +134,10 @@ class PhotoCaptureTool(QgsMapTool):
             self._redraw()
 
     def keyPressEvent(self, event) -> None:  # noqa: N802
-        if event.key() == Qt.Key.Key_Escape:
+        if _undo_key(event) and not self.vertices:
+            _undo_drawing(self)
+            event.accept()
+        elif event.key() == Qt.Key.Key_Escape:
             self.cancel()
             event.accept()
         elif event.key() in (Qt.Key.Key_Backspace, Qt.Key.Key_Delete) and self.vertices:
@@ -169,6 +189,7 @@ class PhotoEditTool(QgsMapTool):
 
     edited = pyqtSignal(str, int)
     deleted = pyqtSignal(str, int)
+    undone = pyqtSignal(str)
 
     def __init__(self, canvas: QgsMapCanvas, session_getter: Callable[[], object]):
         super().__init__(canvas)
@@ -231,7 +252,10 @@ class PhotoEditTool(QgsMapTool):
         return True
 
     def keyPressEvent(self, event) -> None:  # noqa: N802
-        if event.key() == Qt.Key.Key_Delete and self.last_point is not None and self.delete_at(self.last_point):
+        if _undo_key(event):
+            _undo_drawing(self)
+            event.accept()
+        elif event.key() == Qt.Key.Key_Delete and self.last_point is not None and self.delete_at(self.last_point):
             event.accept()
         else:
             event.ignore()

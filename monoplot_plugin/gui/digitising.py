@@ -21,7 +21,7 @@ from qgis.PyQt.QtCore import QObject, Qt, QVariant, pyqtSignal
 from qgis.PyQt.QtGui import QColor
 
 from ..adapters.layers import crs_from_wkt as _crs
-from ..adapters.photo_space import photo_geometry, photo_point, photo_vertices, qgs_geometry
+from ..adapters.photo_space import photo_geometry, photo_point, photo_vertices, pixel_of, qgs_geometry
 from ..workflow.features import photo_to_map_feature
 from ..outputs.vectors import COMPUTED_FIELDS, MapFeature, write_vector_layer
 from .map_layers import add_layer, add_vector_file_layer, photo_group
@@ -69,6 +69,9 @@ class DigitisingSession(QObject):
         self._mapped: Dict[Tuple[str, int], tuple] = {}  # (kind, fid) -> (photo geometry WKB, MapFeature or None)
         self._restoring = False
         self.closed = False  # set when one of its layers is being deleted (project cleared, QGIS closing)
+        #: what :meth:`undo` takes back, last first: ("add", kind, fid), ("move", kind, fid, index, (u, v)) or
+        #: ("delete", kind, geometry, attributes, fid)
+        self._history: List[tuple] = []
         self.restore_drawn()
 
     # --- layers -----------------------------------------------------------------------------------------------
@@ -213,11 +216,15 @@ class DigitisingSession(QObject):
             raise RuntimeError("the feature could not be added to the photo layer")
         layer.triggerRepaint()
         self.sync(kind)
+        self._history.append(("add", kind, added[0].id()))
         return added[0].id()
 
     def move_vertex(self, kind: str, fid: int, index: int, u: float, v: float) -> None:
         layer = self.photo_layer(kind)
         geom = QgsGeometry(layer.getFeature(fid).geometry())
+        if not self._history or self._history[-1][:4] != ("move", kind, fid, index):  # a drag: one entry
+            old = geom.vertexAt(index)
+            self._history.append(("move", kind, fid, index, pixel_of(old)))
         point = photo_point(u, v)
         geom.moveVertex(point.x(), point.y(), index)
         layer.dataProvider().changeGeometryValues({fid: geom})
@@ -226,9 +233,51 @@ class DigitisingSession(QObject):
 
     def delete_feature(self, kind: str, fid: int) -> None:
         layer = self.photo_layer(kind)
+        feature = layer.getFeature(fid)
+        self._history.append(("delete", kind, QgsGeometry(feature.geometry()),
+                              {f.name(): feature[f.name()] for f in layer.fields()}, fid))
         layer.dataProvider().deleteFeatures([fid])
         layer.triggerRepaint()
         self.sync(kind)
+
+    def undo(self) -> str:
+        """Take back the last drawing edit (an added feature, a moved vertex, a deleted feature); returns what was
+        undone in words ("" when there is nothing). The point edits have their own undo (the Points tab's)."""
+        while self._history:
+            entry = self._history.pop()
+            op, kind = entry[0], entry[1]
+            layer = self.photo_layers.get(kind)
+            if layer is None:
+                continue
+            if op == "add":
+                if not layer.getFeature(entry[2]).hasGeometry():
+                    continue  # gone already
+                layer.dataProvider().deleteFeatures([entry[2]])
+                text = f"the {kind} drawn last"
+            elif op == "move":
+                feature = layer.getFeature(entry[2])
+                if not feature.hasGeometry():
+                    continue
+                geom = QgsGeometry(feature.geometry())
+                point = photo_point(*entry[4])
+                geom.moveVertex(point.x(), point.y(), entry[3])
+                layer.dataProvider().changeGeometryValues({entry[2]: geom})
+                text = f"the move of a {kind}'s vertex"
+            else:
+                feature = QgsFeature(layer.fields())
+                feature.setGeometry(entry[2])
+                for name, value in entry[3].items():
+                    feature[name] = value
+                _, added = layer.dataProvider().addFeatures([feature])
+                # back under a new id: the earlier entries about it follow
+                old_fid, new_fid = entry[4], added[0].id()
+                self._history = [e[:2] + (new_fid,) + e[3:] if e[0] != "delete" and e[1] == kind and e[2] == old_fid
+                                 else e for e in self._history]
+                text = f"the deletion of a {kind}"
+            layer.triggerRepaint()
+            self.sync(kind)
+            return text
+        return ""
 
     def add_field(self, name: str, ftype: str) -> None:
         """A new user field, on every photo and map layer."""

@@ -106,12 +106,16 @@ class OutputTools(QObject):
         for kind, tool in self.capture_tools.items():
             action = QAction(labels[kind], parent)
             action.setToolTip(labels[kind] + self.tr(" on the photo: click vertices, right click to finish, "
-                                                     "Backspace undoes a vertex, Esc cancels"))
+                                                     "Backspace undoes a vertex, Esc cancels, Ctrl+Z undoes the "
+                                                     "last drawing edit"))
             host.add_photo_tool(action, tool)
             tool.message.connect(lambda text: self._message(text, Qgis.MessageLevel.Warning))
+            tool.undone.connect(self.host.show_status)
             self.actions[kind] = action
+        self.edit_tool.undone.connect(self.host.show_status)
         self.actions["edit"] = QAction(self.tr("Edit drawn features"), parent)
-        self.actions["edit"].setToolTip(self.tr("Drag a vertex to move it; right click a feature to delete it"))
+        self.actions["edit"].setToolTip(self.tr("Drag a vertex to move it; right click a feature to delete it; "
+                                                "Ctrl+Z undoes the last drawing edit"))
         host.add_photo_tool(self.actions["edit"], self.edit_tool)
         # the products first: at the default dock height the fit tab scrolls and its last row is out of sight
         # (it used to be "Active map layer on photo"); the attribute helpers are also in the Layers panel

@@ -103,3 +103,48 @@ def test_without_fitted_camera_the_tool_says_so(qgis_app, qtbot):
     tool.message.connect(messages.append)
     click(tool, canvas, 10, 10)
     assert messages and "Fit the camera" in messages[0]
+
+
+def test_ctrl_z_takes_back_drawing_edits_one_by_one(canvas_and_session):
+    """Draw a polygon, drag one of its vertices, delete it: Ctrl+Z brings it back, puts the vertex back, then removes
+    the polygon; each undo is said, and one more says there is nothing left; the map layer follows."""
+    canvas, session = canvas_and_session
+    polygon_tool = PhotoCaptureTool(canvas, lambda: session, "polygon")
+    edit_tool = PhotoEditTool(canvas, lambda: session)
+    said = []
+    polygon_tool.undone.connect(said.append)
+    edit_tool.undone.connect(said.append)
+    canvas.setMapTool(polygon_tool)
+    for u, v in [(50, 100), (190, 100), (150, 150)]:
+        click(polygon_tool, canvas, u, v)
+    click(polygon_tool, canvas, 0, 0, Qt.MouseButton.RightButton)
+    canvas.setMapTool(edit_tool)
+    left = Qt.MouseButton.LeftButton
+    start, end = (canvas.getCoordinateTransform().transform(QgsPointXY(u, -v)) for u, v in ((150, 150), (120, 158)))
+    for kind, at in ((QEvent.Type.MouseButtonPress, start), (QEvent.Type.MouseMove, end),
+                     (QEvent.Type.MouseButtonRelease, end)):
+        handler = {QEvent.Type.MouseButtonPress: edit_tool.canvasPressEvent,
+                   QEvent.Type.MouseMove: edit_tool.canvasMoveEvent,
+                   QEvent.Type.MouseButtonRelease: edit_tool.canvasReleaseEvent}[kind]
+        handler(QgsMapMouseEvent(canvas, kind, QPoint(int(at.x()), int(at.y())), left, left))
+    click(edit_tool, canvas, 120, 110, Qt.MouseButton.RightButton)  # deletes it
+    assert session.photo_layer("polygon").featureCount() == 0
+
+    def ctrl_z(tool):
+        tool.keyPressEvent(QKeyEvent(QEvent.Type.KeyPress, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier))
+
+    def vertices():
+        (f,) = list(session.photo_layer("polygon").getFeatures())
+        return np.array([(p.x(), -p.y()) for p in f.geometry().vertices()])
+
+    ctrl_z(edit_tool)  # the deletion
+    assert session.photo_layer("polygon").featureCount() == 1 and session.map_layer("polygon").featureCount() == 1
+    assert np.allclose(vertices()[2], [120, 158], atol=1.0)
+    ctrl_z(edit_tool)  # the drag, as one edit
+    assert np.allclose(vertices()[2], [150, 150], atol=1.0)
+    ctrl_z(polygon_tool)  # the polygon itself
+    assert session.photo_layer("polygon").featureCount() == 0 and session.map_layer("polygon").featureCount() == 0
+    ctrl_z(polygon_tool)
+    assert said == ["Undone: the deletion of a polygon.", "Undone: the move of a polygon's vertex.",
+                    "Undone: the polygon drawn last.",
+                    "Nothing drawn to undo (the Points tab's Undo takes back point edits)."]
