@@ -148,9 +148,11 @@ _ACTIVE_TEMPS: set = set()
 @contextmanager
 def cancel_before_commit(is_canceled: Callable[[], bool]) -> Iterator[None]:
     """Inside the block, every :func:`atomic_output` of this thread asks ``is_canceled()`` just before the final
-    rename and raises :class:`OutputCanceled` (leaving the earlier output as it was) when it returns True."""
+    rename and raises :class:`OutputCanceled` (leaving the earlier output as it was) when it returns True. Nested
+    blocks add up: the outer block's check still counts inside an inner one."""
     saved = getattr(_local, "is_canceled", None)
-    _local.is_canceled = is_canceled
+    # nested inside another (a Processing run around a product step): either one's cancel counts
+    _local.is_canceled = is_canceled if saved is None else (lambda: bool(is_canceled()) or bool(saved()))
     try:
         yield
     finally:

@@ -22,10 +22,13 @@ from .xyz import xyz_result
 
 def _committed(is_canceled: Optional[IsCanceled]):
     """A cancel up to the final rename of the written file leaves the earlier file as it was
-    (:func:`~..outputs.safe_write.cancel_before_commit`); after it, the product is written and says so."""
+    (:func:`~..outputs.safe_write.cancel_before_commit`, adding to a caller's own); after it, the product is
+    written and says so."""
+    from contextlib import nullcontext
+
     from ..outputs.safe_write import cancel_before_commit
 
-    return cancel_before_commit(is_canceled or (lambda: False))
+    return nullcontext() if is_canceled is None else cancel_before_commit(is_canceled)
 
 __all__ = ["ProductError", "write_xyz", "orthophoto", "report", "ortho_grid", "dem_at_resolution", "auto_resolution",
            "MAX_ORTHO_CELLS", "AUTO"]
