@@ -146,13 +146,15 @@ _ACTIVE_TEMPS: set = set()
 
 
 @contextmanager
-def cancel_before_commit(is_canceled: Callable[[], bool]) -> Iterator[None]:
+def cancel_before_commit(is_canceled: Callable[[], bool], also_outer: bool = False) -> Iterator[None]:
     """Inside the block, every :func:`atomic_output` of this thread asks ``is_canceled()`` just before the final
-    rename and raises :class:`OutputCanceled` (leaving the earlier output as it was) when it returns True. Nested
-    blocks add up: the outer block's check still counts inside an inner one."""
+    rename and raises :class:`OutputCanceled` (leaving the earlier output as it was) when it returns True. An inner
+    block replaces an outer one's check, or with ``also_outer`` adds to it."""
     saved = getattr(_local, "is_canceled", None)
-    # nested inside another (a Processing run around a product step): either one's cancel counts
-    _local.is_canceled = is_canceled if saved is None else (lambda: bool(is_canceled()) or bool(saved()))
+    if also_outer and saved is not None:  # a product step inside a Processing run: either one's cancel counts
+        _local.is_canceled = lambda: bool(is_canceled()) or bool(saved())
+    else:  # replaces it (the batch's log is written, canceled or not)
+        _local.is_canceled = is_canceled
     try:
         yield
     finally:

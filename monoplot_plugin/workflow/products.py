@@ -28,7 +28,7 @@ def _committed(is_canceled: Optional[IsCanceled]):
 
     from ..outputs.safe_write import cancel_before_commit
 
-    return nullcontext() if is_canceled is None else cancel_before_commit(is_canceled)
+    return nullcontext() if is_canceled is None else cancel_before_commit(is_canceled, also_outer=True)
 
 __all__ = ["ProductError", "write_xyz", "orthophoto", "report", "ortho_grid", "dem_at_resolution", "auto_resolution",
            "MAX_ORTHO_CELLS", "AUTO"]
