@@ -23,12 +23,30 @@ _ROLE = "monoplot/role"
 
 
 def crs_from_wkt(wkt: str) -> QgsCoordinateReferenceSystem:
-    """The QGIS CRS of a core ``crs_wkt`` (WKT or "EPSG:n"); an invalid CRS for ""."""
+    """The QGIS CRS of a core ``crs_wkt`` (WKT or "EPSG:n"); an invalid CRS for "".
+
+    When QGIS does not take the WKT (seen intermittently in a fresh QGIS session running Processing algorithms: an
+    XYZ raster refused with "unreadable CRS", map features written without a CRS), GDAL's reading of it is tried:
+    its EPSG code, else its PROJ string."""
     if not wkt:
         return QgsCoordinateReferenceSystem()
     if ":" in wkt[:12] and "[" not in wkt:
         return QgsCoordinateReferenceSystem(wkt)  # "EPSG:n"
-    return QgsCoordinateReferenceSystem.fromWkt(wkt)
+    crs = QgsCoordinateReferenceSystem.fromWkt(wkt)
+    if crs.isValid():
+        return crs
+    from osgeo import osr
+
+    srs = osr.SpatialReference()
+    if srs.ImportFromWkt(wkt) != 0:
+        return crs
+    srs.AutoIdentifyEPSG()
+    code = srs.GetAuthorityCode(None)
+    if code and srs.GetAuthorityName(None) == "EPSG":
+        crs = QgsCoordinateReferenceSystem(f"EPSG:{code}")
+    if not crs.isValid():
+        crs = QgsCoordinateReferenceSystem.fromProj(srs.ExportToProj4())
+    return crs
 
 
 def _crs(camera: Camera, fallback: Optional[QgsCoordinateReferenceSystem]) -> QgsCoordinateReferenceSystem:

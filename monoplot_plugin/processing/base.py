@@ -34,6 +34,7 @@ from qgis.PyQt.QtCore import QCoreApplication, QVariant
 from ..workflow.inputs import check_dem_file, check_photo_path
 from ..workflow.inputs import load_dem as load_checked_dem
 from ..adapters.photo_space import PHOTO_Y_SIGN  # noqa: F401 (algorithms import it from here)
+from ..adapters.layers import crs_from_wkt
 from ..workflow.progress import Canceled
 from .inputs import InputError, load_camera, photo_size
 
@@ -133,12 +134,12 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         is_text = isinstance(value, str) and bool(value) and not value.startswith(("memory:", "ogr:"))
         if is_text and os.path.exists(value):
             # a path: the workflow's checks say what is wrong with it (a folder, text, no CRS...), not "not found"
-            return value, QgsCoordinateReferenceSystem.fromWkt(checked(check_dem_file, value))
+            return value, crs_from_wkt(checked(check_dem_file, value))
         # a layer of the project, by its id or name (the dialog passes a project layer's id, even for a typed path)
         layer = self.parameterAsRasterLayer(parameters, "DEM", context)
         if layer is None or not layer.isValid():
             if is_text:  # neither a layer nor a file: say so in the workflow's words
-                return value, QgsCoordinateReferenceSystem.fromWkt(checked(check_dem_file, value))
+                return value, crs_from_wkt(checked(check_dem_file, value))
             raise QgsProcessingException(self.tr("The DEM could not be loaded as a raster layer."))
         path = layer.source().split("|")[0]
         if not os.path.isfile(path):
@@ -170,7 +171,10 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
             if feedback is not None:
                 feedback.pushInfo(note)
         if (crs.isGeographic() or not crs.isValid()) and dem.crs_wkt:
-            crs = QgsCoordinateReferenceSystem.fromWkt(dem.crs_wkt)
+            crs = crs_from_wkt(dem.crs_wkt)
+        if not crs.isValid():  # never an output without a CRS
+            raise QgsProcessingException(self.tr("QGIS could not read the DEM's coordinate reference system ({0}): "
+                                                 "check it in the layer's properties.").format(dem.crs_wkt[:80]))
         return dem, crs
 
     def photo_path(self, parameters, context, name: str = "PHOTO") -> str:
