@@ -9,7 +9,7 @@ import importlib
 import importlib.util
 import logging
 
-from qgis.core import QgsApplication
+from qgis.core import QgsApplication, QgsProject
 from qgis.PyQt.QtCore import QCoreApplication, QFile, Qt, QTimer
 from qgis.PyQt.QtGui import QIcon
 from qgis.PyQt.QtWidgets import QAction
@@ -116,6 +116,9 @@ class MonoplotPlugin:
         self.iface.addToolBarIcon(self.action)
         self.iface.addPluginToRasterMenu(self.menu, self.action)
         self.initProcessing()
+        # a project with Monoplot work opens the dock, which rebuilds its layers (a camera, a footprint and the
+        # features drawn on the photo are memory layers: before the dock was opened they stayed empty)
+        QgsProject.instance().readProject.connect(self._project_read)
         self.dependency_notice = deps.notify_missing(self.iface)
         self.warmup_task = None
         if self.dependency_notice is None:  # a moment after start-up, so that a quick reload starts nothing
@@ -126,6 +129,15 @@ class MonoplotPlugin:
 
     def _start_warm_up(self):
         self.warmup_task = start_warm_up()
+
+    def _project_read(self, *args):
+        if self.dock is not None or self.action is None:
+            return  # the dock restores the project itself
+        from .gui.persistence import KEY, SCOPE
+
+        text, found = QgsProject.instance().readEntry(SCOPE, KEY, "")
+        if found and text:
+            self.action.setChecked(True)
 
     def toggle_dock(self, visible):
         """Show or hide the dock, creating it on first use (keeps QGIS start-up light)."""
@@ -140,6 +152,10 @@ class MonoplotPlugin:
         self.dock.setVisible(visible)
 
     def unload(self):
+        try:
+            QgsProject.instance().readProject.disconnect(self._project_read)
+        except (TypeError, RuntimeError):  # initGui did not run, or already disconnected
+            pass
         timer = getattr(self, "_warmup_timer", None)
         if timer is not None:
             timer.stop()

@@ -163,3 +163,35 @@ def test_python_logging_reaches_the_monoplot_log_tab(plugin):
         assert not [m for m in received if m[1] == "Monoplot"]
     finally:
         QgsApplication.messageLog().messageReceived.disconnect(on_message)
+
+
+def test_a_project_with_monoplot_work_opens_the_dock_and_its_layers(plugin, qgis_iface, qtbot, tmp_path):
+    """A project saved with a fitted camera, reopened in a QGIS where the dock was never opened: the dock opens
+    and the camera and footprint layers have their features (memory layers came back empty until then)."""
+    from qgis.core import QgsProject
+
+    from monoplot_plugin.core.camera import Camera
+    from monoplot_plugin.gui import persistence
+    from monoplot_plugin.state import ProjectState
+
+    project = QgsProject.instance()
+    project.clear()
+    camera = Camera((2_600_000.0, 1_200_000.0, 1500.0), 30.0, -6.0, 0.0, 58.0, (1024, 768))
+    state = ProjectState()
+    state.fitted = camera.to_dict()
+    persistence.store_in_project(project, state)
+    path = tmp_path / "with_monoplot.qgz"
+    assert project.write(str(path))
+    project.clear()
+    assert plugin.dock is None
+    assert project.read(str(path))
+    qtbot.waitUntil(lambda: plugin.dock is not None, timeout=5000)
+    assert plugin.action.isChecked() and plugin.dock.controller.fitted is not None
+    # an empty project opens nothing
+    plugin.dock.close()
+    project.clear()
+    assert project.write(str(tmp_path / "plain.qgz"))
+    docks = len(qgis_iface.mainWindow().findChildren(QDockWidget, "MonoplotDock"))
+    assert project.read(str(tmp_path / "plain.qgz"))
+    assert len(qgis_iface.mainWindow().findChildren(QDockWidget, "MonoplotDock")) == docks
+    project.clear()
