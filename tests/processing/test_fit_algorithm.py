@@ -83,6 +83,20 @@ def test_no_points_is_a_clear_error(run_alg, small_scene, ground_truth, tmp_path
                               "PRIOR": ground_truth["prior"], "OUTPUT": str(tmp_path / "c.json")})
 
 
+def test_a_table_in_another_crs_than_the_dem_says_where_its_points_went(run_alg, small_scene, ground_truth,
+                                                                          tmp_path):
+    """GCPs in another CRS than the DEM file's (here 500 km off, no Z): every DEM point is dropped; the refusal says
+    they were left out and in which CRS tables are read, not just "0 DEM points"."""
+    gcps = tmp_path / "gcps_elsewhere.csv"
+    elsewhere = np.column_stack([ground_truth["world"][:, :2] + 5e5, np.full(20, np.nan)])
+    write_points_csv(str(gcps), uv=ground_truth["pixels"], xyz=elsewhere)
+    with pytest.raises(QgsProcessingException, match=r"20 DEM points were left out: outside the DEM, or not in "
+                                                     r"the DEM file's CRS \(EPSG:32632\)"):
+        run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"],
+                              "PRIOR": ground_truth["prior"], "PHOTO_CSV": str(gcps),
+                              "OUTPUT": str(tmp_path / "c.json")})
+
+
 def test_photo_points_outside_the_image_are_refused(run_alg, small_scene, ground_truth, tmp_path):
     gcps = tmp_path / "gcps.csv"
     write_points_csv(str(gcps), uv=ground_truth["pixels"] * 10, xyz=ground_truth["world"])

@@ -85,6 +85,8 @@ class FitCamera(MonoplotAlgorithm):
         self.addOutput(QgsProcessingOutputString("STATUS", self.tr("Fit status (ok / uncertain / poor)")))
         self.addOutput(QgsProcessingOutputString("MESSAGE", self.tr("What the fit found and, unless ok, what to do")))
 
+    dropped_dem_points = 0
+
     def gather_points(self, parameters, context, dem, crs=None):
         """(uv (N, 2), xyz (M, 3), paired) from layers and/or CSV files; Z sampled from the DEM where missing."""
         uv_parts, xyz_parts = [], []
@@ -117,6 +119,13 @@ class FitCamera(MonoplotAlgorithm):
         xyz = np.concatenate(xyz_parts)
         xyz = pipeline.fill_missing_z(xyz, dem)
         good_xyz = np.isfinite(xyz).all(axis=1)
+        self.dropped_dem_points = int((~good_xyz).sum())
+        if self.dropped_dem_points and context.feedback() is not None:
+            # a GCP table in another CRS than the DEM file's: every point dropped, and "0 DEM points" said nothing
+            context.feedback().pushWarning(self.tr(
+                "{0} of the {1} DEM points were left out: they lie outside the DEM, or their X, Y are not in the DEM "
+                "file's CRS ({2}), the CRS tables are read in.").format(self.dropped_dem_points, len(xyz),
+                                                                     dem_crs_name(dem)))
         if paired:
             checked(pair_points, uv, xyz)
             keep = good_xyz & np.isfinite(uv).all(axis=1)
@@ -138,9 +147,11 @@ class FitCamera(MonoplotAlgorithm):
         uv, xyz, paired = self.gather_points(parameters, context, dem, crs)
         minimum = 4 if paired else 6
         if len(uv) < minimum or len(xyz) < minimum:
+            hint = self.tr(" {0} DEM points were left out: outside the DEM, or not in the DEM file's CRS ({1})."
+                           ).format(self.dropped_dem_points, dem_crs_name(dem)) if self.dropped_dem_points else ""
             raise QgsProcessingException(self.tr("Too few points for a 7-parameter camera: {0} photo and {1} DEM "
                                                  "points (at least {2} each {3} needed).").format(
-                len(uv), len(xyz), minimum, self.tr("pair") if paired else self.tr("set")))
+                len(uv), len(xyz), minimum, self.tr("pair") if paired else self.tr("set")) + hint)
         outside = ~prior.in_image(uv)
         if outside.any():
             raise QgsProcessingException(self.tr("{0} photo points lie outside the {1}x{2} photo: are they in photo "
@@ -189,3 +200,16 @@ def pipeline_photo_size(path):
     from ..inputs import photo_size
 
     return photo_size(path)
+
+
+def dem_crs_name(dem) -> str:
+    """The DEM file's CRS for a message: its EPSG code, or the start of its name."""
+    from osgeo import osr
+
+    srs = osr.SpatialReference()
+    if not getattr(dem, "source_crs_wkt", "") and not dem.crs_wkt:
+        return "none"
+    srs.ImportFromWkt(getattr(dem, "source_crs_wkt", "") or dem.crs_wkt)
+    srs.AutoIdentifyEPSG()
+    code = srs.GetAuthorityCode(None)
+    return f"EPSG:{code}" if code else (srs.GetName() or "unknown")[:40]
