@@ -256,6 +256,10 @@ def fit_job(job, size, dem, crs_wkt: str):
     """Fit the camera of a batch job (``prior``, ``points``, ``dem_points`` paths) from its files; returns (camera,
     rmse in px, fit status, message)."""
     prior = load_camera(job.prior, size, crs_wkt)
+    if not job.points:  # "point file not found: " with no name said nothing
+        raise InputError("no points file in this row (the 'points' column is empty): the table mode fits each "
+                         "photo to its own points; for a camera from the photo and the DEM alone, run "
+                         "monoplot:autoregister on it")
     table = read_points_csv(job.points)
     if "uv" not in table:
         raise InputError(f"{os.path.basename(job.points)}: no photo point columns (u_px, v_px)")

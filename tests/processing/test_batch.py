@@ -1,6 +1,7 @@
 """Batch algorithm: a time-lapse folder of 20 photos, one of them corrupted -> 19 outputs and one clear error."""
 
 import csv
+import os
 
 import numpy as np
 import pytest
@@ -79,20 +80,23 @@ def test_table_batch_fits_each_photo_and_skips_a_bad_row(run_alg, small_scene, t
     cam.with_parameters(heading=cam.heading - 1.0, y=cam.position[1] + 50).save(tmp_path / "prior.json")
     for name in ("a.png", "b.png", "c.png"):
         write_photo(tmp_path / name)
+    write_photo(tmp_path / "d.png")
     (tmp_path / "photos.csv").write_text("photo,prior,points\n"
                                          "a.png,prior.json,gcps.csv\n"
                                          "b.png,no_such_prior.json,gcps.csv\n"
-                                         "c.png,prior.json,gcps.csv\n")
+                                         "c.png,prior.json,gcps.csv\n"
+                                         "d.png,prior.json,\n")
     out = tmp_path / "out"
     result = run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"),
                                "XYZ": True, "ORTHO": False, "OUTPUT": str(out)})
-    assert result["SUCCEEDED"] == 2 and result["FAILED"] == 1
+    assert result["SUCCEEDED"] == 2 and result["FAILED"] == 2
     assert sorted(p.name for p in out.glob("*_camera.json")) == ["a_camera.json", "c_camera.json"]
     assert sorted(p.name for p in out.glob("*_xyz.tif")) == ["a_xyz.tif", "c_xyz.tif"]
     with open(result["LOG"], newline="") as fh:
-        failed = [r for r in csv.DictReader(fh) if r["status"] == "failed"]
-    assert len(failed) == 1 and "b.png" in failed[0]["photo"]
-    assert "camera file not found" in failed[0]["message"]
+        failed = {os.path.basename(r["photo"]): r["message"] for r in csv.DictReader(fh) if r["status"] == "failed"}
+    assert sorted(failed) == ["b.png", "d.png"]
+    assert "camera file not found" in failed["b.png"]
+    assert "no points file in this row" in failed["d.png"]  # an empty cell is named, not "file not found: "
 
 
 def test_timelapse_fits_the_shared_camera_once_from_a_prior(run_alg, small_scene, timelapse, tmp_path):
