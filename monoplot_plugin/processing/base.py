@@ -189,6 +189,18 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         return checked(load_camera, path, image_size, crs.toWkt() if crs is not None and crs.isValid() else "")
 
 
+def report_status(feedback, what: str, status: str, message: str) -> None:
+    """A fit's or registration's verdict in the log: "ok" as information, "uncertain" as a warning, "poor" (and
+    worse) as an error; the status first, so that the first line says it (an "uncertain" was a block of red)."""
+    text = f"{what} {status}: {message}"
+    if status == "ok":
+        feedback.pushInfo(text)
+    elif status == "uncertain":
+        feedback.pushWarning(text)
+    else:
+        feedback.reportError(text, False)
+
+
 def checked(function: Callable, *args, **kwargs):
     """Call ``function``; turn an :class:`InputError` into a ``QgsProcessingException`` with the same message."""
     try:

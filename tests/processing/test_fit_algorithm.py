@@ -160,3 +160,31 @@ def test_camera_height_is_automatic_by_default_as_in_the_dock(run_alg, small_sce
     assert clearance({}) == pytest.approx(15.0, abs=0.05)
     assert clearance({"ON_GROUND": 2}) == pytest.approx(40.0, abs=1.0)
     assert clearance({"ON_GROUND": 1, "EYE_HEIGHT": 2.0}) == pytest.approx(2.0, abs=0.05)
+
+
+def test_a_verdict_is_logged_at_its_own_level():
+    """"ok" is information, "uncertain" a warning (it was a block of red, as an error), "poor" an error; the status
+    leads the line."""
+    from qgis.core import QgsProcessingFeedback
+
+    from monoplot_plugin.processing.base import report_status
+
+    class Recording(QgsProcessingFeedback):
+        def __init__(self):
+            super().__init__()
+            self.seen = []
+
+        def pushInfo(self, info):  # noqa: N802 (QGIS API)
+            self.seen.append(("info", info))
+
+        def pushWarning(self, warning):  # noqa: N802
+            self.seen.append(("warning", warning))
+
+        def reportError(self, error, fatalError=False):  # noqa: N802, N803
+            self.seen.append(("error", error))
+
+    feedback = Recording()
+    for status in ("ok", "uncertain", "poor"):
+        report_status(feedback, "Fit", status, "what it found.")
+    assert feedback.seen == [("info", "Fit ok: what it found."), ("warning", "Fit uncertain: what it found."),
+                             ("error", "Fit poor: what it found.")]

@@ -14,7 +14,8 @@ from ...core.camera import Camera
 from ...outputs.safe_write import write_text
 from ...workflow import auto
 from ...workflow.progress import Canceled
-from ..base import MonoplotAlgorithm, cancel_callback, check_canceled, checked, progress_callback
+from ..base import (MonoplotAlgorithm, cancel_callback, check_canceled, checked, progress_callback,
+                    report_status)
 from ..inputs import read_photo
 
 
@@ -81,10 +82,7 @@ class AutoRegister(MonoplotAlgorithm):
         except Canceled:
             raise QgsProcessingException(self.tr("Registration canceled; no camera written.")) from None
         result = done.result
-        if result.status != "ok":
-            feedback.reportError(self.tr("Registration {0}: {1}").format(result.status, result.message), False)
-        else:
-            feedback.pushInfo(result.message)
+        report_status(feedback, self.tr("Registration"), result.status, result.message)
         camera = done.camera
         camera.crs_wkt = crs.toWkt()
         out = self.parameterAsFileOutput(parameters, "OUTPUT", context)

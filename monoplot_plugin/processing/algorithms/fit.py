@@ -21,7 +21,7 @@ from .. import pipeline
 from ...outputs.safe_write import write_text
 from ...workflow.progress import Canceled
 from ..base import (MonoplotAlgorithm, cancel_callback, check_canceled, checked, progress_callback, read_map_points,
-                    read_photo_points)
+                    read_photo_points, report_status)
 from ...workflow.inputs import points_to_dem_crs
 from ..inputs import InputError, read_points_csv
 
@@ -167,10 +167,7 @@ class FitCamera(MonoplotAlgorithm):
                                    eye_height=self.eye_height(parameters, context))
         except Canceled:
             raise QgsProcessingException(self.tr("Fit canceled; no camera written.")) from None
-        if info["status"] != "ok":
-            feedback.reportError(self.tr("Fit {0}: {1}").format(info['status'], info['message']), False)
-        else:
-            feedback.pushInfo(info["message"])
+        report_status(feedback, self.tr("Fit"), info["status"], info["message"])
         camera.crs_wkt = crs.toWkt()
         out = self.parameterAsFileOutput(parameters, "OUTPUT", context)
         check_canceled(feedback)

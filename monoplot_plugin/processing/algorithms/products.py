@@ -151,7 +151,7 @@ class PhotoToMap(_CameraDemAlgorithm):
             geometry, lost = geo.photo_to_map_geometry(feature.geometry(), camera, dem, step, PHOTO_Y_SIGN)
             dropped += lost
             if geometry is None:
-                feedback.reportError(self.tr("Feature {0} is entirely in the sky or outside the DEM; skipped").format(
+                feedback.pushWarning(self.tr("Feature {0} is entirely in the sky or outside the DEM; skipped").format(
                     feature.id()))
                 continue
             out = QgsFeature(feature)
@@ -216,7 +216,7 @@ class MapToPhoto(_CameraDemAlgorithm):
             out.setGeometry(projected)
             sink.addFeature(out, QgsFeatureSink.FastInsert)
         if skipped:
-            feedback.reportError(self.tr("{0} of {1} feature(s) are not visible in the photo (hidden behind "
+            feedback.pushWarning(self.tr("{0} of {1} feature(s) are not visible in the photo (hidden behind "
                                          "terrain or outside the image); skipped").format(skipped, total))
         check_canceled(feedback)
         self.check_not_empty(parameters, context, sink.count, "photo layer",
