@@ -189,6 +189,22 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         return checked(load_camera, path, image_size, crs.toWkt() if crs is not None and crs.isValid() else "")
 
 
+def camera_line(camera) -> str:
+    """The camera's parameters for the log, rounded, the heading as the dock and the report show it (clockwise from
+    grid north, 0-360: the log said -63.61 where they said 296.39).
+
+    >>> from monoplot_plugin.core.camera import Camera
+    >>> camera_line(Camera((1.0, 2.0, 3.0), -63.61, -8.5, 0.1, 56.1, (100, 80)))[:60]
+    'x 1.0 m, y 2.0 m, z 3.0 m, heading 296.39°, pitch -8.50°, ro'
+    """
+    p = camera.parameters()
+    text = (f"x {p['x']:.1f} m, y {p['y']:.1f} m, z {p['z']:.1f} m, heading {p['heading'] % 360.0:.2f}°, "
+            f"pitch {p['pitch']:.2f}°, roll {p['roll']:.2f}°, field of view {p['fov']:.2f}°")
+    if p.get("k1"):
+        text += f", k1 {p['k1']:.4f}"
+    return text
+
+
 def report_status(feedback, what: str, status: str, message: str) -> None:
     """A fit's or registration's verdict in the log: "ok" as information, "uncertain" as a warning, "poor" (and
     worse) as an error; the status first, so that the first line says it (an "uncertain" was a block of red)."""

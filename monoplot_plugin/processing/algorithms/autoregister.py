@@ -1,6 +1,5 @@
 """Register a photo on the DEM automatically (issue 13): the camera from the photo, the DEM and a rough prior."""
 
-import json
 
 from qgis.core import (
     QgsProcessingException,
@@ -15,7 +14,7 @@ from ...outputs.safe_write import write_text
 from ...workflow import auto
 from ...workflow.progress import Canceled
 from ..base import (MonoplotAlgorithm, cancel_callback, check_canceled, checked, progress_callback,
-                    report_status)
+                    report_status, camera_line)
 from ..inputs import read_photo
 
 
@@ -88,7 +87,7 @@ class AutoRegister(MonoplotAlgorithm):
         out = self.parameterAsFileOutput(parameters, "OUTPUT", context)
         check_canceled(feedback)
         write_text(out, camera.to_json(), overwrite=True)
-        feedback.pushInfo(self.tr("Camera: {0}").format(json.dumps(camera.parameters())))
+        feedback.pushInfo(self.tr("Camera: {0}").format(camera_line(camera)))
         if result.std:
             feedback.pushInfo(self.tr("One standard deviation: {0}").format(
                 ", ".join(f"{k} ± {v:.3g}" for k, v in result.std.items())))

@@ -1,6 +1,5 @@
 """Fit the camera to photo points and DEM points (paired GCPs or unpaired clouds), starting from a prior."""
 
-import json
 import os
 
 import numpy as np
@@ -21,7 +20,7 @@ from .. import pipeline
 from ...outputs.safe_write import write_text
 from ...workflow.progress import Canceled
 from ..base import (MonoplotAlgorithm, cancel_callback, check_canceled, checked, progress_callback, read_map_points,
-                    read_photo_points, report_status)
+                    read_photo_points, report_status, camera_line)
 from ...workflow.inputs import points_to_dem_crs
 from ..inputs import InputError, read_points_csv
 
@@ -173,7 +172,7 @@ class FitCamera(MonoplotAlgorithm):
         check_canceled(feedback)
         write_text(out, camera.to_json(), overwrite=True)
         rmse = float(info.get("rmse_px", float("nan")))
-        feedback.pushInfo(self.tr("Camera: {0}").format(json.dumps(camera.parameters())))
+        feedback.pushInfo(self.tr("Camera: {0}").format(camera_line(camera)))
         std = info.get("summary", {}).get("std") or {}
         if std:
             feedback.pushInfo(self.tr("One standard deviation: {0}").format(
