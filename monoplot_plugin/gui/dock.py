@@ -122,6 +122,9 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         self.zoomPhotoButton.clicked.connect(self.photo_canvas.zoom_to_photo)
         self.floatButton.toggled.connect(self._float)
         self.topLevelChanged.connect(self.floatButton.setChecked)
+        # the button says what it does next: "Dock" while the window floats
+        self.topLevelChanged.connect(lambda floating: self.floatButton.setText(
+            self.tr("Dock") if floating else self.tr("Float")))
 
         # controller -> widgets
         c.photoChanged.connect(self._on_photo)

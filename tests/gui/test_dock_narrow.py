@@ -53,5 +53,6 @@ def test_float_puts_the_dock_window_on_the_screen_with_the_photo_large(dock, qtb
     assert frame.bottom() <= area.bottom() or dock.height() <= dock.minimumSizeHint().height() + 1
     # (the photo's share of the window is looked at in the desktop: here the 600 px screen leaves the tabs their
     # minimum and the photo the rest)
+    assert dock.floatButton.text() == "Dock"  # what the button does next
     qtbot.mouseClick(dock.floatButton, Qt.MouseButton.LeftButton)
-    assert not dock.isFloating()
+    assert not dock.isFloating() and dock.floatButton.text() == "Float"
