@@ -64,6 +64,12 @@ def read_points_csv(path: str) -> Dict[str, np.ndarray]:
     >>> points = read_points_csv(path)
     >>> points["ids"].tolist(), points["check"].tolist(), points["xyz"].tolist()
     (['a'], [True], [[3.0, 4.0, 5.0]])
+    >>> _ = open(path, "w").write("u_px,X,Y,Z\\n10,600000,150000,3000\\n")
+    >>> try:
+    ...     read_points_csv(path)
+    ... except InputError as exc:
+    ...     print(exc)
+    g.csv: a u_px column but no v_px column (found u_px, X, Y, Z)
     """
     if not path or not os.path.isfile(path):
         raise InputError(f"point file not found: {path}")
@@ -102,6 +108,10 @@ def read_points_csv(path: str) -> Dict[str, np.ndarray]:
                     raise InputError(f"{name}, line {r + 2}: '{header[col]}' is not a number") from None
         return out
 
+    for (a, b), names in (((iu, iv), PHOTO_COLUMNS), ((ix, iy), MAP_COLUMNS[:2])):
+        if (a is None) != (b is None):  # half a pair of columns: name the missing one (a generic refusal did not)
+            have, lack = (names[0][0], names[1][0]) if b is None else (names[1][0], names[0][0])
+            raise InputError(f"{name}: a {have} column but no {lack} column (found {', '.join(header)})")
     if iu is not None and iv is not None:
         result["uv"] = numbers((iu, iv))
     if ix is not None and iy is not None:

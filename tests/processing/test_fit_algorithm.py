@@ -188,3 +188,15 @@ def test_a_verdict_is_logged_at_its_own_level():
         report_status(feedback, "Fit", status, "what it found.")
     assert feedback.seen == [("info", "Fit ok: what it found."), ("warning", "Fit uncertain: what it found."),
                              ("error", "Fit poor: what it found.")]
+
+
+def test_dem_points_without_z_are_said_to_take_the_dems_height(run_alg, small_scene, ground_truth, tmp_path):
+    from qgis.core import QgsProcessingFeedback
+
+    gcps = tmp_path / "gcps_no_z.csv"
+    write_points_csv(str(gcps), uv=ground_truth["pixels"],
+                     xyz=np.column_stack([ground_truth["world"][:, :2], np.full(20, np.nan)]))
+    feedback = QgsProcessingFeedback()
+    run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"], "PRIOR": ground_truth["prior"],
+                          "PHOTO_CSV": str(gcps), "OUTPUT": str(tmp_path / "c.json")}, feedback)
+    assert "20 of the 20 DEM points have no Z: the DEM's height there is used" in feedback.textLog()

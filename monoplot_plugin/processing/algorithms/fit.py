@@ -116,6 +116,10 @@ class FitCamera(MonoplotAlgorithm):
                 "PHOTO_CSV and DEM_CSV files, or one paired CSV (u_px, v_px, X, Y, Z)."))
         uv = np.concatenate(uv_parts)
         xyz = np.concatenate(xyz_parts)
+        no_z = int((np.isfinite(xyz[:, :2]).all(axis=1) & ~np.isfinite(xyz[:, 2])).sum())
+        if no_z and context.feedback() is not None:  # said: a misnamed Z column was silently the DEM's
+            context.feedback().pushInfo(self.tr("{0} of the {1} DEM points have no Z: the DEM's height there is "
+                                                "used").format(no_z, len(xyz)))
         xyz = pipeline.fill_missing_z(xyz, dem)
         good_xyz = np.isfinite(xyz).all(axis=1)
         self.dropped_dem_points = int((~good_xyz).sum())
