@@ -16,6 +16,10 @@ TABLE_ROWS = 4
 TABS_SHARE = (0.38, 0.5)
 
 
+#: The point table model's residual column (:mod:`.point_table`).
+RESIDUAL_COLUMN = 5
+
+
 def lay_out(dock) -> None:
     """Sizes of the widgets of ``ui/dock.ui`` that the designer file cannot express."""
     dock.pointTable.verticalHeader().setVisible(False)
@@ -27,6 +31,9 @@ def lay_out(dock) -> None:
     header = dock.pointTable.horizontalHeader()
     header.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
     header.setSortIndicator(-1, Qt.SortOrder.AscendingOrder)  # detector order until a header is clicked
+    # the residual next to the status (shown third; the model's column stays 5): at 1600 px it was past the
+    # table's right edge, behind a horizontal scroll
+    header.moveSection(header.visualIndex(RESIDUAL_COLUMN), 2)
     dock.table_proxy.sort(-1)
     for button in (dock.suggestButton, dock.mapToolButton, dock.acceptViewButton, dock.resetButton,
                    dock.undoButton, dock.redoButton):  # two even rows (ui/dock.ui): one row was clipped

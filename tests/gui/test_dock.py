@@ -163,6 +163,8 @@ def test_fit_task_runs_to_completion(dock, scene, qtbot):
     assert dock.photo_view.residuals.band.numberOfVertices() == 2 * len(residuals)
     row = dock.table_model.row_of(matched[0][0])
     assert dock.table_model.index(row, 5).data() != ""  # the table shows its residual
+    header = dock.pointTable.horizontalHeader()  # third from the left, in sight without scrolling
+    assert header.visualIndex(5) == 2 and dock.table_model.headerData(5, Qt.Orientation.Horizontal) == "Residual (px)"
     # camera and footprint layers in the project
     roles = {lyr.customProperty("monoplot/role") for lyr in QgsProject.instance().mapLayers().values()}
     assert {"camera", "footprint"} <= roles
