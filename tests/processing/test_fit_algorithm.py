@@ -200,3 +200,22 @@ def test_dem_points_without_z_are_said_to_take_the_dems_height(run_alg, small_sc
     run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"], "PRIOR": ground_truth["prior"],
                           "PHOTO_CSV": str(gcps), "OUTPUT": str(tmp_path / "c.json")}, feedback)
     assert "20 of the 20 DEM points have no Z: the DEM's height there is used" in feedback.textLog()
+
+
+def test_paired_gcps_need_no_prior(run_alg, small_scene, ground_truth, tmp_path):
+    """Six or more paired GCPs: PRIOR may be left out, the camera comes from the pairs alone; fewer, or unpaired
+    points, still need it, and the refusal says so."""
+    gcps = tmp_path / "gcps.csv"
+    write_points_csv(str(gcps), uv=ground_truth["pixels"], xyz=ground_truth["world"])
+    out = tmp_path / "camera.json"
+    result = run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"],
+                                   "PHOTO_CSV": str(gcps), "OUTPUT": str(out)})
+    fitted, truth = Camera.load(out), small_scene["cam"]
+    assert result["STATUS"] == "ok" and result["RMSE_PX"] < 0.5
+    assert np.linalg.norm(np.subtract(fitted.position, truth.position)) < 5.0
+    assert abs((fitted.heading - truth.heading + 180) % 360 - 180) < 0.1
+    few = tmp_path / "few.csv"
+    write_points_csv(str(few), uv=ground_truth["pixels"][:5], xyz=ground_truth["world"][:5])
+    with pytest.raises(QgsProcessingException, match="A prior camera is needed"):
+        run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"], "PHOTO_CSV": str(few),
+                              "OUTPUT": str(tmp_path / "c.json")})

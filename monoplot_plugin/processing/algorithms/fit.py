@@ -38,7 +38,9 @@ class FitCamera(MonoplotAlgorithm):
     _name = "fitcamera"
     _display = "Fit camera"
     _help = ("Fits the camera (position, heading, pitch, roll, field of view) so that the DEM points project onto "
-             "the photo points, starting from a prior camera (Monoplot JSON or KML PhotoOverlay).\n\n"
+             "the photo points, starting from a prior camera (Monoplot JSON or KML PhotoOverlay). With 6 or more "
+             "paired ground-control points the prior may be left out: the camera is solved from the pairs "
+             "alone.\n\n"
              "Points come from layers (photo points in pixel space, DEM points in the DEM's CRS) or from CSV files "
              "(u_px, v_px and/or X, Y, Z columns); a single CSV with both sets of columns is a list of paired "
              "ground-control points. Unpaired point sets may have different counts: the fit matches each photo "
@@ -55,7 +57,9 @@ class FitCamera(MonoplotAlgorithm):
     def initAlgorithm(self, config=None):
         self.add_photo_parameter()
         self.add_dem_parameter()
-        self.add_camera_parameter("PRIOR", description="Prior camera (Monoplot JSON, or KML PhotoOverlay)")
+        self.add_camera_parameter("PRIOR", optional=True,
+                                  description="Prior camera (Monoplot JSON, or KML PhotoOverlay; not needed with 6 "
+                                              "or more paired GCPs)")
         self.addParameter(QgsProcessingParameterFeatureSource("PHOTO_POINTS", self.tr("Photo points (layer)"),
                                                               [QgsProcessing.TypeVectorPoint], optional=True))
         self.addParameter(QgsProcessingParameterFeatureSource("DEM_POINTS", self.tr("DEM points (layer)"),
@@ -146,8 +150,17 @@ class FitCamera(MonoplotAlgorithm):
     def run_algorithm(self, parameters, context, feedback):
         photo = self.photo_path(parameters, context)
         dem, crs = self.dem(parameters, context)
-        prior = self.camera(parameters, context, "PRIOR", photo=photo, crs=crs)
         uv, xyz, paired = self.gather_points(parameters, context, dem, crs)
+        if self.parameterAsFile(parameters, "PRIOR", context):
+            prior = self.camera(parameters, context, "PRIOR", photo=photo, crs=crs)
+        elif paired and len(uv) >= MIN_PAIRS_WITHOUT_PRIOR:
+            prior = start_above_points(xyz, checked(pipeline_photo_size, photo), crs.toWkt())
+            feedback.pushInfo(self.tr("No prior camera: the camera is solved from the {0} pairs alone").format(
+                len(uv)))
+        else:
+            raise QgsProcessingException(self.tr(
+                "A prior camera is needed (PRIOR: Monoplot JSON or KML) unless the points are {0} or more paired "
+                "ground-control points.").format(MIN_PAIRS_WITHOUT_PRIOR))
         minimum = 4 if paired else 6
         if len(uv) < minimum or len(xyz) < minimum:
             hint = self.tr(" {0} DEM points were left out: outside the DEM, or not in the DEM file's CRS ({1})."
@@ -213,3 +226,23 @@ def dem_crs_name(dem) -> str:
     srs.AutoIdentifyEPSG()
     code = srs.GetAuthorityCode(None)
     return f"EPSG:{code}" if code else (srs.GetName() or "unknown")[:40]
+
+
+#: Paired ground-control points from which a camera is solved with no prior (a direct linear transform needs 6).
+MIN_PAIRS_WITHOUT_PRIOR = 6
+
+
+def start_above_points(xyz: np.ndarray, image_size, crs_wkt: str):
+    """A stand-in prior for a paired fit with no prior camera: 1 km above the points' centroid, level, 60° wide
+    (the paired fit starts from its DLT and PnP solutions, which do not depend on it; the height keeps the
+    automatic height rule from holding it on the ground).
+
+    >>> start_above_points(np.array([[0.0, 0.0, 100.0], [10.0, 0.0, 300.0]]), (800, 600), "").position
+    (5.0, 0.0, 1300.0)
+    """
+    from ...core.camera import Camera
+
+    xyz = np.asarray(xyz, dtype=float).reshape(-1, 3)
+    x, y = np.nanmean(xyz[:, :2], axis=0)
+    return Camera((float(x), float(y), float(np.nanmax(xyz[:, 2])) + 1000.0), 0.0, 0.0, 0.0, 60.0,
+                  tuple(image_size), crs_wkt=crs_wkt)
