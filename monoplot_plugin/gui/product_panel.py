@@ -293,6 +293,7 @@ class OutputTools(QObject):
         camera, dem, name = c.fitted, c.dem, self.photo_name()
         photo = qimage_to_array(c.image) if what in ("ortho", "report") else None
         points, sigmas = (self.controller.report_inputs() if what == "report" else (None, None))
+        checks = self.controller.report_checks() if what == "report" else None
         info = self.controller.state.fit_info if isinstance(self.controller.state.fit_info, dict) else {}
         verdict = f"{info.get('status', '')}: {info.get('message', '')}" if info.get("status") else ""
 
@@ -305,7 +306,7 @@ class OutputTools(QObject):
                                                progress=progress, is_canceled=is_canceled)
             return product_step.report(path, photo, camera, dem, points=points, sigmas=sigmas, title=Path(name).stem,
                                        overwrite=overwrite, progress=progress, is_canceled=is_canceled,
-                                       verdict=verdict)
+                                       verdict=verdict, checks=checks)
 
         return work
 

@@ -142,6 +142,13 @@ class ResultsMixin:
                                   "doubtful points or improve the rough camera.").format(-clearance)
         return text, level
 
+    def report_checks(self):
+        """The check pairs as the report's ``ReportPoints`` (None without any), read on the main thread."""
+        from ..outputs.report import ReportPoints
+
+        ids, uv, xyz = self.check_points()
+        return ReportPoints(uv, xyz) if ids else None
+
     def report_inputs(self):
         """(ReportPoints of the fit's pairs or None, the fit's sigmas or None) for the report, read on the main
         thread."""

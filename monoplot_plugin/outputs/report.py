@@ -75,7 +75,7 @@ def parameter_sigmas(camera, points: ReportPoints, names: Sequence[str] = FIT_PA
 def write_report(path, photo: np.ndarray, camera, dem, points: Optional[ReportPoints] = None, *,
                  xyz: Optional[np.ndarray] = None, visible: Optional[np.ndarray] = None,
                  sigmas: Optional[Dict[str, float]] = None, title: str = "", overwrite: bool = False,
-                 verdict: str = "") -> Path:
+                 verdict: str = "", checks: Optional[ReportPoints] = None) -> Path:
     """Write the one-page report.
 
     Args:
@@ -89,6 +89,8 @@ def write_report(path, photo: np.ndarray, camera, dem, points: Optional[ReportPo
         title: heading (default: "Monoplot report").
         verdict: the fit's status and message (e.g. ``"uncertain: ... add check points."``), printed under the
             parameters so that a report of a doubtful camera says so.
+        checks: independent check points (kept out of the fit), drawn in magenta with their residuals; their RMSE
+            is the camera's measured accuracy and is printed first.
         overwrite: replace an existing file (default: refuse with OutputExistsError).
     Returns:
         the Path written.
@@ -122,9 +124,10 @@ def write_report(path, photo: np.ndarray, camera, dem, points: Optional[ReportPo
     ax_map = fig.add_axes((0.54, 0.29, 0.40, 0.27))  # its title stays below the photo
     ax_text = fig.add_axes((0.06, 0.03, 0.88, 0.24))
     _draw_points(ax_photo, photo, points, residual, rmse)
+    check_rmse = _draw_checks(ax_photo, camera, checks)
     _draw_overlay(ax_overlay, photo, xyz)
     _draw_footprint(ax_map, camera, dem, visible, points)
-    _draw_parameters(ax_text, camera, sigmas, rmse, points, xyz, verdict)
+    _draw_parameters(ax_text, camera, sigmas, rmse, points, xyz, verdict, check_rmse, checks)
     import io
 
     page = io.BytesIO()  # rendered in memory: matplotlib's own errors on a full disk hide the cause
@@ -160,6 +163,22 @@ def _draw_points(ax, photo, points, residual, rmse):
     ax.set_ylim(photo.shape[0], 0)
     ax.set_aspect("equal", adjustable="box")  # the axes shrink to the photo: nothing drawn beyond its edges
     ax.axis("off")
+
+
+def _draw_checks(ax, camera, checks: Optional[ReportPoints]) -> Optional[float]:
+    """Check points on the photo (magenta squares, their reprojections and residuals ×10); returns their RMSE."""
+    if checks is None or not len(checks.uv):
+        return None
+    residual = camera.project(checks.xyz) - checks.uv
+    ok = np.isfinite(residual).all(axis=1)
+    uv, residual = checks.uv[ok], residual[ok]
+    if not len(uv):
+        return None
+    ax.set_title(ax.get_title(loc="left") + "; check points (□, magenta)", fontsize=9, loc="left")
+    ax.scatter(uv[:, 0], uv[:, 1], s=40, marker="s", facecolors="none", edgecolors="magenta", linewidths=1.2)
+    ax.quiver(uv[:, 0], uv[:, 1], residual[:, 0] * 10, residual[:, 1] * 10, angles="xy", scale_units="xy", scale=1,
+              color="magenta", width=0.003)
+    return float(np.sqrt(np.mean(np.sum(residual ** 2, axis=1))))
 
 
 def _draw_overlay(ax, photo, xyz):
@@ -247,10 +266,12 @@ def parameter_lines(camera, sigmas) -> List[str]:
 REPORT_TEXT_LINES = 24
 
 
-def _draw_parameters(ax, camera, sigmas, rmse, points, xyz, verdict=""):
+def _draw_parameters(ax, camera, sigmas, rmse, points, xyz, verdict="", check_rmse=None, checks=None):
     ax.axis("off")
     lines = parameter_lines(camera, sigmas)
     lines.append("")
+    if check_rmse is not None:  # the measured accuracy first: independent of the fit
+        lines.append(f"Check points (magenta, kept out of the fit): RMSE {check_rmse:.2f} px on {len(checks.uv)}")
     if rmse is not None:
         lines.append(f"Reprojection RMSE {rmse:.2f} px on {len(points.uv)} points "
                      f"(σ: 1 standard deviation from the fit's covariance)")

@@ -88,28 +88,30 @@ def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution=None,
 
 def report(path, photo: np.ndarray, camera: Camera, dem, points=None, points_csv=None,
            sigmas: Optional[Dict[str, float]] = None, title: str = "", overwrite: bool = False,
-           progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None, verdict: str = "") -> Path:
+           progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None, verdict: str = "",
+           checks=None) -> Path:
     """The one-page report (PNG or PDF by the suffix of ``path``) of a fitted camera; ``points``: the control
     points to show (outputs' ``ReportPoints``), or ``points_csv``, a paired CSV; ``verdict``: the fit's status and
-    message, printed on the page."""
+    message, printed on the page; ``checks``: independent check points (``ReportPoints``), drawn and measured."""
     from ..outputs.report import write_report
 
     if points is None and points_csv:
-        points = report_points(points_csv, dem)
+        points, table_checks = report_points(points_csv, dem, split_checks=True)
+        checks = table_checks if checks is None else checks
     result = xyz_result(camera, dem, visibility=True, progress=part(progress, 0.0, 0.6), is_canceled=is_canceled)
     check_canceled(is_canceled)
     with _committed(is_canceled):
         written = write_report(path, photo, camera, dem, points=points, xyz=result.xyz,
                                visible=result.visible, sigmas=sigmas, title=title, overwrite=overwrite,
-                               verdict=verdict)
+                               verdict=verdict, checks=checks)
     if progress is not None:
         progress(1.0, "")
     return written
 
 
-def report_points(path, dem):
+def report_points(path, dem, split_checks: bool = False):
     """The paired points of a CSV table (:func:`~.points_csv.read_points_csv`) as the report's ``ReportPoints``;
-    a missing Z is the DEM's.
+    a missing Z is the DEM's. ``split_checks``: (fitted points, check points or None) by the table's check column.
 
     Raises:
         InputError: the table is not paired (it needs u, v and X, Y columns on each row).
@@ -123,7 +125,12 @@ def report_points(path, dem):
     if "uv" not in table or "xyz" not in table:
         raise InputError(f"{os.path.basename(str(path))}: the report needs paired points (u_px, v_px and X, Y, Z "
                          f"on each row)")
-    return ReportPoints(table["uv"], fill_missing_z(table["xyz"], dem), [str(i) for i in table["ids"]])
+    xyz, names = fill_missing_z(table["xyz"], dem), [str(i) for i in table["ids"]]
+    if not split_checks:
+        return ReportPoints(table["uv"], xyz, names)
+    check = np.asarray(table.get("check", np.zeros(len(xyz), dtype=bool)), dtype=bool)
+    fitted = ReportPoints(table["uv"][~check], xyz[~check], [n for n, c in zip(names, check) if not c])
+    return fitted, (ReportPoints(table["uv"][check], xyz[check]) if check.any() else None)
 
 
 def ortho_grid(camera: Camera, dem, resolution=None, xyz: Optional[np.ndarray] = None):

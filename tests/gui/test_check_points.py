@@ -57,6 +57,9 @@ def test_key_c_marks_a_pair_as_check_points_and_the_fit_measures_them(dock, scen
     text = dock.resultLabel.text()
     assert text.index("Check points") < text.index("Fit: ")
     assert dock.photo_view.check_residuals.band.numberOfVertices() == 8
+    # and in the report: the four check pairs, drawn and measured there too
+    report_checks = c.report_checks()
+    assert report_checks is not None and len(report_checks.uv) == 4
     row = dock.table_model.row_of(photo[checks[0]].id)
     assert dock.table_model.index(row, 1).data() == "check" and dock.table_model.index(row, 5).data() != ""
     # C again: back into the fit (both points of the pair), undoable

@@ -81,3 +81,31 @@ def test_a_long_fit_status_is_cut_to_the_page(plane_scene):
         text = ax.texts[0].get_text()
         assert len(text.splitlines()) <= REPORT_TEXT_LINES
         assert text.endswith("(cut to fit the page)") == cut and "Fit status" in text
+
+
+def test_check_points_are_drawn_and_measured_first(plane_scene, tmp_path):
+    """A table with a check column: the check rows are drawn apart and their RMSE is the first line after the
+    parameters (the measured accuracy), the fitted rows keep the fit's RMSE."""
+    from matplotlib.figure import Figure
+
+    from monoplot_plugin.outputs.report import _draw_checks, _draw_parameters
+
+    scene = plane_scene
+    points = scene_points(scene, n=12, noise_px=0.0)
+    csv = tmp_path / "gcps.csv"
+    from monoplot_plugin.workflow.points_csv import write_points_csv as write_csv
+
+    uv = points.uv.copy()
+    uv[8:] += [6.0, 8.0]  # the four check points 10 px off
+    write_csv(str(csv), uv=uv, xyz=points.xyz, check=[False] * 8 + [True] * 4)
+    fitted, checks = report_points(csv, scene.dem, split_checks=True)
+    assert len(fitted.uv) == 8 and len(checks.uv) == 4
+    ax = Figure().add_subplot()
+    rmse = _draw_checks(ax, scene.camera, checks)
+    assert rmse == pytest.approx(10.0, abs=0.2)
+    text_ax = Figure().add_subplot()
+    _draw_parameters(text_ax, scene.camera, None, 0.1, fitted, scene.xyz, "", rmse, checks)
+    assert "Check points (magenta, kept out of the fit): RMSE 10.00 px on 4" in text_ax.texts[0].get_text()
+    png = write_report(tmp_path / "r.png", scene.photo, scene.camera, scene.dem, fitted, xyz=scene.xyz,
+                       checks=checks)
+    assert gdal.Open(str(png)).RasterXSize > 1000
