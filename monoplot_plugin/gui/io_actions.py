@@ -26,6 +26,7 @@ from ..core.camera import Camera
 from ..core.fit.verdict import judge_by_checks
 from ..state import ACCEPTED, CHECK, MAP, PHOTO, Edit, Point
 from ..workflow.camera_files import load_camera, save_camera
+from ..workflow.fit import measured_on_pairs
 from ..workflow.inputs import InputError, _transform, points_to_dem_crs
 from ..workflow.points_csv import read_points_csv, write_points_csv
 
@@ -267,7 +268,7 @@ def load_camera_file(controller, path: str, as_fitted: bool = False) -> Optional
         c.message.emit(tr("Rough camera loaded from {0}.").format(name), INFO)
         return camera
     info = {"loaded_from": path}
-    n_check, check_rmse = _measured(camera, *c.check_points()[1:])
+    n_check, check_rmse = measured_on_pairs(camera, *c.check_points()[1:])
     if n_check:
         info.update(check_rmse_px=check_rmse, n_check=n_check)
     # nothing here fitted it: only check points can say it is right (never a green "ok" by default)
@@ -275,7 +276,7 @@ def load_camera_file(controller, path: str, as_fitted: bool = False) -> Optional
                                               float(np.hypot(*c.photo_size)))
     info["message"] = tr("Camera loaded from {0}.").format(name) + " " + verdict
     ids, uv, xyz = c.pair_arrays(c.state.valid_pairs())
-    n_pairs, pairs_rmse = _measured(camera, uv, xyz)
+    n_pairs, pairs_rmse = measured_on_pairs(camera, uv, xyz)
     if n_pairs:  # how the camera fits the pairs already there (a measure of agreement, not of accuracy)
         info.update(rmse_px=pairs_rmse, mode="paired", n_pairs=len(ids), n_photo=len(ids), n_map=len(ids),
                     n_matched=n_pairs)
@@ -284,13 +285,6 @@ def load_camera_file(controller, path: str, as_fitted: bool = False) -> Optional
     c.set_fitted(camera, info, background=True)
     c.message.emit(tr("Fitted camera loaded from {0}.").format(name), INFO)
     return camera
-
-
-def _measured(camera: Camera, uv: np.ndarray, xyz: np.ndarray):
-    """(how many of the points (K, 2) pixels / (K, 3) map the camera projects, their RMSE in pixels)."""
-    d = np.hypot(*(camera.project(xyz) - uv).T) if len(uv) else np.zeros(0)
-    d = d[np.isfinite(d)]
-    return int(len(d)), float(np.sqrt(np.mean(d ** 2))) if len(d) else float("nan")
 
 
 def save_camera_file(controller, path: str, which: str = "fitted") -> bool:

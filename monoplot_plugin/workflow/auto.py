@@ -16,7 +16,7 @@ import numpy as np
 
 from ..core.auto import AutoFitResult, register_automatic
 from ..core.camera import Camera
-from .fit import ON_GROUND_MAX_M, flag_under_terrain, ground_clearance, on_ground_rule
+from .fit import ON_GROUND_MAX_M, flag_under_terrain, ground_clearance, measured_on_pairs, on_ground_rule
 from .progress import Canceled, IsCanceled, Progress, check_canceled
 from .warmup import import_torch
 
@@ -162,15 +162,12 @@ def judge_by_check_points(status: str, message: str, camera: Camera, check_uv: n
     """
     from ..core.fit.verdict import judge_by_checks
 
-    check_uv = np.asarray(check_uv, dtype=float).reshape(-1, 2)
-    check_xyz = np.asarray(check_xyz, dtype=float).reshape(-1, 3)
-    out = {"status": status, "message": message, "check_rmse_px": None, "n_check": int(len(check_uv))}
-    if not len(check_uv):
+    n_given = len(np.asarray(check_uv).reshape(-1, 2))
+    out = {"status": status, "message": message, "check_rmse_px": None, "n_check": n_given}
+    if not n_given:
         return out
-    d = camera.project(check_xyz) - check_uv
-    d = d[np.isfinite(d).all(axis=1)]
-    rmse = float(np.sqrt(np.mean(np.sum(d * d, axis=1)))) if len(d) else math.nan
-    checked, text = judge_by_checks(rmse, len(d), math.hypot(*camera.image_size))
+    n, rmse = measured_on_pairs(camera, check_uv, check_xyz)
+    checked, text = judge_by_checks(rmse, n, math.hypot(*camera.image_size))
     out["check_rmse_px"] = rmse if math.isfinite(rmse) else None
     out["message"] = f"{message} {text}"
     if _RANK.get(checked, 1) > _RANK.get(status, 0):

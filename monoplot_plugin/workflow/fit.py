@@ -18,7 +18,7 @@ from .progress import Canceled, IsCanceled, Progress, check_canceled
 from .warmup import import_torch
 
 __all__ = ["ON_GROUND_MAX_M", "DEFAULT_EYE_HEIGHT_M", "FitRefused", "FitDone", "ground_clearance", "on_ground_rule",
-           "fit", "point_rmse", "fit_points"]
+           "fit", "point_rmse", "fit_points", "measured_on_pairs"]
 
 #: a start camera at most this high above the terrain is taken as a photographer on the ground (a person, a
 #: tripod, a lookout tower, a rooftop): the fit keeps its height above the terrain (z follows the DEM, one unknown
@@ -132,6 +132,22 @@ def flag_under_terrain(result: FitResult, clearance: float) -> None:
                       f"the points and the DEM.")
     if result.status == "ok":
         result.status = "uncertain"
+
+
+def measured_on_pairs(camera: Camera, uv: np.ndarray, xyz: np.ndarray) -> Tuple[int, float]:
+    """(how many of the pairs, (K, 2) pixels / (K, 3) map points, the camera projects; their RMSE in pixels, NaN
+    for none): a camera measured on check points or on pairs it was not fitted to.
+
+    >>> cam = Camera((0, 0, 0), 0, 0, 0, 90, (100, 100))
+    >>> world = np.array([[0.0, 10.0, 0.0], [0.0, -10.0, 0.0]])
+    >>> measured_on_pairs(cam, np.vstack([cam.project(world[:1]) + [3.0, 4.0], [[0.0, 0.0]]]), world)
+    (1, 5.0)
+    """
+    uv = np.asarray(uv, dtype=float).reshape(-1, 2)
+    xyz = np.asarray(xyz, dtype=float).reshape(-1, 3)
+    d = np.hypot(*(camera.project(xyz) - uv).T) if len(uv) else np.zeros(0)
+    d = d[np.isfinite(d)]
+    return int(len(d)), float(np.sqrt(np.mean(d ** 2))) if len(d) else math.nan
 
 
 def point_rmse(camera: Camera, uv: np.ndarray, xyz: np.ndarray, paired: bool) -> float:
