@@ -21,6 +21,7 @@ from ...outputs.safe_write import write_text
 from ...workflow.progress import Canceled
 from ..base import (MonoplotAlgorithm, cancel_callback, check_canceled, checked, progress_callback, read_map_points,
                     read_photo_points, report_status, camera_line)
+from ...adapters.layers import crs_from_wkt
 from ...workflow.inputs import points_to_dem_crs
 from ..inputs import InputError, read_points_csv
 
@@ -216,16 +217,9 @@ def pipeline_photo_size(path):
 
 
 def dem_crs_name(dem) -> str:
-    """The DEM file's CRS for a message: its EPSG code, or the start of its name."""
-    from osgeo import osr
-
-    srs = osr.SpatialReference()
-    if not getattr(dem, "source_crs_wkt", "") and not dem.crs_wkt:
-        return "none"
-    srs.ImportFromWkt(getattr(dem, "source_crs_wkt", "") or dem.crs_wkt)
-    srs.AutoIdentifyEPSG()
-    code = srs.GetAuthorityCode(None)
-    return f"EPSG:{code}" if code else (srs.GetName() or "unknown")[:40]
+    """The DEM file's CRS for a message: its authority id, or the start of its description."""
+    crs = crs_from_wkt(getattr(dem, "source_crs_wkt", "") or dem.crs_wkt)
+    return crs.authid() or crs.description()[:40] or "none"
 
 
 #: Paired ground-control points from which a camera is solved with no prior (a direct linear transform needs 6).
