@@ -318,18 +318,29 @@ def test_the_fit_button_flags_its_own_outliers_and_is_not_refitted_again(dock, s
     assert panel.refitter.task is None  # the same points are not fitted a second time
 
 
-def test_an_uncertain_camera_flags_outliers_but_does_not_reject_them_in_bulk(dock, scene, qtbot):
-    """Few true points among wrong ones: the fit is "uncertain" and flags the wrong photo points (red rings), but
-    "Reject outliers" stays greyed out, its tool tip says why; the message says to judge them one by one."""
+def scene_without_refit(dock, scene, qtbot):
+    """The scene's points as suggestions, its prior set, the background refit off: (controller, panel, photo,
+    world)."""
     load_inputs(dock, scene, qtbot)
     c, panel = dock.controller, dock.curation_panel
     photo, world = add_scene_points(dock, scene)
     c.set_prior(scene.prior)
     panel.refitCheck.setChecked(False)
-    rng = np.random.default_rng(3)
+    return c, panel, photo, world
+
+
+def random_photo_points(c, seed: int, n: int, top_share: float = 1.0):
+    """``n`` accepted manual photo points at random over the top ``top_share`` of the photo (partners of nothing)."""
     w, h = c.photo_size
-    wrong = [Point.new(PHOTO, float(u), float(v), status=ACCEPTED, manual=True)
-             for u, v in rng.uniform([0, 0], [w, h * 0.3], (25, 2))]
+    uv = np.random.default_rng(seed).uniform([0, 0], [w, h * top_share], (n, 2))
+    return [Point.new(PHOTO, float(u), float(v), status=ACCEPTED, manual=True) for u, v in uv]
+
+
+def test_an_uncertain_camera_flags_outliers_but_does_not_reject_them_in_bulk(dock, scene, qtbot):
+    """Few true points among wrong ones: the fit is "uncertain" and flags the wrong photo points (red rings), but
+    "Reject outliers" stays greyed out, its tool tip says why; the message says to judge them one by one."""
+    c, panel, photo, world = scene_without_refit(dock, scene, qtbot)
+    wrong = random_photo_points(c, seed=3, n=25, top_share=0.3)
     c.set_status([p.id for p in photo[:12]] + [x.id for x in world[:12]], ACCEPTED)
     c.stack.push(add_points(c.state, wrong, "Add wrong points"))
     assert c.fit()
@@ -344,15 +355,8 @@ def test_an_uncertain_camera_flags_outliers_but_does_not_reject_them_in_bulk(doc
 def test_a_poor_fit_neither_ranks_the_suggestions_nor_flags_points(dock, scene, qtbot):
     """Photo and map points that are not partners: the Fit is "poor"; the rough camera goes on ranking the
     suggestions, nothing is flagged, and the counts line says so."""
-    load_inputs(dock, scene, qtbot)
-    c, panel = dock.controller, dock.curation_panel
-    photo, world = add_scene_points(dock, scene)
-    c.set_prior(scene.prior)
-    panel.refitCheck.setChecked(False)
-    rng = np.random.default_rng(5)
-    w, h = c.photo_size
-    lost = [Point.new(PHOTO, float(u), float(v), status=ACCEPTED, manual=True)
-            for u, v in rng.uniform([0, 0], [w, h], (8, 2))]
+    c, panel, photo, world = scene_without_refit(dock, scene, qtbot)
+    lost = random_photo_points(c, seed=5, n=8)
     c.stack.push(add_points(c.state, lost, "Add photo points"))
     c.set_status([x.id for x in world[:7]], ACCEPTED)
     assert c.fit()
