@@ -141,10 +141,15 @@ def call_forwarding_signals(command: Sequence[str], env: Dict[str, str]) -> int:
     Returns:
         its exit code; 128 + n when it was killed by signal n (the shell's convention).
     """
-    child = subprocess.Popen(list(command), env=env)
+    # The handlers go in before the child starts: a signal that lands while it starts (the child may already be
+    # running and talking) is kept and passed on as soon as it exists, not lost or left to the default action.
+    child = None
+    early = []
 
     def forward(signum, frame):
-        if child.poll() is None:
+        if child is None:
+            early.append(signum)
+        elif child.poll() is None:
             try:
                 child.send_signal(signum)
             except ProcessLookupError:
@@ -157,7 +162,17 @@ def call_forwarding_signals(command: Sequence[str], env: Dict[str, str]) -> int:
         except (ValueError, OSError):  # not the main thread
             pass
     try:
-        code = child.wait()  # retried after each forwarded signal (PEP 475)
+        child = subprocess.Popen(list(command), env=env)
+        for signum in early:
+            forward(signum, None)
+        # Never one blocking wait: a signal landing just before the process blocks in waitpid() would only run
+        # its Python handler after the child had ended on its own. Short waits run the handler within 0.05 s.
+        code = None
+        while code is None:
+            try:
+                code = child.wait(timeout=1.0)
+            except subprocess.TimeoutExpired:
+                pass
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
