@@ -45,8 +45,9 @@ class SafeSink:
         dest: the destination to return from the algorithm (the final path for files).
     """
 
-    def __init__(self, sink, dest: str, final: str = "", tmp: str = "", context=None):
+    def __init__(self, sink, dest: str, final: str = "", tmp: str = "", context=None, crs_valid: bool = True):
         self._sink, self.dest, self._final, self._tmp, self._context = sink, dest, final, tmp, context
+        self._crs_valid = crs_valid
         self.count = 0
         if tmp:
             _open_sinks().append(self)
@@ -76,6 +77,8 @@ class SafeSink:
         del sink  # the writer closes its file when the last reference goes
         if not self._tmp:
             return self.dest
+        if not self._crs_valid:
+            mark_cartesian(self._tmp)
         commit_temporary(self._tmp, self._final, overwrite=True, verify=vector_verifier(self.count))
         self._retarget_loading()
         return self.dest
@@ -126,7 +129,25 @@ def safe_sink(algorithm, parameters, name, context, fields, wkb, crs) -> SafeSin
     if sink is None:
         remove_temporary(tmp, final)
         raise QgsProcessingException(algorithm.invalidSinkError(parameters, name))
-    return SafeSink(sink, final, final, tmp, context)
+    return SafeSink(sink, final, final, tmp, context, crs_valid=crs.isValid())
+
+
+def mark_cartesian(path: str) -> None:
+    """A GeoPackage written without a CRS says "Undefined Cartesian SRS" (srs_id -1), not GDAL's default "Undefined
+    geographic SRS" (srs_id 0), which QGIS reads as a valid geographic CRS and would reproject photo pixels as degrees.
+    Other formats are left as they are."""
+    from osgeo import ogr
+
+    if Path(path).suffix.lower() != ".gpkg":
+        return
+    ds = ogr.Open(path, 1)
+    if ds is None:
+        return
+    try:
+        for table in ("gpkg_contents", "gpkg_geometry_columns"):
+            ds.ExecuteSQL(f"UPDATE {table} SET srs_id = -1 WHERE srs_id = 0")
+    finally:
+        ds = None
 
 
 def check_file_destinations(algorithm, parameters, context) -> None:

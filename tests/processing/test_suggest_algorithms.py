@@ -38,7 +38,10 @@ def test_suggest_photo_points_in_pixel_space(run_alg, rendered, tmp_path):
         point = f.geometry().asPoint()
         assert point.x() == pytest.approx(f["u_px"]) and point.y() == pytest.approx(-f["v_px"])
         assert 0 <= f["u_px"] <= 320 and 0 <= f["v_px"] <= 240
-    assert layer.crs().authid() == ""  # photo space has no CRS (GeoPackage reads it back as "undefined")
+    # photo space has no CRS: an undefined Cartesian one, not GeoPackage's default undefined geographic one (QGIS
+    # would reproject the pixels as degrees)
+    assert layer.crs().authid() == "" and not layer.crs().isGeographic()
+    assert "Cartesian" in layer.crs().description()
 
 
 def test_a_photo_of_noise_is_warned_about(run_alg, rendered, tmp_path):
