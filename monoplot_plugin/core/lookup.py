@@ -9,7 +9,7 @@ covers ``[j, j+1) x [i, i+1)``, so the lookup of ``(u, v)`` is pixel ``(floor(v)
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Optional, Tuple
+from typing import Callable, Optional, Tuple
 
 import numpy as np
 
@@ -89,7 +89,8 @@ def visibility_of_points(camera, points: np.ndarray, xyz: np.ndarray, tolerance:
     return uv, visible
 
 
-def orthorectify(photo: np.ndarray, camera, dem, xyz: np.ndarray) -> np.ndarray:
+def orthorectify(photo: np.ndarray, camera, dem, xyz: np.ndarray, *,
+                 between_chunks: Optional[Callable[[float], None]] = None) -> np.ndarray:
     """The photo draped onto the DEM grid.
 
     Every DEM cell centre (on the terrain) is projected into the photo; it takes the colour of that photo pixel
@@ -101,10 +102,11 @@ def orthorectify(photo: np.ndarray, camera, dem, xyz: np.ndarray) -> np.ndarray:
         camera: the photo's Camera (image_size must match the photo).
         dem: the :class:`~monoplot_plugin.core.dem.Dem` to drape onto (its grid and CRS are the orthophoto's).
         xyz: (H, W, 3) per-pixel map coordinates of the photo (for occlusion).
+        between_chunks: see :func:`ortho_lookup`.
     Returns:
         (rows, cols, bands + 1) uint8: photo bands then an alpha band (255 seen, 0 unseen: nodata).
     """
-    return ortho_lookup(camera, dem, xyz).apply(photo)
+    return ortho_lookup(camera, dem, xyz, between_chunks=between_chunks).apply(photo)
 
 
 @dataclass(frozen=True)
@@ -149,14 +151,26 @@ class OrthoLookup:
         return out.reshape(rows, cols, bands + 1)
 
 
-def ortho_lookup(camera, dem, xyz: np.ndarray) -> OrthoLookup:
+def ortho_lookup(camera, dem, xyz: np.ndarray, *, between_chunks: Optional[Callable[[float], None]] = None,
+                 chunk_cells: int = 1 << 20) -> OrthoLookup:
     """The :class:`OrthoLookup` of ``camera`` over ``dem``'s grid (arguments as :func:`orthorectify`): every DEM
-    cell centre projected into the photo, kept when the camera sees it (:func:`visibility_of_points`)."""
+    cell centre projected into the photo, kept when the camera sees it (:func:`visibility_of_points`).
+
+    The cells are taken ``chunk_cells`` at a time; ``between_chunks(fraction done)`` is called after each chunk (the
+    caller's progress, and its cancel: an exception it raises goes through unchanged)."""
     pts = dem.vertices().reshape(-1, 3)
-    finite = np.isfinite(pts[:, 2])
-    uv, visible = visibility_of_points(camera, pts[finite], xyz)
-    cells = np.flatnonzero(finite)[visible]
-    uv = uv[visible]
+    cells_parts, uv_parts = [], []
+    total = len(pts)
+    for start in range(0, total, max(1, int(chunk_cells))):
+        chunk = pts[start:start + chunk_cells]
+        finite = np.isfinite(chunk[:, 2])
+        uv, visible = visibility_of_points(camera, chunk[finite], xyz)
+        cells_parts.append(start + np.flatnonzero(finite)[visible])
+        uv_parts.append(uv[visible])
+        if between_chunks is not None:
+            between_chunks(min(1.0, (start + len(chunk)) / total))
+    cells = np.concatenate(cells_parts) if cells_parts else np.zeros(0, np.int64)
+    uv = np.concatenate(uv_parts) if uv_parts else np.zeros((0, 2))
     r = np.clip(np.floor(uv[:, 1]).astype(np.int64), 0, camera.height - 1)
     c = np.clip(np.floor(uv[:, 0]).astype(np.int64), 0, camera.width - 1)
     return OrthoLookup(tuple(dem.elevation.shape), tuple(camera.image_size), cells.astype(np.int64),

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import Optional, Sequence
+from typing import Callable, Optional, Sequence
 
 import numpy as np
 from osgeo import gdal
@@ -68,7 +68,8 @@ def write_orthophoto(path, image: np.ndarray, geotransform: Sequence[float], crs
 
 def orthophoto_from_camera(path, photo: np.ndarray, camera, dem, xyz: Optional[np.ndarray] = None, *,
                            overwrite: bool = False, rows_per_strip: Optional[int] = None,
-                           allow_empty: bool = True) -> Path:
+                           allow_empty: bool = True,
+                           between_chunks: Optional[Callable[[float], None]] = None) -> Path:
     """Orthorectify ``photo`` onto ``dem`` (:func:`monoplot_plugin.core.lookup.orthorectify`) and write it.
 
     Args:
@@ -78,6 +79,8 @@ def orthophoto_from_camera(path, photo: np.ndarray, camera, dem, xyz: Optional[n
             the image when the whole raster does not fit in the free memory (core :mod:`~..core.xyz_strips`).
         rows_per_strip: force strips of this many image rows (None: planned from the free memory).
         allow_empty: write an orthophoto with no cell seen (else OutputError, nothing written).
+        between_chunks: called with the fraction done while the cells are looked up (the caller's progress and
+            cancel; see core :func:`~..core.lookup.ortho_lookup`).
     Raises:
         MemoryBudgetError (core) with the numbers when even thin strips do not fit.
     """
@@ -88,16 +91,17 @@ def orthophoto_from_camera(path, photo: np.ndarray, camera, dem, xyz: Optional[n
         raise ValueError(f"photo must have 1 or 3 bands, got {photo.shape}")
     photo = photo.astype(np.uint8, copy=False)
     if xyz is not None:
-        image = orthorectify(photo, camera, dem, xyz)
+        image = orthorectify(photo, camera, dem, xyz, between_chunks=between_chunks)
     else:
-        image = orthorectify_in_strips(photo, camera, dem, rows_per_strip)
+        image = orthorectify_in_strips(photo, camera, dem, rows_per_strip, between_chunks)
     if not allow_empty and not image[..., -1].any():
         raise OutputError(f"the orthophoto {Path(os.fspath(path)).name} would be empty: the camera sees no cell of "
                           f"the DEM")
     return write_orthophoto(path, image, dem.geotransform, dem.crs_wkt, overwrite=overwrite)
 
 
-def orthorectify_in_strips(photo: np.ndarray, camera, dem, rows_per_strip: Optional[int] = None) -> np.ndarray:
+def orthorectify_in_strips(photo: np.ndarray, camera, dem, rows_per_strip: Optional[int] = None,
+                           between_chunks: Optional[Callable[[float], None]] = None) -> np.ndarray:
     """:func:`.geometry.orthorectify` with the XYZ raster computed strip by strip: a DEM cell takes its colour from
     the strip of the photo it falls in (strips do not overlap, so each cell is decided once)."""
     from ..core.xyz import compute_xyz
@@ -114,4 +118,6 @@ def orthorectify_in_strips(photo: np.ndarray, camera, dem, rows_per_strip: Optio
         part = orthorectify(photo[row0:row0 + strip.height], strip, dem, compute_xyz(strip, dem))
         seen = part[..., -1] > 0
         out[seen] = part[seen]
+        if between_chunks is not None:
+            between_chunks(min(1.0, (row0 + strip.height) / camera.height))
     return out

@@ -79,8 +79,14 @@ def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution=None,
     check_canceled(is_canceled)
     grid = ortho_grid(camera, dem, resolution, xyz) if grid is None else grid
     check_canceled(is_canceled)
+    def between_chunks(fraction: float) -> None:  # the lookup of a large grid takes a while: report, stop early
+        if progress is not None:
+            progress(0.5 + 0.45 * fraction, "")
+        check_canceled(is_canceled)
+
     with _committed(is_canceled):
-        written = orthophoto_from_camera(path, photo, camera, grid, xyz, overwrite=overwrite)
+        written = orthophoto_from_camera(path, photo, camera, grid, xyz, overwrite=overwrite,
+                                         between_chunks=between_chunks)
     if progress is not None:
         progress(1.0, "")
     return written

@@ -38,3 +38,28 @@ def test_turned_lookup_agrees_with_the_turned_cameras_own(scene, turn):
 def test_a_turn_beyond_the_margin_is_refused(scene):
     _, cam, turnable = scene
     assert turnable.turned(cam.with_parameters(heading=cam.heading + 6.0)) is None
+
+
+def test_the_lookup_in_chunks_is_the_lookup_in_one_go(scene):
+    """Chunks only let a caller report progress and stop: the cells and pixels are the same, in the same order."""
+    dem, cam, _ = scene
+    xyz = compute_xyz(cam, dem)
+    whole = lookup.ortho_lookup(cam, dem, xyz, chunk_cells=dem.elevation.size)
+    done = []
+    chunked = lookup.ortho_lookup(cam, dem, xyz, chunk_cells=1000, between_chunks=done.append)
+    assert whole.seen > 1000
+    assert np.array_equal(whole.cells, chunked.cells) and np.array_equal(whole.pixels, chunked.pixels)
+    assert len(done) == -(-dem.elevation.size // 1000) and done == sorted(done) and done[-1] == 1.0
+
+
+def test_an_exception_between_chunks_stops_the_lookup(scene):
+    dem, cam, _ = scene
+
+    class Stop(Exception):
+        pass
+
+    def stop(fraction):
+        raise Stop()
+
+    with pytest.raises(Stop):
+        lookup.ortho_lookup(cam, dem, compute_xyz(cam, dem), chunk_cells=1000, between_chunks=stop)

@@ -140,6 +140,25 @@ def test_a_cancel_while_a_product_is_written_leaves_the_earlier_file(scene, tmp_
             [name], [name, name + ".aux.xml"]), name  # no temporary file left behind
 
 
+def test_a_cancel_while_the_orthophoto_is_draped_stops_it_before_writing(scene, tmp_path):
+    """The cell lookup of a large orthophoto takes a while: a cancel that comes during it stops it there (a desktop
+    trial saw the cancel act only at the final rename), with nothing written and the progress moving meanwhile."""
+    import inspect
+
+    dem, camera, _ = scene
+    photo = render_photo(camera, dem)
+    fractions = []
+
+    def during_the_lookup():
+        return any(frame.filename.endswith("lookup.py") for frame in inspect.stack()[1:6])
+
+    with pytest.raises(Canceled):
+        products.orthophoto(tmp_path / "ortho.tif", photo, camera, dem, is_canceled=during_the_lookup,
+                            progress=lambda f, m="": fractions.append(f))
+    assert not list(tmp_path.iterdir())
+    assert fractions and max(fractions) > 0.5  # past the XYZ half: the lookup reported before it stopped
+
+
 def test_an_automatic_orthophoto_keeps_the_photos_detail_over_what_it_sees(scene, tmp_path):
     """The dock's orthophoto (AUTO): cells of about a pixel's footprint at the median distance, finer than the
     DEM's, over the seen part of the DEM only; the same colours where it overlaps the DEM-grid orthophoto."""
