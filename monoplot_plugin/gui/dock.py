@@ -16,7 +16,7 @@ from typing import Optional
 
 from qgis.core import Qgis, QgsApplication, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer, QgsSettings
 from qgis.PyQt import uic
-from qgis.PyQt.QtCore import QItemSelectionModel, Qt
+from qgis.PyQt.QtCore import QItemSelectionModel, Qt, QTimer
 from qgis.PyQt.QtWidgets import QAction, QDockWidget, QSizePolicy, QToolBar, QToolButton
 
 from .. import PLUGIN_DIR
@@ -168,8 +168,9 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         narrow_tabs(self)
         fit_minimum_width(self)
         if self.project.readEntry("monoplot", "/state", "")[1] and c.restore() and c.fitted is not None:
-            # a dock opened on an already open project: its camera layers came back empty from the file
-            self._update_camera_layers()
+            # a dock opened on an already open project (or while one is read): its camera layers came back empty
+            # from the file
+            self._rebuild_camera_layers_later()
         self._apply_settings()  # a dock opened on an already open project shows its saved overlay opacity
         self._on_points(set())
         self._on_busy("")
@@ -371,9 +372,15 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         elif result.ok and self.controller.task_kind == "suggest":
             self.mapToolButton.setChecked(True)  # DEM suggestions are curated on the main map
 
+    def _rebuild_camera_layers_later(self) -> None:
+        """Replace the camera layers once the event loop runs again: while QGIS is still reading the project
+        (``readProject``), removing the layers it has just read leaves a dangling layer in the project's snapping
+        settings, and the next Save crashed QGIS (QgsSnappingConfig::writeProject, seen in a desktop trial)."""
+        QTimer.singleShot(0, self._update_camera_layers)
+
     def _update_camera_layers(self) -> None:
         c = self.controller
-        if c.fitted is None or c.dem is None:
+        if self._unloaded or c.fitted is None or c.dem is None:
             return
         camera_layers.show_camera_layers(self.project, c.fitted, c.footprint_wkt, c.dem_crs)
 
@@ -460,7 +467,7 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         if self.controller.restore():
             self._apply_settings()
             if self.controller.fitted is not None:
-                self._update_camera_layers()  # memory layers come back empty from a project file: rebuild them
+                self._rebuild_camera_layers_later()  # memory layers come back empty from a project file
 
     def _project_cleared(self) -> None:
         self.controller.cancel()

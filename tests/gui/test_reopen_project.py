@@ -69,3 +69,23 @@ def test_an_autosave_identical_to_the_saved_project_is_not_announced(dock, scene
     qtbot.waitUntil(lambda: c.image is not None, timeout=5000)
     assert persistence.load_with_source(project)[1] == "project"
     assert not any("autosave" in m for m in messages), messages
+
+
+def test_a_reopened_project_can_be_saved_again(dock, scene, qtbot, tmp_path):
+    """Reopening a project with a fitted camera and saving it crashed QGIS (a desktop trial, five times out of five):
+    the dock replaced the camera layers while QGIS was still reading the project, which left a deleted layer in the
+    project's snapping settings (QgsSnappingConfig::writeProject). The layers are now rebuilt once the read is over:
+    filled, and the project saves."""
+    _fitted_session(dock, scene, qtbot)
+    dock._update_camera_layers()
+    project = QgsProject.instance()
+    path = str(tmp_path / "first.qgz")
+    assert project.write(path)
+    project.clear()
+    assert project.read(path)
+    qtbot.waitUntil(lambda: _camera_layers(project) == {"Monoplot camera": 1, "Monoplot view footprint": 1},
+                    timeout=30000)
+    assert project.write(str(tmp_path / "again.qgz"))
+    project.clear()
+    assert project.read(str(tmp_path / "again.qgz"))
+    assert set(_camera_layers(project)) == {"Monoplot camera", "Monoplot view footprint"}
