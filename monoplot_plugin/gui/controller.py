@@ -104,6 +104,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         # (re)write the entry while the project is being written: paths are made relative to its (new) file
         self.project.writeProject.connect(self._project_writing)
         self.message.connect(self._log_message)
+        self._project_file = self.project.fileName()  # the file whose autosave this state goes to
 
     @staticmethod
     def _log_message(text: str, level) -> None:
@@ -127,6 +128,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
                 pass
 
     def _project_writing(self, *args) -> None:
+        self._project_file = self.project.fileName()  # Save As: a new file
         if not self._restoring:
             persistence.store_in_project(self.project, self.state)
 
@@ -445,6 +447,13 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         """The debounced autosave: a snapshot here, the file written in a worker thread (gui/persistence.py)."""
         self._autosave_worker = persistence.autosave(self.project, self.state)
 
+    def project_closed(self) -> None:
+        """QGIS closed the project (``cleared``; a crash never gets here): its autosave files go, since QGIS has
+        asked whether to save it and "Discard" must not come back when the project is opened again."""
+        self._autosave.stop()
+        persistence.discard_autosave(self._project_file)
+        self._project_file = ""
+
     def save(self) -> None:
         """Write the state into the project and the autosave file now (synchronously)."""
         self._autosave.stop()
@@ -453,6 +462,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
     def restore(self) -> bool:
         """Load the state stored in the project (after projectRead); falls back to a newer autosave."""
         self._autosave.stop()  # a pending autosave of the previous project must not overwrite this one
+        self._project_file = self.project.fileName()
         state, source = persistence.load_with_source(self.project)
         self._restoring = True
         try:

@@ -25,6 +25,7 @@ from ..adapters.photo_space import photo_geometry, photo_point, photo_vertices, 
 from ..workflow.features import photo_to_map_feature
 from ..outputs.vectors import COMPUTED_FIELDS, MapFeature, write_vector_layer
 from .map_layers import add_layer, add_vector_file_layer, photo_group
+from . import persistence
 
 __all__ = ["DigitisingSession", "drawn_entry_key", "KINDS"]
 
@@ -147,12 +148,16 @@ class DigitisingSession(QObject):
                 {"uv": photo_vertices(f.geometry()).tolist(),
                  "attributes": {n: _jsonable(_plain(f[n])) for n, _ in self.fields}}
                 for f in layer.getFeatures() if not f.geometry().isNull()]
-        self.project.writeEntry("monoplot", self._entry(), json.dumps(data))
+        text = json.dumps(data)
+        self.project.writeEntry("monoplot", self._entry(), text)
+        persistence.autosave_entry(self.project, self._entry(), text)  # a crash before Save keeps them too
 
     def restore_drawn(self) -> int:
         """Bring back the features stored by :meth:`save_drawn` for this photo; returns how many."""
         text, ok = self.project.readEntry("monoplot", self._entry(), "")
-        if not ok or not text:
+        newer = persistence.autosaved_entry(self.project, self._entry())  # drawn after the last Save, then a crash
+        text = newer if newer is not None else (text if ok else "")
+        if not text:
             return 0
         data = json.loads(text)
         for name, ftype in data.get("fields", []):

@@ -471,6 +471,7 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
 
     def _project_cleared(self) -> None:
         self.controller.cancel()
+        self.controller.project_closed()
         self.controller.restore()
         self._apply_settings()
         self.statusLabel.clear()  # the last message was about the closed project

@@ -3,7 +3,10 @@
 * Project: ``QgsProject.writeEntry("monoplot", "/state", json)``; saved with the .qgz when the user saves.
 * Autosave: ``<project>.monoplot-autosave.json`` next to a saved project, else
   ``<profile>/monoplot/autosave-unsaved-project.json``. On reopening, the autosave wins when it is newer than the
-  project file (the user curated points, then QGIS crashed before saving).
+  project file (the user curated points, then QGIS crashed before saving). Other project entries (the features
+  drawn on the photo) go to ``<project>.monoplot-autosave-entries.json`` the same way (:func:`autosave_entry`).
+* A project closed by QGIS (not a crash) discards its autosave files (:func:`discard_autosave`): QGIS asked whether
+  to save, and "Discard" must not come back the next time the project is opened.
 
 The debounced autosave (:func:`autosave`) costs the main thread a snapshot only (the small fields encoded, the
 points referenced); the points are encoded and the file written in a worker thread, the newest snapshot last.
@@ -22,7 +25,7 @@ from qgis.core import QgsApplication, QgsMessageLog, QgsProject, Qgis
 from ..state import ProjectState
 
 __all__ = ["SCOPE", "KEY", "store_in_project", "save", "autosave", "load", "load_with_source", "autosave_path",
-           "read_autosave"]
+           "read_autosave", "autosave_entry", "autosaved_entry", "discard_autosave"]
 
 SCOPE, KEY = "monoplot", "/state"
 
@@ -36,6 +39,59 @@ def autosave_path(project: QgsProject) -> str:
     folder = os.path.join(QgsApplication.qgisSettingsDirPath(), "monoplot")
     os.makedirs(folder, exist_ok=True)
     return os.path.join(folder, "autosave-unsaved-project.json")
+
+
+def _entries_path(state_path: str) -> str:
+    return state_path[:-len(".json")] + "-entries.json"
+
+
+def _newer_than_project(project: QgsProject, path: str) -> bool:
+    """True when ``path`` was written after ``project``'s file was last saved (1 s of slack for coarse clocks)."""
+    name = project.fileName()
+    return bool(name) and os.path.exists(path) and os.path.exists(name) and \
+        os.path.getmtime(path) > os.path.getmtime(name) + 1
+
+
+def autosave_entry(project: QgsProject, key: str, text: str) -> None:
+    """Keep the project entry ``key`` (a small JSON text, e.g. the features drawn on one photo) in the entries
+    autosave file too, so that a crash before Save does not lose it (atomic replace)."""
+    path = _entries_path(autosave_path(project))
+    entries = _read_entries(path)
+    if entries.get(key) == text:
+        return
+    entries[key] = text
+    _write(path, lambda: json.dumps(entries), _next_ticket())
+
+
+def autosaved_entry(project: QgsProject, key: str) -> Optional[str]:
+    """The entry ``key`` from the entries autosave when that file is newer than the project file, else None."""
+    path = _entries_path(autosave_path(project))
+    return _read_entries(path).get(key) if _newer_than_project(project, path) else None
+
+
+def _read_entries(path: str) -> dict:
+    try:
+        with open(path, encoding="utf-8") as fh:
+            data = json.load(fh)
+        return data if isinstance(data, dict) else {}
+    except (OSError, ValueError):
+        return {}
+
+
+def discard_autosave(project_file: str) -> None:
+    """Remove the autosave files of the project saved as ``project_file`` (QGIS closed it: saved, or the person
+    chose not to). Nothing happens for "" (a project never saved)."""
+    if not project_file:
+        return
+    state_path = os.path.splitext(project_file)[0] + ".monoplot-autosave.json"
+    with _LOCK:
+        for path in (state_path, _entries_path(state_path)):
+            # a snapshot taken before this (a worker still writing) must not bring the file back
+            _TICKETS["written"][path] = _TICKETS["issued"] + 1
+            try:
+                os.remove(path)
+            except OSError:
+                pass
 
 
 def _for_project(project: QgsProject, state: ProjectState) -> str:
@@ -118,10 +174,9 @@ def load_with_source(project: QgsProject) -> Tuple[Optional[ProjectState], str]:
         except (ValueError, TypeError, KeyError, json.JSONDecodeError) as exc:
             QgsMessageLog.logMessage(f"Monoplot state in the project is unreadable: {exc}", "Monoplot",
                                      Qgis.MessageLevel.Warning)
-    name = project.fileName()
-    if name:
+    if project.fileName():
         path = autosave_path(project)
-        if os.path.exists(path) and os.path.exists(name) and os.path.getmtime(path) > os.path.getmtime(name) + 1:
+        if _newer_than_project(project, path):
             newer = read_autosave(path)
             # an autosave written after the save with the same content (a pending autosave that fired after
             # Save) is not "work done after the project was last saved"

@@ -329,8 +329,13 @@ def test_autosave_recovers_work_after_a_crash(dock, scene, qtbot, tmp_path):
     qtbot.waitUntil(lambda: os.path.exists(persistence.autosave_path(QgsProject.instance())), timeout=3000)
     qtbot.waitUntil(lambda: '"accepted"' in open(persistence.autosave_path(QgsProject.instance())).read(),
                     timeout=3000)
-    # ...then "crash": the project on disk lacks it; reopening restores it from the autosave
+    # ...then "crash": the project on disk lacks it; reopening restores it from the autosave. (A crash never
+    # closes the project; closing it here discards the autosave, which the crash would have left: put it back.)
+    autosave = persistence.autosave_path(QgsProject.instance())
+    kept = open(autosave, encoding="utf-8").read()
     QgsProject.instance().clear()
+    with open(autosave, "w", encoding="utf-8") as fh:
+        fh.write(kept)
     assert QgsProject.instance().read(path)
     qtbot.waitUntil(lambda: c.image is not None, timeout=5000)
     assert c.state.points[photo[3].id].status == ACCEPTED

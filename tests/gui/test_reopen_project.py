@@ -89,3 +89,25 @@ def test_a_reopened_project_can_be_saved_again(dock, scene, qtbot, tmp_path):
     project.clear()
     assert project.read(str(tmp_path / "again.qgz"))
     assert set(_camera_layers(project)) == {"Monoplot camera", "Monoplot view footprint"}
+
+
+def test_a_project_closed_without_saving_does_not_come_back_from_the_autosave(dock, scene, qtbot, tmp_path):
+    """QGIS asked whether to save and the person said no: the next opening shows the saved project, not the
+    autosave of the discarded work (a desktop trial got discarded check points back)."""
+    c = _fitted_session(dock, scene, qtbot)
+    project = QgsProject.instance()
+    path = str(tmp_path / "kept.qgz")
+    assert project.write(path)
+    old = os.path.getmtime(path)
+    os.utime(path, (old - 10, old - 10))
+    c.set_setting("overlay_opacity", 17)  # work after the save...
+    c.save()
+    assert '"overlay_opacity":17' in open(persistence.autosave_path(project), encoding="utf-8").read()
+    project.clear()  # ...not saved: QGIS closes the project
+    assert not os.path.exists(str(tmp_path / "kept.monoplot-autosave.json"))
+    messages = []
+    c.message.connect(lambda text, level: messages.append(text))
+    assert project.read(path)
+    qtbot.waitUntil(lambda: c.image is not None, timeout=5000)
+    assert c.state.settings.get("overlay_opacity") != 17
+    assert not any("autosave" in m for m in messages), messages

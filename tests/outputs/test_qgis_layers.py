@@ -20,6 +20,40 @@ def project(qgis_app):
     project.clear()
 
 
+def test_features_drawn_after_the_last_save_survive_a_crash(plane_scene, tmp_path):
+    """Drawn features are a project entry, on disk only when the project is saved: the entries autosave keeps the
+    ones drawn since, for the next opening after a crash; a project QGIS closed discards it."""
+    import os
+
+    from monoplot_plugin.gui import persistence
+
+    s = plane_scene
+    w, h = s.camera.width, s.camera.height
+    triangle = [[0.2 * w, 0.6 * h], [0.8 * w, 0.6 * h], [0.6 * w, 0.9 * h]]
+    first = QgsProject()
+    session = DigitisingSession(first, s.camera, s.dem, s.xyz, "/photos/a.jpg")
+    session.add_feature("polygon", triangle)
+    path = str(tmp_path / "drawn.qgz")
+    assert first.write(path)
+    os.utime(path, (os.path.getmtime(path) - 10,) * 2)  # saved a while ago
+    session.add_feature("line", [[0.2 * w, 0.8 * h], [0.8 * w, 0.8 * h]])  # drawn after the save; then a crash
+
+    def reopened() -> dict:
+        project = QgsProject()
+        assert project.read(path)
+        again = DigitisingSession(project, s.camera, s.dem, s.xyz, "/photos/a.jpg")
+        counts = {k: layer.featureCount() for k, layer in again.photo_layers.items()}
+        project.clear()
+        return counts
+
+    try:
+        assert reopened() == {"polygon": 1, "line": 1}
+        persistence.discard_autosave(path)  # the project closed by QGIS (saved, or "Discard")
+        assert reopened() == {"polygon": 1}
+    finally:
+        first.clear()
+
+
 def test_live_map_layer_follows_photo_edits(project, plane_scene, tmp_path):
     s = plane_scene
     session = DigitisingSession(project, s.camera, s.dem, s.xyz, "/photos/Aletsch 1890.jpg",
