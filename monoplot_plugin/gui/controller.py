@@ -67,6 +67,8 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
     message = pyqtSignal(str, object)
     taskFinished = pyqtSignal(object)
     productsReady = pyqtSignal()
+    #: the fit's summary changed without a new camera (check points measured again: :meth:`remeasure_checks`)
+    fitInfoChanged = pyqtSignal()
 
     #: fewest accepted points on each side before a fit is attempted (7 unknowns)
     MIN_POINTS = 4
@@ -104,6 +106,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         # (re)write the entry while the project is being written: paths are made relative to its (new) file
         self.project.writeProject.connect(self._project_writing)
         self.message.connect(self._log_message)
+        self.pointsChanged.connect(lambda changed: self.remeasure_checks())
         self._project_file = self.project.fileName()  # the file whose autosave this state goes to
 
     @staticmethod

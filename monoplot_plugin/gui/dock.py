@@ -137,6 +137,7 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         c.message.connect(self.show_message)
         c.taskFinished.connect(self._on_task_finished)
         c.productsReady.connect(self._update_camera_layers)  # a reopened project's footprint, rendered in a task
+        c.fitInfoChanged.connect(lambda: self.resultLabel.setText(self._result_text()))  # check points measured
 
         # linked cursors
         self.photo_canvas.cursorMoved.connect(self._photo_cursor)

@@ -25,8 +25,12 @@ class ResultsHost(Protocol):
     fitted: object  # Camera or None
     photo_size: Optional[Tuple[int, int]]
     _fit_ids: Tuple[List[str], List[str]]
+    fitInfoChanged: object  # pyqtSignal()
+    message: object  # pyqtSignal(str, level)
 
     def fit_inputs(self): ...
+
+    def _changed(self) -> None: ...
 
     def check_points(self): ...
 
@@ -75,6 +79,43 @@ class ResultsMixin:
         proj = cam.project(xyz)
         return [(pid, (float(a[0]), float(a[1])), (float(q[0]), float(q[1])))
                 for pid, a, q in zip(ids, uv, proj) if np.isfinite(q).all()]
+
+    def remeasure_checks(self) -> bool:
+        """Measure the fitted camera again on the check pairs as they are now (imported or marked after the fit, or
+        moved): ``fit_info``'s ``check_rmse_px`` and ``n_check``, and its status lowered by the check points' rule
+        (:func:`~..workflow.auto.judge_by_check_points`, as for a loaded camera or Find camera) from the status the
+        fit had before. Emits ``fitInfoChanged`` and returns True when something changed. O(check pairs).
+
+        Without this, check points imported after a fit showed no accuracy until the next Fit (desktop trial)."""
+        from ..workflow.auto import judge_by_check_points
+
+        cam, info = self.fitted, self.state.fit_info
+        if cam is None or not isinstance(info, dict) or not info:
+            return False
+        ids, uv, xyz = self.check_points()
+        key = [list(ids), np.round(uv, 2).tolist(), np.round(xyz, 2).tolist()]
+        if info.get("checks_measured") == key:
+            return False
+        if "checks_measured" not in info and len(ids) == (info.get("n_check") or 0):
+            # as the fit measured them (its status already says what they said)
+            info.update(checks_measured=key, status_before_checks=info.get("status", "ok"),
+                        message_before_checks=info.get("message", ""))
+            return False
+        before = info.get("status_before_checks", info.get("status", "ok"))
+        message = info.get("message_before_checks", info.get("message", ""))
+        judged = judge_by_check_points(before, message, cam, uv, xyz)
+        old_status, old_check = info.get("status"), info.get("check_rmse_px")
+        errors = np.hypot(*(cam.project(xyz) - uv).T) if len(ids) else np.zeros(0)
+        info.update(checks_measured=key, status_before_checks=before, message_before_checks=message,
+                    status=judged["status"], message=judged["message"], check_rmse_px=judged["check_rmse_px"],
+                    n_check=len(ids), check_error_px={i: float(e) for i, e in zip(ids, errors) if np.isfinite(e)})
+        self._changed()
+        self.fitInfoChanged.emit()
+        if judged["check_rmse_px"] is not None and (judged["status"] != old_status or old_check is None):
+            self.message.emit(self.tr("Check points: {0:.1f} px RMSE on {1}; camera status {2}.").format(
+                judged["check_rmse_px"], len(ids), self.tr(judged["status"])),
+                Qgis.MessageLevel.Success if judged["status"] == "ok" else Qgis.MessageLevel.Warning)
+        return True
 
     def residual_segments(self) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:
         """(photo pixel, matched DEM point's pixel) segments of :meth:`residuals`."""

@@ -264,3 +264,33 @@ def test_gcp_table_of_a_dem_in_degrees_round_trips_in_degrees(dock, tmp_path, qt
     back = read_points_csv(out)
     order = np.argsort(back["uv"][:, 0])
     assert np.allclose(back["xyz"][order], lonlat, atol=1e-6)  # degrees again (1e-6 deg: < 0.1 m), Z as given
+
+
+def test_check_points_imported_after_a_fit_measure_it_at_once(dock, scene, tmp_path, qtbot):
+    """The desktop trial imported its GCP table as check points after the fit: the summary kept "ok, RMSE 7.7 px on
+    11 pairs" with no check-point line until Fit was pressed again. Now they measure the camera at once, lower its
+    status when they disagree with it, and an undo takes that back."""
+    _load(dock, scene)
+    c = dock.controller
+    c.set_fitted(scene.camera, {"status": "ok", "rmse_px": 0.5, "mode": "paired", "n_pairs": 12, "n_photo": 12,
+                                "message": "fitted."})
+    assert "Check points" not in dock.resultLabel.text()
+    messages = []
+    c.message.connect(lambda text, level: messages.append(text))
+    uv, xyz = scene.uv[:6], scene.xyz[:6]
+    good = str(tmp_path / "good.csv")
+    write_points_csv(good, uv=uv, xyz=xyz, ids=[f"c{i}" for i in range(6)])
+    io_actions.import_points_csv(c, good, all_check=True)
+    info = c.state.fit_info
+    assert info["n_check"] == 6 and info["check_rmse_px"] < 0.5 and info["status"] == "ok"
+    assert "Check points" in dock.resultLabel.text() and any("Check points: " in m for m in messages)
+    c.stack.undo()
+    # the same points 60 px off: the camera is not what they say
+    bad = str(tmp_path / "bad.csv")
+    write_points_csv(bad, uv=uv + 60.0, xyz=xyz, ids=[f"c{i}" for i in range(6)])
+    io_actions.import_points_csv(c, bad, all_check=True)
+    assert c.state.fit_info["check_rmse_px"] > 50 and c.state.fit_info["status"] != "ok"
+    shown = dock.resultLabel.text()
+    assert f">{c.state.fit_info['status']}</b> · Check points <b>{c.state.fit_info['check_rmse_px']:.1f} px" in shown
+    c.stack.undo()  # no check points any more: the fit's own status again
+    assert c.state.fit_info["status"] == "ok" and c.state.fit_info["check_rmse_px"] is None
