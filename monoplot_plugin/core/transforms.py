@@ -133,10 +133,13 @@ def true_runs(mask: np.ndarray) -> List[Tuple[int, int]]:
 
 def densify(vertices, step: float, closed: bool = False) -> np.ndarray:
     """Insert vertices so that consecutive ones are at most ``step`` apart (Euclidean in the first two coordinates;
-    other coordinates interpolated linearly). Original vertices are kept.
+    other coordinates interpolated linearly). Original vertices are kept; a segment with a non-finite end (a
+    vertex a coordinate transform could not place) is kept as it is.
 
     >>> densify([[0.0, 0.0], [3.0, 0.0]], 1.0).tolist()
     [[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]]
+    >>> densify([[0.0, 0.0], [float("nan"), 0.0], [2.0, 0.0]], 1.0).shape
+    (3, 2)
     """
     v = np.asarray(vertices, dtype=np.float64)
     if v.ndim != 2 or len(v) == 0:
@@ -146,7 +149,7 @@ def densify(vertices, step: float, closed: bool = False) -> np.ndarray:
     out = [v[:1]]
     for a, b in zip(v[:-1], v[1:]):
         length = float(np.hypot(*(b[:2] - a[:2])))
-        n = max(1, int(math.ceil(length / step))) if step > 0 else 1
+        n = max(1, int(math.ceil(length / step))) if step > 0 and math.isfinite(length) else 1
         t = (np.arange(1, n + 1) / n)[:, None]
         out.append(a + (b - a) * t)
     res = np.concatenate(out)

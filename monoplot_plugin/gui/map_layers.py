@@ -8,7 +8,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
+from typing import Optional, Tuple
 
 from qgis.core import (QgsCategorizedSymbolRenderer, QgsColorRampShader, QgsCoordinateReferenceSystem,
                        QgsCoordinateTransform, QgsFeature, QgsField, QgsGeometry, QgsLayerTreeGroup, QgsProject,
@@ -22,7 +22,7 @@ from ..adapters.photo_space import outline_parts, photo_point
 from ..workflow.features import map_to_photo
 
 __all__ = ["photo_group", "add_layer", "add_xyz_layer", "add_orthophoto_layer", "add_vector_file_layer",
-           "map_layer_on_photo"]
+           "map_layer_on_photo", "overlay_outcome"]
 
 
 def photo_group(project: QgsProject, photo_name: str) -> QgsLayerTreeGroup:
@@ -144,6 +144,23 @@ def map_layer_on_photo(layer: QgsVectorLayer, camera, dem,
     out.updateExtents()
     _style_visible_hidden(out)
     return out
+
+
+def overlay_outcome(layer: QgsVectorLayer, overlay: QgsVectorLayer, tr=str) -> Tuple[str, bool]:
+    """(message, doubtful) for ``layer`` drawn on the photo as ``overlay`` (:func:`map_layer_on_photo`): how many of
+    its features the camera sees; doubtful when none is in view or the layer has no CRS (taken as the DEM's)."""
+    total = layer.featureCount()
+    sources = {f["source_fid"] for f in overlay.getFeatures()}
+    hidden = sum(1 for f in overlay.getFeatures() if not f["visible"])
+    no_crs = "" if layer.crs().isValid() else " " + tr(
+        "The layer has no CRS: its coordinates were taken to be in the DEM's CRS.")
+    if not sources:
+        return tr("None of the {0} features of {1} is in the photo's view: they lie outside what the camera sees, or "
+                  "the layer's CRS is not what it says.").format(total, layer.name()) + no_crs, True
+    text = tr("Drawn on the photo: {0} of the {1} features of {2}").format(len(sources), total, layer.name())
+    if hidden:
+        text += " " + tr("({0} pieces hidden behind terrain, dashed)").format(hidden)
+    return text + "." + no_crs, bool(no_crs)
 
 
 def _style_visible_hidden(layer: QgsVectorLayer) -> None:

@@ -26,7 +26,7 @@ from ..outputs.safe_write import OutputError
 from ..workflow import products as product_step
 from ..workflow import xyz as xyz_step
 from .digitising import KINDS, DigitisingSession, drawn_entry_key
-from .map_layers import add_orthophoto_layer, add_xyz_layer, map_layer_on_photo, photo_group
+from .map_layers import add_orthophoto_layer, add_xyz_layer, map_layer_on_photo, overlay_outcome, photo_group
 
 __all__ = ["install_output_tools", "OutputTools", "ProductHost", "LAST_FOLDER_KEY", "NEEDS_FIT"]
 
@@ -485,7 +485,15 @@ class OutputTools(QObject):
         if not isinstance(layer, QgsVectorLayer):
             self._message(self.tr("Select a vector layer in the Layers panel first."), Qgis.MessageLevel.Warning)
             return
-        self._run(lambda: self.draw_layer_on_photo(layer).name(), self.tr("Drawn on the photo: {0}"))
+        if layer.featureCount() == 0:  # "Drawn on the photo" for an empty layer read as a success (desktop trial)
+            self._message(self.tr("{0} has no features: nothing to draw on the photo.").format(layer.name()),
+                          Qgis.MessageLevel.Warning)
+            return
+        if self.ready() is not None:
+            self._message(self.ready(), Qgis.MessageLevel.Warning)
+            return
+        text, doubtful = overlay_outcome(layer, self.draw_layer_on_photo(layer), self.tr)
+        self._message(text, Qgis.MessageLevel.Warning if doubtful else Qgis.MessageLevel.Success)
 
     # --- life cycle -------------------------------------------------------------------------------------------
     def unload(self) -> None:

@@ -303,3 +303,33 @@ def test_saving_drawn_features_says_one_file_per_geometry_type(dock_with_fit, tm
     assert titles == ["Save the drawn lines (1 of 2: one file per geometry type)",
                       "Save the drawn polygons (2 of 2: one file per geometry type)"]
     assert (tmp_path / "drawn_1.gpkg").exists() and (tmp_path / "drawn_2.gpkg").exists()
+
+
+def test_active_layer_on_photo_says_what_the_camera_sees(dock_with_fit, qgis_iface):
+    """"Drawn on the photo" came for an empty layer and for one far away (a desktop trial): the message says how
+    many features are seen, warns when none is, and says when a layer without CRS was taken as the DEM's."""
+    dock, tools = dock_with_fit
+    messages = []
+    dock.controller.message.connect(lambda text, level: messages.append(text))
+
+    def layer(name, crs, *rings):
+        out = QgsVectorLayer(f"Polygon?crs={crs}", name, "memory")  # "Polygon" alone would be EPSG:4326
+        for ring in rings:
+            f = QgsFeature()
+            f.setGeometry(QgsGeometry.fromPolygonXY([[QgsPointXY(x, y) for x, y in ring]]))
+            out.dataProvider().addFeatures([f])
+        QgsProject.instance().addMapLayer(out)
+        qgis_iface.setActiveLayer(out)
+        messages.clear()
+        tools.actions["overlay"].trigger()
+        return messages[-1]
+
+    seen = [(601500, 202000), (602600, 202100), (602500, 203300), (601500, 202000)]
+    far = [(x + 500000, y) for x, y in seen]
+    assert "no features" in layer("empty", CRS)
+    assert layer("far", CRS, far).startswith("None of the 1 features of far")
+    assert layer("both", CRS, seen, far).startswith("Drawn on the photo: 1 of the 2 features of both")
+    assert "has no CRS" in layer("no crs", "", seen)
+    # metres read as degrees (a memory layer without CRS is EPSG:4326): no crash on the vertices the transform
+    # cannot place, and the message points at the CRS
+    assert "CRS is not what it says" in layer("degrees", "EPSG:4326", seen)
