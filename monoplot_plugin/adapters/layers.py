@@ -16,7 +16,7 @@ from qgis.PyQt.QtGui import QColor
 from ..core.camera import Camera
 
 __all__ = ["camera_layer", "footprint_layer", "show_camera_layers", "remove_camera_layers", "crs_from_wkt",
-           "GROUP_NAME"]
+           "GROUP_NAME", "rebuilt_on_reopen"]
 
 GROUP_NAME = "Monoplot"
 _ROLE = "monoplot/role"
@@ -54,6 +54,14 @@ def _crs(camera: Camera, fallback: Optional[QgsCoordinateReferenceSystem]) -> Qg
     return crs if crs.isValid() else (fallback or QgsCoordinateReferenceSystem())
 
 
+def rebuilt_on_reopen(layer: QgsVectorLayer) -> QgsVectorLayer:
+    """Mark a memory layer that Monoplot fills again from the project's state when the project is opened (camera,
+    footprint, drawn features): QGIS then leaves it out of its "temporary scratch layers ... will be permanently
+    lost" question on closing, which every quit asked because of these layers alone (desktop trial)."""
+    layer.setCustomProperty("skipMemoryLayersCheck", 1)  # the property QGIS's own check reads
+    return layer
+
+
 def camera_layer(camera: Camera, crs: Optional[QgsCoordinateReferenceSystem] = None,
                  name: str = "Monoplot camera") -> QgsVectorLayer:
     """Point memory layer with the camera position and its parameters as attributes."""
@@ -73,7 +81,7 @@ def camera_layer(camera: Camera, crs: Optional[QgsCoordinateReferenceSystem] = N
                                            "outline_color": "white", "outline_width": "0.6"})
     layer.setRenderer(QgsSingleSymbolRenderer(symbol))
     layer.setCustomProperty(_ROLE, "camera")
-    return layer
+    return rebuilt_on_reopen(layer)
 
 
 def footprint_layer(wkt: str, crs: QgsCoordinateReferenceSystem, name: str = "Monoplot view footprint"
@@ -91,7 +99,7 @@ def footprint_layer(wkt: str, crs: QgsCoordinateReferenceSystem, name: str = "Mo
                                          "outline_width": "0.5"})
     layer.setRenderer(QgsSingleSymbolRenderer(symbol))
     layer.setCustomProperty(_ROLE, "footprint")
-    return layer
+    return rebuilt_on_reopen(layer)
 
 
 def remove_camera_layers(project: QgsProject, other: bool = False) -> None:

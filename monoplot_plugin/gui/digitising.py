@@ -21,6 +21,7 @@ from qgis.PyQt.QtCore import QObject, Qt, QVariant, pyqtSignal
 from qgis.PyQt.QtGui import QColor
 
 from ..adapters.layers import crs_from_wkt as _crs
+from ..adapters.layers import rebuilt_on_reopen
 from ..adapters.photo_space import photo_geometry, photo_point, photo_vertices, pixel_of, qgs_geometry
 from ..workflow.features import photo_to_map_feature
 from ..outputs.vectors import COMPUTED_FIELDS, MapFeature, write_vector_layer
@@ -87,6 +88,7 @@ class DigitisingSession(QObject):
             else:
                 layer.dataProvider().truncate()
             layer.setCrs(QgsCoordinateReferenceSystem())
+            rebuilt_on_reopen(layer)  # its features are a project entry (save_drawn)
             missing = [QgsField(n, _QVARIANT[t]) for n, t in self.fields if layer.fields().indexFromName(n) < 0]
             layer.dataProvider().addAttributes(missing)
             layer.updateFields()
@@ -115,6 +117,7 @@ class DigitisingSession(QObject):
             if not reused:
                 layer = QgsVectorLayer(uri, name, "memory")
             layer.setCrs(_crs(self.dem.crs_wkt))
+            rebuilt_on_reopen(layer)  # computed from the photo layer
             attrs = [QgsField(n, _QVARIANT[t]) for n, t in self.fields]
             attrs += [QgsField(n, QVariant.Type.Int if n == "sky_parts" else QVariant.Type.Double)
                       for n in COMPUTED_FIELDS[kind]]

@@ -333,3 +333,29 @@ def test_active_layer_on_photo_says_what_the_camera_sees(dock_with_fit, qgis_ifa
     # metres read as degrees (a memory layer without CRS is EPSG:4326): no crash on the vertices the transform
     # cannot place, and the message points at the CRS
     assert "CRS is not what it says" in layer("degrees", "EPSG:4326", seen)
+
+
+def test_quitting_qgis_does_not_warn_about_monoplots_own_layers(dock_with_fit, tmp_path):
+    """QGIS asks "temporary scratch layers ... permanently lost. Are you sure?" on closing when a memory layer holds
+    features: every quit asked it because of the camera, footprint and drawn-feature layers, which Monoplot fills
+    again from the project. They carry the property QGIS's check skips, also after the project is reopened."""
+    dock, tools = dock_with_fit
+    dock._update_camera_layers()
+    session = tools.current_session()
+    session.add_feature("polygon", [[50, 100], [190, 100], [150, 150]])
+    session.map_layer("polygon")
+    project = QgsProject.instance()
+
+    def asked_about():
+        return sorted(layer.name() for layer in project.mapLayers().values()
+                      if layer.providerType() == "memory" and layer.featureCount()
+                      and not int(layer.customProperty("skipMemoryLayersCheck", 0)))
+
+    assert len([layer for layer in project.mapLayers().values() if layer.providerType() == "memory"]) >= 4
+    assert asked_about() == []
+    path = str(tmp_path / "quiet.qgz")
+    assert project.write(path)
+    project.clear()
+    assert project.read(path)
+    memory = [layer for layer in project.mapLayers().values() if layer.providerType() == "memory"]
+    assert len(memory) >= 4 and all(int(layer.customProperty("skipMemoryLayersCheck", 0)) for layer in memory)
