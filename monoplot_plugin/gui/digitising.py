@@ -183,8 +183,9 @@ class DigitisingSession(QObject):
                 count += len(new)
         finally:
             self._restoring = False
-        for kind in data.get("features", {}):
-            self.sync(kind)
+        for kind, features in data.get("features", {}).items():
+            if features:  # no empty "photo points (map)" layer for a kind nothing was drawn of
+                self.sync(kind)
         return count
 
     def all_photo_layers(self) -> List[QgsVectorLayer]:

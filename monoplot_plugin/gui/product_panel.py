@@ -179,6 +179,8 @@ class OutputTools(QObject):
         if self.session is None:
             self.session = DigitisingSession(self.project, camera, dem, xyz, self.photo_name(), parent=self)
             self.session.mapLayerUpdated.connect(self._report_sky)
+            # what the restored features already had is old news: told again on every reopening (desktop trial)
+            self._sky_told.update(self.session.last_report)
             # Layers deleted under us (project cleared, QGIS closing): the photo canvas must drop them at once.
             self.session.closedByLayers.connect(lambda: self.canvas.set_extra_layers([]))
             for kind in KINDS:

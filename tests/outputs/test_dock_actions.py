@@ -359,3 +359,27 @@ def test_quitting_qgis_does_not_warn_about_monoplots_own_layers(dock_with_fit, t
     assert project.read(path)
     memory = [layer for layer in project.mapLayers().values() if layer.providerType() == "memory"]
     assert len(memory) >= 4 and all(int(layer.customProperty("skipMemoryLayersCheck", 0)) for layer in memory)
+
+
+def test_reopening_does_not_tell_old_news(dock_with_fit, plane_scene, tmp_path, qtbot):
+    """Reopening a project told "Drawn lines: 1 part(s) over the sky ..." again every time, and added an empty
+    "photo points (map)" layer when no point had been drawn (desktop trial)."""
+    dock, tools = dock_with_fit
+    s = plane_scene
+    w, h = s.camera.width, s.camera.height
+    messages = []
+    dock.controller.message.connect(lambda text, level: messages.append(text))
+    sky_row = int(np.flatnonzero(np.isnan(s.xyz[:, w // 2, 2]))[-1]) - 5
+    tools.current_session().add_feature("line", [[0.2 * w, 0.8 * h], [0.5 * w, sky_row], [0.8 * w, 0.8 * h]])
+    assert any("over the sky" in m for m in messages)  # told once, when it was drawn
+    project = QgsProject.instance()
+    path = str(tmp_path / "sky.qgz")
+    assert project.write(path)
+    project.clear()
+    messages.clear()
+    assert project.read(path)
+    qtbot.waitUntil(lambda: tools.session is not None and tools.session.map_layer("line").featureCount() == 1,
+                    timeout=10000)
+    dock.controller.cameraChanged.emit()  # the reopened camera's products arriving: the layers are synced again
+    assert not any("over the sky" in m for m in messages), messages
+    assert [layer.name() for layer in project.mapLayers().values() if layer.name().endswith("points (map)")] == []
