@@ -28,7 +28,17 @@ from typing import Any, Callable, Optional
 from qgis.core import Qgis, QgsApplication, QgsMessageLog, QgsTask
 from qgis.PyQt.QtCore import QObject, pyqtSignal
 
+from ..adapters.dem import DemError
+from ..adapters.photo import PhotoError
+from ..core.photo_file import PhotoFileError
+from ..outputs.safe_write import OutputError
+from ..workflow.inputs import InputError
+from ..workflow.products import ProductError
 from ..workflow.progress import Canceled  # raised by work that stops at once when is_canceled() turns true
+
+#: errors of the person's input or file system, raised with a sentence that says it all: the reason is shown, and
+#: no traceback goes to the log (a read-only folder put a Python traceback in the Monoplot tab, desktop trial)
+WORDED_ERRORS = (OutputError, InputError, ProductError, PhotoError, PhotoFileError, DemError)
 
 __all__ = ["TaskResult", "FunctionTask", "HiddenTask", "start_task", "SUCCESS", "FAILED", "CANCELED"]
 
@@ -105,8 +115,10 @@ def _run_work(work, progress, is_canceled) -> TaskResult:
         return TaskResult.success(value)
     except Canceled:
         return TaskResult.canceled()
-    except MemoryError:
-        return TaskResult.failed("not enough memory for this computation")
+    except MemoryError as exc:  # a MemoryBudgetError says how much it needed
+        return TaskResult.failed(str(exc) or "not enough memory for this computation")
+    except WORDED_ERRORS as exc:
+        return TaskResult.canceled() if is_canceled() else TaskResult.failed(str(exc) or type(exc).__name__)
     except Exception as exc:  # noqa: BLE001 — never raise out of a worker thread
         if is_canceled():  # work interrupted by the cancel itself
             return TaskResult.canceled()

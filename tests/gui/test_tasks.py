@@ -35,3 +35,27 @@ def test_a_cancel_after_the_work_finished_keeps_what_it_made(qtbot):
     assert stopped.status == CANCELED and stopped.value is None
     done = run(qtbot, lambda task, is_canceled: 42)
     assert done.status == SUCCESS and done.value == 42
+
+
+def test_a_worded_error_is_said_without_a_traceback_and_a_bug_keeps_its_own(qtbot, tmp_path):
+    """A read-only output folder is the person's matter: its sentence is the reason and nothing else goes to the
+    log (a traceback in the Monoplot tab looked like a crash). A bug still logs its traceback."""
+    from qgis.core import QgsApplication
+
+    from monoplot_plugin.gui.tasks import FAILED
+    from monoplot_plugin.outputs.safe_write import check_can_write
+
+    logged = []
+    log = QgsApplication.messageLog()
+    log.messageReceived.connect(lambda message, tag, level: logged.append(message))
+    missing = tmp_path / "no such folder" / "xyz.tif"
+
+    def write(task, is_canceled):
+        check_can_write(missing, overwrite=True)  # a real refusal in words
+        return "never"
+
+    refused = run(qtbot, write)
+    assert refused.status == FAILED and "does not exist" in refused.reason
+    assert not any("Traceback" in m for m in logged)
+    bug = run(qtbot, lambda task, is_canceled: [][1])
+    assert bug.status == FAILED and any("Traceback" in m and "IndexError" in m for m in logged)
