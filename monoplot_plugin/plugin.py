@@ -144,6 +144,15 @@ class MonoplotPlugin:
         if self.dock is None:
             if not visible:
                 return
+            if deps.missing_requirements(deps.REQUIRED):
+                # the dock cannot work without them: the notice with its Install button again (a project with
+                # Monoplot work opened a Python error dialog, "No module named 'cv2'", instead)
+                deps.dismiss(self.iface, self.dependency_notice)
+                self.dependency_notice = deps.notify_missing(self.iface, deps.REQUIRED)
+                self.action.blockSignals(True)
+                self.action.setChecked(False)
+                self.action.blockSignals(False)
+                return
             from .gui.dock import MonoplotDock
 
             self.dock = MonoplotDock(self.iface, self.iface.mainWindow())

@@ -195,3 +195,20 @@ def test_a_project_with_monoplot_work_opens_the_dock_and_its_layers(plugin, qgis
     assert project.read(str(tmp_path / "plain.qgz"))
     assert len(qgis_iface.mainWindow().findChildren(QDockWidget, "MonoplotDock")) == docks
     project.clear()
+
+
+def test_without_its_packages_the_dock_offers_the_install_instead_of_a_python_error(plugin, qgis_iface,
+                                                                                    monkeypatch):
+    """Opening a project with Monoplot work in a QGIS without OpenCV showed a Python error dialog ("No module named
+    'cv2'"): now the dock stays closed and the missing-packages notice with its Install button comes back."""
+    from monoplot_plugin import deps
+
+    absent = deps.Requirement("surely_absent_module_x", "surely-absent-package")
+    monkeypatch.setattr(deps, "REQUIRED", deps.REQUIRED + (absent,))
+    plugin.action.setChecked(True)
+    assert plugin.dock is None and not plugin.action.isChecked()
+    notice = plugin.dependency_notice
+    assert notice is not None and "surely-absent-package" in notice.text()
+    monkeypatch.undo()
+    plugin.action.setChecked(True)  # installed meanwhile: the dock opens
+    assert plugin.dock is not None and plugin.action.isChecked()
