@@ -421,7 +421,8 @@ class OutputTools(QObject):
                 self._message(self.tr("Written: {0} (the cancel came after the file was complete).").format(
                     written), Qgis.MessageLevel.Info)
             else:
-                self._message(self.tr("Written: {0}").format(written), Qgis.MessageLevel.Success)
+                self._message(self.tr("Written: {0}").format(written) + self.controller.ground_accuracy_text(),
+                              Qgis.MessageLevel.Success)
             self.exported.emit(what, str(written))
 
         labels = {"xyz": self.tr("XYZ raster"), "ortho": self.tr("Orthophoto"), "report": self.tr("Report")}

@@ -10,7 +10,7 @@ from __future__ import annotations
 import os
 
 from pathlib import Path
-from typing import Dict, Optional
+from typing import Dict, Optional, Tuple
 
 import numpy as np
 
@@ -31,7 +31,7 @@ def _committed(is_canceled: Optional[IsCanceled]):
     return nullcontext() if is_canceled is None else cancel_before_commit(is_canceled, also_outer=True)
 
 __all__ = ["ProductError", "write_xyz", "orthophoto", "report", "ortho_grid", "dem_at_resolution", "auto_resolution",
-           "MAX_ORTHO_CELLS", "AUTO"]
+           "ground_error", "MAX_ORTHO_CELLS", "AUTO"]
 
 #: an orthophoto grid larger than this many cells is refused (memory)
 MAX_ORTHO_CELLS = 50_000_000
@@ -169,9 +169,7 @@ def auto_resolution(camera: Camera, dem, xyz: np.ndarray):
     Raises:
         ProductError: the camera sees no terrain.
     """
-    pts = xyz.reshape(-1, 3)
-    pts = pts[::max(1, len(pts) // 200_000)]
-    pts = pts[np.isfinite(pts).all(axis=1)]
+    pts = _seen_sample(xyz)
     if not len(pts):
         raise ProductError("the camera sees no terrain of the DEM: no orthophoto")
     distance = float(np.median(np.linalg.norm(pts - np.asarray(camera.position), axis=1)))
@@ -181,6 +179,30 @@ def auto_resolution(camera: Camera, dem, xyz: np.ndarray):
     bx0, by0, bx1, by1 = dem.bounds()
     bounds = (max(bx0, lo[0] - cell), max(by0, lo[1] - cell), min(bx1, hi[0] + cell), min(by1, hi[1] + cell))
     return cell, bounds
+
+
+def _seen_sample(xyz: np.ndarray) -> np.ndarray:
+    """(N, 3) finite points of a per-pixel XYZ raster, at most about 200,000 of them (evenly taken)."""
+    pts = np.asarray(xyz).reshape(-1, 3)
+    pts = pts[::max(1, len(pts) // 200_000)]
+    return pts[np.isfinite(pts).all(axis=1)]
+
+
+def ground_error(camera: Camera, xyz: np.ndarray, error_px: float) -> Tuple[float, float]:
+    """(median distance to the terrain the camera sees, what ``error_px`` pixels span across the line of sight at
+    that distance), both in map units: an image error said on the ground (face-on; on terrain seen at a grazing
+    angle the error along the view is larger). NaN, NaN when the camera sees no terrain (``xyz`` (H, W, 3)).
+
+    >>> from monoplot_plugin.core.camera import Camera
+    >>> cam = Camera((0.0, 0.0, 0.0), 0.0, 0.0, 0.0, 90.0, (1000, 800))  # focal 500 px
+    >>> ground_error(cam, np.array([[[0.0, 5000.0, 0.0]]]), 2.0)
+    (5000.0, 20.0)
+    """
+    pts = _seen_sample(xyz)
+    if not len(pts) or not np.isfinite(error_px):
+        return float("nan"), float("nan")
+    distance = float(np.median(np.linalg.norm(pts - np.asarray(camera.position), axis=1)))
+    return distance, distance * float(error_px) / camera.focal_px
 
 
 def dem_at_resolution(dem, resolution: float, bounds=None):

@@ -383,3 +383,24 @@ def test_reopening_does_not_tell_old_news(dock_with_fit, plane_scene, tmp_path, 
     dock.controller.cameraChanged.emit()  # the reopened camera's products arriving: the layers are synced again
     assert not any("over the sky" in m for m in messages), messages
     assert [layer.name() for layer in project.mapLayers().values() if layer.name().endswith("points (map)")] == []
+
+
+def test_written_products_say_what_the_camera_is_worth_on_the_ground(dock_with_fit, plane_scene, tmp_path, qtbot):
+    """"Written: xyz.tif" said nothing of how sure the positions are: an "ok" camera's products now say the check
+    points' error (else the fit's own residuals, said to be that) in metres at the median distance."""
+    dock, tools = dock_with_fit
+    s, c = plane_scene, dock.controller
+    c.xyz = s.xyz
+    c.state.fit_info = {"status": "ok", "rmse_px": 2.0, "mode": "paired"}
+    seen = s.xyz[np.isfinite(s.xyz).all(axis=2)]
+    median = float(np.median(np.linalg.norm(seen - np.asarray(s.camera.position), axis=1)))
+    own = c.ground_accuracy_text()
+    assert "fit residuals 2.0 px, no check points" in own
+    assert f"about {median * 2.0 / s.camera.focal_px:.0f} m across the view at {median / 1000:.1f} km" in own
+    c.state.fit_info["check_rmse_px"] = 6.0
+    assert "check points 6.0 px" in c.ground_accuracy_text()
+    messages = []
+    c.message.connect(lambda text, level: messages.append(text))
+    tools.start_export("xyz", tmp_path / "xyz.tif")
+    qtbot.waitUntil(lambda: any(m.startswith("Written: ") for m in messages), timeout=30000)
+    assert any(m.startswith("Written: ") and "check points 6.0 px" in m for m in messages), messages
