@@ -47,9 +47,9 @@ class ProductError(ValueError):
 
 def write_xyz(path, camera: Camera, dem, crs_wkt: Optional[str] = None, photo_name: str = "",
               distance: bool = False, overwrite: bool = False, progress: Optional[Progress] = None,
-              is_canceled: Optional[IsCanceled] = None) -> Path:
+              is_canceled: Optional[IsCanceled] = None, fit: Optional[dict] = None) -> Path:
     """The 3-band X, Y, Z GeoTIFF of the photo's pixels (nodata for the sky); a 4th band of distances from the
-    camera only when ``distance`` is asked."""
+    camera only when ``distance`` is asked; ``fit``: the camera's verdict and errors, kept in the metadata."""
     from ..outputs.xyz_raster import write_xyz_raster
 
     result = xyz_result(camera, dem, visibility=False, progress=part(progress, 0.0, 0.8), is_canceled=is_canceled)
@@ -57,7 +57,7 @@ def write_xyz(path, camera: Camera, dem, crs_wkt: Optional[str] = None, photo_na
     with _committed(is_canceled):
         written = write_xyz_raster(path, result.xyz, crs_wkt if crs_wkt is not None else dem.crs_wkt,
                                    result.distance if distance else None, overwrite=overwrite, camera=camera,
-                                   photo_name=photo_name)
+                                   photo_name=photo_name, fit=fit)
     if progress is not None:
         progress(1.0, "")
     return written
@@ -195,8 +195,8 @@ def ground_error(camera: Camera, xyz: np.ndarray, error_px: float) -> Tuple[floa
 
     >>> from monoplot_plugin.core.camera import Camera
     >>> cam = Camera((0.0, 0.0, 0.0), 0.0, 0.0, 0.0, 90.0, (1000, 800))  # focal 500 px
-    >>> ground_error(cam, np.array([[[0.0, 5000.0, 0.0]]]), 2.0)
-    (5000.0, 20.0)
+    >>> [round(v, 6) for v in ground_error(cam, np.array([[[0.0, 5000.0, 0.0]]]), 2.0)]
+    [5000.0, 20.0]
     """
     pts = _seen_sample(xyz)
     if not len(pts) or not np.isfinite(error_px):
