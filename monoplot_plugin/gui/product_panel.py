@@ -302,7 +302,8 @@ class OutputTools(QObject):
         def work(progress=None, is_canceled=None):
             if what == "xyz":
                 return product_step.write_xyz(path, camera, dem, photo_name=name, distance=distance,
-                                          overwrite=overwrite, progress=progress, is_canceled=is_canceled)
+                                          overwrite=overwrite, progress=progress, is_canceled=is_canceled,
+                                          fit=dict(info))
             if what == "ortho":
                 return product_step.orthophoto(path, photo, camera, dem, product_step.AUTO, overwrite=overwrite,
                                                progress=progress, is_canceled=is_canceled)

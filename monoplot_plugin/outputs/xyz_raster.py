@@ -14,7 +14,8 @@ Layout (``MONOPLOT_FORMAT=monoplot-xyz/1`` in the dataset metadata):
   reprojection, so the identify tool on the XYZ layer (or on the photo canvas, which uses the same pixel space)
   reports "X", "Y", "Z" of the ground point seen through the clicked photo pixel.
 - The CRS of the *values* is in the metadata: ``MONOPLOT_VALUE_CRS`` (WKT) and ``MONOPLOT_VALUE_CRS_AUTHID``
-  (e.g. ``EPSG:21781``); the camera as JSON in ``MONOPLOT_CAMERA``; the photo's file name in ``MONOPLOT_PHOTO``.
+  (e.g. ``EPSG:21781``); the camera as JSON in ``MONOPLOT_CAMERA``; the photo's file name in ``MONOPLOT_PHOTO``;
+  how sure the camera is (status, fit and check-point RMSE in pixels) in ``MONOPLOT_FIT`` when the writer knows it.
 - Tiled 256 x 256, DEFLATE (or LZW) compression with the floating-point predictor, BIGTIFF when needed. DEFLATE at
   level 1: 3 times faster to write than the default level 6 for 3 % more bytes (1.5 MP: 0.3 s against 0.9 s);
   tiles compressed on every core (GDAL's ``NUM_THREADS``).
@@ -28,6 +29,7 @@ metadata: QGIS would apply an offset in float32 and lose the precision again.
 
 from __future__ import annotations
 
+import json
 import os
 from contextlib import contextmanager
 from pathlib import Path
@@ -51,7 +53,7 @@ BAND_NAMES = ("X", "Y", "Z", "DISTANCE")
 
 def write_xyz_raster(path, xyz: np.ndarray, crs_wkt: str, distance: Optional[np.ndarray] = None, *,
                      overwrite: bool = False, compress: str = "DEFLATE", dtype: str = "auto",
-                     camera=None, photo_name: str = "") -> Path:
+                     camera=None, photo_name: str = "", fit: Optional[dict] = None) -> Path:
     """Write the per-pixel ground coordinates of a photo as a GeoTIFF (layout in the module docstring).
 
     Args:
@@ -65,6 +67,8 @@ def write_xyz_raster(path, xyz: np.ndarray, crs_wkt: str, distance: Optional[np.
             "float32" or "float64".
         camera: optional :class:`~monoplot_plugin.core.camera.Camera`, stored as JSON in the metadata.
         photo_name: optional name of the photo, stored in the metadata.
+        fit: optional summary of how sure the camera is (``status``, ``rmse_px``, ``check_rmse_px``, ``n_check``),
+            stored as JSON in ``MONOPLOT_FIT``: the file says what its positions are worth.
     Returns:
         the Path written.
     Raises:
@@ -80,12 +84,13 @@ def write_xyz_raster(path, xyz: np.ndarray, crs_wkt: str, distance: Optional[np.
             raise ValueError(f"distance must be {(height, width)}, got {distance.shape}")
     return write_xyz_raster_strips(path, [(0, xyz, distance)], width, height, crs_wkt,
                                    storage_dtype(xyz) if dtype == "auto" else dtype, distance is not None,
-                                   overwrite=overwrite, compress=compress, camera=camera, photo_name=photo_name)
+                                   overwrite=overwrite, compress=compress, camera=camera, photo_name=photo_name,
+                                   fit=fit)
 
 
 def write_xyz_raster_strips(path, strips: Iterable, width: int, height: int, crs_wkt: str, dtype: str,
                             with_distance: bool = False, *, overwrite: bool = False, compress: str = "DEFLATE",
-                            camera=None, photo_name: str = "") -> Path:
+                            camera=None, photo_name: str = "", fit: Optional[dict] = None) -> Path:
     """Write the XYZ raster strip by strip (the memory-bounded path: a strip is computed, written, dropped).
 
     Args:
@@ -113,6 +118,9 @@ def write_xyz_raster_strips(path, strips: Iterable, width: int, height: int, crs
         "MONOPLOT_PHOTO": photo_name,
         "MONOPLOT_CAMERA": camera.to_json(indent=None) if camera is not None else "",
     }
+    if fit:
+        keep = ("status", "rmse_px", "check_rmse_px", "n_check", "mode")
+        metadata["MONOPLOT_FIT"] = json.dumps({k: fit[k] for k in keep if fit.get(k) is not None})
     options = ["TILED=YES", "BLOCKXSIZE=256", "BLOCKYSIZE=256", f"COMPRESS={compress.upper()}", "PREDICTOR=3",
                "BIGTIFF=IF_SAFER", "INTERLEAVE=BAND", "NUM_THREADS=ALL_CPUS"]  # tiles compressed on every core
     if compress.upper() == "DEFLATE":

@@ -404,3 +404,7 @@ def test_written_products_say_what_the_camera_is_worth_on_the_ground(dock_with_f
     tools.start_export("xyz", tmp_path / "xyz.tif")
     qtbot.waitUntil(lambda: any(m.startswith("Written: ") for m in messages), timeout=30000)
     assert any(m.startswith("Written: ") and "check points 6.0 px" in m for m in messages), messages
+    import json
+
+    fit = json.loads(gdal.Open(str(tmp_path / "xyz.tif")).GetMetadata()["MONOPLOT_FIT"])  # the file says it too
+    assert fit == {"status": "ok", "rmse_px": 2.0, "check_rmse_px": 6.0, "mode": "paired"}
