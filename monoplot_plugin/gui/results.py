@@ -9,6 +9,7 @@ from typing import List, Optional, Protocol, Tuple
 
 import numpy as np
 from qgis.core import Qgis
+from qgis.PyQt.QtCore import QTimer
 
 from ..state import ACCEPTED
 from . import engine
@@ -112,9 +113,11 @@ class ResultsMixin:
         self._changed()
         self.fitInfoChanged.emit()
         if judged["check_rmse_px"] is not None and (judged["status"] != old_status or old_check is None):
-            self.message.emit(self.tr("Check points: {0:.1f} px RMSE on {1}; camera status {2}.").format(
-                judged["check_rmse_px"], len(ids), self.tr(judged["status"])),
-                Qgis.MessageLevel.Success if judged["status"] == "ok" else Qgis.MessageLevel.Warning)
+            text = self.tr("Check points: {0:.1f} px RMSE on {1}; camera status {2}.").format(
+                judged["check_rmse_px"], len(ids), self.tr(judged["status"]))
+            level = Qgis.MessageLevel.Success if judged["status"] == "ok" else Qgis.MessageLevel.Warning
+            # after the message of the edit that brought them (an import's summary replaced it at once)
+            QTimer.singleShot(0, lambda: self.message.emit(text, level))
         return True
 
     def ground_accuracy_text(self) -> str:

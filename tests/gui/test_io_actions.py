@@ -283,7 +283,10 @@ def test_check_points_imported_after_a_fit_measure_it_at_once(dock, scene, tmp_p
     io_actions.import_points_csv(c, good, all_check=True)
     info = c.state.fit_info
     assert info["n_check"] == 6 and info["check_rmse_px"] < 0.5 and info["status"] == "ok"
-    assert "Check points" in dock.resultLabel.text() and any("Check points: " in m for m in messages)
+    assert "Check points" in dock.resultLabel.text()
+    # said after the import's own summary, which replaced it at once in the message bar (desktop trial)
+    qtbot.waitUntil(lambda: any("Check points: " in m for m in messages), timeout=2000)
+    assert "Check points: " in messages[-1] and any(m.startswith("good.csv") for m in messages[:-1])
     c.stack.undo()
     # the same points 60 px off: the camera is not what they say
     bad = str(tmp_path / "bad.csv")
