@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Optional, Tuple
 
+import numpy as np
 from qgis.core import (QgsCategorizedSymbolRenderer, QgsColorRampShader, QgsCoordinateReferenceSystem,
                        QgsCoordinateTransform, QgsFeature, QgsField, QgsGeometry, QgsLayerTreeGroup, QgsProject,
                        QgsRasterBandStats, QgsRasterLayer, QgsRasterShader, QgsRendererCategory,
@@ -125,6 +126,16 @@ def map_layer_on_photo(layer: QgsVectorLayer, camera, dem,
     provider = out.dataProvider()
     provider.addAttributes([QgsField("source_fid", QVariant.Type.LongLong), QgsField("visible", QVariant.Type.Int)])
     out.updateFields()
+    with np.errstate(invalid="ignore", divide="ignore"):  # vertices a transform could not place (NaN): dropped
+        new = _pieces_on_photo(layer, transform, out, camera, dem)
+    provider.addFeatures(new)
+    out.updateExtents()
+    _style_visible_hidden(out)
+    return out
+
+
+def _pieces_on_photo(layer, transform, out, camera, dem) -> list:
+    """The features of ``out`` (pieces with ``source_fid`` and ``visible``) for ``layer`` seen by ``camera``."""
     new = []
     for feature in layer.getFeatures():
         geom = QgsGeometry(feature.geometry())
@@ -140,10 +151,7 @@ def map_layer_on_photo(layer: QgsVectorLayer, camera, dem,
                     f["source_fid"] = feature.id()
                     f["visible"] = int(visible)
                     new.append(f)
-    provider.addFeatures(new)
-    out.updateExtents()
-    _style_visible_hidden(out)
-    return out
+    return new
 
 
 def overlay_outcome(layer: QgsVectorLayer, overlay: QgsVectorLayer, tr=str) -> Tuple[str, bool]:
