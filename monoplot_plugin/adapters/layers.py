@@ -6,7 +6,8 @@ not fill up with copies. The outputs issue writes permanent files; these layers 
 
 from __future__ import annotations
 
-from typing import Optional
+from contextlib import contextmanager
+from typing import Iterator, Optional
 
 from qgis.core import (QgsCoordinateReferenceSystem, QgsFeature, QgsField, QgsFillSymbol, QgsGeometry,
                        QgsMarkerSymbol, QgsPointXY, QgsProject, QgsSingleSymbolRenderer, QgsVectorLayer)
@@ -16,7 +17,8 @@ from qgis.PyQt.QtGui import QColor
 from ..core.camera import Camera
 
 __all__ = ["camera_layer", "footprint_layer", "show_camera_layers", "remove_camera_layers", "crs_from_wkt",
-           "GROUP_NAME", "rebuilt_on_reopen"]
+           "GROUP_NAME", "rebuilt_on_reopen",
+           "derived_layers_only", "mark_modified_later"]
 
 GROUP_NAME = "Monoplot"
 _ROLE = "monoplot/role"
@@ -52,6 +54,27 @@ def crs_from_wkt(wkt: str) -> QgsCoordinateReferenceSystem:
 def _crs(camera: Camera, fallback: Optional[QgsCoordinateReferenceSystem]) -> QgsCoordinateReferenceSystem:
     crs = crs_from_wkt(camera.crs_wkt)
     return crs if crs.isValid() else (fallback or QgsCoordinateReferenceSystem())
+
+
+@contextmanager
+def derived_layers_only(project: QgsProject) -> Iterator[None]:
+    """Inside the block, rebuilding layers that Monoplot derives from the project's state (camera, footprint, the
+    map layers of drawn features) does not mark a clean project modified: reopening a saved project asked "save
+    the current project?" on every close (desktop trial)."""
+    dirty = project.isDirty()
+    try:
+        yield
+    finally:
+        if not dirty and project.isDirty():
+            project.setDirty(False)
+
+
+def mark_modified_later(project: QgsProject) -> None:
+    """Mark ``project`` modified once the event loop runs: work restored from an autosave is not in the project file
+    yet, and QGIS clears the modified flag at the end of reading a project (a flag set while it reads is lost)."""
+    from qgis.PyQt.QtCore import QTimer
+
+    QTimer.singleShot(0, lambda: project.setDirty(True))
 
 
 def rebuilt_on_reopen(layer: QgsVectorLayer) -> QgsVectorLayer:

@@ -17,6 +17,7 @@ from qgis.core import Qgis, QgsCoordinateReferenceSystem, QgsProject, QgsRasterL
 from qgis.PyQt.QtCore import QObject, QTimer, pyqtSignal
 from qgis.PyQt.QtGui import QImage
 
+from ..adapters.layers import mark_modified_later
 from ..adapters.photo import PhotoError, array_to_qimage, qimage_to_array, read_photo
 from ..core.camera import Camera
 from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, replace_suggestions
@@ -490,6 +491,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             self.cameraChanged.emit()
             self.pointsChanged.emit(set())
             if source == "autosave":
+                mark_modified_later(self.project)  # not in the project file: closing must ask to save it
                 self.message.emit(self.tr("Monoplot restored work done after the project was last saved "
                                           "(autosave)."), INFO)
             return True

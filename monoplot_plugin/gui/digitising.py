@@ -21,7 +21,7 @@ from qgis.PyQt.QtCore import QObject, Qt, QVariant, pyqtSignal
 from qgis.PyQt.QtGui import QColor
 
 from ..adapters.layers import crs_from_wkt as _crs
-from ..adapters.layers import rebuilt_on_reopen
+from ..adapters.layers import derived_layers_only, rebuilt_on_reopen
 from ..adapters.photo_space import photo_geometry, photo_point, photo_vertices, pixel_of, qgs_geometry
 from ..workflow.features import photo_to_map_feature
 from ..outputs.vectors import COMPUTED_FIELDS, MapFeature, write_vector_layer
@@ -71,6 +71,7 @@ class DigitisingSession(QObject):
         self._mapped: Dict[Tuple[str, int], tuple] = {}  # (kind, fid) -> (photo geometry WKB, MapFeature or None)
         self._restoring = False
         self.closed = False  # set when one of its layers is being deleted (project cleared, QGIS closing)
+        self.restored_from_autosave = False
         #: what :meth:`undo` takes back, last first: ("add", kind, fid), ("move", kind, fid, index, (u, v)) or
         #: ("delete", kind, geometry, attributes, fid)
         self._history: List[tuple] = []
@@ -159,6 +160,8 @@ class DigitisingSession(QObject):
         """Bring back the features stored by :meth:`save_drawn` for this photo; returns how many."""
         text, ok = self.project.readEntry("monoplot", self._entry(), "")
         newer = persistence.autosaved_entry(self.project, self._entry())  # drawn after the last Save, then a crash
+        #: True when the features came from the autosave (not in the saved project): the caller says so
+        self.restored_from_autosave = newer is not None and newer != (text if ok else "")
         text = newer if newer is not None else (text if ok else "")
         if not text:
             return 0
@@ -183,9 +186,10 @@ class DigitisingSession(QObject):
                 count += len(new)
         finally:
             self._restoring = False
-        for kind, features in data.get("features", {}).items():
-            if features:  # no empty "photo points (map)" layer for a kind nothing was drawn of
-                self.sync(kind)
+        with derived_layers_only(self.project):  # features read back are not a change (the caller says otherwise)
+            for kind, features in data.get("features", {}).items():
+                if features:  # no empty "photo points (map)" layer for a kind nothing was drawn of
+                    self.sync(kind)
         return count
 
     def all_photo_layers(self) -> List[QgsVectorLayer]:
@@ -207,9 +211,10 @@ class DigitisingSession(QObject):
             return
         self.camera, self.dem, self.xyz = camera, dem, xyz
         self._mapped.clear()
-        for kind in list(self.map_layers):
-            self.map_layers[kind].setCrs(_crs(dem.crs_wkt))
-            self.sync(kind)
+        with derived_layers_only(self.project):  # the drawing is unchanged: a clean project stays clean
+            for kind in list(self.map_layers):
+                self.map_layers[kind].setCrs(_crs(dem.crs_wkt))
+                self.sync(kind)
 
     # --- editing ----------------------------------------------------------------------------------------------
     def add_feature(self, kind: str, vertices_uv, attributes: Optional[dict] = None) -> int:

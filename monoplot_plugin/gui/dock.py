@@ -383,7 +383,8 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         c = self.controller
         if self._unloaded or c.fitted is None or c.dem is None:
             return
-        camera_layers.show_camera_layers(self.project, c.fitted, c.footprint_wkt, c.dem_crs)
+        with camera_layers.derived_layers_only(self.project):
+            camera_layers.show_camera_layers(self.project, c.fitted, c.footprint_wkt, c.dem_crs)
 
     # --- view -------------------------------------------------------------------------------------------------
     def _overlay_opacity(self, value: int) -> None:

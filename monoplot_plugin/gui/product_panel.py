@@ -26,6 +26,7 @@ from ..outputs.safe_write import OutputError
 from ..workflow import products as product_step
 from ..workflow import xyz as xyz_step
 from .digitising import KINDS, DigitisingSession, drawn_entry_key
+from ..adapters.layers import derived_layers_only, mark_modified_later
 from .map_layers import add_orthophoto_layer, add_xyz_layer, map_layer_on_photo, overlay_outcome, photo_group
 
 __all__ = ["install_output_tools", "OutputTools", "ProductHost", "LAST_FOLDER_KEY", "NEEDS_FIT"]
@@ -183,9 +184,14 @@ class OutputTools(QObject):
             self._sky_told.update(self.session.last_report)
             # Layers deleted under us (project cleared, QGIS closing): the photo canvas must drop them at once.
             self.session.closedByLayers.connect(lambda: self.canvas.set_extra_layers([]))
-            for kind in KINDS:
-                self.session.photo_layer(kind)
+            with derived_layers_only(self.project):
+                for kind in KINDS:
+                    self.session.photo_layer(kind)
             self._show_on_photo()
+            if self.session.restored_from_autosave:  # drawn after the last Save, then QGIS crashed
+                self._message(self.tr("Monoplot restored features drawn on the photo after the project was last "
+                                      "saved (autosave)."), Qgis.MessageLevel.Info)
+                mark_modified_later(self.project)
         return self.session
 
     def _camera_changed(self) -> None:
@@ -323,8 +329,9 @@ class OutputTools(QObject):
         """Project ``layer`` onto the photo (hidden parts dashed) and show it on the photo canvas."""
         camera, dem = self.controller.fitted, self.controller.dem  # exact line of sight: no XYZ raster needed
         overlay = map_layer_on_photo(layer, camera, dem, self.project)
-        self.overlays = [o for o in self.overlays if o.name() != overlay.name()] + [overlay]
-        self._overlay_ids = [i for i in self._overlay_ids if i != layer.id()] + [layer.id()]
+        seen = overlay.featureCount() > 0  # one the camera does not see is not kept in the list (nor the project)
+        self.overlays = [o for o in self.overlays if o.name() != overlay.name()] + ([overlay] if seen else [])
+        self._overlay_ids = [i for i in self._overlay_ids if i != layer.id()] + ([layer.id()] if seen else [])
         text = json.dumps(self._overlay_ids)
         if self.project.readEntry("monoplot", self._overlay_entry(), "")[0] != text:
             self.project.writeEntry("monoplot", self._overlay_entry(), text)  # kept with the project

@@ -382,6 +382,8 @@ def test_reopening_does_not_tell_old_news(dock_with_fit, plane_scene, tmp_path, 
                     timeout=10000)
     dock.controller.cameraChanged.emit()  # the reopened camera's products arriving: the layers are synced again
     assert not any("over the sky" in m for m in messages), messages
+    qtbot.wait(50)  # the camera layers are rebuilt once the read is over
+    assert not project.isDirty()  # nothing changed: closing must not ask to save (it did on every reopening)
     assert [layer.name() for layer in project.mapLayers().values() if layer.name().endswith("points (map)")] == []
 
 
@@ -408,3 +410,33 @@ def test_written_products_say_what_the_camera_is_worth_on_the_ground(dock_with_f
 
     fit = json.loads(gdal.Open(str(tmp_path / "xyz.tif")).GetMetadata()["MONOPLOT_FIT"])  # the file says it too
     assert fit == {"status": "ok", "rmse_px": 2.0, "check_rmse_px": 6.0, "mode": "paired"}
+
+
+def test_features_drawn_after_the_last_save_come_back_after_a_crash_and_say_so(dock_with_fit, plane_scene,
+                                                                            tmp_path, qtbot):
+    """A crash after drawing (points untouched): the features come back from the autosave with a message, and the
+    project is marked modified, so that the next close asks to save them (a silent restore could be lost)."""
+    import os
+
+    dock, tools = dock_with_fit
+    s = plane_scene
+    w, h = s.camera.width, s.camera.height
+    session = tools.current_session()
+    session.add_feature("polygon", [[0.2 * w, 0.6 * h], [0.8 * w, 0.6 * h], [0.6 * w, 0.9 * h]])
+    project = QgsProject.instance()
+    path = str(tmp_path / "drawn.qgz")
+    assert project.write(path)
+    os.utime(path, (os.path.getmtime(path) - 10,) * 2)
+    session.add_feature("polygon", [[0.3 * w, 0.7 * h], [0.7 * w, 0.7 * h], [0.5 * w, 0.8 * h]])
+    entries = path[:-len(".qgz")] + ".monoplot-autosave-entries.json"
+    kept = open(entries, encoding="utf-8").read()
+    project.clear()  # a crash would not close it: the autosave is put back
+    with open(entries, "w", encoding="utf-8") as fh:
+        fh.write(kept)
+    messages = []
+    dock.controller.message.connect(lambda text, level: messages.append(text))
+    assert project.read(path)
+    qtbot.waitUntil(lambda: tools.session is not None and tools.session.photo_layer("polygon").featureCount() == 2,
+                    timeout=10000)
+    assert any("restored features drawn on the photo" in m for m in messages), messages
+    qtbot.waitUntil(project.isDirty, timeout=2000)
