@@ -34,11 +34,15 @@ def autosave_path(project: QgsProject) -> str:
     """Where the autosave of ``project`` goes (the folder exists)."""
     name = project.fileName()
     if name:
-        base, _ = os.path.splitext(name)
-        return base + ".monoplot-autosave.json"
+        return _beside(name)
     folder = os.path.join(QgsApplication.qgisSettingsDirPath(), "monoplot")
     os.makedirs(folder, exist_ok=True)
     return os.path.join(folder, "autosave-unsaved-project.json")
+
+
+def _beside(project_file: str) -> str:
+    """The state autosave of the project saved as ``project_file``: beside it."""
+    return os.path.splitext(project_file)[0] + ".monoplot-autosave.json"
 
 
 def _entries_path(state_path: str) -> str:
@@ -83,7 +87,7 @@ def discard_autosave(project_file: str) -> None:
     chose not to). Nothing happens for "" (a project never saved)."""
     if not project_file:
         return
-    state_path = os.path.splitext(project_file)[0] + ".monoplot-autosave.json"
+    state_path = _beside(project_file)
     with _LOCK:
         for path in (state_path, _entries_path(state_path)):
             # a snapshot taken before this (a worker still writing) must not bring the file back

@@ -500,8 +500,9 @@ class OutputTools(QObject):
             self._message(self.tr("{0} has no features: nothing to draw on the photo.").format(layer.name()),
                           Qgis.MessageLevel.Warning)
             return
-        if self.ready() is not None:
-            self._message(self.ready(), Qgis.MessageLevel.Warning)
+        reason = self.ready()
+        if reason is not None:
+            self._message(reason, Qgis.MessageLevel.Warning)
             return
         text, doubtful = overlay_outcome(layer, self.draw_layer_on_photo(layer), self.tr)
         self._message(text, Qgis.MessageLevel.Warning if doubtful else Qgis.MessageLevel.Success)

@@ -172,7 +172,7 @@ def auto_resolution(camera: Camera, dem, xyz: np.ndarray):
     pts = _seen_sample(xyz)
     if not len(pts):
         raise ProductError("the camera sees no terrain of the DEM: no orthophoto")
-    distance = float(np.median(np.linalg.norm(pts - np.asarray(camera.position), axis=1)))
+    distance = _median_distance(camera, pts)
     lo, hi = pts[:, :2].min(axis=0), pts[:, :2].max(axis=0)
     area = float(np.prod(np.maximum(hi - lo, dem.cell_size)))
     cell = min(float(dem.cell_size), max(distance / camera.focal_px, (area / AUTO_ORTHO_CELLS) ** 0.5))
@@ -188,6 +188,10 @@ def _seen_sample(xyz: np.ndarray) -> np.ndarray:
     return pts[np.isfinite(pts).all(axis=1)]
 
 
+def _median_distance(camera: Camera, pts: np.ndarray) -> float:
+    return float(np.median(np.linalg.norm(pts - np.asarray(camera.position), axis=1)))
+
+
 def ground_error(camera: Camera, xyz: np.ndarray, error_px: float) -> Tuple[float, float]:
     """(median distance to the terrain the camera sees, what ``error_px`` pixels span across the line of sight at
     that distance), both in map units: an image error said on the ground (face-on; on terrain seen at a grazing
@@ -201,7 +205,7 @@ def ground_error(camera: Camera, xyz: np.ndarray, error_px: float) -> Tuple[floa
     pts = _seen_sample(xyz)
     if not len(pts) or not np.isfinite(error_px):
         return float("nan"), float("nan")
-    distance = float(np.median(np.linalg.norm(pts - np.asarray(camera.position), axis=1)))
+    distance = _median_distance(camera, pts)
     return distance, distance * float(error_px) / camera.focal_px
 
 
