@@ -7,17 +7,19 @@ Cases:
 2. ``auto_aletsch_perturbed``: 20 priors perturbed from the KML one (position +-300 m, heading +-10 deg, pitch
    +-5 deg, fov +-10 %, uniform, fixed seed); target >= 90 % within 15 px and every failure not "ok".
 3. ``auto_synthetic``: ``--scenes`` (default 50) scenes rendered by :func:`~monoplot_plugin.core.synthetic.
-   render_photo` (texture, haze, noise) over generated terrain (cells 30-80 m, range 3-12 km, fov 35-75 deg,
-   camera 30-400 m above the ground); priors off by up to 150 m, 5 deg heading, 2.5 deg pitch, 1 deg roll, 5 %
-   fov; target >= 95 % within 1 % of the range in position and 0.2 deg in heading, pitch and roll. A wrong camera
-   called "ok" is counted (``wrong_but_ok``).
+   render_photo` (texture, haze, noise) over generated terrain (cells 30-80 m, fov 35-75 deg, camera 30-400 m above
+   the ground, terrain seen at a median 0.1-7 km, sky over the top of the picture); priors off by up to 150 m, 5 deg
+   heading, 2.5 deg pitch, 1 deg roll, 5 % fov; target >= 95 % within 1 % of the range in position and 0.2 deg in
+   heading, pitch and roll. A wrong camera called "ok" is counted (``wrong_but_ok``).
 4. ``auto_fog``: a synthetic scene whose photo is replaced by fog (uniform grey with noise): must not be "ok".
+   ``auto_no_sky``: scenes whose terrain fills the whole picture (a slope seen from a few metres above the ground,
+   no skyline): must not be "ok".
 5. ``auto_synthetic_default_sigma``: the first ``--default-scenes`` (default 20) synthetic scenes registered with the
    registration's default σ (200 m, 5 deg, 10 % fov: what the dock uses) instead of the eval's tighter 150 m / 3 deg /
    5 %: a wider search finds more wrong cameras, and none may say "ok" (``wrong_but_ok``; also counted: an "ok"
    more than 1 % of the diagonal off on the terrain grid).
 
-Run: ``.venv/bin/python -m eval.auto [--data DIR] [--scenes 50] [--cases aletsch,synthetic,fog,default_sigma]``.
+Run: ``.venv/bin/python -m eval.auto [--data DIR] [--scenes 50] [--cases aletsch,synthetic,fog,no_sky,default_sigma]``.
 """
 
 from __future__ import annotations
@@ -84,35 +86,43 @@ def case_aletsch(data: Path, n_perturbed: int, seed: int = 13):
           "pass": bool(np.mean(good) >= 0.9 and honest)})
 
 
-def make_scene(k: int, seed: int = 0):
-    """(dem, truth camera, photo, prior, nominal range) of synthetic scene ``k``."""
-    rng = np.random.default_rng(1000 * seed + k)
-    cell = float(rng.choice([30.0, 50.0, 80.0]))
-    n = 260
-    dem = synthetic_terrain((n, n), cell=cell, seed=int(rng.integers(1 << 30)))
-    x0, y0, x1, y1 = dem.bounds()
-    ext = x1 - x0
-    width = 800
-    height = int(rng.choice([533, 600]))
-    fov = float(rng.uniform(35.0, 75.0))
-    for _ in range(30):
-        x = x0 + ext * rng.uniform(0.35, 0.65)
-        y = y0 + ext * rng.uniform(0.04, 0.12)
-        heading = float(rng.uniform(-20, 20))
-        z = float(dem.sample(x, y)) + float(rng.uniform(30.0, 400.0))
-        cam = Camera((x, y, z), heading, float(rng.uniform(-6.0, 2.0)), float(rng.uniform(-2, 2)), fov,
-                     (width, height), crs_wkt=dem.crs_wkt)
-        photo = render_photo(cam, dem, seed=k)
-        from monoplot_plugin.core.xyz import compute_xyz_full
+def make_scene(k: int, seed: int = 0, sky: bool = True):
+    """(dem, truth camera, photo, prior, median range of the terrain seen) of synthetic scene ``k``.
 
-        res = compute_xyz_full(cam.scaled(0.1), dem, visibility=False)
-        hit = res.hit
-        sky_cols = (~hit[0]).mean()
-        if hit.mean() > 0.35 and sky_cols > 0.7:
-            rng_m = float(np.nanmedian(res.distance[hit]))
-            prior = perturb(cam, rng, 150.0, 5.0, 2.5, 0.05, roll_deg=1.0, z_m=50.0)
-            return dem, cam, photo, prior, rng_m
-    return dem, cam, photo, perturb(cam, rng, 150.0, 5.0, 2.5, 0.05, 1.0, 50.0), float(ext / 2)
+    ``sky``: the truth sees sky over most of the top of the picture and terrain over more than a third of it (a
+    picture the skyline method is for); ``False``: terrain fills the whole picture (a slope in front of the camera,
+    no skyline at all). A terrain where 30 cameras miss that is replaced by a new one: a scene is never one of the
+    other kind.
+    """
+    from monoplot_plugin.core.xyz import compute_xyz_full
+
+    rng = np.random.default_rng(1000 * seed + k + (0 if sky else 500_000))
+    for _terrain in range(20):
+        cell = float(rng.choice([30.0, 50.0, 80.0]))
+        n = 260
+        dem = synthetic_terrain((n, n), cell=cell, seed=int(rng.integers(1 << 30)))
+        x0, y0, x1, y1 = dem.bounds()
+        ext = x1 - x0
+        width = 800
+        height = int(rng.choice([533, 600]))
+        fov = float(rng.uniform(35.0, 75.0))
+        for _ in range(30):
+            x = x0 + ext * rng.uniform(0.35, 0.65)
+            y = y0 + ext * (rng.uniform(0.04, 0.12) if sky else rng.uniform(0.3, 0.7))
+            heading = float(rng.uniform(-20, 20)) if sky else float(rng.uniform(-180, 180))
+            z = float(dem.sample(x, y)) + float(rng.uniform(30.0, 400.0) if sky else rng.uniform(5.0, 40.0))
+            pitch = float(rng.uniform(-6.0, 2.0)) if sky else float(rng.uniform(-20.0, -8.0))
+            cam = Camera((x, y, z), heading, pitch, float(rng.uniform(-2, 2)), fov, (width, height),
+                         crs_wkt=dem.crs_wkt)
+            res = compute_xyz_full(cam.scaled(0.1), dem, visibility=False)
+            hit = res.hit
+            wanted = hit.mean() > 0.35 and (~hit[0]).mean() > 0.7 if sky else hit.all()
+            if wanted:
+                photo = render_photo(cam, dem, seed=k)
+                rng_m = float(np.nanmedian(res.distance[hit]))
+                prior = perturb(cam, rng, 150.0, 5.0, 2.5, 0.05, roll_deg=1.0, z_m=50.0)
+                return dem, cam, photo, prior, rng_m
+    raise RuntimeError(f"no {'sky' if sky else 'no-sky'} scene found for scene {k}")
 
 
 def errors(cam: Camera, truth: Camera, rng_m: float) -> dict:
@@ -148,11 +158,12 @@ def grid_error(cam: Camera, truth: Camera, dem) -> float:
     return round(float(np.sqrt(np.nanmean(np.sum(d * d, axis=1)))), 2)
 
 
-def case_synthetic(n: int, seed: int = 0, fog: bool = False, default_sigma: bool = False):
+def case_synthetic(n: int, seed: int = 0, fog: bool = False, default_sigma: bool = False, no_sky: bool = False):
     rows = []
     name = "auto_synthetic_default_sigma" if default_sigma else "auto_synthetic"
+    honest = "auto_fog" if fog else "auto_no_sky" if no_sky else None  # cases that must not end "ok"
     for k in range(n):
-        dem, truth, photo, prior, rng_m = make_scene(k, seed)
+        dem, truth, photo, prior, rng_m = make_scene(k, seed, sky=not no_sky)
         if fog:
             photo = np.clip(np.random.default_rng(k).normal(200, 3, photo.shape), 0, 255).astype(np.uint8)
         given = {} if default_sigma else dict(position_sigma_m=150.0, angle_sigma_deg=3.0,
@@ -169,9 +180,9 @@ def case_synthetic(n: int, seed: int = 0, fog: bool = False, default_sigma: bool
         ok = e["position_share"] <= 0.01 and e["angle_deg"] <= 0.2
         rows.append({"scene": k, "status": r.status, "success": bool(ok), **e, "range_m": round(rng_m),
                      "prior": errors(prior, truth, rng_m), "seconds": round(r.elapsed_s, 1)})
-        emit({"case": "auto_fog_scene" if fog else name + "_scene", **rows[-1]})
-    if fog:
-        emit({"case": "auto_fog", "n": n, "statuses": [x["status"] for x in rows],
+        emit({"case": (honest or name) + "_scene", **rows[-1]})
+    if honest:
+        emit({"case": honest, "n": n, "statuses": [x["status"] for x in rows],
               "pass": all(x["status"] != "ok" for x in rows)})
         return
     succ = [x["success"] for x in rows]
@@ -201,8 +212,9 @@ def main(argv=None) -> int:
     ap.add_argument("--scenes", type=int, default=50)
     ap.add_argument("--perturbed", type=int, default=20)
     ap.add_argument("--fog", type=int, default=3, help="fogged synthetic scenes")
+    ap.add_argument("--no-sky", type=int, default=3, help="scenes whose terrain fills the picture (no skyline)")
     ap.add_argument("--default-scenes", type=int, default=20, help="scenes registered with the default σ")
-    ap.add_argument("--cases", default="aletsch,synthetic,fog,default_sigma")
+    ap.add_argument("--cases", default="aletsch,synthetic,fog,no_sky,default_sigma")
     args = ap.parse_args(argv)
     cases = set(args.cases.split(","))
     t0 = time.perf_counter()
@@ -212,6 +224,8 @@ def main(argv=None) -> int:
         case_synthetic(args.scenes)
     if "fog" in cases:
         case_synthetic(min(args.fog, args.scenes), fog=True)
+    if "no_sky" in cases:
+        case_synthetic(args.no_sky, no_sky=True)
     if "default_sigma" in cases:
         case_synthetic(args.default_scenes, default_sigma=True)
     emit({"case": "auto_runtime", "seconds": round(time.perf_counter() - t0, 1)})
