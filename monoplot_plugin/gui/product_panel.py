@@ -7,7 +7,8 @@ The dock calls :func:`install_output_tools` once (end of its ``__init__``) and :
 The products that need a fitted camera are disabled until there is one, with the reason as their tooltip.
 Each export asks for a file with the standard save dialog (which asks before replacing a
 file; only then is ``overwrite=True`` passed) and reports success or the reason of a failure in the message bar;
-the ``export_*`` methods take the path directly for scripts and tests.
+the ``export_*`` methods take the path directly for scripts and tests. The rasters and the report are made by
+:mod:`.product_exports`.
 """
 
 from __future__ import annotations
@@ -19,21 +20,17 @@ from typing import Any, Callable, List, Optional
 
 from qgis.core import Qgis, QgsMapLayer, QgsProject, QgsVectorLayer
 from qgis.PyQt.QtCore import QObject, pyqtSignal
-from qgis.PyQt.QtWidgets import QAction, QFileDialog, QWidget
+from qgis.PyQt.QtWidgets import QAction, QWidget
 
 from .digitise_tools import PhotoCaptureTool, PhotoEditTool
 from ..outputs.safe_write import OutputError
-from ..workflow import products as product_step
 from ..workflow import xyz as xyz_step
 from .digitising import KINDS, DigitisingSession, drawn_entry_key
 from ..adapters.layers import derived_layers_only, mark_modified_later
-from .map_layers import add_orthophoto_layer, add_xyz_layer, map_layer_on_photo, overlay_outcome, photo_group
+from .map_layers import map_layer_on_photo, overlay_outcome
+from .product_exports import LAST_FOLDER_KEY, ProductExports
 
 __all__ = ["install_output_tools", "OutputTools", "ProductHost", "LAST_FOLDER_KEY", "NEEDS_FIT"]
-
-#: QgsSettings key of the folder the last product was saved to (the next save dialog opens there).
-LAST_FOLDER_KEY = "monoplot/last_output_folder"
-
 
 #: the actions that need a fitted camera (disabled before the first fit, the reason in their tooltip)
 NEEDS_FIT = ("xyz", "ortho", "report", "features", "overlay", "field", "attributes")
@@ -95,8 +92,8 @@ class OutputTools(QObject):
         self.session: Optional[DigitisingSession] = None
         self.overlays: List[QgsVectorLayer] = []
         self._overlay_ids: List[str] = []  # the map layers drawn on the photo, redrawn after a refit or a reopen
-        self._tasks: list = []  # running export tasks (kept referenced until done)
         self._sky_told: dict = {}  # kind -> (sky pieces, dropped features) last reported
+        self.exports = ProductExports(host, self.ready, self.photo_name, self._message, self.exported.emit)
         canvas = self.canvas
         self.capture_tools = {kind: PhotoCaptureTool(canvas, self.current_session, kind) for kind in KINDS}
         self.edit_tool = PhotoEditTool(canvas, self.current_session)
@@ -122,11 +119,12 @@ class OutputTools(QObject):
         # (it used to be "Active map layer on photo"); the attribute helpers are also in the Layers panel
         tr = self.tr
         for name, label, slot, tip in (
-                ("xyz", tr("XYZ raster…"), self._ask_xyz, tr("The X, Y, Z of every photo pixel (3-band GeoTIFF)")),
-                ("ortho", tr("Orthophoto…"), self._ask_ortho,
+                ("xyz", tr("XYZ raster…"), self.exports.ask_xyz,
+                 tr("The X, Y, Z of every photo pixel (3-band GeoTIFF)")),
+                ("ortho", tr("Orthophoto…"), self.exports.ask_ortho,
                  tr("The photo draped on the DEM (map GeoTIFF), over what the camera sees, at the photo's own detail "
                     "(a pixel's footprint at the median distance, never coarser than the DEM)")),
-                ("report", tr("Report…"), self._ask_report, tr("Camera, residuals, check points (PDF or PNG)")),
+                ("report", tr("Report…"), self.exports.ask_report, tr("Camera, residuals, check points (PDF or PNG)")),
                 ("features", tr("Save drawn features…"), self._ask_features, tr("The drawn features as map layers")),
                 ("overlay", tr("Active map layer on photo"), self._overlay_active_layer,
                  tr("Draw the layer selected in the Layers panel on the photo")),
@@ -278,46 +276,21 @@ class OutputTools(QObject):
         # call of the dock left "Written: ..." out of the log)
         self.controller.message.emit(text, level)
 
-    # --- exports (paths given) --------------------------------------------------------------------------------
+    # --- rasters and report (:mod:`.product_exports`) ------------------------------------------------------
     def export_xyz(self, path, overwrite: bool = False, distance: bool = False):
-        """The product card's 3-band X, Y, Z raster (a distance band when asked), added to the photo's group."""
-        written = self._work("xyz", path, overwrite, distance=distance)()
-        return add_xyz_layer(written, self.project, photo_group(self.project, self.photo_name()))
+        return self.exports.export_xyz(path, overwrite, distance)
 
     def export_orthophoto(self, path, overwrite: bool = False):
-        written = self._work("ortho", path, overwrite)()
-        return add_orthophoto_layer(written, self.project, photo_group(self.project, self.photo_name()))
+        return self.exports.export_orthophoto(path, overwrite)
 
     def export_report(self, path, overwrite: bool = False):
-        return self._work("report", path, overwrite)()
+        return self.exports.export_report(path, overwrite)
 
-    def _work(self, what: str, path, overwrite: bool, distance: bool = False):
-        """``work(progress=None, is_canceled=None) -> written path`` of the product ``what`` ("xyz", "ortho",
-        "report", :mod:`..workflow.products`), with everything it needs copied now (main thread), so that it can
-        run in a task: it touches no Qt object and no layer."""
-        from ..adapters.photo import qimage_to_array
+    def start_export(self, what: str, path, overwrite: bool = False):
+        return self.exports.start_export(what, path, overwrite)
 
-        c = self.controller
-        camera, dem, name = c.fitted, c.dem, self.photo_name()
-        photo = qimage_to_array(c.image) if what in ("ortho", "report") else None
-        points, sigmas = (self.controller.report_inputs() if what == "report" else (None, None))
-        checks = self.controller.report_checks() if what == "report" else None
-        info = self.controller.state.fit_info if isinstance(self.controller.state.fit_info, dict) else {}
-        verdict = f"{info.get('status', '')}: {info.get('message', '')}" if info.get("status") else ""
-
-        def work(progress=None, is_canceled=None):
-            if what == "xyz":
-                return product_step.write_xyz(path, camera, dem, photo_name=name, distance=distance,
-                                          overwrite=overwrite, progress=progress, is_canceled=is_canceled,
-                                          fit=dict(info))
-            if what == "ortho":
-                return product_step.orthophoto(path, photo, camera, dem, product_step.AUTO, overwrite=overwrite,
-                                               progress=progress, is_canceled=is_canceled)
-            return product_step.report(path, photo, camera, dem, points=points, sigmas=sigmas, title=Path(name).stem,
-                                       overwrite=overwrite, progress=progress, is_canceled=is_canceled,
-                                       verdict=verdict, checks=checks)
-
-        return work
+    def output_folder(self) -> Path:
+        return self.exports.output_folder()
 
     def export_features(self, kind: str, path, overwrite: bool = False):
         session = self.current_session()
@@ -351,97 +324,6 @@ class OutputTools(QObject):
             return
         self._message(done_text.format(result), Qgis.MessageLevel.Success)
 
-    def output_folder(self) -> Path:
-        """Where the save dialogs open: the folder of the last product saved, else the saved project's folder,
-        else the photo's folder (which may be a read-only archive)."""
-        from qgis.core import QgsSettings
-
-        last = QgsSettings().value(LAST_FOLDER_KEY, "", type=str)
-        photo_folder = str(Path(self.controller.state.photo_path or ".").parent)
-        candidates = [last, self.project.absolutePath(), photo_folder]
-        for folder in candidates:
-            if folder and Path(folder).is_dir():
-                return Path(folder)
-        return Path(".")
-
-    def _ask(self, title: str, filters: str, suffix: str) -> Optional[str]:
-        from qgis.core import QgsSettings
-
-        stem = Path(self.photo_name()).stem
-        start = str(self.output_folder() / f"{stem}_{suffix}")
-        path, _ = QFileDialog.getSaveFileName(self.host.widget, title, start, filters)
-        if path:
-            QgsSettings().setValue(LAST_FOLDER_KEY, str(Path(path).parent))
-        return path or None
-
-    def _ask_xyz(self) -> None:
-        path = self._ask(self.tr("Save the XYZ raster"), "GeoTIFF (*.tif)", "xyz.tif")
-        if path:  # the dialog already asked before replacing a file
-            self.start_export("xyz", path, overwrite=True)
-
-    def _ask_ortho(self) -> None:
-        path = self._ask(self.tr("Save the orthophoto"), "GeoTIFF (*.tif)", "ortho.tif")
-        if path:
-            self.start_export("ortho", path, overwrite=True)
-
-    def _ask_report(self) -> None:
-        path = self._ask(self.tr("Save the report"), "PDF (*.pdf);;PNG (*.png)", "report.pdf")
-        if path:
-            self.start_export("report", path, overwrite=True)
-
-    # --- background exports -----------------------------------------------------------------------------------
-    def start_export(self, what: str, path, overwrite: bool = False):
-        """Compute and write the XYZ raster ("xyz"), orthophoto ("ortho") or report ("report") in a QgsTask;
-        the layer is added and the user told on the main thread when it is done. Returns the task (None when
-        the inputs are missing: the reason is shown)."""
-        from .tasks import FunctionTask, start_task
-
-        reason = self.ready()
-        if reason is not None:
-            self._message(reason, Qgis.MessageLevel.Warning)
-            return None
-        name = self.photo_name()
-        work = self._work(what, path, overwrite)  # copies what the worker needs, now
-
-        def done(result):
-            self._tasks = [t for t in self._tasks if t is not task]
-            # canceled after the file was renamed into place: it is written, complete, and said so
-            late = result.status == "canceled" and result.value is not None
-            if (not result.ok and not late) or result.value is None:
-                if result.status == "canceled":
-                    self._message(self.tr("Export canceled; nothing was replaced."), Qgis.MessageLevel.Info)
-                else:
-                    self._message(self.tr("Nothing was written: {0}").format(result.reason),
-                                  Qgis.MessageLevel.Critical)
-                return
-            written = result.value
-            group = photo_group(self.project, name)
-            if what == "xyz":
-                add_xyz_layer(written, self.project, group)
-            elif what == "ortho":
-                add_orthophoto_layer(written, self.project, group)
-            status = (self.controller.state.fit_info or {}).get("status", "ok")
-            if status in ("uncertain", "poor"):  # the product inherits the camera's errors: say so once, here
-                self._message(self.tr("Written: {0}, from a camera whose fit is \"{1}\": every position in it "
-                                      "inherits the camera's errors. Check the fit (pairs, check points) before "
-                                      "using it.").format(written, self.tr(status)), Qgis.MessageLevel.Warning)
-            elif late:
-                self._message(self.tr("Written: {0} (the cancel came after the file was complete).").format(
-                    written), Qgis.MessageLevel.Info)
-            else:
-                self._message(self.tr("Written: {0}").format(written) + self.controller.ground_accuracy_text(),
-                              Qgis.MessageLevel.Success)
-            self.exported.emit(what, str(written))
-
-        labels = {"xyz": self.tr("XYZ raster"), "ortho": self.tr("Orthophoto"), "report": self.tr("Report")}
-        task = FunctionTask(self.tr("Monoplot: {0}").format(labels[what]), work, done)
-        self._tasks.append(task)
-        # said in the dock's status line (not the message bar, where it would pile up under "Written"): the task
-        # bar's progress is easy to miss, and the dock gave no sign for seconds
-        self.host.show_status(self.tr("{0}: computing {1}… (progress and Cancel in QGIS's task bar)")
-                                      .format(labels[what], Path(str(path)).name))
-        return start_task(task)
-
     def _ask_features(self) -> None:
         session = self.current_session()
         if session is None:
@@ -456,7 +338,7 @@ class OutputTools(QObject):
             # the other without a word)
             title = (self.tr("Save the drawn {0}s ({1} of {2}: one file per geometry type)").format(
                 kind, i + 1, len(kinds)) if len(kinds) > 1 else self.tr("Save the drawn {0}s").format(kind))
-            path = self._ask(title, "GeoPackage (*.gpkg);;ESRI Shapefile (*.shp)", f"{kind}s.gpkg")
+            path = self.exports.ask(title, "GeoPackage (*.gpkg);;ESRI Shapefile (*.shp)", f"{kind}s.gpkg")
             if path:
                 self._run(lambda k=kind, p=path: self.export_features(k, p, overwrite=True),
                           self.tr("Features written: {0}"))

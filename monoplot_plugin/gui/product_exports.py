@@ -1,0 +1,171 @@
+"""The dock's raster and report products (XYZ raster, orthophoto, report): the save dialogs, the work copied on the
+main thread and run in a QgsTask, the layer added and the user told when it is done.
+
+Owned by :class:`~.product_panel.OutputTools` (which keeps the public ``export_*`` / ``start_export`` methods and
+the ``exported`` signal); what it needs of the panel is passed in: the :class:`~.product_panel.ProductHost`, the
+``ready()`` check, the photo's name, the message line and the signal's ``emit``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Callable, Optional
+
+from qgis.core import Qgis
+from qgis.PyQt.QtCore import QCoreApplication
+from qgis.PyQt.QtWidgets import QFileDialog
+
+from ..workflow import products as product_step
+from .map_layers import add_orthophoto_layer, add_xyz_layer, photo_group
+
+__all__ = ["ProductExports", "LAST_FOLDER_KEY"]
+
+#: QgsSettings key of the folder the last product was saved to (the next save dialog opens there).
+LAST_FOLDER_KEY = "monoplot/last_output_folder"
+
+
+class ProductExports:
+    """XYZ raster, orthophoto and report of the fitted camera, for one dock."""
+
+    def __init__(self, host, ready: Callable[[], Optional[str]], photo_name: Callable[[], str],
+                 message: Callable, exported: Callable[[str, str], None]):
+        self.host = host
+        self.controller = host.controller
+        self.project = host.project
+        self.ready, self.photo_name, self.message, self.exported = ready, photo_name, message, exported
+        self._tasks: list = []  # running export tasks (kept referenced until done)
+
+    def tr(self, text: str) -> str:
+        return QCoreApplication.translate("OutputTools", text)
+
+    # --- paths given (scripts, tests) -------------------------------------------------------------------------
+    def export_xyz(self, path, overwrite: bool = False, distance: bool = False):
+        """The product card's 3-band X, Y, Z raster (a distance band when asked), added to the photo's group."""
+        written = self._work("xyz", path, overwrite, distance=distance)()
+        return add_xyz_layer(written, self.project, photo_group(self.project, self.photo_name()))
+
+    def export_orthophoto(self, path, overwrite: bool = False):
+        written = self._work("ortho", path, overwrite)()
+        return add_orthophoto_layer(written, self.project, photo_group(self.project, self.photo_name()))
+
+    def export_report(self, path, overwrite: bool = False):
+        return self._work("report", path, overwrite)()
+
+    def _work(self, what: str, path, overwrite: bool, distance: bool = False):
+        """``work(progress=None, is_canceled=None) -> written path`` of the product ``what`` ("xyz", "ortho",
+        "report", :mod:`..workflow.products`), with everything it needs copied now (main thread), so that it can
+        run in a task: it touches no Qt object and no layer."""
+        from ..adapters.photo import qimage_to_array
+
+        c = self.controller
+        camera, dem, name = c.fitted, c.dem, self.photo_name()
+        photo = qimage_to_array(c.image) if what in ("ortho", "report") else None
+        points, sigmas = (self.controller.report_inputs() if what == "report" else (None, None))
+        checks = self.controller.report_checks() if what == "report" else None
+        info = self.controller.state.fit_info if isinstance(self.controller.state.fit_info, dict) else {}
+        verdict = f"{info.get('status', '')}: {info.get('message', '')}" if info.get("status") else ""
+
+        def work(progress=None, is_canceled=None):
+            if what == "xyz":
+                return product_step.write_xyz(path, camera, dem, photo_name=name, distance=distance,
+                                          overwrite=overwrite, progress=progress, is_canceled=is_canceled,
+                                          fit=dict(info))
+            if what == "ortho":
+                return product_step.orthophoto(path, photo, camera, dem, product_step.AUTO, overwrite=overwrite,
+                                               progress=progress, is_canceled=is_canceled)
+            return product_step.report(path, photo, camera, dem, points=points, sigmas=sigmas, title=Path(name).stem,
+                                       overwrite=overwrite, progress=progress, is_canceled=is_canceled,
+                                       verdict=verdict, checks=checks)
+
+        return work
+
+    def output_folder(self) -> Path:
+        """Where the save dialogs open: the folder of the last product saved, else the saved project's folder,
+        else the photo's folder (which may be a read-only archive)."""
+        from qgis.core import QgsSettings
+
+        last = QgsSettings().value(LAST_FOLDER_KEY, "", type=str)
+        photo_folder = str(Path(self.controller.state.photo_path or ".").parent)
+        candidates = [last, self.project.absolutePath(), photo_folder]
+        for folder in candidates:
+            if folder and Path(folder).is_dir():
+                return Path(folder)
+        return Path(".")
+
+    def ask(self, title: str, filters: str, suffix: str) -> Optional[str]:
+        from qgis.core import QgsSettings
+
+        stem = Path(self.photo_name()).stem
+        start = str(self.output_folder() / f"{stem}_{suffix}")
+        path, _ = QFileDialog.getSaveFileName(self.host.widget, title, start, filters)
+        if path:
+            QgsSettings().setValue(LAST_FOLDER_KEY, str(Path(path).parent))
+        return path or None
+
+    def ask_xyz(self) -> None:
+        path = self.ask(self.tr("Save the XYZ raster"), "GeoTIFF (*.tif)", "xyz.tif")
+        if path:  # the dialog already asked before replacing a file
+            self.start_export("xyz", path, overwrite=True)
+
+    def ask_ortho(self) -> None:
+        path = self.ask(self.tr("Save the orthophoto"), "GeoTIFF (*.tif)", "ortho.tif")
+        if path:
+            self.start_export("ortho", path, overwrite=True)
+
+    def ask_report(self) -> None:
+        path = self.ask(self.tr("Save the report"), "PDF (*.pdf);;PNG (*.png)", "report.pdf")
+        if path:
+            self.start_export("report", path, overwrite=True)
+
+    # --- background exports -----------------------------------------------------------------------------------
+    def start_export(self, what: str, path, overwrite: bool = False):
+        """Compute and write the XYZ raster ("xyz"), orthophoto ("ortho") or report ("report") in a QgsTask;
+        the layer is added and the user told on the main thread when it is done. Returns the task (None when
+        the inputs are missing: the reason is shown)."""
+        from .tasks import FunctionTask, start_task
+
+        reason = self.ready()
+        if reason is not None:
+            self.message(reason, Qgis.MessageLevel.Warning)
+            return None
+        name = self.photo_name()
+        work = self._work(what, path, overwrite)  # copies what the worker needs, now
+
+        def done(result):
+            self._tasks = [t for t in self._tasks if t is not task]
+            # canceled after the file was renamed into place: it is written, complete, and said so
+            late = result.status == "canceled" and result.value is not None
+            if (not result.ok and not late) or result.value is None:
+                if result.status == "canceled":
+                    self.message(self.tr("Export canceled; nothing was replaced."), Qgis.MessageLevel.Info)
+                else:
+                    self.message(self.tr("Nothing was written: {0}").format(result.reason),
+                                  Qgis.MessageLevel.Critical)
+                return
+            written = result.value
+            group = photo_group(self.project, name)
+            if what == "xyz":
+                add_xyz_layer(written, self.project, group)
+            elif what == "ortho":
+                add_orthophoto_layer(written, self.project, group)
+            status = (self.controller.state.fit_info or {}).get("status", "ok")
+            if status in ("uncertain", "poor"):  # the product inherits the camera's errors: say so once, here
+                self.message(self.tr("Written: {0}, from a camera whose fit is \"{1}\": every position in it "
+                                      "inherits the camera's errors. Check the fit (pairs, check points) before "
+                                      "using it.").format(written, self.tr(status)), Qgis.MessageLevel.Warning)
+            elif late:
+                self.message(self.tr("Written: {0} (the cancel came after the file was complete).").format(
+                    written), Qgis.MessageLevel.Info)
+            else:
+                self.message(self.tr("Written: {0}").format(written) + self.controller.ground_accuracy_text(),
+                              Qgis.MessageLevel.Success)
+            self.exported(what, str(written))
+
+        labels = {"xyz": self.tr("XYZ raster"), "ortho": self.tr("Orthophoto"), "report": self.tr("Report")}
+        task = FunctionTask(self.tr("Monoplot: {0}").format(labels[what]), work, done)
+        self._tasks.append(task)
+        # said in the dock's status line (not the message bar, where it would pile up under "Written"): the task
+        # bar's progress is easy to miss, and the dock gave no sign for seconds
+        self.host.show_status(self.tr("{0}: computing {1}… (progress and Cancel in QGIS's task bar)")
+                                      .format(labels[what], Path(str(path)).name))
+        return start_task(task)
