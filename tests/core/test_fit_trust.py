@@ -144,6 +144,24 @@ def test_one_gcp_duplicated_or_collinear_gcps_are_refused():
     assert result.status == "refused" and "straight line" in result.message
 
 
+def test_paired_points_clustered_in_a_corner_are_not_ok_however_small_the_residuals():
+    """Exact pairs in a small patch of the picture fix the camera only there (a desktop trial: 10 pairs over 1.4 %
+    of the picture, RMSE 2 px, "ok", the camera 115 m and 1.9 deg off); the same number spread out is "ok"."""
+    rng = np.random.default_rng(11)
+    world = terrain_points(400, rng)
+    uv = TRUTH.project(world)
+    inside = TRUTH.in_image(uv)
+    corner = np.flatnonzero(inside & (uv[:, 0] > 800) & (uv[:, 1] > 200) & (uv[:, 1] < 380))[:10]
+    spread = np.flatnonzero(inside)[:10]
+    pairs = np.column_stack([np.arange(10)] * 2)
+    start = TRUTH.with_parameters(heading=TRUTH.heading + 1)
+    noisy = uv + rng.normal(0, 1.0, uv.shape)
+    clustered = fit_camera(noisy[corner], world[corner], start, pairs=pairs)
+    assert clustered.rmse_px < 2.0 and clustered.status == "uncertain", clustered.message
+    assert "cover a small part of the picture" in clustered.message and "add pairs spread" in clustered.message
+    assert fit_camera(noisy[spread], world[spread], start, pairs=pairs).status == "ok"
+
+
 def test_check_points_that_disagree_make_the_verdict_poor():
     rng = np.random.default_rng(9)
     world = terrain_points(40, rng)

@@ -7,7 +7,7 @@ import numpy as np
 from .lsq import jacobian, leave_one_out, least_squares, parameter_std
 from .result import FitResult, rmse, rms
 from .starts import dlt_start, pnp_starts
-from .verdict import weak_direction_matters, weakest_parameter
+from .verdict import photo_spread, weak_direction_matters, weakest_parameter
 
 __all__ = ["fit_paired"]
 
@@ -55,7 +55,8 @@ def fit_paired(ctx, pairs: np.ndarray) -> FitResult:
     if not weak_direction_matters(camera, weakest):
         cond = 1.0
     evidence = {"mode": "paired", "n_free": len(ctx.free), "diag": ctx.diag, "n_pairs": len(pairs),
-                "rmse_px": rmse_px, "loo_rmse_px": rms(loo), "condition": cond, "weakest": weakest}
+                "rmse_px": rmse_px, "loo_rmse_px": rms(loo), "condition": cond, "weakest": weakest,
+                "spread": photo_spread(q, ctx.initial.image_size)}
     return FitResult(camera, "ok", "", "paired", ctx.free, rmse_px, pairs, residuals,
                      np.ones(len(pairs), dtype=bool), nearest, std, rms(loo), loo, loss_history=ctx.history,
                      n_starts=ctx.starts_tried, evidence=evidence)

@@ -15,6 +15,9 @@ Processing and the report show the same figures.
 'ok'
 >>> judge({"mode": "paired", "n_free": 7, "n_pairs": 11, "rmse_px": 80.0, "diag": 1000.0})[0]
 'poor'
+>>> judge({"mode": "paired", "n_free": 7, "n_pairs": 10, "rmse_px": 2.0, "diag": 1000.0, "spread": 0.014})[1]
+'paired fit on 10 pairs: RMSE 2.0 px (too few pairs for a leave-one-out check). Uncertain: the pairs cover a small \
+part of the picture (1.4 %): elsewhere the camera is extrapolated; add pairs spread over the picture.'
 >>> judge({"mode": "paired", "n_free": 7, "n_pairs": 11, "rmse_px": 2.0, "diag": 1000.0, "check_rmse_px": 12.0,
 ...        "n_check": 10})[0]
 'uncertain'
@@ -45,6 +48,8 @@ FEWER_SIDE_ADVICE = "reject the flagged points and fit again"
 #: a clearly different camera whose score is at least this share of the fit's makes it uncertain (the search's
 #: competitors, ``competitor_ratio``, and the stability probes' rivals, ``rival_ratio``)
 COMPETITOR_RATIO = 0.8
+#: least convex-hull share of the picture (:func:`photo_spread`) of the pairs (or matched points) for an "ok"
+MIN_SPREAD = 0.05
 #: pairs beyond the inlier radius (within twice it, more than chance adds) above this share of the inliers: the
 #: residuals are truncated by the radius, which makes an unpaired fit uncertain when converging on the pairs within
 #: twice the radius moves the camera (see :func:`judge`, ``beyond_radius`` and ``truncation_px``)
@@ -127,14 +132,15 @@ def judge(e: dict) -> Tuple[str, str]:
     ``n_inliers`` (mutual-nearest pairs within ``radius_px``), ``n_dem`` (DEM points given), ``chance_max`` /
     ``chance_mean`` (the same score for cameras turned away, see
     :func:`~monoplot_plugin.core.fit.consensus.chance_inliers`), ``score`` (the fit's consensus score),
-    ``competitor_ratio`` (best distinct competing camera's score / ``score``), ``spread`` (hull share of the
-    inliers), ``photo_outliers`` (accepted photo points that fit no DEM point), ``rival_px`` / ``rival_m`` (a
+    ``competitor_ratio`` (best distinct competing camera's score / ``score``), ``photo_outliers`` (accepted
+    photo points that fit no DEM point), ``rival_px`` / ``rival_m`` (a
     camera the stability probes reached that moves the inliers by more than the fit's precision: how far, RMS in
     pixels, and its distance in metres; 0 for none, see :mod:`~monoplot_plugin.core.fit.stability`), ``rival_ratio``
     (its net score / the fit's),
     ``beyond_radius`` (mutual-nearest pairs within twice the radius but not within it, less what chance adds),
     ``truncation_px`` (how far the camera converged on the pairs within twice the radius moves the inliers, RMS),
-    ``precision_px`` (the pixel σ of the inliers' projections under the fit's covariance).
+    ``precision_px`` (the pixel σ of the inliers' projections under the fit's covariance); for both modes
+    ``spread`` (convex-hull share of the picture of the pairs or matched points, :func:`photo_spread`).
 
     >>> e = {"mode": "unpaired", "n_free": 7, "diag": 2000.0, "rmse_px": 3.0, "n_photo": 40, "n_dem": 30,
     ...      "n_inliers": 25, "radius_px": 20.0, "score": 20.0, "chance_max": 1.0, "spread": 0.4}
@@ -187,6 +193,15 @@ def judge(e: dict) -> Tuple[str, str]:
                     f"constrain it")
     if np.isfinite(loo) and np.isfinite(rmse) and loo > 3.0 * max(rmse, 1.0) and loo > 0.01 * diag:
         weak.append("leaving one pair out changes the prediction a lot: add points")
+    spread = float(e.get("spread", 1.0))
+    if spread < MIN_SPREAD and (e.get("mode") != "paired" or n_free > 3):
+        # a cluster fixes the camera only where it is: elsewhere position, angles and field of view trade off (a
+        # generated scene: 10 exact pairs over 1.4 % of the picture, "ok" at 2 px RMSE, the camera 115 m and 1.9 deg
+        # off, 190 px across the picture). The three angles alone (position and field of view known) have no such
+        # trade-off: a few pairs anywhere fix them.
+        which = "pairs" if e.get("mode") == "paired" else "matched points"
+        weak.append(f"the {which} cover a small part of the picture ({100 * spread:.1f} %): elsewhere the camera is "
+                    f"extrapolated; add {'pairs' if which == 'pairs' else 'points'} spread over the picture")
     if e.get("mode") == "unpaired":
         n_in = int(e.get("n_inliers", 0))
         chance = float(e.get("chance_max", 0.0))
@@ -209,8 +224,6 @@ def judge(e: dict) -> Tuple[str, str]:
             if ratio >= COMPETITOR_RATIO:
                 weak.append("another camera, clearly different, explains the points almost as well: add two paired "
                             "points or check points")
-            if float(e.get("spread", 1.0)) < 0.05:
-                weak.append("the matched points cover a small part of the picture: add points elsewhere")
             if float(e.get("rival_ratio", 0.0)) >= COMPETITOR_RATIO and ratio < COMPETITOR_RATIO:
                 metres = float(e.get("rival_m", 0.0))
                 where = f"{metres:.0f} m apart" if metres >= 10.0 else "at nearly the same place, turned differently,"
