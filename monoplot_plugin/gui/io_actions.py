@@ -265,7 +265,8 @@ def load_camera_file(controller, path: str, as_fitted: bool = False) -> Optional
     name = os.path.basename(path)
     if not as_fitted:
         c.set_prior(camera)
-        c.message.emit(tr("Rough camera loaded from {0}.").format(name), INFO)
+        note = c.under_terrain_note(camera)
+        c.message.emit(tr("Rough camera loaded from {0}.").format(name) + note, WARNING if note else INFO)
         return camera
     info = {"loaded_from": path}
     n_check, check_rmse = measured_on_pairs(camera, *c.check_points()[1:])

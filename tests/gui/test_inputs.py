@@ -76,6 +76,27 @@ def test_kml_prior_import(dock, scene, tmp_path):
         assert box.buffered(1e-6 * max(box.width(), box.height())).contains(apex), (crs.authid(), box, apex)
 
 
+def test_a_rough_camera_deep_under_the_dem_is_said_to_have_a_wrong_height(dock, scene, tmp_path, qgis_iface):
+    """A trial's camera JSON stood 29 m under the terrain: "Rough camera loaded" alone, then the fit pinned it on the
+    ground at 0 m. The import says the height is wrong; a camera above the DEM gets no such words."""
+    from monoplot_plugin.gui.io_actions import load_camera_file
+    from monoplot_plugin.workflow.camera_files import save_camera
+
+    dock.photoFile.setFilePath(scene.photo_path)
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    ground = float(scene.dem.sample(*scene.camera.position[:2]))
+    for name, height in (("under.json", -35.0), ("above.json", 60.0)):
+        path = str(tmp_path / name)
+        save_camera(path, scene.camera.with_parameters(z=ground + height))
+        before = len(qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Warning))
+        assert load_camera_file(dock.controller, path) is not None
+        warned = [m for m in qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Warning)[before:]
+                  if "under the DEM" in m]
+        assert len(warned) == (height < 0), (name, warned)
+        if warned:
+            assert "35 m under the DEM" in warned[0] and "Above ground" in warned[0]
+
+
 def test_rough_camera_drawn_by_press_and_drag(dock, scene, qtbot):
     dock.photoFile.setFilePath(scene.photo_path)
     dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
