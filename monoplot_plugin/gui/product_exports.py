@@ -59,7 +59,7 @@ class ProductExports:
 
         c = self.controller
         camera, dem, name = c.fitted, c.dem, self.photo_name()
-        photo = qimage_to_array(c.image) if what in ("ortho", "report") else None
+        photo = qimage_to_array(c.image)  # the XYZ raster too: a print's border and caption get no coordinates
         points, sigmas = (self.controller.report_inputs() if what == "report" else (None, None))
         checks = self.controller.report_checks() if what == "report" else None
         info = self.controller.state.fit_info if isinstance(self.controller.state.fit_info, dict) else {}
@@ -69,7 +69,7 @@ class ProductExports:
             if what == "xyz":
                 return product_step.write_xyz(path, camera, dem, photo_name=name, distance=distance,
                                           overwrite=overwrite, progress=progress, is_canceled=is_canceled,
-                                          fit=dict(info))
+                                          fit=dict(info), photo=photo)
             if what == "ortho":
                 return product_step.orthophoto(path, photo, camera, dem, product_step.AUTO, overwrite=overwrite,
                                                progress=progress, is_canceled=is_canceled)

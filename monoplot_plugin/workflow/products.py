@@ -31,7 +31,7 @@ def _committed(is_canceled: Optional[IsCanceled]):
     return nullcontext() if is_canceled is None else cancel_before_commit(is_canceled, also_outer=True)
 
 __all__ = ["ProductError", "write_xyz", "orthophoto", "report", "ortho_grid", "dem_at_resolution", "auto_resolution",
-           "ground_error", "MAX_ORTHO_CELLS", "AUTO"]
+           "ground_error", "picture_area", "MAX_ORTHO_CELLS", "AUTO"]
 
 #: an orthophoto grid larger than this many cells is refused (memory)
 MAX_ORTHO_CELLS = 50_000_000
@@ -45,19 +45,61 @@ class ProductError(ValueError):
     """A product cannot be made from these inputs; the message says why."""
 
 
+def picture_area(photo: np.ndarray, work_size: int = 2000) -> Optional[np.ndarray]:
+    """(H, W) bool, where ``photo`` shows the scene: not a print's paper border, frame line or printed caption (the
+    photo suggestions' :func:`~..core.suggest_photo.picture_mask`, found on a copy at most ``work_size`` px on its
+    long side); None when that is the whole photo. A photo that fills its frame loses no edge pixels.
+
+    A scanned print's caption was draped onto the terrain of the orthophoto, and its border got map coordinates in
+    the XYZ raster (a desktop trial on a generated print): the products leave them out.
+    """
+    import cv2
+
+    from ..core.suggest_photo import picture_box, picture_mask, to_gray
+
+    gray = to_gray(photo)
+    h, w = gray.shape
+    scale = min(1.0, float(work_size) / max(h, w))
+    small = cv2.resize(gray, (max(1, round(w * scale)), max(1, round(h * scale))), interpolation=cv2.INTER_AREA) \
+        if scale < 1.0 else gray
+    framed = picture_box(small) != (0, small.shape[0], 0, small.shape[1])
+    mask = picture_mask(small, inset=0.006 if framed else 0.0)
+    if mask.all():
+        return None
+    if scale < 1.0:
+        mask = cv2.resize(mask.astype(np.uint8), (w, h), interpolation=cv2.INTER_NEAREST).astype(bool)
+    return mask
+
+
+def _in_picture(xyz: np.ndarray, photo: Optional[np.ndarray]) -> np.ndarray:
+    """``xyz`` (H, W, 3), or a copy with NaN where ``photo`` shows no scene (:func:`picture_area`)."""
+    area = None if photo is None else picture_area(photo)
+    if area is None:
+        return xyz
+    out = np.array(xyz, copy=True)
+    out[~area] = np.nan
+    return out
+
+
 def write_xyz(path, camera: Camera, dem, crs_wkt: Optional[str] = None, photo_name: str = "",
               distance: bool = False, overwrite: bool = False, progress: Optional[Progress] = None,
-              is_canceled: Optional[IsCanceled] = None, fit: Optional[dict] = None) -> Path:
+              is_canceled: Optional[IsCanceled] = None, fit: Optional[dict] = None,
+              photo: Optional[np.ndarray] = None) -> Path:
     """The 3-band X, Y, Z GeoTIFF of the photo's pixels (nodata for the sky); a 4th band of distances from the
-    camera only when ``distance`` is asked; ``fit``: the camera's verdict and errors, kept in the metadata."""
+    camera only when ``distance`` is asked; ``fit``: the camera's verdict and errors, kept in the metadata;
+    ``photo`` (H, W, 3): when given, its print border and caption are nodata too (:func:`picture_area`)."""
     from ..outputs.xyz_raster import write_xyz_raster
 
     result = xyz_result(camera, dem, visibility=False, progress=part(progress, 0.0, 0.8), is_canceled=is_canceled)
     check_canceled(is_canceled)
+    area = None if photo is None else picture_area(photo)
+    xyz, dist = result.xyz, result.distance if distance else None
+    if area is not None:
+        xyz = _in_picture(xyz, photo)
+        dist = None if dist is None else np.where(area, dist, np.nan)
     with _committed(is_canceled):
-        written = write_xyz_raster(path, result.xyz, crs_wkt if crs_wkt is not None else dem.crs_wkt,
-                                   result.distance if distance else None, overwrite=overwrite, camera=camera,
-                                   photo_name=photo_name, fit=fit)
+        written = write_xyz_raster(path, xyz, crs_wkt if crs_wkt is not None else dem.crs_wkt, dist,
+                                   overwrite=overwrite, camera=camera, photo_name=photo_name, fit=fit)
     if progress is not None:
         progress(1.0, "")
     return written
@@ -66,7 +108,8 @@ def write_xyz(path, camera: Camera, dem, crs_wkt: Optional[str] = None, photo_na
 def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution=None,
                overwrite: bool = False, progress: Optional[Progress] = None,
                is_canceled: Optional[IsCanceled] = None, grid=None) -> Path:
-    """The photo (H, W, 3) draped on the DEM: a north-up RGBA GeoTIFF on the DEM's grid, or on a grid of cell size
+    """The photo (H, W, 3) draped on the DEM (not its print border or caption, :func:`picture_area`): a north-up RGBA
+    GeoTIFF on the DEM's grid, or on a grid of cell size
     ``resolution`` over the same extent (elevations resampled bilinearly), or (:data:`AUTO`) at the photo's own
     detail over the part the camera sees (:func:`auto_resolution`); ``grid``: :func:`ortho_grid` when the caller has
     it already."""
@@ -77,6 +120,7 @@ def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution=None,
                            f"{camera.width}x{camera.height} px")
     xyz = xyz_result(camera, dem, visibility=False, progress=part(progress, 0.0, 0.5), is_canceled=is_canceled).xyz
     check_canceled(is_canceled)
+    xyz = _in_picture(xyz, photo)  # no print border or caption draped on the terrain
     grid = ortho_grid(camera, dem, resolution, xyz) if grid is None else grid
     check_canceled(is_canceled)
     def between_chunks(fraction: float) -> None:  # the lookup of a large grid takes a while: report, stop early
@@ -107,7 +151,7 @@ def report(path, photo: np.ndarray, camera: Camera, dem, points=None, points_csv
     result = xyz_result(camera, dem, visibility=True, progress=part(progress, 0.0, 0.6), is_canceled=is_canceled)
     check_canceled(is_canceled)
     with _committed(is_canceled):
-        written = write_report(path, photo, camera, dem, points=points, xyz=result.xyz,
+        written = write_report(path, photo, camera, dem, points=points, xyz=_in_picture(result.xyz, photo),
                                visible=result.visible, sigmas=sigmas, title=title, overwrite=overwrite,
                                verdict=verdict, checks=checks)
     if progress is not None:

@@ -116,6 +116,38 @@ def test_products_in_the_one_layout(scene, tmp_path):
     assert not (tmp_path / "never.tif").exists()
 
 
+def test_a_scanned_prints_border_and_caption_get_no_coordinates_and_are_not_draped(scene, tmp_path):
+    """A trial's generated print (paper border, printed caption): its caption was draped onto the terrain of the
+    orthophoto and 67 % of the border got map coordinates. Both products now leave them out; a photo that fills its
+    frame loses nothing."""
+    import cv2
+
+    dem, camera, _ = scene
+    camera = camera.scaled(600 / camera.width)
+    photo = render_photo(camera, dem)
+    assert products.picture_area(photo) is None  # no border: every pixel is the scene's
+    paper = (250, 246, 235)  # cream: no terrain, snow or haze colour of the renderer has red over blue like it
+    printed = photo.copy()
+    w, h = camera.image_size
+    printed[:24], printed[-50:], printed[:, :24], printed[:, -24:] = paper, paper, paper, paper
+    cv2.putText(printed, "Das Grosse Tal 1891 No 4127", (40, h - 56), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (20, 20, 20), 2)
+    area = products.picture_area(printed)
+    assert area is not None and area[h // 2, w // 2] and not area[5, w // 2] and not area[h - 60, 120]
+    plain_ds = gdal.Open(str(products.write_xyz(tmp_path / "plain.tif", camera, dem)))
+    print_ds = gdal.Open(str(products.write_xyz(tmp_path / "print.tif", camera, dem, photo=printed)))
+    plain, xyz_print = plain_ds.ReadAsArray(), print_ds.ReadAsArray()
+    nodata = print_ds.GetRasterBand(3).GetNoDataValue()
+    gone = ~np.isfinite(xyz_print[2]) | (xyz_print[2] == nodata)
+    seen = np.isfinite(plain[2]) & (plain[2] != nodata)
+    assert (seen & ~area).sum() > 1000 and gone[~area].all()  # the border and caption had coordinates: no more
+    assert np.array_equal(xyz_print[:, area & seen], plain[:, area & seen])  # the picture as before
+    ortho = gdal.Open(str(products.orthophoto(tmp_path / "ortho.tif", printed, camera, dem))).ReadAsArray()
+    r, g, b, alpha = ortho.astype(int)
+    cream = (alpha > 0) & (r > 235) & (r - b > 8)
+    text = (alpha > 0) & (r < 40) & (g < 40) & (b < 40)
+    assert alpha.any() and not cream.any() and not text.any()
+
+
 def test_a_cancel_while_a_product_is_written_leaves_the_earlier_file(scene, tmp_path):
     """A cancel that comes while the writer runs (after the last check before writing) still stops the rename:
     the XYZ raster, orthophoto and report written before stay byte for byte (a desktop trial saw them replaced

@@ -64,7 +64,8 @@ class ComputeXyz(_CameraDemAlgorithm):
     _display = "Compute XYZ raster"
     _help = ("Intersects the ray of every photo pixel with the DEM and writes a 3-band GeoTIFF of the photo's size "
              "(bands X, Y, Z in the DEM's CRS; nodata where the ray sees the sky). With it, every pixel of the photo "
-             "has map coordinates.")
+             "has map coordinates. Given the photo, the paper border, frame and printed caption of a scanned print "
+             "get no coordinates (nodata).")
 
     def initAlgorithm(self, config=None):
         self.add_camera_dem()
@@ -82,8 +83,11 @@ class ComputeXyz(_CameraDemAlgorithm):
         check_canceled(feedback)
         ground = float(np.isfinite(xyz[..., 2]).mean())
         self.check_not_empty(parameters, context, int(ground > 0), "XYZ raster", NO_GROUND)
+        # with the photo, a scanned print's border and caption get no coordinates
+        path = self.parameterAsFile(parameters, "PHOTO", context)
+        photo = checked(read_photo, path) if path else None
         pipeline.write_xyz(out, camera, dem, crs.toWkt(), progress=progress_callback(feedback, 80, 95),
-                           is_canceled=cancel_callback(feedback))
+                           is_canceled=cancel_callback(feedback), photo=photo)
         feedback.pushInfo(self.tr("{0:.1f}% of the pixels hit the DEM; written to {1}").format(100 * ground, out))
         feedback.setProgress(100)
         return {"OUTPUT": out, "GROUND_FRACTION": ground}
