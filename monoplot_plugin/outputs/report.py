@@ -75,7 +75,8 @@ def parameter_sigmas(camera, points: ReportPoints, names: Sequence[str] = FIT_PA
 def write_report(path, photo: np.ndarray, camera, dem, points: Optional[ReportPoints] = None, *,
                  xyz: Optional[np.ndarray] = None, visible: Optional[np.ndarray] = None,
                  sigmas: Optional[Dict[str, float]] = None, title: str = "", overwrite: bool = False,
-                 verdict: str = "", checks: Optional[ReportPoints] = None) -> Path:
+                 verdict: str = "", checks: Optional[ReportPoints] = None,
+                 picture: Optional[np.ndarray] = None) -> Path:
     """Write the one-page report.
 
     Args:
@@ -89,6 +90,8 @@ def write_report(path, photo: np.ndarray, camera, dem, points: Optional[ReportPo
         title: heading (default: "Monoplot report").
         verdict: the fit's status and message (e.g. ``"uncertain: ... add check points."``), printed under the
             parameters so that a report of a doubtful camera says so.
+        picture: (H, W) bool, where the photo shows the scene (not a print's border or caption): the contours and
+            the share of ground seen keep to it (None: everywhere).
         checks: independent check points (kept out of the fit), drawn in magenta with their residuals; their RMSE
             is the camera's measured accuracy and is printed first.
         overwrite: replace an existing file (default: refuse with OutputExistsError).
@@ -123,11 +126,12 @@ def write_report(path, photo: np.ndarray, camera, dem, points: Optional[ReportPo
     ax_overlay = fig.add_axes((0.06, 0.33, 0.43, 0.24))
     ax_map = fig.add_axes((0.54, 0.29, 0.40, 0.27))  # its title stays below the photo
     ax_text = fig.add_axes((0.06, 0.03, 0.88, 0.24))
-    _draw_points(ax_photo, photo, points, residual, rmse)
+    _draw_points(ax_photo, photo, points, residual, rmse, verdict_status(verdict))
     check_rmse = _draw_checks(ax_photo, camera, checks)
-    _draw_overlay(ax_overlay, photo, xyz)
+    ground_xyz = xyz if picture is None else np.where(np.asarray(picture, dtype=bool)[..., None], xyz, np.nan)
+    _draw_overlay(ax_overlay, photo, xyz, ground_xyz)
     _draw_footprint(ax_map, camera, dem, visible, points)
-    _draw_parameters(ax_text, camera, sigmas, rmse, points, xyz, verdict, check_rmse, checks)
+    _draw_parameters(ax_text, camera, sigmas, rmse, points, ground_xyz, verdict, check_rmse, checks)
     import io
 
     page = io.BytesIO()  # rendered in memory: matplotlib's own errors on a full disk hide the cause
@@ -144,7 +148,37 @@ def _crs_label(crs_wkt: str) -> str:
     return crs_authid(crs_wkt) or "CRS without identifier"
 
 
-def _draw_points(ax, photo, points, residual, rmse):
+#: badge colours of the fit's statuses (the dock's: green, amber, red)
+STATUS_COLOURS = {"ok": "#1a7f37", "uncertain": "#b35900", "poor": "#c62828", "refused": "#c62828"}
+
+
+def verdict_status(verdict: str) -> str:
+    """The status word a verdict ``"status: message"`` starts with ("" when none).
+
+    >>> verdict_status("uncertain: unpaired fit ..."), verdict_status("")
+    ('uncertain', '')
+    """
+    head = verdict.split(":", 1)[0].strip()
+    return head if head in STATUS_COLOURS else ""
+
+
+def verdict_first(verdict: str) -> str:
+    """The verdict with its judgement first ("Uncertain: ..." / "Probably wrong: ...", then the figures): cut to fit
+    the page, it keeps why (a long automatic verdict lost its reason at the bottom of the page).
+
+    >>> verdict_first("uncertain: paired fit on 9 pairs: RMSE 2.0 px. Uncertain: the pairs cover 1 %.")
+    'Fit status uncertain. Uncertain: the pairs cover 1 %. Figures: paired fit on 9 pairs: RMSE 2.0 px.'
+    """
+    status = verdict_status(verdict)
+    message = verdict.split(":", 1)[1].strip() if status else verdict
+    for word in ("Probably wrong:", "Uncertain:"):
+        at = message.find(word)
+        if at > 0:
+            return f"Fit status {status}. {message[at:].strip()} Figures: {message[:at].strip()}"
+    return f"Fit status {status}: {message}" if status else f"Fit status {message}"
+
+
+def _draw_points(ax, photo, points, residual, rmse, status=""):
     ax.imshow(photo, cmap="gray" if photo.ndim == 2 else None, interpolation="antialiased")
     ax.set_title("Control points: picked (○), reprojected (+), residuals ×10", fontsize=9, loc="left")
     if points is not None and residual is not None:
@@ -156,9 +190,11 @@ def _draw_points(ax, photo, points, residual, rmse):
                   scale=1, color="red", width=0.003)
         for name, (u, v) in zip(points.names, uv):
             ax.annotate(name, (u, v), xytext=(4, -4), textcoords="offset points", color="yellow", fontsize=7)
-        if rmse is not None:
-            ax.text(8, photo.shape[0] - 8, f"RMSE {rmse:.2f} px", color="white", fontsize=9, va="bottom",
-                    bbox=dict(facecolor="black", alpha=0.5, edgecolor="none"))
+        if rmse is not None:  # the status first, in its colour: an "uncertain" camera must not read as fine
+            ax.text(8, photo.shape[0] - 8, (f"{status} · " if status else "") + f"RMSE {rmse:.2f} px", color="white",
+                    fontsize=9, va="bottom", weight="bold" if status else "normal",
+                    bbox=dict(facecolor=STATUS_COLOURS.get(status, "black"), alpha=0.85 if status else 0.5,
+                              edgecolor="none"))
     ax.set_xlim(0, photo.shape[1])
     ax.set_ylim(photo.shape[0], 0)
     ax.set_aspect("equal", adjustable="box")  # the axes shrink to the photo: nothing drawn beyond its edges
@@ -181,9 +217,12 @@ def _draw_checks(ax, camera, checks: Optional[ReportPoints]) -> Optional[float]:
     return float(np.sqrt(np.mean(np.sum(residual ** 2, axis=1))))
 
 
-def _draw_overlay(ax, photo, xyz):
+def _draw_overlay(ax, photo, xyz, ground_xyz=None):
+    """Contours of ``ground_xyz`` (default ``xyz``) and the skyline of ``xyz`` over the photo: a print's border,
+    left out of the ground, is no skyline."""
     ax.imshow(photo, cmap="gray" if photo.ndim == 2 else None, alpha=0.8)
-    z = xyz[..., 2]
+    sky = ~np.isfinite(xyz[..., 2])
+    z = (xyz if ground_xyz is None else ground_xyz)[..., 2]
     ax.set_title("DEM seen from the camera: contours and skyline", fontsize=9, loc="left")
     if np.isfinite(z).any():
         lo, hi = np.nanpercentile(z, [1, 99])
@@ -192,7 +231,7 @@ def _draw_overlay(ax, photo, xyz):
         centres = np.arange(z.shape[1]) + 0.5, np.arange(z.shape[0]) + 0.5
         contours = ax.contour(*centres, np.ma.masked_invalid(z), levels=levels, cmap="terrain", linewidths=0.6)
         ax.clabel(contours, levels[::3], fontsize=5, fmt="%d")
-        ax.contour(*centres, np.isfinite(z).astype(float), levels=[0.5], colors="red", linewidths=1.0)  # skyline
+        ax.contour(*centres, (~sky).astype(float), levels=[0.5], colors="red", linewidths=1.0)  # skyline
     ax.set_xlim(0, photo.shape[1])
     ax.set_ylim(photo.shape[0], 0)
     ax.set_aspect("equal", adjustable="box")  # the axes shrink to the photo: nothing drawn beyond its edges
@@ -284,7 +323,7 @@ def _draw_parameters(ax, camera, sigmas, rmse, points, xyz, verdict="", check_rm
         import textwrap
 
         lines.append("")
-        wrapped = textwrap.wrap("Fit status " + verdict, 110)
+        wrapped = textwrap.wrap(verdict_first(verdict), 110)
         room = REPORT_TEXT_LINES - len(lines)  # a long automatic verdict ran off the bottom of the page
         if len(wrapped) > room:
             wrapped = wrapped[:max(1, room - 1)] + ["… (cut to fit the page)"]

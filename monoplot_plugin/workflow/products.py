@@ -151,7 +151,7 @@ def report(path, photo: np.ndarray, camera: Camera, dem, points=None, points_csv
     result = xyz_result(camera, dem, visibility=True, progress=part(progress, 0.0, 0.6), is_canceled=is_canceled)
     check_canceled(is_canceled)
     with _committed(is_canceled):
-        written = write_report(path, photo, camera, dem, points=points, xyz=_in_picture(result.xyz, photo),
+        written = write_report(path, photo, camera, dem, points=points, xyz=result.xyz, picture=picture_area(photo),
                                visible=result.visible, sigmas=sigmas, title=title, overwrite=overwrite,
                                verdict=verdict, checks=checks)
     if progress is not None:

@@ -83,6 +83,30 @@ def test_a_long_fit_status_is_cut_to_the_page(plane_scene):
         assert text.endswith("(cut to fit the page)") == cut and "Fit status" in text
 
 
+def test_the_status_leads_the_badge_and_the_reason_survives_the_cut(plane_scene):
+    """A trial's report showed "RMSE 2.43 px" alone in the badge, and the reason of an "uncertain" verdict was cut
+    off at the bottom of the page: the badge now starts with the status, in its colour, and the text with why."""
+    from matplotlib.colors import to_hex
+    from matplotlib.figure import Figure
+
+    from monoplot_plugin.outputs.report import STATUS_COLOURS, _draw_parameters, _draw_points
+
+    scene = plane_scene
+    points = scene_points(scene)
+    residual = scene.camera.project(points.xyz) - points.uv
+    ax = Figure().add_subplot()
+    _draw_points(ax, scene.photo, points, residual, 2.43, "uncertain")
+    badge = next(t for t in ax.texts if "RMSE" in t.get_text())
+    assert badge.get_text() == "uncertain · RMSE 2.43 px"
+    assert to_hex(badge.get_bbox_patch().get_facecolor()) == STATUS_COLOURS["uncertain"]
+    verdict = ("uncertain: unpaired fit: 287 of 462 photo points matched. " + "The residuals measure agreement. " * 40
+               + "Uncertain: the camera stands 36 m under the terrain.")
+    ax = Figure().add_subplot()
+    _draw_parameters(ax, scene.camera, None, 1.0, points, scene.xyz, verdict)
+    text = ax.texts[0].get_text()
+    assert text.endswith("(cut to fit the page)") and "36 m under the terrain" in text
+
+
 def test_check_points_are_drawn_and_measured_first(plane_scene, tmp_path):
     """A table with a check column: the check rows are drawn apart and their RMSE is the first line after the
     parameters (the measured accuracy), the fitted rows keep the fit's RMSE."""
