@@ -35,7 +35,8 @@ from typing import Callable, Dict, Iterable, List, Optional, Sequence, Tuple
 __all__ = [
     "SUGGESTED", "ACCEPTED", "REJECTED", "CHECK", "STATUSES", "PHOTO", "MAP",
     "Point", "ProjectState", "Edit", "CommandStack",
-    "add_points", "remove_points", "set_status", "move_point", "replace_suggestions", "link", "unlink", "set_check",
+    "add_points", "remove_points", "set_status", "move_point", "replace_suggestions", "replace_in_views", "link",
+    "unlink", "set_check",
     "points_table", "points_from_table",
 ]
 
@@ -362,16 +363,32 @@ def replace_suggestions(state: ProjectState, space: str, points: Sequence[Point]
     points with this label that a machine accepted and nobody touched since (still accepted, not manual, in no
     pair): the automatic registration's matches of an earlier run, which a new run replaces rather than adds to.
     """
+    return replace_in_views(state, {space: points}, text, machine_label)
+
+
+def replace_in_views(state: ProjectState, points_by_space: Dict[str, Sequence[Point]], text: str = "Suggest points",
+                     machine_label: Optional[str] = None) -> Edit:
+    """:func:`replace_suggestions` in several views at once: one edit, so one Undo takes back a whole Suggest or
+    automatic registration (it took two, the photo's and the DEM's, and the first left half of it in place).
+
+    >>> s = ProjectState()
+    >>> e = replace_in_views(s, {PHOTO: [Point("a", PHOTO, 1, 2)], MAP: [Point("b", MAP, 3, 4, 5)]}); e.redo(s)
+    >>> sorted(s.points), e.text
+    (['a', 'b'], 'Suggest points')
+    """
     paired = {i for pair in state.pairs for i in pair}
-    old = [p for p in state.in_space(space, (SUGGESTED,)) if not p.manual]
-    if machine_label is not None:
-        old += [p for p in state.in_space(space, (ACCEPTED,)) if p.label == machine_label and not p.manual
-                and p.id not in paired]
+    old: List[Point] = []
+    for space in points_by_space:
+        old += [p for p in state.in_space(space, (SUGGESTED,)) if not p.manual]
+        if machine_label is not None:
+            old += [p for p in state.in_space(space, (ACCEPTED,)) if p.label == machine_label and not p.manual
+                    and p.id not in paired]
     before: Dict[str, Optional[Point]] = {p.id: p for p in old}
     after: Dict[str, Optional[Point]] = {p.id: None for p in old}
-    for p in points:
-        before[p.id] = None
-        after[p.id] = p
+    for points in points_by_space.values():
+        for p in points:
+            before[p.id] = None
+            after[p.id] = p
     pairs_after = _pairs_without(state, [p.id for p in old])
     return Edit(text, before=before, after=after,
                 pairs_before=list(state.pairs) if pairs_after is not None else None, pairs_after=pairs_after)

@@ -22,7 +22,7 @@ from qgis.PyQt.QtWidgets import QAction
 from ..adapters import layers as camera_layers
 from ..adapters.photo import qimage_to_array
 from ..core.auto.overlay import draw_alignment
-from ..state import ACCEPTED, MAP, PHOTO, SUGGESTED, Point, replace_suggestions
+from ..state import ACCEPTED, MAP, PHOTO, SUGGESTED, Point, replace_in_views
 from ..workflow import auto as auto_step
 from ..workflow.progress import part
 from . import engine
@@ -104,8 +104,8 @@ class AutoPanel(QObject):
         if photo_pts:
             replaced = len([p for p in c.state.points.values() if p.status == SUGGESTED and not p.manual])
             # an earlier run's matches nobody touched go too: a second run replaces them (it had doubled them)
-            c.stack.push(replace_suggestions(c.state, PHOTO, photo_pts, self.tr("Automatic photo points"), label))
-            c.stack.push(replace_suggestions(c.state, MAP, map_pts, self.tr("Automatic DEM points"), label))
+            c.stack.push(replace_in_views(c.state, {PHOTO: photo_pts, MAP: map_pts}, self.tr("Automatic points"),
+                                          label))
         info = {"status": status, "rmse_px": _finite(r.rmse_px), "loo_rmse_px": _finite(r.loo_rmse_px),
                 "sigma": {k: float(v) for k, v in (r.std or {}).items()}, "converged": status == "ok",
                 "message": str(checked["message"]), "mode": "automatic", "n_photo": len(photo_pts),

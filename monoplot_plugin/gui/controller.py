@@ -20,7 +20,7 @@ from qgis.PyQt.QtGui import QImage
 from ..adapters.layers import mark_modified_later
 from ..adapters.photo import PhotoError, array_to_qimage, qimage_to_array, read_photo
 from ..core.camera import Camera
-from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, replace_suggestions
+from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, replace_in_views
 from ..workflow import auto as auto_step
 from ..workflow import warmup
 from . import engine, persistence
@@ -246,8 +246,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
 
         def apply(value):
             photo_pts, map_pts, near_clip_m, featureless = value
-            self.stack.push(replace_suggestions(self.state, PHOTO, photo_pts, self.tr("Suggest photo points")))
-            self.stack.push(replace_suggestions(self.state, MAP, map_pts, self.tr("Suggest DEM points")))
+            self.stack.push(replace_in_views(self.state, {PHOTO: photo_pts, MAP: map_pts}, self.tr("Suggest points")))
             text = self.tr("{0} photo and {1} DEM suggestions: accept (A / left click) or reject "
                            "(R / right click) them.").format(len(photo_pts), len(map_pts))
             if near_clip_m:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 from qgis.core import QgsProject, QgsRasterLayer
+from qgis.PyQt.QtCore import Qt
 
 from monoplot_plugin.core.camera import Camera
 from monoplot_plugin.core.synthetic import render_photo, synthetic_terrain
@@ -95,6 +96,10 @@ def test_find_camera_automatically_gives_a_camera_and_accepted_points(dock, vall
     # nor can its σ be smaller than the registration's (its own σ from those points alone would be)
     for name, value in registration_sigma.items():
         assert refit["sigma"][name] >= value - 1e-9, (name, refit["sigma"], registration_sigma)
+    # one Undo takes back the registration's points in both views (it took two: the DEM's, then the photo's)
+    assert dock.undoButton.toolTip() == "Undo Automatic points"
+    qtbot.mouseClick(dock.undoButton, Qt.MouseButton.LeftButton)
+    assert not c.state.in_space(PHOTO, (ACCEPTED,)) and not c.state.in_space(MAP, (ACCEPTED,))
 
 
 def test_a_doubtful_automatic_camera_never_replaces_the_persons_fit(dock, valley, qtbot, tmp_path):
