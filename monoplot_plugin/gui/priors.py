@@ -89,16 +89,16 @@ class PriorsMixin:
 
     def under_terrain_note(self, camera: Camera) -> str:
         """A sentence (with a leading space) saying that ``camera``'s height is wrong when it stands deeper under the
-        DEM than a coarse DEM explains (the fit then takes its height from the points,
-        :func:`~..workflow.fit.on_ground_rule`); else ""."""
+        DEM than a coarse DEM explains, and what the fit does with it (:func:`~..workflow.fit.on_ground_rule`: on
+        the ground); else ""."""
         from ..workflow.fit import ON_GROUND_MAX_M, ground_clearance
 
         clearance = ground_clearance(camera, self.dem) if self.dem is not None else math.nan
         if not (math.isfinite(clearance) and clearance < -ON_GROUND_MAX_M):
             return ""
-        return " " + self.tr("It stands {0:.0f} m under the DEM at its position: its height is wrong. Set \"Above "
-                             "ground\" (Camera tab) if you know it (about 2 m for a photographer standing on the "
-                             "ground); otherwise the fit takes the height from the points.").format(-clearance)
+        return " " + self.tr("It stands {0:.0f} m under the DEM at its position: its height is wrong, and the fit "
+                             "will hold the camera on the ground. Set \"Above ground\" (Camera tab) if you know "
+                             "its height.").format(-clearance)
 
     def prior_from_map(self, x: float, y: float, heading: float, fov: float, pitch: float = 0.0,
                        height_above_ground: float = 2.0) -> Optional[Camera]:

