@@ -348,8 +348,8 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             self.cap_by_automatic(outcome.info, photo_ids + world_ids, len(pairs), len(check_ids))
             self._apply_fit(outcome)
 
-        return self._start("fit", self.tr("Fit camera") if known is None else self.tr("Fit camera (known fit)"),
-                           work, apply)
+        title = self.tr("Fit camera") if known is None else self.tr("Fit camera (already fitted in the background)")
+        return self._start("fit", title, work, apply)
 
     def cap_by_automatic(self, info: dict, ids, n_pairs: int, n_check: int) -> None:
         """A fit on the points ``ids`` while they are all the automatic registration's own matches: its status capped

@@ -55,7 +55,7 @@ def _fit_after_refit(dock, scene, qtbot, photo, world, added):
     qtbot.mouseClick(dock.fitButton, Qt.MouseButton.LeftButton)
     with qtbot.waitSignal(c.taskFinished, timeout=60000) as done:
         pass
-    assert done.args[0].ok and added == ["Fit camera (known fit)"]
+    assert done.args[0].ok and added == ["Fit camera (already fitted in the background)"]
     assert c.fitted == outcome.camera and c.overlay is not None
     assert c.state.fit_info["n_photo"] == 20 and len(c.state.fit_info["matched"]) >= 15
     # more points: a fit of its own, and no background refit beside it
