@@ -16,7 +16,8 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-__all__ = ["picture_mask", "picture_box", "caption_boxes", "to_gray", "coarse_contrast", "FEATURELESS_CONTRAST"]
+__all__ = ["picture_mask", "picture_box", "box_beyond_captions", "caption_boxes", "to_gray", "coarse_contrast",
+           "FEATURELESS_CONTRAST"]
 
 #: Below this :func:`coarse_contrast` (grey levels) a photo shows almost nothing a person could recognise: its key
 #: points are on noise. Measured: a grey frame of pure noise (σ 9 grey levels) 0.4; real photos (Aletsch, old
@@ -126,23 +127,58 @@ def caption_boxes(gray: np.ndarray, box: Tuple[int, int, int, int], band: float 
     return out
 
 
-def picture_mask(image: np.ndarray, inset: float = 0.006, ignore_captions: bool = True) -> np.ndarray:
+def box_beyond_captions(gray: np.ndarray) -> Tuple[Tuple[int, int, int, int], list]:
+    """(picture box, caption boxes): :func:`picture_box` found again with the captions painted in the paper's grey,
+    so that a caption printed in the margin does not stop the border (the paper between the picture and a caption
+    under it was taken for picture: a generated print's products draped a white seam along the near edge).
+
+    >>> import cv2
+    >>> img = np.full((300, 400), 250, np.uint8)
+    >>> img[20:240, 20:380] = np.random.default_rng(1).integers(0, 200, (220, 360))    # the picture
+    >>> _ = cv2.putText(img, "MMMMMMMMMMMMMMM", (30, 275), cv2.FONT_HERSHEY_SIMPLEX, 0.8, 0, 3)  # a caption under it
+    >>> picture_box(img)[1] > 270, box_beyond_captions(img)[0][1]
+    (True, 240)
+    """
+    box = picture_box(gray)
+    captions = caption_boxes(gray, box)
+    if not captions:
+        return box, captions
+    h, w = gray.shape
+    paper = int(np.median(np.concatenate([gray[0], gray[-1], gray[:, 0], gray[:, -1]])))
+    painted = gray.copy()
+    for a, b, c, d in captions:
+        painted[a:b, c:d] = paper
+    r0, r1, c0, c1 = picture_box(painted)
+    if (r0, r1, c0, c1) == (0, h, 0, w):
+        return box, captions
+    return (max(r0, box[0]), min(r1, box[1]), max(c0, box[2]), min(c1, box[3])), captions
+
+
+def picture_mask(image: np.ndarray, inset: float = 0.006, ignore_captions: bool = True,
+                 beyond_captions: bool = False) -> np.ndarray:
     """(H, W) bool: True where the photo shows the scene (not paper border, frame line or caption).
 
     Args:
         image: (H, W) or (H, W, 3) array.
-        inset: fraction of the image size removed inside the detected picture edge (frame lines, ragged edges).
+        inset: fraction of the image size removed inside the detected picture edge (frame lines, ragged edges);
+            none when the photo fills its frame (no border found) and ``beyond_captions``.
         ignore_captions: also remove printed text lines near the top and bottom of the picture.
+        beyond_captions: the border goes on past a caption printed in the margin (:func:`box_beyond_captions`;
+            the products' mask: a white seam of paper between the picture and its caption was draped).
     """
     gray = to_gray(image)
     h, w = gray.shape
-    r0, r1, c0, c1 = picture_box(gray)
+    if beyond_captions:
+        (r0, r1, c0, c1), captions = box_beyond_captions(gray)
+        inset = inset if (r0, r1, c0, c1) != (0, h, 0, w) else 0.0
+    else:
+        r0, r1, c0, c1 = picture_box(gray)
+        captions = caption_boxes(gray, (r0, r1, c0, c1)) if ignore_captions else []
     pad = int(round(inset * max(h, w)))
     mask = np.zeros((h, w), dtype=bool)
     mask[r0 + pad:max(r0 + pad, r1 - pad), c0 + pad:max(c0 + pad, c1 - pad)] = True
-    if ignore_captions:
-        for a, b, c, d in caption_boxes(gray, (r0, r1, c0, c1)):
-            mask[a:b, c:d] = False
+    for a, b, c, d in captions if ignore_captions else []:
+        mask[a:b, c:d] = False
     return mask
 
 

@@ -128,8 +128,9 @@ def write_report(path, photo: np.ndarray, camera, dem, points: Optional[ReportPo
     ax_text = fig.add_axes((0.06, 0.03, 0.88, 0.24))
     _draw_points(ax_photo, photo, points, residual, rmse, verdict_status(verdict))
     check_rmse = _draw_checks(ax_photo, camera, checks)
-    ground_xyz = xyz if picture is None else np.where(np.asarray(picture, dtype=bool)[..., None], xyz, np.nan)
-    _draw_overlay(ax_overlay, photo, xyz, ground_xyz)
+    picture = None if picture is None else np.asarray(picture, dtype=bool)
+    ground_xyz = xyz if picture is None else np.where(picture[..., None], xyz, np.nan)
+    _draw_overlay(ax_overlay, photo, xyz, picture)
     _draw_footprint(ax_map, camera, dem, visible, points)
     _draw_parameters(ax_text, camera, sigmas, rmse, points, ground_xyz, verdict, check_rmse, checks)
     import io
@@ -217,12 +218,13 @@ def _draw_checks(ax, camera, checks: Optional[ReportPoints]) -> Optional[float]:
     return float(np.sqrt(np.mean(np.sum(residual ** 2, axis=1))))
 
 
-def _draw_overlay(ax, photo, xyz, ground_xyz=None):
-    """Contours of ``ground_xyz`` (default ``xyz``) and the skyline of ``xyz`` over the photo: a print's border,
-    left out of the ground, is no skyline."""
+def _draw_overlay(ax, photo, xyz, picture=None):
+    """Contours and skyline of ``xyz`` over the photo, inside ``picture`` ((H, W) bool, None: everywhere): a print's
+    border and caption get neither (left out of the ground, they are no sky either)."""
     ax.imshow(photo, cmap="gray" if photo.ndim == 2 else None, alpha=0.8)
-    sky = ~np.isfinite(xyz[..., 2])
-    z = (xyz if ground_xyz is None else ground_xyz)[..., 2]
+    outside = np.zeros(xyz.shape[:2], dtype=bool) if picture is None else ~picture
+    ground = np.ma.masked_where(outside, np.isfinite(xyz[..., 2]).astype(float))
+    z = np.where(outside, np.nan, xyz[..., 2])
     ax.set_title("DEM seen from the camera: contours and skyline", fontsize=9, loc="left")
     if np.isfinite(z).any():
         lo, hi = np.nanpercentile(z, [1, 99])
@@ -231,7 +233,7 @@ def _draw_overlay(ax, photo, xyz, ground_xyz=None):
         centres = np.arange(z.shape[1]) + 0.5, np.arange(z.shape[0]) + 0.5
         contours = ax.contour(*centres, np.ma.masked_invalid(z), levels=levels, cmap="terrain", linewidths=0.6)
         ax.clabel(contours, levels[::3], fontsize=5, fmt="%d")
-        ax.contour(*centres, (~sky).astype(float), levels=[0.5], colors="red", linewidths=1.0)  # skyline
+        ax.contour(*centres, ground, levels=[0.5], colors="red", linewidths=1.0)  # skyline
     ax.set_xlim(0, photo.shape[1])
     ax.set_ylim(photo.shape[0], 0)
     ax.set_aspect("equal", adjustable="box")  # the axes shrink to the photo: nothing drawn beyond its edges

@@ -55,15 +55,14 @@ def picture_area(photo: np.ndarray, work_size: int = 2000) -> Optional[np.ndarra
     """
     import cv2
 
-    from ..core.suggest_photo import picture_box, picture_mask, to_gray
+    from ..core.suggest_photo import picture_mask, to_gray
 
     gray = to_gray(photo)
     h, w = gray.shape
     scale = min(1.0, float(work_size) / max(h, w))
     small = cv2.resize(gray, (max(1, round(w * scale)), max(1, round(h * scale))), interpolation=cv2.INTER_AREA) \
         if scale < 1.0 else gray
-    framed = picture_box(small) != (0, small.shape[0], 0, small.shape[1])
-    mask = picture_mask(small, inset=0.006 if framed else 0.0)
+    mask = picture_mask(small, beyond_captions=True)
     if mask.all():
         return None
     if scale < 1.0:

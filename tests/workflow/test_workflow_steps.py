@@ -128,10 +128,12 @@ def test_a_scanned_prints_border_and_caption_get_no_coordinates_and_are_not_drap
     paper = (250, 246, 235)  # cream: no terrain, snow or haze colour of the renderer has red over blue like it
     printed = photo.copy()
     w, h = camera.image_size
-    printed[:24], printed[-50:], printed[:, :24], printed[:, -24:] = paper, paper, paper, paper
-    cv2.putText(printed, "Das Grosse Tal 1891 No 4127", (40, h - 56), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (20, 20, 20), 2)
+    printed[:24], printed[-80:], printed[:, :24], printed[:, -24:] = paper, paper, paper, paper
+    # a caption in the bottom margin, paper between it and the picture (that paper was draped as a white seam)
+    cv2.putText(printed, "Das Grosse Tal 1891 No 4127", (40, h - 30), cv2.FONT_HERSHEY_SIMPLEX, 0.9, (20, 20, 20), 2)
     area = products.picture_area(printed)
-    assert area is not None and area[h // 2, w // 2] and not area[5, w // 2] and not area[h - 60, 120]
+    assert area is not None and area[h // 2, w // 2] and not area[5, w // 2] and area[h - 90, w // 2]
+    assert not area[h - 80:].any()  # the seam and the caption
     plain_ds = gdal.Open(str(products.write_xyz(tmp_path / "plain.tif", camera, dem)))
     print_ds = gdal.Open(str(products.write_xyz(tmp_path / "print.tif", camera, dem, photo=printed)))
     plain, xyz_print = plain_ds.ReadAsArray(), print_ds.ReadAsArray()
