@@ -109,36 +109,10 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         "n_check": int(len(result.check_residuals_px)),
         "check_errors": [_float(np.hypot(*r)) for r in np.asarray(result.check_residuals_px).reshape(-1, 2)],
     }
-    info["message"] += unpaired_left_out(len(uv), len(xyz), pairs)
     progress(0.88, "")
     overlay, pixel_xyz, footprint = render_products(camera, dem, is_canceled)
     progress(1.0, "")
     return FitOutcome(camera, info, overlay, pixel_xyz, footprint)
-
-
-def unpaired_left_out(n_photo: int, n_map: int, pairs: Sequence[Tuple[int, int]]) -> str:
-    """The sentence (leading space) on accepted points a paired fit does not use, "" when there are none or no pairs.
-
-    A trial took 348 points with "Accept likely" after pairing 10: the fit said "paired fit on 10 pairs" and gave
-    the same camera, with no word that the click had changed nothing.
-
-    >>> unpaired_left_out(12, 10, [(0, 0), (1, 1), (2, 2), (3, 3)])[:75]
-    ' 8 accepted photo points and 6 map points without a partner are not used: a'
-    >>> unpaired_left_out(4, 4, [(0, 0), (1, 1), (2, 2), (3, 3)]), unpaired_left_out(9, 9, [])
-    ('', '')
-    """
-    if not len(pairs):
-        return ""
-    used_photo = len({int(i) for i, _ in pairs})
-    used_map = len({int(j) for _, j in pairs})
-    photo, world = max(0, n_photo - used_photo), max(0, n_map - used_map)
-    if not photo and not world:
-        return ""
-    parts = [f"{n} accepted {what} point{'s' if n != 1 else ''}" for n, what in ((photo, "photo"), (world, "map"))
-             if n]
-    text = " and ".join(parts).replace("accepted map", "map") if len(parts) == 2 else parts[0]
-    return (f" {text} without a partner {'are' if photo + world > 1 else 'is'} not used: a fit with pairs uses the "
-            f"pairs only (remove the pairs, or pair these points, to use them).")
 
 
 def _inliers(result) -> np.ndarray:
