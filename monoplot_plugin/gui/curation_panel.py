@@ -158,6 +158,7 @@ class CurationPanel(QWidget):
         c.pointsChanged.connect(self._on_points)
         c.cameraChanged.connect(self._on_camera)
         self.refitter.refitted.connect(self._on_refit)
+        self.refitter.unavailable.connect(self._refit_stale)
         c.busyChanged.connect(self._on_busy)
         self.refitter.running.connect(lambda on: self._update_info())
         self._on_camera()
@@ -281,6 +282,16 @@ class CurationPanel(QWidget):
             self.refit_info = self.tr("refit {0}, ranking unchanged: accept a few more points you recognise on "
                                       "the photo and on the map").format(self.tr(outcome.status))
         self._redraw()
+
+    def _refit_stale(self) -> None:
+        """Too few accepted points for a refit (an Undo took them back): an earlier refit's camera no longer ranks
+        nor labels the view ("camera: refit, 2.2 px" stayed with no point accepted); the prior or the Fit button's
+        camera takes over."""
+        if self.ranking_status and self.refit_info.startswith(self.tr("refit")):
+            self._camera_key = None
+            self.c.shortlist.set_outliers([])
+            self._on_camera()
+            self._redraw()
 
     def _update_info(self) -> None:
         sl = self.c.shortlist

@@ -103,10 +103,12 @@ def sigma_of(rmse_px: float) -> float:
 
 
 class Refitter(QObject):
-    """Signals: ``refitted(RefitOutcome)`` on the main thread; ``running(bool)``."""
+    """Signals: ``refitted(RefitOutcome)`` on the main thread; ``running(bool)``; ``unavailable()``: the accepted
+    points can no longer be refitted (too few, e.g. after an Undo), so an earlier refit's camera is stale."""
 
     refitted = pyqtSignal(object)
     running = pyqtSignal(bool)
+    unavailable = pyqtSignal()
 
     def __init__(self, controller, delay_ms: int = 600, parent=None):
         super().__init__(parent)
@@ -169,6 +171,8 @@ class Refitter(QObject):
             return  # (the Fit button's fit is running: its result re-ranks, and it must not share the cores)
         inputs = c.fit_inputs()
         if isinstance(inputs, str):
+            self._key = self.accepted_key()
+            self.unavailable.emit()
             return
         self._key = self.accepted_key()
         uv, xyz, pairs = inputs

@@ -279,6 +279,22 @@ def test_background_refit_links_likely_pairs_and_flags_outliers(dock, scene, qtb
     assert all(c.state.points[p.id].status == ACCEPTED for p in wrong)  # one undo entry
 
 
+def test_a_refit_camera_gives_way_when_an_undo_leaves_too_few_points(dock, scene, qtbot):
+    """A trial undid the automatic registration's points: "camera: refit, 2.2 px (uncertain)" stayed with no point
+    accepted. With too few points to refit, the rough camera ranks and labels the view again."""
+    load_inputs(dock, scene, qtbot)
+    c, panel = dock.controller, dock.curation_panel
+    photo, world = add_scene_points(dock, scene)
+    c.set_prior(scene.prior)
+    with qtbot.waitSignal(panel.refitter.refitted, timeout=120000):
+        c.set_status([p.id for p in photo[:15]] + [w.id for w in world[:15]], ACCEPTED)
+    assert panel.refit_info.startswith("refit") and "camera: refit" in dock.countsLabel.text()
+    with qtbot.waitSignal(panel.refitter.unavailable, timeout=10000):
+        c.stack.undo()  # the 30 accepts were one edit
+    assert panel.refit_info == "rough" and c.shortlist.camera == c.prior
+    assert "camera: refit" not in dock.countsLabel.text()
+
+
 def test_a_change_during_a_refit_cancels_it_and_the_next_refit_uses_the_new_points(dock, scene, qtbot):
     load_inputs(dock, scene, qtbot)
     c, refit = dock.controller, dock.curation_panel.refitter
