@@ -392,8 +392,8 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
                  i.get("n_matched"), float(i.get("elapsed_s") or 0.0), i.get("message", ""))
         self.state.fitted = outcome.camera.to_dict()
         self.state.fit_info = outcome.info
-        self.overlay = None if outcome.overlay is None else array_to_qimage(outcome.overlay)
-        self.xyz = outcome.xyz
+        overlay, self.xyz = self.in_picture(outcome.overlay, outcome.xyz)  # not over a print's border
+        self.overlay = None if overlay is None else array_to_qimage(overlay)
         self.footprint_wkt = outcome.footprint_wkt
         self.cameraChanged.emit()
         self._changed()
@@ -414,8 +414,9 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             if generation != self._products_generation or self.state.fitted != key or self.dem is not dem:
                 return  # another camera or DEM since: stale
             overlay, xyz, footprint = value
+            overlay, self.xyz = self.in_picture(overlay, xyz)
             self.overlay = None if overlay is None else array_to_qimage(overlay)
-            self.xyz, self.footprint_wkt = xyz, footprint
+            self.footprint_wkt = footprint
             self.cameraChanged.emit()
             self.productsReady.emit()
 

@@ -21,6 +21,7 @@ class ResultsHost(Protocol):
     """What :class:`ResultsMixin` uses of the controller."""
 
     state: object  # ProjectState
+    image: object  # QImage of the photo or None
     dem: object  # core Dem or None
     xyz: Optional[np.ndarray]  # (H, W, 3) per-pixel map XYZ of the fitted camera, NaN = sky
     fitted: object  # Camera or None
@@ -141,6 +142,37 @@ class ResultsMixin:
     def residual_segments(self) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:
         """(photo pixel, matched DEM point's pixel) segments of :meth:`residuals`."""
         return [(a, b) for _, a, b in self.residuals()]
+
+    def in_picture(self, overlay: Optional[np.ndarray], xyz: Optional[np.ndarray]):
+        """(overlay RGBA, per-pixel XYZ) of a fitted camera (:func:`engine.render_products`, any size) with a scanned
+        print's border and caption left out, as the products leave them out (:func:`~..workflow.products.
+        picture_area`): transparent and NaN there (the relief was drawn over the paper, the cursor gave it map
+        coordinates). The photo's area is found once per photo."""
+        area = self._picture_area()
+        if area is None or (overlay is None and xyz is None):
+            return overlay, xyz
+        import cv2
+
+        shape = (overlay if overlay is not None else xyz).shape[:2]
+        if area.shape != shape:
+            area = cv2.resize(area.astype(np.uint8), (shape[1], shape[0]), interpolation=cv2.INTER_NEAREST) > 0
+        if overlay is not None:
+            overlay = overlay.copy()
+            overlay[~area, 3] = 0
+        if xyz is not None:
+            xyz = np.where(area[..., None], xyz, np.nan)
+        return overlay, xyz
+
+    def _picture_area(self) -> Optional[np.ndarray]:
+        from ..adapters.photo import qimage_to_array
+        from ..workflow.products import picture_area
+
+        key = (self.state.photo_path, self.photo_size)
+        cached = self.__dict__.get("_picture_cache")
+        if cached is None or cached[0] != key:
+            area = None if self.image is None else picture_area(qimage_to_array(self.image))
+            cached = self.__dict__["_picture_cache"] = (key, area)
+        return cached[1]
 
     def ground_at_pixel(self, u: float, v: float) -> Optional[Tuple[float, float, float]]:
         """Map (X, Y, Z) seen at photo pixel (u, v), or None (sky, outside, no fit)."""

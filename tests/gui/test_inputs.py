@@ -97,6 +97,36 @@ def test_a_rough_camera_deep_under_the_dem_is_said_to_have_a_wrong_height(dock, 
             assert "35 m under the DEM" in warned[0] and "Above ground" in warned[0]
 
 
+def test_a_prints_border_gets_no_relief_overlay_and_no_ground_under_the_cursor(dock, scene, tmp_path, qtbot):
+    """A trial's scanned print: the dock drew the DEM relief over the paper border and the caption, and the cursor
+    gave map coordinates there, while the products leave them out. The dock now leaves them out too."""
+    import cv2
+
+    from monoplot_plugin.gui.io_actions import load_camera_file
+
+    photo = cv2.imread(scene.photo_path)
+    h, w = photo.shape[:2]
+    photo[:20], photo[-60:], photo[:, :20], photo[:, -20:] = (235, 246, 250), (235, 246, 250), (235, 246, 250), \
+        (235, 246, 250)  # cream paper (BGR)
+    cv2.putText(photo, "Das Grosse Tal 1891 No 4127", (40, h - 22), cv2.FONT_HERSHEY_SIMPLEX, 0.7, (20, 20, 20), 2)
+    printed = str(tmp_path / "print.png")
+    cv2.imwrite(printed, photo)
+    dock.photoFile.setFilePath(printed)
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    c = dock.controller
+    path = tmp_path / "camera.json"
+    path.write_text(scene.camera.to_json())
+    assert load_camera_file(c, str(path), as_fitted=True) is not None
+    qtbot.waitUntil(lambda: c.overlay is not None and c.xyz is not None, timeout=30000)
+    overlay = c.overlay
+    oh, ow = overlay.height(), overlay.width()
+    alpha = np.array([[overlay.pixelColor(x, y).alpha() for x in range(ow)] for y in range(oh)])
+    assert alpha[oh // 2, ow // 2] > 0  # the picture: relief
+    assert not alpha[: max(1, oh * 10 // h)].any() and not alpha[-(oh * 50 // h):].any()  # the paper: none
+    assert c.ground_at_pixel(w / 2, h / 2) is not None
+    assert c.ground_at_pixel(w / 2, 8) is None and c.ground_at_pixel(w / 2, h - 10) is None
+
+
 def test_rough_camera_drawn_by_press_and_drag(dock, scene, qtbot):
     dock.photoFile.setFilePath(scene.photo_path)
     dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
