@@ -9,7 +9,8 @@ from qgis.gui import QgsMessageBar
 from qgis.PyQt.QtCore import Qt
 
 from monoplot_plugin.gui.curation_panel import MessageOnce
-from monoplot_plugin.state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, add_points, replace_suggestions
+from monoplot_plugin.state import (ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, add_points, link,
+                                   replace_suggestions)
 from test_dock import add_scene_points, load_inputs, photo_pos
 
 
@@ -259,6 +260,12 @@ def test_background_refit_links_likely_pairs_and_flags_outliers(dock, scene, qtb
     # "Accept likely": both ends of every pair, one undo entry
     n_before = c.state.counts()[PHOTO][ACCEPTED]
     assert panel.acceptLikelyButton.isEnabled()
+    # with a pair of the person's own the Fit is paired: the button says the points it takes would wait
+    assert "With pairs of your own" not in panel.acceptLikelyButton.toolTip()
+    c.stack.push(link(c.state, photo[chosen[0]].id, world[chosen[0]].id))
+    assert "With pairs of your own" in panel.acceptLikelyButton.toolTip()
+    c.stack.undo()
+    assert "With pairs of your own" not in panel.acceptLikelyButton.toolTip()
     with qtbot.waitSignal(panel.refitter.refitted, timeout=120000):
         press(qtbot, panel.acceptLikelyButton)
     gained = c.state.counts()[PHOTO][ACCEPTED] - n_before
