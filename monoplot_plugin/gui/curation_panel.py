@@ -75,6 +75,7 @@ class CurationPanel(QWidget):
         self.refitter = Refitter(c, parent=self)
         c.running_refit = self.refitter.running_fit  # the Fit button waits for a refit of the same inputs
         self.refit_info = ""
+        self._refit_shown = False
         #: status of the camera the likely pairs come from ("ok", "uncertain", "rough" for the prior, "" for none)
         self.ranking_status = ""
 
@@ -234,6 +235,7 @@ class CurationPanel(QWidget):
 
     def _on_camera(self) -> None:
         """A new prior or Fit-button camera: re-rank by it (a later refit re-ranks again)."""
+        self._refit_shown = False
         c = self.c
         info = c.state.fit_info or {}
         # a fit its verdict calls poor does not rank the suggestions (a poor refit does not either): the rough
@@ -271,6 +273,7 @@ class CurationPanel(QWidget):
             self.refitter.cancel()
 
     def _on_refit(self, outcome) -> None:
+        self._refit_shown = True  # the counts line speaks of this refit until the prior or a Fit takes over
         sl = self.c.shortlist
         sl.set_outliers(outcome.outlier_ids)
         if outcome.rec is not None:
@@ -287,7 +290,7 @@ class CurationPanel(QWidget):
         """Too few accepted points for a refit (an Undo took them back): an earlier refit's camera no longer ranks
         nor labels the view ("camera: refit, 2.2 px" stayed with no point accepted); the prior or the Fit button's
         camera takes over."""
-        if self.ranking_status and self.refit_info.startswith(self.tr("refit")):
+        if self._refit_shown:
             self._camera_key = None
             self.c.shortlist.set_outliers([])
             self._on_camera()

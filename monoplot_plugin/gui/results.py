@@ -148,20 +148,15 @@ class ResultsMixin:
         print's border and caption left out, as the products leave them out (:func:`~..workflow.products.
         picture_area`): transparent and NaN there (the relief was drawn over the paper, the cursor gave it map
         coordinates). The photo's area is found once per photo."""
-        area = self._picture_area()
-        if area is None or (overlay is None and xyz is None):
-            return overlay, xyz
-        import cv2
+        from ..workflow.products import area_at, blank_outside
 
-        shape = (overlay if overlay is not None else xyz).shape[:2]
-        if area.shape != shape:
-            area = cv2.resize(area.astype(np.uint8), (shape[1], shape[0]), interpolation=cv2.INTER_NEAREST) > 0
+        area = self._picture_area()
+        if area is None:
+            return overlay, xyz
         if overlay is not None:
             overlay = overlay.copy()
-            overlay[~area, 3] = 0
-        if xyz is not None:
-            xyz = np.where(area[..., None], xyz, np.nan)
-        return overlay, xyz
+            overlay[~area_at(area, overlay.shape[:2]), 3] = 0
+        return overlay, None if xyz is None else blank_outside(xyz, area)
 
     def _picture_area(self) -> Optional[np.ndarray]:
         from ..adapters.photo import qimage_to_array

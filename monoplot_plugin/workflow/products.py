@@ -31,7 +31,7 @@ def _committed(is_canceled: Optional[IsCanceled]):
     return nullcontext() if is_canceled is None else cancel_before_commit(is_canceled, also_outer=True)
 
 __all__ = ["ProductError", "write_xyz", "orthophoto", "report", "ortho_grid", "dem_at_resolution", "auto_resolution",
-           "ground_error", "picture_area", "MAX_ORTHO_CELLS", "AUTO"]
+           "ground_error", "picture_area", "blank_outside", "area_at", "MAX_ORTHO_CELLS", "AUTO"]
 
 #: an orthophoto grid larger than this many cells is refused (memory)
 MAX_ORTHO_CELLS = 50_000_000
@@ -70,14 +70,27 @@ def picture_area(photo: np.ndarray, work_size: int = 2000) -> Optional[np.ndarra
     return mask
 
 
-def _in_picture(xyz: np.ndarray, photo: Optional[np.ndarray]) -> np.ndarray:
-    """``xyz`` (H, W, 3), or a copy with NaN where ``photo`` shows no scene (:func:`picture_area`)."""
-    area = None if photo is None else picture_area(photo)
+def blank_outside(values: np.ndarray, area: Optional[np.ndarray]) -> np.ndarray:
+    """``values`` ((H, W) or (H, W, k) per pixel), or a float copy with NaN outside ``area`` (:func:`picture_area`,
+    resized to the values' grid when it is another size, as the dock's reduced XYZ); ``area`` None: ``values``.
+
+    >>> blank_outside(np.ones((2, 2)), np.array([[True, False], [True, True]])).tolist()
+    [[1.0, nan], [1.0, 1.0]]
+    """
     if area is None:
-        return xyz
-    out = np.array(xyz, copy=True)
-    out[~area] = np.nan
+        return values
+    out = np.array(values, dtype=np.float64, copy=True)
+    out[~area_at(area, out.shape[:2])] = np.nan
     return out
+
+
+def area_at(area: np.ndarray, shape) -> np.ndarray:
+    """``area`` resized (nearest) to ``shape`` (rows, cols)."""
+    if area.shape == tuple(shape):
+        return area
+    import cv2
+
+    return cv2.resize(area.astype(np.uint8), (shape[1], shape[0]), interpolation=cv2.INTER_NEAREST) > 0
 
 
 def write_xyz(path, camera: Camera, dem, crs_wkt: Optional[str] = None, photo_name: str = "",
@@ -92,10 +105,8 @@ def write_xyz(path, camera: Camera, dem, crs_wkt: Optional[str] = None, photo_na
     result = xyz_result(camera, dem, visibility=False, progress=part(progress, 0.0, 0.8), is_canceled=is_canceled)
     check_canceled(is_canceled)
     area = None if photo is None else picture_area(photo)
-    xyz, dist = result.xyz, result.distance if distance else None
-    if area is not None:
-        xyz = _in_picture(xyz, photo)
-        dist = None if dist is None else np.where(area, dist, np.nan)
+    xyz = blank_outside(result.xyz, area)
+    dist = blank_outside(result.distance, area) if distance else None
     with _committed(is_canceled):
         written = write_xyz_raster(path, xyz, crs_wkt if crs_wkt is not None else dem.crs_wkt, dist,
                                    overwrite=overwrite, camera=camera, photo_name=photo_name, fit=fit)
@@ -119,7 +130,7 @@ def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution=None,
                            f"{camera.width}x{camera.height} px")
     xyz = xyz_result(camera, dem, visibility=False, progress=part(progress, 0.0, 0.5), is_canceled=is_canceled).xyz
     check_canceled(is_canceled)
-    xyz = _in_picture(xyz, photo)  # no print border or caption draped on the terrain
+    xyz = blank_outside(xyz, picture_area(photo))  # no print border or caption draped on the terrain
     grid = ortho_grid(camera, dem, resolution, xyz) if grid is None else grid
     check_canceled(is_canceled)
     def between_chunks(fraction: float) -> None:  # the lookup of a large grid takes a while: report, stop early
