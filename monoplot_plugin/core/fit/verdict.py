@@ -51,7 +51,7 @@ COMPETITOR_RATIO = 0.8
 #: least convex-hull share of the picture (:func:`photo_spread`) of the matched points of an unpaired fit, and of
 #: the pairs of a paired fit with position or field of view free, for an "ok". Pairs: a desktop trial's 10 exact
 #: pairs over 6.5 % of the picture were "ok" at 1.9 px RMSE with the camera 256 m off (187 px across the picture);
-#: the 92 "ok" real sets of ``eval.smapshot`` cover 10.5 % to 70 %.
+#: each of the 100 real sets of ``eval.smapshot`` covers at least 10.5 % (median 35 %).
 MIN_SPREAD, MIN_SPREAD_PAIRED = 0.05, 0.10
 #: pairs beyond the inlier radius (within twice it, more than chance adds) above this share of the inliers: the
 #: residuals are truncated by the radius, which makes an unpaired fit uncertain when converging on the pairs within
