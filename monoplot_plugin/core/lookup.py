@@ -123,6 +123,8 @@ class OrthoLookup:
     >>> lut = OrthoLookup((1, 3), (2, 1), np.array([0, 2]), np.array([1, 0]))
     >>> lut.apply(np.array([[[10, 11, 12], [20, 21, 22]]], dtype=np.uint8))[0].tolist()
     [[20, 21, 22, 255], [0, 0, 0, 0], [10, 11, 12, 255]]
+    >>> lut.apply(np.array([[[10, 11, 12], [20, 21, 22]]], dtype=np.uint8), area=np.array([[True, False]]))[0, 0]
+    array([0, 0, 0, 0], dtype=uint8)
     """
 
     shape: Tuple[int, int]
@@ -135,8 +137,9 @@ class OrthoLookup:
         """How many DEM cells take a colour."""
         return int(self.cells.size)
 
-    def apply(self, photo: np.ndarray) -> np.ndarray:
-        """(rows, cols, bands + 1) uint8 orthophoto of ``photo`` ((H, W) or (H, W, bands) uint8), alpha last."""
+    def apply(self, photo: np.ndarray, area: Optional[np.ndarray] = None) -> np.ndarray:
+        """(rows, cols, bands + 1) uint8 orthophoto of ``photo`` ((H, W) or (H, W, bands) uint8), alpha last;
+        ``area`` (H, W) bool: only the pixels where it is True are draped (a print's border and caption are not)."""
         photo = np.asarray(photo)
         if photo.ndim == 2:
             photo = photo[..., None]
@@ -146,8 +149,12 @@ class OrthoLookup:
         rows, cols = self.shape
         bands = photo.shape[2]
         out = np.zeros((rows * cols, bands + 1), dtype=np.uint8)
-        out[self.cells, :bands] = photo.reshape(-1, bands)[self.pixels]
-        out[self.cells, bands] = 255
+        cells, pixels = self.cells, self.pixels
+        if area is not None:
+            kept = np.asarray(area, dtype=bool).reshape(-1)[pixels]
+            cells, pixels = cells[kept], pixels[kept]
+        out[cells, :bands] = photo.reshape(-1, bands)[pixels]
+        out[cells, bands] = 255
         return out.reshape(rows, cols, bands + 1)
 
 

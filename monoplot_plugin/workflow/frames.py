@@ -30,7 +30,7 @@ from ..outputs.xyz_raster import write_xyz_raster
 from .files import InputError, load_camera, read_photo, read_points_csv
 from .fit import fit_points
 from .inputs import load_dem
-from .products import ortho_grid
+from .products import blank_outside, ortho_grid, picture_area
 from .vectors import fill_missing_z
 from .xyz import xyz_raster, xyz_uncached
 
@@ -84,12 +84,16 @@ class CameraProducts:
         return products
 
     def write_orthophoto(self, path: str, photo: np.ndarray) -> str:
-        image = self.lookup.apply(photo[..., :3] if photo.ndim == 3 and photo.shape[2] > 3 else photo)
+        """The frame draped, not its print border or caption (:func:`~.products.picture_area`, found per frame:
+        an archive's scans each have their own)."""
+        photo = photo[..., :3] if photo.ndim == 3 and photo.shape[2] > 3 else photo
+        image = self.lookup.apply(photo, picture_area(photo))
         return str(write_orthophoto(path, image, self.grid.geotransform, self.grid.crs_wkt, overwrite=True))
 
-    def write_xyz(self, path: str, crs_wkt: str, photo_name: str = "") -> str:
-        return str(write_xyz_raster(path, self.xyz, crs_wkt, overwrite=True, camera=self.camera,
-                                    photo_name=photo_name))
+    def write_xyz(self, path: str, crs_wkt: str, photo_name: str = "", photo: Optional[np.ndarray] = None) -> str:
+        """The XYZ raster; with ``photo``, nodata over its print border and caption too."""
+        xyz = self.xyz if photo is None else blank_outside(self.xyz, picture_area(photo))
+        return str(write_xyz_raster(path, xyz, crs_wkt, overwrite=True, camera=self.camera, photo_name=photo_name))
 
 
 @dataclass(frozen=True)
@@ -194,7 +198,7 @@ def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
         if setup.write_xyz:
             if own_camera:
                 result.outputs.append(products.write_xyz(os.path.join(setup.out_dir, f"{task.stem}_xyz.tif"),
-                                                         setup.crs_wkt, task.name))
+                                                         setup.crs_wkt, task.name, photo))
             else:  # written once before the frames (see batch.run_batch)
                 result.outputs.append(os.path.join(setup.out_dir, SHARED_XYZ))
         if setup.write_ortho:

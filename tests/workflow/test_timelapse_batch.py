@@ -158,3 +158,31 @@ def test_a_reference_frame_of_another_size_fails_every_frame_with_the_reason(dri
     results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(tmp_path / "out"),
                               register=True, reference=str(small))
     assert not any(r.ok for r in results) and all("small.png is 60x50 px" in r.message for r in results)
+
+
+def test_a_scanned_prints_border_and_caption_are_not_draped_by_the_batch(tmp_path):
+    """An archive of scans run as a batch: each frame's paper border and printed caption stay out of its
+    orthophoto, as in the single-photo product (they were draped onto the terrain), and a frame without a border
+    loses nothing."""
+    import cv2
+
+    from tests.workflow.conftest import timelapse_scene
+
+    scene = timelapse_scene(tmp_path, [(0.0, 0.0, 0.0)] * 2, size=(480, 320), lighting=False)
+    printed = read_photo(scene["frames"][1])
+    h, w = printed.shape[:2]
+    paper = (250, 246, 235)
+    printed[:12], printed[-44:], printed[:, :12], printed[:, -12:] = paper, paper, paper, paper
+    cv2.putText(printed, "Tal 1891 No 41", (30, h - 14), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (20, 20, 20), 2)
+    cv2.imwrite(scene["frames"][1], printed[..., ::-1])
+    cam, dem = Camera.load(scene["camera"]), Dem.open(scene["dem"])
+    results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(tmp_path / "out"),
+                              workers=1)
+    assert all(r.ok for r in results), [r.message for r in results]
+    plain, scan = (band_arrays(tmp_path / "out" / f"frame_{i:03d}_ortho.tif") for i in (0, 1))
+    r, g, b, alpha = np.moveaxis(scan.astype(int), -1, 0)
+    assert alpha.any() and not ((alpha > 0) & (r > 235) & (r - b > 8)).any()  # no paper
+    assert not ((alpha > 0) & (r < 40) & (g < 40) & (b < 40)).any()  # no caption
+    assert (plain[..., 3] > 0).sum() > (alpha > 0).sum()  # the frame without a border is draped whole
+    single = products.orthophoto(tmp_path / "single.tif", read_photo(scene["frames"][1]), cam, dem)
+    assert np.array_equal(scan, band_arrays(single))
