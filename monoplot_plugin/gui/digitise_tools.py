@@ -9,7 +9,8 @@ already drawn on the photo within :data:`SNAP_PIXELS` screen pixels (a marker sh
 
 Edit: drag a vertex to move it; right click on a feature (or press Delete with the mouse over it) deletes it.
 
-Ctrl+Z in either tool takes back the last drawing edit (:meth:`~.digitising.DigitisingSession.undo`).
+Ctrl+Z in either tool takes back the last drawing edit (:meth:`~.digitising.DigitisingSession.undo`), Ctrl+Shift+Z
+(or Ctrl+Y) does it again (:meth:`~.digitising.DigitisingSession.redo`).
 """
 
 from __future__ import annotations
@@ -49,16 +50,27 @@ def _nearest_vertex(session, point: QgsPointXY, tolerance: float):
     return best
 
 
-def _undo_key(event) -> bool:
-    return event.key() == Qt.Key.Key_Z and bool(event.modifiers() & Qt.KeyboardModifier.ControlModifier)
+def _history_key(event) -> str:
+    """"undo" for Ctrl+Z, "redo" for Ctrl+Shift+Z or Ctrl+Y, "" for any other key."""
+    modifiers = event.modifiers()
+    if not modifiers & Qt.KeyboardModifier.ControlModifier:
+        return ""
+    if event.key() == Qt.Key.Key_Z:
+        return "redo" if modifiers & Qt.KeyboardModifier.ShiftModifier else "undo"
+    return "redo" if event.key() == Qt.Key.Key_Y else ""
 
 
-def _undo_drawing(tool) -> None:
-    """Ctrl+Z while drawing or editing on the photo: the last drawing edit is taken back, and said on ``tool``'s
-    ``undone`` signal (Ctrl+Z did nothing there, and the Points tab's Undo took back point edits instead)."""
+def _undo_drawing(tool, direction: str = "undo") -> None:
+    """Ctrl+Z (Ctrl+Shift+Z) while drawing or editing on the photo: the last drawing edit is taken back (done
+    again), and said on ``tool``'s ``undone`` signal (Ctrl+Z did nothing there, and the Points tab's Undo took back
+    point edits instead)."""
     session = tool.session_getter()
+    if direction == "redo":
+        what = session.redo() if session is not None else ""
+        tool.undone.emit(tool.tr("Redone: {0}.").format(what) if what else tool.tr("Nothing drawn to redo."))
+        return
     what = session.undo() if session is not None else ""
-    tool.undone.emit(tool.tr("Undone: {0}.").format(what) if what else
+    tool.undone.emit(tool.tr("Undone: {0} (Ctrl+Shift+Z brings it back).").format(what) if what else
                      tool.tr("Nothing drawn to undo (the Points tab's Undo takes back point edits)."))
 
 
@@ -68,7 +80,7 @@ class PhotoCaptureTool(QgsMapTool):
     Signals:
         captured(str kind, int fid): a feature was added.
         message(str): something the user should know (e.g. no fitted camera yet).
-        undone(str): Ctrl+Z took back a drawing edit (what, in words), or found none.
+        undone(str): Ctrl+Z (Ctrl+Shift+Z) took back (did again) a drawing edit (what, in words), or found none.
     """
 
     captured = pyqtSignal(str, int)
@@ -134,8 +146,8 @@ class PhotoCaptureTool(QgsMapTool):
             self._redraw()
 
     def keyPressEvent(self, event) -> None:  # noqa: N802
-        if _undo_key(event) and not self.vertices:
-            _undo_drawing(self)
+        if _history_key(event) and not self.vertices:
+            _undo_drawing(self, _history_key(event))
             event.accept()
         elif event.key() == Qt.Key.Key_Escape:
             self.cancel()
@@ -252,8 +264,8 @@ class PhotoEditTool(QgsMapTool):
         return True
 
     def keyPressEvent(self, event) -> None:  # noqa: N802
-        if _undo_key(event):
-            _undo_drawing(self)
+        if _history_key(event):
+            _undo_drawing(self, _history_key(event))
             event.accept()
         elif event.key() == Qt.Key.Key_Delete and self.last_point is not None and self.delete_at(self.last_point):
             event.accept()

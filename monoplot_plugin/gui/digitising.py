@@ -73,8 +73,9 @@ class DigitisingSession(QObject):
         self.closed = False  # set when one of its layers is being deleted (project cleared, QGIS closing)
         self.restored_from_autosave = False
         #: what :meth:`undo` takes back, last first: ("add", kind, fid), ("move", kind, fid, index, (u, v)) or
-        #: ("delete", kind, geometry, attributes, fid)
+        #: ("delete", kind, geometry, attributes, fid); :meth:`redo` takes ``_redo``'s entries, of the same form
         self._history: List[tuple] = []
+        self._redo: List[tuple] = []
         self.restore_drawn()
 
     # --- layers -----------------------------------------------------------------------------------------------
@@ -230,7 +231,7 @@ class DigitisingSession(QObject):
             raise RuntimeError("the feature could not be added to the photo layer")
         layer.triggerRepaint()
         self.sync(kind)
-        self._history.append(("add", kind, added[0].id()))
+        self._record(("add", kind, added[0].id()))
         return added[0].id()
 
     def move_vertex(self, kind: str, fid: int, index: int, u: float, v: float) -> None:
@@ -238,7 +239,7 @@ class DigitisingSession(QObject):
         geom = QgsGeometry(layer.getFeature(fid).geometry())
         if not self._history or self._history[-1][:4] != ("move", kind, fid, index):  # a drag: one entry
             old = geom.vertexAt(index)
-            self._history.append(("move", kind, fid, index, pixel_of(old)))
+            self._record(("move", kind, fid, index, pixel_of(old)))
         point = photo_point(u, v)
         geom.moveVertex(point.x(), point.y(), index)
         layer.dataProvider().changeGeometryValues({fid: geom})
@@ -248,50 +249,74 @@ class DigitisingSession(QObject):
     def delete_feature(self, kind: str, fid: int) -> None:
         layer = self.photo_layer(kind)
         feature = layer.getFeature(fid)
-        self._history.append(("delete", kind, QgsGeometry(feature.geometry()),
-                              {f.name(): feature[f.name()] for f in layer.fields()}, fid))
+        self._record(("delete", kind, QgsGeometry(feature.geometry()),
+                      {f.name(): feature[f.name()] for f in layer.fields()}, fid))
         layer.dataProvider().deleteFeatures([fid])
         layer.triggerRepaint()
         self.sync(kind)
 
     def undo(self) -> str:
         """Take back the last drawing edit (an added feature, a moved vertex, a deleted feature); returns what was
-        undone in words ("" when there is nothing). The point edits have their own undo (the Points tab's)."""
-        while self._history:
-            entry = self._history.pop()
-            op, kind = entry[0], entry[1]
-            layer = self.photo_layers.get(kind)
-            if layer is None:
-                continue
-            if op == "add":
-                if not layer.getFeature(entry[2]).hasGeometry():
-                    continue  # gone already
-                layer.dataProvider().deleteFeatures([entry[2]])
-                text = f"the {kind} drawn last"
-            elif op == "move":
-                feature = layer.getFeature(entry[2])
-                if not feature.hasGeometry():
-                    continue
-                geom = QgsGeometry(feature.geometry())
-                point = photo_point(*entry[4])
-                geom.moveVertex(point.x(), point.y(), entry[3])
-                layer.dataProvider().changeGeometryValues({entry[2]: geom})
-                text = f"the move of a {kind}'s vertex"
-            else:
-                feature = QgsFeature(layer.fields())
-                feature.setGeometry(entry[2])
-                for name, value in entry[3].items():
-                    feature[name] = value
-                _, added = layer.dataProvider().addFeatures([feature])
-                # back under a new id: the earlier entries about it follow
-                old_fid, new_fid = entry[4], added[0].id()
-                self._history = [e[:2] + (new_fid,) + e[3:] if e[0] != "delete" and e[1] == kind and e[2] == old_fid
-                                 else e for e in self._history]
-                text = f"the deletion of a {kind}"
+        undone in words ("" when there is nothing). :meth:`redo` brings it back. The point edits have their own
+        undo (the Points tab's)."""
+        return self._step(self._history, self._redo, "undo")
+
+    def redo(self) -> str:
+        """Do again the drawing edit :meth:`undo` took back last; returns what in words ("" when there is none).
+        A new edit empties the redo list, as in every editor."""
+        return self._step(self._redo, self._history, "redo")
+
+    def _record(self, entry: tuple) -> None:
+        self._history.append(entry)
+        self._redo.clear()
+
+    def _step(self, source: List[tuple], target: List[tuple], direction: str) -> str:
+        """Revert the last live entry of ``source`` and push its inverse onto ``target``; its words, or ""."""
+        while source:
+            entry = source.pop()
+            layer = self.photo_layers.get(entry[1])
+            inverse = self._revert(layer, entry) if layer is not None else None
+            if inverse is None:
+                continue  # its feature is gone already
+            target.append(inverse)
             layer.triggerRepaint()
-            self.sync(kind)
-            return text
+            self.sync(entry[1])
+            return _edit_words(entry if direction == "undo" else inverse, entry[1])
         return ""
+
+    def _revert(self, layer: QgsVectorLayer, entry: tuple) -> Optional[tuple]:
+        """Apply the opposite of ``entry`` to ``layer``; returns the entry that reverts that, None if stale."""
+        op, kind = entry[0], entry[1]
+        if op == "add":
+            feature = layer.getFeature(entry[2])
+            if not feature.hasGeometry():
+                return None
+            inverse = ("delete", kind, QgsGeometry(feature.geometry()),
+                       {f.name(): feature[f.name()] for f in layer.fields()}, entry[2])
+            layer.dataProvider().deleteFeatures([entry[2]])
+            return inverse
+        if op == "move":
+            feature = layer.getFeature(entry[2])
+            if not feature.hasGeometry():
+                return None
+            geom = QgsGeometry(feature.geometry())
+            inverse = ("move", kind, entry[2], entry[3], pixel_of(geom.vertexAt(entry[3])))
+            point = photo_point(*entry[4])
+            geom.moveVertex(point.x(), point.y(), entry[3])
+            layer.dataProvider().changeGeometryValues({entry[2]: geom})
+            return inverse
+        feature = QgsFeature(layer.fields())
+        feature.setGeometry(entry[2])
+        for name, value in entry[3].items():
+            feature[name] = value
+        _, added = layer.dataProvider().addFeatures([feature])
+        # back under a new id: the entries about it, both ways, follow
+        old_fid, new_fid = entry[4], added[0].id()
+        for stack in (self._history, self._redo):
+            stack[:] = [e[:2] + (new_fid,) + e[3:] if e[0] != "delete" and e[1] == kind and e[2] == old_fid
+                        else e[:4] + (new_fid,) if e[0] == "delete" and e[1] == kind and e[4] == old_fid
+                        else e for e in stack]
+        return ("add", kind, new_fid)
 
     def add_field(self, name: str, ftype: str) -> None:
         """A new user field, on every photo and map layer."""
@@ -384,6 +409,16 @@ def drawn_entry_key(photo_name: str) -> str:
     stem = Path(photo_name).stem
     safe = re.sub(r"[^A-Za-z0-9_]", "_", stem)[:40]
     return f"/outputs/drawn/p_{safe}_{hashlib.sha1(stem.encode('utf-8')).hexdigest()[:10]}"
+
+
+def _edit_words(entry: tuple, kind: str) -> str:
+    """What an edit entry of :class:`DigitisingSession` did, in words, as undo and redo report it.
+
+    >>> _edit_words(("add", "polygon", 3), "polygon"), _edit_words(("delete", "line", None, {}, 2), "line")
+    ('the polygon drawn last', 'the deletion of a line')
+    """
+    return {"add": f"the {kind} drawn last", "move": f"the move of a {kind}'s vertex"}.get(
+        entry[0], f"the deletion of a {kind}")
 
 
 def _qvalue(value, ftype: Optional[str]):

@@ -105,9 +105,10 @@ def test_without_fitted_camera_the_tool_says_so(qgis_app, qtbot):
     assert messages and "Fit the camera" in messages[0]
 
 
-def test_ctrl_z_takes_back_drawing_edits_one_by_one(canvas_and_session):
+def test_ctrl_z_takes_back_drawing_edits_one_by_one_and_ctrl_shift_z_redoes_them(canvas_and_session):
     """Draw a polygon, drag one of its vertices, delete it: Ctrl+Z brings it back, puts the vertex back, then removes
-    the polygon; each undo is said, and one more says there is nothing left; the map layer follows."""
+    the polygon; each undo is said, and one more says there is nothing left; the map layer follows. Ctrl+Shift+Z
+    (a desktop trial: it deleted the last polygon, Shift was ignored) does the three edits again, in order."""
     canvas, session = canvas_and_session
     polygon_tool = PhotoCaptureTool(canvas, lambda: session, "polygon")
     edit_tool = PhotoEditTool(canvas, lambda: session)
@@ -130,8 +131,11 @@ def test_ctrl_z_takes_back_drawing_edits_one_by_one(canvas_and_session):
     click(edit_tool, canvas, 120, 110, Qt.MouseButton.RightButton)  # deletes it
     assert session.photo_layer("polygon").featureCount() == 0
 
-    def ctrl_z(tool):
-        tool.keyPressEvent(QKeyEvent(QEvent.Type.KeyPress, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier))
+    def ctrl_z(tool, shift=False):
+        modifiers = Qt.KeyboardModifier.ControlModifier
+        if shift:
+            modifiers |= Qt.KeyboardModifier.ShiftModifier
+        tool.keyPressEvent(QKeyEvent(QEvent.Type.KeyPress, Qt.Key.Key_Z, modifiers))
 
     def vertices():
         (f,) = list(session.photo_layer("polygon").getFeatures())
@@ -145,6 +149,26 @@ def test_ctrl_z_takes_back_drawing_edits_one_by_one(canvas_and_session):
     ctrl_z(polygon_tool)  # the polygon itself
     assert session.photo_layer("polygon").featureCount() == 0 and session.map_layer("polygon").featureCount() == 0
     ctrl_z(polygon_tool)
-    assert said == ["Undone: the deletion of a polygon.", "Undone: the move of a polygon's vertex.",
-                    "Undone: the polygon drawn last.",
+    brings_back = " (Ctrl+Shift+Z brings it back)."
+    assert said == ["Undone: the deletion of a polygon" + brings_back, "Undone: the move of a polygon's vertex" +
+                    brings_back, "Undone: the polygon drawn last" + brings_back,
                     "Nothing drawn to undo (the Points tab's Undo takes back point edits)."]
+    said.clear()
+    ctrl_z(polygon_tool, shift=True)  # the polygon again, as drawn
+    assert session.photo_layer("polygon").featureCount() == 1 and session.map_layer("polygon").featureCount() == 1
+    assert np.allclose(vertices()[2], [150, 150], atol=1.0)
+    ctrl_z(edit_tool, shift=True)  # the drag again, on the polygon's new id
+    assert np.allclose(vertices()[2], [120, 158], atol=1.0)
+    ctrl_z(edit_tool, shift=True)  # the deletion again
+    assert session.photo_layer("polygon").featureCount() == 0 and session.map_layer("polygon").featureCount() == 0
+    ctrl_z(edit_tool, shift=True)
+    assert said == ["Redone: the polygon drawn last.", "Redone: the move of a polygon's vertex.",
+                    "Redone: the deletion of a polygon.", "Nothing drawn to redo."]
+    ctrl_z(edit_tool)  # undo after redo: the polygon is back
+    assert session.photo_layer("polygon").featureCount() == 1
+    for u, v in [(20, 20), (60, 20), (40, 60)]:  # a new edit
+        click(polygon_tool, canvas, u, v)
+    click(polygon_tool, canvas, 0, 0, Qt.MouseButton.RightButton)
+    said.clear()
+    ctrl_z(polygon_tool, shift=True)  # a new edit ends the redo list, as in every editor
+    assert said == ["Nothing drawn to redo."] and session.photo_layer("polygon").featureCount() == 2
