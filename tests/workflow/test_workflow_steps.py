@@ -80,6 +80,29 @@ def test_a_free_fit_under_the_terrain_is_refitted_on_the_ground(scene):
     assert free.result.status != "ok" and "30 m under the terrain" in free.result.message
 
 
+def test_pairs_free_the_height_of_a_start_held_under_the_terrain_only_when_they_demand_it(scene):
+    """A desktop trial: a rough camera 29 m under the terrain, the truth 30 m above it, 9 good pairs. Held on the
+    ground by the automatic rule the fit was 36.8 px and 37 m off, and said "ok" in Processing. Now the pairs free
+    the height (and the message says so); a photographer who did stand on the ground stays held there."""
+    dem, camera, ground = scene
+    full = xyz.xyz_raster(camera, dem)
+    rows, cols = np.nonzero(np.isfinite(full[..., 2]))
+    world = full[rows, cols][np.random.default_rng(3).choice(len(rows), 12, replace=False)]
+    pairs = np.column_stack([np.arange(12)] * 2)
+    noise = np.random.default_rng(4).normal(0.0, 0.7, (12, 2))
+    up = camera.with_parameters(z=ground + 30.0)
+    start = up.with_parameters(z=ground - 29.0, heading=1.0)
+    assert fit_step.on_ground_rule(start, dem)[0]  # the rule alone holds it on the ground
+    held = fit_step.fit(up.project(world) + noise, world, start, dem, pairs=pairs, on_ground=True)
+    done = fit_step.fit(up.project(world) + noise, world, start, dem, pairs=pairs)
+    assert held.result.rmse_px > 5.0 and held.result.status != "ok"  # held: large residuals, not "ok"
+    assert not done.on_ground and fit_step.ground_clearance(done.camera, dem) == pytest.approx(30.0, abs=3.0)
+    assert done.result.rmse_px < 1.5 and "Height fitted freely" in done.result.message
+    standing = camera.with_parameters(z=ground + fit_step.DEFAULT_EYE_HEIGHT_M)
+    kept = fit_step.fit(standing.project(world) + noise, world, start, dem, pairs=pairs)
+    assert kept.on_ground and "Height fitted freely" not in kept.result.message
+
+
 def test_fit_cancel_and_refusal(scene):
     dem, camera, _ = scene
     full = xyz.xyz_raster(camera, dem)

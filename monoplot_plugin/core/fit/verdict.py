@@ -13,6 +13,8 @@ Processing and the report show the same figures.
 
 >>> judge({"mode": "paired", "n_free": 7, "n_pairs": 11, "rmse_px": 2.0, "diag": 1000.0})[0]
 'ok'
+>>> judge({"mode": "paired", "n_free": 7, "n_pairs": 11, "rmse_px": 20.0, "diag": 1000.0})[0]
+'uncertain'
 >>> judge({"mode": "paired", "n_free": 7, "n_pairs": 11, "rmse_px": 80.0, "diag": 1000.0})[0]
 'poor'
 >>> judge({"mode": "paired", "n_free": 7, "n_pairs": 10, "rmse_px": 2.0, "diag": 1000.0, "spread": 0.014})[1]
@@ -172,6 +174,12 @@ def judge(e: dict) -> Tuple[str, str]:
     text += "."
     if not np.isfinite(rmse) or rmse > POOR_SHARE * diag:
         poor.append("the residuals are large: check the pairs (a wrong link?) or the free parameters")
+    elif e.get("mode") == "paired" and rmse > WEAK_SHARE * diag:
+        # pairs a person placed err by a few pixels: residuals over 1.5 % of the picture mean a wrong pair or a
+        # held parameter that is wrong (a desktop trial: a camera held on the ground 30 m under where it stood,
+        # "ok" at 36.8 px, 2.6 % of the picture, 37 m off)
+        weak.append(f"the residuals are large ({100 * rmse / diag:.1f} % of the picture's diagonal): look for a "
+                    f"wrong pair, or free a held parameter (the camera's height?)")
     # Check points far worse than the fit's own residuals: the residuals flatter the camera (pairs that agree with
     # each other, not with the terrain), whatever the share of the picture.
     check_far = np.isfinite(check) and np.isfinite(rmse) and check > CHECK_OVER_RESIDUALS * max(rmse, 1.0) \
