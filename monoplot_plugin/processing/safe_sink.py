@@ -15,7 +15,8 @@ import threading
 from contextlib import contextmanager
 from pathlib import Path
 
-from qgis.core import QgsFeatureSink, QgsProcessingException, QgsProcessingOutputLayerDefinition
+from qgis.core import (QgsCoordinateReferenceSystem, QgsFeatureSink, QgsProcessingException,
+                       QgsProcessingLayerPostProcessorInterface, QgsProcessingOutputLayerDefinition)
 
 from ..outputs.safe_write import check_can_write, commit_temporary, incomplete_write, remove_temporary, temporary_path
 
@@ -81,6 +82,8 @@ class SafeSink:
             mark_cartesian(self._tmp)
         commit_temporary(self._tmp, self._final, overwrite=True, verify=vector_verifier(self.count))
         self._retarget_loading()
+        if not self._crs_valid:
+            keep_pixel_space(self._context, self._final)
         return self.dest
 
     def discard(self) -> None:
@@ -100,13 +103,47 @@ class SafeSink:
         context.setLayersToLoadOnCompletion(layers)
 
 
+class PixelSpaceOnLoad(QgsProcessingLayerPostProcessorInterface):
+    """Loaded into the project, a layer in photo pixels keeps no CRS: QGIS gives a layer without one the default
+    CRS (EPSG:4326 out of the box), which labelled photo pixels as degrees and reprojected them."""
+
+    #: the post-processors handed to contexts: a context deletes its post-processor once it has run, and the
+    #: Python side must keep the object alive until then
+    _alive: list = []
+
+    def postProcessLayer(self, layer, context, feedback):  # noqa: N802 (QGIS API)
+        layer.setCrs(QgsCoordinateReferenceSystem())
+
+    @classmethod
+    def create(cls) -> "PixelSpaceOnLoad":
+        cls._alive = cls._alive[-15:] + [cls()]
+        return cls._alive[-1]
+
+
+def keep_pixel_space(context, dest: str) -> None:
+    """Make ``dest``, an output to be loaded on completion, a layer without a CRS once loaded (photo pixels)."""
+    if context is not None and context.willLoadLayerOnCompletion(dest):
+        context.layerToLoadOnCompletionDetails(dest).setPostProcessor(PixelSpaceOnLoad.create())
+
+
 def safe_sink(algorithm, parameters, name, context, fields, wkb, crs) -> SafeSink:
-    """``algorithm.parameterAsSink`` through a temporary file when the destination is a file (see module doc)."""
+    """``algorithm.parameterAsSink`` through a temporary file when the destination is a file (see module doc).
+
+    An invalid ``crs`` means photo pixels: the layer keeps no CRS once loaded (:class:`PixelSpaceOnLoad`)."""
+    loading = set(context.layersToLoadOnCompletion()) if context is not None else set()
     final = algorithm.parameterAsOutputLayer(parameters, name, context)
     if not _file_destination(final):
+        # parameterAsOutputLayer put "memory:<name>" on the list of layers to load, beside the layer id that
+        # parameterAsSink adds: Processing then said "The following layers were not correctly generated"
+        if context is not None and final not in loading and context.willLoadLayerOnCompletion(final):
+            layers = dict(context.layersToLoadOnCompletion())
+            layers.pop(final)
+            context.setLayersToLoadOnCompletion(layers)
         sink, dest = algorithm.parameterAsSink(parameters, name, context, fields, wkb, crs)
         if sink is None:
             raise QgsProcessingException(algorithm.invalidSinkError(parameters, name))
+        if not crs.isValid():
+            keep_pixel_space(context, dest)
         return SafeSink(sink, dest)
     check_can_write(final, overwrite=True)  # a missing or read-only folder is said in words, before any work
     tmp = str(temporary_path(final))

@@ -115,3 +115,42 @@ def test_a_camera_facing_a_near_slope_is_warned_that_it_is_left_out(run_alg, ren
     layer = QgsVectorLayer(result["OUTPUT"], "d", "ogr")
     xyz = np.array([(f["X"], f["Y"], f["Z"]) for f in layer.getFeatures()]).reshape(-1, 3)
     assert (blocked.project_with_depth(xyz)[1] < 100.0).sum() >= 3
+
+
+def test_temporary_and_file_outputs_load_without_error_and_photo_pixels_keep_no_crs(processing_provider, small_scene,
+                                                                                    tmp_path):
+    """A desktop trial: Suggest photo points, Map -> photo and Photo -> map with the default temporary output said
+    "The following layers were not correctly generated • memory:...", and photo-pixel layers came in as EPSG:4326.
+    Run as the toolbox runs them (results loaded into the project): no error, photo pixels without a CRS, map
+    features in the DEM's CRS."""
+    import processing
+    from qgis.core import (QgsFeature, QgsGeometry, QgsProcessingFeedback, QgsProject, QgsVectorLayer)
+
+    class Errors(QgsProcessingFeedback):
+        said: list = []
+
+        def reportError(self, error, fatalError=False):  # noqa: N802 (QGIS API)
+            self.said.append(error)
+
+    polygon = QgsVectorLayer("Polygon", "on the photo", "memory")
+    feature = QgsFeature()
+    feature.setGeometry(QgsGeometry.fromWkt("Polygon ((40 -70, 120 -70, 120 -100, 40 -100, 40 -70))"))
+    polygon.dataProvider().addFeatures([feature])
+    scene = {"CAMERA": small_scene["camera"], "DEM": small_scene["dem"]}
+    runs = [("suggestphotopoints", {"PHOTO": small_scene["photo"], "MAX_POINTS": 20}, False),
+            ("phototomap", {**scene, "INPUT": polygon}, True)]
+    project = QgsProject.instance()
+    for output in ("TEMPORARY_OUTPUT", str(tmp_path / "{0}.gpkg")):
+        for name, parameters, in_map in runs:
+            feedback = Errors()
+            before = set(project.mapLayers())
+            processing.runAndLoadResults(f"monoplot:{name}", {**parameters, "OUTPUT": output.format(name)},
+                                         feedback=feedback)
+            loaded = [project.mapLayer(i) for i in set(project.mapLayers()) - before]
+            assert feedback.said == [] and len(loaded) == 1, (name, output, feedback.said)
+            assert loaded[0].featureCount() > 0
+            if in_map:
+                assert loaded[0].crs().authid() == "EPSG:32632", (name, output)
+            else:
+                assert not loaded[0].crs().isValid(), (name, output, loaded[0].crs().authid())
+            project.removeMapLayer(loaded[0].id())
