@@ -108,3 +108,16 @@ def test_inputs_are_checked(scene):
         register_automatic(photo.astype(np.float32), dem, prior)
     with pytest.raises(ValueError, match="image size"):
         register_automatic(photo[:100], dem, prior)
+
+
+def test_a_dem_off_to_the_side_of_the_view_is_said_first_and_never_searched(scene):
+    """A desktop trial's DEM covered ground beside the view: the prior came back "uncertain", the reason at the end
+    of a long message. A prior 2 km south of the DEM, turned away from it, now ends "poor" at once, with the prior
+    kept and the DEM's coverage said first."""
+    dem, _, photo, prior = scene
+    away = prior.with_parameters(y=dem.bounds()[1] - 2000.0, heading=prior.heading + 180.0)
+    t0 = time.perf_counter()
+    result = register_automatic(photo, dem, away)
+    assert result.status == "poor" and result.message.startswith("The DEM is not in view")
+    assert result.camera.parameters() == away.parameters() and "prior is kept" in result.message
+    assert time.perf_counter() - t0 < 10.0  # no search (a full one takes tens of seconds here)

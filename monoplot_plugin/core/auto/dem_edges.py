@@ -32,7 +32,7 @@ import numpy as np
 from ..camera import Camera, fov_from_focal
 from ..dem import Dem
 
-__all__ = ["DemEdges", "dem_edges", "coarse_dem", "widened_camera"]
+__all__ = ["DemEdges", "dem_edges", "coarse_dem", "widened_camera", "dem_in_view"]
 
 
 @dataclass
@@ -91,6 +91,28 @@ def widened_camera(camera: Camera, focal_px: float, margin_deg: float, max_fov: 
     height = max(16, int(round(2.0 * focal_px * math.tan(math.radians(vfov) / 2.0))))
     return Camera(camera.position, camera.heading, camera.pitch, camera.roll, fov_from_focal(focal_px, width),
                   (width, height), crs_wkt=camera.crs_wkt)
+
+
+def dem_in_view(camera: Camera, dem: Dem, margin_deg: float, width: int = 160) -> float:
+    """Share (0-1) of ``camera``'s picture, widened by ``margin_deg`` on every side, that sees the DEM, at
+    ``width`` pixels; from at least 2 m above the terrain (a rough camera under the DEM, a wrong altitude, would see
+    its inside).
+
+    >>> from ..synthetic import synthetic_terrain
+    >>> dem = synthetic_terrain((120, 120), cell=100.0, seed=3)
+    >>> x, y = dem.cell_to_map(60, 115)
+    >>> cam = Camera((x, y, float(dem.sample(x, y)) + 300), 0.0, 2.0, 0.0, 60.0, (160, 120))
+    >>> dem_in_view(cam, dem, 5.0) > 0.2, dem_in_view(cam.with_parameters(pitch=70.0), dem, 5.0)
+    (True, 0.0)
+    """
+    from ..xyz import compute_xyz
+
+    ground = float(dem.sample(camera.position[0], camera.position[1]))
+    if math.isfinite(ground) and camera.position[2] < ground + 2.0:
+        camera = camera.with_parameters(z=ground + 2.0)
+    wide = widened_camera(camera, camera.focal_px, margin_deg)
+    wide = wide.scaled(min(1.0, width / wide.width))
+    return float(np.isfinite(compute_xyz(wide, dem)[..., 2]).mean())
 
 
 def _border(dem: Dem, xyz: np.ndarray, cells: float = 2.5) -> np.ndarray:

@@ -36,7 +36,7 @@ from ..fit.result import rms
 from ..fit.verdict import FEWER_SIDE_ADVICE, outlier_note
 from ..xyz.zbuffer import trial_cameras
 from .align import Aligner, camera_from_offset, offsets_grid
-from .dem_edges import coarse_dem, dem_edges
+from .dem_edges import coarse_dem, dem_edges, dem_in_view
 from .fine import edge_score, fine_steps, offset_between, position_probes, refine_fine
 from .photo_edges import PhotoEdges, detect_photo_edges
 from .points import FIT_DEM_CELLS, consistent_points, skyline_points
@@ -86,6 +86,10 @@ MAX_ESCAPES = 2
 #: cameras of 70 synthetic scenes had 2-4 back (4 for all but one); a wrong one (1.25 % of the range, 23 px on the
 #: terrain) had 1, and another 0.
 PROBES_BACK_OK = 2
+#: Least share of the prior's view (widened by the search's angular margin) that must see the DEM for a search:
+#: below it there are no terrain edges to align (a desktop trial's DEM off to the side ended "uncertain", the
+#: prior kept and the reason at the end of a long message).
+MIN_VIEW_SEEN = 0.001
 
 
 @dataclass
@@ -204,6 +208,13 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     align_dem = coarse_dem(dem, ALIGN_DEM_CELLS, is_canceled)
     _poll(is_canceled)
     margin = 2.5 * sig["angle_deg"] + 1.25 * sig["fov_deg"] + 2.0
+    seen = dem_in_view(prior, align_dem, margin)
+    if seen < MIN_VIEW_SEEN:
+        return AutoFitResult(
+            prior, "poor", f"The DEM is not in view: from the prior camera, with the view widened by {margin:.0f} "
+            f"deg on every side, {100 * seen:.1f} % of the picture sees the DEM, so there is no terrain to align the "
+            f"photo with. Give a DEM that covers what the photo shows, or check the prior's position and heading. "
+            f"The prior is kept.", "unpaired", evidence={"auto_dem_in_view": seen}, std=_prior_std(sig))
     # Coarse: a grid of view directions and fields of view at the prior's position and around it, each position
     # rendered from where it stands.
     report(0.1, "automatic registration: coarse search of the view direction")
