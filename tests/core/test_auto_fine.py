@@ -99,12 +99,18 @@ def test_too_few_probes_back_make_an_ok_uncertain(scene):
     _, truth, *_ = scene
     good = {"auto_skyline_usable": True, "auto_sky_fraction": 0.98, "auto_sky_agreement": 0.97, "auto_edge_score": 0.15,
             "auto_range_m": 5000.0, "auto_position_sigma_m": 100.0, "auto_rival_ratio": 0.5, "auto_probe_rivals": 0}
-    verdicts = {}
+    verdicts, stds = {}, {}
     for returned in (0, 1, 2):
-        result = register.AutoFitResult(truth, "ok", "unpaired fit.", "unpaired", std={"heading": 0.05})
+        result = register.AutoFitResult(truth, "ok", "unpaired fit.", "unpaired", std={"heading": 0.05, "x": 3.0})
         register._combine(result, dict(good, auto_probe_returned=returned))
-        verdicts[returned] = (result.status, result.message)
-    assert verdicts[2][0] == "ok"
+        verdicts[returned], stds[returned] = (result.status, result.message), result.std
+    assert verdicts[2][0] == "ok" and stds[2]["x"] == 3.0
+    # a camera the probes could not confirm is placed only as well as the prior placed it (a desktop trial: "± 8 m",
+    # 37 m off); so is one whose terrain is too near for the edges to place it
+    assert all(stds[n][k] == 100.0 for n in (0, 1) for k in "xyz")
+    near = register.AutoFitResult(truth, "ok", "unpaired fit.", "unpaired", std={"heading": 0.05, "x": 3.0})
+    register._combine(near, dict(good, auto_probe_returned=4, auto_range_m=500.0))
+    assert near.status == "uncertain" and near.std["y"] == 100.0
     assert verdicts[1][0] == "uncertain" and "only 1 of four cameras moved" in verdicts[1][1]
     assert verdicts[0][0] == "uncertain" and "none of four cameras moved" in verdicts[0][1]
     assert Probe(truth, 1.0, 1.0).returned and not Probe(truth, 1.0, 50.0).returned
