@@ -12,6 +12,7 @@ from ..adapters.photo_space import PHOTO_Y_SIGN
 from ..adapters.photo_space import build_geometry as _build
 from ..adapters.photo_space import geometry_parts as _parts
 from ..core.transforms import ground_pieces, true_runs
+from ..outputs.vectors import COMPUTED_FIELDS, MapFeature
 from . import pipeline
 
 #: Relative range jump between consecutive line vertices that cuts the line (a silhouette).
@@ -19,19 +20,20 @@ SILHOUETTE_JUMP = 0.1
 
 
 def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float,
-                          y_sign: float = PHOTO_Y_SIGN) -> Tuple[Optional[QgsGeometry], int]:
+                          y_sign: float = PHOTO_Y_SIGN) -> Tuple[Optional[QgsGeometry], int, dict]:
     """A photo-space geometry (x = u, y = y_sign * v) -> map geometry with Z in the DEM's CRS.
 
     Lines and rings are densified every ``step`` pixels first; every vertex is intersected exactly with the DEM.
     Lines break where vertices see the sky and at silhouettes; polygon rings drop the vertices over the sky (the
-    ring closes across the gap). Returns (geometry or None, number of vertices dropped).
+    ring closes across the gap). Returns (geometry or None, number of vertices dropped, the computed fields the
+    dock's drawings get: :data:`~..outputs.vectors.COMPUTED_FIELDS`, by :meth:`MapFeature.measures`).
     """
     if geometry is None or geometry.isNull():
-        return None, 0
+        return None, 0, {}
     if step > 0 and geometry.type() != QgsWkbTypes.PointGeometry:
         geometry = geometry.densifyByDistance(step)
     kind, parts = _parts(geometry)
-    out_parts, dropped = [], 0
+    out_parts, dropped, sky_parts = [], 0, 0
     for rings in parts:
         out_rings = []
         for a in rings:
@@ -39,6 +41,7 @@ def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float,
             xyz = pipeline.photo_to_map(camera, dem, uv)
             ok = np.isfinite(xyz).all(axis=1)
             dropped += int((~ok).sum())
+            sky_parts += len(true_runs(~ok))
             if kind == "line":
                 # cut over the sky and at silhouettes, as the dock's digitising does
                 out_rings.extend(xyz[p:q] for p, q in ground_pieces(xyz, ok, camera.position, SILHOUETTE_JUMP)[0])
@@ -48,7 +51,14 @@ def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float,
             out_parts.extend([[r] for r in out_rings])
         else:
             out_parts.append(out_rings)
-    return _build(kind, out_parts, with_z=True), dropped
+    built = _build(kind, out_parts, with_z=True)
+    if built is None:
+        return None, dropped, {}
+    # measured on what was built (rings of fewer than 3 ground vertices and 1-vertex pieces are not); holes are
+    # not subtracted from the area (drawings on the photo have none)
+    built_kind, built_parts = _parts(built)
+    pieces = [rings[0] for rings in built_parts]
+    return built, dropped, MapFeature(built_kind, pieces, sky_parts=sky_parts).measures()
 
 
 def map_to_photo_geometry(geometry: QgsGeometry, camera, dem, step: float, visible=None,
@@ -89,3 +99,21 @@ def map_to_photo_geometry(geometry: QgsGeometry, camera, dem, step: float, visib
     if kind == "polygon" and not any_visible:
         return None
     return _build(kind, out_parts, with_z=False)
+
+
+def measured_fields(fields, geometry_type) -> Tuple[object, list]:
+    """(the input's ``fields`` and the computed fields of its geometry kind, the names added): a field the input
+    already has keeps the input's value (no duplicate name)."""
+    from qgis.core import QgsField, QgsFields
+    from qgis.PyQt.QtCore import QVariant
+
+    kind = {QgsWkbTypes.PointGeometry: "point", QgsWkbTypes.LineGeometry: "line",
+            QgsWkbTypes.PolygonGeometry: "polygon"}.get(geometry_type, "point")
+    out = QgsFields(fields)
+    added = []
+    for name in COMPUTED_FIELDS[kind]:
+        if out.indexFromName(name) >= 0:
+            continue
+        out.append(QgsField(name, QVariant.Type.Int if name == "sky_parts" else QVariant.Type.Double))
+        added.append(name)
+    return out, added

@@ -67,6 +67,10 @@ def test_photo_polygon_becomes_3d_map_polygon_on_the_terrain(run_alg, small_scen
     assert np.allclose(vertices[:, 2], dem.sample(vertices[:, 0], vertices[:, 1]), atol=15.0)  # on the terrain
     back = cam.project(vertices)
     assert back[:, 0].min() == pytest.approx(u0, abs=1.5) and back[:, 0].max() == pytest.approx(u1, abs=1.5)
+    # the measures the dock's drawings carry (a desktop trial: Processing kept only the input's fields)
+    feature = next(layer.getFeatures())
+    assert geometry.area() > 0 and feature["area"] == pytest.approx(geometry.area(), rel=1e-6)
+    assert feature["length"] == pytest.approx(geometry.length(), rel=1e-6) and feature["sky_parts"] == 0
 
 
 def test_map_line_projects_onto_photo_and_back(run_alg, small_scene, tmp_path):

@@ -147,18 +147,21 @@ class PhotoToMap(_CameraDemAlgorithm):
         camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
         step = self.parameterAsDouble(parameters, "STEP", context)
         wkb = QgsWkbTypes.addZ(QgsWkbTypes.multiType(source.wkbType()))
-        sink = safe_sink(self, parameters, "OUTPUT", context, source.fields(), wkb, crs)
+        # the measures the dock's drawings get (area, length, length3d, sky_parts), beside the input's fields
+        fields, measured = geo.measured_fields(source.fields(), QgsWkbTypes.geometryType(source.wkbType()))
+        sink = safe_sink(self, parameters, "OUTPUT", context, fields, wkb, crs)
         total = max(1, source.featureCount())
         dropped = 0
         for i, feature in enumerate(source.getFeatures()):
             check_canceled(feedback)
-            geometry, lost = geo.photo_to_map_geometry(feature.geometry(), camera, dem, step, PHOTO_Y_SIGN)
+            geometry, lost, measures = geo.photo_to_map_geometry(feature.geometry(), camera, dem, step, PHOTO_Y_SIGN)
             dropped += lost
             if geometry is None:
                 feedback.pushWarning(self.tr("Feature {0} is entirely in the sky or outside the DEM; skipped").format(
                     feature.id()))
                 continue
-            out = QgsFeature(feature)
+            out = QgsFeature(fields)
+            out.setAttributes(feature.attributes() + [measures.get(name) for name in measured])
             out.setGeometry(geometry)
             sink.addFeature(out, QgsFeatureSink.FastInsert)
             feedback.setProgress(100.0 * (i + 1) / total)
