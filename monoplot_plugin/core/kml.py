@@ -1,5 +1,6 @@
 """Rough cameras from Google Earth: a KML PhotoOverlay read into a :class:`~monoplot_plugin.core.camera.Camera` in
-the DEM's CRS, and the WGS 84 -> map CRS conversion (with the grid convergence) that EXIF positions use too.
+the DEM's CRS, the WGS 84 -> map CRS conversion (with the grid convergence) that EXIF positions use too, and a
+camera moved from one projected CRS to another (:func:`camera_to_crs`).
 
 GDAL's ``osr`` is imported only when a position is converted, so the camera math imports without it.
 """
@@ -12,7 +13,7 @@ from typing import Optional, Tuple
 
 from .camera import Camera
 
-__all__ = ["camera_from_kml", "lonlat_to_crs", "crs_to_wkt"]
+__all__ = ["camera_from_kml", "lonlat_to_crs", "crs_to_wkt", "camera_to_crs"]
 
 
 def camera_from_kml(kml, image_size, dst_crs_wkt: str, use_overlay_rotation: bool = True) -> Camera:
@@ -78,3 +79,38 @@ def lonlat_to_crs(lon: float, lat: float, crs: str) -> Tuple[float, float, float
     x2, y2, _ = transform.TransformPoint(lon, lat + 1e-3)
     convergence = math.degrees(math.atan2(x2 - x, y2 - y))
     return x, y, convergence
+
+
+def camera_to_crs(camera: Camera, dst_crs: str) -> Tuple[Camera, float]:
+    """``camera`` (its ``crs_wkt`` set) in another CRS ``dst_crs`` (WKT or "EPSG:n", projected, metres): the
+    position transformed, the heading turned by the difference of the two grids' north at the camera; height,
+    pitch, roll and lens unchanged (the vertical datum is kept; the scale factors of two projections differ by far
+    less than a rough camera's error). Returns (camera, degrees the heading turned).
+
+    >>> cam = Camera((2640000.0, 1157000.0, 1500.0), 30.0, -2.0, 0.0, 50.0, (400, 300), crs_wkt="EPSG:2056")
+    >>> utm, turned = camera_to_crs(cam, "EPSG:32632")
+    >>> round(utm.position[0], -2), round(utm.position[1], -2), round(turned, 1), round(utm.heading - 30.0, 1)
+    (420300.0, 5157100.0, 1.1, 1.1)
+    >>> back, _ = camera_to_crs(utm, "EPSG:2056")
+    >>> [round(abs(float(a - b)), 2) for a, b in zip(back.position, cam.position)], round(back.heading, 6)
+    ([0.0, 0.0, 0.0], 30.0)
+    """
+    from osgeo import osr
+
+    src, dst = osr.SpatialReference(), osr.SpatialReference()
+    src.SetFromUserInput(camera.crs_wkt)
+    dst.SetFromUserInput(dst_crs)
+    for srs in (src, dst):
+        srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+    transform = osr.CoordinateTransformation(src, dst)
+    x, y, z = (float(v) for v in camera.position)
+    nx, ny, _ = transform.TransformPoint(x, y)
+    # the heading's direction, 100 m ahead on the source grid, seen on the destination grid
+    h = math.radians(camera.heading)
+    ax, ay, _ = transform.TransformPoint(x + 100.0 * math.sin(h), y + 100.0 * math.cos(h))
+    heading = math.degrees(math.atan2(ax - nx, ay - ny))
+    turned = (heading - camera.heading + 180.0) % 360.0 - 180.0
+    moved = Camera(position=(nx, ny, z), heading=camera.heading + turned, pitch=camera.pitch, roll=camera.roll,
+                   fov=camera.fov, image_size=camera.image_size, principal_point=camera.principal_point,
+                   k1=camera.k1, k2=camera.k2, crs_wkt=crs_to_wkt(dst_crs))
+    return moved, turned

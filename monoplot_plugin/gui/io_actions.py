@@ -255,18 +255,20 @@ def load_camera_file(controller, path: str, as_fitted: bool = False) -> Optional
     if c.image is None or c.dem is None:
         c.message.emit(tr("Load the photo and choose the DEM before loading a camera."), WARNING)
         return None
+    notes = []
     try:
-        camera = load_camera(path, c.photo_size, c.dem.crs_wkt)
+        camera = load_camera(path, c.photo_size, c.dem.crs_wkt, notes)
     except InputError as exc:
         c.message.emit(str(exc), CRITICAL)
         return None
     if not camera.crs_wkt:
         camera = dataclasses.replace(camera, crs_wkt=c.dem.crs_wkt)
     name = os.path.basename(path)
+    moved = "".join(" " + note[0].upper() + note[1:] + "." for note in notes)  # transformed into the DEM's CRS
     if not as_fitted:
         c.set_prior(camera)
         note = c.under_terrain_note(camera)
-        c.message.emit(tr("Rough camera loaded from {0}.").format(name) + note, WARNING if note else INFO)
+        c.message.emit(tr("Rough camera loaded from {0}.").format(name) + moved + note, WARNING if note else INFO)
         return camera
     info = {"loaded_from": path}
     n_check, check_rmse = measured_on_pairs(camera, *c.check_points()[1:])
@@ -275,7 +277,7 @@ def load_camera_file(controller, path: str, as_fitted: bool = False) -> Optional
     # nothing here fitted it: only check points can say it is right (never a green "ok" by default)
     info["status"], verdict = judge_by_checks(info.get("check_rmse_px", float("nan")), info.get("n_check", 0),
                                               float(np.hypot(*c.photo_size)))
-    info["message"] = tr("Camera loaded from {0}.").format(name) + " " + verdict
+    info["message"] = tr("Camera loaded from {0}.").format(name) + moved + " " + verdict
     ids, uv, xyz = c.pair_arrays(c.state.valid_pairs())
     n_pairs, pairs_rmse = measured_on_pairs(camera, uv, xyz)
     if n_pairs:  # how the camera fits the pairs already there (a measure of agreement, not of accuracy)

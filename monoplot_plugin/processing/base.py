@@ -186,7 +186,14 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         path = self.parameterAsFile(parameters, name, context)
         if image_size is None and photo:
             image_size = checked(photo_size, photo)
-        return checked(load_camera, path, image_size, crs.toWkt() if crs is not None and crs.isValid() else "")
+        notes = []
+        camera = checked(load_camera, path, image_size, crs.toWkt() if crs is not None and crs.isValid() else "",
+                         notes)
+        feedback = context.feedback() if hasattr(context, "feedback") else None
+        for note in notes:  # a camera transformed into the DEM's CRS
+            if feedback is not None:
+                feedback.pushInfo(note)
+        return camera
 
 
 def camera_line(camera) -> str:

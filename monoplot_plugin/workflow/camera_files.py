@@ -16,14 +16,16 @@ from .inputs import InputError, _crs_name, check_camera, read_text
 __all__ = ["load_camera", "save_camera"]
 
 
-def load_camera(path: str, image_size: Optional[Tuple[int, int]] = None, crs_wkt: str = "") -> Camera:
+def load_camera(path: str, image_size: Optional[Tuple[int, int]] = None, crs_wkt: str = "",
+                notes: Optional[list] = None) -> Camera:
     """A camera from a Monoplot JSON file (:meth:`Camera.save`) or a KML PhotoOverlay.
 
     Args:
         path: ``.json`` or ``.kml`` file.
         image_size: (width, height) in pixels of the photo; required for KML (which has no image size), and checked
             against the JSON camera's own size when both are known.
-        crs_wkt: WKT (or "EPSG:n") of the DEM's CRS; required for KML (given in WGS84).
+        crs_wkt: WKT (or "EPSG:n") of the DEM's CRS; required for KML (given in WGS84). A JSON camera in another
+            projected CRS is transformed into it (:func:`~..core.kml.camera_to_crs`), and a note added to ``notes``.
     """
     if not path:
         raise InputError("no camera file given")
@@ -50,10 +52,28 @@ def load_camera(path: str, image_size: Optional[Tuple[int, int]] = None, crs_wkt
         raise InputError(f"camera {os.path.basename(path)} is for a {camera.width}x{camera.height} image but the "
                          f"photo is {image_size[0]}x{image_size[1]}")
     if crs_wkt and camera.crs_wkt and not _same_crs(camera.crs_wkt, crs_wkt):
-        # its position would be read in the wrong coordinates: the camera sees no DEM, every product is empty
-        raise InputError(f"camera {os.path.basename(path)} is in {_crs_name(camera.crs_wkt)} but the DEM is in "
-                         f"{_crs_name(crs_wkt)}: use a DEM in the camera's CRS, or fit the camera on this DEM")
+        return _moved_to(camera, crs_wkt, os.path.basename(path), notes)
     return camera
+
+
+def _moved_to(camera: Camera, crs_wkt: str, name: str, notes: Optional[list]) -> Camera:
+    """``camera`` transformed into the DEM's CRS when both are projected (a note says so); else refused: its
+    position would be read in the wrong coordinates, the camera would see no DEM and every product be empty."""
+    from ..core.kml import camera_to_crs
+
+    a, b = _srs(camera.crs_wkt), _srs(crs_wkt)
+    if a is None or b is None or not (a.IsProjected() and b.IsProjected()):
+        raise InputError(f"camera {name} is in {_crs_name(camera.crs_wkt)} but the DEM is in "
+                         f"{_crs_name(crs_wkt)}: use a DEM in the camera's CRS, or fit the camera on this DEM")
+    try:
+        moved, turned = camera_to_crs(camera, crs_wkt)
+    except Exception as exc:  # PROJ cannot transform between them
+        raise InputError(f"camera {name} is in {_crs_name(camera.crs_wkt)} and cannot be transformed into the "
+                         f"DEM's {_crs_name(crs_wkt)}: {exc}") from exc
+    if notes is not None:
+        notes.append(f"camera {name} transformed from {_crs_name(camera.crs_wkt)} into the DEM's "
+                     f"{_crs_name(crs_wkt)} (heading turned by {turned:+.2f} deg to the DEM's grid north)")
+    return moved
 
 
 def _srs(wkt: str):

@@ -232,11 +232,16 @@ def _bad_camera(kind, folder, small_scene):
         return str(path), "cannot read the camera file"
     if kind == "missing":
         return str(folder / "nope.json"), "camera file not found"
-    if kind == "other_crs":
+    if kind == "other_crs":  # UTM numbers labelled LV95: transformed as LV95, it stands far from the DEM
         cam = small_scene["cam"].with_parameters()
         cam.crs_wkt = "EPSG:2056"
         cam.save(path)
-        return str(path), "is in .*2056.*but the DEM is in"
+        return str(path), "sees no part of the DEM.*Is the camera in the DEM's CRS"
+    if kind == "geographic_crs":
+        cam = small_scene["cam"].with_parameters()
+        cam.crs_wkt = "EPSG:4326"
+        cam.save(path)
+        return str(path), "is in .*4326.*but the DEM is in"
     if kind == "kml_without_photo":
         kml = folder / "prior.kml"
         kml.write_text("<kml><PhotoOverlay/></kml>")
@@ -245,13 +250,44 @@ def _bad_camera(kind, folder, small_scene):
 
 
 CAMERA_CASES = ["nan_position", "zero_fov", "empty_file", "truncated_json", "not_json", "missing", "other_crs",
-                "kml_without_photo"]
+                "geographic_crs", "kml_without_photo"]
 
 
 @pytest.mark.parametrize("kind", CAMERA_CASES)
 def test_bad_camera_is_refused_in_words(kind, run_alg, small_scene, tmp_path):
     camera, match = _bad_camera(kind, tmp_path, small_scene)
     refused(run_alg, "computexyz", {"CAMERA": camera, "DEM": small_scene["dem"]}, tmp_path / "xyz.tif", match)
+
+
+def test_a_camera_in_another_projected_crs_is_transformed_into_the_dems(run_alg, small_scene, tmp_path):
+    """A desktop trial: an LV95 camera with a DEM in UTM was refused. Now it is transformed (heading turned to the
+    DEM's grid north), said in the log, and gives the XYZ raster the same camera in UTM gives."""
+    from osgeo import gdal
+    from qgis.core import QgsProcessingFeedback
+
+    from monoplot_plugin.core.kml import camera_to_crs
+
+    class Log(QgsProcessingFeedback):
+        said: list = []
+
+        def pushInfo(self, info):  # noqa: N802 (QGIS API)
+            self.said.append(info)
+
+    cam = small_scene["cam"].with_parameters()
+    cam.crs_wkt = "EPSG:32632"
+    lv95, turned = camera_to_crs(cam, "EPSG:2056")
+    assert abs(turned) > 0.3  # grid norths differ here: a heading copied as is would be off
+    lv95.save(tmp_path / "lv95.json")
+    log = Log()
+    rasters = []
+    for name, camera in (("utm", small_scene["camera"]), ("lv95", str(tmp_path / "lv95.json"))):
+        out = str(tmp_path / f"{name}.tif")
+        run_alg("computexyz", {"CAMERA": camera, "DEM": small_scene["dem"], "OUTPUT": out}, log)
+        ds = gdal.Open(out)
+        rasters.append(np.dstack([ds.GetRasterBand(b).ReadAsArray() for b in (1, 2, 3)]))
+    assert any("transformed from CH1903+ / LV95 (EPSG:2056)" in s for s in log.said), log.said
+    both = np.isfinite(rasters[0][..., 2]) & np.isfinite(rasters[1][..., 2])
+    assert both.mean() > 0.2 and np.nanmedian(np.abs(rasters[0][both] - rasters[1][both])) < 1.0
 
 
 # --- point tables -------------------------------------------------------------------------------------------------
