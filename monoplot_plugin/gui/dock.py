@@ -263,6 +263,10 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
             self.cameraSummary.setText(self.tr(
                 "Rough camera: X {0:.0f}  Y {1:.0f}  Z {2:.0f} m, heading {3:.1f}°, pitch {4:.1f}°, "
                 "field of view {5:.1f}°").format(x, y, z, prior.heading % 360, prior.pitch, prior.fov))
+        elif fitted is not None:  # a fitted camera loaded from a file or a project: said, not "no camera"
+            self.cameraSummary.setText(self.tr(
+                "A fitted camera is loaded (see the fit tab); no rough camera. Draw or import one only to suggest "
+                "points from it."))
         else:
             self.cameraSummary.setText(self.tr("No rough camera yet: draw it on the map or import a KML."))
         self.map_view.redraw_camera(c.footprint_wkt if fitted is not None else "")

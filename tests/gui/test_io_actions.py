@@ -144,8 +144,11 @@ def test_processing_camera_json_loads_as_the_fitted_camera(dock, scene, tmp_path
     io_actions.import_points_csv(c, src)
     path = tmp_path / "processing_camera.json"
     path.write_text(scene.camera.to_json())
+    assert c.prior is None
     assert io_actions.load_camera_file(c, str(path), as_fitted=True) is not None
     assert c.fitted is not None and c.fitted.position == pytest.approx(scene.camera.position)
+    # the camera tab says a fitted camera is there (a trial: "No rough camera yet" beside a loaded camera)
+    assert dock.cameraSummary.text().startswith("A fitted camera is loaded")
     assert c.state.fit_info["n_check"] == 6 and c.state.fit_info["check_rmse_px"] < 1.0
     assert c.state.fit_info["status"] == "ok"  # verified by the 6 check points
     qtbot.waitUntil(lambda: c.overlay is not None and c.xyz is not None, timeout=30000)
