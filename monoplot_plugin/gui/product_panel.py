@@ -20,7 +20,7 @@ from typing import Any, Callable, List, Optional
 
 from qgis.core import Qgis, QgsMapLayer, QgsProject, QgsVectorLayer
 from qgis.PyQt.QtCore import QObject, pyqtSignal
-from qgis.PyQt.QtWidgets import QAction, QWidget
+from qgis.PyQt.QtWidgets import QAction, QMessageBox, QWidget
 
 from .digitise_tools import PhotoCaptureTool, PhotoEditTool
 from ..outputs.safe_write import OutputError
@@ -34,6 +34,16 @@ __all__ = ["install_output_tools", "OutputTools", "ProductHost", "LAST_FOLDER_KE
 
 #: the actions that need a fitted camera (disabled before the first fit, the reason in their tooltip)
 NEEDS_FIT = ("xyz", "ortho", "report", "features", "overlay", "field", "attributes")
+
+
+def per_kind_path(path, kind: str) -> Path:
+    """The file of one geometry type beside ``path``: ``<stem>_<kind>s<suffix>``.
+
+    >>> per_kind_path("/data/photo_features.gpkg", "polygon").name
+    'photo_features_polygons.gpkg'
+    """
+    path = Path(path)
+    return path.with_name(f"{path.stem}_{kind}s{path.suffix or '.gpkg'}")
 
 
 @dataclass
@@ -333,15 +343,27 @@ class OutputTools(QObject):
         if not kinds:
             self._message(self.tr("Nothing drawn on the photo yet."), Qgis.MessageLevel.Warning)
             return
-        for i, kind in enumerate(kinds):
-            # one file per geometry type: the title says which and how many dialogs follow (they came one after
-            # the other without a word)
-            title = (self.tr("Save the drawn {0}s ({1} of {2}: one file per geometry type)").format(
-                kind, i + 1, len(kinds)) if len(kinds) > 1 else self.tr("Save the drawn {0}s").format(kind))
-            path = self.exports.ask(title, "GeoPackage (*.gpkg);;ESRI Shapefile (*.shp)", f"{kind}s.gpkg")
-            if path:
-                self._run(lambda k=kind, p=path: self.export_features(k, p, overwrite=True),
-                          self.tr("Features written: {0}"))
+        # one dialog (a desktop trial: three dialogs in a row for points, lines and polygons): one file per
+        # geometry type, named after the one chosen
+        filters = "GeoPackage (*.gpkg);;ESRI Shapefile (*.shp)"
+        if len(kinds) == 1:
+            path = self.exports.ask(self.tr("Save the drawn {0}s").format(kinds[0]), filters, f"{kinds[0]}s.gpkg")
+            paths = {kinds[0]: path} if path else {}
+        else:
+            names = ", ".join(self.tr("{0}s").format(k) for k in kinds)
+            path = self.exports.ask(self.tr("Save the drawn features ({0}): one file per geometry type, named after "
+                                            "this one").format(names), filters, "features.gpkg")
+            paths = {k: per_kind_path(path, k) for k in kinds} if path else {}
+            existing = [p for p in paths.values() if p.exists()]
+            if existing and QMessageBox.question(
+                    self.host.widget, self.tr("Replace files?"),
+                    self.tr("Replace {0}?").format(", ".join(p.name for p in existing)),
+                    QMessageBox.StandardButton.Yes | QMessageBox.StandardButton.No,
+                    QMessageBox.StandardButton.No) != QMessageBox.StandardButton.Yes:
+                return
+        for kind, target in paths.items():
+            self._run(lambda k=kind, p=target: self.export_features(k, p, overwrite=True),
+                      self.tr("Features written: {0}"))
 
     def _ask_field(self) -> None:
         from qgis.PyQt.QtWidgets import QInputDialog

@@ -283,26 +283,31 @@ def test_map_layer_on_the_photo_follows_a_refit_and_comes_back_with_the_project(
     assert np.allclose(pixels().mean(axis=0), after.mean(axis=0), atol=0.5)
 
 
-def test_saving_drawn_features_says_one_file_per_geometry_type(dock_with_fit, tmp_path, qtbot, monkeypatch):
-    """Lines and a polygon drawn: "Save drawn features…" asks twice, and each dialog's title says which type and
-    how many follow; both files are written."""
-    from qgis.PyQt.QtWidgets import QFileDialog
+def test_saving_drawn_features_asks_once_for_all_geometry_types(dock_with_fit, tmp_path, qtbot, monkeypatch):
+    """Lines and a polygon drawn: "Save drawn features…" asks once (a desktop trial: a dialog per type, one after
+    the other), writes one file per type named after the one chosen, and asks before replacing them."""
+    from qgis.PyQt.QtWidgets import QFileDialog, QMessageBox
 
     dock, tools = dock_with_fit
     session = tools.current_session()
     session.add_feature("line", [[40, 120], [200, 130]], {})
     session.add_feature("polygon", [[60, 150], [160, 150], [160, 200], [60, 200], [60, 150]], {})
-    titles = []
+    titles, asked = [], []
 
     def answer(parent, title, start, filters):
         titles.append(title)
-        return str(tmp_path / f"drawn_{len(titles)}.gpkg"), ""
+        return str(tmp_path / "drawn.gpkg"), ""
 
     monkeypatch.setattr(QFileDialog, "getSaveFileName", staticmethod(answer))
+    monkeypatch.setattr(QMessageBox, "question", staticmethod(
+        lambda *args: asked.append(args[2]) or QMessageBox.StandardButton.No))
     tools.actions["features"].trigger()  # the fit tab's "Save drawn features…"
-    assert titles == ["Save the drawn lines (1 of 2: one file per geometry type)",
-                      "Save the drawn polygons (2 of 2: one file per geometry type)"]
-    assert (tmp_path / "drawn_1.gpkg").exists() and (tmp_path / "drawn_2.gpkg").exists()
+    assert titles == ["Save the drawn features (lines, polygons): one file per geometry type, named after this one"]
+    lines, polygons = tmp_path / "drawn_lines.gpkg", tmp_path / "drawn_polygons.gpkg"
+    assert lines.exists() and polygons.exists() and not asked
+    before = lines.stat().st_mtime_ns
+    tools.actions["features"].trigger()  # again: asked before replacing, and "No" keeps them
+    assert asked == ["Replace drawn_lines.gpkg, drawn_polygons.gpkg?"] and lines.stat().st_mtime_ns == before
 
 
 def test_active_layer_on_photo_says_what_the_camera_sees(dock_with_fit, qgis_iface):
