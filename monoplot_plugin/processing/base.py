@@ -43,6 +43,25 @@ IMAGE_FILTER = "Images (*.jpg *.jpeg *.png *.tif *.tiff *.bmp *.JPG *.JPEG *.PNG
 CAMERA_FILTER = "Camera (*.json *.kml);;Monoplot camera (*.json);;KML PhotoOverlay (*.kml)"
 
 
+def wrong_file_kind(path: str, file_filter: str, description: str) -> str:
+    """Why ``path`` does not suit a file parameter with ``file_filter`` (its suffix is none of the filter's), or "".
+
+    >>> wrong_file_kind("/d/camera.json", IMAGE_FILTER, "Photo")
+    'Photo: camera.json is a .json file, expected one of .jpg, .jpeg, .png, .tif, .tiff, .bmp'
+    >>> wrong_file_kind("/d/photo.JPG", IMAGE_FILTER, "Photo")
+    ''
+    """
+    import re
+
+    suffixes = sorted({s.lower() for s in re.findall(r"\*(\.[A-Za-z0-9]+)", file_filter)},
+                      key=lambda s: file_filter.lower().index(s))
+    suffix = os.path.splitext(path)[1].lower()
+    if not suffixes or suffix in suffixes:
+        return ""
+    kind = f"a {suffix} file" if suffix else "a file without a suffix"
+    return f"{description}: {os.path.basename(path)} is {kind}, expected one of {', '.join(suffixes)}"
+
+
 class MonoplotAlgorithm(QgsProcessingAlgorithm):
     """Base class: group, translation, instance creation, and conversion of input errors to clear messages."""
 
@@ -95,12 +114,21 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         """QGIS's own checks, but a DEM path it refuses ("Incorrect parameter value") gets the workflow's reason
         (a folder, a text file, no georeferencing...)."""
         ok, message = super().checkParameterValues(parameters, context)
-        value = parameters.get("DEM") if "DEM" in [p.name() for p in self.parameterDefinitions()] else None
-        if not ok and isinstance(value, str) and value:
+        if ok:
+            return ok, message
+        names = [p.name() for p in self.parameterDefinitions()]
+        value = parameters.get("DEM") if "DEM" in names else None
+        if isinstance(value, str) and value:
             try:
                 check_dem_file(value)
             except InputError as exc:
                 return False, str(exc)
+        for definition in self.parameterDefinitions():  # a file of the wrong kind: say which and what is expected
+            value = parameters.get(definition.name())
+            if isinstance(definition, QgsProcessingParameterFile) and isinstance(value, str) and value:
+                reason = wrong_file_kind(value, definition.fileFilter(), definition.description())
+                if reason:
+                    return False, reason
         return ok, message
 
     def run_algorithm(self, parameters, context, feedback):  # pragma: no cover - every algorithm overrides it

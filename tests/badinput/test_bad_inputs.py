@@ -199,10 +199,13 @@ def _bad_photo(kind, folder):
         return str(folder / "photo.jpg"), "truncated"
     if kind == "missing":
         return str(folder / "nope.jpg"), "photo not found"
+    if kind == "camera_json":  # QGIS alone said "Incorrect parameter value for PHOTO"
+        (folder / "camera.json").write_text("{}")
+        return str(folder / "camera.json"), "Photo: camera.json is a .json file, expected one of .jpg"
     raise KeyError(kind)
 
 
-@pytest.mark.parametrize("kind", ["folder", "text", "empty", "truncated_jpeg", "missing"])
+@pytest.mark.parametrize("kind", ["folder", "text", "empty", "truncated_jpeg", "missing", "camera_json"])
 def test_bad_photo_is_refused_in_words(kind, run_alg, small_scene, tmp_path):
     photo, match = _bad_photo(kind, tmp_path)
     refused(run_alg, "orthophoto", {"CAMERA": small_scene["camera"], "DEM": small_scene["dem"], "PHOTO": photo},
