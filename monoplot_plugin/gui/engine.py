@@ -95,6 +95,7 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         "free": list(result.free),
         "on_ground": done.on_ground,
         "eye_height_m": done.eye_height,
+        "height_freed": done.height_freed,
         "clearance_m": _float(fit_step.ground_clearance(camera, dem)),
         "n_photo": int(len(uv)),
         "n_map": int(len(xyz)),

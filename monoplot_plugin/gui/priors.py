@@ -97,8 +97,8 @@ class PriorsMixin:
         if not (math.isfinite(clearance) and clearance < -ON_GROUND_MAX_M):
             return ""
         return " " + self.tr("It stands {0:.0f} m under the DEM at its position: its height is wrong, and the fit "
-                             "will hold the camera on the ground. Set \"Above ground\" (Camera tab) if you know "
-                             "its height.").format(-clearance)
+                             "will hold the camera on the ground, unless 5 or more pairs place it higher. Set "
+                             "\"Above ground\" (Camera tab) if you know its height.").format(-clearance)
 
     def prior_from_map(self, x: float, y: float, heading: float, fov: float, pitch: float = 0.0,
                        height_above_ground: float = 2.0) -> Optional[Camera]:

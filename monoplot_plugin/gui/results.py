@@ -225,6 +225,9 @@ class ResultsMixin:
         if status != "ok":  # the verdict's reasons (its message) are in the fit tab
             text += " " + self.tr("See the fit tab for why and what to do.")
         clearance = info.get("clearance_m")
+        if info.get("height_freed") and clearance is not None:  # the import warned it would be held on the ground
+            text += " " + self.tr("The pairs placed the camera {0:.0f} m above the terrain: its height was fitted "
+                                  "freely, not held on the ground.").format(clearance)
         if clearance is not None and clearance < 0:
             level = Qgis.MessageLevel.Warning
             text += " " + self.tr("The camera ended {0:.0f} m below the terrain: the fit is wrong; reject "

@@ -51,6 +51,8 @@ class FitDone:
     result: FitResult
     on_ground: bool
     eye_height: Optional[float]
+    #: the automatic rule held the camera on the ground, and the pairs demanded its height free (FREE_HEIGHT_F)
+    height_freed: bool = False
 
     @property
     def camera(self) -> Camera:
@@ -130,7 +132,7 @@ def fit(uv: np.ndarray, xyz: np.ndarray, start: Camera, dem, pairs=None, on_grou
                 f"{free_result.message} Height fitted freely: held on the ground the pairs fit at "
                 f"{result.rmse_px:.1f} px, free they place the camera "
                 f"{ground_clearance(free_result.camera, dem):.0f} m above the terrain at {free_result.rmse_px:.1f} px.")
-            return FitDone(free_result, False, None)
+            return FitDone(free_result, False, None, height_freed=True)
     if on_ground is None and not grounded and height_free and \
             ground_clearance(result.camera, dem) < -UNDERGROUND_TOLERANCE_M:
         # A camera cannot stand under the terrain: the points left its height undetermined. Refit as a

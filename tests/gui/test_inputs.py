@@ -97,6 +97,33 @@ def test_a_rough_camera_deep_under_the_dem_is_said_to_have_a_wrong_height(dock, 
             assert "35 m under the DEM" in warned[0] and "Above ground" in warned[0]
 
 
+def test_pairs_lift_a_rough_camera_held_under_the_dem_and_the_dock_says_so(dock, scene, tmp_path, qtbot):
+    """A desktop trial: a rough camera 29 m under the DEM and good GCPs; the dock's fit held it on the ground, 37 m
+    off. Now the pairs free its height, and the message bar says so (the import had said it would be held)."""
+    from monoplot_plugin.gui.io_actions import import_points_csv, load_camera_file
+    from monoplot_plugin.workflow.camera_files import save_camera
+    from monoplot_plugin.workflow.points_csv import write_points_csv
+
+    dock.photoFile.setFilePath(scene.photo_path)
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    c = dock.controller
+    ground = float(scene.dem.sample(*scene.prior.position[:2]))
+    path = str(tmp_path / "under.json")
+    save_camera(path, scene.prior.with_parameters(z=ground - 29.0))
+    assert load_camera_file(c, path) is not None
+    gcps = str(tmp_path / "gcps.csv")
+    write_points_csv(gcps, uv=scene.uv[:12], xyz=scene.xyz[:12])
+    import_points_csv(c, gcps)
+    said = []
+    c.message.connect(lambda text, level: said.append(text))
+    with qtbot.waitSignal(c.taskFinished, timeout=120000):
+        dock.fitButton.click()
+    info = c.state.fit_info
+    assert info["mode"] == "paired" and info["height_freed"] and not info["on_ground"], info
+    assert info["clearance_m"] == pytest.approx(300.0, abs=5.0) and info["rmse_px"] < 1.0
+    assert any("its height was fitted freely" in text for text in said), said
+
+
 def test_a_prints_border_gets_no_relief_overlay_and_no_ground_under_the_cursor(dock, scene, tmp_path, qtbot):
     """A trial's scanned print: the dock drew the DEM relief over the paper border and the caption, and the cursor
     gave map coordinates there, while the products leave them out. The dock now leaves them out too."""
