@@ -254,11 +254,13 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
     def _on_camera(self) -> None:
         c = self.controller
         prior, fitted = c.prior, c.fitted
-        if prior is not None:
-            for spin, value in ((self.fovSpin, prior.fov), (self.pitchSpin, prior.pitch)):
+        shown = prior if prior is not None else fitted  # a fitted camera alone: its lens and pitch, not 60° and 0°
+        if shown is not None:
+            for spin, value in ((self.fovSpin, shown.fov), (self.pitchSpin, shown.pitch)):
                 spin.blockSignals(True)
                 spin.setValue(value)
                 spin.blockSignals(False)
+        if prior is not None:
             x, y, z = prior.position
             self.cameraSummary.setText(self.tr(
                 "Rough camera: X {0:.0f}  Y {1:.0f}  Z {2:.0f} m, heading {3:.1f}°, pitch {4:.1f}°, "

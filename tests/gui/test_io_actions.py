@@ -165,6 +165,10 @@ def test_processing_camera_json_loads_as_the_fitted_camera(dock, scene, tmp_path
     # ... but the pairs already there are measured on it (the header showed "RMSE -, 0 photo / 0 DEM points")
     info = c.state.fit_info
     assert info["n_pairs"] == 6 and info["rmse_px"] < 1.0 and "6 pairs already there" in info["message"], info
+    # the camera tab shows the fitted camera's lens and pitch (a trial: 60° and 0°, the defaults, beside it)
+    path.write_text(scene.camera.with_parameters(fov=52.5, pitch=-6.5).to_json())
+    assert io_actions.load_camera_file(c, str(path), as_fitted=True) is not None
+    assert (dock.fovSpin.value(), dock.pitchSpin.value()) == pytest.approx((52.5, -6.5), abs=0.05)
 
 
 def test_camera_for_another_photo_size_is_refused(dock, scene, tmp_path):
