@@ -31,7 +31,7 @@ from qgis.core import (
 )
 from qgis.PyQt.QtCore import QCoreApplication, QVariant
 
-from ..workflow.inputs import check_dem_file, check_photo_path
+from ..workflow.inputs import check_dem_file, check_photo_path, check_view
 from ..workflow.inputs import load_dem as load_checked_dem
 from ..adapters.photo_space import PHOTO_Y_SIGN  # noqa: F401 (algorithms import it from here)
 from ..adapters.layers import crs_from_wkt
@@ -209,8 +209,11 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         return checked(check_photo_path, self.parameterAsFile(parameters, name, context))
 
     def camera(self, parameters, context, name: str = "CAMERA", photo: Optional[str] = None,
-               crs: Optional[QgsCoordinateReferenceSystem] = None, image_size=None):
-        """The camera of a file parameter; KML needs the photo (size) and the DEM CRS."""
+               crs: Optional[QgsCoordinateReferenceSystem] = None, image_size=None, dem=None,
+               only_if_moved: bool = False):
+        """The camera of a file parameter; KML needs the photo (size) and the DEM CRS. With ``dem``, a camera that
+        sees no part of it is refused (:func:`~..workflow.inputs.check_view`); ``only_if_moved``: only a camera
+        transformed from another CRS (the batch reports a blind camera per photo)."""
         path = self.parameterAsFile(parameters, name, context)
         if image_size is None and photo:
             image_size = checked(photo_size, photo)
@@ -221,6 +224,15 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         for note in notes:  # a camera transformed into the DEM's CRS
             if feedback is not None:
                 feedback.pushInfo(note)
+        if dem is not None and (notes or not only_if_moved):
+            try:
+                check_view(camera, dem)
+            except InputError as exc:
+                # transformed from another CRS and then off the DEM: most likely its numbers were in the DEM's CRS
+                # already and its CRS label is wrong
+                hint = "".join(f" The {note}: if its numbers are in the DEM's CRS already, its CRS label is wrong."
+                               for note in notes)
+                raise QgsProcessingException(str(exc) + hint) from exc
         return camera
 
 

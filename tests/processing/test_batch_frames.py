@@ -152,7 +152,10 @@ def test_rerun_into_the_same_folder_says_files_are_replaced(run_alg, small_scene
     assert "2 file(s) of an earlier run" in second.textLog() and "replaced" in second.textLog()
 
 
-def test_camera_in_another_crs_is_refused_not_run_empty(run_alg, small_scene, tmp_path):
+def test_camera_mislabelled_in_another_crs_is_refused_not_run_empty(run_alg, small_scene, tmp_path):
+    """UTM numbers labelled LV03: transformed from LV03 they land far from the DEM; refused before any photo, with
+    the transformation and the likely wrong label said (another projected CRS, correctly labelled, is transformed:
+    tests/badinput)."""
     folder = tmp_path / "frames"
     folder.mkdir()
     write_photo(folder / "a.png")
@@ -161,7 +164,8 @@ def test_camera_in_another_crs_is_refused_not_run_empty(run_alg, small_scene, tm
     cam = small_scene["cam"].with_parameters()
     cam.crs_wkt = lv03.ExportToWkt()
     cam.save(tmp_path / "lv03.json")
-    with pytest.raises(QgsProcessingException, match=r"EPSG:21781.*DEM is in .*EPSG:32632"):
+    with pytest.raises(QgsProcessingException, match=r"sees no part of the DEM.*transformed from .*EPSG:21781.*"
+                                                      r"into the DEM's .*EPSG:32632.*CRS label is wrong"):
         run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(folder),
                           "CAMERA": str(tmp_path / "lv03.json"), "OUTPUT": str(tmp_path / "out")})
     with pytest.raises(QgsProcessingException, match="EPSG:21781"):  # the single-photo algorithms too

@@ -119,7 +119,8 @@ class BatchPhotos(MonoplotAlgorithm):
                 size = None
                 if self.parameterAsFile(parameters, "CAMERA", context).lower().endswith(".kml"):
                     size = self.first_photo_size([j.photo for j in jobs], feedback)  # KML has no image size
-                camera = self.camera(parameters, context, "CAMERA", crs=crs, image_size=size)
+                camera = self.camera(parameters, context, "CAMERA", crs=crs, image_size=size, dem=dem,
+                                     only_if_moved=True)
             for job in jobs:
                 job.camera = camera
         else:

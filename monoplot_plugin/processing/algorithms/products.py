@@ -25,7 +25,7 @@ from ..base import PHOTO_Y_SIGN, MonoplotAlgorithm, cancel_callback, check_cance
 from ..inputs import read_photo
 from ...core.xyz_strips import plan_strips
 from ...workflow.products import ProductError, ortho_grid
-from ...workflow.inputs import check_not_empty, check_view
+from ...workflow.inputs import check_not_empty
 from ..safe_sink import safe_sink
 
 
@@ -50,8 +50,7 @@ class _CameraDemAlgorithm(MonoplotAlgorithm):
     def camera_and_dem(self, parameters, context, feedback):
         dem, crs = self.dem(parameters, context)
         photo = self.parameterAsFile(parameters, "PHOTO", context) or None
-        camera = self.camera(parameters, context, "CAMERA", photo=photo, crs=crs)
-        checked(check_view, camera, dem)
+        camera = self.camera(parameters, context, "CAMERA", photo=photo, crs=crs, dem=dem)
         feedback.pushInfo(self.tr("Camera at ({0:.1f}, {1:.1f}, {2:.1f}), heading {3:.2f}, pitch {4:.2f}, fov {5:.2f};"
                                   " image {6}x{7}").format(
             camera.position[0], camera.position[1], camera.position[2], camera.heading, camera.pitch, camera.fov,
