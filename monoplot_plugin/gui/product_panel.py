@@ -361,9 +361,26 @@ class OutputTools(QObject):
                     QMessageBox.StandardButton.Yes | QMessageBox.StandardButton.No,
                     QMessageBox.StandardButton.No) != QMessageBox.StandardButton.Yes:
                 return
+        if paths:
+            self._export_each(paths)
+
+    def _export_each(self, paths: dict) -> None:
+        """Write each geometry type to its file, and say it once (a save of three types gave three messages); a
+        failure says which files were written before it."""
+        reason = self.ready()
+        if reason is not None:
+            self._message(reason, Qgis.MessageLevel.Warning)
+            return
+        written = []
         for kind, target in paths.items():
-            self._run(lambda k=kind, p=target: self.export_features(k, p, overwrite=True),
-                      self.tr("Features written: {0}"))
+            try:
+                written.append(str(self.export_features(kind, target, overwrite=True)))
+            except (OutputError, ValueError) as exc:
+                text = (self.tr("Nothing was written: {0}").format(exc) if not written else
+                        self.tr("Written: {0}; not written: {1}").format(", ".join(written), exc))
+                self._message(text, Qgis.MessageLevel.Critical)
+                return
+        self._message(self.tr("Features written: {0}").format(", ".join(written)), Qgis.MessageLevel.Success)
 
     def _ask_field(self) -> None:
         from qgis.PyQt.QtWidgets import QInputDialog

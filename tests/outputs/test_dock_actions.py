@@ -292,7 +292,8 @@ def test_saving_drawn_features_asks_once_for_all_geometry_types(dock_with_fit, t
     session = tools.current_session()
     session.add_feature("line", [[40, 120], [200, 130]], {})
     session.add_feature("polygon", [[60, 150], [160, 150], [160, 200], [60, 200], [60, 150]], {})
-    titles, asked = [], []
+    titles, asked, messages = [], [], []
+    dock.controller.message.connect(lambda text, level: messages.append(text))
 
     def answer(parent, title, start, filters):
         titles.append(title)
@@ -305,6 +306,8 @@ def test_saving_drawn_features_asks_once_for_all_geometry_types(dock_with_fit, t
     assert titles == ["Save the drawn features (lines, polygons): one file per geometry type, named after this one"]
     lines, polygons = tmp_path / "drawn_lines.gpkg", tmp_path / "drawn_polygons.gpkg"
     assert lines.exists() and polygons.exists() and not asked
+    written = [m for m in messages if m.startswith("Features written")]
+    assert len(written) == 1 and "drawn_lines.gpkg" in written[0] and "drawn_polygons.gpkg" in written[0], messages
     before = lines.stat().st_mtime_ns
     tools.actions["features"].trigger()  # again: asked before replacing, and "No" keeps them
     assert asked == ["Replace drawn_lines.gpkg, drawn_polygons.gpkg?"] and lines.stat().st_mtime_ns == before
