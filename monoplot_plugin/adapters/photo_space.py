@@ -20,7 +20,7 @@ from qgis.core import (QgsGeometry, QgsLineString, QgsMultiLineString, QgsMultiP
                        QgsPointXY, QgsPolygon, QgsWkbTypes)
 
 __all__ = ["PHOTO_Y_SIGN", "photo_point", "pixel_of", "photo_geometry", "photo_vertices", "qgs_geometry",
-           "geometry_parts", "build_geometry", "outline_parts"]
+           "geometry_kind", "computed_fields", "geometry_parts", "build_geometry", "outline_parts"]
 
 #: Sign of the photo-space y axis: y = PHOTO_Y_SIGN * v.
 PHOTO_Y_SIGN = -1.0
@@ -74,11 +74,28 @@ def qgs_geometry(feature):
     return multi
 
 
+def geometry_kind(geometry_type) -> Optional[str]:
+    """"point", "line" or "polygon" of a ``QgsWkbTypes`` geometry type; None for any other."""
+    return {QgsWkbTypes.PointGeometry: "point", QgsWkbTypes.LineGeometry: "line",
+            QgsWkbTypes.PolygonGeometry: "polygon"}.get(geometry_type)
+
+
+def computed_fields(kind: str) -> list:
+    """The ``QgsField`` of each measure Monoplot adds to a map feature of ``kind``
+    (:data:`~..outputs.vectors.COMPUTED_FIELDS`: ``sky_parts`` an integer, the lengths and area reals)."""
+    from qgis.core import QgsField
+    from qgis.PyQt.QtCore import QVariant
+
+    from ..outputs.vectors import COMPUTED_FIELDS
+
+    return [QgsField(n, QVariant.Type.Int if n == "sky_parts" else QVariant.Type.Double)
+            for n in COMPUTED_FIELDS[kind]]
+
+
 def geometry_parts(geometry: QgsGeometry) -> Tuple[str, List[List[np.ndarray]]]:
     """(kind, parts): kind "point" | "line" | "polygon"; each part is a list of (N, 3) vertex arrays (rings for
     polygons, one array for lines and points); Z is NaN when the geometry has none."""
-    kind = {QgsWkbTypes.PointGeometry: "point", QgsWkbTypes.LineGeometry: "line",
-            QgsWkbTypes.PolygonGeometry: "polygon"}.get(geometry.type())
+    kind = geometry_kind(geometry.type())
     if kind is None:
         raise ValueError("unsupported geometry type")
     has_z = QgsWkbTypes.hasZ(geometry.wkbType())

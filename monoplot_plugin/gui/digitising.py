@@ -22,9 +22,10 @@ from qgis.PyQt.QtGui import QColor
 
 from ..adapters.layers import crs_from_wkt as _crs
 from ..adapters.layers import derived_layers_only, rebuilt_on_reopen
-from ..adapters.photo_space import photo_geometry, photo_point, photo_vertices, pixel_of, qgs_geometry
+from ..adapters.photo_space import (computed_fields, photo_geometry, photo_point, photo_vertices, pixel_of,
+                                   qgs_geometry)
 from ..workflow.features import photo_to_map_feature
-from ..outputs.vectors import COMPUTED_FIELDS, MapFeature, write_vector_layer
+from ..outputs.vectors import MapFeature, write_vector_layer
 from .map_layers import add_layer, add_vector_file_layer, photo_group
 from . import persistence
 
@@ -121,8 +122,7 @@ class DigitisingSession(QObject):
             layer.setCrs(_crs(self.dem.crs_wkt))
             rebuilt_on_reopen(layer)  # computed from the photo layer
             attrs = [QgsField(n, _QVARIANT[t]) for n, t in self.fields]
-            attrs += [QgsField(n, QVariant.Type.Int if n == "sky_parts" else QVariant.Type.Double)
-                      for n in COMPUTED_FIELDS[kind]]
+            attrs += computed_fields(kind)
             attrs.append(QgsField("photo_fid", QVariant.Type.LongLong))
             layer.dataProvider().addAttributes([a for a in attrs if layer.fields().indexFromName(a.name()) < 0])
             layer.updateFields()

@@ -12,7 +12,8 @@ from ..adapters.photo_space import PHOTO_Y_SIGN
 from ..adapters.photo_space import build_geometry as _build
 from ..adapters.photo_space import geometry_parts as _parts
 from ..core.transforms import ground_pieces, true_runs
-from ..outputs.vectors import COMPUTED_FIELDS, MapFeature
+from ..adapters.photo_space import computed_fields, geometry_kind
+from ..outputs.vectors import MapFeature
 from . import pipeline
 
 #: Relative range jump between consecutive line vertices that cuts the line (a silhouette).
@@ -104,16 +105,12 @@ def map_to_photo_geometry(geometry: QgsGeometry, camera, dem, step: float, visib
 def measured_fields(fields, geometry_type) -> Tuple[object, list]:
     """(the input's ``fields`` and the computed fields of its geometry kind, the names added): a field the input
     already has keeps the input's value (no duplicate name)."""
-    from qgis.core import QgsField, QgsFields
-    from qgis.PyQt.QtCore import QVariant
+    from qgis.core import QgsFields
 
-    kind = {QgsWkbTypes.PointGeometry: "point", QgsWkbTypes.LineGeometry: "line",
-            QgsWkbTypes.PolygonGeometry: "polygon"}.get(geometry_type, "point")
     out = QgsFields(fields)
     added = []
-    for name in COMPUTED_FIELDS[kind]:
-        if out.indexFromName(name) >= 0:
-            continue
-        out.append(QgsField(name, QVariant.Type.Int if name == "sky_parts" else QVariant.Type.Double))
-        added.append(name)
+    for field in computed_fields(geometry_kind(geometry_type) or "point"):
+        if out.indexFromName(field.name()) < 0:
+            out.append(field)
+            added.append(field.name())
     return out, added

@@ -32,11 +32,12 @@ UNDERGROUND_TOLERANCE_M = 2.0
 DEFAULT_EYE_HEIGHT_M = 1.7
 #: an automatic paired fit held on the ground is also fitted with its height free, and the free height is taken when
 #: freeing it explains the pairs this much better: the F statistic of one more unknown, (SSE_held - SSE_free) /
-#: (SSE_free / degrees of freedom), above the 99.9 % point of F(1, >= 2) is chance only once in a thousand fits. A
-#: desktop trial: a rough camera 29 m under the terrain (the truth 30 m above it) held on the ground gave 36.8 px and
-#: 37 m off with 9 exact pairs; its height free, 0.8 px and 0.8 m.
+#: (SSE_free / (2 x pairs - 8)), over 20: stricter than the 99.9 % point of F(1, d) for d >= 12 degrees of freedom
+#: (10 or more pairs); with fewer pairs the test is laxer (F(1, 6) at 99.9 % is 35.5), which only costs the held
+#: unknown back. A desktop trial: a rough camera 29 m under the terrain (the truth 30 m above it) held on the ground
+#: gave 36.8 px and 37 m off with 9 exact pairs; its height free, 0.8 px and 0.8 m.
 FREE_HEIGHT_F = 20.0
-#: fewest pairs for that test (7 unknowns: 2 x 5 - 7 = 3 degrees of freedom at least)
+#: fewest pairs for that test (2 x 5 - 8 = 2 degrees of freedom left, one fewer than the free fit's 7 unknowns leave)
 FREE_HEIGHT_MIN_PAIRS = 5
 
 

@@ -499,8 +499,7 @@ def _combine(result: AutoFitResult, ev: dict) -> None:
     if near or back < PROBES_BACK_OK:
         # what the edges cannot place, only the prior does: its position σ is the honest one (a desktop trial's near
         # scene said ± 8 / 39 m with the camera 37 m off)
-        for name in ("x", "y", "z"):
-            result.std[name] = max(float(result.std.get(name, 0.0)), float(ev.get("auto_position_sigma_m", 0.0)))
+        result.std = widen_std(result.std, {}, [], dict.fromkeys("xyz", float(ev.get("auto_position_sigma_m", 0.0))))
     text = (f" Automatic: skyline on {100 * ev['auto_sky_fraction']:.0f} % of the columns, "
             f"{100 * ev['auto_sky_agreement']:.0f} % of it on the DEM's; {len(result.image_points)} photo and "
             f"{len(result.world_points)} DEM suggestions kept as consistent with the aligned camera.")
