@@ -40,7 +40,7 @@ from .camera import Camera
 from .dem import Dem
 from .xyz import segment_first_hit
 
-__all__ = ["DropReport", "PhotoToMap", "MapToPhoto", "photo_points_to_map", "photo_line_to_map",
+__all__ = ["DropReport", "PhotoToMap", "MapToPhoto", "photo_points_to_map", "ground_error_m", "photo_line_to_map",
            "photo_polygon_to_map", "map_to_photo", "map_points_to_photo", "densify", "true_runs",
            "ground_pieces"]
 
@@ -188,6 +188,55 @@ def photo_points_to_map(uv, cam: Camera, dem: Dem) -> Tuple[np.ndarray, np.ndarr
     if refine is not None:
         xyz, ok = refine(origin, dirs, xyz, ok)
     return xyz, ok
+
+
+def ground_error_m(uv, cam: Camera, dem: Dem, pixel_rmse: float) -> np.ndarray:
+    """Horizontal position error (metres, RMS) of the terrain point seen at each pixel, for a reprojection error of
+    ``pixel_rmse`` pixels (RMS of the 2-D error, as a fit's check-point RMSE) in the photo.
+
+    The error is carried to the ground by the terrain's footprint of a pixel there:
+    ``pixel_rmse / sqrt(2) * sqrt(|dXY/du|^2 + |dXY/dv|^2)``, the derivatives by central differences over
+    ``pixel_rmse`` (at least 0.5 px, at most 16: the footprint at the scale of the error, so that a ridge's edge
+    counts), one-sided where a neighbour sees no terrain. It grows with the range and where rays graze the terrain;
+    it leaves out the DEM's own error.
+
+    Args:
+        uv: (N, 2) pixel positions; pixel_rmse: pixels.
+    Returns:
+        (N,) metres; NaN where the pixel sees no terrain, or no neighbour along one axis does.
+
+    >>> from .camera import Camera
+    >>> from .dem import Dem
+    >>> dem = Dem.from_array(np.zeros((200, 200)), (0, 10, 0, 2000, 0, -10))
+    >>> cam = Camera((1000, 0, 100), heading=0, pitch=-20, roll=0, fov=60, image_size=(640, 480))
+    >>> e = ground_error_m([[320, 240], [320, 200], [320, 1]], cam, dem, 2.0)  # centre, farther up, sky
+    >>> f, r = 320 / math.tan(math.radians(30)), 100 / math.sin(math.radians(20))  # px; metres to the centre's
+    >>> round(float(e[0]), 2), round(2 / math.sqrt(2) * math.hypot(r / f, r / f / math.sin(math.radians(20))), 2)
+    (2.31, 2.31)
+    >>> bool(e[1] > e[0]), bool(np.isnan(e[2]))
+    (True, True)
+    """
+    uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+    n = len(uv)
+    if n == 0:
+        return np.zeros(0)
+    h = float(np.clip(pixel_rmse, 0.5, 16.0))
+    offsets = np.array([[0, 0], [h, 0], [-h, 0], [0, h], [0, -h]], dtype=np.float64)
+    ground, ok = photo_points_to_map((uv[None, :, :] + offsets[:, None, :]).reshape(-1, 2), cam, dem)
+    xy, ok = ground[:, :2].reshape(5, n, 2), ok.reshape(5, n)
+
+    def derivative(plus: int, minus: int) -> np.ndarray:
+        both = ok[plus] & ok[minus]
+        d = np.full((n, 2), np.nan)
+        d[both] = (xy[plus][both] - xy[minus][both]) / (2 * h)
+        for side in (plus, minus):  # one-sided where the other neighbour sees the sky
+            one = ~both & ok[side] & ok[0]
+            d[one] = (xy[side][one] - xy[0][one]) / h
+        return d
+
+    du, dv = derivative(1, 2), derivative(3, 4)
+    error = pixel_rmse / math.sqrt(2.0) * np.sqrt(np.sum(du ** 2, axis=1) + np.sum(dv ** 2, axis=1))
+    return np.where(ok[0], error, np.nan)
 
 
 def ground_pieces(xyz: np.ndarray, ok: np.ndarray, origin, jump: float = 0.1) -> Tuple[List[Tuple[int, int]], int]:

@@ -59,10 +59,12 @@ class DigitisingSession(QObject):
     closedByLayers = pyqtSignal()
 
     def __init__(self, project: QgsProject, camera, dem, xyz: Optional[np.ndarray], photo_name: str,
-                 fields: Sequence[Tuple[str, str]] = (("name", "string"),), parent=None):
+                 fields: Sequence[Tuple[str, str]] = (("name", "string"),), parent=None,
+                 pixel_rmse: Optional[float] = None):
         super().__init__(parent)
         self.project = project
         self.camera, self.dem, self.xyz = camera, dem, xyz
+        self.pixel_rmse = pixel_rmse  # the fit's pixel error, carried to the ground as xy_error_m (None: unknown)
         self.photo_name = photo_name
         self.fields: List[Tuple[str, str]] = list(fields)
         self.group = photo_group(project, photo_name)
@@ -206,11 +208,12 @@ class DigitisingSession(QObject):
         self.map_layers.clear()
         self.closedByLayers.emit()
 
-    def update_camera(self, camera, dem, xyz: Optional[np.ndarray] = None) -> None:
+    def update_camera(self, camera, dem, xyz: Optional[np.ndarray] = None,
+                      pixel_rmse: Optional[float] = None) -> None:
         """A new fit (or DEM): keep what was drawn on the photo, recompute every live map layer."""
         if self.closed:
             return
-        self.camera, self.dem, self.xyz = camera, dem, xyz
+        self.camera, self.dem, self.xyz, self.pixel_rmse = camera, dem, xyz, pixel_rmse
         self._mapped.clear()
         with derived_layers_only(self.project):  # the drawing is unchanged: a clean project stays clean
             for kind in list(self.map_layers):
@@ -348,10 +351,11 @@ class DigitisingSession(QObject):
             if cached is not None and cached[0] == wkb:
                 mapped = cached[1]
             else:
-                mapped = photo_to_map_feature(kind, vertices, self.xyz, camera=self.camera, dem=self.dem)
+                mapped = photo_to_map_feature(kind, vertices, self.xyz, camera=self.camera, dem=self.dem,
+                                              pixel_rmse=self.pixel_rmse)
                 self._mapped[key] = (wkb, mapped)
             if mapped is not None:
-                mapped = MapFeature(mapped.kind, mapped.parts, attrs, mapped.sky_parts)
+                mapped = MapFeature(mapped.kind, mapped.parts, attrs, mapped.sky_parts, mapped.xy_error_m)
             if mapped is None:
                 dropped += 1
                 continue

@@ -25,6 +25,7 @@ from qgis.PyQt.QtWidgets import QAction, QMessageBox, QWidget
 from .digitise_tools import PhotoCaptureTool, PhotoEditTool
 from ..outputs.safe_write import OutputError
 from ..workflow import xyz as xyz_step
+from ..workflow.features import pixel_error
 from .digitising import KINDS, DigitisingSession, drawn_entry_key
 from ..adapters.layers import derived_layers_only, mark_modified_later
 from .map_layers import map_layer_on_photo, overlay_outcome
@@ -186,7 +187,8 @@ class OutputTools(QObject):
         # The session intersects rays with the DEM exactly: no full-resolution XYZ raster needed (fast start).
         camera, dem, xyz = self.controller.fitted, self.controller.dem, None
         if self.session is None:
-            self.session = DigitisingSession(self.project, camera, dem, xyz, self.photo_name(), parent=self)
+            self.session = DigitisingSession(self.project, camera, dem, xyz, self.photo_name(), parent=self,
+                                             pixel_rmse=pixel_error(self.controller.state.fit_info)[0])
             self.session.mapLayerUpdated.connect(self._report_sky)
             # what the restored features already had is old news: told again on every reopening (desktop trial)
             self._sky_told.update(self.session.last_report)
@@ -209,7 +211,8 @@ class OutputTools(QObject):
         if self.session is not None and self.session.closed:
             self._forget_session()
         if self.session is not None:
-            self.session.update_camera(self.controller.fitted, self.controller.dem, None)
+            self.session.update_camera(self.controller.fitted, self.controller.dem, None,
+                                       pixel_error(self.controller.state.fit_info)[0])
         elif self.project.readEntry("monoplot", drawn_entry_key(self.photo_name()), "")[0]:
             self.current_session()  # a reopened project with features drawn on this photo: show them again
         self._redraw_overlays()

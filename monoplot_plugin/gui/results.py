@@ -125,18 +125,20 @@ class ResultsMixin:
         """" (check points 7.7 px: about 12 m across the view at 4.3 km, the median distance)": what a product of
         the fitted camera is worth on the ground, for the "Written: ..." message; the fit's own residuals when there
         are no check points; "" without a camera or an XYZ raster."""
+        from ..workflow.features import pixel_error
         from ..workflow.products import ground_error
 
         info = self.state.fit_info if isinstance(self.state.fit_info, dict) else {}
-        check, own = info.get("check_rmse_px"), info.get("rmse_px")
-        if self.fitted is None or self.xyz is None or (check is None and own is None):
+        error_px, source = pixel_error(info, only_ok=False)
+        if self.fitted is None or self.xyz is None or error_px is None:
             return ""
-        distance, metres = ground_error(self.fitted, self.xyz, check if check is not None else own)
+        distance, metres = ground_error(self.fitted, self.xyz, error_px)
         if not np.isfinite(metres):
             return ""
-        what = (self.tr("check points {0:.1f} px") if check is not None else
-                self.tr("fit residuals {0:.1f} px, no check points"))
-        return " (" + what.format(check if check is not None else own) + ": " + self.tr(
+        what = {"check": self.tr("check points {0:.1f} px"),
+                "loo": self.tr("fit residuals left out one at a time {0:.1f} px, no check points"),
+                "fit": self.tr("fit residuals {0:.1f} px, no check points")}[source]
+        return " (" + what.format(error_px) + ": " + self.tr(
             "about {0:.0f} m across the view at {1:.1f} km, the median distance)").format(metres, distance / 1000.0)
 
     def residual_segments(self) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:

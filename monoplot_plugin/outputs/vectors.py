@@ -6,8 +6,10 @@ on sky already split off (see :mod:`.digitise`). :func:`write_vector_layer` writ
 - Z geometries: ``Point Z`` for points, ``MultiLineString Z`` for lines (a line crossing sky becomes several
   parts), ``MultiPolygon Z`` for polygons;
 - the user's attribute fields (name, type) plus computed ones, in map units of the CRS:
-  ``area`` (planimetric, polygons), ``length`` (planimetric) and ``length3d`` (along the terrain, lines), and
-  ``sky_parts`` (how many pieces of the drawn feature were over sky or off the DEM and were left out).
+  ``area`` (planimetric, polygons), ``length`` (planimetric) and ``length3d`` (along the terrain, lines),
+  ``sky_parts`` (how many pieces of the drawn feature were over sky or off the DEM and were left out), and
+  ``xy_error_m`` (the expected horizontal position error of the feature's ground points, metres, RMS, from the fit's
+  pixel error: :func:`~monoplot_plugin.core.transforms.ground_error_m`; empty when no fit vouches for the camera).
 
 Shapefile limits are checked up front with a clear message: field names of at most 10 characters, one geometry
 type per file. Attributes are written as UTF-8 (``.cpg`` file).
@@ -33,8 +35,8 @@ __all__ = ["MapFeature", "write_vector_layer", "read_vector_layer", "FIELD_TYPES
 #: User field types and their OGR types.
 FIELD_TYPES = {"string": ogr.OFTString, "integer": ogr.OFTInteger, "real": ogr.OFTReal, "date": ogr.OFTDate}
 #: Fields Monoplot adds, by geometry kind.
-COMPUTED_FIELDS = {"point": ("sky_parts",), "line": ("length", "length3d", "sky_parts"),
-                   "polygon": ("area", "length", "sky_parts")}
+COMPUTED_FIELDS = {"point": ("sky_parts", "xy_error_m"), "line": ("length", "length3d", "sky_parts", "xy_error_m"),
+                   "polygon": ("area", "length", "sky_parts", "xy_error_m")}
 _OGR_GEOMETRY = {"point": ogr.wkbPoint25D, "line": ogr.wkbMultiLineString25D, "polygon": ogr.wkbMultiPolygon25D}
 
 
@@ -48,12 +50,15 @@ class MapFeature:
             polygon: one closed or open ring per polygon (exterior rings; each becomes a polygon of the multipolygon).
         attributes: values of the user's fields by name.
         sky_parts: number of pieces left out because they were over sky / off the DEM.
+        xy_error_m: expected horizontal position error of the ground points (metres, RMS; median over the
+            feature's samples), None when unknown.
     """
 
     kind: str
     parts: List[np.ndarray]
     attributes: Dict[str, object] = field(default_factory=dict)
     sky_parts: int = 0
+    xy_error_m: Optional[float] = None
 
     def __post_init__(self):
         if self.kind not in _OGR_GEOMETRY:
@@ -97,6 +102,8 @@ class MapFeature:
             out["length"] = float(sum(_path_length(p[:, :2]) for p in self.parts))
             out["length3d"] = float(sum(_path_length(p) for p in self.parts))
         out["sky_parts"] = int(self.sky_parts)
+        if self.xy_error_m is not None and np.isfinite(self.xy_error_m):  # else the field stays empty
+            out["xy_error_m"] = round(float(self.xy_error_m), 3)
         return out
 
 

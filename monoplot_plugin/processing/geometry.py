@@ -14,33 +14,36 @@ from ..adapters.photo_space import geometry_parts as _parts
 from ..core.transforms import ground_pieces, true_runs
 from ..adapters.photo_space import computed_fields, geometry_kind
 from ..outputs.vectors import MapFeature
+from ..workflow.features import feature_error_m
 from . import pipeline
 
 #: Relative range jump between consecutive line vertices that cuts the line (a silhouette).
 SILHOUETTE_JUMP = 0.1
 
 
-def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float,
-                          y_sign: float = PHOTO_Y_SIGN) -> Tuple[Optional[QgsGeometry], int, dict]:
+def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float, y_sign: float = PHOTO_Y_SIGN,
+                          pixel_rmse: Optional[float] = None) -> Tuple[Optional[QgsGeometry], int, dict]:
     """A photo-space geometry (x = u, y = y_sign * v) -> map geometry with Z in the DEM's CRS.
 
     Lines and rings are densified every ``step`` pixels first; every vertex is intersected exactly with the DEM.
     Lines break where vertices see the sky and at silhouettes; polygon rings drop the vertices over the sky (the
     ring closes across the gap). Returns (geometry or None, number of vertices dropped, the computed fields the
-    dock's drawings get: :data:`~..outputs.vectors.COMPUTED_FIELDS`, by :meth:`MapFeature.measures`).
+    dock's drawings get: :data:`~..outputs.vectors.COMPUTED_FIELDS`, by :meth:`MapFeature.measures`; ``xy_error_m``
+    with ``pixel_rmse``, the photo's pixel error).
     """
     if geometry is None or geometry.isNull():
         return None, 0, {}
     if step > 0 and geometry.type() != QgsWkbTypes.PointGeometry:
         geometry = geometry.densifyByDistance(step)
     kind, parts = _parts(geometry)
-    out_parts, dropped, sky_parts = [], 0, 0
+    out_parts, dropped, sky_parts, ground_uv = [], 0, 0, []
     for rings in parts:
         out_rings = []
         for a in rings:
             uv = np.column_stack([a[:, 0], y_sign * a[:, 1]])
             xyz = pipeline.photo_to_map(camera, dem, uv)
             ok = np.isfinite(xyz).all(axis=1)
+            ground_uv.append(uv[ok])
             dropped += int((~ok).sum())
             sky_parts += len(true_runs(~ok))
             if kind == "line":
@@ -59,7 +62,8 @@ def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float,
     # not subtracted from the area (drawings on the photo have none)
     built_kind, built_parts = _parts(built)
     pieces = [rings[0] for rings in built_parts]
-    return built, dropped, MapFeature(built_kind, pieces, sky_parts=sky_parts).measures()
+    error = feature_error_m(np.vstack(ground_uv), camera, dem, pixel_rmse)
+    return built, dropped, MapFeature(built_kind, pieces, sky_parts=sky_parts, xy_error_m=error).measures()
 
 
 def map_to_photo_geometry(geometry: QgsGeometry, camera, dem, step: float, visible=None,

@@ -17,12 +17,54 @@ from ..core.lookup import sample_xyz
 from ..core.transforms import densify, ground_pieces, true_runs
 from ..outputs.vectors import MapFeature
 
-__all__ = ["photo_to_map_feature", "PhotoPath", "map_to_photo"]
+__all__ = ["photo_to_map_feature", "PhotoPath", "map_to_photo", "pixel_error", "feature_error_m"]
+
+#: Most ground samples of a feature at which its position error is evaluated (evenly along it).
+ERROR_SAMPLES = 64
+
+
+def pixel_error(info: Optional[dict], only_ok: bool = True) -> Tuple[Optional[float], str]:
+    """(the photo's pixel error a fit vouches for, RMS pixels; where it comes from): the independent check points'
+    RMSE ("check") when there are some, else the larger of the fit's RMSE ("fit") and its leave-one-out RMSE
+    ("loo"). ``(None, "")`` without a fit (a camera loaded from a file), and with ``only_ok`` when the fit is not
+    "ok": its own residuals would understate a camera the evidence does not support. Carried to the ground as
+    ``xy_error_m`` (:func:`feature_error_m`) and said with every written product.
+
+    >>> pixel_error({"status": "ok", "rmse_px": 7.7, "loo_rmse_px": 11.4}), pixel_error({"status": "uncertain"})
+    ((11.4, 'loo'), (None, ''))
+    >>> pixel_error({"status": "ok", "rmse_px": 2.0, "loo_rmse_px": None, "check_rmse_px": 6.5, "n_check": 3})
+    (6.5, 'check')
+    """
+    info = info or {}
+    if only_ok and info.get("status") != "ok":
+        return None, ""
+
+    def finite(key):
+        value = info.get(key)
+        return float(value) if value is not None and np.isfinite(value) else None
+
+    if finite("check_rmse_px") is not None:
+        return finite("check_rmse_px"), "check"
+    candidates = [(v, k) for k, v in (("fit", finite("rmse_px")), ("loo", finite("loo_rmse_px"))) if v is not None]
+    return max(candidates) if candidates else (None, "")
+
+
+def feature_error_m(ground_uv: np.ndarray, camera, dem, pixel_rmse: Optional[float]) -> Optional[float]:
+    """Median :func:`~..core.transforms.ground_error_m` (metres) over up to :data:`ERROR_SAMPLES` of a feature's
+    ground samples (pixels, evenly along it); None without a pixel error or where none of them is finite."""
+    if pixel_rmse is None or camera is None or dem is None or len(ground_uv) == 0:
+        return None
+    from ..core.transforms import ground_error_m
+
+    pick = np.unique(np.linspace(0, len(ground_uv) - 1, min(len(ground_uv), ERROR_SAMPLES)).round().astype(int))
+    errors = ground_error_m(np.asarray(ground_uv)[pick], camera, dem, float(pixel_rmse))
+    errors = errors[np.isfinite(errors)]
+    return float(np.median(errors)) if len(errors) else None
 
 
 def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, attributes: Optional[dict] = None,
                          step_px: float = 1.0, origin=None, *, camera=None, dem=None,
-                         jump: float = 0.1) -> Optional[MapFeature]:
+                         jump: float = 0.1, pixel_rmse: Optional[float] = None) -> Optional[MapFeature]:
     """A feature digitised on the photo as a 3-D map feature.
 
     Lines and polygon outlines are densified to ``step_px`` pixels first, so they follow the terrain. Pieces over
@@ -46,6 +88,8 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
         origin: the camera centre, for sub-pixel XYZ lookups and the silhouette test.
         camera, dem: the fitted Camera and core Dem, for exact intersections.
         jump: relative range jump between consecutive samples that cuts a line.
+        pixel_rmse: the fit's pixel error (:func:`pixel_error`); with ``camera`` and ``dem`` the feature gets
+            ``xy_error_m`` (:func:`feature_error_m` over its ground samples).
     Returns:
         a :class:`MapFeature`, or None when nothing of the feature is on the ground.
     """
@@ -67,7 +111,8 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
         ground = lookup(verts[:1])
         if not np.isfinite(ground).all():
             return None
-        return MapFeature("point", [ground], attributes)
+        return MapFeature("point", [ground], attributes,
+                          xy_error_m=feature_error_m(verts[:1], camera, dem, pixel_rmse))
     if kind not in ("line", "polygon"):
         raise ValueError(f"kind must be point, line or polygon, got {kind!r}")
     if kind == "polygon":
@@ -87,14 +132,16 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
         ring = _drop_repeats(ground[:-1][ring_valid])
         if len(ring) < 3:
             return None
-        return MapFeature("polygon", [ring], attributes, sky_parts=sky)
+        return MapFeature("polygon", [ring], attributes, sky_parts=sky,
+                          xy_error_m=feature_error_m(dense[:-1][ring_valid], camera, dem, pixel_rmse))
     pieces = ground_pieces(ground, valid, origin, jump)[0] if origin is not None else true_runs(valid)
     parts = [_drop_repeats(ground[p:q]) for p, q in pieces]
     parts = [p for p in parts if len(p) >= 2]
     sky = len(true_runs(~valid))
     if not parts:
         return None
-    return MapFeature("line", parts, attributes, sky_parts=sky)
+    return MapFeature("line", parts, attributes, sky_parts=sky,
+                      xy_error_m=feature_error_m(dense[valid], camera, dem, pixel_rmse))
 
 
 def _drop_repeats(points: np.ndarray) -> np.ndarray:

@@ -7,8 +7,8 @@ from monoplot_plugin.core.camera import Camera
 from monoplot_plugin.core.dem import Dem
 from monoplot_plugin.core.synthetic import render_photo, synthetic_terrain
 from monoplot_plugin.core.lookup import orthorectify
-from monoplot_plugin.core.transforms import (densify, map_to_photo, photo_line_to_map, photo_points_to_map,
-                                             photo_polygon_to_map)
+from monoplot_plugin.core.transforms import (densify, ground_error_m, map_to_photo, photo_line_to_map,
+                                             photo_points_to_map, photo_polygon_to_map)
 from monoplot_plugin.core.xyz import compute_xyz, compute_xyz_full, segment_first_hit
 
 
@@ -141,3 +141,29 @@ def test_map_ring_closing_edge_is_densified_and_points_are_not():
     pts = map_points_to_photo(ring, cam, dem)
     assert len(pts.uv) == 4 and pts.visible.all()
     assert np.allclose(cam.project(pts.xyz), pts.uv)
+
+
+def test_ground_error_matches_the_spread_of_noisy_pixels(scene):
+    """The footprint estimate against a Monte-Carlo: pixels moved by 2-D Gaussian noise of the stated RMS, their rays
+    intersected with the terrain; the horizontal RMS of the ground displacement agrees (on a rough terrain, where
+    the footprint varies from pixel to pixel)."""
+    cam, dem = scene
+    rng = np.random.default_rng(3)
+    uv = rng.uniform([10, 10], [cam.width - 10, cam.height - 10], size=(150, 2))
+    base, ok = photo_points_to_map(uv, cam, dem)
+    uv = uv[ok]
+    rmse_px = 0.5
+    predicted = ground_error_m(uv, cam, dem, rmse_px)
+    noise = rng.normal(0.0, rmse_px / np.sqrt(2.0), size=(400, len(uv), 2))  # per axis: RMS / sqrt(2)
+    moved, hit = photo_points_to_map((uv[None] + noise).reshape(-1, 2), cam, dem)
+    d2 = np.sum((moved[:, :2] - np.repeat(base[ok][None, :, :2], 400, axis=0).reshape(-1, 2)) ** 2, axis=1).reshape(400, -1)
+    hit = hit.reshape(400, -1)
+    smooth = hit.all(axis=0)  # leave out pixels whose noise reaches the sky
+    trimmed = np.sort(d2, axis=0)[:396]  # the 1 % largest left out: a sample jumping behind a ridge
+    measured = np.sqrt(trimmed.mean(axis=0))[smooth]
+    ratio = predicted[smooth] / measured
+    assert smooth.sum() > 30
+    assert 0.85 < np.median(ratio) < 1.2
+    # twice the pixel error, about twice the ground error where the terrain is smooth at that scale
+    doubled = ground_error_m(uv, cam, dem, 2 * rmse_px)[smooth] / predicted[smooth]
+    assert 1.8 < np.median(doubled) < 2.2

@@ -4,7 +4,7 @@ added to the photo's layer group, a refit moving the live map layer, unload."""
 import numpy as np
 import pytest
 from osgeo import gdal
-from qgis.core import QgsFeature, QgsGeometry, QgsPointXY, QgsProject, QgsRasterLayer, QgsVectorLayer
+from qgis.core import NULL, QgsFeature, QgsGeometry, QgsPointXY, QgsProject, QgsRasterLayer, QgsVectorLayer
 
 from monoplot_plugin.outputs import OutputExistsError
 
@@ -418,6 +418,30 @@ def test_written_products_say_what_the_camera_is_worth_on_the_ground(dock_with_f
 
     fit = json.loads(gdal.Open(str(tmp_path / "xyz.tif")).GetMetadata()["MONOPLOT_FIT"])  # the file says it too
     assert fit == {"status": "ok", "rmse_px": 2.0, "check_rmse_px": 6.0, "mode": "paired"}
+
+
+def test_drawn_features_say_their_position_error_only_when_a_fit_vouches_for_the_camera(dock_with_fit, plane_scene):
+    """xy_error_m on the live map layer: empty for a camera no fit vouches for (loaded, or "uncertain"); after an
+    "ok" fit, the check points' pixel error carried to the ground, recomputed when the fit changes."""
+    dock, tools = dock_with_fit
+    s, c = plane_scene, dock.controller
+    w, h = s.camera.width, s.camera.height
+    session = tools.current_session()
+    session.add_feature("line", [[0.2 * w, 0.85 * h], [0.8 * w, 0.8 * h]], {"name": "moraine"})
+    live = session.map_layer("line")
+    assert next(live.getFeatures())["xy_error_m"] in (None, NULL)  # a camera without a fit: no claim
+
+    def refit(info):
+        c.state.fit_info = info
+        c.cameraChanged.emit()
+        return next(live.getFeatures())["xy_error_m"]
+
+    assert refit({"status": "uncertain", "rmse_px": 1.0, "check_rmse_px": 3.0}) in (None, NULL)
+    first = refit({"status": "ok", "rmse_px": 1.0, "check_rmse_px": 3.0})
+    ground = np.array([(p.x(), p.y(), p.z()) for p in next(live.getFeatures()).geometry().vertices()])
+    footprint = float(np.median(np.linalg.norm(ground - s.camera.position, axis=1))) * 3.0 / s.camera.focal_px
+    assert footprint < first < 20 * footprint  # face-on at least; longer on ground seen at a slant
+    assert refit({"status": "ok", "rmse_px": 1.0, "check_rmse_px": 6.0}) == pytest.approx(2 * first, rel=0.2)
 
 
 def test_features_drawn_after_the_last_save_come_back_after_a_crash_and_say_so(dock_with_fit, plane_scene,

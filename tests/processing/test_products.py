@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 from osgeo import gdal
-from qgis.core import (QgsFeature, QgsGeometry, QgsPointXY, QgsProcessingException, QgsVectorLayer)
+from qgis.core import NULL, QgsFeature, QgsGeometry, QgsPointXY, QgsProcessingException, QgsVectorLayer
 
 from monoplot_plugin.core.dem import Dem
 from monoplot_plugin.core.xyz import compute_xyz, compute_xyz_full
@@ -71,6 +71,16 @@ def test_photo_polygon_becomes_3d_map_polygon_on_the_terrain(run_alg, small_scen
     feature = next(layer.getFeatures())
     assert geometry.area() > 0 and feature["area"] == pytest.approx(geometry.area(), rel=1e-6)
     assert feature["length"] == pytest.approx(geometry.length(), rel=1e-6) and feature["sky_parts"] == 0
+    assert feature["xy_error_m"] in (None, NULL)  # no pixel error given: no claim
+    # With the fit's pixel error: the median footprint of the outline's ground points, twice as large for twice
+    # the error, and of the size a pixel covers there (a few metres at this range, not millimetres or kilometres)
+    errors = []
+    for pixel_error in (1.0, 2.0):
+        result = run_alg("phototomap", {"INPUT": drawn, "CAMERA": small_scene["camera"], "DEM": small_scene["dem"],
+                                        "STEP": 5, "PIXEL_ERROR": pixel_error, "OUTPUT": "memory:"})
+        errors.append(next(result["OUTPUT"].getFeatures())["xy_error_m"])
+    footprint = float(np.median(np.linalg.norm(vertices - cam.position, axis=1))) / cam.focal_px
+    assert 0.3 * footprint < errors[0] < 10 * footprint and errors[1] == pytest.approx(2 * errors[0], rel=0.2)
 
 
 def test_map_line_projects_onto_photo_and_back(run_alg, small_scene, tmp_path):

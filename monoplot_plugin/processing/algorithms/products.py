@@ -128,13 +128,20 @@ class PhotoToMap(_CameraDemAlgorithm):
     _help = ("Turns points, lines and polygons drawn on the photo (photo pixel space: x = column, y = -row) into a "
              "layer in the DEM's CRS with Z, by intersecting each vertex's ray with the DEM. Lines are densified "
              "every STEP pixels first, since a straight line on the photo is not straight on the terrain. Vertices "
-             "that see the sky are dropped (and reported).")
+             "that see the sky are dropped (and reported). With a photo pixel error (the fit's check-point RMSE, "
+             "else its leave-one-out RMSE), each feature gets xy_error_m: the expected horizontal error (m, RMS) of "
+             "its ground points, from the terrain's footprint of that error; it grows with range and where rays graze "
+             "the terrain, and leaves out the DEM's own error.")
 
     def initAlgorithm(self, config=None):
         self.addParameter(QgsProcessingParameterFeatureSource("INPUT", self.tr("Features drawn on the photo")))
         self.add_camera_dem()
         self.addParameter(QgsProcessingParameterNumber("STEP", self.tr("Densify every (pixels)"),
                                                        QgsProcessingParameterNumber.Double, 2.0, minValue=0.0))
+        self.addParameter(QgsProcessingParameterNumber(
+            "PIXEL_ERROR", self.tr("Photo pixel error for xy_error_m (pixels RMS, e.g. the fit's check-point "
+                                   "RMSE; 0 = leave xy_error_m empty)"),
+            QgsProcessingParameterNumber.Double, 0.0, minValue=0.0, optional=True))
         self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Map features")))
         self.addOutput(QgsProcessingOutputNumber("DROPPED", self.tr("Vertices dropped (sky)")))
         self.add_allow_empty()
@@ -145,6 +152,7 @@ class PhotoToMap(_CameraDemAlgorithm):
             raise QgsProcessingException(self.invalidSourceError(parameters, "INPUT"))
         camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
         step = self.parameterAsDouble(parameters, "STEP", context)
+        pixel_rmse = self.parameterAsDouble(parameters, "PIXEL_ERROR", context) or None
         wkb = QgsWkbTypes.addZ(QgsWkbTypes.multiType(source.wkbType()))
         # the measures the dock's drawings get (area, length, length3d, sky_parts), beside the input's fields
         fields, measured = geo.measured_fields(source.fields(), QgsWkbTypes.geometryType(source.wkbType()))
@@ -153,7 +161,8 @@ class PhotoToMap(_CameraDemAlgorithm):
         dropped = 0
         for i, feature in enumerate(source.getFeatures()):
             check_canceled(feedback)
-            geometry, lost, measures = geo.photo_to_map_geometry(feature.geometry(), camera, dem, step, PHOTO_Y_SIGN)
+            geometry, lost, measures = geo.photo_to_map_geometry(feature.geometry(), camera, dem, step, PHOTO_Y_SIGN,
+                                                                 pixel_rmse)
             dropped += lost
             if geometry is None:
                 feedback.pushWarning(self.tr("Feature {0} is entirely in the sky or outside the DEM; skipped").format(
