@@ -105,7 +105,9 @@ class SafeSink:
 
 class PixelSpaceOnLoad(QgsProcessingLayerPostProcessorInterface):
     """Loaded into the project, a layer in photo pixels keeps no CRS: QGIS gives a layer without one the default
-    CRS (EPSG:4326 out of the box), which labelled photo pixels as degrees and reprojected them."""
+    CRS (EPSG:4326 out of the box), which labelled photo pixels as degrees and reprojected them. It is also left
+    unchecked in the Layers panel, as the dock's photo layers are: drawn on the map it stretched the map's full
+    extent from the DEM to tens of thousands of kilometres (a desktop trial)."""
 
     #: the post-processors handed to contexts: a context deletes its post-processor once it has run, and the
     #: Python side must keep the object alive until then
@@ -113,6 +115,10 @@ class PixelSpaceOnLoad(QgsProcessingLayerPostProcessorInterface):
 
     def postProcessLayer(self, layer, context, feedback):  # noqa: N802 (QGIS API)
         layer.setCrs(QgsCoordinateReferenceSystem())
+        project = context.project() if context is not None else None
+        node = project.layerTreeRoot().findLayer(layer.id()) if project is not None else None
+        if node is not None:
+            node.setItemVisibilityChecked(False)
 
     @classmethod
     def create(cls) -> "PixelSpaceOnLoad":

@@ -121,8 +121,8 @@ def test_temporary_and_file_outputs_load_without_error_and_photo_pixels_keep_no_
                                                                                     tmp_path):
     """A desktop trial: Suggest photo points, Map -> photo and Photo -> map with the default temporary output said
     "The following layers were not correctly generated • memory:...", and photo-pixel layers came in as EPSG:4326.
-    Run as the toolbox runs them (results loaded into the project): no error, photo pixels without a CRS, map
-    features in the DEM's CRS."""
+    Run as the toolbox runs them (results loaded into the project): no error, photo pixels without a CRS and
+    unchecked, map features in the DEM's CRS."""
     import processing
     from qgis.core import (QgsFeature, QgsGeometry, QgsProcessingFeedback, QgsProject, QgsVectorLayer)
 
@@ -149,8 +149,9 @@ def test_temporary_and_file_outputs_load_without_error_and_photo_pixels_keep_no_
             loaded = [project.mapLayer(i) for i in set(project.mapLayers()) - before]
             assert feedback.said == [] and len(loaded) == 1, (name, output, feedback.said)
             assert loaded[0].featureCount() > 0
+            checked = project.layerTreeRoot().findLayer(loaded[0].id()).itemVisibilityChecked()
             if in_map:
-                assert loaded[0].crs().authid() == "EPSG:32632", (name, output)
-            else:
-                assert not loaded[0].crs().isValid(), (name, output, loaded[0].crs().authid())
+                assert loaded[0].crs().authid() == "EPSG:32632" and checked, (name, output)
+            else:  # and off on the map, where photo pixels would stretch the full extent (a desktop trial)
+                assert not loaded[0].crs().isValid() and not checked, (name, output, loaded[0].crs().authid())
             project.removeMapLayer(loaded[0].id())
