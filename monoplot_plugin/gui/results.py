@@ -122,24 +122,32 @@ class ResultsMixin:
         return True
 
     def ground_accuracy_text(self) -> str:
-        """" (check points 7.7 px: about 12 m across the view at 4.3 km, the median distance)": what a product of
-        the fitted camera is worth on the ground, for the "Written: ..." message; the fit's own residuals when there
-        are no check points; "" without a camera or an XYZ raster."""
+        """" (check points 7.7 px: about 40 m on the ground, the median over the terrain seen, 4.3 km away at the
+        median)": what a product of the fitted camera is worth on the ground, for the "Written: ..." message
+        (:func:`~..workflow.features.pixel_error`: the check points, else a paired fit's residuals or their
+        leave-one-out error; an unpaired fit without check points says its error is not known); "" without a
+        camera or an XYZ raster."""
         from ..workflow.features import pixel_error
         from ..workflow.products import ground_error
 
         info = self.state.fit_info if isinstance(self.state.fit_info, dict) else {}
         error_px, source = pixel_error(info, only_ok=False)
-        if self.fitted is None or self.xyz is None or error_px is None:
+        if self.fitted is None or self.xyz is None:
             return ""
-        distance, metres = ground_error(self.fitted, self.xyz, error_px)
+        if source == "unpaired":
+            return self.tr(" (no check points: an unpaired fit's residuals do not say how far off its products are "
+                           "on the ground; mark a few accepted pairs as check points to know)")
+        if error_px is None:
+            return ""
+        distance, metres = ground_error(self.fitted, self.xyz, error_px, self.dem)
         if not np.isfinite(metres):
             return ""
         what = {"check": self.tr("check points {0:.1f} px"),
                 "loo": self.tr("fit residuals left out one at a time {0:.1f} px, no check points"),
                 "fit": self.tr("fit residuals {0:.1f} px, no check points")}[source]
         return " (" + what.format(error_px) + ": " + self.tr(
-            "about {0:.0f} m across the view at {1:.1f} km, the median distance)").format(metres, distance / 1000.0)
+            "about {0:.0f} m on the ground, the median over the terrain seen, {1:.1f} km away at the median)").format(
+            metres, distance / 1000.0)
 
     def residual_segments(self) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:
         """(photo pixel, matched DEM point's pixel) segments of :meth:`residuals`."""

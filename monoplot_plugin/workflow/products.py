@@ -246,10 +246,14 @@ def _median_distance(camera: Camera, pts: np.ndarray) -> float:
     return float(np.median(np.linalg.norm(pts - np.asarray(camera.position), axis=1)))
 
 
-def ground_error(camera: Camera, xyz: np.ndarray, error_px: float) -> Tuple[float, float]:
-    """(median distance to the terrain the camera sees, what ``error_px`` pixels span across the line of sight at
-    that distance), both in map units: an image error said on the ground (face-on; on terrain seen at a grazing
-    angle the error along the view is larger). NaN, NaN when the camera sees no terrain (``xyz`` (H, W, 3)).
+def ground_error(camera: Camera, xyz: np.ndarray, error_px: float, dem=None,
+                 samples: int = 400) -> Tuple[float, float]:
+    """(median distance to the terrain the camera sees, the median horizontal error ``error_px`` pixels make on that
+    terrain), both in map units: an image error said on the ground. With ``dem``, the error is the footprint's
+    (:func:`~..core.transforms.ground_error_m` at up to ``samples`` pixels that see terrain, evenly taken: it counts
+    terrain seen at a grazing angle, where a pixel spans far more along the view); without, face-on at the median
+    distance (a lower bound). NaN, NaN when the camera sees no terrain (``xyz`` (H, W, 3), any size: its cells are
+    taken as the photo's pixels scaled).
 
     >>> from monoplot_plugin.core.camera import Camera
     >>> cam = Camera((0.0, 0.0, 0.0), 0.0, 0.0, 0.0, 90.0, (1000, 800))  # focal 500 px
@@ -260,7 +264,17 @@ def ground_error(camera: Camera, xyz: np.ndarray, error_px: float) -> Tuple[floa
     if not len(pts) or not np.isfinite(error_px):
         return float("nan"), float("nan")
     distance = _median_distance(camera, pts)
-    return distance, distance * float(error_px) / camera.focal_px
+    if dem is None:
+        return distance, distance * float(error_px) / camera.focal_px
+    from ..core.transforms import ground_error_m
+
+    rows, cols = np.nonzero(np.isfinite(np.asarray(xyz)).all(axis=2))
+    pick = np.unique(np.linspace(0, len(rows) - 1, min(len(rows), samples)).round().astype(int))
+    scale_u, scale_v = camera.width / xyz.shape[1], camera.height / xyz.shape[0]
+    uv = np.column_stack([(cols[pick] + 0.5) * scale_u, (rows[pick] + 0.5) * scale_v])
+    errors = ground_error_m(uv, camera, dem, float(error_px))
+    errors = errors[np.isfinite(errors)]
+    return distance, float(np.median(errors)) if len(errors) else float("nan")
 
 
 def dem_at_resolution(dem, resolution: float, bounds=None):

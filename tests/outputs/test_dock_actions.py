@@ -396,19 +396,27 @@ def test_reopening_does_not_tell_old_news(dock_with_fit, plane_scene, tmp_path, 
 
 
 def test_written_products_say_what_the_camera_is_worth_on_the_ground(dock_with_fit, plane_scene, tmp_path, qtbot):
-    """"Written: xyz.tif" said nothing of how sure the positions are: an "ok" camera's products now say the check
-    points' error (else the fit's own residuals, said to be that) in metres at the median distance."""
+    """"Written: xyz.tif" said nothing of how sure the positions are: products now say the check points' error
+    (else a paired fit's residuals, said to be that) in metres on the terrain seen. A trial found the face-on figure
+    at the median distance 3 times under the GCPs' errors on Aletsch: it is the footprint's now (longer where the
+    terrain is seen at a slant), and an unpaired fit without check points says its error is not known."""
     dock, tools = dock_with_fit
     s, c = plane_scene, dock.controller
     c.xyz = s.xyz
     c.state.fit_info = {"status": "ok", "rmse_px": 2.0, "mode": "paired"}
     seen = s.xyz[np.isfinite(s.xyz).all(axis=2)]
     median = float(np.median(np.linalg.norm(seen - np.asarray(s.camera.position), axis=1)))
+    face_on = median * 2.0 / s.camera.focal_px
     own = c.ground_accuracy_text()
-    assert "fit residuals 2.0 px, no check points" in own
-    assert f"about {median * 2.0 / s.camera.focal_px:.0f} m across the view at {median / 1000:.1f} km" in own
+    assert "fit residuals 2.0 px, no check points" in own and f"{median / 1000:.1f} km away at the median" in own
+    metres = float(own.split("about ")[1].split(" m on the ground")[0])
+    assert face_on <= metres < 20 * face_on  # the plane is seen at a slant: longer than face-on
     c.state.fit_info["check_rmse_px"] = 6.0
     assert "check points 6.0 px" in c.ground_accuracy_text()
+    unpaired = {"status": "ok", "rmse_px": 2.0, "loo_rmse_px": 2.5, "mode": "unpaired"}
+    c.state.fit_info = dict(unpaired)
+    assert "no check points" in c.ground_accuracy_text() and " m on the ground" not in c.ground_accuracy_text()
+    c.state.fit_info = {**unpaired, "check_rmse_px": 6.0}
     messages = []
     c.message.connect(lambda text, level: messages.append(text))
     tools.start_export("xyz", tmp_path / "xyz.tif")
@@ -417,7 +425,7 @@ def test_written_products_say_what_the_camera_is_worth_on_the_ground(dock_with_f
     import json
 
     fit = json.loads(gdal.Open(str(tmp_path / "xyz.tif")).GetMetadata()["MONOPLOT_FIT"])  # the file says it too
-    assert fit == {"status": "ok", "rmse_px": 2.0, "check_rmse_px": 6.0, "mode": "paired"}
+    assert fit == {"status": "ok", "rmse_px": 2.0, "check_rmse_px": 6.0, "mode": "unpaired"}
 
 
 def test_drawn_features_say_their_position_error_only_when_a_fit_vouches_for_the_camera(dock_with_fit, plane_scene):
