@@ -360,12 +360,20 @@ class OutputTools(QObject):
             existing = [p for p in paths.values() if p.exists()]
             if existing and QMessageBox.question(
                     self.host.widget, self.tr("Replace files?"),
-                    self.tr("Replace {0}?").format(", ".join(p.name for p in existing)),
+                    self.tr("Replace {0}?").format(", ".join(self._replaced(p) for p in existing)),
                     QMessageBox.StandardButton.Yes | QMessageBox.StandardButton.No,
                     QMessageBox.StandardButton.No) != QMessageBox.StandardButton.Yes:
                 return
         if paths:
             self._export_each(paths)
+
+    def _replaced(self, path: Path) -> str:
+        """What writing ``path`` replaces: the file, or of a GeoPackage with other layers its layer of that name."""
+        from ..outputs.vectors import other_layers
+
+        if other_layers(path, path.stem):
+            return self.tr("the layer {0} of {1} (its other layers are kept)").format(path.stem, path.name)
+        return path.name
 
     def _export_each(self, paths: dict) -> None:
         """Write each geometry type to its file, and say it once (a save of three types gave three messages); a
@@ -374,10 +382,15 @@ class OutputTools(QObject):
         if reason is not None:
             self._message(reason, Qgis.MessageLevel.Warning)
             return
+        from ..outputs.vectors import other_layers
+
         written = []
         for kind, target in paths.items():
+            kept = other_layers(target, Path(target).stem)  # a GeoPackage's other layers stay (only this one goes)
             try:
-                written.append(str(self.export_features(kind, target, overwrite=True)))
+                path = str(self.export_features(kind, target, overwrite=True))
+                written.append(path if not kept else self.tr("{0} (layer {1}; its other layers kept: {2})").format(
+                    path, Path(target).stem, ", ".join(kept)))
             except (OutputError, ValueError) as exc:
                 text = (self.tr("Nothing was written: {0}").format(exc) if not written else
                         self.tr("Written: {0}; not written: {1}").format(", ".join(written), exc))

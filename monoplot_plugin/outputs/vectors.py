@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import datetime
 import os
+import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
@@ -30,7 +31,7 @@ from ._gdal import gdal_errors_as_exceptions, gdal_failure, srs_from_user, vecto
 from .safe_write import atomic_output
 
 __all__ = ["MapFeature", "write_vector_layer", "read_vector_layer", "FIELD_TYPES", "driver_for_path",
-           "COMPUTED_FIELDS"]
+           "COMPUTED_FIELDS", "other_layers"]
 
 #: User field types and their OGR types.
 FIELD_TYPES = {"string": ogr.OFTString, "integer": ogr.OFTInteger, "real": ogr.OFTReal, "date": ogr.OFTDate}
@@ -160,7 +161,9 @@ def write_vector_layer(path, features: Sequence[MapFeature], crs_wkt: str, *,
         fields: user attribute fields as (name, type) with type in :data:`FIELD_TYPES`; computed fields are added.
         kind: "point", "line" or "polygon"; needed when ``features`` is empty.
         layer_name: GeoPackage layer name (default: the file's stem).
-        overwrite: replace an existing file (default: refuse with OutputExistsError).
+        overwrite: replace an existing file (default: refuse with OutputExistsError). An existing GeoPackage that
+            holds other layers keeps them: only the layer ``layer_name`` is replaced (a desktop trial: saving the
+            drawn lines over a GeoPackage of two other layers deleted them).
     Returns:
         the Path written.
     """
@@ -179,11 +182,19 @@ def write_vector_layer(path, features: Sequence[MapFeature], crs_wkt: str, *,
     srs = srs_from_user(crs_wkt)
     name = layer_name or target.stem
     verify = vector_verifier(len(features), name if driver_name == "GPKG" else None)
+    keep_others = driver_name == "GPKG" and overwrite and bool(other_layers(target, name))
     with atomic_output(target, overwrite, verify=verify) as tmp:
         ds = layer = None
         try:
             with gdal_errors_as_exceptions():
-                ds = ogr.GetDriverByName(driver_name).CreateDataSource(tmp)
+                if keep_others:  # the file's other layers kept: a copy of it, this layer replaced in the copy
+                    shutil.copyfile(target, tmp)
+                    ds = ogr.Open(tmp, 1)
+                    for index in range(ds.GetLayerCount() - 1, -1, -1):
+                        if ds.GetLayer(index).GetName() == name:
+                            ds.DeleteLayer(index)
+                else:
+                    ds = ogr.GetDriverByName(driver_name).CreateDataSource(tmp)
                 options = ["ENCODING=UTF-8"] if driver_name == "ESRI Shapefile" else ["SPATIAL_INDEX=YES"]
                 layer = ds.CreateLayer(name if driver_name == "GPKG" else Path(tmp).stem, srs,
                                        _OGR_GEOMETRY[kind], options=options)
@@ -194,6 +205,22 @@ def write_vector_layer(path, features: Sequence[MapFeature], crs_wkt: str, *,
         finally:
             layer = ds = None  # close before the temporary file is renamed or removed
     return target
+
+
+def other_layers(path, layer_name: str) -> List[str]:
+    """The names of the layers of the GeoPackage ``path`` other than ``layer_name`` ([] when it does not exist or
+    is not a readable GeoPackage)."""
+    target = Path(os.fspath(path))
+    if not target.is_file() or target.suffix.lower() != ".gpkg":
+        return []
+    with gdal_errors_as_exceptions():
+        try:
+            ds = ogr.Open(str(target))
+        except RuntimeError:
+            return []
+        names = [ds.GetLayer(i).GetName() for i in range(ds.GetLayerCount())] if ds is not None else []
+        ds = None
+    return [n for n in names if n != layer_name]
 
 
 def _fill_layer(layer: ogr.Layer, features: Sequence[MapFeature], fields, kind: str) -> None:

@@ -313,6 +313,40 @@ def test_saving_drawn_features_asks_once_for_all_geometry_types(dock_with_fit, t
     assert asked == ["Replace drawn_lines.gpkg, drawn_polygons.gpkg?"] and lines.stat().st_mtime_ns == before
 
 
+def test_saving_drawn_lines_into_a_geopackage_keeps_its_other_layers(dock_with_fit, tmp_path, monkeypatch):
+    """A desktop trial: "Save drawn features…" into a GeoPackage holding the survey's two layers replaced the file
+    and lost them. The drawn lines go in as one more layer, and the message says the others were kept; with two
+    geometry types the question before replacing says which layer it replaces."""
+    from osgeo import ogr
+    from qgis.PyQt.QtWidgets import QFileDialog, QMessageBox
+
+    from monoplot_plugin.outputs.vectors import MapFeature, write_vector_layer
+
+    dock, tools = dock_with_fit
+    session = tools.current_session()
+    session.add_feature("line", [[40, 120], [200, 130]], {})
+    survey = tmp_path / "survey.gpkg"
+    stake = MapFeature("point", [[601000.0, 202000.0, 400.0]])
+    write_vector_layer(survey, [stake], CRS, layer_name="stakes")
+    write_vector_layer(survey, [stake, stake], CRS, layer_name="cairns", overwrite=True)
+    messages, asked = [], []
+    dock.controller.message.connect(lambda text, level: messages.append(text))
+    monkeypatch.setattr(QFileDialog, "getSaveFileName", staticmethod(lambda *a: (str(survey), "")))
+    tools.actions["features"].trigger()
+    ds = ogr.Open(str(survey))
+    counts = {ds.GetLayer(i).GetName(): ds.GetLayer(i).GetFeatureCount() for i in range(ds.GetLayerCount())}
+    ds = None
+    assert counts == {"stakes": 1, "cairns": 2, "survey": 1}
+    assert any(m.startswith("Features written") and "its other layers kept: stakes, cairns" in m for m in messages)
+
+    session.add_feature("polygon", [[60, 150], [160, 150], [160, 200], [60, 200], [60, 150]], {})
+    write_vector_layer(tmp_path / "survey_lines.gpkg", [stake], CRS, layer_name="stakes")
+    monkeypatch.setattr(QMessageBox, "question", staticmethod(
+        lambda *args: asked.append(args[2]) or QMessageBox.StandardButton.No))
+    tools.actions["features"].trigger()
+    assert asked == ["Replace the layer survey_lines of survey_lines.gpkg (its other layers are kept)?"]
+
+
 def test_active_layer_on_photo_says_what_the_camera_sees(dock_with_fit, qgis_iface):
     """"Drawn on the photo" came for an empty layer and for one far away (a desktop trial): the message says how
     many features are seen, warns when none is, and says when a layer without CRS was taken as the DEM's."""

@@ -106,6 +106,30 @@ def test_shapefile_limits_and_overwrite(plane_scene, tmp_path):
     assert not [n for n in os.listdir(tmp_path) if "tmp" in n]
 
 
+def test_overwriting_a_geopackage_keeps_its_other_layers(tmp_path):
+    """A desktop trial: "Save drawn features" over a GeoPackage that held two other layers left only the drawn one.
+    Now only the layer of that name is replaced; a GeoPackage of that layer alone is replaced whole, as before."""
+    from monoplot_plugin.outputs.vectors import other_layers
+
+    point = MapFeature("point", [[600100.0, 200100.0, 410.0]])
+    target = tmp_path / "survey.gpkg"
+    write_vector_layer(target, [point, point], CRS, layer_name="stakes")
+    write_vector_layer(target, [point], CRS, layer_name="cairns", overwrite=True)
+    assert other_layers(target, "survey") == ["stakes", "cairns"]
+    write_vector_layer(target, [point] * 3, CRS, overwrite=True)  # layer "survey", the file's stem
+    write_vector_layer(target, [point] * 4, CRS, overwrite=True)  # again: replaced, not added twice
+    ds = ogr.Open(str(target))
+    counts = {ds.GetLayer(i).GetName(): ds.GetLayer(i).GetFeatureCount() for i in range(ds.GetLayerCount())}
+    assert counts == {"stakes": 2, "cairns": 1, "survey": 4}
+    ds = None
+    alone = tmp_path / "alone.gpkg"
+    write_vector_layer(alone, [point], CRS)
+    write_vector_layer(alone, [point] * 2, CRS, overwrite=True)
+    ds, layer = open_layer(alone)  # the data source kept alive while its layer is used
+    assert other_layers(alone, "alone") == [] and layer.GetFeatureCount() == 2
+    assert not [n for n in os.listdir(tmp_path) if "tmp" in n]
+
+
 def test_map_polygon_to_photo_and_back_within_one_cell(plane_scene):
     scene = plane_scene
     cell = scene.dem.cell_size
