@@ -66,34 +66,36 @@ def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float, y_sig
     return built, dropped, MapFeature(built_kind, pieces, sky_parts=sky_parts, xy_error_m=error).measures()
 
 
-def map_to_photo_geometry(geometry: QgsGeometry, camera, dem, step: float, visible=None,
-                          y_sign: float = PHOTO_Y_SIGN) -> Optional[QgsGeometry]:
-    """A map geometry (DEM CRS) -> photo-space geometry (x = u, y = y_sign * v).
+def map_to_photo_geometry(geometry: QgsGeometry, camera, dem, step: float, visible=None, y_sign: float = PHOTO_Y_SIGN,
+                          drop_hidden: bool = True) -> Tuple[Optional[QgsGeometry], float]:
+    """A map geometry (DEM CRS) -> (photo-space geometry (x = u, y = y_sign * v), the share of its vertices the
+    camera sees).
 
     Z comes from the geometry, else from the DEM. ``visible``: optional callable ``(xyz (N, 3)) -> (N,) bool``
-    (:func:`pipeline.visibility`); lines are split where vertices are hidden, points dropped; polygons are kept
-    when at least one vertex is visible (a partly hidden polygon is drawn whole).
+    (:func:`pipeline.visibility`); with ``drop_hidden`` lines are split where vertices are hidden, points dropped;
+    polygons are kept when at least one vertex is visible (a partly hidden polygon is drawn whole: the share says
+    how much of its outline is seen). The share is NaN without ``visible``.
     """
     if geometry is None or geometry.isNull():
-        return None
+        return None, float("nan")
     if step > 0 and geometry.type() != QgsWkbTypes.PointGeometry:
         geometry = geometry.densifyByDistance(step)
     kind, parts = _parts(geometry)
     out_parts = []
-    any_visible = False
+    seen_count, total = 0, 0
     for rings in parts:
         out_rings = []
         for a in rings:
             xyz = pipeline.fill_missing_z(a, dem)
             uv = camera.project(xyz)
-            ok = np.isfinite(uv).all(axis=1)
-            if visible is not None:
-                ok &= visible(xyz)
-            any_visible |= bool(ok.any())
+            finite = np.isfinite(uv).all(axis=1)
+            seen = finite & visible(xyz) if visible is not None else finite
+            seen_count, total = seen_count + int(seen.sum()), total + len(seen)
+            ok = seen if drop_hidden else finite
             photo = np.column_stack([uv[:, 0], y_sign * uv[:, 1], np.zeros(len(uv))])
             if kind == "polygon":
-                out_rings.append(photo[np.isfinite(uv).all(axis=1)])
-            elif kind == "line" and visible is not None:
+                out_rings.append(photo[finite])
+            elif kind == "line" and visible is not None and drop_hidden:
                 out_rings.extend(photo[p:q] for p, q in true_runs(ok))
             else:
                 out_rings.append(photo[ok])
@@ -101,9 +103,10 @@ def map_to_photo_geometry(geometry: QgsGeometry, camera, dem, step: float, visib
             out_parts.extend([[r] for r in out_rings])
         else:
             out_parts.append(out_rings)
-    if kind == "polygon" and not any_visible:
-        return None
-    return _build(kind, out_parts, with_z=False)
+    share = seen_count / total if visible is not None and total else float("nan")
+    if kind == "polygon" and drop_hidden and visible is not None and seen_count == 0:
+        return None, share
+    return _build(kind, out_parts, with_z=False), share
 
 
 def measured_fields(fields, geometry_type) -> Tuple[object, list]:

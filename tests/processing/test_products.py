@@ -157,9 +157,10 @@ def test_map_to_photo_drops_points_hidden_behind_terrain(run_alg, small_scene):
         features.append(f)
     layer.dataProvider().addFeatures(features)
     common = {"INPUT": layer, "CAMERA": small_scene["camera"], "DEM": small_scene["dem"], "OUTPUT": "memory:"}
-    assert run_alg("maptophoto", {**common, "HIDDEN": False})["OUTPUT"].featureCount() == 2
+    both = list(run_alg("maptophoto", {**common, "HIDDEN": False})["OUTPUT"].getFeatures())
+    assert [f["visible_share"] for f in both] == [1.0, 0.0]  # kept, but said to be hidden (a desktop trial)
     kept = list(run_alg("maptophoto", {**common, "HIDDEN": True})["OUTPUT"].getFeatures())
-    assert len(kept) == 1
+    assert len(kept) == 1 and kept[0]["visible_share"] == 1.0
     u, v = kept[0].geometry().vertices().next().x(), -kept[0].geometry().vertices().next().y()
     assert np.allclose([u, v], cam.project([seen])[0], atol=0.5)
 
@@ -186,6 +187,20 @@ def test_map_line_into_hidden_ground_keeps_only_its_visible_part(run_alg, small_
     assert len(whole) >= 30  # 400 m densified every 10 m
     assert 2 <= len(visible) < len(whole)  # the far end, behind the near slope, is gone
     assert np.allclose(visible[0], cam.project([seen])[0], atol=1.0)
+    share = next(run_alg("maptophoto", {**common, "HIDDEN": False})["OUTPUT"].getFeatures())["visible_share"]
+    assert share == pytest.approx(len(visible) / len(whole), abs=0.05)
+
+    # A polygon around the same stretch of ground is drawn whole, and says how much of its outline is seen.
+    polygon = QgsVectorLayer("Polygon?crs=EPSG:32632", "area", "memory")
+    side = np.array([-direction[1], direction[0]]) * 60.0
+    ring = [seen[:2] - side, seen[:2] + side, behind + side, behind - side, seen[:2] - side]
+    feature = QgsFeature()
+    feature.setGeometry(QgsGeometry.fromPolygonXY([[QgsPointXY(*p) for p in ring]]))
+    polygon.dataProvider().addFeatures([feature])
+    drawn = [next(run_alg("maptophoto", {**common, "INPUT": polygon, "HIDDEN": hidden})["OUTPUT"].getFeatures())
+             for hidden in (False, True)]
+    assert drawn[0].geometry().equals(drawn[1].geometry())
+    assert 0.05 < drawn[0]["visible_share"] < 0.95 and drawn[0]["visible_share"] == drawn[1]["visible_share"]
 
 
 def test_geographic_dem_is_used_in_its_utm_zone(run_alg, small_scene, tmp_path):

@@ -6,6 +6,8 @@ from qgis.core import (
     QgsCoordinateTransform,
     QgsFeature,
     QgsFeatureSink,
+    QgsField,
+    QgsFields,
     QgsProcessingException,
     QgsProcessingOutputNumber,
     QgsProcessingParameterBoolean,
@@ -18,6 +20,7 @@ from qgis.core import (
     QgsProcessingParameterRasterDestination,
     QgsWkbTypes,
 )
+from qgis.PyQt.QtCore import QVariant
 
 from .. import geometry as geo
 from .. import pipeline
@@ -119,6 +122,8 @@ class ComputeXyz(_CameraDemAlgorithm):
         return {"OUTPUT": out, "GROUND_FRACTION": ground}
 
 
+#: The field maptophoto adds: the share of a feature's densified vertices the camera sees.
+VISIBLE_SHARE = "visible_share"
 NO_GROUND = "no pixel of the photo sees the DEM (the camera looks at the sky, or past the DEM)"
 
 
@@ -190,7 +195,9 @@ class MapToPhoto(_CameraDemAlgorithm):
              "DEM's cell size, so that an edge crossing the view between two far-apart corners is not lost). With "
              "'Drop hidden parts', vertices hidden behind terrain (depth test against the DEM rendered from the "
              "camera) or outside the image are removed, splitting lines where they disappear; features with no "
-             "visible vertex are skipped and reported.")
+             "visible vertex are skipped and reported. Polygons are drawn whole (their outline on the photo may fold "
+             "over itself where it passes behind a ridge). Every feature gets visible_share: the share of its "
+             "(densified) vertices the camera sees, 0 to 1.")
 
     def initAlgorithm(self, config=None):
         self.addParameter(QgsProcessingParameterFeatureSource("INPUT", self.tr("Map layer")))
@@ -212,9 +219,13 @@ class MapToPhoto(_CameraDemAlgorithm):
         transform = None
         if source.sourceCrs().isValid() and crs.isValid() and source.sourceCrs() != crs:
             transform = QgsCoordinateTransform(source.sourceCrs(), crs, context.transformContext())
-        visible = pipeline.visibility(camera, dem) if drop_hidden else None
+        visible = pipeline.visibility(camera, dem)  # also without dropping: visible_share says what is seen
         wkb = QgsWkbTypes.flatType(QgsWkbTypes.multiType(source.wkbType()))
-        sink = safe_sink(self, parameters, "OUTPUT", context, source.fields(), wkb, QgsCoordinateReferenceSystem())
+        fields = QgsFields(source.fields())
+        if fields.indexFromName(VISIBLE_SHARE) < 0:
+            fields.append(QgsField(VISIBLE_SHARE, QVariant.Type.Double))
+        share_index = fields.indexFromName(VISIBLE_SHARE)
+        sink = safe_sink(self, parameters, "OUTPUT", context, fields, wkb, QgsCoordinateReferenceSystem())
         total = max(1, source.featureCount())
         skipped = 0
         for i, feature in enumerate(source.getFeatures()):
@@ -223,11 +234,15 @@ class MapToPhoto(_CameraDemAlgorithm):
             geometry = feature.geometry()
             if transform is not None:
                 geometry.transform(transform)
-            projected = geo.map_to_photo_geometry(geometry, camera, dem, step, visible, PHOTO_Y_SIGN)
+            projected, share = geo.map_to_photo_geometry(geometry, camera, dem, step, visible, PHOTO_Y_SIGN,
+                                                         drop_hidden)
             if projected is None:
                 skipped += 1
                 continue
-            out = QgsFeature(feature)
+            out = QgsFeature(fields)
+            attributes = list(feature.attributes()) + [None] * (fields.count() - len(feature.attributes()))
+            attributes[share_index] = round(share, 4) if np.isfinite(share) else None
+            out.setAttributes(attributes)
             out.setGeometry(projected)
             sink.addFeature(out, QgsFeatureSink.FastInsert)
         if skipped:
