@@ -82,13 +82,13 @@ def geometry_kind(geometry_type) -> Optional[str]:
 
 def computed_fields(kind: str) -> list:
     """The ``QgsField`` of each measure Monoplot adds to a map feature of ``kind``
-    (:data:`~..outputs.vectors.COMPUTED_FIELDS`: ``sky_parts`` an integer, the lengths and area reals)."""
+    (:data:`~..outputs.vectors.COMPUTED_FIELDS`: ``sky_parts`` and ``silhouette`` integers, the others reals)."""
     from qgis.core import QgsField
     from qgis.PyQt.QtCore import QVariant
 
-    from ..outputs.vectors import COMPUTED_FIELDS
+    from ..outputs.vectors import COMPUTED_FIELDS, INTEGER_FIELDS
 
-    return [QgsField(n, QVariant.Type.Int if n == "sky_parts" else QVariant.Type.Double)
+    return [QgsField(n, QVariant.Type.Int if n in INTEGER_FIELDS else QVariant.Type.Double)
             for n in COMPUTED_FIELDS[kind]]
 
 

@@ -40,8 +40,8 @@ from .camera import Camera
 from .dem import Dem
 from .xyz import segment_first_hit
 
-__all__ = ["DropReport", "PhotoToMap", "MapToPhoto", "photo_points_to_map", "ground_error_m", "photo_line_to_map",
-           "photo_polygon_to_map", "map_to_photo", "map_points_to_photo", "densify", "true_runs",
+__all__ = ["DropReport", "PhotoToMap", "MapToPhoto", "photo_points_to_map", "ground_error_m", "silhouette_crossings",
+           "photo_line_to_map", "photo_polygon_to_map", "map_to_photo", "map_points_to_photo", "densify", "true_runs",
            "ground_pieces"]
 
 
@@ -262,6 +262,22 @@ def ground_pieces(xyz: np.ndarray, ok: np.ndarray, origin, jump: float = 0.1) ->
         cuts = [a, *(a + big + 1).tolist(), b]
         pieces.extend((int(p), int(q)) for p, q in zip(cuts[:-1], cuts[1:]))
     return pieces, jumps
+
+
+def silhouette_crossings(ring_xyz: np.ndarray, origin, jump: float = 0.1) -> int:
+    """How many times a closed outline of ground points (N, 3), the closing edge included, crosses a silhouette: the
+    range from the camera jumps by more than ``jump`` (relative) between consecutive points, as where
+    :func:`ground_pieces` cuts a line. A polygon drawn on the photo across a ridge joins a near slope to a far one:
+    on the map it encloses the ground the ridge hides, and its area counts it.
+
+    >>> silhouette_crossings(np.array([[0, 100.0, 0], [10, 100.0, 0], [10, 300.0, 0], [0, 300.0, 0]]), (0, 0, 0))
+    2
+    """
+    ring = np.asarray(ring_xyz, dtype=np.float64).reshape(-1, 3)
+    if len(ring) < 2:
+        return 0
+    closed = np.vstack([ring, ring[:1]])
+    return ground_pieces(closed, np.ones(len(closed), dtype=bool), origin, jump)[1]
 
 
 def _pieces(samples_uv: np.ndarray, cam: Camera, dem: Dem, jump: float, report: DropReport):

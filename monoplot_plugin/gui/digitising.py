@@ -71,6 +71,7 @@ class DigitisingSession(QObject):
         self.photo_layers: Dict[str, QgsVectorLayer] = {}
         self.map_layers: Dict[str, QgsVectorLayer] = {}
         self.last_report: Dict[str, Tuple[int, int]] = {}
+        self.last_silhouettes: Dict[str, int] = {}  # polygons' silhouette crossings, by kind (for the message)
         self._mapped: Dict[Tuple[str, int], tuple] = {}  # (kind, fid) -> (photo geometry WKB, MapFeature or None)
         self._restoring = False
         self.closed = False  # set when one of its layers is being deleted (project cleared, QGIS closing)
@@ -355,7 +356,8 @@ class DigitisingSession(QObject):
                                               pixel_rmse=self.pixel_rmse)
                 self._mapped[key] = (wkb, mapped)
             if mapped is not None:
-                mapped = MapFeature(mapped.kind, mapped.parts, attrs, mapped.sky_parts, mapped.xy_error_m)
+                mapped = MapFeature(mapped.kind, mapped.parts, attrs, mapped.sky_parts, mapped.xy_error_m,
+                                    mapped.silhouettes)
             if mapped is None:
                 dropped += 1
                 continue
@@ -389,6 +391,7 @@ class DigitisingSession(QObject):
         layer.triggerRepaint()
         sky = sum(m.sky_parts for m in features)
         self.last_report[kind] = (sky, dropped)
+        self.last_silhouettes[kind] = sum(m.silhouettes for m in features)
         self.mapLayerUpdated.emit(kind, sky, dropped)
         if not self._restoring:
             self.save_drawn()

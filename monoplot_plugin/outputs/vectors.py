@@ -7,7 +7,9 @@ on sky already split off (see :mod:`.digitise`). :func:`write_vector_layer` writ
   parts), ``MultiPolygon Z`` for polygons;
 - the user's attribute fields (name, type) plus computed ones, in map units of the CRS:
   ``area`` (planimetric, polygons), ``length`` (planimetric) and ``length3d`` (along the terrain, lines),
-  ``sky_parts`` (how many pieces of the drawn feature were over sky or off the DEM and were left out), and
+  ``sky_parts`` (how many pieces of the drawn feature were over sky or off the DEM and were left out),
+  ``silhouette`` (polygons: how many times the outline crosses a silhouette, where it then encloses ground the photo
+  does not show, which its area counts), and
   ``xy_error_m`` (the expected horizontal position error of the feature's ground points, metres, RMS, from the fit's
   pixel error: :func:`~monoplot_plugin.core.transforms.ground_error_m`; empty when no fit vouches for the camera).
 
@@ -31,13 +33,15 @@ from ._gdal import gdal_errors_as_exceptions, gdal_failure, srs_from_user, vecto
 from .safe_write import atomic_output
 
 __all__ = ["MapFeature", "write_vector_layer", "read_vector_layer", "FIELD_TYPES", "driver_for_path",
-           "COMPUTED_FIELDS", "other_layers"]
+           "COMPUTED_FIELDS", "INTEGER_FIELDS", "other_layers"]
 
 #: User field types and their OGR types.
 FIELD_TYPES = {"string": ogr.OFTString, "integer": ogr.OFTInteger, "real": ogr.OFTReal, "date": ogr.OFTDate}
 #: Fields Monoplot adds, by geometry kind.
 COMPUTED_FIELDS = {"point": ("sky_parts", "xy_error_m"), "line": ("length", "length3d", "sky_parts", "xy_error_m"),
-                   "polygon": ("area", "length", "sky_parts", "xy_error_m")}
+                   "polygon": ("area", "length", "sky_parts", "silhouette", "xy_error_m")}
+#: The computed fields that are whole numbers.
+INTEGER_FIELDS = ("sky_parts", "silhouette")
 _OGR_GEOMETRY = {"point": ogr.wkbPoint25D, "line": ogr.wkbMultiLineString25D, "polygon": ogr.wkbMultiPolygon25D}
 
 
@@ -53,6 +57,7 @@ class MapFeature:
         sky_parts: number of pieces left out because they were over sky / off the DEM.
         xy_error_m: expected horizontal position error of the ground points (metres, RMS; median over the
             feature's samples), None when unknown.
+        silhouettes: polygons: silhouette crossings of the outline (:func:`~..core.transforms.silhouette_crossings`).
     """
 
     kind: str
@@ -60,6 +65,7 @@ class MapFeature:
     attributes: Dict[str, object] = field(default_factory=dict)
     sky_parts: int = 0
     xy_error_m: Optional[float] = None
+    silhouettes: int = 0
 
     def __post_init__(self):
         if self.kind not in _OGR_GEOMETRY:
@@ -93,12 +99,13 @@ class MapFeature:
         """Computed fields (see :data:`COMPUTED_FIELDS`) in map units.
 
         >>> MapFeature("polygon", [[[0, 0, 5], [10, 0, 5], [10, 20, 9], [0, 20, 9]]]).measures()
-        {'area': 200.0, 'length': 60.0, 'sky_parts': 0}
+        {'area': 200.0, 'length': 60.0, 'silhouette': 0, 'sky_parts': 0}
         """
         out: Dict[str, float] = {}
         if self.kind == "polygon":
             out["area"] = float(sum(abs(_shoelace(p[:, :2])) for p in self.parts))
             out["length"] = float(sum(_path_length(_closed(p)[:, :2]) for p in self.parts))
+            out["silhouette"] = int(self.silhouettes)
         elif self.kind == "line":
             out["length"] = float(sum(_path_length(p[:, :2]) for p in self.parts))
             out["length3d"] = float(sum(_path_length(p) for p in self.parts))
@@ -227,8 +234,8 @@ def _fill_layer(layer: ogr.Layer, features: Sequence[MapFeature], fields, kind: 
     for fname, ftype in fields:
         layer.CreateField(ogr.FieldDefn(fname, FIELD_TYPES[ftype]))
     for cname in COMPUTED_FIELDS[kind]:
-        defn = ogr.FieldDefn(cname, ogr.OFTInteger if cname == "sky_parts" else ogr.OFTReal)
-        if cname != "sky_parts":
+        defn = ogr.FieldDefn(cname, ogr.OFTInteger if cname in INTEGER_FIELDS else ogr.OFTReal)
+        if cname not in INTEGER_FIELDS:
             defn.SetWidth(18)
             defn.SetPrecision(3)
         layer.CreateField(defn)

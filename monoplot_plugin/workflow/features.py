@@ -14,7 +14,7 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 from ..core.lookup import sample_xyz
-from ..core.transforms import densify, ground_pieces, true_runs
+from ..core.transforms import densify, ground_pieces, silhouette_crossings, true_runs
 from ..outputs.vectors import MapFeature
 
 __all__ = ["photo_to_map_feature", "PhotoPath", "map_to_photo", "pixel_error", "feature_error_m"]
@@ -80,7 +80,8 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
     - point: None when it is over sky;
     - line: one part per run of ground samples of at least 2 points, also cut where the range jumps by more than
       ``jump`` (a silhouette: the line passes from a near ridge to a far slope);
-    - polygon: the ring keeps its ground samples (it closes across a gap); None when fewer than 3 remain.
+    - polygon: the ring keeps its ground samples (it closes across a gap); None when fewer than 3 remain; the
+      times it crosses a silhouette (where it encloses hidden ground) are counted in ``silhouettes``.
 
     Ground points come from core's exact ray-terrain intersection
     (:func:`monoplot_plugin.core.transforms.photo_points_to_map`) when ``camera`` and ``dem`` are given, else from
@@ -139,7 +140,8 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
         ring = _drop_repeats(ground[:-1][ring_valid])
         if len(ring) < 3:
             return None
-        return MapFeature("polygon", [ring], attributes, sky_parts=sky,
+        crossings = silhouette_crossings(ring, origin, jump) if origin is not None else 0
+        return MapFeature("polygon", [ring], attributes, sky_parts=sky, silhouettes=crossings,
                           xy_error_m=feature_error_m(dense[:-1][ring_valid], camera, dem, pixel_rmse))
     pieces = ground_pieces(ground, valid, origin, jump)[0] if origin is not None else true_runs(valid)
     parts = [_drop_repeats(ground[p:q]) for p, q in pieces]

@@ -130,6 +130,36 @@ def test_overwriting_a_geopackage_keeps_its_other_layers(tmp_path):
     assert not [n for n in os.listdir(tmp_path) if "tmp" in n]
 
 
+def test_polygon_drawn_across_a_ridge_counts_its_silhouette_crossings(tmp_path):
+    """A desktop trial: a polygon drawn on the photo across ridges became a map polygon of 11.3 km² of which 1.6 km²
+    were seen, and nothing said so. Its outline crosses the ridge's silhouette twice (down one side, up the
+    other, at least): ``silhouette`` says so, and a polygon on one slope says 0; both written to the file."""
+    from monoplot_plugin.core.camera import Camera
+    from monoplot_plugin.core.synthetic import synthetic_terrain
+    from monoplot_plugin.core.xyz import compute_xyz_full
+
+    dem = synthetic_terrain((60, 60), cell=50.0, seed=11, relief=800.0)
+    x, y = dem.cell_to_map(30, 59)
+    cam = Camera((x, y, float(dem.sample(x, y + 40.0)) + 300.0), heading=0.0, pitch=-15.0, roll=2.0, fov=60.0,
+                 image_size=(120, 90))
+    distance = compute_xyz_full(cam, dem).distance
+    # a column where the range jumps by half between two rows that both see terrain: a silhouette
+    jumps = np.argwhere(np.isfinite(distance[1:]) & np.isfinite(distance[:-1]) &
+                        (distance[:-1] > 1.5 * distance[1:]))
+    jumps = jumps[(jumps[:, 1] > 10) & (jumps[:, 1] < 110) & (jumps[:, 0] > 5) & (jumps[:, 0] < 80)]
+    assert len(jumps)
+    row, col = jumps[0]
+    across = [[col - 3, row - 4], [col + 3, row - 4], [col + 3, row + 5], [col - 3, row + 5]]
+    below = [[col - 3, row + 3], [col + 3, row + 3], [col + 3, row + 6], [col - 3, row + 6]]
+    crossing = photo_to_map_feature("polygon", across, camera=cam, dem=dem)
+    one_slope = photo_to_map_feature("polygon", below, camera=cam, dem=dem)
+    assert crossing.silhouettes >= 2 and one_slope.silhouettes == 0  # (rough terrain: more ridges may be crossed)
+    assert crossing.measures()["silhouette"] == crossing.silhouettes
+    path = write_vector_layer(tmp_path / "outlines.gpkg", [crossing, one_slope], CRS)
+    ds, layer = open_layer(path)
+    assert [f["silhouette"] for f in layer] == [crossing.silhouettes, 0]
+
+
 def test_map_polygon_to_photo_and_back_within_one_cell(plane_scene):
     scene = plane_scene
     cell = scene.dem.cell_size
