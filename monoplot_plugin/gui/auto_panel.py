@@ -69,7 +69,7 @@ class AutoPanel(QObject):
             # the DEM's silhouettes under the camera found over the photo's detected skyline
             overlay = draw_alignment(overlay, done.camera, done.result.skyline, dem)
             checked = auto_step.judge_by_check_points(done.result.status, done.result.message, done.camera,
-                                                      check_uv, check_xyz)
+                                                      check_uv, check_xyz, done.result.rmse_px)
             progress(1.0, "")
             return done, overlay, xyz, footprint, checked
 

@@ -105,7 +105,8 @@ class ResultsMixin:
             return False
         before = info.get("status_before_checks", info.get("status", "ok"))
         message = info.get("message_before_checks", info.get("message", ""))
-        judged = judge_by_check_points(before, message, cam, uv, xyz)
+        own = info.get("rmse_px")  # the fit's residuals: check points far beyond them make it "poor", as in a fit
+        judged = judge_by_check_points(before, message, cam, uv, xyz, float(own) if own is not None else np.nan)
         old_status, old_check = info.get("status"), info.get("check_rmse_px")
         errors = np.hypot(*(cam.project(xyz) - uv).T) if len(ids) else np.zeros(0)
         info.update(checks_measured=key, status_before_checks=before, message_before_checks=message,

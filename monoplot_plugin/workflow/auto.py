@@ -144,13 +144,14 @@ def sigma_at_least(sigma: Optional[dict], floor: Optional[dict]) -> dict:
 
 
 def judge_by_check_points(status: str, message: str, camera: Camera, check_uv: np.ndarray,
-                          check_xyz: np.ndarray) -> dict:
+                          check_xyz: np.ndarray, rmse_px: float = float("nan")) -> dict:
     """The automatic camera measured by the person's check points (``check_uv`` (K, 2) pixels, ``check_xyz``
     (K, 3) map points, kept out of the registration): {"status", "message", "check_rmse_px", "n_check"}.
 
     The check points can only lower the registration's status (a run after a fit the check points called "poor"
     came back "uncertain" with the same camera, the check points ignored): "poor" or "uncertain" by the same rule
-    as a camera loaded from a file (:func:`~..core.fit.verdict.judge_by_checks`).
+    as a camera loaded from a file (:func:`~..core.fit.verdict.judge_by_checks`), with the camera's own residuals
+    ``rmse_px`` (pixels, the automatic registration's matched pairs) when it has some.
 
     >>> from monoplot_plugin.core.camera import Camera
     >>> cam = Camera((0.0, 0.0, 100.0), 0.0, 0.0, 0.0, 60.0, (1000, 750))
@@ -167,7 +168,7 @@ def judge_by_check_points(status: str, message: str, camera: Camera, check_uv: n
     if not n_given:
         return out
     n, rmse = measured_on_pairs(camera, check_uv, check_xyz)
-    checked, text = judge_by_checks(rmse, n, math.hypot(*camera.image_size))
+    checked, text = judge_by_checks(rmse, n, math.hypot(*camera.image_size), rmse_px)
     out["check_rmse_px"] = rmse if math.isfinite(rmse) else None
     out["message"] = f"{message} {text}"
     if _RANK.get(checked, 1) > _RANK.get(status, 0):

@@ -259,3 +259,17 @@ def test_a_camera_found_automatically_keeps_to_the_height_the_person_gave(scene)
     found = SimpleNamespace(camera=camera.with_parameters(z=ground + 100.0), status="ok", message="Fitted.")
     check_height(found, camera, dem)
     assert found.status == "ok"
+
+
+def test_automatic_camera_with_check_points_far_beyond_its_residuals_is_poor():
+    """A desktop trial on Aletsch: Find camera said "uncertain" with the 11 check points at 28.6 px, 13 times its
+    matched pairs' 2.2 px; Fit on the same points said "poor" at once. The check points' rule is the fit's now."""
+    from monoplot_plugin.workflow.auto import judge_by_check_points
+
+    cam = Camera((0.0, 0.0, 100.0), 0.0, 0.0, 0.0, 60.0, (1024, 763))
+    xyz = np.array([[x, 3000.0, z] for x in (-800.0, -200.0, 300.0, 900.0) for z in (0.0, 300.0)])
+    off = cam.project(xyz) + [20.0, 20.0]  # 28.3 px: over 1.5 % of the diagonal, under 3 %
+    assert judge_by_check_points("uncertain", "m.", cam, off, xyz)["status"] == "uncertain"  # no residuals known
+    judged = judge_by_check_points("uncertain", "m.", cam, off, xyz, rmse_px=2.2)
+    assert judged["status"] == "poor" and "13 times the camera's residuals" in judged["message"]
+    assert judge_by_check_points("uncertain", "m.", cam, off, xyz, rmse_px=12.0)["status"] == "uncertain"

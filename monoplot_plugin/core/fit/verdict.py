@@ -298,14 +298,21 @@ def outlier_note(e: dict, sure: bool = True) -> str:
                    "rather than rejecting them all.")
 
 
-def judge_by_checks(check_rmse_px: float, n_check: int, diag: float) -> Tuple[str, str]:
-    """(status, message) of a camera nobody fitted here (loaded from a file), from its independent check points
-    alone: "ok" only when at least :data:`MIN_CHECKS` of them agree as a fit's would; without them it is unverified.
+def judge_by_checks(check_rmse_px: float, n_check: int, diag: float,
+                    rmse_px: float = float("nan")) -> Tuple[str, str]:
+    """(status, message) of a camera nobody fitted here (loaded from a file) or the automatic registration's, from
+    its independent check points: "ok" only when at least :data:`MIN_CHECKS` of them agree as a fit's would;
+    without them it is unverified. With the camera's own residuals ``rmse_px`` (the automatic registration's
+    matched pairs), check points beyond 1.5 % of the picture and :data:`CHECK_OVER_RESIDUALS` times them make it
+    "poor", as they make a fit (a desktop trial: Find camera said "uncertain" with check points at 28.6 px, 13
+    times its residuals; Fit on the same points at once said "poor").
 
     >>> judge_by_checks(float("nan"), 0, 1000.0)[0], judge_by_checks(4.0, 6, 1000.0)[0]
     ('uncertain', 'ok')
     >>> judge_by_checks(40.0, 6, 1000.0)[0], judge_by_checks(4.0, 2, 1000.0)[0]
     ('poor', 'uncertain')
+    >>> judge_by_checks(20.0, 6, 1000.0)[0], judge_by_checks(20.0, 6, 1000.0, rmse_px=2.0)[0]
+    ('uncertain', 'poor')
     """
     if not n_check or not np.isfinite(check_rmse_px):
         return "uncertain", ("Not checked: this camera was not fitted here and no check points measure it. Mark "
@@ -314,6 +321,9 @@ def judge_by_checks(check_rmse_px: float, n_check: int, diag: float) -> Tuple[st
     if check_rmse_px > POOR_SHARE * diag:
         return "poor", text + " Probably wrong: the independent check points disagree with the camera."
     if check_rmse_px > WEAK_SHARE * diag:
+        if np.isfinite(rmse_px) and check_rmse_px > CHECK_OVER_RESIDUALS * max(rmse_px, 1.0):
+            return "poor", text + (f" Probably wrong: the independent check points are off by {check_rmse_px:.1f} "
+                                   f"px, {check_rmse_px / max(rmse_px, 1.0):.0f} times the camera's residuals.")
         return "uncertain", text + " Uncertain: the check points are off by more than 1.5 % of the picture."
     if n_check < MIN_CHECKS:
         return "uncertain", text + f" Uncertain: too few check points to verify it ({MIN_CHECKS} at least)."
