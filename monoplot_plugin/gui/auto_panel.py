@@ -96,8 +96,11 @@ class AutoPanel(QObject):
         camera_layers.remove_camera_layers(self.dock.project, other=True)  # an earlier one set aside is stale now
         uv, world = done.matched_points()
         label = auto_step.AUTOMATIC_LABEL  # a later fit on these points alone is capped by this verdict
-        photo_pts = [Point.new(PHOTO, float(u), float(v), status=ACCEPTED, label=label) for u, v in uv]
-        map_pts = [Point.new(MAP, float(x), float(y), float(z), status=ACCEPTED, label=label) for x, y, z in world]
+        # a "poor" camera's matches are probably wrong: offered as undecided suggestions, not accepted (a desktop
+        # trial: a camera 95 deg off put its 74 matches in the accepted set)
+        taken = SUGGESTED if status == "poor" else ACCEPTED
+        photo_pts = [Point.new(PHOTO, float(u), float(v), status=taken, label=label) for u, v in uv]
+        map_pts = [Point.new(MAP, float(x), float(y), float(z), status=taken, label=label) for x, y, z in world]
         c.state.settings["automatic_status"] = status
         c.state.settings["automatic_sigma"] = {k: float(v) for k, v in (r.std or {}).items()}
         replaced = 0
@@ -115,7 +118,12 @@ class AutoPanel(QObject):
                 # the report (it showed none after a registration)
                 "matched": [(p.id, m.id) for p, m in zip(photo_pts, map_pts)]}
         c.show_fit(engine.FitOutcome(done.camera, info, overlay, xyz, footprint))
-        if replaced:
+        if status == "poor" and photo_pts:
+            c.message.emit(self.tr("Automatic registration ended poor: its {0} + {1} matched points are left "
+                                   "undecided (they are probably wrong), and replaced {2} undecided suggestions (Undo "
+                                   "brings them back).").format(len(photo_pts), len(map_pts), replaced),
+                           Qgis.MessageLevel.Warning)
+        elif replaced:
             c.message.emit(self.tr("The {0} undecided suggestions were replaced by the {1} + {2} matched points "
                                    "(Undo brings them back).").format(replaced, len(photo_pts), len(map_pts)),
                            Qgis.MessageLevel.Info)

@@ -90,6 +90,19 @@ def test_fog_is_never_ok(scene):
     assert result.camera.parameters() == prior.parameters() and "prior is kept" in result.message
 
 
+def test_a_prior_turned_far_away_ends_poor_not_uncertain(scene):
+    """A desktop trial: a prior turned 90 deg ended 95 deg off, "uncertain", with 15 % of the photo's skyline on
+    the DEM's. A camera whose skyline mostly misses the DEM's is "poor" (every right camera of the synthetic runs
+    had 68 % or more)."""
+    dem, truth, photo, _ = scene
+    x, y, _ = truth.position
+    turned = truth.with_parameters(heading=truth.heading + 45.0, x=x + 60.0, y=y - 40.0)
+    result = register_automatic(photo, dem, turned)
+    assert abs(result.camera.heading - truth.heading) > 5.0  # beyond what the search reaches from there
+    assert result.status == "poor" and "Probably wrong" in result.message
+    assert result.evidence["auto_sky_agreement"] < 0.35
+
+
 def test_cancel_is_honoured_promptly(scene):
     dem, _, photo, prior = scene
     asked = threading.Event()

@@ -181,3 +181,27 @@ def test_a_second_run_replaces_the_first_ones_points_and_answers_to_the_check_po
     checked = find_camera()
     assert checked["status"] == "poor" and checked["n_check"] == 5 and checked["check_rmse_px"] > 40.0
     assert "Check points:" in checked["message"]
+
+
+def test_a_poor_automatic_camera_leaves_its_matches_undecided(dock, valley, qtbot):
+    """A desktop trial: a prior turned 90 deg gave a camera 95 deg off whose 74 matches went into the accepted
+    set. A "poor" registration offers them as undecided suggestions, and says so."""
+    from monoplot_plugin.state import SUGGESTED
+
+    layer = QgsRasterLayer(valley["dem"], "valley DEM")
+    QgsProject.instance().addMapLayer(layer)
+    dock.photoFile.setFilePath(valley["photo"])
+    dock.demCombo.setLayer(layer)
+    c = dock.controller
+    c.set_prior(valley["prior"].with_parameters(heading=valley["prior"].heading + 45.0))
+    messages = []
+    c.message.connect(lambda text, *_: messages.append(text))
+    dock.auto_panel.action.trigger()
+    with qtbot.waitSignal(c.taskFinished, timeout=240000) as blocker:
+        pass
+    assert blocker.args[0].ok, blocker.args[0].reason
+    assert c.state.fit_info["status"] == "poor", c.state.fit_info["message"]
+    assert not c.state.in_space(PHOTO, (ACCEPTED,)) and not c.state.in_space(MAP, (ACCEPTED,))
+    matched = [p for p in c.state.points.values() if p.label == "automatic"]
+    assert matched and all(p.status == SUGGESTED for p in matched)
+    assert any("left undecided" in m for m in messages), messages
