@@ -107,6 +107,13 @@ def test_messages_show_once_and_the_status_line_follows_the_state(dock, scene, q
     assert len(bar.items()) == 1
     once.clear(bar, older_than_s=0.0)  # one pushed before is stale: off the bar
     assert bar.items() == []
+    # covered by another message (QGIS's "Task complete"): off the bar, not shown again when that one expires
+    once.push(bar, "Monoplot", "2000 photo and 1024 DEM suggestions", Qgis.MessageLevel.Info, 6)
+    bar.pushMessage("Task complete", "Suggest points", Qgis.MessageLevel.Success, 2)
+    assert [item.text() for item in bar.items()] == ["Suggest points"]
+    once.push(bar, "Monoplot", "Undone: accept", Qgis.MessageLevel.Info, 6)  # ours again on top, once
+    assert [item.text() for item in bar.items()] == ["Undone: accept", "Suggest points"]  # newest first
+    bar.clearWidgets()
     # a fit's message leads with its verdict when it is not "ok" (the bar shows one line)
     info = {"status": "poor", "mode": "unpaired", "rmse_px": 3.0, "n_photo": 8, "n_matched": 3}
     poor, level = dock.controller.fit_summary(info)
