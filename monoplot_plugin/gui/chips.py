@@ -190,14 +190,14 @@ class ChipView(QWidget):
         # chips again (a third of a click's time at 10,000 suggestions). What they depend on, compared first; the
         # camera by its stored dict and the DEM view by identity (both replaced, never changed in place).
         partner_id = c.state.partner(pid) or ""
-        camera_dict = c.state.fitted or c.state.prior
+        key, which = self._camera_key()
         drawn = ((space, pid, p.x, p.y, p.z, p.label, partner_id, c.image.cacheKey(),
-                  tuple((q.id, q.status) for q in c.visible(MAP))), camera_dict, c.overlay, self._view)
+                  tuple((q.id, q.status) for q in c.visible(MAP))), key, c.overlay, self._view)
         if self._drawn is not None and drawn[0] == self._drawn[0] and \
                 all(a is b for a, b in zip(drawn[1:], self._drawn[1:])):
             return
         self._drawn = drawn
-        camera = c.camera()
+        camera = key if isinstance(key, Camera) else (c.fitted if which == tr("fitted") else c.prior)
         centre = self._centre(p, camera)
         self._at = centre
         if centre is None:
@@ -223,9 +223,23 @@ class ChipView(QWidget):
         if camera is None:
             text += tr(" · no camera: no DEM view")
         else:  # short: one line under the chips
-            text += tr(" · {0} camera").format(tr("fitted") if c.fitted is not None else tr("rough"))
+            text += tr(" · {0} camera").format(which)
         self._set_caption(text)
         self._place()
+
+    def _camera_key(self) -> Tuple[object, str]:
+        """(what identifies the camera the chips show the point under, its word for the caption): the fitted
+        camera's stored dict, else the Camera ranking the suggestions and drawing the links when a background refit
+        gave it (a desktop trial's chips stayed on the rough camera, 64 px off, beside links drawn by an "ok"
+        refit), else the rough camera's stored dict (None without one). Stored objects are replaced, never changed
+        in place: compared by identity, a click that changes no camera draws no chip again."""
+        c = self.controller
+        if c.state.fitted:
+            return c.state.fitted, tr("fitted")
+        ranking = getattr(c.shortlist, "camera", None)
+        if ranking is not None and c.state.prior and ranking.to_dict() != c.state.prior:
+            return ranking, tr("refit")
+        return c.state.prior, tr("rough")
 
     def _centre(self, p, camera) -> Optional[Tuple[float, float]]:
         if p.space == PHOTO:
