@@ -57,6 +57,13 @@ def fit_paired(ctx, pairs: np.ndarray) -> FitResult:
     evidence = {"mode": "paired", "n_free": len(ctx.free), "diag": ctx.diag, "n_pairs": len(pairs),
                 "rmse_px": rmse_px, "loo_rmse_px": rms(loo), "condition": cond, "weakest": weakest,
                 "spread": photo_spread(q, ctx.initial.image_size)}
+    finite = np.isfinite(loo)
+    if finite.sum() >= 4:  # the pair that stands out when left out (:func:`~.verdict.suspect_pair_text`)
+        worst = int(np.nanargmax(np.where(finite, loo, -np.inf)))
+        own = np.linalg.norm(residuals, axis=1)
+        evidence.update(worst_pair_uv=(float(q[worst, 0]), float(q[worst, 1])), worst_loo_px=float(loo[worst]),
+                        median_loo_px=float(np.median(np.delete(loo[finite], np.argmax(loo[finite])))),
+                        worst_residual_px=float(own[worst]), median_residual_px=float(np.median(np.delete(own, worst))))
     return FitResult(camera, "ok", "", "paired", ctx.free, rmse_px, pairs, residuals,
                      np.ones(len(pairs), dtype=bool), nearest, std, rms(loo), loo, loss_history=ctx.history,
                      n_starts=ctx.starts_tried, evidence=evidence)
