@@ -106,6 +106,7 @@ def warm_up(progress: Optional[Progress] = None, is_canceled: Optional[IsCancele
     from ..core.fit import FitOptions
     from ..core.render import render_dem
     from ..core.synthetic import render_photo, synthetic_terrain
+    from ..core.transforms import photo_points_to_map
     from ..core.xyz import compute_xyz_full
     from . import fit as fit_step
     from . import suggest as suggest_step
@@ -128,6 +129,9 @@ def warm_up(progress: Optional[Progress] = None, is_canceled: Optional[IsCancele
         dem = Dem.from_array(terrain.elevation.astype(dtype), terrain.geotransform, terrain.crs_wkt)
         res = compute_xyz_full(camera, dem, visibility=True)
         render_dem(camera, dem, result=res)
+        # the exact ray-terrain walk: drawing on the photo and the products' ground accuracy run it on the main
+        # thread (its first compile took 3.8 s there in a desktop session)
+        photo_points_to_map(np.array([[48.0, 40.0], [48.0, 60.0]]), camera, dem)
     seconds["render"] = time.perf_counter() - t
     report(0.3, "render")
     check_canceled(is_canceled)
