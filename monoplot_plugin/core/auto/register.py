@@ -509,10 +509,11 @@ def _combine(result: AutoFitResult, ev: dict) -> None:
             f"{len(result.world_points)} DEM suggestions kept as consistent with the aligned camera.")
     if ev["auto_skyline_usable"] and ev["auto_sky_agreement"] < SKY_AGREEMENT_POOR and result.status in ("ok",
                                                                                                       "uncertain"):
+        # the reason first (the dock shows the message's start; the fit's own "Uncertain:" is a lesser matter now)
         result.status = "poor"
-        result.message += text + (f" Probably wrong: only {100 * ev['auto_sky_agreement']:.0f} % of the photo's clear "
-                                  "skyline lies on the DEM's under this camera; give a better rough camera (its "
-                                  "heading first) or pair a few points.")
+        result.message = (f"Probably wrong: only {100 * ev['auto_sky_agreement']:.0f} % of the photo's clear skyline "
+                          "lies on the DEM's under this camera; give a better rough camera (its heading first) or "
+                          "pair a few points. " + result.message.replace(" Uncertain: ", " Also: ") + text)
     elif weak and result.status == "ok":
         result.status = "uncertain"
         result.message += text + " Uncertain: " + "; ".join(weak) + ": check the matched points."
