@@ -18,7 +18,7 @@ from ..core.camera import Camera
 
 __all__ = ["camera_layer", "footprint_layer", "show_camera_layers", "remove_camera_layers", "crs_from_wkt",
            "GROUP_NAME", "rebuilt_on_reopen",
-           "derived_layers_only", "mark_modified_later"]
+           "derived_layers_only", "mark_modified_later", "style_xyz_layer"]
 
 GROUP_NAME = "Monoplot"
 _ROLE = "monoplot/role"
@@ -158,3 +158,29 @@ def show_camera_layers(project: QgsProject, camera: Camera, footprint_wkt: str,
         project.addMapLayer(layer, False)
         group.insertLayer(0, layer)
     return cam, foot
+
+
+def style_xyz_layer(layer) -> None:
+    """An XYZ raster layer (:mod:`..outputs.xyz_raster`) as the dock and Processing show it: no CRS (photo pixel
+    space, drawn without reprojection), Z (band 3) as a colour ramp from low (blue) to high (red), 80 % opaque."""
+    from qgis.core import (QgsColorRampShader, QgsCoordinateReferenceSystem, QgsRasterBandStats, QgsRasterShader,
+                           QgsSingleBandPseudoColorRenderer, QgsStyle)
+
+    layer.setCrs(QgsCoordinateReferenceSystem())
+    provider = layer.dataProvider()
+    if provider is None or provider.bandCount() < 3:
+        return
+    stats = provider.bandStatistics(3, QgsRasterBandStats.Stats.Min | QgsRasterBandStats.Stats.Max)
+    ramp = QgsStyle.defaultStyle().colorRamp("Spectral") or QgsStyle.defaultStyle().colorRamp("Viridis")
+    if ramp is not None and stats.minimumValue < stats.maximumValue:
+        ramp.invert()  # Spectral: low = blue, high = red
+        shader_fn = QgsColorRampShader(stats.minimumValue, stats.maximumValue, ramp,
+                                       QgsColorRampShader.Type.Interpolated)
+        shader_fn.classifyColorRamp(8, -1)
+        shader = QgsRasterShader()
+        shader.setRasterShaderFunction(shader_fn)
+        renderer = QgsSingleBandPseudoColorRenderer(provider, 3, shader)
+        renderer.setClassificationMin(stats.minimumValue)
+        renderer.setClassificationMax(stats.maximumValue)
+        layer.setRenderer(renderer)
+    layer.setOpacity(0.8)

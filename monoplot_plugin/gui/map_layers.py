@@ -11,14 +11,14 @@ from pathlib import Path
 from typing import Optional, Tuple
 
 import numpy as np
-from qgis.core import (QgsCategorizedSymbolRenderer, QgsColorRampShader, QgsCoordinateReferenceSystem,
-                       QgsCoordinateTransform, QgsFeature, QgsField, QgsGeometry, QgsLayerTreeGroup, QgsProject,
-                       QgsRasterBandStats, QgsRasterLayer, QgsRasterShader, QgsRendererCategory,
-                       QgsSingleBandPseudoColorRenderer, QgsStyle, QgsSymbol, QgsVectorLayer)
+from qgis.core import (QgsCategorizedSymbolRenderer, QgsCoordinateReferenceSystem, QgsCoordinateTransform, QgsFeature,
+                       QgsField, QgsGeometry, QgsLayerTreeGroup, QgsProject, QgsRasterLayer, QgsRendererCategory,
+                       QgsSymbol, QgsVectorLayer)
 from qgis.PyQt.QtCore import Qt, QVariant
 from qgis.PyQt.QtGui import QColor
 
 from ..adapters.layers import crs_from_wkt as _crs
+from ..adapters.layers import style_xyz_layer
 from ..adapters.photo_space import outline_parts, photo_point
 from ..workflow.features import map_to_photo
 
@@ -74,22 +74,7 @@ def add_xyz_layer(path, project: QgsProject, group: Optional[QgsLayerTreeGroup] 
     layer = QgsRasterLayer(str(path), f"{Path(path).stem} (X Y Z, photo pixels)")
     if not layer.isValid():
         raise ValueError(f"QGIS cannot open {path}")
-    layer.setCrs(QgsCoordinateReferenceSystem())
-    provider = layer.dataProvider()
-    stats = provider.bandStatistics(3, QgsRasterBandStats.Stats.Min | QgsRasterBandStats.Stats.Max)
-    ramp = QgsStyle.defaultStyle().colorRamp("Spectral") or QgsStyle.defaultStyle().colorRamp("Viridis")
-    if ramp is not None and stats.minimumValue < stats.maximumValue:
-        ramp.invert()  # Spectral: low = blue, high = red
-        shader_fn = QgsColorRampShader(stats.minimumValue, stats.maximumValue, ramp,
-                                       QgsColorRampShader.Type.Interpolated)
-        shader_fn.classifyColorRamp(8, -1)
-        shader = QgsRasterShader()
-        shader.setRasterShaderFunction(shader_fn)
-        renderer = QgsSingleBandPseudoColorRenderer(provider, 3, shader)
-        renderer.setClassificationMin(stats.minimumValue)
-        renderer.setClassificationMax(stats.maximumValue)
-        layer.setRenderer(renderer)
-    layer.setOpacity(0.8)
+    style_xyz_layer(layer)
     add_layer(project, layer, group)
     node = (group or project.layerTreeRoot()).findLayer(layer.id())
     if node is not None:

@@ -126,10 +126,25 @@ class PixelSpaceOnLoad(QgsProcessingLayerPostProcessorInterface):
         return cls._alive[-1]
 
 
-def keep_pixel_space(context, dest: str) -> None:
-    """Make ``dest``, an output to be loaded on completion, a layer without a CRS once loaded (photo pixels)."""
+class XyzRasterOnLoad(PixelSpaceOnLoad):
+    """An XYZ raster loaded into the project as the dock adds it: no CRS, unchecked, Z as a colour ramp (a desktop
+    trial: Processing's loaded visible and grey, and "zoom full" went to 1:180,000,000)."""
+
+    _alive: list = []
+
+    def postProcessLayer(self, layer, context, feedback):  # noqa: N802 (QGIS API)
+        from ..adapters.layers import style_xyz_layer
+
+        style_xyz_layer(layer)
+        super().postProcessLayer(layer, context, feedback)
+
+
+def keep_pixel_space(context, dest: str, xyz_raster: bool = False) -> None:
+    """Make ``dest``, an output to be loaded on completion, a layer without a CRS once loaded (photo pixels); an
+    XYZ raster (``xyz_raster``) is also styled as the dock styles it."""
     if context is not None and context.willLoadLayerOnCompletion(dest):
-        context.layerToLoadOnCompletionDetails(dest).setPostProcessor(PixelSpaceOnLoad.create())
+        processor = XyzRasterOnLoad.create() if xyz_raster else PixelSpaceOnLoad.create()
+        context.layerToLoadOnCompletionDetails(dest).setPostProcessor(processor)
 
 
 def safe_sink(algorithm, parameters, name, context, fields, wkb, crs) -> SafeSink:

@@ -24,6 +24,23 @@ def test_compute_xyz_writes_photo_sized_raster_matching_core(run_alg, small_scen
     assert np.isnan(written[~ground]).all()
 
 
+def test_xyz_raster_loads_as_the_dock_adds_it(processing_provider, small_scene, tmp_path):
+    """A desktop trial: computexyz's result loaded visible and grey, in photo pixels, and "zoom full" went to
+    1:180,000,000. Loaded as the dock adds it: no CRS, unchecked, Z as a colour ramp."""
+    import processing
+    from qgis.core import QgsProject
+
+    project = QgsProject.instance()
+    before = set(project.mapLayers())
+    processing.runAndLoadResults("monoplot:computexyz", {"CAMERA": small_scene["camera"], "DEM": small_scene["dem"],
+                                                          "OUTPUT": str(tmp_path / "xyz.tif")})
+    (layer,) = [project.mapLayer(i) for i in set(project.mapLayers()) - before]
+    assert not layer.crs().isValid() and layer.renderer().type() == "singlebandpseudocolor"
+    assert layer.renderer().band() == 3
+    assert not project.layerTreeRoot().findLayer(layer.id()).itemVisibilityChecked()
+    project.removeMapLayer(layer.id())
+
+
 def test_camera_for_another_image_size_is_refused(run_alg, small_scene, tmp_path):
     from tests.processing.conftest import write_photo
 

@@ -29,7 +29,7 @@ from ..inputs import read_photo
 from ...core.xyz_strips import plan_strips
 from ...workflow.products import ProductError, ortho_grid
 from ...workflow.inputs import check_not_empty
-from ..safe_sink import safe_sink
+from ..safe_sink import keep_pixel_space, safe_sink
 
 
 class _CameraDemAlgorithm(MonoplotAlgorithm):
@@ -78,6 +78,7 @@ class ComputeXyz(_CameraDemAlgorithm):
     def run_algorithm(self, parameters, context, feedback):
         camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
         out = self.parameterAsOutputLayer(parameters, "OUTPUT", context)
+        keep_pixel_space(context, out, xyz_raster=True)  # loaded unchecked and styled, as the dock adds it
         rows = plan_strips(camera, fixed=3 * dem.elevation.nbytes)
         if rows < camera.height:  # does not fit in the free memory at once: strip by strip into the file
             return self.xyz_in_strips(parameters, context, feedback, camera, dem, crs, out, rows)
