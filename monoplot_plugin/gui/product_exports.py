@@ -64,6 +64,7 @@ class ProductExports:
         checks = self.controller.report_checks() if what == "report" else None
         info = self.controller.state.fit_info if isinstance(self.controller.state.fit_info, dict) else {}
         verdict = f"{info.get('status', '')}: {info.get('message', '')}" if info.get("status") else ""
+        accuracy = self.controller.ground_accuracy_text().strip(" ()") if what == "report" else ""
 
         def work(progress=None, is_canceled=None):
             if what == "xyz":
@@ -75,7 +76,7 @@ class ProductExports:
                                                progress=progress, is_canceled=is_canceled)
             return product_step.report(path, photo, camera, dem, points=points, sigmas=sigmas, title=Path(name).stem,
                                        overwrite=overwrite, progress=progress, is_canceled=is_canceled,
-                                       verdict=verdict, checks=checks)
+                                       verdict=verdict, checks=checks, accuracy=accuracy)
 
         return work
 

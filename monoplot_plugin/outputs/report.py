@@ -76,7 +76,7 @@ def write_report(path, photo: np.ndarray, camera, dem, points: Optional[ReportPo
                  xyz: Optional[np.ndarray] = None, visible: Optional[np.ndarray] = None,
                  sigmas: Optional[Dict[str, float]] = None, title: str = "", overwrite: bool = False,
                  verdict: str = "", checks: Optional[ReportPoints] = None,
-                 picture: Optional[np.ndarray] = None) -> Path:
+                 picture: Optional[np.ndarray] = None, accuracy: str = "") -> Path:
     """Write the one-page report.
 
     Args:
@@ -94,6 +94,8 @@ def write_report(path, photo: np.ndarray, camera, dem, points: Optional[ReportPo
             the share of ground seen keep to it (None: everywhere).
         checks: independent check points (kept out of the fit), drawn in magenta with their residuals; their RMSE
             is the camera's measured accuracy and is printed first.
+        accuracy: what the camera is worth on the ground, in words (e.g. "check points 7.7 px: about 40 m on the
+            ground ..."), printed as "Ground accuracy: ..." (a desktop trial: the report gave none in metres).
         overwrite: replace an existing file (default: refuse with OutputExistsError).
     Returns:
         the Path written.
@@ -132,7 +134,7 @@ def write_report(path, photo: np.ndarray, camera, dem, points: Optional[ReportPo
     ground_xyz = xyz if picture is None else np.where(picture[..., None], xyz, np.nan)
     _draw_overlay(ax_overlay, photo, xyz, picture)
     _draw_footprint(ax_map, camera, dem, visible, points)
-    _draw_parameters(ax_text, camera, sigmas, rmse, points, ground_xyz, verdict, check_rmse, checks)
+    _draw_parameters(ax_text, camera, sigmas, rmse, points, ground_xyz, verdict, check_rmse, checks, accuracy)
     import io
 
     page = io.BytesIO()  # rendered in memory: matplotlib's own errors on a full disk hide the cause
@@ -181,8 +183,10 @@ def verdict_first(verdict: str) -> str:
 
 def _draw_points(ax, photo, points, residual, rmse, status=""):
     ax.imshow(photo, cmap="gray" if photo.ndim == 2 else None, interpolation="antialiased")
-    ax.set_title("Control points: picked (○), reprojected (+), residuals ×10", fontsize=9, loc="left")
-    if points is not None and residual is not None:
+    has_points = points is not None and residual is not None
+    ax.set_title("Control points: picked (○), reprojected (+), residuals ×10" if has_points else
+                 "The photo (no control points given)", fontsize=9, loc="left")
+    if has_points:
         uv = points.uv
         ax.scatter(uv[:, 0], uv[:, 1], s=40, facecolors="none", edgecolors="yellow", linewidths=1.2)
         proj = uv + residual
@@ -307,7 +311,9 @@ def parameter_lines(camera, sigmas) -> List[str]:
 REPORT_TEXT_LINES = 24
 
 
-def _draw_parameters(ax, camera, sigmas, rmse, points, xyz, verdict="", check_rmse=None, checks=None):
+def _draw_parameters(ax, camera, sigmas, rmse, points, xyz, verdict="", check_rmse=None, checks=None, accuracy=""):
+    import textwrap
+
     ax.axis("off")
     lines = parameter_lines(camera, sigmas)
     lines.append("")
@@ -321,9 +327,9 @@ def _draw_parameters(ax, camera, sigmas, rmse, points, xyz, verdict="", check_rm
         dist = np.linalg.norm(xyz[ground] - np.asarray(camera.position), axis=1)
         lines.append(f"Ground seen in {100 * ground.mean():.0f} % of the pixels, "
                      f"{dist.min() / 1000:.1f} to {dist.max() / 1000:.1f} km from the camera")
+    if accuracy:
+        lines += textwrap.wrap(f"Ground accuracy: {accuracy}", 110)
     if verdict:
-        import textwrap
-
         lines.append("")
         wrapped = textwrap.wrap(verdict_first(verdict), 110)
         room = REPORT_TEXT_LINES - len(lines)  # a long automatic verdict ran off the bottom of the page

@@ -149,10 +149,12 @@ def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution=None,
 def report(path, photo: np.ndarray, camera: Camera, dem, points=None, points_csv=None,
            sigmas: Optional[Dict[str, float]] = None, title: str = "", overwrite: bool = False,
            progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None, verdict: str = "",
-           checks=None) -> Path:
+           checks=None, accuracy: Optional[str] = None) -> Path:
     """The one-page report (PNG or PDF by the suffix of ``path``) of a fitted camera; ``points``: the control
     points to show (outputs' ``ReportPoints``), or ``points_csv``, a paired CSV; ``verdict``: the fit's status and
-    message, printed on the page; ``checks``: independent check points (``ReportPoints``), drawn and measured."""
+    message, printed on the page; ``checks``: independent check points (``ReportPoints``), drawn and measured;
+    ``accuracy``: what the camera is worth on the ground, in words (None: from the check points when there are
+    some, else from the paired points' residuals, :func:`ground_error`)."""
     from ..outputs.report import write_report
 
     if points is None and points_csv:
@@ -160,10 +162,12 @@ def report(path, photo: np.ndarray, camera: Camera, dem, points=None, points_csv
         checks = table_checks if checks is None else checks
     result = xyz_result(camera, dem, visibility=True, progress=part(progress, 0.0, 0.6), is_canceled=is_canceled)
     check_canceled(is_canceled)
+    if accuracy is None:
+        accuracy = points_accuracy(camera, dem, result.xyz, points, checks)
     with _committed(is_canceled):
         written = write_report(path, photo, camera, dem, points=points, xyz=result.xyz, picture=picture_area(photo),
                                visible=result.visible, sigmas=sigmas, title=title, overwrite=overwrite,
-                               verdict=verdict, checks=checks)
+                               verdict=verdict, checks=checks, accuracy=accuracy)
     if progress is not None:
         progress(1.0, "")
     return written
@@ -275,6 +279,22 @@ def ground_error(camera: Camera, xyz: np.ndarray, error_px: float, dem=None,
     errors = ground_error_m(uv, camera, dem, float(error_px))
     errors = errors[np.isfinite(errors)]
     return distance, float(np.median(errors)) if len(errors) else float("nan")
+
+
+def points_accuracy(camera: Camera, dem, xyz: np.ndarray, points=None, checks=None) -> str:
+    """"check points 7.7 px on 5: about 40 m on the ground, ...": the check points' RMSE (else the paired points'
+    residuals, said to be that) carried to the terrain seen (:func:`ground_error`); "" without either. ``points``,
+    ``checks``: objects with ``uv`` (N, 2) and ``xyz`` (N, 3) (outputs' ``ReportPoints``)."""
+    for what, pts in (("check points", checks), ("the points' residuals, no check points", points)):
+        if pts is None or not len(pts.uv):
+            continue
+        residual = camera.project(pts.xyz) - pts.uv
+        rmse = float(np.sqrt(np.nanmean(np.sum(residual ** 2, axis=1))))
+        distance, metres = ground_error(camera, xyz, rmse, dem)
+        if np.isfinite(metres):
+            return (f"{what} {rmse:.1f} px on {len(pts.uv)}: about {metres:.0f} m on the ground, the median over the "
+                    f"terrain seen, {distance / 1000:.1f} km away at the median")
+    return ""
 
 
 def dem_at_resolution(dem, resolution: float, bounds=None):

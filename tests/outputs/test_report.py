@@ -133,3 +133,28 @@ def test_check_points_are_drawn_and_measured_first(plane_scene, tmp_path):
     png = write_report(tmp_path / "r.png", scene.photo, scene.camera, scene.dem, fitted, xyz=scene.xyz,
                        checks=checks)
     assert gdal.Open(str(png)).RasterXSize > 1000
+
+
+def test_the_report_says_what_the_camera_is_worth_on_the_ground(plane_scene):
+    """A desktop trial: no report gave an accuracy in metres. The check points' error (else the paired points'
+    residuals, said to be that) carried to the terrain seen is a line of the page; no points, no such line, and
+    no "Control points" legend over a photo that has none."""
+    from matplotlib.figure import Figure
+
+    from monoplot_plugin.outputs.report import _draw_parameters, _draw_points
+    from monoplot_plugin.workflow.products import ground_error, points_accuracy
+
+    scene = plane_scene
+    points, checks = scene_points(scene, seed=3), scene_points(scene, n=5, noise_px=4.0, seed=4)
+    text = points_accuracy(scene.camera, scene.dem, scene.xyz, points, checks)
+    check_rmse = float(np.sqrt(np.mean(np.sum((scene.camera.project(checks.xyz) - checks.uv) ** 2, axis=1))))
+    metres = ground_error(scene.camera, scene.xyz, check_rmse, scene.dem)[1]
+    assert text.startswith(f"check points {check_rmse:.1f} px on 5: about {metres:.0f} m on the ground")
+    assert points_accuracy(scene.camera, scene.dem, scene.xyz, points).startswith("the points' residuals")
+    assert points_accuracy(scene.camera, scene.dem, scene.xyz) == ""
+    ax = Figure().add_subplot()
+    _draw_parameters(ax, scene.camera, None, 1.0, points, scene.xyz, "ok: paired fit.", accuracy=text)
+    assert "Ground accuracy: check points" in ax.texts[0].get_text()
+    ax = Figure().add_subplot()
+    _draw_points(ax, scene.photo, None, None, None, "")
+    assert ax.get_title(loc="left") == "The photo (no control points given)"
