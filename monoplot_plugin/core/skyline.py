@@ -21,11 +21,14 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-__all__ = ["skyline_features"]
+__all__ = ["skyline_features", "above_skyline"]
+
+#: Working width of the skyline search (pixels).
+SKYLINE_WIDTH = 512
 
 
-def skyline_features(image: np.ndarray, mask: Optional[np.ndarray] = None, width: int = 512,
-                     min_prominence: float = 0.015) -> Tuple[np.ndarray, np.ndarray]:
+def skyline_features(image: np.ndarray, mask: Optional[np.ndarray] = None, width: int = SKYLINE_WIDTH,
+                     min_prominence: float = 0.015, edges=None) -> Tuple[np.ndarray, np.ndarray]:
     """Summits and notches of the skyline of an (H, W, 3) uint8 RGB photo.
 
     Args:
@@ -33,6 +36,7 @@ def skyline_features(image: np.ndarray, mask: Optional[np.ndarray] = None, width
         mask: optional (H, W) bool picture area (default: the photo suggestions' own, no frame or caption).
         width: working width of the skyline search (pixels).
         min_prominence: least prominence along the boundary, as a share of the picture's height.
+        edges: the photo's :class:`~.auto.photo_edges.PhotoEdges` at ``width`` when already found.
     Returns:
         ((K, 2) float64 full-resolution pixels (u, v), centres at +0.5; (K,) str "summit" or "notch"), summits
         first, each kind by prominence.
@@ -41,7 +45,7 @@ def skyline_features(image: np.ndarray, mask: Optional[np.ndarray] = None, width
 
     from .auto.photo_edges import detect_photo_edges
 
-    pe = detect_photo_edges(image, width=width, mask=mask)
+    pe = edges if edges is not None else detect_photo_edges(image, width=width, mask=mask)
     found = []  # (kind, prominence, column of the small picture)
     valid = np.array(pe.sky_valid, dtype=bool)
     v = np.asarray(pe.sky_row, dtype=np.float64)
@@ -85,3 +89,31 @@ def _refine(image: np.ndarray, u: float, v: float, radius: float, summit: bool) 
     rows = np.argmax(step, axis=0) + r0 + 1.0  # the first terrain row of each column
     j = int(np.argmin(rows) if summit else np.argmax(rows))
     return c0 + j + 0.5, float(rows[j])
+
+
+def above_skyline(uv: np.ndarray, edges, margin_px: float, reach: float = 0.03) -> np.ndarray:
+    """(N,) bool: the full-resolution pixels ``uv`` (N, 2) lie in the sky, more than ``margin_px`` above the clear
+    skyline of their column (:class:`~.auto.photo_edges.PhotoEdges` ``edges``); a column without a clear skyline
+    takes its nearest clear neighbour's within ``reach`` (a share of the width: the skyline search leaves the
+    picture's outermost columns out), else it says False. Nothing in the sky can be a terrain point's partner:
+    under the right camera the DEM is below.
+
+    >>> from types import SimpleNamespace
+    >>> pe = SimpleNamespace(scale=0.5, width=8, sky_valid=[False] + [True] * 3 + [False] * 4, sky_row=[10.0] * 8)
+    >>> above_skyline(np.array([[1.0, 2.0], [3.0, 2.0], [3.0, 19.0], [9.0, 2.0], [15.0, 2.0]]), pe, 4.0).tolist()
+    [True, True, False, True, False]
+    """
+    uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+    if not len(uv):
+        return np.zeros(0, dtype=bool)
+    valid = np.asarray(edges.sky_valid, dtype=bool)
+    clear = np.flatnonzero(valid)
+    if not len(clear):
+        return np.zeros(len(uv), dtype=bool)
+    col = np.clip((uv[:, 0] * edges.scale).astype(int), 0, edges.width - 1)
+    at = np.clip(np.searchsorted(clear, col), 1, max(1, len(clear) - 1))
+    left, right = clear[at - 1], clear[np.minimum(at, len(clear) - 1)]
+    nearest = np.where(np.abs(col - left) <= np.abs(right - col), left, right)
+    near = np.abs(nearest - col) <= max(1.0, reach * edges.width)
+    row = np.asarray(edges.sky_row, dtype=np.float64)[nearest] / edges.scale
+    return near & (uv[:, 1] < row - margin_px)

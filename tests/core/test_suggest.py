@@ -291,3 +291,23 @@ def test_suggestions_on_a_photo_of_noise_say_it_is_featureless():
     scene = suggest_photo_points(render_photo(cam, dem, seed=2), max_points=300)
     assert not scene.featureless and scene.contrast > 10 * fog.contrast
     assert scene.subset([0, 1]).contrast == scene.contrast
+
+
+def test_photo_suggestions_leave_the_sky_out(valley):
+    """A desktop trial: 7 of the 30 photo suggestions on show sat in a plain gradient sky, 116-189 px above the
+    terrain, where no DEM point can be their partner. On a rendered valley: none more than 3 % of the height above
+    the true skyline (the rendered sky has haze and noise, where the detector fires), the skyline's own summits
+    kept; the terrain keeps its suggestions."""
+    from monoplot_plugin.core.xyz import compute_xyz_full
+
+    dem, truth, photo = valley
+    ground = np.isfinite(compute_xyz_full(truth, dem).xyz[..., 2])
+    first = np.where(ground.any(axis=0), ground.argmax(axis=0), truth.height)  # the true skyline's row
+    s = suggest_photo_points(photo)
+    u, v = s.uv[:, 0].astype(int).clip(0, truth.width - 1), s.uv[:, 1]
+    in_sky = v < first[u] - 0.03 * truth.height
+    assert in_sky.sum() == 0, s.uv[in_sky][:5]
+    everything = suggest_photo_points(photo, skyline=False)  # without the skyline's help: the sky's are there
+    ue = everything.uv[:, 0].astype(int).clip(0, truth.width - 1)
+    assert (everything.uv[:, 1] < first[ue] - 0.03 * truth.height).sum() > 5
+    assert (s.uv[:, 1] > first[u]).sum() >= 0.9 * (everything.uv[:, 1] > first[ue]).sum()
