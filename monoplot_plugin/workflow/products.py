@@ -198,8 +198,8 @@ def report_points(path, dem, split_checks: bool = False):
 
 
 def ortho_grid(camera: Camera, dem, resolution=None, xyz: Optional[np.ndarray] = None):
-    """The grid of the orthophoto: the DEM's, or one of cell size ``resolution`` over its extent, or (:data:`AUTO`)
-    one of :func:`auto_resolution` over the part of the DEM the camera sees. For a DEM file read by windows (core
+    """The grid of the orthophoto: the DEM's, or one of cell size ``resolution`` over the part of the DEM the camera
+    sees, or (:data:`AUTO`) one of :func:`auto_resolution` over that part. For a DEM file read by windows (core
     :class:`~..core.dem_large.LargeDem`) the part of it the camera sees, at the finest level of at most half
     :data:`MAX_ORTHO_CELLS` cells and the cells read whole (``in_memory_limit``); ``resolution`` then resamples
     that part. ``xyz``: the camera's per-pixel XYZ when the caller has it (for :data:`AUTO`)."""
@@ -215,7 +215,14 @@ def ortho_grid(camera: Camera, dem, resolution=None, xyz: Optional[np.ndarray] =
             dem = dem.source.view_dem(camera, max_cells=min(MAX_ORTHO_CELLS // 2, in_memory_limit()))
         except ValueError as exc:
             raise ProductError(str(exc)) from None
-    return dem if not resolution else dem_at_resolution(dem, resolution)
+    if not resolution:
+        return dem
+    # over the part the camera sees, as AUTO (a desktop trial: 10 m cells over the whole DEM, 2200 x 2200 of which
+    # 3.5 % had data, 7.7 s)
+    pts = _seen_sample(xyz_result(camera, dem, visibility=False).xyz if xyz is None else xyz)
+    if not len(pts):
+        raise ProductError("the camera sees no terrain of the DEM: no orthophoto")
+    return dem_at_resolution(dem, resolution, seen_bounds(dem, pts, float(resolution)))
 
 
 def auto_resolution(camera: Camera, dem, xyz: np.ndarray):
@@ -234,9 +241,15 @@ def auto_resolution(camera: Camera, dem, xyz: np.ndarray):
     lo, hi = pts[:, :2].min(axis=0), pts[:, :2].max(axis=0)
     area = float(np.prod(np.maximum(hi - lo, dem.cell_size)))
     cell = min(float(dem.cell_size), max(distance / camera.focal_px, (area / AUTO_ORTHO_CELLS) ** 0.5))
+    return cell, seen_bounds(dem, pts, cell)
+
+
+def seen_bounds(dem, pts: np.ndarray, margin: float) -> Tuple[float, float, float, float]:
+    """(xmin, ymin, xmax, ymax) of the terrain points ``pts`` (N, 3) the camera sees, ``margin`` map units wider
+    on every side, within the DEM's extent."""
+    lo, hi = pts[:, :2].min(axis=0), pts[:, :2].max(axis=0)
     bx0, by0, bx1, by1 = dem.bounds()
-    bounds = (max(bx0, lo[0] - cell), max(by0, lo[1] - cell), min(bx1, hi[0] + cell), min(by1, hi[1] + cell))
-    return cell, bounds
+    return (max(bx0, lo[0] - margin), max(by0, lo[1] - margin), min(bx1, hi[0] + margin), min(by1, hi[1] + margin))
 
 
 def _seen_sample(xyz: np.ndarray) -> np.ndarray:
