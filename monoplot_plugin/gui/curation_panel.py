@@ -40,14 +40,14 @@ def prior_sigma_px(c) -> float:
 
 class MessageOnce:
     """Push to QGIS's message bar so that each message shows once: the previous Monoplot message is taken off the
-    bar first (a message bar keeps older messages under the newest and shows them again when it expires), and so
-    is ours when another message covers it (a desktop trial: "2000 photo and 1024 DEM suggestions" came back 5 s
-    after QGIS's "Task complete" expired, while the dock's status line said something newer)."""
+    bar first (a message bar keeps older messages under the newest and shows them again when it expires), and
+    :meth:`clear` takes it off when the state it spoke of has changed (an edit, an undo: a desktop trial saw "2000
+    photo and 1024 DEM suggestions" come back after QGIS's "Task complete" expired, while the dock's status line
+    said "Undone: ..."). Covered by QGIS's own "Task complete", a task's result comes back when that one expires."""
 
     def __init__(self):
         self._item = None
         self._pushed_at = 0.0
-        self._watched = None  # the bar whose widgetAdded is connected
 
     def push(self, bar, title: str, text: str, level, duration: int) -> None:
         self.clear(bar)
@@ -57,13 +57,6 @@ class MessageOnce:
             self._item = bar.currentItem()
         except AttributeError:
             self._item = None
-        if self._watched is not bar and hasattr(bar, "widgetAdded"):
-            bar.widgetAdded.connect(lambda item, b=bar: self._covered(b, item))
-            self._watched = bar
-
-    def _covered(self, bar, item) -> None:
-        if self._item is not None and item is not self._item:
-            self.clear(bar)
 
 
     def clear(self, bar, older_than_s: float = 0.0) -> None:
@@ -239,7 +232,7 @@ class CurationPanel(QWidget):
 
     # --- following the controller -----------------------------------------------------------------------------
     def _on_points(self, changed) -> None:
-        self.dock.statusLabel.clear()  # a message about the state before this edit is stale now
+        self.dock.message_is_stale()  # a message about the state before this edit is stale now
         self.refitter.schedule()
         self._update_info()
 

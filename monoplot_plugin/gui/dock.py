@@ -203,9 +203,19 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
             self.__dict__.setdefault("_messages", MessageOnce()).push(bar, self.tr("Monoplot"), text, level, duration)
 
     def _said(self, text: str) -> None:
-        """``text`` in the status line only (no message bar for every undo)."""
+        """``text`` in the status line only (no message bar for every undo); the last message in the bar spoke of
+        the state before, so it goes."""
         if text:
+            self.message_is_stale()
             self.statusLabel.setText(text)
+
+    def message_is_stale(self) -> None:
+        """The state the last message spoke of has changed (an edit, an undo): off the status line, and off the
+        message bar unless it came just now (the edit's own)."""
+        self.statusLabel.clear()
+        bar = self.iface.messageBar() if self.iface is not None else None
+        if bar is not None and "_messages" in self.__dict__:
+            self._messages.clear(bar, older_than_s=0.5)
 
     # --- inputs -----------------------------------------------------------------------------------------------
     def _photo_chosen(self, path: str) -> None:
