@@ -221,7 +221,13 @@ def check_file_destinations(algorithm, parameters, context) -> None:
         if isinstance(definition, QgsProcessingParameterFileDestination):
             path = algorithm.parameterAsFileOutput(parameters, name, context)
         else:
+            # a temporary output gets a new path at every call, queued for loading: the algorithm's own call
+            # queues the one it writes, so this one leaves the queue as it was (a re-check trial: "The following
+            # layers were not correctly generated: .../OUTPUT.tif" after every temporary XYZ raster)
+            loading = dict(context.layersToLoadOnCompletion()) if context is not None else None
             path = algorithm.parameterAsOutputLayer(parameters, name, context)
+            if loading is not None and set(context.layersToLoadOnCompletion()) != set(loading):
+                context.setLayersToLoadOnCompletion(loading)
         if _file_destination(path) or (path and not os.path.isdir(os.path.dirname(os.path.abspath(path)))):
             check_can_write(path, overwrite=True)
 

@@ -30,15 +30,28 @@ def test_xyz_raster_loads_as_the_dock_adds_it(processing_provider, small_scene, 
     import processing
     from qgis.core import QgsProject
 
+    from qgis.core import QgsProcessingFeedback
+
+    class Errors(QgsProcessingFeedback):
+        said: list = []
+
+        def reportError(self, error, fatalError=False):  # noqa: N802 (QGIS API)
+            self.said.append(error)
+
     project = QgsProject.instance()
-    before = set(project.mapLayers())
-    processing.runAndLoadResults("monoplot:computexyz", {"CAMERA": small_scene["camera"], "DEM": small_scene["dem"],
-                                                          "OUTPUT": str(tmp_path / "xyz.tif")})
-    (layer,) = [project.mapLayer(i) for i in set(project.mapLayers()) - before]
-    assert not layer.crs().isValid() and layer.renderer().type() == "singlebandpseudocolor"
-    assert layer.renderer().band() == 3
-    assert not project.layerTreeRoot().findLayer(layer.id()).itemVisibilityChecked()
-    project.removeMapLayer(layer.id())
+    # a file, and the default temporary output (a re-check trial: "The following layers were not correctly
+    # generated" after every temporary one)
+    for output in (str(tmp_path / "xyz.tif"), "TEMPORARY_OUTPUT"):
+        before, feedback = set(project.mapLayers()), Errors()
+        processing.runAndLoadResults("monoplot:computexyz", {"CAMERA": small_scene["camera"],
+                                                              "DEM": small_scene["dem"], "OUTPUT": output},
+                                     feedback=feedback)
+        (layer,) = [project.mapLayer(i) for i in set(project.mapLayers()) - before]
+        assert feedback.said == []
+        assert not layer.crs().isValid() and layer.renderer().type() == "singlebandpseudocolor"
+        assert layer.renderer().band() == 3
+        assert not project.layerTreeRoot().findLayer(layer.id()).itemVisibilityChecked()
+        project.removeMapLayer(layer.id())
 
 
 def test_camera_for_another_image_size_is_refused(run_alg, small_scene, tmp_path):
