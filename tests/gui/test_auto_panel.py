@@ -28,6 +28,17 @@ def valley(tmp_path_factory):
     return {"dem": str(folder / "dem.tif"), "photo": str(folder / "photo.png"), "truth": truth, "prior": prior}
 
 
+def run_find_camera(dock, qtbot) -> list:
+    """Click "Find camera automatically" and wait for the task; the messages the dock was given meanwhile."""
+    c, messages = dock.controller, []
+    c.message.connect(lambda text, *_: messages.append(text))
+    dock.auto_panel.action.trigger()
+    with qtbot.waitSignal(c.taskFinished, timeout=240000) as blocker:
+        pass
+    assert blocker.args[0].ok, blocker.args[0].reason
+    return messages
+
+
 def test_find_camera_automatically_gives_a_camera_and_accepted_points(dock, valley, qtbot):
     layer = QgsRasterLayer(valley["dem"], "valley DEM")
     assert layer.isValid()
@@ -120,12 +131,7 @@ def test_a_doubtful_automatic_camera_never_replaces_the_persons_fit(dock, valley
     mine = valley["truth"]
     c.set_fitted(mine, {"status": "ok", "message": "my own fit"})
     points_before = dict(c.state.points)
-    messages = []
-    c.message.connect(lambda text, *_: messages.append(text))
-    dock.auto_panel.action.trigger()
-    with qtbot.waitSignal(c.taskFinished, timeout=240000) as blocker:
-        pass
-    assert blocker.args[0].ok, blocker.args[0].reason
+    messages = run_find_camera(dock, qtbot)
     assert c.fitted.parameters() == mine.parameters() and c.state.fit_info["status"] == "ok"
     assert dict(c.state.points) == points_before
     assert any("are kept" in m for m in messages), messages
@@ -194,12 +200,7 @@ def test_a_poor_automatic_camera_leaves_its_matches_undecided(dock, valley, qtbo
     dock.demCombo.setLayer(layer)
     c = dock.controller
     c.set_prior(valley["prior"].with_parameters(heading=valley["prior"].heading + 45.0))
-    messages = []
-    c.message.connect(lambda text, *_: messages.append(text))
-    dock.auto_panel.action.trigger()
-    with qtbot.waitSignal(c.taskFinished, timeout=240000) as blocker:
-        pass
-    assert blocker.args[0].ok, blocker.args[0].reason
+    messages = run_find_camera(dock, qtbot)
     assert c.state.fit_info["status"] == "poor", c.state.fit_info["message"]
     assert not c.state.in_space(PHOTO, (ACCEPTED,)) and not c.state.in_space(MAP, (ACCEPTED,))
     matched = [p for p in c.state.points.values() if p.label == "automatic"]
