@@ -378,7 +378,8 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
                                                       self.statusLabel.setText(self.tr("{0}: {1}…").format(d, stage)))
             self.progressBar.setValue(0)
             self.progressBar.setFormat(description + " %p%")
-            if self.controller.task_kind == "fit":
+            if self.controller.task_kind in ("fit", "auto"):  # Find camera ends with a camera too (a trial: the
+                # dock stayed on the Camera tab, the result out of sight)
                 self.stepTabs.setCurrentWidget(self.fitTab)
         else:
             self.progressBar.setFormat("%p%")

@@ -200,7 +200,9 @@ def test_a_poor_automatic_camera_leaves_its_matches_undecided(dock, valley, qtbo
     dock.demCombo.setLayer(layer)
     c = dock.controller
     c.set_prior(valley["prior"].with_parameters(heading=valley["prior"].heading + 45.0))
+    dock.stepTabs.setCurrentWidget(dock.cameraTab)  # where the rough camera was given
     messages = run_find_camera(dock, qtbot)
+    assert dock.stepTabs.currentWidget() is dock.fitTab  # the result in sight
     assert c.state.fit_info["status"] == "poor", c.state.fit_info["message"]
     assert not c.state.in_space(PHOTO, (ACCEPTED,)) and not c.state.in_space(MAP, (ACCEPTED,))
     matched = [p for p in c.state.points.values() if p.label == "automatic"]
