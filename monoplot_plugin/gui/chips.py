@@ -197,7 +197,7 @@ class ChipView(QWidget):
                 all(a is b for a, b in zip(drawn[1:], self._drawn[1:])):
             return
         self._drawn = drawn
-        camera = key if isinstance(key, Camera) else (c.fitted if which == tr("fitted") else c.prior)
+        camera = key if isinstance(key, Camera) else (Camera.from_dict(key) if key else None)
         centre = self._centre(p, camera)
         self._at = centre
         if centre is None:
