@@ -26,9 +26,9 @@ ERROR_SAMPLES = 64
 def pixel_error(info: Optional[dict], only_ok: bool = True) -> Tuple[Optional[float], str]:
     """(the photo's pixel error a fit vouches for, RMS pixels; where it comes from): the independent check points'
     RMSE ("check") when there are some, else for a paired fit the larger of its RMSE ("fit") and its leave-one-out
-    RMSE ("loo"). ``(None, "unpaired")`` for an unpaired fit without check points: its residuals measure how well
-    its automatic pairs agree, not its accuracy (Aletsch, simulated curation: leave-one-out 3.8 px, the GCPs 9.5 px
-    off; on the ground the GCPs 2.2 times the error predicted from 3.8 px). ``(None, "")`` without a fit (a camera
+    RMSE ("loo"). ``(None, "unpaired")`` for an unpaired fit or an automatic registration without check points:
+    their residuals measure how well their automatic pairs agree, not their accuracy (Aletsch, simulated curation:
+    leave-one-out 3.8 px, the GCPs 9.5 px off; on the ground the GCPs 2.2 times the error predicted from 3.8 px). ``(None, "")`` without a fit (a camera
     loaded from a file), and with ``only_ok`` when the fit is not "ok": its residuals would understate a camera the
     evidence does not support. Carried to the ground as ``xy_error_m`` (:func:`feature_error_m`) and said with every
     written product.
@@ -38,6 +38,8 @@ def pixel_error(info: Optional[dict], only_ok: bool = True) -> Tuple[Optional[fl
     >>> pixel_error({"status": "ok", "rmse_px": 2.0, "loo_rmse_px": None, "check_rmse_px": 6.5, "n_check": 3})
     (6.5, 'check')
     >>> pixel_error({"status": "ok", "mode": "unpaired", "rmse_px": 2.9, "loo_rmse_px": 3.8})
+    (None, 'unpaired')
+    >>> pixel_error({"status": "ok", "mode": "automatic", "rmse_px": 2.2})  # its pairs were drawn near its camera
     (None, 'unpaired')
     """
     info = info or {}
@@ -50,7 +52,7 @@ def pixel_error(info: Optional[dict], only_ok: bool = True) -> Tuple[Optional[fl
 
     if finite("check_rmse_px") is not None:
         return finite("check_rmse_px"), "check"
-    if info.get("mode") == "unpaired":
+    if info.get("mode") in ("unpaired", "automatic"):  # the registration's matched pairs: agreement too
         return None, "unpaired"
     candidates = [(v, k) for k, v in (("fit", finite("rmse_px")), ("loo", finite("loo_rmse_px"))) if v is not None]
     return max(candidates) if candidates else (None, "")
