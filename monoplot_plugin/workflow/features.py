@@ -28,10 +28,10 @@ def pixel_error(info: Optional[dict], only_ok: bool = True) -> Tuple[Optional[fl
     RMSE ("check") when there are some, else for a paired fit the larger of its RMSE ("fit") and its leave-one-out
     RMSE ("loo"). ``(None, "unpaired")`` for an unpaired fit or an automatic registration without check points:
     their residuals measure how well their automatic pairs agree, not their accuracy (Aletsch, simulated curation:
-    leave-one-out 3.8 px, the GCPs 9.5 px off; on the ground the GCPs 2.2 times the error predicted from 3.8 px). ``(None, "")`` without a fit (a camera
-    loaded from a file), and with ``only_ok`` when the fit is not "ok": its residuals would understate a camera the
-    evidence does not support. Carried to the ground as ``xy_error_m`` (:func:`feature_error_m`) and said with every
-    written product.
+    leave-one-out 3.8 px, the GCPs 9.5 px off; on the ground the GCPs 2.2 times the error predicted from 3.8 px).
+    ``(None, "")`` without a fit (a camera loaded from a file), and with ``only_ok`` when the fit is not "ok": its
+    residuals would understate a camera the evidence does not support. Carried to the ground as ``xy_error_m``
+    (:func:`feature_error_m`) and said with every written product.
 
     >>> pixel_error({"status": "ok", "rmse_px": 7.7, "loo_rmse_px": 11.4}), pixel_error({"status": "uncertain"})
     ((11.4, 'loo'), (None, ''))
