@@ -62,6 +62,9 @@ class Shortlist:
         self._live: Set[int] = set()  # indices in _pairs of the likely ones (kept up to date by each edit)
         self._likely: Optional[List[Tuple[str, str, float]]] = None  # cache of likely(), per camera and edits
         self._new_page = {s: False for s in SPACES}  # the page on show came with a new run, nothing decided on it
+        # the page that came when the one on show was all decided ("Reject the rest"): (its ids, cursor before),
+        # taken back when an undo returns the page it replaced (a trial's undo left both on show, 85 points)
+        self._refilled: Dict[str, Optional[Tuple[List[str], int]]] = {s: None for s in SPACES}
         self.rebuild()
 
     # --- following the state ----------------------------------------------------------------------------------
@@ -90,6 +93,7 @@ class Shortlist:
                     self._likely = None
         fresh = {s: False for s in SPACES}
         touched = set()
+        returned = set()
         for pid in changed:
             p = pts.get(pid)
             for space in SPACES:
@@ -104,6 +108,7 @@ class Shortlist:
                 self.decided[p.space].pop(pid, None)
                 if pid in self._ranked[p.space] or p.manual:
                     self.shown[p.space][pid] = None  # back from a decision (undo, U key)
+                    returned.add(p.space)
                 else:
                     fresh[p.space] = True  # a new suggestion run
             else:
@@ -113,6 +118,8 @@ class Shortlist:
             # new suggestions: how they agree with the camera on show (it was set before they came), and the
             # pairs they make; the other view's points have new partners too
             self._recommend(self.camera, self.sigma)
+        for space in returned - {s for s in SPACES if fresh[s]}:
+            self._take_back_refill(space)
         for space in SPACES:
             if fresh[space]:
                 self._rerank(space, keep=0)
@@ -146,6 +153,7 @@ class Shortlist:
             self._ranking[space] = []
         self._ranked[space] = set(self._ranking[space])
         self._cursor[space] = 0
+        self._refilled[space] = None
         if stable and self.shown[space]:
             self.shown[space] = {i: None for i in self.shown[space] if i in self._ranked[space]}
         else:
@@ -168,7 +176,23 @@ class Shortlist:
 
     def _refill(self, space: str) -> None:
         if not self.shown[space]:
+            cursor = self._cursor[space]
             self._take(space, self.per_page)
+            self._refilled[space] = (list(self.shown[space]), cursor)
+
+    def _take_back_refill(self, space: str) -> None:
+        """Suggestions came back on show (an undo): if the page that replaced them is still untouched, hide it
+        again and rewind, so that the page before the decision is what is on show, as before it."""
+        refilled, self._refilled[space] = self._refilled[space], None
+        if refilled is None:
+            return
+        ids, cursor = refilled
+        shown = self.shown[space]
+        if len(shown) <= len(ids) or not all(i in shown for i in ids):
+            return  # something on the refilled page was decided since: it stays, with what came back
+        for pid in ids:
+            shown.pop(pid, None)
+        self._cursor[space] = min(self._cursor[space], cursor)
 
     # --- actions ----------------------------------------------------------------------------------------------
     def more(self, space: Optional[str] = None) -> int:
@@ -176,6 +200,7 @@ class Shortlist:
         n = 0
         for s in (SPACES if space is None else (space,)):
             n += self._take(s, self.per_page)
+            self._refilled[s] = None
             self._cache[s] = None
             self._new_page[s] = False
         return n

@@ -52,6 +52,7 @@ def test_each_view_shows_a_few_and_the_bulk_actions_page_through(dock, scene, qt
     assert drawn(dock.photo_view.markers, REJECTED) == 0
     assert set(c.shortlist.shown_undecided(PHOTO)).isdisjoint(shown)
     assert len(c.shortlist.shown_undecided(PHOTO)) == per_page
+    next_page = set(c.shortlist.shown_undecided(PHOTO))
     panel.filter_checks[REJECTED].setChecked(True)
     assert drawn(dock.photo_view.markers, REJECTED) == per_page - 1
     panel.filter_checks[SUGGESTED].setChecked(False)
@@ -60,11 +61,15 @@ def test_each_view_shows_a_few_and_the_bulk_actions_page_through(dock, scene, qt
     # one undo takes the whole "Reject the rest" back, and they are on show again
     c.stack.undo()
     assert c.state.counts()[PHOTO][REJECTED] == 0 and c.state.points[shown[0]].status == ACCEPTED
-    assert set(shown[1:]) <= set(c.shortlist.shown_undecided(PHOTO))
+    # ... and only they: the page that came after them goes back to the queue (a desktop trial saw both, 85)
+    assert set(c.shortlist.shown_undecided(PHOTO)) == set(shown[1:])
+    assert len(c.shortlist.shown_undecided(MAP)) == per_page
+    assert drawn(dock.photo_view.markers, SUGGESTED) == per_page - 1
     # "More suggestions" adds the next few
     before = len(c.shortlist.shown_undecided(MAP))
     press(qtbot, panel.moreButton)
     assert len(c.shortlist.shown_undecided(MAP)) == min(before + per_page, n)
+    assert next_page <= set(c.shortlist.shown_undecided(PHOTO))  # the same next page as before the undo
 
 
 def test_ctrl_click_always_adds_and_undo_after_a_no_op_click_keeps_the_edit(dock, scene, qtbot):
