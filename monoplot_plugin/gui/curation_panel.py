@@ -245,7 +245,8 @@ class CurationPanel(QWidget):
         # camera goes on doing it
         trusted_fit = c.fitted is not None and (info.get("status") != "poor" or c.prior is None)
         if trusted_fit:
-            camera, sigma = c.fitted, sigma_of(float(info.get("rmse_px") or float("nan")))
+            camera, sigma = c.fitted, sigma_of(*(float(info.get(k) or float("nan"))
+                                                 for k in ("rmse_px", "loo_rmse_px", "check_rmse_px")))
             self.refit_info = self.tr("fit, {0:.1f} px").format(info["rmse_px"]) if info.get("rmse_px") else \
                 self.tr("fit")
             self.ranking_status = str(info.get("status", ""))
