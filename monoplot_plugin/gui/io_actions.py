@@ -257,7 +257,7 @@ def load_camera_file(controller, path: str, as_fitted: bool = False) -> Optional
         return None
     notes = []
     try:
-        camera = load_camera(path, c.photo_size, c.dem.crs_wkt, notes)
+        camera = load_camera(path, c.photo_size, c.dem.crs_wkt, notes, rough=not as_fitted)
     except InputError as exc:
         c.message.emit(str(exc), CRITICAL)
         return None
@@ -286,7 +286,7 @@ def load_camera_file(controller, path: str, as_fitted: bool = False) -> Optional
         info["message"] += " " + tr("On the {0} pairs already there it gives {1:.1f} px RMSE.").format(
             n_pairs, pairs_rmse)
     c.set_fitted(camera, info, background=True)
-    c.message.emit(tr("Fitted camera loaded from {0}.").format(name), INFO)
+    c.message.emit(tr("Fitted camera loaded from {0}.").format(name) + moved, INFO)
     return camera
 
 

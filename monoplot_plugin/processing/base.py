@@ -210,16 +210,18 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
 
     def camera(self, parameters, context, name: str = "CAMERA", photo: Optional[str] = None,
                crs: Optional[QgsCoordinateReferenceSystem] = None, image_size=None, dem=None,
-               only_if_moved: bool = False):
+               only_if_moved: bool = False, rough: bool = False):
         """The camera of a file parameter; KML needs the photo (size) and the DEM CRS. With ``dem``, a camera that
         sees no part of it is refused (:func:`~..workflow.inputs.check_view`); ``only_if_moved``: only a camera
-        transformed from another CRS (the batch reports a blind camera per photo)."""
+        transformed from another CRS (the batch reports a blind camera per photo); ``rough``: a start for a fit (a
+        camera of a photo of another shape is kept as a rough start, see :func:`~..workflow.camera_files.
+        fitted_to_size`)."""
         path = self.parameterAsFile(parameters, name, context)
         if image_size is None and photo:
             image_size = checked(photo_size, photo)
         notes = []
         camera = checked(load_camera, path, image_size, crs.toWkt() if crs is not None and crs.isValid() else "",
-                         notes)
+                         notes, rough)
         feedback = context.feedback() if hasattr(context, "feedback") else None
         for note in notes:  # a camera transformed into the DEM's CRS
             if feedback is not None:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+from dataclasses import replace
 from typing import Optional, Tuple
 
 from ..core.camera import Camera
@@ -17,7 +18,7 @@ __all__ = ["load_camera", "save_camera"]
 
 
 def load_camera(path: str, image_size: Optional[Tuple[int, int]] = None, crs_wkt: str = "",
-                notes: Optional[list] = None) -> Camera:
+                notes: Optional[list] = None, rough: bool = False) -> Camera:
     """A camera from a Monoplot JSON file (:meth:`Camera.save`) or a KML PhotoOverlay.
 
     Args:
@@ -26,6 +27,9 @@ def load_camera(path: str, image_size: Optional[Tuple[int, int]] = None, crs_wkt
             against the JSON camera's own size when both are known.
         crs_wkt: WKT (or "EPSG:n") of the DEM's CRS; required for KML (given in WGS84). A JSON camera in another
             projected CRS is transformed into it (:func:`~..core.kml.camera_to_crs`), and a note added to ``notes``.
+        rough: the camera is a start for a fit (a prior), not the camera of the products: a JSON camera of a photo
+            of another shape (a crop of the same picture, say) keeps its pose and field of view, with a note,
+            instead of being refused. See :func:`fitted_to_size`.
     """
     if not path:
         raise InputError("no camera file given")
@@ -49,11 +53,59 @@ def load_camera(path: str, image_size: Optional[Tuple[int, int]] = None, crs_wkt
                          f"(expected Monoplot camera JSON): {exc}") from exc
     check_camera(camera, f"the camera {os.path.basename(path)}")
     if image_size is not None and tuple(camera.image_size) != tuple(image_size):
-        raise InputError(f"camera {os.path.basename(path)} is for a {camera.width}x{camera.height} image but the "
-                         f"photo is {image_size[0]}x{image_size[1]}")
+        camera = fitted_to_size(camera, image_size, rough, os.path.basename(path), notes)
     if crs_wkt and camera.crs_wkt and not _same_crs(camera.crs_wkt, crs_wkt):
         return _moved_to(camera, crs_wkt, os.path.basename(path), notes)
     return camera
+
+
+#: Two picture shapes (width / height) this close are the same picture at another resolution.
+SAME_SHAPE = 0.005
+
+
+def fitted_to_size(camera: Camera, image_size: Tuple[int, int], rough: bool = False, name: str = "",
+                   notes: Optional[list] = None) -> Camera:
+    """``camera``, made for a picture of another size, for a photo of ``image_size`` (width, height):
+
+    * the same shape (aspect ratios within :data:`SAME_SHAPE`): the same picture at another resolution (a scan
+      saved smaller, a resampled copy): the camera scaled (:meth:`~..core.camera.Camera.scaled`), exact;
+    * another shape and ``rough``: a crop or another print of the view: position, angles and field of view kept
+      as a start for a fit (the principal point back at the centre);
+    * else an :class:`InputError` that says what to do.
+
+    A note in ``notes`` says which.
+
+    >>> cam = Camera((0.0, 0.0, 100.0), 10.0, -5.0, 0.0, 50.0, (2000, 1500), principal_point=(1010.0, 750.0))
+    >>> notes = []
+    >>> small = fitted_to_size(cam, (1000, 750), notes=notes)
+    >>> small.image_size, small.principal_point, small.fov
+    ((1000, 750), (505.0, 375.0), 50.0)
+    >>> notes[0][:62]
+    "the camera is for a 2000x1500 picture: scaled to the photo's 1"
+    >>> fitted_to_size(cam, (1000, 900), rough=True).image_size
+    (1000, 900)
+    >>> try:
+    ...     fitted_to_size(cam, (1000, 900))
+    ... except InputError as exc:
+    ...     print(str(exc)[:76])
+    the camera is for a 2000x1500 picture but the photo is 1000x900, another sha
+    """
+    w, h = int(image_size[0]), int(image_size[1])
+    was = f"{camera.width}x{camera.height}"
+    name = f"camera {name}" if name else "the camera"
+    if abs((w / h) / (camera.width / camera.height) - 1.0) <= SAME_SHAPE:
+        scaled = replace(camera.scaled(w / camera.width), image_size=(w, h))  # the height rounded as the photo's
+        if notes is not None:
+            notes.append(f"{name} is for a {was} picture: scaled to the photo's {w}x{h} (the same shape, so the "
+                         f"same picture at another resolution)")
+        return scaled
+    if not rough:
+        raise InputError(f"{name} is for a {was} picture but the photo is {w}x{h}, another shape (a crop?): load "
+                         f"it as the rough camera and fit this photo's camera from it")
+    if notes is not None:
+        notes.append(f"{name} is for a {was} picture and the photo is {w}x{h}, another shape (a crop?): its "
+                     f"position, angles and field of view are kept as a rough start; the fit finds this photo's")
+    return replace(camera, image_size=(w, h), principal_point=None)
 
 
 def _moved_to(camera: Camera, crs_wkt: str, name: str, notes: Optional[list]) -> Camera:

@@ -259,7 +259,7 @@ def _write_camera(setup: Timelapse, stem: str, camera: Camera) -> str:
 def fit_job(job, size, dem, crs_wkt: str):
     """Fit the camera of a batch job (``prior``, ``points``, ``dem_points`` paths) from its files; returns (camera,
     rmse in px, fit status, message)."""
-    prior = load_camera(job.prior, size, crs_wkt)
+    prior = load_camera(job.prior, size, crs_wkt, rough=True)
     if not job.points:  # "point file not found: " with no name said nothing
         raise InputError("no points file in this row (the 'points' column is empty): the table mode fits each "
                          "photo to its own points; for a camera from the photo and the DEM alone, run "

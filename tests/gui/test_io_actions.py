@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import numpy as np
@@ -171,15 +172,26 @@ def test_processing_camera_json_loads_as_the_fitted_camera(dock, scene, tmp_path
     assert (dock.fovSpin.value(), dock.pitchSpin.value()) == pytest.approx((52.5, -6.5), abs=0.05)
 
 
-def test_camera_for_another_photo_size_is_refused(dock, scene, tmp_path):
+def test_camera_of_another_photo_size_is_scaled_or_kept_as_a_rough_start(dock, scene, tmp_path):
     _load(dock, scene)
     c = dock.controller
-    path = tmp_path / "other.json"
-    path.write_text(scene.camera.with_parameters().scaled(0.5).to_json())
     messages = []
     c.message.connect(lambda text, level: messages.append(text))
-    assert io_actions.load_camera_file(c, str(path)) is None and c.prior is None
-    assert "image but the photo is" in messages[-1]
+    # the same picture saved at half the resolution: its camera, scaled back, projects as the photo's own
+    half = tmp_path / "half.json"
+    half.write_text(scene.camera.scaled(0.5).to_json())
+    loaded = io_actions.load_camera_file(c, str(half), as_fitted=True)
+    assert loaded is not None and loaded.image_size == c.photo_size and "scaled to the photo's" in messages[-1]
+    assert np.abs(loaded.project(scene.xyz) - scene.camera.project(scene.xyz)).max() < 1.0
+    # a crop (another shape): refused as the fitted camera, kept as a rough start, each message saying so
+    w, h = scene.camera.image_size
+    crop = tmp_path / "crop.json"
+    crop.write_text(dataclasses.replace(scene.camera, image_size=(w, int(h * 1.3))).to_json())
+    assert io_actions.load_camera_file(c, str(crop), as_fitted=True) is None
+    assert "another shape" in messages[-1] and "rough camera" in messages[-1]
+    prior = io_actions.load_camera_file(c, str(crop))
+    assert prior is not None and c.prior.image_size == c.photo_size and "rough start" in messages[-1]
+    assert c.prior.position == scene.camera.position and c.prior.fov == scene.camera.fov
 
 
 def test_dock_menus_are_there(dock):

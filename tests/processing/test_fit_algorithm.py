@@ -43,6 +43,35 @@ def test_fit_from_paired_csv_recovers_the_camera(run_alg, small_scene, ground_tr
     assert json.loads(out.read_text())["crs_wkt"]  # the DEM's CRS travels with the camera
 
 
+def test_a_prior_made_for_a_crop_is_a_rough_start_and_said_so(run_alg, small_scene, ground_truth, tmp_path):
+    """A prior camera of a photo of another shape (the full print, for a cropped scan): kept as a start, with a
+    note; the fit recovers this photo's camera."""
+    from qgis.core import QgsProcessingFeedback
+
+    class Notes(QgsProcessingFeedback):
+        def __init__(self):
+            super().__init__()
+            self.lines = []
+
+        def pushInfo(self, info):
+            self.lines.append(info)
+
+    prior = ground_truth["prior_cam"]
+    other = tmp_path / "prior_other_shape.json"
+    other.write_text(Camera.from_dict(
+        {**prior.to_dict(), "image_size": [prior.width, int(prior.height * 1.4)]}).to_json())
+    gcps = tmp_path / "gcps.csv"
+    write_points_csv(str(gcps), uv=ground_truth["pixels"], xyz=ground_truth["world"])
+    out = tmp_path / "camera.json"
+    feedback = Notes()
+    result = run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"], "PRIOR": str(other),
+                                   "PHOTO_CSV": str(gcps), "OUTPUT": str(out)}, feedback)
+    assert any("another shape" in line and "rough start" in line for line in feedback.lines)
+    fitted = Camera.load(out)
+    assert result["RMSE_PX"] < 0.5 and fitted.image_size == small_scene["cam"].image_size
+    assert np.linalg.norm(np.subtract(fitted.position, small_scene["cam"].position)) < 5.0
+
+
 def point_layer(points, crs=""):
     kind = "PointZ" if points.shape[1] == 3 else "Point"
     layer = QgsVectorLayer(f"{kind}?crs={crs}" if crs else kind, "pts", "memory")

@@ -66,7 +66,7 @@ class AutoRegister(MonoplotAlgorithm):
         image = checked(read_photo, photo_path)
         size = (image.shape[1], image.shape[0])
         if self.parameterAsFile(parameters, "PRIOR", context):
-            prior = self.camera(parameters, context, "PRIOR", crs=crs, image_size=size)
+            prior = self.camera(parameters, context, "PRIOR", crs=crs, image_size=size, rough=True)
         else:
             prior = camera_from_exif(photo_path, size, dem)
             feedback.pushInfo(self.tr("Prior camera from the photo's EXIF GPS tags."))

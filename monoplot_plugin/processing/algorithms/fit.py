@@ -153,7 +153,7 @@ class FitCamera(MonoplotAlgorithm):
         dem, crs = self.dem(parameters, context)
         uv, xyz, paired = self.gather_points(parameters, context, dem, crs)
         if self.parameterAsFile(parameters, "PRIOR", context):
-            prior = self.camera(parameters, context, "PRIOR", photo=photo, crs=crs)
+            prior = self.camera(parameters, context, "PRIOR", photo=photo, crs=crs, rough=True)
         elif paired and len(uv) >= MIN_PAIRS_WITHOUT_PRIOR:
             prior = start_above_points(xyz, checked(pipeline_photo_size, photo), crs.toWkt())
             feedback.pushInfo(self.tr("No prior camera: the camera is solved from the {0} pairs alone").format(

@@ -80,7 +80,7 @@ class SuggestDemPoints(MonoplotAlgorithm):
         camera = None
         if self.parameterAsFile(parameters, "CAMERA", context):
             photo = self.parameterAsFile(parameters, "PHOTO", context) or None
-            camera = self.camera(parameters, context, photo=photo, crs=crs)
+            camera = self.camera(parameters, context, photo=photo, crs=crs, rough=True)
         count = self.parameterAsInt(parameters, "MAX_POINTS", context)
         feedback.setProgress(10)
         sigma = parameters.get("POSITION_SIGMA")
