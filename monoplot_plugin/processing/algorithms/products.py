@@ -24,10 +24,11 @@ from qgis.PyQt.QtCore import QVariant
 
 from .. import geometry as geo
 from .. import pipeline
-from ..base import PHOTO_Y_SIGN, MonoplotAlgorithm, cancel_callback, check_canceled, checked, progress_callback
+from ..base import (PHOTO_Y_SIGN, MonoplotAlgorithm, camera_line, cancel_callback, check_canceled, checked,
+                    progress_callback)
 from ..inputs import read_photo
 from ...core.xyz_strips import plan_strips
-from ...workflow.products import ProductError, ortho_grid
+from ...workflow.products import ProductError, blank_outside, ortho_grid, picture_area
 from ...workflow.inputs import check_not_empty
 from ..safe_sink import keep_pixel_space, safe_sink
 
@@ -54,10 +55,9 @@ class _CameraDemAlgorithm(MonoplotAlgorithm):
         dem, crs = self.dem(parameters, context)
         photo = self.parameterAsFile(parameters, "PHOTO", context) or None
         camera = self.camera(parameters, context, "CAMERA", photo=photo, crs=crs, dem=dem)
-        feedback.pushInfo(self.tr("Camera at ({0:.1f}, {1:.1f}, {2:.1f}), heading {3:.2f}, pitch {4:.2f}, fov {5:.2f};"
-                                  " image {6}x{7}").format(
-            camera.position[0], camera.position[1], camera.position[2], camera.heading, camera.pitch, camera.fov,
-            camera.width, camera.height))
+        # the heading as fitcamera's log, the dock and the report give it (0-360; it said -63.61 for 296.39)
+        feedback.pushInfo(self.tr("Camera: {0}; image {1}x{2}").format(camera_line(camera), camera.width,
+                                                                       camera.height))
         return camera, dem, crs
 
 
@@ -84,11 +84,13 @@ class ComputeXyz(_CameraDemAlgorithm):
             return self.xyz_in_strips(parameters, context, feedback, camera, dem, crs, out, rows)
         xyz = pipeline.xyz_raster(camera, dem)  # cached: written below without computing again
         check_canceled(feedback)
-        ground = float(np.isfinite(xyz[..., 2]).mean())
-        self.check_not_empty(parameters, context, int(ground > 0), "XYZ raster", NO_GROUND)
-        # with the photo, a scanned print's border and caption get no coordinates
+        # with the photo, a scanned print's border and caption get no coordinates: the share said is the file's
+        # (it said 83.8 % where the file had 71.9 %)
         path = self.parameterAsFile(parameters, "PHOTO", context)
         photo = checked(read_photo, path) if path else None
+        area = None if photo is None else picture_area(photo)
+        ground = float(np.isfinite(blank_outside(xyz[..., 2], area)).mean())
+        self.check_not_empty(parameters, context, int(ground > 0), "XYZ raster", NO_GROUND)
         pipeline.write_xyz(out, camera, dem, crs.toWkt(), progress=progress_callback(feedback, 80, 95),
                            is_canceled=cancel_callback(feedback), photo=photo)
         feedback.pushInfo(self.tr("{0:.1f}% of the pixels hit the DEM; written to {1}").format(100 * ground, out))
