@@ -25,7 +25,7 @@ from ..adapters.photo_space import photo_point, pixel_of
 from ..core.camera import Camera
 from ..core.fit.verdict import judge_by_checks
 from ..state import ACCEPTED, CHECK, MAP, PHOTO, Edit, Point
-from ..workflow.camera_files import load_camera, save_camera
+from ..workflow.camera_files import load_camera, save_camera, written_verdict
 from ..workflow.fit import measured_on_pairs
 from ..workflow.inputs import InputError, _transform, points_to_dem_crs
 from ..workflow.points_csv import read_points_csv, write_points_csv
@@ -278,6 +278,10 @@ def load_camera_file(controller, path: str, as_fitted: bool = False) -> Optional
     info["status"], verdict = judge_by_checks(info.get("check_rmse_px", float("nan")), info.get("n_check", 0),
                                               float(np.hypot(*c.photo_size)))
     info["message"] = tr("Camera loaded from {0}.").format(name) + moved + " " + verdict
+    written, why = written_verdict(path)
+    if written in ("uncertain", "poor") and not n_check:  # its own fit doubted it: so does the dock
+        info["status"] = "poor" if written == "poor" else info["status"]  # unchecked: "uncertain" already
+        info["message"] += " " + tr("It was written by a fit whose verdict was \"{0}\": {1}").format(written, why)
     ids, uv, xyz = c.pair_arrays(c.state.valid_pairs())
     n_pairs, pairs_rmse = measured_on_pairs(camera, uv, xyz)
     if n_pairs:  # how the camera fits the pairs already there (a measure of agreement, not of accuracy)
@@ -301,7 +305,9 @@ def save_camera_file(controller, path: str, which: str = "fitted") -> bool:
     if not camera.crs_wkt and c.dem is not None:
         camera = dataclasses.replace(camera, crs_wkt=c.dem.crs_wkt)
     try:
-        save_camera(path, camera, name=os.path.splitext(os.path.basename(c.state.photo_path or path))[0])
+        info = (c.state.fit_info or {}) if which == "fitted" else {}
+        save_camera(path, camera, name=os.path.splitext(os.path.basename(c.state.photo_path or path))[0],
+                    verdict=info if info.get("status") else None)
     except (OSError, ValueError) as exc:
         c.message.emit(tr("Cannot write {0}: {1}").format(path, exc), CRITICAL)
         return False

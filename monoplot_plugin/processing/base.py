@@ -35,6 +35,7 @@ from ..workflow.inputs import check_dem_file, check_photo_path, check_view
 from ..workflow.inputs import load_dem as load_checked_dem
 from ..adapters.photo_space import PHOTO_Y_SIGN  # noqa: F401 (algorithms import it from here)
 from ..adapters.layers import crs_from_wkt
+from ..workflow.camera_files import written_verdict
 from ..workflow.progress import Canceled
 from .inputs import InputError, load_camera, photo_size
 
@@ -226,6 +227,12 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         for note in notes:  # a camera transformed into the DEM's CRS
             if feedback is not None:
                 feedback.pushInfo(note)
+        status, message = written_verdict(path)
+        if status and status != "ok" and not rough and feedback is not None:
+            # written by an "uncertain" or "poor" fit or registration: what is made from it inherits its error
+            feedback.pushWarning(self.tr("The camera {0} was written by a fit whose verdict was \"{1}\": the "
+                                         "products made from it are no better than it. Its message: {2}").format(
+                os.path.basename(path), status, message[:400] + ("…" if len(message) > 400 else "")))
         if dem is not None and (notes or not only_if_moved):
             try:
                 check_view(camera, dem)

@@ -14,7 +14,7 @@ from typing import Optional, Tuple
 from ..core.camera import Camera
 from .inputs import InputError, _crs_name, check_camera, read_text
 
-__all__ = ["load_camera", "save_camera"]
+__all__ = ["load_camera", "save_camera", "camera_json", "written_verdict", "fitted_to_size"]
 
 
 def load_camera(path: str, image_size: Optional[Tuple[int, int]] = None, crs_wkt: str = "",
@@ -146,9 +146,10 @@ def _same_crs(a: str, b: str) -> bool:
                                "CRITERION=EQUIVALENT_EXCEPT_AXIS_ORDER_GEOGCRS"]))
 
 
-def save_camera(path: str, camera: Camera, name: str = "Monoplot camera") -> None:
+def save_camera(path: str, camera: Camera, name: str = "Monoplot camera", verdict: Optional[dict] = None) -> None:
     """Write ``camera`` to ``path``: a KML PhotoOverlay for ``.kml`` (position, angles, field of view only), else
-    Monoplot's camera JSON (everything). Through a temporary file; an existing file is replaced."""
+    Monoplot's camera JSON (everything, and ``verdict``, the fit's {"status", "message"}, when given: see
+    :func:`written_verdict`). Through a temporary file; an existing file is replaced."""
     from ..outputs.safe_write import write_text
 
     if str(path).lower().endswith(".kml"):
@@ -156,4 +157,34 @@ def save_camera(path: str, camera: Camera, name: str = "Monoplot camera") -> Non
 
         write_camera_kml(path, camera, name=name, overwrite=True)
     else:
-        write_text(path, camera.to_json(), overwrite=True)
+        write_text(path, camera_json(camera, verdict), overwrite=True)
+
+
+def camera_json(camera: Camera, verdict: Optional[dict] = None) -> str:
+    """Monoplot camera JSON with the fit's verdict ({"status", "message"}) under ``"fit"`` (readers of the camera
+    ignore it: :meth:`~..core.camera.Camera.from_dict`).
+
+    >>> cam = Camera((1.0, 2.0, 3.0), 0.0, 0.0, 0.0, 50.0, (10, 8))
+    >>> text = camera_json(cam, {"status": "uncertain", "message": "few points"})
+    >>> Camera.from_json(text) == cam, json.loads(text)["fit"]["status"]
+    (True, 'uncertain')
+    """
+    if not verdict:
+        return camera.to_json()
+    d = camera.to_dict()
+    d["fit"] = {"status": str(verdict.get("status") or ""), "message": str(verdict.get("message") or "")}
+    return json.dumps(d, indent=2)
+
+
+def written_verdict(path: str) -> Tuple[str, str]:
+    """(status, message) of the fit a camera JSON was written with (:func:`camera_json`); ("", "") for a KML, a
+    camera written without it, or a file that cannot be read. A camera from a registration that was "uncertain" or
+    "poor" is written all the same (the prior, or the best found), and the products made from it inherit that: a
+    trial chained autoregister on a photo of fog into an XYZ raster, and nothing said so."""
+    if not path or str(path).lower().endswith(".kml"):
+        return "", ""
+    try:
+        fit = json.loads(read_text(path)).get("fit") or {}
+    except (OSError, ValueError, AttributeError):
+        return "", ""
+    return str(fit.get("status") or ""), str(fit.get("message") or "")

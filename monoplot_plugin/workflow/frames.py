@@ -27,6 +27,7 @@ from ..core.lookup import ortho_lookup, turnable_lookup
 from ..outputs.orthophoto import write_orthophoto
 from ..outputs.safe_write import write_text
 from ..outputs.xyz_raster import write_xyz_raster
+from .camera_files import camera_json
 from .files import InputError, load_camera, read_photo, read_points_csv
 from .fit import fit_points
 from .inputs import load_dem
@@ -182,7 +183,8 @@ def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
         fit_status, fit_message = "ok", ""
         if camera is None:  # a table row: fit this photo's camera
             camera, result.rmse_px, fit_status, fit_message = fit_job(task.job, size, shared.dem, setup.crs_wkt)
-            result.outputs.append(_write_camera(setup, task.stem, camera))
+            result.outputs.append(_write_camera(setup, task.stem, camera, {"status": fit_status,
+                                                                           "message": fit_message}))
             products = CameraProducts(camera, shared.dem, setup.resolution, setup.write_ortho, cached=False)
         elif tuple(camera.image_size) != size:
             raise InputError(f"photo is {size[0]}x{size[1]} px but the shared camera is for "
@@ -250,9 +252,9 @@ def _registered(shared: Shared, photo: np.ndarray, result: PhotoResult):
     return CameraProducts(camera, shared.dem, shared.setup.resolution, shared.setup.write_ortho, cached=False), True
 
 
-def _write_camera(setup: Timelapse, stem: str, camera: Camera) -> str:
+def _write_camera(setup: Timelapse, stem: str, camera: Camera, verdict: Optional[dict] = None) -> str:
     path = os.path.join(setup.out_dir, f"{stem}_camera.json")
-    write_text(path, camera.to_json(), overwrite=True)
+    write_text(path, camera_json(camera, verdict), overwrite=True)
     return path
 
 

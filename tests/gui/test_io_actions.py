@@ -316,3 +316,20 @@ def test_check_points_imported_after_a_fit_measure_it_at_once(dock, scene, tmp_p
     assert f">{c.state.fit_info['status']}</b> · Check points <b>{c.state.fit_info['check_rmse_px']:.1f} px" in shown
     c.stack.undo()  # no check points any more: the fit's own status again
     assert c.state.fit_info["status"] == "ok" and c.state.fit_info["check_rmse_px"] is None
+
+
+def test_a_camera_written_with_its_verdict_comes_back_with_it(dock, scene, tmp_path):
+    """The dock's Save fitted camera keeps the fit's verdict in the JSON; a camera its own fit called poor loads as
+    poor (not the "uncertain" of any unchecked camera), the message saying why."""
+    from monoplot_plugin.workflow.camera_files import camera_json
+
+    _load(dock, scene)
+    c = dock.controller
+    poor = tmp_path / "poor.json"
+    poor.write_text(camera_json(scene.camera, {"status": "poor", "message": "the skyline disagrees"}))
+    assert io_actions.load_camera_file(c, str(poor), as_fitted=True) is not None
+    info = c.state.fit_info
+    assert info["status"] == "poor" and 'verdict was "poor": the skyline disagrees' in info["message"]
+    saved = tmp_path / "saved.json"
+    assert io_actions.save_camera_file(c, str(saved))
+    assert json.loads(saved.read_text())["fit"]["status"] == "poor"

@@ -45,3 +45,39 @@ def test_autoregister_without_prior_or_gps_says_what_to_give(run_alg, rendered_s
     with pytest.raises(QgsProcessingException, match="GPS|prior"):
         run_alg("autoregister", {"PHOTO": str(d / "photo.png"), "DEM": str(d / "dem.tif"),
                                  "OUTPUT": str(tmp_path / "c.json")})
+
+
+def test_a_doubtful_registrations_camera_carries_its_verdict_to_the_products(run_alg, rendered_scene, tmp_path):
+    """A trial chained autoregister on a photo of fog into computexyz: the camera (the prior, "uncertain") was
+    written as any other and the XYZ raster made from it without a word. The JSON now keeps the verdict, and a
+    product made from a camera that is not "ok" warns."""
+    from qgis.core import QgsProcessingFeedback
+
+    class Log(QgsProcessingFeedback):
+        def __init__(self):
+            super().__init__()
+            self.warnings = []
+
+        def pushWarning(self, text):
+            self.warnings.append(text)
+
+    d = rendered_scene["dir"]
+    rng = np.random.default_rng(5)
+    fog = np.clip(200 + rng.normal(0, 3, (240, 360, 3)), 0, 255).astype(np.uint8)
+    cv2.imwrite(str(tmp_path / "fog.png"), fog)
+    out = tmp_path / "camera.json"
+    result = run_alg("autoregister", {"PHOTO": str(tmp_path / "fog.png"), "DEM": str(d / "dem.tif"),
+                                      "PRIOR": str(d / "prior.json"), "OUTPUT": str(out)})
+    assert result["STATUS"] in ("uncertain", "poor")
+    written = json.loads(out.read_text())["fit"]
+    assert written["status"] == result["STATUS"] and written["message"] == result["MESSAGE"]
+    log = Log()
+    run_alg("computexyz", {"CAMERA": str(out), "DEM": str(d / "dem.tif"), "OUTPUT": str(tmp_path / "xyz.tif")},
+            log)
+    assert any(f'verdict was "{result["STATUS"]}"' in w for w in log.warnings)
+    # a camera its fit called ok, or one written without a verdict, warns of nothing
+    Camera.load(out).save(tmp_path / "plain.json")
+    quiet = Log()
+    run_alg("computexyz", {"CAMERA": str(tmp_path / "plain.json"), "DEM": str(d / "dem.tif"),
+                           "OUTPUT": str(tmp_path / "xyz2.tif")}, quiet)
+    assert not quiet.warnings

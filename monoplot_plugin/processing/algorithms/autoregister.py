@@ -12,6 +12,7 @@ from qgis.core import (
 from ...core.camera import Camera
 from ...outputs.safe_write import write_text
 from ...workflow import auto
+from ...workflow.camera_files import camera_json
 from ...workflow.progress import Canceled
 from ..base import (MonoplotAlgorithm, cancel_callback, check_canceled, checked, progress_callback,
                     report_status, camera_line)
@@ -86,7 +87,10 @@ class AutoRegister(MonoplotAlgorithm):
         camera.crs_wkt = crs.toWkt()
         out = self.parameterAsFileOutput(parameters, "OUTPUT", context)
         check_canceled(feedback)
-        write_text(out, camera.to_json(), overwrite=True)
+        # with its verdict: an uncertain or poor registration's camera (the prior, or the best found) is written
+        # all the same, and the products made from it warn of it
+        write_text(out, camera_json(camera, {"status": result.status, "message": result.message}),
+                   overwrite=True)
         feedback.pushInfo(self.tr("Camera: {0}").format(camera_line(camera)))
         if result.std:
             feedback.pushInfo(self.tr("One standard deviation: {0}").format(

@@ -18,6 +18,7 @@ from qgis.core import (
 
 from .. import pipeline
 from ...outputs.safe_write import write_text
+from ...workflow.camera_files import camera_json
 from ...workflow.progress import Canceled
 from ..base import (MonoplotAlgorithm, cancel_callback, check_canceled, checked, progress_callback, read_map_points,
                     read_photo_points, report_status, camera_line)
@@ -188,7 +189,7 @@ class FitCamera(MonoplotAlgorithm):
         camera.crs_wkt = crs.toWkt()
         out = self.parameterAsFileOutput(parameters, "OUTPUT", context)
         check_canceled(feedback)
-        write_text(out, camera.to_json(), overwrite=True)
+        write_text(out, camera_json(camera, info), overwrite=True)  # with its verdict: products warn of it
         rmse = float(info.get("rmse_px", float("nan")))
         feedback.pushInfo(self.tr("Camera: {0}").format(camera_line(camera)))
         std = info.get("summary", {}).get("std") or {}
