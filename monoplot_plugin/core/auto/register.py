@@ -80,6 +80,8 @@ POSITION_SIGMAS = 1.0
 #: Least improvement of the edge score (:func:`.fine.edge_score`) for the automatic camera to be returned instead
 #: of the prior.
 PRIOR_MARGIN = 0.01
+#: An edge score above this (1 = nothing matches) means the photo's edges match nothing of the DEM's.
+NO_EDGES_SCORE = 0.98
 #: A position probe (:func:`.fine.position_probes`) whose edge score is below this share of the camera's is a
 #: basin the search missed: the registration goes on from it, at most :data:`MAX_ESCAPES` times. Right cameras'
 #: probes scored 0.99-1.11 of them on 70 synthetic scenes; missed basins 0.33-0.89 (at 0.89, a camera "ok" but
@@ -105,12 +107,14 @@ class AutoFitResult(FitResult):
             ``inliers`` index them): the "accepted points" of a semi-automatic session.
         aligned: the camera after the edge alignment, before the fit.
         skyline: (W, 2) photo skyline (u, v) in full-size pixels, NaN where the photo shows no clear skyline.
+        weak: the reasons for doubt the verdict gave (sentences without the final stop).
     """
 
     image_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     world_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
     aligned: Optional[Camera] = None
     skyline: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    weak: list = field(default_factory=list)
 
 
 def _sigmas(prior: Camera, position_sigma_m, angle_sigma_deg, fov_sigma_deg) -> dict:
@@ -433,11 +437,20 @@ def _prior_kept(result: AutoFitResult, prior: Camera, sig: dict) -> AutoFitResul
     """The prior camera back, "uncertain" (or the fit's "poor"), when the automatic camera does not fit the photo's
     edges clearly better than the prior did; its σ is the prior's."""
     ev = result.evidence
+    # The reasons only: the figures of the fit on the suggestions were about a camera not returned, and quoting
+    # them ("65 of 133 photo points matched", "the camera returned is the edge alignment's") on a photo of fog
+    # contradicted "the prior is kept" (a trial).
+    if min(ev["auto_edge_score"], ev["auto_prior_edge_score"]) > NO_EDGES_SCORE:
+        why = "the photo's edges match no camera's view of the DEM, the prior's neither (edge score 1 = no match)"
+    else:
+        why = (f"no camera found fits the photo's edges clearly better than the prior (edge score "
+               f"{ev['auto_edge_score']:.3f} against the prior's {ev['auto_prior_edge_score']:.3f}; 0 is a "
+               f"perfect fit)")
+    reasons = "; ".join(result.weak)
     kept = AutoFitResult(prior, "poor" if result.status == "poor" else "uncertain",
-                         f"The automatic registration did not improve on the prior camera (edge score "
-                         f"{ev['auto_edge_score']:.3f} against the prior's {ev['auto_prior_edge_score']:.3f}): the "
-                         "prior is kept. Check it, pair a few points by hand, or give a closer prior. "
-                         f"(What the automatic fit found: {result.message})", result.mode, result.free,
+                         f"The automatic registration did not improve on the prior camera: {why}. The prior is "
+                         "kept: check it, pair a few points by hand, or give a closer prior."
+                         + (f" Also: {reasons}." if reasons else ""), result.mode, result.free,
                          evidence=dict(ev), std=_prior_std(sig))
     kept.image_points, kept.world_points, kept.aligned, kept.skyline = (result.image_points, result.world_points,
                                                                         result.aligned, result.skyline)
@@ -467,9 +480,10 @@ def _alignment_evidence(al: Aligner, off, score: float, refined, photo: PhotoEdg
 
 
 def _combine(result: AutoFitResult, ev: dict) -> None:
-    """Add the alignment's evidence; it can only lower the fit's status."""
+    """Add the alignment's evidence; it can only lower the fit's status. The reasons for doubt are kept in
+    ``result.weak`` (:func:`_prior_kept` gives them alone)."""
     result.evidence.update(ev)
-    weak = []
+    weak = result.weak = []
     if not ev["auto_skyline_usable"]:
         weak.append(f"the photo shows no clear skyline ({100 * ev['auto_sky_fraction']:.0f} % of its columns): the "
                     "camera rests on suggestions alone")
@@ -485,7 +499,9 @@ def _combine(result: AutoFitResult, ev: dict) -> None:
         weak.append(f"the prior position's uncertainty ({ev.get('auto_position_sigma_m', 0.0):.0f} m) is a large "
                     f"part of the distance to the terrain seen ({rng:.0f} m): edges alone cannot place the camera")
     spread = max(result.std.get("heading", 0.0), result.std.get("pitch", 0.0))
-    if spread > ANGLE_SIGMA_OK:
+    if spread > 90.0:  # a σ of thousands of degrees (a photo of fog) says nothing a reader can use
+        weak.append("the photo's edges do not determine the view direction")
+    elif spread > ANGLE_SIGMA_OK:
         weak.append(f"views the photo's edges cannot tell apart leave the view direction uncertain by {spread:.2f} "
                     "deg (σ)")
     if ev["auto_rival_ratio"] > 0.9:
