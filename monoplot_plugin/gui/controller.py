@@ -22,6 +22,7 @@ from ..adapters.photo import PhotoError, array_to_qimage, qimage_to_array, read_
 from ..core.camera import Camera
 from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, replace_in_views
 from ..workflow import auto as auto_step
+from ..workflow.camera_files import fitted_to_size
 from ..workflow import warmup
 from . import engine, persistence
 from .curation import CurationMixin
@@ -137,20 +138,32 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             persistence.store_in_project(self.project, self.state)
 
     # --- inputs -----------------------------------------------------------------------------------------------
-    def load_photo(self, path: str) -> bool:
-        """Read the photo (EXIF orientation honoured). On failure: message, previous photo kept."""
+    def load_photo(self, path: str, keep_points: bool = False) -> bool:
+        """Read the photo (EXIF orientation honoured). On failure: message, previous photo kept.
+
+        Another photo starts its curation afresh (the photo points, pairs and fit of another picture make no sense)
+        unless ``keep_points``: the same picture in another file (a grey or re-touched copy, of the same size).
+        A rough camera made for a picture of another size is carried to this one
+        (:func:`~..workflow.camera_files.fitted_to_size`: scaled, or its pose kept for a crop)."""
         try:
             image = read_photo(path)
         except PhotoError as exc:
             self.message.emit(str(exc), CRITICAL)
             return False
         new_photo = path != self.state.photo_path
+        keep_points = keep_points and self.image is not None and \
+            (image.width(), image.height()) == (self.image.width(), self.image.height())
         self.image = image
         self.state.photo_path = path
-        if new_photo and not self._restoring:
-            # photo points of another picture make no sense: start the curation of this one afresh
+        if new_photo and not self._restoring and not keep_points:
             self.stack.reset(self._without_photo_points())
             self.state.fitted, self.state.fit_info = None, {}
+        prior = self.prior
+        if prior is not None and tuple(prior.image_size) != self.photo_size and not self._restoring:
+            notes = []
+            self.state.prior = fitted_to_size(prior, self.photo_size, rough=True, notes=notes).to_dict()
+            self.message.emit(self.tr("The rough camera: {0}.").format(notes[0]), INFO)  # a trial's stayed
+            # 1758 x 1378 on a 1574 x 1157 photo: Find camera refused it with a traceback
         self.overlay, self.xyz, self.footprint_wkt = None, None, ""
         self.photoChanged.emit()
         self.cameraChanged.emit()

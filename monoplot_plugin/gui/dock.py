@@ -29,6 +29,7 @@ from .curation_panel import MessageOnce, install_curation_panel
 from .dock_layout import (fit_minimum_width, lay_out, narrow_tabs, place_floating, scroll_points_tab,
                           split_photo_and_tabs, status_line)
 from .fit_settings import FitSettingsPanel, LensPanel
+from . import photo_change
 from .io_actions import IoActions
 from .photo_canvas import PhotoCanvas
 from .point_table import ID_ROLE, PointTableModel, make_proxy
@@ -220,8 +221,17 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
     # --- inputs -----------------------------------------------------------------------------------------------
     def _photo_chosen(self, path: str) -> None:
         # the file widget reports every keystroke of a typed path: act once it names an existing file
-        if path and path != self.controller.state.photo_path and os.path.isfile(path):
-            self.controller.load_photo(path)
+        c = self.controller
+        if path and path != c.state.photo_path and os.path.isfile(path):
+            work = photo_change.work_on_photo(c) if c.image is not None else ""
+            answer = photo_change.ask_photo_change(self, os.path.basename(path), work, photo_change.same_size(
+                path, c)) if work else photo_change.AFRESH
+            if answer is None:  # keep the current photo: the box shows it again
+                self.photoFile.blockSignals(True)
+                self.photoFile.setFilePath(c.state.photo_path or "")
+                self.photoFile.blockSignals(False)
+                return
+            c.load_photo(path, keep_points=answer == photo_change.KEEP)
 
     def _photo_path_typed(self) -> None:
         """Enter (or leaving the box) on a typed path that names no file: say so instead of doing nothing."""

@@ -1,0 +1,67 @@
+"""Choosing another photo when the current one carries work: ask before it is discarded.
+
+A desktop trial set the Photo box to a grey copy of the same print: its 16 accepted photo points, 6 pairs, 5 check
+points and the fitted camera were gone at once, Undo greyed out, no question asked. Now the dock asks, and for a
+picture of the same size offers to keep the points (the same picture in another file).
+"""
+
+from __future__ import annotations
+
+from typing import Optional
+
+from qgis.PyQt.QtCore import QCoreApplication
+from qgis.PyQt.QtGui import QImageReader
+from qgis.PyQt.QtWidgets import QMessageBox
+
+from ..state import ACCEPTED, CHECK, PHOTO
+
+KEEP, AFRESH = "keep", "afresh"
+
+
+def tr(text: str) -> str:
+    return QCoreApplication.translate("Monoplot", text)
+
+
+def work_on_photo(controller) -> str:
+    """What would be lost with the current photo, in words ("16 photo points, 6 pairs, the fitted camera"), or ""
+    when nothing (no decided photo point, no pair, no fit)."""
+    state = controller.state
+    counts = state.counts()[PHOTO]
+    parts = []
+    n = counts.get(ACCEPTED, 0) + counts.get(CHECK, 0)
+    if n:
+        parts.append(tr("{0} accepted photo points").format(n))
+    if state.pairs:
+        parts.append(tr("{0} pairs").format(len(state.pairs)))
+    if state.fitted:
+        parts.append(tr("the fitted camera"))
+    return ", ".join(parts)
+
+
+def same_size(path: str, controller) -> bool:
+    """The file at ``path`` is a picture of the current photo's size (read from its header only)."""
+    size = QImageReader(path).size()
+    return controller.photo_size is not None and size.isValid() and \
+        (size.width(), size.height()) in (controller.photo_size, controller.photo_size[::-1])
+
+
+def ask_photo_change(parent, name: str, work: str, offer_keep: bool) -> Optional[str]:
+    """:data:`KEEP` (the same picture: keep the points), :data:`AFRESH` (remove them) or None (keep the current
+    photo). Asked only when ``work`` (:func:`work_on_photo`) is not empty."""
+    box = QMessageBox(parent)
+    box.setIcon(QMessageBox.Icon.Question)
+    box.setWindowTitle(tr("Monoplot: another photo"))
+    text = tr("Load {0}? The current photo carries {1}: they belong to that picture.").format(name, work)
+    if offer_keep:
+        text += " " + tr("The new file has the same size: if it is the same picture (a grey, re-touched or "
+                         "re-saved copy), keep them.")
+    else:
+        text += " " + tr("They will be removed (the map points stay).")
+    box.setText(text)
+    keep = box.addButton(tr("Keep the points"), QMessageBox.ButtonRole.AcceptRole) if offer_keep else None
+    afresh = box.addButton(tr("Start afresh"), QMessageBox.ButtonRole.DestructiveRole)
+    cancel = box.addButton(QMessageBox.StandardButton.Cancel)
+    box.setDefaultButton(cancel)
+    box.exec()
+    clicked = box.clickedButton()
+    return KEEP if keep is not None and clicked is keep else AFRESH if clicked is afresh else None
