@@ -12,6 +12,7 @@ The logic lives in the controller (:mod:`.curation`) and :class:`~.shortlist.Sho
 
 from __future__ import annotations
 
+import html
 import time
 
 from qgis.PyQt.QtCore import QTimer
@@ -51,7 +52,8 @@ class MessageOnce:
 
     def push(self, bar, title: str, text: str, level, duration: int) -> None:
         self.clear(bar)
-        bar.pushMessage(title, text, level, duration)
+        # the bar shows rich text: a message quoting "<leftFov>" (a KML element) lost it (a trial)
+        bar.pushMessage(title, html.escape(text, quote=False), level, duration)
         self._pushed_at = time.monotonic()
         try:
             self._item = bar.currentItem()

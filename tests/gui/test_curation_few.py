@@ -7,6 +7,7 @@ import numpy as np
 from qgis.core import Qgis
 from qgis.gui import QgsMessageBar
 from qgis.PyQt.QtCore import Qt
+from qgis.PyQt.QtGui import QTextDocument
 
 from monoplot_plugin.gui.curation_panel import MessageOnce
 from monoplot_plugin.state import (ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, add_points, link,
@@ -112,6 +113,12 @@ def test_messages_show_once_and_the_status_line_follows_the_state(dock, scene, q
     assert len(bar.items()) == 1
     once.clear(bar, older_than_s=0.0)  # one pushed before is stale: off the bar
     assert bar.items() == []
+    # the bar shows rich text: a KML element's name in a message is shown, not swallowed as a tag (a trial)
+    once.push(bar, "Monoplot", "KML has no <leftFov> element & no fov", Qgis.MessageLevel.Critical, 0)
+    document = QTextDocument()
+    document.setHtml(bar.items()[0].text())
+    assert document.toPlainText() == "KML has no <leftFov> element & no fov"
+    once.clear(bar)
     # covered by QGIS's "Task complete": a task's result stays under it (a re-check trial: taken off as soon as it
     # was covered, "Automatic registration ended poor..." never showed)...
     once.push(bar, "Monoplot", "2000 photo and 1024 DEM suggestions", Qgis.MessageLevel.Info, 6)
