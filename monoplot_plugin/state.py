@@ -487,6 +487,10 @@ class CommandStack:
     def can_undo(self) -> bool:
         return bool(self._done)
 
+    def is_applied(self, edit: Edit) -> bool:
+        """``edit`` (this very object) was pushed or redone and is not undone."""
+        return any(e is edit for e in self._done)
+
     def can_redo(self) -> bool:
         return bool(self._undone)
 

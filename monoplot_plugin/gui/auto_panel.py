@@ -22,6 +22,7 @@ from qgis.PyQt.QtWidgets import QAction
 from ..adapters import layers as camera_layers
 from ..adapters.photo import qimage_to_array
 from ..core.auto.overlay import draw_alignment
+from ..core.camera import Camera
 from ..state import ACCEPTED, MAP, PHOTO, SUGGESTED, Point, replace_in_views
 from ..workflow import auto as auto_step
 from ..workflow.progress import part
@@ -38,6 +39,27 @@ def install_auto_panel(dock) -> "AutoPanel":
 class AutoPanel(QObject):
     """The button and its task of one dock."""
 
+    def _follow_undo(self, changed) -> None:
+        """After an Undo (Redo) of the registration's points, its camera goes (comes back) with them, when the fit
+        on show is still the one it left (a later fit or camera is the person's: it stays)."""
+        if self._undoable is None:
+            return
+        edit, before, after = self._undoable
+        c = self.controller
+        applied = c.stack.is_applied(edit)
+        current, target = (before, after) if applied else (after, before)
+        if c.state.fitted != current["fitted"] or c.state.fitted == target["fitted"]:
+            if c.state.fitted not in (before["fitted"], after["fitted"]):
+                self._undoable = None  # another fit since: the registration's camera is history
+            return
+        for key, value in target["settings"].items():
+            if value is None:
+                c.state.settings.pop(key, None)
+            else:
+                c.state.settings[key] = value
+        camera = None if target["fitted"] is None else Camera.from_dict(target["fitted"])
+        c.set_fitted(camera, target["info"], background=True)
+
     def __init__(self, dock):
         super().__init__(dock)
         self.dock = dock
@@ -48,6 +70,11 @@ class AutoPanel(QObject):
                                        "accepted points to check."))
         self.action.triggered.connect(self.run)
         dock.add_output_action(self.action)
+        #: (the "Automatic points" edit, the fit before it, the fit it brought): an Undo of those points takes
+        #: the registration's camera back too, a Redo brings it again (a trial: after the Undo the fit tab still
+        #: spoke of its 134 points, and the next Suggest drew DEM suggestions from its "uncertain" camera)
+        self._undoable = None
+        self.controller.stack.add_listener(self._follow_undo)
 
     def run(self) -> bool:
         """Start the registration from the rough camera (prior, else the fitted camera) in a task."""
@@ -101,14 +128,17 @@ class AutoPanel(QObject):
         taken = SUGGESTED if status == "poor" else ACCEPTED
         photo_pts = [Point.new(PHOTO, float(u), float(v), status=taken, label=label) for u, v in uv]
         map_pts = [Point.new(MAP, float(x), float(y), float(z), status=taken, label=label) for x, y, z in world]
+        replaced = 0
+        before = _fit_snapshot(c)
         c.state.settings["automatic_status"] = status
         c.state.settings["automatic_sigma"] = {k: float(v) for k, v in (r.std or {}).items()}
-        replaced = 0
+        edit = None
         if photo_pts:
             replaced = len([p for p in c.state.points.values() if p.status == SUGGESTED and not p.manual])
             # an earlier run's matches nobody touched go too: a second run replaces them (it had doubled them)
-            c.stack.push(replace_in_views(c.state, {PHOTO: photo_pts, MAP: map_pts}, self.tr("Automatic points"),
-                                          label))
+            edit = replace_in_views(c.state, {PHOTO: photo_pts, MAP: map_pts}, self.tr("Automatic points"), label)
+            self._undoable = None  # the listener must not act on this push
+            edit = edit if c.stack.push(edit) else None
         info = {"status": status, "rmse_px": _finite(r.rmse_px), "loo_rmse_px": _finite(r.loo_rmse_px),
                 "sigma": {k: float(v) for k, v in (r.std or {}).items()}, "converged": status == "ok",
                 "message": str(checked["message"]), "mode": "automatic", "n_photo": len(photo_pts),
@@ -118,6 +148,7 @@ class AutoPanel(QObject):
                 # the report (it showed none after a registration)
                 "matched": [(p.id, m.id) for p, m in zip(photo_pts, map_pts)]}
         c.show_fit(engine.FitOutcome(done.camera, info, overlay, xyz, footprint))
+        self._undoable = None if edit is None else (edit, before, _fit_snapshot(c))
         if status == "poor" and photo_pts:
             c.message.emit(self.tr("Automatic registration ended poor: its {0} + {1} matched points are left "
                                    "undecided (they are probably wrong), and replaced {2} undecided suggestions (Undo "
@@ -127,6 +158,12 @@ class AutoPanel(QObject):
             c.message.emit(self.tr("The {0} undecided suggestions were replaced by the {1} + {2} matched points "
                                    "(Undo brings them back).").format(replaced, len(photo_pts), len(map_pts)),
                            Qgis.MessageLevel.Info)
+
+
+def _fit_snapshot(c) -> dict:
+    """The controller's fit (camera dict, info) and the registration's settings, copied."""
+    return {"fitted": c.state.fitted, "info": dict(c.state.fit_info or {}),
+            "settings": {k: c.state.settings.get(k) for k in ("automatic_status", "automatic_sigma")}}
 
 
 def _finite(v) -> Optional[float]:

@@ -90,6 +90,16 @@ def test_find_camera_automatically_gives_a_camera_and_accepted_points(dock, vall
 
     rgb = qimage_to_array(c.overlay)[..., :3]
     assert (rgb == SILHOUETTE).all(axis=2).sum() > 100 and (rgb == SKYLINE).all(axis=2).sum() > 100
+    # Undo takes the registration's camera back with its points (a trial: the fit tab still spoke of its points and
+    # the next Suggest used its camera); Redo brings both again
+    found, found_info = c.fitted, dict(info)
+    qtbot.mouseClick(dock.undoButton, Qt.MouseButton.LeftButton)
+    assert not c.state.in_space(PHOTO, (ACCEPTED,)) and c.fitted is None and not c.state.fit_info
+    assert "automatic_status" not in c.state.settings and c.camera() == c.prior
+    qtbot.mouseClick(dock.redoButton, Qt.MouseButton.LeftButton)
+    assert len(c.state.in_space(PHOTO, (ACCEPTED,))) == len(photo) and c.fitted == found
+    assert c.state.fit_info["status"] == found_info["status"] and c.state.settings["automatic_status"]
+    qtbot.waitUntil(lambda: c.overlay is not None, timeout=60000)
     # The person presses Fit on the matched points alone: they agree with the registration's camera whatever it
     # is, so the fit cannot be surer than the registration was (a doubtful one: "uncertain" recorded as such).
     assert all(p.label == "automatic" for p in photo + world)
