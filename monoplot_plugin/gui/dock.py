@@ -86,6 +86,9 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         self.kmlButton.clicked.connect(self._import_kml)
         self.exifButton.clicked.connect(lambda: c.prior_from_exif())
         self.clearPriorButton.clicked.connect(lambda: c.set_prior(None))
+        # a new project starts from the boxes' defaults, not the closed project's camera (a trial: the next camera
+        # drawn took its pitch -11.3 deg and +48 m, and a pitch other than 0 skipped the one from the terrain)
+        self._camera_box_defaults = {spin: spin.value() for spin in (self.fovSpin, self.pitchSpin, self.heightSpin)}
         for spin in (self.fovSpin, self.pitchSpin):
             # typing "55" moves the camera once, on Enter: not to 5 deg first, which warned that the camera did not
             # look at the DEM (desktop trial)
@@ -502,6 +505,10 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         self.controller.cancel()
         self.controller.project_closed()
         self.controller.restore()
+        for spin, value in self._camera_box_defaults.items():
+            spin.blockSignals(True)
+            spin.setValue(value)
+            spin.blockSignals(False)
         self._apply_settings()
         self.statusLabel.clear()  # the last message was about the closed project
 

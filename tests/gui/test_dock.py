@@ -200,8 +200,11 @@ def test_save_and_reopen_project_restores_state(dock, scene, qtbot, tmp_path):
     before = c.state.to_dict()
     path = str(tmp_path / "session.qgz")
     assert QgsProject.instance().write(path)
+    assert dock.pitchSpin.value() == pytest.approx(scene.prior.pitch, abs=0.05) and scene.prior.pitch != 0
     QgsProject.instance().clear()
     assert not c.state.points and c.image is None
+    # a new project: the rough camera's boxes at their defaults, not the closed project's camera
+    assert (dock.fovSpin.value(), dock.pitchSpin.value()) == (60.0, 0.0)
     assert QgsProject.instance().read(path)
     qtbot.waitUntil(lambda: c.image is not None, timeout=5000)
     assert c.state.to_dict() == before
