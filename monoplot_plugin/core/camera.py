@@ -442,12 +442,13 @@ class Camera:
 
     # --- KML PhotoOverlay -------------------------------------------------------------------------------------
     @classmethod
-    def from_kml(cls, kml, image_size, dst_crs_wkt: str, use_overlay_rotation: bool = True) -> "Camera":
+    def from_kml(cls, kml, image_size, dst_crs_wkt: str, use_overlay_rotation: bool = True,
+                 default_fov: Optional[float] = None, notes: Optional[list] = None) -> "Camera":
         """A camera from a KML PhotoOverlay (Google Earth), reprojected to ``dst_crs_wkt``
         (:func:`~monoplot_plugin.core.kml.camera_from_kml`, which says how KML's angles are read)."""
         from .kml import camera_from_kml
 
-        return camera_from_kml(kml, image_size, dst_crs_wkt, use_overlay_rotation)
+        return camera_from_kml(kml, image_size, dst_crs_wkt, use_overlay_rotation, default_fov, notes)
 
 
 def angles_from_rotation(R: np.ndarray) -> Tuple[float, float, float]:

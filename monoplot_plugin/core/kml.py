@@ -16,7 +16,8 @@ from .camera import Camera
 __all__ = ["camera_from_kml", "lonlat_to_crs", "crs_to_wkt", "camera_to_crs"]
 
 
-def camera_from_kml(kml, image_size, dst_crs_wkt: str, use_overlay_rotation: bool = True) -> Camera:
+def camera_from_kml(kml, image_size, dst_crs_wkt: str, use_overlay_rotation: bool = True,
+                    default_fov: Optional[float] = None, notes: Optional[list] = None) -> Camera:
     """A camera from a KML PhotoOverlay (Google Earth), reprojected to ``dst_crs_wkt``.
 
     Args:
@@ -25,6 +26,8 @@ def camera_from_kml(kml, image_size, dst_crs_wkt: str, use_overlay_rotation: boo
         dst_crs_wkt: WKT (or "EPSG:n") of the DEM's CRS.
         use_overlay_rotation: add the PhotoOverlay's ``<rotation>`` (image rotation, counter-clockwise) to the
             camera roll.
+        default_fov: horizontal field of view (degrees) for a KML whose ``<Camera>`` has no ``<ViewVolume>`` (a
+            view saved from Google Earth's camera alone); a note in ``notes`` says it was used. None: refused.
     KML's ``tilt`` is 0 looking straight down and 90 at the horizon (pitch = tilt - 90); its ``heading`` is
     measured from true north, converted here to grid north with the meridian convergence at the camera.
     The horizontal field of view is ``rightFov - leftFov``. Altitude is taken as metres in the DEM's vertical
@@ -45,7 +48,12 @@ def camera_from_kml(kml, image_size, dst_crs_wkt: str, use_overlay_rotation: boo
 
     lon, lat, alt = number("longitude"), number("latitude"), number("altitude", 0.0)
     heading_true, tilt, roll = number("heading", 0.0), number("tilt", 90.0), number("roll", 0.0)
-    left, right = number("leftFov"), number("rightFov")
+    if default_fov is not None and re.search(r"<(?:\w+:)?leftFov>", text) is None:
+        left, right = -0.5 * float(default_fov), 0.5 * float(default_fov)
+        if notes is not None:
+            notes.append(f"the KML gives no field of view (no <ViewVolume>): {float(default_fov):.1f} deg is used")
+    else:
+        left, right = number("leftFov"), number("rightFov")
     if use_overlay_rotation:
         roll += number("rotation", 0.0)
     x, y, convergence = lonlat_to_crs(lon, lat, dst_crs_wkt)

@@ -247,7 +247,8 @@ def import_point_layers(controller, layers, project: Optional[QgsProject] = None
 
 
 # --- cameras --------------------------------------------------------------------------------------------------
-def load_camera_file(controller, path: str, as_fitted: bool = False) -> Optional[Camera]:
+def load_camera_file(controller, path: str, as_fitted: bool = False,
+                     default_fov: Optional[float] = None) -> Optional[Camera]:
     """Read a camera JSON (Processing's ``fitcamera`` output, a saved one) or a KML PhotoOverlay as the rough camera,
     or (``as_fitted``) as the fitted camera: overlay, footprint and per-pixel XYZ are rendered in a task, and the
     check points, if any, are measured on it."""
@@ -257,7 +258,8 @@ def load_camera_file(controller, path: str, as_fitted: bool = False) -> Optional
         return None
     notes = []
     try:
-        camera = load_camera(path, c.photo_size, c.dem.crs_wkt, notes, rough=not as_fitted)
+        camera = load_camera(path, c.photo_size, c.dem.crs_wkt, notes, rough=not as_fitted,
+                             default_fov=None if as_fitted else default_fov)
     except InputError as exc:
         c.message.emit(str(exc), CRITICAL)
         return None
@@ -383,7 +385,9 @@ class IoActions:
 
     def open_camera(self, path: str, as_fitted: bool = False) -> bool:
         """Load a camera file (KML or JSON) as the rough (or fitted) camera; the dock's Import button calls it."""
-        return load_camera_file(self.dock.controller, path, as_fitted) is not None
+        # a KML camera without a field of view takes the one in the dock's box (it was refused: "KML has no
+        # <leftFov> element", though the box was there)
+        return load_camera_file(self.dock.controller, path, as_fitted, self.dock.fovSpin.value()) is not None
 
     def _save_camera(self, which: str) -> None:
         path, chosen = QFileDialog.getSaveFileName(self.dock, tr("Save camera"), self._folder(), self.CAMERA_FILTER)

@@ -18,7 +18,7 @@ __all__ = ["load_camera", "save_camera", "camera_json", "written_verdict", "fitt
 
 
 def load_camera(path: str, image_size: Optional[Tuple[int, int]] = None, crs_wkt: str = "",
-                notes: Optional[list] = None, rough: bool = False) -> Camera:
+                notes: Optional[list] = None, rough: bool = False, default_fov: Optional[float] = None) -> Camera:
     """A camera from a Monoplot JSON file (:meth:`Camera.save`) or a KML PhotoOverlay.
 
     Args:
@@ -30,6 +30,8 @@ def load_camera(path: str, image_size: Optional[Tuple[int, int]] = None, crs_wkt
         rough: the camera is a start for a fit (a prior), not the camera of the products: a JSON camera of a photo
             of another shape (a crop of the same picture, say) keeps its pose and field of view, with a note,
             instead of being refused. See :func:`fitted_to_size`.
+        default_fov: the field of view (degrees) for a KML without one (a note says so); None: such a KML is
+            refused.
     """
     if not path:
         raise InputError("no camera file given")
@@ -41,7 +43,8 @@ def load_camera(path: str, image_size: Optional[Tuple[int, int]] = None, crs_wkt
         if not crs_wkt:
             raise InputError(f"{os.path.basename(path)}: a KML camera needs the DEM (for its CRS)")
         try:
-            return Camera.from_kml(path, image_size=image_size, dst_crs_wkt=crs_wkt)
+            return Camera.from_kml(path, image_size=image_size, dst_crs_wkt=crs_wkt, default_fov=default_fov,
+                                   notes=notes)
         except Exception as exc:  # malformed KML: say which file
             raise InputError(f"cannot read the KML camera {os.path.basename(path)}: {exc}") from exc
     if os.path.getsize(path) == 0:

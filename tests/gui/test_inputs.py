@@ -63,6 +63,17 @@ def test_kml_prior_import(dock, scene, tmp_path):
     assert abs(prior.pitch + 4.0) < 1e-6 and abs(prior.fov - 60.0) < 1e-6
     assert "Rough camera" in dock.cameraSummary.text()
     assert not dock.map_view.prior_band.band.asGeometry().isEmpty()  # the wedge is drawn at once
+    # a KML camera without a field of view (no <ViewVolume>: Google Earth's camera alone) takes the box's, and says
+    # so (a trial: refused, "KML has no <leftFov> element", the box beside it)
+    bare = tmp_path / "bare.kml"
+    bare.write_text(f"""<kml><Camera><longitude>{lon}</longitude><latitude>{lat}</latitude>
+        <altitude>{scene.camera.position[2]}</altitude><heading>2</heading><tilt>86</tilt></Camera></kml>""")
+    dock.fovSpin.setValue(47.0)
+    messages = []
+    dock.controller.message.connect(lambda text, level: messages.append(text))
+    assert dock.io_actions.open_camera(str(bare))
+    assert dock.controller.prior.fov == pytest.approx(47.0) and "no field of view" in messages[-1]
+    dock.controller.set_prior(prior)
     # The map's CRS changes after the wedge was drawn (QGIS takes the project's CRS from the first layer a moment
     # after it is added): the wedge follows, its apex still at the camera.
     from qgis.core import QgsCoordinateReferenceSystem, QgsCoordinateTransform
