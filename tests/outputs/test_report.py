@@ -98,6 +98,12 @@ def test_the_status_leads_the_badge_and_the_reason_survives_the_cut(plane_scene)
     _draw_points(ax, scene.photo, points, residual, 2.43, "uncertain")
     badge = next(t for t in ax.texts if "RMSE" in t.get_text())
     assert badge.get_text() == "uncertain · RMSE 2.43 px"
+    # with check points, their error leads, as in the dock (a trial's badge gave the fit's 5.25 px, the check
+    # points were 17.2 px off)
+    ax = Figure().add_subplot()
+    _draw_points(ax, scene.photo, points, residual, 2.43, "uncertain", check_rmse=17.2)
+    assert next(t for t in ax.texts if "RMSE" in t.get_text()).get_text() == \
+        "uncertain · check points 17.20 px · fit RMSE 2.43 px"
     assert to_hex(badge.get_bbox_patch().get_facecolor()) == STATUS_COLOURS["uncertain"]
     verdict = ("uncertain: unpaired fit: 287 of 462 photo points matched. " + "The residuals measure agreement. " * 40
                + "Uncertain: the camera stands 36 m under the terrain.")
@@ -112,7 +118,7 @@ def test_check_points_are_drawn_and_measured_first(plane_scene, tmp_path):
     parameters (the measured accuracy), the fitted rows keep the fit's RMSE."""
     from matplotlib.figure import Figure
 
-    from monoplot_plugin.outputs.report import _draw_checks, _draw_parameters
+    from monoplot_plugin.outputs.report import _checks_rmse, _draw_checks, _draw_parameters
 
     scene = plane_scene
     points = scene_points(scene, n=12, noise_px=0.0)
@@ -125,7 +131,8 @@ def test_check_points_are_drawn_and_measured_first(plane_scene, tmp_path):
     fitted, checks = report_points(csv, scene.dem, split_checks=True)
     assert len(fitted.uv) == 8 and len(checks.uv) == 4
     ax = Figure().add_subplot()
-    rmse = _draw_checks(ax, scene.camera, checks)
+    _draw_checks(ax, scene.camera, checks)
+    rmse = _checks_rmse(scene.camera, checks)
     assert rmse == pytest.approx(10.0, abs=0.2)
     text_ax = Figure().add_subplot()
     _draw_parameters(text_ax, scene.camera, None, 0.1, fitted, scene.xyz, "", rmse, checks)
