@@ -245,7 +245,8 @@ class LensPanel(QWidget, _Panel):
         self.setObjectName("MonoplotLens")
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
-        self.focal_spin = self._spin(0.0, 5000.0, " mm", tr("Focal length of the lens (as printed on it, or EXIF)"))
+        self.focal_spin = self._spin(0.0, 5000.0, " mm", tr("Focal length of the lens (as printed on it, or EXIF); "
+                                                            "unknown: leave it, the fit finds the field of view"))
         self.sensor_spin = self._spin(0.0, 500.0, " mm", tr("Width of the sensor or film (e.g. 22.2 mm APS-C, "
                                                             "36 mm full frame)"))
         self.equivalent_check = QCheckBox(tr("35 mm equiv."))
@@ -311,6 +312,9 @@ class LensPanel(QWidget, _Panel):
             self.focal_spin.setValue(0.0)
             self.sensor_spin.setValue(0.0)
             self.equivalent_check.setChecked(False)
+            if self.controller.image is not None:  # a scanned print has no EXIF: say what to do (a trial asked)
+                self.note.setText(tr("No lens in the photo's file. Unknown? Leave it: the fit finds the field of "
+                                     "view, starting from the Field of view box (Camera tab)."))
             return
         if exif.focal_35mm:
             self.focal_spin.setValue(exif.focal_35mm)

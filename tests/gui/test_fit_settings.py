@@ -35,6 +35,8 @@ def _load(dock, photo_path):
 def test_lens_entry_sets_the_field_of_view(dock, scene):
     _load(dock, scene.photo_path)
     c = dock.controller
+    # a photo without EXIF (a scanned print): the panel says what to do when the lens is unknown (a trial asked)
+    assert "Unknown? Leave it: the fit finds the field of view" in dock.lens_panel.note.text()
     c.set_prior(scene.prior)
     lens = dock.lens_panel
     lens.focal_spin.setValue(30.0)
