@@ -172,6 +172,31 @@ def test_a_scanned_prints_border_and_caption_get_no_coordinates_and_are_not_drap
     assert alpha.any() and not cream.any() and not text.any()
 
 
+def test_a_scanners_black_strips_past_the_paper_get_no_coordinates_either(scene):
+    """A trial's scan had a black strip of the scanner bed past the paper on the right and at the bottom: no paper
+    was found, and border, strip and caption got map coordinates. The picture area is the picture alone again."""
+    import cv2
+
+    dem, camera, _ = scene
+    camera = camera.scaled(600 / camera.width)
+    photo = render_photo(camera, dem)
+    h, w = photo.shape[:2]
+    top, left, right, gap, caption = 30, 22, 40, 26, 70
+    scan = np.zeros((top + h + gap + caption + 9, left + w + right + 14, 3), np.uint8)  # the scanner bed
+    scan[:-9, :-14] = (232, 222, 205)  # the paper
+    scan[top:top + h, left:left + w] = photo
+    cv2.putText(scan, "Das Grosse Tal 1891 No 4127", (left + 40, top + h + gap + 40), cv2.FONT_HERSHEY_SIMPLEX, 0.9,
+                (60, 45, 50), 2)
+    area = products.picture_area(scan)
+    assert area is not None
+    picture = np.zeros(area.shape, bool)
+    picture[top:top + h, left:left + w] = True
+    assert not area[~picture].any()  # paper, caption and the strips
+    inside = np.zeros(area.shape, bool)
+    inside[top + 8:top + h - 8, left + 8:left + w - 8] = True
+    assert area[inside].all()
+
+
 def test_a_cancel_while_a_product_is_written_leaves_the_earlier_file(scene, tmp_path):
     """A cancel that comes while the writer runs (after the last check before writing) still stops the rename:
     the XYZ raster, orthophoto and report written before stay byte for byte (a desktop trial saw them replaced

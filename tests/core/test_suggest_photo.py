@@ -1,0 +1,92 @@
+"""The picture area of scanned prints: paper border, frame line, caption and the scanner's strips along the edges."""
+
+import numpy as np
+import pytest
+
+from monoplot_plugin.core.suggest_photo import box_beyond_captions, picture_box, picture_mask
+
+cv2 = pytest.importorskip("cv2")
+
+PIC = (52, 452, 36, 636)  # rows, columns of the picture in scanned_print's page
+
+
+def textured_picture(h=400, w=600, seed=0, low=0, high=255):
+    rng = np.random.default_rng(seed)
+    base = cv2.equalizeHist(cv2.GaussianBlur(rng.integers(0, 255, (h, w)).astype(np.uint8), (0, 0), 3))
+    return (low + base.astype(np.float32) * (high - low) / 255.0).astype(np.uint8)
+
+
+def scanned_print(paper=235, strip=8, right=12, bottom=8, wedge=0, top=0, left=0, pale_sky=False, narrow_top=0):
+    """A print as a trial's generator made it: picture at PIC, uneven paper border, a frame line 4 px outside the
+    picture, a caption in a wide bottom margin, and the scanner's strip of grey ``strip`` past the paper on the
+    right (``right`` px, ``wedge`` px more at the bottom: the print turned a little), at the bottom, top and left.
+    ``pale_sky``: the picture's top rows as pale as the paper; ``narrow_top``: px less paper above the picture."""
+    rng = np.random.default_rng(3)
+    page = (paper + rng.normal(0, 3, (560, 700))).clip(0, 255).astype(np.uint8)
+    r0, r1, c0, c1 = PIC
+    page[r0:r1, c0:c1] = textured_picture()
+    if pale_sky:
+        page[r0:r0 + 40, c0:c1] = page[r0:r0 + 40, c0:c1] // 16 + paper - 8
+    cv2.rectangle(page, (c0 - 4, r0 - 4), (c1 + 3, r1 + 3), 60, 2)
+    cv2.putText(page, "Aletschgletscher vom Eggishorn 1891", (c0 + 40, r1 + 60), cv2.FONT_HERSHEY_SIMPLEX, 0.9,
+                40, 2)
+    page = page[narrow_top:]
+    h, w = page.shape
+    widths = np.rint(np.linspace(right, right + wedge, h)).astype(int)
+    scan = np.full((top + h + bottom, left + w + right + wedge), strip, np.uint8)
+    scan[top:top + h, left:left + w] = page
+    for row, width in enumerate(widths):  # the paper reaches as far as the strip leaves it
+        scan[top + row, left + w:left + w + right + wedge - width] = page[row, -1]
+    return scan
+
+
+def assert_picture_found(scan, top=0, left=0, few=6):
+    """The picture (at PIC in the page, the page at ``top``, ``left`` in the scan) is found within ``few`` px."""
+    r0, r1, c0, c1 = PIC[0] + top, PIC[1] + top, PIC[2] + left, PIC[3] + left
+    box = box_beyond_captions(scan)[0]
+    assert np.allclose(box, (r0, r1, c0, c1), atol=few), box
+    mask = picture_mask(scan, beyond_captions=True)
+    inside = np.zeros_like(mask)
+    inside[r0 + 2 * few:r1 - 2 * few, c0 + 2 * few:c1 - 2 * few] = True
+    outside = np.ones_like(mask)
+    outside[r0 - few:r1 + few, c0 - few:c1 + few] = False
+    assert mask[inside].all() and not mask[outside].any()  # border, strips and caption out; the picture kept
+
+
+def test_a_black_scanner_strip_on_two_sides_does_not_hide_the_border():
+    """A trial's scan had a 14 px black strip on the right and 9 px at the bottom: no paper was found, the border
+    and caption got map coordinates."""
+    scan = scanned_print()
+    assert picture_box(scan[:-8, :-12]) == picture_box(scan)  # the same as with the strips cropped off
+    assert_picture_found(scan)
+
+
+def test_a_turned_print_leaves_a_wedge_of_scanner_bed():
+    assert_picture_found(scanned_print(right=4, wedge=14))
+
+
+def test_a_strip_on_every_side_and_a_frame_line_of_its_grey_keep_a_pale_sky_in_the_picture():
+    """The strip's grey past its run from the edge is no border: a frame line of that grey near the strip stops the
+    border, or the pale sky under it would be taken for paper."""
+    scan = scanned_print(strip=45, top=6, left=6, right=6, bottom=6, pale_sky=True, narrow_top=40)
+    assert_picture_found(scan, top=6 - 40, left=6)
+
+
+def test_a_white_lid_past_yellowed_paper():
+    assert_picture_found(scanned_print(paper=190, strip=252, right=10, bottom=6))
+
+
+def test_a_strip_of_the_papers_own_grey_is_paper():
+    assert_picture_found(scanned_print(paper=250, strip=250))
+
+
+def test_a_dark_picture_that_fills_its_frame_keeps_its_dark_edges():
+    """A night or dark-forest photo: a black band along its top and right (a night sky, a dark slope) is no scanner
+    strip, for inside it is more picture, not paper."""
+    dark = textured_picture(low=0, high=70)
+    night = dark.copy()
+    night[:10] = 3
+    night[:, -7:] = 3
+    for photo in (dark, night):
+        assert picture_box(photo) == (0, 400, 0, 600)
+        assert picture_mask(photo, beyond_captions=True).all()
