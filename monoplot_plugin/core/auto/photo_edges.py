@@ -186,7 +186,9 @@ def detect_photo_edges(image: np.ndarray, width: int = 512, mask=None) -> PhotoE
     # The picture's own border (a print's margin, a frame) is an edge too: the skyline starts a blur width inside.
     inner = cv2.erode(pic.astype(np.uint8), np.ones((2 * gap + 1, 2 * gap + 1), np.uint8)).astype(bool)
     inner = inner if inner.any() else pic
-    path = _skyline_dp(strength, PEN * texture, inner, jump, 0.3, gap)
+    # Only the picture's texture weighs on the path: a frame line or paper edge outside it is no texture of the sky
+    # (counted, it made any path under the picture's top edge cost more than the edge itself).
+    path = _skyline_dp(strength, PEN * texture * inner, inner, jump, 0.3, gap)
     cols = np.arange(W)
     top = np.argmax(inner, axis=0)  # first picture row of each column
     at = raw[path, cols]
