@@ -7,7 +7,9 @@ sky's own texture and there is some sky above it; fog, close-ups and blank pictu
 :attr:`PhotoEdges.usable` then says so. A smooth band of terrain over a contrasting one (a rock face over grass, seen
 from a camera looking down) passes those tests too; what it lacks is a sky's colour of its own: when much of the
 picture under the line has the colour of what lies above it (:data:`SKY_LIKE_MAX`), the line is no skyline and the
-photo has none usable.
+photo has none usable. The sky is reached from the top of the picture area, below a straight edge across it near
+its top (:data:`BORDER_BAND`): a print's white margin or frame line left inside the area is no sky, and its edge no
+skyline.
 
 Edges: Canny on the smoothed grey picture below the skyline, inside :func:`~..suggest_photo.picture_mask` (no
 frame, caption or margin), each with its orientation (modulo 180 degrees) for the oriented chamfer score.
@@ -47,6 +49,12 @@ PEN = 0.3
 #: skylines against the sky 0.00-0.05 (also the Aletsch print, in colour and in grey); a rock face over grass seen
 #: from a camera looking down, no sky in the picture, 0.56-0.70.
 SKY_LIKE_MAX = 0.3
+#: A straight horizontal edge across at least BORDER_SPAN of the picture's columns within the top BORDER_BAND of its
+#: height is the picture's own top border (a print's white margin or frame line inside the picture area), not a
+#: skyline: the sky is searched below it. A skyline so near the top would leave too thin a sky to count anyway, and
+#: mountains are not straight over three quarters of the width.
+BORDER_BAND = 0.05
+BORDER_SPAN = 0.75
 
 
 def orientation_bin(theta: np.ndarray) -> np.ndarray:
@@ -183,6 +191,7 @@ def detect_photo_edges(image: np.ndarray, width: int = 512, mask=None) -> PhotoE
     strength = np.minimum(raw, CAP)
     jump = max(2, int(round(H / 40)))
     gap = int(np.ceil(2 * sigma)) + 1
+    pic = _below_top_border(raw, pic, VALID, gap)
     # The picture's own border (a print's margin, a frame) is an edge too: the skyline starts a blur width inside.
     inner = cv2.erode(pic.astype(np.uint8), np.ones((2 * gap + 1, 2 * gap + 1), np.uint8)).astype(bool)
     inner = inner if inner.any() else pic
@@ -228,6 +237,32 @@ def detect_photo_edges(image: np.ndarray, width: int = 512, mask=None) -> PhotoE
         oriented[b] = _dt(edges & near, H, W)
     return PhotoEdges(W, H, scale, boundary, valid, edges, sky_dt, oriented, pic, bool(usable),
                       round(sky_fraction, 3), round(contrast, 2), round(like, 3))
+
+
+def _below_top_border(raw: np.ndarray, pic: np.ndarray, least: float, tol: int) -> np.ndarray:
+    """``pic`` without its rows down to the lowest straight horizontal edge (:data:`BORDER_SPAN`) in its top
+    :data:`BORDER_BAND`: a print's margin or frame line left inside the picture area, whose edge (blurred over a few
+    rows) was taken for the skyline with a sky a few rows tall over it, or made every path under it too costly.
+
+    ``raw``: (H, W) vertical edge strength in noise-floor units, ``least`` that of a clear edge; ``tol``: rows of
+    slack (blur, a slight tilt of the scan) within which a column's edge counts for a row.
+    """
+    import cv2
+
+    cols = pic.any(axis=0)
+    rows = np.flatnonzero(pic.any(axis=1))
+    if not cols.any() or len(rows) < 8:
+        return pic
+    r0 = int(rows[0])
+    depth = int(np.ceil(BORDER_BAND * len(rows)))
+    strong = ((raw >= least) & pic)[r0:r0 + depth].astype(np.uint8)
+    near = cv2.dilate(strong, np.ones((2 * tol + 1, 1), np.uint8)).astype(bool)
+    lined = np.flatnonzero(near[:, cols].mean(axis=1) >= BORDER_SPAN)
+    if not len(lined):
+        return pic
+    out = pic.copy()
+    out[:r0 + int(lined[-1]) + 1] = False
+    return out
 
 
 def _sky_like_below(rgb: np.ndarray, boundary: np.ndarray, valid: np.ndarray, top: np.ndarray, pic: np.ndarray,
