@@ -23,6 +23,7 @@ from ..core.camera import Camera
 from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, replace_in_views
 from ..workflow import auto as auto_step
 from ..workflow.camera_files import fitted_to_size
+from ..workflow.products import centred_on_picture
 from ..workflow import warmup
 from . import engine, persistence
 from .curation import CurationMixin
@@ -161,9 +162,11 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         prior = self.prior
         if prior is not None and tuple(prior.image_size) != self.photo_size and not self._restoring:
             notes = []
-            self.state.prior = fitted_to_size(prior, self.photo_size, rough=True, notes=notes).to_dict()
+            prior = fitted_to_size(prior, self.photo_size, rough=True, notes=notes)
             self.message.emit(self.tr("The rough camera: {0}.").format(notes[0]), INFO)  # a trial's stayed
             # 1758 x 1378 on a 1574 x 1157 photo: Find camera refused it with a traceback
+        if prior is not None and not self._restoring:
+            self.state.prior = centred_on_picture(prior, self._picture_area()).to_dict()
         self.overlay, self.xyz, self.footprint_wkt = None, None, ""
         self.photoChanged.emit()
         self.cameraChanged.emit()

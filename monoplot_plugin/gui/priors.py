@@ -15,6 +15,7 @@ from qgis.core import Qgis
 from ..adapters.exif import read_exif_prior
 from ..core.camera import Camera
 from ..core.kml import lonlat_to_crs
+from ..workflow.products import centred_on_picture
 from . import engine
 
 __all__ = ["PriorsMixin", "PriorsHost", "terrain_pitch"]
@@ -61,6 +62,7 @@ class PriorsHost(Protocol):
     message: object  # pyqtSignal(str, Qgis.MessageLevel)
     cameraChanged: object  # pyqtSignal()
     _changed: Callable[[], None]
+    _picture_area: Callable[[], object]  # (H, W) bool of a print's picture, or None (ResultsMixin)
     tr: Callable[[str], str]
 
 
@@ -80,6 +82,8 @@ class PriorsMixin:
         return self.fitted or self.prior
 
     def set_prior(self, camera: Optional[Camera]) -> None:
+        if camera is not None and self.image is not None:  # a print's optical axis: its picture's centre
+            camera = centred_on_picture(camera, self._picture_area())
         self.state.prior = None if camera is None else camera.to_dict()
         self.cameraChanged.emit()
         self._changed()

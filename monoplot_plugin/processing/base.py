@@ -396,3 +396,18 @@ def read_map_points(source, crs=None, context=None) -> np.ndarray:
                     z = float("nan")
             points.append((vertex.x(), vertex.y(), z))
     return np.array(points, dtype=float).reshape(-1, 3)
+
+
+def centred_on_print(prior, image, feedback=None):
+    """``prior`` with its principal point at the centre of a scanned print's picture (its paper border, caption
+    and scanner strips left out: :func:`~..workflow.products.centred_on_picture`), said in the log when moved; the
+    dock does the same with every rough camera. ``image``: (H, W, 3) photo."""
+    from ..workflow.products import centred_on_picture, picture_area
+
+    moved = centred_on_picture(prior, picture_area(image))
+    if moved is not prior and feedback is not None:
+        feedback.pushInfo(QCoreApplication.translate("Monoplot", "Principal point at the picture's centre ({0:.0f}, "
+                                                     "{1:.0f}), not the file's: the photo has a print's border")
+                          .format(moved.cx, moved.cy))
+    return moved
+

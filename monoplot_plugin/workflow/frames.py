@@ -31,7 +31,7 @@ from .camera_files import camera_json
 from .files import InputError, load_camera, read_photo, read_points_csv
 from .fit import fit_points
 from .inputs import load_dem
-from .products import blank_outside, ortho_grid, picture_area
+from .products import blank_outside, centred_on_picture, ortho_grid, picture_area
 from .vectors import fill_missing_z
 from .xyz import xyz_raster, xyz_uncached
 
@@ -265,6 +265,8 @@ def fit_job(job, size, dem, crs_wkt: str, photo: Optional[np.ndarray] = None):
     picture) from its prior (:func:`~.auto.register`): an archive of photos with rough cameras only needed
     autoregister in QGIS's batch dialog, which froze the desktop for 87 s over 7 photos (a trial)."""
     prior = load_camera(job.prior, size, crs_wkt, rough=True)
+    if photo is not None:  # a scanned print's optical axis: its picture's centre, as in the dock
+        prior = centred_on_picture(prior, picture_area(photo))
     if not job.points and photo is not None:
         from .auto import register
 

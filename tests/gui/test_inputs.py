@@ -163,6 +163,11 @@ def test_a_prints_border_gets_no_relief_overlay_and_no_ground_under_the_cursor(d
     assert not alpha[: max(1, oh * 10 // h)].any() and not alpha[-(oh * 50 // h):].any()  # the paper: none
     assert c.ground_at_pixel(w / 2, h / 2) is not None
     assert c.ground_at_pixel(w / 2, 8) is None and c.ground_at_pixel(w / 2, h - 10) is None
+    # a rough camera of a print looks through its picture's centre, not the scan's (the border is uneven: 20 px on
+    # top, 60 under it); a fitted camera loaded from a file keeps its own
+    c.set_prior(scene.prior)
+    assert c.prior.principal_point == pytest.approx((w / 2, (20 + h - 60) / 2), abs=3)
+    assert c.fitted.principal_point is None
 
 
 def test_rough_camera_drawn_by_press_and_drag(dock, scene, qtbot):

@@ -146,6 +146,48 @@ def test_aletsch_paired_fit_from_kml_prior(run_alg, aletsch_dir, tmp_path):
     assert result["N_PHOTO"] == 11 and result["RMSE_PX"] < 12.0  # published least squares: about 7.7 px
 
 
+def test_a_prints_principal_point_is_its_pictures_centre(run_alg, aletsch_dir, tmp_path):
+    """The Aletsch photo as a scanned print: uneven paper border and a caption under it. The optical axis goes
+    through the picture's centre, not the scan's: the paired fit on the 11 GCPs gets the photo's own optimum
+    (7.7 px), where the scan's centre costs accuracy (a generated print: 13.5 px against 12.4 px)."""
+    import cv2
+    from qgis.core import QgsProcessingFeedback
+
+    from monoplot_plugin.core.fit import fit_camera
+
+    class Log(QgsProcessingFeedback):
+        def __init__(self):
+            super().__init__()
+            self.lines = []
+
+        def pushInfo(self, info):
+            self.lines.append(info)
+
+    photo = cv2.imread(str(aletsch_dir / "photo.jpg"))
+    left, top, right, bottom = 40, 30, 160, 150
+    h, w = photo.shape[:2]
+    scan = np.full((h + top + bottom, w + left + right, 3), (228, 232, 235), np.uint8)  # paper
+    scan[top:top + h, left:left + w] = photo
+    cv2.putText(scan, "Aletschgletscher vom Eggishorn 1891", (left + 40, top + h + 90), cv2.FONT_HERSHEY_SIMPLEX,
+                1.2, (40, 40, 40), 3)
+    cv2.imwrite(str(tmp_path / "print.png"), scan)
+    gcps = np.loadtxt(aletsch_dir / "gcps.csv", delimiter=",", skiprows=1)
+    gcps[:, :2] += (left, top)
+    write_points_csv(str(tmp_path / "gcps.csv"), uv=gcps[:, :2], xyz=gcps[:, 2:])
+    out, log = tmp_path / "camera.json", Log()
+    result = run_alg("fitcamera", {"PHOTO": str(tmp_path / "print.png"), "DEM": str(aletsch_dir / "dem.tif"),
+                                   "VOID_VALUE": 0, "PRIOR": str(aletsch_dir / "prior_pose.kml"),
+                                   "PHOTO_CSV": str(tmp_path / "gcps.csv"), "PAIRED": True, "OUTPUT": str(out)}, log)
+    fitted = Camera.load(out)
+    assert any("Principal point at the picture's centre" in line for line in log.lines)
+    assert abs(fitted.cx - (left + w / 2)) < 8 and abs(fitted.cy - (top + h / 2)) < 8
+    # the scan's centre, for comparison: the same pairs, the same prior
+    prior = Camera.from_kml(str(aletsch_dir / "prior_pose.kml"), (scan.shape[1], scan.shape[0]), fitted.crs_wkt)
+    pairs = np.column_stack([np.arange(len(gcps))] * 2)
+    at_scan_centre = fit_camera(gcps[:, :2], gcps[:, 2:], prior, pairs=pairs).rmse_px
+    assert result["RMSE_PX"] < 8.0 < at_scan_centre
+
+
 def test_canceled_feedback_stops_the_fit(run_alg, small_scene, ground_truth, tmp_path):
     from qgis.core import QgsProcessingFeedback
 

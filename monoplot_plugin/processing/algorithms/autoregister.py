@@ -14,7 +14,7 @@ from ...outputs.safe_write import write_text
 from ...workflow import auto
 from ...workflow.camera_files import camera_json
 from ...workflow.progress import Canceled
-from ..base import (MonoplotAlgorithm, cancel_callback, check_canceled, checked, progress_callback,
+from ..base import (MonoplotAlgorithm, cancel_callback, centred_on_print, check_canceled, checked, progress_callback,
                     report_status, camera_line)
 from ..inputs import read_photo
 
@@ -71,6 +71,7 @@ class AutoRegister(MonoplotAlgorithm):
         else:
             prior = camera_from_exif(photo_path, size, dem)
             feedback.pushInfo(self.tr("Prior camera from the photo's EXIF GPS tags."))
+        prior = centred_on_print(prior, image, feedback)
         fov_sigma = parameters.get("FOV_SIGMA")
         fov_sigma = None if fov_sigma in (None, "") else self.parameterAsDouble(parameters, "FOV_SIGMA", context)
         try:

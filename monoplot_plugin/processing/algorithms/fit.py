@@ -20,11 +20,11 @@ from .. import pipeline
 from ...outputs.safe_write import write_text
 from ...workflow.camera_files import camera_json
 from ...workflow.progress import Canceled
-from ..base import (MonoplotAlgorithm, cancel_callback, check_canceled, checked, progress_callback, read_map_points,
-                    read_photo_points, report_status, camera_line)
+from ..base import (MonoplotAlgorithm, camera_line, cancel_callback, centred_on_print, check_canceled, checked,
+                    progress_callback, read_map_points, read_photo_points, report_status)
 from ...adapters.layers import crs_from_wkt
 from ...workflow.inputs import points_to_dem_crs
-from ..inputs import InputError, read_points_csv
+from ..inputs import InputError, read_photo, read_points_csv
 
 CSV_FILTER = "CSV (*.csv *.txt)"
 
@@ -163,6 +163,7 @@ class FitCamera(MonoplotAlgorithm):
             raise QgsProcessingException(self.tr(
                 "A prior camera is needed (PRIOR: Monoplot JSON or KML) unless the points are {0} or more paired "
                 "ground-control points.").format(MIN_PAIRS_WITHOUT_PRIOR))
+        prior = centred_on_print(prior, checked(read_photo, photo), feedback)
         minimum = 4 if paired else 6
         if len(uv) < minimum or len(xyz) < minimum:
             hint = self.tr(" {0} DEM points were left out: outside the DEM, or not in the DEM file's CRS ({1})."
