@@ -74,6 +74,24 @@ def scene_camera(size=(WIDTH, HEIGHT)):
                   image_size=size)
 
 
+def recording_feedback():
+    """A real QgsProcessingFeedback that keeps what an algorithm logs: ``.infos`` and ``.warnings`` (lists)."""
+    from qgis.core import QgsProcessingFeedback
+
+    class Recording(QgsProcessingFeedback):
+        def __init__(self):
+            super().__init__()
+            self.infos, self.warnings = [], []
+
+        def pushInfo(self, info):  # noqa: N802 (QGIS API)
+            self.infos.append(info)
+
+        def pushWarning(self, warning):  # noqa: N802 (QGIS API)
+            self.warnings.append(warning)
+
+    return Recording()
+
+
 def write_photo(path, size=(WIDTH, HEIGHT), seed=0):
     import cv2
 

@@ -51,15 +51,7 @@ def test_a_doubtful_registrations_camera_carries_its_verdict_to_the_products(run
     """A trial chained autoregister on a photo of fog into computexyz: the camera (the prior, "uncertain") was
     written as any other and the XYZ raster made from it without a word. The JSON now keeps the verdict, and a
     product made from a camera that is not "ok" warns."""
-    from qgis.core import QgsProcessingFeedback
-
-    class Log(QgsProcessingFeedback):
-        def __init__(self):
-            super().__init__()
-            self.warnings = []
-
-        def pushWarning(self, text):
-            self.warnings.append(text)
+    from tests.processing.conftest import recording_feedback
 
     d = rendered_scene["dir"]
     rng = np.random.default_rng(5)
@@ -71,13 +63,13 @@ def test_a_doubtful_registrations_camera_carries_its_verdict_to_the_products(run
     assert result["STATUS"] in ("uncertain", "poor")
     written = json.loads(out.read_text())["fit"]
     assert written["status"] == result["STATUS"] and written["message"] == result["MESSAGE"]
-    log = Log()
+    log = recording_feedback()
     run_alg("computexyz", {"CAMERA": str(out), "DEM": str(d / "dem.tif"), "OUTPUT": str(tmp_path / "xyz.tif")},
             log)
     assert any(f'verdict was "{result["STATUS"]}"' in w for w in log.warnings)
     # a camera its fit called ok, or one written without a verdict, warns of nothing
     Camera.load(out).save(tmp_path / "plain.json")
-    quiet = Log()
+    quiet = recording_feedback()
     run_alg("computexyz", {"CAMERA": str(tmp_path / "plain.json"), "DEM": str(d / "dem.tif"),
                            "OUTPUT": str(tmp_path / "xyz2.tif")}, quiet)
     assert not quiet.warnings

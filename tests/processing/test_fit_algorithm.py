@@ -46,15 +46,7 @@ def test_fit_from_paired_csv_recovers_the_camera(run_alg, small_scene, ground_tr
 def test_a_prior_made_for_a_crop_is_a_rough_start_and_said_so(run_alg, small_scene, ground_truth, tmp_path):
     """A prior camera of a photo of another shape (the full print, for a cropped scan): kept as a start, with a
     note; the fit recovers this photo's camera."""
-    from qgis.core import QgsProcessingFeedback
-
-    class Notes(QgsProcessingFeedback):
-        def __init__(self):
-            super().__init__()
-            self.lines = []
-
-        def pushInfo(self, info):
-            self.lines.append(info)
+    from tests.processing.conftest import recording_feedback
 
     prior = ground_truth["prior_cam"]
     other = tmp_path / "prior_other_shape.json"
@@ -63,10 +55,10 @@ def test_a_prior_made_for_a_crop_is_a_rough_start_and_said_so(run_alg, small_sce
     gcps = tmp_path / "gcps.csv"
     write_points_csv(str(gcps), uv=ground_truth["pixels"], xyz=ground_truth["world"])
     out = tmp_path / "camera.json"
-    feedback = Notes()
+    feedback = recording_feedback()
     result = run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"], "PRIOR": str(other),
                                    "PHOTO_CSV": str(gcps), "OUTPUT": str(out)}, feedback)
-    assert any("another shape" in line and "rough start" in line for line in feedback.lines)
+    assert any("another shape" in line and "rough start" in line for line in feedback.infos)
     fitted = Camera.load(out)
     assert result["RMSE_PX"] < 0.5 and fitted.image_size == small_scene["cam"].image_size
     assert np.linalg.norm(np.subtract(fitted.position, small_scene["cam"].position)) < 5.0
@@ -151,17 +143,9 @@ def test_a_prints_principal_point_is_its_pictures_centre(run_alg, aletsch_dir, t
     through the picture's centre, not the scan's: the paired fit on the 11 GCPs gets the photo's own optimum
     (7.7 px), where the scan's centre costs accuracy (a generated print: 13.5 px against 12.4 px)."""
     import cv2
-    from qgis.core import QgsProcessingFeedback
 
     from monoplot_plugin.core.fit import fit_camera
-
-    class Log(QgsProcessingFeedback):
-        def __init__(self):
-            super().__init__()
-            self.lines = []
-
-        def pushInfo(self, info):
-            self.lines.append(info)
+    from tests.processing.conftest import recording_feedback
 
     photo = cv2.imread(str(aletsch_dir / "photo.jpg"))
     left, top, right, bottom = 40, 30, 160, 150
@@ -174,12 +158,12 @@ def test_a_prints_principal_point_is_its_pictures_centre(run_alg, aletsch_dir, t
     gcps = np.loadtxt(aletsch_dir / "gcps.csv", delimiter=",", skiprows=1)
     gcps[:, :2] += (left, top)
     write_points_csv(str(tmp_path / "gcps.csv"), uv=gcps[:, :2], xyz=gcps[:, 2:])
-    out, log = tmp_path / "camera.json", Log()
+    out, log = tmp_path / "camera.json", recording_feedback()
     result = run_alg("fitcamera", {"PHOTO": str(tmp_path / "print.png"), "DEM": str(aletsch_dir / "dem.tif"),
                                    "VOID_VALUE": 0, "PRIOR": str(aletsch_dir / "prior_pose.kml"),
                                    "PHOTO_CSV": str(tmp_path / "gcps.csv"), "PAIRED": True, "OUTPUT": str(out)}, log)
     fitted = Camera.load(out)
-    assert any("Principal point at the picture's centre" in line for line in log.lines)
+    assert any("Principal point at the picture's centre" in line for line in log.infos)
     assert abs(fitted.cx - (left + w / 2)) < 8 and abs(fitted.cy - (top + h / 2)) < 8
     # the scan's centre, for comparison: the same pairs, the same prior
     prior = Camera.from_kml(str(aletsch_dir / "prior_pose.kml"), (scan.shape[1], scan.shape[0]), fitted.crs_wkt)
