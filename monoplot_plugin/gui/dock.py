@@ -407,7 +407,15 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         """Replace the camera layers once the event loop runs again: while QGIS is still reading the project
         (``readProject``), removing the layers it has just read leaves a dangling layer in the project's snapping
         settings, and the next Save crashed QGIS (QgsSnappingConfig::writeProject, seen in a desktop trial)."""
-        QTimer.singleShot(0, self._update_camera_layers)
+        QTimer.singleShot(0, self._camera_layers_reopened)
+
+    def _camera_layers_reopened(self) -> None:
+        if self._unloaded:
+            return
+        # a set-aside automatic camera is not part of the project's state: its layers came back empty (a trial)
+        with camera_layers.derived_layers_only(self.project):
+            camera_layers.remove_camera_layers(self.project, other=True)
+        self._update_camera_layers()
 
     def _update_camera_layers(self) -> None:
         c = self.controller

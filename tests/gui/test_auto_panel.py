@@ -154,6 +154,17 @@ def test_a_doubtful_automatic_camera_never_replaces_the_persons_fit(dock, valley
     assert (point["x"], point["y"]) == pytest.approx(tuple(valley["prior"].position[:2]), abs=0.01)
     assert "Monoplot camera" in names  # the person's own, still there
     assert any(n.startswith("Monoplot view footprint (automatic") for n in names)
+    # saved and opened again: the set-aside camera is no part of the project's state, its layers do not come back
+    # empty (a trial); the person's camera does
+    project = QgsProject.instance()
+    assert project.write(str(tmp_path / "session.qgz"))
+    project.clear()
+    assert project.read(str(tmp_path / "session.qgz"))
+    qtbot.waitUntil(lambda: c.fitted is not None and "Monoplot camera" in
+                    {lyr.name() for lyr in project.mapLayers().values()}, timeout=30000)
+    qtbot.wait(100)
+    names = {lyr.name() for lyr in project.mapLayers().values()}
+    assert not any("(automatic" in n for n in names), names
 
 
 def test_a_second_run_replaces_the_first_ones_points_and_answers_to_the_check_points(dock, valley, qtbot):
