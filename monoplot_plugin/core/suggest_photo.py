@@ -42,6 +42,10 @@ STRIP_DARK = 60
 STRIP_BRIGHT = 230
 #: A band along a side at least this fraction of the image's shorter side wide is no scanner strip.
 STRIP_MAX_WIDTH = 0.03
+#: Between a strip and the paper, up to this fraction of the shorter side (at least 2 lines) may be of neither grey:
+#: a resampled or blurred scan mixes them (a trial: at 3/4 size the line after a 7-row black strip was grey 169,
+#: the strip was dropped, no paper found, and the border got map coordinates again).
+STRIP_SOFT_EDGE = 0.004
 
 
 def scanner_strips(gray: np.ndarray, tolerance: int = 30) -> Tuple[list, list]:
@@ -91,23 +95,33 @@ def paper_and_strips(gray: np.ndarray, tolerance: int = 30,
     """
     h, w = gray.shape
     widths, greys = scanner_strips(gray, tolerance)
+    soft = max(2, int(STRIP_SOFT_EDGE * min(h, w)))
     while True:
         top, bottom, left, right = widths
         inner = gray[top:h - bottom, left:w - right].astype(np.int16)
         frame = _ring(inner)
-        paper = int(np.median(frame))
-        wrong = []
+        # the paper's grey from past a strip's possible soft edge: its mixed lines, half of the frame when two
+        # sides have strips, made the median a dark grey (a blurred scan)
+        t, b, le, r = (soft if grey is not None else 0 for grey in greys)
+        paper = int(np.median(_ring(inner[t:inner.shape[0] - b, le:inner.shape[1] - r])))
+        wrong, widen = [], {}
         for side, grey in enumerate(greys):
             if grey is None:
                 continue
-            line = _from_edge(inner, side)[0]
-            paper_like = (np.abs(line - paper) <= tolerance) | (np.abs(line - grey) <= tolerance)  # or a wedge's rest
-            if paper_like.mean() < paper_fill:
+            lines = _from_edge(inner, side)[:soft + 1]
+            # paper, or the strip's grey (a wedge's rest)
+            paper_like = ((np.abs(lines - paper) <= tolerance) | (np.abs(lines - grey) <= tolerance)).mean(
+                axis=1) >= paper_fill
+            if not paper_like.any():
                 wrong.append(side)
-        if not wrong:
+            elif not paper_like[0]:
+                widen[side] = int(np.argmax(paper_like))  # the strip's soft edge belongs to it
+        if not wrong and not widen:
             break
         for side in wrong:  # no paper inside it: the picture's own dark or bright edge, no scanner's
             widths[side], greys[side] = 0, None
+        for side, lines_more in widen.items():
+            widths[side] += lines_more
     if np.mean(np.abs(frame - paper) <= tolerance) < 0.8:
         return None, (0, 0, 0, 0), [None] * 4
     return paper, tuple(widths), greys
