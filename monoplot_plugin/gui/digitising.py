@@ -60,10 +60,11 @@ class DigitisingSession(QObject):
 
     def __init__(self, project: QgsProject, camera, dem, xyz: Optional[np.ndarray], photo_name: str,
                  fields: Sequence[Tuple[str, str]] = (("name", "string"),), parent=None,
-                 pixel_rmse: Optional[float] = None):
+                 pixel_rmse: Optional[float] = None, area: Optional[np.ndarray] = None):
         super().__init__(parent)
         self.project = project
         self.camera, self.dem, self.xyz = camera, dem, xyz
+        self.area = area  # a scanned print's picture: drawn on its paper or caption, no ground
         self.pixel_rmse = pixel_rmse  # the fit's pixel error, carried to the ground as xy_error_m (None: unknown)
         self.photo_name = photo_name
         self.fields: List[Tuple[str, str]] = list(fields)
@@ -353,7 +354,7 @@ class DigitisingSession(QObject):
                 mapped = cached[1]
             else:
                 mapped = photo_to_map_feature(kind, vertices, self.xyz, camera=self.camera, dem=self.dem,
-                                              pixel_rmse=self.pixel_rmse)
+                                              pixel_rmse=self.pixel_rmse, area=self.area)
                 self._mapped[key] = (wkb, mapped)
             if mapped is not None:
                 mapped = MapFeature(mapped.kind, mapped.parts, attrs, mapped.sky_parts, mapped.xy_error_m,

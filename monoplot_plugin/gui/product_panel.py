@@ -188,7 +188,8 @@ class OutputTools(QObject):
         camera, dem, xyz = self.controller.fitted, self.controller.dem, None
         if self.session is None:
             self.session = DigitisingSession(self.project, camera, dem, xyz, self.photo_name(), parent=self,
-                                             pixel_rmse=pixel_error(self.controller.state.fit_info)[0])
+                                             pixel_rmse=pixel_error(self.controller.state.fit_info)[0],
+                                             area=self.controller._picture_area())
             self.session.mapLayerUpdated.connect(self._report_sky)
             # what the restored features already had is old news: told again on every reopening (desktop trial)
             self._sky_told.update({kind: (*counts, self.session.last_silhouettes.get(kind, 0))
@@ -272,13 +273,17 @@ class OutputTools(QObject):
         """What the user is told when drawn features (partly) see the sky, or polygons cross a silhouette (a desktop
         trial: a polygon drawn across ridges enclosed 11.3 km² of which 1.6 km² were seen, and nothing said so):
         only the counts that are not zero (a point has no "pieces")."""
+        paper = self.session is not None and self.session.area is not None  # a print: its paper is no ground
         names = {"point": self.tr("Drawn points"), "line": self.tr("Drawn lines"),
                  "polygon": self.tr("Drawn polygons")}
         parts = []
         if sky:
-            parts.append(self.tr("{0} part(s) over the sky left out of the map layer").format(sky))
+            parts.append((self.tr("{0} part(s) over the sky or the print's paper left out of the map layer") if paper
+                          else self.tr("{0} part(s) over the sky left out of the map layer")).format(sky))
         if dropped:
-            parts.append(self.tr("{0} entirely over the sky or off the DEM, not on the map layer").format(dropped))
+            parts.append((self.tr("{0} entirely over the sky, the paper or off the DEM, not on the map layer")
+                          if paper else self.tr("{0} entirely over the sky or off the DEM, not on the map layer"))
+                         .format(dropped))
         if crossings:
             parts.append(self.tr("the outlines cross a ridge's silhouette {0} time(s): there they enclose ground the "
                                  "photo does not show, and the area counts it (field silhouette)").format(crossings))

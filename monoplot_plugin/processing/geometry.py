@@ -22,14 +22,16 @@ SILHOUETTE_JUMP = 0.1
 
 
 def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float, y_sign: float = PHOTO_Y_SIGN,
-                          pixel_rmse: Optional[float] = None) -> Tuple[Optional[QgsGeometry], int, dict]:
+                          pixel_rmse: Optional[float] = None,
+                          area=None) -> Tuple[Optional[QgsGeometry], int, dict]:
     """A photo-space geometry (x = u, y = y_sign * v) -> map geometry with Z in the DEM's CRS.
 
     Lines and rings are densified every ``step`` pixels first; every vertex is intersected exactly with the DEM.
     Lines break where vertices see the sky and at silhouettes; polygon rings drop the vertices over the sky (the
     ring closes across the gap). Returns (geometry or None, number of vertices dropped, the computed fields the
     dock's drawings get: :data:`~..outputs.vectors.COMPUTED_FIELDS`, by :meth:`MapFeature.measures`; ``xy_error_m``
-    with ``pixel_rmse``, the photo's pixel error).
+    with ``pixel_rmse``, the photo's pixel error). ``area``: a scanned print's picture ((H, W) bool): vertices on
+    its paper or caption are dropped as sky is.
     """
     if geometry is None or geometry.isNull():
         return None, 0, {}
@@ -41,7 +43,7 @@ def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float, y_sig
         out_rings = []
         for a in rings:
             uv = np.column_stack([a[:, 0], y_sign * a[:, 1]])
-            xyz = pipeline.photo_to_map(camera, dem, uv)
+            xyz = pipeline.photo_to_map(camera, dem, uv, area)
             ok = np.isfinite(xyz).all(axis=1)
             ground_uv.append(uv[ok])
             dropped += int((~ok).sum())

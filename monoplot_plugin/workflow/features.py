@@ -73,7 +73,8 @@ def feature_error_m(ground_uv: np.ndarray, camera, dem, pixel_rmse: Optional[flo
 
 def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, attributes: Optional[dict] = None,
                          step_px: float = 1.0, origin=None, *, camera=None, dem=None,
-                         jump: float = 0.1, pixel_rmse: Optional[float] = None) -> Optional[MapFeature]:
+                         jump: float = 0.1, pixel_rmse: Optional[float] = None,
+                         area: Optional[np.ndarray] = None) -> Optional[MapFeature]:
     """A feature digitised on the photo as a 3-D map feature.
 
     Lines and polygon outlines are densified to ``step_px`` pixels first, so they follow the terrain. Pieces over
@@ -100,6 +101,8 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
         jump: relative range jump between consecutive samples that cuts a line.
         pixel_rmse: the fit's pixel error (:func:`pixel_error`); with ``camera`` and ``dem`` the feature gets
             ``xy_error_m`` (:func:`feature_error_m` over its ground samples).
+        area: (H, W) bool, a scanned print's picture (:func:`~.products.picture_area`): samples outside it (the
+            paper, the caption) are no ground, as sky is not.
     Returns:
         a :class:`MapFeature`, or None when nothing of the feature is on the ground.
     """
@@ -117,6 +120,15 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
             return sample_xyz(xyz, uv, origin)
     else:
         raise ValueError("give camera and dem, or the XYZ raster")
+    if area is not None:
+        from .products import in_picture
+
+        on_ground = lookup
+
+        def lookup(uv):
+            ground = on_ground(uv)
+            ground[~in_picture(uv, area)] = np.nan
+            return ground
     if kind == "point":
         ground = lookup(verts[:1])
         if not np.isfinite(ground).all():

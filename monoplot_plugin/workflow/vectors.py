@@ -4,7 +4,7 @@ control points of a fit). Shapes: ``uv`` (N, 2) pixels, ``xyz`` (N, 3) map coord
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Optional
 
 import numpy as np
 
@@ -31,15 +31,17 @@ def fill_missing_z(xyz: np.ndarray, dem) -> np.ndarray:
     return out
 
 
-def photo_to_map(camera: Camera, dem, uv: np.ndarray) -> np.ndarray:
+def photo_to_map(camera: Camera, dem, uv: np.ndarray, area: Optional[np.ndarray] = None) -> np.ndarray:
     """(N, 3) ground points seen at (N, 2) pixel positions: the exact first hit of each position's own ray on the
-    DEM mesh (core :func:`photo_points_to_map`, as the dock does), not the centre of its pixel; NaN for sky and
-    outside the photo."""
+    DEM mesh (core :func:`photo_points_to_map`, as the dock does), not the centre of its pixel; NaN for sky,
+    outside the photo and outside its picture ``area`` (a scanned print's picture, :func:`~.products.in_picture`)."""
+    from .products import in_picture
+
     uv = np.asarray(uv, dtype=float).reshape(-1, 2)
     out = np.full((len(uv), 3), np.nan)
     with np.errstate(invalid="ignore"):
         inside = (np.isfinite(uv).all(axis=1) & (uv[:, 0] >= 0) & (uv[:, 0] <= camera.width) & (uv[:, 1] >= 0)
-                  & (uv[:, 1] <= camera.height))
+                  & (uv[:, 1] <= camera.height)) & in_picture(uv, area)
     if inside.any():
         out[inside] = photo_points_to_map(uv[inside], camera, dem)[0]
     return out

@@ -430,3 +430,30 @@ def test_ground_fraction_is_the_written_files_when_a_prints_border_is_left_out(r
     everything = np.isfinite(compute_xyz(Camera.load(camera), dem)[..., 2]).mean()
     assert valid.mean() < everything - 0.05  # the border is left out ...
     assert result["GROUND_FRACTION"] == pytest.approx(valid.mean(), abs=1e-6)  # ... and the share said is the file's
+
+
+def test_lines_drawn_on_a_prints_border_get_no_ground_when_the_photo_is_given(run_alg, aletsch_dir, tmp_path):
+    """A re-check trial: a line drawn on a print's caption became a 27 m map line in phototomap too. With PHOTO,
+    the paper border of the Aletsch photo (its bottom rows under the picture) gives no ground."""
+    from monoplot_plugin.core.camera import Camera
+    from monoplot_plugin.core.fit import fit_camera
+
+    dem = Dem.open(aletsch_dir / "dem.tif", void_value=0)
+    gcps = np.loadtxt(aletsch_dir / "gcps.csv", delimiter=",", skiprows=1)
+    prior = Camera.from_kml(str(aletsch_dir / "prior_pose.kml"), (1024, 763), dem.crs_wkt)
+    camera = tmp_path / "camera.json"
+    fit_camera(gcps[:, :2], gcps[:, 2:], prior, pairs=np.column_stack([np.arange(11)] * 2)).camera.save(camera)
+    layer = QgsVectorLayer("LineString", "drawn", "memory")
+    features = []
+    for v in (752.0, 600.0):  # on the white border under the picture; in the picture
+        f = QgsFeature()
+        f.setGeometry(QgsGeometry.fromPolylineXY([QgsPointXY(300, -v), QgsPointXY(700, -v)]))
+        features.append(f)
+    layer.dataProvider().addFeatures(features)
+    common = {"INPUT": layer, "CAMERA": str(camera), "DEM": str(aletsch_dir / "dem.tif"), "VOID_VALUE": 0,
+              "STEP": 5}
+    without = run_alg("phototomap", {**common, "OUTPUT": str(tmp_path / "a.gpkg")})
+    assert QgsVectorLayer(without["OUTPUT"], "a", "ogr").featureCount() == 2  # the border line on the ground
+    given = run_alg("phototomap", {**common, "PHOTO": str(aletsch_dir / "photo.jpg"),
+                                   "OUTPUT": str(tmp_path / "b.gpkg")})
+    assert QgsVectorLayer(given["OUTPUT"], "b", "ogr").featureCount() == 1 and given["DROPPED"] > 0

@@ -170,6 +170,17 @@ def test_a_scanned_prints_border_and_caption_get_no_coordinates_and_are_not_drap
     cream = (alpha > 0) & (r > 235) & (r - b > 8)
     text = (alpha > 0) & (r < 40) & (g < 40) & (b < 40)
     assert alpha.any() and not cream.any() and not text.any()
+    # features drawn on it: on the caption, no map feature; from the picture into the margin, only the picture's part
+    # (a re-check trial: a line on the caption became a 27 m map line, one into the margin kept its paper part)
+    from monoplot_plugin.workflow.features import photo_to_map_feature
+
+    caption = np.array([[60.0, h - 30.0], [400.0, h - 30.0]])
+    assert photo_to_map_feature("line", caption, camera=camera, dem=dem, area=area) is None
+    assert photo_to_map_feature("line", caption, camera=camera, dem=dem) is not None  # without the area: ground
+    down = np.array([[w / 2, h / 2], [w / 2, h - 5.0]])
+    line = photo_to_map_feature("line", down, camera=camera, dem=dem, area=area)
+    back = camera.project(np.vstack(line.parts))
+    assert line.sky_parts >= 1 and back[:, 1].max() < h - 80 + 2  # nothing past the picture's bottom
 
 
 def test_a_scanners_black_strips_past_the_paper_get_no_coordinates_either(scene):

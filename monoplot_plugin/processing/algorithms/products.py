@@ -40,7 +40,8 @@ class _CameraDemAlgorithm(MonoplotAlgorithm):
         self.add_camera_parameter()
         self.add_dem_parameter()
         self.add_photo_parameter("PHOTO", optional=photo_optional,
-                                 description="Photo" if not photo_optional else "Photo (needed only for a KML camera)")
+                                 description="Photo" if not photo_optional else
+                                 "Photo (for a KML camera; and a scanned print's border is left out)")
 
     def add_allow_empty(self):
         param = QgsProcessingParameterBoolean("ALLOW_EMPTY", self.tr("Write an empty output too (else an error)"),
@@ -161,6 +162,10 @@ class PhotoToMap(_CameraDemAlgorithm):
         camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
         step = self.parameterAsDouble(parameters, "STEP", context)
         pixel_rmse = self.parameterAsDouble(parameters, "PIXEL_ERROR", context) or None
+        # with the photo, what is drawn on a scanned print's paper or caption gets no ground (a trial: a line on
+        # the caption became a 27 m map line)
+        path = self.parameterAsFile(parameters, "PHOTO", context)
+        area = picture_area(checked(read_photo, path)) if path else None
         wkb = QgsWkbTypes.addZ(QgsWkbTypes.multiType(source.wkbType()))
         # the measures the dock's drawings get (area, length, length3d, sky_parts), beside the input's fields
         fields, measured = geo.measured_fields(source.fields(), QgsWkbTypes.geometryType(source.wkbType()))
@@ -170,7 +175,7 @@ class PhotoToMap(_CameraDemAlgorithm):
         for i, feature in enumerate(source.getFeatures()):
             check_canceled(feedback)
             geometry, lost, measures = geo.photo_to_map_geometry(feature.geometry(), camera, dem, step, PHOTO_Y_SIGN,
-                                                                 pixel_rmse)
+                                                                 pixel_rmse, area)
             dropped += lost
             if geometry is None:
                 feedback.pushWarning(self.tr("Feature {0} is entirely in the sky or outside the DEM; skipped").format(
