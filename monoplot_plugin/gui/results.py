@@ -191,7 +191,14 @@ class ResultsMixin:
         cam = self.fitted
         if cam is None or self.dem is None:
             return None, ""
-        return engine.locate_in_photo(cam, self.dem, self.xyz, x, y)
+        pixel, where = engine.locate_in_photo(cam, self.dem, self.xyz, x, y)
+        if pixel is not None and where == "visible":
+            from ..workflow.products import in_picture
+
+            if not in_picture(np.array([pixel]), self._picture_area())[0]:
+                # on a print's paper, caption or scanner strip (no XYZ there, read as sky: "visible", a trial)
+                return pixel, "outside"
+        return pixel, where
 
     def fit_summary(self, info: dict) -> Tuple[str, object]:
         """(message, Qgis message level) of a fit for the message bar: what the RMSE is over, the check points'

@@ -211,8 +211,8 @@ def report(path, photo: np.ndarray, camera: Camera, dem, points=None, points_csv
         checks = table_checks if checks is None else checks
     result = xyz_result(camera, dem, visibility=True, progress=part(progress, 0.0, 0.6), is_canceled=is_canceled)
     check_canceled(is_canceled)
-    if accuracy is None:
-        accuracy = points_accuracy(camera, dem, result.xyz, points, checks)
+    if accuracy is None:  # over the picture's ground only (a print's paper put the median 2.3 km for 2.8 km)
+        accuracy = points_accuracy(camera, dem, blank_outside(result.xyz, picture_area(photo)), points, checks)
     with _committed(is_canceled):
         written = write_report(path, photo, camera, dem, points=points, xyz=result.xyz, picture=picture_area(photo),
                                visible=result.visible, sigmas=sigmas, title=title, overwrite=overwrite,

@@ -163,6 +163,12 @@ def test_a_prints_border_gets_no_relief_overlay_and_no_ground_under_the_cursor(d
     assert not alpha[: max(1, oh * 10 // h)].any() and not alpha[-(oh * 50 // h):].any()  # the paper: none
     assert c.ground_at_pixel(w / 2, h / 2) is not None
     assert c.ground_at_pixel(w / 2, 8) is None and c.ground_at_pixel(w / 2, h - 10) is None
+    # map -> photo: ground the camera sees on the caption's paper is not "visible in the photo" (a re-check trial)
+    from monoplot_plugin.core.transforms import photo_points_to_map
+
+    ground = photo_points_to_map(np.array([[w / 2, h - 10.0], [w / 2, h / 2]]), scene.camera, c.dem)[0]
+    assert np.isfinite(ground).all()
+    assert c.pixel_of_ground(*ground[0][:2])[1] == "outside" and c.pixel_of_ground(*ground[1][:2])[1] == "visible"
     # a rough camera of a print looks through its picture's centre, not the scan's (the border is uneven: 20 px on
     # top, 60 under it); a fitted camera loaded from a file keeps its own
     c.set_prior(scene.prior)

@@ -169,6 +169,13 @@ def test_the_report_says_what_the_camera_is_worth_on_the_ground(plane_scene):
     ax = Figure().add_subplot()
     _draw_parameters(ax, scene.camera, None, 1.0, points, scene.xyz, "ok: paired fit.", accuracy=text)
     assert "Ground accuracy: check points" in ax.texts[0].get_text()
+    # a print's share of ground is of its picture, not of the scan with its paper
+    picture = np.zeros(scene.xyz.shape[:2], bool)
+    picture[: picture.shape[0] // 2] = True
+    ax = Figure().add_subplot()
+    _draw_parameters(ax, scene.camera, None, 1.0, points, scene.xyz, "ok: paired fit.", picture=picture)
+    share = np.isfinite(scene.xyz[..., 2])[picture].mean()
+    assert f"Ground seen in {100 * share:.0f} % of the picture" in ax.texts[0].get_text()
     ax = Figure().add_subplot()
     _draw_points(ax, scene.photo, None, None, None, "")
     assert ax.get_title(loc="left") == "The photo (no control points given)"
