@@ -62,11 +62,12 @@ def fit(image_size, uv: np.ndarray, xyz: np.ndarray, prior: Camera, dem, paired:
 # --- products ---------------------------------------------------------------------------------------------------
 def write_xyz(path: str, camera: Camera, dem, crs_wkt: str, photo_name: str = "",
               progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None,
-              photo: Optional[np.ndarray] = None):
+              photo: Optional[np.ndarray] = None, fit: Optional[dict] = None):
     """Write the XYZ raster (the one layout: photo pixel space, bands X, Y, Z); with the ``photo``, its print border
-    and caption get no coordinates (:func:`workflow.products.picture_area`)."""
+    and caption get no coordinates (:func:`workflow.products.picture_area`); ``fit``: the camera's verdict, kept in
+    the metadata as the dock keeps it."""
     return products.write_xyz(path, camera, dem, crs_wkt, photo_name=photo_name, overwrite=True, progress=progress,
-                              is_canceled=is_canceled, photo=photo)
+                              is_canceled=is_canceled, photo=photo, fit=fit)
 
 
 def orthophoto(path: str, photo: np.ndarray, camera: Camera, dem, resolution: Optional[float],
@@ -79,6 +80,7 @@ def orthophoto(path: str, photo: np.ndarray, camera: Camera, dem, resolution: Op
         raise InputError(str(exc)) from exc
 
 
-def report(path: str, photo: np.ndarray, camera: Camera, dem, points_csv: Optional[str] = None):
-    """Write a one-page report (PNG or PDF by extension) of a fitted camera."""
-    return products.report(path, photo, camera, dem, points_csv=points_csv, overwrite=True)
+def report(path: str, photo: np.ndarray, camera: Camera, dem, points_csv: Optional[str] = None, verdict: str = ""):
+    """Write a one-page report (PNG or PDF by extension) of a fitted camera; ``verdict``: "status: message" of
+    the fit that wrote the camera (its badge and text then say it, as the dock's report does)."""
+    return products.report(path, photo, camera, dem, points_csv=points_csv, overwrite=True, verdict=verdict)

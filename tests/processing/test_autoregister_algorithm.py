@@ -67,6 +67,10 @@ def test_a_doubtful_registrations_camera_carries_its_verdict_to_the_products(run
     run_alg("computexyz", {"CAMERA": str(out), "DEM": str(d / "dem.tif"), "OUTPUT": str(tmp_path / "xyz.tif")},
             log)
     assert any(f'verdict was "{result["STATUS"]}"' in w for w in log.warnings)
+    from osgeo import gdal  # the XYZ raster says it too, as the dock's does
+
+    kept = json.loads(gdal.Open(str(tmp_path / "xyz.tif")).GetMetadataItem("MONOPLOT_FIT"))
+    assert kept["status"] == result["STATUS"]
     # a camera its fit called ok, or one written without a verdict, warns of nothing
     Camera.load(out).save(tmp_path / "plain.json")
     quiet = recording_feedback()

@@ -28,6 +28,7 @@ from ..base import (PHOTO_Y_SIGN, MonoplotAlgorithm, camera_line, cancel_callbac
                     progress_callback)
 from ..inputs import read_photo
 from ...core.xyz_strips import plan_strips
+from ...workflow.camera_files import written_verdict
 from ...workflow.products import ProductError, blank_outside, ortho_grid, picture_area
 from ...workflow.inputs import check_not_empty
 from ..safe_sink import keep_pixel_space, safe_sink
@@ -92,8 +93,10 @@ class ComputeXyz(_CameraDemAlgorithm):
         area = None if photo is None else picture_area(photo)
         ground = float(np.isfinite(blank_outside(xyz[..., 2], area)).mean())
         self.check_not_empty(parameters, context, int(ground > 0), "XYZ raster", NO_GROUND)
+        status, message = written_verdict(self.parameterAsFile(parameters, "CAMERA", context))
         pipeline.write_xyz(out, camera, dem, crs.toWkt(), progress=progress_callback(feedback, 80, 95),
-                           is_canceled=cancel_callback(feedback), photo=photo)
+                           is_canceled=cancel_callback(feedback), photo=photo,
+                           fit={"status": status, "message": message} if status else None)
         feedback.pushInfo(self.tr("{0:.1f}% of the pixels hit the DEM; written to {1}").format(100 * ground, out))
         feedback.setProgress(100)
         return {"OUTPUT": out, "GROUND_FRACTION": ground}
@@ -327,7 +330,8 @@ class Report(_CameraDemAlgorithm):
         photo = checked(read_photo, self.photo_path(parameters, context))
         points = self.parameterAsFile(parameters, "POINTS_CSV", context) or None
         out = self.parameterAsFileOutput(parameters, "OUTPUT", context)
-        checked(pipeline.report, out, photo, camera, dem, points)
+        status, message = written_verdict(self.parameterAsFile(parameters, "CAMERA", context))
+        checked(pipeline.report, out, photo, camera, dem, points, f"{status}: {message}" if status else "")
         feedback.setProgress(100)
         return {"OUTPUT": out}
 
