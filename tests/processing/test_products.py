@@ -457,3 +457,26 @@ def test_lines_drawn_on_a_prints_border_get_no_ground_when_the_photo_is_given(ru
     given = run_alg("phototomap", {**common, "PHOTO": str(aletsch_dir / "photo.jpg"),
                                    "OUTPUT": str(tmp_path / "b.gpkg")})
     assert QgsVectorLayer(given["OUTPUT"], "b", "ogr").featureCount() == 1 and given["DROPPED"] > 0
+
+
+def test_an_outline_that_crosses_itself_is_mapped_with_a_warning(processing_provider, small_scene, tmp_path):
+    """A trial's flood outline crossed itself once: the dock mapped it, phototomap refused it under QGIS's default
+    "stop on invalid geometry" and left a temporary file in the output folder (and Python 3.11 broken: the check's
+    abort is thrown from inside the feature iterator). It is mapped as drawn, with a warning."""
+    import processing
+    from qgis.core import QgsFeatureRequest, QgsProcessingContext
+
+    from tests.processing.conftest import recording_feedback
+
+    bow_tie = photo_polygon_layer([(40, 70), (120, 110), (120, 70), (40, 110)])
+    assert not next(bow_tie.getFeatures()).geometry().isGeosValid()
+    context = QgsProcessingContext()
+    context.setInvalidGeometryCheck(QgsFeatureRequest.GeometryAbortOnInvalid)
+    log = recording_feedback()
+    result = processing.run("monoplot:phototomap", {"INPUT": bow_tie, "CAMERA": small_scene["camera"],
+                                                    "DEM": small_scene["dem"], "STEP": 5,
+                                                    "OUTPUT": str(tmp_path / "out.gpkg")}, context=context,
+                            feedback=log)
+    assert QgsVectorLayer(result["OUTPUT"], "out", "ogr").featureCount() == 1
+    assert any("crosses itself" in w for w in log.warnings)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.gpkg"]  # nothing else left behind

@@ -5,10 +5,12 @@ from qgis.core import (
     QgsCoordinateReferenceSystem,
     QgsCoordinateTransform,
     QgsFeature,
+    QgsFeatureRequest,
     QgsFeatureSink,
     QgsField,
     QgsFields,
     QgsProcessingException,
+    QgsProcessingFeatureSource,
     QgsProcessingOutputNumber,
     QgsProcessingParameterBoolean,
     QgsProcessingParameterDefinition,
@@ -32,6 +34,11 @@ from ...workflow.camera_files import written_verdict
 from ...workflow.products import ProductError, blank_outside, ortho_grid, picture_area
 from ...workflow.inputs import check_not_empty
 from ..safe_sink import keep_pixel_space, safe_sink
+
+#: Features are read without QGIS's geometry validity check: a self-intersecting outline drawn on the photo is
+#: mapped (with a warning) as the dock maps it, and the check's abort, thrown from inside the feature iterator,
+#: left Python 3.11 broken ("SystemError: unknown opcode" at the next import) and a temporary file behind (a trial).
+SKIP_VALIDITY = QgsProcessingFeatureSource.FlagSkipGeometryValidityChecks
 
 
 class _CameraDemAlgorithm(MonoplotAlgorithm):
@@ -175,8 +182,11 @@ class PhotoToMap(_CameraDemAlgorithm):
         sink = safe_sink(self, parameters, "OUTPUT", context, fields, wkb, crs)
         total = max(1, source.featureCount())
         dropped = 0
-        for i, feature in enumerate(source.getFeatures()):
+        for i, feature in enumerate(source.getFeatures(QgsFeatureRequest(), SKIP_VALIDITY)):
             check_canceled(feedback)
+            if feature.hasGeometry() and not feature.geometry().isGeosValid():
+                feedback.pushWarning(self.tr("Feature {0}: its outline crosses itself; mapped as drawn, its area may "
+                                             "be wrong").format(feature.id()))
             geometry, lost, measures = geo.photo_to_map_geometry(feature.geometry(), camera, dem, step, PHOTO_Y_SIGN,
                                                                  pixel_rmse, area)
             dropped += lost
@@ -239,7 +249,7 @@ class MapToPhoto(_CameraDemAlgorithm):
         sink = safe_sink(self, parameters, "OUTPUT", context, fields, wkb, QgsCoordinateReferenceSystem())
         total = max(1, source.featureCount())
         skipped = 0
-        for i, feature in enumerate(source.getFeatures()):
+        for i, feature in enumerate(source.getFeatures(QgsFeatureRequest(), SKIP_VALIDITY)):
             check_canceled(feedback)
             feedback.setProgress(100.0 * (i + 1) / total)
             geometry = feature.geometry()
