@@ -129,7 +129,7 @@ class ResultsMixin:
         leave-one-out error; an unpaired fit without check points says its error is not known); "" without a
         camera or an XYZ raster."""
         from ..workflow.features import pixel_error
-        from ..workflow.products import ground_error
+        from ..workflow.products import ground_error_spread, ground_error_words
 
         info = self.state.fit_info if isinstance(self.state.fit_info, dict) else {}
         error_px, source = pixel_error(info, only_ok=False)
@@ -140,15 +140,13 @@ class ResultsMixin:
                            "on the ground; mark a few accepted pairs as check points to know)")
         if error_px is None:
             return ""
-        distance, metres = ground_error(self.fitted, self.xyz, error_px, self.dem)
-        if not np.isfinite(metres):
+        words = ground_error_words(ground_error_spread(self.fitted, self.xyz, error_px, self.dem))
+        if not words:
             return ""
         what = {"check": self.tr("check points {0:.1f} px"),
                 "loo": self.tr("fit residuals left out one at a time {0:.1f} px, no check points"),
                 "fit": self.tr("fit residuals {0:.1f} px, no check points")}[source]
-        return " (" + what.format(error_px) + ": " + self.tr(
-            "about {0:.0f} m on the ground, the median over the terrain seen, {1:.1f} km away at the median)").format(
-            metres, distance / 1000.0)
+        return " (" + what.format(error_px) + ": " + words + ")"
 
     def residual_segments(self) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:
         """(photo pixel, matched DEM point's pixel) segments of :meth:`residuals`."""

@@ -326,12 +326,23 @@ def ground_error(camera: Camera, xyz: np.ndarray, error_px: float, dem=None,
     >>> [round(v, 6) for v in ground_error(cam, np.array([[[0.0, 5000.0, 0.0]]]), 2.0)]
     [5000.0, 20.0]
     """
+    spread = ground_error_spread(camera, xyz, error_px, dem, samples)
+    return spread["distance"], spread["median"]
+
+
+def ground_error_spread(camera: Camera, xyz: np.ndarray, error_px: float, dem=None, samples: int = 400) -> dict:
+    """:func:`ground_error` with its spread: ``distance`` (median, map units), ``median``, ``low`` and ``high``
+    (10th and 90th percentiles of the error over the terrain seen; without ``dem`` all three face-on at the median
+    distance). NaN everywhere when the camera sees no terrain."""
+    nan = float("nan")
+    out = {"distance": nan, "median": nan, "low": nan, "high": nan}
     pts = _seen_sample(xyz)
     if not len(pts) or not np.isfinite(error_px):
-        return float("nan"), float("nan")
-    distance = _median_distance(camera, pts)
+        return out
+    out["distance"] = distance = _median_distance(camera, pts)
     if dem is None:
-        return distance, distance * float(error_px) / camera.focal_px
+        face_on = distance * float(error_px) / camera.focal_px
+        return {**out, "median": face_on, "low": face_on, "high": face_on}
     from ..core.transforms import ground_error_m
 
     rows, cols = np.nonzero(np.isfinite(np.asarray(xyz)).all(axis=2))
@@ -340,7 +351,34 @@ def ground_error(camera: Camera, xyz: np.ndarray, error_px: float, dem=None,
     uv = np.column_stack([(cols[pick] + 0.5) * scale_u, (rows[pick] + 0.5) * scale_v])
     errors = ground_error_m(uv, camera, dem, float(error_px))
     errors = errors[np.isfinite(errors)]
-    return distance, float(np.median(errors)) if len(errors) else float("nan")
+    if len(errors):
+        out["low"], out["median"], out["high"] = (float(v) for v in np.percentile(errors, [10, 50, 90]))
+    return out
+
+
+def metres_words(value: float) -> str:
+    """A length in words, two significant figures: "0.34 m", "1.8 m", "27 m", "1.5 km".
+
+    >>> [metres_words(v) for v in (0.342, 1.83, 27.4, 268.0, 1530.0)]
+    ['0.34 m', '1.8 m', '27 m', '268 m', '1.5 km']
+    """
+    if value >= 1000.0:
+        return f"{value / 1000.0:.1f} km"
+    return f"{value:.0f} m" if value >= 10.0 else f"{value:.1f} m" if value >= 1.0 else f"{value:.2f} m"
+
+
+def ground_error_words(spread: dict) -> str:
+    """"about 1.8 m on the ground, the median over the terrain seen, 272 m away at the median; 0.6 m to 19 m over
+    80 % of it" from :func:`ground_error_spread`; "" when not finite. (A trial's near-range flood photo read "about
+    0 m on the ground, ... 0.0 km away": the near slope at the camera's feet was most of the picture.)"""
+    if not np.isfinite(spread.get("median", float("nan"))):
+        return ""
+    text = (f"about {metres_words(spread['median'])} on the ground, the median over the terrain seen, "
+            f"{metres_words(spread['distance'])} away at the median")
+    low, high = spread.get("low", float("nan")), spread.get("high", float("nan"))
+    if np.isfinite(low) and np.isfinite(high) and high > 1.5 * low:
+        text += f"; {metres_words(low)} to {metres_words(high)} over 80 % of it"
+    return text
 
 
 def points_accuracy(camera: Camera, dem, xyz: np.ndarray, points=None, checks=None) -> str:
@@ -362,10 +400,9 @@ def points_accuracy(camera: Camera, dem, xyz: np.ndarray, points=None, checks=No
             pixels = max(rmse, loo) if np.isfinite(loo) else rmse
             what = (f"no check points; {len(pts.uv)} paired points, RMSE {rmse:.1f} px"
                     + (f", leave-one-out {loo:.1f} px" if np.isfinite(loo) else ""))
-        distance, metres = ground_error(camera, xyz, pixels, dem)
-        if np.isfinite(metres):
-            return (f"{what}: about {metres:.0f} m on the ground, the median over the terrain seen, "
-                    f"{distance / 1000:.1f} km away at the median")
+        words = ground_error_words(ground_error_spread(camera, xyz, pixels, dem))
+        if words:
+            return f"{what}: {words}"
     return ""
 
 

@@ -7,6 +7,7 @@ from osgeo import gdal
 from qgis.core import NULL, QgsFeature, QgsGeometry, QgsPointXY, QgsProject, QgsRasterLayer, QgsVectorLayer
 
 from monoplot_plugin.outputs import OutputExistsError
+from monoplot_plugin.workflow.products import metres_words
 
 from outputs_helpers import CRS
 
@@ -443,8 +444,10 @@ def test_written_products_say_what_the_camera_is_worth_on_the_ground(dock_with_f
     median = float(np.median(np.linalg.norm(seen - np.asarray(s.camera.position), axis=1)))
     face_on = median * 2.0 / s.camera.focal_px
     own = c.ground_accuracy_text()
-    assert "fit residuals 2.0 px, no check points" in own and f"{median / 1000:.1f} km away at the median" in own
+    assert "fit residuals 2.0 px, no check points" in own and f"{metres_words(median)} away at the median" in own
     metres = float(own.split("about ")[1].split(" m on the ground")[0])
+    low, high = (float(v) for v in own.split("; ")[1].split(" over 80 %")[0].replace(" m", "").split(" to "))
+    assert low < metres < high  # the spread over the terrain seen, nearer to farther
     assert face_on <= metres < 20 * face_on  # the plane is seen at a slant: longer than face-on
     c.state.fit_info["check_rmse_px"] = 6.0
     assert "check points 6.0 px" in c.ground_accuracy_text()

@@ -149,14 +149,14 @@ def test_the_report_says_what_the_camera_is_worth_on_the_ground(plane_scene):
     from matplotlib.figure import Figure
 
     from monoplot_plugin.outputs.report import _draw_parameters, _draw_points
-    from monoplot_plugin.workflow.products import ground_error, leave_one_out_px, points_accuracy
+    from monoplot_plugin.workflow.products import ground_error, leave_one_out_px, metres_words, points_accuracy
 
     scene = plane_scene
     points, checks = scene_points(scene, seed=3), scene_points(scene, n=5, noise_px=4.0, seed=4)
     text = points_accuracy(scene.camera, scene.dem, scene.xyz, points, checks)
     check_rmse = float(np.sqrt(np.mean(np.sum((scene.camera.project(checks.xyz) - checks.uv) ** 2, axis=1))))
     metres = ground_error(scene.camera, scene.xyz, check_rmse, scene.dem)[1]
-    assert text.startswith(f"check points {check_rmse:.1f} px on 5: about {metres:.0f} m on the ground")
+    assert text.startswith(f"check points {check_rmse:.1f} px on 5: about {metres_words(metres)} on the ground")
     # without check points: the larger of the paired points' residuals and their leave-one-out error, both said
     paired = points_accuracy(scene.camera, scene.dem, scene.xyz, points)
     loo = leave_one_out_px(scene.camera, points.uv, points.xyz)
@@ -164,7 +164,7 @@ def test_the_report_says_what_the_camera_is_worth_on_the_ground(plane_scene):
     assert np.isfinite(loo) and loo > rmse
     assert paired.startswith(f"no check points; {len(points.uv)} paired points, RMSE {rmse:.1f} px, "
                              f"leave-one-out {loo:.1f} px: about "
-                             f"{ground_error(scene.camera, scene.xyz, loo, scene.dem)[1]:.0f} m on the ground")
+                             f"{metres_words(ground_error(scene.camera, scene.xyz, loo, scene.dem)[1])} on the ground")
     assert points_accuracy(scene.camera, scene.dem, scene.xyz) == ""
     ax = Figure().add_subplot()
     _draw_parameters(ax, scene.camera, None, 1.0, points, scene.xyz, "ok: paired fit.", accuracy=text)
