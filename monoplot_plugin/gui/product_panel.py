@@ -104,6 +104,8 @@ class OutputTools(QObject):
         self.overlays: List[QgsVectorLayer] = []
         self._overlay_ids: List[str] = []  # the map layers drawn on the photo, redrawn after a refit or a reopen
         self._sky_told: dict = {}  # kind -> (sky pieces, dropped features, silhouette crossings) last reported
+        #: kind -> (camera, features on its photo layer not news, told): drawings on a doubtful camera said once
+        self._doubt_told: dict = {}
         self.exports = ProductExports(host, self.ready, self.photo_name, self._message, self.exported.emit)
         canvas = self.canvas
         self.capture_tools = {kind: PhotoCaptureTool(canvas, self.current_session, kind) for kind in KINDS}
@@ -194,6 +196,8 @@ class OutputTools(QObject):
             # what the restored features already had is old news: told again on every reopening (desktop trial)
             self._sky_told.update({kind: (*counts, self.session.last_silhouettes.get(kind, 0))
                                    for kind, counts in self.session.last_report.items()})
+            # restored features are old news: only a feature drawn now tells
+            self._doubt_told = {kind: (self.controller.state.fitted, self._drawn(kind), False) for kind in KINDS}
             # Layers deleted under us (project cleared, QGIS closing): the photo canvas must drop them at once.
             self.session.closedByLayers.connect(lambda: self.canvas.set_extra_layers([]))
             with derived_layers_only(self.project):
@@ -257,7 +261,7 @@ class OutputTools(QObject):
         in the project file and come back with it)."""
         self._forget_session()
         xyz_step.clear_cache()
-        self._sky_told = {}
+        self._sky_told, self._doubt_told = {}, {}
         self.canvas.set_extra_layers([])
         self._camera_changed()
 
@@ -266,8 +270,30 @@ class OutputTools(QObject):
         crossings = self.session.last_silhouettes.get(kind, 0) if self.session is not None else 0
         previous = self._sky_told.get(kind, (0, 0, 0))
         self._sky_told[kind] = (sky, dropped, crossings)
+        doubt = self._doubt_text(kind)
         if (sky or dropped or crossings) and (sky, dropped, crossings) != previous:
-            self._message(self.sky_text(kind, sky, dropped, crossings), Qgis.MessageLevel.Warning)
+            self._message(self.sky_text(kind, sky, dropped, crossings) + doubt, Qgis.MessageLevel.Warning)
+        elif doubt:
+            self._message(doubt.strip(), Qgis.MessageLevel.Warning)
+
+    def _drawn(self, kind: str) -> int:
+        return self.session.photo_layer(kind).featureCount() if self.session is not None else 0
+
+    def _doubt_text(self, kind: str) -> str:
+        """" Drawn on a camera whose fit is "poor": ..." the first time a feature is drawn under a camera its fit
+        does not call ok (a trial's polygon on a "poor" camera 481 m off got an area and no word; the orthophoto
+        and report warn, drawing did not); "" else."""
+        status = (self.controller.state.fit_info or {}).get("status", "ok")
+        camera, count = self.controller.state.fitted, self._drawn(kind)
+        told_camera, base, told = self._doubt_told.get(kind, (None, 0, False))
+        if told_camera != camera:  # another camera: its drawings are news again
+            base, told = 0, False
+        self._doubt_told[kind] = (camera, base, told or (count > base and status in ("uncertain", "poor")))
+        if told or count <= base or status not in ("uncertain", "poor"):
+            return ""
+        return " " + self.tr("Drawn on a camera whose fit is \"{0}\": its map positions inherit the camera's "
+                             "errors (no xy_error_m). Check the fit (pairs, check points) before using them.").format(
+            self.tr(status))
 
     def sky_text(self, kind: str, sky: int, dropped: int, crossings: int = 0) -> str:
         """What the user is told when drawn features (partly) see the sky, or polygons cross a silhouette (a desktop
@@ -278,8 +304,11 @@ class OutputTools(QObject):
                  "polygon": self.tr("Drawn polygons")}
         parts = []
         if sky:
-            parts.append((self.tr("{0} part(s) over the sky or the print's paper left out of the map layer") if paper
-                          else self.tr("{0} part(s) over the sky left out of the map layer")).format(sky))
+            # "or off the DEM": a trial's water line touched no sky, its part past the DEM's edge was the one
+            parts.append((self.tr("{0} part(s) over the sky, the print's paper or off the DEM left out of the map "
+                                  "layer") if paper
+                          else self.tr("{0} part(s) over the sky or off the DEM left out of the map layer"))
+                         .format(sky))
         if dropped:
             parts.append((self.tr("{0} entirely over the sky, the paper or off the DEM, not on the map layer")
                           if paper else self.tr("{0} entirely over the sky or off the DEM, not on the map layer"))

@@ -196,7 +196,7 @@ def test_point_over_the_sky_is_reported_in_plain_words(dock_with_fit):
     text = dock.statusLabel.text()
     assert text == "Drawn points: 1 entirely over the sky or off the DEM, not on the map layer.", text
     assert "piece" not in tools.sky_text("point", 0, 2)
-    assert tools.sky_text("line", 2, 0) == "Drawn lines: 2 part(s) over the sky left out of the map layer."
+    assert tools.sky_text("line", 2, 0) == "Drawn lines: 2 part(s) over the sky or off the DEM left out of the map layer."
     assert "cross a ridge's silhouette 2 time(s)" in tools.sky_text("polygon", 0, 0, 2)
 
 
@@ -518,3 +518,21 @@ def test_features_drawn_after_the_last_save_come_back_after_a_crash_and_say_so(d
                     timeout=10000)
     assert any("restored features drawn on the photo" in m for m in messages), messages
     qtbot.waitUntil(project.isDirty, timeout=2000)
+
+
+def test_drawing_on_a_doubtful_camera_is_said_once(dock_with_fit):
+    """A trial's flood outline drawn on a "poor" camera (481 m off) got an area and no word, while the orthophoto
+    and the report warned: the first feature drawn under a camera its fit does not call ok says so, once."""
+    dock, tools = dock_with_fit
+    c = dock.controller
+    c.state.fit_info = {"status": "poor", "message": "the skyline disagrees"}
+    session = tools.current_session()
+    session.add_feature("line", [[100, 200], [300, 220]])  # on the plane's ground
+    assert 'Drawn on a camera whose fit is "poor"' in dock.statusLabel.text()
+    dock.statusLabel.clear()
+    session.add_feature("line", [[100, 250], [300, 260]])
+    assert "Drawn on a camera" not in dock.statusLabel.text()  # said once, not for every feature
+    c.state.fit_info = {"status": "ok"}
+    c.state.fitted = dict(c.state.fitted, heading=c.state.fitted["heading"] + 0.01)  # another camera, "ok"
+    session.add_feature("line", [[100, 270], [300, 280]])
+    assert "Drawn on a camera" not in dock.statusLabel.text()
