@@ -257,8 +257,12 @@ def test_rough_camera_from_exif_gps(dock, scene, tmp_path):
     path = str(tmp_path / "phone.jpg")
     gdal.GetDriverByName("JPEG").CreateCopy(path, mem)
     dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    said = []
+    dock.controller.message.connect(lambda text, level: said.append(text))
     dock.photoFile.setFilePath(path)  # photo + DEM + GPS tags: the rough camera appears by itself
     prior = dock.controller.prior
+    # the GPS height is said, and how rough it is (a trial's phone put a hand-held camera 11 m above the ground)
+    assert any("GPS altitude puts it" in text and "often 10-30 m off" in text for text in said), said
     assert prior is not None
     assert math.dist(prior.position[:2], scene.camera.position[:2]) < 1.0
     assert abs(prior.position[2] - scene.camera.position[2]) < 0.2
