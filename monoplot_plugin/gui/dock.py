@@ -504,10 +504,17 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         self.overlaySlider.setValue(int(self.controller.state.settings.get("overlay_opacity", 50)))
 
     def _project_read(self, *args) -> None:
-        if self.controller.restore():
+        c = self.controller
+        if c.restore():
             self._apply_settings()
-            if self.controller.fitted is not None:
+            if c.fitted is not None:
                 self._rebuild_camera_layers_later()  # memory layers come back empty from a project file
+            # the status line says what came back (a trial found it empty after reopening, the fit's verdict
+            # only in the fit tab); the message bar stays quiet: nothing happened
+            text = self.tr("Monoplot session restored from the project.")
+            if c.fitted is not None and c.state.fit_info:
+                text += " " + c.fit_summary(c.state.fit_info)[0]
+            self.statusLabel.setText(status_line(text))
 
     def _project_cleared(self) -> None:
         self.controller.cancel()

@@ -28,9 +28,10 @@ def work_on_photo(controller) -> str:
     state = controller.state
     counts = state.counts()[PHOTO]
     parts = []
-    n = counts.get(ACCEPTED, 0) + counts.get(CHECK, 0)
-    if n:
-        parts.append(tr("{0} accepted photo points").format(n))
+    if counts.get(ACCEPTED, 0):
+        parts.append(tr("{0} accepted photo points").format(counts[ACCEPTED]))
+    if counts.get(CHECK, 0):  # said apart: "27 accepted" for 16 accepted and 11 check points read wrong (a trial)
+        parts.append(tr("{0} check points").format(counts[CHECK]))
     if state.pairs:
         parts.append(tr("{0} pairs").format(len(state.pairs)))
     if state.fitted:

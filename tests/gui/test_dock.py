@@ -208,6 +208,7 @@ def test_save_and_reopen_project_restores_state(dock, scene, qtbot, tmp_path):
     assert QgsProject.instance().read(path)
     qtbot.waitUntil(lambda: c.image is not None, timeout=5000)
     assert c.state.to_dict() == before
+    assert dock.statusLabel.text().startswith("Monoplot session restored from the project.")  # not empty
     assert c.dem is not None and dock.photo_canvas.photo_size == (480, 320)
     assert c.prior.position == pytest.approx(scene.prior.position)
     # the fitted camera's products come back: overlay, per-pixel XYZ, camera layers, overlay opacity

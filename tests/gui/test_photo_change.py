@@ -8,7 +8,8 @@ import cv2
 from qgis.PyQt.QtCore import Qt, QTimer
 from qgis.PyQt.QtWidgets import QApplication, QMessageBox
 
-from monoplot_plugin.state import ACCEPTED, PHOTO
+from monoplot_plugin.gui.photo_change import work_on_photo
+from monoplot_plugin.state import ACCEPTED, CHECK, PHOTO, set_status
 from test_dock import accept_everything, add_scene_points, load_inputs
 
 
@@ -33,6 +34,10 @@ def test_choosing_another_photo_asks_before_its_points_go(dock, scene, qtbot, tm
     add_scene_points(dock, scene, n=8)
     accept_everything(c)
     c.set_prior(scene.prior)
+    photo_ids = [p.id for p in c.state.in_space(PHOTO)]
+    c.stack.push(set_status(c.state, photo_ids[:2], CHECK))
+    assert work_on_photo(c) == "6 accepted photo points, 2 check points"  # said apart (a trial read "27 accepted")
+    c.stack.undo()
     grey = str(tmp_path / "grey.png")
     image = cv2.imread(scene.photo_path)
     cv2.imwrite(grey, cv2.cvtColor(cv2.cvtColor(image, cv2.COLOR_BGR2GRAY), cv2.COLOR_GRAY2BGR))
