@@ -512,8 +512,13 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
             # the status line says what came back (a trial found it empty after reopening, the fit's verdict
             # only in the fit tab); the message bar stays quiet: nothing happened
             text = self.tr("Monoplot session restored from the project.")
-            if c.fitted is not None and c.state.fit_info:
-                text += " " + c.fit_summary(c.state.fit_info)[0]
+            info = c.state.fit_info or {}
+            if c.fitted is not None:
+                check, rmse = info.get("check_rmse_px"), info.get("rmse_px")
+                figure = self.tr(", check points {0:.1f} px").format(check) if check is not None else \
+                    self.tr(", RMSE {0:.1f} px").format(rmse) if rmse is not None else ""
+                text += " " + self.tr("Fitted camera: {0}{1} (see the fit tab).").format(
+                    self.tr(str(info.get("status") or "not judged")), figure)
             self.statusLabel.setText(status_line(text))
 
     def _project_cleared(self) -> None:
