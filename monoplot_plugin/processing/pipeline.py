@@ -62,12 +62,12 @@ def fit(image_size, uv: np.ndarray, xyz: np.ndarray, prior: Camera, dem, paired:
 # --- products ---------------------------------------------------------------------------------------------------
 def write_xyz(path: str, camera: Camera, dem, crs_wkt: str, photo_name: str = "",
               progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None,
-              photo: Optional[np.ndarray] = None, fit: Optional[dict] = None):
+              photo: Optional[np.ndarray] = None, fit: Optional[dict] = None, area: Optional[np.ndarray] = None):
     """Write the XYZ raster (the one layout: photo pixel space, bands X, Y, Z); with the ``photo``, its print border
-    and caption get no coordinates (:func:`workflow.products.picture_area`); ``fit``: the camera's verdict, kept in
-    the metadata as the dock keeps it."""
+    and caption get no coordinates (:func:`workflow.products.picture_area`; ``area``: that area already found);
+    ``fit``: the camera's verdict, kept in the metadata as the dock keeps it."""
     return products.write_xyz(path, camera, dem, crs_wkt, photo_name=photo_name, overwrite=True, progress=progress,
-                              is_canceled=is_canceled, photo=photo, fit=fit)
+                              is_canceled=is_canceled, photo=photo, fit=fit, area=area)
 
 
 def orthophoto(path: str, photo: np.ndarray, camera: Camera, dem, resolution: Optional[float],

@@ -145,15 +145,17 @@ def area_at(area: np.ndarray, shape) -> np.ndarray:
 def write_xyz(path, camera: Camera, dem, crs_wkt: Optional[str] = None, photo_name: str = "",
               distance: bool = False, overwrite: bool = False, progress: Optional[Progress] = None,
               is_canceled: Optional[IsCanceled] = None, fit: Optional[dict] = None,
-              photo: Optional[np.ndarray] = None) -> Path:
+              photo: Optional[np.ndarray] = None, area: Optional[np.ndarray] = None) -> Path:
     """The 3-band X, Y, Z GeoTIFF of the photo's pixels (nodata for the sky); a 4th band of distances from the
     camera only when ``distance`` is asked; ``fit``: the camera's verdict and errors, kept in the metadata;
-    ``photo`` (H, W, 3): when given, its print border and caption are nodata too (:func:`picture_area`)."""
+    ``photo`` (H, W, 3): when given, its print border and caption are nodata too (:func:`picture_area`); ``area``:
+    that picture area when the caller has found it already."""
     from ..outputs.xyz_raster import write_xyz_raster
 
     result = xyz_result(camera, dem, visibility=False, progress=part(progress, 0.0, 0.8), is_canceled=is_canceled)
     check_canceled(is_canceled)
-    area = None if photo is None else picture_area(photo)
+    if area is None and photo is not None:
+        area = picture_area(photo)
     xyz = blank_outside(result.xyz, area)
     dist = blank_outside(result.distance, area) if distance else None
     with _committed(is_canceled):
@@ -211,10 +213,11 @@ def report(path, photo: np.ndarray, camera: Camera, dem, points=None, points_csv
         checks = table_checks if checks is None else checks
     result = xyz_result(camera, dem, visibility=True, progress=part(progress, 0.0, 0.6), is_canceled=is_canceled)
     check_canceled(is_canceled)
+    area = picture_area(photo)
     if accuracy is None:  # over the picture's ground only (a print's paper put the median 2.3 km for 2.8 km)
-        accuracy = points_accuracy(camera, dem, blank_outside(result.xyz, picture_area(photo)), points, checks)
+        accuracy = points_accuracy(camera, dem, blank_outside(result.xyz, area), points, checks)
     with _committed(is_canceled):
-        written = write_report(path, photo, camera, dem, points=points, xyz=result.xyz, picture=picture_area(photo),
+        written = write_report(path, photo, camera, dem, points=points, xyz=result.xyz, picture=area,
                                visible=result.visible, sigmas=sigmas, title=title, overwrite=overwrite,
                                verdict=verdict, checks=checks, accuracy=accuracy)
     if progress is not None:

@@ -102,7 +102,7 @@ class ComputeXyz(_CameraDemAlgorithm):
         self.check_not_empty(parameters, context, int(ground > 0), "XYZ raster", NO_GROUND)
         status, message = written_verdict(self.parameterAsFile(parameters, "CAMERA", context))
         pipeline.write_xyz(out, camera, dem, crs.toWkt(), progress=progress_callback(feedback, 80, 95),
-                           is_canceled=cancel_callback(feedback), photo=photo,
+                           is_canceled=cancel_callback(feedback), area=area,  # found once, above
                            fit={"status": status, "message": message} if status else None)
         feedback.pushInfo(self.tr("{0:.1f}% of the pixels hit the DEM; written to {1}").format(100 * ground, out))
         feedback.setProgress(100)
