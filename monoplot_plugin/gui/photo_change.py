@@ -10,7 +10,7 @@ from __future__ import annotations
 from typing import Optional
 
 from qgis.PyQt.QtCore import QCoreApplication
-from qgis.PyQt.QtGui import QImageReader
+from qgis.PyQt.QtGui import QImageIOHandler, QImageReader
 from qgis.PyQt.QtWidgets import QMessageBox
 
 from ..state import ACCEPTED, CHECK, PHOTO
@@ -40,10 +40,15 @@ def work_on_photo(controller) -> str:
 
 
 def same_size(path: str, controller) -> bool:
-    """The file at ``path`` is a picture of the current photo's size (read from its header only)."""
-    size = QImageReader(path).size()
-    return controller.photo_size is not None and size.isValid() and \
-        (size.width(), size.height()) in (controller.photo_size, controller.photo_size[::-1])
+    """The file at ``path`` is a picture of the current photo's size as shown (read from its header only; its
+    EXIF orientation applied, as the dock loads it): the size :meth:`load_photo` keeps the points for."""
+    reader = QImageReader(path)
+    size = reader.size()
+    if not size.isValid() or controller.photo_size is None:
+        return False
+    turned = bool(reader.transformation() & QImageIOHandler.Transformation.TransformationRotate90)
+    shown = (size.height(), size.width()) if turned else (size.width(), size.height())
+    return shown == tuple(controller.photo_size)
 
 
 def ask_photo_change(parent, name: str, work: str, offer_keep: bool) -> Optional[str]:
