@@ -122,7 +122,10 @@ def paper_and_strips(gray: np.ndarray, tolerance: int = 30,
             widths[side], greys[side] = 0, None
         for side, lines_more in widen.items():
             widths[side] += lines_more
-    if np.mean(np.abs(frame - paper) <= tolerance) < 0.8:
+    low, high = np.percentile(frame, [25, 75])
+    if np.mean(np.abs(frame - paper) <= tolerance) < 0.8 or high - low > tolerance / 2:
+        # paper is of one grey: the shaded slopes along the edges of a dark rendered scene were 80 % within the
+        # tolerance of their median, but their middle half spread over 20 levels (a scan's paper: 1-4)
         return None, (0, 0, 0, 0), [None] * 4
     return paper, tuple(widths), greys
 
@@ -135,6 +138,10 @@ def picture_box(gray: np.ndarray, tolerance: int = 30, paper_fill: float = 0.9) 
     levels of the paper (or of a strip's grey in one run from its side: the rest of a wedge); the first row that is
     not ends the border. (Testing rows from the outside in, rather than counting picture-like rows, keeps white
     snow or pale sky inside the picture.)
+
+    Paper is on every side of the picture, or there is no border: a blue sky at the top and brown slopes along the
+    other edges have the same grey, and 10 of 50 rendered scenes (eval.auto) lost 14-91 % of their area to a
+    "border" on one to three sides (the sky, or slopes of the sky's grey).
     """
     h, w = gray.shape
     paper, (top, bottom, left, right), greys = paper_and_strips(gray, tolerance, paper_fill)
@@ -163,6 +170,8 @@ def picture_box(gray: np.ndarray, tolerance: int = 30, paper_fill: float = 0.9) 
     c0, c1 = inner_span(cols)
     if r1 - r0 < 0.2 * h or c1 - c0 < 0.2 * w:
         return 0, h, 0, w
+    if min(r0, len(rows) - r1, c0, len(cols) - c1) == 0:
+        return 0, h, 0, w  # paper surrounds a print's picture: a "border" on some sides only is the scene's own
     return r0 + top, r1 + top, c0 + left, c1 + left
 
 

@@ -74,8 +74,8 @@ def picture_area(photo: np.ndarray, work_size: int = 2000) -> Optional[np.ndarra
 #: A picture whose centre is this share of the width or more off the file's centre has its own principal point.
 PICTURE_CENTRE_SHIFT = 0.005
 #: ... when the picture covers at least this share of the file: a print's picture fills most of its scan (the
-#: trial's 75 %, Aletsch's 92 %), and the border detection also finds false "borders" on some photos that fill
-#: their frame (10 of the 50 rendered scenes of eval.auto kept 19-54 %): a principal point moved there is wrong.
+#: trial's 75 %, Aletsch's 92 %), and a false "border" found on a photo that fills its frame (10 of the 50 rendered
+#: scenes of eval.auto kept 9-86 % before paper had to be flat and on every side) must not move its principal point.
 PICTURE_CENTRE_MIN_SHARE = 0.5
 
 
