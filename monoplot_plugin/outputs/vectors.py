@@ -39,7 +39,7 @@ __all__ = ["MapFeature", "write_vector_layer", "read_vector_layer", "FIELD_TYPES
 FIELD_TYPES = {"string": ogr.OFTString, "integer": ogr.OFTInteger, "real": ogr.OFTReal, "date": ogr.OFTDate}
 #: Fields Monoplot adds, by geometry kind.
 COMPUTED_FIELDS = {"point": ("sky_parts", "xy_error_m"), "line": ("length", "length3d", "sky_parts", "xy_error_m"),
-                   "polygon": ("area", "length", "sky_parts", "silhouette", "xy_error_m")}
+                   "polygon": ("area", "area_error", "length", "sky_parts", "silhouette", "xy_error_m")}
 #: The computed fields that are whole numbers.
 INTEGER_FIELDS = ("sky_parts", "silhouette")
 _OGR_GEOMETRY = {"point": ogr.wkbPoint25D, "line": ogr.wkbMultiLineString25D, "polygon": ogr.wkbMultiPolygon25D}
@@ -98,14 +98,21 @@ class MapFeature:
     def measures(self) -> Dict[str, float]:
         """Computed fields (see :data:`COMPUTED_FIELDS`) in map units.
 
+        A polygon's ``area_error`` (map units squared; only with ``xy_error_m``) is the glacier inventories' buffer
+        estimate: the area between the outline moved out and in by its horizontal error, perimeter x xy_error_m.
+
         >>> MapFeature("polygon", [[[0, 0, 5], [10, 0, 5], [10, 20, 9], [0, 20, 9]]]).measures()
         {'area': 200.0, 'length': 60.0, 'silhouette': 0, 'sky_parts': 0}
+        >>> MapFeature("polygon", [[[0, 0, 5], [10, 0, 5], [10, 20, 9], [0, 20, 9]]], xy_error_m=0.5).measures()
+        {'area': 200.0, 'length': 60.0, 'silhouette': 0, 'area_error': 30.0, 'sky_parts': 0, 'xy_error_m': 0.5}
         """
         out: Dict[str, float] = {}
         if self.kind == "polygon":
             out["area"] = float(sum(abs(_shoelace(p[:, :2])) for p in self.parts))
             out["length"] = float(sum(_path_length(_closed(p)[:, :2]) for p in self.parts))
             out["silhouette"] = int(self.silhouettes)
+            if self.xy_error_m is not None and np.isfinite(self.xy_error_m):
+                out["area_error"] = round(out["length"] * float(self.xy_error_m), 1)
         elif self.kind == "line":
             out["length"] = float(sum(_path_length(p[:, :2]) for p in self.parts))
             out["length3d"] = float(sum(_path_length(p) for p in self.parts))
