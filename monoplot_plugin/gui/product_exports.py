@@ -70,10 +70,10 @@ class ProductExports:
             if what == "xyz":
                 return product_step.write_xyz(path, camera, dem, photo_name=name, distance=distance,
                                           overwrite=overwrite, progress=progress, is_canceled=is_canceled,
-                                          fit=dict(info), photo=photo)
+                                          fit=dict(info), photo=photo, allow_empty=False)
             if what == "ortho":
                 return product_step.orthophoto(path, photo, camera, dem, product_step.AUTO, overwrite=overwrite,
-                                               progress=progress, is_canceled=is_canceled)
+                                               progress=progress, is_canceled=is_canceled, allow_empty=False)
             return product_step.report(path, photo, camera, dem, points=points, sigmas=sigmas, title=Path(name).stem,
                                        overwrite=overwrite, progress=progress, is_canceled=is_canceled,
                                        verdict=verdict, checks=checks, accuracy=accuracy)

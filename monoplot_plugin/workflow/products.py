@@ -32,7 +32,7 @@ def _committed(is_canceled: Optional[IsCanceled]):
     return nullcontext() if is_canceled is None else cancel_before_commit(is_canceled, also_outer=True)
 
 __all__ = ["ProductError", "write_xyz", "orthophoto", "report", "ortho_grid", "dem_at_resolution", "auto_resolution",
-           "ground_error", "picture_area", "blank_outside", "area_at", "MAX_ORTHO_CELLS", "AUTO"]
+           "ground_error", "picture_area", "NO_GROUND", "blank_outside", "area_at", "MAX_ORTHO_CELLS", "AUTO"]
 
 #: an orthophoto grid larger than this many cells is refused (memory)
 MAX_ORTHO_CELLS = 50_000_000
@@ -44,6 +44,17 @@ AUTO_ORTHO_CELLS = 10_000_000
 
 class ProductError(ValueError):
     """A product cannot be made from these inputs; the message says why."""
+
+
+#: Why an XYZ raster or orthophoto would be empty.
+NO_GROUND = "no pixel of the photo sees the DEM (the camera looks at the sky, or past the DEM)"
+
+
+def _check_ground(xyz: np.ndarray, allow_empty: bool) -> None:
+    """A product with no ground pixel is an error unless ``allow_empty`` (a trial: a camera fitted to GCPs in
+    another CRS stood 2,200 km from the DEM, and the dock said "Written" of an XYZ raster with no valid pixel)."""
+    if not allow_empty and not np.isfinite(xyz[..., 2]).any():
+        raise ProductError(f"{NO_GROUND}: nothing written. Are the camera and its map points in the DEM's CRS?")
 
 
 def picture_area(photo: np.ndarray, work_size: int = 2000) -> Optional[np.ndarray]:
@@ -152,11 +163,13 @@ def area_at(area: np.ndarray, shape) -> np.ndarray:
 def write_xyz(path, camera: Camera, dem, crs_wkt: Optional[str] = None, photo_name: str = "",
               distance: bool = False, overwrite: bool = False, progress: Optional[Progress] = None,
               is_canceled: Optional[IsCanceled] = None, fit: Optional[dict] = None,
-              photo: Optional[np.ndarray] = None, area: Optional[np.ndarray] = None) -> Path:
+              photo: Optional[np.ndarray] = None, area: Optional[np.ndarray] = None,
+              allow_empty: bool = True) -> Path:
     """The 3-band X, Y, Z GeoTIFF of the photo's pixels (nodata for the sky); a 4th band of distances from the
     camera only when ``distance`` is asked; ``fit``: the camera's verdict and errors, kept in the metadata;
     ``photo`` (H, W, 3): when given, its print border and caption are nodata too (:func:`picture_area`); ``area``:
-    that picture area when the caller has found it already."""
+    that picture area when the caller has found it already; ``allow_empty=False``: no ground pixel is a
+    :class:`ProductError` (Processing checks it itself, with its ALLOW_EMPTY)."""
     from ..outputs.xyz_raster import write_xyz_raster
 
     result = xyz_result(camera, dem, visibility=False, progress=part(progress, 0.0, 0.8), is_canceled=is_canceled)
@@ -164,6 +177,7 @@ def write_xyz(path, camera: Camera, dem, crs_wkt: Optional[str] = None, photo_na
     if area is None and photo is not None:
         area = picture_area(photo)
     xyz = blank_outside(result.xyz, area)
+    _check_ground(xyz, allow_empty)
     dist = blank_outside(result.distance, area) if distance else None
     with _committed(is_canceled):
         written = write_xyz_raster(path, xyz, crs_wkt if crs_wkt is not None else dem.crs_wkt, dist,
@@ -175,12 +189,12 @@ def write_xyz(path, camera: Camera, dem, crs_wkt: Optional[str] = None, photo_na
 
 def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution=None,
                overwrite: bool = False, progress: Optional[Progress] = None,
-               is_canceled: Optional[IsCanceled] = None, grid=None) -> Path:
+               is_canceled: Optional[IsCanceled] = None, grid=None, allow_empty: bool = True) -> Path:
     """The photo (H, W, 3) draped on the DEM (not its print border or caption, :func:`picture_area`): a north-up RGBA
     GeoTIFF on the DEM's grid, or on a grid of cell size
     ``resolution`` over the same extent (elevations resampled bilinearly), or (:data:`AUTO`) at the photo's own
     detail over the part the camera sees (:func:`auto_resolution`); ``grid``: :func:`ortho_grid` when the caller has
-    it already."""
+    it already; ``allow_empty=False``: no ground pixel is a :class:`ProductError`."""
     from ..outputs.orthophoto import orthophoto_from_camera
 
     if (photo.shape[1], photo.shape[0]) != tuple(camera.image_size):
@@ -189,6 +203,7 @@ def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution=None,
     xyz = xyz_result(camera, dem, visibility=False, progress=part(progress, 0.0, 0.5), is_canceled=is_canceled).xyz
     check_canceled(is_canceled)
     xyz = blank_outside(xyz, picture_area(photo))  # no print border or caption draped on the terrain
+    _check_ground(xyz, allow_empty)
     grid = ortho_grid(camera, dem, resolution, xyz) if grid is None else grid
     check_canceled(is_canceled)
     def between_chunks(fraction: float) -> None:  # the lookup of a large grid takes a while: report, stop early

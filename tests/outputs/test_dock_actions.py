@@ -145,6 +145,24 @@ def test_exports_run_in_background_tasks(dock_with_fit, tmp_path, qtbot, caplog)
     assert 'from a camera whose fit is "poor"' in dock.statusLabel.text(), dock.statusLabel.text()
 
 
+def test_a_product_with_no_ground_pixel_is_not_written(dock_with_fit, tmp_path, qtbot):
+    """A trial: a camera fitted to GCPs in another CRS stood 2,200 km from the DEM, and the dock said "Written" of
+    an XYZ raster with no valid pixel. Now nothing is written, and the message says why."""
+    import dataclasses
+
+    dock, tools = dock_with_fit
+    c = dock.controller
+    camera = c.fitted
+    x, y, z = camera.position
+    c.state.fitted = dataclasses.replace(camera, position=(x + 2e6, y, z)).to_dict()
+    for what in ("xyz", "ortho"):
+        path = tmp_path / f"empty_{what}.tif"
+        assert tools.start_export(what, path) is not None
+        qtbot.waitUntil(lambda: "Nothing was written" in dock.statusLabel.text(), timeout=30000)
+        assert "no pixel of the photo sees the DEM" in dock.statusLabel.text() and not path.exists()
+        dock.statusLabel.setText("")
+
+
 def _legend_order(group):
     return [node.layer() for node in group.findLayers()]
 

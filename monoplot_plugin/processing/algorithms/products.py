@@ -31,7 +31,7 @@ from ..base import (PHOTO_Y_SIGN, MonoplotAlgorithm, camera_line, cancel_callbac
 from ..inputs import read_photo
 from ...core.xyz_strips import plan_strips
 from ...workflow.camera_files import written_verdict
-from ...workflow.products import ProductError, blank_outside, ortho_grid, picture_area
+from ...workflow.products import NO_GROUND, ProductError, blank_outside, ortho_grid, picture_area
 from ...workflow.inputs import check_not_empty
 from ..safe_sink import keep_pixel_space, safe_sink
 
@@ -138,7 +138,6 @@ class ComputeXyz(_CameraDemAlgorithm):
 
 #: The field maptophoto adds: the share of a feature's densified vertices the camera sees.
 VISIBLE_SHARE = "visible_share"
-NO_GROUND = "no pixel of the photo sees the DEM (the camera looks at the sky, or past the DEM)"
 
 
 class PhotoToMap(_CameraDemAlgorithm):
