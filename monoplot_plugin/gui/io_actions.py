@@ -27,7 +27,7 @@ from ..core.fit.verdict import judge_by_checks
 from ..state import ACCEPTED, CHECK, MAP, PHOTO, Edit, Point
 from ..workflow.camera_files import load_camera, save_camera, written_verdict
 from ..workflow.fit import measured_on_pairs
-from ..workflow.inputs import InputError, _transform, points_to_dem_crs
+from ..workflow.inputs import OFF_DEM_NOTE, InputError, _transform, points_to_dem_crs
 from ..workflow.points_csv import read_points_csv, write_points_csv
 
 __all__ = ["import_points_csv", "export_points_csv", "import_point_layers", "export_point_layers",
@@ -79,7 +79,9 @@ def import_points_csv(controller, path: str, all_check: bool = False) -> int:
     check = np.ones(len(ids), bool) if all_check else table.get("check", np.zeros(len(ids), bool))
     notes: List[str] = []
     if xyz is not None:
-        xyz, notes = points_to_dem_crs(xyz, c.dem, name=os.path.basename(path))
+        project_crs = c.project.crs()  # a table in the project's CRS is recognised (and said) when it is not the DEM's
+        xyz, notes = points_to_dem_crs(xyz, c.dem, name=os.path.basename(path),
+                                       candidates=[project_crs.toWkt()] if project_crs.isValid() else [])
     photo, world, pairs = [], [], []
     n = len(ids)
     for i in range(n):
@@ -105,8 +107,9 @@ def import_points_csv(controller, path: str, all_check: bool = False) -> int:
     if outside:
         text += " " + tr("{0} photo points lie outside the photo: is the table for this photo?").format(outside)
     for note in notes:
-        text += " " + note + "."
-    c.message.emit(text, WARNING if outside else INFO)
+        text += " " + note + ("" if note.endswith("?") else ".")
+    off_dem = any(OFF_DEM_NOTE in note for note in notes)
+    c.message.emit(text, WARNING if outside or off_dem else INFO)
     return len(photo) + len(world) - len(pairs)
 
 

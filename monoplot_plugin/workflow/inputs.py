@@ -19,12 +19,12 @@ from __future__ import annotations
 
 import math
 import os
-from typing import List, Optional, Tuple
+from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
 __all__ = ["InputError", "load_dem", "check_dem_file", "check_photo_path", "check_camera", "check_view", "read_text",
-           "points_to_dem_crs", "check_not_empty", "MIN_DEM_CELLS"]
+           "points_to_dem_crs", "OFF_DEM_NOTE", "check_not_empty", "MIN_DEM_CELLS"]
 
 #: Rows and columns a DEM needs at the least (the mesh has a triangle per half of a square of four cells).
 MIN_DEM_CELLS = 2
@@ -197,36 +197,57 @@ def read_text(path: str) -> str:
         return data.decode("latin-1")
 
 
-def points_to_dem_crs(xyz: np.ndarray, dem, points_crs: str = "", name: str = "the points") \
-        -> Tuple[np.ndarray, List[str]]:
+def points_to_dem_crs(xyz: np.ndarray, dem, points_crs: str = "", name: str = "the points",
+                      candidates: Sequence[str] = ()) -> Tuple[np.ndarray, List[str]]:
     """(N, 3) map points in the DEM's working CRS, and notes.
 
     The points are in ``points_crs`` when given (WKT or "EPSG:n"), else in the CRS of the DEM file: for a DEM in
-    degrees that Monoplot uses in UTM (``dem.source_crs_wkt``) they are converted too. A table in lon/lat for a
-    projected DEM is recognised when the values fit degrees and land on the DEM only read as WGS 84 (noted).
+    degrees that Monoplot uses in UTM (``dem.source_crs_wkt``) they are converted too. A table without a stated CRS
+    whose numbers put most points off the DEM is tried as longitude/latitude (WGS 84) and in each of the
+    ``candidates`` (the project's CRS): the first that puts most of them on the DEM is taken (noted). Points left
+    off the DEM are noted too (a trial: a GCP table in the project's CRS, LV95, read as the DEM's LV03 put the 11
+    points 2,200 km away, the fit said "ok" and the XYZ raster was empty, without a word).
     """
-    from osgeo import osr
-
     xyz = np.array(xyz, dtype=float).reshape(-1, 3)
     notes: List[str] = []
     source = points_crs or dem.source_crs_wkt or ""
-    if not source and len(xyz) and dem.crs_wkt:
+    if not source and len(xyz) and dem.crs_wkt and _inside(dem, xyz).mean() < 0.5:
         lonlat = (np.abs(xyz[:, 0]) <= 180).all() and (np.abs(xyz[:, 1]) <= 90).all()
-        if lonlat and _inside(dem, xyz).mean() < 0.5:
-            converted = _transform(xyz, "EPSG:4326", dem.crs_wkt)
+        guesses = ([("EPSG:4326", "longitude/latitude (WGS 84)")] if lonlat else []) + [
+            (crs, f"{_crs_name(crs)} coordinates") for crs in candidates if crs and not _same_crs(crs, dem.crs_wkt)]
+        for crs, words in guesses:
+            try:
+                converted = _transform(xyz, crs, dem.crs_wkt)
+            except Exception:  # a CRS that cannot be converted is no guess  # noqa: BLE001
+                continue
             if _inside(dem, converted).mean() >= 0.5:
-                notes.append(f"{name} look like longitude/latitude (WGS 84) and were converted to the DEM's CRS")
-                return converted, notes
-    if not source or not dem.crs_wkt:
-        return xyz, notes
-    a, b = osr.SpatialReference(), osr.SpatialReference()
-    a.SetFromUserInput(source)
-    b.SetFromUserInput(dem.crs_wkt)
-    if a.IsSame(b):
-        return xyz, notes
+                notes.append(f"{name} look like {words} and were converted to the DEM's CRS")
+                return converted, notes + _off_dem_notes(dem, converted, name)
+    if not source or not dem.crs_wkt or _same_crs(source, dem.crs_wkt):
+        return xyz, notes + _off_dem_notes(dem, xyz, name)
     converted = _transform(xyz, source, dem.crs_wkt)
     notes.append(f"{name} were converted from {_crs_name(source)} to {_crs_name(dem.crs_wkt)}")
-    return converted, notes
+    return converted, notes + _off_dem_notes(dem, converted, name)
+
+
+#: Notes of :func:`points_to_dem_crs` that say this are warnings (points off the DEM), the others information.
+OFF_DEM_NOTE = "lie outside the DEM"
+
+
+def _off_dem_notes(dem, xyz: np.ndarray, name: str) -> List[str]:
+    given = np.isfinite(xyz[:, :2]).all(axis=1)
+    off = int((given & ~_inside(dem, xyz)).sum())
+    if not off:
+        return []
+    return [f"{off} of {int(given.sum())} map points of {name} {OFF_DEM_NOTE}: are their X, Y in the DEM's CRS, "
+            f"{_crs_name(dem.crs_wkt)}?"]
+
+
+def _same_crs(a: str, b: str) -> bool:
+    from osgeo import osr
+
+    sa, sb = osr.SpatialReference(), osr.SpatialReference()
+    return sa.SetFromUserInput(a) == 0 and sb.SetFromUserInput(b) == 0 and bool(sa.IsSame(sb))
 
 
 def _inside(dem, xyz: np.ndarray) -> np.ndarray:

@@ -333,3 +333,42 @@ def test_a_camera_written_with_its_verdict_comes_back_with_it(dock, scene, tmp_p
     saved = tmp_path / "saved.json"
     assert io_actions.save_camera_file(c, str(saved))
     assert json.loads(saved.read_text())["fit"]["status"] == "poor"
+
+
+def test_a_gcp_table_in_the_projects_crs_is_converted_and_one_off_the_dem_is_a_warning(dock, scene, tmp_path):
+    """A trial: a GCP table in the project's CRS (LV95) was read as the DEM's (LV03): the 11 points lay 2,200 km
+    away, the message said only "11 pairs", the fit said "ok" and the XYZ raster was empty."""
+    from qgis.core import QgsCoordinateReferenceSystem
+
+    from monoplot_plugin.workflow.inputs import _transform
+
+    _load(dock, scene)
+    c = dock.controller
+    messages = []
+    c.message.connect(lambda text, level: messages.append((text, level)))
+    uv, xyz = _surveyed(scene, 6)
+    project = QgsProject.instance()
+    project.setCrs(QgsCoordinateReferenceSystem("EPSG:3857"))
+    in_project_crs = _transform(xyz, c.dem.crs_wkt, "EPSG:3857")
+    assert np.abs(in_project_crs[:, :2] - xyz[:, :2]).max() > 1e5  # other numbers altogether
+    path = str(tmp_path / "gcps_3857.csv")
+    write_points_csv(path, uv=uv, xyz=in_project_crs)
+    assert io_actions.import_points_csv(c, path) == 6
+    world = np.array([(p.x, p.y) for p in c.state.in_space(MAP)])
+    assert np.abs(np.sort(world, axis=0) - np.sort(xyz[:, :2], axis=0)).max() < 0.01  # back on the DEM
+    text, level = messages[-1]
+    assert "were converted to the DEM's CRS" in text and "EPSG:3857" in text, text
+    c.stack.undo()
+    # numbers in no CRS it knows (shifted by 2,000 km): imported as given, with a warning
+    shifted = xyz.copy()
+    shifted[:, 0] += 2e6
+    path = str(tmp_path / "gcps_shifted.csv")
+    write_points_csv(path, uv=uv, xyz=shifted)
+    assert io_actions.import_points_csv(c, path) == 6
+    text, level = messages[-1]
+    assert "6 of 6 map points" in text and "outside the DEM" in text and level == io_actions.WARNING, text
+    c.stack.undo()
+    write_points_csv(path, uv=uv, xyz=xyz)  # on the DEM: no warning
+    io_actions.import_points_csv(c, path)
+    assert "outside the DEM" not in messages[-1][0] and messages[-1][1] != io_actions.WARNING
+    project.setCrs(QgsCoordinateReferenceSystem())

@@ -23,7 +23,7 @@ from ...workflow.progress import Canceled
 from ..base import (MonoplotAlgorithm, camera_line, cancel_callback, centred_on_print, check_canceled, checked,
                     progress_callback, read_map_points, read_photo_points, report_status)
 from ...adapters.layers import crs_from_wkt
-from ...workflow.inputs import points_to_dem_crs
+from ...workflow.inputs import OFF_DEM_NOTE, points_to_dem_crs
 from ..inputs import InputError, read_photo, read_points_csv
 
 CSV_FILTER = "CSV (*.csv *.txt)"
@@ -112,9 +112,15 @@ class FitCamera(MonoplotAlgorithm):
             if "uv" in table:
                 uv_parts.append(table["uv"])
             if "xyz" in table:  # in the DEM file's CRS (degrees for a geographic DEM used in UTM)
-                converted, notes = points_to_dem_crs(table["xyz"], dem, name=os.path.basename(path))
+                project = context.project()
+                crs = project.crs() if project is not None else None
+                converted, notes = points_to_dem_crs(table["xyz"], dem, name=os.path.basename(path),
+                                                     candidates=[crs.toWkt()] if crs is not None and crs.isValid()
+                                                     else [])
                 for note in notes:
-                    context.feedback().pushInfo(note) if context.feedback() else None
+                    if context.feedback() is not None:
+                        (context.feedback().pushWarning if OFF_DEM_NOTE in note else context.feedback().pushInfo)(
+                            note)
                 xyz_parts.append(converted)
         if not uv_parts or not xyz_parts:
             raise QgsProcessingException(self.tr(
