@@ -77,7 +77,10 @@ class PointMarkers:
         groups: Dict[str, list] = {key: [] for key in self.bands}
         for x, y, status, manual in points:
             groups[_style_key(status, manual)].append((x, y))
-        crs_key = self.crs.authid() if self.crs is not None else ""
+        # the canvas's CRS too: a rubber band is transformed once, when set (a trial changed the project's CRS and
+        # every point marker stayed at its old canvas coordinates, 5,000 km off, while the camera was redrawn)
+        crs_key = (self.crs.authid() if self.crs is not None else "",
+                   self.canvas.mapSettings().destinationCrs().toWkt())
         for key, band in self.bands.items():
             drawn = (crs_key, tuple(groups[key]))
             if self._drawn.get(key) == drawn:

@@ -321,6 +321,15 @@ def test_main_map_in_another_crs(dock, scene, qtbot):
     dock.mapToolButton.setChecked(True)
     qtbot.mouseClick(canvas.viewport(), Qt.MouseButton.RightButton, pos=QPoint(round(screen.x()), round(screen.y())))
     assert c.state.points[p.id].status == "rejected"
+    c.stack.undo()  # shown again
+    # the map's CRS changed with the point on show: its marker follows it (a trial: the markers stayed at the old
+    # canvas coordinates, 5,000 km off, while the camera was redrawn)
+    mercator = QgsCoordinateReferenceSystem("EPSG:3857")
+    canvas.setDestinationCrs(mercator)
+    drawn = [pt for band in dock.map_view.markers.bands.values() for pt in band.asGeometry().asMultiPoint()]
+    expected = QgsCoordinateTransform(layer.crs(), mercator, QgsProject.instance()).transform(
+        QgsPointXY(x, y + 2000.0))
+    assert len(drawn) == 1 and drawn[0].distance(expected) < 1e-3, (drawn, expected)
 
 
 def test_typing_a_field_of_view_moves_the_rough_camera_once_on_enter(dock, scene, qtbot):
