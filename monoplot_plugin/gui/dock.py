@@ -172,7 +172,8 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         scroll_points_tab(self)
         narrow_tabs(self)
         fit_minimum_width(self)
-        if self.project.readEntry("monoplot", "/state", "")[1] and c.restore() and c.fitted is not None:
+        restored = bool(self.project.readEntry("monoplot", "/state", "")[1]) and c.restore()
+        if restored and c.fitted is not None:
             # a dock opened on an already open project (or while one is read): its camera layers came back empty
             # from the file
             self._rebuild_camera_layers_later()
@@ -180,6 +181,8 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         self._on_points(set())
         self._on_busy("")
         self._on_camera()
+        if restored:  # the plugin opens the dock when a project with Monoplot work is read: say what came back
+            self.statusLabel.setText(status_line(self._restored_text()))
 
     def _install_outputs(self):
         """Digitising tools and export buttons of the outputs package (optional: a failure is logged, not fatal)."""
@@ -448,9 +451,11 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         ground = self.controller.ground_at_pixel(u, v)
         self.map_view.show_cursor(None if ground is None else ground[:2])
         if ground is not None and self.iface is not None:
+            # the DEM's CRS named: QGIS's own coordinate box beside it shows the project's (a trial's 3857 project)
+            crs = self.controller.dem_crs.authid() if self.controller.dem_crs.isValid() else ""
             self.iface.statusBarIface().showMessage(
                 self.tr("Monoplot: photo pixel ({0:.0f}, {1:.0f}) → X {2:.1f}  Y {3:.1f}  Z {4:.1f} m").format(
-                    u, v, *ground), 4000)
+                    u, v, *ground) + (f" ({crs})" if crs else ""), 4000)
 
     def _map_cursor(self, point) -> None:
         if self.controller.fitted is None or self.controller.dem is None:
@@ -511,15 +516,19 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
                 self._rebuild_camera_layers_later()  # memory layers come back empty from a project file
             # the status line says what came back (a trial found it empty after reopening, the fit's verdict
             # only in the fit tab); the message bar stays quiet: nothing happened
-            text = self.tr("Monoplot session restored from the project.")
-            info = c.state.fit_info or {}
-            if c.fitted is not None:
-                check, rmse = info.get("check_rmse_px"), info.get("rmse_px")
-                figure = self.tr(", check points {0:.1f} px").format(check) if check is not None else \
-                    self.tr(", RMSE {0:.1f} px").format(rmse) if rmse is not None else ""
-                text += " " + self.tr("Fitted camera: {0}{1} (see the fit tab).").format(
-                    self.tr(str(info.get("status") or "not judged")), figure)
-            self.statusLabel.setText(status_line(text))
+            self.statusLabel.setText(status_line(self._restored_text()))
+
+    def _restored_text(self) -> str:
+        c = self.controller
+        text = self.tr("Monoplot session restored from the project.")
+        info = c.state.fit_info or {}
+        if c.fitted is not None:
+            check, rmse = info.get("check_rmse_px"), info.get("rmse_px")
+            figure = self.tr(", check points {0:.1f} px").format(check) if check is not None else \
+                self.tr(", RMSE {0:.1f} px").format(rmse) if rmse is not None else ""
+            text += " " + self.tr("Fitted camera: {0}{1} (see the fit tab).").format(
+                self.tr(str(info.get("status") or "not judged")), figure)
+        return text
 
     def _project_cleared(self) -> None:
         self.controller.cancel()

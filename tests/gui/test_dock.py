@@ -219,6 +219,29 @@ def test_save_and_reopen_project_restores_state(dock, scene, qtbot, tmp_path):
     assert len(cams) == 1 and cams[0].featureCount() == 1
 
 
+def test_a_dock_opened_on_a_project_with_monoplot_work_says_what_came_back(dock, scene, qtbot, tmp_path,
+                                                                           qgis_iface):
+    """The plugin opens the dock when a project with Monoplot work is read (after the read: the new dock missed
+    readProject), and a trial found its status line empty."""
+    from monoplot_plugin.gui.dock import MonoplotDock
+
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    c.set_prior(scene.prior)
+    c.set_fitted(scene.camera)
+    c.state.fit_info = {"status": "ok", "rmse_px": 1.5}
+    path = str(tmp_path / "session.qgz")
+    assert QgsProject.instance().write(path)
+    second = MonoplotDock(qgis_iface)
+    qtbot.addWidget(second)
+    try:
+        text = second.statusLabel.text()
+        assert text.startswith("Monoplot session restored from the project.") and "ok, RMSE 1.5 px" in text, text
+    finally:
+        second.controller.cancel()
+        second.unload()
+
+
 def test_suggest_fills_both_canvases_and_keeps_decisions(dock, scene, qtbot):
     load_inputs(dock, scene, qtbot)
     c = dock.controller
