@@ -105,9 +105,11 @@ class Shortlist:
                 continue
             touched.add(p.space)
             if p.status == SUGGESTED:
-                self.decided[p.space].pop(pid, None)
-                if pid in self._ranked[p.space] or p.manual:
-                    self.shown[p.space][pid] = None  # back from a decision (undo, U key)
+                # back from a decision (undo, U key); not a suggestion run brought back by Redo, though its ids
+                # are still ranked (a trial: Redo of Suggest put all 2,000 on show, and "Reject the rest" took them)
+                back = self.decided[p.space].pop(pid, None) is not None
+                if (back and pid in self._ranked[p.space]) or p.manual:
+                    self.shown[p.space][pid] = None
                     returned.add(p.space)
                 else:
                     fresh[p.space] = True  # a new suggestion run

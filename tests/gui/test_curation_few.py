@@ -483,3 +483,29 @@ def test_many_accepted_points_are_drawn_small_and_hollow(dock, scene, qtbot):
     c.delete([p.id for p in many[10:]])
     qtbot.waitUntil(lambda: drawn(dock.photo_view.markers, ACCEPTED) == 10, timeout=5000)
     assert band.icon() == QgsRubberBand.IconType.ICON_FULL_BOX and band.iconSize() == 7
+
+
+def test_redo_of_suggest_shows_a_few_again(dock, scene, qtbot):
+    """A trial: Undo then Redo of "Suggest points" put every suggestion on show (2,000 per view, a 2.5 s freeze),
+    and one "Reject the rest" then rejected all of them."""
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    c.set_prior(scene.prior)
+    press(qtbot, dock.suggestButton)
+    with qtbot.waitSignal(c.taskFinished, timeout=60000) as blocker:
+        pass
+    assert blocker.args[0].ok, blocker.args[0].reason
+    per_page = c.shortlist.per_page
+    before = {s: list(c.shortlist.shown_undecided(s)) for s in (PHOTO, MAP)}
+    assert all(len(ids) == per_page for ids in before.values())
+    c.stack.undo()
+    assert not c.shortlist.shown_undecided(PHOTO)
+    c.stack.redo()
+    for space in (PHOTO, MAP):
+        assert len(c.shortlist.shown_undecided(space)) == per_page, space
+    assert drawn(dock.photo_view.markers, SUGGESTED) == per_page
+    # and an undone decision still comes back on show
+    pid = c.shortlist.shown_undecided(PHOTO)[0]
+    c.accept(pid)
+    c.stack.undo()
+    assert pid in c.shortlist.shown_undecided(PHOTO)
