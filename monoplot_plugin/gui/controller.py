@@ -79,6 +79,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
     def __init__(self, project: Optional[QgsProject] = None, parent=None, autosave_delay_ms: int = 1500):
         super().__init__(parent)
         self.project = project or QgsProject.instance()
+        self.project_generation = 0  # counts closed projects (:meth:`project_closed`)
         self.state = ProjectState()
         self.stack = CommandStack(self.state)
         self.stack.add_listener(self._on_points_changed)
@@ -473,6 +474,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         self._autosave.stop()
         persistence.discard_autosave(self._project_file)
         self._project_file = ""
+        self.project_generation += 1  # what a background export started in it is not added to the next one
 
     def save(self) -> None:
         """Write the state into the project and the autosave file now (synchronously)."""

@@ -131,6 +131,7 @@ class ProductExports:
             return None
         name = self.photo_name()
         work = self._work(what, path, overwrite)  # copies what the worker needs, now
+        generation = self.controller.project_generation
 
         def done(result):
             self._tasks = [t for t in self._tasks if t is not task]
@@ -144,6 +145,12 @@ class ProductExports:
                                   Qgis.MessageLevel.Critical)
                 return
             written = result.value
+            if self.controller.project_generation != generation:
+                # its project was closed meanwhile (a trial: the orthophoto of the closed project was added to
+                # the new, empty one)
+                self.message(self.tr("Written: {0}; not added to this project: it was made for the project closed "
+                                     "since.").format(written), Qgis.MessageLevel.Info)
+                return
             group = photo_group(self.project, name)
             if what == "xyz":
                 add_xyz_layer(written, self.project, group)

@@ -163,6 +163,17 @@ def test_a_product_with_no_ground_pixel_is_not_written(dock_with_fit, tmp_path, 
         dock.statusLabel.setText("")
 
 
+def test_an_export_finished_after_its_project_was_closed_is_not_added_to_the_next(dock_with_fit, tmp_path, qtbot):
+    """A trial started an orthophoto, then a new project: the finished orthophoto was added to the new, empty one."""
+    dock, tools = dock_with_fit
+    task = tools.start_export("ortho", tmp_path / "late_ortho.tif")
+    assert task is not None
+    QgsProject.instance().clear()  # what iface.newProject() does; the export runs on
+    qtbot.waitUntil(lambda: "late_ortho.tif" in dock.statusLabel.text(), timeout=30000)
+    assert "not added to this project" in dock.statusLabel.text() and (tmp_path / "late_ortho.tif").exists()
+    assert not QgsProject.instance().mapLayers()
+
+
 def _legend_order(group):
     return [node.layer() for node in group.findLayers()]
 
