@@ -46,7 +46,7 @@ import numpy as np
 from .dem import Dem
 from .dem_window import DemSource, as_dem, missing_overviews, open_dem_source
 
-__all__ = ["LargeDem", "open_dem", "read_by_windows", "overviews_to_build", "in_memory_limit", "is_large",
+__all__ = ["LargeDem", "open_dem", "IMAGE_NOTE", "read_by_windows", "overviews_to_build", "in_memory_limit", "is_large",
            "PREVIEW_CELLS", "DEM_BYTES_PER_CELL", "PRODUCT_LOD"]
 
 logger = logging.getLogger("monoplot")
@@ -232,8 +232,9 @@ def open_dem(path: str, void_value: Optional[float] = None, progress: Optional[P
     so; :class:`~.dem_window.OverviewsCanceled` when ``is_canceled()`` turns true while they are built)."""
     cells = _cells(path)
     limit = in_memory_limit() if max_cells is None else int(max_cells)
+    image = _image_note(path)
     if not _windowed(path, cells, limit):
-        return Dem.open(path, void_value=void_value), []
+        return Dem.open(path, void_value=void_value), image
     source, notes = open_dem_source(str(path), progress, void_value=void_value, is_canceled=is_canceled)
     preview = as_dem(source, max_cells=min(PREVIEW_CELLS, limit // 4))
     factor = int(round(source.shape[1] / max(1, preview.cols)))
@@ -245,7 +246,24 @@ def open_dem(path: str, void_value: Optional[float] = None, progress: Optional[P
                     f"camera, coarser far away where a cell is smaller than a pixel; previews and checks on a 1/"
                     f"{factor} copy of {source.level_cell_size(factor):.3g} m cells)")
     logger.info("%s", notes[0])
-    return dem, notes
+    return dem, image + notes
+
+
+#: The note of :func:`open_dem` on a raster that looks like an image (the dock shows it as a warning).
+IMAGE_NOTE = "looks like an image, not elevations"
+
+
+def _image_note(path: str) -> List[str]:
+    """A note when the file has three or more bands of bytes: an RGB picture (an orthophoto, a scanned map) chosen
+    as the DEM (a trial: Suggest then ran on grey values 0-255 as heights, the camera "2 m above ground", and
+    nothing said so). Its first band is used all the same: a one-band byte DEM may be a coarse real one."""
+    from osgeo import gdal
+
+    ds = gdal.Open(str(path))
+    if ds.RasterCount < 3 or ds.GetRasterBand(1).DataType != gdal.GDT_Byte:
+        return []
+    return [f"{os.path.basename(str(path))} has {ds.RasterCount} bands of bytes (0-255): it {IMAGE_NOTE}; its "
+            f"first band is used as heights in metres. Choose an elevation raster"]
 
 
 def _millions(cells: int) -> str:

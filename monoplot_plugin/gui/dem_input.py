@@ -10,6 +10,7 @@ from typing import Optional, Protocol
 from qgis.core import Qgis, QgsCoordinateReferenceSystem, QgsRasterLayer
 
 from ..adapters.dem import DemError, dem_layer_path, overviews_to_build, read_dem_file
+from ..core.dem_large import IMAGE_NOTE
 from ..core.dem_window import OverviewsCanceled
 from ..workflow.progress import Canceled
 
@@ -99,7 +100,7 @@ class DemInputMixin:
         self.dem_crs = crs if crs.isValid() else QgsCoordinateReferenceSystem(layer.crs())
         self.state.dem_layer_id, self.state.dem_source = layer.id(), layer.source()
         for note in notes:
-            self.message.emit(self.tr("DEM: {0}").format(note), INFO)
+            self.message.emit(self.tr("DEM: {0}").format(note), WARNING if IMAGE_NOTE in note else INFO)
         self.overlay, self.xyz, self.footprint_wkt = None, None, ""
         self.demChanged.emit()
         self._changed()

@@ -350,3 +350,30 @@ def test_typing_a_field_of_view_moves_the_rough_camera_once_on_enter(dock, scene
     qtbot.keyClick(spin, Qt.Key.Key_Return)
     assert c.prior.fov == 55.0 and 5.0 not in fovs
     assert not any("does not look at the DEM" in m for m in messages)
+
+
+def test_an_rgb_image_chosen_as_the_dem_is_a_warning(dock, scene, tmp_path):
+    """A trial chose a 3-band byte GeoTIFF (an orthophoto) as the DEM: Suggest ran on grey values as heights and
+    nothing was said. Now a warning says it looks like an image (its first band is still used)."""
+    from osgeo import gdal, osr
+
+    path = str(tmp_path / "ortho_rgb.tif")
+    ds = gdal.GetDriverByName("GTiff").Create(path, 64, 48, 3, gdal.GDT_Byte)
+    ds.SetGeoTransform((600000.0, 10.0, 0.0, 5100000.0, 0.0, -10.0))
+    srs = osr.SpatialReference()
+    srs.ImportFromEPSG(32632)
+    ds.SetProjection(srs.ExportToWkt())
+    for band in range(1, 4):
+        ds.GetRasterBand(band).WriteArray(np.random.default_rng(band).integers(0, 255, (48, 64)).astype(np.uint8))
+    ds = None
+    layer = QgsRasterLayer(path, "ortho_rgb")
+    QgsProject.instance().addMapLayer(layer)
+    messages = []
+    dock.controller.message.connect(lambda text, level: messages.append((text, level)))
+    dock.controller.set_dem_layer(layer)
+    warned = [t for t, level in messages if "looks like an image" in t and level == Qgis.MessageLevel.Warning]
+    assert warned, messages
+    # a real DEM says nothing of the kind
+    messages.clear()
+    dock.controller.set_dem_layer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    assert not any("looks like an image" in t for t, _ in messages)
