@@ -32,6 +32,7 @@ from qgis.core import (
 from qgis.PyQt.QtCore import QCoreApplication, QVariant
 
 from ..workflow.inputs import check_dem_file, check_photo_path, check_view
+from ..core.dem_large import IMAGE_NOTE
 from ..workflow.inputs import load_dem as load_checked_dem
 from ..adapters.photo_space import PHOTO_Y_SIGN  # noqa: F401 (algorithms import it from here)
 from ..adapters.layers import crs_from_wkt
@@ -198,7 +199,7 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         dem, notes = checked(load_checked_dem, path, self.void_value(parameters, context), building)
         for note in notes:
             if feedback is not None:
-                feedback.pushInfo(note)
+                (feedback.pushWarning if IMAGE_NOTE in note else feedback.pushInfo)(note)
         if (crs.isGeographic() or not crs.isValid()) and dem.crs_wkt:
             crs = crs_from_wkt(dem.crs_wkt)
         if not crs.isValid():  # never an output without a CRS
