@@ -15,6 +15,7 @@ from qgis.core import Qgis
 from qgis.PyQt.QtCore import QCoreApplication
 from qgis.PyQt.QtWidgets import QFileDialog
 
+from ..outputs.safe_write import OutputError, check_can_write
 from ..workflow import products as product_step
 from .map_layers import add_orthophoto_layer, add_xyz_layer, photo_group
 
@@ -128,6 +129,11 @@ class ProductExports:
         reason = self.ready()
         if reason is not None:
             self.message(reason, Qgis.MessageLevel.Warning)
+            return None
+        try:  # before minutes of work (a trial's orthophoto into a missing folder failed after 7 s)
+            check_can_write(path, overwrite)
+        except OutputError as exc:
+            self.message(self.tr("Nothing was written: {0}").format(exc), Qgis.MessageLevel.Critical)
             return None
         name = self.photo_name()
         work = self._work(what, path, overwrite)  # copies what the worker needs, now

@@ -86,6 +86,8 @@ def describe_os_error(exc: OSError, target: PathLike) -> str:
     if code == errno.EFBIG:
         return f"cannot write {Path(target).name}: the file is larger than the folder allows (quota or file-size limit)"
     if code == errno.ENOENT:
+        if folder.is_dir():  # /proc, a virtual file system: no file can be created in it (a trial said "no folder")
+            return f"cannot write into {folder}: no file can be created there"
         return f"cannot write {Path(target).name}: the folder {folder} does not exist"
     if code == errno.ENAMETOOLONG:
         return f"cannot write {target}: the file name is too long"

@@ -174,6 +174,16 @@ def test_an_export_finished_after_its_project_was_closed_is_not_added_to_the_nex
     assert not QgsProject.instance().mapLayers()
 
 
+def test_an_export_into_a_folder_that_takes_no_file_says_so_at_once(dock_with_fit, tmp_path):
+    """A trial saved to /proc/x.tif: after the work, "the folder /proc does not exist". Now the folder is checked
+    before the work starts, and the reason is the right one."""
+    dock, tools = dock_with_fit
+    assert tools.start_export("ortho", "/proc/x.tif") is None  # no task started
+    assert "no file can be created there" in dock.statusLabel.text(), dock.statusLabel.text()
+    assert tools.start_export("xyz", tmp_path / "missing" / "x.tif") is None
+    assert "does not exist" in dock.statusLabel.text()
+
+
 def _legend_order(group):
     return [node.layer() for node in group.findLayers()]
 
