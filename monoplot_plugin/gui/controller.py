@@ -475,6 +475,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         persistence.discard_autosave(self._project_file)
         self._project_file = ""
         self.project_generation += 1  # what a background export started in it is not added to the next one
+        self._map_work_crs = None  # the next project's map points are in its own DEM's CRS (DemInputMixin)
 
     def save(self) -> None:
         """Write the state into the project and the autosave file now (synchronously)."""

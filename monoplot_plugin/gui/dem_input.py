@@ -12,6 +12,7 @@ from qgis.core import Qgis, QgsCoordinateReferenceSystem, QgsRasterLayer
 from ..adapters.dem import DemError, dem_layer_path, overviews_to_build, read_dem_file
 from ..core.dem_large import IMAGE_NOTE
 from ..core.dem_window import OverviewsCanceled
+from ..state import MAP
 from ..workflow.progress import Canceled
 
 __all__ = ["DemInputMixin", "DemInputHost"]
@@ -98,6 +99,19 @@ class DemInputMixin:
         # to UTM metres, so the layer's own CRS (degrees) would put every marker and click in the wrong place.
         crs = QgsCoordinateReferenceSystem.fromWkt(dem.crs_wkt) if dem.crs_wkt else QgsCoordinateReferenceSystem()
         self.dem_crs = crs if crs.isValid() else QgsCoordinateReferenceSystem(layer.crs())
+        has_map_work = any(p.space == MAP for p in self.state.points.values()) or bool(
+            self.state.prior or self.state.fitted)
+        before = getattr(self, "_map_work_crs", None)  # the CRS the map points and cameras were placed in
+        if not has_map_work or before is None or not before.isValid():
+            self._map_work_crs = QgsCoordinateReferenceSystem(self.dem_crs)
+        elif before != self.dem_crs:
+            # a trial switched from an LV03 DEM to one in degrees (used in UTM): the map points and cameras kept
+            # their LV03 numbers, vanished from the map, and a refit said "uncertain" 1,700 px off, without a word
+            self.message.emit(self.tr("The new DEM is used in {0}, the map points and cameras so far are in {1}: "
+                                      "they are not converted, and lie elsewhere on this DEM. Choose the previous "
+                                      "DEM again to go on with them, or start afresh with this one.")
+                              .format(self.dem_crs.authid() or self.dem_crs.description(),
+                                      before.authid() or before.description()), WARNING)
         self.state.dem_layer_id, self.state.dem_source = layer.id(), layer.source()
         for note in notes:
             self.message.emit(self.tr("DEM: {0}").format(note), WARNING if IMAGE_NOTE in note else INFO)

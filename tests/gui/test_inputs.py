@@ -377,3 +377,29 @@ def test_an_rgb_image_chosen_as_the_dem_is_a_warning(dock, scene, tmp_path):
     messages.clear()
     dock.controller.set_dem_layer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
     assert not any("looks like an image" in t for t, _ in messages)
+
+
+def test_a_dem_in_another_crs_with_map_work_on_it_is_a_warning(dock, scene, tmp_path):
+    """A trial fitted on an LV03 DEM, then chose one in degrees (used in UTM): the map points and cameras kept their
+    numbers in the new frame, vanished from the map, and nothing was said."""
+    from osgeo import gdal
+
+    from monoplot_plugin.state import MAP, Point, add_points
+
+    dock.photoFile.setFilePath(scene.photo_path)
+    layer = QgsProject.instance().mapLayersByName("synthetic DEM")[0]
+    dock.demCombo.setLayer(layer)
+    c = dock.controller
+    x, y = scene.camera.position[:2]
+    c.stack.push(add_points(c.state, [Point.new(MAP, x, y + 2000.0, 1500.0)]))
+    other = str(tmp_path / "dem_3857.tif")
+    gdal.Warp(other, layer.source(), dstSRS="EPSG:3857")
+    moved = QgsRasterLayer(other, "DEM in another CRS")
+    QgsProject.instance().addMapLayer(moved)
+    messages = []
+    c.message.connect(lambda text, level: messages.append((text, level)))
+    assert c.set_dem_layer(moved)
+    assert any("not converted" in t and level == Qgis.MessageLevel.Warning for t, level in messages), messages
+    messages.clear()
+    assert c.set_dem_layer(layer)  # back to the CRS the points are in: nothing to say
+    assert not any("not converted" in t for t, _ in messages)
