@@ -80,6 +80,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         super().__init__(parent)
         self.project = project or QgsProject.instance()
         self.project_generation = 0  # counts closed projects (:meth:`project_closed`)
+        self._map_work_crs = None  # DemInputMixin: the CRS of the DEM the map points and cameras were placed on
         self.state = ProjectState()
         self.stack = CommandStack(self.state)
         self.stack.add_listener(self._on_points_changed)

@@ -28,6 +28,7 @@ class DemInputHost(Protocol):
     dem: object  # core Dem or None
     dem_layer: Optional[QgsRasterLayer]
     dem_crs: QgsCoordinateReferenceSystem
+    _map_work_crs: Optional[QgsCoordinateReferenceSystem]  # the CRS the map points and cameras were placed in
     overlay: object
     xyz: object
     footprint_wkt: str
@@ -101,7 +102,7 @@ class DemInputMixin:
         self.dem_crs = crs if crs.isValid() else QgsCoordinateReferenceSystem(layer.crs())
         has_map_work = any(p.space == MAP for p in self.state.points.values()) or bool(
             self.state.prior or self.state.fitted)
-        before = getattr(self, "_map_work_crs", None)  # the CRS the map points and cameras were placed in
+        before = self._map_work_crs
         if not has_map_work or before is None or not before.isValid():
             self._map_work_crs = QgsCoordinateReferenceSystem(self.dem_crs)
         elif before != self.dem_crs:
