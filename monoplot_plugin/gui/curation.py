@@ -132,10 +132,17 @@ class CurationMixin:
     def accept_all_in(self, space: str, rect: Tuple[float, float, float, float]) -> int:
         """Accept every *suggested* point of ``space`` on show within (xmin, ymin, xmax, ymax) (the hidden ones
         were never looked at); returns how many."""
-        x0, y0, x1, y1 = rect
+        return self.accept_all_in_views({space: rect})
+
+    def accept_all_in_views(self, rects: dict) -> int:
+        """:meth:`accept_all_in` for several spaces (space -> rect) as one edit: one Undo takes it back (a trial:
+        "Accept all in view" took two, one per view)."""
         pts = self.state.points
-        ids = [i for i in self.shortlist.shown_undecided(space) if x0 <= pts[i].x <= x1 and y0 <= pts[i].y <= y1]
-        self.stack.push(set_status(self.state, ids, ACCEPTED, self.tr("Accept {0} points in view").format(len(ids))))
+        ids = [i for space, (x0, y0, x1, y1) in rects.items() for i in self.shortlist.shown_undecided(space)
+               if x0 <= pts[i].x <= x1 and y0 <= pts[i].y <= y1]
+        if ids:
+            self.stack.push(set_status(self.state, ids, ACCEPTED,
+                                       self.tr("Accept {0} points in view").format(len(ids))))
         return len(ids)
 
     def reset_statuses(self, space: Optional[str] = None) -> None:

@@ -324,12 +324,12 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         """Accept every suggestion visible on the photo canvas and on the main map."""
         from qgis.core import QgsPointXY
 
-        n = self.controller.accept_all_in(PHOTO, self.photo_canvas.visible_uv_rect())
         e = self.map_canvas.extent()
         corners = [self.map_mapping.to_space(QgsPointXY(x, y)) for x in (e.xMinimum(), e.xMaximum())
                    for y in (e.yMinimum(), e.yMaximum())]
         xs, ys = [p[0] for p in corners], [p[1] for p in corners]
-        n += self.controller.accept_all_in(MAP, (min(xs), min(ys), max(xs), max(ys)))
+        n = self.controller.accept_all_in_views({PHOTO: self.photo_canvas.visible_uv_rect(),
+                                                 MAP: (min(xs), min(ys), max(xs), max(ys))})
         self.show_message(self.tr("{0} suggestions accepted.").format(n))
         return n
 

@@ -134,6 +134,10 @@ def test_manual_point_add_move_delete_and_accept_all_in_view(dock, scene, qtbot)
     assert 0 < shown < len(scene.uv)  # a few at a time: "accept all in view" takes the ones on show only
     n = dock.accept_all_in_view()
     assert n > 0 and c.state.counts()[PHOTO][ACCEPTED] == shown
+    assert c.state.counts()[MAP][ACCEPTED] > 0  # both views
+    c.stack.undo()  # one Undo takes back both views' accepts (a trial needed two)
+    counts = c.state.counts()
+    assert counts[PHOTO][ACCEPTED] == 0 and counts[MAP][ACCEPTED] == 0
 
 
 def test_fit_task_runs_to_completion(dock, scene, qtbot):
