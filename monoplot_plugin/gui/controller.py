@@ -416,6 +416,12 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         self.cameraChanged.emit()
         self._changed()
         self.message.emit(*self.fit_summary(outcome.info))
+        if self.xyz is not None and not np.isfinite(self.xyz[..., 2]).any():
+            # a trial's GCP table in another CRS: the fit agreed with its points ("ok"), 2,200 km from the DEM
+            x, y = outcome.camera.position[:2]
+            self.message.emit(self.tr("The fitted camera sees no part of the DEM (it stands at X {0:.0f}, Y {1:.0f}): "
+                                      "are the map points in the DEM's CRS? No product can be made from it.")
+                              .format(x, y), WARNING)
 
     def ensure_products(self, background: bool = True) -> None:
         """Recompute overlay and per-pixel XYZ of the fitted camera (a project was reopened, a camera loaded).

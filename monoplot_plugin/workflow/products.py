@@ -54,7 +54,7 @@ def _check_ground(xyz: np.ndarray, allow_empty: bool) -> None:
     """A product with no ground pixel is an error unless ``allow_empty`` (a trial: a camera fitted to GCPs in
     another CRS stood 2,200 km from the DEM, and the dock said "Written" of an XYZ raster with no valid pixel)."""
     if not allow_empty and not np.isfinite(xyz[..., 2]).any():
-        raise ProductError(f"{NO_GROUND}: nothing written. Are the camera and its map points in the DEM's CRS?")
+        raise ProductError(f"{NO_GROUND}. Are the camera and its map points in the DEM's CRS?")
 
 
 def picture_area(photo: np.ndarray, work_size: int = 2000) -> Optional[np.ndarray]:

@@ -372,3 +372,26 @@ def test_a_gcp_table_in_the_projects_crs_is_converted_and_one_off_the_dem_is_a_w
     io_actions.import_points_csv(c, path)
     assert "outside the DEM" not in messages[-1][0] and messages[-1][1] != io_actions.WARNING
     project.setCrs(QgsCoordinateReferenceSystem())
+
+
+def test_a_fitted_camera_that_sees_no_dem_is_a_warning(dock, scene):
+    """A trial's fit to a GCP table in another CRS said "ok" (its points agreed) for a camera 2,200 km from the DEM,
+    and nothing said so until a product was refused."""
+    import dataclasses
+
+    from monoplot_plugin.gui import engine
+
+    _load(dock, scene)
+    c = dock.controller
+    messages = []
+    c.message.connect(lambda text, level: messages.append((text, level)))
+    x, y, z = scene.camera.position
+    far = dataclasses.replace(scene.camera, position=(x + 2e6, y, z))
+    overlay, xyz, footprint = engine.render_products(far, c.dem)
+    info = {"status": "ok", "mode": "paired", "rmse_px": 2.0, "n_pairs": 6, "message": "paired fit"}
+    c.show_fit(engine.FitOutcome(far, info, overlay, xyz, footprint))
+    assert any("sees no part of the DEM" in t and level == io_actions.WARNING for t, level in messages), messages
+    messages.clear()
+    overlay, xyz, footprint = engine.render_products(scene.camera, c.dem)
+    c.show_fit(engine.FitOutcome(scene.camera, info, overlay, xyz, footprint))
+    assert not any("sees no part of the DEM" in t for t, _ in messages)
