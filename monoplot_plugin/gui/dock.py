@@ -251,7 +251,14 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
             if layer.crs().isGeographic():
                 self.show_message(self.tr("The DEM is in degrees: Monoplot reprojects it to UTM metres."),
                                   Qgis.MessageLevel.Info)
-            self.controller.set_dem_layer(layer)
+            if not self.controller.set_dem_layer(layer) and not self.controller.busy:
+                # refused (the message says why): the box shows the DEM still in use again, not the refused layer
+                # (a trial's box showed a photo refused as DEM while the previous DEM was used)
+                self._on_dem()
+                if self.controller.dem_layer is None:
+                    self.demCombo.blockSignals(True)
+                    self.demCombo.setLayer(None)
+                    self.demCombo.blockSignals(False)
 
     def _on_photo(self) -> None:
         self.photo_view.redraw_photo()

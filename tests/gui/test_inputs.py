@@ -403,3 +403,17 @@ def test_a_dem_in_another_crs_with_map_work_on_it_is_a_warning(dock, scene, tmp_
     messages.clear()
     assert c.set_dem_layer(layer)  # back to the CRS the points are in: nothing to say
     assert not any("not converted" in t for t, _ in messages)
+
+
+def test_a_layer_refused_as_the_dem_leaves_the_box_on_the_dem_in_use(dock, scene, tmp_path):
+    """A trial chose the photo (a raster without CRS) as the DEM: refused, but the box went on showing it while the
+    previous DEM was used."""
+    dem_layer = QgsProject.instance().mapLayersByName("synthetic DEM")[0]
+    dock.demCombo.setLayer(dem_layer)
+    assert dock.controller.dem_layer is dem_layer
+    photo = QgsRasterLayer(scene.photo_path, "photo as raster")
+    assert photo.isValid()
+    QgsProject.instance().addMapLayer(photo)
+    dock.demCombo.setLayer(photo)  # as the person picks it in the box
+    assert dock.controller.dem_layer is dem_layer  # refused
+    assert dock.demCombo.currentLayer() is dem_layer
