@@ -255,10 +255,6 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
                 # refused (the message says why): the box shows the DEM still in use again, not the refused layer
                 # (a trial's box showed a photo refused as DEM while the previous DEM was used)
                 self._on_dem()
-                if self.controller.dem_layer is None:
-                    self.demCombo.blockSignals(True)
-                    self.demCombo.setLayer(None)
-                    self.demCombo.blockSignals(False)
 
     def _on_photo(self) -> None:
         self.photo_view.redraw_photo()
@@ -276,7 +272,7 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
 
     def _on_dem(self) -> None:
         layer = self.controller.dem_layer
-        if layer is not None and self.demCombo.currentLayer() is not layer:
+        if self.demCombo.currentLayer() is not layer:
             self.demCombo.blockSignals(True)
             self.demCombo.setLayer(layer)
             self.demCombo.blockSignals(False)
