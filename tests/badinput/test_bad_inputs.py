@@ -360,6 +360,46 @@ def test_geographic_dem_with_a_lonlat_gcp_table_fits_in_utm(run_alg, small_scene
     assert np.isfinite(result["RMSE_PX"]) and result["RMSE_PX"] < 5.0
 
 
+def test_a_gcp_table_in_the_projects_crs_is_converted_and_one_off_the_dem_warned(run_alg, small_scene, gcps,
+                                                                                tmp_path):
+    """fitcamera as the dock: a table whose numbers are in the project's CRS (not the DEM's) is converted and said
+    so; one whose numbers fit no CRS is fitted as given, with a warning that its points lie off the DEM."""
+    from qgis.core import QgsCoordinateReferenceSystem, QgsProject
+
+    from monoplot_plugin.workflow.inputs import _transform
+
+    dem = Dem.open(small_scene["dem"])
+    project = QgsProject.instance()
+    project.setCrs(QgsCoordinateReferenceSystem("EPSG:3857"))
+    try:
+        mercator = _transform(gcps["xyz"], dem.crs_wkt, "EPSG:3857")
+        path = tmp_path / "gcps_3857.csv"
+        rows = ["u_px,v_px,X,Y,Z"] + [f"{u:.3f},{v:.3f},{x:.3f},{y:.3f},{z:.2f}"
+                                      for (u, v), (x, y, z) in zip(gcps["uv"], mercator)]
+        path.write_text("\n".join(rows) + "\n")
+        feedback = QgsProcessingFeedback()
+        result = run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"],
+                                       "PRIOR": gcps["prior"], "PHOTO_CSV": str(path), "PAIRED": True,
+                                       "OUTPUT": str(tmp_path / "camera.json")}, feedback)
+        assert "EPSG:3857) coordinates and were converted to the DEM's CRS" in feedback.textLog()
+        assert result["RMSE_PX"] < 5.0
+        shifted = gcps["xyz"] + [2e6, 0.0, 0.0]
+        rows = ["u_px,v_px,X,Y,Z"] + [f"{u:.3f},{v:.3f},{x:.3f},{y:.3f},{z:.2f}"
+                                      for (u, v), (x, y, z) in zip(gcps["uv"], shifted)]
+        path.write_text("\n".join(rows) + "\n")
+        feedback = QgsProcessingFeedback()
+        try:
+            run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"], "PRIOR": gcps["prior"],
+                                  "PHOTO_CSV": str(path), "PAIRED": True, "OUTPUT": str(tmp_path / "c2.json")},
+                    feedback)
+        except QgsProcessingException:
+            pass  # the fit may refuse the points; the warning came first
+        assert f"{len(shifted)} of {len(shifted)} map points of gcps_3857.csv lie outside the DEM" in \
+            feedback.textLog()
+    finally:
+        project.setCrs(QgsCoordinateReferenceSystem())
+
+
 def test_aletsch_zero_voids_are_voids_in_processing_too(run_alg, aletsch_dir, tmp_path):
     """The Aletsch DEM declares no nodata and fills its voids with 0: computexyz (as the dock) treats them as voids,
     says so, and no pixel lands at 0 m."""
