@@ -199,6 +199,14 @@ class ProjectState:
             return ids[0] if step > 0 else ids[-1]
         return ids[(ids.index(current) + step) % len(ids)]
 
+    def is_blank(self) -> bool:
+        """Nothing worth keeping: no photo, DEM, point, camera or setting (a fresh dock's state).
+
+        >>> ProjectState().is_blank(), ProjectState(photo_path="a.jpg").is_blank()
+        (True, False)
+        """
+        return self.to_dict() == ProjectState().to_dict()
+
     # --- serialisation ----------------------------------------------------------------------------------------
     def _header(self) -> dict:
         return {"format": FORMAT, "photo_path": self.photo_path, "dem_layer_id": self.dem_layer_id,

@@ -105,9 +105,13 @@ def _for_project(project: QgsProject, state: ProjectState) -> str:
 
 
 def store_in_project(project: QgsProject, state: ProjectState) -> str:
-    """Store ``state`` in the project's properties (marks the project modified); returns the JSON text."""
+    """Store ``state`` in the project's properties (marks the project modified when it changes it); returns the
+    JSON text. A blank state is not written into a project that has no Monoplot entry: opening the dock and
+    unloading the plugin made an empty project "modified", and quitting QGIS then asked to save it."""
     text = _for_project(project, state)
-    text_before, _ = project.readEntry(SCOPE, KEY, "")
+    text_before, found = project.readEntry(SCOPE, KEY, "")
+    if not found and state.is_blank():
+        return text
     if text != text_before:
         project.writeEntry(SCOPE, KEY, text)
     return text

@@ -111,3 +111,28 @@ def test_a_project_closed_without_saving_does_not_come_back_from_the_autosave(do
     qtbot.waitUntil(lambda: c.image is not None, timeout=5000)
     assert c.state.settings.get("overlay_opacity") != 17
     assert not any("autosave" in m for m in messages), messages
+
+
+def test_a_dock_opened_and_closed_on_an_empty_project_leaves_it_unmodified(qgis_iface, qtbot, scene):
+    """Opening the dock and unloading the plugin (a reload, QGIS quitting) wrote a blank Monoplot entry into an
+    empty project: QGIS then asked "Do you want to save the current project?" on quit. Work in the dock is still
+    written."""
+    from monoplot_plugin.gui.dock import MonoplotDock
+
+    project = QgsProject.instance()
+    project.clear()
+    assert not project.isDirty()
+    blank = MonoplotDock(qgis_iface)
+    qtbot.addWidget(blank)
+    blank.unload()
+    assert not project.isDirty()
+    assert project.readEntry(persistence.SCOPE, persistence.KEY, "") == ("", False)
+
+    worked = MonoplotDock(qgis_iface)
+    qtbot.addWidget(worked)
+    worked.photoFile.setFilePath(scene.photo_path)
+    assert worked.controller.image is not None
+    worked.unload()
+    text, found = project.readEntry(persistence.SCOPE, persistence.KEY, "")
+    assert found and os.path.basename(scene.photo_path) in text and project.isDirty()
+    project.clear()
