@@ -28,23 +28,9 @@ def plugin_icon_path():
     return ICON_RESOURCE if QFile.exists(ICON_RESOURCE) else str(ICON_FILE)
 
 
-#: the warm-up starts this long after initGui (milliseconds); QGIS quitting waits at most WARM_UP_WAIT_MS for the
-#: step it is in
-WARM_UP_DELAY_MS, WARM_UP_WAIT_MS = 2000, 60000
-#: warm-up tasks still running: Python must keep them while their thread runs (also after the plugin's unload)
-_WARMING = []
-_QUIT_HOOK = []
-
-
-def _wait_for_warm_up():
-    """QGIS is quitting: stop the warm-up and wait for the step it is in, so that Python does not go away under a
-    running worker thread."""
-    for task in list(_WARMING):
-        try:
-            task.cancel()
-            task.waitForFinished(WARM_UP_WAIT_MS)
-        except RuntimeError:  # already deleted by the task manager
-            pass
+#: the warm-up starts this long after initGui (milliseconds); QGIS quitting waits for the step it is in
+#: (gui/tasks.py keeps the task until its thread ends, also after the plugin's unload)
+WARM_UP_DELAY_MS = 2000
 
 
 def start_warm_up():
@@ -58,17 +44,11 @@ def start_warm_up():
         import_plugin_modules()  # here, on the main thread: the warm-up thread then imports none of them
 
         def done(result):
-            if task in _WARMING:
-                _WARMING.remove(task)
             if result.ok:
                 LOG.info("Monoplot warmed up: %s", ", ".join(f"{k} {v:.1f} s" for k, v in result.value.items()))
 
         task = HiddenTask("Monoplot: preparing", lambda progress, is_canceled: warm_up(progress, is_canceled),
                             done)
-        _WARMING.append(task)
-        if not _QUIT_HOOK:
-            QgsApplication.instance().aboutToQuit.connect(_wait_for_warm_up)
-            _QUIT_HOOK.append(True)
         return start_task(task)
     except Exception:  # noqa: BLE001 — a warm-up is an optimisation, never a reason to fail loading
         LOG.exception("Monoplot warm-up not started")
@@ -170,11 +150,10 @@ class MonoplotPlugin:
             timer.stop()
             self._warmup_timer = None
         task, self.warmup_task = getattr(self, "warmup_task", None), None
-        if task is not None and task in _WARMING:
-            try:  # stops after the step it is in (a reload does not wait: _WARMING keeps the task until it ends;
-                task.cancel()  # QGIS quitting waits for it, _wait_for_warm_up)
-            except RuntimeError:  # already deleted by the task manager
-                pass
+        if task is not None:  # stops after the step it is in; a reload does not wait for it (gui/tasks.py)
+            from .gui.tasks import abandon
+
+            abandon(task)
         if self.dock is not None:
             self.dock.visibilityChanged.disconnect(self.action.setChecked)
             self.dock.unload()  # main-map markers, map tools, project signals (gui/dock.py)

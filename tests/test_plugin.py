@@ -11,6 +11,7 @@ from qgis.PyQt.QtWidgets import QAction, QDockWidget
 
 import resources_rc  # noqa: F401  (compiled by `make resources`, as in the release zip)
 from monoplot_plugin import plugin as plugin_module
+from monoplot_plugin.gui import tasks as tasks_module
 from monoplot_plugin.plugin import MonoplotPlugin
 
 
@@ -67,8 +68,8 @@ def test_init_gui_warms_the_kernels_in_a_background_task(plugin, qtbot):
     does it (workflow/warmup.py), on a worker thread."""
     qtbot.waitUntil(lambda: plugin.warmup_task is not None, timeout=plugin_module.WARM_UP_DELAY_MS + 5000)
     task = plugin.warmup_task
-    assert task in plugin_module._WARMING
-    qtbot.waitUntil(lambda: task not in plugin_module._WARMING, timeout=120000)
+    assert task in tasks_module._LIVE  # kept referenced while its thread runs
+    qtbot.waitUntil(lambda: task not in tasks_module._LIVE, timeout=120000)
     assert task.result is not None and task.result.ok, task.result
     assert set(task.result.value) == {"render", "suggest", "fit"}
 
@@ -81,8 +82,8 @@ def test_unload_during_the_warm_up_cancels_it(qgis_iface, qtbot):
     qtbot.waitUntil(lambda: instance.warmup_task is not None, timeout=plugin_module.WARM_UP_DELAY_MS + 5000)
     task = instance.warmup_task
     instance.unload()
-    assert instance.warmup_task is None
-    qtbot.waitUntil(lambda: task not in plugin_module._WARMING, timeout=120000)
+    assert instance.warmup_task is None and task in tasks_module._LIVE
+    qtbot.waitUntil(lambda: task not in tasks_module._LIVE, timeout=120000)
     assert task.result is not None and task.result.status in ("canceled", "success")
     flush_deletes()
 

@@ -20,7 +20,7 @@ from qgis.PyQt.QtWidgets import QHBoxLayout, QLabel, QVBoxLayout, QWidget
 from ..adapters.photo import array_to_qimage
 from ..core.camera import Camera
 from ..state import MAP, PHOTO
-from .tasks import HiddenTask, start_task
+from .tasks import HiddenTask, abandon, start_task
 
 __all__ = ["ChipView", "chip_radius", "chip_side", "render_view"]
 
@@ -355,7 +355,5 @@ class ChipView(QWidget):
         return pixmap
 
     def unload(self) -> None:
-        for task in self._tasks:
-            task.cancel()
-        for task in self._tasks:  # a worker thread of its own: not left running when QGIS quits
-            task.waitForFinished(5000)
+        for task in self._tasks:  # ends touching nothing of the dock; QGIS quitting waits for it (gui/tasks.py)
+            abandon(task)

@@ -32,7 +32,7 @@ from .fit_settings import fit_arguments, height_arguments
 from .priors import PriorsMixin
 from .results import ResultsMixin
 from .refit import inputs_key
-from .tasks import CANCELED, FunctionTask, HiddenTask, TaskResult, start_task
+from .tasks import CANCELED, FunctionTask, HiddenTask, TaskResult, abandon, start_task
 
 __all__ = ["MonoplotController"]
 
@@ -125,9 +125,11 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         if getattr(self.dem, "source", None) is not None:
             self.dem.source.close()
             self.dem = None
-        if self._preparing is not None:  # no thread left importing when QGIS quits
-            self._preparing.cancel()
-            self._preparing.waitForFinished(30000)
+        # the dock's tasks may still run: cut loose, they stop at their next check and touch nothing deleted (QGIS
+        # quitting waits for a hidden task's step, gui/tasks.py); waiting here froze an unload during a first fit
+        for task in (self.task, self._preparing, *self._products_tasks):
+            abandon(task)
+        self.task, self._preparing, self._products_tasks = None, None, []
         for signal, slot in ((self.project.layersWillBeRemoved, self._layers_removed),
                              (self.project.writeProject, self._project_writing)):
             try:
@@ -216,7 +218,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         warmup.yield_to_work()  # a warm-up still running stops after its step: this work comes first
         self.task = FunctionTask(description, work, done)
         self.task_kind = kind
-        self.task.progressChanged.connect(self.progressChanged.emit)
+        self.task.progressChanged.connect(self.progressChanged)  # signal to signal: Qt drops it with either object
         self.busyChanged.emit(description)
         start_task(self.task)
         return True

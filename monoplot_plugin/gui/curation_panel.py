@@ -354,7 +354,7 @@ class CurationPanel(QWidget):
 
     def unload(self) -> None:
         self.refitter.enabled = False
-        self.refitter.cancel(wait_ms=10000)  # no refit left running once the dock is gone
+        self.refitter.abandon()  # a refit still running ends touching nothing of the dock (gui/tasks.py)
 
 
 def install_curation_panel(dock) -> CurationPanel:

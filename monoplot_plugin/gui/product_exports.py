@@ -120,6 +120,14 @@ class ProductExports:
             self.start_export("report", path, overwrite=True)
 
     # --- background exports -----------------------------------------------------------------------------------
+    def abandon(self) -> None:
+        """The dock is going away: cancel the running exports, which then tell nobody (:func:`.tasks.abandon`)."""
+        from .tasks import abandon
+
+        for task in self._tasks:
+            abandon(task)
+        self._tasks = []
+
     def start_export(self, what: str, path, overwrite: bool = False):
         """Compute and write the XYZ raster ("xyz"), orthophoto ("ortho") or report ("report") in a QgsTask;
         the layer is added and the user told on the main thread when it is done. Returns the task (None when

@@ -486,7 +486,9 @@ class OutputTools(QObject):
 
     # --- life cycle -------------------------------------------------------------------------------------------
     def unload(self) -> None:
-        """Undo the installation: tools off the canvas, canvas items removed, signals disconnected."""
+        """Undo the installation: tools off the canvas, canvas items removed, signals disconnected, exports still
+        running canceled (nothing is replaced: the files are renamed into place only when complete)."""
+        self.exports.abandon()
         canvas = self.canvas
         for tool in [*self.capture_tools.values(), self.edit_tool]:
             if canvas.mapTool() is tool:

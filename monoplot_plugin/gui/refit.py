@@ -24,7 +24,7 @@ from ..workflow.auto import cap_by_automatic
 from ..workflow.progress import check_canceled
 from .fit_settings import fit_arguments, height_arguments
 from .shortlist import Recommendation, recommendation
-from .tasks import HiddenTask, start_task
+from .tasks import HiddenTask, abandon, start_task
 
 __all__ = ["Refitter", "RefitOutcome", "RunningFit", "sigma_of"]
 
@@ -156,14 +156,21 @@ class Refitter(QObject):
             return None
         return r if (r.done is not None if r.ended else self.task is not None) else None
 
-    def cancel(self, wait_ms: int = 0) -> None:
-        """Stop the pending and the running refit; ``wait_ms``: block until the task has stopped (unload)."""
+    def cancel(self) -> None:
+        """Stop the pending and the running refit."""
         self._timer.stop()
         self._again = False
         if self.task is not None:
             self.task.cancel()
-            if wait_ms:
-                self.task.waitForFinished(wait_ms)
+
+    def abandon(self) -> None:
+        """The dock is going away: stop the pending refit and cut the running one loose (:func:`.tasks.abandon`); a
+        Fit waiting for it goes on by itself."""
+        self.cancel()
+        if self.current is not None and not self.current.ended:
+            self.current.end(None)
+        abandon(self.task)
+        self.task = None
 
     def _run(self) -> None:
         if self.task is not None:  # a newer change: stop the running refit, start again when it ends

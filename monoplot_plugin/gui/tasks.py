@@ -14,6 +14,11 @@ in the status bar and QGIS announces it when it took long. Work the dock starts 
 the chips' DEM view, the warm-up) runs as a :class:`HiddenTask`, same protocol, in a plain worker thread: no
 status-bar entry and no "Task complete" message on every refit (QGIS 3.22 has no ``QgsTask.Flag.Silent``).
 
+When the dock goes away (plugin unloaded or reloaded, QGIS quitting) its tasks may still run: :func:`abandon` cancels
+each and cuts it loose (no ``on_done``, no signal to the dock's objects), so that a task ending afterwards touches
+nothing deleted. A :class:`HiddenTask` is kept referenced here until its thread ends, and QGIS quitting waits for the
+step it is in (Python must not be finalised under a running worker thread: QGIS 3.40 crashed in LLVM that way).
+
 >>> TaskResult.success(42).ok, TaskResult.failed("no points").reason
 (True, 'no points')
 """
@@ -40,10 +45,14 @@ from ..workflow.progress import Canceled  # raised by work that stops at once wh
 #: no traceback goes to the log (a read-only folder put a Python traceback in the Monoplot tab, desktop trial)
 WORDED_ERRORS = (OutputError, InputError, ProductError, PhotoError, PhotoFileError, DemError)
 
-__all__ = ["TaskResult", "FunctionTask", "HiddenTask", "start_task", "SUCCESS", "FAILED", "CANCELED"]
+__all__ = ["TaskResult", "FunctionTask", "HiddenTask", "start_task", "abandon", "SUCCESS", "FAILED", "CANCELED"]
 
 SUCCESS, FAILED, CANCELED = "success", "failed", "canceled"
-
+#: how long QGIS quitting waits for a hidden task's step (an import of torch or a numba compile cannot be cut short)
+QUIT_WAIT_MS = 60000
+#: hidden tasks whose worker thread runs (Python keeps them and their closures until it ends, also after an unload)
+_LIVE: list = []
+_QUIT_HOOK: list = []
 
 
 @dataclass
@@ -104,6 +113,12 @@ class FunctionTask(QgsTask):
         if self.result is None:  # canceled before run() started
             self.result = TaskResult.canceled()
         _deliver(self.result, self._on_done)
+
+    def abandon(self) -> None:
+        """Cancel, and deliver to nobody: see :func:`abandon`."""
+        self.cancel()
+        self._on_done = None
+        _disconnect_all(self.stageChanged)
 
 
 def _run_work(work, progress, is_canceled) -> TaskResult:
@@ -189,9 +204,46 @@ class HiddenTask(QObject):
         self.progressChanged.emit(max(0.0, min(100.0, 100.0 * float(fraction))))
 
     def _finished(self) -> None:  # main thread
+        if self in _LIVE:
+            _LIVE.remove(self)
         result = self.result or TaskResult.canceled()
         _deliver(result, self._on_done)
         (self.taskCompleted if result.ok else self.taskTerminated).emit()
+
+    def abandon(self) -> None:
+        """Cancel, and deliver to nobody: see :func:`abandon`."""
+        self.cancel()
+        self._on_done = None
+        for signal in (self.progressChanged, self.taskCompleted, self.taskTerminated):
+            _disconnect_all(signal)
+
+
+def _disconnect_all(signal) -> None:
+    try:
+        signal.disconnect()
+    except (TypeError, RuntimeError):  # nothing connected; or the object is already deleted
+        pass
+
+
+def abandon(task) -> None:
+    """The dock that started ``task`` (a :class:`FunctionTask` or :class:`HiddenTask`, or None) is going away: cancel
+    it without waiting, drop its ``on_done`` and disconnect the signals it would send to the dock's objects. The work
+    stops at its next ``is_canceled()`` check; nothing of it reaches a deleted widget. (Before, a fit ending after
+    the plugin's unload called the deleted controller: a Python error in the log, and QGIS crashed 2 times in 22.)
+    A task the QGIS task manager already deleted is skipped."""
+    if task is None:
+        return
+    try:
+        task.abandon()
+    except RuntimeError:  # wrapped C++ object deleted: the task is over
+        pass
+
+
+def _wait_for_live_tasks() -> None:
+    """QGIS is quitting: stop every hidden task and wait for the step it is in."""
+    for task in list(_LIVE):
+        task.cancel()
+        task.waitForFinished(QUIT_WAIT_MS)
 
 
 def start_task(task):
@@ -199,6 +251,10 @@ def start_task(task):
     task list), a :class:`HiddenTask` into its own thread. Keep a reference to the returned task until ``on_done``
     ran: Python must not collect it while it runs."""
     if isinstance(task, HiddenTask):
+        _LIVE.append(task)
+        if not _QUIT_HOOK:  # once per module (a plugin reload makes a new module, with its own list and hook)
+            QgsApplication.instance().aboutToQuit.connect(_wait_for_live_tasks)
+            _QUIT_HOOK.append(True)
         task.start()
     else:
         QgsApplication.taskManager().addTask(task)

@@ -59,3 +59,77 @@ def test_a_worded_error_is_said_without_a_traceback_and_a_bug_keeps_its_own(qtbo
     assert not any("Traceback" in m for m in logged)
     bug = run(qtbot, lambda task, is_canceled: [][1])
     assert bug.status == FAILED and any("Traceback" in m and "IndexError" in m for m in logged)
+
+
+def test_an_abandoned_task_stops_and_tells_nobody(qtbot):
+    """The dock going away mid-task (plugin unload or reload): the task is canceled and cut loose; its ``on_done``
+    and its signals never reach the dock's (deleted) objects. A hidden task stays referenced until its thread ends.
+    Before, a fit that ended after the unload called the deleted controller (a Python error in the log)."""
+    import threading
+
+    from monoplot_plugin.gui import tasks
+    from monoplot_plugin.gui.tasks import HiddenTask, abandon
+
+    for kind in (FunctionTask, HiddenTask):
+        started, ended, delivered, heard = threading.Event(), threading.Event(), [], []
+
+        def work(progress, is_canceled):
+            started.set()
+            while not is_canceled():
+                progress(0.5, "working")
+                threading.Event().wait(0.01)
+            ended.set()
+            raise Canceled()
+
+        task = kind("Monoplot: abandoned", work, delivered.append)
+        signal = task.stageChanged if kind is FunctionTask else task.progressChanged
+        signal.connect(heard.append)
+        start_task(task)
+        assert started.wait(10)
+        qtbot.waitUntil(lambda: bool(heard), timeout=5000)  # connected and heard while it runs
+        if kind is HiddenTask:
+            assert task in tasks._LIVE
+        abandon(task)
+        assert ended.wait(10)
+        heard.clear()
+        qtbot.wait(300)  # the end reaches the main thread
+        assert delivered == [] and heard == []
+        assert task not in tasks._LIVE
+    abandon(None)  # nothing to abandon
+
+
+def test_a_fit_ending_after_the_dock_was_deleted_reaches_nothing(qgis_iface, dem_layer, scene, tmp_path, qtbot):
+    """The plugin unloaded 50-400 ms after a Fit click: the fit's task ended later and called the deleted dock's
+    controller (a traceback in the Monoplot log each time; QGIS crashed 2 times in 22 in a desktop loop). Now the
+    unload cuts the task loose: it stops, and nothing is logged but its own line."""
+    from qgis.core import Qgis, QgsApplication
+    from qgis.PyQt import sip
+    from qgis.PyQt.QtCore import QCoreApplication, QEvent
+
+    from monoplot_plugin.gui.dock import MonoplotDock
+    from monoplot_plugin.gui.io_actions import import_points_csv, load_camera_file
+    from monoplot_plugin.workflow.camera_files import save_camera
+    from monoplot_plugin.workflow.points_csv import write_points_csv
+
+    dock = MonoplotDock(qgis_iface)  # deleted below, as the plugin's unload does: not a qtbot widget
+    dock.photoFile.setFilePath(scene.photo_path)
+    dock.demCombo.setLayer(dem_layer)
+    c = dock.controller
+    save_camera(str(tmp_path / "prior.json"), scene.prior)
+    assert load_camera_file(c, str(tmp_path / "prior.json")) is not None
+    write_points_csv(str(tmp_path / "gcps.csv"), uv=scene.uv[:30], xyz=scene.xyz[:30])
+    import_points_csv(c, str(tmp_path / "gcps.csv"))
+    logged = []
+    QgsApplication.messageLog().messageReceived.connect(
+        lambda text, tag, level: logged.append(text) if level >= Qgis.MessageLevel.Warning else None)
+    dock.fitButton.click()
+    task = c.task
+    assert task is not None
+    qtbot.wait(100)
+    dock.unload()
+    dock.deleteLater()
+    QCoreApplication.sendPostedEvents(None, QEvent.Type.DeferredDelete)
+    assert sip.isdeleted(dock)
+    qtbot.waitUntil(lambda: task.result is not None, timeout=60000)
+    qtbot.wait(500)  # the task's end reaches the main thread
+    assert logged == []
