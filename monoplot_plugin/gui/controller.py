@@ -281,14 +281,31 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
 
         return self._start("suggest", self.tr("Suggest points"), work, apply)
 
-    def fit_inputs(self):
-        """(photo uv (N, 2), map xyz (M, 3), pairs [(i, j)]) of the accepted points, or a reason string."""
+    def _accepted_for_fit(self) -> Tuple[List[Point], List[Point]]:
+        """(photo points, map points with a height) the fit would use: the accepted ones, map points off the DEM
+        and without a height of their own left out."""
         photo = self.state.in_space(PHOTO, (ACCEPTED,))
         world = [p for p in self.state.in_space(MAP, (ACCEPTED,))]
         if self.dem is not None:
             world = [p if p.z is not None else Point(**{**p.__dict__, "z": float(self.dem.sample(p.x, p.y))})
                      for p in world]
-        world = [p for p in world if p.z is not None and math.isfinite(p.z)]
+        return photo, [p for p in world if p.z is not None and math.isfinite(p.z)]
+
+    def fit_points_changed(self) -> bool:
+        """True when the points a fit would use now are not those of the fitted camera's fit (accepted, rejected,
+        moved or undone since): the fit tab says so. False without a record (a camera from a file, older state)."""
+        used = self.state.fit_info.get("fit_point_ids")
+        if self.fitted is None or used is None:
+            return False
+        photo, world = self._accepted_for_fit()
+        fitted_positions = self.state.fit_info.get("fit_point_xy") or {}
+        if {p.id for p in photo + world} != set(used):
+            return True
+        return any(tuple(fitted_positions.get(p.id, (p.x, p.y))) != (p.x, p.y) for p in photo + world)
+
+    def fit_inputs(self):
+        """(photo uv (N, 2), map xyz (M, 3), pairs [(i, j)]) of the accepted points, or a reason string."""
+        photo, world = self._accepted_for_fit()
         if len(photo) < self.MIN_POINTS or len(world) < self.MIN_POINTS:
             return self.tr("The fit needs at least {0} accepted points on the photo and on the map "
                            "(now {1} and {2}).").format(self.MIN_POINTS, len(photo), len(world))
@@ -340,6 +357,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             self.message.emit(self.tr("{0} pair(s) ignored: a paired fit needs at least {1}; fitting without "
                                       "pairs.").format(n_links, self.MIN_POINTS), INFO)
         photo_ids, world_ids = self._fit_ids
+        point_xy = {pid: (self.state.points[pid].x, self.state.points[pid].y) for pid in photo_ids + world_ids}
         check_ids, check_uv, check_xyz = self.check_points()
         dem = self.dem
 
@@ -365,6 +383,9 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             outcome.info["matched"] = [[photo_ids[i], world_ids[j]] for i, j in outcome.info.pop("matched_idx", [])]
             outcome.info["check_error_px"] = dict(zip(check_ids, outcome.info.pop("check_errors", [])))
             outcome.info["outliers"] = [photo_ids[i] for i in outcome.info.pop("outlier_idx", [])]
+            # what the camera was fitted to, to say when the points have changed since (fit_points_changed)
+            outcome.info["fit_point_ids"] = photo_ids + world_ids
+            outcome.info["fit_point_xy"] = point_xy
             self.cap_by_automatic(outcome.info, photo_ids + world_ids, len(pairs), len(check_ids))
             self._apply_fit(outcome)
 

@@ -308,7 +308,7 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
 
     def _result_text(self) -> str:
         c = self.controller
-        return fit_summary_html(c.fitted, c.state.fit_info, self.tr)
+        return fit_summary_html(c.fitted, c.state.fit_info, self.tr, points_changed=c.fit_points_changed())
 
     def _residual_by_id(self):
         """Residual length (px) per matched photo point id and per check point, for the table."""
@@ -344,6 +344,8 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         self.undoButton.setEnabled(st.can_undo())
         self.redoButton.setEnabled(st.can_redo())
         self.undoButton.setToolTip(self.tr("Undo {0}").format(st.undo_text()))
+        if self.controller.fitted is not None:  # "the points changed since this fit", or no longer
+            self.resultLabel.setText(self._result_text())
 
     def _on_selection(self, space: str, pid: str) -> None:
         view = self.photo_view if space == PHOTO else self.map_view

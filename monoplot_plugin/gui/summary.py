@@ -24,8 +24,10 @@ def sigma_text(value: float) -> str:
     return f"{value:.{min(6, max(0, 1 - math.floor(math.log10(value))))}f}"
 
 
-def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], str] = str) -> str:
-    """Rich text for the results label (``tr`` translates the user-visible words).
+def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], str] = str,
+                     points_changed: bool = False) -> str:
+    """Rich text for the results label (``tr`` translates the user-visible words); ``points_changed``: the points
+    the fit would use now are not those this camera was fitted to (said first: the figures below are the old fit's).
 
     Check points (paired points kept out of the fit) come first: they measure the camera; the fit's own RMSE only
     says how well the points it used agree, which for automatic pairs says little about accuracy.
@@ -50,6 +52,8 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     True
     >>> "on 8 pairs (1 accepted photo point without a partner not used)" in fit_summary_html(
     ...     cam, {"rmse_px": 0.4, "mode": "paired", "n_photo": 9, "n_map": 8, "n_pairs": 8})
+    True
+    >>> fit_summary_html(cam, {"rmse_px": 6.4}, points_changed=True).startswith("<p><b>The accepted points changed")
     True
     >>> html = fit_summary_html(cam, {"status": "uncertain", "mode": "unpaired", "sigma": {"x": 0.31}})
     >>> "± 0.31*" in html and html.index("assume the automatic pairs are right") < html.index("<table>")
@@ -123,5 +127,8 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
                                   "there, or the fit ended low): rays start by leaving the ground, and the terrain "
                                   "is seen from above only.") + "</small></p>"
     html = f"<p>{head}</p><table>{html}</table>"
+    if points_changed:  # undone, reset or new decisions: the RMSE and status below are not of these points
+        html = "<p><b>" + tr("The accepted points changed since this fit: Fit again to update the camera and "
+                             "its figures below.") + "</b></p>" + html
     return html + note
 

@@ -428,3 +428,36 @@ def test_unload_leaves_nothing_on_the_main_map(qgis_iface, qtbot, dem_layer, sce
     d.unload()  # a second call (QGIS quitting after the plugin unloaded) is harmless
     assert len(canvas.scene().items()) == before
     assert canvas.mapTool() is not d.map_tool
+
+
+def test_the_fit_tab_says_when_the_points_changed_since_the_fit(dock, scene, tmp_path, qtbot):
+    """A trial: after "Reset decisions" (or rejecting or undoing accepts) the fit tab still showed "Status ok, RMSE 0.4 px
+    on 12 pairs" of points no longer accepted. It now says first that the points changed since this fit; undoing
+    the change takes the note away, and so does a new fit."""
+    from monoplot_plugin.gui.io_actions import import_points_csv, load_camera_file
+    from monoplot_plugin.workflow.camera_files import save_camera
+    from monoplot_plugin.workflow.points_csv import write_points_csv
+
+    dock.photoFile.setFilePath(scene.photo_path)
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    c = dock.controller
+    save_camera(str(tmp_path / "prior.json"), scene.prior)
+    assert load_camera_file(c, str(tmp_path / "prior.json")) is not None
+    write_points_csv(str(tmp_path / "gcps.csv"), uv=scene.uv[:12], xyz=scene.xyz[:12])
+    import_points_csv(c, str(tmp_path / "gcps.csv"))
+    note = "changed since this fit"
+    with qtbot.waitSignal(c.taskFinished, timeout=120000):
+        dock.fitButton.click()
+    assert c.fitted is not None and note not in dock.resultLabel.text()
+    from monoplot_plugin.state import move_point, set_status
+
+    first = c.state.in_space(PHOTO, (ACCEPTED,))[0]
+    c.stack.push(set_status(c.state, [first.id], REJECTED))
+    assert note in dock.resultLabel.text()
+    dock.undoButton.click()
+    assert note not in dock.resultLabel.text()
+    c.stack.push(move_point(c.state, first.id, first.x + 3.0, first.y))
+    assert note in dock.resultLabel.text()
+    with qtbot.waitSignal(c.taskFinished, timeout=120000):
+        dock.fitButton.click()
+    assert note not in dock.resultLabel.text()
