@@ -101,6 +101,7 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         from . import pipeline
         from .safe_sink import check_file_destinations, guarded_run
 
+        self._feedback = feedback  # feedback_of(): qgis_process leaves the context's feedback unset
         try:
             with guarded_run(feedback):
                 check_file_destinations(self, parameters, context)
@@ -111,6 +112,13 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
             raise QgsProcessingException(str(exc)) from exc
         finally:
             pipeline.clear_cache()
+
+    def feedback_of(self, context):
+        """The run's feedback: the context's, else the one :meth:`processAlgorithm` was given (``qgis_process``
+        3.22 sets none on the context: the warnings sent there, e.g. of a camera an "uncertain" fit wrote, were
+        lost on the command line). None outside a run."""
+        feedback = context.feedback() if hasattr(context, "feedback") else None
+        return feedback if feedback is not None else getattr(self, "_feedback", None)
 
     def checkParameterValues(self, parameters, context):
         """QGIS's own checks, but a DEM path it refuses ("Incorrect parameter value") gets the workflow's reason
@@ -189,7 +197,7 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         CRS returned is then that UTM CRS: cameras, points and products are in metres."""
         path, crs = self.dem_path(parameters, context)
         # the workflow's one set of DEM checks (as the dock): CRS, size, voids from nodata, NaN and sentinels
-        feedback = context.feedback() if hasattr(context, "feedback") else None
+        feedback = self.feedback_of(context)
 
         def building(fraction: float, message: str = "") -> None:  # a large DEM's overviews, built once
             if feedback is not None:
@@ -224,7 +232,7 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         notes = []
         camera = checked(load_camera, path, image_size, crs.toWkt() if crs is not None and crs.isValid() else "",
                          notes, rough)
-        feedback = context.feedback() if hasattr(context, "feedback") else None
+        feedback = self.feedback_of(context)
         for note in notes:  # a camera transformed into the DEM's CRS
             if feedback is not None:
                 feedback.pushInfo(note)

@@ -1,6 +1,8 @@
 """The algorithms from the command line (the real qgis_process binary) and chained in a Graphical Modeler model."""
 
 
+import subprocess
+
 import numpy as np
 import pytest
 from osgeo import gdal
@@ -91,3 +93,17 @@ def test_model_chains_fit_into_xyz(processing_provider, small_scene, tmp_path):
     ds = gdal.Open(str(out))
     z = ds.GetRasterBand(3).ReadAsArray()
     assert np.nanmax(np.abs(z - xyz[..., 2])) < 25.0  # the fitted camera sees the same ground
+
+
+def test_qgis_process_prints_the_warning_of_an_uncertain_camera(qgis_env, small_scene, tmp_path):
+    """A trial: the dialog warned that the camera file was written by an "uncertain" fit, ``qgis_process`` said
+    nothing (it sets no feedback on the context, where the warning went)."""
+    from monoplot_plugin.workflow.camera_files import save_camera
+
+    camera = tmp_path / "uncertain.json"
+    save_camera(str(camera), small_scene["cam"], verdict={"status": "uncertain", "message": "two cameras agree"})
+    command = [cli.qgis_process_binary(), "run", "monoplot:computexyz", "--", *cli.parameter_arguments(
+        {"CAMERA": str(camera), "DEM": small_scene["dem"], "OUTPUT": str(tmp_path / "xyz.tif")})]
+    process = subprocess.run(command, env=qgis_env, capture_output=True, text=True, timeout=120)
+    assert process.returncode == 0, process.stderr[-2000:]
+    assert 'written by a fit whose verdict was "uncertain"' in process.stdout and "two cameras agree" in process.stdout

@@ -117,10 +117,10 @@ class FitCamera(MonoplotAlgorithm):
                 converted, notes = points_to_dem_crs(table["xyz"], dem, name=os.path.basename(path),
                                                      candidates=[crs.toWkt()] if crs is not None and crs.isValid()
                                                      else [])
+                feedback = self.feedback_of(context)
                 for note in notes:
-                    if context.feedback() is not None:
-                        (context.feedback().pushWarning if OFF_DEM_NOTE in note else context.feedback().pushInfo)(
-                            note)
+                    if feedback is not None:
+                        (feedback.pushWarning if OFF_DEM_NOTE in note else feedback.pushInfo)(note)
                 xyz_parts.append(converted)
         if not uv_parts or not xyz_parts:
             raise QgsProcessingException(self.tr(
@@ -129,15 +129,16 @@ class FitCamera(MonoplotAlgorithm):
         uv = np.concatenate(uv_parts)
         xyz = np.concatenate(xyz_parts)
         no_z = int((np.isfinite(xyz[:, :2]).all(axis=1) & ~np.isfinite(xyz[:, 2])).sum())
-        if no_z and context.feedback() is not None:  # said: a misnamed Z column was silently the DEM's
-            context.feedback().pushInfo(self.tr("{0} of the {1} DEM points have no Z: the DEM's height there is "
-                                                "used").format(no_z, len(xyz)))
+        feedback = self.feedback_of(context)
+        if no_z and feedback is not None:  # said: a misnamed Z column was silently the DEM's
+            feedback.pushInfo(self.tr("{0} of the {1} DEM points have no Z: the DEM's height there is "
+                                      "used").format(no_z, len(xyz)))
         xyz = pipeline.fill_missing_z(xyz, dem)
         good_xyz = np.isfinite(xyz).all(axis=1)
         self.dropped_dem_points = int((~good_xyz).sum())
-        if self.dropped_dem_points and context.feedback() is not None:
+        if self.dropped_dem_points and feedback is not None:
             # a GCP table in another CRS than the DEM file's: every point dropped, and "0 DEM points" said nothing
-            context.feedback().pushWarning(self.tr(
+            feedback.pushWarning(self.tr(
                 "{0} of the {1} DEM points were left out: they lie outside the DEM, or their X, Y are not in the DEM "
                 "file's CRS ({2}), the CRS tables are read in.").format(self.dropped_dem_points, len(xyz),
                                                                      dem_crs_name(dem)))
