@@ -143,17 +143,24 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             persistence.store_in_project(self.project, self.state)
 
     # --- inputs -----------------------------------------------------------------------------------------------
-    def load_photo(self, path: str, keep_points: bool = False) -> bool:
-        """Read the photo (EXIF orientation honoured). On failure: message, previous photo kept.
+    def read_photo(self, path: str) -> Optional[QImage]:
+        """The photo at ``path`` (EXIF orientation honoured), or None after a message saying why it is refused."""
+        try:
+            return read_photo(path)
+        except PhotoError as exc:
+            self.message.emit(str(exc), CRITICAL)
+            return None
+
+    def load_photo(self, path: str, keep_points: bool = False, image: Optional[QImage] = None) -> bool:
+        """Read the photo (EXIF orientation honoured; ``image``: already read by :meth:`read_photo`). On failure:
+        message, previous photo kept.
 
         Another photo starts its curation afresh (the photo points, pairs and fit of another picture make no sense)
         unless ``keep_points``: the same picture in another file (a grey or re-touched copy, of the same size).
         A rough camera made for a picture of another size is carried to this one
         (:func:`~..workflow.camera_files.fitted_to_size`: scaled, or its pose kept for a crop)."""
-        try:
-            image = read_photo(path)
-        except PhotoError as exc:
-            self.message.emit(str(exc), CRITICAL)
+        image = image if image is not None else self.read_photo(path)
+        if image is None:
             return False
         new_photo = path != self.state.photo_path
         keep_points = keep_points and self.image is not None and \

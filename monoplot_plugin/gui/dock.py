@@ -230,14 +230,16 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
         c = self.controller
         if path and path != c.state.photo_path and os.path.isfile(path):
             work = photo_change.work_on_photo(c) if c.image is not None else ""
-            answer = photo_change.ask_photo_change(self, os.path.basename(path), work, photo_change.same_size(
-                path, c)) if work else photo_change.AFRESH
+            # read before asking: a truncated JPEG was offered "Keep the points", then refused (a trial)
+            image = c.read_photo(path) if work else None
+            answer = None if work and image is None else photo_change.ask_photo_change(
+                self, os.path.basename(path), work, photo_change.same_size(path, c)) if work else photo_change.AFRESH
             if answer is None:  # keep the current photo: the box shows it again
                 self.photoFile.blockSignals(True)
                 self.photoFile.setFilePath(c.state.photo_path or "")
                 self.photoFile.blockSignals(False)
                 return
-            c.load_photo(path, keep_points=answer == photo_change.KEEP)
+            c.load_photo(path, keep_points=answer == photo_change.KEEP, image=image)
 
     def _photo_path_typed(self) -> None:
         """Enter (or leaving the box) on a typed path that names no file: say so instead of doing nothing."""

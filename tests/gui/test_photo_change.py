@@ -4,6 +4,8 @@ keeps its points; a rough camera of another picture size follows the photo. Real
 
 from __future__ import annotations
 
+import time
+
 import cv2
 from qgis.PyQt.QtCore import Qt, QTimer
 from qgis.PyQt.QtWidgets import QApplication, QMessageBox
@@ -13,13 +15,16 @@ from monoplot_plugin.state import ACCEPTED, CHECK, PHOTO, set_status
 from test_dock import accept_everything, add_scene_points, load_inputs
 
 
-def answer_with(qtbot, label: str, seen: list) -> None:
-    """Click the button ``label`` of the question box once it shows (its text kept in ``seen``)."""
+def answer_with(qtbot, label: str, seen: list, give_up_s: float = 60.0) -> None:
+    """Click the button ``label`` of the question box once it shows (its text kept in ``seen``); stop looking
+    after ``give_up_s``."""
+    deadline = time.monotonic() + give_up_s
 
     def click():
         box = QApplication.activeModalWidget()
         if not isinstance(box, QMessageBox):
-            QTimer.singleShot(20, click)
+            if time.monotonic() < deadline:
+                QTimer.singleShot(20, click)
             return
         seen.append(box.text())
         button = next(b for b in box.buttons() if b.text().replace("&", "") == label)
@@ -68,3 +73,26 @@ def test_choosing_another_photo_asks_before_its_points_go(dock, scene, qtbot, tm
     dock.photoFile.setFilePath(scene.photo_path)
     qtbot.wait(100)
     assert len(seen) == n_questions and c.state.photo_path == scene.photo_path
+
+
+def test_a_damaged_photo_is_refused_before_any_question(dock, scene, qtbot, tmp_path):
+    """A trial chose a truncated JPEG while the photo carried points: the dock asked "Keep the points?" and only
+    then refused the file. It is now refused at once, with its reason, and the points and the box stay."""
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    add_scene_points(dock, scene, n=6)
+    accept_everything(c)
+    image = cv2.imread(scene.photo_path)
+    whole = str(tmp_path / "whole.jpg")
+    cv2.imwrite(whole, image)
+    cut = tmp_path / "cut.jpg"
+    data = open(whole, "rb").read()
+    cut.write_bytes(data[: len(data) // 3])
+    said, seen = [], []
+    c.message.connect(lambda text, level: said.append(text))
+    answer_with(qtbot, "Cancel", seen, give_up_s=0.5)  # would answer a question: there must be none
+    dock.photoFile.setFilePath(str(cut))
+    qtbot.wait(700)
+    assert seen == [] and any("truncated" in text for text in said), said
+    assert c.state.photo_path == scene.photo_path and dock.photoFile.filePath() == scene.photo_path
+    assert c.state.counts()[PHOTO][ACCEPTED] == 6
