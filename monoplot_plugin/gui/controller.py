@@ -103,6 +103,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         #: the curation panel's refitter
         self.running_refit: Callable[[tuple], Optional[object]] = lambda key: None
         self.awaited_refit = None  # the refit the running Fit waits for (it must not be canceled), or None
+        self._sky_rows_of = None  # the photo's skyline, for the rough camera's pitch (PriorsMixin)
         self._autosave = QTimer(self)
         self._autosave.setSingleShot(True)
         self._autosave.setInterval(autosave_delay_ms)

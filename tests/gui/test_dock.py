@@ -461,3 +461,4 @@ def test_the_fit_tab_says_when_the_points_changed_since_the_fit(dock, scene, tmp
     with qtbot.waitSignal(c.taskFinished, timeout=120000):
         dock.fitButton.click()
     assert note not in dock.resultLabel.text()
+

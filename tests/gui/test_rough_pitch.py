@@ -1,0 +1,42 @@
+"""The pitch of a rough camera (drawn on the map, or from EXIF, which has none): the DEM's skyline seen from it is
+put where the photo shows its skyline. A trial's drone photo, truly pitched -6 deg, got +1.4 deg from the old rule
+(the DEM's skyline a fifth of the picture under its top, whatever the photo showed)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from monoplot_plugin.adapters.photo import qimage_to_array
+from monoplot_plugin.core.camera import Camera
+from monoplot_plugin.core.synthetic import render_photo, synthetic_terrain
+from monoplot_plugin.gui.priors import photo_sky_rows, terrain_pitch
+from test_dock import load_inputs
+
+
+def test_the_photos_skyline_sets_the_pitch_of_a_rough_camera():
+    dem = synthetic_terrain((200, 200), cell=50.0, seed=3)
+    x0, y0, x1, _ = dem.bounds()
+    x, y = x0 + 0.5 * (x1 - x0), y0 + 0.08 * (x1 - x0)
+    truth = Camera((x, y, float(dem.sample(x, y)) + 200.0), 0.0, -3.0, 0.0, 60.0, (480, 320), crs_wkt=dem.crs_wkt)
+    photo = render_photo(truth, dem)
+    rough = truth.with_parameters(x=x + 15.0, y=y - 10.0, heading=3.0, pitch=0.0)  # a GPS position, no pitch
+    rows = photo_sky_rows(photo)
+    assert rows is not None and np.isfinite(rows).mean() > 0.5
+    assert abs(terrain_pitch(rough, dem, sky_rows=rows) - truth.pitch) < 1.0
+    assert abs(terrain_pitch(rough, dem) - truth.pitch) > 3.0  # the fixed rule, kept for photos without a skyline
+    fog = np.full_like(photo, 170)
+    assert photo_sky_rows(fog) is None
+
+
+def test_the_dock_says_which_skyline_set_the_pitch(dock, scene, qtbot):
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    said = []
+    c.message.connect(lambda text, level: said.append(text))
+    x, y, _ = scene.camera.position
+    prior = c.prior_from_map(x, y, 0.0, 60.0)
+    rows = photo_sky_rows(qimage_to_array(c.image), c._picture_area())  # the photo as the dock holds it
+    assert prior.pitch == terrain_pitch(prior.with_parameters(pitch=0.0), scene.dem, sky_rows=rows)
+    fixed = terrain_pitch(prior.with_parameters(pitch=0.0), scene.dem)  # the rule without the photo's skyline
+    rule = "its skyline on the photo's" if prior.pitch != fixed else "the skyline in the upper part of the picture"
+    assert any(rule in text for text in said), said
