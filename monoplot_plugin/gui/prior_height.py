@@ -43,16 +43,16 @@ class PriorHeightBox:
     def show(self) -> None:
         """The box shows the current prior's height (not the last drawn camera's)."""
         clearance = self.clearance()
-        if clearance is not None and abs(clearance - self.spin.value()) >= 0.5:
+        if clearance is not None and abs(clearance - self.spin.value()) >= 0.05:  # the box shows 0.1 m
             self.spin.blockSignals(True)
             self.spin.setValue(clearance)
             self.spin.blockSignals(False)
 
     def _edited(self, value: float) -> None:
         clearance = self.clearance()
-        if clearance is None or abs(clearance - value) < 0.5:  # no prior, or the box only shows its height
+        if clearance is None or abs(clearance - value) < 0.05:  # no prior, or the box only shows its height
             return
         prior = self.controller.prior
         z = prior.position[2] + value - clearance
         self.controller.set_prior(prior.with_parameters(z=z))
-        self.say(tr("Rough camera moved to {0:.0f} m above the DEM (Z {1:.0f} m).").format(value, z))
+        self.say(tr("Rough camera moved to {0:.1f} m above the DEM (Z {1:.1f} m).").format(value, z))

@@ -216,9 +216,13 @@ class PriorsMixin:
         self.set_prior(self._with_terrain_pitch(camera))
         text = self.tr("Rough camera from the photo's EXIF GPS tags.")
         if exif.altitude is not None:  # a trial's phone said 11 m above the ground for a hand-held 1.6 m
-            text += " " + self.tr("Its GPS altitude puts it {0:.0f} m above the DEM; a GPS height is often 10-30 m "
-                                  "off: set \"Above ground\" (Camera tab) if you know it, e.g. 1.6 m held in the "
-                                  "hand.").format(max(z, ground + 1.0) - ground)
+            above = max(z, ground + 1.0) - ground
+            text += " " + (self.tr("Its GPS altitude puts it {0:.0f} m above the DEM; a GPS height is often 10-30 m "
+                                   "off: set \"Above ground\" (Camera tab) if you know it, e.g. 1.6 m held in the "
+                                   "hand.") if above < 50.0 else
+                           self.tr("Its GPS altitude puts it {0:.0f} m above the DEM; a GPS height is often 10-30 m "
+                                   "off: set \"Above ground\" (Camera tab) if you know the flight height.")
+                           ).format(above)
         if guessed:
             text += " " + self.tr("No direction in EXIF: it looks at the DEM centre; draw it on the map if wrong.")
         if exif.fov is None:

@@ -151,7 +151,14 @@ def test_above_ground_box_shows_and_moves_the_prior(dock, scene, qtbot):
     x, y, z = c.prior.position
     assert z - float(scene.dem.sample(x, y)) == pytest.approx(50.0, abs=0.01)
     assert (x, y) == prior.position[:2] and c.prior.heading == prior.heading
-    assert "50 m above the DEM" in dock.statusLabel.text()
+    assert "50.0 m above the DEM" in dock.statusLabel.text()
+    # a hand-held camera: decimetres count (a trial typed 1.6 and got 1 m: the box took whole metres)
+    dock.heightSpin.selectAll()
+    qtbot.keyClicks(dock.heightSpin.lineEdit(), "1.6")
+    qtbot.keyClick(dock.heightSpin.lineEdit(), Qt.Key.Key_Return)
+    x, y, z = c.prior.position
+    assert z - float(scene.dem.sample(x, y)) == pytest.approx(1.6, abs=0.01)
+    assert "1.6 m above the DEM" in dock.statusLabel.text()
 
 
 def test_drawn_camera_gets_a_pitch_from_the_terrain(dock, scene):
