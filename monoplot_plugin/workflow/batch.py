@@ -18,9 +18,11 @@ from typing import Callable, Iterable, List, Optional
 
 import numpy as np
 
+from ..core.camera import Camera
 from ..outputs.safe_write import write_text
 from .files import InputError, read_photo
-from .frames import SHARED_XYZ, FrameTask, PhotoResult, Timelapse, fit_job, process_frame, shared_for
+from .frames import (SHARED_XYZ, FrameTask, PhotoResult, Timelapse, blank_photo, fit_job, process_frame,
+                     shared_for)
 from .progress import IsCanceled, Progress, never_canceled, no_progress
 
 __all__ = ["PhotoJob", "PhotoResult", "folder_jobs", "table_jobs", "run_batch", "output_stems", "fit_shared_camera",
@@ -112,20 +114,22 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
     ``is_canceled()`` follow the workflow's protocol; on a cancel the remaining photos are reported as not processed.
 
     ``workers``: frames processed at once (threads; default: the number of cores). ``register``: match every frame
-    of a shared camera to ``reference`` (a photo; default the first job's) and make its products with the corrected
-    camera; the drift is in the log and the results. All jobs share one camera, or none does (a table).
+    of a shared camera to ``reference`` (a photo; default the first usable job's, see :func:`pick_reference`) and
+    make its products with the corrected camera; the drift is in the log and the results. All jobs share one camera,
+    or none does (a table).
     """
     os.makedirs(out_dir, exist_ok=True)
     stems = output_stems(jobs)
     tasks = frame_tasks(jobs, stems, log)
-    setup = batch_setup(jobs, crs_wkt, out_dir, write_xyz, write_ortho, resolution, register, reference)
     existing = [n for n in planned_outputs(jobs, stems, write_xyz, write_ortho)
                 if os.path.exists(os.path.join(out_dir, n))]
     if existing:
         log(f"{len(existing)} file(s) of an earlier run in {out_dir} are replaced (e.g. {existing[0]})", False)
     try:
+        setup = batch_setup(jobs, crs_wkt, out_dir, write_xyz, write_ortho, resolution, register, reference,
+                            log=log)
         shared = shared_for(setup, dem)
-    except InputError as exc:  # the reference frame cannot be read: nothing can be registered
+    except InputError as exc:  # no reference frame can serve: nothing can be registered
         results = [PhotoResult(t.photo, False, f"{exc}", index=t.index) for t in tasks]
         log(f"every photo FAILED: {exc}", True)
         return results
@@ -172,18 +176,57 @@ class _Background:
 
 def batch_setup(jobs: List[PhotoJob], crs_wkt: str, out_dir: str, write_xyz: bool = True, write_ortho: bool = True,
                 resolution: Optional[float] = None, register: bool = False, reference: str = "",
-                dem_path: str = "", void_value: Optional[float] = None) -> Timelapse:
-    """The :class:`~.frames.Timelapse` of a batch: the shared camera of its jobs (all or none), the reference."""
+                dem_path: str = "", void_value: Optional[float] = None, log: Log = lambda message, error: None
+                ) -> Timelapse:
+    """The :class:`~.frames.Timelapse` of a batch: the shared camera of its jobs (all or none), the reference
+    (:func:`pick_reference`; an InputError when the one named cannot serve)."""
     cameras = {j.camera.to_json() for j in jobs if j.camera is not None}
     if len(cameras) > 1 or (cameras and any(j.camera is None for j in jobs)):
         raise ValueError("the jobs of one batch share one camera, or each is fitted")
     camera_json = cameras.pop() if cameras else ""
     if register and not camera_json:
         raise InputError("re-registration needs the frames' shared camera (time-lapse mode)")
-    if register and not reference:
-        reference = next((j.photo for j in jobs if j.photo), "")
+    if register:
+        reference = pick_reference([j.photo for j in jobs if j.photo], Camera.from_json(camera_json), reference, log)
     return Timelapse(out_dir, crs_wkt, camera_json, write_xyz, write_ortho, resolution, register,
                      reference if register else "", dem_path=dem_path, void_value=void_value)
+
+
+def pick_reference(photos: List[str], camera, named: str = "", log: Log = lambda message, error: None) -> str:
+    """The reference frame of a re-registration: ``named`` (the user's) if it can be read and is not blank, else an
+    InputError that names it; without one, the first of ``photos`` that can be read, has the camera's size and is
+    not blank (:func:`~.frames.blank_photo`), said in the log with the frames passed over.
+
+    A reference of fog registered itself "ok" and failed every good frame, and an unreadable first frame failed the
+    whole folder (a trial): a reference without texture can register nothing."""
+    if named:
+        try:
+            why = blank_photo(read_photo(named))
+        except InputError as exc:
+            raise InputError(f"the reference frame {os.path.basename(named)} cannot be used: {exc}; choose another "
+                             f"frame with REFERENCE") from exc
+        if why:
+            raise InputError(f"the reference frame {os.path.basename(named)} is blank, nothing can be registered on "
+                             f"it: {why} Choose another frame with REFERENCE")
+        return named
+    for path in photos:
+        name = os.path.basename(path)
+        try:
+            photo = read_photo(path)
+        except InputError as exc:
+            log(f"{name} is not the reference frame: {exc}", False)
+            continue
+        why = blank_photo(photo)
+        if not why and (photo.shape[1], photo.shape[0]) != tuple(camera.image_size):
+            why = (f"it is {photo.shape[1]}x{photo.shape[0]} px, the shared camera {camera.width}x{camera.height} "
+                   f"px")
+        if why:
+            log(f"{name} is not the reference frame: {why}", False)
+            continue
+        log(f"Reference frame: {name} (the first usable frame; REFERENCE picks another)", False)
+        return path
+    raise InputError("no frame can be the reference frame (every one is unreadable, blank or of another size than "
+                     "the shared camera)")
 
 
 def frame_tasks(jobs: List[PhotoJob], stems: List[str], log: Log) -> List[FrameTask]:

@@ -149,7 +149,7 @@ def run_batch_dask(jobs: List[PhotoJob], dem_path: str, crs_wkt: str, out_dir: s
         tasks = frame_tasks(jobs, stems, log)
         setup = batch_setup(jobs, crs_wkt, os.path.abspath(out_dir), write_xyz, write_ortho, resolution, register,
                             os.path.abspath(reference) if reference else "", dem_path=os.path.abspath(dem_path),
-                            void_value=void_value)
+                            void_value=void_value, log=log)
         existing = [n for n in planned_outputs(jobs, stems, write_xyz, write_ortho)
                     if os.path.exists(os.path.join(out_dir, n))]
         if existing:

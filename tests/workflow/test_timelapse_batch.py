@@ -154,7 +154,7 @@ def test_a_reference_frame_of_another_size_fails_every_frame_with_the_reason(dri
     cam = Camera.load(scene["camera"])
     dem = Dem.open(scene["dem"])
     small = tmp_path / "small.png"
-    cv2.imwrite(str(small), np.zeros((50, 60, 3), np.uint8))
+    cv2.imwrite(str(small), np.random.default_rng(0).integers(0, 255, (50, 60, 3), dtype=np.uint8))
     results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(tmp_path / "out"),
                               register=True, reference=str(small))
     assert not any(r.ok for r in results) and all("small.png is 60x50 px" in r.message for r in results)
@@ -186,3 +186,64 @@ def test_a_scanned_prints_border_and_caption_are_not_draped_by_the_batch(tmp_pat
     assert (plain[..., 3] > 0).sum() > (alpha > 0).sum()  # the frame without a border is draped whole
     single = products.orthophoto(tmp_path / "single.tif", read_photo(scene["frames"][1]), cam, dem)
     assert np.array_equal(scan, band_arrays(single))
+
+
+def _foggy_first_frame(scene, folder):
+    """A copy of ``scene``'s frames whose first frame is pure grey fog (a JPEG-like faint noise on it)."""
+    import shutil
+
+    import cv2
+
+    shutil.copytree(scene["folder"], folder)
+    cam = scene["cam"]
+    fog = np.random.default_rng(0).normal(205, 1.5, (cam.height, cam.width, 3)).clip(0, 255).astype(np.uint8)
+    cv2.imwrite(str(folder / "frame_000.png"), fog)
+    return folder
+
+
+def test_a_foggy_first_frame_is_not_the_default_reference(drifting_timelapse, tmp_path):
+    """The trial: the fog frame, first by name, was the reference: it came out "ok" and every good frame failed."""
+    scene = drifting_timelapse
+    folder = _foggy_first_frame(scene, tmp_path / "frames")
+    cam, dem = Camera.load(scene["camera"]), Dem.open(scene["dem"])
+    lines = []
+    results = batch.run_batch(batch.folder_jobs(str(folder), cam), dem, dem.crs_wkt, str(tmp_path / "out"),
+                              register=True, write_xyz=False, log=lambda m, e: lines.append(m))
+    assert all(r.ok for r in results[1:]), [r.message for r in results]
+    assert not results[0].ok
+    assert any(m.startswith("frame_000.png is not the reference frame: no structure") for m in lines)
+    assert any(m.startswith("Reference frame: frame_001.png") for m in lines)
+    assert results[1].drift_px < 0.1  # the reference itself
+
+
+def test_a_blank_reference_frame_named_by_the_user_fails_with_its_name(drifting_timelapse, tmp_path):
+    scene = drifting_timelapse
+    folder = _foggy_first_frame(scene, tmp_path / "frames")
+    cam, dem = Camera.load(scene["camera"]), Dem.open(scene["dem"])
+    lines = []
+    results = batch.run_batch(batch.folder_jobs(str(folder), cam), dem, dem.crs_wkt, str(tmp_path / "out"),
+                              register=True, reference=str(folder / "frame_000.png"),
+                              log=lambda m, e: lines.append((m, e)))
+    assert not any(r.ok for r in results)
+    assert all("reference frame frame_000.png is blank" in r.message and "REFERENCE" in r.message for r in results)
+    assert any(e and m.startswith("every photo FAILED") for m, e in lines)
+
+
+def test_an_unreadable_first_frame_is_passed_over_for_the_reference(drifting_timelapse, tmp_path):
+    import shutil
+
+    scene = drifting_timelapse
+    folder = tmp_path / "frames"
+    shutil.copytree(scene["folder"], folder)
+    data = (folder / "frame_000.png").read_bytes()
+    (folder / "frame_000.png").write_bytes(data[: len(data) // 3])
+    cam, dem = Camera.load(scene["camera"]), Dem.open(scene["dem"])
+    lines = []
+    results = batch.run_batch(batch.folder_jobs(str(folder), cam), dem, dem.crs_wkt, str(tmp_path / "out"),
+                              register=True, write_xyz=False, log=lambda m, e: lines.append(m))
+    assert [r.ok for r in results] == [False, True, True, True, True], [r.message for r in results]
+    assert any(m.startswith("Reference frame: frame_001.png") for m in lines)
+    named = batch.run_batch(batch.folder_jobs(str(folder), cam), dem, dem.crs_wkt, str(tmp_path / "out2"),
+                            register=True, reference=str(folder / "frame_000.png"))
+    assert all("reference frame frame_000.png cannot be used" in r.message and "choose another frame with "
+               "REFERENCE" in r.message for r in named)

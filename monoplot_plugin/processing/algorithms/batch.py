@@ -39,7 +39,8 @@ class BatchPhotos(MonoplotAlgorithm):
              "an earlier run in the output folder are replaced, and the log says so.\n\n"
              "Time-lapse speed: what depends only on the camera and the DEM (XYZ raster, sky, the orthophoto's "
              "lookup) is computed once; WORKERS frames are processed at once (0 = one per core).\n\n"
-             "REGISTER (time-lapse mode): every frame is matched to the REFERENCE frame (default: the first) on "
+             "REGISTER (time-lapse mode): every frame is matched to the REFERENCE frame (default: the first "
+             "frame that can be read and is not blank: fog, night) on "
              "stable terrain (no sky, no foreground) and the camera is turned by the drift found; the drift (pixels "
              "and degrees) is in the log, a frame that turned gets its own frame_camera.json and frame_xyz.tif, and "
              "a frame that cannot be registered is reported as failed (never given the reference camera).\n\n"
@@ -79,7 +80,7 @@ class BatchPhotos(MonoplotAlgorithm):
                                                         self.tr("Re-register every frame (time-lapse mode)"),
                                                         defaultValue=False))
         self.addParameter(QgsProcessingParameterFile("REFERENCE", self.tr("Reference frame (default: the first "
-                                                                          "frame)"),
+                                                                          "usable frame)"),
                                                      QgsProcessingParameterFile.File, optional=True))
         self.addParameter(QgsProcessingParameterNumber("WORKERS", self.tr("Frames at once (0 = one per core)"),
                                                        QgsProcessingParameterNumber.Integer, 0, minValue=0))
