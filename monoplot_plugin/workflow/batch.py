@@ -285,12 +285,14 @@ def collect(results: Iterable[Optional[PhotoResult]], tasks: List[FrameTask], lo
 
 def log_result(log: Log, task: FrameTask, total: int, result: PhotoResult) -> None:
     """One line of the batch log for a frame: its message, "canceled" (the user canceled while it was processed,
-    not a failure) or "FAILED, skipped"."""
+    not a failure), "skipped" (a blank frame) or "FAILED, skipped"."""
     head = f"[{task.index + 1}/{total}] {task.name}"
     if result.ok:
         log(f"{head}: {result.message}", False)
     elif result.canceled:
         log(f"{head}: canceled: {result.message}", True)
+    elif result.status == "skipped":
+        log(f"{head}: skipped: {result.message}", True)
     else:
         log(f"{head}: FAILED, skipped: {result.message}", True)
 
@@ -351,8 +353,8 @@ def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_poi
 
 
 def write_log(path: str, results: List[PhotoResult]) -> None:
-    """CSV summary: photo, status (ok, failed or canceled), message, rmse_px, drift_px, drift_deg (re-registered
-    frames), outputs (semicolon-separated)."""
+    """CSV summary: photo, status (:meth:`~.frames.PhotoResult.verdict`), message, rmse_px, drift_px, drift_deg
+    (re-registered frames), outputs (semicolon-separated)."""
     import io
 
     def number(value, digits):
@@ -362,6 +364,6 @@ def write_log(path: str, results: List[PhotoResult]) -> None:
     writer = csv.writer(text)
     writer.writerow(["photo", "status", "message", "rmse_px", "drift_px", "drift_deg", "outputs"])
     for r in results:
-        writer.writerow([r.photo, "ok" if r.ok else "canceled" if r.canceled else "failed", r.message,
+        writer.writerow([r.photo, r.verdict(), r.message,
                          number(r.rmse_px, 3), number(r.drift_px, 3), number(r.drift_deg, 4), ";".join(r.outputs)])
     write_text(path, text.getvalue(), overwrite=True)

@@ -84,6 +84,13 @@ class PhotoResult:
     drift_deg: float = float("nan")  # and the angle of the turn
     index: int = -1  # position in the batch
     seconds: float = float("nan")  # spent processing it (where it ran: a Dask worker's own clock)
+    #: the batch log's verdict: ok, uncertain, poor (products written, with that doubt), failed, skipped (a blank
+    #: frame: no products) or canceled; "" for a result made without processing (see :meth:`verdict`)
+    status: str = ""
+
+    def verdict(self) -> str:
+        """:attr:`status`, or what ``ok`` and ``canceled`` say when it was not set."""
+        return self.status or ("ok" if self.ok else "canceled" if self.canceled else "failed")
 
 
 class CameraProducts:
@@ -207,6 +214,10 @@ def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
     start = time.perf_counter()
     try:
         photo = read_photo(task.photo)
+        blank = blank_photo(photo)
+        if blank:  # a frame of fog fitted "uncertain" or draped as the shared camera's was counted processed
+            result.status = "skipped"
+            raise InputError(f"blank frame, no products written: {blank}")
         size = (photo.shape[1], photo.shape[0])
         camera, products = shared.camera, shared.products
         fit_status, fit_message = "ok", ""
@@ -251,6 +262,7 @@ def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
     except Exception as exc:  # one photo's failure must not lose the batch
         result.ok = False
         result.canceled = _is_cancel(exc)
+        result.status = "canceled" if result.canceled else "skipped" if result.status == "skipped" else "failed"
         if result.canceled:  # the user canceled while this frame was written: its outputs were not put in place
             result.message = "canceled while processing (its outputs not written)"
         else:

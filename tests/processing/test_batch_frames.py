@@ -246,3 +246,24 @@ def test_read_photo_turns_the_photo_by_its_exif_orientation(tmp_path):
     path = tmp_path / "phone.jpg"
     Image.fromarray(np.zeros((40, 80, 3), np.uint8)).save(path, exif=exif.tobytes())
     assert read_photo(str(path)).shape == (80, 40, 3)
+
+
+def test_table_row_of_a_blank_photo_is_skipped_without_products(run_alg, small_scene, tmp_path):
+    """The trial: a photo of fog registered automatically came out "fit uncertain, RMSE nan px" with an XYZ raster
+    and an orthophoto of grey fog."""
+    import cv2
+
+    write_photo(tmp_path / "a.png")
+    cv2.imwrite(str(tmp_path / "fog.png"), np.full((HEIGHT, WIDTH, 3), 205, np.uint8))
+    small_scene["cam"].save(tmp_path / "prior.json")
+    _write_gcps(small_scene, tmp_path / "gcps.csv")
+    (tmp_path / "photos.csv").write_text("photo,prior,points\na.png,prior.json,gcps.csv\nfog.png,prior.json,\n")
+    feedback = QgsProcessingFeedback()
+    out = tmp_path / "out"
+    result = run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"),
+                               "OUTPUT": str(out)}, feedback)
+    assert result["SUCCEEDED"] == 1 and result["FAILED"] == 1
+    assert not list(out.glob("fog_*"))
+    row = log_rows(result["LOG"])[1]
+    assert row["status"] == "skipped" and "blank frame, no products written" in row["message"]
+    assert "fog.png: skipped: blank frame" in feedback.textLog()

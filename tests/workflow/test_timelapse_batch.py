@@ -83,7 +83,8 @@ def test_a_frame_that_cannot_be_registered_is_reported_not_given_the_reference_c
     folder = tmp_path / "frames"
     shutil.copytree(scene["folder"], folder)
     cam = Camera.load(scene["camera"])
-    cv2.imwrite(str(folder / "frame_002.png"), np.full((cam.height, cam.width, 3), 210, np.uint8))  # fog
+    # upside down: textured, but no small turn of the reference (a blank frame is skipped before registering)
+    cv2.imwrite(str(folder / "frame_002.png"), cv2.imread(str(folder / "frame_002.png"))[::-1, ::-1])
     dem = Dem.open(scene["dem"])
     out = tmp_path / "out"
     lines = []
@@ -247,3 +248,24 @@ def test_an_unreadable_first_frame_is_passed_over_for_the_reference(drifting_tim
                             register=True, reference=str(folder / "frame_000.png"))
     assert all("reference frame frame_000.png cannot be used" in r.message and "choose another frame with "
                "REFERENCE" in r.message for r in named)
+
+
+def test_a_blank_frame_is_skipped_not_draped_with_the_shared_camera(still_timelapse, tmp_path):
+    import shutil
+
+    import cv2
+
+    scene = still_timelapse
+    folder = tmp_path / "frames"
+    shutil.copytree(scene["folder"], folder)
+    cam, dem = Camera.load(scene["camera"]), Dem.open(scene["dem"])
+    cv2.imwrite(str(folder / "frame_002.png"), np.full((cam.height, cam.width, 3), 205, np.uint8))  # fog
+    out, lines = tmp_path / "out", []
+    results = batch.run_batch(batch.folder_jobs(str(folder), cam), dem, dem.crs_wkt, str(out), write_xyz=False,
+                              log=lambda m, e: lines.append(m))
+    assert [r.ok for r in results] == [True, True, False, True, True, True]
+    assert results[2].verdict() == "skipped" and "blank frame" in results[2].message and not results[2].outputs
+    assert not (out / "frame_002_ortho.tif").exists() and (out / "frame_003_ortho.tif").exists()
+    assert any("frame_002.png: skipped: blank frame, no products written: no structure" in m for m in lines)
+    batch.write_log(str(out / "batch_log.csv"), results)
+    assert log_rows(out / "batch_log.csv")[2]["status"] == "skipped"
