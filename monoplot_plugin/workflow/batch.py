@@ -26,7 +26,7 @@ from .frames import (SHARED_XYZ, FrameTask, PhotoResult, Timelapse, blank_photo,
 from .progress import IsCanceled, Progress, never_canceled, no_progress
 
 __all__ = ["PhotoJob", "PhotoResult", "folder_jobs", "table_jobs", "run_batch", "output_stems", "fit_shared_camera",
-           "fit_job", "write_log", "frame_tasks", "batch_setup", "IMAGE_PATTERNS"]
+           "fit_job", "write_log", "log_photo_path", "frame_tasks", "pick_reference", "batch_setup", "IMAGE_PATTERNS"]
 
 IMAGE_PATTERNS = ("*.jpg", "*.jpeg", "*.png", "*.tif", "*.tiff", "*.bmp")
 
@@ -352,9 +352,10 @@ def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_poi
     raise InputError("no photo of the folder could be read for the shared fit: " + "; ".join(problems[:3]))
 
 
-def write_log(path: str, results: List[PhotoResult]) -> None:
-    """CSV summary: photo, status (:meth:`~.frames.PhotoResult.verdict`), message, rmse_px, drift_px, drift_deg
-    (re-registered frames), outputs (semicolon-separated)."""
+def write_log(path: str, results: List[PhotoResult], folder: str = "") -> None:
+    """CSV summary: photo (relative to ``folder``, the batch's photo folder or table's, when inside it, else
+    absolute: see :func:`log_photo_path`), status (:meth:`~.frames.PhotoResult.verdict`: a fit "uncertain" was
+    logged "ok"), message, rmse_px, drift_px, drift_deg (re-registered frames), outputs (semicolon-separated)."""
     import io
 
     def number(value, digits):
@@ -364,6 +365,28 @@ def write_log(path: str, results: List[PhotoResult]) -> None:
     writer = csv.writer(text)
     writer.writerow(["photo", "status", "message", "rmse_px", "drift_px", "drift_deg", "outputs"])
     for r in results:
-        writer.writerow([r.photo, r.verdict(), r.message,
+        writer.writerow([log_photo_path(r.photo, folder), r.verdict(), r.message,
                          number(r.rmse_px, 3), number(r.drift_px, 3), number(r.drift_deg, 4), ";".join(r.outputs)])
     write_text(path, text.getvalue(), overwrite=True)
+
+
+def log_photo_path(photo: str, folder: str = "") -> str:
+    """``photo`` as the batch log names it: relative to ``folder`` when inside it, else absolute (the table mode
+    wrote absolute paths and the time-lapse mode relative ones).
+
+    >>> import os
+    >>> log_photo_path("/data/frames/a.jpg", "/data/frames") == os.path.join("a.jpg")
+    True
+    >>> log_photo_path("/data/other/a.jpg", "/data/frames") == os.path.abspath("/data/other/a.jpg")
+    True
+    """
+    if not photo:
+        return photo
+    path = os.path.abspath(photo)
+    if not folder:
+        return path
+    try:
+        relative = os.path.relpath(path, os.path.abspath(folder))
+    except ValueError:  # another drive (Windows)
+        return path
+    return path if relative.split(os.sep)[0] == os.pardir else relative

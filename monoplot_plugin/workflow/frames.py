@@ -248,6 +248,7 @@ def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
             result.outputs.append(products.write_orthophoto(os.path.join(setup.out_dir, f"{task.stem}_ortho.tif"),
                                                             photo))
         result.ok = True
+        result.status = fit_status if fit_status in ("uncertain", "poor") else "ok"
         # a frame of a shared camera has no fit of its own (its RMSE column stays empty): say whose camera it used
         if np.isfinite(result.rmse_px):
             result.message = f"ok, fit RMSE {result.rmse_px:.2f} px"

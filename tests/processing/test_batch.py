@@ -50,6 +50,7 @@ def test_timelapse_batch_skips_the_corrupted_photo(run_alg, small_scene, timelap
     with open(result["LOG"], newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert [r["status"] for r in rows].count("failed") == 1
+    assert rows[0]["photo"] == "frame_00.jpg"  # relative to FOLDER, as in table mode
     assert max(feedback.progress_values) == pytest.approx(100.0)
     assert len(feedback.progress_values) >= 20  # progress per photo
     assert sum("/20] frame_" in line and ": ok" in line for line in log) == 19  # one line per good photo
@@ -101,6 +102,8 @@ def test_table_batch_fits_each_photo_and_skips_a_bad_row(run_alg, small_scene, t
     verdict = json.loads((out / "d_camera.json").read_text())["fit"]
     assert verdict["status"] in ("uncertain", "poor") and "automatic registration" in verdict["message"]
     assert rows["d.png"]["message"].startswith(f"fit {verdict['status']}")
+    assert rows["d.png"]["status"] == verdict["status"]  # the verdict, not "ok" (a trial)
+    assert rows["a.png"]["status"] == "ok" and rows["a.png"]["photo"] == "a.png"  # relative to the table's folder
 
 
 def test_timelapse_fits_the_shared_camera_once_from_a_prior(run_alg, small_scene, timelapse, tmp_path):

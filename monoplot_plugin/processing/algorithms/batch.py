@@ -35,7 +35,9 @@ class BatchPhotos(MonoplotAlgorithm):
              "Progress is reported per photo. A photo that cannot be read (damaged, truncated, not an image) or "
              "fitted, or whose size differs from the shared camera's, is reported and skipped; so is a blank photo "
              "(fog, night, a covered lens: no structure), without products. The others are processed. "
-             "batch_log.csv in the output folder lists every photo's status. Photos with the same name "
+             "batch_log.csv in the output folder lists every photo's status (ok, uncertain, poor, failed, skipped "
+             "or canceled; photos relative to FOLDER or to the table's folder when inside it). Photos with the "
+             "same name "
              "(frame.jpg and frame.png, or in different folders) get numbered outputs (frame_2_ortho.tif); files of "
              "an earlier run in the output folder are replaced, and the log says so.\n\n"
              "Time-lapse speed: what depends only on the camera and the DEM (XYZ raster, sky, the orthophoto's "
@@ -104,7 +106,8 @@ class BatchPhotos(MonoplotAlgorithm):
             if not self.parameterAsFile(parameters, "FOLDER", context):
                 raise QgsProcessingException(self.tr("Time-lapse mode needs the photo FOLDER (or choose the CSV "
                                                      "table mode and give TABLE)."))
-            jobs = checked(batch.folder_jobs, self.parameterAsFile(parameters, "FOLDER", context), None,
+            photo_folder = self.parameterAsFile(parameters, "FOLDER", context)
+            jobs = checked(batch.folder_jobs, photo_folder, None,
                            self.parameterAsString(parameters, "PATTERN", context))
             points = self.parameterAsFile(parameters, "POINTS", context)
             if points:  # fit once, on the first readable frame; every frame shares the camera
@@ -130,6 +133,7 @@ class BatchPhotos(MonoplotAlgorithm):
             if not self.parameterAsFile(parameters, "TABLE", context):
                 raise QgsProcessingException(self.tr("CSV table mode needs the photo TABLE (or choose the "
                                                      "time-lapse mode and give FOLDER and CAMERA)."))
+            photo_folder = os.path.dirname(os.path.abspath(self.parameterAsFile(parameters, "TABLE", context)))
             jobs = checked(batch.table_jobs, self.parameterAsFile(parameters, "TABLE", context))
         feedback.pushInfo(self.tr("{0} photos to process").format(len(jobs)))
 
@@ -157,7 +161,7 @@ class BatchPhotos(MonoplotAlgorithm):
                               workers=self.parameterAsInt(parameters, "WORKERS", context) or None, **options)
         log_path = os.path.join(out_dir, "batch_log.csv")
         with cancel_before_commit(lambda: False):  # the log says what was done, canceled or not
-            batch.write_log(log_path, results)
+            batch.write_log(log_path, results, photo_folder)
         succeeded = sum(r.ok for r in results)
         failed = len(results) - succeeded
         canceled = sum(r.canceled for r in results)
