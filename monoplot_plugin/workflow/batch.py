@@ -14,19 +14,21 @@ import fnmatch
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Callable, Iterable, List, Optional
+from typing import Callable, Iterable, List, Optional, Tuple
 
 import numpy as np
 
 from ..core.camera import Camera
 from ..outputs.safe_write import write_text
+from .camera_files import written_verdict
 from .files import InputError, read_photo
 from .frames import (SHARED_XYZ, FrameTask, PhotoResult, Timelapse, blank_photo, fit_job, process_frame,
                      shared_for)
 from .progress import IsCanceled, Progress, never_canceled, no_progress
 
 __all__ = ["PhotoJob", "PhotoResult", "folder_jobs", "table_jobs", "run_batch", "output_stems", "fit_shared_camera",
-           "fit_job", "write_log", "log_photo_path", "frame_tasks", "pick_reference", "batch_setup", "IMAGE_PATTERNS"]
+           "fit_job", "write_log", "log_photo_path", "frame_tasks", "pick_reference", "shared_camera_verdict",
+           "batch_setup", "IMAGE_PATTERNS"]
 
 IMAGE_PATTERNS = ("*.jpg", "*.jpeg", "*.png", "*.tif", "*.tiff", "*.bmp")
 
@@ -105,7 +107,8 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
               write_ortho: bool = True, resolution: Optional[float] = None,
               log: Log = lambda message, error: None,
               progress: Progress = no_progress, is_canceled: IsCanceled = never_canceled,
-              workers: Optional[int] = None, register: bool = False, reference: str = "") -> List[PhotoResult]:
+              workers: Optional[int] = None, register: bool = False, reference: str = "",
+              camera_verdict: Tuple[str, str] = ("ok", "")) -> List[PhotoResult]:
     """Run every job; never raises for one photo's problem.
 
     Outputs per photo ``<stem>_camera.json`` (fitted jobs, and re-registered frames that turned), ``<stem>_xyz.tif``,
@@ -116,7 +119,8 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
     ``workers``: frames processed at once (threads; default: the number of cores). ``register``: match every frame
     of a shared camera to ``reference`` (a photo; default the first usable job's, see :func:`pick_reference`) and
     make its products with the corrected camera; the drift is in the log and the results. All jobs share one camera,
-    or none does (a table).
+    or none does (a table). ``camera_verdict``: (status, note) of the shared camera: a status other than "ok"
+    is every frame's (see :func:`shared_camera_verdict`).
     """
     os.makedirs(out_dir, exist_ok=True)
     stems = output_stems(jobs)
@@ -127,7 +131,7 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
         log(f"{len(existing)} file(s) of an earlier run in {out_dir} are replaced (e.g. {existing[0]})", False)
     try:
         setup = batch_setup(jobs, crs_wkt, out_dir, write_xyz, write_ortho, resolution, register, reference,
-                            log=log)
+                            log=log, camera_verdict=camera_verdict)
         shared = shared_for(setup, dem)
     except InputError as exc:  # no reference frame can serve: nothing can be registered
         results = [PhotoResult(t.photo, False, f"{exc}", index=t.index) for t in tasks]
@@ -176,8 +180,8 @@ class _Background:
 
 def batch_setup(jobs: List[PhotoJob], crs_wkt: str, out_dir: str, write_xyz: bool = True, write_ortho: bool = True,
                 resolution: Optional[float] = None, register: bool = False, reference: str = "",
-                dem_path: str = "", void_value: Optional[float] = None, log: Log = lambda message, error: None
-                ) -> Timelapse:
+                dem_path: str = "", void_value: Optional[float] = None, log: Log = lambda message, error: None,
+                camera_verdict: Tuple[str, str] = ("ok", "")) -> Timelapse:
     """The :class:`~.frames.Timelapse` of a batch: the shared camera of its jobs (all or none), the reference
     (:func:`pick_reference`; an InputError when the one named cannot serve)."""
     cameras = {j.camera.to_json() for j in jobs if j.camera is not None}
@@ -189,7 +193,8 @@ def batch_setup(jobs: List[PhotoJob], crs_wkt: str, out_dir: str, write_xyz: boo
     if register:
         reference = pick_reference([j.photo for j in jobs if j.photo], Camera.from_json(camera_json), reference, log)
     return Timelapse(out_dir, crs_wkt, camera_json, write_xyz, write_ortho, resolution, register,
-                     reference if register else "", dem_path=dem_path, void_value=void_value)
+                     reference if register else "", dem_path=dem_path, void_value=void_value,
+                     camera_status=camera_verdict[0] or "ok", camera_note=camera_verdict[1])
 
 
 def pick_reference(photos: List[str], camera, named: str = "", log: Log = lambda message, error: None) -> str:
@@ -227,6 +232,20 @@ def pick_reference(photos: List[str], camera, named: str = "", log: Log = lambda
         return path
     raise InputError("no frame can be the reference frame (every one is unreadable, blank or of another size than "
                      "the shared camera)")
+
+
+def shared_camera_verdict(path: str, log: Log = lambda message, error: None) -> Tuple[str, str]:
+    """(status, note) of a time-lapse's shared camera file for :func:`run_batch`: the verdict of the fit that wrote
+    it (:func:`~.camera_files.written_verdict`); a camera without one (a rough prior, a KML) is "uncertain: camera
+    not fitted", said once in the log. A rough prior taken as the fitted camera gave every frame "ok" and products
+    225 m off (a trial)."""
+    status, message = written_verdict(path)
+    if status in ("ok", "uncertain", "poor"):
+        return status, f"the camera's fit was {status}" if status != "ok" else ""
+    log(f"The camera {os.path.basename(path)} carries no fit verdict: it is not a fitted camera (a rough prior?). "
+        "Its frames are marked \"uncertain: camera not fitted\"; fit it on one frame (Fit camera, or POINTS here) "
+        "for products you can trust.", True)
+    return "uncertain", "camera not fitted"
 
 
 def frame_tasks(jobs: List[PhotoJob], stems: List[str], log: Log) -> List[FrameTask]:
@@ -335,7 +354,8 @@ def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_poi
                       log: Log = lambda message, error: None):
     """Fit one camera for a whole time-lapse on its first readable photo (the frames share the camera).
 
-    Returns (camera, photo used, rmse px). Raises InputError when no photo can be fitted."""
+    Returns (camera, photo used, rmse px, the fit's status, its message). Raises InputError when no photo can be
+    fitted."""
     problems = []
     for path in folder_photos:
         try:
@@ -348,7 +368,7 @@ def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_poi
         camera, rmse, status, message = fit_job(job, (photo.shape[1], photo.shape[0]), dem, crs_wkt)
         if status != "ok":
             log(f"{os.path.basename(path)}: the shared camera's fit is {status}: {message}", True)
-        return camera, path, rmse
+        return camera, path, rmse, status, message
     raise InputError("no photo of the folder could be read for the shared fit: " + "; ".join(problems[:3]))
 
 

@@ -134,7 +134,9 @@ class Timelapse:
     """What the frames of a batch share, picklable (Dask ships it to workers, which open the DEM themselves).
 
     ``camera_json``: the shared camera ("" for a table of photos each fitted). ``register``: re-register every
-    frame on ``reference`` (a photo path). ``dem_path``/``void_value``: how a worker opens the DEM."""
+    frame on ``reference`` (a photo path). ``dem_path``/``void_value``: how a worker opens the DEM.
+    ``camera_status``/``camera_note``: the shared camera's verdict ("uncertain" for a camera file without one: a
+    rough prior is no fitted camera), which every frame of it inherits."""
 
     out_dir: str
     crs_wkt: str
@@ -147,6 +149,8 @@ class Timelapse:
     near_m: float = 150.0
     dem_path: str = ""
     void_value: Optional[float] = None
+    camera_status: str = "ok"
+    camera_note: str = ""
 
 
 @dataclass(frozen=True)
@@ -248,13 +252,16 @@ def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
             result.outputs.append(products.write_orthophoto(os.path.join(setup.out_dir, f"{task.stem}_ortho.tif"),
                                                             photo))
         result.ok = True
+        if shared.camera is not None:  # a frame inherits the doubt of the camera it shares
+            fit_status, fit_message = setup.camera_status, setup.camera_note
         result.status = fit_status if fit_status in ("uncertain", "poor") else "ok"
         # a frame of a shared camera has no fit of its own (its RMSE column stays empty): say whose camera it used
-        if np.isfinite(result.rmse_px):
+        whose = "the shared camera turned" if own_camera and shared.camera is not None else "the shared camera"
+        if shared.camera is not None:
+            result.message = f"ok, {whose}" if fit_status == "ok" else f"{fit_status}: {fit_message} ({whose})"
+        elif fit_status == "ok":
             result.message = f"ok, fit RMSE {result.rmse_px:.2f} px"
-        else:
-            result.message = "ok, the shared camera turned" if own_camera else "ok, the shared camera"
-        if fit_status != "ok":  # products written, but the fitted camera is doubtful
+        else:  # products written, but the fitted camera is doubtful
             result.message = f"fit {fit_status}, RMSE {result.rmse_px:.2f} px: {fit_message}"
         if np.isfinite(result.drift_px):
             result.message += f", drift {result.drift_px:.2f} px ({result.drift_deg:.3f} deg)"

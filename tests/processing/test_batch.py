@@ -34,7 +34,7 @@ def test_timelapse_batch_skips_the_corrupted_photo(run_alg, small_scene, timelap
     feedback = recording_feedback()
     out = tmp_path / "out"
     result = run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(timelapse),
-                               "CAMERA": small_scene["camera"], "XYZ": True, "ORTHO": True, "OUTPUT": str(out)},
+                               "CAMERA": small_scene["fitted"], "XYZ": True, "ORTHO": True, "OUTPUT": str(out)},
                      feedback)
     assert result["SUCCEEDED"] == 19 and result["FAILED"] == 1
     orthos = sorted(p.name for p in out.glob("*_ortho.tif"))
@@ -126,5 +126,6 @@ def test_timelapse_fits_the_shared_camera_once_from_a_prior(run_alg, small_scene
                                "XYZ": False, "ORTHO": True, "OUTPUT": str(out)})
     assert result["SUCCEEDED"] == 18 and result["FAILED"] == 2
     fitted = Camera.load(out / "camera.json")
+    assert json.loads((out / "camera.json").read_text())["fit"]["status"]  # a rerun with it knows it was fitted
     assert np.linalg.norm(np.subtract(fitted.position, cam.position)) < 5.0
     assert abs(fitted.heading - cam.heading) < 0.1

@@ -227,7 +227,7 @@ def test_cancel_marks_the_rest_canceled_not_failed(run_alg, small_scene, tmp_pat
     feedback = QgsProcessingFeedback()
     feedback.progressChanged.connect(lambda value: feedback.cancel() if value >= 40 else None)
     result = run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(folder), "WORKERS": 1,
-                               "CAMERA": small_scene["camera"], "OUTPUT": str(tmp_path / "out")}, feedback)
+                               "CAMERA": small_scene["fitted"], "OUTPUT": str(tmp_path / "out")}, feedback)
     statuses = [r["status"] for r in log_rows(result["LOG"])]
     assert statuses == ["ok", "ok", "ok", "canceled", "canceled", "canceled"]
     assert result["SUCCEEDED"] == 3
@@ -267,3 +267,21 @@ def test_table_row_of_a_blank_photo_is_skipped_without_products(run_alg, small_s
     row = log_rows(result["LOG"])[1]
     assert row["status"] == "skipped" and "blank frame, no products written" in row["message"]
     assert "fog.png: skipped: blank frame" in feedback.textLog()
+
+
+def test_a_shared_camera_without_fit_verdict_is_not_ok(run_alg, small_scene, tmp_path):
+    """The trial: a rough prior given as CAMERA made every frame "ok, the shared camera", products 225 m off."""
+    from tests.processing.conftest import recording_feedback
+
+    folder = tmp_path / "frames"
+    folder.mkdir()
+    for i in range(2):
+        write_photo(folder / f"f{i}.png", seed=i)
+    feedback = recording_feedback()
+    result = run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(folder), "XYZ": False,
+                               "CAMERA": small_scene["camera"], "OUTPUT": str(tmp_path / "out")}, feedback)
+    assert result["SUCCEEDED"] == 2 and len(list((tmp_path / "out").glob("*_ortho.tif"))) == 2  # still works
+    rows = log_rows(result["LOG"])
+    assert [r["status"] for r in rows] == ["uncertain", "uncertain"]
+    assert rows[0]["message"] == "uncertain: camera not fitted (the shared camera)"
+    assert sum("carries no fit verdict: it is not a fitted camera" in w for w in feedback.warnings) == 1

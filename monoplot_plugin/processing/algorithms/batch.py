@@ -15,6 +15,7 @@ from qgis.core import (
 )
 
 from ...outputs.safe_write import cancel_before_commit, write_text
+from ...workflow.camera_files import camera_json
 from .. import batch
 from ..base import MonoplotAlgorithm, checked
 
@@ -26,7 +27,9 @@ class BatchPhotos(MonoplotAlgorithm):
              "Time-lapse folder: every image in FOLDER shares one fitted CAMERA; the XYZ raster is computed once "
              "(xyz.tif) and an orthophoto is written per photo (frame_ortho.tif for frame.jpg). With POINTS (a GCP "
              "CSV, or a photo points CSV with DEM_POINTS for unpaired points), CAMERA is the prior and the shared "
-             "camera is fitted once on the first readable photo (camera.json).\n\n"
+             "camera is fitted once on the first readable photo (camera.json). A CAMERA without a fit verdict (a "
+             "rough prior, a KML; cameras written by the fit carry one) is used, but its frames are logged "
+             "\"uncertain: camera not fitted\".\n\n"
              "CSV table: TABLE lists photos with their own prior camera and points (columns photo, prior, points "
              "and optionally dem_points; paths relative to the table); each photo is fitted (frame_camera.json, "
              "with the fit's verdict) and gets its own XYZ raster and orthophoto. A row whose points cell is empty is "
@@ -111,14 +114,20 @@ class BatchPhotos(MonoplotAlgorithm):
                            self.parameterAsString(parameters, "PATTERN", context))
             points = self.parameterAsFile(parameters, "POINTS", context)
             if points:  # fit once, on the first readable frame; every frame shares the camera
-                camera, used, rmse = checked(batch.fit_shared_camera, [j.photo for j in jobs],
-                                             self.parameterAsFile(parameters, "CAMERA", context), points,
-                                             self.parameterAsFile(parameters, "DEM_POINTS", context), dem,
-                                             crs.toWkt(), lambda m, e: feedback.reportError(m, False))
+                camera, used, rmse, status, message = checked(batch.fit_shared_camera, [j.photo for j in jobs],
+                                                              self.parameterAsFile(parameters, "CAMERA", context),
+                                                              points,
+                                                              self.parameterAsFile(parameters, "DEM_POINTS", context),
+                                                              dem, crs.toWkt(),
+                                                              lambda m, e: feedback.reportError(m, False))
+                camera_verdict = (status, message)
                 os.makedirs(out_dir, exist_ok=True)
                 if os.path.exists(os.path.join(out_dir, "camera.json")):
                     feedback.pushInfo(self.tr("camera.json of an earlier run in {0} is replaced").format(out_dir))
-                write_text(os.path.join(out_dir, "camera.json"), camera.to_json(), overwrite=True)
+                # with its verdict: a later run given this camera knows it was fitted (or how doubtful it is)
+                write_text(os.path.join(out_dir, "camera.json"), camera_json(camera, {"status": status,
+                                                                                      "message": message}),
+                           overwrite=True)
                 feedback.pushInfo(self.tr("Shared camera fitted on {0}: RMSE {1:.2f} px; written to {2}").format(
                     os.path.basename(used), rmse, os.path.join(out_dir, 'camera.json')))
             else:
@@ -127,6 +136,8 @@ class BatchPhotos(MonoplotAlgorithm):
                     size = self.first_photo_size([j.photo for j in jobs], feedback)  # KML has no image size
                 camera = self.camera(parameters, context, "CAMERA", crs=crs, image_size=size, dem=dem,
                                      only_if_moved=True)
+                camera_verdict = batch.shared_camera_verdict(self.parameterAsFile(parameters, "CAMERA", context),
+                                                             lambda m, e: feedback.pushWarning(m))
             for job in jobs:
                 job.camera = camera
         else:
@@ -135,6 +146,7 @@ class BatchPhotos(MonoplotAlgorithm):
                                                      "time-lapse mode and give FOLDER and CAMERA)."))
             photo_folder = os.path.dirname(os.path.abspath(self.parameterAsFile(parameters, "TABLE", context)))
             jobs = checked(batch.table_jobs, self.parameterAsFile(parameters, "TABLE", context))
+            camera_verdict = ("ok", "")  # each row's own fit says
         feedback.pushInfo(self.tr("{0} photos to process").format(len(jobs)))
 
         def log(message, error):
@@ -150,7 +162,8 @@ class BatchPhotos(MonoplotAlgorithm):
                        write_ortho=self.parameterAsBool(parameters, "ORTHO", context),
                        resolution=self.parameterAsDouble(parameters, "RESOLUTION", context) or None,
                        log=log, progress=progress, is_canceled=feedback.isCanceled, register=register,
-                       reference=self.parameterAsFile(parameters, "REFERENCE", context) or "")
+                       reference=self.parameterAsFile(parameters, "REFERENCE", context) or "",
+                       camera_verdict=camera_verdict)
         scheduler = (self.parameterAsString(parameters, "SCHEDULER", context) or "").strip()
         if scheduler:
             path, _ = self.dem_path(parameters, context)
