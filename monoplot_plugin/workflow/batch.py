@@ -28,7 +28,7 @@ from .progress import IsCanceled, Progress, never_canceled, no_progress
 
 __all__ = ["PhotoJob", "PhotoResult", "folder_jobs", "table_jobs", "run_batch", "output_stems", "fit_shared_camera",
            "fit_job", "write_log", "log_photo_path", "frame_tasks", "pick_reference", "shared_camera_verdict",
-           "batch_setup", "IMAGE_PATTERNS"]
+           "remove_stale", "batch_setup", "IMAGE_PATTERNS"]
 
 IMAGE_PATTERNS = ("*.jpg", "*.jpeg", "*.png", "*.tif", "*.tiff", "*.bmp")
 
@@ -144,7 +144,42 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
                       progress)
     if writer is not None and writer.wait() is not None:
         shared_xyz_failed(results, os.path.join(out_dir, SHARED_XYZ), writer.error, log)
+    remove_stale(out_dir, tasks, results, bool(setup.camera_json), log)
     return results
+
+
+def remove_stale(out_dir: str, tasks: List[FrameTask], results: List[PhotoResult], shared_camera: bool,
+                 log: Log) -> List[str]:
+    """Remove the products of an earlier run this run did not rewrite, where they would contradict the log: every
+    ``<stem>_camera.json``, ``_xyz.tif``, ``_ortho.tif`` of a frame that failed or was skipped, and the own camera
+    and XYZ raster of a frame that now has the shared camera's (it turned in an earlier run). Only these names of
+    the batch's own frames; a canceled frame's are left (it was not processed). Returns the paths removed.
+
+    A frame that failed on a rerun kept its orthophoto of the earlier run beside a log saying "failed" (a trial)."""
+    removed, kept = [], []
+    for task, result in zip(tasks, results):
+        if result.canceled:
+            continue
+        suffixes = ("_camera.json", "_xyz.tif", "_ortho.tif") if not result.ok else \
+            ("_camera.json", "_xyz.tif") if shared_camera else ()
+        written = {os.path.normcase(os.path.abspath(p)) for p in result.outputs}
+        for suffix in suffixes:
+            path = os.path.join(out_dir, task.stem + suffix)
+            if os.path.normcase(os.path.abspath(path)) in written or not os.path.isfile(path):
+                continue
+            try:
+                os.remove(path)
+                removed.append(path)
+            except OSError as exc:
+                kept.append(f"{os.path.basename(path)} ({exc})")
+    if removed:
+        names = ", ".join(os.path.basename(p) for p in removed[:5]) + (", ..." if len(removed) > 5 else "")
+        log(f"{len(removed)} file(s) of an earlier run removed, not made again by this run (frames failed, skipped "
+            f"or now with the shared camera): {names}", False)
+    if kept:
+        log(f"{len(kept)} file(s) of an earlier run could not be removed and are NOT of this run: "
+            + "; ".join(kept[:5]), True)
+    return removed
 
 
 def shared_xyz_failed(results: List[PhotoResult], path: str, error: Exception, log: Log) -> None:

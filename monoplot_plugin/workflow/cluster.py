@@ -27,7 +27,7 @@ import sys
 from pathlib import Path
 from typing import Dict, List, Optional, Tuple
 
-from .batch import (Log, PhotoJob, batch_setup, frame_tasks, log_result, output_stems, planned_outputs,
+from .batch import (Log, PhotoJob, batch_setup, frame_tasks, log_result, output_stems, planned_outputs, remove_stale,
                     shared_xyz_failed)
 from .files import InputError
 from .frames import SHARED_XYZ, FrameTask, PhotoResult, Timelapse, process_frame, shared_for
@@ -170,6 +170,7 @@ def run_batch_dask(jobs: List[PhotoJob], dem_path: str, crs_wkt: str, out_dir: s
             except Exception as exc:  # the frames' products are there; the shared raster is not
                 shared_xyz_failed(results, os.path.join(setup.out_dir, SHARED_XYZ), exc, log)
         _remove_orphans(out_dir, planned_outputs(jobs, stems, write_xyz, write_ortho))
+        remove_stale(out_dir, tasks, results, bool(setup.camera_json), log)
         return results
     finally:
         if own is not None:

@@ -269,3 +269,29 @@ def test_a_blank_frame_is_skipped_not_draped_with_the_shared_camera(still_timela
     assert any("frame_002.png: skipped: blank frame, no products written: no structure" in m for m in lines)
     batch.write_log(str(out / "batch_log.csv"), results)
     assert log_rows(out / "batch_log.csv")[2]["status"] == "skipped"
+
+
+def test_a_rerun_removes_the_earlier_products_of_frames_it_does_not_make_again(drifting_timelapse, tmp_path):
+    """The trial: a frame that failed on a rerun kept its orthophoto of the earlier run beside "failed" in the log."""
+    import shutil
+
+    import cv2
+
+    scene = drifting_timelapse
+    folder = tmp_path / "frames"
+    shutil.copytree(scene["folder"], folder)
+    cam, dem = Camera.load(scene["camera"]), Dem.open(scene["dem"])
+    out = tmp_path / "out"
+    first = batch.run_batch(batch.folder_jobs(str(folder), cam), dem, dem.crs_wkt, str(out), register=True)
+    assert all(r.ok for r in first) and (out / "frame_001_camera.json").is_file()
+    (out / "notes.txt").write_text("mine")  # not the batch's: never touched
+    cv2.imwrite(str(folder / "frame_002.png"), np.full((cam.height, cam.width, 3), 205, np.uint8))  # fog now
+    lines = []
+    second = batch.run_batch(batch.folder_jobs(str(folder), cam), dem, dem.crs_wkt, str(out), write_xyz=False,
+                             log=lambda m, e: lines.append(m))
+    assert [r.ok for r in second] == [True, True, False, True, True]
+    assert not list(out.glob("frame_002_*"))  # skipped now: its earlier products are gone
+    # not re-registered now: the frames have the shared camera, their own cameras of the earlier run are gone
+    assert not list(out.glob("frame_*_camera.json")) and not list(out.glob("frame_*_xyz.tif"))
+    assert len(list(out.glob("frame_*_ortho.tif"))) == 4 and (out / "notes.txt").read_text() == "mine"
+    assert any("of an earlier run removed" in m and "frame_002_ortho.tif" in m for m in lines)
