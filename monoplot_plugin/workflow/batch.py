@@ -45,6 +45,10 @@ class PhotoJob:
     points: str = ""       # paired GCP CSV (u_px, v_px, X, Y, Z) or photo points CSV
     dem_points: str = ""   # DEM points CSV (unpaired fit)
     label: str = ""        # where the job comes from (table line), for messages about a row without a photo
+    # one σ of the prior's position (m) and heading / pitch (degrees) for a row registered automatically; None: the
+    # automatic registration's defaults
+    position_sigma_m: Optional[float] = None
+    angle_sigma_deg: Optional[float] = None
 
 
 def folder_jobs(folder: str, camera, patterns: str = "") -> List[PhotoJob]:
@@ -63,9 +67,10 @@ def folder_jobs(folder: str, camera, patterns: str = "") -> List[PhotoJob]:
 
 
 def table_jobs(path: str) -> List[PhotoJob]:
-    """Jobs from a CSV table with columns ``photo, prior, points`` and optionally ``dem_points``; relative paths
-    are relative to the table's folder. ``points`` is a paired GCP CSV, or photo points when ``dem_points`` is
-    given (unpaired)."""
+    """Jobs from a CSV table with columns ``photo, prior, points`` and optionally ``dem_points``,
+    ``position_sigma`` (m) and ``angle_sigma`` (degrees: the prior's uncertainty, for a row without points,
+    registered automatically); relative paths are relative to the table's folder. ``points`` is a paired GCP CSV,
+    or photo points when ``dem_points`` is given (unpaired)."""
     if not path or not os.path.isfile(path):
         raise InputError(f"batch table not found: {path}")
     base = os.path.dirname(os.path.abspath(path))
@@ -98,8 +103,22 @@ def table_jobs(path: str) -> List[PhotoJob]:
         value = (row.get(lowered.get(column, ""), "") or "").strip()
         return os.path.join(base, value) if value and not os.path.isabs(value) else value
 
+    def sigma(row, line, column):
+        value = (row.get(lowered.get(column, ""), "") or "").strip()
+        if not value:
+            return None
+        try:
+            number = float(value.replace(",", "."))  # a decimal comma of a spreadsheet saved with ';'
+        except ValueError:
+            number = float("nan")
+        if not (np.isfinite(number) and number > 0):
+            raise InputError(f"{os.path.basename(path)} line {line}: {column} '{value}' is not a positive number "
+                             f"(leave it empty for the default)")
+        return number
+
     return [PhotoJob(resolve(r, "photo"), prior=resolve(r, "prior"), points=resolve(r, "points"),
-                     dem_points=resolve(r, "dem_points"), label=f"{os.path.basename(path)} line {line}")
+                     dem_points=resolve(r, "dem_points"), label=f"{os.path.basename(path)} line {line}",
+                     position_sigma_m=sigma(r, line, "position_sigma"), angle_sigma_deg=sigma(r, line, "angle_sigma"))
             for line, r in rows]
 
 

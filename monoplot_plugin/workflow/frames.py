@@ -311,19 +311,23 @@ def _write_camera(setup: Timelapse, stem: str, camera: Camera, verdict: Optional
 def fit_job(job, size, dem, crs_wkt: str, photo: Optional[np.ndarray] = None):
     """Fit the camera of a batch job (``prior``, ``points``, ``dem_points`` paths) from its files; returns (camera,
     rmse in px, fit status, message). A row without points is registered automatically on ``photo`` (the (H, W, 3)
-    picture) from its prior (:func:`~.auto.register`): an archive of photos with rough cameras only needed
+    picture) from its prior (:func:`~.auto.register`, with the job's ``position_sigma_m`` and
+    ``angle_sigma_deg``, None: its defaults): an archive of photos with rough cameras only needed
     autoregister in QGIS's batch dialog, which froze the desktop for 87 s over 7 photos (a trial)."""
     prior = load_camera(job.prior, size, crs_wkt, rough=True)
     if photo is not None:  # a scanned print's optical axis: its picture's centre, as in the dock
         prior = centred_on_picture(prior, picture_area(photo))
     if not job.points and photo is not None:
-        from .auto import register
+        from .auto import DEFAULT_ANGLE_SIGMA_DEG, DEFAULT_POSITION_SIGMA_M, register
 
-        done = register(photo, dem, prior)
+        position = getattr(job, "position_sigma_m", None) or DEFAULT_POSITION_SIGMA_M
+        angle = getattr(job, "angle_sigma_deg", None) or DEFAULT_ANGLE_SIGMA_DEG
+        done = register(photo, dem, prior, position_sigma_m=position, angle_sigma_deg=angle)
         camera, r = done.camera, done.result
         camera.crs_wkt = crs_wkt
         rmse = float(r.rmse_px) if r.rmse_px is not None and np.isfinite(r.rmse_px) else float("nan")
-        return camera, rmse, r.status, "automatic registration (no points in this row): " + r.message
+        return camera, rmse, r.status, (f"automatic registration (no points in this row; prior σ {position:g} m, "
+                                        f"{angle:g}°): " + r.message)
     if not job.points:  # "point file not found: " with no name said nothing
         raise InputError("no points file in this row (the 'points' column is empty)")
     table = read_points_csv(job.points)

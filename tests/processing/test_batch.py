@@ -129,3 +129,24 @@ def test_timelapse_fits_the_shared_camera_once_from_a_prior(run_alg, small_scene
     assert json.loads((out / "camera.json").read_text())["fit"]["status"]  # a rerun with it knows it was fitted
     assert np.linalg.norm(np.subtract(fitted.position, cam.position)) < 5.0
     assert abs(fitted.heading - cam.heading) < 0.1
+
+
+def test_table_rows_registered_automatically_take_the_priors_uncertainty(run_alg, small_scene, tmp_path):
+    """POSITION_SIGMA / ANGLE_SIGMA as monoplot:autoregister has them (the batch used 200 m / 5° for every row),
+    and a row's own position_sigma / angle_sigma columns first."""
+    cam = small_scene["cam"]
+    cam.with_parameters(heading=cam.heading - 1.0).save(tmp_path / "prior.json")
+    for name in ("a.png", "b.png"):
+        write_photo(tmp_path / name, seed=3)
+    (tmp_path / "photos.csv").write_text("photo,prior,points,position_sigma,angle_sigma\n"
+                                         "a.png,prior.json,,,\n"
+                                         "b.png,prior.json,,30,1.5\n")
+    out = tmp_path / "out"
+    run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"), "XYZ": False,
+                      "ORTHO": False, "POSITION_SIGMA": 80.0, "ANGLE_SIGMA": 2.0, "OUTPUT": str(out)})
+    messages = [json.loads((out / f"{n}_camera.json").read_text())["fit"]["message"] for n in ("a", "b")]
+    assert "prior σ 80 m, 2°" in messages[0] and "prior σ 30 m, 1.5°" in messages[1]
+    (tmp_path / "bad.csv").write_text("photo,prior,points,position_sigma\na.png,prior.json,,far\n")
+    with pytest.raises(QgsProcessingException, match="bad.csv line 2: position_sigma 'far' is not a positive"):
+        run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "bad.csv"),
+                          "OUTPUT": str(out)})

@@ -15,6 +15,7 @@ from qgis.core import (
 )
 
 from ...outputs.safe_write import cancel_before_commit, write_text
+from ...workflow.auto import DEFAULT_ANGLE_SIGMA_DEG, DEFAULT_POSITION_SIGMA_M
 from ...workflow.camera_files import camera_json
 from .. import batch
 from ..base import MonoplotAlgorithm, checked
@@ -33,7 +34,9 @@ class BatchPhotos(MonoplotAlgorithm):
              "CSV table: TABLE lists photos with their own prior camera and points (columns photo, prior, points "
              "and optionally dem_points; paths relative to the table); each photo is fitted (frame_camera.json, "
              "with the fit's verdict) and gets its own XYZ raster and orthophoto. A row whose points cell is empty is "
-             "registered automatically from its prior, as monoplot:autoregister does.\n\n"
+             "registered automatically from its prior, as monoplot:autoregister does, with the prior's uncertainty "
+             "POSITION_SIGMA and ANGLE_SIGMA, or the row's own in optional columns position_sigma (m) and "
+             "angle_sigma (degrees).\n\n"
              "A KML camera (a rough prior) takes its image size from the first readable photo.\n\n"
              "Progress is reported per photo. A photo that cannot be read (damaged, truncated, not an image) or "
              "fitted, or whose size differs from the shared camera's, is reported and skipped; so is a blank photo "
@@ -78,6 +81,14 @@ class BatchPhotos(MonoplotAlgorithm):
         self.addParameter(QgsProcessingParameterFile("TABLE", self.tr("Photo table CSV (table mode)"),
                                                      QgsProcessingParameterFile.File, optional=True,
                                                      fileFilter="CSV (*.csv)"))
+        self.addParameter(QgsProcessingParameterNumber(
+            "POSITION_SIGMA", self.tr("Uncertainty of the priors' position (m, one sigma; table rows without points)"),
+            QgsProcessingParameterNumber.Double, DEFAULT_POSITION_SIGMA_M, optional=True, minValue=1.0))
+        self.addParameter(QgsProcessingParameterNumber(
+            "ANGLE_SIGMA", self.tr("Uncertainty of the priors' heading and pitch (degrees, one sigma; table rows "
+                                   "without points)"),
+            QgsProcessingParameterNumber.Double, DEFAULT_ANGLE_SIGMA_DEG, optional=True, minValue=0.1,
+            maxValue=30.0))
         self.addParameter(QgsProcessingParameterBoolean("XYZ", self.tr("Write XYZ rasters"), defaultValue=True))
         self.addParameter(QgsProcessingParameterBoolean("ORTHO", self.tr("Write orthophotos"), defaultValue=True))
         self.addParameter(QgsProcessingParameterNumber("RESOLUTION",
@@ -147,6 +158,11 @@ class BatchPhotos(MonoplotAlgorithm):
                                                      "time-lapse mode and give FOLDER and CAMERA)."))
             photo_folder = os.path.dirname(os.path.abspath(self.parameterAsFile(parameters, "TABLE", context)))
             jobs = checked(batch.table_jobs, self.parameterAsFile(parameters, "TABLE", context))
+            position = self.parameterAsDouble(parameters, "POSITION_SIGMA", context) or DEFAULT_POSITION_SIGMA_M
+            angle = self.parameterAsDouble(parameters, "ANGLE_SIGMA", context) or DEFAULT_ANGLE_SIGMA_DEG
+            for job in jobs:  # a row's own columns first
+                job.position_sigma_m = job.position_sigma_m or position
+                job.angle_sigma_deg = job.angle_sigma_deg or angle
             camera_verdict = ("ok", "")  # each row's own fit says
         feedback.pushInfo(self.tr("{0} photos to process").format(len(jobs)))
 
