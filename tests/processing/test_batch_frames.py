@@ -285,3 +285,4 @@ def test_a_shared_camera_without_fit_verdict_is_not_ok(run_alg, small_scene, tmp
     assert [r["status"] for r in rows] == ["uncertain", "uncertain"]
     assert rows[0]["message"] == "uncertain: camera not fitted (the shared camera)"
     assert sum("carries no fit verdict: it is not a fitted camera" in w for w in feedback.warnings) == 1
+    assert any(w.startswith("2 of the photos processed have a camera whose verdict is not") for w in feedback.warnings)

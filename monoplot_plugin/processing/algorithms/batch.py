@@ -201,6 +201,11 @@ class BatchPhotos(MonoplotAlgorithm):
         else:
             feedback.pushInfo(self.tr("{0} photos processed, {1} skipped; log: {2}").format(succeeded, failed,
                                                                                             log_path))
+        doubtful = sum(r.ok and r.verdict() != "ok" for r in results)
+        if doubtful:  # processed is not right: their cameras are doubtful
+            feedback.pushWarning(self.tr("{0} of the photos processed have a camera whose verdict is not \"ok\" "
+                                         "(uncertain or poor): check them before use (status column of the "
+                                         "log).").format(doubtful))
         if succeeded == 0:
             raise QgsProcessingException(self.tr("No photo could be processed; see {0}").format(log_path))
         return {"OUTPUT": out_dir, "SUCCEEDED": succeeded, "FAILED": failed, "LOG": log_path}
