@@ -8,6 +8,7 @@ from ..workflow.batch import (  # noqa: F401 (the algorithm's names for them)
     folder_jobs,
     output_stems,
     run_batch,
+    shared_camera_verdict,
     table_jobs,
     write_log,
 )

@@ -14,17 +14,21 @@ import fnmatch
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Callable, Iterable, List, Optional
+from typing import Callable, Iterable, List, Optional, Tuple
 
 import numpy as np
 
+from ..core.camera import Camera
 from ..outputs.safe_write import write_text
+from .camera_files import written_verdict
 from .files import InputError, read_photo
-from .frames import SHARED_XYZ, FrameTask, PhotoResult, Timelapse, fit_job, process_frame, shared_for
+from .frames import (SHARED_XYZ, FrameTask, PhotoResult, Timelapse, blank_photo, fit_job, process_frame,
+                     shared_for)
 from .progress import IsCanceled, Progress, never_canceled, no_progress
 
 __all__ = ["PhotoJob", "PhotoResult", "folder_jobs", "table_jobs", "run_batch", "output_stems", "fit_shared_camera",
-           "fit_job", "write_log", "frame_tasks", "batch_setup", "IMAGE_PATTERNS"]
+           "fit_job", "write_log", "log_photo_path", "frame_tasks", "pick_reference", "shared_camera_verdict",
+           "remove_stale", "batch_setup", "IMAGE_PATTERNS"]
 
 IMAGE_PATTERNS = ("*.jpg", "*.jpeg", "*.png", "*.tif", "*.tiff", "*.bmp")
 
@@ -41,6 +45,10 @@ class PhotoJob:
     points: str = ""       # paired GCP CSV (u_px, v_px, X, Y, Z) or photo points CSV
     dem_points: str = ""   # DEM points CSV (unpaired fit)
     label: str = ""        # where the job comes from (table line), for messages about a row without a photo
+    # one σ of the prior's position (m) and heading / pitch (degrees) for a row registered automatically; None: the
+    # automatic registration's defaults
+    position_sigma_m: Optional[float] = None
+    angle_sigma_deg: Optional[float] = None
 
 
 def folder_jobs(folder: str, camera, patterns: str = "") -> List[PhotoJob]:
@@ -59,9 +67,10 @@ def folder_jobs(folder: str, camera, patterns: str = "") -> List[PhotoJob]:
 
 
 def table_jobs(path: str) -> List[PhotoJob]:
-    """Jobs from a CSV table with columns ``photo, prior, points`` and optionally ``dem_points``; relative paths
-    are relative to the table's folder. ``points`` is a paired GCP CSV, or photo points when ``dem_points`` is
-    given (unpaired)."""
+    """Jobs from a CSV table with columns ``photo, prior, points`` and optionally ``dem_points``,
+    ``position_sigma`` (m) and ``angle_sigma`` (degrees: the prior's uncertainty, for a row without points,
+    registered automatically); relative paths are relative to the table's folder. ``points`` is a paired GCP CSV,
+    or photo points when ``dem_points`` is given (unpaired)."""
     if not path or not os.path.isfile(path):
         raise InputError(f"batch table not found: {path}")
     base = os.path.dirname(os.path.abspath(path))
@@ -94,8 +103,22 @@ def table_jobs(path: str) -> List[PhotoJob]:
         value = (row.get(lowered.get(column, ""), "") or "").strip()
         return os.path.join(base, value) if value and not os.path.isabs(value) else value
 
+    def sigma(row, line, column):
+        value = (row.get(lowered.get(column, ""), "") or "").strip()
+        if not value:
+            return None
+        try:
+            number = float(value.replace(",", "."))  # a decimal comma of a spreadsheet saved with ';'
+        except ValueError:
+            number = float("nan")
+        if not (np.isfinite(number) and number > 0):
+            raise InputError(f"{os.path.basename(path)} line {line}: {column} '{value}' is not a positive number "
+                             f"(leave it empty for the default)")
+        return number
+
     return [PhotoJob(resolve(r, "photo"), prior=resolve(r, "prior"), points=resolve(r, "points"),
-                     dem_points=resolve(r, "dem_points"), label=f"{os.path.basename(path)} line {line}")
+                     dem_points=resolve(r, "dem_points"), label=f"{os.path.basename(path)} line {line}",
+                     position_sigma_m=sigma(r, line, "position_sigma"), angle_sigma_deg=sigma(r, line, "angle_sigma"))
             for line, r in rows]
 
 
@@ -103,7 +126,8 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
               write_ortho: bool = True, resolution: Optional[float] = None,
               log: Log = lambda message, error: None,
               progress: Progress = no_progress, is_canceled: IsCanceled = never_canceled,
-              workers: Optional[int] = None, register: bool = False, reference: str = "") -> List[PhotoResult]:
+              workers: Optional[int] = None, register: bool = False, reference: str = "",
+              camera_verdict: Tuple[str, str] = ("ok", "")) -> List[PhotoResult]:
     """Run every job; never raises for one photo's problem.
 
     Outputs per photo ``<stem>_camera.json`` (fitted jobs, and re-registered frames that turned), ``<stem>_xyz.tif``,
@@ -112,20 +136,23 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
     ``is_canceled()`` follow the workflow's protocol; on a cancel the remaining photos are reported as not processed.
 
     ``workers``: frames processed at once (threads; default: the number of cores). ``register``: match every frame
-    of a shared camera to ``reference`` (a photo; default the first job's) and make its products with the corrected
-    camera; the drift is in the log and the results. All jobs share one camera, or none does (a table).
+    of a shared camera to ``reference`` (a photo; default the first usable job's, see :func:`pick_reference`) and
+    make its products with the corrected camera; the drift is in the log and the results. All jobs share one camera,
+    or none does (a table). ``camera_verdict``: (status, note) of the shared camera: a status other than "ok"
+    is every frame's (see :func:`shared_camera_verdict`).
     """
     os.makedirs(out_dir, exist_ok=True)
     stems = output_stems(jobs)
     tasks = frame_tasks(jobs, stems, log)
-    setup = batch_setup(jobs, crs_wkt, out_dir, write_xyz, write_ortho, resolution, register, reference)
     existing = [n for n in planned_outputs(jobs, stems, write_xyz, write_ortho)
                 if os.path.exists(os.path.join(out_dir, n))]
     if existing:
         log(f"{len(existing)} file(s) of an earlier run in {out_dir} are replaced (e.g. {existing[0]})", False)
     try:
+        setup = batch_setup(jobs, crs_wkt, out_dir, write_xyz, write_ortho, resolution, register, reference,
+                            log=log, camera_verdict=camera_verdict)
         shared = shared_for(setup, dem)
-    except InputError as exc:  # the reference frame cannot be read: nothing can be registered
+    except InputError as exc:  # no reference frame can serve: nothing can be registered
         results = [PhotoResult(t.photo, False, f"{exc}", index=t.index) for t in tasks]
         log(f"every photo FAILED: {exc}", True)
         return results
@@ -136,7 +163,42 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
                       progress)
     if writer is not None and writer.wait() is not None:
         shared_xyz_failed(results, os.path.join(out_dir, SHARED_XYZ), writer.error, log)
+    remove_stale(out_dir, tasks, results, bool(setup.camera_json), log)
     return results
+
+
+def remove_stale(out_dir: str, tasks: List[FrameTask], results: List[PhotoResult], shared_camera: bool,
+                 log: Log) -> List[str]:
+    """Remove the products of an earlier run this run did not rewrite, where they would contradict the log: every
+    ``<stem>_camera.json``, ``_xyz.tif``, ``_ortho.tif`` of a frame that failed or was skipped, and the own camera
+    and XYZ raster of a frame that now has the shared camera's (it turned in an earlier run). Only these names of
+    the batch's own frames; a canceled frame's are left (it was not processed). Returns the paths removed.
+
+    A frame that failed on a rerun kept its orthophoto of the earlier run beside a log saying "failed" (a trial)."""
+    removed, kept = [], []
+    for task, result in zip(tasks, results):
+        if result.canceled:
+            continue
+        suffixes = ("_camera.json", "_xyz.tif", "_ortho.tif") if not result.ok else \
+            ("_camera.json", "_xyz.tif") if shared_camera else ()
+        written = {os.path.normcase(os.path.abspath(p)) for p in result.outputs}
+        for suffix in suffixes:
+            path = os.path.join(out_dir, task.stem + suffix)
+            if os.path.normcase(os.path.abspath(path)) in written or not os.path.isfile(path):
+                continue
+            try:
+                os.remove(path)
+                removed.append(path)
+            except OSError as exc:
+                kept.append(f"{os.path.basename(path)} ({exc})")
+    if removed:
+        names = ", ".join(os.path.basename(p) for p in removed[:5]) + (", ..." if len(removed) > 5 else "")
+        log(f"{len(removed)} file(s) of an earlier run removed, not made again by this run (frames failed, skipped "
+            f"or now with the shared camera): {names}", False)
+    if kept:
+        log(f"{len(kept)} file(s) of an earlier run could not be removed and are NOT of this run: "
+            + "; ".join(kept[:5]), True)
+    return removed
 
 
 def shared_xyz_failed(results: List[PhotoResult], path: str, error: Exception, log: Log) -> None:
@@ -172,18 +234,72 @@ class _Background:
 
 def batch_setup(jobs: List[PhotoJob], crs_wkt: str, out_dir: str, write_xyz: bool = True, write_ortho: bool = True,
                 resolution: Optional[float] = None, register: bool = False, reference: str = "",
-                dem_path: str = "", void_value: Optional[float] = None) -> Timelapse:
-    """The :class:`~.frames.Timelapse` of a batch: the shared camera of its jobs (all or none), the reference."""
+                dem_path: str = "", void_value: Optional[float] = None, log: Log = lambda message, error: None,
+                camera_verdict: Tuple[str, str] = ("ok", "")) -> Timelapse:
+    """The :class:`~.frames.Timelapse` of a batch: the shared camera of its jobs (all or none), the reference
+    (:func:`pick_reference`; an InputError when the one named cannot serve)."""
     cameras = {j.camera.to_json() for j in jobs if j.camera is not None}
     if len(cameras) > 1 or (cameras and any(j.camera is None for j in jobs)):
         raise ValueError("the jobs of one batch share one camera, or each is fitted")
     camera_json = cameras.pop() if cameras else ""
     if register and not camera_json:
         raise InputError("re-registration needs the frames' shared camera (time-lapse mode)")
-    if register and not reference:
-        reference = next((j.photo for j in jobs if j.photo), "")
+    if register:
+        reference = pick_reference([j.photo for j in jobs if j.photo], Camera.from_json(camera_json), reference, log)
     return Timelapse(out_dir, crs_wkt, camera_json, write_xyz, write_ortho, resolution, register,
-                     reference if register else "", dem_path=dem_path, void_value=void_value)
+                     reference if register else "", dem_path=dem_path, void_value=void_value,
+                     camera_status=camera_verdict[0] or "ok", camera_note=camera_verdict[1])
+
+
+def pick_reference(photos: List[str], camera, named: str = "", log: Log = lambda message, error: None) -> str:
+    """The reference frame of a re-registration: ``named`` (the user's) if it can be read and is not blank, else an
+    InputError that names it; without one, the first of ``photos`` that can be read, has the camera's size and is
+    not blank (:func:`~.frames.blank_photo`), said in the log with the frames passed over.
+
+    A reference of fog registered itself "ok" and failed every good frame, and an unreadable first frame failed the
+    whole folder (a trial): a reference without texture can register nothing."""
+    if named:
+        try:
+            why = blank_photo(read_photo(named))
+        except InputError as exc:
+            raise InputError(f"the reference frame {os.path.basename(named)} cannot be used: {exc}; choose another "
+                             f"frame with REFERENCE") from exc
+        if why:
+            raise InputError(f"the reference frame {os.path.basename(named)} is blank, nothing can be registered on "
+                             f"it: {why} Choose another frame with REFERENCE")
+        return named
+    for path in photos:
+        name = os.path.basename(path)
+        try:
+            photo = read_photo(path)
+        except InputError as exc:
+            log(f"{name} is not the reference frame: {exc}", False)
+            continue
+        why = blank_photo(photo)
+        if not why and (photo.shape[1], photo.shape[0]) != tuple(camera.image_size):
+            why = (f"it is {photo.shape[1]}x{photo.shape[0]} px, the shared camera {camera.width}x{camera.height} "
+                   f"px")
+        if why:
+            log(f"{name} is not the reference frame: {why}", False)
+            continue
+        log(f"Reference frame: {name} (the first usable frame; REFERENCE picks another)", False)
+        return path
+    raise InputError("no frame can be the reference frame (every one is unreadable, blank or of another size than "
+                     "the shared camera)")
+
+
+def shared_camera_verdict(path: str, log: Log = lambda message, error: None) -> Tuple[str, str]:
+    """(status, note) of a time-lapse's shared camera file for :func:`run_batch`: the verdict of the fit that wrote
+    it (:func:`~.camera_files.written_verdict`); a camera without one (a rough prior, a KML) is "uncertain: camera
+    not fitted", said once in the log. A rough prior taken as the fitted camera gave every frame "ok" and products
+    225 m off (a trial)."""
+    status, message = written_verdict(path)
+    if status in ("ok", "uncertain", "poor"):
+        return status, f"the camera's fit was {status}" if status != "ok" else ""
+    log(f"The camera {os.path.basename(path)} carries no fit verdict: it is not a fitted camera (a rough prior?). "
+        "Its frames are marked \"uncertain: camera not fitted\"; fit it on one frame (Fit camera, or POINTS here) "
+        "for products you can trust.", True)
+    return "uncertain", "camera not fitted"
 
 
 def frame_tasks(jobs: List[PhotoJob], stems: List[str], log: Log) -> List[FrameTask]:
@@ -242,12 +358,14 @@ def collect(results: Iterable[Optional[PhotoResult]], tasks: List[FrameTask], lo
 
 def log_result(log: Log, task: FrameTask, total: int, result: PhotoResult) -> None:
     """One line of the batch log for a frame: its message, "canceled" (the user canceled while it was processed,
-    not a failure) or "FAILED, skipped"."""
+    not a failure), "skipped" (a blank frame) or "FAILED, skipped"."""
     head = f"[{task.index + 1}/{total}] {task.name}"
     if result.ok:
         log(f"{head}: {result.message}", False)
     elif result.canceled:
         log(f"{head}: canceled: {result.message}", True)
+    elif result.status == "skipped":
+        log(f"{head}: skipped: {result.message}", True)
     else:
         log(f"{head}: FAILED, skipped: {result.message}", True)
 
@@ -290,7 +408,8 @@ def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_poi
                       log: Log = lambda message, error: None):
     """Fit one camera for a whole time-lapse on its first readable photo (the frames share the camera).
 
-    Returns (camera, photo used, rmse px). Raises InputError when no photo can be fitted."""
+    Returns (camera, photo used, rmse px, the fit's status, its message). Raises InputError when no photo can be
+    fitted."""
     problems = []
     for path in folder_photos:
         try:
@@ -303,13 +422,14 @@ def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_poi
         camera, rmse, status, message = fit_job(job, (photo.shape[1], photo.shape[0]), dem, crs_wkt)
         if status != "ok":
             log(f"{os.path.basename(path)}: the shared camera's fit is {status}: {message}", True)
-        return camera, path, rmse
+        return camera, path, rmse, status, message
     raise InputError("no photo of the folder could be read for the shared fit: " + "; ".join(problems[:3]))
 
 
-def write_log(path: str, results: List[PhotoResult]) -> None:
-    """CSV summary: photo, status (ok, failed or canceled), message, rmse_px, drift_px, drift_deg (re-registered
-    frames), outputs (semicolon-separated)."""
+def write_log(path: str, results: List[PhotoResult], folder: str = "") -> None:
+    """CSV summary: photo (relative to ``folder``, the batch's photo folder or table's, when inside it, else
+    absolute: see :func:`log_photo_path`), status (:meth:`~.frames.PhotoResult.verdict`: a fit "uncertain" was
+    logged "ok"), message, rmse_px, drift_px, drift_deg (re-registered frames), outputs (semicolon-separated)."""
     import io
 
     def number(value, digits):
@@ -319,6 +439,28 @@ def write_log(path: str, results: List[PhotoResult]) -> None:
     writer = csv.writer(text)
     writer.writerow(["photo", "status", "message", "rmse_px", "drift_px", "drift_deg", "outputs"])
     for r in results:
-        writer.writerow([r.photo, "ok" if r.ok else "canceled" if r.canceled else "failed", r.message,
+        writer.writerow([log_photo_path(r.photo, folder), r.verdict(), r.message,
                          number(r.rmse_px, 3), number(r.drift_px, 3), number(r.drift_deg, 4), ";".join(r.outputs)])
     write_text(path, text.getvalue(), overwrite=True)
+
+
+def log_photo_path(photo: str, folder: str = "") -> str:
+    """``photo`` as the batch log names it: relative to ``folder`` when inside it, else absolute (the table mode
+    wrote absolute paths and the time-lapse mode relative ones).
+
+    >>> import os
+    >>> log_photo_path("/data/frames/a.jpg", "/data/frames") == os.path.join("a.jpg")
+    True
+    >>> log_photo_path("/data/other/a.jpg", "/data/frames") == os.path.abspath("/data/other/a.jpg")
+    True
+    """
+    if not photo:
+        return photo
+    path = os.path.abspath(photo)
+    if not folder:
+        return path
+    try:
+        relative = os.path.relpath(path, os.path.abspath(folder))
+    except ValueError:  # another drive (Windows)
+        return path
+    return path if relative.split(os.sep)[0] == os.pardir else relative

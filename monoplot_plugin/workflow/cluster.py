@@ -25,9 +25,9 @@ import os
 import queue
 import sys
 from pathlib import Path
-from typing import Dict, List, Optional
+from typing import Dict, List, Optional, Tuple
 
-from .batch import (Log, PhotoJob, batch_setup, frame_tasks, log_result, output_stems, planned_outputs,
+from .batch import (Log, PhotoJob, batch_setup, frame_tasks, log_result, output_stems, planned_outputs, remove_stale,
                     shared_xyz_failed)
 from .files import InputError
 from .frames import SHARED_XYZ, FrameTask, PhotoResult, Timelapse, process_frame, shared_for
@@ -131,7 +131,8 @@ def run_batch_dask(jobs: List[PhotoJob], dem_path: str, crs_wkt: str, out_dir: s
                    log: Log = lambda message, error: None, progress: Progress = no_progress,
                    is_canceled: IsCanceled = never_canceled, register: bool = False, reference: str = "",
                    client=None, address: str = "", void_value: Optional[float] = None,
-                   per_task: Optional[int] = None) -> List[PhotoResult]:
+                   per_task: Optional[int] = None, camera_verdict: Tuple[str, str] = ("ok", "")
+                   ) -> List[PhotoResult]:
     """:func:`~.batch.run_batch` with the frames as Dask tasks (arguments as there; the DEM as a file path).
 
     ``client``: a ``distributed.Client``; else ``address`` of a scheduler ("tcp://host:8786"); else a local
@@ -149,7 +150,7 @@ def run_batch_dask(jobs: List[PhotoJob], dem_path: str, crs_wkt: str, out_dir: s
         tasks = frame_tasks(jobs, stems, log)
         setup = batch_setup(jobs, crs_wkt, os.path.abspath(out_dir), write_xyz, write_ortho, resolution, register,
                             os.path.abspath(reference) if reference else "", dem_path=os.path.abspath(dem_path),
-                            void_value=void_value)
+                            void_value=void_value, log=log, camera_verdict=camera_verdict)
         existing = [n for n in planned_outputs(jobs, stems, write_xyz, write_ortho)
                     if os.path.exists(os.path.join(out_dir, n))]
         if existing:
@@ -169,6 +170,7 @@ def run_batch_dask(jobs: List[PhotoJob], dem_path: str, crs_wkt: str, out_dir: s
             except Exception as exc:  # the frames' products are there; the shared raster is not
                 shared_xyz_failed(results, os.path.join(setup.out_dir, SHARED_XYZ), exc, log)
         _remove_orphans(out_dir, planned_outputs(jobs, stems, write_xyz, write_ortho))
+        remove_stale(out_dir, tasks, results, bool(setup.camera_json), log)
         return results
     finally:
         if own is not None:

@@ -22,8 +22,9 @@ from typing import List, Optional
 import numpy as np
 
 from ..core.camera import Camera
-from ..core.drift import Reference, corrected_camera, register, stable_mask
+from ..core.drift import MIN_INLIERS, Reference, corrected_camera, register, stable_mask
 from ..core.lookup import ortho_lookup, turnable_lookup
+from ..core.suggest_photo import FEATURELESS_CONTRAST, coarse_contrast
 from ..outputs.orthophoto import write_orthophoto
 from ..outputs.safe_write import write_text
 from ..outputs.xyz_raster import write_xyz_raster
@@ -36,7 +37,7 @@ from .vectors import fill_missing_z
 from .xyz import xyz_raster, xyz_uncached
 
 __all__ = ["PhotoResult", "CameraProducts", "Timelapse", "Shared", "shared_for", "process_frame", "FrameTask",
-           "fit_job", "SHARED_XYZ", "DRIFT_TOLERANCE_PX"]
+           "fit_job", "blank_photo", "SHARED_XYZ", "DRIFT_TOLERANCE_PX"]
 
 #: file name of the XYZ raster the frames of one shared camera share
 SHARED_XYZ = "xyz.tif"
@@ -45,6 +46,30 @@ SHARED_XYZ = "xyz.tif"
 DRIFT_TOLERANCE_PX = 0.1
 
 _compute_lock = threading.Lock()  # one z-buffer at a time: it is parallel inside (numba)
+
+
+def blank_photo(photo: np.ndarray) -> str:
+    """Why ``photo`` (H, W[, 3]) shows nothing to georeference (fog, night, a covered lens), or "" when it shows
+    something: its contrast at a coarse scale (:func:`~..core.suggest_photo.coarse_contrast`) below
+    :data:`~..core.suggest_photo.FEATURELESS_CONTRAST`. Measured on a copy at most 512 px wide: the thumbnail it is
+    judged on is 64 px wide anyway, and a full-size frame took 0.2 s.
+
+    >>> blank_photo(np.full((30, 40, 3), 205, np.uint8))[:13]
+    'no structure '
+    >>> blank_photo(np.random.default_rng(0).integers(0, 255, (30, 40, 3), dtype=np.uint8))
+    ''
+    """
+    import cv2
+
+    photo = np.asarray(photo)
+    if photo.shape[1] > 512:
+        photo = cv2.resize(photo, (512, max(1, round(photo.shape[0] * 512 / photo.shape[1]))),
+                           interpolation=cv2.INTER_AREA)
+    contrast = coarse_contrast(photo)
+    if contrast >= FEATURELESS_CONTRAST:
+        return ""
+    return (f"no structure (contrast {contrast:.1f} grey levels at a coarse scale, under "
+            f"{FEATURELESS_CONTRAST:.0f}): fog, night or a covered lens?")
 
 
 @dataclass
@@ -59,6 +84,13 @@ class PhotoResult:
     drift_deg: float = float("nan")  # and the angle of the turn
     index: int = -1  # position in the batch
     seconds: float = float("nan")  # spent processing it (where it ran: a Dask worker's own clock)
+    #: the batch log's verdict: ok, uncertain, poor (products written, with that doubt), failed, skipped (a blank
+    #: frame: no products) or canceled; "" for a result made without processing (see :meth:`verdict`)
+    status: str = ""
+
+    def verdict(self) -> str:
+        """:attr:`status`, or what ``ok`` and ``canceled`` say when it was not set."""
+        return self.status or ("ok" if self.ok else "canceled" if self.canceled else "failed")
 
 
 class CameraProducts:
@@ -102,7 +134,9 @@ class Timelapse:
     """What the frames of a batch share, picklable (Dask ships it to workers, which open the DEM themselves).
 
     ``camera_json``: the shared camera ("" for a table of photos each fitted). ``register``: re-register every
-    frame on ``reference`` (a photo path). ``dem_path``/``void_value``: how a worker opens the DEM."""
+    frame on ``reference`` (a photo path). ``dem_path``/``void_value``: how a worker opens the DEM.
+    ``camera_status``/``camera_note``: the shared camera's verdict ("uncertain" for a camera file without one: a
+    rough prior is no fitted camera), which every frame of it inherits."""
 
     out_dir: str
     crs_wkt: str
@@ -115,6 +149,8 @@ class Timelapse:
     near_m: float = 150.0
     dem_path: str = ""
     void_value: Optional[float] = None
+    camera_status: str = "ok"
+    camera_note: str = ""
 
 
 @dataclass(frozen=True)
@@ -151,6 +187,10 @@ class Shared:
                                      f"{self.camera.width}x{self.camera.height} px")
                 self.reference = Reference(photo, self.camera, stable_mask(self.products.xyz, self.camera,
                                                                            setup.near_m))
+                if len(self.reference.keypoints) < MIN_INLIERS:  # no frame could ever match enough of them
+                    raise InputError(f"the reference frame {os.path.basename(setup.reference)} has too few key "
+                                     f"points on the terrain ({len(self.reference.keypoints)}): nothing can be "
+                                     f"registered on it; choose another frame with REFERENCE")
                 if setup.write_ortho and not setup.write_xyz:  # turned frames need no z-buffer of their own
                     with _compute_lock:
                         self.turnable = turnable_lookup(self.camera, self.products.grid,
@@ -178,6 +218,10 @@ def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
     start = time.perf_counter()
     try:
         photo = read_photo(task.photo)
+        blank = blank_photo(photo)
+        if blank:  # a frame of fog fitted "uncertain" or draped as the shared camera's was counted processed
+            result.status = "skipped"
+            raise InputError(f"blank frame, no products written: {blank}")
         size = (photo.shape[1], photo.shape[0])
         camera, products = shared.camera, shared.products
         fit_status, fit_message = "ok", ""
@@ -208,12 +252,16 @@ def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
             result.outputs.append(products.write_orthophoto(os.path.join(setup.out_dir, f"{task.stem}_ortho.tif"),
                                                             photo))
         result.ok = True
+        if shared.camera is not None:  # a frame inherits the doubt of the camera it shares
+            fit_status, fit_message = setup.camera_status, setup.camera_note
+        result.status = fit_status if fit_status in ("uncertain", "poor") else "ok"
         # a frame of a shared camera has no fit of its own (its RMSE column stays empty): say whose camera it used
-        if np.isfinite(result.rmse_px):
+        whose = "the shared camera turned" if own_camera and shared.camera is not None else "the shared camera"
+        if shared.camera is not None:
+            result.message = f"ok, {whose}" if fit_status == "ok" else f"{fit_status}: {fit_message} ({whose})"
+        elif fit_status == "ok":
             result.message = f"ok, fit RMSE {result.rmse_px:.2f} px"
-        else:
-            result.message = "ok, the shared camera turned" if own_camera else "ok, the shared camera"
-        if fit_status != "ok":  # products written, but the fitted camera is doubtful
+        else:  # products written, but the fitted camera is doubtful
             result.message = f"fit {fit_status}, RMSE {result.rmse_px:.2f} px: {fit_message}"
         if np.isfinite(result.drift_px):
             result.message += f", drift {result.drift_px:.2f} px ({result.drift_deg:.3f} deg)"
@@ -222,6 +270,7 @@ def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
     except Exception as exc:  # one photo's failure must not lose the batch
         result.ok = False
         result.canceled = _is_cancel(exc)
+        result.status = "canceled" if result.canceled else "skipped" if result.status == "skipped" else "failed"
         if result.canceled:  # the user canceled while this frame was written: its outputs were not put in place
             result.message = "canceled while processing (its outputs not written)"
         else:
@@ -262,19 +311,23 @@ def _write_camera(setup: Timelapse, stem: str, camera: Camera, verdict: Optional
 def fit_job(job, size, dem, crs_wkt: str, photo: Optional[np.ndarray] = None):
     """Fit the camera of a batch job (``prior``, ``points``, ``dem_points`` paths) from its files; returns (camera,
     rmse in px, fit status, message). A row without points is registered automatically on ``photo`` (the (H, W, 3)
-    picture) from its prior (:func:`~.auto.register`): an archive of photos with rough cameras only needed
+    picture) from its prior (:func:`~.auto.register`, with the job's ``position_sigma_m`` and
+    ``angle_sigma_deg``, None: its defaults): an archive of photos with rough cameras only needed
     autoregister in QGIS's batch dialog, which froze the desktop for 87 s over 7 photos (a trial)."""
     prior = load_camera(job.prior, size, crs_wkt, rough=True)
     if photo is not None:  # a scanned print's optical axis: its picture's centre, as in the dock
         prior = centred_on_picture(prior, picture_area(photo))
     if not job.points and photo is not None:
-        from .auto import register
+        from .auto import DEFAULT_ANGLE_SIGMA_DEG, DEFAULT_POSITION_SIGMA_M, register
 
-        done = register(photo, dem, prior)
+        position = getattr(job, "position_sigma_m", None) or DEFAULT_POSITION_SIGMA_M
+        angle = getattr(job, "angle_sigma_deg", None) or DEFAULT_ANGLE_SIGMA_DEG
+        done = register(photo, dem, prior, position_sigma_m=position, angle_sigma_deg=angle)
         camera, r = done.camera, done.result
         camera.crs_wkt = crs_wkt
         rmse = float(r.rmse_px) if r.rmse_px is not None and np.isfinite(r.rmse_px) else float("nan")
-        return camera, rmse, r.status, "automatic registration (no points in this row): " + r.message
+        return camera, rmse, r.status, (f"automatic registration (no points in this row; prior σ {position:g} m, "
+                                        f"{angle:g}°): " + r.message)
     if not job.points:  # "point file not found: " with no name said nothing
         raise InputError("no points file in this row (the 'points' column is empty)")
     table = read_points_csv(job.points)

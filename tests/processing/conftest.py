@@ -11,6 +11,7 @@ import pytest
 from osgeo import gdal, osr
 
 from monoplot_plugin.core.camera import Camera
+from monoplot_plugin.workflow.camera_files import camera_json
 
 WIDTH, HEIGHT = 160, 120
 
@@ -103,11 +104,15 @@ def write_photo(path, size=(WIDTH, HEIGHT), seed=0):
 
 @pytest.fixture(scope="session")
 def small_scene(tmp_path_factory):
-    """dict of paths: dem (GeoTIFF), camera (JSON), photo (PNG), and the Camera itself."""
+    """dict of paths: dem (GeoTIFF), camera (JSON, no fit verdict), fitted (the same camera with the verdict "ok"),
+    photo (PNG), and the Camera itself."""
     folder = tmp_path_factory.mktemp("scene")
     dem = write_dem(folder / "dem.tif", hill_elevation())
     camera = scene_camera()
     camera_path = folder / "camera.json"
     camera.save(camera_path)
     photo = write_photo(folder / "photo.png")
-    return {"dir": folder, "dem": str(dem), "camera": str(camera_path), "photo": str(photo), "cam": camera}
+    fitted = folder / "fitted.json"  # the same camera, written as a fit writes it: with its verdict
+    fitted.write_text(camera_json(camera, {"status": "ok", "message": "the scene's true camera"}))
+    return {"dir": folder, "dem": str(dem), "camera": str(camera_path), "photo": str(photo), "cam": camera,
+            "fitted": str(fitted)}

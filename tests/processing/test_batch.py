@@ -34,7 +34,7 @@ def test_timelapse_batch_skips_the_corrupted_photo(run_alg, small_scene, timelap
     feedback = recording_feedback()
     out = tmp_path / "out"
     result = run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(timelapse),
-                               "CAMERA": small_scene["camera"], "XYZ": True, "ORTHO": True, "OUTPUT": str(out)},
+                               "CAMERA": small_scene["fitted"], "XYZ": True, "ORTHO": True, "OUTPUT": str(out)},
                      feedback)
     assert result["SUCCEEDED"] == 19 and result["FAILED"] == 1
     orthos = sorted(p.name for p in out.glob("*_ortho.tif"))
@@ -50,6 +50,7 @@ def test_timelapse_batch_skips_the_corrupted_photo(run_alg, small_scene, timelap
     with open(result["LOG"], newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert [r["status"] for r in rows].count("failed") == 1
+    assert rows[0]["photo"] == "frame_00.jpg"  # relative to FOLDER, as in table mode
     assert max(feedback.progress_values) == pytest.approx(100.0)
     assert len(feedback.progress_values) >= 20  # progress per photo
     assert sum("/20] frame_" in line and ": ok" in line for line in log) == 19  # one line per good photo
@@ -101,6 +102,8 @@ def test_table_batch_fits_each_photo_and_skips_a_bad_row(run_alg, small_scene, t
     verdict = json.loads((out / "d_camera.json").read_text())["fit"]
     assert verdict["status"] in ("uncertain", "poor") and "automatic registration" in verdict["message"]
     assert rows["d.png"]["message"].startswith(f"fit {verdict['status']}")
+    assert rows["d.png"]["status"] == verdict["status"]  # the verdict, not "ok" (a trial)
+    assert rows["a.png"]["status"] == "ok" and rows["a.png"]["photo"] == "a.png"  # relative to the table's folder
 
 
 def test_timelapse_fits_the_shared_camera_once_from_a_prior(run_alg, small_scene, timelapse, tmp_path):
@@ -123,5 +126,27 @@ def test_timelapse_fits_the_shared_camera_once_from_a_prior(run_alg, small_scene
                                "XYZ": False, "ORTHO": True, "OUTPUT": str(out)})
     assert result["SUCCEEDED"] == 18 and result["FAILED"] == 2
     fitted = Camera.load(out / "camera.json")
+    assert json.loads((out / "camera.json").read_text())["fit"]["status"]  # a rerun with it knows it was fitted
     assert np.linalg.norm(np.subtract(fitted.position, cam.position)) < 5.0
     assert abs(fitted.heading - cam.heading) < 0.1
+
+
+def test_table_rows_registered_automatically_take_the_priors_uncertainty(run_alg, small_scene, tmp_path):
+    """POSITION_SIGMA / ANGLE_SIGMA as monoplot:autoregister has them (the batch used 200 m / 5° for every row),
+    and a row's own position_sigma / angle_sigma columns first."""
+    cam = small_scene["cam"]
+    cam.with_parameters(heading=cam.heading - 1.0).save(tmp_path / "prior.json")
+    for name in ("a.png", "b.png"):
+        write_photo(tmp_path / name, seed=3)
+    (tmp_path / "photos.csv").write_text("photo,prior,points,position_sigma,angle_sigma\n"
+                                         "a.png,prior.json,,,\n"
+                                         "b.png,prior.json,,30,1.5\n")
+    out = tmp_path / "out"
+    run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"), "XYZ": False,
+                      "ORTHO": False, "POSITION_SIGMA": 80.0, "ANGLE_SIGMA": 2.0, "OUTPUT": str(out)})
+    messages = [json.loads((out / f"{n}_camera.json").read_text())["fit"]["message"] for n in ("a", "b")]
+    assert "prior σ 80 m, 2°" in messages[0] and "prior σ 30 m, 1.5°" in messages[1]
+    (tmp_path / "bad.csv").write_text("photo,prior,points,position_sigma\na.png,prior.json,,far\n")
+    with pytest.raises(QgsProcessingException, match="bad.csv line 2: position_sigma 'far' is not a positive"):
+        run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "bad.csv"),
+                          "OUTPUT": str(out)})

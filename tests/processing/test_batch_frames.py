@@ -227,7 +227,7 @@ def test_cancel_marks_the_rest_canceled_not_failed(run_alg, small_scene, tmp_pat
     feedback = QgsProcessingFeedback()
     feedback.progressChanged.connect(lambda value: feedback.cancel() if value >= 40 else None)
     result = run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(folder), "WORKERS": 1,
-                               "CAMERA": small_scene["camera"], "OUTPUT": str(tmp_path / "out")}, feedback)
+                               "CAMERA": small_scene["fitted"], "OUTPUT": str(tmp_path / "out")}, feedback)
     statuses = [r["status"] for r in log_rows(result["LOG"])]
     assert statuses == ["ok", "ok", "ok", "canceled", "canceled", "canceled"]
     assert result["SUCCEEDED"] == 3
@@ -246,3 +246,43 @@ def test_read_photo_turns_the_photo_by_its_exif_orientation(tmp_path):
     path = tmp_path / "phone.jpg"
     Image.fromarray(np.zeros((40, 80, 3), np.uint8)).save(path, exif=exif.tobytes())
     assert read_photo(str(path)).shape == (80, 40, 3)
+
+
+def test_table_row_of_a_blank_photo_is_skipped_without_products(run_alg, small_scene, tmp_path):
+    """The trial: a photo of fog registered automatically came out "fit uncertain, RMSE nan px" with an XYZ raster
+    and an orthophoto of grey fog."""
+    import cv2
+
+    write_photo(tmp_path / "a.png")
+    cv2.imwrite(str(tmp_path / "fog.png"), np.full((HEIGHT, WIDTH, 3), 205, np.uint8))
+    small_scene["cam"].save(tmp_path / "prior.json")
+    _write_gcps(small_scene, tmp_path / "gcps.csv")
+    (tmp_path / "photos.csv").write_text("photo,prior,points\na.png,prior.json,gcps.csv\nfog.png,prior.json,\n")
+    feedback = QgsProcessingFeedback()
+    out = tmp_path / "out"
+    result = run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"),
+                               "OUTPUT": str(out)}, feedback)
+    assert result["SUCCEEDED"] == 1 and result["FAILED"] == 1
+    assert not list(out.glob("fog_*"))
+    row = log_rows(result["LOG"])[1]
+    assert row["status"] == "skipped" and "blank frame, no products written" in row["message"]
+    assert "fog.png: skipped: blank frame" in feedback.textLog()
+
+
+def test_a_shared_camera_without_fit_verdict_is_not_ok(run_alg, small_scene, tmp_path):
+    """The trial: a rough prior given as CAMERA made every frame "ok, the shared camera", products 225 m off."""
+    from tests.processing.conftest import recording_feedback
+
+    folder = tmp_path / "frames"
+    folder.mkdir()
+    for i in range(2):
+        write_photo(folder / f"f{i}.png", seed=i)
+    feedback = recording_feedback()
+    result = run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(folder), "XYZ": False,
+                               "CAMERA": small_scene["camera"], "OUTPUT": str(tmp_path / "out")}, feedback)
+    assert result["SUCCEEDED"] == 2 and len(list((tmp_path / "out").glob("*_ortho.tif"))) == 2  # still works
+    rows = log_rows(result["LOG"])
+    assert [r["status"] for r in rows] == ["uncertain", "uncertain"]
+    assert rows[0]["message"] == "uncertain: camera not fitted (the shared camera)"
+    assert sum("carries no fit verdict: it is not a fitted camera" in w for w in feedback.warnings) == 1
+    assert any(w.startswith("2 of the photos processed have a camera whose verdict is not") for w in feedback.warnings)

@@ -5,6 +5,7 @@ import pytest
 
 from monoplot_plugin.core.camera import Camera
 from monoplot_plugin.core.synthetic import render_photo, synthetic_terrain
+from monoplot_plugin.workflow.camera_files import camera_json
 
 
 def timelapse_scene(folder, turns, size=(320, 200), lighting=True):
@@ -18,7 +19,8 @@ def timelapse_scene(folder, turns, size=(320, 200), lighting=True):
     cam = Camera((x, y, float(dem.elevation.max()) + 200.0), heading=0.0, pitch=-12.0, roll=0.0, fov=60.0,
                  image_size=size, crs_wkt=dem.crs_wkt)
     dem.save(str(folder / "dem.tif"))
-    cam.save(folder / "camera.json")
+    # as a fit writes it, with its verdict (a camera file without one is a rough prior to the batch)
+    (folder / "camera.json").write_text(camera_json(cam, {"status": "ok", "message": "the true camera"}))
     frames, cameras = [], []
     rng = np.random.default_rng(1)
     (folder / "frames").mkdir(exist_ok=True)

@@ -83,7 +83,8 @@ def test_a_frame_that_cannot_be_registered_is_reported_not_given_the_reference_c
     folder = tmp_path / "frames"
     shutil.copytree(scene["folder"], folder)
     cam = Camera.load(scene["camera"])
-    cv2.imwrite(str(folder / "frame_002.png"), np.full((cam.height, cam.width, 3), 210, np.uint8))  # fog
+    # upside down: textured, but no small turn of the reference (a blank frame is skipped before registering)
+    cv2.imwrite(str(folder / "frame_002.png"), cv2.imread(str(folder / "frame_002.png"))[::-1, ::-1])
     dem = Dem.open(scene["dem"])
     out = tmp_path / "out"
     lines = []
@@ -154,7 +155,7 @@ def test_a_reference_frame_of_another_size_fails_every_frame_with_the_reason(dri
     cam = Camera.load(scene["camera"])
     dem = Dem.open(scene["dem"])
     small = tmp_path / "small.png"
-    cv2.imwrite(str(small), np.zeros((50, 60, 3), np.uint8))
+    cv2.imwrite(str(small), np.random.default_rng(0).integers(0, 255, (50, 60, 3), dtype=np.uint8))
     results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(tmp_path / "out"),
                               register=True, reference=str(small))
     assert not any(r.ok for r in results) and all("small.png is 60x50 px" in r.message for r in results)
@@ -186,3 +187,111 @@ def test_a_scanned_prints_border_and_caption_are_not_draped_by_the_batch(tmp_pat
     assert (plain[..., 3] > 0).sum() > (alpha > 0).sum()  # the frame without a border is draped whole
     single = products.orthophoto(tmp_path / "single.tif", read_photo(scene["frames"][1]), cam, dem)
     assert np.array_equal(scan, band_arrays(single))
+
+
+def _foggy_first_frame(scene, folder):
+    """A copy of ``scene``'s frames whose first frame is pure grey fog (a JPEG-like faint noise on it)."""
+    import shutil
+
+    import cv2
+
+    shutil.copytree(scene["folder"], folder)
+    cam = scene["cam"]
+    fog = np.random.default_rng(0).normal(205, 1.5, (cam.height, cam.width, 3)).clip(0, 255).astype(np.uint8)
+    cv2.imwrite(str(folder / "frame_000.png"), fog)
+    return folder
+
+
+def test_a_foggy_first_frame_is_not_the_default_reference(drifting_timelapse, tmp_path):
+    """The trial: the fog frame, first by name, was the reference: it came out "ok" and every good frame failed."""
+    scene = drifting_timelapse
+    folder = _foggy_first_frame(scene, tmp_path / "frames")
+    cam, dem = Camera.load(scene["camera"]), Dem.open(scene["dem"])
+    lines = []
+    results = batch.run_batch(batch.folder_jobs(str(folder), cam), dem, dem.crs_wkt, str(tmp_path / "out"),
+                              register=True, write_xyz=False, log=lambda m, e: lines.append(m))
+    assert all(r.ok for r in results[1:]), [r.message for r in results]
+    assert not results[0].ok
+    assert any(m.startswith("frame_000.png is not the reference frame: no structure") for m in lines)
+    assert any(m.startswith("Reference frame: frame_001.png") for m in lines)
+    assert results[1].drift_px < 0.1  # the reference itself
+
+
+def test_a_blank_reference_frame_named_by_the_user_fails_with_its_name(drifting_timelapse, tmp_path):
+    scene = drifting_timelapse
+    folder = _foggy_first_frame(scene, tmp_path / "frames")
+    cam, dem = Camera.load(scene["camera"]), Dem.open(scene["dem"])
+    lines = []
+    results = batch.run_batch(batch.folder_jobs(str(folder), cam), dem, dem.crs_wkt, str(tmp_path / "out"),
+                              register=True, reference=str(folder / "frame_000.png"),
+                              log=lambda m, e: lines.append((m, e)))
+    assert not any(r.ok for r in results)
+    assert all("reference frame frame_000.png is blank" in r.message and "REFERENCE" in r.message for r in results)
+    assert any(e and m.startswith("every photo FAILED") for m, e in lines)
+
+
+def test_an_unreadable_first_frame_is_passed_over_for_the_reference(drifting_timelapse, tmp_path):
+    import shutil
+
+    scene = drifting_timelapse
+    folder = tmp_path / "frames"
+    shutil.copytree(scene["folder"], folder)
+    data = (folder / "frame_000.png").read_bytes()
+    (folder / "frame_000.png").write_bytes(data[: len(data) // 3])
+    cam, dem = Camera.load(scene["camera"]), Dem.open(scene["dem"])
+    lines = []
+    results = batch.run_batch(batch.folder_jobs(str(folder), cam), dem, dem.crs_wkt, str(tmp_path / "out"),
+                              register=True, write_xyz=False, log=lambda m, e: lines.append(m))
+    assert [r.ok for r in results] == [False, True, True, True, True], [r.message for r in results]
+    assert any(m.startswith("Reference frame: frame_001.png") for m in lines)
+    named = batch.run_batch(batch.folder_jobs(str(folder), cam), dem, dem.crs_wkt, str(tmp_path / "out2"),
+                            register=True, reference=str(folder / "frame_000.png"))
+    assert all("reference frame frame_000.png cannot be used" in r.message and "choose another frame with "
+               "REFERENCE" in r.message for r in named)
+
+
+def test_a_blank_frame_is_skipped_not_draped_with_the_shared_camera(still_timelapse, tmp_path):
+    import shutil
+
+    import cv2
+
+    scene = still_timelapse
+    folder = tmp_path / "frames"
+    shutil.copytree(scene["folder"], folder)
+    cam, dem = Camera.load(scene["camera"]), Dem.open(scene["dem"])
+    cv2.imwrite(str(folder / "frame_002.png"), np.full((cam.height, cam.width, 3), 205, np.uint8))  # fog
+    out, lines = tmp_path / "out", []
+    results = batch.run_batch(batch.folder_jobs(str(folder), cam), dem, dem.crs_wkt, str(out), write_xyz=False,
+                              log=lambda m, e: lines.append(m))
+    assert [r.ok for r in results] == [True, True, False, True, True, True]
+    assert results[2].verdict() == "skipped" and "blank frame" in results[2].message and not results[2].outputs
+    assert not (out / "frame_002_ortho.tif").exists() and (out / "frame_003_ortho.tif").exists()
+    assert any("frame_002.png: skipped: blank frame, no products written: no structure" in m for m in lines)
+    batch.write_log(str(out / "batch_log.csv"), results)
+    assert log_rows(out / "batch_log.csv")[2]["status"] == "skipped"
+
+
+def test_a_rerun_removes_the_earlier_products_of_frames_it_does_not_make_again(drifting_timelapse, tmp_path):
+    """The trial: a frame that failed on a rerun kept its orthophoto of the earlier run beside "failed" in the log."""
+    import shutil
+
+    import cv2
+
+    scene = drifting_timelapse
+    folder = tmp_path / "frames"
+    shutil.copytree(scene["folder"], folder)
+    cam, dem = Camera.load(scene["camera"]), Dem.open(scene["dem"])
+    out = tmp_path / "out"
+    first = batch.run_batch(batch.folder_jobs(str(folder), cam), dem, dem.crs_wkt, str(out), register=True)
+    assert all(r.ok for r in first) and (out / "frame_001_camera.json").is_file()
+    (out / "notes.txt").write_text("mine")  # not the batch's: never touched
+    cv2.imwrite(str(folder / "frame_002.png"), np.full((cam.height, cam.width, 3), 205, np.uint8))  # fog now
+    lines = []
+    second = batch.run_batch(batch.folder_jobs(str(folder), cam), dem, dem.crs_wkt, str(out), write_xyz=False,
+                             log=lambda m, e: lines.append(m))
+    assert [r.ok for r in second] == [True, True, False, True, True]
+    assert not list(out.glob("frame_002_*"))  # skipped now: its earlier products are gone
+    # not re-registered now: the frames have the shared camera, their own cameras of the earlier run are gone
+    assert not list(out.glob("frame_*_camera.json")) and not list(out.glob("frame_*_xyz.tif"))
+    assert len(list(out.glob("frame_*_ortho.tif"))) == 4 and (out / "notes.txt").read_text() == "mine"
+    assert any("of an earlier run removed" in m and "frame_002_ortho.tif" in m for m in lines)

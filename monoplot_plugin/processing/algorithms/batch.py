@@ -15,6 +15,8 @@ from qgis.core import (
 )
 
 from ...outputs.safe_write import cancel_before_commit, write_text
+from ...workflow.auto import DEFAULT_ANGLE_SIGMA_DEG, DEFAULT_POSITION_SIGMA_M
+from ...workflow.camera_files import camera_json
 from .. import batch
 from ..base import MonoplotAlgorithm, checked
 
@@ -26,20 +28,29 @@ class BatchPhotos(MonoplotAlgorithm):
              "Time-lapse folder: every image in FOLDER shares one fitted CAMERA; the XYZ raster is computed once "
              "(xyz.tif) and an orthophoto is written per photo (frame_ortho.tif for frame.jpg). With POINTS (a GCP "
              "CSV, or a photo points CSV with DEM_POINTS for unpaired points), CAMERA is the prior and the shared "
-             "camera is fitted once on the first readable photo (camera.json).\n\n"
+             "camera is fitted once on the first readable photo (camera.json). A CAMERA without a fit verdict (a "
+             "rough prior, a KML; cameras written by the fit carry one) is used, but its frames are logged "
+             "\"uncertain: camera not fitted\".\n\n"
              "CSV table: TABLE lists photos with their own prior camera and points (columns photo, prior, points "
              "and optionally dem_points; paths relative to the table); each photo is fitted (frame_camera.json, "
              "with the fit's verdict) and gets its own XYZ raster and orthophoto. A row whose points cell is empty is "
-             "registered automatically from its prior, as monoplot:autoregister does.\n\n"
+             "registered automatically from its prior, as monoplot:autoregister does, with the prior's uncertainty "
+             "POSITION_SIGMA and ANGLE_SIGMA, or the row's own in optional columns position_sigma (m) and "
+             "angle_sigma (degrees).\n\n"
              "A KML camera (a rough prior) takes its image size from the first readable photo.\n\n"
              "Progress is reported per photo. A photo that cannot be read (damaged, truncated, not an image) or "
-             "fitted, or whose size differs from the shared camera's, is reported and skipped; the others are "
-             "processed. batch_log.csv in the output folder lists every photo's status. Photos with the same name "
+             "fitted, or whose size differs from the shared camera's, is reported and skipped; so is a blank photo "
+             "(fog, night, a covered lens: no structure), without products. The others are processed. "
+             "batch_log.csv in the output folder lists every photo's status (ok, uncertain, poor, failed, skipped "
+             "or canceled; photos relative to FOLDER or to the table's folder when inside it). Photos with the "
+             "same name "
              "(frame.jpg and frame.png, or in different folders) get numbered outputs (frame_2_ortho.tif); files of "
-             "an earlier run in the output folder are replaced, and the log says so.\n\n"
+             "an earlier run in the output folder are replaced, and the log says so; those of a frame this run does "
+             "not make again (failed, skipped) are removed.\n\n"
              "Time-lapse speed: what depends only on the camera and the DEM (XYZ raster, sky, the orthophoto's "
              "lookup) is computed once; WORKERS frames are processed at once (0 = one per core).\n\n"
-             "REGISTER (time-lapse mode): every frame is matched to the REFERENCE frame (default: the first) on "
+             "REGISTER (time-lapse mode): every frame is matched to the REFERENCE frame (default: the first "
+             "frame that can be read and is not blank: fog, night) on "
              "stable terrain (no sky, no foreground) and the camera is turned by the drift found; the drift (pixels "
              "and degrees) is in the log, a frame that turned gets its own frame_camera.json and frame_xyz.tif, and "
              "a frame that cannot be registered is reported as failed (never given the reference camera).\n\n"
@@ -70,6 +81,14 @@ class BatchPhotos(MonoplotAlgorithm):
         self.addParameter(QgsProcessingParameterFile("TABLE", self.tr("Photo table CSV (table mode)"),
                                                      QgsProcessingParameterFile.File, optional=True,
                                                      fileFilter="CSV (*.csv)"))
+        self.addParameter(QgsProcessingParameterNumber(
+            "POSITION_SIGMA", self.tr("Uncertainty of the priors' position (m, one sigma; table rows without points)"),
+            QgsProcessingParameterNumber.Double, DEFAULT_POSITION_SIGMA_M, optional=True, minValue=1.0))
+        self.addParameter(QgsProcessingParameterNumber(
+            "ANGLE_SIGMA", self.tr("Uncertainty of the priors' heading and pitch (degrees, one sigma; table rows "
+                                   "without points)"),
+            QgsProcessingParameterNumber.Double, DEFAULT_ANGLE_SIGMA_DEG, optional=True, minValue=0.1,
+            maxValue=30.0))
         self.addParameter(QgsProcessingParameterBoolean("XYZ", self.tr("Write XYZ rasters"), defaultValue=True))
         self.addParameter(QgsProcessingParameterBoolean("ORTHO", self.tr("Write orthophotos"), defaultValue=True))
         self.addParameter(QgsProcessingParameterNumber("RESOLUTION",
@@ -79,7 +98,7 @@ class BatchPhotos(MonoplotAlgorithm):
                                                         self.tr("Re-register every frame (time-lapse mode)"),
                                                         defaultValue=False))
         self.addParameter(QgsProcessingParameterFile("REFERENCE", self.tr("Reference frame (default: the first "
-                                                                          "frame)"),
+                                                                          "usable frame)"),
                                                      QgsProcessingParameterFile.File, optional=True))
         self.addParameter(QgsProcessingParameterNumber("WORKERS", self.tr("Frames at once (0 = one per core)"),
                                                        QgsProcessingParameterNumber.Integer, 0, minValue=0))
@@ -102,18 +121,25 @@ class BatchPhotos(MonoplotAlgorithm):
             if not self.parameterAsFile(parameters, "FOLDER", context):
                 raise QgsProcessingException(self.tr("Time-lapse mode needs the photo FOLDER (or choose the CSV "
                                                      "table mode and give TABLE)."))
-            jobs = checked(batch.folder_jobs, self.parameterAsFile(parameters, "FOLDER", context), None,
+            photo_folder = self.parameterAsFile(parameters, "FOLDER", context)
+            jobs = checked(batch.folder_jobs, photo_folder, None,
                            self.parameterAsString(parameters, "PATTERN", context))
             points = self.parameterAsFile(parameters, "POINTS", context)
             if points:  # fit once, on the first readable frame; every frame shares the camera
-                camera, used, rmse = checked(batch.fit_shared_camera, [j.photo for j in jobs],
-                                             self.parameterAsFile(parameters, "CAMERA", context), points,
-                                             self.parameterAsFile(parameters, "DEM_POINTS", context), dem,
-                                             crs.toWkt(), lambda m, e: feedback.reportError(m, False))
+                camera, used, rmse, status, message = checked(batch.fit_shared_camera, [j.photo for j in jobs],
+                                                              self.parameterAsFile(parameters, "CAMERA", context),
+                                                              points,
+                                                              self.parameterAsFile(parameters, "DEM_POINTS", context),
+                                                              dem, crs.toWkt(),
+                                                              lambda m, e: feedback.reportError(m, False))
+                camera_verdict = (status, message)
                 os.makedirs(out_dir, exist_ok=True)
                 if os.path.exists(os.path.join(out_dir, "camera.json")):
                     feedback.pushInfo(self.tr("camera.json of an earlier run in {0} is replaced").format(out_dir))
-                write_text(os.path.join(out_dir, "camera.json"), camera.to_json(), overwrite=True)
+                # with its verdict: a later run given this camera knows it was fitted (or how doubtful it is)
+                write_text(os.path.join(out_dir, "camera.json"), camera_json(camera, {"status": status,
+                                                                                      "message": message}),
+                           overwrite=True)
                 feedback.pushInfo(self.tr("Shared camera fitted on {0}: RMSE {1:.2f} px; written to {2}").format(
                     os.path.basename(used), rmse, os.path.join(out_dir, 'camera.json')))
             else:
@@ -122,13 +148,22 @@ class BatchPhotos(MonoplotAlgorithm):
                     size = self.first_photo_size([j.photo for j in jobs], feedback)  # KML has no image size
                 camera = self.camera(parameters, context, "CAMERA", crs=crs, image_size=size, dem=dem,
                                      only_if_moved=True)
+                camera_verdict = batch.shared_camera_verdict(self.parameterAsFile(parameters, "CAMERA", context),
+                                                             lambda m, e: feedback.pushWarning(m))
             for job in jobs:
                 job.camera = camera
         else:
             if not self.parameterAsFile(parameters, "TABLE", context):
                 raise QgsProcessingException(self.tr("CSV table mode needs the photo TABLE (or choose the "
                                                      "time-lapse mode and give FOLDER and CAMERA)."))
+            photo_folder = os.path.dirname(os.path.abspath(self.parameterAsFile(parameters, "TABLE", context)))
             jobs = checked(batch.table_jobs, self.parameterAsFile(parameters, "TABLE", context))
+            position = self.parameterAsDouble(parameters, "POSITION_SIGMA", context) or DEFAULT_POSITION_SIGMA_M
+            angle = self.parameterAsDouble(parameters, "ANGLE_SIGMA", context) or DEFAULT_ANGLE_SIGMA_DEG
+            for job in jobs:  # a row's own columns first
+                job.position_sigma_m = job.position_sigma_m or position
+                job.angle_sigma_deg = job.angle_sigma_deg or angle
+            camera_verdict = ("ok", "")  # each row's own fit says
         feedback.pushInfo(self.tr("{0} photos to process").format(len(jobs)))
 
         def log(message, error):
@@ -144,7 +179,8 @@ class BatchPhotos(MonoplotAlgorithm):
                        write_ortho=self.parameterAsBool(parameters, "ORTHO", context),
                        resolution=self.parameterAsDouble(parameters, "RESOLUTION", context) or None,
                        log=log, progress=progress, is_canceled=feedback.isCanceled, register=register,
-                       reference=self.parameterAsFile(parameters, "REFERENCE", context) or "")
+                       reference=self.parameterAsFile(parameters, "REFERENCE", context) or "",
+                       camera_verdict=camera_verdict)
         scheduler = (self.parameterAsString(parameters, "SCHEDULER", context) or "").strip()
         if scheduler:
             path, _ = self.dem_path(parameters, context)
@@ -155,7 +191,7 @@ class BatchPhotos(MonoplotAlgorithm):
                               workers=self.parameterAsInt(parameters, "WORKERS", context) or None, **options)
         log_path = os.path.join(out_dir, "batch_log.csv")
         with cancel_before_commit(lambda: False):  # the log says what was done, canceled or not
-            batch.write_log(log_path, results)
+            batch.write_log(log_path, results, photo_folder)
         succeeded = sum(r.ok for r in results)
         failed = len(results) - succeeded
         canceled = sum(r.canceled for r in results)
@@ -165,6 +201,11 @@ class BatchPhotos(MonoplotAlgorithm):
         else:
             feedback.pushInfo(self.tr("{0} photos processed, {1} skipped; log: {2}").format(succeeded, failed,
                                                                                             log_path))
+        doubtful = sum(r.ok and r.verdict() != "ok" for r in results)
+        if doubtful:  # processed is not right: their cameras are doubtful
+            feedback.pushWarning(self.tr("{0} of the photos processed have a camera whose verdict is not \"ok\" "
+                                         "(uncertain or poor): check them before use (status column of the "
+                                         "log).").format(doubtful))
         if succeeded == 0:
             raise QgsProcessingException(self.tr("No photo could be processed; see {0}").format(log_path))
         return {"OUTPUT": out_dir, "SUCCEEDED": succeeded, "FAILED": failed, "LOG": log_path}
