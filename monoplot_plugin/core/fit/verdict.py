@@ -152,6 +152,11 @@ def judge(e: dict) -> Tuple[str, str]:
     >>> rival = dict(e, rival_px=9.0, rival_m=480.0, rival_ratio=0.9)
     >>> judge(e)[0], judge(rival)[0], judge(dict(e, beyond_radius=12.0, truncation_px=9.0))[0]
     ('ok', 'uncertain', 'uncertain')
+    >>> few = dict(e, spread=0.01, check_rmse_px=0.4, n_check=3, has_check=True)
+    >>> judge(few)[0], judge(few)[1].split("; ")[-1][:56]
+    ('uncertain', 'the 3 check points agree (0.4 px): 4 or more, spread ove')
+    >>> judge(dict(few, n_check=4))[0]
+    'ok'
     >>> judge(rival)[1].split("Uncertain: ")[1][:60]
     'two cameras 480 m apart explain your points about equally we'
     >>> judge(dict(rival, rival_m=2.0))[1].split("Uncertain: ")[1][:60]
@@ -262,6 +267,12 @@ def judge(e: dict) -> Tuple[str, str]:
     if checked_ok and not poor and weak:
         text += " Verified by the check points despite: " + "; ".join(weak) + "."
         weak = []
+    elif weak and not poor and np.isfinite(check) and check <= WEAK_SHARE * diag and not check_far:
+        # too few to verify: say how close it is (a trial marked 3 good pairs as check points, as advised, and a
+        # fit "ok" with them as pairs turned "uncertain" with no word on what would settle it)
+        n_check = int(e.get("n_check", 0))
+        weak.append(f"the {n_check} check point{'s agree' if n_check != 1 else ' agrees'} ({check:.1f} px): "
+                    f"{MIN_CHECKS} or more, spread over the picture, verify the camera despite the rest")
     note = (" " + e["note"]) if e.get("note") else ""
     # A camera judged probably wrong cannot say which points are wrong: no outlier advice under it (a person told to
     # reject them rejected a correct point, see :func:`flags_outliers`).
