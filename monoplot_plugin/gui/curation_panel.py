@@ -249,9 +249,11 @@ class CurationPanel(QWidget):
         if trusted_fit:
             camera, sigma = c.fitted, sigma_of(*(float(info.get(k) or float("nan"))
                                                  for k in ("rmse_px", "loo_rmse_px", "check_rmse_px")))
-            self.refit_info = self.tr("fit, {0:.1f} px").format(info["rmse_px"]) if info.get("rmse_px") else \
-                self.tr("fit")
             self.ranking_status = str(info.get("status", ""))
+            # the verdict with it, as the background refit's line says it (a trial read "fit, 5.2 px" as good)
+            verdict = self.tr(self.ranking_status) if self.ranking_status else ""
+            self.refit_info = (self.tr("fit, {0:.1f} px").format(info["rmse_px"]) if info.get("rmse_px") else
+                               self.tr("fit")) + (" ({0})".format(verdict) if verdict else "")
         elif c.prior is not None:
             camera, sigma, self.refit_info = c.prior, prior_sigma_px(c), self.tr("rough")
             if c.fitted is not None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import time
 
 import numpy as np
@@ -449,6 +450,8 @@ def test_the_fit_tab_says_when_the_points_changed_since_the_fit(dock, scene, tmp
     with qtbot.waitSignal(c.taskFinished, timeout=120000):
         dock.fitButton.click()
     assert c.fitted is not None and note not in dock.resultLabel.text()
+    # the counts line names the verdict with the fit (a trial read "camera: fit, 5.2 px" of an uncertain fit)
+    assert re.search(r"camera: fit[^·]*\(ok\)", dock.countsLabel.text()), dock.countsLabel.text()
     from monoplot_plugin.state import move_point, set_status
 
     first = c.state.in_space(PHOTO, (ACCEPTED,))[0]
