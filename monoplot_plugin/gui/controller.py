@@ -20,6 +20,7 @@ from qgis.PyQt.QtGui import QImage
 from ..adapters.layers import mark_modified_later
 from ..adapters.photo import PhotoError, array_to_qimage, qimage_to_array, read_photo
 from ..core.camera import Camera
+from ..core.fit import FitOptions
 from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, replace_in_views
 from ..workflow import auto as auto_step
 from ..workflow.camera_files import fitted_to_size
@@ -395,6 +396,11 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             outcome.info["fit_point_ids"] = photo_ids + world_ids
             outcome.info["fit_point_xy"] = point_xy
             self.cap_by_automatic(outcome.info, photo_ids + world_ids, len(pairs), len(check_ids))
+            if self.prior is not None:  # how far the fit took the camera from the rough one, and its stated σ
+                moved = float(np.linalg.norm(np.subtract(outcome.camera.position, self.prior.position)[:2]))
+                reach = np.hypot(*(xyz[:, :2] - np.asarray(self.prior.position[:2])).T)
+                sigma = (options or FitOptions()).prior_sigmas(self.prior.fov, float(np.median(reach)))
+                outcome.info["moved_m"], outcome.info["position_sigma_m"] = moved, sigma["position_m"]
             self._apply_fit(outcome)
 
         title = self.tr("Fit camera") if known is None else self.tr("Fit camera (already fitted in the background)")

@@ -240,6 +240,13 @@ class ResultsMixin:
                                 self.tr("Camera fitted, {0}:").format(self.tr(status)), 1)
         if status != "ok":  # the verdict's reasons (its message) are in the fit tab
             text += " " + self.tr("See the fit tab for why and what to do.")
+        moved, sigma = info.get("moved_m"), info.get("position_sigma_m")
+        if status != "ok" and moved is not None and sigma and moved > 2.0 * sigma:
+            # a trial's phone photo: GPS 23 m off, the fit "uncertain" 211 m away, and nothing said it had moved
+            text += " " + self.tr("The fit moved the camera {0:.0f} m from the rough camera, more than twice its "
+                                  "stated uncertainty (Position ± {1:.0f} m): if the rough position is right (a GPS "
+                                  "position), give a smaller Position ± or fix the position in the fit settings, "
+                                  "and fit again.").format(moved, sigma)
         clearance = info.get("clearance_m")
         if info.get("height_freed") and clearance is not None:  # the import warned it would be held on the ground
             text += " " + self.tr("The pairs placed the camera {0:.0f} m above the terrain: its height was fitted "

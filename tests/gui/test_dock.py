@@ -450,6 +450,13 @@ def test_the_fit_tab_says_when_the_points_changed_since_the_fit(dock, scene, tmp
     with qtbot.waitSignal(c.taskFinished, timeout=120000):
         dock.fitButton.click()
     assert c.fitted is not None and note not in dock.resultLabel.text()
+    # how far the fit took the camera from the rough one (120 m, -80 m), against the rough camera's stated σ
+    info = c.state.fit_info
+    assert info["moved_m"] == pytest.approx(np.hypot(120.0, 80.0), abs=2.0) and info["position_sigma_m"] >= 100.0
+    uncertain = dict(info, status="uncertain", moved_m=450.0, position_sigma_m=100.0)
+    assert "moved the camera 450 m from the rough camera" in c.fit_summary(uncertain)[0]
+    assert "moved the camera" not in c.fit_summary(dict(uncertain, moved_m=150.0))[0]
+    assert "moved the camera" not in c.fit_summary(dict(uncertain, status="ok"))[0]
     # the counts line names the verdict with the fit (a trial read "camera: fit, 5.2 px" of an uncertain fit)
     assert re.search(r"camera: fit[^·]*\(ok\)", dock.countsLabel.text()), dock.countsLabel.text()
     from monoplot_plugin.state import move_point, set_status
