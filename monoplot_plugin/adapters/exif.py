@@ -30,6 +30,8 @@ class ExifPrior:
         lon, lat: WGS 84 degrees (None when the photo has no GPS position).
         altitude: metres above sea level.
         heading: direction of view, degrees from north (GPSImgDirection).
+        heading_magnetic: the direction is from magnetic north (GPSImgDirectionRef "M"), not true north: it is off
+            by the local magnetic declination, which Monoplot does not know.
         fov: horizontal field of view in degrees, for the picture as displayed (EXIF orientation applied).
         focal_mm: the lens's focal length (FocalLength), focal_35mm: its 35 mm equivalent.
         sensor_width_mm: width of the sensor along the displayed picture's horizontal axis (from the focal plane
@@ -40,6 +42,7 @@ class ExifPrior:
     lat: Optional[float] = None
     altitude: Optional[float] = None
     heading: Optional[float] = None
+    heading_magnetic: bool = False
     fov: Optional[float] = None
     focal_mm: Optional[float] = None
     focal_35mm: Optional[float] = None
@@ -116,8 +119,10 @@ def parse_exif_prior(metadata: Dict[str, str], size: Tuple[int, int]) -> ExifPri
     ...       "EXIF_GPSLongitude": "(8) (5) (35.88)", "EXIF_GPSLongitudeRef": "E", "EXIF_GPSAltitude": "(2929)",
     ...       "EXIF_GPSImgDirection": "(297.1)", "EXIF_FocalLengthIn35mmFilm": "28"}
     >>> p = parse_exif_prior(md, (4000, 3000))
-    >>> round(p.lon, 4), round(p.lat, 4), p.altitude, p.heading, round(p.fov, 1)
-    (8.0933, 46.4314, 2929.0, 297.1, 65.5)
+    >>> round(p.lon, 4), round(p.lat, 4), p.altitude, p.heading, round(p.fov, 1), p.heading_magnetic
+    (8.0933, 46.4314, 2929.0, 297.1, 65.5, False)
+    >>> parse_exif_prior(dict(md, EXIF_GPSImgDirectionRef="M"), (4000, 3000)).heading_magnetic
+    True
     >>> p = parse_exif_prior({"EXIF_FocalLength": "(30)", "EXIF_FocalPlaneXResolution": "(1000)",
     ...                       "EXIF_FocalPlaneResolutionUnit": "4", "EXIF_PixelXDimension": "22200"}, (4290, 2856))
     >>> round(p.sensor_width_mm, 1), round(p.fov, 1)
@@ -137,6 +142,7 @@ def parse_exif_prior(metadata: Dict[str, str], size: Tuple[int, int]) -> ExifPri
     direction = _numbers(metadata.get("EXIF_GPSImgDirection", ""))
     if direction:
         out.heading = direction[0] % 360.0
+        out.heading_magnetic = metadata.get("EXIF_GPSImgDirectionRef", "").strip().upper().startswith("M")
     landscape = size[0] >= size[1]
     f35 = _numbers(metadata.get("EXIF_FocalLengthIn35mmFilm", ""))
     focal = _numbers(metadata.get("EXIF_FocalLength", ""))

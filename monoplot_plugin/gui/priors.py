@@ -225,6 +225,9 @@ class PriorsMixin:
                            ).format(above)
         if guessed:
             text += " " + self.tr("No direction in EXIF: it looks at the DEM centre; draw it on the map if wrong.")
+        elif exif.heading_magnetic:  # a phone's compass: the declination is unknown here (up to 20° and more)
+            text += " " + self.tr("Its direction is from magnetic north: it is off by the local magnetic "
+                                  "declination; correct the heading if you know it.")
         if exif.fov is None:
             text += " " + (self.tr("EXIF gives a {0:g} mm focal length but no sensor size and no 35 mm equivalent: "
                                    "field of view 60° until you enter the lens (camera tab).").format(exif.focal_mm)

@@ -253,7 +253,8 @@ def test_rough_camera_from_exif_gps(dock, scene, tmp_path):
     mem = gdal.GetDriverByName("MEM").CreateCopy("", photo)
     mem.SetMetadata({"EXIF_GPSLatitude": dms(lat), "EXIF_GPSLatitudeRef": "N", "EXIF_GPSLongitude": dms(lon),
                      "EXIF_GPSLongitudeRef": "E", "EXIF_GPSAltitude": f"({scene.camera.position[2]:.1f})",
-                     "EXIF_GPSImgDirection": "(10.0)", "EXIF_FocalLengthIn35mmFilm": "31"})
+                     "EXIF_GPSImgDirection": "(10.0)", "EXIF_GPSImgDirectionRef": "M",
+                     "EXIF_FocalLengthIn35mmFilm": "31"})
     path = str(tmp_path / "phone.jpg")
     gdal.GetDriverByName("JPEG").CreateCopy(path, mem)
     dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
@@ -263,6 +264,9 @@ def test_rough_camera_from_exif_gps(dock, scene, tmp_path):
     prior = dock.controller.prior
     # the GPS height is said, and how rough it is (a trial's phone put a hand-held camera 11 m above the ground)
     assert any("GPS altitude puts it" in text and "often 10-30 m off" in text for text in said), said
+    # 300 m up: the flight height, not "1.6 m held in the hand" (a trial's drone); a compass direction is said
+    assert any("flight height" in text and "held in the hand" not in text for text in said), said
+    assert any("magnetic north" in text for text in said), said
     assert prior is not None
     assert math.dist(prior.position[:2], scene.camera.position[:2]) < 1.0
     assert abs(prior.position[2] - scene.camera.position[2]) < 0.2
