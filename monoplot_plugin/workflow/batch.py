@@ -172,12 +172,17 @@ def remove_stale(out_dir: str, tasks: List[FrameTask], results: List[PhotoResult
     """Remove the products of an earlier run this run did not rewrite, where they would contradict the log: every
     ``<stem>_camera.json``, ``_xyz.tif``, ``_ortho.tif`` of a frame that failed or was skipped, and the own camera
     and XYZ raster of a frame that now has the shared camera's (it turned in an earlier run). Only these names of
-    the batch's own frames; a canceled frame's are left (it was not processed). Returns the paths removed.
+    the batch's own frames; a canceled frame's are left (it was not processed), and its message names them. Returns
+    the paths removed.
 
     A frame that failed on a rerun kept its orthophoto of the earlier run beside a log saying "failed" (a trial)."""
     removed, kept = [], []
     for task, result in zip(tasks, results):
-        if result.canceled:
+        if result.canceled:  # the log says which files are of an earlier run (a trial read them as this run's)
+            earlier = [task.stem + suffix for suffix in ("_camera.json", "_xyz.tif", "_ortho.tif")
+                       if os.path.isfile(os.path.join(out_dir, task.stem + suffix))]
+            if earlier:
+                result.message += "; files of an earlier run left as they were: " + ", ".join(earlier)
             continue
         suffixes = ("_camera.json", "_xyz.tif", "_ortho.tif") if not result.ok else \
             ("_camera.json", "_xyz.tif") if shared_camera else ()

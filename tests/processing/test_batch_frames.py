@@ -220,17 +220,22 @@ def test_kml_shared_camera_takes_the_frames_size(run_alg, small_scene, tmp_path)
 
 
 def test_cancel_marks_the_rest_canceled_not_failed(run_alg, small_scene, tmp_path):
+    """A canceled run writes its log and ends as an error (``qgis_process`` said success after Ctrl+C, a trial);
+    the canceled frames' files of an earlier run are named in the log, not taken for this run's."""
     folder = tmp_path / "frames"
     folder.mkdir()
     for i in range(6):
         write_photo(folder / f"f{i}.png", seed=i)
+    parameters = {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(folder), "WORKERS": 1,
+                  "CAMERA": small_scene["fitted"], "OUTPUT": str(tmp_path / "out")}
+    run_alg("batch", parameters)  # an earlier, complete run
     feedback = QgsProcessingFeedback()
     feedback.progressChanged.connect(lambda value: feedback.cancel() if value >= 40 else None)
-    result = run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(folder), "WORKERS": 1,
-                               "CAMERA": small_scene["fitted"], "OUTPUT": str(tmp_path / "out")}, feedback)
-    statuses = [r["status"] for r in log_rows(result["LOG"])]
-    assert statuses == ["ok", "ok", "ok", "canceled", "canceled", "canceled"]
-    assert result["SUCCEEDED"] == 3
+    with pytest.raises(QgsProcessingException, match="Canceled: 3 photos processed, 3 not processed"):
+        run_alg("batch", parameters, feedback)
+    rows = log_rows(str(tmp_path / "out" / "batch_log.csv"))
+    assert [r["status"] for r in rows] == ["ok", "ok", "ok", "canceled", "canceled", "canceled"]
+    assert "files of an earlier run left as they were: f3_ortho.tif" in rows[3]["message"]
     assert "3 photos processed, 0 skipped, 3 not processed (canceled)" in feedback.textLog()
 
 

@@ -206,6 +206,9 @@ class BatchPhotos(MonoplotAlgorithm):
             feedback.pushWarning(self.tr("{0} of the photos processed have a camera whose verdict is not \"ok\" "
                                          "(uncertain or poor): check them before use (status column of the "
                                          "log).").format(doubtful))
+        if canceled:  # a run cut short is not a success (qgis_process said 0 after Ctrl+C, a trial)
+            raise QgsProcessingException(self.tr("Canceled: {0} photos processed, {1} not processed; see {2}").format(
+                succeeded, canceled, log_path))
         if succeeded == 0:
             raise QgsProcessingException(self.tr("No photo could be processed; see {0}").format(log_path))
         return {"OUTPUT": out_dir, "SUCCEEDED": succeeded, "FAILED": failed, "LOG": log_path}
