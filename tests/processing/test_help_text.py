@@ -23,3 +23,13 @@ def test_optional_parameters_do_not_say_optional_twice(processing_provider):
         for param in alg.parameterDefinitions():
             if param.flags() & param.FlagOptional:
                 assert "optional" not in param.description().lower(), (alg.id(), param.description())
+
+
+def test_the_batch_dialog_folds_its_tuning_parameters_away(processing_provider):
+    """A trial: the batch dialog showed 16 parameters of both modes at once. What has a sensible default is under
+    "Advanced parameters"; what a run needs stays in sight."""
+    alg = processing_provider.algorithm("batch")
+    advanced = {p.name() for p in alg.parameterDefinitions() if p.flags() & p.FlagAdvanced}
+    assert advanced == {"PATTERN", "DEM_POINTS", "POSITION_SIGMA", "ANGLE_SIGMA", "RESOLUTION", "REFERENCE",
+                        "WORKERS", "SCHEDULER", "VOID_VALUE"}
+    assert {"MODE", "DEM", "FOLDER", "CAMERA", "TABLE", "REGISTER", "OUTPUT"}.isdisjoint(advanced)

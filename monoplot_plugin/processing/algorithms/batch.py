@@ -6,6 +6,7 @@ from qgis.core import (
     QgsProcessingException,
     QgsProcessingOutputFile,
     QgsProcessingOutputNumber,
+    QgsProcessingParameterDefinition,
     QgsProcessingParameterBoolean,
     QgsProcessingParameterEnum,
     QgsProcessingParameterFile,
@@ -59,6 +60,9 @@ class BatchPhotos(MonoplotAlgorithm):
              "folder, the DEM and the output folder at the same paths. Empty: this machine.")
 
     MODES = ["Time-lapse folder (one shared camera)", "CSV table (each photo with its prior and points)"]
+    #: under the dialog's "Advanced parameters": what has a sensible default
+    ADVANCED = ("PATTERN", "DEM_POINTS", "POSITION_SIGMA", "ANGLE_SIGMA", "RESOLUTION", "REFERENCE", "WORKERS",
+                "SCHEDULER")
 
     def initAlgorithm(self, config=None):
         self.addParameter(QgsProcessingParameterEnum("MODE", self.tr("Mode"), [self.tr(m) for m in self.MODES],
@@ -106,6 +110,9 @@ class BatchPhotos(MonoplotAlgorithm):
                                                                             "machine)"),
                                                        defaultValue="", optional=True))
         self.addParameter(QgsProcessingParameterFolderDestination("OUTPUT", self.tr("Output folder")))
+        for name in self.ADVANCED:  # folded away: the dialog showed 16 parameters of both modes at once (a trial)
+            param = self.parameterDefinition(name)
+            param.setFlags(param.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
         self.addOutput(QgsProcessingOutputNumber("SUCCEEDED", self.tr("Photos processed")))
         self.addOutput(QgsProcessingOutputNumber("FAILED", self.tr("Photos skipped")))
         self.addOutput(QgsProcessingOutputFile("LOG", self.tr("Batch log (CSV)")))
