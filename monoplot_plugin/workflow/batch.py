@@ -159,8 +159,8 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
     writer = None
     if setup.camera_json and write_xyz and shared.products.sees_ground:  # written while the frames run
         writer = _Background(shared.products.write_xyz, os.path.join(out_dir, SHARED_XYZ), crs_wkt)
-    results = collect(_threaded(tasks, lambda t: process_frame(t, shared), workers, is_canceled), tasks, log,
-                      progress)
+    work = lambda t: process_frame(t, shared, is_canceled)  # noqa: E731 — a frame under way stops on a cancel too
+    results = collect(_threaded(tasks, work, workers, is_canceled), tasks, log, progress)
     if writer is not None and writer.wait() is not None:
         shared_xyz_failed(results, os.path.join(out_dir, SHARED_XYZ), writer.error, log)
     remove_stale(out_dir, tasks, results, bool(setup.camera_json), log)

@@ -31,6 +31,7 @@ from ..outputs.xyz_raster import write_xyz_raster
 from .camera_files import camera_json
 from .files import InputError, load_camera, read_photo, read_points_csv
 from .fit import fit_points
+from .progress import IsCanceled, check_canceled, never_canceled
 from .inputs import load_dem
 from .products import blank_outside, centred_on_picture, ortho_grid, picture_area
 from .vectors import fill_missing_z
@@ -211,8 +212,12 @@ def shared_for(setup: Timelapse, dem=None) -> Shared:
         return found
 
 
-def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
-    """Read, (re-register,) and write the products of one frame; every problem becomes a failed result."""
+def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCanceled] = None) -> PhotoResult:
+    """Read, (re-register,) and write the products of one frame; every problem becomes a failed result.
+    ``is_canceled`` (threads on this machine; a Dask task has none): checked inside an automatic registration and
+    before the products, so that a cancel stops the frames under way too (a trial's Ctrl+C let two more frames be
+    registered and written, 12 s)."""
+    is_canceled = is_canceled or never_canceled
     setup = shared.setup
     result = PhotoResult(task.photo, False, index=task.index)
     start = time.perf_counter()
@@ -227,7 +232,7 @@ def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
         fit_status, fit_message = "ok", ""
         if camera is None:  # a table row: fit this photo's camera
             camera, result.rmse_px, fit_status, fit_message = fit_job(task.job, size, shared.dem, setup.crs_wkt,
-                                                                      photo)
+                                                                      photo, is_canceled)
             result.outputs.append(_write_camera(setup, task.stem, camera, {"status": fit_status,
                                                                            "message": fit_message}))
             products = CameraProducts(camera, shared.dem, setup.resolution, setup.write_ortho, cached=False)
@@ -240,6 +245,7 @@ def process_frame(task: FrameTask, shared: Shared) -> PhotoResult:
             if turned:
                 camera, own_camera = products.camera, True
                 result.outputs.append(_write_camera(setup, task.stem, camera))
+        check_canceled(is_canceled)
         if (setup.write_xyz or setup.write_ortho) and not products.sees_ground:
             raise InputError("the camera sees no cell of the DEM (every pixel is sky): wrong camera or DEM?")
         if setup.write_xyz:
@@ -308,7 +314,8 @@ def _write_camera(setup: Timelapse, stem: str, camera: Camera, verdict: Optional
     return path
 
 
-def fit_job(job, size, dem, crs_wkt: str, photo: Optional[np.ndarray] = None):
+def fit_job(job, size, dem, crs_wkt: str, photo: Optional[np.ndarray] = None,
+            is_canceled: Optional[IsCanceled] = None):
     """Fit the camera of a batch job (``prior``, ``points``, ``dem_points`` paths) from its files; returns (camera,
     rmse in px, fit status, message). A row without points is registered automatically on ``photo`` (the (H, W, 3)
     picture) from its prior (:func:`~.auto.register`, with the job's ``position_sigma_m`` and
@@ -322,7 +329,7 @@ def fit_job(job, size, dem, crs_wkt: str, photo: Optional[np.ndarray] = None):
 
         position = getattr(job, "position_sigma_m", None) or DEFAULT_POSITION_SIGMA_M
         angle = getattr(job, "angle_sigma_deg", None) or DEFAULT_ANGLE_SIGMA_DEG
-        done = register(photo, dem, prior, position_sigma_m=position, angle_sigma_deg=angle)
+        done = register(photo, dem, prior, position_sigma_m=position, angle_sigma_deg=angle, is_canceled=is_canceled)
         camera, r = done.camera, done.result
         camera.crs_wkt = crs_wkt
         rmse = float(r.rmse_px) if r.rmse_px is not None and np.isfinite(r.rmse_px) else float("nan")

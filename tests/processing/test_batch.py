@@ -150,3 +150,38 @@ def test_table_rows_registered_automatically_take_the_priors_uncertainty(run_alg
     with pytest.raises(QgsProcessingException, match="bad.csv line 2: position_sigma 'far' is not a positive"):
         run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "bad.csv"),
                           "OUTPUT": str(out)})
+
+
+def test_a_cancel_stops_a_row_being_registered(run_alg, small_scene, tmp_path):
+    """A trial's Ctrl+C let the frames under way be registered and written (12 s to stop): the registration of a
+    row now checks the cancel too; the row is "canceled", its camera not written."""
+    import threading
+
+    from qgis.core import QgsProcessingFeedback
+
+    cam = small_scene["cam"]
+    cam.with_parameters(heading=cam.heading - 1.0).save(tmp_path / "prior.json")
+    write_photo(tmp_path / "a.png", seed=3)
+    (tmp_path / "photos.csv").write_text("photo,prior,points\na.png,prior.json,\n")
+    out = tmp_path / "out"
+    feedback = QgsProcessingFeedback()
+    threading.Timer(0.3, feedback.cancel).start()  # while the row is being registered
+    with pytest.raises(QgsProcessingException, match="Canceled: 0 photos processed, 1 not processed"):
+        run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"), "XYZ": False,
+                          "ORTHO": False, "WORKERS": 1, "OUTPUT": str(out)}, feedback)
+    with open(out / "batch_log.csv", newline="") as fh:
+        row = next(csv.DictReader(fh))
+    assert row["status"] == "canceled" and "canceled while processing" in row["message"], row
+    assert not (out / "a_camera.json").exists()
+    # the registration itself stops at the cancel (it ran to its end, 6 s here, before the camera was refused)
+    from monoplot_plugin.core.dem import Dem
+    from monoplot_plugin.workflow.batch import table_jobs
+    from monoplot_plugin.workflow.files import read_photo
+    from monoplot_plugin.workflow.frames import fit_job
+    from monoplot_plugin.workflow.progress import Canceled
+
+    job = table_jobs(str(tmp_path / "photos.csv"))[0]
+    photo = read_photo(str(tmp_path / "a.png"))
+    dem = Dem.open(small_scene["dem"])
+    with pytest.raises(Canceled):
+        fit_job(job, (photo.shape[1], photo.shape[0]), dem, dem.crs_wkt, photo, is_canceled=lambda: True)
