@@ -30,7 +30,7 @@ from . import engine, persistence
 from .curation import CurationMixin
 from .dem_input import DemInputMixin
 from .fit_settings import fit_arguments, height_arguments
-from .priors import PriorsMixin
+from .priors import GPS_POSITION_M, GPS_SOURCE, PriorsMixin
 from .results import ResultsMixin
 from .refit import inputs_key
 from .tasks import CANCELED, FunctionTask, HiddenTask, TaskResult, abandon, start_task
@@ -399,8 +399,12 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             if self.prior is not None:  # how far the fit took the camera from the rough one, and its stated σ
                 moved = float(np.linalg.norm(np.subtract(outcome.camera.position, self.prior.position)[:2]))
                 reach = np.hypot(*(xyz[:, :2] - np.asarray(self.prior.position[:2])).T)
-                sigma = (options or FitOptions()).prior_sigmas(self.prior.fov, float(np.median(reach)))
-                outcome.info["moved_m"], outcome.info["position_sigma_m"] = moved, sigma["position_m"]
+                sigma = (options or FitOptions()).prior_sigmas(self.prior.fov, float(np.median(reach)))["position_m"]
+                gps = self.state.settings.get("prior_source") == GPS_SOURCE and \
+                    (options is None or options.position_sigma_m is None)
+                # a GPS position needs no σ of 5 % of the range (a trial's drone: 369 m off, under that 2σ, unsaid)
+                outcome.info.update(moved_m=moved, position_sigma_m=GPS_POSITION_M if gps else sigma,
+                                    moved_from_gps=gps)
             self._apply_fit(outcome)
 
         title = self.tr("Fit camera") if known is None else self.tr("Fit camera (already fitted in the background)")

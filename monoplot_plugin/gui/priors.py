@@ -18,9 +18,13 @@ from ..core.kml import lonlat_to_crs
 from ..workflow.products import centred_on_picture
 from . import engine
 
-__all__ = ["PriorsMixin", "PriorsHost", "terrain_pitch"]
+__all__ = ["PriorsMixin", "PriorsHost", "terrain_pitch", "photo_sky_rows", "GPS_SOURCE", "GPS_POSITION_M"]
 
 INFO, WARNING, CRITICAL = Qgis.MessageLevel.Info, Qgis.MessageLevel.Warning, Qgis.MessageLevel.Critical
+#: ``state.settings["prior_source"]`` of a rough camera placed at the photo's EXIF GPS position
+GPS_SOURCE = "exif-gps"
+#: metres: how far a phone's or drone's GPS position usually is from where it stood (the fit's moved-camera note)
+GPS_POSITION_M = 30.0
 
 
 def terrain_pitch(camera: Camera, dem, rays: int = 9, samples: int = 160,
@@ -120,9 +124,18 @@ class PriorsMixin:
         """The best camera known: the fitted one, else the prior."""
         return self.fitted or self.prior
 
-    def set_prior(self, camera: Optional[Camera]) -> None:
+    def set_prior(self, camera: Optional[Camera], source: str = "") -> None:
+        """Use ``camera`` as the rough camera; ``source``: where its position comes from (:data:`GPS_SOURCE`), kept
+        while the position stays (a height or angle edited), forgotten when it moves."""
         if camera is not None and self.image is not None:  # a print's optical axis: its picture's centre
             camera = centred_on_picture(camera, self._picture_area())
+        old = self.prior
+        same_place = old is not None and camera is not None and \
+            tuple(old.position[:2]) == tuple(camera.position[:2])
+        if source:
+            self.state.settings["prior_source"] = source
+        elif not same_place:
+            self.state.settings.pop("prior_source", None)
         self.state.prior = None if camera is None else camera.to_dict()
         self.cameraChanged.emit()
         self._changed()
@@ -156,23 +169,28 @@ class PriorsMixin:
         camera = Camera((x, y, z + height_above_ground), heading, pitch, 0.0, fov, self.photo_size,
                         crs_wkt=self.dem.crs_wkt)
         if pitch == 0.0:  # unknown (the box's default): aim at the terrain's skyline
-            camera = self._with_terrain_pitch(camera)
+            camera, _ = self._with_terrain_pitch(camera)
         self.set_prior(camera)
         return camera
 
-    def _with_terrain_pitch(self, camera: Camera) -> Camera:
+    def _with_terrain_pitch(self, camera: Camera, say: bool = True) -> Tuple[Camera, str]:
+        """(``camera`` pitched at the terrain, the sentence that says how; "" when it stays as it is); ``say``:
+        also show the sentence (the EXIF camera puts it in its own message, which would replace it)."""
         rows = self._photo_sky_rows()
         pitch = terrain_pitch(camera, self.dem, sky_rows=rows)
         if pitch is None:
-            return camera
+            return camera, ""
         if rows is not None and terrain_pitch(camera, self.dem) != pitch:
             # 40 generated scenes, rough position ± 20 m: median pitch error 0.6° (3.5° from the fixed rule)
-            text = self.tr("Pitch set to {0:.1f}° from the terrain: its skyline on the photo's; edit it if wrong.")
+            text = self.tr("Pitch set to {0:.1f}°, so that the DEM's skyline lies on the photo's; edit it if "
+                           "wrong.")
         else:
-            text = self.tr("Pitch set to {0:.1f}° from the terrain (the skyline in the upper part of the picture); "
+            text = self.tr("Pitch set to {0:.1f}° from the terrain (its skyline in the upper part of the picture); "
                            "edit it if wrong.")
-        self.message.emit(text.format(pitch), INFO)
-        return camera.with_parameters(pitch=pitch)
+        text = text.format(pitch)
+        if say:
+            self.message.emit(text, INFO)
+        return camera.with_parameters(pitch=pitch), text
 
     def _photo_sky_rows(self) -> Optional[np.ndarray]:
         """The photo's skyline for :func:`terrain_pitch` (once per photo), None without a clear one."""
@@ -213,8 +231,9 @@ class PriorsMixin:
             heading, guessed = math.degrees(math.atan2((x0 + x1) / 2 - x, (y0 + y1) / 2 - y)), True
         camera = Camera((x, y, max(z, ground + 1.0)), heading, 0.0, 0.0, exif.fov or 60.0, self.photo_size,
                         crs_wkt=self.dem.crs_wkt)
-        self.set_prior(self._with_terrain_pitch(camera))
-        text = self.tr("Rough camera from the photo's EXIF GPS tags.")
+        camera, pitched = self._with_terrain_pitch(camera, say=False)
+        self.set_prior(camera, source=GPS_SOURCE)
+        text = self.tr("Rough camera from the photo's EXIF GPS tags.") + (" " + pitched if pitched else "")
         if exif.altitude is not None:  # a trial's phone said 11 m above the ground for a hand-held 1.6 m
             above = max(z, ground + 1.0) - ground
             text += " " + (self.tr("Its GPS altitude puts it {0:.0f} m above the DEM; a GPS height is often 10-30 m "

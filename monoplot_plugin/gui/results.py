@@ -241,7 +241,11 @@ class ResultsMixin:
         if status != "ok":  # the verdict's reasons (its message) are in the fit tab
             text += " " + self.tr("See the fit tab for why and what to do.")
         moved, sigma = info.get("moved_m"), info.get("position_sigma_m")
-        if status != "ok" and moved is not None and sigma and moved > 2.0 * sigma:
+        if status != "ok" and moved is not None and sigma and moved > 2.0 * sigma and info.get("moved_from_gps"):
+            text += " " + self.tr("The fit moved the camera {0:.0f} m from the photo's GPS position, which is usually "
+                                  "within {1:.0f} m: if it is right, give Position ± {1:.0f} m or fix the position "
+                                  "in the fit settings, and fit again.").format(moved, sigma)
+        elif status != "ok" and moved is not None and sigma and moved > 2.0 * sigma:
             # a trial's phone photo: GPS 23 m off, the fit "uncertain" 211 m away, and nothing said it had moved
             text += " " + self.tr("The fit moved the camera {0:.0f} m from the rough camera, more than twice its "
                                   "stated uncertainty (Position ± {1:.0f} m): if the rough position is right (a GPS "

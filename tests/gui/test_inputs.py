@@ -267,6 +267,18 @@ def test_rough_camera_from_exif_gps(dock, scene, tmp_path):
     # 300 m up: the flight height, not "1.6 m held in the hand" (a trial's drone); a compass direction is said
     assert any("flight height" in text and "held in the hand" not in text for text in said), said
     assert any("magnetic north" in text for text in said), said
+    # the pitch from the terrain is said in the EXIF camera's own message (its own was replaced at once, a trial)
+    assert any(text.startswith("Rough camera from the photo's EXIF GPS tags. Pitch set to") for text in said), said
+    c = dock.controller
+    assert c.state.settings["prior_source"] == "exif-gps"
+    c.set_prior(prior.with_parameters(z=prior.position[2] + 5.0))  # a height edited: still the GPS position
+    assert c.state.settings["prior_source"] == "exif-gps"
+    uncertain = {"status": "uncertain", "rmse_px": 5.0, "n_photo": 30, "moved_m": 369.0, "position_sigma_m": 30.0,
+                 "moved_from_gps": True}
+    assert "moved the camera 369 m from the photo's GPS position, which is usually within 30 m" in \
+        c.fit_summary(uncertain)[0]
+    c.set_prior(prior.with_parameters(x=prior.position[0] + 50.0))  # moved: no longer the GPS position
+    assert "prior_source" not in c.state.settings
     assert prior is not None
     assert math.dist(prior.position[:2], scene.camera.position[:2]) < 1.0
     assert abs(prior.position[2] - scene.camera.position[2]) < 0.2

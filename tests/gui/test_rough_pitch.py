@@ -38,5 +38,6 @@ def test_the_dock_says_which_skyline_set_the_pitch(dock, scene, qtbot):
     rows = photo_sky_rows(qimage_to_array(c.image), c._picture_area())  # the photo as the dock holds it
     assert prior.pitch == terrain_pitch(prior.with_parameters(pitch=0.0), scene.dem, sky_rows=rows)
     fixed = terrain_pitch(prior.with_parameters(pitch=0.0), scene.dem)  # the rule without the photo's skyline
-    rule = "its skyline on the photo's" if prior.pitch != fixed else "the skyline in the upper part of the picture"
+    rule = "so that the DEM's skyline lies on the photo's" if prior.pitch != fixed else \
+        "its skyline in the upper part of the picture"
     assert any(rule in text for text in said), said
