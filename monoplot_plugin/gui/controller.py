@@ -20,7 +20,6 @@ from qgis.PyQt.QtGui import QImage
 from ..adapters.layers import mark_modified_later
 from ..adapters.photo import PhotoError, array_to_qimage, qimage_to_array, read_photo
 from ..core.camera import Camera
-from ..core.fit import FitOptions
 from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, replace_in_views
 from ..workflow import auto as auto_step
 from ..workflow.camera_files import fitted_to_size
@@ -30,7 +29,7 @@ from . import engine, persistence
 from .curation import CurationMixin
 from .dem_input import DemInputMixin
 from .fit_settings import fit_arguments, height_arguments
-from .priors import GPS_POSITION_M, GPS_SOURCE, PriorsMixin
+from .priors import PriorsMixin
 from .results import ResultsMixin
 from .refit import inputs_key
 from .tasks import CANCELED, FunctionTask, HiddenTask, TaskResult, abandon, start_task
@@ -300,18 +299,6 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
                      for p in world]
         return photo, [p for p in world if p.z is not None and math.isfinite(p.z)]
 
-    def fit_points_changed(self) -> bool:
-        """True when the points a fit would use now are not those of the fitted camera's fit (accepted, rejected,
-        moved or undone since): the fit tab says so. False without a record (a camera from a file, older state)."""
-        used = self.state.fit_info.get("fit_point_ids")
-        if self.fitted is None or used is None:
-            return False
-        photo, world = self._accepted_for_fit()
-        fitted_positions = self.state.fit_info.get("fit_point_xy") or {}
-        if {p.id for p in photo + world} != set(used):
-            return True
-        return any(tuple(fitted_positions.get(p.id, (p.x, p.y))) != (p.x, p.y) for p in photo + world)
-
     def fit_inputs(self):
         """(photo uv (N, 2), map xyz (M, 3), pairs [(i, j)]) of the accepted points, or a reason string."""
         photo, world = self._accepted_for_fit()
@@ -396,15 +383,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             outcome.info["fit_point_ids"] = photo_ids + world_ids
             outcome.info["fit_point_xy"] = point_xy
             self.cap_by_automatic(outcome.info, photo_ids + world_ids, len(pairs), len(check_ids))
-            if self.prior is not None:  # how far the fit took the camera from the rough one, and its stated σ
-                moved = float(np.linalg.norm(np.subtract(outcome.camera.position, self.prior.position)[:2]))
-                reach = np.hypot(*(xyz[:, :2] - np.asarray(self.prior.position[:2])).T)
-                sigma = (options or FitOptions()).prior_sigmas(self.prior.fov, float(np.median(reach)))["position_m"]
-                gps = self.state.settings.get("prior_source") == GPS_SOURCE and \
-                    (options is None or options.position_sigma_m is None)
-                # a GPS position needs no σ of 5 % of the range (a trial's drone: 369 m off, under that 2σ, unsaid)
-                outcome.info.update(moved_m=moved, position_sigma_m=GPS_POSITION_M if gps else sigma,
-                                    moved_from_gps=gps)
+            outcome.info.update(self.moved_from_prior(outcome.camera, xyz, options))
             self._apply_fit(outcome)
 
         title = self.tr("Fit camera") if known is None else self.tr("Fit camera (already fitted in the background)")

@@ -30,7 +30,11 @@ class ResultsHost(Protocol):
     fitInfoChanged: object  # pyqtSignal()
     message: object  # pyqtSignal(str, level)
 
+    prior: object  # Camera or None (PriorsMixin)
+
     def fit_inputs(self): ...
+
+    def _accepted_for_fit(self) -> Tuple[list, list]: ...
 
     def _changed(self) -> None: ...
 
@@ -41,6 +45,37 @@ class ResultsHost(Protocol):
 
 class ResultsMixin:
     """Residuals and lookups under the fitted camera; needs a :class:`ResultsHost`."""
+
+    def fit_points_changed(self) -> bool:
+        """True when the points a fit would use now are not those of the fitted camera's fit (accepted, rejected,
+        moved or undone since): the fit tab says so. False without a record (a camera from a file, older state)."""
+        used = self.state.fit_info.get("fit_point_ids")
+        if self.fitted is None or used is None:
+            return False
+        photo, world = self._accepted_for_fit()
+        fitted_positions = self.state.fit_info.get("fit_point_xy") or {}
+        if {p.id for p in photo + world} != set(used):
+            return True
+        return any(tuple(fitted_positions.get(p.id, (p.x, p.y))) != (p.x, p.y) for p in photo + world)
+
+    def moved_from_prior(self, camera, xyz: np.ndarray, options) -> dict:
+        """How far a fit took the camera from the rough one (``moved_m``, horizontally) against the rough camera's
+        one-σ position (``position_sigma_m``): the fit settings' Position ±; without it, for a rough camera at the
+        photo's EXIF GPS position a GPS's usual error (``moved_from_gps``), else the fit's default (5 % of the median
+        range of ``xyz``, the (M, 3) DEM points fitted, 100 m at least). {} without a rough camera."""
+        from ..core.fit import FitOptions
+        from .priors import GPS_POSITION_M, GPS_SOURCE
+
+        prior = self.prior
+        if prior is None:
+            return {}
+        moved = float(np.linalg.norm(np.subtract(camera.position, prior.position)[:2]))
+        reach = np.hypot(*(np.asarray(xyz)[:, :2] - np.asarray(prior.position[:2])).T)
+        sigma = (options or FitOptions()).prior_sigmas(prior.fov, float(np.median(reach)))["position_m"]
+        # a GPS position needs no σ of 5 % of the range (a trial's drone: 369 m off, under that 2σ, unsaid)
+        gps = self.state.settings.get("prior_source") == GPS_SOURCE and \
+            (options is None or options.position_sigma_m is None)
+        return {"moved_m": moved, "position_sigma_m": GPS_POSITION_M if gps else sigma, "moved_from_gps": gps}
 
     def residuals(self) -> List[Tuple[str, Tuple[float, float], Tuple[float, float]]]:
         """(photo point id, its pixel, the pixel of its DEM match under the fitted camera) for each accepted photo
