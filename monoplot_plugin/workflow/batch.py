@@ -147,7 +147,8 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
     existing = [n for n in planned_outputs(jobs, stems, write_xyz, write_ortho)
                 if os.path.exists(os.path.join(out_dir, n))]
     if existing:
-        log(f"{len(existing)} file(s) of an earlier run in {out_dir} are replaced (e.g. {existing[0]})", False)
+        log(f"{len(existing)} file(s) of an earlier run in {out_dir} will be replaced or removed as the frames are "
+            f"processed (e.g. {existing[0]})", False)
     try:
         setup = batch_setup(jobs, crs_wkt, out_dir, write_xyz, write_ortho, resolution, register, reference,
                             log=log, camera_verdict=camera_verdict)

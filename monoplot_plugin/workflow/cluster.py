@@ -154,7 +154,8 @@ def run_batch_dask(jobs: List[PhotoJob], dem_path: str, crs_wkt: str, out_dir: s
         existing = [n for n in planned_outputs(jobs, stems, write_xyz, write_ortho)
                     if os.path.exists(os.path.join(out_dir, n))]
         if existing:
-            log(f"{len(existing)} file(s) of an earlier run in {out_dir} are replaced (e.g. {existing[0]})", False)
+            log(f"{len(existing)} file(s) of an earlier run in {out_dir} will be replaced or removed as the frames are "
+                f"processed (e.g. {existing[0]})", False)
         check_importable(client, _frames_task.__module__)
         workers = len(client.scheduler_info().get("workers", {}))
         per_task = per_task or frames_per_task(len(tasks), workers, bool(setup.camera_json))
