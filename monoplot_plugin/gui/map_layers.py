@@ -35,9 +35,16 @@ def photo_group(project: QgsProject, photo_name: str) -> QgsLayerTreeGroup:
 
 
 def _file_of(layer) -> str:
-    """The file behind a file-based layer (GeoPackage sources carry ``|layername=...``), normalised; "" if none."""
+    """The file behind a file-based layer (GeoPackage sources carry ``|layername=...``), normalised; "" if none
+    (a memory layer: its source ``memory?geometry=...`` of a drawn layer is longer than a file name may be, and
+    ``is_file`` raised "File name too long": every export after a drawing ended in a traceback, a trial)."""
+    if layer.providerType() == "memory":
+        return ""
     path = layer.source().split("|")[0]
-    return str(Path(path).resolve()) if path and Path(path).is_file() else ""
+    try:
+        return str(Path(path).resolve()) if path and Path(path).is_file() else ""
+    except (OSError, ValueError):  # not a path this system can have
+        return ""
 
 
 def add_layer(project: QgsProject, layer, group: Optional[QgsLayerTreeGroup]):

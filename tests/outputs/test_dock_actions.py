@@ -582,3 +582,27 @@ def test_drawing_on_a_doubtful_camera_is_said_once(dock_with_fit):
     c.state.fitted = dict(c.state.fitted, heading=c.state.fitted["heading"] + 0.01)  # another camera, "ok"
     session.add_feature("line", [[100, 270], [300, 280]])
     assert "Drawn on a camera" not in dock.statusLabel.text()
+
+
+def test_an_export_beside_a_drawn_layer_with_a_long_source_is_added(dock_with_fit, tmp_path, qtbot):
+    """A trial: every XYZ and orthophoto export after a drawing ended in a traceback ("File name too long"): the
+    drawn layers' memory sources (their CRS as WKT) were tried as file names. The export is added and said."""
+    from qgis.core import QgsVectorLayer
+
+    from monoplot_plugin.gui.map_layers import _file_of
+
+    dock, tools = dock_with_fit
+    long_source = "memory?geometry=PolygonZ&field=" + "&field=".join(f"attribute_{i}:string" for i in range(40))
+    drawn = QgsVectorLayer(long_source, "drawn (map)", "memory")
+    assert drawn.isValid() and len(drawn.source()) > 300 and _file_of(drawn) == ""
+    group = QgsProject.instance().layerTreeRoot().findGroup("Gletscher 1890") or \
+        QgsProject.instance().layerTreeRoot().addGroup("Gletscher 1890")
+    QgsProject.instance().addMapLayer(drawn, False)
+    group.addLayer(drawn)
+    done = []
+    tools.exported.connect(lambda what, path: done.append((what, path)))
+    assert tools.start_export("xyz", tmp_path / "after_drawing.tif") is not None
+    qtbot.waitUntil(lambda: bool(done), timeout=30000)
+    names = {node.name() for node in group.findLayers()}
+    assert "after_drawing (X Y Z, photo pixels)" in names and "drawn (map)" in names
+    assert "Written" in dock.statusLabel.text()
