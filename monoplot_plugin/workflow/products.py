@@ -302,8 +302,8 @@ def ortho_grid(camera: Camera, dem, resolution=None, xyz: Optional[np.ndarray] =
 def auto_resolution(camera: Camera, dem, xyz: np.ndarray):
     """(cell size, (xmin, ymin, xmax, ymax)) of an orthophoto that keeps the photo's detail: the ground footprint of
     one pixel at the median distance of the terrain it sees (``xyz`` (H, W, 3) per-pixel map coordinates, NaN for
-    sky), never coarser than the DEM's cell, never finer than :data:`AUTO_ORTHO_CELLS` cells allow over the seen
-    area, which is the extent (one cell of margin).
+    sky), never coarser than the DEM's cell unless :data:`AUTO_ORTHO_CELLS` cells over the seen area (the extent, one
+    cell of margin) need it, never finer than they allow.
 
     Raises:
         ProductError: the camera sees no terrain.
@@ -314,7 +314,9 @@ def auto_resolution(camera: Camera, dem, xyz: np.ndarray):
     distance = _median_distance(camera, pts)
     lo, hi = pts[:, :2].min(axis=0), pts[:, :2].max(axis=0)
     area = float(np.prod(np.maximum(hi - lo, dem.cell_size)))
-    cell = min(float(dem.cell_size), max(distance / camera.focal_px, (area / AUTO_ORTHO_CELLS) ** 0.5))
+    budget = (area / AUTO_ORTHO_CELLS) ** 0.5
+    # the cell budget first: over a 1 m DEM, the DEM's cells made 54 M of them, refused with no way round (a trial)
+    cell = max(budget, min(float(dem.cell_size), max(distance / camera.focal_px, budget)))
     return cell, seen_bounds(dem, pts, cell)
 
 

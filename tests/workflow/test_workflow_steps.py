@@ -309,3 +309,21 @@ def test_automatic_camera_with_check_points_far_beyond_its_residuals_is_poor():
     judged = judge_by_check_points("uncertain", "m.", cam, off, xyz, rmse_px=2.2)
     assert judged["status"] == "poor" and "13 times the camera's residuals" in judged["message"]
     assert judge_by_check_points("uncertain", "m.", cam, off, xyz, rmse_px=12.0)["status"] == "uncertain"
+
+
+def test_an_automatic_orthophoto_over_a_fine_dem_keeps_to_its_cell_budget(scene, tmp_path):
+    """A trial's 1 m lidar DEM: the dock's orthophoto took the DEM's cells, 6338 x 8561 = 54 M of them, and was
+    refused ("too large") with no way round. The cell budget now comes first: coarser cells than the DEM's."""
+    dem, camera, _ = scene
+    seen = xyz.xyz_result(camera, dem, visibility=False).xyz
+    pts = seen[np.isfinite(seen).all(axis=2)]
+    area = float(np.prod(np.maximum(pts[:, :2].max(axis=0) - pts[:, :2].min(axis=0), dem.cell_size)))
+    budget_cells = int(area / (2.0 * dem.cell_size) ** 2)  # a budget the DEM's cells exceed about 4 times
+    old = products.AUTO_ORTHO_CELLS
+    products.AUTO_ORTHO_CELLS = budget_cells
+    try:
+        cell, bounds = products.auto_resolution(camera, dem, seen)
+    finally:
+        products.AUTO_ORTHO_CELLS = old
+    # coarser than the DEM, as the budget needs (before: the DEM's cells, 4 times the budget)
+    assert cell > 1.8 * dem.cell_size and cell == pytest.approx((area / budget_cells) ** 0.5, rel=0.01)
