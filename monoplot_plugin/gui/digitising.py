@@ -215,8 +215,11 @@ class DigitisingSession(QObject):
         """A new fit (or DEM): keep what was drawn on the photo, recompute every live map layer."""
         if self.closed:
             return
+        same = camera == self.camera and dem is self.dem and xyz is self.xyz and pixel_rmse == self.pixel_rmse
         self.camera, self.dem, self.xyz, self.pixel_rmse = camera, dem, xyz, pixel_rmse
-        self._mapped.clear()
+        if not same:  # the same camera and DEM again (the dock says "camera changed" for an overlay too): the
+            # features mapped stay valid; tracing each again froze a trial's QGIS 4.6 s over a 100 M-cell DEM
+            self._mapped.clear()
         with derived_layers_only(self.project):  # the drawing is unchanged: a clean project stays clean
             for kind in list(self.map_layers):
                 self.map_layers[kind].setCrs(_crs(dem.crs_wkt))

@@ -606,3 +606,21 @@ def test_an_export_beside_a_drawn_layer_with_a_long_source_is_added(dock_with_fi
     names = {node.name() for node in group.findLayers()}
     assert "after_drawing (X Y Z, photo pixels)" in names and "drawn (map)" in names
     assert "Written" in dock.statusLabel.text()
+
+
+def test_a_camera_signal_without_a_new_camera_traces_no_feature_again(dock_with_fit, monkeypatch):
+    """A trial over a 100 M-cell DEM: choosing the DEM or reopening the project froze QGIS while every drawn feature
+    was traced onto the terrain twice. The same camera and DEM again keep what was mapped; a new fit maps anew."""
+    from monoplot_plugin.gui import digitising
+
+    dock, tools = dock_with_fit
+    session = tools.current_session()
+    session.add_feature("polygon", [[50, 100], [190, 100], [150, 150]], {"name": "tongue"})
+    traced = []
+    real = digitising.photo_to_map_feature
+    monkeypatch.setattr(digitising, "photo_to_map_feature", lambda *a, **k: traced.append(1) or real(*a, **k))
+    c = dock.controller
+    c.cameraChanged.emit()  # an overlay arriving, the DEM chosen again: the same camera
+    assert traced == [] and session.map_layer("polygon").featureCount() == 1
+    c.set_fitted(c.fitted.with_parameters(heading=c.fitted.heading + 0.5), dict(c.state.fit_info))
+    assert traced == [1] and session.map_layer("polygon").featureCount() == 1
