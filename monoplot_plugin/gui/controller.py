@@ -380,8 +380,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             outcome.info["check_error_px"] = dict(zip(check_ids, outcome.info.pop("check_errors", [])))
             outcome.info["outliers"] = [photo_ids[i] for i in outcome.info.pop("outlier_idx", [])]
             # what the camera was fitted to, to say when the points have changed since (fit_points_changed)
-            outcome.info["fit_point_ids"] = photo_ids + world_ids
-            outcome.info["fit_point_xy"] = point_xy
+            outcome.info["fit_point_xy"] = point_xy  # point id -> (x, y)
             self.cap_by_automatic(outcome.info, photo_ids + world_ids, len(pairs), len(check_ids))
             outcome.info.update(self.moved_from_prior(outcome.camera, xyz, options))
             self._apply_fit(outcome)

@@ -49,14 +49,12 @@ class ResultsMixin:
     def fit_points_changed(self) -> bool:
         """True when the points a fit would use now are not those of the fitted camera's fit (accepted, rejected,
         moved or undone since): the fit tab says so. False without a record (a camera from a file, older state)."""
-        used = self.state.fit_info.get("fit_point_ids")
-        if self.fitted is None or used is None:
+        fitted = self.state.fit_info.get("fit_point_xy")  # point id -> (x, y) the fit used
+        if self.fitted is None or fitted is None:
             return False
         photo, world = self._accepted_for_fit()
-        fitted_positions = self.state.fit_info.get("fit_point_xy") or {}
-        if {p.id for p in photo + world} != set(used):
-            return True
-        return any(tuple(fitted_positions.get(p.id, (p.x, p.y))) != (p.x, p.y) for p in photo + world)
+        now = photo + world
+        return {p.id for p in now} != set(fitted) or any(tuple(fitted[p.id]) != (p.x, p.y) for p in now)
 
     def moved_from_prior(self, camera, xyz: np.ndarray, options) -> dict:
         """How far a fit took the camera from the rough one (``moved_m``, horizontally) against the rough camera's

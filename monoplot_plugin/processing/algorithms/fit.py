@@ -95,6 +95,7 @@ class FitCamera(MonoplotAlgorithm):
     def gather_points(self, parameters, context, dem, crs=None):
         """(uv (N, 2), xyz (M, 3), paired) from layers and/or CSV files; Z sampled from the DEM where missing."""
         uv_parts, xyz_parts = [], []
+        feedback = self.feedback_of(context)
         paired = self.parameterAsBool(parameters, "PAIRED", context)
         photo_source = self.parameterAsSource(parameters, "PHOTO_POINTS", context)
         dem_source = self.parameterAsSource(parameters, "DEM_POINTS", context)
@@ -117,7 +118,6 @@ class FitCamera(MonoplotAlgorithm):
                 converted, notes = points_to_dem_crs(table["xyz"], dem, name=os.path.basename(path),
                                                      candidates=[crs.toWkt()] if crs is not None and crs.isValid()
                                                      else [])
-                feedback = self.feedback_of(context)
                 for note in notes:
                     if feedback is not None:
                         (feedback.pushWarning if OFF_DEM_NOTE in note else feedback.pushInfo)(note)
@@ -129,7 +129,6 @@ class FitCamera(MonoplotAlgorithm):
         uv = np.concatenate(uv_parts)
         xyz = np.concatenate(xyz_parts)
         no_z = int((np.isfinite(xyz[:, :2]).all(axis=1) & ~np.isfinite(xyz[:, 2])).sum())
-        feedback = self.feedback_of(context)
         if no_z and feedback is not None:  # said: a misnamed Z column was silently the DEM's
             feedback.pushInfo(self.tr("{0} of the {1} DEM points have no Z: the DEM's height there is "
                                       "used").format(no_z, len(xyz)))
