@@ -202,29 +202,29 @@ def _foggy_first_frame(scene, folder):
     return folder
 
 
-def test_a_foggy_first_frame_is_not_the_default_reference(drifting_timelapse, tmp_path):
-    """The trial: the fog frame, first by name, was the reference: it came out "ok" and every good frame failed."""
-    scene = drifting_timelapse
+def _registered_with_fog_first(scene, tmp_path, **options):
+    """(results, log lines (message, is_error)) of a re-registered batch whose first frame is fog."""
     folder = _foggy_first_frame(scene, tmp_path / "frames")
     cam, dem = Camera.load(scene["camera"]), Dem.open(scene["dem"])
     lines = []
+    options = {k: str(folder / v) if k == "reference" else v for k, v in options.items()}
     results = batch.run_batch(batch.folder_jobs(str(folder), cam), dem, dem.crs_wkt, str(tmp_path / "out"),
-                              register=True, write_xyz=False, log=lambda m, e: lines.append(m))
+                              register=True, log=lambda m, e: lines.append((m, e)), **options)
+    return results, lines
+
+
+def test_a_foggy_first_frame_is_not_the_default_reference(drifting_timelapse, tmp_path):
+    """The trial: the fog frame, first by name, was the reference: it came out "ok" and every good frame failed."""
+    results, lines = _registered_with_fog_first(drifting_timelapse, tmp_path, write_xyz=False)
     assert all(r.ok for r in results[1:]), [r.message for r in results]
     assert not results[0].ok
-    assert any(m.startswith("frame_000.png is not the reference frame: no structure") for m in lines)
-    assert any(m.startswith("Reference frame: frame_001.png") for m in lines)
+    assert any(m.startswith("frame_000.png is not the reference frame: no structure") for m, _ in lines)
+    assert any(m.startswith("Reference frame: frame_001.png") for m, _ in lines)
     assert results[1].drift_px < 0.1  # the reference itself
 
 
 def test_a_blank_reference_frame_named_by_the_user_fails_with_its_name(drifting_timelapse, tmp_path):
-    scene = drifting_timelapse
-    folder = _foggy_first_frame(scene, tmp_path / "frames")
-    cam, dem = Camera.load(scene["camera"]), Dem.open(scene["dem"])
-    lines = []
-    results = batch.run_batch(batch.folder_jobs(str(folder), cam), dem, dem.crs_wkt, str(tmp_path / "out"),
-                              register=True, reference=str(folder / "frame_000.png"),
-                              log=lambda m, e: lines.append((m, e)))
+    results, lines = _registered_with_fog_first(drifting_timelapse, tmp_path, reference="frame_000.png")
     assert not any(r.ok for r in results)
     assert all("reference frame frame_000.png is blank" in r.message and "REFERENCE" in r.message for r in results)
     assert any(e and m.startswith("every photo FAILED") for m, e in lines)
