@@ -29,7 +29,7 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass, field, replace
-from typing import List, Optional, Sequence, Tuple
+from typing import Any, Callable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -150,6 +150,33 @@ class Dem:
         return dem
 
     # --- properties -------------------------------------------------------------------------------------------
+    def derived(self, name: str, compute: Callable[[np.ndarray], Any]) -> Any:
+        """``compute(elevation)``, worked out once per Dem and kept under ``name``: what every exact line of sight
+        scans the whole grid for (the height range, the voids closed), which took 0.5 s per feature traced on a
+        100 M-cell DEM. The heights must not be edited in place afterwards; a new Dem (``crop``, ``replace``)
+        starts afresh, and a copy sent elsewhere (pickled) leaves the kept values behind.
+
+        >>> dem = Dem.from_array([[1.0, float("nan")], [5.0, 2.0]], (0, 1, 0, 2, 0, -1))
+        >>> dem.derived("range", lambda z: (float(np.nanmin(z)), float(np.nanmax(z))))
+        (1.0, 5.0)
+        >>> dem.derived("range", lambda z: None)  # kept: not computed again
+        (1.0, 5.0)
+        """
+        kept = self.__dict__.setdefault("_derived", {})
+        key = (name, id(self.elevation))  # heights replaced by another array (attribute set) are new heights
+        if key not in kept:
+            kept[key] = compute(self.elevation)
+        return kept[key]
+
+    def height_range(self) -> Tuple[float, float]:
+        """(lowest, highest) finite height in metres; (nan, nan) when there is none (kept: :meth:`derived`)."""
+        return self.derived("height_range", _finite_min_max)
+
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state.pop("_derived", None)  # a cache: a Dask worker's copy works it out again rather than receive it
+        return state
+
     @property
     def shape(self) -> Tuple[int, int]:
         return self.elevation.shape
@@ -312,7 +339,7 @@ class Dem:
     def crop_to_view(self, camera, max_range: Optional[float] = None, margin_cells: int = 2) -> "Dem":
         """The part of the grid that ``camera`` can see within ``max_range`` metres (a rectangle of cells
         containing the camera's view frustum cut by the DEM's height range); self when that is everything."""
-        zmin, zmax = _finite_min_max(self.elevation)
+        zmin, zmax = self.height_range()
         window = view_window(camera, self.geotransform, self.shape, zmin, zmax, max_range, margin_cells)
         if window is None:
             return self.crop(0, 0, 0, 0)

@@ -159,9 +159,8 @@ def densify(vertices, step: float, closed: bool = False) -> np.ndarray:
 def _far_distance(cam: Camera, dem: Dem) -> float:
     """A distance from the camera beyond every DEM vertex."""
     xmin, ymin, xmax, ymax = dem.bounds()
-    finite = dem.elevation[np.isfinite(dem.elevation)]
-    zmin = float(finite.min()) if finite.size else 0.0
-    zmax = float(finite.max()) if finite.size else 0.0
+    zmin, zmax = dem.height_range()
+    zmin, zmax = (0.0, 0.0) if math.isnan(zmin) else (zmin, zmax)
     cx, cy, cz = cam.position
     dx = max(abs(xmin - cx), abs(xmax - cx))
     dy = max(abs(ymin - cy), abs(ymax - cy))

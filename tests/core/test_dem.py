@@ -146,3 +146,18 @@ def test_geographic_dem_in_memory_is_refused_by_compute_xyz():
         compute_xyz(cam, dem)
     utm = dem.reprojected_to_utm()
     assert not utm.is_geographic and utm.source_crs_wkt
+
+
+def test_heights_worked_out_once_stay_behind_when_the_dem_is_pickled():
+    """The kept height range and closed voids are per Dem: a cut starts afresh, a pickled copy (a Dask worker's)
+    does not carry them, and gives the same answers."""
+    import pickle
+
+    z = np.arange(20.0).reshape(4, 5)
+    z[1, 2] = np.nan
+    dem = Dem.from_array(z, (0.0, 1.0, 0.0, 4.0, 0.0, -1.0))
+    assert dem.height_range() == (0.0, 19.0)
+    assert dem.crop(0, 0, 2, 5).height_range() == (0.0, 9.0)
+    copy = pickle.loads(pickle.dumps(dem))
+    assert "_derived" in dem.__dict__ and "_derived" not in copy.__dict__
+    assert copy.height_range() == (0.0, 19.0) and np.array_equal(copy.elevation, dem.elevation, equal_nan=True)

@@ -320,3 +320,74 @@ def test_a_search_rendering_cameras_it_only_tries_does_not_warn_for_each(caplog)
     caplog.clear()
     compute_xyz_full(cam, dem)
     assert any(r.levelno == logging.WARNING and "below the DEM surface" in r.getMessage() for r in caplog.records)
+
+
+def brute_force_first_entry(dem: Dem, origins: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    """Reference for segment_first_hit: every segment against every mesh triangle, the smallest s in (0, 1] where
+    it crosses a triangle from its upper side (float64, numpy)."""
+    verts = dem.vertices()
+    rows, cols = dem.shape
+    r, c = np.meshgrid(np.arange(rows - 1), np.arange(cols - 1), indexing="ij")
+    r, c = r.ravel(), c.ravel()
+    a = np.concatenate([verts[r, c], verts[r, c]])
+    b = np.concatenate([verts[r, c + 1], verts[r + 1, c + 1]])
+    q = np.concatenate([verts[r + 1, c + 1], verts[r + 1, c]])
+    keep = np.isfinite(a[:, 2]) & np.isfinite(b[:, 2]) & np.isfinite(q[:, 2])
+    a, b, q = a[keep], b[keep], q[keep]
+    e1, e2 = b - a, q - a
+    up = np.cross(e1, e2)
+    up[up[:, 2] < 0] *= -1
+    out = np.full(len(origins), np.nan)
+    for k, (o, t) in enumerate(zip(origins, targets)):
+        d = t - o
+        p = np.cross(d, e2)
+        det = np.einsum("tk,tk->t", p, e1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            tvec = o - a
+            u = np.einsum("tk,tk->t", tvec, p) / det
+            qv = np.cross(tvec, e1)
+            v = qv @ d / det
+            s = np.einsum("tk,tk->t", e2, qv) / det
+        ok = (u >= -1e-12) & (v >= -1e-12) & (u + v <= 1 + 1e-12) & (s > 1e-9) & (s <= 1) & (up @ d < 0)
+        if ok.any():
+            out[k] = s[ok].min()
+    return out
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_segment_first_hit_agrees_with_every_triangle_tried(dtype):
+    """The walk passes quads the segment stays above without testing their triangles: it must find the same
+    first entries as testing every triangle, grazing segments, rotated grids and holes included."""
+    rng = np.random.default_rng(3)
+    base = synthetic_terrain((24, 22), cell=25.0, seed=4)
+    z = base.elevation.astype(dtype)
+    z[8:11, 5:9] = np.nan  # a hole the segments pass through
+    g = base.geotransform
+    dem = Dem(z, (g[0], g[1] * 0.9, 4.0, g[3], 3.0, g[5]), base.crs_wkt)  # rotated, not square
+    centre = np.nanmean(dem.vertices(), axis=(0, 1))
+    lo, hi = float(np.nanmin(z)), float(np.nanmax(z))
+    n = 300
+    origins = centre + np.c_[rng.uniform(-300, 300, (n, 2)), rng.uniform(lo - centre[2], hi - centre[2] + 200, n)]
+    targets = centre + np.c_[rng.uniform(-300, 300, (n, 2)), rng.uniform(lo - centre[2] - 200, hi - centre[2], n)]
+    # segments ending exactly on the surface, and ones skimming a peak by 1 cm
+    top = np.unravel_index(np.nanargmax(z), z.shape)
+    peak = dem.vertices()[top]
+    skim = np.array([peak + [-300, -200, 150.01], peak + [300, 200, -149.99]])
+    # low shots at points of the surface: they graze the slopes in front, where a quad is entered only just
+    # (aimed inside a triangle, and on past it: a shot ending exactly on the surface is a tie either way)
+    x, y = dem.cell_to_map(rng.uniform(2, 20, 100), rng.uniform(2, 20, 100))
+    ground = np.c_[x, y, dem.sample(x, y, method="mesh")]
+    ground = ground[np.isfinite(ground[:, 2])]
+    shots = ground + np.c_[rng.uniform(-300, 300, (len(ground), 2)), rng.uniform(1, 30, len(ground))]
+    # flat shots that just clip a vertex (1 to 30 cm deep): a quad they are entered in is hardly under them
+    tips = dem.vertices()[rng.integers(2, 20, 200), rng.integers(2, 20, 200)]
+    tips = tips[np.isfinite(tips[:, 2])]
+    tips[:, 2] -= rng.uniform(0.01, 0.3, len(tips))
+    flat = tips + np.c_[rng.uniform(-300, 300, (len(tips), 2)), rng.uniform(0.5, 3, len(tips))]
+    origins = np.vstack([origins, skim[:1], shots, flat])
+    targets = np.vstack([targets, skim[1:], shots + 1.2 * (ground - shots), flat + 1.05 * (tips - flat)])
+    got = segment_first_hit(dem, origins, targets)
+    want = brute_force_first_entry(dem, origins, targets)
+    assert np.isfinite(want).sum() > 60 and np.isnan(want).sum() > 60  # both kinds are tried
+    np.testing.assert_array_equal(np.isfinite(got), np.isfinite(want))
+    np.testing.assert_allclose(got[np.isfinite(got)], want[np.isfinite(want)], atol=1e-9)

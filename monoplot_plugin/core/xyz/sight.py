@@ -124,11 +124,20 @@ def _segments_first_hit(elev, gt, inv, origins, targets, smax, out):
         else:
             nextr = np.inf
             deltar = np.inf
+        enter = s0
         while True:
-            s = _cell_first_hit(elev, gt, o, d, r, c, s0, s1)
-            if s < np.inf:
-                out[k] = s
-                break
+            # The segment's lowest point within this quad: a quad whose four heights all lie under it cannot be
+            # hit, and is passed without its triangle tests (most of a long ray's quads, far above the ground).
+            # A NaN height fails every comparison, so such a quad is always tested.
+            leave = min(nextc, nextr, s1)
+            low = o[2] + d[2] * (leave if d[2] < 0.0 else enter) - 1e-6
+            if not (low > elev[r, c] and low > elev[r, c + 1] and low > elev[r + 1, c]
+                    and low > elev[r + 1, c + 1]):
+                s = _cell_first_hit(elev, gt, o, d, r, c, s0, s1)
+                if s < np.inf:
+                    out[k] = s
+                    break
+            enter = leave
             if nextc < nextr:
                 if nextc > s1:
                     break
@@ -141,6 +150,19 @@ def _segments_first_hit(elev, gt, inv, origins, targets, smax, out):
                 nextr += deltar
             if c < 0 or r < 0 or c > cols - 2 or r > rows - 2:
                 break
+
+
+def _walkable(elevation: np.ndarray, voids_stop: bool):
+    """(contiguous heights for the walk, bool mask of the interior voids closed or None). float32 heights are
+    walked as they are: a float64 copy of a 100 M-cell DEM took 800 MB per call (numba compiles once per dtype)."""
+    elev = np.ascontiguousarray(elevation if elevation.dtype in (np.float32, np.float64)
+                                else elevation.astype(np.float64))
+    void = np.isnan(elev) if voids_stop else None
+    if void is not None and void.any() and not void.all():
+        elev, void = _filled_voids(elev, void)
+    if void is not None and not void.any():
+        void = None
+    return elev, void
 
 
 def segment_first_hit(dem: Dem, origins, targets, smax: float = 1.0, voids_stop: bool = False) -> np.ndarray:
@@ -175,12 +197,9 @@ def segment_first_hit(dem: Dem, origins, targets, smax: float = 1.0, voids_stop:
     g = dem.geotransform
     det = g[1] * g[5] - g[2] * g[4]
     inv = np.array([g[5] / det, -g[2] / det, -g[4] / det, g[1] / det])
-    elev = np.ascontiguousarray(dem.elevation, dtype=np.float64)
-    void = np.isnan(elev) if voids_stop else None
-    if void is not None and void.any() and not void.all():
-        elev, void = _filled_voids(elev, void)
-    if void is not None and not void.any():
-        void = None
+    # float32 heights are walked as they are: a float64 copy of a 100 M-cell DEM took 0.13 s and 800 MB per call,
+    # once per feature traced (numba compiles the kernel once per dtype)
+    elev, void = dem.derived("sight_voids_closed" if voids_stop else "sight", lambda z: _walkable(z, voids_stop))
     _segments_first_hit(elev, np.asarray(g, dtype=np.float64), inv, origins, np.ascontiguousarray(targets),
                         float(smax), out)
     if void is not None:
