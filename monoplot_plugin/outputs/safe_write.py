@@ -163,6 +163,13 @@ def cancel_before_commit(is_canceled: Callable[[], bool], also_outer: bool = Fal
         _local.is_canceled = saved
 
 
+def stop_if_canceled(target) -> None:
+    """Raise :class:`OutputCanceled` when the cancel check of :func:`cancel_before_commit` says so: a writer asks
+    between its parts, so that a cancel acts within one of them, not only before the rename at the end."""
+    if _canceled():
+        raise OutputCanceled(f"canceled: {Path(os.fspath(target)).name} was not written")
+
+
 def _canceled() -> bool:
     check = getattr(_local, "is_canceled", None)
     try:

@@ -33,14 +33,14 @@ import json
 import os
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterable, Optional, Tuple
+from typing import Callable, Iterable, Optional, Tuple
 
 import numpy as np
 from osgeo import gdal
 
 from ._gdal import (crs_authid, gdal_errors_as_exceptions, gdal_failure, linear_unit_name, raster_verifier,
                     srs_from_user)
-from .safe_write import OutputError, atomic_output
+from .safe_write import OutputError, atomic_output, stop_if_canceled
 
 __all__ = ["write_xyz_raster", "write_xyz_raster_strips", "read_xyz_raster", "storage_dtype", "storage_dtype_for_range",
            "PHOTO_GEOTRANSFORM", "XYZ_FORMAT"]
@@ -53,7 +53,8 @@ BAND_NAMES = ("X", "Y", "Z", "DISTANCE")
 
 def write_xyz_raster(path, xyz: np.ndarray, crs_wkt: str, distance: Optional[np.ndarray] = None, *,
                      overwrite: bool = False, compress: str = "DEFLATE", dtype: str = "auto",
-                     camera=None, photo_name: str = "", fit: Optional[dict] = None) -> Path:
+                     camera=None, photo_name: str = "", fit: Optional[dict] = None,
+                     progress: Optional[Callable[[float], None]] = None) -> Path:
     """Write the per-pixel ground coordinates of a photo as a GeoTIFF (layout in the module docstring).
 
     Args:
@@ -69,6 +70,8 @@ def write_xyz_raster(path, xyz: np.ndarray, crs_wkt: str, distance: Optional[np.
         photo_name: optional name of the photo, stored in the metadata.
         fit: optional summary of how sure the camera is (``status``, ``rmse_px``, ``check_rmse_px``, ``n_check``),
             stored as JSON in ``MONOPLOT_FIT``: the file says what its positions are worth.
+        progress: optional ``progress(fraction of the rows written)``; a cancel of
+            :func:`~.safe_write.cancel_before_commit` acts between parts of a band (OutputCanceled).
     Returns:
         the Path written.
     Raises:
@@ -85,12 +88,13 @@ def write_xyz_raster(path, xyz: np.ndarray, crs_wkt: str, distance: Optional[np.
     return write_xyz_raster_strips(path, [(0, xyz, distance)], width, height, crs_wkt,
                                    storage_dtype(xyz) if dtype == "auto" else dtype, distance is not None,
                                    overwrite=overwrite, compress=compress, camera=camera, photo_name=photo_name,
-                                   fit=fit)
+                                   fit=fit, progress=progress)
 
 
 def write_xyz_raster_strips(path, strips: Iterable, width: int, height: int, crs_wkt: str, dtype: str,
                             with_distance: bool = False, *, overwrite: bool = False, compress: str = "DEFLATE",
-                            camera=None, photo_name: str = "", fit: Optional[dict] = None) -> Path:
+                            camera=None, photo_name: str = "", fit: Optional[dict] = None,
+                            progress: Optional[Callable[[float], None]] = None) -> Path:
     """Write the XYZ raster strip by strip (the memory-bounded path: a strip is computed, written, dropped).
 
     Args:
@@ -141,15 +145,19 @@ def write_xyz_raster_strips(path, strips: Iterable, width: int, height: int, crs
                     band.SetNoDataValue(float("nan"))
                     band.SetUnitType("metre" if index == 4 else unit)
                     band = None
-                written = 0
+                written, parts_done = 0, 0
                 for row0, xyz, distance in strips:
                     values = [xyz[..., 0], xyz[..., 1], xyz[..., 2]] + ([distance] if with_distance else [])
                     for index, band_values in enumerate(values, start=1):
                         band = ds.GetRasterBand(index)
                         for r in range(0, band_values.shape[0], WRITE_ROWS):  # converted a slice at a time
+                            stop_if_canceled(target)  # a 24 MP raster took seconds to write: Cancel acts now
                             part = band_values[r:r + WRITE_ROWS]
                             band.WriteArray(np.where(np.isfinite(part), part, np.nan).astype(dtype, copy=False),
                                             0, int(row0) + r)
+                            parts_done += len(part)
+                            if progress is not None:
+                                progress(min(1.0, parts_done / (height * nbands)))
                         band = None
                     written += xyz.shape[0]
                     # every view of the strip goes now, before the next strip is computed (one strip in memory)
@@ -158,6 +166,8 @@ def write_xyz_raster_strips(path, strips: Iterable, width: int, height: int, crs
                     raise OutputError(f"{target.name}: {written} of {height} rows were computed")
                 ds.FlushCache()
                 ds = None  # closes the file: errors while writing the last tiles surface here
+        except OutputError:  # a cancel, a short strip: said as it is
+            raise
         except RuntimeError as exc:
             raise gdal_failure(exc, target) from exc
         finally:

@@ -181,7 +181,8 @@ def write_xyz(path, camera: Camera, dem, crs_wkt: Optional[str] = None, photo_na
     dist = blank_outside(result.distance, area) if distance else None
     with _committed(is_canceled):
         written = write_xyz_raster(path, xyz, crs_wkt if crs_wkt is not None else dem.crs_wkt, dist,
-                                   overwrite=overwrite, camera=camera, photo_name=photo_name, fit=fit)
+                                   overwrite=overwrite, camera=camera, photo_name=photo_name, fit=fit,
+                                   progress=part(progress, 0.8, 1.0))
     if progress is not None:
         progress(1.0, "")
     return written

@@ -63,6 +63,27 @@ def test_existing_output_is_refused_then_replaced_on_request(plane_scene, tmp_pa
     assert sorted(os.listdir(tmp_path)) == ["xyz.tif"]  # no temporary file left
 
 
+def test_writing_reports_progress_and_a_cancel_stops_it_part_way(plane_scene, tmp_path, monkeypatch):
+    """The rows written are reported as they go; a cancel stops the write at the next part (not only before the
+    final rename), and the earlier file stays as it was."""
+    from monoplot_plugin.outputs import xyz_raster
+    from monoplot_plugin.outputs.safe_write import OutputCanceled, cancel_before_commit
+
+    monkeypatch.setattr(xyz_raster, "WRITE_ROWS", 8)  # several parts per band on this small raster
+    path = tmp_path / "xyz.tif"
+    done = []
+    write_xyz_raster(path, plane_scene.xyz, CRS, progress=done.append)
+    rows = plane_scene.xyz.shape[0]
+    assert len(done) == 3 * -(-rows // 8) and done == sorted(done) and done[-1] == 1.0
+    before = path.read_bytes()
+    parts = []
+    with cancel_before_commit(lambda: len(parts) >= 2), pytest.raises(OutputCanceled, match="not written"):
+        write_xyz_raster(path, plane_scene.xyz + 1.0, CRS, overwrite=True, progress=parts.append)
+    assert len(parts) == 2  # stopped at the third part of the first band, not after the whole file
+    assert path.read_bytes() == before
+    assert sorted(os.listdir(tmp_path)) == ["xyz.tif"]
+
+
 def test_failure_half_way_leaves_earlier_output_intact(plane_scene, tmp_path):
     path = tmp_path / "xyz.tif"
     write_xyz_raster(path, plane_scene.xyz, CRS)
