@@ -11,6 +11,8 @@ explicit overview levels: seconds to make, nothing of 1.6 G cells computed in Py
   detail result against the full-resolution z-buffer, pixel by pixel where both see terrain: ground distance in cells
   of the level used, and the displacement seen from the camera in pixels (|delta| f / distance); the share of pixels
   within one cell and within half a pixel, with percentiles; and both timings.
+- ``trace_drawn_polygon_and_line_24mp_dem105m``: on that DEM, a polygon and a line drawn on the photo traced onto
+  the terrain as the dock does after each edit (exact lines of sight): seconds per pair.
 
 - ``xyz_product_24mp_dem1.7g`` and ``qgis_process_computexyz_24mp_dem1.7g`` (``--only product``): the same DEM
   through the product path (the workflow's DEM input opens it by windows on its own; the XYZ GeoTIFF written), in
@@ -195,8 +197,38 @@ def bench_compare(folder: str, args, lods) -> list:
             "misses_height_off_full_m_p50_p95": pct(dz)[:2] if dz.size else None, "peak_mb": round(peak_mb(), 1),
             "load_avg_1min": round(os.getloadavg()[0], 2)})
         del lod
+    lines.append(bench_trace(dem, cam, args))
     del dem
     return lines
+
+
+def bench_trace(dem, cam, args) -> dict:
+    """A polygon and a line drawn on the 24 MP photo, traced onto the 105 M-cell DEM as the dock does after each
+    edit and for every drawn feature when the camera or the DEM changes (exact lines of sight, densified to 1 px,
+    with the ground error): seconds per feature pair, on the main thread in the dock."""
+    from monoplot_plugin.workflow.features import photo_to_map_feature
+
+    w, h = cam.image_size
+    polygon = np.array([[0.25 * w, 0.62 * h], [0.75 * w, 0.6 * h], [0.8 * w, 0.85 * h], [0.2 * w, 0.88 * h]])
+    line = np.array([[0.05 * w, 0.58 * h], [0.95 * w, 0.6 * h]])
+
+    def trace():
+        return (photo_to_map_feature("polygon", polygon, camera=cam, dem=dem, pixel_rmse=2.0),
+                photo_to_map_feature("line", line, camera=cam, dem=dem, pixel_rmse=2.0))
+
+    t0 = time.perf_counter()
+    mapped = trace()
+    first = time.perf_counter() - t0
+    times = []
+    for _ in range(max(3, args.repeat)):
+        t0 = time.perf_counter()
+        trace()
+        times.append(time.perf_counter() - t0)
+    return {"name": "trace_drawn_polygon_and_line_24mp_dem105m", "dem": list(dem.shape),
+            "dtype": str(dem.elevation.dtype),
+            "samples": [int(sum(len(p) for p in m.parts)) if m is not None else 0 for m in mapped],
+            "seconds": round(float(np.median(times)), 3), "first_s": round(first, 3),
+            "load_avg_1min": round(os.getloadavg()[0], 2)}
 
 
 def bench_product(folder: str, args) -> list:
