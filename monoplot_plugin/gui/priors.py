@@ -12,7 +12,7 @@ from typing import Callable, Optional, Protocol, Tuple
 import numpy as np
 from qgis.core import Qgis
 
-from ..adapters.exif import read_exif_prior
+from ..adapters.exif import exif_camera, read_exif_prior
 from ..core.camera import Camera
 from ..core.kml import lonlat_to_crs
 from ..workflow.products import centred_on_picture
@@ -223,24 +223,20 @@ class PriorsMixin:
             if not quiet:
                 self.message.emit(self.tr("The photo has no GPS position in its EXIF tags."), WARNING)
             return False
-        x, y, convergence = lonlat_to_crs(exif.lon, exif.lat, self.dem.crs_wkt)
+        x, y, _ = lonlat_to_crs(exif.lon, exif.lat, self.dem.crs_wkt)
         ground = float(self.dem.sample(x, y))
         if not math.isfinite(ground):
             self.message.emit(self.tr("The photo's GPS position lies outside the DEM."), WARNING)
             return False
-        z = exif.altitude if exif.altitude is not None else ground + 2.0
-        if exif.heading is not None:
-            heading, guessed = exif.heading - convergence, False
-        else:
-            x0, y0, x1, y1 = self.dem.bounds()
-            heading, guessed = math.degrees(math.atan2((x0 + x1) / 2 - x, (y0 + y1) / 2 - y)), True
-        camera = Camera((x, y, max(z, ground + 1.0)), heading, 0.0, 0.0, exif.fov or 60.0, self.photo_size,
-                        crs_wkt=self.dem.crs_wkt)
+        x0, y0, x1, y1 = self.dem.bounds()
+        guessed = exif.heading is None  # then it looks at the DEM's centre
+        camera = exif_camera(exif, self.photo_size, self.dem,
+                             heading=math.degrees(math.atan2((x0 + x1) / 2 - x, (y0 + y1) / 2 - y)))
         camera, pitched = self._with_terrain_pitch(camera, say=False)
         self.set_prior(camera, source=GPS_SOURCE)
         text = self.tr("Rough camera from the photo's EXIF GPS tags.") + (" " + pitched if pitched else "")
         if exif.altitude is not None:  # a trial's phone said 11 m above the ground for a hand-held 1.6 m
-            above = max(z, ground + 1.0) - ground
+            above = float(camera.position[2]) - ground
             text += " " + (self.tr("Its GPS altitude puts it {0:.0f} m above the DEM; a GPS height is often 10-30 m "
                                    "off: set \"Above ground\" (Camera tab) if you know it, e.g. 1.6 m held in the "
                                    "hand.") if above < 50.0 else
