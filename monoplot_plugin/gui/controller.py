@@ -111,6 +111,8 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         self.project.layersWillBeRemoved.connect(self._layers_removed)
         # (re)write the entry while the project is being written: paths are made relative to its (new) file
         self.project.writeProject.connect(self._project_writing)
+        self.project.projectSaved.connect(self._project_saved)
+        self._saved_as_from = ""  # the file a Save As being written leaves (its autosave goes once it is saved)
         self.message.connect(self._log_message)
         self.pointsChanged.connect(lambda changed: self.remeasure_checks())
         self._project_file = self.project.fileName()  # the file whose autosave this state goes to
@@ -132,16 +134,26 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             abandon(task)
         self.task, self._preparing, self._products_tasks = None, None, []
         for signal, slot in ((self.project.layersWillBeRemoved, self._layers_removed),
-                             (self.project.writeProject, self._project_writing)):
+                             (self.project.writeProject, self._project_writing),
+                             (self.project.projectSaved, self._project_saved)):
             try:
                 signal.disconnect(slot)
             except (TypeError, RuntimeError):
                 pass
 
     def _project_writing(self, *args) -> None:
-        self._project_file = self.project.fileName()  # Save As: a new file
+        before, self._project_file = self._project_file, self.project.fileName()  # Save As: a new file
+        if before and before != self._project_file:
+            self._saved_as_from = before
         if not self._restoring:
             persistence.store_in_project(self.project, self.state)
+
+    def _project_saved(self) -> None:
+        """Saved under a new name: the old file's autosave holds work that is now in the new file. Left there, the
+        old project reopened with the later work "restored" in it (a desktop trial: day 1's file showed day 2)."""
+        if self._saved_as_from:
+            persistence.discard_autosave(self._saved_as_from)
+            self._saved_as_from = ""
 
     # --- inputs -----------------------------------------------------------------------------------------------
     def read_photo(self, path: str) -> Optional[QImage]:

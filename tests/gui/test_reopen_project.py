@@ -136,3 +136,30 @@ def test_a_dock_opened_and_closed_on_an_empty_project_leaves_it_unmodified(qgis_
     text, found = project.readEntry(persistence.SCOPE, persistence.KEY, "")
     assert found and os.path.basename(scene.photo_path) in text and project.isDirty()
     project.clear()
+
+
+def test_saved_as_a_new_file_the_old_file_reopens_as_it_was_saved(dock, scene, qtbot, tmp_path):
+    """Work done after opening day1.qgz and saved as day2.qgz is in day2.qgz: day1.qgz reopens as it was saved,
+    not with day 2's work "restored from the autosave" (a desktop trial, which QGIS then offered to save over day 1)."""
+    c = _fitted_session(dock, scene, qtbot)
+    project = QgsProject.instance()
+    day1, day2 = str(tmp_path / "day1.qgz"), str(tmp_path / "day2.qgz")
+    assert project.write(day1)
+    old = os.path.getmtime(day1)
+    os.utime(day1, (old - 10, old - 10))
+    c.set_setting("overlay_opacity", 17)  # day 2's work, autosaved beside day1.qgz...
+    c.save()
+    assert os.path.exists(str(tmp_path / "day1.monoplot-autosave.json"))
+    assert project.write(day2)  # ...then saved as day2.qgz
+    assert not os.path.exists(str(tmp_path / "day1.monoplot-autosave.json"))
+    messages = []
+    c.message.connect(lambda text, level: messages.append(text))
+    project.clear()
+    assert project.read(day1)
+    qtbot.waitUntil(lambda: c.image is not None, timeout=5000)
+    assert c.state.settings.get("overlay_opacity") != 17 and not project.isDirty()
+    assert not any("autosave" in m for m in messages), messages
+    project.clear()
+    assert project.read(day2)
+    qtbot.waitUntil(lambda: c.image is not None, timeout=5000)
+    assert c.state.settings.get("overlay_opacity") == 17
