@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from html import escape as html_escape
 from typing import Callable, Optional
 
 from ..core.camera import Camera
@@ -54,6 +55,9 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     ...     cam, {"rmse_px": 0.4, "mode": "paired", "n_photo": 9, "n_map": 8, "n_pairs": 8})
     True
     >>> fit_summary_html(cam, {"rmse_px": 6.4}, points_changed=True).startswith("<p><b>The accepted points changed")
+    True
+    >>> html = fit_summary_html(cam, {"status": "ok", "message": "Verified by the check points despite: few <pairs>."})
+    >>> "<small>Verified by the check points despite: few &lt;pairs&gt;.</small>" in html
     True
     >>> html = fit_summary_html(cam, {"status": "uncertain", "mode": "unpaired", "sigma": {"x": 0.31}})
     >>> "± 0.31*" in html and html.index("assume the automatic pairs are right") < html.index("<table>")
@@ -114,8 +118,11 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
                    + "</tr>" for pair in zip(cells[0::2], cells[1::2]))
     badge = _STATUS_STYLE.get(status, _STATUS_STYLE["poor"])
     head = tr("Status: <b style='color:{0}'>{1}</b>").format(badge, tr(status)) + " · " + head
-    # Anything but "ok" shows the verdict's own words: what is weak and what to do.
-    note = "" if status == "ok" else f"<p style='color:{badge}'>" + info.get("message", "") + "</p>"
+    # The verdict's own words: what is weak and what to do; under an "ok" too, smaller (a trial's "ok" was verified
+    # by its check points "despite" a leave-one-out warning, which only the log and the report said)
+    message = html_escape(info.get("message", ""))
+    note = "" if not message else f"<p style='color:{badge}'>{message}</p>" if status != "ok" else \
+        f"<p><small>{message}</small></p>"
     if status != "ok" and sigma:  # the ± come from the residuals of the pairs used: a wrong match is not in them
         head += "<br><small>* " + (tr("The ± assume the automatic pairs are right: this {0} fit may be off by "
                                       "far more. Check points (key C) measure it.")

@@ -192,6 +192,24 @@ def test_cancel_a_running_fit(dock, scene, qtbot):
     assert c.fitted is None and dock.fitButton.isEnabled()
 
 
+def test_too_few_linked_pairs_are_said_in_the_fits_own_message(dock, scene, qtbot):
+    """Three linked pairs cannot make a paired fit: the fit result says they were fitted unpaired (the note said
+    before the fit was replaced by the fit's message at once, a desktop trial missed it)."""
+    load_inputs(dock, scene, qtbot)
+    photo, world = add_scene_points(dock, scene)
+    c = dock.controller
+    accept_everything(c)
+    for k in range(3):
+        c.link(photo[k].id, world[k].id)
+    c.set_prior(scene.prior)
+    with qtbot.waitSignal(c.taskFinished, timeout=120000):
+        assert c.fit()
+    assert c.state.fit_info["mode"] == "unpaired"
+    assert c.state.fit_info["message"].endswith("Your 3 linked pair(s) were fitted as unpaired points: a paired "
+                                                "fit needs at least 4.")
+    assert "fitted as unpaired points" in dock.resultLabel.text()  # the fit tab shows it, whatever the status
+
+
 def test_save_and_reopen_project_restores_state(dock, scene, qtbot, tmp_path):
     load_inputs(dock, scene, qtbot)
     photo, world = add_scene_points(dock, scene, n=5)
