@@ -291,6 +291,9 @@ class OutputTools(QObject):
         self._doubt_told[kind] = (camera, base, told or (count > base and status in ("uncertain", "poor")))
         if told or count <= base or status not in ("uncertain", "poor"):
             return ""
+        # once per camera, whatever is drawn next (a trial got it for its polygon, then again for its line)
+        if any(c == camera and t for k, (c, _, t) in self._doubt_told.items() if k != kind):
+            return ""
         return " " + self.tr("Drawn on a camera whose fit is \"{0}\": its map positions inherit the camera's "
                              "errors (no xy_error_m). Check the fit (pairs, check points) before using them.").format(
             self.tr(status))

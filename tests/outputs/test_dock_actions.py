@@ -578,6 +578,8 @@ def test_drawing_on_a_doubtful_camera_is_said_once(dock_with_fit):
     dock.statusLabel.clear()
     session.add_feature("line", [[100, 250], [300, 260]])
     assert "Drawn on a camera" not in dock.statusLabel.text()  # said once, not for every feature
+    session.add_feature("polygon", [[100, 200], [300, 200], [200, 260]])
+    assert "Drawn on a camera" not in dock.statusLabel.text()  # nor again for another kind (a trial: line, polygon)
     c.state.fit_info = {"status": "ok"}
     c.state.fitted = dict(c.state.fitted, heading=c.state.fitted["heading"] + 0.01)  # another camera, "ok"
     session.add_feature("line", [[100, 270], [300, 280]])
