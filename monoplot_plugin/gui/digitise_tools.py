@@ -81,11 +81,13 @@ class PhotoCaptureTool(QgsMapTool):
         captured(str kind, int fid): a feature was added.
         message(str): something the user should know (e.g. no fitted camera yet).
         undone(str): Ctrl+Z (Ctrl+Shift+Z) took back (did again) a drawing edit (what, in words), or found none.
+        editing(): a feature is about to be added.
     """
 
     captured = pyqtSignal(str, int)
     message = pyqtSignal(str)
     undone = pyqtSignal(str)
+    editing = pyqtSignal()  # what the dock said before is about the old state
 
     def __init__(self, canvas: QgsMapCanvas, session_getter: Callable[[], object], kind: str):
         super().__init__(canvas)
@@ -177,6 +179,7 @@ class PhotoCaptureTool(QgsMapTool):
             self.message.emit(self.tr("Fit the camera first: features drawn on the photo need it to reach the map."))
             return None
         uv = np.array([pixel_of(p) for p in vertices])
+        self.editing.emit()
         fid = session.add_feature(self.kind, uv)
         self.captured.emit(self.kind, fid)
         return fid
@@ -202,6 +205,7 @@ class PhotoEditTool(QgsMapTool):
     edited = pyqtSignal(str, int)
     deleted = pyqtSignal(str, int)
     undone = pyqtSignal(str)
+    editing = pyqtSignal()  # a vertex is about to move or a feature to go
 
     def __init__(self, canvas: QgsMapCanvas, session_getter: Callable[[], object]):
         super().__init__(canvas)
@@ -252,6 +256,7 @@ class PhotoEditTool(QgsMapTool):
             self.dragging = None
             self.marker.setVisible(False)
             p = event.mapPoint()
+            self.editing.emit()
             session.move_vertex(kind, fid, index, *pixel_of(p))
             self.edited.emit(kind, fid)
 
@@ -259,6 +264,7 @@ class PhotoEditTool(QgsMapTool):
         hit = self.feature_at(point)
         if hit is None:
             return False
+        self.editing.emit()
         self.session_getter().delete_feature(*hit)
         self.deleted.emit(*hit)
         return True

@@ -61,6 +61,7 @@ class ProductHost:
         show_message: ``(text, Qgis.MessageLevel)`` -> the dock's status line and QGIS's message bar.
         show_status: ``text`` -> the dock's status line only.
         iface: QGIS's interface (attribute tables, the active layer), or None.
+        status_is_stale: called before a drawing edit: the last message spoke of the state before it.
     """
 
     controller: Any
@@ -72,11 +73,13 @@ class ProductHost:
     show_message: Callable[[str, Any], None]
     show_status: Callable[[str], None]
     iface: Any = None
+    status_is_stale: Callable[[], None] = lambda: None
 
     @classmethod
     def of_dock(cls, dock) -> "ProductHost":
         return cls(dock.controller, dock.project, dock.photo_canvas, dock, dock.add_photo_tool,
-                   dock.add_output_action, dock.show_message, dock.statusLabel.setText, getattr(dock, "iface", None))
+                   dock.add_output_action, dock.show_message, dock.statusLabel.setText, getattr(dock, "iface", None),
+                   dock.message_is_stale)
 
 
 def install_output_tools(dock) -> "OutputTools":
@@ -122,8 +125,10 @@ class OutputTools(QObject):
             host.add_photo_tool(action, tool)
             tool.message.connect(lambda text: self._message(text, Qgis.MessageLevel.Warning))
             tool.undone.connect(self.host.show_status)
+            tool.editing.connect(self.host.status_is_stale)
             self.actions[kind] = action
         self.edit_tool.undone.connect(self.host.show_status)
+        self.edit_tool.editing.connect(self.host.status_is_stale)  # "session restored" stayed after an edit (trial)
         self.actions["edit"] = QAction(self.tr("Edit drawn features"), parent)
         self.actions["edit"].setToolTip(self.tr("Drag a vertex to move it; right click a feature to delete it; "
                                                 "Ctrl+Z undoes the last drawing edit"))

@@ -77,6 +77,8 @@ def test_edit_tool_moves_vertex_and_deletes(canvas_and_session):
     fid = session.add_feature("polygon", [[50, 100], [190, 100], [150, 150]])
     area = next(session.map_layer("polygon").getFeatures())["area"]
     tool = PhotoEditTool(canvas, lambda: session)
+    before = []  # the dock is told before each edit (its last message spoke of the state before)
+    tool.editing.connect(lambda: before.append(session.photo_layer("polygon").featureCount()))
     canvas.setMapTool(tool)
     screen = canvas.getCoordinateTransform().transform(QgsPointXY(150, -150))
     start = QPoint(int(screen.x()), int(screen.y()))
@@ -93,6 +95,7 @@ def test_edit_tool_moves_vertex_and_deletes(canvas_and_session):
     click(tool, canvas, 120, 110, Qt.MouseButton.RightButton)  # inside the polygon: deletes it
     assert session.photo_layer("polygon").featureCount() == 0 and session.map_layer("polygon").featureCount() == 0
     assert fid not in [f.id() for f in session.photo_layer("polygon").getFeatures()]
+    assert before == [1, 1]  # the move, then the delete, each announced before it happened
 
 
 def test_without_fitted_camera_the_tool_says_so(qgis_app, qtbot):

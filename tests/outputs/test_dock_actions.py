@@ -566,6 +566,18 @@ def test_features_drawn_after_the_last_save_come_back_after_a_crash_and_say_so(d
     qtbot.waitUntil(project.isDirty, timeout=2000)
 
 
+def test_a_drawing_edit_takes_the_message_about_the_state_before_off_the_status_line(dock_with_fit):
+    """A trial edited a polygon after reopening: the status line still said "session restored from the project"."""
+    from qgis.core import QgsPointXY
+
+    dock, tools = dock_with_fit
+    dock.show_message("Monoplot session restored from the project.")
+    tool = tools.capture_tools["line"]
+    tool.vertices = [QgsPointXY(100, -200), QgsPointXY(300, -220)]  # photo pixels (u, -v), as clicked
+    assert tool.finish() is not None  # what Enter or a right click does
+    assert "restored" not in dock.statusLabel.text()
+
+
 def test_drawing_on_a_doubtful_camera_is_said_once(dock_with_fit):
     """A trial's flood outline drawn on a "poor" camera (481 m off) got an area and no word, while the orthophoto
     and the report warned: the first feature drawn under a camera its fit does not call ok says so, once."""
