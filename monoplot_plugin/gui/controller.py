@@ -17,7 +17,6 @@ from qgis.core import Qgis, QgsCoordinateReferenceSystem, QgsProject, QgsRasterL
 from qgis.PyQt.QtCore import QObject, QTimer, pyqtSignal
 from qgis.PyQt.QtGui import QImage
 
-from ..adapters.layers import mark_modified_later
 from ..adapters.photo import PhotoError, array_to_qimage, qimage_to_array, read_photo
 from ..core.camera import Camera
 from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, replace_in_views
@@ -25,11 +24,12 @@ from ..workflow import auto as auto_step
 from ..workflow.camera_files import fitted_to_size
 from ..workflow.products import centred_on_picture
 from ..workflow import warmup
-from . import engine, persistence
+from . import engine
 from .curation import CurationMixin
 from .dem_input import DemInputMixin
 from .fit_settings import fit_arguments, height_arguments
 from .priors import PriorsMixin
+from .project_session import ProjectSessionMixin
 from .results import ResultsMixin
 from .refit import inputs_key
 from .tasks import CANCELED, FunctionTask, HiddenTask, TaskResult, abandon, start_task
@@ -44,7 +44,7 @@ LOG = logging.getLogger(__name__)
 _LOG_LEVELS = {WARNING: logging.WARNING, CRITICAL: logging.ERROR}
 
 
-class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin, QObject):
+class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin, ProjectSessionMixin, QObject):
     """State holder and workflow of one Monoplot session (one QGIS project).
 
     Signals:
@@ -104,6 +104,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         self.running_refit: Callable[[tuple], Optional[object]] = lambda key: None
         self.awaited_refit = None  # the refit the running Fit waits for (it must not be canceled), or None
         self._sky_rows_of = None  # the photo's skyline, for the rough camera's pitch (PriorsMixin)
+        self._autosave_worker = None  # the last autosave's writer (gui/persistence.py), kept referenced
         self._autosave = QTimer(self)
         self._autosave.setSingleShot(True)
         self._autosave.setInterval(autosave_delay_ms)
@@ -140,20 +141,6 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
                 signal.disconnect(slot)
             except (TypeError, RuntimeError):
                 pass
-
-    def _project_writing(self, *args) -> None:
-        before, self._project_file = self._project_file, self.project.fileName()  # Save As: a new file
-        if before and before != self._project_file:
-            self._saved_as_from = before
-        if not self._restoring:
-            persistence.store_in_project(self.project, self.state)
-
-    def _project_saved(self) -> None:
-        """Saved under a new name: the old file's autosave holds work that is now in the new file. Left there, the
-        old project reopened with the later work "restored" in it (a desktop trial: day 1's file showed day 2)."""
-        if self._saved_as_from:
-            persistence.discard_autosave(self._saved_as_from)
-            self._saved_as_from = ""
 
     # --- inputs -----------------------------------------------------------------------------------------------
     def read_photo(self, path: str) -> Optional[QImage]:
@@ -497,67 +484,6 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
     def products_pending(self) -> bool:
         """True while :meth:`ensure_products` renders in the background."""
         return bool(self._products_tasks)
-
-    # --- persistence ------------------------------------------------------------------------------------------
-    def _changed(self) -> None:
-        """Every change marks the project modified (the state goes into it when it is written) and restarts the
-        debounced autosave: no O(points) work on the main thread per change."""
-        if not self._restoring:
-            self.project.setDirty(True)
-            self._autosave.start()
-
-    def _autosave_now(self) -> None:
-        """The debounced autosave: a snapshot here, the file written in a worker thread (gui/persistence.py)."""
-        self._autosave_worker = persistence.autosave(self.project, self.state)
-
-    def project_closed(self) -> None:
-        """QGIS closed the project (``cleared``; a crash never gets here): its autosave files go, since QGIS has
-        asked whether to save it and "Discard" must not come back when the project is opened again."""
-        self._autosave.stop()
-        persistence.discard_autosave(self._project_file)
-        self._project_file = ""
-        self.project_generation += 1  # what a background export started in it is not added to the next one
-        self._map_work_crs = None  # the next project's map points are in its own DEM's CRS (DemInputMixin)
-
-    def save(self) -> None:
-        """Write the state into the project and the autosave file now (synchronously)."""
-        self._autosave.stop()
-        persistence.save(self.project, self.state)
-
-    def restore(self) -> bool:
-        """Load the state stored in the project (after projectRead); falls back to a newer autosave."""
-        self._autosave.stop()  # a pending autosave of the previous project must not overwrite this one
-        self._project_file = self.project.fileName()
-        state, source = persistence.load_with_source(self.project)
-        self._restoring = True
-        try:
-            self.stack.reset(state or ProjectState())
-            self.current = {PHOTO: "", MAP: ""}
-            self.image, self.dem, self.dem_layer, self.overlay, self.xyz = None, None, None, None, None
-            self.footprint_wkt = ""
-            self.dem_crs = QgsCoordinateReferenceSystem()
-            if state is None:
-                self.photoChanged.emit()
-                self.demChanged.emit()
-                self.cameraChanged.emit()
-                return False
-            if state.photo_path:
-                self.load_photo(state.photo_path)
-            layer = self.project.mapLayer(state.dem_layer_id) if state.dem_layer_id else None
-            if not isinstance(layer, QgsRasterLayer) and state.dem_source:
-                layer = self._readd_dem(state.dem_source)
-            if isinstance(layer, QgsRasterLayer):
-                self.set_dem_layer(layer)
-            self.ensure_products()
-            self.cameraChanged.emit()
-            self.pointsChanged.emit(set())
-            if source == "autosave":
-                mark_modified_later(self.project)  # not in the project file: closing must ask to save it
-                self.message.emit(self.tr("Monoplot restored work done after the project was last saved "
-                                          "(autosave)."), INFO)
-            return True
-        finally:
-            self._restoring = False
 
 
 def _num(v) -> str:

@@ -11,6 +11,7 @@ import pytest
 from monoplot_plugin.gui.curation import CurationHost, CurationMixin
 from monoplot_plugin.gui.dem_input import DemInputHost, DemInputMixin
 from monoplot_plugin.gui.priors import PriorsHost, PriorsMixin
+from monoplot_plugin.gui.project_session import ProjectSessionHost, ProjectSessionMixin
 from monoplot_plugin.gui.results import ResultsHost, ResultsMixin
 
 
@@ -27,7 +28,8 @@ def declared(protocol) -> set:
 
 
 @pytest.mark.parametrize("mixin, host", [(CurationMixin, CurationHost), (PriorsMixin, PriorsHost),
-                                         (ResultsMixin, ResultsHost), (DemInputMixin, DemInputHost)])
+                                         (ResultsMixin, ResultsHost), (DemInputMixin, DemInputHost),
+                                         (ProjectSessionMixin, ProjectSessionHost)])
 def test_mixins_use_only_their_declared_host(mixin, host, dock):
     own = {n for n in vars(mixin) if not n.startswith("__")}
     undeclared = used_names(mixin) - own - declared(host) - {"__dict__"}
