@@ -16,17 +16,16 @@ from typing import Optional
 
 from qgis.core import Qgis, QgsApplication, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer, QgsSettings
 from qgis.PyQt import uic
-from qgis.PyQt.QtCore import QItemSelectionModel, Qt, QTimer
+from qgis.PyQt.QtCore import QItemSelectionModel, Qt
 from qgis.PyQt.QtWidgets import QAction, QDockWidget, QSizePolicy, QToolBar, QToolButton
 
 from .. import PLUGIN_DIR
-from ..adapters import layers as camera_layers
 from ..state import MAP, PHOTO
 from .chips import ChipView
 from .controller import MonoplotController
 from .auto_panel import install_auto_panel
 from .curation_panel import MessageOnce, install_curation_panel
-from .dock_layout import (fit_minimum_width, lay_out, narrow_tabs, place_floating, scroll_points_tab,
+from .dock_layout import (fit_minimum_width, lay_out, narrow_tabs, scroll_points_tab,
                           split_photo_and_tabs, status_line)
 from .fit_settings import FitSettingsPanel, LensPanel
 from . import photo_change
@@ -35,6 +34,7 @@ from .photo_canvas import PhotoCanvas
 from .point_table import ID_ROLE, PointTableModel, make_proxy
 from .prior_height import PriorHeightBox
 from .rough_camera import RoughCameraMixin
+from .dock_view import SHOW_CHIPS_KEY, DockViewMixin
 from .summary import fit_summary_html
 from .tools import CurationTool, RoughCameraTool, SpaceMapping
 from .views import MapPresenter, PhotoPresenter
@@ -42,11 +42,9 @@ from .views import MapPresenter, PhotoPresenter
 FORM_CLASS, _ = uic.loadUiType(str(PLUGIN_DIR / "ui" / "dock.ui"))
 #: QgsSettings key (the plugin's "monoplot/" prefix) of the number of suggestions per view.
 SUGGESTION_COUNT_KEY = "monoplot/suggestions_per_view"
-#: QgsSettings key: whether the photo shows the chips of the selected point.
-SHOW_CHIPS_KEY = "monoplot/show_chips"
 
 
-class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
+class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
     """The plugin's main panel, docked on the right of the QGIS window."""
 
     def __init__(self, iface, parent=None, project: Optional[QgsProject] = None):
@@ -412,69 +410,6 @@ class MonoplotDock(RoughCameraMixin, QDockWidget, FORM_CLASS):
             self._update_camera_layers()
         elif result.ok and self.controller.task_kind == "suggest":
             self.mapToolButton.setChecked(True)  # DEM suggestions are curated on the main map
-
-    def _rebuild_camera_layers_later(self) -> None:
-        """Replace the camera layers once the event loop runs again: while QGIS is still reading the project
-        (``readProject``), removing the layers it has just read leaves a dangling layer in the project's snapping
-        settings, and the next Save crashed QGIS (QgsSnappingConfig::writeProject, seen in a desktop trial)."""
-        QTimer.singleShot(0, self._camera_layers_reopened)
-
-    def _camera_layers_reopened(self) -> None:
-        if self._unloaded:
-            return
-        # a set-aside automatic camera is not part of the project's state: its layers came back empty (a trial)
-        with camera_layers.derived_layers_only(self.project):
-            camera_layers.remove_camera_layers(self.project, other=True)
-        self._update_camera_layers()
-
-    def _update_camera_layers(self) -> None:
-        c = self.controller
-        if self._unloaded or c.fitted is None or c.dem is None:
-            return
-        with camera_layers.derived_layers_only(self.project):
-            camera_layers.show_camera_layers(self.project, c.fitted, c.footprint_wkt, c.dem_crs)
-
-    # --- view -------------------------------------------------------------------------------------------------
-    def _overlay_opacity(self, value: int) -> None:
-        self.overlayValue.setText(f"{value} %")
-        self.photo_canvas.set_overlay_opacity(value / 100.0)
-        self.controller.set_setting("overlay_opacity", value)
-
-    def _residuals_toggled(self, on: bool) -> None:
-        self.photo_view.show_residuals = on
-        self.photo_view.redraw_residuals()
-
-    def _chips_toggled(self, on: bool) -> None:
-        QgsSettings().setValue(SHOW_CHIPS_KEY, on)
-        self.chips.set_wanted(on)
-
-    def _float(self, on: bool) -> None:
-        if self.isFloating() != on:
-            self.setFloating(on)
-            if on:
-                place_floating(self)
-
-    def _photo_cursor(self, u: float, v: float) -> None:
-        ground = self.controller.ground_at_pixel(u, v)
-        self.map_view.show_cursor(None if ground is None else ground[:2])
-        if ground is not None and self.iface is not None:
-            # the DEM's CRS named: QGIS's own coordinate box beside it shows the project's (a trial's 3857 project)
-            crs = self.controller.dem_crs.authid() if self.controller.dem_crs.isValid() else ""
-            self.iface.statusBarIface().showMessage(
-                self.tr("Monoplot: photo pixel ({0:.0f}, {1:.0f}) → X {2:.1f}  Y {3:.1f}  Z {4:.1f} m").format(
-                    u, v, *ground) + (f" ({crs})" if crs else ""), 4000)
-
-    def _map_cursor(self, point) -> None:
-        if self.controller.fitted is None or self.controller.dem is None:
-            return
-        x, y = self.map_mapping.to_space(point)
-        uv, where = self.controller.pixel_of_ground(x, y)
-        self.photo_view.show_cursor(uv, hidden=(where == "hidden"))
-        if self.iface is not None and where:
-            text = {"visible": self.tr("visible in the photo at ({0:.0f}, {1:.0f})"),
-                    "hidden": self.tr("hidden behind terrain (would be at {0:.0f}, {1:.0f})"),
-                    "outside": self.tr("outside the photo")}[where]
-            self.iface.statusBarIface().showMessage("Monoplot: " + (text.format(*uv) if uv else text), 4000)
 
     # --- extension points -------------------------------------------------------------------------------------
     def add_photo_tool(self, action: QAction, map_tool) -> QToolButton:
