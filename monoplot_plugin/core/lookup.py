@@ -163,13 +163,16 @@ def ortho_lookup(camera, dem, xyz: np.ndarray, *, between_chunks: Optional[Calla
     """The :class:`OrthoLookup` of ``camera`` over ``dem``'s grid (arguments as :func:`orthorectify`): every DEM
     cell centre projected into the photo, kept when the camera sees it (:func:`visibility_of_points`).
 
-    The cells are taken ``chunk_cells`` at a time; ``between_chunks(fraction done)`` is called after each chunk (the
+    The cells are taken in blocks of whole rows of at most ``chunk_cells`` (one row when a row has more);
+    ``between_chunks(fraction done)`` is called after each chunk (the
     caller's progress, and its cancel: an exception it raises goes through unchanged)."""
-    pts = dem.vertices().reshape(-1, 3)
+    rows, cols = dem.shape
     cells_parts, uv_parts = [], []
-    total = len(pts)
-    for start in range(0, total, max(1, int(chunk_cells))):
-        chunk = pts[start:start + chunk_cells]
+    total = rows * cols
+    step = max(1, int(chunk_cells) // max(1, cols))  # whole rows: the cell centres of one block at a time (all of
+    for row0 in range(0, rows, step):  # a 10 M-cell grid's took 240 MB, their temporaries more)
+        chunk = dem.crop(row0, 0, step, cols).vertices().reshape(-1, 3)
+        start = row0 * cols
         finite = np.isfinite(chunk[:, 2])
         uv, visible = visibility_of_points(camera, chunk[finite], xyz)
         cells_parts.append(start + np.flatnonzero(finite)[visible])
