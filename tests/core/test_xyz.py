@@ -12,9 +12,10 @@ from monoplot_plugin.core.synthetic import synthetic_terrain
 from monoplot_plugin.core.xyz import compute_xyz, compute_xyz_full, segment_first_hit
 
 
-def brute_force_xyz(cam: Camera, dem: Dem) -> np.ndarray:
-    """Reference: every pixel ray against every mesh triangle (Moller-Trumbore, float64, camera-centred)."""
-    verts = dem.vertices() - np.asarray(cam.position)
+def mesh_triangles(dem: Dem, origin=np.zeros(3)):
+    """(first vertex, edge 1, edge 2), each (T, 3), of the mesh's triangles without a void corner, relative to
+    ``origin`` (the two triangles of each quad, split as core's mesh)."""
+    verts = dem.vertices() - origin
     rows, cols = dem.shape
     r, c = np.meshgrid(np.arange(rows - 1), np.arange(cols - 1), indexing="ij")
     r, c = r.ravel(), c.ravel()
@@ -23,7 +24,12 @@ def brute_force_xyz(cam: Camera, dem: Dem) -> np.ndarray:
     q = np.concatenate([verts[r + 1, c + 1], verts[r + 1, c]])
     keep = np.isfinite(a[:, 2]) & np.isfinite(b[:, 2]) & np.isfinite(q[:, 2])
     a, b, q = a[keep], b[keep], q[keep]
-    e1, e2 = b - a, q - a
+    return a, b - a, q - a
+
+
+def brute_force_xyz(cam: Camera, dem: Dem) -> np.ndarray:
+    """Reference: every pixel ray against every mesh triangle (Moller-Trumbore, float64, camera-centred)."""
+    a, e1, e2 = mesh_triangles(dem, np.asarray(cam.position))
     _, dirs = cam.pixel_to_world_ray(cam.pixel_centres().reshape(-1, 2))
     best = np.full(len(dirs), np.inf)
     for start in range(0, len(dirs), 256):
@@ -325,16 +331,7 @@ def test_a_search_rendering_cameras_it_only_tries_does_not_warn_for_each(caplog)
 def brute_force_first_entry(dem: Dem, origins: np.ndarray, targets: np.ndarray) -> np.ndarray:
     """Reference for segment_first_hit: every segment against every mesh triangle, the smallest s in (0, 1] where
     it crosses a triangle from its upper side (float64, numpy)."""
-    verts = dem.vertices()
-    rows, cols = dem.shape
-    r, c = np.meshgrid(np.arange(rows - 1), np.arange(cols - 1), indexing="ij")
-    r, c = r.ravel(), c.ravel()
-    a = np.concatenate([verts[r, c], verts[r, c]])
-    b = np.concatenate([verts[r, c + 1], verts[r + 1, c + 1]])
-    q = np.concatenate([verts[r + 1, c + 1], verts[r + 1, c]])
-    keep = np.isfinite(a[:, 2]) & np.isfinite(b[:, 2]) & np.isfinite(q[:, 2])
-    a, b, q = a[keep], b[keep], q[keep]
-    e1, e2 = b - a, q - a
+    a, e1, e2 = mesh_triangles(dem)
     up = np.cross(e1, e2)
     up[up[:, 2] < 0] *= -1
     out = np.full(len(origins), np.nan)
