@@ -42,6 +42,8 @@ INFO, WARNING, CRITICAL, SUCCESS = (Qgis.MessageLevel.Info, Qgis.MessageLevel.Wa
 #: shows, and what each suggest and fit did
 LOG = logging.getLogger(__name__)
 _LOG_LEVELS = {WARNING: logging.WARNING, CRITICAL: logging.ERROR}
+#: tasks whose result belongs to the photo and DEM they started with (dropped when either changed meanwhile)
+INPUT_BOUND = ("suggest", "fit", "auto")
 
 
 class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin, ProjectSessionMixin, QObject):
@@ -91,7 +93,11 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         self.current = {PHOTO: "", MAP: ""}
         self.task: Optional[FunctionTask] = None
         self._products_tasks: List[FunctionTask] = []  # referenced until done: Python must not collect them
-        self.task_kind = ""
+        self.task_kind, self.task_description = "", ""
+        # counts the photos and DEMs chosen: a Suggest, Fit or registration ending after a change is not applied
+        self._inputs_generation = 0
+        self.photoChanged.connect(self._inputs_changed)
+        self.demChanged.connect(self._inputs_changed)
         self._preparing = None  # the warm-up a Suggest interrupted, finished afterwards (_prepare_fit)
         self.overlay: Optional[QImage] = None
         self.xyz: Optional[np.ndarray] = None  # (H, W, 3) map X, Y, Z of each photo pixel (NaN = sky)
@@ -117,6 +123,9 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         self.message.connect(self._log_message)
         self.pointsChanged.connect(lambda changed: self.remeasure_checks())
         self._project_file = self.project.fileName()  # the file whose autosave this state goes to
+
+    def _inputs_changed(self) -> None:
+        self._inputs_generation += 1
 
     @staticmethod
     def _log_message(text: str, level) -> None:
@@ -202,15 +211,22 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
 
     def _start(self, kind: str, description: str, work, on_success) -> bool:
         if self.task is not None:
-            self.message.emit(self.tr("Monoplot is busy ({0}); wait or cancel it.").format(self.task_kind), WARNING)
+            self.message.emit(self.tr("Monoplot is busy ({0}); wait or cancel it.").format(self.task_description),
+                              WARNING)
             return False
 
         t0 = time.perf_counter()
+        inputs = self._inputs_generation
 
         def done(result: TaskResult) -> None:
             self.task = None
             LOG.info("%s: %s in %.2f s", description, result.status, time.perf_counter() - t0)
-            if result.ok:
+            if result.ok and kind in INPUT_BOUND and inputs != self._inputs_generation:
+                # another photo or DEM was chosen meanwhile: a camera or points of the old ones would be shown on
+                # the new ones (a trial: a registration of the clear photo landed on its fog copy, "98 % skyline")
+                self.message.emit(self.tr("{0} finished, but the photo or the DEM changed while it ran: its result "
+                                          "is not used. Run it again.").format(description), WARNING)
+            elif result.ok:
                 on_success(result.value)
                 if kind == "suggest":
                     self._prepare_fit()
@@ -220,11 +236,11 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
                 self.message.emit(self.tr("{0} failed: {1}").format(description, result.reason), CRITICAL)
             self.busyChanged.emit("")
             self.taskFinished.emit(result)
-            self.task_kind = ""
+            self.task_kind, self.task_description = "", ""
 
         warmup.yield_to_work()  # a warm-up still running stops after its step: this work comes first
         self.task = FunctionTask(description, work, done)
-        self.task_kind = kind
+        self.task_kind, self.task_description = kind, description
         self.task.progressChanged.connect(self.progressChanged)  # signal to signal: Qt drops it with either object
         self.busyChanged.emit(description)
         start_task(self.task)

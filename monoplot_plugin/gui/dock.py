@@ -384,6 +384,8 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
         busy = bool(description)
         for w in (self.suggestButton, self.fitButton):
             w.setEnabled(not busy)
+        if getattr(self, "auto_panel", None) is not None:  # a second click said "busy (auto)" over the progress
+            self.auto_panel.action.setEnabled(not busy)
         self.cancelButton.setEnabled(busy)
         # the task row sits under the tabs (ui/dock.ui), visible while a task runs whichever tab is open: in the
         # fit tab, the progress and Cancel of "Suggest points" were out of sight on the points tab
