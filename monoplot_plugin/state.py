@@ -499,6 +499,10 @@ class CommandStack:
         """``edit`` (this very object) was pushed or redone and is not undone."""
         return any(e is edit for e in self._done)
 
+    def knows(self, edit: Edit) -> bool:
+        """``edit`` (this very object) is in the history, applied or undone (False after :meth:`reset`)."""
+        return any(e is edit for e in self._done) or any(e is edit for e in self._undone)
+
     def can_redo(self) -> bool:
         return bool(self._undone)
 

@@ -15,6 +15,7 @@ import logging
 import math
 from typing import Optional
 
+import numpy as np
 from qgis.core import Qgis
 from qgis.PyQt.QtCore import QObject
 from qgis.PyQt.QtWidgets import QAction
@@ -23,7 +24,7 @@ from ..adapters import layers as camera_layers
 from ..adapters.photo import qimage_to_array
 from ..core.auto.overlay import draw_alignment
 from ..core.camera import Camera
-from ..state import ACCEPTED, MAP, PHOTO, SUGGESTED, Point, replace_in_views
+from ..state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, replace_in_views
 from ..workflow import auto as auto_step
 from ..workflow.progress import part
 from . import engine
@@ -46,6 +47,11 @@ class AutoPanel(QObject):
             return
         edit, before, after = self._undoable
         c = self.controller
+        if not c.stack.knows(edit):  # the history was reset (another project, or this one read back): not an Undo.
+            # (a trial reopened its project: the reset was taken for an Undo, the "uncertain" cap went, and the
+            # same wrong camera was then fitted "ok")
+            self._undoable = None
+            return
         applied = c.stack.is_applied(edit)
         current, target = (before, after) if applied else (after, before)
         if c.state.fitted != current["fitted"] or c.state.fitted == target["fitted"]:
@@ -120,9 +126,25 @@ class AutoPanel(QObject):
                                    "(automatic, {0})\"; its report is in the Monoplot log.").format(status, kept),
                            Qgis.MessageLevel.Warning)
             return
-        camera_layers.remove_camera_layers(self.dock.project, other=True)  # an earlier one set aside is stale now
         uv, world = done.matched_points()
+        if not len(uv) and status != "ok":
+            # nothing matched (a photo in fog: "RMSE nan px on 0 photo points", and the rough camera became the
+            # "fitted" one, products enabled): no camera is set, the rough one stays what it was
+            logging.getLogger(__name__).info("Automatic registration found nothing (%s): %s", status,
+                                             checked["message"])
+            c.message.emit(self.tr("Automatic registration found no match between the photo and the DEM ({0}): "
+                                   "no camera was set. Its report is in the Monoplot log; suggest points and "
+                                   "pick a few you recognise instead.").format(status), Qgis.MessageLevel.Warning)
+            return
+        camera_layers.remove_camera_layers(self.dock.project, other=True)  # an earlier one set aside is stale now
         label = auto_step.AUTOMATIC_LABEL  # a later fit on these points alone is capped by this verdict
+        # An earlier run's matches the person went through (rejected some) are their curation: the ones kept stay
+        # and a new match where they decided already is left out (a trial's second run took its 161 kept points
+        # away and brought back its 41 rejected ones as undecided). Untouched earlier matches are replaced.
+        reviewed = any(p.label == label and p.status == REJECTED for p in c.state.points.values())
+        if reviewed:
+            keep = _not_decided_already(c.state, label, uv, world)
+            uv, world = uv[keep], world[keep]
         # a "poor" camera's matches are probably wrong: offered as undecided suggestions, not accepted (a desktop
         # trial: a camera 95 deg off put its 74 matches in the accepted set)
         taken = SUGGESTED if status == "poor" else ACCEPTED
@@ -134,9 +156,11 @@ class AutoPanel(QObject):
         c.state.settings["automatic_sigma"] = {k: float(v) for k, v in (r.std or {}).items()}
         edit = None
         if photo_pts:
-            replaced = len([p for p in c.state.points.values() if p.status == SUGGESTED and not p.manual])
-            # an earlier run's matches nobody touched go too: a second run replaces them (it had doubled them)
-            edit = replace_in_views(c.state, {PHOTO: photo_pts, MAP: map_pts}, self.tr("Automatic points"), label)
+            machine = None if reviewed else label
+            edit = replace_in_views(c.state, {PHOTO: photo_pts, MAP: map_pts}, self.tr("Automatic points"), machine)
+            # what goes: the undecided suggestions, and an earlier run's matches nobody went through (a second run
+            # had doubled them); the message counts both (it said "0 replaced" while 161 went)
+            replaced = sum(1 for pid, after in edit.after.items() if after is None)
             self._undoable = None  # the listener must not act on this push
             edit = edit if c.stack.push(edit) else None
         info = {"status": status, "rmse_px": _finite(r.rmse_px), "loo_rmse_px": _finite(r.loo_rmse_px),
@@ -155,9 +179,31 @@ class AutoPanel(QObject):
                                    "brings them back).").format(len(photo_pts), len(map_pts), replaced),
                            Qgis.MessageLevel.Warning)
         elif replaced:
-            c.message.emit(self.tr("The {0} undecided suggestions were replaced by the {1} + {2} matched points "
-                                   "(Undo brings them back).").format(replaced, len(photo_pts), len(map_pts)),
-                           Qgis.MessageLevel.Info)
+            c.message.emit(self.tr("{0} undecided suggestions and earlier unreviewed matches were replaced by the "
+                                   "{1} + {2} matched points (Undo brings them back).").format(
+                replaced, len(photo_pts), len(map_pts)), Qgis.MessageLevel.Info)
+        if reviewed:
+            c.message.emit(self.tr("Your decisions on the earlier automatic points are kept: new matches where you "
+                                   "had accepted or rejected one were left out."), Qgis.MessageLevel.Info)
+
+
+def _not_decided_already(state, label: str, uv, world) -> np.ndarray:
+    """(N,) bool: the matches (photo ``uv`` (N, 2), DEM ``world`` (N, 3)) with neither side within
+    :data:`SAME_POINT_PX` pixels (photo) or :data:`SAME_POINT_M` metres (map) of an earlier automatic point the
+    person accepted or rejected."""
+    decided = [p for p in state.points.values() if p.label == label and p.status in (ACCEPTED, REJECTED)]
+    keep = np.ones(len(uv), dtype=bool)
+    for space, values, radius in ((PHOTO, np.asarray(uv, float).reshape(-1, 2), SAME_POINT_PX),
+                                  (MAP, np.asarray(world, float).reshape(-1, 3)[:, :2], SAME_POINT_M)):
+        old = np.array([(p.x, p.y) for p in decided if p.space == space]).reshape(-1, 2)
+        if len(old) and len(values):
+            near = np.linalg.norm(values[:, None, :] - old[None, :, :], axis=2).min(axis=1) <= radius
+            keep &= ~near
+    return keep
+
+
+#: a new automatic match this close to a point the person decided on is that point again (pixels, metres)
+SAME_POINT_PX, SAME_POINT_M = 2.0, 5.0
 
 
 def _fit_snapshot(c) -> dict:

@@ -250,6 +250,10 @@ class ResultsMixin:
                                if unused == 1 else
                                self.tr("{0} accepted photo points without a partner are not used by a paired "
                                        "fit.").format(unused))
+        if info.get("mode") == "automatic":  # its own matches: they agree with it by construction (a trial read
+            # "RMSE 2.3 px on 202 photo points" as the accuracy of a camera 28 px off)
+            text = self.tr("Camera fitted: its {1} matched points agree to {0:.1f} px.").format(
+                rmse if rmse is not None else float("nan"), n_photo)
         if info.get("mode") == "unpaired" and n_matched is not None and n_matched < n_photo:
             # the RMSE is over the matched points only: say how many, or "30 photo points" overstates a weak fit
             text = self.tr("Camera fitted: RMSE {0:.1f} px on the {1} of {2} photo points that matched a DEM "
@@ -260,7 +264,7 @@ class ResultsMixin:
                            "points).").format(check, info.get("n_check", 0),
                                               rmse if rmse is not None else float("nan"),
                                               info.get("n_photo", 0))
-        elif info.get("mode") == "unpaired" and status != "poor":
+        elif info.get("mode") in ("unpaired", "automatic") and status != "poor":
             text += " " + self.tr("(How well the automatic pairs agree, not the accuracy: pair a few points you "
                                   "recognise, Shift+click a point then its partner in the other view, and mark "
                                   "them as check points, key C.)")

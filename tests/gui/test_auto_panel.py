@@ -229,3 +229,95 @@ def test_a_poor_automatic_camera_leaves_its_matches_undecided(dock, valley, qtbo
     matched = [p for p in c.state.points.values() if p.label == "automatic"]
     assert matched and all(p.status == SUGGESTED for p in matched)
     assert any("left undecided" in m for m in messages), messages
+
+
+def _open_valley(dock, valley, photo=None):
+    layer = QgsRasterLayer(valley["dem"], "valley DEM")
+    QgsProject.instance().addMapLayer(layer)
+    dock.photoFile.setFilePath(photo or valley["photo"])
+    dock.demCombo.setLayer(layer)
+    c = dock.controller
+    assert c.image is not None and c.dem is not None
+    c.set_prior(valley["prior"])
+    return c
+
+
+def test_the_registrations_verdict_survives_the_project_read_back(dock, valley, qtbot, tmp_path):
+    """A trial saved after a registration, read the project back in the same session and pressed Fit: the read was
+    taken for an Undo of the registration, its "uncertain" cap went, and the same wrong camera came out "ok"."""
+    c = _open_valley(dock, valley)
+    messages = run_find_camera(dock, qtbot)
+    found, info = c.fitted.parameters(), dict(c.state.fit_info)
+    # the message bar: what the matched points' RMSE is (agreement with the camera they made), not accuracy
+    assert any(m.startswith("Camera fitted") and "matched points agree to" in m and "not the accuracy" in m
+               for m in messages), messages
+    project = QgsProject.instance()
+    path = str(tmp_path / "auto.qgz")
+    assert project.write(path)
+    project.clear()
+    assert project.read(path)
+    qtbot.waitUntil(lambda: c.fitted is not None, timeout=30000)
+    assert c.fitted.parameters() == pytest.approx(found)
+    assert c.state.fit_info["status"] == info["status"]
+    assert c.state.settings["automatic_status"] == info["status"]
+
+
+def test_a_photo_changed_while_the_camera_is_found_gets_no_result_of_the_old_one(dock, valley, qtbot, tmp_path):
+    """A trial loaded a fog copy of the photo during the run: the old photo's camera and 314 points landed on it."""
+    from qgis.PyQt.QtGui import QColor, QImage
+
+    c = _open_valley(dock, valley)
+    other = QImage(480, 320, QImage.Format.Format_RGB32)
+    other.fill(QColor(200, 200, 200))
+    path = str(tmp_path / "fog.png")
+    assert other.save(path)
+    messages = []
+    c.message.connect(lambda text, *_: messages.append(text))
+    dock.auto_panel.action.trigger()
+    assert c.busy and not dock.auto_panel.action.isEnabled()  # no second click meanwhile
+    with qtbot.waitSignal(c.taskFinished, timeout=240000):
+        dock.photoFile.setFilePath(path)
+    assert c.state.photo_path == path and dock.auto_panel.action.isEnabled()
+    assert c.fitted is None and not [p for p in c.state.points.values() if p.label == "automatic"]
+    assert any("changed while it ran" in m for m in messages), messages
+
+
+def test_a_second_run_keeps_the_persons_decisions_on_the_first_ones_points(dock, valley, qtbot):
+    """A trial rejected 41 of a run's matches and kept 161; the next run took the 161 away and brought the 41 back
+    as undecided. The kept ones stay, the rejected ones stay rejected, and no new match lands on either."""
+    from monoplot_plugin.state import REJECTED
+
+    c = _open_valley(dock, valley)
+    run_find_camera(dock, qtbot)
+    first = [p for p in c.state.points.values() if p.label == "automatic" and p.status == ACCEPTED]
+    photo = [p for p in first if p.space == PHOTO]
+    assert len(photo) >= 6
+    rejected = photo[:3]
+    c.set_status([p.id for p in rejected], REJECTED)
+    kept = {p.id for p in first} - {p.id for p in rejected}
+    c.set_fitted(None)  # (the trial's check points had made it "poor": a camera to keep sets the next run aside)
+    messages = run_find_camera(dock, qtbot)
+    now = c.state.points
+    assert kept <= set(now) and all(now[i].status == ACCEPTED for i in kept)
+    assert all(now[p.id].status == REJECTED for p in rejected)
+    new = [p for p in now.values() if p.label == "automatic" and p.id not in {q.id for q in first}]
+    for p in new:
+        if p.space == PHOTO:
+            assert min(abs(p.x - r.x) + abs(p.y - r.y) for r in rejected) > 2.0
+    assert any("Your decisions on the earlier automatic points are kept" in m for m in messages), messages
+
+
+def test_nothing_matched_sets_no_camera(dock, valley, qtbot, tmp_path):
+    """A photo in fog: "RMSE nan px on 0 photo points", and the rough camera became the fitted one (products
+    enabled). Nothing matched: no camera is set, and the message says what to do."""
+    from qgis.PyQt.QtGui import QColor, QImage
+
+    blank = QImage(480, 320, QImage.Format.Format_RGB32)
+    blank.fill(QColor(128, 128, 128))
+    path = str(tmp_path / "blank.png")
+    assert blank.save(path)
+    c = _open_valley(dock, valley, photo=path)
+    messages = run_find_camera(dock, qtbot)
+    assert c.fitted is None and c.prior is not None
+    assert any("found no match between the photo and the DEM" in m for m in messages), messages
+    assert not any("nan px" in m for m in messages), messages
