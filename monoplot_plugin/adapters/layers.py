@@ -92,19 +92,35 @@ def camera_layer(camera: Camera, crs: Optional[QgsCoordinateReferenceSystem] = N
     layer = QgsVectorLayer(f"Point?crs={crs.authid() or 'EPSG:4326'}", name, "memory")
     if not crs.authid():
         layer.setCrs(crs)
-    fields = [QgsField(n, QVariant.Double) for n in ("x", "y", "z", "heading", "pitch", "roll", "fov", "focal_px")]
-    layer.dataProvider().addAttributes(fields)
+    layer.dataProvider().addAttributes([QgsField(n, QVariant.Double) for n in CAMERA_FIELDS])
     layer.updateFields()
-    f = QgsFeature(layer.fields())
-    x, y, z = camera.position
-    f.setGeometry(QgsGeometry.fromPointXY(QgsPointXY(x, y)))
-    f.setAttributes([x, y, z, camera.heading, camera.pitch, camera.roll, camera.fov, camera.focal_px])
-    layer.dataProvider().addFeatures([f])
+    layer.dataProvider().addFeatures([_camera_feature(layer, camera)])
     symbol = QgsMarkerSymbol.createSimple({"name": "star", "color": "255,40,40", "size": "6",
                                            "outline_color": "white", "outline_width": "0.6"})
     layer.setRenderer(QgsSingleSymbolRenderer(symbol))
     layer.setCustomProperty(_ROLE, "camera")
     return rebuilt_on_reopen(layer)
+
+
+#: the attributes of the camera layer's point
+CAMERA_FIELDS = ("x", "y", "z", "heading", "pitch", "roll", "fov", "focal_px")
+
+
+def _camera_feature(layer: QgsVectorLayer, camera: Camera) -> QgsFeature:
+    f = QgsFeature(layer.fields())
+    x, y, z = camera.position
+    f.setGeometry(QgsGeometry.fromPointXY(QgsPointXY(x, y)))
+    f.setAttributes([x, y, z, camera.heading, camera.pitch, camera.roll, camera.fov, camera.focal_px])
+    return f
+
+
+def _footprint_features(wkt: str) -> list:
+    geom = QgsGeometry.fromWkt(wkt) if wkt else QgsGeometry()
+    if geom.isNull():
+        return []
+    f = QgsFeature()
+    f.setGeometry(geom)
+    return [f]
 
 
 def footprint_layer(wkt: str, crs: QgsCoordinateReferenceSystem, name: str = "Monoplot view footprint"
@@ -113,11 +129,7 @@ def footprint_layer(wkt: str, crs: QgsCoordinateReferenceSystem, name: str = "Mo
     layer = QgsVectorLayer(f"MultiPolygon?crs={crs.authid() or 'EPSG:4326'}", name, "memory")
     if not crs.authid():
         layer.setCrs(crs)
-    geom = QgsGeometry.fromWkt(wkt) if wkt else QgsGeometry()
-    if not geom.isNull():
-        f = QgsFeature()
-        f.setGeometry(geom)
-        layer.dataProvider().addFeatures([f])
+    layer.dataProvider().addFeatures(_footprint_features(wkt))
     symbol = QgsFillSymbol.createSimple({"color": "40,130,255,55", "outline_color": "40,130,255",
                                          "outline_width": "0.5"})
     layer.setRenderer(QgsSingleSymbolRenderer(symbol))
@@ -140,6 +152,10 @@ def show_camera_layers(project: QgsProject, camera: Camera, footprint_wkt: str,
     ``other``: a camera shown beside the fitted one, not instead of it (e.g. ``"automatic, uncertain"``: a doubtful
     automatic registration the person's own fit was kept over), in its own pair of layers named after it; purple.
     """
+    if not other:
+        refilled = _refill_camera_layers(project, camera, footprint_wkt, _crs(camera, crs))
+        if refilled is not None:
+            return refilled
     remove_camera_layers(project, other=bool(other))
     suffix = f" ({other})" if other else ""
     cam = camera_layer(camera, crs, name="Monoplot camera" + suffix)
@@ -157,6 +173,31 @@ def show_camera_layers(project: QgsProject, camera: Camera, footprint_wkt: str,
     for layer in (foot, cam):
         project.addMapLayer(layer, False)
         group.insertLayer(0, layer)
+    return cam, foot
+
+
+def _refill_camera_layers(project: QgsProject, camera: Camera, footprint_wkt: str,
+                          crs: QgsCoordinateReferenceSystem):
+    """(camera layer, footprint layer) of ``project`` filled anew with ``camera`` and its footprint, when both are
+    there as Monoplot made them and in ``crs``; else None. Layers removed and added again marked a reopened project
+    modified in the desktop, after the read (the layer tree's deferred update: "save the project?" on every quit,
+    a trial); their features replaced do not, and the person's styling of them stays."""
+    found = {role: [lyr for lyr in project.mapLayers().values() if lyr.customProperty(_ROLE) == role]
+             for role in ("camera", "footprint")}
+    if len(found["camera"]) != 1 or len(found["footprint"]) != 1:
+        return None
+    cam, foot = found["camera"][0], found["footprint"][0]
+    if not (isinstance(cam, QgsVectorLayer) and isinstance(foot, QgsVectorLayer) and cam.isValid()
+            and foot.isValid() and cam.providerType() == "memory" and foot.providerType() == "memory"
+            and cam.crs() == crs and foot.crs() == crs and tuple(cam.fields().names()) == CAMERA_FIELDS):
+        return None
+    for layer, features in ((cam, [_camera_feature(cam, camera)]), (foot, _footprint_features(footprint_wkt))):
+        provider = layer.dataProvider()
+        provider.truncate()
+        if features and not provider.addFeatures(features)[0]:
+            return None
+        layer.updateExtents()
+        layer.triggerRepaint()
     return cam, foot
 
 
