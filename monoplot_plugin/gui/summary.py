@@ -56,9 +56,10 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     True
     >>> fit_summary_html(cam, {"rmse_px": 6.4}, points_changed=True).startswith("<p><b>The accepted points changed")
     True
-    >>> html = fit_summary_html(cam, {"status": "ok", "message": "Verified by the check points despite: few <pairs>."})
-    >>> "<small>Verified by the check points despite: few &lt;pairs&gt;.</small>" in html
-    True
+    >>> html = fit_summary_html(cam, {"status": "ok", "message": "RMSE 2 px. Verified by the check points despite: "
+    ...                                                         "few <pairs>. Outliers: none."})
+    >>> "<small>Verified by the check points despite: few &lt;pairs&gt;.</small>" in html, "RMSE 2 px." in html
+    (True, False)
     >>> html = fit_summary_html(cam, {"status": "uncertain", "mode": "unpaired", "sigma": {"x": 0.31}})
     >>> "± 0.31*" in html and html.index("assume the automatic pairs are right") < html.index("<table>")
     True
@@ -118,9 +119,14 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
                    + "</tr>" for pair in zip(cells[0::2], cells[1::2]))
     badge = _STATUS_STYLE.get(status, _STATUS_STYLE["poor"])
     head = tr("Status: <b style='color:{0}'>{1}</b>").format(badge, tr(status)) + " · " + head
-    # The verdict's own words: what is weak and what to do; under an "ok" too, smaller (a trial's "ok" was verified
-    # by its check points "despite" a leave-one-out warning, which only the log and the report said)
-    message = html_escape(info.get("message", ""))
+    # The verdict's own words: what is weak and what to do. Under an "ok", only what it was verified despite, smaller
+    # (a trial's "ok" was verified by its check points "despite" a leave-one-out warning, which only the log and the
+    # report said; its whole message pushed the export buttons out of sight)
+    message = info.get("message", "")
+    if status == "ok":
+        keep = ("Verified by the check points despite", tr("Your "))  # and the dock's note on too few pairs
+        message = " ".join(part.rstrip(".") + "." for part in message.split(". ") if part.startswith(keep))
+    message = html_escape(message)
     note = "" if not message else f"<p style='color:{badge}'>{message}</p>" if status != "ok" else \
         f"<p><small>{message}</small></p>"
     if status != "ok" and sigma:  # the ± come from the residuals of the pairs used: a wrong match is not in them
