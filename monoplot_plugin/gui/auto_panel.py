@@ -142,6 +142,7 @@ class AutoPanel(QObject):
         # and a new match where they decided already is left out (a trial's second run took its 161 kept points
         # away and brought back its 41 rejected ones as undecided). Untouched earlier matches are replaced.
         reviewed = any(p.label == label and p.status == REJECTED for p in c.state.points.values())
+        n_found = len(uv)  # the registration's own matches, whatever is added of them below
         if reviewed:
             keep = _not_decided_already(c.state, label, uv, world)
             uv, world = uv[keep], world[keep]
@@ -165,12 +166,16 @@ class AutoPanel(QObject):
             edit = edit if c.stack.push(edit) else None
         info = {"status": status, "rmse_px": _finite(r.rmse_px), "loo_rmse_px": _finite(r.loo_rmse_px),
                 "sigma": {k: float(v) for k, v in (r.std or {}).items()}, "converged": status == "ok",
-                "message": str(checked["message"]), "mode": "automatic", "n_photo": len(photo_pts),
-                "n_map": len(map_pts), "n_pairs": 0, "n_matched": len(photo_pts), "elapsed_s": float(r.elapsed_s),
+                "message": str(checked["message"]), "mode": "automatic", "n_photo": n_found,
+                "n_map": n_found, "n_pairs": 0, "n_matched": n_found, "elapsed_s": float(r.elapsed_s),
                 "check_rmse_px": checked["check_rmse_px"], "n_check": checked["n_check"],
                 # the registration's pairs, as an unpaired fit records its own: residuals in the dock, points in
                 # the report (it showed none after a registration)
                 "matched": [(p.id, m.id) for p, m in zip(photo_pts, map_pts)]}
+        if reviewed:  # before the fit's own message, which must be the last word (it says "poor" when it is)
+            c.message.emit(self.tr("Your decisions on the earlier automatic points are kept: new matches where you "
+                                   "had accepted or rejected one were left out ({0} of {1}).").format(
+                n_found - len(photo_pts), n_found), Qgis.MessageLevel.Info)
         c.show_fit(engine.FitOutcome(done.camera, info, overlay, xyz, footprint))
         self._undoable = None if edit is None else (edit, before, _fit_snapshot(c))
         if status == "poor" and photo_pts:
@@ -182,9 +187,6 @@ class AutoPanel(QObject):
             c.message.emit(self.tr("{0} undecided suggestions and earlier unreviewed matches were replaced by the "
                                    "{1} + {2} matched points (Undo brings them back).").format(
                 replaced, len(photo_pts), len(map_pts)), Qgis.MessageLevel.Info)
-        if reviewed:
-            c.message.emit(self.tr("Your decisions on the earlier automatic points are kept: new matches where you "
-                                   "had accepted or rejected one were left out."), Qgis.MessageLevel.Info)
 
 
 def _not_decided_already(state, label: str, uv, world) -> np.ndarray:

@@ -305,6 +305,9 @@ def test_a_second_run_keeps_the_persons_decisions_on_the_first_ones_points(dock,
         if p.space == PHOTO:
             assert min(abs(p.x - r.x) + abs(p.y - r.y) for r in rejected) > 2.0
     assert any("Your decisions on the earlier automatic points are kept" in m for m in messages), messages
+    # the fit tab counts the registration's matches (it said "0 photo / 0 DEM points" when all were decided already),
+    # and the fit's own message is the last word (the note on the decisions had replaced a "poor" warning)
+    assert c.state.fit_info["n_photo"] >= len(photo) - 3 and messages[-1].startswith("Camera fit"), messages
 
 
 def test_nothing_matched_sets_no_camera(dock, valley, qtbot, tmp_path):
