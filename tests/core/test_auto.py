@@ -94,6 +94,19 @@ def test_fog_is_never_ok(scene):
     assert "returned is" not in result.message and " deg (σ)" not in result.message
 
 
+def test_faint_edges_in_fog_give_the_prior_back(scene):
+    """A desktop trial: the Aletsch print 97 % in fog ended "uncertain" 245 px off (the prior 46 px), its 76 chance
+    matches accepted. The valley 93 % in fog: no clear skyline, and the best camera found matched the faint edges
+    loosely (edge score 0.66) 10 deg from the truth, from a prior 3 deg off. The prior comes back instead."""
+    dem, _, photo, prior = scene
+    noise = np.random.default_rng(0).normal(0.0, 2.0, photo.shape)
+    faint = np.clip(photo * 0.07 + 225.0 * 0.93 + noise, 0, 255).astype(np.uint8)
+    result = register_automatic(faint, dem, prior)
+    assert not result.evidence["auto_skyline_usable"] and result.status == "uncertain"
+    assert result.camera.parameters() == prior.parameters() and "prior is kept" in result.message
+    assert "only by chance" in result.message and not len(result.pairs)
+
+
 def test_a_prior_turned_far_away_ends_poor_not_uncertain(scene):
     """A desktop trial: a prior turned 90 deg ended 95 deg off, "uncertain", with 15 % of the photo's skyline on
     the DEM's. A camera whose skyline mostly misses the DEM's is "poor" (every right camera of the synthetic runs
