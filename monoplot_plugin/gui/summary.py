@@ -8,7 +8,7 @@ from typing import Callable, Optional
 
 from ..core.camera import Camera
 
-__all__ = ["fit_summary_html", "sigma_text"]
+__all__ = ["fit_summary_html", "sigma_text", "verdict_first"]
 
 #: Colour of each fit status (core.fit.STATUSES): "uncertain" must look different from "ok".
 _STATUS_STYLE = {"ok": "#1a7f37", "uncertain": "#b35900", "poor": "#c00", "refused": "#c00", "canceled": "#666"}
@@ -23,6 +23,29 @@ def sigma_text(value: float) -> str:
     if not value > 0:
         return "0"
     return f"{value:.{min(6, max(0, 1 - math.floor(math.log10(value))))}f}"
+
+
+#: Where a verdict's own words start in a fit's message (core.fit.verdict and core.auto.register write them after
+#: the fit's figures: "unpaired fit: 76 of 153 ... Uncertain: the photo shows no clear skyline ...").
+VERDICT_MARKERS = ("Probably wrong: ", "Uncertain: ")
+
+
+def verdict_first(message: str) -> tuple:
+    """(the verdict's reasons and what follows them, the figures before them) of a fit's message; the dock shows the
+    first part first: a desktop trial's "uncertain" registration said why only after 600 characters of figures.
+
+    >>> verdict_first("unpaired fit: 76 of 153 matched. Automatic: skyline on 9 %. Uncertain: no clear skyline.")
+    ('Uncertain: no clear skyline.', 'unpaired fit: 76 of 153 matched. Automatic: skyline on 9 %.')
+    >>> verdict_first("Probably wrong: only 12 % of the skyline lies on the DEM's. Also: few points.")
+    ("Probably wrong: only 12 % of the skyline lies on the DEM's. Also: few points.", '')
+    >>> verdict_first("The automatic registration did not improve on the prior camera.")
+    ('The automatic registration did not improve on the prior camera.', '')
+    """
+    found = [i for i in (message.find(m) for m in VERDICT_MARKERS) if i >= 0]
+    if not found or min(found) == 0:
+        return message.strip(), ""
+    i = min(found)
+    return message[i:].strip(), message[:i].strip()
 
 
 def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], str] = str,
@@ -126,9 +149,11 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     if status == "ok":
         keep = ("Verified by the check points despite", tr("Your "))  # and the dock's note on too few pairs
         message = " ".join(part.rstrip(".") + "." for part in message.split(". ") if part.startswith(keep))
-    message = html_escape(message)
-    note = "" if not message else f"<p style='color:{badge}'>{message}</p>" if status != "ok" else \
-        f"<p><small>{message}</small></p>"
+        note = f"<p><small>{html_escape(message)}</small></p>" if message else ""
+    else:  # why it is doubtful and what to do first; the fit's figures after it, smaller
+        verdict, details = verdict_first(message)
+        note = (f"<p style='color:{badge}'>{html_escape(verdict)}</p>" if verdict else "") + \
+            (f"<p><small>{html_escape(details)}</small></p>" if details else "")
     if status != "ok" and sigma:  # the ± come from the residuals of the pairs used: a wrong match is not in them
         head += "<br><small>* " + (tr("The ± assume the automatic pairs are right: this {0} fit may be off by "
                                       "far more. Check points (key C) measure it.")
