@@ -98,6 +98,9 @@ def weakest_parameter(J: np.ndarray, names, scales) -> Tuple[float, str]:
     direction). ``J`` is (2K, n) in the parameter vector's units."""
     if J.size == 0 or J.shape[0] < J.shape[1]:
         return math.inf, names[0] if names else ""
+    bad = ~np.isfinite(J).all(axis=0)
+    if bad.any():  # a point on the camera's plane (a wrong pair can drag the camera there): nothing to measure
+        return math.inf, names[int(np.argmax(bad))]
     norms = np.linalg.norm(J, axis=0)
     norms[norms == 0] = 1.0
     _, s, vt = np.linalg.svd(J / norms, full_matrices=False)
