@@ -214,24 +214,31 @@ def point_rmse(camera: Camera, uv: np.ndarray, xyz: np.ndarray, paired: bool) ->
 
 def fit_points(image_size, uv: np.ndarray, xyz: np.ndarray, prior: Camera, dem, paired: bool,
                progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None,
-               on_ground: Optional[bool] = None, eye_height: Optional[float] = None) -> Tuple[Camera, dict]:
+               on_ground: Optional[bool] = None, eye_height: Optional[float] = None,
+               check: Optional[np.ndarray] = None) -> Tuple[Camera, dict]:
     """:func:`fit` of (N, 2) photo points and (M, 3) DEM points from ``prior``, with the file-based callers'
     conventions (Processing, the batch): ``on_ground`` / ``eye_height`` as in :func:`on_ground_rule` (None:
-    automatic, the dock's default too); ``paired`` means row i of ``uv`` and of ``xyz`` are the same point; a
-    refusal or a prior of another image size is an :class:`~.inputs.InputError`. Returns (camera, info) with
-    ``info["rmse_px"]``, ``"status"``, ``"message"`` and ``"summary"`` (the fit's JSON digest)."""
+    automatic, the dock's default too); ``paired`` means row i of ``uv`` and of ``xyz`` are the same point;
+    ``check`` (N,) bool marks the paired rows that are check points (a GCP table's ``check`` column): kept out of
+    the fit and measured, as in the dock; a refusal or a prior of another image size is an
+    :class:`~.inputs.InputError`. Returns (camera, info) with ``info["rmse_px"]``, ``"status"``, ``"message"``,
+    ``"summary"`` (the fit's JSON digest), ``"n_check"`` and ``"check_rmse_px"`` (NaN without check points)."""
     from .inputs import InputError
 
     if tuple(image_size) != tuple(prior.image_size):
         raise InputError(f"the prior camera is for a {prior.width}x{prior.height} image, the photo is "
                          f"{image_size[0]}x{image_size[1]}")
+    check = np.zeros(len(uv), dtype=bool) if check is None or not paired else np.asarray(check, dtype=bool)
+    check_uv, check_xyz = (uv[check], xyz[check]) if check.any() else (None, None)
+    uv, xyz = (uv[~check], xyz[~check]) if check.any() else (uv, xyz)
     pairs = np.column_stack([np.arange(len(uv)), np.arange(len(uv))]) if paired else None
     try:
         done = fit(uv, xyz, prior, dem, pairs=pairs, on_ground=on_ground, eye_height=eye_height,
-                   progress=progress, is_canceled=is_canceled)
+                   check_uv=check_uv, check_xyz=check_xyz, progress=progress, is_canceled=is_canceled)
     except FitRefused as exc:
         raise InputError(f"the fit refused these points: {exc}") from exc
     result, camera = done.result, done.camera
     rmse = float(result.rmse_px) if np.isfinite(result.rmse_px) else point_rmse(camera, uv, xyz, paired)
     return camera, {"rmse_px": rmse, "status": result.status, "message": result.message,
-                    "summary": result.summary()}
+                    "summary": result.summary(), "n_check": int(check.sum()),
+                    "check_rmse_px": float(result.check_rmse_px) if check.any() else float("nan")}

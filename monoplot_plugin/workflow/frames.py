@@ -350,6 +350,6 @@ def fit_job(job, size, dem, crs_wkt: str, photo: Optional[np.ndarray] = None,
     else:
         raise InputError(f"{os.path.basename(job.points)}: no map columns (X, Y, Z) and no dem_points file")
     xyz = fill_missing_z(xyz, dem)
-    camera, info = fit_points(size, uv, xyz, prior, dem, paired)
+    camera, info = fit_points(size, uv, xyz, prior, dem, paired, check=table.get("check") if paired else None)
     camera.crs_wkt = crs_wkt
     return camera, float(info["rmse_px"]), info["status"], info["message"]

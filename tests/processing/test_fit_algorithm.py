@@ -43,6 +43,26 @@ def test_fit_from_paired_csv_recovers_the_camera(run_alg, small_scene, ground_tr
     assert json.loads(out.read_text())["crs_wkt"]  # the DEM's CRS travels with the camera
 
 
+def test_the_tables_check_column_keeps_check_points_out_of_the_fit(run_alg, small_scene, ground_truth, tmp_path):
+    """A desktop trial: the dock fitted a GCP table's 6 control pairs and measured its 2 check points; fitcamera
+    fitted all 8 and said nothing of checks. Check points are measured, not fitted, here too: one of them 40 px off
+    shows in CHECK_RMSE_PX and leaves the fit's own residuals clean."""
+    pixels = ground_truth["pixels"].copy()
+    check = np.zeros(len(pixels), dtype=bool)
+    check[[3, 11, 17]] = True
+    pixels[3] += (40.0, 0.0)  # a check point placed 40 px off: it must not pull the camera
+    gcps = tmp_path / "gcps.csv"
+    write_points_csv(str(gcps), uv=pixels, xyz=ground_truth["world"], check=check)
+    out = tmp_path / "camera.json"
+    result = run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"],
+                                   "PRIOR": ground_truth["prior"], "PHOTO_CSV": str(gcps), "OUTPUT": str(out)})
+    assert result["N_PHOTO"] == 17 and result["N_CHECK"] == 3
+    assert result["RMSE_PX"] < 0.5  # the 40 px point is not among the fitted ones
+    assert 40.0 / np.sqrt(3) - 1.0 < result["CHECK_RMSE_PX"] < 40.0 / np.sqrt(3) + 1.0
+    fitted = Camera.load(out)
+    assert np.linalg.norm(np.subtract(fitted.position, small_scene["cam"].position)) < 5.0
+
+
 def test_a_prior_made_for_a_crop_is_a_rough_start_and_said_so(run_alg, small_scene, ground_truth, tmp_path):
     """A prior camera of a photo of another shape (the full print, for a cropped scan): kept as a start, with a
     note; the fit recovers this photo's camera."""

@@ -45,7 +45,8 @@ class FitCamera(MonoplotAlgorithm):
              "alone.\n\n"
              "Points come from layers (photo points in pixel space, DEM points in the DEM's CRS) or from CSV files "
              "(u_px, v_px and/or X, Y, Z columns); a single CSV with both sets of columns is a list of paired "
-             "ground-control points. Unpaired point sets may have different counts: the fit matches each photo "
+             "ground-control points; its optional check column (1/0) marks check points, kept out of the fit and "
+             "measured (CHECK_RMSE_PX), as in the dock. Unpaired point sets may have different counts: the fit matches each photo "
              "point to the nearest projected DEM point. Writes the fitted camera as JSON, the input of every other "
              "algorithm.\n\n"
              "Camera height: Automatic (the dock's rule) holds a prior within 20 m of the terrain at its height "
@@ -88,19 +89,23 @@ class FitCamera(MonoplotAlgorithm):
         self.addOutput(QgsProcessingOutputNumber("N_PHOTO", self.tr("Photo points used")))
         self.addOutput(QgsProcessingOutputNumber("N_DEM", self.tr("DEM points used")))
         self.addOutput(QgsProcessingOutputString("STATUS", self.tr("Fit status (ok / uncertain / poor)")))
+        self.addOutput(QgsProcessingOutputNumber("N_CHECK", self.tr("Check points (kept out of the fit)")))
+        self.addOutput(QgsProcessingOutputNumber("CHECK_RMSE_PX", self.tr("Check-point error (px)")))
         self.addOutput(QgsProcessingOutputString("MESSAGE", self.tr("What the fit found and, unless ok, what to do")))
 
     dropped_dem_points = 0
 
     def gather_points(self, parameters, context, dem, crs=None):
-        """(uv (N, 2), xyz (M, 3), paired) from layers and/or CSV files; Z sampled from the DEM where missing."""
-        uv_parts, xyz_parts = [], []
+        """(uv (N, 2), xyz (M, 3), paired, check) from layers and/or CSV files; Z sampled from the DEM where
+        missing; ``check`` (N,) bool: the paired rows a table's ``check`` column marks as check points."""
+        uv_parts, xyz_parts, check_parts = [], [], []
         feedback = self.feedback_of(context)
         paired = self.parameterAsBool(parameters, "PAIRED", context)
         photo_source = self.parameterAsSource(parameters, "PHOTO_POINTS", context)
         dem_source = self.parameterAsSource(parameters, "DEM_POINTS", context)
         if photo_source is not None:
             uv_parts.append(read_photo_points(photo_source))
+            check_parts.append(np.zeros(len(uv_parts[-1]), dtype=bool))
         if dem_source is not None:
             xyz_parts.append(read_map_points(dem_source, crs, context))
         for name in ("PHOTO_CSV", "DEM_CSV"):
@@ -112,6 +117,7 @@ class FitCamera(MonoplotAlgorithm):
                 paired = True  # one table with both: ground-control points
             if "uv" in table:
                 uv_parts.append(table["uv"])
+                check_parts.append(table.get("check", np.zeros(len(table["uv"]), dtype=bool)))
             if "xyz" in table:  # in the DEM file's CRS (degrees for a geographic DEM used in UTM)
                 project = context.project()
                 crs = project.crs() if project is not None else None
@@ -128,6 +134,7 @@ class FitCamera(MonoplotAlgorithm):
                 "PHOTO_CSV and DEM_CSV files, or one paired CSV (u_px, v_px, X, Y, Z)."))
         uv = np.concatenate(uv_parts)
         xyz = np.concatenate(xyz_parts)
+        check = np.concatenate(check_parts)
         no_z = int((np.isfinite(xyz[:, :2]).all(axis=1) & ~np.isfinite(xyz[:, 2])).sum())
         if no_z and feedback is not None:  # said: a misnamed Z column was silently the DEM's
             feedback.pushInfo(self.tr("{0} of the {1} DEM points have no Z: the DEM's height there is "
@@ -144,10 +151,11 @@ class FitCamera(MonoplotAlgorithm):
         if paired:
             checked(pair_points, uv, xyz)
             keep = good_xyz & np.isfinite(uv).all(axis=1)
-            uv, xyz = uv[keep], xyz[keep]
+            uv, xyz, check = uv[keep], xyz[keep], check[keep]
         else:
             uv, xyz = uv[np.isfinite(uv).all(axis=1)], xyz[good_xyz]
-        return uv, xyz, paired
+            check = np.zeros(len(uv), dtype=bool)  # check points are pairs
+        return uv, xyz, paired, check
 
     def eye_height(self, parameters, context):
         """EYE_HEIGHT in metres, or None when left empty (the workflow's default for the chosen height)."""
@@ -158,7 +166,7 @@ class FitCamera(MonoplotAlgorithm):
     def run_algorithm(self, parameters, context, feedback):
         photo = self.photo_path(parameters, context)
         dem, crs = self.dem(parameters, context)
-        uv, xyz, paired = self.gather_points(parameters, context, dem, crs)
+        uv, xyz, paired, check = self.gather_points(parameters, context, dem, crs)
         if self.parameterAsFile(parameters, "PRIOR", context):
             prior = self.camera(parameters, context, "PRIOR", photo=photo, crs=crs, rough=True)
         elif paired and len(uv) >= MIN_PAIRS_WITHOUT_PRIOR:
@@ -171,25 +179,28 @@ class FitCamera(MonoplotAlgorithm):
                 "ground-control points.").format(MIN_PAIRS_WITHOUT_PRIOR))
         prior = centred_on_print(prior, checked(read_photo, photo), feedback)
         minimum = 4 if paired else 6
-        if len(uv) < minimum or len(xyz) < minimum:
+        if len(uv) - int(check.sum()) < minimum or len(xyz) - int(check.sum()) < minimum:
             hint = self.tr(" {0} DEM points were left out: outside the DEM, or not in the DEM file's CRS ({1})."
                            ).format(self.dropped_dem_points, dem_crs_name(dem)) if self.dropped_dem_points else ""
             raise QgsProcessingException(self.tr("Too few points for a 7-parameter camera: {0} photo and {1} DEM "
                                                  "points (at least {2} each {3} needed).").format(
-                len(uv), len(xyz), minimum, self.tr("pair") if paired else self.tr("set")) + hint)
+                len(uv) - int(check.sum()), len(xyz) - int(check.sum()), minimum, self.tr("pair") if paired else self.tr("set")) + hint)
         outside = ~prior.in_image(uv)
         if outside.any():
             raise QgsProcessingException(self.tr("{0} photo points lie outside the {1}x{2} photo: are they in photo "
                                                  "pixel space (x = column, y = -row, or columns u_px, v_px)?").format(
                 int(outside.sum()), prior.width, prior.height))
         feedback.pushInfo(self.tr("Fitting with {0} photo points and {1} DEM points ({2})").format(
-            len(uv), len(xyz), self.tr("paired") if paired else self.tr("unpaired")))
+            len(uv) - int(check.sum()), len(xyz) - int(check.sum()),
+            self.tr("paired") if paired else self.tr("unpaired")))
+        if check.any():  # the table's check column, as the dock reads it: measured, not fitted
+            feedback.pushInfo(self.tr("{0} check points kept out of the fit to measure it").format(int(check.sum())))
         photo_size = checked(pipeline_photo_size, photo)
         try:
             camera, info = checked(pipeline.fit, photo_size, uv, xyz, prior, dem, paired,
                                    progress_callback(feedback, 0, 95), cancel_callback(feedback),
                                    on_ground=on_ground_choice(self.parameterAsEnum(parameters, "ON_GROUND", context)),
-                                   eye_height=self.eye_height(parameters, context))
+                                   eye_height=self.eye_height(parameters, context), check=check)
         except Canceled:
             raise QgsProcessingException(self.tr("Fit canceled; no camera written.")) from None
         report_status(feedback, self.tr("Fit"), info["status"], info["message"])
@@ -204,9 +215,14 @@ class FitCamera(MonoplotAlgorithm):
             feedback.pushInfo(self.tr("One standard deviation: {0}").format(
                 ", ".join(f"{k} ± {v:.3g}" for k, v in std.items() if v is not None)))
         feedback.pushInfo(self.tr("Reprojection error {0:.2f} px; written to {1}").format(rmse, out))
+        if info["n_check"]:
+            feedback.pushInfo(self.tr("Check points: {0:.2f} px RMSE on {1} (not fitted)").format(
+                info["check_rmse_px"], info["n_check"]))
         feedback.setProgress(100)
-        return {"OUTPUT": out, "RMSE_PX": rmse, "N_PHOTO": len(uv), "N_DEM": len(xyz), "STATUS": info["status"],
-                "MESSAGE": info["message"]}
+        n_fit = len(uv) - info["n_check"]
+        return {"OUTPUT": out, "RMSE_PX": rmse, "N_PHOTO": n_fit, "N_DEM": len(xyz) - info["n_check"],
+                "STATUS": info["status"], "MESSAGE": info["message"], "N_CHECK": info["n_check"],
+                "CHECK_RMSE_PX": info["check_rmse_px"]}
 
 
 def on_ground_choice(index: int):
