@@ -25,7 +25,7 @@ from ..adapters.photo_space import photo_point, pixel_of
 from ..core.camera import Camera
 from ..core.fit.verdict import judge_by_checks
 from ..state import ACCEPTED, CHECK, MAP, PHOTO, Edit, Point
-from ..workflow.camera_files import load_camera, save_camera, written_verdict
+from ..workflow.camera_files import load_camera, save_camera, written_fit
 from ..workflow.fit import measured_on_pairs
 from ..workflow.inputs import OFF_DEM_NOTE, InputError, _transform, points_to_dem_crs
 from ..workflow.points_csv import read_points_csv, write_points_csv
@@ -283,10 +283,21 @@ def load_camera_file(controller, path: str, as_fitted: bool = False,
     info["status"], verdict = judge_by_checks(info.get("check_rmse_px", float("nan")), info.get("n_check", 0),
                                               float(np.hypot(*c.photo_size)))
     info["message"] = tr("Camera loaded from {0}.").format(name) + moved + " " + verdict
-    written, why = written_verdict(path)
+    fit = written_fit(path)
+    written, why = str(fit.get("status") or ""), str(fit.get("message") or "")
     if written in ("uncertain", "poor") and not n_check:  # its own fit doubted it: so does the dock
         info["status"] = "poor" if written == "poor" else info["status"]  # unchecked: "uncertain" already
         info["message"] += " " + tr("It was written by a fit whose verdict was \"{0}\": {1}").format(written, why)
+    elif written == "ok" and not n_check:
+        # its own fit verified it (the dock's Save fitted camera, fitcamera): that verdict and its σ come back with
+        # it (a trial's "ok" camera reloaded as "uncertain", and the features drawn on it lost their xy error)
+        info["status"] = "ok"
+        info["message"] = tr("Camera loaded from {0}.").format(name) + moved + " " + tr(
+            "Loaded with its own fit's verdict, \"ok\" (check points here would measure it again): {0}").format(
+            why.strip() or tr("no details."))
+        sigma = {str(k): float(v) for k, v in (fit.get("sigma") or {}).items() if isinstance(v, (int, float))}
+        if sigma:
+            info["sigma"] = sigma
     ids, uv, xyz = c.pair_arrays(c.state.valid_pairs())
     n_pairs, pairs_rmse = measured_on_pairs(camera, uv, xyz)
     if n_pairs:  # how the camera fits the pairs already there (a measure of agreement, not of accuracy)

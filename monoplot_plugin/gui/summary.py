@@ -147,7 +147,8 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     # report said; its whole message pushed the export buttons out of sight)
     message = info.get("message", "")
     if status == "ok":
-        keep = ("Verified by the check points despite", tr("Your "))  # and the dock's note on too few pairs
+        # and the dock's note on too few pairs, and a loaded camera's own verdict
+        keep = ("Verified by the check points despite", tr("Your "), tr("Loaded with its own fit's verdict"))
         message = " ".join(part.rstrip(".") + "." for part in message.split(". ") if part.startswith(keep))
         note = f"<p><small>{html_escape(message)}</small></p>" if message else ""
     else:  # why it is doubtful and what to do first; the fit's figures after it, smaller

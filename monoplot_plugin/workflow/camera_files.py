@@ -11,10 +11,12 @@ import os
 from dataclasses import replace
 from typing import Optional, Tuple
 
+import numpy as np
+
 from ..core.camera import Camera
 from .inputs import InputError, _crs_name, check_camera, read_text
 
-__all__ = ["load_camera", "save_camera", "camera_json", "written_verdict", "fitted_to_size"]
+__all__ = ["load_camera", "save_camera", "camera_json", "written_fit", "written_verdict", "fitted_to_size"]
 
 
 def load_camera(path: str, image_size: Optional[Tuple[int, int]] = None, crs_wkt: str = "",
@@ -164,30 +166,42 @@ def save_camera(path: str, camera: Camera, name: str = "Monoplot camera", verdic
 
 
 def camera_json(camera: Camera, verdict: Optional[dict] = None) -> str:
-    """Monoplot camera JSON with the fit's verdict ({"status", "message"}) under ``"fit"`` (readers of the camera
-    ignore it: :meth:`~..core.camera.Camera.from_dict`).
+    """Monoplot camera JSON with the fit's verdict ({"status", "message"}, and its σ per parameter from
+    ``"sigma"`` or the fit summary's ``"std"``) under ``"fit"`` (readers of the camera ignore it:
+    :meth:`~..core.camera.Camera.from_dict`).
 
     >>> cam = Camera((1.0, 2.0, 3.0), 0.0, 0.0, 0.0, 50.0, (10, 8))
-    >>> text = camera_json(cam, {"status": "uncertain", "message": "few points"})
-    >>> Camera.from_json(text) == cam, json.loads(text)["fit"]["status"]
-    (True, 'uncertain')
+    >>> text = camera_json(cam, {"status": "uncertain", "message": "few points", "sigma": {"x": 2.5}})
+    >>> Camera.from_json(text) == cam, json.loads(text)["fit"]["status"], json.loads(text)["fit"]["sigma"]
+    (True, 'uncertain', {'x': 2.5})
     """
     if not verdict:
         return camera.to_json()
     d = camera.to_dict()
     d["fit"] = {"status": str(verdict.get("status") or ""), "message": str(verdict.get("message") or "")}
+    sigma = verdict.get("sigma") or (verdict.get("summary") or {}).get("std") or {}
+    sigma = {str(k): float(v) for k, v in sigma.items() if v is not None and np.isfinite(float(v))}
+    if sigma:
+        d["fit"]["sigma"] = sigma
     return json.dumps(d, indent=2)
 
 
-def written_verdict(path: str) -> Tuple[str, str]:
-    """(status, message) of the fit a camera JSON was written with (:func:`camera_json`); ("", "") for a KML, a
-    camera written without it, or a file that cannot be read. A camera from a registration that was "uncertain" or
-    "poor" is written all the same (the prior, or the best found), and the products made from it inherit that: a
-    trial chained autoregister on a photo of fog into an XYZ raster, and nothing said so."""
+def written_fit(path: str) -> dict:
+    """The ``"fit"`` a camera JSON was written with (:func:`camera_json`: status, message, sigma); {} for a KML, a
+    camera written without it, or a file that cannot be read."""
     if not path or str(path).lower().endswith(".kml"):
-        return "", ""
+        return {}
     try:
         fit = json.loads(read_text(path)).get("fit") or {}
     except (OSError, ValueError, AttributeError):
-        return "", ""
+        return {}
+    return fit if isinstance(fit, dict) else {}
+
+
+def written_verdict(path: str) -> Tuple[str, str]:
+    """(status, message) of the fit a camera JSON was written with (:func:`written_fit`); ("", "") without one. A
+    camera from a registration that was "uncertain" or "poor" is written all the same (the prior, or the best
+    found), and the products made from it inherit that: a trial chained autoregister on a photo of fog into an XYZ
+    raster, and nothing said so."""
+    fit = written_fit(path)
     return str(fit.get("status") or ""), str(fit.get("message") or "")

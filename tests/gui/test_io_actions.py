@@ -333,6 +333,18 @@ def test_a_camera_written_with_its_verdict_comes_back_with_it(dock, scene, tmp_p
     saved = tmp_path / "saved.json"
     assert io_actions.save_camera_file(c, str(saved))
     assert json.loads(saved.read_text())["fit"]["status"] == "poor"
+    # An "ok" written with its σ (a trial: the dock's own saved "ok" camera came back "uncertain" in a new project,
+    # and the flood line drawn on it had no xy error): its verdict and σ come back, said to be the file's.
+    ok = tmp_path / "ok.json"
+    ok.write_text(camera_json(scene.camera, {"status": "ok", "message": "paired fit on 6 pairs: RMSE 0.5 px.",
+                                             "sigma": {"x": 0.48, "heading": 0.0079}}))
+    assert io_actions.load_camera_file(c, str(ok), as_fitted=True) is not None
+    info = c.state.fit_info
+    assert info["status"] == "ok" and info["sigma"] == {"x": 0.48, "heading": 0.0079}
+    assert "own fit's verdict" in info["message"] and "6 pairs" in info["message"]
+    assert "Loaded with its own fit" in dock.resultLabel.text()
+    assert io_actions.save_camera_file(c, str(saved))  # and it goes out again as it came
+    assert json.loads(saved.read_text())["fit"]["sigma"] == {"x": 0.48, "heading": 0.0079}
 
 
 def test_a_gcp_table_in_the_projects_crs_is_converted_and_one_off_the_dem_is_a_warning(dock, scene, tmp_path):
