@@ -46,9 +46,9 @@ class FitCamera(MonoplotAlgorithm):
              "Points come from layers (photo points in pixel space, DEM points in the DEM's CRS) or from CSV files "
              "(u_px, v_px and/or X, Y, Z columns); a single CSV with both sets of columns is a list of paired "
              "ground-control points; its optional check column (1/0) marks check points, kept out of the fit and "
-             "measured (CHECK_RMSE_PX), as in the dock. Unpaired point sets may have different counts: the fit matches each photo "
-             "point to the nearest projected DEM point. Writes the fitted camera as JSON, the input of every other "
-             "algorithm.\n\n"
+             "measured (CHECK_RMSE_PX), as in the dock. Unpaired point sets may have different counts: the fit "
+             "matches each photo point to the nearest projected DEM point. Writes the fitted camera as JSON, the "
+             "input of every other algorithm.\n\n"
              "Camera height: Automatic (the dock's rule) holds a prior within 20 m of the terrain at its height "
              "above it and leaves a higher one free, and refits on the ground a free camera that ends under the "
              "terrain; On the ground holds it at the height above the ground given (default 1.7 m, hand-held or "
@@ -179,12 +179,13 @@ class FitCamera(MonoplotAlgorithm):
                 "ground-control points.").format(MIN_PAIRS_WITHOUT_PRIOR))
         prior = centred_on_print(prior, checked(read_photo, photo), feedback)
         minimum = 4 if paired else 6
-        if len(uv) - int(check.sum()) < minimum or len(xyz) - int(check.sum()) < minimum:
+        n_uv, n_xyz = len(uv) - int(check.sum()), len(xyz) - int(check.sum())  # the check points are not fitted
+        if n_uv < minimum or n_xyz < minimum:
             hint = self.tr(" {0} DEM points were left out: outside the DEM, or not in the DEM file's CRS ({1})."
                            ).format(self.dropped_dem_points, dem_crs_name(dem)) if self.dropped_dem_points else ""
             raise QgsProcessingException(self.tr("Too few points for a 7-parameter camera: {0} photo and {1} DEM "
                                                  "points (at least {2} each {3} needed).").format(
-                len(uv) - int(check.sum()), len(xyz) - int(check.sum()), minimum, self.tr("pair") if paired else self.tr("set")) + hint)
+                n_uv, n_xyz, minimum, self.tr("pair") if paired else self.tr("set")) + hint)
         outside = ~prior.in_image(uv)
         if outside.any():
             raise QgsProcessingException(self.tr("{0} photo points lie outside the {1}x{2} photo: are they in photo "
