@@ -316,6 +316,13 @@ def test_check_points_imported_after_a_fit_measure_it_at_once(dock, scene, tmp_p
     assert f">{c.state.fit_info['status']}</b> · Check points <b>{c.state.fit_info['check_rmse_px']:.1f} px" in shown
     c.stack.undo()  # no check points any more: the fit's own status again
     assert c.state.fit_info["status"] == "ok" and c.state.fit_info["check_rmse_px"] is None
+    # Two that agree are too few to verify a camera alone, but lower nothing the fit verified (a trial: "uncertain"
+    # when imported after the fit, "ok" when imported before it, as a fit judges them)
+    two = str(tmp_path / "two.csv")
+    write_points_csv(two, uv=uv[:2], xyz=xyz[:2], ids=["c0", "c1"])
+    io_actions.import_points_csv(c, two, all_check=True)
+    info = c.state.fit_info
+    assert info["n_check"] == 2 and info["check_rmse_px"] < 0.5 and info["status"] == "ok", info["message"]
 
 
 def test_a_camera_written_with_its_verdict_comes_back_with_it(dock, scene, tmp_path):
