@@ -21,6 +21,7 @@ from ..adapters.photo import PhotoError, array_to_qimage, qimage_to_array, read_
 from ..core.camera import Camera
 from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, replace_in_views
 from ..workflow import auto as auto_step
+from ..workflow import fit as fit_step
 from ..workflow.camera_files import fitted_to_size
 from ..workflow.products import centred_on_picture
 from ..workflow import warmup
@@ -331,32 +332,20 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         self._fit_ids = ([p.id for p in photo], [p.id for p in world])
         return uv, xyz, pairs
 
-    def _ground_z(self, p: Point) -> Optional[float]:
-        if p.z is not None:
-            return p.z
-        z = float(self.dem.sample(p.x, p.y)) if self.dem is not None else float("nan")
-        return z if math.isfinite(z) else None
-
-    def check_points(self):
-        """(photo ids, uv (C, 2), xyz (C, 3)) of the check pairs: paired points kept out of the fit."""
-        return self.pair_arrays(self.state.check_pairs())
-
-    def pair_arrays(self, point_pairs):
-        """(photo ids, uv (K, 2), xyz (K, 3)) of (photo point, map point) pairs whose ground height is known."""
-        pairs = [(a, b, self._ground_z(b)) for a, b in point_pairs]
-        pairs = [(a, b, z) for a, b, z in pairs if z is not None]
-        uv = np.array([(a.x, a.y) for a, _, _ in pairs], dtype=np.float64).reshape(-1, 2)
-        xyz = np.array([(b.x, b.y, z) for _, b, z in pairs], dtype=np.float64).reshape(-1, 3)
-        return [a.id for a, _, _ in pairs], uv, xyz
-
     def fit(self) -> bool:
         """Fit the camera to the accepted points in a task (prior = start); result applied on the main thread."""
         if self.image is None or self.dem is None:
             self.message.emit(self.tr("Load a photo and choose a DEM first."), WARNING)
             return False
         start = self.prior or self.fitted
+        _, _, paired_xyz = self.pair_arrays(self.state.valid_pairs())
+        if start is None and len(paired_xyz) >= fit_step.MIN_PAIRS_WITHOUT_PRIOR:  # solved from them, as fitcamera
+            start = fit_step.start_above_points(paired_xyz, self.photo_size, self.dem.crs_wkt)
+            self.message.emit(self.tr("No rough camera: the camera is solved from the {0} pairs alone.").format(
+                len(paired_xyz)), INFO)
         if start is None:
-            self.message.emit(self.tr("Give a rough camera first (map tool or KML)."), WARNING)
+            self.message.emit(self.tr("Give a rough camera first (map tool or KML), or pair {0} or more "
+                                      "points.").format(fit_step.MIN_PAIRS_WITHOUT_PRIOR), WARNING)
             return False
         inputs = self.fit_inputs()
         if isinstance(inputs, str):

@@ -5,6 +5,7 @@ checked by ``tests/gui/test_controller_interfaces.py``."""
 
 from __future__ import annotations
 
+import math
 from typing import List, Optional, Protocol, Tuple
 
 import numpy as np
@@ -38,13 +39,29 @@ class ResultsHost(Protocol):
 
     def _changed(self) -> None: ...
 
-    def check_points(self): ...
-
     def tr(self, text: str) -> str: ...
 
 
 class ResultsMixin:
     """Residuals and lookups under the fitted camera; needs a :class:`ResultsHost`."""
+
+    def _ground_z(self, p: object) -> Optional[float]:
+        if p.z is not None:
+            return p.z
+        z = float(self.dem.sample(p.x, p.y)) if self.dem is not None else float("nan")
+        return z if math.isfinite(z) else None
+
+    def check_points(self):
+        """(photo ids, uv (C, 2), xyz (C, 3)) of the check pairs: paired points kept out of the fit."""
+        return self.pair_arrays(self.state.check_pairs())
+
+    def pair_arrays(self, point_pairs):
+        """(photo ids, uv (K, 2), xyz (K, 3)) of (photo point, map point) pairs whose ground height is known."""
+        pairs = [(a, b, self._ground_z(b)) for a, b in point_pairs]
+        pairs = [(a, b, z) for a, b, z in pairs if z is not None]
+        uv = np.array([(a.x, a.y) for a, _, _ in pairs], dtype=np.float64).reshape(-1, 2)
+        xyz = np.array([(b.x, b.y, z) for _, b, z in pairs], dtype=np.float64).reshape(-1, 3)
+        return [a.id for a, _, _ in pairs], uv, xyz
 
     def fit_points_changed(self) -> bool:
         """True when the points a fit would use now are not those of the fitted camera's fit (accepted, rejected,

@@ -18,7 +18,7 @@ from .progress import Canceled, IsCanceled, Progress, check_canceled
 from .warmup import import_torch
 
 __all__ = ["ON_GROUND_MAX_M", "DEFAULT_EYE_HEIGHT_M", "FitRefused", "FitDone", "ground_clearance", "on_ground_rule",
-           "fit", "point_rmse", "fit_points", "measured_on_pairs"]
+           "fit", "point_rmse", "fit_points", "measured_on_pairs", "MIN_PAIRS_WITHOUT_PRIOR", "start_above_points"]
 
 #: a start camera at most this high above the terrain is taken as a photographer on the ground (a person, a
 #: tripod, a lookout tower, a rooftop): the fit keeps its height above the terrain (z follows the DEM, one unknown
@@ -242,3 +242,21 @@ def fit_points(image_size, uv: np.ndarray, xyz: np.ndarray, prior: Camera, dem, 
     return camera, {"rmse_px": rmse, "status": result.status, "message": result.message,
                     "summary": result.summary(), "n_check": int(check.sum()),
                     "check_rmse_px": float(result.check_rmse_px) if check.any() else float("nan")}
+
+
+#: Paired ground-control points from which a camera is solved with no prior (a direct linear transform needs 6).
+MIN_PAIRS_WITHOUT_PRIOR = 6
+
+
+def start_above_points(xyz: np.ndarray, image_size, crs_wkt: str) -> Camera:
+    """A stand-in prior for a paired fit with no prior camera (``fitcamera`` without PRIOR, the dock without a rough
+    camera): 1 km above the points' centroid, level, 60° wide (the paired fit starts from its DLT and PnP
+    solutions, which do not depend on it; the height keeps the automatic height rule from holding it on the ground).
+
+    >>> start_above_points(np.array([[0.0, 0.0, 100.0], [10.0, 0.0, 300.0]]), (800, 600), "").position
+    (5.0, 0.0, 1300.0)
+    """
+    xyz = np.asarray(xyz, dtype=float).reshape(-1, 3)
+    x, y = np.nanmean(xyz[:, :2], axis=0)
+    return Camera((float(x), float(y), float(np.nanmax(xyz[:, 2])) + 1000.0), 0.0, 0.0, 0.0, 60.0,
+                  tuple(image_size), crs_wkt=crs_wkt)

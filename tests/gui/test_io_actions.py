@@ -70,6 +70,32 @@ def test_the_menu_imports_a_gcp_table_as_check_points(dock, scene, tmp_path, mon
     assert isinstance(inputs, str) or len(inputs[0]) == 0
 
 
+def test_a_gcp_table_fits_without_a_rough_camera(dock, scene, tmp_path, qtbot):
+    """A desktop trial: 8 imported GCPs, and Fit said "Give a rough camera first" where fitcamera solves the same
+    table from the pairs alone. Now the dock does too (6 or more pairs); fewer still ask for a rough camera."""
+    _load(dock, scene)
+    c = dock.controller
+    uv, xyz = _surveyed(scene, 9)
+    path = str(tmp_path / "gcps.csv")
+    write_points_csv(path, uv=uv, xyz=xyz, check=[False] * 7 + [True] * 2)
+    assert io_actions.import_points_csv(c, path) == 9 and c.prior is None and c.fitted is None
+    messages = []
+    c.message.connect(lambda text, level: messages.append(text))
+    assert c.fit()
+    with qtbot.waitSignal(c.taskFinished, timeout=60000) as blocker:
+        pass
+    assert blocker.args[0].ok, blocker.args[0].reason
+    assert any("solved from the 7 pairs alone" in m for m in messages)
+    info = c.state.fit_info
+    assert info["mode"] == "paired" and info["n_check"] == 2 and info["check_rmse_px"] < 6.0, info["message"]
+    assert np.linalg.norm(np.subtract(c.fitted.position, scene.camera.position)) < 30.0
+    c.set_fitted(None, {})
+    c.stack.undo()  # the import gone: no pairs, no camera
+    write_points_csv(path, uv=uv[:5], xyz=xyz[:5])
+    io_actions.import_points_csv(c, path)
+    assert not c.fit() and "Give a rough camera first" in messages[-1]
+
+
 def test_gcp_csv_export_round_trip(dock, scene, tmp_path):
     _load(dock, scene)
     c = dock.controller

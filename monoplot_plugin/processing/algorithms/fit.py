@@ -19,6 +19,7 @@ from qgis.core import (
 from .. import pipeline
 from ...outputs.safe_write import write_text
 from ...workflow.camera_files import camera_json
+from ...workflow.fit import MIN_PAIRS_WITHOUT_PRIOR, start_above_points
 from ...workflow.progress import Canceled
 from ..base import (MonoplotAlgorithm, camera_line, cancel_callback, centred_on_print, check_canceled, checked,
                     progress_callback, read_map_points, read_photo_points, report_status)
@@ -245,23 +246,3 @@ def dem_crs_name(dem) -> str:
     """The DEM file's CRS for a message: its authority id, or the start of its description."""
     crs = crs_from_wkt(getattr(dem, "source_crs_wkt", "") or dem.crs_wkt)
     return crs.authid() or crs.description()[:40] or "none"
-
-
-#: Paired ground-control points from which a camera is solved with no prior (a direct linear transform needs 6).
-MIN_PAIRS_WITHOUT_PRIOR = 6
-
-
-def start_above_points(xyz: np.ndarray, image_size, crs_wkt: str):
-    """A stand-in prior for a paired fit with no prior camera: 1 km above the points' centroid, level, 60° wide
-    (the paired fit starts from its DLT and PnP solutions, which do not depend on it; the height keeps the
-    automatic height rule from holding it on the ground).
-
-    >>> start_above_points(np.array([[0.0, 0.0, 100.0], [10.0, 0.0, 300.0]]), (800, 600), "").position
-    (5.0, 0.0, 1300.0)
-    """
-    from ...core.camera import Camera
-
-    xyz = np.asarray(xyz, dtype=float).reshape(-1, 3)
-    x, y = np.nanmean(xyz[:, :2], axis=0)
-    return Camera((float(x), float(y), float(np.nanmax(xyz[:, 2])) + 1000.0), 0.0, 0.0, 0.0, 60.0,
-                  tuple(image_size), crs_wkt=crs_wkt)
