@@ -105,19 +105,25 @@ def import_points_csv(controller, path: str, all_check: bool = False) -> int:
         os.path.basename(path), len(photo), len(world), len(pairs), n_check)
     outside = _outside_photo(c, photo)
     if outside:
-        text += " " + tr("{0} photo points lie outside the photo: is the table for this photo?").format(outside)
+        text += " " + tr("{0} photo points lie outside the photo ({1}): is the table for this photo?").format(
+            len(outside), ", ".join(outside[:5]) + (", …" if len(outside) > 5 else ""))
+    if table.get("unused"):  # a photo or map column under a name the reader does not know
+        text += " " + tr("Columns not read: {0} (photo pixels are u_px, v_px; map coordinates X, Y, Z).").format(
+            ", ".join(table["unused"]))
     for note in notes:
         text += " " + note + ("" if note.endswith("?") else ".")
     off_dem = any(OFF_DEM_NOTE in note for note in notes)
-    c.message.emit(text, WARNING if outside or off_dem else INFO)
+    c.message.emit(text, WARNING if outside or off_dem or table.get("unused") else INFO)
     return len(photo) + len(world) - len(pairs)
 
 
-def _outside_photo(c, photo: List[Point]) -> int:
+def _outside_photo(c, photo: List[Point]) -> List[str]:
+    """The labels of the photo points outside the photo (a trial's typed u of 3350 on a 3000 px photo was counted,
+    not named)."""
     if c.photo_size is None:
-        return 0
+        return []
     w, h = c.photo_size
-    return sum(1 for p in photo if not (0 <= p.x <= w and 0 <= p.y <= h))
+    return [p.label or f"({p.x:.0f}, {p.y:.0f})" for p in photo if not (0 <= p.x <= w and 0 <= p.y <= h)]
 
 
 def export_points_csv(controller, path: str) -> int:

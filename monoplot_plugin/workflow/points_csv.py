@@ -22,10 +22,13 @@ __all__ = ["read_points_csv", "write_points_csv", "PHOTO_COLUMNS", "MAP_COLUMNS"
 
 #: Accepted column names (case-insensitive) for photo pixel coordinates: u = column, v = row, from the top-left
 #: corner of the image, in pixels.
-PHOTO_COLUMNS = (("u_px", "u", "col", "column", "x_px", "px"), ("v_px", "v", "row", "y_px", "py"))
-#: Accepted column names (case-insensitive prefixes allowed, e.g. X_lv03) for map coordinates in the DEM's CRS.
-MAP_COLUMNS = (("x", "easting", "east", "lon"), ("y", "northing", "north", "lat"),
-               ("z", "z_m", "elevation", "elev", "alt", "altitude", "height"))
+PHOTO_COLUMNS = (("u_px", "u", "col", "column", "x_px", "px", "image_x", "img_x", "pixel_x"),
+                 ("v_px", "v", "row", "y_px", "py", "image_y", "img_y", "pixel_y"))
+#: Accepted column names (case-insensitive prefixes allowed, e.g. X_lv03) for map coordinates in the DEM's CRS;
+#: a surveyor's E, N, H only as they are (no prefix: "n_obs" is not a northing).
+MAP_COLUMNS = (("x", "easting", "east", "lon", "e"), ("y", "northing", "north", "lat", "n"),
+               ("z", "z_m", "elevation", "elev", "alt", "altitude", "height", "h"))
+_EXACT_ONLY = ("e", "n", "h")
 #: Accepted names of the check-point flag column.
 CHECK_COLUMNS = ("check", "is_check", "checkpoint", "check_point")
 _TRUE = ("1", "true", "yes", "y", "t", "check", "x")
@@ -37,6 +40,8 @@ def _find_column(header: Sequence[str], names: Sequence[str], exclude: Sequence[
         if name in lowered and lowered.index(name) not in exclude:
             return lowered.index(name)
     for name in names:  # then prefixes such as X_lv03, Z_m
+        if name in _EXACT_ONLY:
+            continue
         for i, h in enumerate(lowered):
             if i not in exclude and (h.startswith(name + "_") or h.startswith(name + " ")):
                 return i
@@ -52,7 +57,8 @@ def read_points_csv(path: str) -> Dict[str, np.ndarray]:
     Returns:
         dict with ``"uv"``: (N, 2) float pixels and/or ``"xyz"``: (N, 3) float map coordinates (Z is NaN where
         the table has no Z column or an empty cell; the caller samples the DEM), ``"ids"``: (N,) str (column
-        ``id`` or row number) and, when the table has a check column, ``"check"``: (N,) bool.
+        ``id`` or row number), ``"unused"``: the names of numeric columns it did not read, and, when the table has
+        a check column, ``"check"``: (N,) bool. A ";" or tab-separated table may use decimal commas.
 
     >>> import tempfile
     >>> path = os.path.join(tempfile.mkdtemp(), "g.csv")
@@ -105,7 +111,7 @@ def read_points_csv(path: str) -> Dict[str, np.ndarray]:
                 try:
                     out[r, c] = float(cell)
                 except ValueError:
-                    raise InputError(f"{name}, line {r + 2}: '{header[col]}' is not a number") from None
+                    out[r, c] = _decimal_comma(cell, dialect.delimiter, f"{name}, line {r + 2}: '{header[col]}'")
         return out
 
     for (a, b), names in (((iu, iv), PHOTO_COLUMNS), ((ix, iy), MAP_COLUMNS[:2])):
@@ -123,7 +129,46 @@ def read_points_csv(path: str) -> Dict[str, np.ndarray]:
                               for r, row in enumerate(body)])
     if icheck is not None:
         result["check"] = np.array([icheck < len(row) and row[icheck].strip().lower() in _TRUE for row in body])
+    # numeric columns read as nothing (a trial's image_x, image_y gave 8 map points and no word of the photo's)
+    used = {iu, iv, ix, iy, iz, iid, icheck}
+    result["unused"] = [header[i].strip() for i in range(len(header)) if i not in used and i < len(body[0])
+                        and _is_number(body[0][i], dialect.delimiter)]
     return result
+
+
+def _is_number(cell: str, delimiter: str) -> bool:
+    try:
+        float(cell)
+        return True
+    except ValueError:
+        pass
+    try:
+        _decimal_comma(cell.strip(), delimiter, "")
+        return True
+    except InputError:
+        return False
+
+
+def _decimal_comma(cell: str, delimiter: str, where: str) -> float:
+    """A cell that is not a plain number: a decimal comma where columns are not separated by commas (a spreadsheet
+    of a European locale: "301,68" in a ";" table) is read as a point; else an :class:`InputError` that quotes it.
+
+    >>> _decimal_comma("301,68", ";", "g.csv, line 2: 'u_px'")
+    301.68
+    >>> try:
+    ...     _decimal_comma("12 m", ",", "g.csv, line 2: 'Z'")
+    ... except InputError as exc:
+    ...     print(exc)
+    g.csv, line 2: 'Z' is "12 m", not a number
+    """
+    if delimiter != "," and cell.count(",") == 1 and "." not in cell:
+        try:
+            return float(cell.replace(",", "."))
+        except ValueError:
+            pass
+    hint = " (a decimal comma in a comma-separated table? separate the columns with ; or use decimal points)" \
+        if "," in cell else ""
+    raise InputError(f'{where} is "{cell}", not a number{hint}')
 
 
 def write_points_csv(path: str, uv: Optional[np.ndarray] = None, xyz: Optional[np.ndarray] = None,

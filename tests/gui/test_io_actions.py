@@ -123,6 +123,45 @@ def test_bad_csv_is_a_message(dock, scene, tmp_path, qgis_iface):
     assert not dock.controller.state.points
 
 
+def test_tables_from_other_tools_are_read_or_said_not_to_be(dock, scene, tmp_path):
+    """A desktop trial's GCP tables: semicolons with decimal commas ("'u_px' is not a number"), image_x/image_y
+    (8 map points, no word of the photo columns), E/N/H (8 photo points, no map), a u typed off the photo (counted,
+    not named). Decimal commas and these names are read; a column still not read, and the row off the photo, are
+    named."""
+    _load(dock, scene)
+    c = dock.controller
+    messages = []
+    c.message.connect(lambda text, level: messages.append(text))
+    uv, xyz = scene.uv[:6], scene.xyz[:6]
+
+    def table(name, header, rows):
+        path = tmp_path / name
+        path.write_text("\n".join([header] + rows) + "\n")
+        return str(path)
+
+    comma = table("semicolon.csv", "id;u_px;v_px;X;Y;Z", [f"g{i};{u:.2f};{v:.2f};{x:.2f};{y:.2f};{z:.2f}".replace(
+        ".", ",") for i, ((u, v), (x, y, z)) in enumerate(zip(uv, xyz))])
+    assert io_actions.import_points_csv(c, comma) == 6 and len(c.state.pairs) == 6
+    got = np.array(sorted((p.x, p.y) for p in c.state.in_space(PHOTO)))
+    assert np.allclose(got, np.array(sorted(map(tuple, uv))), atol=0.01)
+    c.stack.undo()
+    rows = [f"{u:.2f},{v:.2f},{x:.2f},{y:.2f},{z:.2f}" for (u, v), (x, y, z) in zip(uv, xyz)]
+    for header in ("image_x,image_y,easting,northing,elevation", "col_px,row_px,E,N,H"):
+        assert io_actions.import_points_csv(c, table("other.csv", header, rows)) == 6, messages[-1]
+        assert len(c.state.pairs) == 6 and "Columns not read" not in messages[-1]
+        c.stack.undo()
+    io_actions.import_points_csv(c, table("unknown.csv", "pic_col,pic_row,X,Y,Z", rows))
+    assert "Columns not read: pic_col, pic_row" in messages[-1] and not c.state.in_space(PHOTO)
+    c.stack.undo()
+    off = [f"G{i},{u + (1000 if i == 2 else 0):.2f},{v:.2f},{x:.2f},{y:.2f},{z:.2f}"
+           for i, ((u, v), (x, y, z)) in enumerate(zip(uv, xyz))]
+    io_actions.import_points_csv(c, table("off.csv", "id,u_px,v_px,X,Y,Z", off))
+    assert "1 photo points lie outside the photo (G2)" in messages[-1]
+    c.stack.undo()
+    bad = table("bad_number.csv", "u_px,v_px,X,Y,Z", ["12 px,3,4,5,6"])
+    assert io_actions.import_points_csv(c, bad) == 0 and '\'u_px\' is "12 px", not a number' in messages[-1]
+
+
 def test_point_layers_export_and_import_round_trip(dock, scene, tmp_path):
     _load(dock, scene)
     c = dock.controller

@@ -114,6 +114,10 @@ class FitCamera(MonoplotAlgorithm):
             if not path:
                 continue
             table = checked(read_points_csv, path)
+            if table.get("unused") and feedback is not None:
+                feedback.pushWarning(self.tr("{0}: columns not read: {1} (photo pixels are u_px, v_px; map "
+                                             "coordinates X, Y, Z)").format(os.path.basename(path),
+                                                                             ", ".join(table["unused"])))
             if "uv" in table and "xyz" in table:
                 paired = True  # one table with both: ground-control points
             if "uv" in table:
@@ -189,9 +193,11 @@ class FitCamera(MonoplotAlgorithm):
                 n_uv, n_xyz, minimum, self.tr("pair") if paired else self.tr("set")) + hint)
         outside = ~prior.in_image(uv)
         if outside.any():
-            raise QgsProcessingException(self.tr("{0} photo points lie outside the {1}x{2} photo: are they in photo "
-                                                 "pixel space (x = column, y = -row, or columns u_px, v_px)?").format(
-                int(outside.sum()), prior.width, prior.height))
+            first = ", ".join(f"({u:.1f}, {v:.1f})" for u, v in uv[outside][:3])
+            raise QgsProcessingException(self.tr("{0} photo points lie outside the {1}x{2} photo ({3}): are they in "
+                                                 "photo pixel space (x = column, y = -row, or columns u_px, "
+                                                 "v_px)?").format(int(outside.sum()), prior.width, prior.height,
+                                                                  first))
         feedback.pushInfo(self.tr("Fitting with {0} photo points and {1} DEM points ({2})").format(
             len(uv) - int(check.sum()), len(xyz) - int(check.sum()),
             self.tr("paired") if paired else self.tr("unpaired")))
