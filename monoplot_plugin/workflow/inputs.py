@@ -221,17 +221,26 @@ def points_to_dem_crs(xyz: np.ndarray, dem, points_crs: str = "", name: str = "t
             except Exception:  # a CRS that cannot be converted is no guess  # noqa: BLE001
                 continue
             if _inside(dem, converted).mean() >= 0.5:
-                notes.append(f"{name} look like {words} and were converted to the DEM's CRS")
+                notes.append(f"{_points_of(name)} look like {words} and were converted to the DEM's CRS")
                 return converted, notes + _off_dem_notes(dem, converted, name)
     if not source or not dem.crs_wkt or _same_crs(source, dem.crs_wkt):
         return xyz, notes + _off_dem_notes(dem, xyz, name)
     converted = _transform(xyz, source, dem.crs_wkt)
-    notes.append(f"{name} were converted from {_crs_name(source)} to {_crs_name(dem.crs_wkt)}")
+    notes.append(f"{_points_of(name)} were converted from {_crs_name(source)} to {_crs_name(dem.crs_wkt)}")
     return converted, notes + _off_dem_notes(dem, converted, name)
 
 
 #: Notes of :func:`points_to_dem_crs` that say this are warnings (points off the DEM), the others information.
 OFF_DEM_NOTE = "lie outside the DEM"
+
+
+def _points_of(name: str) -> str:
+    """The subject of a note: "The points of gcps.csv" for a file name (it read "gcps.csv look like ...").
+
+    >>> _points_of("gcps.csv"), _points_of("the points")
+    ('The points of gcps.csv', 'The points')
+    """
+    return "The points" if name == "the points" else f"The points of {name}"
 
 
 def _off_dem_notes(dem, xyz: np.ndarray, name: str) -> List[str]:
