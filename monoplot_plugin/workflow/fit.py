@@ -18,7 +18,8 @@ from .progress import Canceled, IsCanceled, Progress, check_canceled
 from .warmup import import_torch
 
 __all__ = ["ON_GROUND_MAX_M", "DEFAULT_EYE_HEIGHT_M", "FitRefused", "FitDone", "ground_clearance", "on_ground_rule",
-           "fit", "point_rmse", "fit_points", "measured_on_pairs", "MIN_PAIRS_WITHOUT_PRIOR", "start_above_points"]
+           "fit", "point_rmse", "fit_points", "measured_on_pairs", "hidden_share", "flag_hidden_points",
+           "MIN_PAIRS_WITHOUT_PRIOR", "start_above_points"]
 
 #: a start camera at most this high above the terrain is taken as a photographer on the ground (a person, a
 #: tripod, a lookout tower, a rooftop): the fit keeps its height above the terrain (z follows the DEM, one unknown
@@ -37,6 +38,9 @@ DEFAULT_EYE_HEIGHT_M = 1.7
 #: unknown back. A desktop trial: a rough camera 29 m under the terrain (the truth 30 m above it) held on the ground
 #: gave 36.8 px and 37 m off with 9 exact pairs; its height free, 0.8 px and 0.8 m.
 FREE_HEIGHT_F = 20.0
+#: Shares of the map points a fit used that terrain may hide from its camera before the fit is "uncertain" and
+#: "poor" (:func:`flag_hidden_points`): a right camera sees the points it matched, bar a coarse DEM's few.
+HIDDEN_DOUBT, HIDDEN_POOR = 0.25, 0.5
 #: fewest pairs for that test (2 x 5 - 8 = 2 degrees of freedom left, one fewer than the free fit's 7 unknowns leave)
 FREE_HEIGHT_MIN_PAIRS = 5
 
@@ -133,6 +137,7 @@ def fit(uv: np.ndarray, xyz: np.ndarray, start: Camera, dem, pairs=None, on_grou
                 f"{free_result.message} Height fitted freely: held on the ground the pairs fit at "
                 f"{result.rmse_px:.1f} px, free they place the camera "
                 f"{ground_clearance(free_result.camera, dem):.0f} m above the terrain at {free_result.rmse_px:.1f} px.")
+            flag_hidden_points(free_result, xyz, dem)
             return FitDone(free_result, False, None, height_freed=True)
     if on_ground is None and not grounded and height_free and \
             ground_clearance(result.camera, dem) < -UNDERGROUND_TOLERANCE_M:
@@ -144,6 +149,7 @@ def fit(uv: np.ndarray, xyz: np.ndarray, start: Camera, dem, pairs=None, on_grou
         result = run(result.camera, grounded, eye, report)
     elif not grounded:
         flag_under_terrain(result, ground_clearance(result.camera, dem))
+    flag_hidden_points(result, xyz, dem)
     return FitDone(result, grounded, eye if grounded else None)
 
 
@@ -174,6 +180,58 @@ def flag_under_terrain(result: FitResult, clearance: float) -> None:
                       f"the points and the DEM.")
     if result.status == "ok":
         result.status = "uncertain"
+
+
+def hidden_share(camera: Camera, xyz: np.ndarray, dem) -> Tuple[int, int]:
+    """(how many of the map points ``xyz`` (K, 3) terrain hides from ``camera``, how many were looked at): a line of
+    sight that enters the terrain short of its point by more than three DEM cells and 2 % of its length (a coarse
+    DEM's grazing slopes, a surveyed height a little under the DEM's, stay seen).
+
+    >>> from monoplot_plugin.core.dem import Dem
+    >>> dem = Dem.from_array(np.where(np.arange(40)[None, :] == 20, 100.0, 0.0).repeat(40, 0), (0, 10, 0, 400, 0, -10))
+    >>> cam = Camera((50.0, 200.0, 10.0), 90.0, 0.0, 0.0, 60.0, (100, 100))
+    >>> hidden_share(cam, np.array([[150.0, 200.0, 0.0], [350.0, 200.0, 0.0]]), dem)  # the second behind the wall
+    (1, 2)
+    """
+    from ..core.xyz.sight import segment_first_hit
+
+    xyz = np.asarray(xyz, dtype=float).reshape(-1, 3)
+    xyz = xyz[np.isfinite(xyz).all(axis=1)]
+    if not len(xyz):
+        return 0, 0
+    origin = np.asarray(camera.position, dtype=float)
+    length = np.linalg.norm(xyz - origin, axis=1)
+    s = segment_first_hit(dem, origin, xyz)
+    short = np.where(np.isfinite(s), (1.0 - s) * length, 0.0)
+    hidden = short > np.maximum(3.0 * dem.cell_size, 0.02 * length)
+    return int(hidden.sum()), len(xyz)
+
+
+def flag_hidden_points(result: FitResult, xyz: np.ndarray, dem) -> None:
+    """A camera that cannot see most of the map points it was fitted to stands where no photo of them was taken (a
+    trial: a fit from a phone's GPS position slid 117 m back behind the ridge it stood on, distant terrain trading
+    that for the field of view; "ok" at 1.9 px, and every XYZ pixel and drawn point fell on the slope in front of
+    it). Over :data:`HIDDEN_POOR` of them hidden is "poor", over :data:`HIDDEN_DOUBT` an "ok" becomes "uncertain";
+    said in ``result.message`` (in place)."""
+    if result.status not in ("ok", "uncertain") or dem is None:
+        return
+    pairs = np.asarray(result.pairs, dtype=np.int64).reshape(-1, 2)
+    if len(pairs) and len(result.inliers) == len(pairs):
+        pairs = pairs[np.asarray(result.inliers, dtype=bool)]
+    if len(pairs) < 4:
+        return
+    hidden, seen = hidden_share(result.camera, np.asarray(xyz, dtype=float)[pairs[:, 1]], dem)
+    if not seen or hidden <= HIDDEN_DOUBT * seen:
+        return
+    text = (f"terrain hides {hidden} of the {seen} map points it was fitted to from the camera: it probably ended "
+            f"behind a ridge or a slope, where no photo of them was taken; check its position (give the known "
+            f"position and fix it in Fit settings) or the points")
+    if hidden > HIDDEN_POOR * seen:
+        result.status = "poor"
+        result.message = f"{result.message} Probably wrong: {text}."
+    else:
+        result.status = "uncertain"
+        result.message = f"{result.message} Uncertain: {text}."
 
 
 def measured_on_pairs(camera: Camera, uv: np.ndarray, xyz: np.ndarray) -> Tuple[int, float]:

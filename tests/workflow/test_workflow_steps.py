@@ -103,6 +103,37 @@ def test_pairs_free_the_height_of_a_start_held_under_the_terrain_only_when_they_
     assert kept.on_ground and "Height fitted freely" not in kept.result.message
 
 
+def test_a_camera_that_cannot_see_the_points_it_fits_is_poor():
+    """A desktop trial: a fit from a phone's GPS position slid 117 m back behind the ridge it stood on and said "ok"
+    at 1.9 px; every XYZ pixel and drawn point then fell on the slope in front of it. Generated: exact pairs on
+    terrain 2-3 km away, projected by a camera standing behind a 60 m wall that hides all of it. The pairs alone fit
+    it ("ok" before); the terrain says no photo of them was taken there."""
+    rows = np.arange(120)[:, None] * np.ones(120)[None, :]
+    cols = np.ones(120)[:, None] * np.arange(120)[None, :]
+    heights = 300.0 + 40.0 * np.sin(rows / 9.0) * np.cos(cols / 13.0) + np.where(cols > 60, 4.0 * (cols - 60), 0.0)
+    heights[:, 8:10] = 380.0  # the wall, 60-80 m over the camera, 80-100 m east of it
+    dem = Dem.from_array(heights, (0.0, 50.0, 0.0, 6000.0, 0.0, -50.0))
+    camera = Camera((200.0, 3000.0, 325.0), 90.0, 2.0, 0.0, 50.0, (800, 600))
+    rng = np.random.default_rng(0)
+    xy = np.column_stack([rng.uniform(2500, 3500, 30), rng.uniform(2400, 3600, 30)])
+    xyz = np.column_stack([xy, [dem.sample(x, y) for x, y in xy]])
+    uv = camera.project(xyz)
+    keep = np.isfinite(uv).all(axis=1) & camera.in_image(np.nan_to_num(uv, nan=-1.0))
+    uv, xyz = uv[keep], xyz[keep]
+    assert len(uv) >= 12
+    assert fit_step.hidden_share(camera, xyz, dem)[0] == len(xyz)
+    pairs = np.column_stack([np.arange(len(uv))] * 2)
+    start = camera.with_parameters(x=230.0, heading=91.0)
+    done = fit_step.fit(uv, xyz, start, dem, pairs=pairs, on_ground=False)
+    assert np.linalg.norm(np.subtract(done.camera.position, camera.position)) < 5.0  # the pairs fit it
+    assert done.result.status == "poor" and "terrain hides" in done.result.message, done.result.message
+    # seen from in front of the wall, the same points are no reason for doubt
+    front = camera.with_parameters(x=700.0, z=float(dem.sample(700.0, 3000.0)) + 30.0)
+    uv2 = front.project(xyz)
+    done = fit_step.fit(uv2, xyz, front.with_parameters(heading=91.0), dem, pairs=pairs, on_ground=False)
+    assert "terrain hides" not in done.result.message and done.result.status != "poor", done.result.message
+
+
 def test_fit_cancel_and_refusal(scene):
     dem, camera, _ = scene
     full = xyz.xyz_raster(camera, dem)
