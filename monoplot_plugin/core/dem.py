@@ -125,8 +125,9 @@ class Dem:
         geographic = bool(wkt) and srs.ImportFromWkt(wkt) == 0 and bool(srs.IsGeographic())
         row0 = col0 = 0
         rows, cols = ds.RasterYSize, ds.RasterXSize
+        a, b, _ = band_to_metres(rb)
         if camera is not None and not geographic:
-            zmin, zmax = rb.ComputeRasterMinMax(True)
+            zmin, zmax = (a * z + b for z in rb.ComputeRasterMinMax(True))
             window = view_window(camera, gt, (rows, cols), zmin, zmax, max_range, margin_cells)
             if window is None:
                 raise ValueError(f"the camera sees no part of {path}")
@@ -136,6 +137,7 @@ class Dem:
         if row0 or col0:
             gt = (gt[0] + col0 * gt[1] + row0 * gt[2], gt[1], gt[2], gt[3] + col0 * gt[4] + row0 * gt[5], gt[4], gt[5])
         elevation = np.asarray(data, dtype=np.float64 if data.dtype != np.float32 else np.float32)  # no 2nd copy
+        nodata = stored_to_metres(elevation, a, b, nodata)
         notes = mark_voids(elevation, nodata=nodata, void_value=void_value, sentinels=sentinels)
         dem = cls(elevation, tuple(gt), _wkt_or_empty(wkt))
         dem.window = (row0, col0)
@@ -420,6 +422,48 @@ def zero_voids(elevation: np.ndarray, min_median: float = 300.0) -> int:
         return 0
     elevation[zeros] = np.nan
     return int(zeros.sum())
+
+
+#: Vertical units a band may declare (GDAL's unit type, lower case) that are not metres: their length in metres.
+FOOT_UNITS = {"ft": 0.3048, "foot": 0.3048, "feet": 0.3048, "international foot": 0.3048,
+              "us-ft": 1200.0 / 3937.0, "ftus": 1200.0 / 3937.0, "us survey foot": 1200.0 / 3937.0,
+              "us_survey_foot": 1200.0 / 3937.0}
+
+
+def band_to_metres(band) -> Tuple[float, float, str]:
+    """(a, b, note): heights in metres are ``a * stored + b`` for a GDAL band, from its scale and offset and a
+    declared unit of feet; the note says what was applied ("" for plain metres). A trial's DEM stored as UInt16
+    with scale 0.1 and offset 500 was read as 4,000-9,000 m, and one in feet as metres: most of both became
+    "voids above 9,000 m"."""
+    scale, offset = band.GetScale(), band.GetOffset()
+    scale = 1.0 if scale in (None, 0.0) else float(scale)
+    offset = 0.0 if offset is None else float(offset)
+    unit = (band.GetUnitType() or "").strip().lower()
+    foot = FOOT_UNITS.get(unit, 1.0)
+    said = []
+    if scale != 1.0 or offset != 0.0:
+        said.append(f"the band's scale {scale:g} and offset {offset:g} applied")
+    if foot != 1.0:
+        said.append(f"heights in {unit} (the band's unit) converted to metres")
+    return scale * foot, offset * foot, "; ".join(said)
+
+
+def stored_to_metres(elevation: np.ndarray, a: float, b: float, nodata: Optional[float]) -> Optional[float]:
+    """Turn stored values into metres in place (``a * z + b``, :func:`band_to_metres`); the stored ``nodata``
+    cells become NaN first. Returns the nodata value still to look for (None once they are NaN).
+
+    >>> z = np.array([[4000.0, 0.0]])
+    >>> stored_to_metres(z, 0.1, 500.0, 0.0), z.tolist()
+    (None, [[900.0, nan]])
+    """
+    if a == 1.0 and b == 0.0:
+        return nodata
+    void = elevation == nodata if nodata is not None and not math.isnan(nodata) else None
+    elevation *= a
+    elevation += b
+    if void is not None:
+        elevation[void] = np.nan
+    return None
 
 
 def mark_voids(elevation: np.ndarray, nodata: Optional[float] = None, void_value: Optional[float] = None,

@@ -232,7 +232,7 @@ def open_dem(path: str, void_value: Optional[float] = None, progress: Optional[P
     so; :class:`~.dem_window.OverviewsCanceled` when ``is_canceled()`` turns true while they are built)."""
     cells = _cells(path)
     limit = in_memory_limit() if max_cells is None else int(max_cells)
-    image = _image_note(path)
+    image = _image_note(path) + _units_note(path)
     if not _windowed(path, cells, limit):
         return Dem.open(path, void_value=void_value), image
     source, notes = open_dem_source(str(path), progress, void_value=void_value, is_canceled=is_canceled)
@@ -247,6 +247,17 @@ def open_dem(path: str, void_value: Optional[float] = None, progress: Optional[P
                     f"{factor} copy of {source.level_cell_size(factor):.3g} m cells)")
     logger.info("%s", notes[0])
     return dem, image + notes
+
+
+def _units_note(path: str) -> List[str]:
+    """What was done to the stored values to have metres (:func:`~.dem.band_to_metres`), said once."""
+    from osgeo import gdal
+
+    from .dem import band_to_metres
+
+    ds = gdal.Open(str(path))  # kept while its band is used (a band outliving its dataset crashes GDAL)
+    note = band_to_metres(ds.GetRasterBand(1))[2]
+    return [f"{os.path.basename(str(path))}: {note}"] if note else []
 
 
 #: The note of :func:`open_dem` on a raster that looks like an image (the dock shows it as a warning).

@@ -41,7 +41,7 @@ from typing import Callable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .dem import Dem, _wkt_or_empty, mark_voids
+from .dem import Dem, _wkt_or_empty, band_to_metres, mark_voids, stored_to_metres
 from .dem_window_view import view_footprint, view_window
 
 __all__ = ["DemSource", "DemBand", "as_dem", "open_dem_source", "build_overviews", "missing_overviews",
@@ -207,6 +207,7 @@ class DemSource:
         if self.crs_wkt and srs.ImportFromWkt(self.crs_wkt) == 0 and srs.IsGeographic():
             raise ValueError(f"{path} is in geographic degrees: read it with Dem.open, which reprojects it to UTM")
         self.nodata = self._band.GetNoDataValue()
+        self._a, self._b, self.units_note = band_to_metres(self._band)  # stored values -> metres
         self.void_value = void_value
         self.sentinels = sentinels
         overviews = [self._band.GetOverview(i) for i in range(self._band.GetOverviewCount())]
@@ -235,16 +236,21 @@ class DemSource:
         g = self.geotransform
         return math.sqrt(abs(g[1] * g[5] - g[2] * g[4]))
 
+    def _in_metres(self, block: np.ndarray) -> Optional[float]:
+        """The stored values of ``block`` as metres, in place; the nodata value still to look for
+        (:func:`~.dem.stored_to_metres`)."""
+        return stored_to_metres(block, self._a, self._b, self.nodata)
+
     def _height_range(self) -> Tuple[float, float]:
         lo, hi = self._band.GetMinimum(), self._band.GetMaximum()
         if lo is not None and hi is not None:
-            return float(lo), float(hi)
+            return float(self._a * lo + self._b), float(self._a * hi + self._b)
         if len(self.levels) > 1:
             z = self._overviews[self.levels[-1]].ReadAsArray().astype(np.float64)
-            mark_voids(z, nodata=self.nodata, void_value=self.void_value, sentinels=self.sentinels)
+            mark_voids(z, nodata=self._in_metres(z), void_value=self.void_value, sentinels=self.sentinels)
             lo, hi = float(np.nanmin(z)), float(np.nanmax(z))
         else:  # exact for small files; GDAL samples large ones
-            lo, hi = self._band.ComputeRasterMinMax(self.cells > 4e6)
+            lo, hi = (self._a * z + self._b for z in self._band.ComputeRasterMinMax(self.cells > 4e6))
         pad = 0.1 * (hi - lo) + 1.0
         return float(lo - pad), float(hi + pad)
 
@@ -292,7 +298,8 @@ class DemSource:
         rows_l, cols_l = self.level_shape(factor)
         row0, col0, rows, cols = (0, 0, rows_l, cols_l) if window is None else (int(w) for w in window)
         elevation = self._read_block(factor, row0, col0, rows, cols, out=np.empty((rows, cols), dtype=np.float32))
-        notes = mark_voids(elevation, nodata=self.nodata, void_value=self.void_value, sentinels=self.sentinels)
+        notes = mark_voids(elevation, nodata=self._in_metres(elevation), void_value=self.void_value,
+                           sentinels=self.sentinels)
         g = self.level_geotransform(factor)
         gt = (g[0] + col0 * g[1] + row0 * g[2], g[1], g[2], g[3] + col0 * g[4] + row0 * g[5], g[4], g[5])
         dem = Dem(elevation, gt, self.crs_wkt)
@@ -346,7 +353,8 @@ class DemSource:
             if c1 <= c0:
                 continue
             block = self._read_block(factor, row0 + r, col0 + c0, r1 - r, c1 - c0, out=elevation[r:r1, c0:c1])
-            found = mark_voids(block, nodata=self.nodata, void_value=self.void_value, sentinels=self.sentinels)
+            found = mark_voids(block, nodata=self._in_metres(block), void_value=self.void_value,
+                               sentinels=self.sentinels)
             notes += found
             voids = voids or bool(found)
         if voids and not placeholders:

@@ -202,3 +202,48 @@ def test_lod_over_voids_equals_the_z_buffer(terrain, tmp_path):
     full = compute_xyz_full(cam, holed, visibility=False)
     assert np.array_equal(lod.hit, full.hit)
     assert np.allclose(lod.xyz[lod.hit], full.xyz[full.hit], atol=1e-6)
+
+
+@pytest.mark.parametrize("kind", ["scaled", "feet"])
+def test_stored_values_become_metres_read_whole_or_by_windows(terrain, tmp_path, kind):
+    """A trial's DEMs: UInt16 with scale 0.1 and offset 500 (read as 4,000-9,000 m), and one in feet (read as
+    metres); most of each became "voids above 9,000 m". Both are metres now, read whole or by windows, the
+    nodata cells voids, and the notes say what was applied."""
+    from osgeo import gdal
+
+    from monoplot_plugin.core.dem_large import open_dem
+
+    dem, _, cam = terrain
+    metres = np.array(dem.elevation, dtype=np.float64)
+    metres[5:9, 5:9] = np.nan
+    path = str(tmp_path / f"{kind}.tif")
+    ds = gdal.GetDriverByName("GTiff").Create(path, dem.cols, dem.rows, 1,
+                                              gdal.GDT_UInt16 if kind == "scaled" else gdal.GDT_Float32)
+    ds.SetGeoTransform(dem.geotransform)
+    ds.SetProjection(dem.crs_wkt)
+    band = ds.GetRasterBand(1)
+    if kind == "scaled":
+        stored = np.where(np.isnan(metres), 0, np.round((metres - 500.0) / 0.1)).astype(np.uint16)
+        band.SetScale(0.1)
+        band.SetOffset(500.0)
+        band.SetNoDataValue(0)
+        tolerance = 0.06
+    else:
+        stored = np.where(np.isnan(metres), -9999.0, metres / 0.3048).astype(np.float32)
+        band.SetUnitType("ft")
+        band.SetNoDataValue(-9999.0)
+        tolerance = 0.01
+    band.WriteArray(stored)
+    ds = band = None
+    whole, notes = open_dem(path)
+    assert any(("scale 0.1 and offset 500" if kind == "scaled" else "in ft") in n for n in notes), notes
+    windowed, _ = open_dem(path, max_cells=60_000)
+    assert windowed.source is not None  # read by windows
+    for got in (whole.elevation, windowed.source.read().elevation):
+        assert np.array_equal(np.isnan(got), np.isnan(metres))
+        assert np.nanmax(np.abs(got - metres)) < tolerance
+    lo, hi = windowed.source._height_range()
+    assert lo <= np.nanmin(metres) and hi >= np.nanmax(metres) and hi < 1.5 * np.nanmax(metres)
+    framed = Dem.open(path, camera=cam, max_range=3000.0)  # the camera's window, from the range in metres
+    assert np.nanmax(np.abs(framed.elevation - metres[framed.window[0]:framed.window[0] + framed.rows,
+                                                       framed.window[1]:framed.window[1] + framed.cols])) < tolerance
