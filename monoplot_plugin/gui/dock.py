@@ -497,7 +497,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
         c.cancel()
         self.curation_panel.unload()
         self.chips.unload()
-        c.save()
+        c.hand_over()
         c.detach()
         if self.output_tools is not None:
             self.output_tools.unload()

@@ -99,6 +99,14 @@ class ProjectSessionMixin:
         self._autosave.stop()
         persistence.save(self.project, self.state)
 
+    def hand_over(self) -> None:
+        """The plugin unloads (a reload, a disable, QGIS quitting): the state goes into the project, which QGIS asks
+        to save, and the autosave files of a saved project go. Left behind, they brought work the person then
+        chose to discard back the next time the project was opened (a trial: reload, edit, New project, Discard)."""
+        self._autosave.stop()
+        persistence.store_in_project(self.project, self.state)
+        persistence.discard_autosave(self.project.fileName())
+
     def restore(self) -> bool:
         """Load the state stored in the project (after projectRead); falls back to a newer autosave."""
         self._autosave.stop()  # a pending autosave of the previous project must not overwrite this one

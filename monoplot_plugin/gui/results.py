@@ -148,17 +148,16 @@ class ResultsMixin:
         key = [list(ids), np.round(uv, 2).tolist(), np.round(xyz, 2).tolist()]
         if info.get("checks_measured") == key:
             return False
-        if "checks_measured" not in info and len(ids) == (info.get("n_check") or 0):
-            # as the fit measured them (its status already says what they said)
-            info.update(checks_measured=key, status_before_checks=info.get("status", "ok"),
-                        message_before_checks=info.get("message", ""))
+        errors = np.hypot(*(cam.project(xyz) - uv).T) if len(ids) else np.zeros(0)
+        if "checks_measured" not in info and _as_the_fit_measured(info, ids, errors):
+            # its status already says what they said; nothing recorded (a reopened project, or a plugin reload,
+            # must not become "modified" by it)
             return False
         before = info.get("status_before_checks", info.get("status", "ok"))
         message = info.get("message_before_checks", info.get("message", ""))
         own = info.get("rmse_px")  # the fit's residuals: check points far beyond them make it "poor", as in a fit
         judged = judge_by_check_points(before, message, cam, uv, xyz, float(own) if own is not None else np.nan)
         old_status, old_check = info.get("status"), info.get("check_rmse_px")
-        errors = np.hypot(*(cam.project(xyz) - uv).T) if len(ids) else np.zeros(0)
         info.update(checks_measured=key, status_before_checks=before, message_before_checks=message,
                     status=judged["status"], message=judged["message"], check_rmse_px=judged["check_rmse_px"],
                     n_check=len(ids), check_error_px={i: float(e) for i, e in zip(ids, errors) if np.isfinite(e)})
@@ -347,3 +346,19 @@ class ResultsMixin:
         # the dock's fit stores its standard deviations as "sigma" (gui/engine.py); a core summary says "std"
         std = info.get("sigma") or info.get("std")
         return points, (std or None)
+
+
+def _as_the_fit_measured(info: dict, ids, errors: np.ndarray) -> bool:
+    """True when the check pairs ``ids`` with their pixel ``errors`` now are those the fit (or the camera's
+    loading) measured: its ``check_error_px`` per point, else its count and RMSE (0.001 px)."""
+    recorded = info.get("check_error_px")
+    if isinstance(recorded, dict) and recorded:
+        return set(recorded) == set(ids) and all(abs(float(recorded[i]) - float(e)) < 1e-3
+                                                 for i, e in zip(ids, errors) if np.isfinite(e))
+    rmse = info.get("check_rmse_px")
+    if len(ids) != (info.get("n_check") or 0):
+        return False
+    finite = errors[np.isfinite(errors)]
+    if rmse is None or not len(finite):
+        return rmse is None and not len(finite)
+    return abs(float(rmse) - float(np.sqrt(np.mean(finite ** 2)))) < 1e-3

@@ -163,3 +163,40 @@ def test_saved_as_a_new_file_the_old_file_reopens_as_it_was_saved(dock, scene, q
     assert project.read(day2)
     qtbot.waitUntil(lambda: c.image is not None, timeout=5000)
     assert c.state.settings.get("overlay_opacity") == 17
+
+
+def test_work_discarded_after_the_plugin_unloaded_does_not_come_back(dock, scene, qtbot, qgis_iface, tmp_path):
+    """A trial: edit a saved project, reload (or unload) the plugin, New project, "Discard": reopened, the edit was
+    back ("Monoplot restored work done after the project was last saved"), since the unload wrote an autosave that
+    nothing listened to remove. The unload hands the state to the project (QGIS asks to save it) and removes the
+    autosave; a reload of an untouched project leaves it unmodified."""
+    from monoplot_plugin.gui.dock import MonoplotDock
+    from monoplot_plugin.state import PHOTO, Point
+
+    c = _fitted_session(dock, scene, qtbot)
+    project = QgsProject.instance()
+    path = str(tmp_path / "day.qgz")
+    assert project.write(path)
+    project.clear()
+    assert project.read(path)
+    qtbot.waitUntil(lambda: c.image is not None, timeout=5000)
+    qtbot.wait(200)
+    assert not project.isDirty()
+    dock.unload()  # a reload of the untouched project: not "modified"
+    assert not project.isDirty()
+    again = MonoplotDock(qgis_iface)
+    qtbot.addWidget(again)
+    try:
+        qtbot.waitUntil(lambda: again.controller.image is not None, timeout=5000)
+        again.controller.state.points["p-new"] = Point("p-new", PHOTO, 10.0, 20.0)  # an edit after the save
+        again.controller._changed()
+        again.controller.save()  # as the debounced autosave would
+        assert os.path.exists(persistence.autosave_path(project))
+        again.unload()
+        assert project.isDirty() and not os.path.exists(persistence.autosave_path(project))
+        project.clear()  # New project, "Discard"
+        assert project.read(path)
+        state, source = persistence.load_with_source(project)
+        assert source == "project" and "p-new" not in state.points
+    finally:
+        again.unload()
