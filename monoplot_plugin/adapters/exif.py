@@ -65,20 +65,35 @@ def _dms(value: str, ref: str) -> Optional[float]:
     return -deg if (ref or "").strip().upper() in ("S", "W") else deg
 
 
-def horizontal_fov_from_35mm(focal_35mm: float, landscape: bool = True) -> float:
-    """Horizontal field of view (degrees) of a 36 x 24 mm frame behind a lens of ``focal_35mm`` mm.
+#: The diagonal of a 36 x 24 mm frame: a 35 mm equivalent focal length gives the picture's diagonal field of view.
+FULL_FRAME_DIAGONAL_MM = math.hypot(36.0, 24.0)
+
+
+def horizontal_fov_from_35mm(focal_35mm: float, landscape: bool = True,
+                             size: Optional[Tuple[int, int]] = None) -> float:
+    """Horizontal field of view (degrees) of a picture behind a lens of ``focal_35mm`` mm 35 mm equivalent.
+
+    The equivalent is defined on the diagonal (CIPA DC-008): a picture of ``size`` (width, height) px is as wide
+    as 43.27 mm times its width over its diagonal; without ``size``, a 3:2 frame (36 or, portrait, 24 mm). A
+    phone's 4:3 portrait picture at 26 mm is 53.1 deg wide (a trial: 49.6 deg as 24 mm wide, 3.5 deg narrow).
 
     >>> round(horizontal_fov_from_35mm(28.0), 1), round(horizontal_fov_from_35mm(28.0, landscape=False), 1)
     (65.5, 46.4)
+    >>> [round(horizontal_fov_from_35mm(f, size=size), 1) for f, size in ((26.0, (600, 800)), (28.0, (300, 200)))]
+    [53.1, 65.5]
     """
-    width = 36.0 if landscape else 24.0
+    if size is not None and size[0] > 0 and size[1] > 0:
+        width = FULL_FRAME_DIAGONAL_MM * size[0] / math.hypot(size[0], size[1])
+    else:
+        width = 36.0 if landscape else 24.0
     return math.degrees(2.0 * math.atan(width / (2.0 * focal_35mm)))
 
 
 def lens_fov(focal_mm: float, sensor_width_mm: Optional[float] = None, focal_35mm: Optional[float] = None,
-             landscape: bool = True) -> float:
+             landscape: bool = True, size: Optional[Tuple[int, int]] = None) -> float:
     """Horizontal field of view (degrees) of a lens of ``focal_mm`` on a sensor ``sensor_width_mm`` wide, or of its
-    35 mm equivalent ``focal_35mm`` (then ``focal_mm`` is not needed).
+    35 mm equivalent ``focal_35mm`` (then ``focal_mm`` is not needed; ``size``: the picture's, see
+    :func:`horizontal_fov_from_35mm`).
 
     >>> round(lens_fov(30.0, 22.2), 1), round(lens_fov(0, focal_35mm=48.0), 1)   # the issue's 30 mm on 22.2 mm
     (40.6, 41.1)
@@ -86,7 +101,7 @@ def lens_fov(focal_mm: float, sensor_width_mm: Optional[float] = None, focal_35m
     from ..core.camera import fov_from_focal
 
     if focal_35mm:
-        return horizontal_fov_from_35mm(focal_35mm, landscape)
+        return horizontal_fov_from_35mm(focal_35mm, landscape, size)
     if not focal_mm or not sensor_width_mm or focal_mm <= 0 or sensor_width_mm <= 0:
         raise ValueError("a focal length and a sensor width (or a 35 mm equivalent) are needed")
     return fov_from_focal(focal_mm, sensor_width_mm)  # the same formula in millimetres as in pixels
@@ -120,7 +135,7 @@ def parse_exif_prior(metadata: Dict[str, str], size: Tuple[int, int]) -> ExifPri
     ...       "EXIF_GPSImgDirection": "(297.1)", "EXIF_FocalLengthIn35mmFilm": "28"}
     >>> p = parse_exif_prior(md, (4000, 3000))
     >>> round(p.lon, 4), round(p.lat, 4), p.altitude, p.heading, round(p.fov, 1), p.heading_magnetic
-    (8.0933, 46.4314, 2929.0, 297.1, 65.5, False)
+    (8.0933, 46.4314, 2929.0, 297.1, 63.4, False)
     >>> parse_exif_prior(dict(md, EXIF_GPSImgDirectionRef="M"), (4000, 3000)).heading_magnetic
     True
     >>> p = parse_exif_prior({"EXIF_FocalLength": "(30)", "EXIF_FocalPlaneXResolution": "(1000)",
@@ -150,7 +165,7 @@ def parse_exif_prior(metadata: Dict[str, str], size: Tuple[int, int]) -> ExifPri
     out.sensor_width_mm = _sensor_width_mm(metadata, size)
     if f35 and f35[0] > 0:
         out.focal_35mm = f35[0]
-        out.fov = horizontal_fov_from_35mm(f35[0], landscape=landscape)
+        out.fov = horizontal_fov_from_35mm(f35[0], landscape=landscape, size=size)
     elif out.focal_mm is not None and out.sensor_width_mm is not None:
         out.fov = lens_fov(out.focal_mm, out.sensor_width_mm)
     return out

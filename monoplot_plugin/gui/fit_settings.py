@@ -281,7 +281,7 @@ class LensPanel(QWidget, _Panel):
         landscape = size is None or size[0] >= size[1]
         try:
             if self.equivalent_check.isChecked():
-                return lens_fov(0.0, focal_35mm=focal, landscape=landscape) if focal > 0 else None
+                return lens_fov(0.0, focal_35mm=focal, landscape=landscape, size=size) if focal > 0 else None
             return lens_fov(focal, self.sensor_spin.value())
         except ValueError:
             return None

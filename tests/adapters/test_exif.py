@@ -62,3 +62,12 @@ def test_no_exif_at_all(tmp_path):
 def test_lens_fov_needs_enough():
     with pytest.raises(ValueError):
         lens_fov(30.0)
+
+
+def test_a_phones_portrait_picture_gets_the_diagonal_rules_width(tmp_path):
+    """A trial: a 4:3 phone picture held upright (stored landscape, Orientation 6), 26 mm equivalent, got 49.6 deg
+    as if 24 mm wide; the equivalent is defined on the diagonal: 53.1 deg (landscape: 67.3 deg, not 69.4)."""
+    path = _jpeg(tmp_path / "phone.jpg", (800, 600), FocalLengthIn35mmFilm="26", Orientation="6")
+    assert read_exif_prior(path, (600, 800)).fov == pytest.approx(53.06, abs=0.05)
+    path = _jpeg(tmp_path / "phone_flat.jpg", (800, 600), FocalLengthIn35mmFilm="26")
+    assert read_exif_prior(path, (800, 600)).fov == pytest.approx(67.3, abs=0.05)
