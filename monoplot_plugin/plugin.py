@@ -31,6 +31,8 @@ def plugin_icon_path():
 #: the warm-up starts this long after initGui (milliseconds); QGIS quitting waits for the step it is in
 #: (gui/tasks.py keeps the task until its thread ends, also after the plugin's unload)
 WARM_UP_DELAY_MS = 2000
+#: Longest wait (seconds) at quit for a background import to end (torch: 3-5 s warm, 35 s on a cold disk).
+QUIT_IMPORT_WAIT_S = 60.0
 
 
 def start_warm_up():
@@ -99,6 +101,7 @@ class MonoplotPlugin:
         # a project with Monoplot work opens the dock, which rebuilds its layers (a camera, a footprint and the
         # features drawn on the photo are memory layers: before the dock was opened they stayed empty)
         QgsProject.instance().readProject.connect(self._project_read)
+        QgsApplication.instance().aboutToQuit.connect(self._quitting)
         self.dependency_notice = deps.notify_missing(self.iface)
         self.warmup_task = None
         if self.dependency_notice is None:  # a moment after start-up, so that a quick reload starts nothing
@@ -109,6 +112,14 @@ class MonoplotPlugin:
 
     def _start_warm_up(self):
         self.warmup_task = start_warm_up()
+
+    @staticmethod
+    def _quitting():
+        """QGIS quits: a library import still under way in the background (torch, seconds at start-up) is waited
+        for; Python shut down under it and QGIS crashed on quit (a trial: 3 of 16 quits in the first seconds)."""
+        from .workflow.warmup import finish_imports
+
+        finish_imports(QUIT_IMPORT_WAIT_S)
 
     def _project_read(self, *args):
         if self.dock is not None or self.action is None:
@@ -141,10 +152,12 @@ class MonoplotPlugin:
         self.dock.setVisible(visible)
 
     def unload(self):
-        try:
-            QgsProject.instance().readProject.disconnect(self._project_read)
-        except (TypeError, RuntimeError):  # initGui did not run, or already disconnected
-            pass
+        for signal, slot in ((QgsProject.instance().readProject, self._project_read),
+                             (QgsApplication.instance().aboutToQuit, self._quitting)):
+            try:
+                signal.disconnect(slot)
+            except (TypeError, RuntimeError):  # initGui did not run, or already disconnected
+                pass
         timer = getattr(self, "_warmup_timer", None)
         if timer is not None:
             timer.stop()

@@ -105,9 +105,12 @@ def test_action_opens_and_closes_the_dock(plugin, qgis_iface, qtbot):
 
 def test_unload_removes_everything_and_reload_leaves_nothing(qgis_iface):
     window = qgis_iface.mainWindow()
+    app = QgsApplication.instance()
+    quit_hooks = app.receivers(app.aboutToQuit)
     for _ in range(3):  # a plugin reload is unload() + a fresh instance's initGui()
         instance = MonoplotPlugin(qgis_iface)
         instance.initGui()
+        assert app.receivers(app.aboutToQuit) > quit_hooks  # a background import is waited for at quit
         instance.action.trigger()
         actions, docks = monoplot_widgets(window)
         assert len(actions) == 1 and len(docks) == 1
@@ -117,6 +120,7 @@ def test_unload_removes_everything_and_reload_leaves_nothing(qgis_iface):
         assert sip.isdeleted(action) and sip.isdeleted(dock)
         assert monoplot_widgets(window) == ([], [])
         qgis_iface.removePluginRasterMenu.assert_called_with(instance.menu, action)
+        assert app.receivers(app.aboutToQuit) <= quit_hooks + 1  # the tasks module's own hook, once at most
 
 
 @pytest.mark.skipif(importlib.util.find_spec("monoplot_plugin.processing.provider") is None,

@@ -19,7 +19,7 @@ import numpy as np
 
 from .progress import IsCanceled, Progress, check_canceled
 
-__all__ = ["warm_up", "yield_to_work", "import_torch", "import_plugin_modules"]
+__all__ = ["warm_up", "yield_to_work", "import_torch", "import_plugin_modules", "finish_imports"]
 
 #: set when real work starts (the dock's first Suggest or fit): a warm-up still running stops after its step,
 #: rather than compete with that work for the two cores (the work compiles what it needs itself)
@@ -58,6 +58,21 @@ def import_torch(is_canceled: Optional[IsCanceled] = None, progress: Optional[Pr
         progress(0.0, "loading PyTorch (once per QGIS session)")
     while not _TORCH_READY.wait(poll_s):
         check_canceled(is_canceled)
+
+
+def finish_imports(timeout_s: float) -> bool:
+    """Wait up to ``timeout_s`` seconds for the background import of :func:`import_torch`, if one runs; True when
+    none is left running. The host calls it when it quits: Python finalised under a thread still importing
+    torch's compiled modules, and QGIS crashed on quit.
+
+    >>> finish_imports(0.0) or not _TORCH_READY.is_set()
+    True
+    """
+    with _TORCH_LOCK:
+        threads = list(_TORCH_THREAD)
+    for thread in threads:
+        thread.join(timeout_s)
+    return not any(t.is_alive() for t in threads)
 
 
 def _import_torch() -> None:
