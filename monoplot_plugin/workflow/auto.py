@@ -16,7 +16,8 @@ import numpy as np
 
 from ..core.auto import AutoFitResult, register_automatic
 from ..core.camera import Camera
-from .fit import ON_GROUND_MAX_M, flag_under_terrain, ground_clearance, measured_on_pairs, on_ground_rule
+from .fit import (ON_GROUND_MAX_M, UNDERGROUND_TOLERANCE_M, flag_under_terrain, ground_clearance, measured_on_pairs,
+                  on_ground_rule)
 from .progress import Canceled, IsCanceled, Progress, check_canceled
 from .warmup import import_torch
 
@@ -88,6 +89,15 @@ def check_height(result, prior: Camera, dem) -> None:
         result.message = (f"{result.message} The camera found is {clearance:.0f} m above the terrain, but the "
                           f"rough camera stood on the ground ({eye:.0f} m): check it, or fit it on points with the "
                           f"camera height on the ground.")
+        if result.status == "ok":
+            result.status = "uncertain"
+        return
+    if grounded and math.isfinite(clearance) and clearance < -UNDERGROUND_TOLERANCE_M:
+        # the registration itself never holds a camera on the ground: say what does (a trial's phone photo was told
+        # to set "camera height: automatic", which it already was)
+        result.message = (f"{result.message} The camera found is {-clearance:.0f} m under the terrain; the rough "
+                          f"camera stood on the ground, where Fit on the matched points holds it (camera height "
+                          f"automatic or on the ground).")
         if result.status == "ok":
             result.status = "uncertain"
         return

@@ -317,11 +317,14 @@ def test_a_camera_found_automatically_keeps_to_the_height_the_person_gave(scene)
 
     dem, camera, ground = scene
     prior = camera.with_parameters(z=ground + 2.0)
-    for dz, expected in ((1.7, "ok"), (96.0, "uncertain"), (-75.0, "uncertain")):
+    for dz, expected in ((1.7, "ok"), (96.0, "uncertain"), (-75.0, "uncertain"), (-7.0, "uncertain")):
         found = SimpleNamespace(camera=camera.with_parameters(z=ground + dz), status="ok", message="Fitted.")
         check_height(found, prior, dem)
         assert found.status == expected
         assert (expected == "ok") == (found.message == "Fitted.")
+        # under the ground it stood on: the Fit holds it there (a trial's phone photo was told to set the camera
+        # height to "automatic", which it was)
+        assert dz != -7.0 or "where Fit on the matched points holds it" in found.message
     # a drone's rough camera keeps its height free: 80 m up, found 20 m higher, is no contradiction
     found = SimpleNamespace(camera=camera.with_parameters(z=ground + 100.0), status="ok", message="Fitted.")
     check_height(found, camera, dem)
