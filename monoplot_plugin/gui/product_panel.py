@@ -313,14 +313,15 @@ class OutputTools(QObject):
         parts = []
         if sky:
             # "or off the DEM": a trial's water line touched no sky, its part past the DEM's edge was the one
-            parts.append((self.tr("{0} part(s) over the sky, the print's paper or off the DEM left out of the map "
-                                  "layer") if paper
-                          else self.tr("{0} part(s) over the sky or off the DEM left out of the map layer"))
-                         .format(sky))
+            parts.append((self.tr("{0} part(s) over the sky, the print's paper, a DEM void or off the DEM left out "
+                                  "of the map layer") if paper
+                          else self.tr("{0} part(s) over the sky, a DEM void or off the DEM left out of the map "
+                                       "layer")).format(sky))
         if dropped:
-            parts.append((self.tr("{0} entirely over the sky, the paper or off the DEM, not on the map layer")
-                          if paper else self.tr("{0} entirely over the sky or off the DEM, not on the map layer"))
-                         .format(dropped))
+            parts.append((self.tr("{0} entirely over the sky, the paper, a DEM void or off the DEM, not on the map "
+                                  "layer") if paper
+                          else self.tr("{0} entirely over the sky, a DEM void or off the DEM, not on the map "
+                                       "layer")).format(dropped))
         if crossings:
             parts.append(self.tr("the outlines cross a ridge's silhouette {0} time(s): there they enclose ground the "
                                  "photo does not show, and the area counts it (field silhouette)").format(crossings))

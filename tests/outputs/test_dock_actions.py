@@ -233,9 +233,9 @@ def test_point_over_the_sky_is_reported_in_plain_words(dock_with_fit):
     dock, tools = dock_with_fit
     tools.current_session().add_feature("point", [[120, 2]])  # the top rows of the plane scene see the sky
     text = dock.statusLabel.text()
-    assert text == "Drawn points: 1 entirely over the sky or off the DEM, not on the map layer.", text
+    assert text == "Drawn points: 1 entirely over the sky, a DEM void or off the DEM, not on the map layer.", text
     assert "piece" not in tools.sky_text("point", 0, 2)
-    assert tools.sky_text("line", 2, 0) == "Drawn lines: 2 part(s) over the sky or off the DEM left out of the map layer."
+    assert tools.sky_text("line", 2, 0) == "Drawn lines: 2 part(s) over the sky, a DEM void or off the DEM left out of the map layer."
     assert "cross a ridge's silhouette 2 time(s)" in tools.sky_text("polygon", 0, 0, 2)
 
 
