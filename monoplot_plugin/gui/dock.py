@@ -504,6 +504,9 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
         for tool in (self.map_tool, self.camera_tool):
             if self.map_canvas.mapTool() is tool:
                 self.map_canvas.unsetMapTool(tool)
+                pan = getattr(self.iface, "actionPan", None)  # the map is not left without a tool (a trial)
+                if pan is not None and pan() is not None:
+                    pan().trigger()
         self.map_view.remove()
         for signal, slot in ((self.map_canvas.xyCoordinates, self._map_cursor),
                              (self.map_canvas.destinationCrsChanged, self._map_crs_changed),
