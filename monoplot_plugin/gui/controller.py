@@ -151,6 +151,8 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
                 signal.disconnect(slot)
             except (TypeError, RuntimeError):
                 pass
+        # what Qt may keep alive a while after a reload (a trial: 100 MB more per reload) need not hold the pictures
+        self.image, self.overlay, self.xyz, self.dem = None, None, None, None
 
     # --- inputs -----------------------------------------------------------------------------------------------
     def read_photo(self, path: str) -> Optional[QImage]:
