@@ -132,9 +132,14 @@ class AutoPanel(QObject):
             # "fitted" one, products enabled): no camera is set, the rough one stays what it was
             logging.getLogger(__name__).info("Automatic registration found nothing (%s): %s", status,
                                              checked["message"])
-            c.message.emit(self.tr("Automatic registration found no match between the photo and the DEM ({0}): "
-                                   "no camera was set. Its report is in the Monoplot log; suggest points and "
-                                   "pick a few you recognise instead.").format(status), Qgis.MessageLevel.Warning)
+            said = str(checked["message"])  # core.auto: the prior returned, its edges matched (loosely) or not at all
+            kept = "did not improve on the prior" in said and "match no camera's view" not in said
+            text = self.tr("Automatic registration found no camera better than the rough one ({0}): the rough camera "
+                           "stays.") if kept else self.tr("Automatic registration found no match between the photo "
+                                                         "and the DEM ({0}): no camera was set.")
+            c.message.emit(text.format(status) + " " + self.tr("Its report is in the Monoplot log; suggest points "
+                                                               "and pick a few you recognise instead."),
+                           Qgis.MessageLevel.Warning)
             return
         camera_layers.remove_camera_layers(self.dock.project, other=True)  # an earlier one set aside is stale now
         label = auto_step.AUTOMATIC_LABEL  # a later fit on these points alone is capped by this verdict

@@ -310,6 +310,23 @@ def test_a_second_run_keeps_the_persons_decisions_on_the_first_ones_points(dock,
     assert c.state.fit_info["n_photo"] >= len(photo) - 3 and messages[-1].startswith("Camera fit"), messages
 
 
+def test_faint_edges_in_fog_keep_the_rough_camera_and_say_so(dock, valley, qtbot, tmp_path):
+    """The Aletsch print 97 % in fog (desktop): 76 chance matches and a camera 245 px off, then "found no match" once
+    the prior was kept. The valley 93 % in fog: the rough camera stays, no point is added, and the message says
+    that no camera was better than the rough one."""
+    import cv2
+    import numpy as np
+
+    clear = cv2.cvtColor(cv2.imread(valley["photo"]), cv2.COLOR_BGR2RGB).astype(float)
+    faint = np.clip(clear * 0.07 + 225.0 * 0.93 + np.random.default_rng(0).normal(0.0, 2.0, clear.shape), 0, 255)
+    path = str(tmp_path / "faint.png")
+    assert cv2.imwrite(path, cv2.cvtColor(faint.astype(np.uint8), cv2.COLOR_RGB2BGR))
+    c = _open_valley(dock, valley, photo=path)
+    messages = run_find_camera(dock, qtbot)
+    assert c.fitted is None and c.prior is not None and not c.state.points
+    assert any("no camera better than the rough one" in m for m in messages), messages
+
+
 def test_nothing_matched_sets_no_camera(dock, valley, qtbot, tmp_path):
     """A photo in fog: "RMSE nan px on 0 photo points", and the rough camera became the fitted one (products
     enabled). Nothing matched: no camera is set, and the message says what to do."""
