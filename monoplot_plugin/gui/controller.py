@@ -389,6 +389,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             outcome.info["fit_point_xy"] = point_xy  # point id -> (x, y)
             self.cap_by_automatic(outcome.info, photo_ids + world_ids, len(pairs), len(check_ids))
             outcome.info.update(self.moved_from_prior(outcome.camera, xyz, options))
+            self.doubt_a_moved_camera(outcome.info)
             if 0 < n_links < self.MIN_POINTS:  # said before the fit too, but its message replaced that at once
                 outcome.info["message"] = (outcome.info.get("message", "") + " " + self.tr(
                     "Your {0} linked pair(s) were fitted as unpaired points: a paired fit needs at least {1}.")

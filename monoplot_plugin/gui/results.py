@@ -15,7 +15,10 @@ from qgis.PyQt.QtCore import QTimer
 from ..state import ACCEPTED
 from . import engine
 
-__all__ = ["ResultsMixin", "ResultsHost"]
+__all__ = ["ResultsMixin", "ResultsHost", "MOVED_SIGMAS"]
+
+#: How many position σ (stated by the person, or a GPS's) a fit may move the camera before an "ok" is doubted.
+MOVED_SIGMAS = 3.0
 
 
 class ResultsHost(Protocol):
@@ -90,7 +93,25 @@ class ResultsMixin:
         # a GPS position needs no σ of 5 % of the range (a trial's drone: 369 m off, under that 2σ, unsaid)
         gps = self.state.settings.get("prior_source") == GPS_SOURCE and \
             (options is None or options.position_sigma_m is None)
-        return {"moved_m": moved, "position_sigma_m": GPS_POSITION_M if gps else sigma, "moved_from_gps": gps}
+        stated = gps or (options is not None and options.position_sigma_m is not None)
+        return {"moved_m": moved, "position_sigma_m": GPS_POSITION_M if gps else sigma, "moved_from_gps": gps,
+                "position_sigma_stated": bool(stated)}
+
+    def doubt_a_moved_camera(self, info: dict) -> None:
+        """An "ok" fit without check points that took the camera more than :data:`MOVED_SIGMAS` times the position
+        σ the person gave (or a GPS's) from the rough camera contradicts what they know: "uncertain", said in the
+        message (in place). A trial's phone photo: "ok" at 1.9 px 117 m behind its GPS position (± 30 m), distant
+        terrain trading the position for the field of view."""
+        moved, sigma = info.get("moved_m"), info.get("position_sigma_m")
+        if info.get("status") != "ok" or info.get("n_check") or not info.get("position_sigma_stated") or \
+                moved is None or not sigma or moved <= MOVED_SIGMAS * sigma:
+            return
+        where = self.tr("the photo's GPS position") if info.get("moved_from_gps") else self.tr("the rough camera")
+        info["status"] = "uncertain"
+        info["message"] = (info.get("message", "") + " " + self.tr(
+            "Uncertain: the fit moved the camera {0:.0f} m from {1}, more than {2:.0f} times its Position ± {3:.0f} "
+            "m: check points (key C) would say which is right; if the position is, fix it in the fit settings and "
+            "fit again.").format(moved, where, MOVED_SIGMAS, sigma)).strip()
 
     def residuals(self) -> List[Tuple[str, Tuple[float, float], Tuple[float, float]]]:
         """(photo point id, its pixel, the pixel of its DEM match under the fitted camera) for each accepted photo

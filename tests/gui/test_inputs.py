@@ -277,6 +277,15 @@ def test_rough_camera_from_exif_gps(dock, scene, tmp_path):
                  "moved_from_gps": True}
     assert "moved the camera 369 m from the photo's GPS position, which is usually within 30 m" in \
         c.fit_summary(uncertain)[0]
+    # an "ok" 117 m behind the GPS position (a trial's phone photo, distant terrain trading the position for the
+    # field of view) is doubted; check points, or a σ nobody stated, leave the verdict to the fit
+    ok = dict(uncertain, status="ok", moved_m=117.0, position_sigma_stated=True, message="paired fit.")
+    c.doubt_a_moved_camera(ok)
+    assert ok["status"] == "uncertain" and "117 m from the photo's GPS position" in ok["message"]
+    for kept in (dict(ok, status="ok", n_check=5), dict(ok, status="ok", position_sigma_stated=False),
+                 dict(ok, status="ok", moved_m=80.0)):
+        c.doubt_a_moved_camera(kept)
+        assert kept["status"] == "ok"
     c.set_prior(prior.with_parameters(x=prior.position[0] + 50.0))  # moved: no longer the GPS position
     assert "prior_source" not in c.state.settings
     assert prior is not None
