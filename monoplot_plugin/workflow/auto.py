@@ -85,19 +85,17 @@ def check_height(result, prior: Camera, dem) -> None:
     says so."""
     clearance = ground_clearance(result.camera, dem)
     grounded, eye = on_ground_rule(prior, dem)
+    said = ""
     if grounded and math.isfinite(clearance) and abs(clearance - eye) > ON_GROUND_MAX_M:
-        result.message = (f"{result.message} The camera found is {clearance:.0f} m above the terrain, but the "
-                          f"rough camera stood on the ground ({eye:.0f} m): check it, or fit it on points with the "
-                          f"camera height on the ground.")
-        if result.status == "ok":
-            result.status = "uncertain"
-        return
-    if grounded and math.isfinite(clearance) and clearance < -UNDERGROUND_TOLERANCE_M:
+        said = (f"The camera found is {clearance:.0f} m above the terrain, but the rough camera stood on the ground "
+                f"({eye:.0f} m): check it, or fit it on points with the camera height on the ground.")
+    elif grounded and math.isfinite(clearance) and clearance < -UNDERGROUND_TOLERANCE_M:
         # the registration itself never holds a camera on the ground: say what does (a trial's phone photo was told
         # to set "camera height: automatic", which it already was)
-        result.message = (f"{result.message} The camera found is {-clearance:.0f} m under the terrain; the rough "
-                          f"camera stood on the ground, where Fit on the matched points holds it (camera height "
-                          f"automatic or on the ground).")
+        said = (f"The camera found is {-clearance:.0f} m under the terrain; the rough camera stood on the ground, "
+                f"where Fit on the matched points holds it (camera height automatic or on the ground).")
+    if said:
+        result.message = f"{result.message} {said}"
         if result.status == "ok":
             result.status = "uncertain"
         return

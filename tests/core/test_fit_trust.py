@@ -317,24 +317,8 @@ def test_one_wrong_surveyed_height_among_pairs_is_named_not_ok():
     noise), one height 60 m off; the fit's RMSE (10 px) stays under 1.5 % of the picture and was "ok" with the
     camera 27 m off. That pair stands out (left out, the others put it 7 times farther than the median pair, and
     its own residual is 8 times theirs): "uncertain", and the message gives its photo pixel."""
-    from monoplot_plugin.core.synthetic import synthetic_terrain
-
-    dem = synthetic_terrain((100, 100), cell=30.0, seed=4, relief=400.0)
-    x0, y0, x1, y1 = dem.bounds()
-    x, y = (x0 + x1) / 2, y0 + 100
-    cam = Camera((x, y, float(dem.sample(x, y)) + 150.0), 0.0, -8.0, 0.0, 60.0, (1200, 800))
-    rng = np.random.default_rng(1)
-    pts = []
-    while len(pts) < 12:
-        px, py = rng.uniform(x0 + 300, x1 - 300), rng.uniform(y0 + 800, y1 - 300)
-        p = np.array([px, py, float(dem.sample(px, py))])
-        uv = cam.project(p[None])[0]
-        if np.isfinite(uv).all() and 20 < uv[0] < 1180 and 20 < uv[1] < 780:
-            pts.append(p)
-    xyz = np.array(pts)
-    uv = cam.project(xyz) + rng.normal(0, 1.0, (12, 2))
+    cam, xyz, uv, prior = _pairs_seen_from_above(12, seed=1, noise_px=1.0)
     pairs = np.column_stack([np.arange(12)] * 2)
-    prior = cam.with_parameters(x=x + 40, y=y - 30, heading=2.0)
     assert fit_camera(uv, xyz, prior, pairs=pairs).status == "ok"  # the same pairs, heights right
     wrong = xyz.copy()
     wrong[3, 2] += 60.0
@@ -349,29 +333,36 @@ def test_one_typed_wrong_pair_drags_the_fit_and_is_named():
     ("SVD did not converge"). Generated: 7 exact pairs, one u off by 900 px. "poor", and the message gives the
     typed pair's pixel: the others, solved without it, agree."""
     from monoplot_plugin.core.fit.verdict import weakest_parameter
-    from monoplot_plugin.core.synthetic import synthetic_terrain
 
     assert weakest_parameter(np.array([[1.0, np.nan], [0.0, 1.0], [1.0, 1.0]]), ["x", "y"], None)[0] == math.inf
+    cam, xyz, uv, prior = _pairs_seen_from_above(7, seed=5, noise_px=0.5)
+    typed = uv.copy()
+    typed[2, 0] += 900.0
+    pairs = np.column_stack([np.arange(7)] * 2)
+    clean = fit_camera(uv, xyz, prior, pairs=pairs)
+    assert clean.status == "ok", clean.message
+    result = fit_camera(typed, xyz, prior, pairs=pairs)
+    assert result.status == "poor", result.message
+    assert f"first check the pair at photo pixel ({typed[2, 0]:.0f}, {typed[2, 1]:.0f})" in result.message
+
+
+def _pairs_seen_from_above(n: int, seed: int, noise_px: float):
+    """(camera 150 m over a generated relief, n terrain points it sees inside the picture, their pixels with
+    ``noise_px`` of noise, a prior 50 m / 2 deg off)."""
+    from monoplot_plugin.core.synthetic import synthetic_terrain
+
     dem = synthetic_terrain((100, 100), cell=30.0, seed=4, relief=400.0)
     x0, y0, x1, y1 = dem.bounds()
     x, y = (x0 + x1) / 2, y0 + 100
     cam = Camera((x, y, float(dem.sample(x, y)) + 150.0), 0.0, -8.0, 0.0, 60.0, (1200, 800))
-    rng = np.random.default_rng(5)
+    rng = np.random.default_rng(seed)
     pts = []
-    while len(pts) < 7:
+    while len(pts) < n:
         px, py = rng.uniform(x0 + 300, x1 - 300), rng.uniform(y0 + 800, y1 - 300)
         p = np.array([px, py, float(dem.sample(px, py))])
         uv = cam.project(p[None])[0]
         if np.isfinite(uv).all() and 20 < uv[0] < 1180 and 20 < uv[1] < 780:
             pts.append(p)
     xyz = np.array(pts)
-    uv = cam.project(xyz) + rng.normal(0, 0.5, (7, 2))
-    typed = uv.copy()
-    typed[2, 0] += 900.0
-    pairs = np.column_stack([np.arange(7)] * 2)
-    prior = cam.with_parameters(x=x + 40, y=y - 30, heading=2.0)
-    clean = fit_camera(uv, xyz, prior, pairs=pairs)
-    assert clean.status == "ok", clean.message
-    result = fit_camera(typed, xyz, prior, pairs=pairs)
-    assert result.status == "poor", result.message
-    assert f"first check the pair at photo pixel ({typed[2, 0]:.0f}, {typed[2, 1]:.0f})" in result.message
+    uv = cam.project(xyz) + rng.normal(0, noise_px, (n, 2))
+    return cam, xyz, uv, cam.with_parameters(x=x + 40, y=y - 30, heading=2.0)
