@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 from html import escape as html_escape
 from typing import Callable, Optional
 
@@ -83,6 +84,9 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     ...                                                         "few <pairs>. Outliers: none."})
     >>> "<small>Verified by the check points despite: few &lt;pairs&gt;.</small>" in html, "RMSE 2 px." in html
     (True, False)
+    >>> "Status: <b style='color:#1a7f37'>ok</b> · loaded from cam.json" in fit_summary_html(
+    ...     cam, {"status": "ok", "loaded_from": "/data/cam.json"})
+    True
     >>> html = fit_summary_html(cam, {"status": "uncertain", "mode": "unpaired", "sigma": {"x": 0.31}})
     >>> "± 0.31*" in html and html.index("assume the automatic pairs are right") < html.index("<table>")
     True
@@ -112,6 +116,8 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
         "" if loo is None else tr(" (leave-one-out {0:.1f} px)").format(loo),
         photo_text, info.get("n_map", 0),
         tr(", {0} pairs").format(info["n_pairs"]) if info.get("n_pairs") else "")
+    if info.get("loaded_from") and rmse is None and not info.get("n_photo"):  # "RMSE — · 0 photo / 0 DEM points"
+        head = tr("loaded from {0}").format(html_escape(os.path.basename(str(info["loaded_from"]))))
     if info.get("mode") == "paired" and info.get("n_pairs"):  # a paired fit uses its pairs only: say so
         unused = max(0, int(n_photo) - int(info["n_pairs"]))
         head = tr("RMSE <b>{0}</b>{1} on {2} pairs{3}").format(
