@@ -116,8 +116,9 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
         "" if loo is None else tr(" (leave-one-out {0:.1f} px)").format(loo),
         photo_text, info.get("n_map", 0),
         tr(", {0} pairs").format(info["n_pairs"]) if info.get("n_pairs") else "")
-    if info.get("loaded_from") and rmse is None and not info.get("n_photo"):  # "RMSE — · 0 photo / 0 DEM points"
-        head = tr("loaded from {0}").format(html_escape(os.path.basename(str(info["loaded_from"]))))
+    if info.get("loaded_from") and not info.get("n_photo"):  # not "RMSE — · 0 photo / 0 DEM points"
+        head = tr("loaded from {0}").format(html_escape(os.path.basename(str(info["loaded_from"])))) + (
+            "" if rmse is None else tr(" · its fit: RMSE {0:.1f} px").format(rmse))
     if info.get("mode") == "paired" and info.get("n_pairs"):  # a paired fit uses its pairs only: say so
         unused = max(0, int(n_photo) - int(info["n_pairs"]))
         head = tr("RMSE <b>{0}</b>{1} on {2} pairs{3}").format(

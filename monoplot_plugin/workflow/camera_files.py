@@ -179,10 +179,16 @@ def camera_json(camera: Camera, verdict: Optional[dict] = None) -> str:
         return camera.to_json()
     d = camera.to_dict()
     d["fit"] = {"status": str(verdict.get("status") or ""), "message": str(verdict.get("message") or "")}
-    sigma = verdict.get("sigma") or (verdict.get("summary") or {}).get("std") or {}
+    summary = verdict.get("summary") or {}
+    sigma = verdict.get("sigma") or summary.get("std") or {}
     sigma = {str(k): float(v) for k, v in sigma.items() if v is not None and np.isfinite(float(v))}
     if sigma:
         d["fit"]["sigma"] = sigma
+    # the figures a product's xy_error_m is worked out from (workflow.features.pixel_error), kept with the verdict
+    for key in ("mode", "rmse_px", "loo_rmse_px"):
+        value = verdict.get(key, summary.get(key))
+        if isinstance(value, str) or (value is not None and np.isfinite(float(value))):
+            d["fit"][key] = value if isinstance(value, str) else float(value)
     return json.dumps(d, indent=2)
 
 

@@ -409,10 +409,14 @@ def test_a_camera_written_with_its_verdict_comes_back_with_it(dock, scene, tmp_p
     # and the flood line drawn on it had no xy error): its verdict and σ come back, said to be the file's.
     ok = tmp_path / "ok.json"
     ok.write_text(camera_json(scene.camera, {"status": "ok", "message": "paired fit on 6 pairs: RMSE 0.5 px.",
-                                             "sigma": {"x": 0.48, "heading": 0.0079}}))
+                                             "sigma": {"x": 0.48, "heading": 0.0079}, "mode": "paired",
+                                             "rmse_px": 0.5, "loo_rmse_px": 1.2}))
     assert io_actions.load_camera_file(c, str(ok), as_fitted=True) is not None
     info = c.state.fit_info
     assert info["status"] == "ok" and info["sigma"] == {"x": 0.48, "heading": 0.0079}
+    # a feature drawn on it gets an xy_error_m from its fit's figures (a re-check trial's had none)
+    from monoplot_plugin.workflow.features import pixel_error
+    assert pixel_error(info) == (1.2, "loo")
     assert "own fit's verdict" in info["message"] and "6 pairs" in info["message"]
     assert "Loaded with its own fit" in dock.resultLabel.text()
     assert io_actions.save_camera_file(c, str(saved))  # and it goes out again as it came
