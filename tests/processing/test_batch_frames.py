@@ -286,6 +286,7 @@ def test_a_shared_camera_without_fit_verdict_is_not_ok(run_alg, small_scene, tmp
     result = run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(folder), "XYZ": False,
                                "CAMERA": small_scene["camera"], "OUTPUT": str(tmp_path / "out")}, feedback)
     assert result["SUCCEEDED"] == 2 and len(list((tmp_path / "out").glob("*_ortho.tif"))) == 2  # still works
+    assert result["NOT_OK"] == 2  # processed, but no camera it can vouch for
     rows = log_rows(result["LOG"])
     assert [r["status"] for r in rows] == ["uncertain", "uncertain"]
     assert rows[0]["message"] == "uncertain: camera not fitted (the shared camera)"

@@ -114,6 +114,8 @@ class BatchPhotos(MonoplotAlgorithm):
             param = self.parameterDefinition(name)
             param.setFlags(param.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
         self.addOutput(QgsProcessingOutputNumber("SUCCEEDED", self.tr("Photos processed")))
+        self.addOutput(QgsProcessingOutputNumber("NOT_OK", self.tr("Photos processed whose camera is not \"ok\" "
+                                                                   "(uncertain or poor)")))
         self.addOutput(QgsProcessingOutputNumber("FAILED", self.tr("Photos skipped")))
         self.addOutput(QgsProcessingOutputFile("LOG", self.tr("Batch log (CSV)")))
 
@@ -218,7 +220,7 @@ class BatchPhotos(MonoplotAlgorithm):
                 succeeded, canceled, log_path))
         if succeeded == 0:
             raise QgsProcessingException(self.tr("No photo could be processed; see {0}").format(log_path))
-        return {"OUTPUT": out_dir, "SUCCEEDED": succeeded, "FAILED": failed, "LOG": log_path}
+        return {"OUTPUT": out_dir, "SUCCEEDED": succeeded, "FAILED": failed, "LOG": log_path, "NOT_OK": doubtful}
 
     def first_photo_size(self, photos, feedback):
         """(width, height) of the first readable photo (a KML camera takes the frames' size from it)."""
