@@ -103,6 +103,10 @@ class MonoplotPlugin:
         QgsProject.instance().readProject.connect(self._project_read)
         QgsApplication.instance().aboutToQuit.connect(self._quitting)
         self.dependency_notice = deps.notify_missing(self.iface)
+        if QgsProject.instance().fileName():
+            # a reload mid-session (the plugin manager's update, Plugin Reloader): the dock comes back for a project
+            # with Monoplot work, as when that project is opened (a trial: it stayed closed until clicked)
+            QTimer.singleShot(0, self._project_read)
         self.warmup_task = None
         if self.dependency_notice is None:  # a moment after start-up, so that a quick reload starts nothing
             self._warmup_timer = QTimer()

@@ -202,6 +202,39 @@ def test_a_project_with_monoplot_work_opens_the_dock_and_its_layers(plugin, qgis
     project.clear()
 
 
+def test_a_reload_brings_the_dock_back_for_a_project_with_monoplot_work(qgis_iface, qtbot, tmp_path):
+    """A trial: after a reload (the plugin manager's update does one) the dock stayed closed on a project with
+    Monoplot work until the button was clicked. It comes back; on a project without Monoplot work nothing opens."""
+    from qgis.core import QgsProject
+
+    from monoplot_plugin.gui import persistence
+    from monoplot_plugin.state import ProjectState
+
+    project = QgsProject.instance()
+    project.clear()
+    state = ProjectState()
+    state.settings["overlay_opacity"] = 0.4
+    persistence.store_in_project(project, state)
+    assert project.write(str(tmp_path / "work.qgz"))
+    for path, opens in ((tmp_path / "work.qgz", True), (tmp_path / "plain.qgz", False)):
+        if not opens:
+            project.clear()
+            assert project.write(str(path))
+        instance = MonoplotPlugin(qgis_iface)
+        instance.initGui()
+        try:
+            if opens:
+                qtbot.waitUntil(lambda: instance.dock is not None, timeout=5000)
+                assert instance.action.isChecked()
+            else:
+                qtbot.wait(300)
+                assert instance.dock is None
+        finally:
+            instance.unload()
+            flush_deletes()
+    project.clear()
+
+
 def test_without_its_packages_the_dock_offers_the_install_instead_of_a_python_error(plugin, qgis_iface,
                                                                                     monkeypatch):
     """Opening a project with Monoplot work in a QGIS without OpenCV showed a Python error dialog ("No module named
