@@ -132,8 +132,8 @@ class AutoPanel(QObject):
             # "fitted" one, products enabled): no camera is set, the rough one stays what it was
             logging.getLogger(__name__).info("Automatic registration found nothing (%s): %s", status,
                                              checked["message"])
-            said = str(checked["message"])  # core.auto: the prior returned, its edges matched (loosely) or not at all
-            kept = "did not improve on the prior" in said and "match no camera's view" not in said
+            # core.auto gave the prior back: its edges matched (loosely, or no better), or not at all
+            kept = bool(r.evidence.get("auto_prior_kept")) and not r.evidence.get("auto_no_edges")
             text = self.tr("Automatic registration found no camera better than the rough one ({0}): the rough camera "
                            "stays.") if kept else self.tr("Automatic registration found no match between the photo "
                                                          "and the DEM ({0}): no camera was set.")

@@ -448,7 +448,8 @@ def _prior_kept(result: AutoFitResult, prior: Camera, sig: dict) -> AutoFitResul
     # The reasons only: the figures of the fit on the suggestions were about a camera not returned, and quoting
     # them ("65 of 133 photo points matched", "the camera returned is the edge alignment's") on a photo of fog
     # contradicted "the prior is kept" (a trial).
-    if min(ev["auto_edge_score"], ev["auto_prior_edge_score"]) > NO_EDGES_SCORE:
+    no_edges = min(ev["auto_edge_score"], ev["auto_prior_edge_score"]) > NO_EDGES_SCORE
+    if no_edges:
         why = "the photo's edges match no camera's view of the DEM, the prior's neither (edge score 1 = no match)"
     elif not ev["auto_skyline_usable"] and ev["auto_edge_score"] > FAINT_EDGES_SCORE:
         why = (f"the photo shows no clear skyline ({100 * ev['auto_sky_fraction']:.0f} % of its columns), and its "
@@ -465,7 +466,7 @@ def _prior_kept(result: AutoFitResult, prior: Camera, sig: dict) -> AutoFitResul
                          f"The automatic registration did not improve on the prior camera: {why}. The prior is "
                          "kept: check it, pair a few points by hand, or give a closer prior."
                          + (f" Also: {reasons}." if reasons else ""), result.mode, result.free,
-                         evidence=dict(ev), std=_prior_std(sig))
+                         evidence=dict(ev, auto_prior_kept=True, auto_no_edges=no_edges), std=_prior_std(sig))
     kept.image_points, kept.world_points, kept.aligned, kept.skyline = (result.image_points, result.world_points,
                                                                         result.aligned, result.skyline)
     kept.elapsed_s = result.elapsed_s
