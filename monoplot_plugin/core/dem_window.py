@@ -207,7 +207,7 @@ class DemSource:
         if self.crs_wkt and srs.ImportFromWkt(self.crs_wkt) == 0 and srs.IsGeographic():
             raise ValueError(f"{path} is in geographic degrees: read it with Dem.open, which reprojects it to UTM")
         self.nodata = self._band.GetNoDataValue()
-        self._a, self._b, self.units_note = band_to_metres(self._band)  # stored values -> metres
+        self._a, self._b, _ = band_to_metres(self._band)  # stored values -> metres (open_dem says what was done)
         self.void_value = void_value
         self.sentinels = sentinels
         overviews = [self._band.GetOverview(i) for i in range(self._band.GetOverviewCount())]

@@ -340,8 +340,8 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             self.message.emit(self.tr("Load a photo and choose a DEM first."), WARNING)
             return False
         start = self.prior or self.fitted
-        _, _, paired_xyz = self.pair_arrays(self.state.valid_pairs())
-        if start is None and len(paired_xyz) >= fit_step.MIN_PAIRS_WITHOUT_PRIOR:  # solved from them, as fitcamera
+        paired_xyz = self.pair_arrays(self.state.valid_pairs())[2] if start is None else ()
+        if len(paired_xyz) >= fit_step.MIN_PAIRS_WITHOUT_PRIOR:  # no rough camera: solved from them, as fitcamera
             start = fit_step.start_above_points(paired_xyz, self.photo_size, self.dem.crs_wkt)
             self.message.emit(self.tr("No rough camera: the camera is solved from the {0} pairs alone.").format(
                 len(paired_xyz)), INFO)
