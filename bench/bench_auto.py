@@ -74,9 +74,10 @@ def main(argv=None) -> int:
     t1 = time.perf_counter()
     rc = register_automatic(photo, dem, prior, is_canceled=asked.is_set)
     cancel_s = time.perf_counter() - t1 - 2.0
+    heading_error = (r.camera.heading - truth.heading + 180.0) % 360.0 - 180.0
     print(json.dumps({"bench": "auto_24mp_25mcells", "photo": f"{w}x{h}", "dem_cells": n * n,
                       "seconds": round(seconds, 2), "target_s": 20.0, "pass": bool(seconds <= 20.0),
-                      "status": r.status, "heading_error_deg": round(abs(r.camera.heading - truth.heading), 3),
+                      "status": r.status, "heading_error_deg": round(abs(heading_error), 3),
                       "cancel_s": round(cancel_s, 2), "cancel_status": rc.status,
                       "cancel_pass": bool(rc.status == "canceled" and cancel_s <= 1.0),
                       "load": round(load, 2)}), flush=True)

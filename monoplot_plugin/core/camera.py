@@ -49,6 +49,7 @@ from .distortion import distort, undistort
 
 __all__ = [
     "Camera",
+    "azimuth",
     "rotation_matrix",
     "project_points",
     "focal_from_fov",
@@ -81,6 +82,16 @@ def _sin_cos_deg(angle):
         return torch.sin(rad), torch.cos(rad)
     rad = np.deg2rad(angle)
     return np.sin(rad), np.cos(rad)
+
+
+def azimuth(heading: float) -> float:
+    """A heading as the azimuth people read: degrees clockwise from grid north in [0, 360).
+
+    >>> azimuth(-135.0), azimuth(725.5), azimuth(-1e-17)
+    (225.0, 5.5, 0.0)
+    """
+    value = float(heading) % 360.0
+    return 0.0 if value >= 360.0 else value  # -1e-17 % 360 rounds to 360.0
 
 
 def rotation_matrix(heading, pitch, roll):

@@ -20,6 +20,7 @@ from qgis.PyQt.QtCore import QItemSelectionModel, Qt
 from qgis.PyQt.QtWidgets import QAction, QDockWidget, QSizePolicy, QToolBar, QToolButton
 
 from .. import PLUGIN_DIR
+from ..core.camera import azimuth
 from ..state import MAP, PHOTO
 from .chips import ChipView
 from .controller import MonoplotController
@@ -293,7 +294,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
             x, y, z = prior.position
             self.cameraSummary.setText(self.tr(
                 "Rough camera: X {0:.0f}  Y {1:.0f}  Z {2:.0f} m, heading {3:.1f}°, pitch {4:.1f}°, "
-                "field of view {5:.1f}°").format(x, y, z, prior.heading % 360, prior.pitch, prior.fov))
+                "field of view {5:.1f}°").format(x, y, z, azimuth(prior.heading), prior.pitch, prior.fov))
         elif fitted is not None:  # a fitted camera loaded from a file or a project: said, not "no camera"
             self.cameraSummary.setText(self.tr(
                 "A fitted camera is loaded (see the fit tab); no rough camera. Draw or import one only to suggest "

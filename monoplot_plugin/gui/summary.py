@@ -7,7 +7,7 @@ import os
 from html import escape as html_escape
 from typing import Callable, Optional
 
-from ..core.camera import Camera
+from ..core.camera import Camera, azimuth
 
 __all__ = ["fit_summary_html", "sigma_text", "verdict_first"]
 
@@ -138,7 +138,7 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     if under:  # a coarse DEM at the camera, or a fit that ended low: say so, the overlay needs it explained
         z_text += " " + tr("({0:.1f} m under the DEM)").format(-clearance)
     cells = [("X", f"{x:.0f} m{sig('x')}"),
-             (tr("Heading"), f"{fitted.heading % 360:.2f}°{sig('heading')}"),
+             (tr("Heading"), f"{azimuth(fitted.heading):.2f}°{sig('heading')}"),
              ("Y", f"{y:.0f} m{sig('y')}"),
              (tr("Pitch"), f"{fitted.pitch:.2f}°{sig('pitch')}"),
              ("Z", z_text if not info.get("on_ground") else

@@ -19,6 +19,7 @@ from typing import Dict, List, Optional, Sequence
 
 import numpy as np
 
+from ..core.camera import azimuth
 from ._gdal import image_verifier
 from .safe_write import atomic_output
 
@@ -310,7 +311,7 @@ def parameter_lines(camera, sigmas) -> List[str]:
     for name in ("x", "y", "z", "heading", "pitch", "roll", "fov", "cx", "cy", "k1", "k2"):
         value = params[name]
         if name == "heading":
-            value = float(value) % 360.0
+            value = azimuth(value)
         if name in ("k1", "k2") and value == 0.0:
             continue
         sigma = sigmas.get(name)

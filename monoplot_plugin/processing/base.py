@@ -32,6 +32,7 @@ from qgis.core import (
 from qgis.PyQt.QtCore import QCoreApplication, QVariant
 
 from ..workflow.inputs import check_dem_file, check_photo_path, check_view
+from ..core.camera import azimuth
 from ..core.dem_large import IMAGE_NOTE
 from ..workflow.inputs import load_dem as load_checked_dem
 from ..adapters.photo_space import PHOTO_Y_SIGN  # noqa: F401 (algorithms import it from here)
@@ -263,7 +264,7 @@ def camera_line(camera) -> str:
     'x 1.0 m, y 2.0 m, z 3.0 m, heading 296.39°, pitch -8.50°, ro'
     """
     p = camera.parameters()
-    text = (f"x {p['x']:.1f} m, y {p['y']:.1f} m, z {p['z']:.1f} m, heading {p['heading'] % 360.0:.2f}°, "
+    text = (f"x {p['x']:.1f} m, y {p['y']:.1f} m, z {p['z']:.1f} m, heading {azimuth(p['heading']):.2f}°, "
             f"pitch {p['pitch']:.2f}°, roll {p['roll']:.2f}°, field of view {p['fov']:.2f}°")
     if p.get("k1"):
         text += f", k1 {p['k1']:.4f}"
