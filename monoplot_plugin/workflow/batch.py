@@ -414,8 +414,8 @@ def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_poi
                       log: Log = lambda message, error: None):
     """Fit one camera for a whole time-lapse on its first readable photo (the frames share the camera).
 
-    Returns (camera, photo used, rmse px, the fit's status, its message). Raises InputError when no photo can be
-    fitted."""
+    Returns (camera, photo used, the fit's verdict: see :func:`~.frames.fit_job`). Raises InputError when no photo
+    can be fitted."""
     problems = []
     for path in folder_photos:
         try:
@@ -425,10 +425,11 @@ def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_poi
             log(f"{os.path.basename(path)}: skipped for the shared fit: {exc}", True)
             continue
         job = PhotoJob(path, prior=prior, points=points, dem_points=dem_points)
-        camera, rmse, status, message = fit_job(job, (photo.shape[1], photo.shape[0]), dem, crs_wkt)
-        if status != "ok":
-            log(f"{os.path.basename(path)}: the shared camera's fit is {status}: {message}", True)
-        return camera, path, rmse, status, message
+        camera, verdict = fit_job(job, (photo.shape[1], photo.shape[0]), dem, crs_wkt)
+        if verdict["status"] != "ok":
+            log(f"{os.path.basename(path)}: the shared camera's fit is {verdict['status']}: {verdict['message']}",
+                True)
+        return camera, path, verdict
     raise InputError("no photo of the folder could be read for the shared fit: " + "; ".join(problems[:3]))
 
 

@@ -231,10 +231,9 @@ def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCance
         camera, products = shared.camera, shared.products
         fit_status, fit_message = "ok", ""
         if camera is None:  # a table row: fit this photo's camera
-            camera, result.rmse_px, fit_status, fit_message = fit_job(task.job, size, shared.dem, setup.crs_wkt,
-                                                                      photo, is_canceled)
-            result.outputs.append(_write_camera(setup, task.stem, camera, {"status": fit_status,
-                                                                           "message": fit_message}))
+            camera, verdict = fit_job(task.job, size, shared.dem, setup.crs_wkt, photo, is_canceled)
+            result.rmse_px, fit_status, fit_message = verdict["rmse_px"], verdict["status"], verdict["message"]
+            result.outputs.append(_write_camera(setup, task.stem, camera, verdict))  # with its σ
             products = CameraProducts(camera, shared.dem, setup.resolution, setup.write_ortho, cached=False)
         elif tuple(camera.image_size) != size:
             raise InputError(f"photo is {size[0]}x{size[1]} px but the shared camera is for "
@@ -317,10 +316,12 @@ def _write_camera(setup: Timelapse, stem: str, camera: Camera, verdict: Optional
 def fit_job(job, size, dem, crs_wkt: str, photo: Optional[np.ndarray] = None,
             is_canceled: Optional[IsCanceled] = None):
     """Fit the camera of a batch job (``prior``, ``points``, ``dem_points`` paths) from its files; returns (camera,
-    rmse in px, fit status, message). A row without points is registered automatically on ``photo`` (the (H, W, 3)
-    picture) from its prior (:func:`~.auto.register`, with the job's ``position_sigma_m`` and
-    ``angle_sigma_deg``, None: its defaults): an archive of photos with rough cameras only needed
-    autoregister in QGIS's batch dialog, which froze the desktop for 87 s over 7 photos (a trial)."""
+    verdict): the verdict a dict with ``"status"``, ``"message"``, ``"rmse_px"`` (NaN when unknown) and the fit's
+    ``"summary"`` (its σ), as :func:`~.camera_files.camera_json` writes it beside the camera. A row without points
+    is registered automatically on ``photo`` (the (H, W, 3) picture) from its prior (:func:`~.auto.register`, with
+    the job's ``position_sigma_m`` and ``angle_sigma_deg``, None: its defaults): an archive of photos with rough
+    cameras only needed autoregister in QGIS's batch dialog, which froze the desktop for 87 s over 7 photos
+    (a trial)."""
     prior = load_camera(job.prior, size, crs_wkt, rough=True)
     if photo is not None:  # a scanned print's optical axis: its picture's centre, as in the dock
         prior = centred_on_picture(prior, picture_area(photo))
@@ -333,8 +334,9 @@ def fit_job(job, size, dem, crs_wkt: str, photo: Optional[np.ndarray] = None,
         camera, r = done.camera, done.result
         camera.crs_wkt = crs_wkt
         rmse = float(r.rmse_px) if r.rmse_px is not None and np.isfinite(r.rmse_px) else float("nan")
-        return camera, rmse, r.status, (f"automatic registration (no points in this row; prior σ {position:g} m, "
-                                        f"{angle:g}°): " + r.message)
+        return camera, {"status": r.status, "rmse_px": rmse, "summary": r.summary(),
+                        "message": (f"automatic registration (no points in this row; prior σ {position:g} m, "
+                                    f"{angle:g}°): " + r.message)}
     if not job.points:  # "point file not found: " with no name said nothing
         raise InputError("no points file in this row (the 'points' column is empty)")
     table = read_points_csv(job.points)
@@ -352,4 +354,4 @@ def fit_job(job, size, dem, crs_wkt: str, photo: Optional[np.ndarray] = None,
     xyz = fill_missing_z(xyz, dem)
     camera, info = fit_points(size, uv, xyz, prior, dem, paired, check=table.get("check") if paired else None)
     camera.crs_wkt = crs_wkt
-    return camera, float(info["rmse_px"]), info["status"], info["message"]
+    return camera, {**info, "rmse_px": float(info["rmse_px"])}

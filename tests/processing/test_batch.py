@@ -104,6 +104,10 @@ def test_table_batch_fits_each_photo_and_skips_a_bad_row(run_alg, small_scene, t
     assert rows["d.png"]["message"].startswith(f"fit {verdict['status']}")
     assert rows["d.png"]["status"] == verdict["status"]  # the verdict, not "ok" (a trial)
     assert rows["a.png"]["status"] == "ok" and rows["a.png"]["photo"] == "a.png"  # relative to the table's folder
+    # a fitted row's camera file keeps the fit's σ, as the dock's and fitcamera's do (the dock reads it back)
+    fitted = json.loads((out / "a_camera.json").read_text())["fit"]
+    assert fitted["status"] == "ok" and fitted["mode"] == "paired" and fitted["rmse_px"] < 0.5
+    assert set(fitted["sigma"]) >= {"x", "y", "z", "heading"} and 0.0 < fitted["sigma"]["x"] < 50.0
 
 
 def test_timelapse_fits_the_shared_camera_once_from_a_prior(run_alg, small_scene, timelapse, tmp_path):
@@ -126,7 +130,8 @@ def test_timelapse_fits_the_shared_camera_once_from_a_prior(run_alg, small_scene
                                "XYZ": False, "ORTHO": True, "OUTPUT": str(out)})
     assert result["SUCCEEDED"] == 18 and result["FAILED"] == 2
     fitted = Camera.load(out / "camera.json")
-    assert json.loads((out / "camera.json").read_text())["fit"]["status"]  # a rerun with it knows it was fitted
+    shared = json.loads((out / "camera.json").read_text())["fit"]
+    assert shared["status"] and shared["sigma"]["heading"] > 0.0  # a rerun with it knows it was fitted, and how well
     assert np.linalg.norm(np.subtract(fitted.position, cam.position)) < 5.0
     assert abs(fitted.heading - cam.heading) < 0.1
 

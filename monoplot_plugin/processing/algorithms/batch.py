@@ -135,22 +135,20 @@ class BatchPhotos(MonoplotAlgorithm):
                            self.parameterAsString(parameters, "PATTERN", context))
             points = self.parameterAsFile(parameters, "POINTS", context)
             if points:  # fit once, on the first readable frame; every frame shares the camera
-                camera, used, rmse, status, message = checked(batch.fit_shared_camera, [j.photo for j in jobs],
+                camera, used, verdict = checked(batch.fit_shared_camera, [j.photo for j in jobs],
                                                               self.parameterAsFile(parameters, "CAMERA", context),
                                                               points,
                                                               self.parameterAsFile(parameters, "DEM_POINTS", context),
                                                               dem, crs.toWkt(),
                                                               lambda m, e: feedback.reportError(m, False))
-                camera_verdict = (status, message)
+                camera_verdict = (verdict["status"], verdict["message"])
                 os.makedirs(out_dir, exist_ok=True)
                 if os.path.exists(os.path.join(out_dir, "camera.json")):
                     feedback.pushInfo(self.tr("camera.json of an earlier run in {0} is replaced").format(out_dir))
-                # with its verdict: a later run given this camera knows it was fitted (or how doubtful it is)
-                write_text(os.path.join(out_dir, "camera.json"), camera_json(camera, {"status": status,
-                                                                                      "message": message}),
-                           overwrite=True)
+                # with its verdict and σ: a later run given this camera knows it was fitted (or how doubtful it is)
+                write_text(os.path.join(out_dir, "camera.json"), camera_json(camera, verdict), overwrite=True)
                 feedback.pushInfo(self.tr("Shared camera fitted on {0}: RMSE {1:.2f} px; written to {2}").format(
-                    os.path.basename(used), rmse, os.path.join(out_dir, 'camera.json')))
+                    os.path.basename(used), verdict["rmse_px"], os.path.join(out_dir, 'camera.json')))
             else:
                 size = None
                 if self.parameterAsFile(parameters, "CAMERA", context).lower().endswith(".kml"):
