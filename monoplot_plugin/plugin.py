@@ -31,6 +31,8 @@ def plugin_icon_path():
 #: the warm-up starts this long after initGui (milliseconds); QGIS quitting waits for the step it is in
 #: (gui/tasks.py keeps the task until its thread ends, also after the plugin's unload)
 WARM_UP_DELAY_MS = 2000
+#: Longest wait (milliseconds) in unload for the warm-up's current kernel compile (a cold cache: 3-12 s each)
+UNLOAD_WARM_UP_WAIT_MS = 30000
 #: Longest wait (seconds) at quit for a background import to end (torch: 3-5 s warm, 35 s on a cold disk).
 QUIT_IMPORT_WAIT_S = 60.0
 
@@ -167,10 +169,18 @@ class MonoplotPlugin:
             timer.stop()
             self._warmup_timer = None
         task, self.warmup_task = getattr(self, "warmup_task", None), None
-        if task is not None:  # stops after the step it is in; a reload does not wait for it (gui/tasks.py)
+        if task is not None:  # it stops after the kernel it compiles; wait for that
             from .gui.tasks import abandon
 
             abandon(task)
+            # A reload deletes the plugin's modules from sys.modules and imports them again on the main thread
+            # right after this: a warm-up still running would import the ones it needs next at the same time,
+            # and either thread could find a module half-initialised (the Processing provider once failed to
+            # import core/xyz/zbuffer in a reload 1 s after the warm-up began)
+            try:
+                task.waitForFinished(UNLOAD_WARM_UP_WAIT_MS)
+            except RuntimeError:  # already deleted: it is over
+                pass
         if self.dock is not None:
             self.dock.visibilityChanged.disconnect(self.action.setChecked)
             self.dock.unload()  # main-map markers, map tools, project signals (gui/dock.py)

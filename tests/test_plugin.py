@@ -75,14 +75,16 @@ def test_init_gui_warms_the_kernels_in_a_background_task(plugin, qtbot):
 
 
 def test_unload_during_the_warm_up_cancels_it(qgis_iface, qtbot):
-    """A reload while the warm-up runs: unload cancels it without waiting (a reload must stay quick); the task stops
-    after the step it is in and stays referenced until then."""
+    """A reload while the warm-up runs: unload cancels it and waits for the kernel it is compiling, no longer (a
+    reload re-imports the plugin's modules next: the warm-up must not import them at the same time). The task stays
+    referenced until its result is delivered."""
     instance = MonoplotPlugin(qgis_iface)
     instance.initGui()
     qtbot.waitUntil(lambda: instance.warmup_task is not None, timeout=plugin_module.WARM_UP_DELAY_MS + 5000)
     task = instance.warmup_task
     instance.unload()
     assert instance.warmup_task is None and task in tasks_module._LIVE
+    assert task.waitForFinished(0)  # its thread has ended: nothing of the old plugin runs on
     qtbot.waitUntil(lambda: task not in tasks_module._LIVE, timeout=120000)
     assert task.result is not None and task.result.status in ("canceled", "success")
     flush_deletes()

@@ -143,7 +143,9 @@ def warm_up(progress: Optional[Progress] = None, is_canceled: Optional[IsCancele
         check_canceled(is_canceled)
         dem = Dem.from_array(terrain.elevation.astype(dtype), terrain.geotransform, terrain.crs_wkt)
         res = compute_xyz_full(camera, dem, visibility=True)
+        check_canceled(is_canceled)  # between kernels too: a plugin's unload waits for the one compiling
         render_dem(camera, dem, result=res)
+        check_canceled(is_canceled)
         # the exact ray-terrain walk: drawing on the photo and the products' ground accuracy run it on the main
         # thread (its first compile took 3.8 s there in a desktop session)
         photo_points_to_map(np.array([[48.0, 40.0], [48.0, 60.0]]), camera, dem)
