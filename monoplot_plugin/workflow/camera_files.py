@@ -13,7 +13,7 @@ from typing import Optional, Tuple
 
 import numpy as np
 
-from ..core.camera import Camera
+from ..core.camera import Camera, azimuth
 from .inputs import InputError, _crs_name, check_camera, read_text
 
 __all__ = ["load_camera", "save_camera", "camera_json", "written_fit", "written_verdict", "fitted_to_size"]
@@ -174,10 +174,17 @@ def camera_json(camera: Camera, verdict: Optional[dict] = None) -> str:
     >>> text = camera_json(cam, {"status": "uncertain", "message": "few points", "sigma": {"x": 2.5}})
     >>> Camera.from_json(text) == cam, json.loads(text)["fit"]["status"], json.loads(text)["fit"]["sigma"]
     (True, 'uncertain', {'x': 2.5})
+
+    The heading is written as an azimuth, as the dock and the report show it (a fit may end at -135: the file
+    says 225, the same camera):
+
+    >>> json.loads(camera_json(cam.with_parameters(heading=-135.0)))["heading"]
+    225.0
     """
-    if not verdict:
-        return camera.to_json()
     d = camera.to_dict()
+    d["heading"] = azimuth(camera.heading)
+    if not verdict:
+        return json.dumps(d, indent=2)
     d["fit"] = {"status": str(verdict.get("status") or ""), "message": str(verdict.get("message") or "")}
     summary = verdict.get("summary") or {}
     sigma = verdict.get("sigma") or summary.get("std") or {}

@@ -35,7 +35,9 @@ def test_autoregister_writes_a_camera_and_its_status(run_alg, rendered_scene, tm
     assert result["STATUS"] in ("ok", "uncertain", "poor") and result["MESSAGE"]
     cam = Camera.load(out)
     truth = rendered_scene["truth"]
-    assert abs(cam.heading - truth.heading) < 1.0 and abs(cam.pitch - truth.pitch) < 1.0
+    # the file names the heading as an azimuth (354.7 for -5.3)
+    assert abs((cam.heading - truth.heading + 180.0) % 360.0 - 180.0) < 1.0 and abs(cam.pitch - truth.pitch) < 1.0
+    assert 0.0 <= cam.heading < 360.0
     assert json.loads(out.read_text())["crs_wkt"]
     assert result["N_MATCHED"] >= 0 and np.isfinite(result["RMSE_PX"]) or result["STATUS"] == "poor"
 

@@ -361,3 +361,25 @@ def test_an_automatic_orthophoto_over_a_fine_dem_keeps_to_its_cell_budget(scene,
         products.AUTO_ORTHO_CELLS = old
     # coarser than the DEM, as the budget needs (before: the DEM's cells, 4 times the budget)
     assert cell > 1.8 * dem.cell_size and cell == pytest.approx((area / budget_cells) ** 0.5, rel=0.01)
+
+
+def test_a_camera_file_names_the_heading_as_an_azimuth(tmp_path):
+    """A fit from a rough camera drawn at heading -129 ended at -135 and its camera file said -135, while the dock
+    and the report said 225: the file says 225 too, and loads as the same camera."""
+    from monoplot_plugin.core.fit import fit_camera
+    from monoplot_plugin.workflow.camera_files import load_camera, save_camera
+
+    truth = Camera((2_600_000.0, 1_200_000.0, 1500.0), 225.0, -6.0, 1.5, 58.0, (1024, 768))
+    rng = np.random.default_rng(4)
+    ahead = np.radians(225.0 + rng.uniform(-20, 20, 40))
+    dist = rng.uniform(1500, 8000, 40)
+    world = np.column_stack([truth.position[0] + dist * np.sin(ahead), truth.position[1] + dist * np.cos(ahead),
+                             rng.uniform(300, 1400, 40)])
+    uv = truth.project(world)
+    start = truth.with_parameters(heading=-129.0, x=truth.position[0] + 100.0, fov=60.0)
+    result = fit_camera(uv, world, start, pairs=np.column_stack([np.arange(40), np.arange(40)]))
+    assert result.status == "ok" and result.camera.heading == pytest.approx(-135.0, abs=1e-3)  # as the fit ends
+    save_camera(str(tmp_path / "camera.json"), result.camera, verdict={"status": result.status, "message": ""})
+    loaded = load_camera(str(tmp_path / "camera.json"), (1024, 768))
+    assert loaded.heading == pytest.approx(225.0, abs=1e-3)
+    assert np.abs(loaded.project(world) - uv).max() < 1e-3

@@ -7,7 +7,7 @@ from typing import Callable, Iterable, Optional
 
 import numpy as np
 
-from ..camera import Camera, azimuth
+from ..camera import Camera
 from .checks import check_inputs
 from .context import FitCanceled, FitContext
 from .options import FitOptions
@@ -72,10 +72,6 @@ def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Op
             result.evidence.update(check_rmse_px=result.check_rmse_px, has_check=len(cq) > 0, n_check=len(cq))
     if result.evidence and result.status not in ("refused", "canceled"):
         result.status, result.message = judge(result.evidence)
-    if result.camera is not None and result.camera.heading != azimuth(result.camera.heading):
-        # the descent may wander to -135 or 400: the camera it gives back reads as an azimuth, 225 or 40, in
-        # files, the dock and the report alike (the same camera: only the angle's name changes)
-        result.camera = result.camera.with_parameters(heading=azimuth(result.camera.heading))
     result.elapsed_s = time.perf_counter() - t0
     ctx.report(1.0, "")  # not the status: a caller may still lower it (on-ground rule, automatic cap)
     return result
