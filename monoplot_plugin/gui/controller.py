@@ -195,6 +195,8 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         self.cameraChanged.emit()
         self._changed()
         self._maybe_exif_prior()
+        if keep_points and not self._restoring:  # a time-lapse's next frame: the kept camera's overlay on it
+            self.ensure_products()
         return True
 
     def _without_photo_points(self) -> ProjectState:

@@ -60,7 +60,8 @@ def ask_photo_change(parent, name: str, work: str, offer_keep: bool) -> Optional
     text = tr("Load {0}? The current photo carries {1}: they belong to that picture.").format(name, work)
     if offer_keep:
         text += " " + tr("The new file has the same size: if it is the same picture (a grey, re-touched or "
-                         "re-saved copy), keep them.")
+                         "re-saved copy) or another frame of the same fixed camera (a time-lapse), keep them, "
+                         "and the camera with them.")
     else:
         text += " " + tr("They will be removed (the map points stay).")
     box.setText(text)

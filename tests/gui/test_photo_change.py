@@ -7,6 +7,7 @@ from __future__ import annotations
 import time
 
 import cv2
+import numpy as np
 from qgis.PyQt.QtCore import Qt, QTimer
 from qgis.PyQt.QtWidgets import QApplication, QMessageBox
 
@@ -73,6 +74,28 @@ def test_choosing_another_photo_asks_before_its_points_go(dock, scene, qtbot, tm
     dock.photoFile.setFilePath(scene.photo_path)
     qtbot.wait(100)
     assert len(seen) == n_questions and c.state.photo_path == scene.photo_path
+
+
+def test_a_time_lapse_frame_keeps_the_camera_and_shows_its_overlay(dock, scene, qtbot, tmp_path):
+    """A time-lapse user loaded the next frame and chose "Keep the points": the camera stayed, but the overlay was
+    gone (the slider at 50 %), so nothing showed whether it still fitted the frame; and the question spoke only of
+    copies of the same picture."""
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    add_scene_points(dock, scene, n=8)
+    accept_everything(c)
+    c.set_fitted(scene.camera, {"status": "ok", "message": "the true camera"})
+    assert c.overlay is not None
+    frame = str(tmp_path / "frame_2.png")
+    image = cv2.imread(scene.photo_path)
+    cv2.imwrite(frame, cv2.convertScaleAbs(image, alpha=0.7, beta=10))  # a darker frame of the same camera
+    seen = []
+    answer_with(qtbot, "Keep the points", seen)
+    dock.photoFile.setFilePath(frame)
+    assert "time-lapse" in seen[-1]
+    assert c.state.photo_path == frame and c.fitted == scene.camera
+    qtbot.waitUntil(lambda: c.overlay is not None and not c.products_pending, timeout=30000)
+    assert c.xyz is not None and np.isfinite(c.xyz[..., 2]).any()
 
 
 def test_a_damaged_photo_is_refused_before_any_question(dock, scene, qtbot, tmp_path):
