@@ -243,7 +243,12 @@ def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCance
             products, turned = _registered(shared, photo, result)
             if turned:
                 camera, own_camera = products.camera, True
-                result.outputs.append(_write_camera(setup, task.stem, camera))
+                # the shared camera's verdict goes with it: a turned file without one loaded "uncertain" in the
+                # dock while the shared camera, 7 px off on that frame, loaded "ok" (a trial)
+                note = f"the shared camera turned onto this frame ({result.drift_px:.1f} px of drift)"
+                result.outputs.append(_write_camera(setup, task.stem, camera, {
+                    "status": setup.camera_status,
+                    "message": f"{note}; {setup.camera_note}" if setup.camera_note else note}))
         check_canceled(is_canceled)
         if (setup.write_xyz or setup.write_ortho) and not products.sees_ground:
             raise InputError("the camera sees no cell of the DEM (every pixel is sky): wrong camera or DEM?")

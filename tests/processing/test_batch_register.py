@@ -2,6 +2,7 @@
 SCHEDULER (the frames run on the workers of a Dask scheduler given by its address)."""
 
 import csv
+import json
 
 import cv2
 import pytest
@@ -33,7 +34,10 @@ def test_register_reports_the_drift_of_every_frame_and_the_one_it_cannot_registe
     assert [r["status"] for r in rows] == ["ok", "ok", "failed", "ok"]
     assert "not registered" in rows[2]["message"] and rows[2]["drift_px"] == ""
     assert float(rows[0]["drift_px"]) < 0.1 and float(rows[1]["drift_deg"]) == pytest.approx(1.04, abs=0.05)
-    assert (tmp_path / "out" / "frame_001_camera.json").is_file()  # the turned frame's own camera
+    # the turned frame's own camera, with the shared camera's verdict ("ok": a fitted camera): without one it
+    # loaded "uncertain" in the dock while the shared camera, wrong on that frame, loaded "ok"
+    turned = json.loads((tmp_path / "out" / "frame_001_camera.json").read_text())["fit"]
+    assert turned["status"] == "ok" and "turned onto this frame" in turned["message"]
     assert "frame_002.png: FAILED, skipped: not registered" in feedback.textLog()
 
 
