@@ -291,9 +291,12 @@ def load_camera_file(controller, path: str, as_fitted: bool = False,
     info["message"] = tr("Camera loaded from {0}.").format(name) + moved + " " + verdict
     fit = written_fit(path)
     written, why = str(fit.get("status") or ""), str(fit.get("message") or "")
+    sigma = {str(k): float(v) for k, v in (fit.get("sigma") or {}).items() if isinstance(v, (int, float))}
     if written in ("uncertain", "poor") and not n_check:  # its own fit doubted it: so does the dock
         info["status"] = "poor" if written == "poor" else info["status"]  # unchecked: "uncertain" already
         info["message"] += " " + tr("It was written by a fit whose verdict was \"{0}\": {1}").format(written, why)
+        if sigma:  # how doubtful, per parameter (a trial's reloaded "uncertain" camera showed no ± at all)
+            info["sigma"] = sigma
     elif written == "ok" and not n_check:
         # its own fit verified it (the dock's Save fitted camera, fitcamera): that verdict and its σ come back with
         # it (a trial's "ok" camera reloaded as "uncertain", and the features drawn on it lost their xy error)
@@ -301,7 +304,6 @@ def load_camera_file(controller, path: str, as_fitted: bool = False,
         info["message"] = tr("Camera loaded from {0}.").format(name) + moved + " " + tr(
             "Loaded with its own fit's verdict, \"ok\" (check points here would measure it again): {0}").format(
             why.strip() or tr("no details."))
-        sigma = {str(k): float(v) for k, v in (fit.get("sigma") or {}).items() if isinstance(v, (int, float))}
         if sigma:
             info["sigma"] = sigma
         # its fit's figures: features drawn on it get their xy_error_m from them (a trial's had none)

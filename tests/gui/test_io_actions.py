@@ -398,10 +398,13 @@ def test_a_camera_written_with_its_verdict_comes_back_with_it(dock, scene, tmp_p
     _load(dock, scene)
     c = dock.controller
     poor = tmp_path / "poor.json"
-    poor.write_text(camera_json(scene.camera, {"status": "poor", "message": "the skyline disagrees"}))
+    poor.write_text(camera_json(scene.camera, {"status": "poor", "message": "the skyline disagrees",
+                                               "sigma": {"x": 210.0, "heading": 1.5}}))
     assert io_actions.load_camera_file(c, str(poor), as_fitted=True) is not None
     info = c.state.fit_info
     assert info["status"] == "poor" and 'verdict was "poor": the skyline disagrees' in info["message"]
+    # its σ says how doubtful (a trial's reloaded "uncertain" camera showed no ± though its file held them)
+    assert info["sigma"] == {"x": 210.0, "heading": 1.5} and "± 210" in dock.resultLabel.text()
     saved = tmp_path / "saved.json"
     assert io_actions.save_camera_file(c, str(saved))
     assert json.loads(saved.read_text())["fit"]["status"] == "poor"
