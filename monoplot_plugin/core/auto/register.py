@@ -507,7 +507,7 @@ def _combine(result: AutoFitResult, ev: dict) -> None:
                     "skyline under the camera")
     if ev.get("auto_edge_score", 1.0) > EDGE_SCORE_OK:
         weak.append(f"the DEM's skyline and contours fit the photo's edges only loosely under the camera (edge "
-                    f"score {ev.get('auto_edge_score', 1.0):.2f}, over {EDGE_SCORE_OK}; 0 is a perfect fit)")
+                    f"score {ev.get('auto_edge_score', 1.0):.3f}, over {EDGE_SCORE_OK:.3f}; 0 is a perfect fit)")
     rng = ev.get("auto_range_m", float("nan"))
     near = not np.isfinite(rng) or ev.get("auto_position_sigma_m", 0.0) > NEAR_RATIO * rng
     if near:
