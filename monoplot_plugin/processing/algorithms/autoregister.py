@@ -38,7 +38,10 @@ class AutoRegister(MonoplotAlgorithm):
              "and DEM suggestions consistent with the aligned camera are fitted like any unpaired fit. The prior "
              "is a Monoplot JSON or KML PhotoOverlay camera, or (when none is given) the photo's EXIF GPS "
              "position and direction. Writes the camera as JSON; STATUS says whether the evidence supports it "
-             "(ok / uncertain / poor) and MESSAGE why. In a batch, give each photo its own prior.")
+             "(ok / uncertain / poor) and MESSAGE why. In a batch, give each photo its own prior. Frames of one "
+             "fixed camera (a time-lapse) need one camera, not one each: registered one by one, the same camera "
+             "came out up to 38 m apart and a glacier front seemed to move 20 m; register one frame here and "
+             "give its camera to 'Batch: many photos' (time-lapse mode, REGISTER for a camera that drifts).")
 
     def initAlgorithm(self, config=None):
         self.add_photo_parameter()
