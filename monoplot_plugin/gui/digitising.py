@@ -37,6 +37,8 @@ _MAP_TYPES = {"point": "PointZ", "line": "MultiLineStringZ", "polygon": "MultiPo
 _QVARIANT = {"string": QVariant.Type.String, "integer": QVariant.Type.Int, "real": QVariant.Type.Double,
              "date": QVariant.Type.Date}
 _KIND_LABEL = {"point": "points", "line": "lines", "polygon": "polygons"}
+#: The field of the map layers (live and exported) holding the id of the drawn feature in its photo layer.
+PHOTO_FID = "photo_fid"
 
 
 class DigitisingSession(QObject):
@@ -73,6 +75,8 @@ class DigitisingSession(QObject):
         self.map_layers: Dict[str, QgsVectorLayer] = {}
         self.last_report: Dict[str, Tuple[int, int]] = {}
         self.last_silhouettes: Dict[str, int] = {}  # polygons' silhouette crossings, by kind (for the message)
+        # photo pixel (u, v) where each feature left off the map layer starts, by kind: the message says where
+        self.last_dropped: Dict[str, List[Tuple[float, float]]] = {}
         self._mapped: Dict[Tuple[str, int], tuple] = {}  # (kind, fid) -> (photo geometry WKB, MapFeature or None)
         self._restoring = False
         self.closed = False  # set when one of its layers is being deleted (project cleared, QGIS closing)
@@ -127,7 +131,7 @@ class DigitisingSession(QObject):
             rebuilt_on_reopen(layer)  # computed from the photo layer
             attrs = [QgsField(n, _QVARIANT[t]) for n, t in self.fields]
             attrs += computed_fields(kind)
-            attrs.append(QgsField("photo_fid", QVariant.Type.LongLong))
+            attrs.append(QgsField(PHOTO_FID, QVariant.Type.LongLong))
             layer.dataProvider().addAttributes([a for a in attrs if layer.fields().indexFromName(a.name()) < 0])
             layer.updateFields()
             if not reused:
@@ -343,6 +347,7 @@ class DigitisingSession(QObject):
         """The photo layer's features in map coordinates: (features, their photo fids, features dropped as sky)."""
         layer = self.photo_layer(kind)
         out, fids, dropped = [], [], 0
+        self.last_dropped[kind] = []
         for feature in layer.getFeatures():
             vertices = photo_vertices(feature.geometry())
             if len(vertices) == 0:
@@ -364,6 +369,7 @@ class DigitisingSession(QObject):
                                     mapped.silhouettes)
             if mapped is None:
                 dropped += 1
+                self.last_dropped[kind].append((float(vertices[0][0]), float(vertices[0][1])))
                 continue
             out.append(mapped)
             fids.append(feature.id())
@@ -384,7 +390,7 @@ class DigitisingSession(QObject):
             for name, value in {**mapped.attributes, **mapped.measures()}.items():
                 if layer.fields().indexFromName(name) >= 0 and value is not None:
                     f[name] = _qvalue(value, dict(self.fields).get(name))
-            f["photo_fid"] = int(fid)
+            f[PHOTO_FID] = int(fid)
             new.append(f)
         ok, _ = provider.addFeatures(new)
         if not ok:  # never silently: a feature missing from the map layer is data the user would lose
@@ -402,9 +408,13 @@ class DigitisingSession(QObject):
 
     def export(self, kind: str, path, overwrite: bool = False, add_to_project: bool = True) -> Path:
         """Write the features of ``kind`` as a GeoPackage or Shapefile (by suffix) and add it to the group."""
-        features, _, _ = self.map_features(kind)
-        written = write_vector_layer(path, features, self.dem.crs_wkt, fields=self.fields, kind=kind,
-                                     overwrite=overwrite)
+        features, fids, _ = self.map_features(kind)
+        # which drawn feature each row is (a trial's file had 6 rows for 8 points drawn, and nothing to tell them
+        # apart): its id in the photo layer, as the live map layer has it
+        for feature, fid in zip(features, fids):
+            feature.attributes = {**feature.attributes, PHOTO_FID: int(fid)}
+        written = write_vector_layer(path, features, self.dem.crs_wkt, fields=[*self.fields, (PHOTO_FID, "integer")],
+                                     kind=kind, overwrite=overwrite)
         if add_to_project:
             add_vector_file_layer(written, self.project, self.group)
         return written

@@ -321,11 +321,21 @@ class OutputTools(QObject):
             parts.append((self.tr("{0} entirely over the sky, the paper, a DEM void or off the DEM, not on the map "
                                   "layer") if paper
                           else self.tr("{0} entirely over the sky, a DEM void or off the DEM, not on the map "
-                                       "layer")).format(dropped))
+                                       "layer")).format(dropped) + self._where_dropped(kind))
         if crossings:
             parts.append(self.tr("the outlines cross a ridge's silhouette {0} time(s): there they enclose ground the "
                                  "photo does not show, and the area counts it (field silhouette)").format(crossings))
         return self.tr("{0}: {1}.").format(names.get(kind, kind), "; ".join(parts))
+
+    def _where_dropped(self, kind: str) -> str:
+        """" (at photo pixel (300, 40))": where the features left off start (a trial could not tell which of 9
+        points had no place on the map); "" when unknown."""
+        where = self.session.last_dropped.get(kind, []) if self.session is not None else []
+        if not where:
+            return ""
+        shown = ", ".join(f"({u:.0f}, {v:.0f})" for u, v in where[:3]) + (", …" if len(where) > 3 else "")
+        return " " + self.tr("(at photo pixel {0})").format(shown) if len(where) == 1 else \
+            " " + self.tr("(starting at photo pixels {0})").format(shown)
 
     def _show_on_photo(self) -> None:
         layers: List[QgsMapLayer] = list(self.overlays)

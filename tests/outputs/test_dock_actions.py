@@ -199,6 +199,11 @@ def test_drawn_layers_stay_above_the_orthophoto_and_a_rewrite_replaces_its_layer
     session = tools.current_session()
     session.add_feature("polygon", [[50, 100], [190, 100], [150, 150]], {"name": "tongue"})
     saved = tools.export_features("polygon", tmp_path / "tongue.gpkg")
+    # each row says which drawn feature it is: its id in the photo layer, as the live map layer has it
+    from qgis.core import QgsVectorLayer
+
+    rows = [(f["name"], f["photo_fid"]) for f in QgsVectorLayer(str(saved), "t", "ogr").getFeatures()]
+    assert rows == [("tongue", next(session.photo_layer("polygon").getFeatures()).id())]
     order = _legend_order(session.group)
     live = session.map_layer("polygon")
     assert order.index(live) < order.index(ortho) and order.index(live) < order.index(xyz)
@@ -233,7 +238,9 @@ def test_point_over_the_sky_is_reported_in_plain_words(dock_with_fit):
     dock, tools = dock_with_fit
     tools.current_session().add_feature("point", [[120, 2]])  # the top rows of the plane scene see the sky
     text = dock.statusLabel.text()
-    assert text == "Drawn points: 1 entirely over the sky, a DEM void or off the DEM, not on the map layer.", text
+    # where it is (a trial drew 9 points, was told "1 ... not on the map layer", and could not tell which)
+    assert text == ("Drawn points: 1 entirely over the sky, a DEM void or off the DEM, not on the map layer "
+                    "(at photo pixel (120, 2))."), text
     assert "piece" not in tools.sky_text("point", 0, 2)
     assert tools.sky_text("line", 2, 0) == "Drawn lines: 2 part(s) over the sky, a DEM void or off the DEM left out of the map layer."
     assert "cross a ridge's silhouette 2 time(s)" in tools.sky_text("polygon", 0, 0, 2)
