@@ -62,14 +62,22 @@ class DockViewMixin:
                 place_floating(self)
 
     def _photo_cursor(self, u: float, v: float) -> None:
-        ground = self.controller.ground_at_pixel(u, v)
+        c = self.controller
+        ground = c.ground_at_pixel(u, v)
         self.map_view.show_cursor(None if ground is None else ground[:2])
-        if ground is not None and self.iface is not None:
+        if self.iface is None or c.fitted is None:
+            return
+        if ground is not None:
             # the DEM's CRS named: QGIS's own coordinate box beside it shows the project's (a trial's 3857 project)
-            crs = self.controller.dem_crs.authid() if self.controller.dem_crs.isValid() else ""
-            self.iface.statusBarIface().showMessage(
-                self.tr("Monoplot: photo pixel ({0:.0f}, {1:.0f}) → X {2:.1f}  Y {3:.1f}  Z {4:.1f} m").format(
-                    u, v, *ground) + (f" ({crs})" if crs else ""), 4000)
+            crs = c.dem_crs.authid() if c.dem_crs.isValid() else ""
+            text = self.tr("Monoplot: photo pixel ({0:.0f}, {1:.0f}) → X {2:.1f}  Y {3:.1f}  Z {4:.1f} m").format(
+                u, v, *ground) + (f" ({crs})" if crs else "")
+        elif c.xyz is None:  # just after a fit or a reopen: the per-pixel coordinates are being computed
+            text = self.tr("Monoplot: photo pixel ({0:.0f}, {1:.0f}) → ground coordinates not ready yet").format(u, v)
+        else:  # said, not the last ground reading left on show (a trial read it over the sky)
+            text = self.tr("Monoplot: photo pixel ({0:.0f}, {1:.0f}) → no ground (sky, outside the picture or off "
+                           "the DEM)").format(u, v)
+        self.iface.statusBarIface().showMessage(text, 4000)
 
     def _map_cursor(self, point) -> None:
         if self.controller.fitted is None or self.controller.dem is None:

@@ -246,6 +246,30 @@ def test_point_over_the_sky_is_reported_in_plain_words(dock_with_fit):
     assert "cross a ridge's silhouette 2 time(s)" in tools.sky_text("polygon", 0, 0, 2)
 
 
+def test_the_hover_readout_says_when_a_pixel_has_no_ground(dock_with_fit, qgis_iface, qtbot):
+    """A trial moved the mouse from a ground pixel onto the sky: the status bar kept the last ground reading for 4 s;
+    just after the fit it said nothing at all over the ground (the XYZ was not computed yet)."""
+    from qgis.PyQt.QtCore import QPoint
+
+    from monoplot_plugin.gui.photo_canvas import uv_to_map
+
+    dock, _ = dock_with_fit
+    c = dock.controller
+    shown = qgis_iface.statusBarIface().showMessage  # the test interface records the status bar's messages
+
+    def hover(u, v):
+        p = dock.photo_canvas.getCoordinateTransform().transform(uv_to_map(u, v))
+        qtbot.mouseMove(dock.photo_canvas.viewport(), QPoint(round(p.x()), round(p.y())))
+        qtbot.wait(20)
+        return shown.call_args[0][0]
+
+    c.xyz = None
+    assert "→ ground coordinates not ready yet" in hover(120, 140)
+    c.ensure_products(background=False)
+    assert "→ X" in hover(100, 150)  # the plane scene's bottom rows see the ground
+    assert hover(120, 3).endswith("→ no ground (sky, outside the picture or off the DEM)")  # its top rows the sky
+
+
 def _save_through_dialog(qtbot, path, seen):
     """Answer the next save dialog (a real QFileDialog, Qt's own widget offscreen) with ``path``; record the
     folder it opened in."""
