@@ -83,6 +83,24 @@ def test_a_long_fit_status_is_cut_to_the_page(plane_scene):
         assert text.endswith("(cut to fit the page)") == cut and "Fit status" in text
 
 
+def test_the_report_names_the_points_with_the_largest_residuals(plane_scene):
+    """A trial could not tell from the report's arrows which GCP had the 13.3 px residual: the text names the
+    largest, by the names printed on the photo."""
+    from matplotlib.figure import Figure
+
+    from monoplot_plugin.outputs.report import ReportPoints, _draw_parameters
+
+    scene = plane_scene
+    base = scene_points(scene, noise_px=0.2)
+    uv = base.uv.copy()
+    uv[4] += (9.0, 0.0)  # one point picked 9 px off
+    points = ReportPoints(uv, base.xyz, [f"G{i}" for i in range(len(uv))])
+    ax = Figure().add_subplot()
+    _draw_parameters(ax, scene.camera, None, 2.7, points, scene.xyz, "ok: paired fit on 12 pairs.")
+    line = next(t for t in ax.texts[0].get_text().splitlines() if t.startswith("Largest residuals"))
+    assert line.startswith("Largest residuals: G4 9.") and line.count(" px") == 5, line
+
+
 def test_the_status_leads_the_badge_and_the_reason_survives_the_cut(plane_scene):
     """A trial's report showed "RMSE 2.43 px" alone in the badge, and the reason of an "uncertain" verdict was cut
     off at the bottom of the page: the badge now starts with the status, in its colour, and the text with why."""
