@@ -29,6 +29,7 @@ from ..workflow.camera_files import load_camera, save_camera, written_fit
 from ..workflow.fit import measured_on_pairs
 from ..workflow.inputs import OFF_DEM_NOTE, InputError, _transform, points_to_dem_crs
 from ..workflow.points_csv import read_points_csv, write_points_csv
+from .product_exports import writable_folder
 
 __all__ = ["import_points_csv", "export_points_csv", "import_point_layers", "export_point_layers",
            "load_camera_file", "save_camera_file", "IoActions", "PHOTO_LAYER_NAME", "MAP_LAYER_NAME"]
@@ -402,6 +403,10 @@ class IoActions:
         path = self.dock.controller.state.photo_path
         return os.path.dirname(path) if path else ""
 
+    def _save_folder(self) -> str:
+        """Where a save dialog opens: the photo's folder if one can write there, else the project's, else home."""
+        return str(writable_folder([self._folder(), QgsProject.instance().absolutePath()]))
+
     def _open_camera(self, as_fitted: bool) -> None:
         path, _ = QFileDialog.getOpenFileName(self.dock, tr("Load camera"), self._folder(), self.OPEN_CAMERA_FILTER)
         if path:
@@ -414,7 +419,8 @@ class IoActions:
         return load_camera_file(self.dock.controller, path, as_fitted, self.dock.fovSpin.value()) is not None
 
     def _save_camera(self, which: str) -> None:
-        path, chosen = QFileDialog.getSaveFileName(self.dock, tr("Save camera"), self._folder(), self.CAMERA_FILTER)
+        path, chosen = QFileDialog.getSaveFileName(self.dock, tr("Save camera"), self._save_folder(),
+                                                   self.CAMERA_FILTER)
         if path:
             if not os.path.splitext(path)[1]:
                 path += ".kml" if "kml" in chosen.lower() else ".json"
@@ -427,7 +433,8 @@ class IoActions:
             import_points_csv(self.dock.controller, path, all_check=all_check)
 
     def _export_csv(self) -> None:
-        path, _ = QFileDialog.getSaveFileName(self.dock, tr("Export pairs"), self._folder(), tr("CSV table (*.csv)"))
+        path, _ = QFileDialog.getSaveFileName(self.dock, tr("Export pairs"), self._save_folder(),
+                                              tr("CSV table (*.csv)"))
         if path:
             export_points_csv(self.dock.controller, path if path.lower().endswith(".csv") else path + ".csv")
 

@@ -25,6 +25,17 @@ __all__ = ["ProductExports", "LAST_FOLDER_KEY"]
 LAST_FOLDER_KEY = "monoplot/last_output_folder"
 
 
+def writable_folder(candidates) -> Path:
+    """The first of ``candidates`` (paths, "" skipped) that is a folder one can write to, else the home folder: a
+    save dialog opened in a trial's read-only data folder (the photo's), and the first save failed there."""
+    import os
+
+    for folder in candidates:
+        if folder and Path(folder).is_dir() and os.access(folder, os.W_OK):
+            return Path(folder)
+    return Path.home()
+
+
 class ProductExports:
     """XYZ raster, orthophoto and report of the fitted camera, for one dock."""
 
@@ -83,16 +94,12 @@ class ProductExports:
 
     def output_folder(self) -> Path:
         """Where the save dialogs open: the folder of the last product saved, else the saved project's folder,
-        else the photo's folder (which may be a read-only archive)."""
+        else the photo's folder: the first of them one can write to (see :func:`writable_folder`)."""
         from qgis.core import QgsSettings
 
         last = QgsSettings().value(LAST_FOLDER_KEY, "", type=str)
         photo_folder = str(Path(self.controller.state.photo_path or ".").parent)
-        candidates = [last, self.project.absolutePath(), photo_folder]
-        for folder in candidates:
-            if folder and Path(folder).is_dir():
-                return Path(folder)
-        return Path(".")
+        return writable_folder([last, self.project.absolutePath(), photo_folder])
 
     def ask(self, title: str, filters: str, suffix: str) -> Optional[str]:
         from qgis.core import QgsSettings

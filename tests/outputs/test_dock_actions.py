@@ -1,6 +1,8 @@
 """The outputs inside the real Monoplot dock: tools and actions installed, drawing on the photo canvas, exports
 added to the photo's layer group, a refit moving the live map layer, unload."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from osgeo import gdal
@@ -669,3 +671,21 @@ def test_a_camera_signal_without_a_new_camera_traces_no_feature_again(dock_with_
     assert traced == [] and session.map_layer("polygon").featureCount() == 1
     c.set_fitted(c.fitted.with_parameters(heading=c.fitted.heading + 0.5), dict(c.state.fit_info))
     assert traced == [1] and session.map_layer("polygon").featureCount() == 1
+
+
+def test_save_dialogs_open_in_a_folder_one_can_write_to(tmp_path, monkeypatch):
+    """A trial's first save dialog opened in the photo's folder, a read-only archive: the first folder of the list
+    one can write to is taken, else the home folder."""
+    import os
+
+    from monoplot_plugin.gui.product_exports import writable_folder
+
+    archive, project = tmp_path / "archive", tmp_path / "project"
+    archive.mkdir()
+    project.mkdir()
+    real_access = os.access
+    # the archive as a read-only mount shows it (the tests may run as root, who can write anywhere)
+    monkeypatch.setattr(os, "access", lambda p, mode: False if str(p) == str(archive) else real_access(p, mode))
+    assert writable_folder(["", str(tmp_path / "gone"), str(archive), str(project)]) == project
+    assert writable_folder([str(archive)]) == Path.home()
+    assert writable_folder([str(project), str(archive)]) == project
