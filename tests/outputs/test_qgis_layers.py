@@ -169,3 +169,28 @@ def test_drawn_features_survive_saving_and_reopening_the_project(qgis_app, plane
     names = [n.name() for n in again.group.findLayers()]
     assert len(names) == len(set(names))  # the reopened layers are reused, not duplicated
     reopened.clear()
+
+
+def test_the_message_counts_the_features_hidden_in_part_not_the_pieces(qgis_app):
+    """A trial's line along a valley floor came out in 9 hidden pieces of 1-10 px (DEM bumps at a grazing angle):
+    "9 pieces hidden" read as more occlusion than there was. The message counts features partly hidden."""
+    from qgis.core import QgsFeature, QgsField, QgsVectorLayer
+    from qgis.PyQt.QtCore import QVariant
+
+    from monoplot_plugin.gui.map_layers import overlay_outcome
+
+    source = QgsVectorLayer("LineString?crs=EPSG:2056", "valley lines", "memory")
+    source.dataProvider().addFeatures([QgsFeature() for _ in range(3)])
+    overlay = QgsVectorLayer("LineString", "valley lines on photo", "memory")
+    overlay.dataProvider().addAttributes([QgsField("source_fid", QVariant.Type.LongLong),
+                                          QgsField("visible", QVariant.Type.Int)])
+    overlay.updateFields()
+    pieces = []
+    for fid, visible in [(1, 1)] + [(1, 0), (1, 1)] * 9 + [(2, 1)]:  # line 1 in 19 pieces, 9 hidden; line 2 seen
+        f = QgsFeature(overlay.fields())
+        f["source_fid"], f["visible"] = fid, visible
+        pieces.append(f)
+    overlay.dataProvider().addFeatures(pieces)
+    text, doubtful = overlay_outcome(source, overlay)
+    assert text == "Drawn on the photo: 2 of the 3 features of valley lines (1 of them partly hidden behind " \
+                   "terrain, dashed)." and not doubtful
