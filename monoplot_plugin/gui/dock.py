@@ -26,7 +26,7 @@ from .chips import ChipView
 from .controller import MonoplotController
 from .auto_panel import install_auto_panel
 from .curation_panel import MessageOnce, install_curation_panel
-from .dock_layout import (fit_minimum_width, lay_out, narrow_tabs, scroll_points_tab,
+from .dock_layout import (fit_minimum_width, lay_out, narrow_tabs, scroll_camera_tab, scroll_points_tab,
                           split_photo_and_tabs, status_line)
 from .fit_settings import FitSettingsPanel, LensPanel
 from . import photo_change
@@ -170,6 +170,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
         self.fitTabLayout.insertWidget(self.fitTabLayout.indexOf(self.resultLabel) + 1, self.fit_settings)
         scroll_points_tab(self)
         narrow_tabs(self)
+        scroll_camera_tab(self)
         fit_minimum_width(self)
         restored = bool(self.project.readEntry("monoplot", "/state", "")[1]) and c.restore()
         if restored and c.fitted is not None:

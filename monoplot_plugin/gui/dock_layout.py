@@ -7,8 +7,8 @@ from qgis.PyQt.QtCore import QEvent, QObject, Qt
 from qgis.PyQt.QtWidgets import (QFrame, QGridLayout, QHeaderView, QScrollArea, QSizePolicy, QVBoxLayout,
                                  QWidget)
 
-__all__ = ["lay_out", "fit_minimum_width", "scroll_points_tab", "narrow_tabs", "split_photo_and_tabs",
-           "fit_text_height", "TextHeight"]
+__all__ = ["lay_out", "fit_minimum_width", "scroll_points_tab", "scroll_camera_tab", "narrow_tabs",
+           "split_photo_and_tabs", "fit_text_height", "TextHeight"]
 
 #: rows of the point table in sight under the Points tab's buttons and counts at the first show
 TABLE_ROWS = 4
@@ -88,13 +88,11 @@ class TextHeight(QObject):
         return False
 
 
-def scroll_points_tab(dock) -> None:
-    """The Points tab scrolls when the splitter gives it less than it needs, as the Fit tab does: on a laptop
-    (a dock of ~800 px) its five button rows were squashed to half their height and the table to one row.
-    """
+def _scrolled_page(tab: QWidget, layout) -> QScrollArea:
+    """Move everything of ``tab``'s ``layout`` onto a page in a vertical scroll area that ``layout`` then holds; the
+    page keeps the margins and spacing."""
     page = QWidget()
     page_layout = QVBoxLayout(page)
-    layout = dock.pointsTabLayout
     page_layout.setContentsMargins(layout.contentsMargins())
     page_layout.setSpacing(layout.spacing())
     layout.setContentsMargins(0, 0, 0, 0)
@@ -105,19 +103,38 @@ def scroll_points_tab(dock) -> None:
         elif item.layout() is not None:
             item.layout().setParent(None)
             page_layout.addLayout(item.layout())
+        elif item.spacerItem() is not None:
+            page_layout.addItem(item.spacerItem())
+    scroll = QScrollArea(tab)
+    scroll.setWidgetResizable(True)
+    scroll.setFrameShape(QFrame.Shape.NoFrame)
+    scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+    scroll.setWidget(page)
+    layout.addWidget(scroll)
+    # no horizontal scrolling: the page is as wide as the view (its rows share the width as before the
+    # scroll area), never wider (else the right column, "Accept likely (15)", was cut off under the scroll bar)
+    page.setMinimumWidth(1)
+    return scroll
+
+
+def scroll_points_tab(dock) -> None:
+    """The Points tab scrolls when the splitter gives it less than it needs, as the Fit tab does: on a laptop
+    (a dock of ~800 px) its five button rows were squashed to half their height and the table to one row.
+    """
+    dock.pointsScroll = _scrolled_page(dock.pointsTab, dock.pointsTabLayout)
+    page_layout = dock.pointsScroll.widget().layout()
     # the help text under the table: above it, at 760 px the table began below the tab's visible part
     page_layout.removeWidget(dock.helpLabel)
     page_layout.addWidget(dock.helpLabel)
     page_layout.setStretchFactor(dock.pointTable, 1)  # a taller tab shows more rows, not more space between
-    dock.pointsScroll = QScrollArea(dock.pointsTab)
-    dock.pointsScroll.setWidgetResizable(True)
-    dock.pointsScroll.setFrameShape(QFrame.Shape.NoFrame)
-    dock.pointsScroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
-    dock.pointsScroll.setWidget(page)
-    layout.addWidget(dock.pointsScroll)
-    # no horizontal scrolling: the page is as wide as the view (its rows share the width as before the
-    # scroll area), never wider (else the right column, "Accept likely (15)", was cut off under the scroll bar)
-    page.setMinimumWidth(1)
+
+
+def scroll_camera_tab(dock) -> None:
+    """The Camera tab scrolls too: its buttons, form and lens panel made the dock 777 px tall at least, taller
+    than a 1366 x 768 laptop screen (a trial: the products and the status bar below the screen's edge)."""
+    dock.cameraScroll = _scrolled_page(dock.cameraTab, dock.cameraTabLayout)
+    dock.cameraTabLayout = dock.cameraScroll.widget().layout()  # where the camera tab's widgets now are
+    dock.cameraTabLayout.setStretch(dock.cameraTabLayout.count() - 1, 1)  # the rows at the top, as before
 
 
 def narrow_tabs(dock) -> None:

@@ -204,3 +204,20 @@ def test_the_point_table_is_in_sight_under_the_points_buttons(dock, qtbot):
         assert in_sight >= TABLE_ROWS or at_most, (height, in_sight, photo, tabs)
         if height == 1100:
             assert in_sight >= TABLE_ROWS and photo >= 0.5 * total  # room for both: the photo keeps the rest
+
+
+def test_the_dock_fits_a_laptop_screen_768_px_tall(dock, qtbot):
+    """A trial at 1366 x 768: the dock needed 777 px at least (the photo pane 324, the Camera tab 266 without a
+    scroll area), so QGIS's window grew past the screen and the products were below its edge. The Camera tab now
+    scrolls like the others; docked or floating, the dock's minimum leaves room for QGIS's menus and tool bars."""
+    d = dock
+    for tab in (d.cameraTab, d.pointsTab, d.fitTab):
+        d.stepTabs.setCurrentWidget(tab)
+        qtbot.wait(10)
+        assert d.minimumSizeHint().height() <= 560, (tab.objectName(), d.minimumSizeHint().height())
+    d.resize(460, 560)
+    d.stepTabs.setCurrentWidget(d.cameraTab)
+    qtbot.wait(50)
+    # the camera tab's rows keep their height and the rest is a scroll away
+    assert d.drawCameraButton.height() >= d.drawCameraButton.sizeHint().height()
+    assert d.cameraScroll.verticalScrollBar().maximum() > 0
