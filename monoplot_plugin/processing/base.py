@@ -65,6 +65,24 @@ def wrong_file_kind(path: str, file_filter: str, description: str) -> str:
     return f"{description}: {os.path.basename(path)} is {kind}, expected one of {', '.join(suffixes)}"
 
 
+def not_a_number(definitions, parameters) -> Optional[Tuple[bool, str]]:
+    """(False, why) for a number parameter given as text that is no number, None when all are numbers. QGIS lets
+    an optional one through: ``EYE_HEIGHT=1,7`` from qgis_process was read as 0 (a German-locale trial), with no
+    word; a decimal comma is refused with what to write instead, never guessed (1,700 may be a thousand)."""
+    for definition in definitions:
+        value = parameters.get(definition.name())
+        if not isinstance(definition, QgsProcessingParameterNumber) or not isinstance(value, str) or \
+                not value.strip():
+            continue
+        try:
+            float(value)
+        except ValueError:
+            hint = f" (write {value.strip().replace(',', '.')} with a decimal point)" \
+                if value.count(",") == 1 and value.replace(",", "", 1).strip().lstrip("-").isdigit() else ""
+            return False, f"{definition.name()} \"{value}\" is not a number{hint}"
+    return None
+
+
 class MonoplotAlgorithm(QgsProcessingAlgorithm):
     """Base class: group, translation, instance creation, and conversion of input errors to clear messages."""
 
@@ -126,7 +144,7 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         (a folder, a text file, no georeferencing...)."""
         ok, message = super().checkParameterValues(parameters, context)
         if ok:
-            return ok, message
+            return not_a_number(self.parameterDefinitions(), parameters) or (ok, message)
         names = [p.name() for p in self.parameterDefinitions()]
         value = parameters.get("DEM") if "DEM" in names else None
         if isinstance(value, str) and value:

@@ -294,3 +294,17 @@ def test_paired_gcps_need_no_prior(run_alg, small_scene, ground_truth, tmp_path)
     with pytest.raises(QgsProcessingException, match="A prior camera is needed"):
         run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"], "PHOTO_CSV": str(few),
                               "OUTPUT": str(tmp_path / "c.json")})
+
+
+def test_a_number_with_a_decimal_comma_is_refused_not_read_as_another(run_alg, small_scene, ground_truth, tmp_path):
+    """A German-locale trial: qgis_process ... EYE_HEIGHT=1,7 fitted as if the height were 0, with no word (QGIS lets
+    an optional number that is no number through). It is refused, saying what to write."""
+    gcps = tmp_path / "gcps.csv"
+    write_points_csv(str(gcps), uv=ground_truth["pixels"], xyz=ground_truth["world"])
+    given = {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"], "PRIOR": ground_truth["prior"],
+             "PHOTO_CSV": str(gcps), "OUTPUT": str(tmp_path / "camera.json")}
+    with pytest.raises(QgsProcessingException, match=r'EYE_HEIGHT "1,7" is not a number \(write 1.7 with a decimal'):
+        run_alg("fitcamera", {**given, "EYE_HEIGHT": "1,7"})
+    with pytest.raises(QgsProcessingException, match=r'EYE_HEIGHT "1.700,5" is not a number$'):
+        run_alg("fitcamera", {**given, "EYE_HEIGHT": "1.700,5"})
+    assert run_alg("fitcamera", {**given, "EYE_HEIGHT": "1.7"})["STATUS"]  # a decimal point: read as given
