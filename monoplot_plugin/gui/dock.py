@@ -31,6 +31,7 @@ from .dock_layout import (fit_minimum_width, lay_out, narrow_tabs, scroll_camera
 from .fit_settings import FitSettingsPanel, LensPanel
 from . import photo_change
 from .io_actions import IoActions
+from .number_entry import accept_both_separators
 from .photo_canvas import PhotoCanvas
 from .point_table import ID_ROLE, PointTableModel, make_proxy
 from .prior_height import PriorHeightBox
@@ -171,6 +172,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
         scroll_points_tab(self)
         narrow_tabs(self)
         scroll_camera_tab(self)
+        self._decimal_keys = accept_both_separators(self)  # "63.25" typed in a German locale gave 63
         fit_minimum_width(self)
         restored = bool(self.project.readEntry("monoplot", "/state", "")[1]) and c.restore()
         if restored and c.fitted is not None:
