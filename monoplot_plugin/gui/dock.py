@@ -17,7 +17,8 @@ from typing import Optional
 from qgis.core import Qgis, QgsApplication, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer, QgsSettings
 from qgis.PyQt import uic
 from qgis.PyQt.QtCore import QItemSelectionModel, Qt
-from qgis.PyQt.QtWidgets import QAction, QDockWidget, QSizePolicy, QToolBar, QToolButton
+from qgis.PyQt.QtGui import QKeySequence
+from qgis.PyQt.QtWidgets import QAction, QDockWidget, QShortcut, QSizePolicy, QToolBar, QToolButton
 
 from .. import PLUGIN_DIR
 from ..core.camera import azimuth
@@ -110,6 +111,13 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
         # after drawing took back a GCP import without a word
         self.undoButton.clicked.connect(lambda: self._said(c.undo()))
         self.redoButton.clicked.connect(lambda: self._said(c.redo()))
+        # Ctrl+Z / Ctrl+Shift+Z (Ctrl+Y) with the focus in the tabs too, not only on the photo (a keyboard trial's
+        # Ctrl+Z in the point table did nothing); a box being typed in keeps its own undo
+        # (each key once: the platform's standard Redo may hold Ctrl+Y too, and two shortcuts of one key fire none)
+        self._undo_keys = [QShortcut(QKeySequence(keys), self.stepTabs, button.click,
+                                     context=Qt.ShortcutContext.WidgetWithChildrenShortcut)
+                           for keys, button in (("Ctrl+Z", self.undoButton), ("Ctrl+Shift+Z", self.redoButton),
+                                                ("Ctrl+Y", self.redoButton))]
         self.photo_tool.on_undo = self.map_tool.on_undo = self._said
         self.table_model = PointTableModel(c.state, self)
         self.table_proxy = make_proxy(self.table_model, self)
@@ -347,7 +355,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
         st = self.controller.stack
         self.undoButton.setEnabled(st.can_undo())
         self.redoButton.setEnabled(st.can_redo())
-        self.undoButton.setToolTip(self.tr("Undo {0}").format(st.undo_text()))
+        self.undoButton.setToolTip(self.tr("Undo {0} (Ctrl+Z)").format(st.undo_text()))
         if self.controller.fitted is not None:  # "the points changed since this fit", or no longer
             self.resultLabel.setText(self._result_text())
 

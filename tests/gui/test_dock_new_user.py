@@ -221,3 +221,25 @@ def test_the_dock_fits_a_laptop_screen_768_px_tall(dock, qtbot):
     # the camera tab's rows keep their height and the rest is a scroll away
     assert d.drawCameraButton.height() >= d.drawCameraButton.sizeHint().height()
     assert d.cameraScroll.verticalScrollBar().maximum() > 0
+
+
+def test_ctrl_z_in_the_tabs_undoes_the_last_point_edit(dock, scene, qtbot):
+    """A keyboard trial pressed Ctrl+Z with the focus in the point table: nothing happened (only the photo canvas
+    took it). The tabs take Ctrl+Z and Ctrl+Shift+Z / Ctrl+Y too; the Undo button's tooltip says so."""
+    from test_dock import accept_everything, add_scene_points, load_inputs
+
+    from monoplot_plugin.state import ACCEPTED, PHOTO
+
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    add_scene_points(dock, scene, n=4)
+    accept_everything(c)
+    accepted = c.state.counts()[PHOTO][ACCEPTED]
+    dock.stepTabs.setCurrentWidget(dock.pointsTab)
+    dock.pointTable.setFocus()
+    qtbot.waitUntil(dock.pointTable.hasFocus, timeout=2000)
+    assert "(Ctrl+Z)" in dock.undoButton.toolTip()
+    qtbot.keyClick(dock.pointTable, Qt.Key.Key_Z, Qt.KeyboardModifier.ControlModifier)
+    assert c.state.counts()[PHOTO][ACCEPTED] < accepted
+    qtbot.keyClick(dock.pointTable, Qt.Key.Key_Y, Qt.KeyboardModifier.ControlModifier)
+    assert c.state.counts()[PHOTO][ACCEPTED] == accepted

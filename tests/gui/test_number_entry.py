@@ -21,3 +21,4 @@ def test_either_decimal_separator_types_a_decimal(dock, qtbot, name, locale, typ
     qtbot.keyClicks(box, typed)
     qtbot.keyClick(box, Qt.Key.Key_Return)
     assert box.value() == pytest.approx(value), box.text()
+
