@@ -173,7 +173,7 @@ def check_not_empty(count: int, what: str, allow_empty: bool = False, hint: str 
 # --- text tables and point coordinates ------------------------------------------------------------------------
 def read_text(path: str) -> str:
     """The text of a table file: UTF-8 (with or without BOM), UTF-16 (with BOM, or without one when every other
-    byte is zero), else Latin-1 (never fails on bytes).
+    byte is zero), else Windows-1252 (a Windows spreadsheet's), else Latin-1 (never fails on bytes).
 
     >>> import tempfile
     >>> p = os.path.join(tempfile.mkdtemp(), "t.csv")
@@ -191,10 +191,12 @@ def read_text(path: str) -> str:
         return data.decode("utf-16-le", errors="replace")
     if len(data) >= 4 and data[0::2].count(0) > 0.4 * (len(data) // 2):
         return data.decode("utf-16-be", errors="replace")
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError:
-        return data.decode("latin-1")
+    for encoding in ("utf-8", "cp1252"):  # a Windows spreadsheet's ‘Gipfel’ – 12 read as Latin-1 had control codes
+        try:
+            return data.decode(encoding)
+        except UnicodeDecodeError:
+            pass
+    return data.decode("latin-1")
 
 
 def points_to_dem_crs(xyz: np.ndarray, dem, points_crs: str = "", name: str = "the points",
@@ -206,11 +208,20 @@ def points_to_dem_crs(xyz: np.ndarray, dem, points_crs: str = "", name: str = "t
     whose numbers put most points off the DEM is tried as longitude/latitude (WGS 84) and in each of the
     ``candidates`` (the project's CRS): the first that puts most of them on the DEM is taken (noted). Points left
     off the DEM are noted too (a trial: a GCP table in the project's CRS, LV95, read as the DEM's LV03 put the 11
-    points 2,200 km away, the fit said "ok" and the XYZ raster was empty, without a word).
+    points 2,200 km away, the fit said "ok" and the XYZ raster was empty, without a word). Points whose X and Y,
+    swapped, fall on the DEM when they do not as given are swapped (noted).
     """
     xyz = np.array(xyz, dtype=float).reshape(-1, 3)
     notes: List[str] = []
     source = points_crs or dem.source_crs_wkt or ""
+    if len(xyz) and dem.crs_wkt and (not source or _same_crs(source, dem.crs_wkt)) and \
+            _inside(dem, xyz).mean() < 0.5 and _inside(dem, xyz[:, [1, 0, 2]]).mean() >= 0.5:
+        # a Swiss or survey table: Y is the easting, X the northing (a trial's "Punkt;u_px;v_px;Y;X;H" put all 11
+        # points off the DEM, and the fit, 124 px, said nothing of the axes)
+        swapped = xyz[:, [1, 0, 2]]
+        notes.append(f"{_points_of(name)} have X and Y the other way round (Y east, X north, as Swiss and many "
+                     "survey tables write them) and were swapped")
+        return swapped, notes + _off_dem_notes(dem, swapped, name)
     if not source and len(xyz) and dem.crs_wkt and _inside(dem, xyz).mean() < 0.5:
         lonlat = (np.abs(xyz[:, 0]) <= 180).all() and (np.abs(xyz[:, 1]) <= 90).all()
         guesses = ([("EPSG:4326", "longitude/latitude (WGS 84)")] if lonlat else []) + [

@@ -31,6 +31,8 @@ MAP_COLUMNS = (("x", "easting", "east", "lon", "e"), ("y", "northing", "north", 
 _EXACT_ONLY = ("e", "n", "h")
 #: Accepted names of the check-point flag column.
 CHECK_COLUMNS = ("check", "is_check", "checkpoint", "check_point")
+#: Column names of a point's name ("Punkt": a Swiss table's; without one, points are numbered by row).
+ID_COLUMNS = ("id", "fid", "name", "point", "punkt", "label", "nr", "gcp")
 _TRUE = ("1", "true", "yes", "y", "t", "check", "x")
 
 
@@ -95,7 +97,7 @@ def read_points_csv(path: str) -> Dict[str, np.ndarray]:
     ix = _find_column(header, MAP_COLUMNS[0], taken)
     iy = _find_column(header, MAP_COLUMNS[1], taken)
     iz = _find_column(header, MAP_COLUMNS[2], taken)
-    iid = _find_column(header, ("id", "fid", "name"))
+    iid = _find_column(header, ID_COLUMNS)
     icheck = _find_column(header, CHECK_COLUMNS)
     result: Dict[str, np.ndarray] = {}
 
@@ -151,23 +153,35 @@ def _is_number(cell: str, delimiter: str) -> bool:
 
 def _decimal_comma(cell: str, delimiter: str, where: str) -> float:
     """A cell that is not a plain number: a decimal comma where columns are not separated by commas (a spreadsheet
-    of a European locale: "301,68" in a ";" table) is read as a point; else an :class:`InputError` that quotes it.
+    of a European locale: "301,68" in a ";" table) is read as a point, and so are thousands grouped the ways
+    spreadsheets write them ("642.691,951" in a ";" table, "642'691.951" or "642’691.951" Swiss, "642 691,95");
+    else an :class:`InputError` that quotes it.
 
     >>> _decimal_comma("301,68", ";", "g.csv, line 2: 'u_px'")
     301.68
+    >>> [_decimal_comma(c, ";", "") for c in ("642.691,951", "642'691.951", "642’691.951", "1 642 691,5")]
+    [642691.951, 642691.951, 642691.951, 1642691.5]
     >>> try:
     ...     _decimal_comma("12 m", ",", "g.csv, line 2: 'Z'")
     ... except InputError as exc:
     ...     print(exc)
     g.csv, line 2: 'Z' is "12 m", not a number
     """
-    if delimiter != "," and cell.count(",") == 1 and "." not in cell:
-        try:
-            return float(cell.replace(",", "."))
-        except ValueError:
-            pass
+    import re
+
+    text = cell.replace("\u00a0", " ").replace("\u202f", " ").strip()
+    if re.fullmatch(r"-?\d{1,3}(['’]\d{3})+(\.\d+)?", text):  # Swiss: 642'691.951
+        return float(re.sub(r"['’]", "", text))
+    if delimiter != ",":
+        if re.fullmatch(r"-?\d{1,3}([. ]\d{3})+(,\d+)?", text):  # 642.691,951 or 642 691,951
+            return float(re.sub(r"[. ]", "", text).replace(",", "."))
+        if text.count(",") == 1 and "." not in text:
+            try:
+                return float(text.replace(",", "."))
+            except ValueError:
+                pass
     hint = " (a decimal comma in a comma-separated table? separate the columns with ; or use decimal points)" \
-        if "," in cell else ""
+        if "," in cell and delimiter == "," else ""
     raise InputError(f'{where} is "{cell}", not a number{hint}')
 
 

@@ -486,3 +486,33 @@ def test_a_fitted_camera_that_sees_no_dem_is_a_warning(dock, scene):
     overlay, xyz, footprint = engine.render_products(scene.camera, c.dem)
     c.show_fit(engine.FitOutcome(scene.camera, info, overlay, xyz, footprint))
     assert not any("sees no part of the DEM" in t for t, _ in messages)
+
+
+def test_a_swiss_table_with_y_east_and_x_north_is_read_right(dock, scene, tmp_path):
+    """A Swiss trial's GCP table, as a German Excel saves it: "Punkt;u_px;v_px;Y;X;H" (Y the easting, X the
+    northing), thousands as 642'691.951, a decimal comma, Windows-1252 with ‘quotes’ and umlauts in the names. All
+    11 points fell off the DEM ("are their X, Y in the DEM's CRS?"), the fit was "poor", the names became 1..11 and
+    the quotes control codes."""
+    _load(dock, scene)
+    c = dock.controller
+    messages = []
+    c.message.connect(lambda text, level: messages.append(text))
+    uv, xyz = _surveyed(scene, 6)
+
+    def swiss(value: float) -> str:
+        whole, frac = f"{value:.3f}".split(".")
+        groups = f"{int(whole):,}".replace(",", "'")
+        return f"{groups}.{frac}"
+
+    names = [f"‘Grät {i}’ – Märjelen" for i in range(6)]
+    lines = ["Punkt;u_px;v_px;Y;X;H"] + [
+        f"{n};{u:.2f};{v:.2f};{swiss(x)};{swiss(y)};{z:.1f}".replace(f"{u:.2f}", f"{u:.2f}".replace(".", ","))
+        for n, (u, v), (x, y, z) in zip(names, uv, xyz)]
+    path = tmp_path / "GCP Märjelen.csv"
+    path.write_bytes(("\r\n".join(lines) + "\r\n").encode("cp1252"))
+    assert io_actions.import_points_csv(c, str(path)) == 6
+    world = {p.label: (p.x, p.y) for p in c.state.in_space(MAP)}
+    assert sorted(world) == sorted(names)  # the names as written, quotes and all
+    got = np.array([world[n] for n in names])
+    assert np.abs(got - xyz[:, :2]).max() < 0.01  # on the DEM: X and Y swapped back
+    assert any("X and Y the other way round" in m and "were swapped" in m for m in messages), messages
