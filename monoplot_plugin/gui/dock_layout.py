@@ -23,6 +23,8 @@ RESIDUAL_COLUMN = 5
 def lay_out(dock) -> None:
     """Sizes of the widgets of ``ui/dock.ui`` that the designer file cannot express."""
     dock.pointTable.verticalHeader().setVisible(False)
+    # Tab leaves the table (arrows walk its cells): a keyboard trial's 24 Tabs stayed inside it
+    dock.pointTable.setTabKeyNavigation(False)
     # rows as tall as their text needs: the style's default (30 px in the QGIS desktop) left room for three rows
     dock.pointTable.verticalHeader().setDefaultSectionSize(dock.pointTable.fontMetrics().height() + 8)
     rows = dock.pointTable.verticalHeader().defaultSectionSize()  # the header and three rows, never one

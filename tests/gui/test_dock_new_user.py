@@ -243,3 +243,16 @@ def test_ctrl_z_in_the_tabs_undoes_the_last_point_edit(dock, scene, qtbot):
     assert c.state.counts()[PHOTO][ACCEPTED] < accepted
     qtbot.keyClick(dock.pointTable, Qt.Key.Key_Y, Qt.KeyboardModifier.ControlModifier)
     assert c.state.counts()[PHOTO][ACCEPTED] == accepted
+
+
+def test_tab_leaves_the_point_table(dock, scene, qtbot):
+    """A keyboard trial: 24 Tab and 6 Shift+Tab presses all stayed in the point table (Tab walked its cells)."""
+    from test_dock import add_scene_points, load_inputs
+
+    load_inputs(dock, scene, qtbot)
+    add_scene_points(dock, scene, n=4)
+    dock.stepTabs.setCurrentWidget(dock.pointsTab)
+    dock.pointTable.setFocus()
+    qtbot.waitUntil(dock.pointTable.hasFocus, timeout=2000)
+    qtbot.keyClick(dock.pointTable, Qt.Key.Key_Tab)
+    assert not dock.pointTable.hasFocus()
