@@ -98,7 +98,15 @@ def add_orthophoto_layer(path, project: QgsProject, group: Optional[QgsLayerTree
 
 
 def add_vector_file_layer(path, project: QgsProject, group: Optional[QgsLayerTreeGroup] = None) -> QgsVectorLayer:
-    layer = QgsVectorLayer(str(path), Path(path).stem, "ogr")
+    """Add the vector file ``path`` (see :func:`add_layer`), named by its stem; by its file name when another file's
+    layer of the group has that name (a trial saved the drawn features as GeoPackage, then as Shapefile, and got
+    two layers of each name)."""
+    name = Path(path).stem
+    if group is not None and any(node.layer() is not None and node.layer().name() == name
+                                 and _file_of(node.layer()) != str(Path(path).resolve())
+                                 for node in group.findLayers()):
+        name = Path(path).name
+    layer = QgsVectorLayer(str(path), name, "ogr")
     if not layer.isValid():
         raise ValueError(f"QGIS cannot open {path}")
     return add_layer(project, layer, group)

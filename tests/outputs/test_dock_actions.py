@@ -219,6 +219,10 @@ def test_drawn_layers_stay_above_the_orthophoto_and_a_rewrite_replaces_its_layer
     assert names.count("ortho (orthophoto)") == 1 and names.count("xyz (X Y Z, photo pixels)") == 1
     assert names.count("tongue") == 1
     assert QgsProject.instance().mapLayer(again.id()) is again and QgsProject.instance().mapLayer(ortho_id) is None
+    # the same features saved as a Shapefile too: told apart by the file's name (a trial had two "tongue" layers)
+    tools.export_features("polygon", tmp_path / "tongue.shp")
+    names = [layer.name() for layer in _legend_order(session.group)]
+    assert names.count("tongue") == 1 and names.count("tongue.shp") == 1
 
 
 def test_a_field_added_before_drawing_comes_back_with_the_project(dock_with_fit, tmp_path, qtbot):
