@@ -9,7 +9,7 @@ from typing import Optional, Protocol
 
 from qgis.core import Qgis, QgsCoordinateReferenceSystem, QgsRasterLayer
 
-from ..adapters.dem import DemError, dem_layer_path, overviews_to_build, read_dem_file
+from ..adapters.dem import DemError, dem_layer_path, read_in_background, read_dem_file
 from ..core.dem_large import IMAGE_NOTE
 from ..core.dem_window import OverviewsCanceled
 from ..state import MAP
@@ -34,8 +34,11 @@ class DemInputHost(Protocol):
     footprint_wkt: str
     message: object  # pyqtSignal(str, level)
     demChanged: object  # pyqtSignal()
+    fitted: object  # the fitted Camera or None
 
     def tr(self, text: str) -> str: ...
+
+    def ensure_products(self, background: bool = True) -> None: ...
 
     def _start(self, kind: str, description: str, work, on_success) -> bool: ...
 
@@ -74,7 +77,7 @@ class DemInputMixin:
             return False
         try:
             path = dem_layer_path(layer)
-            if overviews_to_build(path):
+            if read_in_background(path):
                 self._open_dem_in_task(layer, path, void_value)
                 return False
             dem, notes = read_dem_file(path, void_value)
@@ -92,9 +95,11 @@ class DemInputMixin:
                 raise Canceled() from None  # the half-built .ovr was removed: the next try starts afresh
 
         self._start("dem", self.tr("Opening the large DEM {0}").format(layer.name()), work,
-                    lambda read: self._use_dem(layer, *read))
+                    lambda read: self._use_dem(layer, *read, later=True))
 
-    def _use_dem(self, layer: QgsRasterLayer, dem, notes) -> None:
+    def _use_dem(self, layer: QgsRasterLayer, dem, notes, later: bool = False) -> None:
+        """Use ``dem`` (read from ``layer``'s file); ``later``: read in a task, after the caller went on (a reopened
+        project's overlay then waits for it)."""
         self.dem, self.dem_layer = dem, layer
         # The CRS of the in-memory DEM, which all map points and cameras use: a geographic layer was reprojected
         # to UTM metres, so the layer's own CRS (degrees) would put every marker and click in the wrong place.
@@ -113,10 +118,14 @@ class DemInputMixin:
                                       "DEM again to go on with them, or start afresh with this one.")
                               .format(self.dem_crs.authid() or self.dem_crs.description(),
                                       before.authid() or before.description()), WARNING)
+        same = (self.state.dem_layer_id, self.state.dem_source) == (layer.id(), layer.source())
         self.state.dem_layer_id, self.state.dem_source = layer.id(), layer.source()
         for note in notes:
             self.message.emit(self.tr("DEM: {0}").format(note), WARNING if IMAGE_NOTE in note else INFO)
         self.overlay, self.xyz, self.footprint_wkt = None, None, ""
         self.demChanged.emit()
-        self._changed()
+        if not (later and same):  # a reopened project's own DEM, read in a task, changes nothing in it
+            self._changed()
         self._maybe_exif_prior()
+        if later and self.fitted is not None:  # a reopened project's camera: its overlay and XYZ on this DEM
+            self.ensure_products()
