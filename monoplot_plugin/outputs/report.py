@@ -20,12 +20,16 @@ from typing import Dict, List, Optional, Sequence
 import numpy as np
 
 from ..core.camera import azimuth
+from ..core.dem import Dem
 from ._gdal import image_verifier
 from .safe_write import atomic_output
 
 __all__ = ["write_report", "parameter_sigmas", "ReportPoints"]
 
 FIT_PARAMETERS = ("x", "y", "z", "heading", "pitch", "roll", "fov")
+#: The longest side, in pixels or cells, of the photo, the overlay and the map drawn on the page (a page at 150 dpi is
+#: 1,240 px wide): larger inputs are drawn from every k-th pixel.
+PAGE_PIXELS = 1600
 _UNITS = {"x": "m", "y": "m", "z": "m", "heading": "°", "pitch": "°", "roll": "°", "fov": "°", "cx": "px",
           "cy": "px", "k1": "", "k2": ""}
 
@@ -130,11 +134,16 @@ def write_report(path, photo: np.ndarray, camera, dem, points: Optional[ReportPo
     ax_map = fig.add_axes((0.54, 0.29, 0.40, 0.27))  # its title stays below the photo
     ax_text = fig.add_axes((0.06, 0.03, 0.88, 0.24))
     check_rmse = _checks_rmse(camera, checks)
-    _draw_points(ax_photo, photo, points, residual, rmse, verdict_status(verdict), check_rmse)
+    # the page shows at most PAGE_PIXELS a side: a 24 MP scan over a 25 M-cell DEM drawn whole took 2 GB more
+    # memory (5.4 GB in all) and 25 s; the figures below are of the full arrays
+    k = max(1, math.ceil(max(photo.shape[:2]) / PAGE_PIXELS))
+    _draw_points(ax_photo, photo[::k, ::k], points, residual, rmse, verdict_status(verdict), check_rmse,
+                 size=(photo.shape[1], photo.shape[0]))
     _draw_checks(ax_photo, camera, checks)
     picture = None if picture is None else np.asarray(picture, dtype=bool)
     ground_xyz = xyz if picture is None else np.where(picture[..., None], xyz, np.nan)
-    _draw_overlay(ax_overlay, photo, xyz, picture)
+    _draw_overlay(ax_overlay, photo[::k, ::k], xyz[::k, ::k], None if picture is None else picture[::k, ::k],
+                  size=(photo.shape[1], photo.shape[0]))
     _draw_footprint(ax_map, camera, dem, visible, points)
     _draw_parameters(ax_text, camera, sigmas, rmse, points, ground_xyz, verdict, check_rmse, checks, accuracy,
                      picture=picture)
@@ -184,8 +193,11 @@ def verdict_first(verdict: str) -> str:
     return f"Fit status {status}: {message}" if status else f"Fit status {message}"
 
 
-def _draw_points(ax, photo, points, residual, rmse, status="", check_rmse=None):
-    ax.imshow(photo, cmap="gray" if photo.ndim == 2 else None, interpolation="antialiased")
+def _draw_points(ax, photo, points, residual, rmse, status="", check_rmse=None, size=None):
+    """The photo (maybe a shrunk copy of a picture of ``size`` (W, H) px: the points stay in its pixels) with the
+    control points, their reprojections and residuals, and the status badge."""
+    w, h = size or (photo.shape[1], photo.shape[0])
+    ax.imshow(photo, cmap="gray" if photo.ndim == 2 else None, interpolation="antialiased", extent=(0, w, h, 0))
     has_points = points is not None and residual is not None
     ax.set_title("Control points: picked (○), reprojected (+), residuals ×10" if has_points else
                  "The photo (no control points given)", fontsize=9, loc="left")
@@ -203,12 +215,13 @@ def _draw_points(ax, photo, points, residual, rmse, status="", check_rmse=None):
             # its points agree (a trial's badge said "RMSE 5.25 px", the check points 17.2 px)
             figures = f"check points {check_rmse:.2f} px · fit RMSE {rmse:.2f} px" if check_rmse is not None \
                 else f"RMSE {rmse:.2f} px"
-            ax.text(8, photo.shape[0] - 8, (f"{status} · " if status else "") + figures, color="white",
+            ax.text(8 * w / photo.shape[1], h - 8 * h / photo.shape[0], (f"{status} · " if status else "") + figures,
+                    color="white",
                     fontsize=9, va="bottom", weight="bold" if status else "normal",
                     bbox=dict(facecolor=STATUS_COLOURS.get(status, "black"), alpha=0.85 if status else 0.5,
                               edgecolor="none"))
-    ax.set_xlim(0, photo.shape[1])
-    ax.set_ylim(photo.shape[0], 0)
+    ax.set_xlim(0, w)
+    ax.set_ylim(h, 0)
     ax.set_aspect("equal", adjustable="box")  # the axes shrink to the photo: nothing drawn beyond its edges
     ax.axis("off")
 
@@ -237,10 +250,13 @@ def _draw_checks(ax, camera, checks: Optional[ReportPoints]) -> None:
               color="magenta", width=0.003)
 
 
-def _draw_overlay(ax, photo, xyz, picture=None):
+def _draw_overlay(ax, photo, xyz, picture=None, size=None):
     """Contours and skyline of ``xyz`` over the photo, inside ``picture`` ((H, W) bool, None: everywhere): a print's
-    border and caption get neither (left out of the ground, they are no sky either)."""
-    ax.imshow(photo, cmap="gray" if photo.ndim == 2 else None, alpha=0.8)
+    border and caption get neither (left out of the ground, they are no sky either). All three may be a shrunk copy
+    (every k-th pixel) of a picture of ``size`` (W, H) px."""
+    w, h = size or (photo.shape[1], photo.shape[0])
+    k = w / photo.shape[1]
+    ax.imshow(photo, cmap="gray" if photo.ndim == 2 else None, alpha=0.8, extent=(0, w, h, 0))
     outside = np.zeros(xyz.shape[:2], dtype=bool) if picture is None else ~picture
     ground = np.ma.masked_where(outside, np.isfinite(xyz[..., 2]).astype(float))
     z = np.where(outside, np.nan, xyz[..., 2])
@@ -249,12 +265,12 @@ def _draw_overlay(ax, photo, xyz, picture=None):
         lo, hi = np.nanpercentile(z, [1, 99])
         step = _nice_step((hi - lo) / 12.0)
         levels = np.arange(math.floor(lo / step) * step, hi + step, step)
-        centres = np.arange(z.shape[1]) + 0.5, np.arange(z.shape[0]) + 0.5
+        centres = (np.arange(z.shape[1]) + 0.5) * k, (np.arange(z.shape[0]) + 0.5) * k
         contours = ax.contour(*centres, np.ma.masked_invalid(z), levels=levels, cmap="terrain", linewidths=0.6)
         ax.clabel(contours, levels[::3], fontsize=5, fmt="%d")
         ax.contour(*centres, ground, levels=[0.5], colors="red", linewidths=1.0)  # skyline
-    ax.set_xlim(0, photo.shape[1])
-    ax.set_ylim(photo.shape[0], 0)
+    ax.set_xlim(0, w)
+    ax.set_ylim(h, 0)
     ax.set_aspect("equal", adjustable="box")  # the axes shrink to the photo: nothing drawn beyond its edges
     ax.axis("off")
 
@@ -280,9 +296,14 @@ def _draw_footprint(ax, camera, dem, visible, points):
     north_up = dem.geotransform[2] == 0 and dem.geotransform[4] == 0
     ax.set_title("Footprint: cells the camera sees", fontsize=9, loc="left")
     if north_up:
-        ax.imshow(dem.hillshade(), cmap="gray", extent=extent, interpolation="nearest")
+        k = max(1, math.ceil(max(dem.shape) / PAGE_PIXELS))  # a 25 M-cell DEM shaded whole: GBs for a small map
+        gt = dem.geotransform
+        shade = dem if k == 1 else Dem.from_array(dem.elevation[::k, ::k],
+                                                  (gt[0], gt[1] * k, 0.0, gt[3], 0.0, gt[5] * k), dem.crs_wkt)
+        ax.imshow(shade.hillshade(), cmap="gray", extent=extent, interpolation="nearest")
         if visible is not None and visible.any():
-            ax.imshow(np.ma.masked_where(~visible, visible.astype(float)), cmap="autumn", alpha=0.45,
+            seen = visible[::k, ::k] if k > 1 else visible
+            ax.imshow(np.ma.masked_where(~seen, seen.astype(float)), cmap="autumn", alpha=0.45,
                       extent=extent, interpolation="nearest", vmin=0, vmax=1)
     cx, cy, _ = camera.position
     ax.plot([cx], [cy], marker="^", color="blue", markersize=7)

@@ -197,3 +197,23 @@ def test_the_report_says_what_the_camera_is_worth_on_the_ground(plane_scene):
     ax = Figure().add_subplot()
     _draw_points(ax, scene.photo, None, None, None, "")
     assert ax.get_title(loc="left") == "The photo (no control points given)"
+
+
+def test_a_large_photo_and_dem_are_drawn_from_shrunk_copies_in_their_own_coordinates(plane_scene, tmp_path,
+                                                                                      monkeypatch):
+    """A 24 MP scan over a 25 M-cell DEM: the report drew both whole (2 GB more memory, 25 s). The page shows every
+    k-th pixel and cell; the points, the axes and the figures stay in the photo's own pixels."""
+    from matplotlib.figure import Figure
+
+    from monoplot_plugin.outputs import report
+
+    monkeypatch.setattr(report, "PAGE_PIXELS", 60)  # the 240 x 160 scene counts as large: k = 4
+    scene = plane_scene
+    points = scene_points(scene)
+    residual = scene.camera.project(points.xyz) - points.uv
+    ax = Figure().add_subplot()
+    report._draw_points(ax, scene.photo[::4, ::4], points, residual, 1.5, "ok", size=(240, 160))
+    assert ax.images[0].get_array().shape[:2] == (40, 60) and tuple(ax.images[0].get_extent()) == (0, 240, 160, 0)
+    assert ax.get_xlim() == (0, 240) and ax.get_ylim() == (160, 0)
+    path = report.write_report(tmp_path / "r.png", scene.photo, scene.camera, scene.dem, points, xyz=scene.xyz)
+    assert path.stat().st_size > 10_000
