@@ -118,7 +118,7 @@ def test_find_camera_automatically_gives_a_camera_and_accepted_points(dock, vall
     for name, value in registration_sigma.items():
         assert refit["sigma"][name] >= value - 1e-9, (name, refit["sigma"], registration_sigma)
     # one Undo takes back the registration's points in both views (it took two: the DEM's, then the photo's)
-    assert dock.undoButton.toolTip() == "Undo Automatic points"
+    assert dock.undoButton.toolTip() == "Undo Automatic points (Ctrl+Z)"
     qtbot.mouseClick(dock.undoButton, Qt.MouseButton.LeftButton)
     assert not c.state.in_space(PHOTO, (ACCEPTED,)) and not c.state.in_space(MAP, (ACCEPTED,))
 
