@@ -52,8 +52,9 @@ def test_a_rival_fits_nearly_as_well_and_moves_the_terrain(scene):
 def test_probes_from_the_true_camera_find_their_way_back(scene):
     dem, truth, edges, photo = scene
     base = edge_score(truth, edges, dem, SIGMAS)
-    probes = position_probes(truth, truth, edges, dem, SIGMAS)
-    assert len(probes) == 4
+    done = []
+    probes = position_probes(truth, truth, edges, dem, SIGMAS, done=done.append)
+    assert len(probes) == 4 and done == [0.25, 0.5, 0.75, 1.0]  # a progress bar moves with the probes
     # moved by 100 m and re-aimed, each ends within a few pixels of the truth on the terrain: no rival
     assert all(p.shift_px < 5.0 for p in probes), [(p.score_ratio, p.shift_px) for p in probes]
     assert not any(p.rival for p in probes)

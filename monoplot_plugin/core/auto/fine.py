@@ -152,10 +152,11 @@ def aimed_from(camera: Camera, position, dem, seen=None) -> Camera:
 
 
 def position_probes(camera: Camera, prior: Camera, photo: PhotoEdges, dem, sig: dict, is_canceled=None,
-                    poll=None, base=None) -> list:
+                    poll=None, base=None, done=None) -> list:
     """Four :class:`Probe` from ``camera`` moved by the prior's position σ ahead, behind, left and right, each aimed
     at the same terrain and refined by :func:`refine_fine` (bounded by the prior's σ as the search is). ``base``:
-    ``camera``'s :func:`edge_score` when already known."""
+    ``camera``'s :func:`edge_score` when already known; ``done(fraction)``, when given, after each probe (the bar
+    stood still at 90 % for 36 s over a 100 M-cell DEM)."""
     base = edge_score(camera, photo, dem, sig, is_canceled) if base is None else base
     h = math.radians(camera.heading)
     ahead = np.array([math.sin(h), math.cos(h), 0.0])
@@ -168,4 +169,6 @@ def position_probes(camera: Camera, prior: Camera, photo: PhotoEdges, dem, sig: 
         score = edge_score(ended, photo, dem, sig, is_canceled)
         probes.append(Probe(ended, score / base if base > 0 else float("inf"),
                             terrain_shift_px(ended, camera, dem, shown), al, off))
+        if done is not None:
+            done(len(probes) / 4.0)
     return probes

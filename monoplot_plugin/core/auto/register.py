@@ -379,8 +379,11 @@ def _finish(finals, at: float, search: _Search):
                   or not evidence["auto_skyline_usable"] and evidence["auto_edge_score"] > FAINT_EDGES_SCORE)
     probes = []
     if not keep_prior:
-        report(max(at, 0.9), "automatic registration: probing the position")
-        probes = _probe_position(result, prior, fine, align_dem, sig, evidence, is_canceled)
+        start = max(at, 0.9)
+        report(start, "automatic registration: probing the position")
+        probes = _probe_position(result, prior, fine, align_dem, sig, evidence, is_canceled,
+                                 lambda f: report(start + (0.99 - start) * f, "automatic registration: probing the "
+                                                  "position"))
     if evidence["auto_edge_score"] > EDGE_SCORE_OK:
         # the photo's edges do not support the camera: it is known no better than the prior (before the verdict's
         # message, which quotes the σ shown)
@@ -415,11 +418,11 @@ def _escape(result, probes, finals, search: _Search, state):
 
 
 def _probe_position(result: AutoFitResult, prior: Camera, photo: PhotoEdges, dem, sig: dict, evidence: dict,
-                    is_canceled) -> list:
+                    is_canceled, done=None) -> list:
     """Cameras moved by the position σ and refined again (:func:`.fine.position_probes`): those that fit the edges
     nearly as well elsewhere are recorded as evidence, and the σ widened to cover them; returns the probes."""
     probes = position_probes(result.camera, prior, photo, dem, sig, is_canceled, _poll,
-                             base=evidence["auto_edge_score"])
+                             base=evidence["auto_edge_score"], done=done)
     rivals = [p for p in probes if p.rival]
     evidence["auto_probe_rivals"] = len(rivals)
     evidence["auto_probe_best_ratio"] = float(min(p.score_ratio for p in probes))
