@@ -486,7 +486,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
                 apply(result.value)
 
         task = FunctionTask(self.tr("Monoplot: overlay of the fitted camera"),
-                            lambda progress, is_canceled: engine.render_products(cam, dem, is_canceled), done)
+                            lambda progress, canceled: engine.render_products(cam, dem, canceled, progress), done)
         self._products_tasks.append(task)
         start_task(task)
 

@@ -111,7 +111,8 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         "check_errors": [_float(np.hypot(*r)) for r in np.asarray(result.check_residuals_px).reshape(-1, 2)],
     }
     progress(0.88, "")
-    overlay, pixel_xyz, footprint = render_products(camera, dem, is_canceled)
+    overlay, pixel_xyz, footprint = render_products(camera, dem, is_canceled,
+                                                    lambda f, m: progress(0.88 + 0.12 * f, m))
     progress(1.0, "")
     return FitOutcome(camera, info, overlay, pixel_xyz, footprint)
 
@@ -127,22 +128,27 @@ def _float(v) -> Optional[float]:
     return None if v is None or not math.isfinite(float(v)) else float(v)
 
 
-def render_products(camera: Camera, dem, is_canceled: IsCanceled = lambda: False
-                    ) -> Tuple[np.ndarray, np.ndarray, str]:
+def render_products(camera: Camera, dem, is_canceled: IsCanceled = lambda: False,
+                    progress=None) -> Tuple[np.ndarray, np.ndarray, str]:
     """What the GUI shows for a fitted camera, at up to :data:`XYZ_MAX_PIXELS` pixels:
 
     (overlay RGBA (h, w, 4) uint8, per-pixel XYZ (h, w, 3) NaN = sky, visible-area WKT in the DEM CRS).
+    ``progress(fraction, message)`` between its steps (over a 25 M-cell DEM a fit's bar stood at 88 % for 7 s).
     """
     from ..core.render import render_dem
     from ..core.xyz import compute_xyz_full
 
     w, h = camera.image_size
     small = camera.scaled(min(1.0, math.sqrt(XYZ_MAX_PIXELS / float(w * h))))
+    report = progress or (lambda fraction, message: None)
+    report(0.0, "the terrain each pixel sees")
     res = compute_xyz_full(small, dem, visibility=True)
     check_canceled(is_canceled)
+    report(0.6, "the relief overlay")
     rendered = render_dem(small, dem, result=res)
     overlay = colorize_relief(np.asarray(rendered.shade), res.xyz)
     check_canceled(is_canceled)
+    report(0.9, "the footprint on the map")
     return overlay, res.xyz, mask_to_wkt(res.visible, dem)
 
 
