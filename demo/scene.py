@@ -128,7 +128,9 @@ def curate(photo_points: Path, dem_points: Path, sc: Scene, out_dir: Path, seed:
     write_points_csv(str(photo_csv), uv=photo_kept)
     write_points_csv(str(dem_csv), xyz=dem_kept[rng.permutation(len(dem_kept))])  # unpaired: order lost
     check = check_points(sc)
-    write_points_csv(str(check_csv), uv=sc.truth.project(check), xyz=check)
+    # marked as check points: the report measures the camera on them (its page said "40 paired points, ...
+    # leave-one-out 0.0 px" of these exact projections, as if the fit had used them)
+    write_points_csv(str(check_csv), uv=sc.truth.project(check), xyz=check, check=[True] * len(check))
     return {"photo_csv": photo_csv, "dem_csv": dem_csv, "check_csv": check_csv,
             "n_photo_suggested": len(uv), "n_dem_suggested": len(world), "n_photo": len(photo_kept),
             "n_dem": len(dem_kept), "n_added": added}

@@ -355,11 +355,11 @@ def largest_residuals(camera, points: ReportPoints, n: int = 5) -> str:
     >>> cam = Camera((0, 0, 0), 0, 0, 0, 90, (200, 100))
     >>> xyz = np.array([[0.0, 10.0, 0.0], [1.0, 10.0, 0.0], [-2.0, 10.0, 1.0]])
     >>> largest_residuals(cam, ReportPoints(cam.project(xyz) + [[0, 3], [0, 0], [4, 0]], xyz, ["a", "b", "c"]))
-    'Largest residuals: c 4.0 px, a 3.0 px, b 0.0 px'
+    'Largest residuals: c (4.0 px), a (3.0 px), b (0.0 px)'
     """
     size = np.hypot(*(camera.project(points.xyz) - points.uv).T)
     order = [i for i in np.argsort(-np.nan_to_num(size, nan=-1.0)) if np.isfinite(size[i])][:n]
-    return "Largest residuals: " + ", ".join(f"{points.names[i]} {size[i]:.1f} px" for i in order)
+    return "Largest residuals: " + ", ".join(f"{points.names[i]} ({size[i]:.1f} px)" for i in order)
 
 
 def _draw_parameters(ax, camera, sigmas, rmse, points, xyz, verdict="", check_rmse=None, checks=None, accuracy="",

@@ -82,7 +82,10 @@ def orthophoto(path: str, photo: np.ndarray, camera: Camera, dem, resolution: Op
         raise InputError(str(exc)) from exc
 
 
-def report(path: str, photo: np.ndarray, camera: Camera, dem, points_csv: Optional[str] = None, verdict: str = ""):
+def report(path: str, photo: np.ndarray, camera: Camera, dem, points_csv: Optional[str] = None, verdict: str = "",
+           sigmas: Optional[dict] = None):
     """Write a one-page report (PNG or PDF by extension) of a fitted camera; ``verdict``: "status: message" of
-    the fit that wrote the camera (its badge and text then say it, as the dock's report does)."""
-    return products.report(path, photo, camera, dem, points_csv=points_csv, overwrite=True, verdict=verdict)
+    the fit that wrote the camera (its badge and text then say it, as the dock's report does); ``sigmas``: that
+    fit's σ per parameter (None: from the table's paired points, if any)."""
+    return products.report(path, photo, camera, dem, points_csv=points_csv, overwrite=True, verdict=verdict,
+                           sigmas=sigmas)

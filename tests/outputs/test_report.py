@@ -98,7 +98,7 @@ def test_the_report_names_the_points_with_the_largest_residuals(plane_scene):
     ax = Figure().add_subplot()
     _draw_parameters(ax, scene.camera, None, 2.7, points, scene.xyz, "ok: paired fit on 12 pairs.")
     line = next(t for t in ax.texts[0].get_text().splitlines() if t.startswith("Largest residuals"))
-    assert line.startswith("Largest residuals: G4 9.") and line.count(" px") == 5, line
+    assert line.startswith("Largest residuals: G4 (9.") and line.count(" px)") == 5, line
 
 
 def test_the_status_leads_the_badge_and_the_reason_survives_the_cut(plane_scene):

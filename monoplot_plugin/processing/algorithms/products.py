@@ -30,7 +30,7 @@ from ..base import (PHOTO_Y_SIGN, MonoplotAlgorithm, camera_line, cancel_callbac
                     progress_callback)
 from ..inputs import read_photo
 from ...core.xyz_strips import plan_strips
-from ...workflow.camera_files import written_verdict
+from ...workflow.camera_files import written_fit, written_verdict
 from ...workflow.products import NO_GROUND, ProductError, blank_outside, ortho_grid, picture_area
 from ...workflow.inputs import check_not_empty
 from ..safe_sink import keep_pixel_space, safe_sink
@@ -340,7 +340,9 @@ class Report(_CameraDemAlgorithm):
         points = self.parameterAsFile(parameters, "POINTS_CSV", context) or None
         out = self.parameterAsFileOutput(parameters, "OUTPUT", context)
         status, message = written_verdict(self.parameterAsFile(parameters, "CAMERA", context))
-        checked(pipeline.report, out, photo, camera, dem, points, f"{status}: {message}" if status else "")
+        # the σ the camera's own fit wrote (the demo's page had none once its table held check points only)
+        sigma = written_fit(self.parameterAsFile(parameters, "CAMERA", context)).get("sigma") or None
+        checked(pipeline.report, out, photo, camera, dem, points, f"{status}: {message}" if status else "", sigma)
         feedback.setProgress(100)
         return {"OUTPUT": out}
 
