@@ -17,8 +17,7 @@ from typing import Optional
 from qgis.core import Qgis, QgsApplication, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer, QgsSettings
 from qgis.PyQt import uic
 from qgis.PyQt.QtCore import QItemSelectionModel, Qt
-from qgis.PyQt.QtGui import QKeySequence
-from qgis.PyQt.QtWidgets import QAction, QDockWidget, QShortcut, QSizePolicy, QToolBar, QToolButton
+from qgis.PyQt.QtWidgets import QAction, QDockWidget, QSizePolicy, QToolBar, QToolButton
 
 from .. import PLUGIN_DIR
 from ..core.camera import azimuth
@@ -33,6 +32,7 @@ from .fit_settings import FitSettingsPanel, LensPanel
 from . import photo_change
 from .io_actions import IoActions
 from .number_entry import accept_both_separators
+from .undo_keys import install_undo_keys
 from .photo_canvas import PhotoCanvas
 from .point_table import ID_ROLE, PointTableModel, make_proxy
 from .prior_height import PriorHeightBox
@@ -112,12 +112,8 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
         self.undoButton.clicked.connect(lambda: self._said(c.undo()))
         self.redoButton.clicked.connect(lambda: self._said(c.redo()))
         # Ctrl+Z / Ctrl+Shift+Z (Ctrl+Y) with the focus in the tabs too, not only on the photo (a keyboard trial's
-        # Ctrl+Z in the point table did nothing); a box being typed in keeps its own undo
-        # (each key once: the platform's standard Redo may hold Ctrl+Y too, and two shortcuts of one key fire none)
-        self._undo_keys = [QShortcut(QKeySequence(keys), self.stepTabs, button.click,
-                                     context=Qt.ShortcutContext.WidgetWithChildrenShortcut)
-                           for keys, button in (("Ctrl+Z", self.undoButton), ("Ctrl+Shift+Z", self.redoButton),
-                                                ("Ctrl+Y", self.redoButton))]
+        # Ctrl+Z in the point table did nothing); a box being typed in keeps its own undo (gui/undo_keys.py)
+        self._undo_keys = install_undo_keys(self.stepTabs, self.undoButton, self.redoButton)
         self.photo_tool.on_undo = self.map_tool.on_undo = self._said
         self.table_model = PointTableModel(c.state, self)
         self.table_proxy = make_proxy(self.table_model, self)
