@@ -33,7 +33,6 @@ import subprocess
 import sys
 import sysconfig
 import tempfile
-import time
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence
 
@@ -144,19 +143,15 @@ def call_forwarding_signals(command: Sequence[str], env: Dict[str, str]) -> int:
     """
     # The handlers go in before the child starts: a signal that lands while it starts (the child may already be
     # running and talking) is kept and passed on as soon as it exists, not lost or left to the default action.
-    # Waiting and forwarding use os.waitpid / os.kill directly, not Popen.wait / send_signal: those share a lock
-    # that a handler running at the wrong moment can find taken, and a run under load once hung with the child
-    # gone (a zombie) and the helper still waiting (tests/badinput/test_bad_signals.py).
     child = None
-    reaped = False
     early = []
 
     def forward(signum, frame):
         if child is None:
             early.append(signum)
-        elif not reaped:
+        elif child.poll() is None:
             try:
-                os.kill(child.pid, signum)
+                child.send_signal(signum)
             except ProcessLookupError:
                 pass
 
@@ -172,19 +167,12 @@ def call_forwarding_signals(command: Sequence[str], env: Dict[str, str]) -> int:
             forward(signum, None)
         # Never one blocking wait: a signal landing just before the process blocks in waitpid() would only run
         # its Python handler after the child had ended on its own. Short waits run the handler within 0.05 s.
-        status = None
-        while status is None:
+        code = None
+        while code is None:
             try:
-                pid, raw = os.waitpid(child.pid, os.WNOHANG)
-            except ChildProcessError:  # reaped elsewhere: its code is lost
-                pid, raw = child.pid, 0
-            if pid == child.pid:
-                reaped = True
-                status = os.waitstatus_to_exitcode(raw)
-                child.returncode = status  # the Popen object knows it ended (no second wait on it)
-            else:
-                time.sleep(0.05)
-        code = status
+                code = child.wait(timeout=1.0)
+            except subprocess.TimeoutExpired:
+                pass
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
