@@ -216,8 +216,7 @@ def _draw_points(ax, photo, points, residual, rmse, status="", check_rmse=None, 
             figures = f"check points {check_rmse:.2f} px · fit RMSE {rmse:.2f} px" if check_rmse is not None \
                 else f"RMSE {rmse:.2f} px"
             ax.text(8 * w / photo.shape[1], h - 8 * h / photo.shape[0], (f"{status} · " if status else "") + figures,
-                    color="white",
-                    fontsize=9, va="bottom", weight="bold" if status else "normal",
+                    color="white", fontsize=9, va="bottom", weight="bold" if status else "normal",
                     bbox=dict(facecolor=STATUS_COLOURS.get(status, "black"), alpha=0.85 if status else 0.5,
                               edgecolor="none"))
     ax.set_xlim(0, w)

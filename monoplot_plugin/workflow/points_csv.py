@@ -12,6 +12,7 @@ from __future__ import annotations
 import csv
 import io
 import os
+import re
 from typing import Dict, Optional, Sequence
 
 import numpy as np
@@ -167,8 +168,6 @@ def _decimal_comma(cell: str, delimiter: str, where: str) -> float:
     ...     print(exc)
     g.csv, line 2: 'Z' is "12 m", not a number
     """
-    import re
-
     text = cell.replace("\u00a0", " ").replace("\u202f", " ").strip()
     if re.fullmatch(r"-?\d{1,3}(['’]\d{3})+(\.\d+)?", text):  # Swiss: 642'691.951
         return float(re.sub(r"['’]", "", text))

@@ -136,11 +136,9 @@ class BatchPhotos(MonoplotAlgorithm):
             points = self.parameterAsFile(parameters, "POINTS", context)
             if points:  # fit once, on the first readable frame; every frame shares the camera
                 camera, used, verdict = checked(batch.fit_shared_camera, [j.photo for j in jobs],
-                                                              self.parameterAsFile(parameters, "CAMERA", context),
-                                                              points,
-                                                              self.parameterAsFile(parameters, "DEM_POINTS", context),
-                                                              dem, crs.toWkt(),
-                                                              lambda m, e: feedback.reportError(m, False))
+                                                self.parameterAsFile(parameters, "CAMERA", context), points,
+                                                self.parameterAsFile(parameters, "DEM_POINTS", context),
+                                                dem, crs.toWkt(), lambda m, e: feedback.reportError(m, False))
                 camera_verdict = (verdict["status"], verdict["message"])
                 os.makedirs(out_dir, exist_ok=True)
                 if os.path.exists(os.path.join(out_dir, "camera.json")):
