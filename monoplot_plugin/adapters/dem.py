@@ -77,7 +77,7 @@ def overviews_to_build(path: str) -> List[int]:
 
 
 #: A DEM file of more cells than this is read in a task, not on the main thread: 25 M cells froze QGIS 3 s when
-#: chosen, 100 M cells 8-10 s (a trial); 4 M read in about 0.3 s.
+#: chosen, 100 M cells 8-10 s (a trial); a 2,000 x 2,000 GeoTIFF read in 0.06-0.09 s here.
 BACKGROUND_READ_CELLS = 4_000_000
 
 
