@@ -28,7 +28,7 @@ numbered "p0000", "p0001", ... (photo) or "d0000", ... (DEM).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Optional
+from typing import Callable, Optional
 
 import numpy as np
 
@@ -206,7 +206,8 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
                        per_cell: int = 1, min_distance_px: Optional[float] = None, render_width: int = 1024,
                        view_margin: float = 0.05, max_range: Optional[float] = None, landmarks: bool = True,
                        max_landmarks: int = 300, map_size: int = 2048, near_m: Optional[float] = None,
-                       position_sigma_m: Optional[float] = None, **detector) -> DemSuggestions:
+                       position_sigma_m: Optional[float] = None, poll: Optional[Callable[[], None]] = None,
+                       **detector) -> DemSuggestions:
     """Suggest DEM points worth pairing with the photo.
 
     Args:
@@ -230,13 +231,16 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
             terrain nearer than it fills the rough camera's view (:func:`blocked_view`), else nothing.
         position_sigma_m: metres, one σ of the rough camera's position, if the user stated it (a GPS position
             known to 5 m keeps the street it stands in); None = :data:`BLOCKED_VIEW_NEAR_M`.
+        poll: called between the steps (rendering, key points, landmarks); raises to stop, as a canceled task's.
         **detector: settings of :func:`detect_keypoints`, over :data:`DEM_DETECTOR`.
     Returns:
         :class:`DemSuggestions` (``uv`` = pixels in ``camera``, NaN without one).
     """
     from .dem_window import as_dem
 
+    poll = poll or (lambda: None)
     dem = as_dem(dem, camera, max_range)
+    poll()
     near_m = 0.0 if camera is None else near_m
     xyz_list, score_list, kind_list, prom_list = [], [], [], []
     res = None
@@ -249,7 +253,9 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
         clip = BLOCKED_VIEW_NEAR_M if position_sigma_m is None else float(position_sigma_m)
         if near_m is None and clip > 0 and blocked_view(res, small, dem, clip):
             near_m = clip
+            poll()
             res = compute_xyz_full(small, dem, max_range=max_range, crop=True, visibility=False, near=near_m)
+        poll()
         img = render_for_keypoints(res, dem)
         mask = np.asarray(res.hit)
         import cv2
@@ -309,6 +315,7 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
         prom_list.append(np.full(int(ok.sum()), np.nan))
 
     near_m = near_m or 0.0
+    poll()
     if landmarks:
         lxyz, lkind, lstrength, lprom = terrain_landmarks(dem)
         if len(lxyz):

@@ -33,12 +33,12 @@ def suggest_photo(photo: np.ndarray, max_points: int) -> Tuple[np.ndarray, np.nd
             suggest_step.featureless_note(result))
 
 
-def suggest_dem(dem, max_points: int, camera: Optional[Camera] = None, position_sigma_m: Optional[float] = None
-                ) -> Tuple[np.ndarray, np.ndarray, list, float]:
+def suggest_dem(dem, max_points: int, camera: Optional[Camera] = None, position_sigma_m: Optional[float] = None,
+                is_canceled: Optional[IsCanceled] = None) -> Tuple[np.ndarray, np.ndarray, list, float]:
     """(xyz (N, 3) map coordinates, scores (N,), kinds such as "summit" or "orb", near clip) of suggested terrain
     points; with a camera only those it sees. The near clip (m, 0 = none) is the distance within which terrain that
     fills the camera's view was left out (:func:`core.suggest.blocked_view`)."""
-    result = suggest_step.suggest_dem(dem, max_points, camera, position_sigma_m)
+    result = suggest_step.suggest_dem(dem, max_points, camera, position_sigma_m, is_canceled)
     return (np.asarray(result.xyz, dtype=float).reshape(-1, 3), np.asarray(result.score, dtype=float),
             [str(k) for k in result.kind], float(result.near_clip_m))
 

@@ -32,11 +32,13 @@ def featureless_note(photo_points: PhotoSuggestions) -> str:
 
 
 def suggest_dem(dem, max_points: int, camera: Optional[Camera] = None,
-                position_sigma_m: Optional[float] = None) -> DemSuggestions:
+                position_sigma_m: Optional[float] = None, is_canceled: Optional[IsCanceled] = None) -> DemSuggestions:
     """Suggested terrain points: ``.xyz`` (M, 3) map coordinates, ``.score`` (M,), ``.kind`` ("summit", "saddle",
     "junction", "orb"...); with a camera only those it sees, past terrain nearer than its position's uncertainty
-    (``position_sigma_m``, the user's, else 100 m) when such terrain fills its view (``.near_clip_m``)."""
-    return suggest_dem_points(dem, camera=camera, max_points=max_points, position_sigma_m=position_sigma_m)
+    (``position_sigma_m``, the user's, else 100 m) when such terrain fills its view (``.near_clip_m``). Raises
+    :class:`~.progress.Canceled` between its steps once ``is_canceled()`` says so."""
+    return suggest_dem_points(dem, camera=camera, max_points=max_points, position_sigma_m=position_sigma_m,
+                              poll=lambda: check_canceled(is_canceled))
 
 
 def suggest(photo: np.ndarray, dem, camera: Optional[Camera], n_photo: int, n_dem: int,
@@ -48,7 +50,7 @@ def suggest(photo: np.ndarray, dem, camera: Optional[Camera], n_photo: int, n_de
     photo_points = suggest_photo(photo, n_photo)
     check_canceled(is_canceled)
     report(0.45, "DEM")
-    dem_points = suggest_dem(dem, n_dem, camera, position_sigma_m)
+    dem_points = suggest_dem(dem, n_dem, camera, position_sigma_m, is_canceled)
     check_canceled(is_canceled)
     report(0.95, "")
     return photo_points, dem_points

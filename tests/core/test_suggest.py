@@ -113,6 +113,24 @@ def test_landmarks_find_both_summits_and_the_saddle_with_map_coordinates():
     assert near_col.any()
 
 
+def test_block_means_over_bands_equal_numpys_nanmean():
+    import warnings
+
+    from monoplot_plugin.core.landmarks import block_nanmean
+
+    rng = np.random.default_rng(3)
+    z = rng.normal(1500, 300, (203, 157)).astype(np.float32)
+    z[rng.random(z.shape) < 0.2] = np.nan
+    z[:14, :14] = np.nan  # four whole blocks void
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        expected = np.nanmean(z[:203, :154].astype(np.float64).reshape(29, 7, 22, 7), axis=(1, 3))
+    got = block_nanmean(z, 7, chunk_cells=3000)  # bands of 1 block row: several bands
+    assert got.shape == (29, 22)
+    assert np.array_equal(np.isnan(got), np.isnan(expected)) and np.isnan(got[:2, :2]).all()
+    assert np.allclose(got, expected, equal_nan=True, rtol=1e-6)
+
+
 def test_dem_suggestions_without_camera_have_dem_heights_and_stable_ids():
     from monoplot_plugin.core.synthetic import synthetic_terrain
 

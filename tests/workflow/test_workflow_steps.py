@@ -153,6 +153,31 @@ def test_fit_cancel_and_refusal(scene):
     assert abs(done.camera.heading) < 0.5
 
 
+def test_a_cancel_during_the_dem_suggestions_stops_them_between_their_steps(scene):
+    from monoplot_plugin.core import landmarks
+    from monoplot_plugin.workflow import suggest as suggest_step
+
+    dem, camera, _ = scene
+    polls, reached = [], []
+    real = landmarks.terrain_landmarks
+
+    def is_canceled():  # canceled once the camera's rendering is done, as a person pressing Cancel meanwhile
+        polls.append(1)
+        return len(polls) >= 2
+
+    import monoplot_plugin.core.suggest as core_suggest
+
+    core_suggest.terrain_landmarks = lambda *a, **k: reached.append(1) or real(*a, **k)
+    try:
+        with pytest.raises(Canceled):
+            suggest_step.suggest_dem(dem, 300, camera, is_canceled=is_canceled)
+        assert len(polls) == 2 and not reached  # stopped before the landmarks, the step after the rendering
+        done = suggest_step.suggest_dem(dem, 300, camera, is_canceled=lambda: False)
+    finally:
+        core_suggest.terrain_landmarks = real
+    assert len(done) > 20 and reached
+
+
 def test_products_in_the_one_layout(scene, tmp_path):
     dem, camera, _ = scene
     path = products.write_xyz(tmp_path / "xyz.tif", camera, dem)

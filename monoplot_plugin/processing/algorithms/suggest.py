@@ -85,7 +85,7 @@ class SuggestDemPoints(MonoplotAlgorithm):
         feedback.setProgress(10)
         sigma = parameters.get("POSITION_SIGMA")
         sigma = None if sigma in (None, "") else self.parameterAsDouble(parameters, "POSITION_SIGMA", context)
-        xyz, scores, labels, near_clip_m = pipeline.suggest_dem(dem, count, camera, sigma)
+        xyz, scores, labels, near_clip_m = pipeline.suggest_dem(dem, count, camera, sigma, feedback.isCanceled)
         check_canceled(feedback)
         sink = safe_sink(self, parameters, "OUTPUT", context, map_point_fields(), QgsWkbTypes.PointZ, crs)
         write_map_points(sink, xyz, scores, labels)
