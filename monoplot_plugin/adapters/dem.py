@@ -29,14 +29,14 @@ class DemError(ValueError):
 def read_dem_file(path: str, void_value: Optional[float] = None, progress=None,
                   is_canceled=None) -> Tuple[Dem, List[str]]:
     """(Dem, notes for the user) from a raster file; ``void_value`` = cells to treat as voids; ``progress`` and
-    ``is_canceled`` while the overviews of a DEM too large to read whole are built (core
-    :class:`~..core.dem_window.OverviewsCanceled` on a cancel)."""
+    ``is_canceled`` while the file is read, or the overviews of a DEM too large to read whole are built (core
+    :class:`~..core.dem.DemReadCanceled` on a cancel)."""
+    from ..core.dem import DemReadCanceled
     from ..core.dem_large import open_dem
-    from ..core.dem_window import OverviewsCanceled
 
     try:  # a DEM too large to read whole is opened by windows (its overviews built once, said in the notes)
         dem, notes = open_dem(path, void_value=void_value, progress=progress, is_canceled=is_canceled)
-    except OverviewsCanceled:
+    except DemReadCanceled:
         raise
     except Exception as exc:  # GDAL errors, missing CRS...: say it in words
         raise DemError(f"cannot read the DEM {path!r}: {exc}") from exc

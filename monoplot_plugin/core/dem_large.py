@@ -229,12 +229,13 @@ def open_dem(path: str, void_value: Optional[float] = None, progress: Optional[P
     """(Dem, notes for the user) of a DEM file: read whole when it has at most ``max_cells`` cells (default
     :func:`in_memory_limit`) or is in geographic degrees (reprojected whole, see :meth:`Dem.open`), else a
     :class:`LargeDem` (its overviews built first when missing, with ``progress(fraction, message)``; the notes say
-    so; :class:`~.dem_window.OverviewsCanceled` when ``is_canceled()`` turns true while they are built)."""
+    so; :class:`~.dem_window.OverviewsCanceled` when ``is_canceled()`` turns true while they are built). A DEM
+    read whole reports its reading to ``progress`` too, and stops with :class:`~.dem.DemReadCanceled`."""
     cells = _cells(path)
     limit = in_memory_limit() if max_cells is None else int(max_cells)
     image = _image_note(path) + _units_note(path)
     if not _windowed(path, cells, limit):
-        return Dem.open(path, void_value=void_value), image
+        return Dem.open(path, void_value=void_value, progress=progress, is_canceled=is_canceled), image
     source, notes = open_dem_source(str(path), progress, void_value=void_value, is_canceled=is_canceled)
     preview = as_dem(source, max_cells=min(PREVIEW_CELLS, limit // 4))
     factor = int(round(source.shape[1] / max(1, preview.cols)))

@@ -41,7 +41,7 @@ from typing import Callable, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .dem import Dem, _wkt_or_empty, band_to_metres, mark_voids, stored_to_metres
+from .dem import Dem, DemReadCanceled, _wkt_or_empty, band_to_metres, mark_voids, stored_to_metres
 from .dem_window_view import view_footprint, view_window
 
 __all__ = ["DemSource", "DemBand", "as_dem", "open_dem_source", "build_overviews", "missing_overviews",
@@ -85,7 +85,7 @@ def overview_factors(size: Tuple[int, int], min_size: int = 256) -> List[int]:
     return factors
 
 
-class OverviewsCanceled(Exception):
+class OverviewsCanceled(DemReadCanceled):
     """The person canceled while the overviews were built (the partial ``.ovr`` file was removed)."""
 
 

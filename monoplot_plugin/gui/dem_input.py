@@ -11,7 +11,7 @@ from qgis.core import Qgis, QgsCoordinateReferenceSystem, QgsRasterLayer
 
 from ..adapters.dem import DemError, dem_layer_path, read_in_background, read_dem_file
 from ..core.dem_large import IMAGE_NOTE
-from ..core.dem_window import OverviewsCanceled
+from ..core.dem import DemReadCanceled
 from ..state import MAP
 from ..workflow.progress import Canceled
 
@@ -91,8 +91,8 @@ class DemInputMixin:
         def work(progress, is_canceled):
             try:
                 return read_dem_file(path, void_value, progress, is_canceled)
-            except OverviewsCanceled:
-                raise Canceled() from None  # the half-built .ovr was removed: the next try starts afresh
+            except DemReadCanceled:
+                raise Canceled() from None  # nothing kept (a half-built .ovr was removed): the next try starts afresh
 
         self._start("dem", self.tr("Opening the large DEM {0}").format(layer.name()), work,
                     lambda read: self._use_dem(layer, *read, later=True))

@@ -49,6 +49,22 @@ def test_open_nodata_and_void_value(tmp_path):
     assert voids.sample(x, y) == pytest.approx(np.mean(data[2:4, 2:4]))
 
 
+def test_reading_reports_progress_and_stops_on_cancel(tmp_path):
+    from monoplot_plugin.core.dem import DemReadCanceled
+    from monoplot_plugin.core.dem_large import open_dem
+
+    z = np.random.default_rng(0).normal(1000, 50, (400, 300)).astype(np.float32)
+    write_tif(tmp_path / "d.tif", z, (0.0, 5.0, 0.0, 2000.0, 0.0, -5.0), 32632)
+    seen = []
+    dem = Dem.open(tmp_path / "d.tif", progress=lambda fraction, message="": seen.append(fraction))
+    assert np.array_equal(dem.elevation, z)
+    assert len(seen) > 10 and seen == sorted(seen) and seen[-1] == pytest.approx(0.9)  # the voids after the reading
+    polls = []
+    with pytest.raises(DemReadCanceled):  # canceled at the 5th poll: the reading stops in mid-file
+        open_dem(str(tmp_path / "d.tif"), is_canceled=lambda: polls.append(1) or len(polls) >= 5)
+    assert len(polls) == 5
+
+
 def test_rotated_affine_round_trip_and_sampling():
     gt = (5000.0, 8.0, 6.0, 9000.0, 6.0, -8.0)  # rotated, 10 m cells
     z = np.add.outer(np.arange(6.0) * 2, np.arange(7.0))  # z = 2 * row + col at centres (row, col index)
