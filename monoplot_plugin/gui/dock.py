@@ -27,7 +27,7 @@ from .controller import MonoplotController
 from .auto_panel import install_auto_panel
 from .curation_panel import MessageOnce, install_curation_panel
 from .dock_layout import (fit_minimum_width, lay_out, narrow_tabs, scroll_camera_tab, scroll_points_tab,
-                          split_photo_and_tabs, status_line)
+                          show_status, split_photo_and_tabs)
 from .fit_settings import FitSettingsPanel, LensPanel
 from . import photo_change
 from .io_actions import IoActions
@@ -188,7 +188,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
         self._on_busy("")
         self._on_camera()
         if restored:  # the plugin opens the dock when a project with Monoplot work is read: say what came back
-            self.statusLabel.setText(status_line(self._restored_text()))
+            show_status(self.statusLabel, self._restored_text())
 
     def _install_outputs(self):
         """Digitising tools and export buttons of the outputs package (optional: a failure is logged, not fatal)."""
@@ -208,8 +208,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
     def show_message(self, text: str, level=Qgis.MessageLevel.Info) -> None:
         """Message bar (never a traceback); also the dock's status line, cut to about three lines there (the
         whole text in its tool tip and in the message log)."""
-        self.statusLabel.setText(status_line(text))
-        self.statusLabel.setToolTip(text if status_line(text) != text else "")
+        show_status(self.statusLabel, text)
         bar = self.iface.messageBar() if self.iface is not None else None
         if bar is not None:  # once: the previous Monoplot message leaves the bar (no replay of old ones)
             duration = 0 if level == Qgis.MessageLevel.Critical else 6
@@ -468,7 +467,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
                 self._rebuild_camera_layers_later()  # memory layers come back empty from a project file
             # the status line says what came back (a trial found it empty after reopening, the fit's verdict
             # only in the fit tab); the message bar stays quiet: nothing happened
-            self.statusLabel.setText(status_line(self._restored_text()))
+            show_status(self.statusLabel, self._restored_text())
 
     def _restored_text(self) -> str:
         c = self.controller

@@ -8,7 +8,7 @@ from qgis.PyQt.QtWidgets import (QFrame, QGridLayout, QHeaderView, QScrollArea, 
                                  QWidget)
 
 __all__ = ["lay_out", "fit_minimum_width", "scroll_points_tab", "scroll_camera_tab", "narrow_tabs",
-           "split_photo_and_tabs", "fit_text_height", "TextHeight"]
+           "split_photo_and_tabs", "fit_text_height", "TextHeight", "show_status", "status_line"]
 
 #: rows of the point table in sight under the Points tab's buttons and counts at the first show
 TABLE_ROWS = 4
@@ -189,6 +189,22 @@ def split_photo_and_tabs(dock, total: int) -> None:
 #: Characters of a message the status line under the dock shows (about three lines at the dock's usual width): a
 #: featureless photo's Suggest message took eight lines there, pushing the tabs up.
 STATUS_CHARS = 300
+
+
+#: Lines of the dock's width a status message may take: a 300-character one took five on a 1366 x 768 laptop and
+#: pushed the Camera tab's fields out of sight while it was shown.
+STATUS_LINES = 3
+
+
+def show_status(label, text: str, lines: int = STATUS_LINES) -> None:
+    """``text`` on the status ``label``, cut at a word to about ``lines`` lines of the label's width (the whole
+    text in its tool tip when cut)."""
+    metrics = label.fontMetrics()
+    per_line = max(20, int(max(label.width(), 200) / max(1, metrics.averageCharWidth())))
+    # 0.85: word wrapping leaves the end of each line empty
+    shown = status_line(text, min(STATUS_CHARS, int(lines * per_line * 0.85)))
+    label.setText(shown)
+    label.setToolTip(text if shown != text else "")
 
 
 def status_line(text: str, limit: int = STATUS_CHARS) -> str:

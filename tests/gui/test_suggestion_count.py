@@ -123,3 +123,5 @@ def test_a_photo_of_noise_is_warned_that_its_suggestions_mean_nothing(dock, scen
     line, tip = dock.statusLabel.text(), dock.statusLabel.toolTip()
     assert line.startswith("The photo shows almost no structure") and line.endswith(" …") and len(line) <= 302
     assert tip.startswith(line[:-2]) and "accept (A / left click)" in tip
+    label = dock.statusLabel  # cut to three lines of its own width, not to a fixed count of characters
+    assert label.heightForWidth(label.width()) <= 3 * label.fontMetrics().lineSpacing() + 4
