@@ -487,6 +487,8 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
 
         task = FunctionTask(self.tr("Monoplot: overlay of the fitted camera"),
                             lambda progress, canceled: engine.render_products(cam, dem, canceled, progress), done)
+        for stale in self._products_tasks:  # their results would be dropped: free the cores for this one
+            stale.cancel()
         self._products_tasks.append(task)
         start_task(task)
 

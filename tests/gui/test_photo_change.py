@@ -119,3 +119,21 @@ def test_a_damaged_photo_is_refused_before_any_question(dock, scene, qtbot, tmp_
     assert seen == [] and any("truncated" in text for text in said), said
     assert c.state.photo_path == scene.photo_path and dock.photoFile.filePath() == scene.photo_path
     assert c.state.counts()[PHOTO][ACCEPTED] == 6
+
+
+def test_a_newer_camera_cancels_the_overlay_still_rendered_for_an_older_one(dock, scene, qtbot):
+    """Cameras loaded one after the other each started an overlay task; the older ones ran to the end on the
+    two cores only for their results to be dropped."""
+    from monoplot_plugin.gui import engine
+
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    info = {"status": "ok", "message": "loaded"}
+    c.set_fitted(scene.camera.with_parameters(heading=scene.camera.heading + 2.0), info, background=True)
+    older = list(c._products_tasks)
+    c.set_fitted(scene.camera, info, background=True)
+    assert len(older) == 1 and older[0].isCanceled()
+    qtbot.waitUntil(lambda: not c.products_pending, timeout=30000)
+    assert c.overlay is not None
+    expected = c.in_picture(*engine.render_products(scene.camera, c.dem)[:2])[1]
+    assert np.allclose(c.xyz, expected, equal_nan=True)  # the newer camera's, not the older's
