@@ -219,7 +219,9 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         feedback = self.feedback_of(context)
 
         def building(fraction: float, message: str = "") -> None:  # a large DEM's overviews, built once
-            if feedback is not None:
+            # only they say what they do: the plain reading (seconds) would run the bar to 90 % before the
+            # algorithm's own progress starts again from its first step
+            if feedback is not None and message:
                 feedback.setProgressText(message)
                 feedback.setProgress(100.0 * fraction)
 
