@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 import re
+from dataclasses import replace
 from pathlib import Path
 from typing import Dict, List, Optional, Sequence, Tuple
 
@@ -75,6 +76,8 @@ class DigitisingSession(QObject):
         self.map_layers: Dict[str, QgsVectorLayer] = {}
         self.last_report: Dict[str, Tuple[int, int]] = {}
         self.last_silhouettes: Dict[str, int] = {}  # polygons' silhouette crossings, by kind (for the message)
+        # (photo fid, median, largest ground metres per photo pixel) of each feature, by kind (for the message)
+        self.last_spans: Dict[str, list] = {}
         # photo pixel (u, v) where each feature left off the map layer starts, by kind: the message says where
         self.last_dropped: Dict[str, List[Tuple[float, float]]] = {}
         self._mapped: Dict[Tuple[str, int], tuple] = {}  # (kind, fid) -> (photo geometry WKB, MapFeature or None)
@@ -365,8 +368,7 @@ class DigitisingSession(QObject):
                                               pixel_rmse=self.pixel_rmse, area=self.area)
                 self._mapped[key] = (wkb, mapped)
             if mapped is not None:
-                mapped = MapFeature(mapped.kind, mapped.parts, attrs, mapped.sky_parts, mapped.xy_error_m,
-                                    mapped.silhouettes)
+                mapped = replace(mapped, attributes=attrs)
             if mapped is None:
                 dropped += 1
                 self.last_dropped[kind].append((float(vertices[0][0]), float(vertices[0][1])))
@@ -402,6 +404,7 @@ class DigitisingSession(QObject):
         sky = sum(m.sky_parts for m in features)
         self.last_report[kind] = (sky, dropped)
         self.last_silhouettes[kind] = sum(m.silhouettes for m in features)
+        self.last_spans[kind] = [(fid, m.m_per_px, m.m_px_max) for m, fid in zip(features, fids)]
         self.mapLayerUpdated.emit(kind, sky, dropped)
         if not self._restoring:
             self.save_drawn()

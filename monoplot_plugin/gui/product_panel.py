@@ -27,6 +27,7 @@ from ..outputs.safe_write import OutputError
 from ..workflow import xyz as xyz_step
 from ..workflow.features import pixel_error
 from .digitising import KINDS, DigitisingSession, drawn_entry_key
+from .drawing_notes import kind_names, sky_text, spread_note
 from ..adapters.layers import derived_layers_only, mark_modified_later
 from .map_layers import map_layer_on_photo, overlay_outcome
 from .product_exports import LAST_FOLDER_KEY, ProductExports
@@ -107,6 +108,7 @@ class OutputTools(QObject):
         self.overlays: List[QgsVectorLayer] = []
         self._overlay_ids: List[str] = []  # the map layers drawn on the photo, redrawn after a refit or a reopen
         self._sky_told: dict = {}  # kind -> (sky pieces, dropped features, silhouette crossings) last reported
+        self._spread_told: set = set()  # ((kind, fid), metres) of the wide ground per pixel told (drawing_notes)
         #: kind -> (camera, features on its photo layer not news, told): drawings on a doubtful camera said once
         self._doubt_told: dict = {}
         self.exports = ProductExports(host, self.ready, self.photo_name, self._message, self.exported.emit)
@@ -203,6 +205,8 @@ class OutputTools(QObject):
                                    for kind, counts in self.session.last_report.items()})
             # restored features are old news: only a feature drawn now tells
             self._doubt_told = {kind: (self.controller.state.fitted, self._drawn(kind), False) for kind in KINDS}
+            self._spread_told = {((kind, fid), round(big)) for kind in KINDS
+                                 for fid, _, big in self.session.last_spans.get(kind, []) if big is not None}
             # Layers deleted under us (project cleared, QGIS closing): the photo canvas must drop them at once.
             self.session.closedByLayers.connect(lambda: self.canvas.set_extra_layers([]))
             with derived_layers_only(self.project):
@@ -266,7 +270,7 @@ class OutputTools(QObject):
         in the project file and come back with it)."""
         self._forget_session()
         xyz_step.clear_cache()
-        self._sky_told, self._doubt_told = {}, {}
+        self._sky_told, self._doubt_told, self._spread_told = {}, {}, set()
         self.canvas.set_extra_layers([])
         self._camera_changed()
 
@@ -276,6 +280,10 @@ class OutputTools(QObject):
         previous = self._sky_told.get(kind, (0, 0, 0))
         self._sky_told[kind] = (sky, dropped, crossings)
         doubt = self._doubt_text(kind)
+        spans = [((kind, fid), med, big) for fid, med, big in self.session.last_spans.get(kind, [])] \
+            if self.session is not None else []
+        spread = spread_note(self.sky_names().get(kind, kind), spans, self._spread_told, self.tr)
+        doubt += " " + spread if spread else ""
         if (sky or dropped or crossings) and (sky, dropped, crossings) != previous:
             self._message(self.sky_text(kind, sky, dropped, crossings) + doubt, Qgis.MessageLevel.Warning)
         elif doubt:
@@ -303,39 +311,14 @@ class OutputTools(QObject):
                              "errors (no xy_error_m). Check the fit (pairs, check points) before using them.").format(
             self.tr(status))
 
-    def sky_text(self, kind: str, sky: int, dropped: int, crossings: int = 0) -> str:
-        """What the user is told when drawn features (partly) see the sky, or polygons cross a silhouette (a desktop
-        trial: a polygon drawn across ridges enclosed 11.3 km² of which 1.6 km² were seen, and nothing said so):
-        only the counts that are not zero (a point has no "pieces")."""
-        paper = self.session is not None and self.session.area is not None  # a print: its paper is no ground
-        names = {"point": self.tr("Drawn points"), "line": self.tr("Drawn lines"),
-                 "polygon": self.tr("Drawn polygons")}
-        parts = []
-        if sky:
-            # "or off the DEM": a trial's water line touched no sky, its part past the DEM's edge was the one
-            parts.append((self.tr("{0} part(s) over the sky, the print's paper, a DEM void or off the DEM left out "
-                                  "of the map layer") if paper
-                          else self.tr("{0} part(s) over the sky, a DEM void or off the DEM left out of the map "
-                                       "layer")).format(sky))
-        if dropped:
-            parts.append((self.tr("{0} entirely over the sky, the paper, a DEM void or off the DEM, not on the map "
-                                  "layer") if paper
-                          else self.tr("{0} entirely over the sky, a DEM void or off the DEM, not on the map "
-                                       "layer")).format(dropped) + self._where_dropped(kind))
-        if crossings:
-            parts.append(self.tr("the outlines cross a ridge's silhouette {0} time(s): there they enclose ground the "
-                                 "photo does not show, and the area counts it (field silhouette)").format(crossings))
-        return self.tr("{0}: {1}.").format(names.get(kind, kind), "; ".join(parts))
+    def sky_names(self) -> dict:
+        return kind_names(self.tr)
 
-    def _where_dropped(self, kind: str) -> str:
-        """" (at photo pixel (300, 40))": where the features left off start (a trial could not tell which of 9
-        points had no place on the map); "" when unknown."""
-        where = self.session.last_dropped.get(kind, []) if self.session is not None else []
-        if not where:
-            return ""
-        shown = ", ".join(f"({u:.0f}, {v:.0f})" for u, v in where[:3]) + (", …" if len(where) > 3 else "")
-        return " " + self.tr("(at photo pixel {0})").format(shown) if len(where) == 1 else \
-            " " + self.tr("(starting at photo pixels {0})").format(shown)
+    def sky_text(self, kind: str, sky: int, dropped: int, crossings: int = 0) -> str:
+        """:func:`.drawing_notes.sky_text` for this session's drawings."""
+        session = self.session
+        return sky_text(kind, sky, dropped, crossings, paper=session is not None and session.area is not None,
+                        dropped_at=session.last_dropped.get(kind, []) if session is not None else [], tr=self.tr)
 
     def _show_on_photo(self) -> None:
         layers: List[QgsMapLayer] = list(self.overlays)

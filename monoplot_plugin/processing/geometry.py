@@ -14,7 +14,7 @@ from ..adapters.photo_space import geometry_parts as _parts
 from ..core.transforms import ground_pieces, silhouette_crossings, true_runs
 from ..adapters.photo_space import computed_fields, geometry_kind
 from ..outputs.vectors import MapFeature
-from ..workflow.features import feature_error_m
+from ..workflow.features import feature_error_m, ground_per_pixel
 from . import pipeline
 
 #: Relative range jump between consecutive line vertices that cuts the line (a silhouette).
@@ -65,10 +65,11 @@ def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float, y_sig
     built_kind, built_parts = _parts(built)
     pieces = [rings[0] for rings in built_parts]
     error = feature_error_m(np.vstack(ground_uv), camera, dem, pixel_rmse)
+    median, largest = ground_per_pixel(np.vstack(ground_uv), camera, dem)
     crossings = sum(silhouette_crossings(p, camera.position, SILHOUETTE_JUMP) for p in pieces) \
         if built_kind == "polygon" else 0
     return built, dropped, MapFeature(built_kind, pieces, sky_parts=sky_parts, xy_error_m=error,
-                                      silhouettes=crossings).measures()
+                                      silhouettes=crossings, m_per_px=median, m_px_max=largest).measures()
 
 
 def map_to_photo_geometry(geometry: QgsGeometry, camera, dem, step: float, visible=None, y_sign: float = PHOTO_Y_SIGN,

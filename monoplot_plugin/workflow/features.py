@@ -17,7 +17,7 @@ from ..core.lookup import sample_xyz
 from ..core.transforms import densify, ground_pieces, silhouette_crossings, true_runs
 from ..outputs.vectors import MapFeature
 
-__all__ = ["photo_to_map_feature", "PhotoPath", "map_to_photo", "pixel_error", "feature_error_m"]
+__all__ = ["photo_to_map_feature", "PhotoPath", "map_to_photo", "pixel_error", "feature_error_m", "ground_per_pixel"]
 
 #: Most ground samples of a feature at which its position error is evaluated (evenly along it).
 ERROR_SAMPLES = 64
@@ -71,6 +71,21 @@ def feature_error_m(ground_uv: np.ndarray, camera, dem, pixel_rmse: Optional[flo
     return float(np.median(errors)) if len(errors) else None
 
 
+def ground_per_pixel(ground_uv: np.ndarray, camera, dem) -> Tuple[Optional[float], Optional[float]]:
+    """(median, largest) horizontal shift (metres, RMS) one pixel of photo error causes on the ground, over up to
+    :data:`ERROR_SAMPLES` of a feature's ground samples (pixels, evenly along it): how far a click one pixel off
+    moves the feature, whatever the camera's verdict. (None, None) without camera and DEM or where none is
+    finite."""
+    if camera is None or dem is None or len(ground_uv) == 0:
+        return None, None
+    from ..core.transforms import ground_error_m
+
+    pick = np.unique(np.linspace(0, len(ground_uv) - 1, min(len(ground_uv), ERROR_SAMPLES)).round().astype(int))
+    spans = ground_error_m(np.asarray(ground_uv)[pick], camera, dem, 1.0)
+    spans = spans[np.isfinite(spans)]
+    return (float(np.median(spans)), float(np.max(spans))) if len(spans) else (None, None)
+
+
 def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, attributes: Optional[dict] = None,
                          step_px: float = 1.0, origin=None, *, camera=None, dem=None,
                          jump: float = 0.1, pixel_rmse: Optional[float] = None,
@@ -100,7 +115,8 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
         camera, dem: the fitted Camera and core Dem, for exact intersections.
         jump: relative range jump between consecutive samples that cuts a line.
         pixel_rmse: the fit's pixel error (:func:`pixel_error`); with ``camera`` and ``dem`` the feature gets
-            ``xy_error_m`` (:func:`feature_error_m` over its ground samples).
+            ``xy_error_m`` (:func:`feature_error_m` over its ground samples). With them it always gets
+            ``m_per_px`` and ``m_px_max`` (:func:`ground_per_pixel`).
         area: (H, W) bool, a scanned print's picture (:func:`~.products.picture_area`): samples outside it (the
             paper, the caption) are no ground, as sky is not.
     Returns:
@@ -133,8 +149,8 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
         ground = lookup(verts[:1])
         if not np.isfinite(ground).all():
             return None
-        return MapFeature("point", [ground], attributes,
-                          xy_error_m=feature_error_m(verts[:1], camera, dem, pixel_rmse))
+        return MapFeature("point", [ground], attributes, xy_error_m=feature_error_m(verts[:1], camera, dem, pixel_rmse),
+                          **_spans(verts[:1], camera, dem))
     if kind not in ("line", "polygon"):
         raise ValueError(f"kind must be point, line or polygon, got {kind!r}")
     if kind == "polygon":
@@ -156,7 +172,8 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
             return None
         crossings = silhouette_crossings(ring, origin, jump) if origin is not None else 0
         return MapFeature("polygon", [ring], attributes, sky_parts=sky, silhouettes=crossings,
-                          xy_error_m=feature_error_m(dense[:-1][ring_valid], camera, dem, pixel_rmse))
+                          xy_error_m=feature_error_m(dense[:-1][ring_valid], camera, dem, pixel_rmse),
+                          **_spans(dense[:-1][ring_valid], camera, dem))
     pieces = ground_pieces(ground, valid, origin, jump)[0] if origin is not None else true_runs(valid)
     parts = [_drop_repeats(ground[p:q]) for p, q in pieces]
     parts = [p for p in parts if len(p) >= 2]
@@ -164,7 +181,13 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
     if not parts:
         return None
     return MapFeature("line", parts, attributes, sky_parts=sky,
-                      xy_error_m=feature_error_m(dense[valid], camera, dem, pixel_rmse))
+                      xy_error_m=feature_error_m(dense[valid], camera, dem, pixel_rmse),
+                      **_spans(dense[valid], camera, dem))
+
+
+def _spans(ground_uv: np.ndarray, camera, dem) -> dict:
+    median, largest = ground_per_pixel(ground_uv, camera, dem)
+    return {"m_per_px": median, "m_px_max": largest}
 
 
 def _drop_repeats(points: np.ndarray) -> np.ndarray:
