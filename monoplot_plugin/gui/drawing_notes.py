@@ -12,7 +12,7 @@ __all__ = ["spread_note", "sky_text", "kind_names", "SPREAD_RATIO"]
 
 #: A feature is reported when one photo pixel spans this many times more ground at its worst place than along it
 #: (median): a part of it lies on far or grazing terrain.
-SPREAD_RATIO = 10.0
+SPREAD_RATIO = 5.0
 
 
 def _metres(value: float) -> str:

@@ -635,6 +635,26 @@ def test_drawing_on_a_doubtful_camera_is_said_once(dock_with_fit):
     assert "Drawn on a camera" not in dock.statusLabel.text()
 
 
+def test_a_line_reaching_far_ground_says_how_much_ground_a_pixel_spans_there(dock_with_fit, plane_scene):
+    """A flood analyst's line drawn from near to far ground was 5 m off near the camera and 910 m off at its far
+    end, under a camera 9 m from the truth, and the dock said nothing; the fields m_per_px and m_px_max and one
+    sentence say it now."""
+    dock, tools = dock_with_fit
+    session = tools.current_session()
+    session.add_feature("line", [[100, 150], [140, 152]])  # near ground only: nothing to say
+    assert "photo pixel spans" not in dock.statusLabel.text()
+    top = float(np.flatnonzero(np.isfinite(plane_scene.xyz[:, 120, 2])).min()) + 0.5
+    session.add_feature("line", [[120, 158], [120, top]])  # from near ground to the DEM's far edge
+    said = dock.statusLabel.toolTip() or dock.statusLabel.text()
+    assert "Drawn lines: part of one lies where a photo pixel spans" in said
+    feature = max(session.map_layer("line").getFeatures(), key=lambda f: f["m_px_max"])
+    assert feature["m_px_max"] > 5 * feature["m_per_px"] > 0
+    assert f"spans {feature['m_px_max']:.0f} m" in said
+    dock.statusLabel.clear()
+    session.add_feature("line", [[100, 140], [130, 141]])
+    assert "photo pixel spans" not in dock.statusLabel.text()  # said once, not again for the next feature
+
+
 def test_an_export_beside_a_drawn_layer_with_a_long_source_is_added(dock_with_fit, tmp_path, qtbot):
     """A trial: every XYZ and orthophoto export after a drawing ended in a traceback ("File name too long"): the
     drawn layers' memory sources (their CRS as WKT) were tried as file names. The export is added and said."""

@@ -187,3 +187,26 @@ def test_map_line_behind_the_camera_or_off_photo_is_hidden(plane_scene):
     pieces = path.pieces()
     assert any(vis for _, vis in pieces)
     assert all(np.isfinite(uv).all() for uv, _ in pieces)
+
+
+@pytest.mark.parametrize("suffix", [".gpkg", ".shp"])
+def test_a_line_from_near_to_far_says_how_much_ground_a_pixel_spans_along_it(plane_scene, tmp_path, suffix):
+    """A flood line drawn from low above a plain ran from 5 m to 910 m off under a good camera: the ground one
+    photo pixel spans is a field of every feature, the median and the worst, whatever the camera's verdict."""
+    from monoplot_plugin.core.transforms import photo_points_to_map
+
+    s = plane_scene
+    top = np.flatnonzero(np.isfinite(s.xyz[:, 120, 2])).min() + 0.5  # the far edge of the DEM
+    line = photo_to_map_feature("line", [[120, 158], [120, top]], camera=s.camera, dem=s.dem)
+    ends = photo_points_to_map(np.array([[120, top], [120, top + 1], [120, 157], [120, 158]]), s.camera, s.dem)[0]
+    far, near = np.linalg.norm(ends[1, :2] - ends[0, :2]), np.linalg.norm(ends[3, :2] - ends[2, :2])
+    assert far > 5 * near  # one pixel of v moves the far end much more than the near one
+    assert far / 2 < line.m_px_max < 2 * far
+    assert near / 2 < line.m_per_px < line.m_px_max / 5
+    path = write_vector_layer(tmp_path / f"flood{suffix}", [line], s.dem.crs_wkt)
+    ds, layer = open_layer(path)
+    feature = layer.GetNextFeature()
+    assert feature["m_per_px"] == pytest.approx(line.m_per_px, abs=1e-3)
+    assert feature["m_px_max"] == pytest.approx(line.m_px_max, abs=1e-3)
+    ds = None  # noqa: F841 (closes the GDAL dataset)
+    assert photo_to_map_feature("line", [[120, 158], [120, top]], s.xyz).m_px_max is None  # no camera: unknown
