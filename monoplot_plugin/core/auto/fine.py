@@ -130,8 +130,9 @@ def terrain_shift_px(other: Camera, camera: Camera, dem, seen=None) -> float:
     xyz = _terrain(camera, dem) if seen is None else seen
     if not len(xyz):
         return float("nan")
-    d = other.project(xyz) - camera.project(xyz)
-    return float(np.sqrt(np.nanmean(np.sum(d * d, axis=1))))
+    d2 = np.sum((other.project(xyz) - camera.project(xyz)) ** 2, axis=1)
+    d2 = d2[np.isfinite(d2)]  # behind ``other``: no pixel (a phone photo's probe: a warning in QGIS's log)
+    return float(np.sqrt(np.mean(d2))) if len(d2) else float("nan")
 
 
 def aimed_from(camera: Camera, position, dem, seen=None) -> Camera:
