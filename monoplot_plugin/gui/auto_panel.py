@@ -28,6 +28,7 @@ from ..state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, replace_in
 from ..workflow import auto as auto_step
 from ..workflow.progress import part
 from . import engine
+from .fit_settings import fit_arguments
 
 __all__ = ["install_auto_panel", "AutoPanel"]
 
@@ -95,9 +96,11 @@ class AutoPanel(QObject):
         photo = qimage_to_array(c.image)  # a copy: the task must not share Qt objects
         dem = c.dem
         _, check_uv, check_xyz = c.check_points()  # the person's check points measure the camera found
+        sigmas = self.prior_sigmas(start is c.prior)
 
         def work(progress, is_canceled):
-            done = auto_step.register(photo, dem, start, progress=part(progress, 0.0, 0.9), is_canceled=is_canceled)
+            done = auto_step.register(photo, dem, start, **sigmas, progress=part(progress, 0.0, 0.9),
+                                      is_canceled=is_canceled)
             overlay, xyz, footprint = engine.render_products(done.camera, dem, is_canceled)
             # the DEM's silhouettes under the camera found over the photo's detected skyline
             overlay = draw_alignment(overlay, done.camera, done.result.skyline, dem)
@@ -107,6 +110,21 @@ class AutoPanel(QObject):
             return done, overlay, xyz, footprint, checked
 
         return c.run_task("auto", self.tr("Find camera automatically"), work, self._apply)
+
+    def prior_sigmas(self, from_prior: bool) -> dict:
+        """The rough camera's uncertainty for the registration: what the person set in the fit settings
+        (Position ±, Angles ±, Field of view ±); without a Position ±, for a rough camera at the photo's EXIF GPS
+        position, a GPS's usual error (a trial's phone photo, GPS 32 m off: registered 251 m from where it stood
+        with the default 200 m, 16 m with 30 m); else the registration's defaults."""
+        from .priors import GPS_POSITION_M, GPS_SOURCE
+
+        c = self.controller
+        options = fit_arguments(c.state.settings)[1]
+        sigmas = {name: getattr(options, name, None) for name in ("position_sigma_m", "angle_sigma_deg",
+                                                                   "fov_sigma_deg")}
+        if sigmas["position_sigma_m"] is None and from_prior and c.state.settings.get("prior_source") == GPS_SOURCE:
+            sigmas["position_sigma_m"] = GPS_POSITION_M
+        return sigmas
 
     def _apply(self, value) -> None:
         done, overlay, xyz, footprint, checked = value
@@ -177,6 +195,9 @@ class AutoPanel(QObject):
                 # the registration's pairs, as an unpaired fit records its own: residuals in the dock, points in
                 # the report (it showed none after a registration)
                 "matched": [(p.id, m.id) for p, m in zip(photo_pts, map_pts)]}
+        if len(world):  # how far it went from the rough camera, as a fit says it ("uncertain" beyond 3 σ stated)
+            info.update(c.moved_from_prior(done.camera, world, fit_arguments(c.state.settings)[1]))
+            c.doubt_a_moved_camera(info)
         if reviewed:  # before the fit's own message, which must be the last word (it says "poor" when it is)
             c.message.emit(self.tr("Your decisions on the earlier automatic points are kept: new matches where you "
                                    "had accepted or rejected one were left out ({0} of {1}).").format(

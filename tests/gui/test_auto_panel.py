@@ -341,3 +341,25 @@ def test_nothing_matched_sets_no_camera(dock, valley, qtbot, tmp_path):
     assert c.fitted is None and c.prior is not None
     assert any("found no match between the photo and the DEM" in m for m in messages), messages
     assert not any("nan px" in m for m in messages), messages
+
+
+def test_a_rough_camera_at_the_photos_gps_position_is_searched_near_it(dock, valley, qtbot):
+    """A trial's phone photo, GPS 32 m off: the registration searched ± 200 m (its default) and ended 251 m from
+    where the photo was taken; from a GPS position it now searches a GPS's usual error, or the Position ± the
+    person set, and says when the camera found is farther than that allows."""
+    from monoplot_plugin.gui.priors import GPS_POSITION_M, GPS_SOURCE
+
+    c = _open_valley(dock, valley)
+    panel = dock.auto_panel
+    assert panel.prior_sigmas(True)["position_sigma_m"] is None  # a KML or drawn camera: the defaults
+    c.set_prior(valley["prior"], source=GPS_SOURCE)
+    assert panel.prior_sigmas(True)["position_sigma_m"] == GPS_POSITION_M
+    assert panel.prior_sigmas(False)["position_sigma_m"] is None  # started from a fitted camera, not the GPS's
+    c.state.settings["fit"] = {"position_sigma_m": 12.0, "angle_sigma_deg": 2.0}
+    assert panel.prior_sigmas(True) == {"position_sigma_m": 12.0, "angle_sigma_deg": 2.0, "fov_sigma_deg": None}
+    c.state.settings["fit"] = {"position_sigma_m": 5.0}
+    messages = run_find_camera(dock, qtbot)  # the prior is 72 m from the truth: 5 m cannot hold it all
+    info = c.state.fit_info
+    assert info["position_sigma_stated"] and info["position_sigma_m"] == 5.0
+    assert info["moved_m"] > 10.0 and info["status"] != "ok"
+    assert any("moved the camera {0:.0f} m from the rough camera".format(info["moved_m"]) in m for m in messages)
