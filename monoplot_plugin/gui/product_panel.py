@@ -28,6 +28,7 @@ from ..workflow import xyz as xyz_step
 from ..workflow.features import pixel_error
 from .digitising import KINDS, DigitisingSession, drawn_entry_key
 from .drawing_notes import kind_names, sky_text, spread_note
+from .photo_names import claim_photo_label, photo_label
 from ..adapters.layers import derived_layers_only, mark_modified_later
 from .map_layers import map_layer_on_photo, overlay_outcome
 from .product_exports import LAST_FOLDER_KEY, ProductExports
@@ -111,7 +112,8 @@ class OutputTools(QObject):
         self._spread_told: set = set()  # ((kind, fid), metres) of the wide ground per pixel told (drawing_notes)
         #: kind -> (camera, features on its photo layer not news, told): drawings on a doubtful camera said once
         self._doubt_told: dict = {}
-        self.exports = ProductExports(host, self.ready, self.photo_name, self._message, self.exported.emit)
+        self.exports = ProductExports(host, self.ready, lambda: self.photo_name(claim=True), self._message,
+                                      self.exported.emit)
         canvas = self.canvas
         self.capture_tools = {kind: PhotoCaptureTool(canvas, self.current_session, kind) for kind in KINDS}
         self.edit_tool = PhotoEditTool(canvas, self.current_session)
@@ -184,8 +186,11 @@ class OutputTools(QObject):
             tip = action.property("monoplot_tip") or ""
             action.setToolTip(tip if reason is None else self.tr("Needs a fitted camera: {0}").format(reason))
 
-    def photo_name(self) -> str:
-        return Path(self.controller.state.photo_path or "photo").name
+    def photo_name(self, claim: bool = False) -> str:
+        """The name the photo goes by in the project (:mod:`.photo_names`); ``claim``: it is now used (something
+        is drawn or exported under it)."""
+        path = self.controller.state.photo_path or ""
+        return claim_photo_label(self.project, path) if claim else photo_label(self.project, path)
 
     def current_session(self) -> Optional[DigitisingSession]:
         """The digitising session of the fitted camera (created on first use), or None without a fit."""
@@ -196,7 +201,7 @@ class OutputTools(QObject):
         # The session intersects rays with the DEM exactly: no full-resolution XYZ raster needed (fast start).
         camera, dem, xyz = self.controller.fitted, self.controller.dem, None
         if self.session is None:
-            self.session = DigitisingSession(self.project, camera, dem, xyz, self.photo_name(), parent=self,
+            self.session = DigitisingSession(self.project, camera, dem, xyz, self.photo_name(claim=True), parent=self,
                                              pixel_rmse=pixel_error(self.controller.state.fit_info)[0],
                                              area=self.controller._picture_area())
             self.session.mapLayerUpdated.connect(self._report_sky)

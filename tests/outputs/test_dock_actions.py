@@ -713,3 +713,32 @@ def test_save_dialogs_open_in_a_folder_one_can_write_to(tmp_path, monkeypatch):
     assert writable_folder(["", str(tmp_path / "gone"), str(archive), str(project)]) == project
     assert writable_folder([str(archive)]) == Path.home()
     assert writable_folder([str(project), str(archive)]) == project
+
+
+def test_a_second_photo_of_the_same_file_name_gets_none_of_the_firsts_drawings(dock_with_fit, plane_scene, tmp_path):
+    """Repeat photography: a modern photo saved as the same file name as the old print (another folder) took over
+    the print's drawn glacier front, traced it through the modern camera 745 m away, without a word, and shared
+    its layer group and export names."""
+    dock, tools = dock_with_fit
+    c = dock.controller
+    first = c.state.photo_path
+    fitted = dict(c.state.fitted)
+    tools.current_session().add_feature("line", [[100, 150], [140, 152]])
+    assert tools.current_session().map_layer("line").featureCount() == 1
+    other = tmp_path / "2023" / Path(first).name
+    other.parent.mkdir()
+    other.write_bytes(Path(first).read_bytes())
+    assert c.load_photo(str(other))
+    c.state.fitted = dict(fitted, heading=fitted["heading"] + 1.0)
+    c.cameraChanged.emit()
+    session = tools.current_session()
+    assert tools.photo_name() == "Gletscher 1890 (2023).png"
+    assert session.map_layer("line").featureCount() == 0 and session.photo_layer("line").featureCount() == 0
+    assert session.group.name() == "Gletscher 1890 (2023)"
+    session.add_feature("line", [[60, 120], [90, 125]])
+    session.add_feature("line", [[60, 130], [90, 135]])
+    assert c.load_photo(first)  # back to the print: its own line, not the modern one's
+    c.state.fitted = fitted
+    c.cameraChanged.emit()
+    assert tools.photo_name() == "Gletscher 1890.png"
+    assert tools.current_session().photo_layer("line").featureCount() == 1
