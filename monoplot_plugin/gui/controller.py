@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import sys
 import time
 from typing import Callable, List, Optional, Tuple
@@ -25,10 +26,11 @@ from ..workflow import fit as fit_step
 from ..workflow.camera_files import fitted_to_size
 from ..workflow.products import centred_on_picture
 from ..workflow import warmup
-from . import engine
+from . import engine, photo_shelf
 from .curation import CurationMixin
 from .dem_input import DemInputMixin
 from .fit_settings import fit_arguments, height_arguments
+from .photo_change import work_on_photo
 from .priors import PriorsMixin
 from .project_session import ProjectSessionMixin
 from .results import ResultsMixin
@@ -177,9 +179,17 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         new_photo = path != self.state.photo_path
         keep_points = keep_points and self.image is not None and \
             (image.width(), image.height()) == (self.image.width(), self.image.height())
+        switch = new_photo and not self._restoring and not keep_points
+        back = None
+        if switch:  # this photo's work waits in the project; the chosen one's, put aside earlier, comes back
+            photo_shelf.put_aside(self.project, self.state)
+            back = photo_shelf.take_back(self.project, path)
         self.image = image
         self.state.photo_path = path
-        if new_photo and not self._restoring and not keep_points:
+        if switch and back is not None:
+            back.photo_path, back.dem_layer_id, back.dem_source = path, self.state.dem_layer_id, self.state.dem_source
+            self.stack.reset(back)
+        elif switch:
             self.stack.reset(self._without_photo_points())
             self.state.fitted, self.state.fit_info = None, {}
         prior = self.prior
@@ -197,6 +207,10 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         self._maybe_exif_prior()
         if keep_points and not self._restoring:  # a time-lapse's next frame: the kept camera's overlay on it
             self.ensure_products()
+        if back is not None:
+            self.ensure_products()
+            self.message.emit(self.tr("The work on {0} put aside earlier is back: {1}.").format(
+                os.path.basename(path), work_on_photo(self) or self.tr("its rough camera")), INFO)
         return True
 
     def _without_photo_points(self) -> ProjectState:

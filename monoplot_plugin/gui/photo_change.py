@@ -63,7 +63,8 @@ def ask_photo_change(parent, name: str, work: str, offer_keep: bool) -> Optional
                          "re-saved copy) or another frame of the same fixed camera (a time-lapse), keep them, "
                          "and the camera with them.")
     else:
-        text += " " + tr("They will be removed (the map points stay).")
+        text += " " + tr("They are put aside in the project and come back when you choose that photo again (the "
+                         "map points stay).")
     box.setText(text)
     keep = box.addButton(tr("Keep the points"), QMessageBox.ButtonRole.AcceptRole) if offer_keep else None
     afresh = box.addButton(tr("Start afresh"), QMessageBox.ButtonRole.DestructiveRole)

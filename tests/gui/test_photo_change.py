@@ -64,7 +64,7 @@ def test_choosing_another_photo_asks_before_its_points_go(dock, scene, qtbot, tm
     cv2.imwrite(bigger, cv2.resize(image, (image.shape[1] * 2, image.shape[0] * 2)))
     answer_with(qtbot, "Start afresh", seen)
     dock.photoFile.setFilePath(bigger)
-    assert "same picture" not in seen[-1] and "removed" in seen[-1]
+    assert "same picture" not in seen[-1] and "put aside" in seen[-1]
     assert c.state.photo_path == bigger and c.state.counts()[PHOTO][ACCEPTED] == 0
     assert c.state.counts()["map"][ACCEPTED] == 8
     assert c.prior.image_size == c.photo_size == (image.shape[1] * 2, image.shape[0] * 2)
@@ -137,3 +137,35 @@ def test_a_newer_camera_cancels_the_overlay_still_rendered_for_an_older_one(dock
     assert c.overlay is not None
     expected = c.in_picture(*engine.render_products(scene.camera, c.dem)[:2])[1]
     assert np.allclose(c.xyz, expected, equal_nan=True)  # the newer camera's, not the older's
+
+
+def test_the_work_on_a_photo_comes_back_when_it_is_chosen_again(dock, scene, qtbot, tmp_path):
+    """Repeat photography: an 1890 print and a modern photo in one project. A trial switched to the modern photo
+    and back: the print's 11 pairs and its fitted camera were gone ("Not fitted yet", Undo greyed out)."""
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    add_scene_points(dock, scene, n=8)
+    accept_everything(c)
+    c.set_fitted(scene.camera, {"status": "ok", "message": "the true camera"})
+    print_points = {p.id: (p.x, p.y) for p in c.state.in_space(PHOTO)}
+    modern = str(tmp_path / "modern.png")
+    image = cv2.imread(scene.photo_path)
+    cv2.imwrite(modern, cv2.resize(image, (image.shape[1] * 2, image.shape[0] * 2)))
+    seen = []
+    answer_with(qtbot, "Start afresh", seen)
+    dock.photoFile.setFilePath(modern)
+    assert "put aside" in seen[-1]
+    assert c.state.photo_path == modern and c.state.counts()[PHOTO][ACCEPTED] == 0 and c.fitted is None
+    c.add_manual(PHOTO, 40.0, 50.0)  # some work on the modern photo too
+    messages = []
+    c.message.connect(lambda text, *_: messages.append(text))
+    answer_with(qtbot, "Start afresh", seen)
+    dock.photoFile.setFilePath(scene.photo_path)  # back to the print: its points and camera come back
+    assert c.state.photo_path == scene.photo_path
+    assert {p.id: (p.x, p.y) for p in c.state.in_space(PHOTO)} == print_points
+    assert c.fitted == scene.camera and c.state.fit_info["status"] == "ok"
+    assert any("put aside earlier is back" in m and "8 accepted photo points" in m for m in messages)
+    qtbot.waitUntil(lambda: c.overlay is not None and not c.products_pending, timeout=30000)
+    answer_with(qtbot, "Start afresh", seen)
+    dock.photoFile.setFilePath(modern)  # and the modern photo's one point is back as well
+    assert [(p.x, p.y) for p in c.state.in_space(PHOTO)] == [(40.0, 50.0)]
