@@ -350,7 +350,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
         st = self.controller.stack
         self.undoButton.setEnabled(st.can_undo())
         self.redoButton.setEnabled(st.can_redo())
-        self.undoButton.setToolTip(self.tr("Undo {0} (Ctrl+Z)").format(st.undo_text()))
+        self.undoButton.setToolTip(" ".join(self.tr("Undo {0} (Ctrl+Z)").format(st.undo_text()).split()))
         if self.controller.fitted is not None:  # "the points changed since this fit", or no longer
             self.resultLabel.setText(self._result_text())
 
