@@ -89,14 +89,15 @@ class AutoPanel(QObject):
         if c.image is None or c.dem is None:
             c.message.emit(self.tr("Load a photo and choose a DEM first."), Qgis.MessageLevel.Warning)
             return False
-        start = c.prior or c.fitted
+        prior = c.prior  # a new Camera at every read: compared by this one, not by identity
+        start = prior or c.fitted
         if start is None:
             c.message.emit(self.tr("Give a rough camera first (map tool, KML or EXIF)."), Qgis.MessageLevel.Warning)
             return False
         photo = qimage_to_array(c.image)  # a copy: the task must not share Qt objects
         dem = c.dem
         _, check_uv, check_xyz = c.check_points()  # the person's check points measure the camera found
-        sigmas = self.prior_sigmas(start is c.prior)
+        sigmas = self.prior_sigmas(prior is not None)
 
         def work(progress, is_canceled):
             done = auto_step.register(photo, dem, start, **sigmas, progress=part(progress, 0.0, 0.9),
@@ -114,8 +115,9 @@ class AutoPanel(QObject):
     def prior_sigmas(self, from_prior: bool) -> dict:
         """The rough camera's uncertainty for the registration: what the person set in the fit settings
         (Position ±, Angles ±, Field of view ±); without a Position ±, for a rough camera at the photo's EXIF GPS
-        position, a GPS's usual error (a trial's phone photo, GPS 32 m off: registered 251 m from where it stood
-        with the default 200 m, 16 m with 30 m); else the registration's defaults."""
+        position, a GPS's usual error (a trial's phone photo over a floodplain, GPS 32 m off: registered 251 m
+        from where it stood with the default 200 m, 16 m and 90 m with 30 m in two runs, "uncertain" each time);
+        else the registration's defaults."""
         from .priors import GPS_POSITION_M, GPS_SOURCE
 
         c = self.controller

@@ -353,6 +353,11 @@ def test_a_rough_camera_at_the_photos_gps_position_is_searched_near_it(dock, val
     panel = dock.auto_panel
     assert panel.prior_sigmas(True)["position_sigma_m"] is None  # a KML or drawn camera: the defaults
     c.set_prior(valley["prior"], source=GPS_SOURCE)
+    run_find_camera(dock, qtbot)  # from the GPS position, with no Position ± set: searched within 30 m
+    assert "(200 m)" not in c.state.fit_info["message"]
+    assert max(c.state.fit_info["sigma"][k] for k in ("x", "y")) <= GPS_POSITION_M + 1e-6
+    c.stack.undo()  # the registration's camera and points go: the GPS rough camera again
+    assert c.state.settings.get("prior_source") == GPS_SOURCE
     assert panel.prior_sigmas(True)["position_sigma_m"] == GPS_POSITION_M
     assert panel.prior_sigmas(False)["position_sigma_m"] is None  # started from a fitted camera, not the GPS's
     c.state.settings["fit"] = {"position_sigma_m": 12.0, "angle_sigma_deg": 2.0}
