@@ -15,14 +15,18 @@ from qgis.core import QgsProject
 
 from ..state import ACCEPTED, CHECK, PHOTO, ProjectState
 
-__all__ = ["put_aside", "take_back", "has_work"]
+__all__ = ["put_aside", "take_back", "has_work", "waiting"]
 
 _SCOPE = "monoplot"
 
 
-def _key(project: QgsProject, path: str) -> str:
-    stored = project.writePath(os.path.abspath(path))
-    return "/shelf/p_" + hashlib.sha1(stored.encode("utf-8")).hexdigest()[:16]
+def _keys(project: QgsProject, path: str) -> list:
+    """Entry keys of ``path``'s work: by its path as the project writes it (relative to a saved project, so that
+    a project moved with its photos finds it) and by its absolute path (what an unsaved project writes: a trial
+    put work aside before the first Save, and the project reopened did not find it under the relative path)."""
+    absolute = os.path.abspath(path)
+    names = dict.fromkeys([project.writePath(absolute), absolute])
+    return ["/shelf/p_" + hashlib.sha1(name.encode("utf-8")).hexdigest()[:16] for name in names]
 
 
 def has_work(state: ProjectState) -> bool:
@@ -35,21 +39,28 @@ def put_aside(project: QgsProject, state: ProjectState) -> bool:
     """Keep ``state`` (its photo's work) in ``project`` for when its photo is chosen again; True when kept."""
     if not state.photo_path:
         return False
-    key = _key(project, state.photo_path)
-    if not has_work(state):
+    keys = _keys(project, state.photo_path)
+    for key in keys:
         project.removeEntry(_SCOPE, key)
+    if not has_work(state):
         return False
-    return bool(project.writeEntry(_SCOPE, key, state.to_json()))
+    return bool(project.writeEntry(_SCOPE, keys[0], state.to_json()))
 
 
 def take_back(project: QgsProject, path: str) -> Optional[ProjectState]:
     """The work put aside for the photo at ``path`` (taken out of the project), or None."""
-    key = _key(project, path)
-    text = project.readEntry(_SCOPE, key, "")[0]
+    texts = [project.readEntry(_SCOPE, key, "")[0] for key in _keys(project, path)]
+    text = next((t for t in texts if t), "")
     if not text:
         return None
-    project.removeEntry(_SCOPE, key)
+    for key in _keys(project, path):
+        project.removeEntry(_SCOPE, key)
     try:
         return ProjectState.from_json(text)
     except ValueError:  # an unknown format (a later version's): nothing to bring back
         return None
+
+
+def waiting(project: QgsProject, path: str) -> bool:
+    """Work put aside for the photo at ``path`` waits in ``project``."""
+    return any(project.readEntry(_SCOPE, key, "")[0] for key in _keys(project, path))
