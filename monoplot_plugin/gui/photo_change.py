@@ -51,9 +51,10 @@ def same_size(path: str, controller) -> bool:
     return shown == tuple(controller.photo_size)
 
 
-def ask_photo_change(parent, name: str, work: str, offer_keep: bool) -> Optional[str]:
-    """:data:`KEEP` (the same picture: keep the points), :data:`AFRESH` (remove them) or None (keep the current
-    photo). Asked only when ``work`` (:func:`work_on_photo`) is not empty."""
+def ask_photo_change(parent, name: str, work: str, offer_keep: bool, comes_back: bool = False) -> Optional[str]:
+    """:data:`KEEP` (the same picture: keep the points), :data:`AFRESH` (put them aside) or None (keep the
+    current photo). Asked only when ``work`` (:func:`work_on_photo`) is not empty; ``comes_back``: work on the
+    chosen photo was put aside earlier (:mod:`.photo_shelf`)."""
     box = QMessageBox(parent)
     box.setIcon(QMessageBox.Icon.Question)
     box.setWindowTitle(tr("Monoplot: another photo"))
@@ -65,6 +66,8 @@ def ask_photo_change(parent, name: str, work: str, offer_keep: bool) -> Optional
     else:
         text += " " + tr("They are put aside in the project and come back when you choose that photo again (the "
                          "map points stay).")
+    if comes_back:
+        text += " " + tr("The work on {0} put aside earlier comes back with it.").format(name)
     box.setText(text)
     keep = box.addButton(tr("Keep the points"), QMessageBox.ButtonRole.AcceptRole) if offer_keep else None
     afresh = box.addButton(tr("Start afresh"), QMessageBox.ButtonRole.DestructiveRole)

@@ -288,7 +288,7 @@ class OutputTools(QObject):
         spans = [((kind, fid), med, big) for fid, med, big in self.session.last_spans.get(kind, [])] \
             if self.session is not None else []
         spread = spread_note(self.sky_names().get(kind, kind), spans, self._spread_told, self.tr)
-        doubt += " " + spread if spread else ""
+        doubt = (" " + spread if spread else "") + doubt  # first: the status line keeps three lines
         if (sky or dropped or crossings) and (sky, dropped, crossings) != previous:
             self._message(self.sky_text(kind, sky, dropped, crossings) + doubt, Qgis.MessageLevel.Warning)
         elif doubt:

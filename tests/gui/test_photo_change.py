@@ -161,6 +161,7 @@ def test_the_work_on_a_photo_comes_back_when_it_is_chosen_again(dock, scene, qtb
     c.message.connect(lambda text, *_: messages.append(text))
     answer_with(qtbot, "Start afresh", seen)
     dock.photoFile.setFilePath(scene.photo_path)  # back to the print: its points and camera come back
+    assert "put aside earlier comes back with it" in seen[-1]
     assert c.state.photo_path == scene.photo_path
     assert {p.id: (p.x, p.y) for p in c.state.in_space(PHOTO)} == print_points
     assert c.fitted == scene.camera and c.state.fit_info["status"] == "ok"
@@ -169,3 +170,28 @@ def test_the_work_on_a_photo_comes_back_when_it_is_chosen_again(dock, scene, qtb
     answer_with(qtbot, "Start afresh", seen)
     dock.photoFile.setFilePath(modern)  # and the modern photo's one point is back as well
     assert [(p.x, p.y) for p in c.state.in_space(PHOTO)] == [(40.0, 50.0)]
+
+
+def test_work_put_aside_before_the_first_save_comes_back_after_reopening(tmp_path):
+    """A trial switched photos before saving the project for the first time: the work put aside then was keyed by
+    the photo's absolute path, the project reopened looked for it by the relative one, and it was lost."""
+    from qgis.core import QgsProject
+
+    from monoplot_plugin.gui import photo_shelf
+    from monoplot_plugin.state import ProjectState, Point
+
+    photo = tmp_path / "photos" / "print.jpg"
+    photo.parent.mkdir()
+    photo.write_bytes(b"")
+    project = QgsProject()  # not the application's: no dock listens to it
+    state = ProjectState(photo_path=str(photo), fitted={"heading": 12.0})
+    point = Point.new(PHOTO, 10.0, 20.0, status=ACCEPTED)
+    state.points[point.id] = point
+    assert project.fileName() == "" and photo_shelf.put_aside(project, state)
+    assert project.write(str(tmp_path / "repeat.qgz"))
+    reopened = QgsProject()
+    assert reopened.read(str(tmp_path / "repeat.qgz"))
+    assert photo_shelf.waiting(reopened, str(photo))
+    back = photo_shelf.take_back(reopened, str(photo))
+    assert back is not None and back.fitted == {"heading": 12.0} and list(back.points) == [point.id]
+    assert not photo_shelf.waiting(reopened, str(photo))  # taken out: not brought back twice
