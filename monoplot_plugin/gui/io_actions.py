@@ -57,6 +57,19 @@ def _add_imported(controller, photo: List[Point], world: List[Point], pairs: Lis
     controller.stack.push(edit)
 
 
+def _place(xyz) -> Tuple[float, float]:
+    """A map point's place, to the millimetre (the key of :func:`_map_points_at`)."""
+    return round(float(xyz[0]), 3), round(float(xyz[1]), 3)
+
+
+def _map_points_at(state) -> dict:
+    """{place: map point} of the state's map points (the first at each place)."""
+    there: dict = {}
+    for p in state.in_space(MAP):
+        there.setdefault(_place((p.x, p.y)), p)
+    return there
+
+
 def _status(check: bool) -> str:
     return CHECK if check else ACCEPTED
 
@@ -85,25 +98,44 @@ def import_points_csv(controller, path: str, all_check: bool = False) -> int:
                                        candidates=[project_crs.toWkt()] if project_crs.isValid() else [])
     photo, world, pairs = [], [], []
     n = len(ids)
+    there = _map_points_at(c.state)
+    partner_of = {m: p for p, m in c.state.pairs}
+    again = reused = rows = 0
     for i in range(n):
         has_uv = uv is not None and bool(np.isfinite(uv[i]).all())
         has_xyz = xyz is not None and bool(np.isfinite(xyz[i, :2]).all())
         status = _status(bool(check[i]) and has_uv and has_xyz)  # a check point needs both sides
         label = str(ids[i])
         a = b = None
+        # a map point already there (left by another photo's work, or this table imported before) is used again:
+        # a trial's second photo's GCP import put 11 more map points on the first photo's 11 (22, then 33 ...)
+        same = there.get(_place(xyz[i])) if has_xyz else None
+        if same is not None and same.status == status:
+            partner = c.state.points.get(partner_of.get(same.id, ""))
+            if partner is None:
+                b, reused = same, reused + 1
+            elif has_uv and abs(partner.x - uv[i, 0]) < 0.01 and abs(partner.y - uv[i, 1]) < 0.01:
+                again += 1  # the same row imported before: nothing new
+                continue
         if has_uv:
             a = Point.new(PHOTO, uv[i, 0], uv[i, 1], status=status, manual=True, label=label)
             photo.append(a)
-        if has_xyz:
+        if has_xyz and b is None:
             z = float(xyz[i, 2]) if math.isfinite(xyz[i, 2]) else None  # surveyed Z as entered, else the DEM's
             b = Point.new(MAP, xyz[i, 0], xyz[i, 1], z, status=status, manual=True, label=label)
             world.append(b)
         if a is not None and b is not None:
             pairs.append((a.id, b.id))
-    _add_imported(c, photo, world, pairs, tr("Import {0}").format(os.path.basename(path)))
+        rows += a is not None or b is not None
+    if photo or world or pairs:  # an undo entry only for a real change
+        _add_imported(c, photo, world, pairs, tr("Import {0}").format(os.path.basename(path)))
     n_check = sum(1 for a, _ in pairs if c.state.points[a].status == CHECK)
     text = tr("{0}: {1} photo and {2} map points, {3} pairs ({4} check pairs).").format(
         os.path.basename(path), len(photo), len(world), len(pairs), n_check)
+    if reused:
+        text += " " + tr("{0} map points were there already and are used again.").format(reused)
+    if again:
+        text += " " + tr("{0} rows were imported before and are left as they are.").format(again)
     outside = _outside_photo(c, photo)
     if outside:
         text += " " + tr("{0} photo points lie outside the photo ({1}): is the table for this photo?").format(
@@ -115,7 +147,7 @@ def import_points_csv(controller, path: str, all_check: bool = False) -> int:
         text += " " + note + ("" if note.endswith("?") else ".")
     off_dem = any(OFF_DEM_NOTE in note for note in notes)
     c.message.emit(text, WARNING if outside or off_dem or table.get("unused") else INFO)
-    return len(photo) + len(world) - len(pairs)
+    return rows
 
 
 def _outside_photo(c, photo: List[Point]) -> List[str]:

@@ -10,7 +10,7 @@ import pytest
 from qgis.core import QgsProject, QgsRasterLayer
 
 from monoplot_plugin.gui import io_actions
-from monoplot_plugin.state import ACCEPTED, CHECK, MAP, PHOTO
+from monoplot_plugin.state import ACCEPTED, CHECK, MAP, PHOTO, remove_points
 from monoplot_plugin.workflow.points_csv import read_points_csv, write_points_csv
 
 
@@ -160,6 +160,32 @@ def test_tables_from_other_tools_are_read_or_said_not_to_be(dock, scene, tmp_pat
     c.stack.undo()
     bad = table("bad_number.csv", "u_px,v_px,X,Y,Z", ["12 px,3,4,5,6"])
     assert io_actions.import_points_csv(c, bad) == 0 and '\'u_px\' is "12 px", not a number' in messages[-1]
+
+
+def test_a_table_imported_again_or_on_a_second_photo_adds_no_map_point_twice(dock, scene, tmp_path):
+    """Repeat photography: each photo's GCP import added the same 11 map points again (11, 22, 33 ... accepted
+    map points, all fitted); importing a table twice doubled every point."""
+    _load(dock, scene)
+    c = dock.controller
+    messages = []
+    c.message.connect(lambda text, level: messages.append(text))
+    uv, xyz = _surveyed(scene, 6)
+    src = str(tmp_path / "gcps.csv")
+    write_points_csv(src, uv=uv, xyz=xyz)
+    assert io_actions.import_points_csv(c, src) == 6
+    undo_text = c.stack.undo_text()
+    assert io_actions.import_points_csv(c, src) == 0  # the same rows: nothing new, and no empty undo entry
+    assert "6 rows were imported before" in messages[-1] and c.stack.undo_text() == undo_text
+    assert len(c.state.in_space(PHOTO)) == 6 and len(c.state.in_space(MAP)) == 6 and len(c.state.pairs) == 6
+    # the photo points go (another photo), the map points stay: a second table pairs its pixels with them
+    c.stack.push(remove_points(c.state, [p.id for p in c.state.in_space(PHOTO)]))
+    other = str(tmp_path / "modern.csv")
+    write_points_csv(other, uv=uv * 1.5, xyz=xyz)
+    assert io_actions.import_points_csv(c, other) == 6
+    assert "6 map points were there already and are used again" in messages[-1]
+    assert len(c.state.in_space(MAP)) == 6 and len(c.state.pairs) == 6
+    maps = {p.id for p in c.state.in_space(MAP)}
+    assert {m for _, m in c.state.pairs} == maps
 
 
 def test_point_layers_export_and_import_round_trip(dock, scene, tmp_path):
