@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import logging
 import math
-import os
 import sys
 import time
 from typing import Callable, List, Optional, Tuple
@@ -31,6 +30,7 @@ from .curation import CurationMixin
 from .dem_input import DemInputMixin
 from .fit_settings import fit_arguments, height_arguments
 from .photo_change import work_on_photo
+from .photo_names import photo_label
 from .priors import PriorsMixin
 from .project_session import ProjectSessionMixin
 from .results import ResultsMixin
@@ -210,7 +210,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         if back is not None:
             self.ensure_products()
             self.message.emit(self.tr("The work on {0} put aside earlier is back: {1}.").format(
-                os.path.basename(path), work_on_photo(self) or self.tr("its rough camera")), INFO)
+                photo_label(self.project, path), work_on_photo(self) or self.tr("its rough camera")), INFO)
         return True
 
     def _without_photo_points(self) -> ProjectState:

@@ -30,6 +30,7 @@ from .dock_layout import (fit_minimum_width, lay_out, narrow_tabs, scroll_camera
                           show_status, split_photo_and_tabs)
 from .fit_settings import FitSettingsPanel, LensPanel
 from . import photo_change, photo_shelf
+from .photo_names import photo_label
 from .io_actions import IoActions
 from .number_entry import accept_both_separators
 from .undo_keys import install_undo_keys
@@ -238,7 +239,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
             # read before asking: a truncated JPEG was offered "Keep the points", then refused (a trial)
             image = c.read_photo(path) if work else None
             answer = None if work and image is None else photo_change.ask_photo_change(
-                self, os.path.basename(path), work, photo_change.same_size(path, c),
+                self, photo_label(c.project, path), work, photo_change.same_size(path, c),
                 photo_shelf.waiting(c.project, path)) if work else photo_change.AFRESH
             if answer is None:  # keep the current photo: the box shows it again
                 self.photoFile.blockSignals(True)

@@ -737,8 +737,13 @@ def test_a_second_photo_of_the_same_file_name_gets_none_of_the_firsts_drawings(d
     assert session.group.name() == "Gletscher 1890 (2023)"
     session.add_feature("line", [[60, 120], [90, 125]])
     session.add_feature("line", [[60, 130], [90, 135]])
+    messages = []
+    c.message.connect(lambda text, *_: messages.append(text))
     assert c.load_photo(first)  # back to the print: its own line, not the modern one's
     c.state.fitted = fitted
     c.cameraChanged.emit()
     assert tools.photo_name() == "Gletscher 1890.png"
     assert tools.current_session().photo_layer("line").featureCount() == 1
+    messages.clear()
+    assert c.load_photo(str(other))  # the modern one's work comes back, named with its folder
+    assert any("The work on Gletscher 1890 (2023).png put aside earlier is back" in m for m in messages), messages
