@@ -7,7 +7,9 @@ import math
 
 import numpy as np
 
-__all__ = ["terrain_landmarks", "block_nanmean"]
+from .grid import block_means
+
+__all__ = ["terrain_landmarks"]
 
 
 _RING = [(-1, -1), (-1, 0), (-1, 1), (0, 1), (1, 1), (1, 0), (1, -1), (0, -1)]
@@ -56,35 +58,6 @@ def _prominence(z: np.ndarray, peaks_rc: np.ndarray, levels: int = 60) -> np.nda
     return prom
 
 
-def block_nanmean(z: np.ndarray, step: int, chunk_cells: int = 4_000_000) -> np.ndarray:
-    """(rows // step, cols // step) float64 mean of the finite cells of each ``step`` x ``step`` block of ``z``
-    (NaN where a block has none); the last rows and columns that do not fill a block are left out.
-
-    Done a band of blocks at a time: ``np.nanmean`` over a 100 M-cell grid took 5 s and several grid-sized
-    temporaries, and a Suggest could not be canceled meanwhile.
-
-    >>> block_nanmean(np.array([[1.0, 3.0, 9.0], [np.nan, 5.0, 9.0], [7.0, 7.0, 7.0]]), 2).tolist()
-    [[3.0]]
-    >>> block_nanmean(np.array([[np.nan, np.nan], [np.nan, np.nan]]), 2).tolist()
-    [[nan]]
-    """
-    z = np.asarray(z)
-    if step <= 1:
-        return z.astype(np.float64)
-    nr, nc = z.shape[0] // step, z.shape[1] // step
-    out = np.full((nr, nc), np.nan)
-    band = max(1, chunk_cells // max(1, nc * step * step))  # block rows per band
-    for r0 in range(0, nr, band):
-        r1 = min(nr, r0 + band)
-        blocks = z[r0 * step:r1 * step, :nc * step].reshape(r1 - r0, step, nc, step)
-        finite = np.isfinite(blocks)
-        total = np.where(finite, blocks, 0).sum(axis=(1, 3), dtype=np.float64)
-        count = finite.sum(axis=(1, 3))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            out[r0:r1] = np.where(count > 0, total / count, np.nan)
-    return out
-
-
 def terrain_landmarks(dem, max_cells: int = 160_000, min_prominence: float = 30.0, smooth_cells: float = 1.0):
     """Summits (by prominence), saddles and ridge junctions of a DEM.
 
@@ -99,7 +72,7 @@ def terrain_landmarks(dem, max_cells: int = 160_000, min_prominence: float = 30.
     z = np.asarray(dem.elevation)  # float32 or float64; never copied whole (100 M cells: 0.8 GB as float64)
     rows, cols = z.shape
     step = max(1, int(math.ceil(math.sqrt(rows * cols / max_cells))))
-    zr = block_nanmean(z, step)
+    zr = block_means(z, step) if step > 1 else z.astype(np.float64)
     finite = np.isfinite(zr)
     if finite.sum() < 9:
         empty = np.zeros((0, 3))

@@ -116,7 +116,7 @@ def test_landmarks_find_both_summits_and_the_saddle_with_map_coordinates():
 def test_block_means_over_bands_equal_numpys_nanmean():
     import warnings
 
-    from monoplot_plugin.core.landmarks import block_nanmean
+    from monoplot_plugin.core.grid import block_means
 
     rng = np.random.default_rng(3)
     z = rng.normal(1500, 300, (203, 157)).astype(np.float32)
@@ -125,7 +125,7 @@ def test_block_means_over_bands_equal_numpys_nanmean():
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         expected = np.nanmean(z[:203, :154].astype(np.float64).reshape(29, 7, 22, 7), axis=(1, 3))
-    got = block_nanmean(z, 7, chunk_cells=3000)  # bands of 1 block row: several bands
+    got = block_means(z, 7, chunk_cells=3000)  # bands of 1 block row: several bands
     assert got.shape == (29, 22)
     assert np.array_equal(np.isnan(got), np.isnan(expected)) and np.isnan(got[:2, :2]).all()
     assert np.allclose(got, expected, equal_nan=True, rtol=1e-6)

@@ -31,6 +31,7 @@ import numpy as np
 
 from ..camera import Camera, fov_from_focal
 from ..dem import Dem
+from ..grid import block_means
 
 __all__ = ["DemEdges", "dem_edges", "coarse_dem", "widened_camera", "dem_in_view"]
 
@@ -60,23 +61,14 @@ def coarse_dem(dem: Dem, max_cells: int, is_canceled=None) -> Dem:
     factor = int(math.ceil(math.sqrt(rows * cols / float(max_cells))))
     if factor <= 1:
         return dem
-    r, c = rows // factor, cols // factor
-    elev = np.empty((r, c), dtype=np.float32)
-    band = max(1, int(2_000_000 // (factor * factor * max(c, 1))))  # output rows per band (~2 M input cells)
-    for a in range(0, r, band):
+
+    def poll() -> None:
         if is_canceled is not None and is_canceled():
             from ..fit import FitCanceled
 
             raise FitCanceled()
-        b = min(r, a + band)
-        blocks = np.asarray(dem.elevation[a * factor:b * factor, :c * factor], dtype=np.float32)
-        blocks = blocks.reshape(b - a, factor, c, factor)
-        part = blocks.mean(axis=(1, 3), dtype=np.float32)
-        if np.isnan(part).any():  # blocks with voids: the mean of their valid cells (NaN when none)
-            with np.errstate(invalid="ignore"), np.testing.suppress_warnings() as sup:
-                sup.filter(RuntimeWarning)
-                part = np.nanmean(blocks, axis=(1, 3)).astype(np.float32)
-        elev[a:b] = part
+
+    elev = block_means(dem.elevation, factor, np.float32, poll)
     g = dem.geotransform
     gt = (g[0], g[1] * factor, g[2] * factor, g[3], g[4] * factor, g[5] * factor)
     return Dem.from_array(elev, gt, dem.crs_wkt)
