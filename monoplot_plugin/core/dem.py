@@ -143,7 +143,8 @@ class Dem:
             margin_cells: extra cells around that window.
             sentinels: also treat the common no-data sentinels as voids (see :func:`mark_voids`); what was treated
                 as void is listed in ``void_notes`` (and logged).
-            progress: ``progress(fraction, message)`` while the cells are read (GDAL's progress, per block row).
+            progress: ``progress(fraction, message)`` while the cells are read (a band of rows at a time), then once
+                the voids are marked.
             is_canceled: polled as the cells are read; :class:`DemReadCanceled` once it says True.
         Returns:
             a :class:`Dem` in a metric CRS. A DEM in geographic coordinates is reprojected (bilinear) to the UTM
