@@ -114,6 +114,7 @@ def import_points_csv(controller, path: str, all_check: bool = False) -> int:
             partner = c.state.points.get(partner_of.get(same.id, ""))
             if partner is None:
                 b, reused = same, reused + 1
+                del there[_place(xyz[i])]  # paired now: a later row at the same place gets a point of its own
             elif has_uv and abs(partner.x - uv[i, 0]) < 0.01 and abs(partner.y - uv[i, 1]) < 0.01:
                 again += 1  # the same row imported before: nothing new
                 continue
