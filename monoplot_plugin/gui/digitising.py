@@ -29,6 +29,7 @@ from ..workflow.features import photo_to_map_feature
 from ..outputs.vectors import MapFeature, write_vector_layer
 from .map_layers import add_layer, add_vector_file_layer, photo_group
 from . import persistence
+from .drawn_copies import DRAWN_ROOT, map_copies
 
 __all__ = ["DigitisingSession", "drawn_entry_key", "KINDS"]
 
@@ -164,6 +165,8 @@ class DigitisingSession(QObject):
                 {"uv": photo_vertices(f.geometry()).tolist(),
                  "attributes": {n: _jsonable(_plain(f[n])) for n, _ in self.fields}}
                 for f in layer.getFeatures() if not f.geometry().isNull()]
+        # the map layers as they are: a reopened project shows them while another photo is current
+        data["map"] = map_copies(self.map_layers, lambda value: _jsonable(_plain(value)))
         text = json.dumps(data)
         self.project.writeEntry("monoplot", self._entry(), text)
         persistence.autosave_entry(self.project, self._entry(), text)  # a crash before Save keeps them too
@@ -432,7 +435,7 @@ def drawn_entry_key(photo_name: str) -> str:
     """
     stem = Path(photo_name).stem
     safe = re.sub(r"[^A-Za-z0-9_]", "_", stem)[:40]
-    return f"/outputs/drawn/p_{safe}_{hashlib.sha1(stem.encode('utf-8')).hexdigest()[:10]}"
+    return f"{DRAWN_ROOT}/p_{safe}_{hashlib.sha1(stem.encode('utf-8')).hexdigest()[:10]}"
 
 
 def _edit_words(entry: tuple, kind: str) -> str:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Callable, Iterable, Optional, Sequence, Set, Tuple
 
-__all__ = ["spread_note", "sky_text", "kind_names", "SPREAD_RATIO"]
+__all__ = ["spread_note", "sky_text", "kind_names", "doubt_note", "SPREAD_RATIO"]
 
 #: A feature is reported when one photo pixel spans this many times more ground at its worst place than along it
 #: (median): a part of it lies on far or grazing terrain.
@@ -45,6 +45,35 @@ def spread_note(kind_name: str, spans: Iterable[Tuple[int, Optional[float], Opti
     return tr("{0}: part of one lies where a photo pixel spans {1} of ground ({2} along most of it): far or "
               "grazing terrain, where a click one pixel off moves it that far. Fields m_per_px and m_px_max "
               "keep both for every feature.").format(kind_name, _metres(big), _metres(med))
+
+
+def doubt_note(told: dict, kind: str, camera, count: int, status: str, tr: Callable[[str], str] = str) -> str:
+    """" Drawn on a camera whose fit is "poor": ..." the first time a feature is drawn under a camera its fit does
+    not call ok (a trial's polygon on a "poor" camera 481 m off got an area and no word; the orthophoto and report
+    warn, drawing did not); "" else.
+
+    Args:
+        told: kind -> (camera, features drawn when it was first seen, told); updated.
+        camera: the fitted camera (any comparable value). count: features of ``kind`` drawn now.
+        status: the fit's verdict.
+
+    >>> told = {}
+    >>> doubt_note(told, "line", "cam", 0, "poor"), doubt_note(told, "line", "cam", 1, "poor")[:38]
+    ('', ' Drawn on a camera whose fit is "poor"')
+    >>> doubt_note(told, "polygon", "cam", 1, "poor")  # once per camera, whatever is drawn next
+    ''
+    """
+    told_camera, base, done = told.get(kind, (None, 0, False))
+    if told_camera != camera:  # another camera: its drawings are news again
+        base, done = 0, False
+    told[kind] = (camera, base, done or (count > base and status in ("uncertain", "poor")))
+    if done or count <= base or status not in ("uncertain", "poor"):
+        return ""
+    # once per camera, whatever is drawn next (a trial got it for its polygon, then again for its line)
+    if any(c == camera and t for k, (c, _, t) in told.items() if k != kind):
+        return ""
+    return " " + tr("Drawn on a camera whose fit is \"{0}\": its map positions inherit the camera's errors (no "
+                    "xy_error_m). Check the fit (pairs, check points) before using them.").format(tr(status))
 
 
 def kind_names(tr: Callable[[str], str] = str) -> dict:

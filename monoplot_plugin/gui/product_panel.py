@@ -27,7 +27,8 @@ from ..outputs.safe_write import OutputError
 from ..workflow import xyz as xyz_step
 from ..workflow.features import pixel_error
 from .digitising import KINDS, DigitisingSession, drawn_entry_key
-from .drawing_notes import kind_names, sky_text, spread_note
+from .drawn_copies import refill_map_layers
+from .drawing_notes import doubt_note, kind_names, sky_text, spread_note
 from .photo_names import claim_photo_label, photo_label
 from ..adapters.layers import derived_layers_only, mark_modified_later
 from .map_layers import map_layer_on_photo, overlay_outcome
@@ -162,6 +163,7 @@ class OutputTools(QObject):
         self.controller.demChanged.connect(self._camera_changed)
         self.controller.photoChanged.connect(self._forget)
         self.project.cleared.connect(self._forget)
+        self.project.readProject.connect(self._refill_other_photos)
         self._update_enabled()
 
     # --- state ------------------------------------------------------------------------------------------------
@@ -261,6 +263,12 @@ class OutputTools(QObject):
                                   Qgis.MessageLevel.Warning)
         self._show_on_photo()
 
+    def _refill_other_photos(self, *args) -> None:
+        """A project read: the map layers of what was drawn on the other photos come back as they were saved (the
+        current photo's session, if it runs, rebuilds its own)."""
+        session = self.session if self.session is not None and not self.session.closed else None
+        refill_map_layers(self.project, [lyr.id() for lyr in session.map_layers.values()] if session else [])
+
     def _forget_session(self) -> None:
         if self.session is not None:
             self.session.close()
@@ -298,23 +306,9 @@ class OutputTools(QObject):
         return self.session.photo_layer(kind).featureCount() if self.session is not None else 0
 
     def _doubt_text(self, kind: str) -> str:
-        """" Drawn on a camera whose fit is "poor": ..." the first time a feature is drawn under a camera its fit
-        does not call ok (a trial's polygon on a "poor" camera 481 m off got an area and no word; the orthophoto
-        and report warn, drawing did not); "" else."""
-        status = (self.controller.state.fit_info or {}).get("status", "ok")
-        camera, count = self.controller.state.fitted, self._drawn(kind)
-        told_camera, base, told = self._doubt_told.get(kind, (None, 0, False))
-        if told_camera != camera:  # another camera: its drawings are news again
-            base, told = 0, False
-        self._doubt_told[kind] = (camera, base, told or (count > base and status in ("uncertain", "poor")))
-        if told or count <= base or status not in ("uncertain", "poor"):
-            return ""
-        # once per camera, whatever is drawn next (a trial got it for its polygon, then again for its line)
-        if any(c == camera and t for k, (c, _, t) in self._doubt_told.items() if k != kind):
-            return ""
-        return " " + self.tr("Drawn on a camera whose fit is \"{0}\": its map positions inherit the camera's "
-                             "errors (no xy_error_m). Check the fit (pairs, check points) before using them.").format(
-            self.tr(status))
+        """:func:`.drawing_notes.doubt_note` for the drawings of ``kind`` under the current camera."""
+        return doubt_note(self._doubt_told, kind, self.controller.state.fitted, self._drawn(kind),
+                          (self.controller.state.fit_info or {}).get("status", "ok"), self.tr)
 
     def sky_names(self) -> dict:
         return kind_names(self.tr)
@@ -504,7 +498,8 @@ class OutputTools(QObject):
         for signal, slot in ((self.controller.cameraChanged, self._camera_changed),
                              (self.controller.demChanged, self._camera_changed),
                              (self.controller.photoChanged, self._forget),
-                             (self.project.cleared, self._forget)):
+                             (self.project.cleared, self._forget),
+                             (self.project.readProject, self._refill_other_photos)):
             try:
                 signal.disconnect(slot)
             except TypeError:

@@ -8,6 +8,7 @@ import time
 
 import cv2
 import numpy as np
+import pytest
 from qgis.PyQt.QtCore import Qt, QTimer
 from qgis.PyQt.QtWidgets import QApplication, QMessageBox
 
@@ -195,3 +196,45 @@ def test_work_put_aside_before_the_first_save_comes_back_after_reopening(tmp_pat
     back = photo_shelf.take_back(reopened, str(photo))
     assert back is not None and back.fitted == {"heading": 12.0} and list(back.points) == [point.id]
     assert not photo_shelf.waiting(reopened, str(photo))  # taken out: not brought back twice
+
+
+def test_what_was_drawn_on_another_photo_is_on_the_map_after_reopening(dock, scene, qtbot, tmp_path):
+    """Repeat photography: a glacier front drawn on each photo. After reopening, the front of the photo that was
+    not current was an empty layer on the map until that photo was chosen again (desktop trial)."""
+    from qgis.core import QgsProject
+
+    project = QgsProject.instance()
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    add_scene_points(dock, scene, n=8)
+    accept_everything(c)
+    c.set_fitted(scene.camera, {"status": "ok", "message": "the true camera"})
+    session = dock.output_tools.current_session()
+    session.add_field("seen", "date")
+    session.add_feature("line", [[40, 200], [300, 210], [440, 190]], {"name": "front", "seen": "1890-08-01"})
+    layer = session.map_layer("line")
+    drawn = next(layer.getFeatures())
+    wkt, layer_name = drawn.geometry().asWkt(3), layer.name()
+    assert drawn.geometry().constGet().is3D() and drawn["m_per_px"] > 0
+    modern = str(tmp_path / "modern.png")
+    cv2.imwrite(modern, cv2.imread(scene.photo_path)[:, ::-1])
+    answer_with(qtbot, "Start afresh", [])
+    dock.photoFile.setFilePath(modern)
+    assert c.state.photo_path == modern and dock.output_tools.session is None
+    path = str(tmp_path / "repeat.qgz")
+    c.save()
+    assert project.write(path)
+    project.clear()
+    assert project.read(path)
+    qtbot.waitUntil(lambda: c.image is not None, timeout=5000)
+    assert c.state.photo_path == modern and c.fitted is None  # the print is not the current photo
+    (reopened,) = project.mapLayersByName(layer_name)
+    assert reopened.featureCount() == 1
+    back = next(reopened.getFeatures())
+    assert back.geometry().asWkt(3) == wkt and back["name"] == "front"
+    assert back["seen"].toString("yyyy-MM-dd") == "1890-08-01" and back["m_per_px"] == pytest.approx(drawn["m_per_px"])
+    assert not project.isDirty()  # nothing changed by reading it back
+    answer_with(qtbot, "Start afresh", [])
+    dock.photoFile.setFilePath(scene.photo_path)  # the print again: its session rebuilds the layer, once
+    qtbot.waitUntil(lambda: dock.output_tools.session is not None, timeout=10000)
+    assert reopened.featureCount() == 1 and next(reopened.getFeatures()).geometry().asWkt(3) == wkt
