@@ -1,4 +1,5 @@
-"""A rough camera from a photo's EXIF tags (GPS position, altitude, direction, focal length), read with GDAL.
+"""A rough camera from a photo's EXIF tags (GPS position, altitude, direction, focal length) and a drone's XMP
+gimbal angles (pitch, heading), read with GDAL.
 
 Phones and drones write these; historical scans do not (then :func:`read_exif_prior` returns None).
 
@@ -15,8 +16,8 @@ import re
 from dataclasses import dataclass
 from typing import Dict, Optional, Tuple
 
-__all__ = ["ExifPrior", "read_exif_prior", "parse_exif_prior", "horizontal_fov_from_35mm", "lens_fov",
-           "exif_camera"]
+__all__ = ["ExifPrior", "read_exif_prior", "parse_exif_prior", "parse_xmp_gimbal", "horizontal_fov_from_35mm",
+           "lens_fov", "exif_camera"]
 
 #: Millimetres per FocalPlaneResolutionUnit (EXIF: 1 none, 2 inch, 3 cm; 4 mm and 5 µm in some writers).
 _UNIT_MM = {1: 25.4, 2: 25.4, 3: 10.0, 4: 1.0, 5: 0.001}
@@ -36,6 +37,9 @@ class ExifPrior:
         focal_mm: the lens's focal length (FocalLength), focal_35mm: its 35 mm equivalent.
         sensor_width_mm: width of the sensor along the displayed picture's horizontal axis (from the focal plane
             resolution), when EXIF says it.
+        pitch: the camera's elevation in degrees (negative looks down), from a drone's XMP gimbal tags
+            (:func:`parse_xmp_gimbal`); then ``heading`` is the gimbal's too (``heading_from_gimbal``).
+        relative_altitude: metres above the drone's take-off point (XMP), when it says so.
     """
 
     lon: Optional[float] = None
@@ -47,6 +51,9 @@ class ExifPrior:
     focal_mm: Optional[float] = None
     focal_35mm: Optional[float] = None
     sensor_width_mm: Optional[float] = None
+    pitch: Optional[float] = None
+    heading_from_gimbal: bool = False
+    relative_altitude: Optional[float] = None
 
     @property
     def has_position(self) -> bool:
@@ -127,8 +134,53 @@ def _sensor_width_mm(metadata: Dict[str, str], size: Tuple[int, int]) -> Optiona
     return pixels / res[0] * _UNIT_MM[int(unit[0])]
 
 
-def parse_exif_prior(metadata: Dict[str, str], size: Tuple[int, int]) -> ExifPrior:
-    """ExifPrior from GDAL's ``EXIF_*`` metadata of a photo displayed at ``size`` = (W, H) pixels.
+#: XMP tags of drone cameras, per maker's namespace prefix: (pitch, yaw, height above the take-off point). Both
+#: makers give degrees with pitch 0 level and -90 straight down, yaw clockwise from north (as Monoplot's camera).
+_XMP_TAGS = {"drone-dji": ("GimbalPitchDegree", "GimbalYawDegree", "RelativeAltitude"),
+             "drone-parrot": ("CameraPitchDegree", "CameraYawDegree", "RelativeAltitude")}
+
+
+def _xmp_value(xmp: str, prefix: str, name: str) -> Optional[float]:
+    """The number of the XMP property ``prefix:name``, written as an attribute or as an element; None if absent."""
+    tag = re.escape(f"{prefix}:{name}")
+    found = re.search(tag + r'\s*=\s*"([^"]*)"', xmp) or re.search("<" + tag + r">\s*([^<]*)<", xmp)
+    values = _numbers(found.group(1)) if found else []
+    return values[0] if values and math.isfinite(values[0]) else None
+
+
+def parse_xmp_gimbal(xmp: str) -> Dict[str, float]:
+    """What a drone's XMP packet says of its camera: ``pitch`` and ``heading`` (degrees), ``relative_altitude``
+    (metres above the take-off point); only the ones present (empty for a photo of another device).
+
+    DJI writes them as ``drone-dji:GimbalPitchDegree``..., Parrot as ``drone-parrot:CameraPitchDegree``... (a
+    drone's EXIF has no direction of view, and its pitch is often -30 to -90 degrees: without these the rough camera
+    looked at the horizon).
+
+    >>> parse_xmp_gimbal('<rdf:Description drone-dji:GimbalPitchDegree="-45.20" drone-dji:GimbalYawDegree="-123.4" '
+    ...                  'drone-dji:RelativeAltitude="+120.10"/>')
+    {'pitch': -45.2, 'heading': 236.6, 'relative_altitude': 120.1}
+    >>> parse_xmp_gimbal('<drone-parrot:CameraPitchDegree>-30</drone-parrot:CameraPitchDegree>'), parse_xmp_gimbal('')
+    ({'pitch': -30.0}, {})
+    """
+    for prefix, (pitch_tag, yaw_tag, height_tag) in _XMP_TAGS.items():
+        if prefix + ":" not in xmp:
+            continue
+        pitch, yaw = _xmp_value(xmp, prefix, pitch_tag), _xmp_value(xmp, prefix, yaw_tag)
+        height = _xmp_value(xmp, prefix, height_tag)
+        out = {}
+        if pitch is not None and -90.0 <= pitch <= 90.0:
+            out["pitch"] = pitch
+        if yaw is not None:
+            out["heading"] = yaw % 360.0
+        if height is not None:
+            out["relative_altitude"] = height
+        return out
+    return {}
+
+
+def parse_exif_prior(metadata: Dict[str, str], size: Tuple[int, int], xmp: str = "") -> ExifPrior:
+    """ExifPrior from GDAL's ``EXIF_*`` metadata of a photo displayed at ``size`` = (W, H) pixels, and from its
+    ``xmp`` packet (a drone's gimbal, :func:`parse_xmp_gimbal`).
 
     >>> md = {"EXIF_GPSLatitude": "(46) (25) (53.04)", "EXIF_GPSLatitudeRef": "N",
     ...       "EXIF_GPSLongitude": "(8) (5) (35.88)", "EXIF_GPSLongitudeRef": "E", "EXIF_GPSAltitude": "(2929)",
@@ -158,6 +210,10 @@ def parse_exif_prior(metadata: Dict[str, str], size: Tuple[int, int]) -> ExifPri
     if direction:
         out.heading = direction[0] % 360.0
         out.heading_magnetic = metadata.get("EXIF_GPSImgDirectionRef", "").strip().upper().startswith("M")
+    gimbal = parse_xmp_gimbal(xmp or "")
+    out.pitch, out.relative_altitude = gimbal.get("pitch"), gimbal.get("relative_altitude")
+    if "heading" in gimbal:  # the camera's own direction (a GPSImgDirection may be the aircraft's)
+        out.heading, out.heading_magnetic, out.heading_from_gimbal = gimbal["heading"], False, True
     landscape = size[0] >= size[1]
     f35 = _numbers(metadata.get("EXIF_FocalLengthIn35mmFilm", ""))
     focal = _numbers(metadata.get("EXIF_FocalLength", ""))
@@ -181,14 +237,14 @@ def read_exif_prior(path: str, size: Tuple[int, int]) -> Optional[ExifPrior]:
         return None
     if ds is None:
         return None
-    prior = parse_exif_prior(ds.GetMetadata() or {}, size)
+    prior = parse_exif_prior(ds.GetMetadata() or {}, size, "".join(ds.GetMetadata("xml:XMP") or []))
     return prior if (prior.has_position or prior.fov is not None or prior.focal_mm is not None) else None
 
 
 def exif_camera(exif: Optional[ExifPrior], size: Tuple[int, int], dem, heading: Optional[float] = None):
-    """A level rough :class:`~monoplot_plugin.core.camera.Camera` in ``dem``'s CRS from the EXIF tags: GPS position,
-    altitude (else 2 m above the DEM, never below 1 m above it), GPSImgDirection (else ``heading``, degrees from
-    grid north), field of view (else 60 degrees).
+    """A rough :class:`~monoplot_plugin.core.camera.Camera` in ``dem``'s CRS from the EXIF tags: GPS position,
+    altitude (else 2 m above the DEM, never below 1 m above it), a drone's gimbal heading or GPSImgDirection (else
+    ``heading``, degrees from grid north), a drone's gimbal pitch (else level), field of view (else 60 degrees).
 
     Raises:
         ValueError: no GPS position, no direction and no ``heading`` given, or the position outside the DEM (the
@@ -208,5 +264,6 @@ def exif_camera(exif: Optional[ExifPrior], size: Tuple[int, int], dem, heading: 
     if not math.isfinite(ground):
         raise ValueError("the photo's GPS position lies outside the DEM")
     z = exif.altitude if exif.altitude is not None else ground + 2.0
-    return Camera((x, y, max(z, ground + 1.0)), float(heading), 0.0, 0.0, exif.fov or 60.0, tuple(size),
+    pitch = exif.pitch if exif.pitch is not None else 0.0
+    return Camera((x, y, max(z, ground + 1.0)), float(heading), float(pitch), 0.0, exif.fov or 60.0, tuple(size),
                   crs_wkt=dem.crs_wkt)

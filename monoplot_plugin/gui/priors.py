@@ -232,7 +232,12 @@ class PriorsMixin:
         guessed = exif.heading is None  # then it looks at the DEM's centre
         camera = exif_camera(exif, self.photo_size, self.dem,
                              heading=math.degrees(math.atan2((x0 + x1) / 2 - x, (y0 + y1) / 2 - y)))
-        camera, pitched = self._with_terrain_pitch(camera, say=False)
+        if exif.pitch is None:
+            camera, pitched = self._with_terrain_pitch(camera, say=False)
+        else:  # a drone's gimbal: looking down at -45° it sees no skyline, and the terrain's pitch would be level
+            pitched = self.tr("Pitch {0:.1f}° and heading {1:.0f}° from the drone's gimbal (XMP tags).").format(
+                exif.pitch, exif.heading) if exif.heading_from_gimbal else \
+                self.tr("Pitch {0:.1f}° from the drone's gimbal (XMP tags).").format(exif.pitch)
         self.set_prior(camera, source=GPS_SOURCE)
         text = self.tr("Rough camera from the photo's EXIF GPS tags.") + (" " + pitched if pitched else "")
         if exif.altitude is not None:  # a trial's phone said 11 m above the ground for a hand-held 1.6 m
@@ -243,6 +248,9 @@ class PriorsMixin:
                            self.tr("Its GPS altitude puts it {0:.0f} m above the DEM; a GPS height is often 10-30 m "
                                    "off: set \"Above ground\" (Camera tab) if you know the flight height.")
                            ).format(above)
+            if exif.relative_altitude is not None:  # barometric, from the take-off point: a check of the GPS's
+                text += " " + self.tr("The drone logged {0:.0f} m above its take-off point.").format(
+                    exif.relative_altitude)
         if guessed:
             text += " " + self.tr("No direction in EXIF: it looks at the DEM centre; draw it on the map if wrong.")
         elif exif.heading_magnetic:  # a phone's compass: the declination is unknown here (up to 20° and more)

@@ -71,3 +71,34 @@ def test_a_phones_portrait_picture_gets_the_diagonal_rules_width(tmp_path):
     assert read_exif_prior(path, (600, 800)).fov == pytest.approx(53.06, abs=0.05)
     path = _jpeg(tmp_path / "phone_flat.jpg", (800, 600), FocalLengthIn35mmFilm="26")
     assert read_exif_prior(path, (800, 600)).fov == pytest.approx(67.3, abs=0.05)
+
+
+def with_xmp(path, xmp: str) -> str:
+    """The JPEG at ``path`` with an XMP packet in an APP1 segment after its start marker, as a drone writes it."""
+    import struct
+
+    data = open(path, "rb").read()
+    payload = b"http://ns.adobe.com/xap/1.0/\x00" + xmp.encode("utf-8")
+    segment = b"\xff\xe1" + struct.pack(">H", len(payload) + 2) + payload
+    with open(path, "wb") as fh:
+        fh.write(data[:2] + segment + data[2:])
+    return str(path)
+
+
+DJI_XMP = ('<?xpacket begin="\ufeff" id="W5M0MpCehiHzreSzNTczkc9d"?><x:xmpmeta xmlns:x="adobe:ns:meta/">'
+           '<rdf:RDF xmlns:rdf="http://www.w3.org/1999/02/22-rdf-syntax-ns#"><rdf:Description rdf:about="" '
+           'xmlns:drone-dji="http://www.dji.com/drone-dji/1.0/" drone-dji:AbsoluteAltitude="+612.35" '
+           'drone-dji:RelativeAltitude="+{height}" drone-dji:GimbalRollDegree="+0.00" '
+           'drone-dji:GimbalYawDegree="{yaw}" drone-dji:GimbalPitchDegree="{pitch}" '
+           'drone-dji:FlightYawDegree="+87.10"/></rdf:RDF></x:xmpmeta><?xpacket end="w"?>')
+
+
+def test_a_drones_gimbal_gives_pitch_and_heading(tmp_path):
+    """A drone's EXIF has no direction of view; its XMP has the gimbal's (DJI): pitch -52.3, yaw -40.5 = 319.5."""
+    path = _jpeg(tmp_path / "DJI_0042.jpg", (400, 300), FocalLengthIn35mmFilm="24",
+                 GPSImgDirection="(87.1)")  # the aircraft's direction: the gimbal's wins
+    exif = read_exif_prior(with_xmp(path, DJI_XMP.format(height="119.80", yaw="-40.50", pitch="-52.30")), (400, 300))
+    assert exif.pitch == pytest.approx(-52.3) and exif.heading == pytest.approx(319.5)
+    assert exif.heading_from_gimbal and not exif.heading_magnetic and exif.relative_altitude == pytest.approx(119.8)
+    plain = read_exif_prior(_jpeg(tmp_path / "phone.jpg", (400, 300), FocalLengthIn35mmFilm="24"), (400, 300))
+    assert plain.pitch is None and not plain.heading_from_gimbal

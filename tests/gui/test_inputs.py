@@ -233,7 +233,11 @@ def test_map_cursor_says_hidden_behind_terrain(dock, scene, qtbot):
     assert where2 == "visible" and math.dist(uv2, (240.5, 250.5)) < 3.0
 
 
-def test_rough_camera_from_exif_gps(dock, scene, tmp_path):
+def _jpeg_at_camera(scene, path, xmp: str = "", **tags) -> str:
+    """The scene's photo as a JPEG whose GPS tags give the scene camera's position, plus ``tags`` (EXIF names
+    without the prefix) and an XMP packet (in an APP1 segment, as a drone writes it)."""
+    import struct
+
     from osgeo import gdal, osr
 
     src = osr.SpatialReference()
@@ -252,11 +256,19 @@ def test_rough_camera_from_exif_gps(dock, scene, tmp_path):
     photo = gdal.Open(scene.photo_path)
     mem = gdal.GetDriverByName("MEM").CreateCopy("", photo)
     mem.SetMetadata({"EXIF_GPSLatitude": dms(lat), "EXIF_GPSLatitudeRef": "N", "EXIF_GPSLongitude": dms(lon),
-                     "EXIF_GPSLongitudeRef": "E", "EXIF_GPSAltitude": f"({scene.camera.position[2]:.1f})",
-                     "EXIF_GPSImgDirection": "(10.0)", "EXIF_GPSImgDirectionRef": "M",
-                     "EXIF_FocalLengthIn35mmFilm": "31"})
-    path = str(tmp_path / "phone.jpg")
-    gdal.GetDriverByName("JPEG").CreateCopy(path, mem)
+                     "EXIF_GPSLongitudeRef": "E", **{"EXIF_" + k: v for k, v in tags.items()}})
+    gdal.GetDriverByName("JPEG").CreateCopy(str(path), mem)
+    if xmp:
+        data = open(path, "rb").read()
+        payload = b"http://ns.adobe.com/xap/1.0/\x00" + xmp.encode("utf-8")
+        with open(path, "wb") as fh:
+            fh.write(data[:2] + b"\xff\xe1" + struct.pack(">H", len(payload) + 2) + payload + data[2:])
+    return str(path)
+
+
+def test_rough_camera_from_exif_gps(dock, scene, tmp_path):
+    path = _jpeg_at_camera(scene, tmp_path / "phone.jpg", GPSAltitude=f"({scene.camera.position[2]:.1f})",
+                           GPSImgDirection="(10.0)", GPSImgDirectionRef="M", FocalLengthIn35mmFilm="31")
     dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
     said = []
     dock.controller.message.connect(lambda text, level: said.append(text))
@@ -293,6 +305,28 @@ def test_rough_camera_from_exif_gps(dock, scene, tmp_path):
     assert abs(prior.position[2] - scene.camera.position[2]) < 0.2
     assert abs(prior.fov - 60.2) < 0.5  # 2 atan(18 / 31)
     assert 8.0 < prior.heading < 12.0  # true north -> grid north: within a couple of degrees in Switzerland
+
+
+def test_a_drone_photo_gets_its_gimbals_pitch_and_heading(dock, scene, tmp_path):
+    """A drone looks down at -40 to -90 degrees and its EXIF has no direction of view; its XMP (DJI) has the
+    gimbal's angles. Without them the rough camera looked level at the DEM's centre."""
+    xmp = ('<x:xmpmeta xmlns:x="adobe:ns:meta/"><rdf:RDF xmlns:rdf="http://www.w3.org/1999/02/22-rdf-syntax-ns#">'
+           '<rdf:Description rdf:about="" xmlns:drone-dji="http://www.dji.com/drone-dji/1.0/" '
+           'drone-dji:RelativeAltitude="+118.40" drone-dji:GimbalYawDegree="-20.50" '
+           'drone-dji:GimbalPitchDegree="-47.80"/></rdf:RDF></x:xmpmeta>')
+    path = _jpeg_at_camera(scene, tmp_path / "DJI_0007.JPG", xmp, FocalLengthIn35mmFilm="24",
+                           GPSAltitude=f"({scene.camera.position[2] + 100.0:.1f})")
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    said = []
+    dock.controller.message.connect(lambda text, level: said.append(text))
+    dock.photoFile.setFilePath(path)
+    prior = dock.controller.prior
+    assert prior.pitch == pytest.approx(-47.8) and dock.pitchSpin.value() == pytest.approx(-47.8, abs=0.05)
+    # the gimbal's yaw is from true north; the DEM's grid north differs by the meridian convergence (< 2 deg here)
+    assert abs((prior.heading - 339.5 + 180.0) % 360.0 - 180.0) < 2.0
+    text = next(t for t in said if t.startswith("Rough camera from the photo's EXIF GPS tags."))
+    assert "Pitch -47.8° and heading 340° from the drone's gimbal (XMP tags)." in text and "Pitch set to" not in text
+    assert "The drone logged 118 m above its take-off point." in text and "No direction in EXIF" not in text
 
 
 def test_typing_a_photo_path_loads_it_once_complete(dock, scene, qtbot, qgis_iface):
