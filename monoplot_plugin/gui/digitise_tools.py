@@ -5,7 +5,8 @@ The tools write into a :class:`~.digitising.DigitisingSession`, whose live map l
 
 Capture, QGIS-like: left click adds a vertex (a point is done at once), right click finishes a line (2+ vertices) or
 polygon (3+ vertices), Backspace removes the last vertex, Esc cancels. Vertices snap to the vertices of everything
-already drawn on the photo within :data:`SNAP_PIXELS` screen pixels (a marker shows the snap).
+already drawn on the photo within :data:`SNAP_PIXELS` screen pixels (a marker shows the snap), and a polygon's or
+line's last click onto its own first vertex once it has three.
 
 Edit: drag a vertex to move it; right click on a feature (or press Delete with the mouse over it) deletes it.
 
@@ -106,10 +107,12 @@ class PhotoCaptureTool(QgsMapTool):
         self.setCursor(Qt.CursorShape.CrossCursor)
 
     def snapped(self, point: QgsPointXY) -> Tuple[QgsPointXY, bool]:
-        """``point`` moved onto a drawn vertex within the tolerance (or onto the first vertex of the feature being
-        drawn); the flag tells whether it snapped."""
+        """``point`` moved onto a drawn vertex within the tolerance (or, to close it, onto the first vertex of the
+        feature being drawn once it has three); the flag tells whether it snapped."""
         tolerance = _tolerance(self.canvas())
-        candidates = list(self.vertices[:1])
+        # Not onto its own start before that: on a photo shown small (1200 px in a 445 px canvas) a line's second
+        # click 27 photo px from its first snapped onto it, and the line lost its second vertex (a trial).
+        candidates = list(self.vertices[:1]) if len(self.vertices) >= 3 else []
         session = self.session_getter()
         hit = _nearest_vertex(session, point, tolerance) if session is not None else None
         if hit is not None:
@@ -141,6 +144,8 @@ class PhotoCaptureTool(QgsMapTool):
         if event.button() != Qt.MouseButton.LeftButton:
             return
         point, _ = self.snapped(event.mapPoint())
+        if self.vertices and point == self.vertices[-1] and self.kind != "point":
+            return  # the same place twice (snapped onto the same vertex): no zero-length segment
         self.vertices.append(point)
         if self.kind == "point":
             self.finish()

@@ -62,6 +62,25 @@ def test_capture_polygon_line_point_with_snapping(canvas_and_session):
     assert vertices[0] == corner and len(vertices) == 2  # snapped exactly onto it
     assert session.map_layer("line").featureCount() == 1
 
+    # A line's second vertex close to its first (4 screen px here; a trial's photo shown small: 27 photo px) is
+    # kept where it was clicked, not snapped onto the first; the same place twice adds no vertex.
+    click(line_tool, canvas, 20, 200)
+    click(line_tool, canvas, 22, 200)
+    click(line_tool, canvas, 22, 200)
+    click(line_tool, canvas, 60, 210)
+    click(line_tool, canvas, 0, 0, Qt.MouseButton.RightButton)
+    latest = max(session.photo_layer("line").getFeatures(), key=lambda f: f.id())
+    kept = [(p.x(), -p.y()) for p in latest.geometry().vertices()]  # to a screen pixel
+    assert np.allclose(kept, [(20, 200), (22, 200), (60, 210)], atol=0.5)
+    # a polygon still closes onto its first vertex
+    click(polygon_tool, canvas, 20, 220)
+    for u, v in [(80, 220), (80, 260), (21, 221)]:
+        click(polygon_tool, canvas, u, v)
+    click(polygon_tool, canvas, 0, 0, Qt.MouseButton.RightButton)
+    closed = max(session.photo_layer("polygon").getFeatures(), key=lambda f: f.id())
+    assert len(list(closed.geometry().vertices())) == 4  # 3 corners and the ring's closing vertex
+    canvas.setMapTool(line_tool)
+
     point_tool = PhotoCaptureTool(canvas, lambda: session, "point")
     click(point_tool, canvas, 100, 130)
     assert session.map_layer("point").featureCount() == 1
@@ -69,7 +88,7 @@ def test_capture_polygon_line_point_with_snapping(canvas_and_session):
     click(line_tool, canvas, 20, 120)
     line_tool.keyPressEvent(QKeyEvent(QEvent.Type.KeyPress, Qt.Key.Key_Escape, Qt.KeyboardModifier.NoModifier))
     click(line_tool, canvas, 0, 0, Qt.MouseButton.RightButton)
-    assert session.photo_layer("line").featureCount() == 1
+    assert session.photo_layer("line").featureCount() == 2
 
 
 def test_edit_tool_moves_vertex_and_deletes(canvas_and_session):
