@@ -167,6 +167,7 @@ class DigitisingSession(QObject):
                 for f in layer.getFeatures() if not f.geometry().isNull()]
         # the map layers as they are: a reopened project shows them while another photo is current
         data["map"] = map_copies(self.map_layers, lambda value: _jsonable(_plain(value)))
+        data["photo_layers"] = {kind: layer.name() for kind, layer in self.photo_layers.items()}
         text = json.dumps(data)
         self.project.writeEntry("monoplot", self._entry(), text)
         persistence.autosave_entry(self.project, self._entry(), text)  # a crash before Save keeps them too

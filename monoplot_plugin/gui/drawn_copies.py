@@ -14,10 +14,11 @@ from __future__ import annotations
 import json
 from typing import Dict, Iterable
 
-from qgis.core import QgsFeature, QgsGeometry, QgsProject, QgsVectorLayer
+from qgis.core import QgsCoordinateReferenceSystem, QgsFeature, QgsGeometry, QgsProject, QgsVectorLayer
 from qgis.PyQt.QtCore import QDate, Qt, QVariant
 
 from ..adapters.layers import derived_layers_only
+from ..adapters.photo_space import photo_geometry
 from . import persistence
 
 __all__ = ["map_copies", "refill_map_layers", "DRAWN_ROOT"]
@@ -41,9 +42,9 @@ def map_copies(layers: Dict[str, QgsVectorLayer], jsonable) -> dict:
 
 
 def refill_map_layers(project: QgsProject, live: Iterable[str] = ()) -> int:
-    """Fill each drawn map layer of ``project`` that came back empty from its photo's stored copy (the autosave's
-    when it is newer than the project file); ``live``: ids of layers a session rebuilds itself, left alone.
-    Returns how many features were put back.
+    """Fill each drawn map layer (and pixel-space layer) of ``project`` that came back empty from its photo's entry
+    (the autosave's when it is newer than the project file); ``live``: ids of layers a session rebuilds itself, left
+    alone. Returns how many map features were put back.
 
     Only memory layers of the stored name that hold nothing are filled: a layer the person has since edited or a
     file layer of that name is never touched."""
@@ -54,22 +55,35 @@ def refill_map_layers(project: QgsProject, live: Iterable[str] = ()) -> int:
             key = f"{DRAWN_ROOT}/{name}"
             text = persistence.autosaved_entry(project, key) or project.readEntry("monoplot", key, "")[0]
             try:
-                copies = json.loads(text).get("map", {}) if text else {}
-            except (ValueError, AttributeError):  # not ours, or a later version's
+                data = json.loads(text) if text else {}
+                copies, photo_layers, drawn = data.get("map", {}), data.get("photo_layers", {}), data["features"]
+            except (ValueError, AttributeError, KeyError, TypeError):  # not ours, or a later version's
                 continue
             for copy in copies.values():
-                for layer in project.mapLayersByName(str(copy.get("layer", ""))):
-                    if (isinstance(layer, QgsVectorLayer) and layer.providerType() == "memory"
-                            and layer.id() not in live and layer.featureCount() == 0):
-                        count += _fill(layer, copy.get("features", []))
+                for layer in _empty_memory_layers(project, copy.get("layer"), live):
+                    count += _fill(layer, copy.get("features", []), lambda item: QgsGeometry.fromWkt(
+                        str(item.get("wkt", ""))))
+            for kind, name in photo_layers.items():
+                for layer in _empty_memory_layers(project, name, live):
+                    # QGIS gave the pixel layer a CRS on reading it (EPSG:4326, a trial): it has none
+                    layer.setCrs(QgsCoordinateReferenceSystem())
+                    _fill(layer, drawn.get(kind, []), lambda item, k=kind: photo_geometry(k, item["uv"]))
     return count
 
 
-def _fill(layer: QgsVectorLayer, features: list) -> int:
+def _empty_memory_layers(project: QgsProject, name, live: set):
+    """The memory layers named ``name`` that hold nothing and that no session rebuilds."""
+    for layer in project.mapLayersByName(str(name or "")):
+        if isinstance(layer, QgsVectorLayer) and layer.providerType() == "memory" and layer.id() not in live \
+                and layer.featureCount() == 0:
+            yield layer
+
+
+def _fill(layer: QgsVectorLayer, features: list, geometry) -> int:
     new = []
     for item in features:
         feature = QgsFeature(layer.fields())
-        feature.setGeometry(QgsGeometry.fromWkt(str(item.get("wkt", ""))))
+        feature.setGeometry(geometry(item))
         for name, value in item.get("attributes", {}).items():
             index = layer.fields().indexFromName(name)
             if value is None or index < 0:

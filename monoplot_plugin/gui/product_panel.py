@@ -267,7 +267,8 @@ class OutputTools(QObject):
         """A project read: the map layers of what was drawn on the other photos come back as they were saved (the
         current photo's session, if it runs, rebuilds its own)."""
         session = self.session if self.session is not None and not self.session.closed else None
-        refill_map_layers(self.project, [lyr.id() for lyr in session.map_layers.values()] if session else [])
+        live = [*session.map_layers.values(), *session.photo_layers.values()] if session else []
+        refill_map_layers(self.project, [layer.id() for layer in live])
 
     def _forget_session(self) -> None:
         if self.session is not None:

@@ -233,6 +233,8 @@ def test_what_was_drawn_on_another_photo_is_on_the_map_after_reopening(dock, sce
     back = next(reopened.getFeatures())
     assert back.geometry().asWkt(3) == wkt and back["name"] == "front"
     assert back["seen"].toString("yyyy-MM-dd") == "1890-08-01" and back["m_per_px"] == pytest.approx(drawn["m_per_px"])
+    (pixels,) = project.mapLayersByName(layer_name.replace("(map)", "(photo pixels)"))
+    assert not pixels.crs().isValid() and pixels.featureCount() == 1  # photo pixel space: no CRS (QGIS gave one)
     assert not project.isDirty()  # nothing changed by reading it back
     answer_with(qtbot, "Start afresh", [])
     dock.photoFile.setFilePath(scene.photo_path)  # the print again: its session rebuilds the layer, once
