@@ -41,6 +41,9 @@ _QVARIANT = {"string": QVariant.Type.String, "integer": QVariant.Type.Int, "real
 _KIND_LABEL = {"point": "points", "line": "lines", "polygon": "polygons"}
 #: The field of the map layers (live and exported) holding the id of the drawn feature in its photo layer.
 PHOTO_FID = "photo_fid"
+#: ... and the name of the photo it was drawn on (a season of time-lapse frames merged into one layer said no more
+#: which frame a line came from, a trial); a field of the person's own of that name wins
+PHOTO_NAME = "photo"
 
 
 class DigitisingSession(QObject):
@@ -136,6 +139,8 @@ class DigitisingSession(QObject):
             attrs = [QgsField(n, _QVARIANT[t]) for n, t in self.fields]
             attrs += computed_fields(kind)
             attrs.append(QgsField(PHOTO_FID, QVariant.Type.LongLong))
+            if not self._own_photo_field():
+                attrs.append(QgsField(PHOTO_NAME, QVariant.Type.String))
             layer.dataProvider().addAttributes([a for a in attrs if layer.fields().indexFromName(a.name()) < 0])
             layer.updateFields()
             if not reused:
@@ -397,6 +402,8 @@ class DigitisingSession(QObject):
                 if layer.fields().indexFromName(name) >= 0 and value is not None:
                     f[name] = _qvalue(value, dict(self.fields).get(name))
             f[PHOTO_FID] = int(fid)
+            if not self._own_photo_field():
+                f[PHOTO_NAME] = self.photo_name
             new.append(f)
         ok, _ = provider.addFeatures(new)
         if not ok:  # never silently: a feature missing from the map layer is data the user would lose
@@ -420,11 +427,17 @@ class DigitisingSession(QObject):
         # apart): its id in the photo layer, as the live map layer has it
         for feature, fid in zip(features, fids):
             feature.attributes = {**feature.attributes, PHOTO_FID: int(fid)}
-        written = write_vector_layer(path, features, self.dem.crs_wkt, fields=[*self.fields, (PHOTO_FID, "integer")],
+            if not self._own_photo_field():
+                feature.attributes[PHOTO_NAME] = self.photo_name
+        extra = [(PHOTO_FID, "integer")] + ([] if self._own_photo_field() else [(PHOTO_NAME, "string")])
+        written = write_vector_layer(path, features, self.dem.crs_wkt, fields=[*self.fields, *extra],
                                      kind=kind, overwrite=overwrite)
         if add_to_project:
             add_vector_file_layer(written, self.project, self.group)
         return written
+
+    def _own_photo_field(self) -> bool:
+        return any(n.lower() == PHOTO_NAME for n, _ in self.fields)
 
 
 def drawn_entry_key(photo_name: str) -> str:
