@@ -33,7 +33,7 @@ import numpy as np
 from ..camera import Camera
 from ..fit import FitCanceled, FitResult, fit_camera
 from ..fit.result import rms
-from ..fit.verdict import FEWER_SIDE_ADVICE, outlier_note
+from ..fit.verdict import FEWER_SIDE_ADVICE, FEWER_SIDE_CAUSES, outlier_note
 from ..xyz.zbuffer import trial_cameras
 from .align import Aligner, camera_from_offset, offsets_grid
 from .dem_edges import coarse_dem, dem_edges, dem_in_view
@@ -344,7 +344,7 @@ def _finish(finals, at: float, search: _Search):
     if note:
         result.message = result.message.replace(note, "")
     # the points are the registration's own suggestions, none flagged in the dock: no advice to reject them
-    result.message = result.message.replace("most accepted points are wrong or the camera is; " + FEWER_SIDE_ADVICE,
+    result.message = result.message.replace(f"{FEWER_SIDE_CAUSES}; {FEWER_SIDE_ADVICE}",
                                             "the suggestions or the aligned camera they were kept by are wrong")
     # The fit on the suggestions refines the aligned camera only when its camera fits the photo's edges at least as
     # well: pairs drawn near the aligned camera can also pull it off (each camera rendered from where it stands).

@@ -44,9 +44,14 @@ CHECK_OVER_RESIDUALS = 3.0
 #: shares of the picture's diagonal: residuals or check points beyond POOR_SHARE make a fit poor; check points beyond
 #: WEAK_SHARE make it uncertain (and within it, with at least MIN_CHECKS of them, they verify it)
 POOR_SHARE, WEAK_SHARE, MIN_CHECKS = 0.03, 0.015, 4
-#: What the verdict advises when few of the fewer side's points match (the automatic registration words it for its
-#: own matches, :mod:`..auto.register`).
-FEWER_SIDE_ADVICE = "reject the flagged points and fit again"
+#: Why few of the fewer side's points match, and what to do (the automatic registration words it for its own points,
+#: which nobody accepted). Unpaired, a right point may simply have no accepted counterpart in the other view: a trial
+#: accepted 85 right photo points of which only 37 had one, and "reject the flagged points" would have lost 32 right
+#: ones.
+FEWER_SIDE_CAUSES = ("many accepted points have no accepted counterpart in the other view, or are wrong, or the "
+                     "camera is")
+FEWER_SIDE_ADVICE = ("look at the flagged points: reject the wrong ones, accept the counterparts of the right ones, "
+                     "and fit again")
 #: a clearly different camera whose score is at least this share of the fit's makes it uncertain (the search's
 #: competitors, ``competitor_ratio``, and the stability probes' rivals, ``rival_ratio``)
 COMPETITOR_RATIO = 0.8
@@ -243,8 +248,8 @@ def judge(e: dict) -> Tuple[str, str]:
             n_photo, n_dem = int(e.get("n_photo", 0)), int(e.get("n_dem", 0))
             smaller, which = (n_photo, "photo") if n_photo <= n_dem else (n_dem, "DEM")
             if smaller and n_in < 0.4 * smaller:
-                weak.append(f"only {n_in} of the {smaller} {which} points (the fewer side) match a partner: either "
-                            f"most accepted points are wrong or the camera is; {FEWER_SIDE_ADVICE}")
+                weak.append(f"only {n_in} of the {smaller} {which} points (the fewer side) match a partner: "
+                            f"{FEWER_SIDE_CAUSES}; {FEWER_SIDE_ADVICE}")
             ratio = float(e.get("competitor_ratio", 0.0))
             if ratio >= COMPETITOR_RATIO:
                 weak.append("another camera, clearly different, explains the points almost as well: add two paired "
@@ -340,7 +345,8 @@ def outlier_note(e: dict, sure: bool = True) -> str:
     text = (f" {int(e['photo_outliers'])} of {int(e.get('n_photo', 0))} accepted photo points fit no terrain "
             f"point under this camera (flagged as outliers)")
     if sure:
-        return text + ": reject them if they are not on the DEM's terrain."
+        return text + (": reject those that are wrong; a right one needs its counterpart accepted in the other "
+                       "view.")
     return text + (": the camera is uncertain, so they may be right and the camera wrong; judge them one by one "
                    "rather than rejecting them all.")
 
