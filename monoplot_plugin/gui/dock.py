@@ -90,8 +90,9 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
         self.clearPriorButton.clicked.connect(lambda: c.set_prior(None))
         # a new project starts from the boxes' defaults, not the closed project's camera (a trial: the next camera
         # drawn took its pitch -11.3 deg and +48 m, and a pitch other than 0 skipped the one from the terrain)
-        self._camera_box_defaults = {spin: spin.value() for spin in (self.fovSpin, self.pitchSpin, self.heightSpin)}
-        for spin in (self.fovSpin, self.pitchSpin):
+        self._camera_box_defaults = {spin: spin.value() for spin in (self.fovSpin, self.headingSpin, self.pitchSpin,
+                                                                     self.heightSpin)}
+        for spin in (self.fovSpin, self.headingSpin, self.pitchSpin):
             # typing "55" moves the camera once, on Enter: not to 5 deg first, which warned that the camera did not
             # look at the DEM (desktop trial)
             spin.setKeyboardTracking(False)
@@ -294,7 +295,8 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
         prior, fitted = c.prior, c.fitted
         shown = prior if prior is not None else fitted  # a fitted camera alone: its lens and pitch, not 60° and 0°
         if shown is not None:
-            for spin, value in ((self.fovSpin, shown.fov), (self.pitchSpin, shown.pitch)):
+            for spin, value in ((self.fovSpin, shown.fov), (self.pitchSpin, shown.pitch),
+                                (self.headingSpin, azimuth(shown.heading))):
                 spin.blockSignals(True)
                 spin.setValue(value)
                 spin.blockSignals(False)

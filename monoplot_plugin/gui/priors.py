@@ -13,7 +13,7 @@ import numpy as np
 from qgis.core import Qgis
 
 from ..adapters.exif import exif_camera, read_exif_prior
-from ..core.camera import Camera
+from ..core.camera import Camera, azimuth
 from ..core.kml import lonlat_to_crs
 from ..workflow.products import centred_on_picture
 from . import engine
@@ -235,8 +235,9 @@ class PriorsMixin:
         if exif.pitch is None:
             camera, pitched = self._with_terrain_pitch(camera, say=False)
         else:  # a drone's gimbal: looking down at -45° it sees no skyline, and the terrain's pitch would be level
+            # the heading as the Camera tab's box shows it: from the DEM's grid north, not the tag's true north
             pitched = self.tr("Pitch {0:.1f}° and heading {1:.0f}° from the drone's gimbal (XMP tags).").format(
-                exif.pitch, exif.heading) if exif.heading_from_gimbal else \
+                exif.pitch, azimuth(camera.heading)) if exif.heading_from_gimbal else \
                 self.tr("Pitch {0:.1f}° from the drone's gimbal (XMP tags).").format(exif.pitch)
         self.set_prior(camera, source=GPS_SOURCE)
         text = self.tr("Rough camera from the photo's EXIF GPS tags.") + (" " + pitched if pitched else "")

@@ -1,5 +1,5 @@
 """The dock's rough camera (a mixin of :class:`~.dock.MonoplotDock`): drawn on the map by press and drag (a live
-wedge while dragging), its field of view and pitch from the spin boxes, or read from a KML or camera JSON."""
+wedge while dragging), its field of view, heading and pitch from the spin boxes, or read from a KML or camera JSON."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ __all__ = ["RoughCameraMixin"]
 
 
 class RoughCameraMixin:
-    """Slots of the dock's rough-camera widgets (``drawCameraButton``, ``fovSpin``, ``pitchSpin``, ``heightSpin``,
-    the KML button); the dock provides ``controller``, ``map_canvas``, ``camera_tool``, ``map_view``,
-    ``io_actions`` and ``show_message``."""
+    """Slots of the dock's rough-camera widgets (``drawCameraButton``, ``fovSpin``, ``headingSpin``, ``pitchSpin``,
+    ``heightSpin``, the KML button); the dock provides ``controller``, ``map_canvas``, ``camera_tool``,
+    ``map_view``, ``io_actions`` and ``show_message``."""
 
     def _toggle_camera_tool(self, on: bool) -> None:
         if on:
@@ -41,9 +41,17 @@ class RoughCameraMixin:
         self.drawCameraButton.setChecked(False)
 
     def _prior_spin_changed(self) -> None:
+        """A box edited: the rough camera takes its field of view, pitch and heading, and keeps its position (a
+        drone's heading had only "Draw on map", which also moved the camera off its GPS position, a trial)."""
         prior = self.controller.prior
-        if prior is not None and (prior.fov, prior.pitch) != (self.fovSpin.value(), self.pitchSpin.value()):
-            self.controller.set_prior(prior.with_parameters(fov=self.fovSpin.value(), pitch=self.pitchSpin.value()))
+        if prior is None:
+            return
+        heading = self.headingSpin.value()
+        if abs((heading - prior.heading + 180.0) % 360.0 - 180.0) < 0.05:  # the box shows it to 0.1°: unchanged
+            heading = prior.heading
+        if (prior.fov, prior.pitch, prior.heading) != (self.fovSpin.value(), self.pitchSpin.value(), heading):
+            self.controller.set_prior(prior.with_parameters(fov=self.fovSpin.value(), pitch=self.pitchSpin.value(),
+                                                            heading=heading))
 
     def _import_kml(self) -> None:
         path, _ = QFileDialog.getOpenFileName(self, self.tr("Rough camera from KML or camera JSON"), "",

@@ -161,6 +161,25 @@ def test_above_ground_box_shows_and_moves_the_prior(dock, scene, qtbot):
     assert "1.6 m above the DEM" in dock.statusLabel.text()
 
 
+def test_heading_box_turns_the_prior_where_it_stands(dock, scene, qtbot):
+    """A drone's heading known from its flight log: the only way was "Draw on map", which also moved the camera off
+    its GPS position (a trial)."""
+    _load(dock, scene.photo_path)
+    c = dock.controller
+    prior = scene.prior.with_parameters(heading=-20.0)
+    c.set_prior(prior)
+    assert dock.headingSpin.value() == pytest.approx(340.0)  # as an azimuth
+    dock.fovSpin.selectAll()
+    qtbot.keyClicks(dock.fovSpin.lineEdit(), "50")
+    qtbot.keyClick(dock.fovSpin.lineEdit(), Qt.Key.Key_Return)
+    assert c.prior.fov == 50.0 and c.prior.heading == -20.0  # another box edited: the heading is not rounded
+    dock.headingSpin.selectAll()
+    qtbot.keyClicks(dock.headingSpin.lineEdit(), "12.5")
+    qtbot.keyClick(dock.headingSpin.lineEdit(), Qt.Key.Key_Return)
+    assert c.prior.heading == 12.5 and c.prior.position == prior.position and c.prior.pitch == prior.pitch
+    assert "heading 12.5°" in dock.cameraSummary.text()
+
+
 def test_drawn_camera_gets_a_pitch_from_the_terrain(dock, scene):
     _load(dock, scene.photo_path)
     c = dock.controller

@@ -325,7 +325,8 @@ def test_a_drone_photo_gets_its_gimbals_pitch_and_heading(dock, scene, tmp_path)
     # the gimbal's yaw is from true north; the DEM's grid north differs by the meridian convergence (< 2 deg here)
     assert abs((prior.heading - 339.5 + 180.0) % 360.0 - 180.0) < 2.0
     text = next(t for t in said if t.startswith("Rough camera from the photo's EXIF GPS tags."))
-    assert "Pitch -47.8° and heading 340° from the drone's gimbal (XMP tags)." in text and "Pitch set to" not in text
+    said_heading = f"Pitch -47.8° and heading {prior.heading % 360.0:.0f}° from the drone's gimbal (XMP tags)."
+    assert said_heading in text and "Pitch set to" not in text  # the heading the box shows: from grid north
     assert "The drone logged 118 m above its take-off point." in text and "No direction in EXIF" not in text
 
 
