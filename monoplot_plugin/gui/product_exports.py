@@ -172,6 +172,12 @@ class ProductExports:
                 self.message(self.tr("Written: {0}; not added to this project: it was made for the project closed "
                                      "since.").format(written), Qgis.MessageLevel.Info)
                 return
+            shown = str(written)
+            if what == "xyz":  # a raster in photo pixels: its X, Y, Z are in the DEM's CRS, which a trial in a
+                # Web Mercator project found nowhere but in the file's metadata
+                crs = self.controller.dem_crs
+                shown += self.tr(" (X, Y, Z in {0}; the raster itself lies in photo pixels, without a CRS)").format(
+                    crs.authid() or crs.description() or self.tr("the DEM's CRS"))
             group = photo_group(self.project, name)
             if what == "xyz":
                 add_xyz_layer(written, self.project, group)
@@ -181,12 +187,12 @@ class ProductExports:
             if status in ("uncertain", "poor"):  # the product inherits the camera's errors: say so once, here
                 self.message(self.tr("Written: {0}, from a camera whose fit is \"{1}\": every position in it "
                                       "inherits the camera's errors. Check the fit (pairs, check points) before "
-                                      "using it.").format(written, self.tr(status)), Qgis.MessageLevel.Warning)
+                                      "using it.").format(shown, self.tr(status)), Qgis.MessageLevel.Warning)
             elif late:
                 self.message(self.tr("Written: {0} (the cancel came after the file was complete).").format(
-                    written), Qgis.MessageLevel.Info)
+                    shown), Qgis.MessageLevel.Info)
             else:
-                self.message(self.tr("Written: {0}").format(written) + self.controller.ground_accuracy_text(),
+                self.message(self.tr("Written: {0}").format(shown) + self.controller.ground_accuracy_text(),
                               Qgis.MessageLevel.Success)
             self.exported(what, str(written))
 

@@ -549,6 +549,9 @@ def test_written_products_say_what_the_camera_is_worth_on_the_ground(dock_with_f
     tools.start_export("xyz", tmp_path / "xyz.tif")
     qtbot.waitUntil(lambda: any(m.startswith("Written: ") for m in messages), timeout=30000)
     assert any(m.startswith("Written: ") and "check points 6.0 px" in m for m in messages), messages
+    # the raster lies in photo pixels: the CRS of its values is said (a trial in a Web Mercator project)
+    assert any(f"(X, Y, Z in {c.dem_crs.authid()}; the raster itself lies in photo pixels" in m for m in messages)
+    assert c.dem_crs.authid()
     import json
 
     fit = json.loads(gdal.Open(str(tmp_path / "xyz.tif")).GetMetadata()["MONOPLOT_FIT"])  # the file says it too
