@@ -301,3 +301,19 @@ def view_wedge(camera: Camera, distance: float, steps: int = 24) -> List[Tuple[f
         pts.append((x0 + distance * math.sin(a), y0 + distance * math.cos(a)))
     pts.append((x0, y0))
     return pts
+
+
+def wedge_reach(camera: Camera, ground_z: float, farthest: float) -> float:
+    """How far (metres) the rough camera's view wedge is drawn: to ``farthest`` (the DEM's farthest corner), or, when
+    the whole picture looks below the horizon (a drone at -45°), to 1.5 times where its top edge meets level ground
+    at ``ground_z`` (a trial's wedge reached 1 km across the DEM for a footprint of 250 m).
+
+    >>> cam = Camera((0, 0, 120), 0, -45, 0, 70, (400, 300))
+    >>> round(wedge_reach(cam, 0.0, 5000.0)), wedge_reach(cam.with_parameters(pitch=-5), 0.0, 5000.0)
+    (578, 5000.0)
+    """
+    top = camera.pitch + camera.vertical_fov / 2.0
+    above = float(camera.position[2]) - float(ground_z)
+    if top >= -1.0 or not math.isfinite(above) or above <= 0.0:
+        return float(farthest)
+    return float(min(farthest, 1.5 * above / math.tan(math.radians(-top))))

@@ -143,8 +143,14 @@ class MapPresenter:
     def show_wedge(self, camera) -> None:
         """Draw the horizontal field of view of ``camera`` (DEM CRS) as the dashed prior wedge."""
         self.prior_band.crs = self.crs
-        self.prior_band.set_geometry(None if camera is None else QgsGeometry.fromPolygonXY(
-            [[QgsPointXY(x, y) for x, y in engine.view_wedge(camera, self.reach(*camera.position[:2]))]]))
+        if camera is None:
+            self.prior_band.set_geometry(None)
+            return
+        x, y = camera.position[:2]
+        ground = float(self.c.dem.sample(x, y)) if self.c.dem is not None else float("nan")
+        reach = engine.wedge_reach(camera, ground, self.reach(x, y))
+        self.prior_band.set_geometry(QgsGeometry.fromPolygonXY(
+            [[QgsPointXY(px, py) for px, py in engine.view_wedge(camera, reach)]]))
 
     def redraw_camera(self, fitted_footprint_wkt: str = "") -> None:
         self.prior_band.crs = self.fitted_band.crs = self.crs

@@ -328,6 +328,9 @@ def test_a_drone_photo_gets_its_gimbals_pitch_and_heading(dock, scene, tmp_path)
     said_heading = f"Pitch -47.8° and heading {prior.heading % 360.0:.0f}° from the drone's gimbal (XMP tags)."
     assert said_heading in text and "Pitch set to" not in text  # the heading the box shows: from grid north
     assert "The drone logged 118 m above its take-off point." in text and "No direction in EXIF" not in text
+    # looking down, the view wedge ends near where the picture's top edge meets the ground, not across the DEM
+    box = dock.map_view.prior_band.band.asGeometry().boundingBox()
+    assert max(box.width(), box.height()) < 0.4 * dock.map_view.reach(*prior.position[:2])
 
 
 def test_typing_a_photo_path_loads_it_once_complete(dock, scene, qtbot, qgis_iface):
