@@ -140,7 +140,11 @@ class AutoPanel(QObject):
             camera_layers.show_camera_layers(self.dock.project, done.camera, footprint, c.dem_crs,
                                              other=self.tr("automatic, {0}").format(status))
             # the registration's own report goes to the log: in the dock it pushed the fit tab's buttons out of view
-            logging.getLogger(__name__).info("Automatic registration set aside (%s): %s", status, checked["message"])
+            # (its "prior" is the rough camera it started from; the dock keeps the fitted one: said first, a trial
+            # read "The prior is kept" in the log against "your fitted camera is kept" in the bar)
+            logging.getLogger(__name__).info("Automatic registration set aside (%s); the fitted camera is kept. "
+                                             "The registration's report (\"prior\" = the rough camera it started "
+                                             "from): %s", status, checked["message"])
             c.message.emit(self.tr("Automatic registration ended {0}; your fitted camera ({1}) and your points are "
                                    "kept. The automatic camera is on the map in purple, as \"Monoplot camera "
                                    "(automatic, {0})\"; its report is in the Monoplot log.").format(status, kept),
