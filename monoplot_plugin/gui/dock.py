@@ -181,6 +181,8 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
         self._decimal_keys = accept_both_separators(self)  # "63.25" typed in a German locale gave 63
         fit_minimum_width(self)
         restored = bool(self.project.readEntry("monoplot", "/state", "")[1]) and c.restore()
+        if restored and self.output_tools is not None:  # opened by the project's read: its signal came before us
+            self.output_tools.refill_other_photos()
         if restored and c.fitted is not None:
             # a dock opened on an already open project (or while one is read): its camera layers came back empty
             # from the file

@@ -163,7 +163,7 @@ class OutputTools(QObject):
         self.controller.demChanged.connect(self._camera_changed)
         self.controller.photoChanged.connect(self._forget)
         self.project.cleared.connect(self._forget)
-        self.project.readProject.connect(self._refill_other_photos)
+        self.project.readProject.connect(self.refill_other_photos)
         self._update_enabled()
 
     # --- state ------------------------------------------------------------------------------------------------
@@ -263,9 +263,9 @@ class OutputTools(QObject):
                                   Qgis.MessageLevel.Warning)
         self._show_on_photo()
 
-    def _refill_other_photos(self, *args) -> None:
-        """A project read: the map layers of what was drawn on the other photos come back as they were saved (the
-        current photo's session, if it runs, rebuilds its own)."""
+    def refill_other_photos(self, *args) -> None:
+        """A project read (or a dock opened on one: the plugin opens it when the read is over): the layers of what
+        was drawn on the other photos come back as they were saved (the current photo's session rebuilds its own)."""
         session = self.session if self.session is not None and not self.session.closed else None
         live = [*session.map_layers.values(), *session.photo_layers.values()] if session else []
         refill_map_layers(self.project, [layer.id() for layer in live])
@@ -500,7 +500,7 @@ class OutputTools(QObject):
                              (self.controller.demChanged, self._camera_changed),
                              (self.controller.photoChanged, self._forget),
                              (self.project.cleared, self._forget),
-                             (self.project.readProject, self._refill_other_photos)):
+                             (self.project.readProject, self.refill_other_photos)):
             try:
                 signal.disconnect(slot)
             except TypeError:

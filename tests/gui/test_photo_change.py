@@ -236,6 +236,18 @@ def test_what_was_drawn_on_another_photo_is_on_the_map_after_reopening(dock, sce
     (pixels,) = project.mapLayersByName(layer_name.replace("(map)", "(photo pixels)"))
     assert not pixels.crs().isValid() and pixels.featureCount() == 1  # photo pixel space: no CRS (QGIS gave one)
     assert not project.isDirty()  # nothing changed by reading it back
+    # the plugin opens the dock when the read is over (a trial: QGIS started afresh, the other frames' lines empty)
+    from monoplot_plugin.gui.dock import MonoplotDock
+
+    for emptied in (reopened, pixels):
+        emptied.dataProvider().truncate()
+    second = MonoplotDock(dock.iface)
+    qtbot.addWidget(second)
+    try:
+        assert reopened.featureCount() == 1 and pixels.featureCount() == 1
+    finally:
+        second.controller.cancel()
+        second.unload()
     answer_with(qtbot, "Start afresh", [])
     dock.photoFile.setFilePath(scene.photo_path)  # the print again: its session rebuilds the layer, once
     qtbot.waitUntil(lambda: dock.output_tools.session is not None, timeout=10000)
