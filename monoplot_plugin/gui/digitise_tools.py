@@ -5,8 +5,8 @@ The tools write into a :class:`~.digitising.DigitisingSession`, whose live map l
 
 Capture, QGIS-like: left click adds a vertex (a point is done at once), right click finishes a line (2+ vertices) or
 polygon (3+ vertices), Backspace removes the last vertex, Esc cancels. Vertices snap to the vertices of everything
-already drawn on the photo within :data:`SNAP_PIXELS` screen pixels (a marker shows the snap), and a polygon's or
-line's last click onto its own first vertex once it has three.
+already drawn on the photo within :data:`SNAP_PIXELS` screen pixels and :data:`SNAP_MAX_PHOTO_PX` photo pixels (a
+marker shows the snap), and a polygon's or line's last click onto its own first vertex once it has three.
 
 Edit: drag a vertex to move it; right click on a feature (or press Delete with the mouse over it) deletes it.
 
@@ -30,6 +30,10 @@ __all__ = ["PhotoCaptureTool", "PhotoEditTool", "SNAP_PIXELS"]
 
 #: Snapping and picking tolerance in screen pixels.
 SNAP_PIXELS = 10.0
+#: ... and, for snapping onto another feature's vertex, in photo pixels at most: on a photo shown small (4.5 photo px
+#: per screen px in the dock) 10 screen px moved a new line's vertices up to 45 photo px onto a neighbouring line
+#: (a trial: 8 of 16 vertices of a snow line pulled onto the previous one)
+SNAP_MAX_PHOTO_PX = 8.0
 _GEOMETRY = {"point": QgsWkbTypes.GeometryType.PointGeometry, "line": QgsWkbTypes.GeometryType.LineGeometry,
              "polygon": QgsWkbTypes.GeometryType.PolygonGeometry}
 
@@ -110,11 +114,12 @@ class PhotoCaptureTool(QgsMapTool):
         """``point`` moved onto a drawn vertex within the tolerance (or, to close it, onto the first vertex of the
         feature being drawn once it has three); the flag tells whether it snapped."""
         tolerance = _tolerance(self.canvas())
+        others = min(tolerance, SNAP_MAX_PHOTO_PX)
         # Not onto its own start before that: on a photo shown small (1200 px in a 445 px canvas) a line's second
         # click 27 photo px from its first snapped onto it, and the line lost its second vertex (a trial).
         candidates = list(self.vertices[:1]) if len(self.vertices) >= 3 else []
         session = self.session_getter()
-        hit = _nearest_vertex(session, point, tolerance) if session is not None else None
+        hit = _nearest_vertex(session, point, others) if session is not None else None
         if hit is not None:
             candidates.append(hit[3])
         best = min(candidates, key=lambda p: p.distance(point), default=None)

@@ -194,3 +194,20 @@ def test_ctrl_z_takes_back_drawing_edits_one_by_one_and_ctrl_shift_z_redoes_them
     said.clear()
     ctrl_z(polygon_tool, shift=True)  # a new edit ends the redo list, as in every editor
     assert said == ["Nothing drawn to redo."] and session.photo_layer("polygon").featureCount() == 2
+
+
+def test_snapping_onto_another_feature_is_bounded_in_photo_pixels(canvas_and_session):
+    """A photo shown small (here 4 photo px per screen px): 10 screen px would pull a vertex 40 photo px onto a
+    neighbouring line (a trial: 8 of 16 vertices of a snow line moved onto the previous one)."""
+    from monoplot_plugin.gui.digitise_tools import SNAP_MAX_PHOTO_PX
+
+    canvas, session = canvas_and_session
+    session.add_feature("line", [[100, 100], [300, 110]])
+    w = canvas.width() * 4.0
+    canvas.setExtent(canvas.extent().__class__(0, -w * canvas.height() / canvas.width(), w, 0))
+    canvas.refresh()
+    assert canvas.mapUnitsPerPixel() == pytest.approx(4.0, rel=0.01)
+    tool = PhotoCaptureTool(canvas, lambda: session, "line")
+    far, _ = tool.snapped(QgsPointXY(100 + 2.5 * SNAP_MAX_PHOTO_PX, -100))  # 5 screen px, 20 photo px away
+    near, snapped = tool.snapped(QgsPointXY(100 + 0.5 * SNAP_MAX_PHOTO_PX, -100))
+    assert (far.x(), far.y()) == (100 + 2.5 * SNAP_MAX_PHOTO_PX, -100) and snapped and (near.x(), near.y()) == (100, -100)
