@@ -79,6 +79,7 @@ class ChipView(QWidget):
         self.controller = c = controller
         #: the person's choice (the photo bar's "Chips" box): off, the chips never show
         self.wanted = True
+        self.paused = False  # a drawing tool is on: the chips would cover what is being traced
         #: side of each chip (screen pixels, :func:`chip_side` of the canvas)
         self.side = CHIP_PX
         self._at: Optional[Tuple[float, float]] = None  # photo pixel of the selected point (where not to be)
@@ -126,6 +127,13 @@ class ChipView(QWidget):
     def set_wanted(self, on: bool) -> None:
         """Show the chips of the selected point (on) or never (off)."""
         self.wanted = bool(on)
+        self._drawn = None
+        self.refresh()
+
+    def set_paused(self, on: bool) -> None:
+        """Hide the chips while a drawing tool is on the photo canvas (a trial: they covered a third of a small
+        dock's canvas where the snow line was being traced), and show them again after."""
+        self.paused = bool(on)
         self._drawn = None
         self.refresh()
 
@@ -181,7 +189,7 @@ class ChipView(QWidget):
         space, pid = self._selected
         c = self.controller
         p = c.state.points.get(pid) if pid else None
-        if p is None or c.image is None or not self.wanted:
+        if p is None or c.image is None or not self.wanted or self.paused:
             self.setVisible(False)
             self._drawn = None
             return

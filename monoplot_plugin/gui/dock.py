@@ -446,6 +446,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
                 self.photo_canvas.setMapTool(map_tool)
             elif self.photo_canvas.mapTool() is map_tool:
                 self.photo_canvas.setMapTool(self.photo_tool)
+            self.chips.set_paused(self.photo_canvas.mapTool() is not self.photo_tool)
 
         action.toggled.connect(toggled)
         return button

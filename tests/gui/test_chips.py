@@ -131,6 +131,12 @@ def test_chips_keep_to_the_corner_away_from_the_point_and_can_be_switched_off(do
     assert corners == {"upper left": (True, True), "lower right": (False, False), "lower left": (True, False)}
     area = dock.chips.width() * dock.chips.height() / float(canvas.width() * canvas.height())
     assert area < 0.2
+    # a drawing tool on the photo: the chips would hide what is traced (a trial's small dock canvas)
+    draw_lines = dock.output_tools.actions["line"]
+    draw_lines.trigger()
+    assert canvas.mapTool() is not dock.photo_tool and dock.chips.isHidden()
+    draw_lines.trigger()  # off: point curation again, the chips with it
+    assert canvas.mapTool() is dock.photo_tool and not dock.chips.isHidden()
     try:
         dock.chipsCheck.setChecked(False)
         assert dock.chips.isHidden()
