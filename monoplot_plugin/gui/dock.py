@@ -16,8 +16,8 @@ from typing import Optional
 
 from qgis.core import Qgis, QgsApplication, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer, QgsSettings
 from qgis.PyQt import uic
-from qgis.PyQt.QtCore import QItemSelectionModel, Qt
-from qgis.PyQt.QtWidgets import QAction, QDockWidget, QSizePolicy, QToolBar, QToolButton
+from qgis.PyQt.QtCore import QItemSelectionModel
+from qgis.PyQt.QtWidgets import QDockWidget, QToolBar
 
 from .. import PLUGIN_DIR
 from ..core.camera import azimuth
@@ -38,6 +38,7 @@ from .photo_canvas import PhotoCanvas
 from .point_table import ID_ROLE, PointTableModel, make_proxy
 from .prior_height import PriorHeightBox
 from .rough_camera import RoughCameraMixin
+from .dock_extensions import DockExtensionsMixin
 from .dock_view import SHOW_CHIPS_KEY, DockViewMixin
 from .summary import fit_summary_html
 from .tools import CurationTool, RoughCameraTool, SpaceMapping
@@ -48,7 +49,7 @@ FORM_CLASS, _ = uic.loadUiType(str(PLUGIN_DIR / "ui" / "dock.ui"))
 SUGGESTION_COUNT_KEY = "monoplot/suggestions_per_view"
 
 
-class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
+class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWidget, FORM_CLASS):
     """The plugin's main panel, docked on the right of the QGIS window."""
 
     def __init__(self, iface, parent=None, project: Optional[QgsProject] = None):
@@ -425,41 +426,6 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, QDockWidget, FORM_CLASS):
             self._update_camera_layers()
         elif result.ok and self.controller.task_kind == "suggest":
             self.mapToolButton.setChecked(True)  # DEM suggestions are curated on the main map
-
-    # --- extension points -------------------------------------------------------------------------------------
-    def add_photo_tool(self, action: QAction, map_tool) -> QToolButton:
-        """Add a checkable photo-canvas tool (e.g. digitising); unchecking it returns to point curation."""
-        action.setCheckable(True)
-        if self._photo_toolbar is None:
-            self._photo_toolbar = QToolBar(self)
-            self._photo_toolbar.setToolButtonStyle(Qt.ToolButtonStyle.ToolButtonTextOnly)
-            self.photoPaneLayout.insertWidget(1, self._photo_toolbar)
-        self._photo_toolbar.addAction(action)
-        button = self._photo_toolbar.widgetForAction(action)
-        self._photo_tools.append((action, map_tool))
-
-        def toggled(on: bool) -> None:
-            if on:
-                for other, _ in self._photo_tools:
-                    if other is not action:
-                        other.setChecked(False)
-                self.photo_canvas.setMapTool(map_tool)
-            elif self.photo_canvas.mapTool() is map_tool:
-                self.photo_canvas.setMapTool(self.photo_tool)
-            self.chips.set_paused(self.photo_canvas.mapTool() is not self.photo_tool)
-
-        action.toggled.connect(toggled)
-        return button
-
-    def add_output_action(self, action: QAction) -> QToolButton:
-        """Add a button for ``action`` to the "Fit and results" tab."""
-        button = QToolButton(self)
-        button.setDefaultAction(action)
-        button.setToolButtonStyle(Qt.ToolButtonStyle.ToolButtonTextOnly)
-        button.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
-        n = self.outputsBar.count()
-        self.outputsBar.addWidget(button, n // 2, n % 2)  # two columns: three clipped the labels at 440 px
-        return button
 
     # --- project life cycle -----------------------------------------------------------------------------------
     def _apply_settings(self) -> None:
