@@ -214,6 +214,10 @@ def points_to_dem_crs(xyz: np.ndarray, dem, points_crs: str = "", name: str = "t
     xyz = np.array(xyz, dtype=float).reshape(-1, 3)
     notes: List[str] = []
     source = points_crs or dem.source_crs_wkt or ""
+    if not points_crs and source and len(xyz) and _geographic(source) and not _degrees(xyz):
+        # a DEM file in degrees, a table in metres (a trial: LV03 GCPs with the DEM in EPSG:4326 were "converted
+        # from WGS 84", every point left off the DEM, the fit refused): its CRS is not the DEM file's, guess it
+        source = ""
     if len(xyz) and dem.crs_wkt and (not source or _same_crs(source, dem.crs_wkt)) and \
             _inside(dem, xyz).mean() < 0.5 and _inside(dem, xyz[:, [1, 0, 2]]).mean() >= 0.5:
         # a Swiss or survey table: Y is the easting, X the northing (a trial's "Punkt;u_px;v_px;Y;X;H" put all 11
@@ -223,7 +227,7 @@ def points_to_dem_crs(xyz: np.ndarray, dem, points_crs: str = "", name: str = "t
                      "survey tables write them) and were swapped")
         return swapped, notes + _off_dem_notes(dem, swapped, name)
     if not source and len(xyz) and dem.crs_wkt and _inside(dem, xyz).mean() < 0.5:
-        lonlat = (np.abs(xyz[:, 0]) <= 180).all() and (np.abs(xyz[:, 1]) <= 90).all()
+        lonlat = _degrees(xyz)
         guesses = ([("EPSG:4326", "longitude/latitude (WGS 84)")] if lonlat else []) + [
             (crs, f"{_crs_name(crs)} coordinates") for crs in candidates if crs and not _same_crs(crs, dem.crs_wkt)]
         for crs, words in guesses:
@@ -261,6 +265,18 @@ def _off_dem_notes(dem, xyz: np.ndarray, name: str) -> List[str]:
         return []
     return [f"{off} of {int(given.sum())} map points of {name} {OFF_DEM_NOTE}: are their X, Y in the DEM's CRS, "
             f"{_crs_name(dem.crs_wkt)}?"]
+
+
+def _degrees(xyz: np.ndarray) -> bool:
+    """Every X, Y could be a longitude and a latitude."""
+    return bool((np.abs(xyz[:, 0]) <= 180).all() and (np.abs(xyz[:, 1]) <= 90).all())
+
+
+def _geographic(crs: str) -> bool:
+    from osgeo import osr
+
+    srs = osr.SpatialReference()
+    return srs.SetFromUserInput(crs) == 0 and bool(srs.IsGeographic())
 
 
 def _same_crs(a: str, b: str) -> bool:

@@ -358,6 +358,26 @@ def test_geographic_dem_with_a_lonlat_gcp_table_fits_in_utm(run_alg, small_scene
                                    "OUTPUT": str(tmp_path / "camera.json")}, feedback)
     assert "were converted from WGS 84" in feedback.textLog()
     assert np.isfinite(result["RMSE_PX"]) and result["RMSE_PX"] < 5.0
+    # the same DEM in degrees with the table in metres, the project's CRS: it is not "converted from WGS 84"
+    # (a trial: LV03 GCPs all left off the DEM, the fit refused)
+    from qgis.core import QgsCoordinateReferenceSystem, QgsProject
+
+    from monoplot_plugin.workflow.inputs import _transform
+
+    mercator = _transform(gcps["xyz"], dem.crs_wkt, "EPSG:3857")  # another projected CRS than the one used
+    path = tmp_path / "gcps_metres.csv"
+    path.write_text("\n".join(["u_px,v_px,X,Y,Z"] + [f"{u:.3f},{v:.3f},{x:.3f},{y:.3f},{z:.2f}" for (u, v), (x, y, z)
+                                                      in zip(gcps["uv"], mercator)]) + "\n")
+    QgsProject.instance().setCrs(QgsCoordinateReferenceSystem("EPSG:3857"))
+    try:
+        feedback = QgsProcessingFeedback()
+        result = run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": str(tmp_path / "dem4326.tif"),
+                                       "PRIOR": gcps["prior"], "PHOTO_CSV": str(path), "PAIRED": True,
+                                       "OUTPUT": str(tmp_path / "camera_m.json")}, feedback)
+    finally:
+        QgsProject.instance().setCrs(QgsCoordinateReferenceSystem())
+    assert "EPSG:3857) coordinates and were converted to the DEM's CRS" in feedback.textLog(), feedback.textLog()
+    assert "from WGS 84" not in feedback.textLog() and result["RMSE_PX"] < 5.0
 
 
 def test_a_gcp_table_in_the_projects_crs_is_converted_and_one_off_the_dem_warned(run_alg, small_scene, gcps,
