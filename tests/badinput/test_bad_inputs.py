@@ -328,7 +328,7 @@ def test_gcp_table_in_any_common_encoding_fits(encoding, run_alg, small_scene, g
     ("no_columns", "a,b,c\n1,2,3\n", "no point columns found"),
     ("text_in_numbers", "u_px,v_px,X,Y,Z\n10,20,abc,5,6\n", "line 2: 'X' is \"abc\", not a number"),
     ("header_only", "u_px,v_px,X,Y,Z\n", "needs a header row and at least one point"),
-    ("too_few", "u_px,v_px,X,Y,Z\n10,20,501000,5099000,900\n", "Too few points for a 7-parameter camera: 1 photo and 1 DEM"),
+    ("too_few", "u_px,v_px,X,Y,Z\n10,20,501000,5099000,900\n", "Too few pairs for a 7-parameter camera: 1 left"),
 ], ids=["no_columns", "text_in_numbers", "header_only", "too_few"])
 def test_bad_gcp_table_is_refused_in_words(kind, text, match, run_alg, small_scene, gcps, tmp_path):
     path = tmp_path / "gcps.csv"

@@ -188,9 +188,13 @@ class FitCamera(MonoplotAlgorithm):
         if n_uv < minimum or n_xyz < minimum:
             hint = self.tr(" {0} DEM points were left out: outside the DEM, or not in the DEM file's CRS ({1})."
                            ).format(self.dropped_dem_points, dem_crs_name(dem)) if self.dropped_dem_points else ""
-            raise QgsProcessingException(self.tr("Too few points for a 7-parameter camera: {0} photo and {1} DEM "
-                                                 "points (at least {2} each {3} needed).").format(
-                n_uv, n_xyz, minimum, self.tr("pair") if paired else self.tr("set")) + hint)
+            # paired: the pairs that are left ("0 photo and 0 DEM points (at least 4 each pair needed)" read as if
+            # the photo points were missing too, a trial)
+            text = self.tr("Too few pairs for a 7-parameter camera: {0} left (at least {1} needed).").format(
+                min(n_uv, n_xyz), minimum) if paired else self.tr(
+                "Too few points for a 7-parameter camera: {0} photo and {1} DEM points (at least {2} of each "
+                "needed).").format(n_uv, n_xyz, minimum)
+            raise QgsProcessingException(text + hint)
         outside = ~prior.in_image(uv)
         if outside.any():
             first = ", ".join(f"({u:.1f}, {v:.1f})" for u, v in uv[outside][:3])
