@@ -313,10 +313,15 @@ def checked(function: Callable, *args, **kwargs):
 
 def progress_callback(feedback, start: float = 0.0, end: float = 100.0) -> Callable[..., None]:
     """The workflow's ``progress(fraction in [0, 1], message="")`` on ``feedback``: the progress bar between
-    ``start`` and ``end`` percent."""
+    ``start`` and ``end`` percent, and the stage's words when they change (the dialog's label and one log line
+    each: a trial's automatic registration ran 24 s saying nothing of what it did, the dock said each stage)."""
+    said = [""]
 
     def callback(fraction: float, message: str = "") -> None:
         if feedback is not None:
+            if message and message != said[0]:
+                said[0] = message
+                feedback.setProgressText(message[:1].upper() + message[1:])
             feedback.setProgress(start + (end - start) * max(0.0, min(1.0, float(fraction))))
 
     return callback

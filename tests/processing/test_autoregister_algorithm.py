@@ -29,10 +29,22 @@ def rendered_scene(tmp_path_factory):
 def test_autoregister_writes_a_camera_and_its_status(run_alg, rendered_scene, tmp_path):
     d = rendered_scene["dir"]
     out = tmp_path / "camera.json"
+    from qgis.core import QgsProcessingFeedback
+
+    class Stages(QgsProcessingFeedback):  # what the algorithm dialog shows above its bar (and in its log)
+        said = []
+
+        def setProgressText(self, text):  # noqa: N802 (QGIS API)
+            self.said.append(text)
+            super().setProgressText(text)
+
+    feedback = Stages()
     result = run_alg("autoregister", {"PHOTO": str(d / "photo.png"), "DEM": str(d / "dem.tif"),
                                       "PRIOR": str(d / "prior.json"), "POSITION_SIGMA": 100.0, "ANGLE_SIGMA": 3.0,
-                                      "OUTPUT": str(out)})
+                                      "OUTPUT": str(out)}, feedback)
     assert result["STATUS"] in ("ok", "uncertain", "poor") and result["MESSAGE"]
+    # each stage said once in the dialog (a trial's 24 s run said nothing of what it did)
+    assert feedback.said.count("Automatic registration: coarse search of the view direction") == 1, feedback.said
     cam = Camera.load(out)
     truth = rendered_scene["truth"]
     # the file names the heading as an azimuth (354.7 for -5.3)
