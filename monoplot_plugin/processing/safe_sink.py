@@ -145,6 +145,30 @@ def keep_pixel_space(context, dest: str, xyz_raster: bool = False) -> None:
     if context is not None and context.willLoadLayerOnCompletion(dest):
         processor = XyzRasterOnLoad.create() if xyz_raster else PixelSpaceOnLoad.create()
         context.layerToLoadOnCompletionDetails(dest).setPostProcessor(processor)
+        if dest:  # a file, or the id of a temporary layer
+            _PIXEL_FILES[:] = _PIXEL_FILES[-31:] + [dest if dest.startswith("memory") or not os.path.isabs(dest)
+                                                    else _normal(dest)]
+
+
+#: photo-pixel output files about to be loaded (:func:`keep_pixel_space`). The post-processor drops their CRS only
+#: after QGIS has added them, and by then the map had asked for a transform from the GeoPackage's "Undefined
+#: Cartesian SRS": a red "No transform available between Undefined Cartesian SRS and EPSG:2056" after every Map
+#: layer to photo from the toolbox (a trial). :func:`drop_crs_of_pixel_files`, on the project's ``layersAdded``,
+#: drops it at once.
+_PIXEL_FILES: list = []
+
+
+def _normal(path: str) -> str:
+    return os.path.normcase(os.path.abspath(path))
+
+
+def drop_crs_of_pixel_files(layers) -> None:
+    """Slot of ``QgsProject.layersAdded``: the layers of a photo-pixel output (its file, or its temporary layer's
+    id) lose their CRS."""
+    for layer in layers:
+        path = layer.source().split("|")[0]
+        if layer.id() in _PIXEL_FILES or (os.path.isabs(path) and _normal(path) in _PIXEL_FILES):
+            layer.setCrs(QgsCoordinateReferenceSystem())
 
 
 def safe_sink(algorithm, parameters, name, context, fields, wkb, crs) -> SafeSink:

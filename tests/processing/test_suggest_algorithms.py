@@ -140,6 +140,11 @@ def test_temporary_and_file_outputs_load_without_error_and_photo_pixels_keep_no_
     runs = [("suggestphotopoints", {"PHOTO": small_scene["photo"], "MAX_POINTS": 20}, False),
             ("phototomap", {**scene, "INPUT": polygon}, True)]
     project = QgsProject.instance()
+    # as QGIS adds it, before any post-processing: a GeoPackage's "Undefined Cartesian SRS" made the map ask for a
+    # transform and say "No transform available ..." in red (a trial)
+    crs_when_added = {}
+    watch = lambda layers: crs_when_added.update({lyr.id(): lyr.crs().isValid() for lyr in layers})  # noqa: E731
+    project.layersAdded.connect(watch)
     for output in ("TEMPORARY_OUTPUT", str(tmp_path / "{0}.gpkg")):
         for name, parameters, in_map in runs:
             feedback = Errors()
@@ -154,4 +159,6 @@ def test_temporary_and_file_outputs_load_without_error_and_photo_pixels_keep_no_
                 assert loaded[0].crs().authid() == "EPSG:32632" and checked, (name, output)
             else:  # and off on the map, where photo pixels would stretch the full extent (a desktop trial)
                 assert not loaded[0].crs().isValid() and not checked, (name, output, loaded[0].crs().authid())
+                assert crs_when_added[loaded[0].id()] is False, (name, output)
             project.removeMapLayer(loaded[0].id())
+    project.layersAdded.disconnect(watch)
