@@ -8,6 +8,8 @@ which win over the geometry when present. Photo-space layers have no CRS (the co
 
 from __future__ import annotations
 
+import re
+
 import os
 from typing import Callable, Optional, Tuple
 
@@ -109,7 +111,8 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         return "monoplot"
 
     def shortHelpString(self) -> str:
-        return self.tr(self._help)
+        # the parameters as the dialog labels them (outputs keep their names: the results show those)
+        return labelled_help(self.tr(self._help), [(p.name(), p.description()) for p in self.parameterDefinitions()])
 
     def processAlgorithm(self, parameters, context, feedback):
         """Run :meth:`run_algorithm`; a cancel (the button, SIGINT, SIGTERM) becomes a clean "Canceled" error with
@@ -309,6 +312,40 @@ def checked(function: Callable, *args, **kwargs):
         return function(*args, **kwargs)
     except InputError as exc:
         raise QgsProcessingException(str(exc)) from exc
+
+
+def labelled_help(text: str, names) -> str:
+    """The help ``text`` with each parameter or output name (``names``: (name, label) pairs) as the dialog shows it:
+    the label, with the name in brackets the first time (what ``processing.run`` and qgis_process take). A trial
+    read "FOLDER", "CAMERA", "REGISTER" in the help beside fields labelled "Photo folder", "Shared camera"... Names
+    that are also words of the text ("DEM", "PHOTO" labelled so; "XYZ" of "XYZ raster") stay as they are.
+
+    >>> labelled_help("Give CAMERA and DEM. A CAMERA_STATUS output; CAMERA again.",
+    ...               [("CAMERA", "Shared camera (JSON)"), ("DEM", "DEM (metres)")])
+    'Give “Shared camera” (CAMERA) and DEM. A CAMERA_STATUS output; “Shared camera” again.'
+    """
+    labels = {}
+    for name, label in names:
+        label = str(label).split(" (")[0].strip()  # "Camera (Monoplot JSON, or KML)": its first words
+        if label and label.lower() != name.lower() and name not in _WORD_NAMES:
+            labels.setdefault(name, label)
+    if not labels:
+        return text
+    seen = set()
+
+    def shown(match) -> str:
+        name = match.group(0)
+        first = name not in seen
+        seen.add(name)
+        return f"“{labels[name]}” ({name})" if first else f"“{labels[name]}”"
+
+    names_first = sorted(labels, key=len, reverse=True)  # CAMERA_STATUS before CAMERA
+    pattern = "(?<![A-Za-z0-9_])(" + "|".join(re.escape(n) for n in names_first) + ")(?![A-Za-z0-9_])"
+    return re.sub(pattern, shown, text)
+
+
+#: parameter names that are also ordinary words of the help texts
+_WORD_NAMES = {"XYZ"}
 
 
 def progress_callback(feedback, start: float = 0.0, end: float = 100.0) -> Callable[..., None]:

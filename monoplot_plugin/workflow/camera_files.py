@@ -105,8 +105,9 @@ def fitted_to_size(camera: Camera, image_size: Tuple[int, int], rough: bool = Fa
                          f"same picture at another resolution)")
         return scaled
     if not rough:
-        raise InputError(f"{name} is for a {was} picture but the photo is {w}x{h}, another shape (a crop?): load "
-                         f"it as the rough camera and fit this photo's camera from it")
+        raise InputError(f"{name} is for a {was} picture but the photo is {w}x{h}, another shape (a crop?): fit "
+                         f"this photo's camera from it as a rough one (the dock's rough camera, or Fit camera's "
+                         f"prior camera)")
     if notes is not None:
         notes.append(f"{name} is for a {was} picture and the photo is {w}x{h}, another shape (a crop?): its "
                      f"position, angles and field of view are kept as a rough start; the fit finds this photo's")

@@ -33,3 +33,12 @@ def test_the_batch_dialog_folds_its_tuning_parameters_away(processing_provider):
     assert advanced == {"PATTERN", "DEM_POINTS", "POSITION_SIGMA", "ANGLE_SIGMA", "RESOLUTION", "REFERENCE",
                         "WORKERS", "SCHEDULER", "VOID_VALUE"}
     assert {"MODE", "DEM", "FOLDER", "CAMERA", "TABLE", "REGISTER", "OUTPUT"}.isdisjoint(advanced)
+
+
+def test_the_help_names_parameters_as_the_dialog_labels_them(processing_provider):
+    """A trial read "FOLDER", "CAMERA", "REGISTER" in the help beside fields labelled "Photo folder", "Shared
+    camera"...: the label now, with the name (what processing.run takes) once in brackets."""
+    help_text = processing_provider.algorithm("batch").shortHelpString()
+    assert "“Photo folder” (FOLDER)" in help_text and "“Re-register every frame” (REGISTER)" in help_text
+    assert help_text.count("(FOLDER)") == 1 and not re.search(r"(?<![(A-Z_])FOLDER(?![)A-Z_])", help_text)
+    assert "“Densify every” (STEP)" in processing_provider.algorithm("phototomap").shortHelpString()

@@ -50,7 +50,7 @@ class BatchPhotos(MonoplotAlgorithm):
              "not make again (failed, skipped) are removed.\n\n"
              "Time-lapse speed: what depends only on the camera and the DEM (XYZ raster, sky, the orthophoto's "
              "lookup) is computed once; WORKERS frames are processed at once (0 = one per core).\n\n"
-             "REGISTER (time-lapse mode): every frame is matched to the REFERENCE frame (default: the first "
+             "REGISTER (time-lapse mode): every frame is matched to REFERENCE (default: the first "
              "frame that can be read and is not blank: fog, night) on "
              "stable terrain (no sky, no foreground) and the camera is turned by the drift found; the drift (pixels "
              "and degrees) is in the log, a frame that turned gets its own frame_camera.json and frame_xyz.tif, and "
