@@ -195,5 +195,9 @@ class MonoplotPlugin:
         if self.provider is not None:
             QgsApplication.processingRegistry().removeProvider(self.provider)
             self.provider = None
+            try:  # the project's layersAdded, watched once an output was loaded (processing/safe_sink.py)
+                importlib.import_module(PROVIDER_MODULE.rpartition(".")[0] + ".safe_sink").stop_watching_added_layers()
+            except Exception:  # noqa: BLE001 — a broken provider module was logged when it was registered
+                pass
         deps.dismiss(self.iface, getattr(self, "dependency_notice", None))
         logging_bridge.uninstall()

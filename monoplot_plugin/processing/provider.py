@@ -26,25 +26,6 @@ class MonoplotProvider(QgsProcessingProvider):
     def icon(self):
         return QIcon(_ICON) if os.path.exists(_ICON) else QgsProcessingProvider.icon(self)
 
-    def load(self) -> bool:
-        from qgis.core import QgsProject
-
-        from .safe_sink import drop_crs_of_pixel_files
-
-        QgsProject.instance().layersAdded.connect(drop_crs_of_pixel_files)
-        return super().load()
-
-    def unload(self) -> None:
-        from qgis.core import QgsProject
-
-        from .safe_sink import drop_crs_of_pixel_files
-
-        try:
-            QgsProject.instance().layersAdded.disconnect(drop_crs_of_pixel_files)
-        except (TypeError, RuntimeError):  # never connected
-            pass
-        super().unload()
-
     def loadAlgorithms(self):
         for algorithm in all_algorithms():
             self.addAlgorithm(algorithm)

@@ -148,6 +148,7 @@ def keep_pixel_space(context, dest: str, xyz_raster: bool = False) -> None:
         if dest:  # a file, or the id of a temporary layer
             _PIXEL_FILES[:] = _PIXEL_FILES[-31:] + [dest if dest.startswith("memory") or not os.path.isabs(dest)
                                                     else _normal(dest)]
+            _watch_added_layers()
 
 
 #: photo-pixel output files about to be loaded (:func:`keep_pixel_space`). The post-processor drops their CRS only
@@ -160,6 +161,31 @@ _PIXEL_FILES: list = []
 
 def _normal(path: str) -> str:
     return os.path.normcase(os.path.abspath(path))
+
+
+#: whether :func:`drop_crs_of_pixel_files` listens to the project (connected on the first output to be loaded: never
+#: in qgis_process, where QGIS 3.40 crashed on exit with a slot connected at the provider's load)
+_WATCHING: list = []
+
+
+def _watch_added_layers() -> None:
+    from qgis.core import QgsProject
+
+    if not _WATCHING:
+        QgsProject.instance().layersAdded.connect(drop_crs_of_pixel_files)
+        _WATCHING.append(True)
+
+
+def stop_watching_added_layers() -> None:
+    """The plugin unloads: the project's ``layersAdded`` no longer calls into this module."""
+    from qgis.core import QgsProject
+
+    if _WATCHING:
+        try:
+            QgsProject.instance().layersAdded.disconnect(drop_crs_of_pixel_files)
+        except (TypeError, RuntimeError):  # already gone
+            pass
+        _WATCHING.clear()
 
 
 def drop_crs_of_pixel_files(layers) -> None:

@@ -144,6 +144,9 @@ def test_temporary_and_file_outputs_load_without_error_and_photo_pixels_keep_no_
     # transform and say "No transform available ..." in red (a trial)
     crs_when_added = {}
     watch = lambda layers: crs_when_added.update({lyr.id(): lyr.crs().isValid() for lyr in layers})  # noqa: E731
+    from monoplot_plugin.processing import safe_sink
+
+    safe_sink._watch_added_layers()  # as after a first run: Monoplot's slot before this one
     project.layersAdded.connect(watch)
     for output in ("TEMPORARY_OUTPUT", str(tmp_path / "{0}.gpkg")):
         for name, parameters, in_map in runs:
