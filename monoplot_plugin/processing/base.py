@@ -105,10 +105,11 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         return self.tr(self._display)
 
     def group(self) -> str:
-        return self.tr("Monoplot")
+        return self.tr(_GROUPS[self.groupId()])
 
     def groupId(self) -> str:
-        return "monoplot"
+        # the steps in the order of the work (the toolbox showed "Monoplot ▸ Monoplot" and "Batch" first, a trial)
+        return next((g for g, names in _GROUP_MEMBERS.items() if self._name in names), "camera")
 
     def shortHelpString(self) -> str:
         # the parameters as the dialog labels them (outputs keep their names: the results show those)
@@ -312,6 +313,13 @@ def checked(function: Callable, *args, **kwargs):
         return function(*args, **kwargs)
     except InputError as exc:
         raise QgsProcessingException(str(exc)) from exc
+
+
+#: the toolbox's groups of Monoplot's algorithms (id -> shown name), numbered in the order of the work
+_GROUPS = {"camera": "1 · Points and camera", "products": "2 · Products", "batch": "3 · Many photos"}
+_GROUP_MEMBERS = {"camera": ("suggestphotopoints", "suggestdempoints", "fitcamera", "autoregister"),
+                  "products": ("computexyz", "phototomap", "maptophoto", "orthophoto", "report"),
+                  "batch": ("batch",)}
 
 
 def labelled_help(text: str, names) -> str:

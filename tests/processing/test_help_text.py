@@ -42,3 +42,11 @@ def test_the_help_names_parameters_as_the_dialog_labels_them(processing_provider
     assert "“Photo folder” (FOLDER)" in help_text and "“Re-register every frame” (REGISTER)" in help_text
     assert help_text.count("(FOLDER)") == 1 and not re.search(r"(?<![(A-Z_])FOLDER(?![)A-Z_])", help_text)
     assert "“Densify every” (STEP)" in processing_provider.algorithm("phototomap").shortHelpString()
+
+
+def test_the_toolbox_groups_the_steps_in_the_order_of_the_work(processing_provider):
+    """A trial: the toolbox showed Monoplot ▸ Monoplot with "Batch" first and "Fit camera" fourth."""
+    groups = {alg.name(): alg.group() for alg in processing_provider.algorithms()}
+    assert groups["fitcamera"] == groups["suggestphotopoints"] == groups["autoregister"] == "1 · Points and camera"
+    assert groups["computexyz"] == groups["orthophoto"] == groups["maptophoto"] == "2 · Products"
+    assert groups["batch"] == "3 · Many photos" and len(set(groups.values())) == 3
