@@ -272,6 +272,7 @@ class OutputTools(QObject):
 
     def _forget_session(self) -> None:
         if self.session is not None:
+            self.session.save_drawn(copies=True)  # another photo: its map layers stay on the map (no-op if closed)
             self.session.close()
             self.session.deleteLater()
         self.session = None
