@@ -214,9 +214,10 @@ def points_to_dem_crs(xyz: np.ndarray, dem, points_crs: str = "", name: str = "t
     xyz = np.array(xyz, dtype=float).reshape(-1, 3)
     notes: List[str] = []
     source = points_crs or dem.source_crs_wkt or ""
-    if not points_crs and source and len(xyz) and _geographic(source) and not _degrees(xyz):
-        # a DEM file in degrees, a table in metres (a trial: LV03 GCPs with the DEM in EPSG:4326 were "converted
-        # from WGS 84", every point left off the DEM, the fit refused): its CRS is not the DEM file's, guess it
+    if not points_crs and dem.source_crs_wkt and len(xyz) and not _degrees(xyz):
+        # a DEM file in degrees (``source_crs_wkt``: it is used in UTM), a table in metres (a trial: LV03 GCPs with
+        # the DEM in EPSG:4326 were "converted from WGS 84", every point left off the DEM, the fit refused): its CRS
+        # is not the DEM file's, guess it
         source = ""
     if len(xyz) and dem.crs_wkt and (not source or _same_crs(source, dem.crs_wkt)) and \
             _inside(dem, xyz).mean() < 0.5 and _inside(dem, xyz[:, [1, 0, 2]]).mean() >= 0.5:
@@ -270,13 +271,6 @@ def _off_dem_notes(dem, xyz: np.ndarray, name: str) -> List[str]:
 def _degrees(xyz: np.ndarray) -> bool:
     """Every X, Y could be a longitude and a latitude."""
     return bool((np.abs(xyz[:, 0]) <= 180).all() and (np.abs(xyz[:, 1]) <= 90).all())
-
-
-def _geographic(crs: str) -> bool:
-    from osgeo import osr
-
-    srs = osr.SpatialReference()
-    return srs.SetFromUserInput(crs) == 0 and bool(srs.IsGeographic())
 
 
 def _same_crs(a: str, b: str) -> bool:
