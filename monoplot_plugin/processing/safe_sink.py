@@ -146,8 +146,7 @@ def keep_pixel_space(context, dest: str, xyz_raster: bool = False) -> None:
         processor = XyzRasterOnLoad.create() if xyz_raster else PixelSpaceOnLoad.create()
         context.layerToLoadOnCompletionDetails(dest).setPostProcessor(processor)
         if dest:  # a file, or the id of a temporary layer
-            _PIXEL_FILES[:] = _PIXEL_FILES[-31:] + [dest if dest.startswith("memory") or not os.path.isabs(dest)
-                                                    else _normal(dest)]
+            _PIXEL_FILES[:] = _PIXEL_FILES[-31:] + [_normal(dest) if os.path.isabs(dest) else dest]
             _watch_added_layers()
 
 
