@@ -8,9 +8,8 @@ which win over the geometry when present. Photo-space layers have no CRS (the co
 
 from __future__ import annotations
 
-import re
-
 import os
+import re
 from typing import Callable, Optional, Tuple
 
 import numpy as np
@@ -90,6 +89,7 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
 
     _name = ""
     _display = ""
+    _group = "camera"  #: the toolbox group's id (:data:`_GROUPS`)
     _help = ""
 
     def tr(self, text: str) -> str:
@@ -109,7 +109,7 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
 
     def groupId(self) -> str:
         # the steps in the order of the work (the toolbox showed "Monoplot ▸ Monoplot" and "Batch" first, a trial)
-        return next((g for g, names in _GROUP_MEMBERS.items() if self._name in names), "camera")
+        return self._group
 
     def shortHelpString(self) -> str:
         # the parameters as the dialog labels them (outputs keep their names: the results show those)
@@ -317,13 +317,10 @@ def checked(function: Callable, *args, **kwargs):
 
 #: the toolbox's groups of Monoplot's algorithms (id -> shown name), numbered in the order of the work
 _GROUPS = {"camera": "1 · Points and camera", "products": "2 · Products", "batch": "3 · Many photos"}
-_GROUP_MEMBERS = {"camera": ("suggestphotopoints", "suggestdempoints", "fitcamera", "autoregister"),
-                  "products": ("computexyz", "phototomap", "maptophoto", "orthophoto", "report"),
-                  "batch": ("batch",)}
 
 
 def labelled_help(text: str, names) -> str:
-    """The help ``text`` with each parameter or output name (``names``: (name, label) pairs) as the dialog shows it:
+    """The help ``text`` with each parameter name (``names``: (name, label) pairs) as the dialog shows it:
     the label, with the name in brackets the first time (what ``processing.run`` and qgis_process take). A trial
     read "FOLDER", "CAMERA", "REGISTER" in the help beside fields labelled "Photo folder", "Shared camera"... Names
     that are also words of the text ("DEM", "PHOTO" labelled so; "XYZ" of "XYZ raster") stay as they are.

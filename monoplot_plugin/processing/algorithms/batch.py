@@ -24,6 +24,7 @@ from ..base import MonoplotAlgorithm, checked
 
 class BatchPhotos(MonoplotAlgorithm):
     _name = "batch"
+    _group = "batch"
     _display = "Batch: many photos"
     _help = ("Processes many photos at once.\n\n"
              "Time-lapse folder: every image in FOLDER shares one fitted CAMERA; the XYZ raster is computed once "

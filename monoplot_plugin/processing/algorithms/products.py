@@ -44,6 +44,8 @@ SKIP_VALIDITY = QgsProcessingFeatureSource.FlagSkipGeometryValidityChecks
 class _CameraDemAlgorithm(MonoplotAlgorithm):
     """Algorithms that need a camera and a DEM (and optionally the photo, for a KML camera's size)."""
 
+    _group = "products"
+
     def add_camera_dem(self, photo_optional=True):
         self.add_camera_parameter()
         self.add_dem_parameter()
