@@ -20,6 +20,7 @@ from typing import List, Tuple
 
 import numpy as np
 
+from .aperture import REACH_RADII, line_normals, slide_ratio, slide_sigma_px
 from .consensus import (_gates, chance_inliers, consensus_score, hypotheses, inlier_radius, kernel_align,
                         local_optimise, position_hypotheses, prior_penalty, shift_hypotheses)
 from .descent import descend_from_prior
@@ -245,6 +246,15 @@ def _moved(space: ParameterSpace, u, u_other, P: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum((space.project(u_other, P)[0] - space.project(u, P)[0]) ** 2, axis=1))))
 
 
+def _slide_px(J: np.ndarray, uv: np.ndarray, usable: np.ndarray, pairs: np.ndarray, radius: float,
+              q_in: np.ndarray) -> float:
+    """σ in pixels of the camera sliding along lines of DEM points (:mod:`.aperture`); ``J`` the pairs' Jacobian."""
+    kept = np.flatnonzero(usable)
+    normals = line_normals(uv[kept], np.searchsorted(kept, pairs[:, 1]), REACH_RADII * radius)
+    residual = float(np.sqrt(np.mean((uv[pairs[:, 1]] - q_in) ** 2)))
+    return slide_sigma_px(slide_ratio(J, normals), residual, len(pairs))
+
+
 def _score(ctx, space: ParameterSpace, u, radius: float) -> float:
     if not space.valid(u):
         return -math.inf
@@ -299,8 +309,9 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
         u_wide, wide_pairs = converge_on_pairs(ctx, space, u, 2.0 * radius)
         if wide_pairs is not None:
             truncation_px = _moved(space, u, u_wide, P_in)
-    cond, weakest = (weakest_parameter(jacobian(space, u, q_in, P_in), space.names, space.scales)
-                     if 2 * len(pairs) > len(u) else (math.inf, ""))
+    J = jacobian(space, u, q_in, P_in) if 2 * len(pairs) > len(u) else None
+    cond, weakest = weakest_parameter(J, space.names, space.scales) if J is not None else (math.inf, "")
+    slide_px = _slide_px(J, uv, usable, pairs, radius, q_in) if J is not None else math.inf
     if not weak_direction_matters(result.camera, weakest):
         cond = 1.0
     # σ: the covariance of the final pairs, widened by a bootstrap over them when that is larger (a few wrong
@@ -328,7 +339,7 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
                 "rival_ratio": rival_net / own if own > 0 and np.isfinite(rival_net) else 0.0,
                 "beyond_radius": beyond, "truncation_px": truncation_px,
                 "spread": photo_spread(ctx.q[pairs[:, 0]], ctx.initial.image_size) if len(pairs) else 0.0,
-                "photo_outliers": int(outliers.sum()), "condition": cond, "weakest": weakest,
+                "photo_outliers": int(outliers.sum()), "condition": cond, "weakest": weakest, "slide_px": slide_px,
                 "rmse_px": rmse(space.project(u, P_in)[0] - q_in) if len(pairs) else math.nan,
                 "loo_rmse_px": result.loo_rmse_px, "n_pairs": int(used), "camera_from": origin,
                 "note": result.message}

@@ -64,6 +64,11 @@ MIN_SPREAD, MIN_SPREAD_PAIRED = 0.05, 0.10
 #: residuals are truncated by the radius, which makes an unpaired fit uncertain when converging on the pairs within
 #: twice the radius moves the camera (see :func:`judge`, ``beyond_radius`` and ``truncation_px``)
 TRUNCATED_SHARE = 0.25
+#: σ of the camera's slide along lines of DEM points (:mod:`~monoplot_plugin.core.fit.aperture`) above this share of
+#: the picture's diagonal makes an unpaired fit uncertain. Generated DEM points on two parallel lines seen from a
+#: drone: 2.3-4 % (the camera 230-380 px off, "ok" before); the synthetic suite's "ok" fits: at most 0.063 %
+#: (median 0.008 %, 2026-12-05).
+SLIDE_SHARE = 0.005
 
 
 def degenerate_points(q: np.ndarray, world: np.ndarray, needed: int) -> str:
@@ -152,7 +157,8 @@ def judge(e: dict) -> Tuple[str, str]:
     (its net score / the fit's),
     ``beyond_radius`` (mutual-nearest pairs within twice the radius but not within it, less what chance adds),
     ``truncation_px`` (how far the camera converged on the pairs within twice the radius moves the inliers, RMS),
-    ``precision_px`` (the pixel σ of the inliers' projections under the fit's covariance); for both modes
+    ``precision_px`` (the pixel σ of the inliers' projections under the fit's covariance), ``slide_px`` (σ of the
+    camera sliding along lines of DEM points, :mod:`~monoplot_plugin.core.fit.aperture`); for both modes
     ``spread`` (convex-hull share of the picture of the pairs or matched points, :func:`photo_spread`).
 
     >>> e = {"mode": "unpaired", "n_free": 7, "diag": 2000.0, "rmse_px": 3.0, "n_photo": 40, "n_dem": 30,
@@ -260,6 +266,11 @@ def judge(e: dict) -> Tuple[str, str]:
                 weak.append(f"two cameras {where} explain your points about equally well (they place the matched "
                             f"points {float(e.get('rival_px', 0.0)):.0f} px apart): add two paired points or check "
                             f"points")
+            slide = float(e.get("slide_px", 0.0))
+            if slide > SLIDE_SHARE * diag:
+                weak.append(f"the matched DEM points lie along lines, and the camera can slide along them by about "
+                            f"{min(slide, diag):.0f} px (1 σ) with the same residuals: add points off those lines "
+                            f"(summits, junctions, corners) or pair a few")
             beyond = float(e.get("beyond_radius", 0.0))
             moved = float(e.get("truncation_px", 0.0))
             if beyond > TRUNCATED_SHARE * n_in and moved > max(2.0, 3.0 * float(e.get("precision_px", 0.0))):
