@@ -46,6 +46,8 @@ def test_dem_points_along_two_lines_are_not_ok(seed):
     assert result.status != "ok", (result.message, _grid_error_px(dem, cam, result.camera))
     assert "lie along lines" in result.message
     assert result.evidence["slide_px"] > 0.005 * result.evidence["diag"]
+    # the σ says how far along the lines the camera may be
+    assert abs(result.camera.position[1] - cam.position[1]) <= 3.0 * result.std["y"], result.std
 
 
 def test_isolated_points_beside_the_lines_settle_the_slide():

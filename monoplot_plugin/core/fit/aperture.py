@@ -18,7 +18,8 @@ import math
 
 import numpy as np
 
-__all__ = ["line_normals", "slide_ratio", "slide_sigma_px", "NEIGHBOURS", "LINE_ASPECT", "REACH_RADII"]
+__all__ = ["line_normals", "across_rows", "across_line_std", "slide_ratio", "slide_sigma_px", "NEIGHBOURS",
+           "LINE_ASPECT", "REACH_RADII"]
 
 #: How many of the nearest projected DEM points (besides the matched one) describe its neighbourhood.
 NEIGHBOURS = 6
@@ -60,6 +61,38 @@ def line_normals(uv: np.ndarray, matched: np.ndarray, reach_px: float) -> np.nda
     return normals
 
 
+def across_rows(J: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """``J`` (2K, n) with each pair on a line (finite row of ``normals``, (K, 2)) reduced to its one across-line
+    row: (2K - L, n) for L pairs on lines."""
+    rows = []
+    for k, normal in enumerate(normals):
+        pair = J[2 * k:2 * k + 2]
+        rows.append(normal[None, :] @ pair if np.isfinite(normal).all() else pair)
+    return np.vstack(rows) if rows else J[:0]
+
+
+def across_line_std(J: np.ndarray, normals: np.ndarray, residual_px: float, names, scales) -> dict:
+    """σ of each free parameter (its units) from the across-line evidence only: ``s^2 (Ja^T Ja)^-1``, ``Ja`` from
+    :func:`across_rows`, ``s`` the residuals' standard error per coordinate (at least 0.5 px). Empty when no pair
+    lies on a line (the pairs' own covariance says it all) or when the camera slides freely.
+
+    >>> J = np.array([[1.0, 0], [0, 1], [1, 0], [0, 1], [1, 0], [0, 1]])
+    >>> std = across_line_std(J, np.array([[0.0, 1], [0.0, 1], [np.nan, np.nan]]), 1.0, ("x", "y"), (2.0, 1.0))
+    >>> round(std["x"], 3), round(std["y"], 3)
+    (2.0, 0.577)
+    """
+    on_line = np.isfinite(normals).all(axis=1)
+    if not on_line.any():
+        return {}
+    J_across = across_rows(J, normals)
+    try:
+        cov = np.linalg.inv(J_across.T @ J_across) * max(residual_px, 0.5) ** 2
+    except np.linalg.LinAlgError:  # slides freely: the verdict says so (slide_sigma_px), no number means much
+        return {}
+    variances = np.clip(np.diag(cov), 0.0, None)
+    return {name: float(scales[i] * math.sqrt(variances[i])) for i, name in enumerate(names)}
+
+
 def slide_ratio(J: np.ndarray, normals: np.ndarray) -> float:
     """In [0, 1]: the least across-line cost of a camera change per unit of the pixel motion it causes.
 
@@ -72,14 +105,9 @@ def slide_ratio(J: np.ndarray, normals: np.ndarray) -> float:
     """
     from scipy.linalg import eigh
 
-    on_line = np.isfinite(normals).all(axis=1)
-    if not on_line.any():
+    if not np.isfinite(normals).all(axis=1).any():
         return 1.0
-    rows = []
-    for k, normal in enumerate(normals):
-        pair = J[2 * k:2 * k + 2]
-        rows.append(normal[None, :] @ pair if on_line[k] else pair)
-    J_across = np.vstack(rows)
+    J_across = across_rows(J, normals)
     full, across = J.T @ J, J_across.T @ J_across
     try:
         low = float(eigh(across, full, eigvals_only=True, subset_by_index=[0, 0])[0])

@@ -20,7 +20,7 @@ from typing import List, Tuple
 
 import numpy as np
 
-from .aperture import REACH_RADII, line_normals, slide_ratio, slide_sigma_px
+from .aperture import REACH_RADII, across_line_std, line_normals, slide_ratio, slide_sigma_px
 from .consensus import (_gates, chance_inliers, consensus_score, hypotheses, inlier_radius, kernel_align,
                         local_optimise, position_hypotheses, prior_penalty, shift_hypotheses)
 from .descent import descend_from_prior
@@ -246,13 +246,15 @@ def _moved(space: ParameterSpace, u, u_other, P: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum((space.project(u_other, P)[0] - space.project(u, P)[0]) ** 2, axis=1))))
 
 
-def _slide_px(J: np.ndarray, uv: np.ndarray, usable: np.ndarray, pairs: np.ndarray, radius: float,
-              q_in: np.ndarray) -> float:
-    """σ in pixels of the camera sliding along lines of DEM points (:mod:`.aperture`); ``J`` the pairs' Jacobian."""
+def _slide(space: ParameterSpace, J: np.ndarray, uv: np.ndarray, usable: np.ndarray, pairs: np.ndarray,
+           radius: float, q_in: np.ndarray) -> Tuple[float, dict]:
+    """(σ in pixels of the camera sliding along lines of DEM points, σ of each parameter from the across-line
+    evidence alone), see :mod:`.aperture`; ``J`` the pairs' Jacobian."""
     kept = np.flatnonzero(usable)
     normals = line_normals(uv[kept], np.searchsorted(kept, pairs[:, 1]), REACH_RADII * radius)
     residual = float(np.sqrt(np.mean((uv[pairs[:, 1]] - q_in) ** 2)))
-    return slide_sigma_px(slide_ratio(J, normals), residual, len(pairs))
+    return (slide_sigma_px(slide_ratio(J, normals), residual, len(pairs)),
+            across_line_std(J, normals, residual, space.names, space.scales))
 
 
 def _score(ctx, space: ParameterSpace, u, radius: float) -> float:
@@ -311,7 +313,7 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
             truncation_px = _moved(space, u, u_wide, P_in)
     J = jacobian(space, u, q_in, P_in) if 2 * len(pairs) > len(u) else None
     cond, weakest = weakest_parameter(J, space.names, space.scales) if J is not None else (math.inf, "")
-    slide_px = _slide_px(J, uv, usable, pairs, radius, q_in) if J is not None else math.inf
+    slide_px, slide_std = _slide(space, J, uv, usable, pairs, radius, q_in) if J is not None else (math.inf, {})
     if not weak_direction_matters(result.camera, weakest):
         cond = 1.0
     # σ: the covariance of the final pairs, widened by a bootstrap over them when that is larger (a few wrong
@@ -322,7 +324,7 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
     for name, value in (result.std or {}).items():
         std[name] = max(std.get(name, 0.0), value)
     boot = bootstrap_std(ctx, space, u, q_in, P_in, ctx.options.bootstrap) if len(pairs) else {}
-    for name, value in boot.items():
+    for name, value in list(boot.items()) + list(slide_std.items()):  # a slide along lines widens σ too
         std[name] = max(std.get(name, 0.0), value)
     # The pairs were chosen by the fit itself (mutual nearest within a radius), which trims the residuals the
     # covariance is scaled by, and a coarse DEM's height errors are systematic, not noise: widen by
