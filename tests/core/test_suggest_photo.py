@@ -135,3 +135,16 @@ def test_a_print_photographed_under_uneven_light_keeps_its_border():
     h, w = scan.shape
     scan += np.linspace(-10, 10, w)[None, :] + np.linspace(-5, 5, h)[:, None]
     assert_picture_found(scan.clip(0, 255).astype(np.uint8))
+
+
+def test_a_caption_of_two_lines_of_different_sizes_stays_outside_the_picture():
+    """A trial's scan of an 1890 print: a title line and a smaller publisher's line under it. The text detector
+    found only the title; the border stopped at the second line, and the picture's centre (the principal point)
+    was put 70 px too low. Both lines, and a stamp in the top margin, are margin writing."""
+    scan = scanned_print()
+    r1 = PIC[1]
+    cv2.putText(scan, "Verlag der Photoglob Co., Zuerich", (PIC[2] + 180, r1 + 92), cv2.FONT_HERSHEY_PLAIN, 1.0, 50,
+                1)
+    cv2.putText(scan, "No. 4417", (PIC[2] + 250, PIC[0] - 22), cv2.FONT_HERSHEY_PLAIN, 1.2, 50, 1)
+    assert_picture_found(scan)
+    assert picture_box(scan) == box_beyond_captions(scan)[0]  # found by the border itself, caption detector or not
