@@ -178,13 +178,12 @@ class ResultsMixin:
         message = info.get("message_before_checks", info.get("message", ""))
         own = info.get("rmse_px")  # the fit's residuals: check points far beyond them make it "poor", as in a fit
         judged = judge_by_check_points(before, message, cam, uv, xyz, float(own) if own is not None else np.nan)
-        old_status, old_check = info.get("status"), info.get("check_rmse_px")
         info.update(checks_measured=key, status_before_checks=before, message_before_checks=message,
                     status=judged["status"], message=judged["message"], check_rmse_px=judged["check_rmse_px"],
                     n_check=len(ids), check_error_px={i: float(e) for i, e in zip(ids, errors) if np.isfinite(e)})
         self._changed()
         self.fitInfoChanged.emit()
-        if judged["check_rmse_px"] is not None and (judged["status"] != old_status or old_check is None):
+        if judged["check_rmse_px"] is not None:  # every change of the check set (a trial's bar kept "on 1" at 7)
             text = self.tr("Check points: {0:.1f} px RMSE on {1}; camera status {2}.").format(
                 judged["check_rmse_px"], len(ids), self.tr(judged["status"]))
             level = Qgis.MessageLevel.Success if judged["status"] == "ok" else Qgis.MessageLevel.Warning

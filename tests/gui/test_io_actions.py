@@ -414,6 +414,14 @@ def test_check_points_imported_after_a_fit_measure_it_at_once(dock, scene, tmp_p
     io_actions.import_points_csv(c, two, all_check=True)
     info = c.state.fit_info
     assert info["n_check"] == 2 and info["check_rmse_px"] < 0.5 and info["status"] == "ok", info["message"]
+    # More of them, the status unchanged: the message bar says so too (a trial's bar kept "RMSE on 1" at 7)
+    messages.clear()
+    more = str(tmp_path / "more.csv")
+    write_points_csv(more, uv=uv[2:5], xyz=xyz[2:5], ids=["c2", "c3", "c4"])
+    io_actions.import_points_csv(c, more, all_check=True)
+    assert c.state.fit_info["n_check"] == 5 and c.state.fit_info["status"] == "ok"
+    qtbot.waitUntil(lambda: any("Check points: " in m for m in messages), timeout=2000)
+    assert " on 5;" in [m for m in messages if "Check points: " in m][-1]
 
 
 def test_a_camera_written_with_its_verdict_comes_back_with_it(dock, scene, tmp_path):
