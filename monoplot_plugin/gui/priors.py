@@ -60,8 +60,8 @@ def pitch_and_rule(camera: Camera, dem, rays: int = 9, samples: int = 160,
     bx0, by0, bx1, by1 = dem.bounds()
     reach = math.hypot(bx1 - bx0, by1 - by0)
     distances = np.geomspace(max(20.0, reach / 2000.0), reach, samples)
-    width, height = camera.image_size
-    focal = 0.5 * width / math.tan(math.radians(camera.fov) / 2.0)
+    width = camera.width
+    focal = camera.focal_px
     best, on_photo = [], []
     for k in range(rays):
         offset = -camera.fov / 2.0 + camera.fov * (k + 0.5) / rays  # ray centres, inside the frame
@@ -74,13 +74,13 @@ def pitch_and_rule(camera: Camera, dem, rays: int = 9, samples: int = 160,
         elevation = float(np.degrees(np.arctan2(z[ok] - z0, distances[ok])).max())
         best.append(elevation)
         if sky_rows is not None:
-            u = 0.5 * width + focal * math.tan(math.radians(offset))
+            u = camera.cx + focal * math.tan(math.radians(offset))  # a print's picture centre, not the scan's
             column = int(np.clip(u * len(sky_rows) / width, 0, len(sky_rows) - 1))
             v = float(sky_rows[column])
             if math.isfinite(v):
                 # the ray's vertical angle in the camera: along the off-axis column the focal length is longer
-                along = math.hypot(focal, u - 0.5 * width)
-                on_photo.append(elevation - math.degrees(math.atan2(0.5 * height - v, along)))
+                along = math.hypot(focal, u - camera.cx)
+                on_photo.append(elevation - math.degrees(math.atan2(camera.cy - v, along)))
     if not best:
         return None, False
     if len(on_photo) >= max(3, rays // 3):

@@ -28,6 +28,19 @@ def test_the_photos_skyline_sets_the_pitch_of_a_rough_camera():
     assert photo_sky_rows(fog) is None
 
 
+def test_a_prints_picture_centre_off_the_scans_centre_sets_the_pitch_from_there():
+    """A re-check trial's scan: the picture's centre (the principal point) 75 px off the scan's, for a caption
+    under the print; the pitch was measured from the scan's centre and came out 2.65 deg off."""
+    dem = synthetic_terrain((200, 200), cell=50.0, seed=3)
+    x0, y0, x1, _ = dem.bounds()
+    x, y = x0 + 0.5 * (x1 - x0), y0 + 0.08 * (x1 - x0)
+    truth = Camera((x, y, float(dem.sample(x, y)) + 200.0), 0.0, -3.0, 0.0, 60.0, (480, 320),
+                   principal_point=(240.0, 220.0), crs_wkt=dem.crs_wkt)
+    rows = photo_sky_rows(render_photo(truth, dem))
+    rough = truth.with_parameters(x=x + 15.0, y=y - 10.0, heading=3.0, pitch=0.0)
+    assert abs(terrain_pitch(rough, dem, sky_rows=rows) - truth.pitch) < 1.0
+
+
 def test_the_dock_says_which_skyline_set_the_pitch(dock, scene, qtbot):
     load_inputs(dock, scene, qtbot)
     c = dock.controller
