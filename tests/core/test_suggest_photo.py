@@ -148,3 +148,18 @@ def test_a_caption_of_two_lines_of_different_sizes_stays_outside_the_picture():
     cv2.putText(scan, "No. 4417", (PIC[2] + 250, PIC[0] - 22), cv2.FONT_HERSHEY_PLAIN, 1.2, 50, 1)
     assert_picture_found(scan)
     assert picture_box(scan) == box_beyond_captions(scan)[0]  # found by the border itself, caption detector or not
+
+
+def test_paper_between_a_frame_line_and_the_picture_is_not_picture():
+    """A re-check trial's scan: a frame line 14 px outside the picture. The box runs along the frame line; the
+    paper inside it was draped as a white seam along the orthophoto's edges and got suggestions on the picture's
+    edge and corners."""
+    scan = scanned_print()
+    r0, r1, c0, c1 = PIC
+    cv2.rectangle(scan, (c0 - 4, r0 - 4), (c1 + 3, r1 + 3), 235, 2)  # the fixture's own frame line: paper again
+    cv2.rectangle(scan, (c0 - 16, r0 - 16), (c1 + 15, r1 + 15), 40, 3)
+    mask = picture_mask(scan, beyond_captions=True)
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    assert abs(rows[0] - r0) <= 3 and abs(rows[-1] + 1 - r1) <= 3 and abs(cols[0] - c0) <= 3, (rows[0], rows[-1])
+    assert abs(cols[-1] + 1 - c1) <= 3
+    assert mask[r0 + 8:r1 - 8, c0 + 8:c1 - 8].all()
