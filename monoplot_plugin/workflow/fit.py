@@ -43,6 +43,12 @@ FREE_HEIGHT_F = 20.0
 HIDDEN_DOUBT, HIDDEN_POOR = 0.25, 0.5
 #: fewest pairs for that test (2 x 5 - 8 = 2 degrees of freedom left, one fewer than the free fit's 7 unknowns leave)
 FREE_HEIGHT_MIN_PAIRS = 5
+#: An unpaired fit held on the ground higher than this (metres) is also fitted at eye height (:func:`weigh_eye_height`).
+UNSURE_HEIGHT_M = 3.0
+#: Consensus score (about one more matched point) by which one of the two heights must win to be taken.
+EYE_HEIGHT_MARGIN = 1.0
+#: Two cameras further apart than this (metres) that the points cannot tell apart leave the fit "uncertain".
+HEIGHT_RIVAL_M = 5.0
 
 
 class FitRefused(ValueError):
@@ -149,8 +155,37 @@ def fit(uv: np.ndarray, xyz: np.ndarray, start: Camera, dem, pairs=None, on_grou
         result = run(result.camera, grounded, eye, report)
     elif not grounded:
         flag_under_terrain(result, ground_clearance(result.camera, dem))
+    if on_ground is None and eye_height is None and grounded and pairs is None and eye > UNSURE_HEIGHT_M:
+        # held at the height the rough camera had (a phone's GPS altitude is often 10-30 m off): at eye height too
+        report = None if progress is None else (
+            lambda f, m="": progress(0.5 + 0.5 * f, m or "trying the camera at eye height"))
+        at_eye = run(start, True, DEFAULT_EYE_HEIGHT_M, report)
+        result, eye = weigh_eye_height(result, at_eye, eye)
     flag_hidden_points(result, xyz, dem)
     return FitDone(result, grounded, eye if grounded else None)
+
+
+def weigh_eye_height(held: FitResult, at_eye: FitResult, height: float) -> Tuple[FitResult, float]:
+    """(result, its height above the terrain) of an unpaired fit held ``height`` m above the terrain (the rough
+    camera's own clearance) against the same fit at eye height: the one whose points agree clearly better
+    (:data:`EYE_HEIGHT_MARGIN` more of the consensus score), else the held one, "uncertain" when the two cameras
+    stand more than :data:`HEIGHT_RIVAL_M` apart (the points cannot tell the height). A trial's phone photo, its
+    GPS altitude 15 m high, was held 16.6 m above the valley floor: "ok" at 6.2 px with the camera 34 m off."""
+    own, eye_score = (float((r.evidence or {}).get("score", -math.inf)) for r in (held, at_eye))
+    apart = float(np.linalg.norm(np.subtract(held.camera.position, at_eye.camera.position)))
+    if at_eye.status in ("ok", "uncertain") and eye_score > own + EYE_HEIGHT_MARGIN:
+        at_eye.message = (f"{at_eye.message} Held at eye height ({DEFAULT_EYE_HEIGHT_M:.1f} m above the terrain): "
+                          f"the points agree with it better than at the rough camera's {height:.0f} m (a GPS "
+                          f"altitude is often tens of metres off); set Above ground if it stood higher.")
+        return at_eye, DEFAULT_EYE_HEIGHT_M
+    if apart > HEIGHT_RIVAL_M and own <= eye_score + EYE_HEIGHT_MARGIN:
+        held.message = (f"{held.message} Its height is not known: held {height:.0f} m above the terrain (the rough "
+                        f"camera's), the points agree about as well with a camera at eye height {apart:.0f} m away. "
+                        f"Set Above ground to where the photographer stood (a GPS altitude is often tens of metres "
+                        f"off), or pair a few points.")
+        if held.status == "ok":
+            held.status = "uncertain"
+    return held, height
 
 
 def height_explained(held: FitResult, freed: FitResult, n_pairs: int) -> bool:

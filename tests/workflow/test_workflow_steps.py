@@ -408,3 +408,33 @@ def test_a_camera_file_names_the_heading_as_an_azimuth(tmp_path):
     loaded = load_camera(str(tmp_path / "camera.json"), (1024, 768))
     assert loaded.heading == pytest.approx(225.0, abs=1e-3)
     assert np.abs(loaded.project(world) - uv).max() < 1e-3
+
+
+def _phone_scene(height: float):
+    """A photographer ``height`` m above rough terrain, 40 unpaired photo points of it (1 px noise), and a rough
+    camera 8 m off whose height (a phone's GPS altitude) puts it 16.6 m above the terrain."""
+    dem = synthetic_terrain((160, 160), cell=20.0, seed=7, relief=600.0)
+    x, y = dem.cell_to_map(80, 150)
+    ground = float(dem.sample(x, y))
+    truth = Camera((x, y, ground + height), 0.0, 2.0, 0.0, 65.0, (1200, 900), crs_wkt=dem.crs_wkt)
+    full = xyz.xyz_raster(truth, dem)
+    rows, cols = np.nonzero(np.isfinite(full[..., 2]))
+    rng = np.random.default_rng(7)
+    world = full[rows, cols][rng.choice(len(rows), 40, replace=False)]
+    uv = truth.project(world) + rng.normal(0.0, 1.0, (40, 2))
+    prior = truth.with_parameters(x=x + 6.0, y=y - 5.0, z=ground + 16.6, heading=4.0, pitch=0.0)
+    return dem, truth, uv, world, prior
+
+
+def test_a_gps_height_a_few_metres_up_is_weighed_against_eye_height():
+    """A trial's phone photo: its GPS altitude 15 m high held the unpaired fit 16.6 m above the valley floor, "ok"
+    at 6.2 px with the camera 34 m off (generated: "ok", 349 px off over the terrain). The fit at eye height is tried
+    too and taken when the points agree with it better; a photographer who did stand 15 m up stays there."""
+    dem, truth, uv, world, prior = _phone_scene(1.6)
+    assert fit_step.on_ground_rule(prior, dem) == (True, pytest.approx(16.6, abs=1.0))
+    done = fit_step.fit(uv, world, prior, dem)
+    assert np.linalg.norm(np.subtract(done.camera.position, truth.position)) < 2.0
+    assert done.eye_height == fit_step.DEFAULT_EYE_HEIGHT_M and "Held at eye height" in done.result.message
+    dem, truth, uv, world, prior = _phone_scene(15.0)
+    done = fit_step.fit(uv, world, prior, dem)
+    assert fit_step.ground_clearance(done.camera, dem) > 10.0 and "Held at eye height" not in done.result.message
