@@ -315,15 +315,17 @@ class ResultsMixin:
             text += " " + self.tr("See the fit tab for why and what to do.")
         moved, sigma = info.get("moved_m"), info.get("position_sigma_m")
         if status != "ok" and moved is not None and sigma and moved > 2.0 * sigma and info.get("moved_from_gps"):
+            # fixing, not a Position ±: the σ steers where the search starts, not where the fit ends (a trial gave
+            # ± 10 m as advised and got the same camera, 47 m off)
             text += " " + self.tr("The fit moved the camera {0:.0f} m from the photo's GPS position, which is usually "
-                                  "within {1:.0f} m: if it is right, give Position ± {1:.0f} m or fix the position "
-                                  "in the fit settings, and fit again.").format(moved, sigma)
+                                  "within {1:.0f} m: if it is right, fix the position in the fit settings (untick "
+                                  "position) and fit again.").format(moved, sigma)
         elif status != "ok" and moved is not None and sigma and moved > 2.0 * sigma:
             # a trial's phone photo: GPS 23 m off, the fit "uncertain" 211 m away, and nothing said it had moved
             text += " " + self.tr("The fit moved the camera {0:.0f} m from the rough camera, more than twice its "
                                   "stated uncertainty (Position ± {1:.0f} m): if the rough position is right (a GPS "
-                                  "position), give a smaller Position ± or fix the position in the fit settings, "
-                                  "and fit again.").format(moved, sigma)
+                                  "position), fix the position in the fit settings (untick position) and fit "
+                                  "again.").format(moved, sigma)
         clearance = info.get("clearance_m")
         if info.get("height_freed") and clearance is not None:  # the import warned it would be held on the ground
             text += " " + self.tr("The pairs placed the camera {0:.0f} m above the terrain: its height was fitted "
