@@ -59,8 +59,11 @@ def pixel_error(info: Optional[dict], only_ok: bool = True) -> Tuple[Optional[fl
 
 
 def feature_error_m(ground_uv: np.ndarray, camera, dem, pixel_rmse: Optional[float]) -> Optional[float]:
-    """Median :func:`~..core.transforms.ground_error_m` (metres) over up to :data:`ERROR_SAMPLES` of a feature's
-    ground samples (pixels, evenly along it); None without a pixel error or where none of them is finite."""
+    """RMS of :func:`~..core.transforms.ground_error_m` (metres) over up to :data:`ERROR_SAMPLES` of a feature's
+    ground samples (pixels, evenly along it); None without a pixel error or where none of them is finite.
+
+    RMS, not the median: a trial's flood line ran from 10 m to 700 m from the camera, its far end hundreds of metres
+    off while the median said 2.3 m (the footprint model at each vertex was within 0.1-1.4 times the real error)."""
     if pixel_rmse is None or camera is None or dem is None or len(ground_uv) == 0:
         return None
     from ..core.transforms import ground_error_m
@@ -68,7 +71,7 @@ def feature_error_m(ground_uv: np.ndarray, camera, dem, pixel_rmse: Optional[flo
     pick = np.unique(np.linspace(0, len(ground_uv) - 1, min(len(ground_uv), ERROR_SAMPLES)).round().astype(int))
     errors = ground_error_m(np.asarray(ground_uv)[pick], camera, dem, float(pixel_rmse))
     errors = errors[np.isfinite(errors)]
-    return float(np.median(errors)) if len(errors) else None
+    return float(np.sqrt(np.mean(errors ** 2))) if len(errors) else None
 
 
 def ground_per_pixel(ground_uv: np.ndarray, camera, dem) -> Tuple[Optional[float], Optional[float]]:

@@ -208,5 +208,20 @@ def test_a_line_from_near_to_far_says_how_much_ground_a_pixel_spans_along_it(pla
     feature = layer.GetNextFeature()
     assert feature["m_per_px"] == pytest.approx(line.m_per_px, abs=1e-3)
     assert feature["m_px_max"] == pytest.approx(line.m_px_max, abs=1e-3)
+
+
+def test_a_line_from_near_to_far_has_the_xy_error_of_its_far_end_too(plane_scene):
+    """A trial's flood line under an "ok" camera: xy_error_m said 2.3 m (the median over the line) while its far
+    end was hundreds of metres off. It is the RMS over the line now: the far end weighs in."""
+    from monoplot_plugin.core.transforms import ground_error_m
+
+    s = plane_scene
+    top = np.flatnonzero(np.isfinite(s.xyz[:, 120, 2])).min() + 0.5
+    uv = np.column_stack([np.full(40, 120.0), np.linspace(158.0, top, 40)])
+    line = photo_to_map_feature("line", uv, camera=s.camera, dem=s.dem, pixel_rmse=2.0)
+    each = ground_error_m(uv, s.camera, s.dem, 2.0)
+    each = each[np.isfinite(each)]
+    assert line.xy_error_m > 2.0 * float(np.median(each))  # not the median: the far end counts
+    assert line.xy_error_m <= float(each.max())
     ds = None  # noqa: F841 (closes the GDAL dataset)
     assert photo_to_map_feature("line", [[120, 158], [120, top]], s.xyz).m_px_max is None  # no camera: unknown
