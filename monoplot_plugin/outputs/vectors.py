@@ -57,8 +57,8 @@ class MapFeature:
             polygon: one closed or open ring per polygon (exterior rings; each becomes a polygon of the multipolygon).
         attributes: values of the user's fields by name.
         sky_parts: number of pieces left out because they were over sky / off the DEM.
-        xy_error_m: expected horizontal position error of the ground points (metres, RMS; median over the
-            feature's samples), None when unknown.
+        xy_error_m: expected horizontal position error of the ground points (metres, RMS over the feature's
+            samples), None when unknown.
         silhouettes: polygons: silhouette crossings of the outline (:func:`~..core.transforms.silhouette_crossings`).
         m_per_px, m_px_max: the horizontal shift (metres, RMS) one pixel of photo error causes on the ground,
             median and largest over the feature's samples, whatever the camera's verdict (the far, grazing part of
