@@ -313,7 +313,8 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
                 "A fitted camera is loaded (see the fit tab); no rough camera. Draw or import one only to suggest "
                 "points from it."))
         else:
-            self.cameraSummary.setText(self.tr("No rough camera yet: draw it on the map or import a KML."))
+            self.cameraSummary.setText(self.tr("No rough camera yet: draw it on the map, import a KML, or take it "
+                                               "From EXIF (a photo with GPS tags)."))
         self.map_view.redraw_camera(c.footprint_wkt if fitted is not None else "")
         self.photo_view.redraw_camera()
         self.photo_view.canvas.set_overlay_opacity(self.overlaySlider.value() / 100.0)
