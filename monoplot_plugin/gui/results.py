@@ -295,7 +295,11 @@ class ResultsMixin:
             text = self.tr("Camera fitted: RMSE {0:.1f} px on the {1} of {2} photo points that matched a DEM "
                            "point.").format(rmse if rmse is not None else float("nan"), n_matched, n_photo)
         check = info.get("check_rmse_px")
-        if check is not None:  # the real accuracy first: the message bar shows only its start
+        if check is not None and info.get("mode") == "paired" and n_pairs:  # its pairs, as the tab says
+            text = self.tr("Camera fitted: {0:.1f} px RMSE on {1} check points (fit: {2:.1f} px on {3} "
+                           "pairs).").format(check, info.get("n_check", 0),
+                                             rmse if rmse is not None else float("nan"), n_pairs)
+        elif check is not None:  # the real accuracy first: the message bar shows only its start
             text = self.tr("Camera fitted: {0:.1f} px RMSE on {1} check points (fit: {2:.1f} px on {3} photo "
                            "points).").format(check, info.get("n_check", 0),
                                               rmse if rmse is not None else float("nan"),

@@ -134,6 +134,10 @@ def test_messages_show_once_and_the_status_line_follows_the_state(dock, scene, q
     assert uncertain.startswith("Camera fitted, uncertain: RMSE 3.0 px") and "See the fit tab" in uncertain
     ok, level = dock.controller.fit_summary(dict(info, status="ok"))
     assert ok.startswith("Camera fitted: RMSE") and "fit tab" not in ok and level == Qgis.MessageLevel.Success
+    # a paired fit with check points: its pairs, as the fit tab says (a trial's bar said "on 41 photo points")
+    paired = {"status": "ok", "mode": "paired", "rmse_px": 11.9, "n_photo": 41, "n_pairs": 6, "check_rmse_px": 4.0,
+              "n_check": 3}
+    assert "(fit: 11.9 px on 6 pairs)" in dock.controller.fit_summary(paired)[0]
     load_inputs(dock, scene, qtbot)
     photo, _ = add_scene_points(dock, scene, n=6)
     dock.show_message("Camera fitted: 3.1 px")
