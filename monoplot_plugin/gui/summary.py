@@ -142,7 +142,7 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
              ("Y", f"{y:.0f} m{sig('y')}"),
              (tr("Pitch"), f"{fitted.pitch:.2f}°{sig('pitch')}"),
              ("Z", z_text if not info.get("on_ground") else
-              tr("{0:.0f} m (ground + {1:.0f} m)").format(z, info.get("eye_height_m") or 0.0)),
+              tr("{0:.0f} m (ground + {1:.3g} m)").format(z, round(info.get("eye_height_m") or 0.0, 1))),
              (tr("Roll"), f"{fitted.roll:.2f}°{sig('roll')}"),
              ("", ""), (tr("Field of view"), f"{fitted.fov:.2f}°{sig('fov')}")]
     html = "".join("<tr>" + "".join(f"<td>{k}&nbsp;</td><td>{v}&nbsp;&nbsp;&nbsp;</td>" for k, v in pair)
