@@ -97,11 +97,32 @@ class ResultsMixin:
         return {"moved_m": moved, "position_sigma_m": GPS_POSITION_M if gps else sigma, "moved_from_gps": gps,
                 "position_sigma_stated": bool(stated)}
 
+    def moved_advice(self, info: dict) -> str:
+        """What to do about a fit that is not "ok" and took the camera more than twice the position σ from the rough
+        camera (a GPS position: fix it), for the message bar and the fit tab; "" otherwise."""
+        moved, sigma = info.get("moved_m"), info.get("position_sigma_m")
+        if info.get("status", "ok") == "ok" or moved is None or not sigma or moved <= 2.0 * sigma:
+            return ""
+        if info.get("moved_from_gps"):
+            # fixing, not a Position ±: the σ steers where the search starts, not where the fit ends (a trial gave
+            # ± 10 m as advised and got the same camera, 47 m off)
+            return self.tr("The fit moved the camera {0:.0f} m from the photo's GPS position, which is usually "
+                           "within {1:.0f} m: if it is right, fix the position in the fit settings (untick "
+                           "position) and fit again.").format(moved, sigma)
+        # a trial's phone photo: GPS 23 m off, the fit "uncertain" 211 m away, and nothing said it had moved
+        return self.tr("The fit moved the camera {0:.0f} m from the rough camera, more than twice its stated "
+                       "uncertainty (Position ± {1:.0f} m): if the rough position is right (a GPS position), fix the "
+                       "position in the fit settings (untick position) and fit again.").format(moved, sigma)
+
     def doubt_a_moved_camera(self, info: dict) -> None:
         """An "ok" fit without check points that took the camera more than :data:`MOVED_SIGMAS` times the position
         σ the person gave (or a GPS's) from the rough camera contradicts what they know: "uncertain", said in the
         message (in place). A trial's phone photo: "ok" at 1.9 px 117 m behind its GPS position (± 30 m), distant
-        terrain trading the position for the field of view."""
+        terrain trading the position for the field of view. A fit that is not "ok" gets :meth:`moved_advice` in its
+        message, for the fit tab (a re-check trial found it in the message bar only, which pointed to the tab)."""
+        advice = self.moved_advice(info)
+        if advice and advice not in info.get("message", ""):
+            info["message"] = (info.get("message", "") + " " + advice).strip()
         moved, sigma = info.get("moved_m"), info.get("position_sigma_m")
         if info.get("status") != "ok" or info.get("n_check") or not info.get("position_sigma_stated") or \
                 moved is None or not sigma or moved <= MOVED_SIGMAS * sigma:
@@ -317,19 +338,9 @@ class ResultsMixin:
                                 self.tr("Camera fitted, {0}:").format(self.tr(status)), 1)
         if status != "ok":  # the verdict's reasons (its message) are in the fit tab
             text += " " + self.tr("See the fit tab for why and what to do.")
-        moved, sigma = info.get("moved_m"), info.get("position_sigma_m")
-        if status != "ok" and moved is not None and sigma and moved > 2.0 * sigma and info.get("moved_from_gps"):
-            # fixing, not a Position ±: the σ steers where the search starts, not where the fit ends (a trial gave
-            # ± 10 m as advised and got the same camera, 47 m off)
-            text += " " + self.tr("The fit moved the camera {0:.0f} m from the photo's GPS position, which is usually "
-                                  "within {1:.0f} m: if it is right, fix the position in the fit settings (untick "
-                                  "position) and fit again.").format(moved, sigma)
-        elif status != "ok" and moved is not None and sigma and moved > 2.0 * sigma:
-            # a trial's phone photo: GPS 23 m off, the fit "uncertain" 211 m away, and nothing said it had moved
-            text += " " + self.tr("The fit moved the camera {0:.0f} m from the rough camera, more than twice its "
-                                  "stated uncertainty (Position ± {1:.0f} m): if the rough position is right (a GPS "
-                                  "position), fix the position in the fit settings (untick position) and fit "
-                                  "again.").format(moved, sigma)
+        advice = self.moved_advice(info)
+        if advice:
+            text += " " + advice
         clearance = info.get("clearance_m")
         if info.get("height_freed") and clearance is not None:  # the import warned it would be held on the ground
             text += " " + self.tr("The pairs placed the camera {0:.0f} m above the terrain: its height was fitted "

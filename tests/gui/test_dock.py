@@ -480,6 +480,10 @@ def test_the_fit_tab_says_when_the_points_changed_since_the_fit(dock, scene, tmp
     assert "moved the camera 450 m from the rough camera" in c.fit_summary(uncertain)[0]
     assert "moved the camera" not in c.fit_summary(dict(uncertain, moved_m=150.0))[0]
     assert "moved the camera" not in c.fit_summary(dict(uncertain, status="ok"))[0]
+    # ... and in the fit tab's message, which the message bar points to (a re-check trial found it in the bar only)
+    c.doubt_a_moved_camera(uncertain)
+    assert "moved the camera 450 m from the rough camera" in uncertain["message"]
+    assert uncertain["message"].count("moved the camera") == 1
     # the counts line names the verdict with the fit (a trial read "camera: fit, 5.2 px" of an uncertain fit)
     assert re.search(r"camera: fit[^·]*\(ok\)", dock.countsLabel.text()), dock.countsLabel.text()
     from monoplot_plugin.state import move_point, set_status
