@@ -244,7 +244,7 @@ class PriorsMixin:
         if exif.altitude is not None:  # a trial's phone said 11 m above the ground for a hand-held 1.6 m
             above = float(camera.position[2]) - ground
             text += " " + (self.tr("Its GPS altitude puts it {0:.0f} m above the DEM; a GPS height is often 10-30 m "
-                                   "off: set \"Above ground\" (Camera tab) if you know it, e.g. 1.6 m held in the "
+                                   "off: set \"Above ground\" (Camera tab) if you know it, e.g. 1.7 m held in the "
                                    "hand.") if above < 50.0 else
                            self.tr("Its GPS altitude puts it {0:.0f} m above the DEM; a GPS height is often 10-30 m "
                                    "off: set \"Above ground\" (Camera tab) if you know the flight height.")

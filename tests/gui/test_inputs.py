@@ -276,7 +276,7 @@ def test_rough_camera_from_exif_gps(dock, scene, tmp_path):
     prior = dock.controller.prior
     # the GPS height is said, and how rough it is (a trial's phone put a hand-held camera 11 m above the ground)
     assert any("GPS altitude puts it" in text and "often 10-30 m off" in text for text in said), said
-    # 300 m up: the flight height, not "1.6 m held in the hand" (a trial's drone); a compass direction is said
+    # 300 m up: the flight height, not "1.7 m held in the hand" (a trial's drone); a compass direction is said
     assert any("flight height" in text and "held in the hand" not in text for text in said), said
     assert any("magnetic north" in text for text in said), said
     # the pitch from the terrain is said in the EXIF camera's own message (its own was replaced at once, a trial)

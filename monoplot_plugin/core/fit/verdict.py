@@ -168,7 +168,7 @@ def judge(e: dict) -> Tuple[str, str]:
     ('ok', 'uncertain', 'uncertain')
     >>> few = dict(e, spread=0.01, check_rmse_px=0.4, n_check=3, has_check=True)
     >>> judge(few)[0], judge(few)[1].split("; ")[-1][:56]
-    ('uncertain', 'the 3 check points agree (0.4 px): 4 or more, spread ove')
+    ('uncertain', 'the 3 check points are off by 0.4 px, under 1.5 % of the')
     >>> judge(dict(few, n_check=4))[0]
     'ok'
     >>> judge(rival)[1].split("Uncertain: ")[1][:60]
@@ -290,8 +290,10 @@ def judge(e: dict) -> Tuple[str, str]:
         # too few to verify: say how close it is (a trial marked 3 good pairs as check points, as advised, and a
         # fit "ok" with them as pairs turned "uncertain" with no word on what would settle it)
         n_check = int(e.get("n_check", 0))
-        weak.append(f"the {n_check} check point{'s agree' if n_check != 1 else ' agrees'} ({check:.1f} px): "
-                    f"{MIN_CHECKS} or more, spread over the picture, verify the camera despite the rest")
+        # "off by", not "agree": a trial read "the 3 check points agree (19.6 px)" as reassurance
+        weak.append(f"the {n_check} check point{'s are' if n_check != 1 else ' is'} off by {check:.1f} px, under "
+                    f"1.5 % of the picture: {MIN_CHECKS} or more, spread over the picture, verify the camera "
+                    f"despite the rest")
     note = (" " + e["note"]) if e.get("note") else ""
     # A camera judged probably wrong cannot say which points are wrong: no outlier advice under it (a person told to
     # reject them rejected a correct point, see :func:`flags_outliers`).
