@@ -46,6 +46,7 @@ class RefitOutcome:
     n_photo: int = 0  # accepted photo points the refit used
     key: tuple = ()  # :func:`inputs_key` of the fit
     done: object = None  # the workflow's FitDone (the Fit button reuses it for the same inputs)
+    judged_with: tuple = ()  # (DEM points, fit options, check points): what the Fit button's verdict also weighs
 
 
 class RunningFit:
@@ -218,7 +219,7 @@ class Refitter(QObject):
             flags = np.asarray(r.photo_outliers, dtype=bool).reshape(-1)
             outliers = [pid for pid, f in zip(photo_ids, flags) if f] if len(flags) == len(photo_ids) else []
             return RefitOutcome(done.camera, status, rmse, sigma, outliers, rec, float(r.elapsed_s), len(uv),
-                                key, done)
+                                key, done, (xyz, options, len(check_uv)))
 
         self.task = HiddenTask("Monoplot refit", work, self._done)  # silent: no status-bar entry, no "Task complete"
         self.current = running
@@ -232,6 +233,13 @@ class Refitter(QObject):
         self.running.emit(False)
         if result.ok:
             o = result.value
+            if o.status == "ok" and o.judged_with:
+                # the Fit button's own doubt too: an "ok" refit beside an "uncertain" Fit of the same points read
+                # as a contradiction (a re-check trial: "refit, 5.8 px (ok)", then Fit "uncertain" at 5.9 px)
+                xyz, options, n_check = o.judged_with
+                info = {"status": "ok", "n_check": n_check, **self.c.moved_from_prior(o.camera, xyz, options)}
+                self.c.doubt_a_moved_camera(info)
+                o.status = info["status"]
             LOG.info("Background refit on %d photo points: status %s, RMSE %.2f px, %d outlier(s), %.2f s",
                      o.n_photo, o.status, o.rmse_px, len(o.outlier_ids), o.seconds)
             self.c.remember_fit(o.key, o.done)

@@ -513,3 +513,19 @@ def test_redo_of_suggest_shows_a_few_again(dock, scene, qtbot):
     c.accept(pid)
     c.stack.undo()
     assert pid in c.shortlist.shown_undecided(PHOTO)
+
+
+def test_a_refit_that_moved_the_camera_far_beyond_the_stated_position_is_not_ok(dock, scene, qtbot):
+    """A re-check trial: the panel said "refit, 5.8 px (ok)", then Fit of the same points "uncertain" at 5.9 px (the
+    fit had moved the camera far beyond the Position ± given). The refit weighs that too."""
+    load_inputs(dock, scene, qtbot)
+    c, panel = dock.controller, dock.curation_panel
+    photo, world = add_scene_points(dock, scene)
+    dock.fit_settings.sigma_spins["position_sigma_m"].setValue(5.0)  # "I know where it stood" (it did not)
+    c.set_prior(scene.prior)  # 144 m from where the photo was taken
+    chosen = np.random.default_rng(0).choice(len(photo), 20, replace=False)
+    with qtbot.waitSignal(panel.refitter.refitted, timeout=120000) as blocker:
+        c.set_status([photo[i].id for i in chosen] + [world[i].id for i in chosen], ACCEPTED)
+    outcome = blocker.args[0]
+    moved = np.hypot(*np.subtract(outcome.camera.position, scene.prior.position)[:2])
+    assert moved > 3 * 5.0 and outcome.status == "uncertain"
