@@ -111,7 +111,7 @@ class DigitisingSession(QObject):
             missing = [QgsField(n, _QVARIANT[t]) for n, t in self.fields if layer.fields().indexFromName(n) < 0]
             layer.dataProvider().addAttributes(missing)
             layer.updateFields()
-            _style_photo_layer(layer, kind)
+            _style_drawn_layer(layer, kind)
             # Edits through QGIS's own tools (edit buffer, undo, rollback) rebuild the live map layer too.
             for signal in (layer.featureAdded, layer.featuresDeleted, layer.geometryChanged,
                            layer.attributeValueChanged, layer.afterRollBack, layer.afterCommitChanges):
@@ -144,7 +144,8 @@ class DigitisingSession(QObject):
                 attrs.append(QgsField(PHOTO_NAME, QVariant.Type.String))
             layer.dataProvider().addAttributes([a for a in attrs if layer.fields().indexFromName(a.name()) < 0])
             layer.updateFields()
-            if not reused:
+            if not reused:  # drawn as on the photo (QGIS's random default was a thin pale line: a trial)
+                _style_drawn_layer(layer, kind)
                 add_layer(self.project, layer, self.group)
             layer.willBeDeleted.connect(self.close)
             self.map_layers[kind] = layer
@@ -502,7 +503,7 @@ def _plain(value):
     return value
 
 
-def _style_photo_layer(layer: QgsVectorLayer, kind: str) -> None:
+def _style_drawn_layer(layer: QgsVectorLayer, kind: str) -> None:
     symbol = QgsSymbol.defaultSymbol(layer.geometryType())
     symbol.setColor(QColor(0, 200, 255))
     if kind == "polygon":

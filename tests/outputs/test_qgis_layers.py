@@ -95,6 +95,12 @@ def test_live_map_layer_follows_photo_edits(project, plane_scene, tmp_path):
     assert reports[-1] == ("line", 1, 0)
     (line,) = list(session.map_layer("line").getFeatures())
     assert line.geometry().constGet().numGeometries() == 2 and line["sky_parts"] == 1
+    # drawn on the map as on the photo, not in QGIS's random thin default (a trial could hardly see its flood line)
+    for kind in ("line", "polygon"):
+        on_map, on_photo = (layer.renderer().symbol() for layer in (session.map_layer(kind),
+                                                                      session.photo_layer(kind)))
+        assert on_map.color().name() == on_photo.color().name() == "#00c8ff"
+    assert session.map_layer("line").renderer().symbol().symbolLayer(0).width() == pytest.approx(0.8)
     session.add_feature("point", [[0.5 * w, sky_row]])
     assert reports[-1] == ("point", 0, 1) and session.map_layer("point").featureCount() == 0
 
