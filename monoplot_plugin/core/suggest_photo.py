@@ -331,10 +331,10 @@ def _paper_inside(gray: np.ndarray, box: Tuple[int, int, int, int], tolerance: i
     for side in range(4):
         share = _from_edge(like, side).mean(axis=1)
         reach = min(len(share), max(3, int(FRAME_GAP * len(share))))
-        paper = share[:reach] >= 0.5
-        last = int(np.flatnonzero(paper)[-1]) if paper.any() else -1
+        papery = share[:reach] >= 0.5  # lines mostly of the paper's grey
+        last = int(np.flatnonzero(papery)[-1]) if papery.any() else -1
         # Paper up to the reach is the picture's own (snow, a pale sky), no gap; so is paper in a few lines only.
-        gap = 0 <= last < reach - 1 and paper[:last + 1].mean() >= 0.5
+        gap = 0 <= last < reach - 1 and papery[:last + 1].mean() >= 0.5
         depths.append(last + 1 if gap else 0)
     return tuple(depths)
 

@@ -119,8 +119,6 @@ def slide_ratio(J: np.ndarray, normals: np.ndarray) -> float:
 def slide_sigma_px(ratio: float, residual_px: float, n_pairs: int) -> float:
     """σ in pixels (RMS over the pairs) of the camera's worst slide: ``s / (ratio sqrt(K))``, ``s`` the residuals'
     standard error per coordinate (at least 0.5 px). Infinite when the camera slides freely (``ratio`` 0)."""
-    if n_pairs <= 0:
-        return math.inf
-    if ratio <= 0.0:
+    if n_pairs <= 0 or ratio <= 0.0:
         return math.inf
     return max(residual_px, 0.5) / (ratio * math.sqrt(n_pairs))
