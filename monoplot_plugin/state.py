@@ -36,7 +36,7 @@ __all__ = [
     "SUGGESTED", "ACCEPTED", "REJECTED", "CHECK", "STATUSES", "PHOTO", "MAP",
     "Point", "ProjectState", "Edit", "CommandStack",
     "add_points", "remove_points", "set_status", "move_point", "replace_suggestions", "replace_in_views", "link",
-    "unlink", "set_check",
+    "link_pairs", "unlink", "set_check",
     "points_table", "points_from_table",
 ]
 
@@ -410,6 +410,28 @@ def link(state: ProjectState, photo_id: str, map_id: str) -> Edit:
     before = {i: state.points[i] for i in (photo_id, map_id)}
     after = {i: replace(state.points[i], status=ACCEPTED) for i in (photo_id, map_id)}
     return Edit("Link points", before, after, list(state.pairs), pairs)
+
+
+def link_pairs(state: ProjectState, pairs: Iterable[Tuple[str, str]], text: str = "Link points") -> Edit:
+    """Pair each (photo id, map id) of ``pairs`` whose two points are in no pair yet (nor twice in ``pairs``), as
+    one edit; both ends become accepted. Points already paired, check points among them, keep their pairs.
+
+    >>> s = ProjectState(points={i: Point(i, sp, 1, 2) for i, sp in (("a", PHOTO), ("b", MAP), ("c", PHOTO))})
+    >>> stack = CommandStack(s); _ = stack.push(link_pairs(s, [("a", "b"), ("c", "b")]))
+    >>> s.pairs, s.points["c"].status
+    ([('a', 'b')], 'suggested')
+    """
+    taken = {i for pr in state.pairs for i in pr}
+    new: List[Tuple[str, str]] = []
+    for a, b in pairs:
+        if a in taken or b in taken or state.points[a].space != PHOTO or state.points[b].space != MAP:
+            continue
+        taken.update((a, b))
+        new.append((a, b))
+    ids = [i for pr in new for i in pr]
+    return Edit(text, before={i: state.points[i] for i in ids},
+                after={i: replace(state.points[i], status=ACCEPTED) for i in ids},
+                pairs_before=list(state.pairs), pairs_after=list(state.pairs) + new)
 
 
 def set_check(state: ProjectState, pid: str, on: bool = True) -> Edit:

@@ -13,8 +13,8 @@ from typing import Callable, Dict, List, Optional, Protocol, Sequence, Tuple
 
 from qgis.core import Qgis
 
-from ..state import (ACCEPTED, CHECK, MAP, PHOTO, REJECTED, SUGGESTED, Point, add_points, link, move_point,
-                     remove_points, set_check, set_status, unlink)
+from ..state import (ACCEPTED, CHECK, MAP, PHOTO, REJECTED, SUGGESTED, Point, add_points, link, link_pairs,
+                     move_point, remove_points, set_check, set_status, unlink)
 from .shortlist import Shortlist
 
 __all__ = ["CurationMixin", "CurationHost"]
@@ -91,10 +91,19 @@ class CurationMixin:
         return len(ids)
 
     def accept_likely(self) -> int:
-        """Accept both ends of every likely pair (mutual nearest under the current camera within the shortlist's
-        threshold), one undo entry; returns how many pairs."""
+        """Accept the undecided ends of every likely pair (mutual nearest under the current camera within the
+        shortlist's threshold), one undo entry; returns how many pairs. Decided points keep their status: a trial's
+        check point became an ordinary one this way, silently. With pairs of the person's own the fit is paired and
+        would leave points without a partner out, so the likely pairs are linked instead."""
         pairs = self.shortlist.likely()
-        ids = [i for a, b, _ in pairs for i in (a, b)]
+        if self.state.valid_pairs():
+            edit = link_pairs(self.state, [(a, b) for a, b, _ in pairs])
+            n = len(edit.pairs_after) - len(edit.pairs_before)
+            edit.text = self.tr("Link {0} likely pairs").format(n)
+            self.stack.push(edit)
+            return n
+        pts = self.state.points
+        ids = [i for a, b, _ in pairs for i in (a, b) if pts[i].status == SUGGESTED]
         self.set_status(ids, ACCEPTED, self.tr("Accept {0} likely pairs").format(len(pairs)))
         return len(pairs)
 

@@ -323,8 +323,7 @@ class CurationPanel(QWidget):
             tip = self.tr("Accept both ends of every linked pair (a photo suggestion and a DEM suggestion the "
                           "current camera puts close together)")
             if self.c.state.valid_pairs():  # a trial accepted 183 this way, then a Fit used its 10 pairs only
-                tip += self.tr(". With pairs of your own the Fit is paired and uses only them: these points "
-                               "would wait until the pairs are removed")
+                tip += self.tr(". With pairs of your own the Fit is paired: these are linked as pairs too")
         self.acceptLikelyButton.setToolTip(tip)
         self.acceptLikelyButton.setText(self.tr("Accept likely ({0})").format(n_likely) if n_likely
                                         else self.tr("Accept likely"))

@@ -329,12 +329,13 @@ class Shortlist:
         return [k for k in self._pairs_of.get(pid, ()) if k in self._live and self._pairs[k][end] == pid]
 
     def _is_live(self, k: int) -> bool:
-        """Pair ``k`` is likely: both ends exist, neither rejected, at least one undecided."""
+        """Pair ``k`` is likely: both ends exist, neither rejected nor in a pair of the person's (a trial's links
+        drew suggestions to map points already paired), at least one undecided."""
         pts = self.state.points
         a, b = self._pairs[k][0], self._pairs[k][1]
         pa, pb = pts.get(a), pts.get(b)
         return pa is not None and pb is not None and SUGGESTED in (pa.status, pb.status) and \
-            REJECTED not in (pa.status, pb.status)
+            REJECTED not in (pa.status, pb.status) and self.state.partner(a) is None and self.state.partner(b) is None
 
     def set_outliers(self, ids) -> None:
         self.outliers = set(ids)

@@ -10,7 +10,7 @@ from qgis.PyQt.QtCore import Qt
 from qgis.PyQt.QtGui import QTextDocument
 
 from monoplot_plugin.gui.curation_panel import MessageOnce
-from monoplot_plugin.state import (ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, add_points, link,
+from monoplot_plugin.state import (ACCEPTED, CHECK, MAP, PHOTO, REJECTED, SUGGESTED, Point, add_points, link,
                                    replace_suggestions)
 from test_dock import add_scene_points, load_inputs, photo_pos
 
@@ -320,6 +320,35 @@ def test_background_refit_links_likely_pairs_and_flags_outliers(dock, scene, qtb
     assert dock.photo_view.outliers.band.numberOfVertices() == 0
     c.stack.undo()
     assert all(c.state.points[p.id].status == ACCEPTED for p in wrong)  # one undo entry
+
+
+def test_accept_likely_keeps_decided_points_and_links_pairs_when_the_fit_is_paired(dock, scene, qtbot):
+    """A desktop trial with pairs of its own: Accept likely turned the map end of a check pair into an ordinary
+    point (the check pair left the measurement, silently), drew links to map points already paired, and accepted
+    points the paired fit then left out for want of a partner."""
+    load_inputs(dock, scene, qtbot)
+    c, panel = dock.controller, dock.curation_panel
+    photo, world = add_scene_points(dock, scene)
+    c.set_prior(scene.prior)
+    chosen = np.random.default_rng(1).choice(len(photo), 14, replace=False)
+    with qtbot.waitSignal(panel.refitter.refitted, timeout=120000) as blocker:
+        for i in chosen:
+            c.link(photo[i].id, world[i].id)
+        for i in chosen[:3]:
+            assert c.toggle_check(photo[i].id)
+    assert blocker.args[0].status == "ok"
+    qtbot.waitUntil(lambda: panel.acceptLikelyButton.isEnabled(), timeout=10000)
+    paired = {i for pr in c.state.pairs for i in pr}
+    likely = c.shortlist.likely()
+    assert len(likely) >= 10 and not paired & {i for a, b, _ in likely for i in (a, b)}
+    n_pairs, checks = len(c.state.pairs), [photo[i].id for i in chosen[:3]] + [world[i].id for i in chosen[:3]]
+    press(qtbot, panel.acceptLikelyButton)
+    assert len(c.state.pairs) == n_pairs + len(likely)  # linked, so the paired fit uses them
+    assert all(c.state.points[i].status == CHECK for i in checks)
+    truth = {(p.id, w.id) for p, w in zip(photo, world)}
+    assert all(pr in truth for pr in c.state.pairs)
+    c.stack.undo()  # one undo entry
+    assert len(c.state.pairs) == n_pairs and c.state.counts()[PHOTO][ACCEPTED] == 11
 
 
 def test_a_refit_camera_gives_way_when_an_undo_leaves_too_few_points(dock, scene, qtbot):
