@@ -37,7 +37,13 @@ class DockViewMixin:
 
     def _update_camera_layers(self) -> None:
         c = self.controller
-        if self._unloaded or c.fitted is None or c.dem is None:
+        if self._unloaded:
+            return
+        if c.fitted is None:
+            with camera_layers.derived_layers_only(self.project):
+                camera_layers.remove_camera_layers(self.project)
+            return
+        if c.dem is None:
             return
         with camera_layers.derived_layers_only(self.project):
             camera_layers.show_camera_layers(self.project, c.fitted, c.footprint_wkt, c.dem_crs)

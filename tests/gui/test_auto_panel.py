@@ -96,10 +96,18 @@ def test_find_camera_automatically_gives_a_camera_and_accepted_points(dock, vall
     qtbot.mouseClick(dock.undoButton, Qt.MouseButton.LeftButton)
     assert not c.state.in_space(PHOTO, (ACCEPTED,)) and c.fitted is None and not c.state.fit_info
     assert "automatic_status" not in c.state.settings and c.camera() == c.prior
+
+    def camera_layer_names():
+        return [lyr.name() for lyr in QgsProject.instance().mapLayers().values()
+                if lyr.name().startswith(("Monoplot camera", "Monoplot view footprint"))]
+
+    # ... and its star and footprint leave the map (a trial saw them stay, the dock saying "Not fitted yet")
+    qtbot.waitUntil(lambda: not camera_layer_names(), timeout=5000)
     qtbot.mouseClick(dock.redoButton, Qt.MouseButton.LeftButton)
     assert len(c.state.in_space(PHOTO, (ACCEPTED,))) == len(photo) and c.fitted == found
     assert c.state.fit_info["status"] == found_info["status"] and c.state.settings["automatic_status"]
     qtbot.waitUntil(lambda: c.overlay is not None, timeout=60000)
+    qtbot.waitUntil(lambda: len(camera_layer_names()) == 2, timeout=5000)  # and back on the map with it
     # The person presses Fit on the matched points alone: they agree with the registration's camera whatever it
     # is, so the fit cannot be surer than the registration was (a doubtful one: "uncertain" recorded as such).
     assert all(p.label == "automatic" for p in photo + world)
