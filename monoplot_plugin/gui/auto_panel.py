@@ -66,6 +66,8 @@ class AutoPanel(QObject):
                 c.state.settings[key] = value
         camera = None if target["fitted"] is None else Camera.from_dict(target["fitted"])
         c.set_fitted(camera, target["info"], background=True)
+        if camera is None:  # its star and footprint leave the map too (a trial saw them stay, "Not fitted yet")
+            self.dock._update_camera_layers()
 
     def __init__(self, dock):
         super().__init__(dock)

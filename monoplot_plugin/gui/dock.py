@@ -16,7 +16,7 @@ from typing import Optional
 
 from qgis.core import Qgis, QgsApplication, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer, QgsSettings
 from qgis.PyQt import uic
-from qgis.PyQt.QtCore import QItemSelectionModel, QTimer
+from qgis.PyQt.QtCore import QItemSelectionModel
 from qgis.PyQt.QtWidgets import QDockWidget, QToolBar
 
 from .. import PLUGIN_DIR
@@ -316,8 +316,6 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
             self.cameraSummary.setText(self.tr("No rough camera yet: draw it on the map, import a KML, or take it "
                                                "From EXIF (a photo with GPS tags)."))
         self.map_view.redraw_camera(c.footprint_wkt if fitted is not None else "")
-        if fitted is None:  # an undone registration or fit: its star and footprint stayed on the map (a trial)
-            QTimer.singleShot(0, self._update_camera_layers)  # not while QGIS reads a project (see dock_view)
         self.photo_view.redraw_camera()
         self.photo_view.canvas.set_overlay_opacity(self.overlaySlider.value() / 100.0)
         self.resultLabel.setText(self._result_text())
