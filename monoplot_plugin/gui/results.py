@@ -235,8 +235,13 @@ class ResultsMixin:
             return ""
         what = {"check": self.tr("check points {0:.1f} px"),
                 "loo": self.tr("fit residuals left out one at a time {0:.1f} px, no check points"),
-                "fit": self.tr("fit residuals {0:.1f} px, no check points")}[source]
-        return " (" + what.format(error_px) + ": " + words + ")"
+                "fit": self.tr("fit residuals {0:.1f} px, no check points")}[source].format(error_px)
+        check = info.get("check_rmse_px")
+        if source != "check" and check is not None and np.isfinite(check):  # the larger of two measures
+            what = (self.tr("fit residuals left out one at a time {0:.1f} px") if source == "loo" else
+                    self.tr("fit residuals {0:.1f} px")).format(error_px) + self.tr(
+                ", more than the check points' {0:.1f} px").format(check)
+        return " (" + what + ": " + words + ")"
 
     def residual_segments(self) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:
         """(photo pixel, matched DEM point's pixel) segments of :meth:`residuals`."""

@@ -184,6 +184,11 @@ def test_the_report_says_what_the_camera_is_worth_on_the_ground(plane_scene):
                              f"leave-one-out {loo:.1f} px: about "
                              f"{metres_words(ground_error(scene.camera, scene.xyz, loo, scene.dem)[1])} on the ground")
     assert points_accuracy(scene.camera, scene.dem, scene.xyz) == ""
+    # check points closer than the paired points' leave-one-out error: the larger of the two measures is said
+    close = scene_points(scene, n=3, noise_px=0.2, seed=5)
+    larger = points_accuracy(scene.camera, scene.dem, scene.xyz, points, close)
+    assert larger.startswith(f"{len(points.uv)} paired points, RMSE {rmse:.1f} px, leave-one-out {loo:.1f} px, "
+                             "more than the check points ") and " px on 3: about " in larger
     ax = Figure().add_subplot()
     _draw_parameters(ax, scene.camera, None, 1.0, points, scene.xyz, "ok: paired fit.", accuracy=text)
     assert "Ground accuracy: check points" in ax.texts[0].get_text()
