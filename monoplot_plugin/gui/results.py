@@ -14,6 +14,7 @@ from qgis.PyQt.QtCore import QTimer
 
 from ..state import ACCEPTED
 from . import engine
+from .summary import unpartnered_text
 
 __all__ = ["ResultsMixin", "ResultsHost", "MOVED_SIGMAS"]
 
@@ -306,12 +307,10 @@ class ResultsMixin:
         if info.get("mode") == "paired" and n_pairs:  # its pairs only; the unpaired points wait
             text = self.tr("Camera fitted: RMSE {0:.1f} px on {1} pairs.").format(
                 rmse if rmse is not None else float("nan"), n_pairs)
-            if n_photo > n_pairs:
-                unused = n_photo - n_pairs
-                text += " " + (self.tr("1 accepted photo point without a partner is not used by a paired fit.")
-                               if unused == 1 else
-                               self.tr("{0} accepted photo points without a partner are not used by a paired "
-                                       "fit.").format(unused))
+            unused = unpartnered_text(info, self.tr)
+            if unused:  # a trial's curation of 18 DEM points went unsaid: both sides are counted
+                text += " " + self.tr("Not used by a paired fit: {0}; pair them (select one, Shift+click its "
+                                      "partner) to use them.").format(unused)
         if info.get("mode") == "automatic":  # its own matches: they agree with it by construction (a trial read
             # "RMSE 2.3 px on 202 photo points" as the accuracy of a camera 28 px off)
             text = self.tr("Camera fitted: its {1} matched points agree to {0:.1f} px.").format(

@@ -9,7 +9,7 @@ from typing import Callable, Optional
 
 from ..core.camera import Camera, azimuth
 
-__all__ = ["fit_summary_html", "sigma_text", "verdict_first"]
+__all__ = ["fit_summary_html", "sigma_text", "verdict_first", "unpartnered_text"]
 
 #: Colour of each fit status (core.fit.STATUSES): "uncertain" must look different from "ok".
 _STATUS_STYLE = {"ok": "#1a7f37", "uncertain": "#b35900", "poor": "#c00", "refused": "#c00", "canceled": "#666"}
@@ -49,6 +49,32 @@ def verdict_first(message: str) -> tuple:
     return message[i:].strip(), message[:i].strip()
 
 
+def unpartnered_text(info: dict, tr: Callable[[str], str] = str) -> str:
+    """"5 photo and 18 DEM points accepted without a partner": what a paired fit leaves out (photo and DEM side:
+    a trial's 18 DEM points went unsaid, only its 5 photo points were); "" when none or not a paired fit.
+
+    >>> unpartnered_text({"mode": "paired", "n_photo": 13, "n_map": 26, "n_pairs": 8})
+    '5 photo and 18 DEM points accepted without a partner'
+    >>> unpartnered_text({"mode": "paired", "n_photo": 9, "n_map": 8, "n_pairs": 8})
+    '1 photo point accepted without a partner'
+    >>> unpartnered_text({"mode": "unpaired", "n_photo": 9, "n_map": 8})
+    ''
+    """
+    n_pairs = int(info.get("n_pairs") or 0)
+    if info.get("mode") != "paired" or not n_pairs:
+        return ""
+    photo = max(0, int(info.get("n_photo") or 0) - n_pairs)
+    dem = max(0, int(info.get("n_map") or 0) - n_pairs)
+    if photo and dem:
+        return tr("{0} photo and {1} DEM points accepted without a partner").format(photo, dem)
+    if photo or dem:
+        n = photo or dem
+        side = tr("photo") if photo else tr("DEM")
+        return (tr("1 {0} point accepted without a partner") if n == 1 else
+                tr("{1} {0} points accepted without a partner")).format(side, n)
+    return ""
+
+
 def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], str] = str,
                      points_changed: bool = False) -> str:
     """Rich text for the results label (``tr`` translates the user-visible words); ``points_changed``: the points
@@ -72,10 +98,10 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     >>> "5 of 30 photo matched / 30 DEM" in fit_summary_html(cam, {"mode": "unpaired", "n_photo": 30, "n_map": 30,
     ...                                                          "n_matched": 5})
     True
-    >>> "on 8 pairs (27 accepted photo points without a partner not used)" in fit_summary_html(
+    >>> "on 8 pairs (27 photo and 24 DEM points accepted without a partner not used: pair them" in fit_summary_html(
     ...     cam, {"rmse_px": 0.4, "mode": "paired", "n_photo": 35, "n_map": 32, "n_pairs": 8})
     True
-    >>> "on 8 pairs (1 accepted photo point without a partner not used)" in fit_summary_html(
+    >>> "on 8 pairs (1 photo point accepted without a partner not used: pair them" in fit_summary_html(
     ...     cam, {"rmse_px": 0.4, "mode": "paired", "n_photo": 9, "n_map": 8, "n_pairs": 8})
     True
     >>> fit_summary_html(cam, {"rmse_px": 6.4}, points_changed=True).startswith("<p><b>The accepted points changed")
@@ -120,12 +146,11 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
         head = tr("loaded from {0}").format(html_escape(os.path.basename(str(info["loaded_from"])))) + (
             "" if rmse is None else tr(" · its fit: RMSE {0:.1f} px").format(rmse))
     if info.get("mode") == "paired" and info.get("n_pairs"):  # a paired fit uses its pairs only: say so
-        unused = max(0, int(n_photo) - int(info["n_pairs"]))
+        unused = unpartnered_text(info, tr)
         head = tr("RMSE <b>{0}</b>{1} on {2} pairs{3}").format(
             "—" if rmse is None else f"{rmse:.1f} px",
             "" if loo is None else tr(" (leave-one-out {0:.1f} px)").format(loo), info["n_pairs"],
-            "" if not unused else tr(" (1 accepted photo point without a partner not used)") if unused == 1 else
-            tr(" ({0} accepted photo points without a partner not used)").format(unused))
+            tr(" ({0} not used: pair them to use them)").format(unused) if unused else "")
     if info.get("check_rmse_px") is not None:
         head = tr("Check points <b>{0:.1f} px</b> RMSE on {1} (not fitted)").format(
             info["check_rmse_px"], info.get("n_check", 0)) + "<br>" + tr("Fit: ") + head
