@@ -173,30 +173,46 @@ def remove_stale(out_dir: str, tasks: List[FrameTask], results: List[PhotoResult
     """Remove the products of an earlier run this run did not rewrite, where they would contradict the log: every
     ``<stem>_camera.json``, ``_xyz.tif``, ``_ortho.tif`` of a frame that failed or was skipped, and the own camera
     and XYZ raster of a frame that now has the shared camera's (it turned in an earlier run). Only these names of
-    the batch's own frames; a canceled frame's are left (it was not processed), and its message names them. Returns
-    the paths removed.
+    the batch's own frames; a canceled frame's of an earlier run are left (it was not processed), and its message
+    names them, while what this run wrote of it before the cancel goes. Returns the paths removed.
 
     A frame that failed on a rerun kept its orthophoto of the earlier run beside a log saying "failed" (a trial)."""
     removed, kept = [], []
+
+    partial: List[str] = []
+
+    def remove(path: str, into: List[str]) -> None:
+        try:
+            os.remove(path)
+            into.append(path)
+        except OSError as exc:
+            kept.append(f"{os.path.basename(path)} ({exc})")
+
     for task, result in zip(tasks, results):
-        if result.canceled:  # the log says which files are of an earlier run (a trial read them as this run's)
-            earlier = [task.stem + suffix for suffix in ("_camera.json", "_xyz.tif", "_ortho.tif")
-                       if os.path.isfile(os.path.join(out_dir, task.stem + suffix))]
+        own = [os.path.join(out_dir, task.stem + suffix) for suffix in ("_camera.json", "_xyz.tif", "_ortho.tif")]
+        written = {os.path.normcase(os.path.abspath(p)) for p in result.outputs}
+        if result.canceled:
+            # what this run wrote of the frame before the cancel is half of its products: it goes (a trial found a
+            # turned frame's camera file without its rasters, named as an earlier run's); the log says which files
+            # are an earlier run's (a trial read them as this run's)
+            for path in own:
+                if os.path.normcase(os.path.abspath(path)) in written and os.path.isfile(path):
+                    remove(path, partial)
+            result.outputs = []
+            earlier = [os.path.basename(p) for p in own if os.path.isfile(p)]
             if earlier:
                 result.message += "; files of an earlier run left as they were: " + ", ".join(earlier)
             continue
         suffixes = ("_camera.json", "_xyz.tif", "_ortho.tif") if not result.ok else \
             ("_camera.json", "_xyz.tif") if shared_camera else ()
-        written = {os.path.normcase(os.path.abspath(p)) for p in result.outputs}
         for suffix in suffixes:
             path = os.path.join(out_dir, task.stem + suffix)
             if os.path.normcase(os.path.abspath(path)) in written or not os.path.isfile(path):
                 continue
-            try:
-                os.remove(path)
-                removed.append(path)
-            except OSError as exc:
-                kept.append(f"{os.path.basename(path)} ({exc})")
+            remove(path, removed)
+    if partial:
+        log(f"{len(partial)} file(s) of frames canceled while they were written removed (a frame's products come "
+            f"whole or not at all): {', '.join(os.path.basename(p) for p in partial)}", False)
     if removed:
         names = ", ".join(os.path.basename(p) for p in removed[:5]) + (", ..." if len(removed) > 5 else "")
         log(f"{len(removed)} file(s) of an earlier run removed, not made again by this run (frames failed, skipped "

@@ -298,3 +298,23 @@ def test_a_rerun_removes_the_earlier_products_of_frames_it_does_not_make_again(d
     assert not list(out.glob("frame_*_camera.json")) and not list(out.glob("frame_*_xyz.tif"))
     assert len(list(out.glob("frame_*_ortho.tif"))) == 4 and (out / "notes.txt").read_text() == "mine"
     assert any("of an earlier run removed" in m and "frame_002_ortho.tif" in m for m in lines)
+
+
+def test_a_frame_canceled_while_written_leaves_no_half_of_its_products(tmp_path):
+    """A trial canceled a batch as a turned frame's camera file had been written but not its rasters: the file
+    stayed, and the log named it as an earlier run's. What this run wrote of a canceled frame goes; an earlier
+    run's files of it stay and are named."""
+    from monoplot_plugin.workflow.frames import FrameTask, PhotoResult
+
+    half = tmp_path / "f3_camera.json"  # written by this run before the cancel
+    half.write_text("{}")
+    older = tmp_path / "f3_ortho.tif"  # an earlier run's
+    older.write_bytes(b"x")
+    task = FrameTask(3, str(tmp_path / "f3.jpg"), "f3", "f3.jpg")
+    result = PhotoResult("f3.jpg", False, "canceled while processing (its outputs not written)", [str(half)],
+                         canceled=True, status="canceled")
+    said = []
+    batch.remove_stale(str(tmp_path), [task], [result], False, lambda text, *a: said.append(text))
+    assert not half.exists() and older.exists() and result.outputs == []
+    assert result.message.endswith("files of an earlier run left as they were: f3_ortho.tif")
+    assert any("canceled while they were written removed" in text and "f3_camera.json" in text for text in said)
