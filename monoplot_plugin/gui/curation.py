@@ -96,7 +96,8 @@ class CurationMixin:
         check point became an ordinary one this way, silently. With pairs of the person's own the fit is paired and
         would leave points without a partner out, so the likely pairs are linked instead."""
         pairs = self.shortlist.likely()
-        if self.state.valid_pairs():
+        if self.state.valid_pairs():  # ... with the accepted points the paired fit leaves out, when they agree
+            pairs = pairs + self.shortlist.accepted_unpartnered()
             edit = link_pairs(self.state, [(a, b) for a, b, _ in pairs])
             n = len(edit.pairs_after) - len(edit.pairs_before)
             edit.text = self.tr("Link {0} likely pairs").format(n)

@@ -308,6 +308,8 @@ class CurationPanel(QWidget):
         sl = self.c.shortlist
         n_out = len(sl.current_outliers())
         n_likely = sl.n_likely()
+        if self.c.state.valid_pairs():  # the accepted points a paired fit leaves out are linked too
+            n_likely += len(sl.accepted_unpartnered())
         # The machine accepts points only on the word of a camera its verdict calls ok: pairs that agree with a
         # doubtful camera confirm it (the scripted Aletsch user ended "ok" 1.9x the paired optimum that way).
         trusted = self.ranking_status == "ok"

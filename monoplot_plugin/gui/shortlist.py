@@ -311,6 +311,19 @@ class Shortlist:
             self._likely = [(a, b, d) for k, (a, b, d, _) in enumerate(self._pairs) if k in self._live]
         return self._likely
 
+    def accepted_unpartnered(self) -> List[Tuple[str, str, float]]:
+        """(photo id, map id, px) of the current camera's likely pairs whose two ends are both accepted and in no
+        pair: points a paired fit leaves out (a trial's curation of 18 DEM points "counted for nothing" once it
+        paired 7), which Accept likely links. O(pairs)."""
+        pts, paired = self.state.points, {i for pr in self.state.pairs for i in pr}
+        out = []
+        for a, b, d, _ in self._pairs:
+            pa, pb = pts.get(a), pts.get(b)
+            if pa is not None and pb is not None and pa.status == ACCEPTED == pb.status and a not in paired \
+                    and b not in paired:
+                out.append((a, b, d))
+        return out
+
     def n_likely(self) -> int:
         """len(:meth:`likely`), in O(1) (the dock's counts after every click)."""
         return len(self._live)

@@ -342,13 +342,22 @@ def test_accept_likely_keeps_decided_points_and_links_pairs_when_the_fit_is_pair
     likely = c.shortlist.likely()
     assert len(likely) >= 10 and not paired & {i for a, b, _ in likely for i in (a, b)}
     n_pairs, checks = len(c.state.pairs), [photo[i].id for i in chosen[:3]] + [world[i].id for i in chosen[:3]]
+    # points accepted without a partner (a trial's 18 DEM points, left out by its paired fit) are linked too
+    loose = [i for i in range(len(photo)) if i not in chosen][:4]
+    with qtbot.waitSignal(panel.refitter.refitted, timeout=120000):
+        c.set_status([photo[i].id for i in loose] + [world[i].id for i in loose], ACCEPTED)
+    qtbot.waitUntil(lambda: panel.acceptLikelyButton.isEnabled(), timeout=10000)
+    likely = c.shortlist.likely()
+    assert {(photo[i].id, world[i].id) for i in loose} <= {(a, b) for a, b, _ in c.shortlist.accepted_unpartnered()}
+    assert f"({len(likely) + len(c.shortlist.accepted_unpartnered())})" in panel.acceptLikelyButton.text()
     press(qtbot, panel.acceptLikelyButton)
-    assert len(c.state.pairs) == n_pairs + len(likely)  # linked, so the paired fit uses them
+    assert {(photo[i].id, world[i].id) for i in loose} <= set(c.state.pairs)
+    assert len(c.state.pairs) == n_pairs + len(likely) + len(loose)  # linked, so the paired fit uses them
     assert all(c.state.points[i].status == CHECK for i in checks)
     truth = {(p.id, w.id) for p, w in zip(photo, world)}
     assert all(pr in truth for pr in c.state.pairs)
     c.stack.undo()  # one undo entry
-    assert len(c.state.pairs) == n_pairs and c.state.counts()[PHOTO][ACCEPTED] == 11
+    assert len(c.state.pairs) == n_pairs and c.state.counts()[PHOTO][ACCEPTED] == 11 + len(loose)
 
 
 def test_a_refit_camera_gives_way_when_an_undo_leaves_too_few_points(dock, scene, qtbot):
