@@ -16,8 +16,8 @@ import numpy as np
 
 from ..core.auto import AutoFitResult, register_automatic
 from ..core.camera import Camera
-from .fit import (ON_GROUND_MAX_M, UNDERGROUND_TOLERANCE_M, flag_under_terrain, ground_clearance, measured_on_pairs,
-                  on_ground_rule)
+from .fit import (DEEP_UNDERGROUND_M, ON_GROUND_MAX_M, UNDERGROUND_TOLERANCE_M, depth_under_terrain,
+                  flag_under_terrain, ground_clearance, measured_on_pairs, on_ground_rule)
 from .progress import Canceled, IsCanceled, Progress, check_canceled
 from .warmup import import_torch
 
@@ -83,7 +83,10 @@ def check_height(result, prior: Camera, dem) -> None:
     no photographer's; from a rough camera standing on the ground (:func:`~.fit.on_ground_rule`), one that ends far
     above or under it has moved where the person said it was not. Either makes an "ok" "uncertain", and the message
     says so."""
-    clearance = ground_clearance(result.camera, dem)
+    clearance, depth = ground_clearance(result.camera, dem), depth_under_terrain(result.camera, dem)
+    if math.isfinite(depth) and depth > DEEP_UNDERGROUND_M:  # wrong, whatever the rough camera stood on
+        flag_under_terrain(result, clearance, depth)
+        return
     grounded, eye = on_ground_rule(prior, dem)
     said = ""
     if grounded and math.isfinite(clearance) and abs(clearance - eye) > ON_GROUND_MAX_M:

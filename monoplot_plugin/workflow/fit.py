@@ -29,6 +29,10 @@ __all__ = ["ON_GROUND_MAX_M", "DEFAULT_EYE_HEIGHT_M", "FitRefused", "FitDone", "
 ON_GROUND_MAX_M = 20.0
 #: a free fit whose camera ends more than this far under the terrain is refitted on the ground (DEM error margin)
 UNDERGROUND_TOLERANCE_M = 2.0
+#: a camera this far under even the lowest terrain within one DEM cell of it stands where no error of the DEM's
+#: (a gorge a coarse grid fills) puts a photographer: "poor" (a trial's brick-wall close-up, registered
+#: automatically, ended 71 m under a flat valley floor, "uncertain", and its wall was draped on the valley)
+DEEP_UNDERGROUND_M = 10.0
 #: eye height of a photographer standing on the ground, when nothing else says it
 DEFAULT_EYE_HEIGHT_M = 1.7
 #: an automatic paired fit held on the ground is also fitted with its height free, and the free height is taken when
@@ -154,7 +158,7 @@ def fit(uv: np.ndarray, xyz: np.ndarray, start: Camera, dem, pairs=None, on_grou
         grounded, eye = True, DEFAULT_EYE_HEIGHT_M if eye_height is None else float(eye_height)
         result = run(result.camera, grounded, eye, report)
     elif not grounded:
-        flag_under_terrain(result, ground_clearance(result.camera, dem))
+        flag_under_terrain(result, ground_clearance(result.camera, dem), depth_under_terrain(result.camera, dem))
     if on_ground is None and eye_height is None and grounded and pairs is None and eye > UNSURE_HEIGHT_M:
         # held at the height the rough camera had (a phone's GPS altitude is often 10-30 m off): at eye height too
         report = None if progress is None else (
@@ -205,9 +209,35 @@ def height_explained(held: FitResult, freed: FitResult, n_pairs: int) -> bool:
     return (sse_held - sse_free) / (sse_free / dof) > FREE_HEIGHT_F
 
 
-def flag_under_terrain(result: FitResult, clearance: float) -> None:
+def depth_under_terrain(camera: Camera, dem) -> float:
+    """How far (m) ``camera`` stands under the lowest terrain within one DEM cell of it (3 x 3 samples a cell
+    apart): what no smoothing of a coarse DEM explains; negative above it, NaN outside the DEM.
+
+    >>> from monoplot_plugin.core.dem import Dem
+    >>> dem = Dem.from_array(np.array([[100.0, 100.0, 100.0], [100.0, 40.0, 100.0], [100.0, 100.0, 100.0]]),
+    ...                      (0, 10, 0, 30, 0, -10))
+    >>> round(depth_under_terrain(Camera((15, 15, 20), 0, 0, 0, 60, (10, 10)), dem), 1)  # the pit's floor: 40
+    20.0
+    """
+    x, y, z = (float(v) for v in camera.position)
+    step = float(dem.cell_size)
+    offsets = np.array([-step, 0.0, step])
+    xs, ys = np.meshgrid(x + offsets, y + offsets)
+    heights = np.asarray(dem.sample(xs.ravel(), ys.ravel()), dtype=np.float64)
+    heights = heights[np.isfinite(heights)]
+    return float(heights.min() - z) if len(heights) else float("nan")
+
+
+def flag_under_terrain(result: FitResult, clearance: float, depth: float = float("nan")) -> None:
     """A camera more than :data:`UNDERGROUND_TOLERANCE_M` under the terrain is no photographer's: say so in
-    ``result.message``, and an "ok" becomes "uncertain" (in place)."""
+    ``result.message``, and an "ok" becomes "uncertain" (in place). ``depth`` (:func:`depth_under_terrain`) over
+    :data:`DEEP_UNDERGROUND_M`: the camera is wrong, "poor"."""
+    if math.isfinite(depth) and depth > DEEP_UNDERGROUND_M and result.status in ("ok", "uncertain"):
+        result.status = "poor"
+        result.message = (f"Probably wrong: the camera ends {max(depth, -clearance):.0f} m under the terrain, under "
+                          f"even the lowest ground within a DEM cell of it, where no photo can be taken: check the "
+                          f"rough camera, the points and the DEM. {result.message}")
+        return
     if not (math.isfinite(clearance) and clearance < -UNDERGROUND_TOLERANCE_M):
         return
     result.message = (f"{result.message} The camera ends {-clearance:.0f} m under the terrain, where no photo "

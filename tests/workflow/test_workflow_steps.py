@@ -340,13 +340,20 @@ def test_a_camera_found_automatically_keeps_to_the_height_the_person_gave(scene)
 
     from monoplot_plugin.workflow.auto import check_height
 
+    from monoplot_plugin.workflow.fit import depth_under_terrain
+
     dem, camera, ground = scene
     prior = camera.with_parameters(z=ground + 2.0)
-    for dz, expected in ((1.7, "ok"), (96.0, "uncertain"), (-75.0, "uncertain"), (-7.0, "uncertain")):
+    # under even the lowest ground within a DEM cell (no coarse DEM's error): wrong, "poor" (a trial's brick-wall
+    # close-up, registered automatically, ended 71 m under a flat valley floor, "uncertain", and was draped)
+    assert 10.0 < depth_under_terrain(camera.with_parameters(z=ground - 75.0), dem) < 75.0
+    assert depth_under_terrain(camera.with_parameters(z=ground - 7.0), dem) < 10.0
+    for dz, expected in ((1.7, "ok"), (96.0, "uncertain"), (-75.0, "poor"), (-7.0, "uncertain")):
         found = SimpleNamespace(camera=camera.with_parameters(z=ground + dz), status="ok", message="Fitted.")
         check_height(found, prior, dem)
         assert found.status == expected
         assert (expected == "ok") == (found.message == "Fitted.")
+        assert (expected == "poor") == found.message.startswith("Probably wrong: the camera ends")
         # under the ground it stood on: the Fit holds it there (a trial's phone photo was told to set the camera
         # height to "automatic", which it was)
         assert dz != -7.0 or "where Fit on the matched points holds it" in found.message
