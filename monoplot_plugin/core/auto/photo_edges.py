@@ -43,6 +43,8 @@ N_ORIENTATIONS = 6
 CAP = 4.0
 #: Least edge strength (noise-floor units) of a clear skyline column.
 VALID = 3.0
+#: Least share of the picture's columns with a clear skyline for it to be usable.
+SKY_FRACTION_MIN = 0.25
 PEN = 0.3
 #: Largest share of the picture under the skyline whose colour lies within the spread of the colour above it (CIE
 #: Lab, 2 standard deviations, each at least 2 units) for the skyline to be usable. Measured on rendered photos:
@@ -213,7 +215,7 @@ def detect_photo_edges(image: np.ndarray, width: int = 512, mask=None) -> PhotoE
     contrast = float(np.median(at[valid] / np.maximum(sky_tex[valid], 0.5))) if valid.any() else 0.0
     boundary = _boundary_rows(raw, path, gap, VALID)
     like = _sky_like_below(rgb, boundary, valid, top, pic, gap)
-    usable = sky_fraction >= 0.25 and not like > SKY_LIKE_MAX
+    usable = sky_fraction >= SKY_FRACTION_MIN and not like > SKY_LIKE_MAX
     # Terrain edges: Canny below the skyline (clouds are not terrain), inside the picture.
     g8 = cv2.GaussianBlur(gray, (0, 0), sigma)
     med = float(np.median(g8[pic])) if pic.any() else 128.0

@@ -38,7 +38,7 @@ from ..xyz.zbuffer import trial_cameras
 from .align import Aligner, camera_from_offset, offsets_grid
 from .dem_edges import coarse_dem, dem_edges, dem_in_view
 from .fine import edge_score, fine_steps, offset_between, position_probes, refine_fine
-from .photo_edges import PhotoEdges, detect_photo_edges
+from .photo_edges import SKY_FRACTION_MIN, PhotoEdges, detect_photo_edges
 from .points import FIT_DEM_CELLS, consistent_points, skyline_points
 from .sigma import RIVAL_RATIO, camera_values, edge_std, widen_std
 
@@ -455,7 +455,7 @@ def _prior_kept(result: AutoFitResult, prior: Camera, sig: dict) -> AutoFitResul
     if no_edges:
         why = "the photo's edges match no camera's view of the DEM, the prior's neither (edge score 1 = no match)"
     elif not ev["auto_skyline_usable"] and ev["auto_edge_score"] > FAINT_EDGES_SCORE:
-        why = (f"the photo shows no clear skyline ({100 * ev['auto_sky_fraction']:.0f} % of its columns), and its "
+        why = (f"{_no_clear_skyline(ev)}, and its "
                f"faint edges match the DEM's only by chance under the best camera found (edge score "
                f"{ev['auto_edge_score']:.2f}, the prior's {ev['auto_prior_edge_score']:.2f}; 0 is a perfect fit, 1 "
                f"no match)")
@@ -497,13 +497,29 @@ def _alignment_evidence(al: Aligner, off, score: float, refined, photo: PhotoEdg
             "auto_evaluations": int(al.evaluations)}
 
 
+def _no_clear_skyline(ev: dict) -> str:
+    """Why the photo's skyline is not usable, in words: too few columns have one, or the line found has the colour
+    of the picture under it (a trial's brick wall: "no clear skyline (76 % of its columns)" read as a contradiction).
+
+    >>> _no_clear_skyline({"auto_sky_fraction": 0.2})
+    'the photo shows no clear skyline (20 % of its columns)'
+    >>> _no_clear_skyline({"auto_sky_fraction": 0.76})[:76]
+    'the photo shows no clear skyline: the line found across 76 % of its columns '
+    """
+    share = 100 * ev["auto_sky_fraction"]
+    if ev["auto_sky_fraction"] < SKY_FRACTION_MIN:
+        return f"the photo shows no clear skyline ({share:.0f} % of its columns)"
+    return (f"the photo shows no clear skyline: the line found across {share:.0f} % of its columns has much of the "
+            "colour of what lies under it, as a wall's or a rock face's edge has, not a sky's")
+
+
 def _combine(result: AutoFitResult, ev: dict) -> None:
     """Add the alignment's evidence; it can only lower the fit's status. The reasons for doubt are kept in
     ``result.weak`` (:func:`_prior_kept` gives them alone)."""
     result.evidence.update(ev)
     weak = result.weak = []
     if not ev["auto_skyline_usable"]:
-        weak.append(f"the photo shows no clear skyline ({100 * ev['auto_sky_fraction']:.0f} % of its columns): the "
+        weak.append(f"{_no_clear_skyline(ev)}: the "
                     "camera rests on suggestions alone")
     elif ev["auto_sky_agreement"] < SKY_AGREEMENT_OK:
         weak.append(f"only {100 * ev['auto_sky_agreement']:.0f} % of the photo's skyline lies on the DEM's "
