@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from typing import Dict, Optional, Tuple
 
 __all__ = ["ExifPrior", "read_exif_prior", "parse_exif_prior", "parse_xmp_gimbal", "horizontal_fov_from_35mm",
-           "lens_fov", "exif_camera"]
+           "lens_fov", "exif_camera", "exif_rough_camera"]
 
 #: Millimetres per FocalPlaneResolutionUnit (EXIF: 1 none, 2 inch, 3 cm; 4 mm and 5 µm in some writers).
 _UNIT_MM = {1: 25.4, 2: 25.4, 3: 10.0, 4: 1.0, 5: 0.001}
@@ -241,7 +241,8 @@ def read_exif_prior(path: str, size: Tuple[int, int]) -> Optional[ExifPrior]:
     return prior if (prior.has_position or prior.fov is not None or prior.focal_mm is not None) else None
 
 
-def exif_camera(exif: Optional[ExifPrior], size: Tuple[int, int], dem, heading: Optional[float] = None):
+def exif_camera(exif: Optional[ExifPrior], size: Tuple[int, int], dem, heading: Optional[float] = None,
+                crs_wkt: str = ""):
     """A rough :class:`~monoplot_plugin.core.camera.Camera` in ``dem``'s CRS from the EXIF tags: GPS position,
     altitude (else 2 m above the DEM, never below 1 m above it), a drone's gimbal heading or GPSImgDirection (else
     ``heading``, degrees from grid north), a drone's gimbal pitch (else level), field of view (else 60 degrees).
@@ -255,7 +256,8 @@ def exif_camera(exif: Optional[ExifPrior], size: Tuple[int, int], dem, heading: 
 
     if exif is None or not exif.has_position:
         raise ValueError("the photo has no GPS position in its EXIF tags")
-    x, y, convergence = lonlat_to_crs(exif.lon, exif.lat, dem.crs_wkt)
+    crs_wkt = crs_wkt or dem.crs_wkt  # the DEM's CRS (given apart where the DEM object has none: a batch's)
+    x, y, convergence = lonlat_to_crs(exif.lon, exif.lat, crs_wkt)
     if exif.heading is not None:
         heading = exif.heading - convergence
     elif heading is None:
@@ -266,4 +268,15 @@ def exif_camera(exif: Optional[ExifPrior], size: Tuple[int, int], dem, heading: 
     z = exif.altitude if exif.altitude is not None else ground + 2.0
     pitch = exif.pitch if exif.pitch is not None else 0.0
     return Camera((x, y, max(z, ground + 1.0)), float(heading), float(pitch), 0.0, exif.fov or 60.0, tuple(size),
-                  crs_wkt=dem.crs_wkt)
+                  crs_wkt=crs_wkt)
+
+
+def exif_rough_camera(path: str, size: Tuple[int, int], dem, crs_wkt: str = ""):
+    """The rough camera of the photo file at ``path`` from its EXIF tags (:func:`exif_camera`, no heading guessed):
+    what a batch row naming no prior camera starts from, as ``autoregister`` does. Module-level and free of QGIS,
+    so a batch job can carry it to a Dask worker.
+
+    Raises:
+        ValueError: the tags give no GPS position or no direction of view, or the position is off the DEM.
+    """
+    return exif_camera(read_exif_prior(path, size), size, dem, crs_wkt=crs_wkt)

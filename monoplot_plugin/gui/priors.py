@@ -15,6 +15,7 @@ from qgis.core import Qgis
 from ..adapters.exif import exif_camera, read_exif_prior
 from ..core.camera import Camera, azimuth
 from ..core.kml import lonlat_to_crs
+from ..workflow.auto import GPS_POSITION_SIGMA_M
 from ..workflow.products import centred_on_picture
 from . import engine
 
@@ -25,7 +26,7 @@ INFO, WARNING, CRITICAL = Qgis.MessageLevel.Info, Qgis.MessageLevel.Warning, Qgi
 #: ``state.settings["prior_source"]`` of a rough camera placed at the photo's EXIF GPS position
 GPS_SOURCE = "exif-gps"
 #: metres: how far a phone's or drone's GPS position usually is from where it stood (the fit's moved-camera note)
-GPS_POSITION_M = 30.0
+GPS_POSITION_M = GPS_POSITION_SIGMA_M
 
 
 def terrain_pitch(camera: Camera, dem, rays: int = 9, samples: int = 160,

@@ -21,11 +21,14 @@ from .fit import (DEEP_UNDERGROUND_M, ON_GROUND_MAX_M, UNDERGROUND_TOLERANCE_M, 
 from .progress import Canceled, IsCanceled, Progress, check_canceled
 from .warmup import import_torch
 
-__all__ = ["AutoDone", "register", "check_height", "DEFAULT_POSITION_SIGMA_M", "DEFAULT_ANGLE_SIGMA_DEG",
-           "AUTOMATIC_LABEL", "cap_by_automatic", "rests_on_automatic", "sigma_at_least", "judge_by_check_points"]
+__all__ = ["AutoDone", "register", "check_height", "DEFAULT_POSITION_SIGMA_M", "GPS_POSITION_SIGMA_M",
+           "DEFAULT_ANGLE_SIGMA_DEG", "AUTOMATIC_LABEL", "cap_by_automatic", "rests_on_automatic", "sigma_at_least",
+           "judge_by_check_points"]
 
 #: the prior's uncertainty when nothing else says it (a position read off a map or EXIF GPS, a heading guessed)
 DEFAULT_POSITION_SIGMA_M = 200.0
+#: ... and for a position from a photo's EXIF GPS (a phone's or a drone's: usually within 30 m; the dock's too)
+GPS_POSITION_SIGMA_M = 30.0
 DEFAULT_ANGLE_SIGMA_DEG = 5.0
 #: label of the points the automatic registration matched (the point table shows it; :func:`cap_by_automatic`
 #: reads it)

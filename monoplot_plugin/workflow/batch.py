@@ -49,6 +49,10 @@ class PhotoJob:
     # automatic registration's defaults
     position_sigma_m: Optional[float] = None
     angle_sigma_deg: Optional[float] = None
+    # for a row with no prior file: (photo path, (width, height), dem, DEM CRS WKT) -> rough camera, e.g. from the
+    # photo's EXIF GPS (Processing gives ``adapters.exif.exif_rough_camera``: module-level, so it reaches a Dask
+    # worker)
+    prior_reader: Optional[Callable] = None
 
 
 def folder_jobs(folder: str, camera, patterns: str = "") -> List[PhotoJob]:

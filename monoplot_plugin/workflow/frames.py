@@ -329,21 +329,32 @@ def fit_job(job, size, dem, crs_wkt: str, photo: Optional[np.ndarray] = None,
     the job's ``position_sigma_m`` and ``angle_sigma_deg``, None: its defaults): an archive of photos with rough
     cameras only needed autoregister in QGIS's batch dialog, which froze the desktop for 87 s over 7 photos
     (a trial)."""
-    prior = load_camera(job.prior, size, crs_wkt, rough=True)
+    reader = getattr(job, "prior_reader", None)
+    from_exif = not job.prior and reader is not None
+    if from_exif:  # as autoregister: an empty prior is the photo's EXIF GPS (a trial made 4 prior files by hand)
+        try:
+            prior = reader(job.photo, size, dem, crs_wkt)
+        except ValueError as exc:
+            raise InputError(f"no prior camera in this row, and {exc}: give a camera file (Monoplot JSON or "
+                             "KML)") from None
+    else:
+        prior = load_camera(job.prior, size, crs_wkt, rough=True)
     if photo is not None:  # a scanned print's optical axis: its picture's centre, as in the dock
         prior = centred_on_picture(prior, picture_area(photo))
     if not job.points and photo is not None:
-        from .auto import DEFAULT_ANGLE_SIGMA_DEG, DEFAULT_POSITION_SIGMA_M, register
+        from .auto import DEFAULT_ANGLE_SIGMA_DEG, DEFAULT_POSITION_SIGMA_M, GPS_POSITION_SIGMA_M, register
 
-        position = getattr(job, "position_sigma_m", None) or DEFAULT_POSITION_SIGMA_M
+        position = getattr(job, "position_sigma_m", None) or (GPS_POSITION_SIGMA_M if from_exif else
+                                                              DEFAULT_POSITION_SIGMA_M)
         angle = getattr(job, "angle_sigma_deg", None) or DEFAULT_ANGLE_SIGMA_DEG
         done = register(photo, dem, prior, position_sigma_m=position, angle_sigma_deg=angle, is_canceled=is_canceled)
         camera, r = done.camera, done.result
         camera.crs_wkt = crs_wkt
         rmse = float(r.rmse_px) if r.rmse_px is not None and np.isfinite(r.rmse_px) else float("nan")
         return camera, {"status": r.status, "rmse_px": rmse, "summary": r.summary(),
-                        "message": (f"automatic registration (no points in this row; prior σ {position:g} m, "
-                                    f"{angle:g}°): " + r.message)}
+                        "message": (f"automatic registration (no points in this row; prior "
+                                    f"{'from EXIF GPS, ' if from_exif else ''}σ {position:g} m, {angle:g}°): "
+                                    + r.message)}
     if not job.points:  # "point file not found: " with no name said nothing
         raise InputError("no points file in this row (the 'points' column is empty)")
     table = read_points_csv(job.points)

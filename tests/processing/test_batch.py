@@ -190,3 +190,39 @@ def test_a_cancel_stops_a_row_being_registered(run_alg, small_scene, tmp_path):
     dem = Dem.open(small_scene["dem"])
     with pytest.raises(Canceled):
         fit_job(job, (photo.shape[1], photo.shape[0]), dem, dem.crs_wkt, photo, is_canceled=lambda: True)
+
+
+def test_a_table_row_without_a_prior_starts_from_the_photos_exif_gps(run_alg, small_scene, tmp_path):
+    """As autoregister: an empty prior cell is the photo's EXIF GPS (a trial made its four priors by hand in the
+    dock: "FAILED, skipped: no camera file given"), with a GPS's 30 m of uncertainty; a photo without GPS fails with
+    the reason."""
+    from osgeo import gdal, osr
+
+    cam = small_scene["cam"]
+    src, dst = osr.SpatialReference(), osr.SpatialReference()
+    src.ImportFromEPSG(32632)
+    dst.ImportFromEPSG(4326)
+    for srs in (src, dst):
+        srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+    # the scene's camera stands south of the DEM: its GPS fix here is inside it, at its south edge
+    lon, lat, _ = osr.CoordinateTransformation(src, dst).TransformPoint(cam.position[0], 5097700.0)
+
+    def dms(value):
+        d, m = int(value), int((value - int(value)) * 60)
+        return f"({d}) ({m}) ({(value - d - m / 60) * 3600:.4f})"
+
+    write_photo(tmp_path / "plain.png", seed=3)
+    mem = gdal.GetDriverByName("MEM").CreateCopy("", gdal.Open(str(tmp_path / "plain.png")))
+    mem.SetMetadata({"EXIF_GPSLatitude": dms(lat), "EXIF_GPSLatitudeRef": "N", "EXIF_GPSLongitude": dms(lon),
+                     "EXIF_GPSLongitudeRef": "E", "EXIF_GPSAltitude": f"({cam.position[2]:.1f})",
+                     "EXIF_GPSImgDirection": f"({cam.heading % 360:.1f})", "EXIF_GPSImgDirectionRef": "T"})
+    gdal.GetDriverByName("JPEG").CreateCopy(str(tmp_path / "gps.jpg"), mem)
+    (tmp_path / "photos.csv").write_text("photo,prior,points\ngps.jpg,,\nplain.png,,\n")
+    out = tmp_path / "out"
+    run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"), "XYZ": False,
+                      "ORTHO": False, "OUTPUT": str(out)})
+    rows = {r["photo"]: r for r in csv.DictReader(open(out / "batch_log.csv", encoding="utf-8"))}
+    assert "prior from EXIF GPS, σ 30 m" in rows["gps.jpg"]["message"], rows["gps.jpg"]
+    assert rows["gps.jpg"]["status"] in ("ok", "uncertain", "poor")
+    assert rows["plain.png"]["status"] == "failed"
+    assert "no prior camera in this row, and the photo has no GPS position" in rows["plain.png"]["message"]

@@ -38,7 +38,10 @@ class BatchPhotos(MonoplotAlgorithm):
              "with the fit's verdict) and gets its own XYZ raster and orthophoto. A row whose points cell is empty is "
              "registered automatically from its prior, as monoplot:autoregister does, with the prior's uncertainty "
              "POSITION_SIGMA and ANGLE_SIGMA, or the row's own in optional columns position_sigma (m) and "
-             "angle_sigma (degrees).\n\n"
+             "angle_sigma (degrees). A row whose prior cell is empty starts from the photo's EXIF GPS position and "
+             "direction, as autoregister does, with a position uncertainty of 30 m unless POSITION_SIGMA is set "
+             "to another value or the row gives its own (a photo without GPS or direction tags fails, with the "
+             "reason).\n\n"
              "A KML camera (a rough prior) takes its image size from the first readable photo.\n\n"
              "Progress is reported per photo. A photo that cannot be read (damaged, truncated, not an image) or "
              "fitted, or whose size differs from the shared camera's, is reported and skipped; so is a blank photo "
@@ -166,8 +169,15 @@ class BatchPhotos(MonoplotAlgorithm):
             jobs = checked(batch.table_jobs, self.parameterAsFile(parameters, "TABLE", context))
             position = self.parameterAsDouble(parameters, "POSITION_SIGMA", context) or DEFAULT_POSITION_SIGMA_M
             angle = self.parameterAsDouble(parameters, "ANGLE_SIGMA", context) or DEFAULT_ANGLE_SIGMA_DEG
+            from ...adapters.exif import exif_rough_camera
+
             for job in jobs:  # a row's own columns first
-                job.position_sigma_m = job.position_sigma_m or position
+                if not job.prior:  # the photo's EXIF GPS, with a GPS's uncertainty unless one was asked for
+                    job.prior_reader = exif_rough_camera
+                    if position != DEFAULT_POSITION_SIGMA_M:
+                        job.position_sigma_m = job.position_sigma_m or position
+                else:
+                    job.position_sigma_m = job.position_sigma_m or position
                 job.angle_sigma_deg = job.angle_sigma_deg or angle
             camera_verdict = ("ok", "")  # each row's own fit says
         feedback.pushInfo(self.tr("{0} photos to process").format(len(jobs)))
