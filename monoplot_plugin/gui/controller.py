@@ -204,7 +204,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         self.photoChanged.emit()
         self.cameraChanged.emit()
         self._changed()
-        self._maybe_exif_prior()
+        self._maybe_exif_prior(fresh=switch and back is None)
         if keep_points and not self._restoring:  # a time-lapse's next frame: the kept camera's overlay on it
             self.ensure_products()
         if back is not None:

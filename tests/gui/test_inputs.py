@@ -480,3 +480,30 @@ def test_a_layer_refused_as_the_dem_leaves_the_box_on_the_dem_in_use(dock, scene
     dock.demCombo.setLayer(photo)  # as the person picks it in the box
     assert dock.controller.dem_layer is dem_layer  # refused
     assert dock.demCombo.currentLayer() is dem_layer
+
+
+def test_a_new_photo_with_gps_tags_gets_its_own_rough_camera_not_the_last_ones(dock, scene, tmp_path):
+    """A trial chose its phone photos one after another: the second kept the first one's GPS camera (taken
+    elsewhere) and it was saved as the second one's prior. A new photo's own GPS tags win; a photo without any
+    (the next frame of the same view) keeps the camera carried to it."""
+    import shutil
+
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    c = dock.controller
+    first = _jpeg_at_camera(scene, tmp_path / "first.jpg", GPSAltitude=f"({scene.camera.position[2]:.1f})",
+                            GPSImgDirection="(10.0)", GPSImgDirectionRef="T")
+    dock.photoFile.setFilePath(first)
+    gps_prior = c.prior
+    assert gps_prior is not None and c.state.settings["prior_source"] == "exif-gps"
+    elsewhere = gps_prior.with_parameters(x=gps_prior.position[0] + 400.0, heading=gps_prior.heading + 40.0)
+    c.set_prior(elsewhere)  # the first photo's camera, moved by hand: not this second photo's
+    second = _jpeg_at_camera(scene, tmp_path / "second.jpg", GPSAltitude=f"({scene.camera.position[2]:.1f})",
+                             GPSImgDirection="(10.0)", GPSImgDirectionRef="T")
+    dock.photoFile.setFilePath(second)
+    assert np.allclose(c.prior.position[:2], gps_prior.position[:2], atol=1.0)
+    assert abs(c.prior.heading - gps_prior.heading) < 0.1
+    c.set_prior(elsewhere)
+    plain = tmp_path / "third.png"
+    shutil.copy(scene.photo_path, plain)  # no tags: the carried camera stays
+    dock.photoFile.setFilePath(str(plain))
+    assert np.allclose(c.prior.position, elsewhere.position) and abs(c.prior.heading - elsewhere.heading) < 1e-6
