@@ -164,7 +164,17 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
     writer = None
     if setup.camera_json and write_xyz and shared.products.sees_ground:  # written while the frames run
         writer = _Background(shared.products.write_xyz, os.path.join(out_dir, SHARED_XYZ), crs_wkt)
-    work = lambda t: process_frame(t, shared, is_canceled)  # noqa: E731 — a frame under way stops on a cancel too
+    finished = [0]
+
+    def work(task: FrameTask) -> PhotoResult:  # a frame under way stops on a cancel too
+        if not setup.camera_json:  # a table's row takes seconds (a registration 13-21 s): say which is under way (a
+            # trial's bar sat at 0 % for 17-75 s with no word)
+            progress(finished[0] / max(1, len(tasks)), f"processing {task.name}")
+        try:
+            return process_frame(task, shared, is_canceled)
+        finally:
+            finished[0] += 1
+
     results = collect(_threaded(tasks, work, workers, is_canceled), tasks, log, progress)
     if writer is not None and writer.wait() is not None:
         shared_xyz_failed(results, os.path.join(out_dir, SHARED_XYZ), writer.error, log)
@@ -456,7 +466,8 @@ def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_poi
 def write_log(path: str, results: List[PhotoResult], folder: str = "") -> None:
     """CSV summary: photo (relative to ``folder``, the batch's photo folder or table's, when inside it, else
     absolute: see :func:`log_photo_path`), status (:meth:`~.frames.PhotoResult.verdict`: a fit "uncertain" was
-    logged "ok"), message, rmse_px, drift_px, drift_deg (re-registered frames), outputs (semicolon-separated)."""
+    logged "ok"), message, rmse_px, drift_px, drift_deg (re-registered frames), seconds (spent on the photo, where
+    it ran; a trial had to time its registrations one by one), outputs (semicolon-separated)."""
     import io
 
     def number(value, digits):
@@ -464,10 +475,10 @@ def write_log(path: str, results: List[PhotoResult], folder: str = "") -> None:
 
     text = io.StringIO(newline="")
     writer = csv.writer(text)
-    writer.writerow(["photo", "status", "message", "rmse_px", "drift_px", "drift_deg", "outputs"])
+    writer.writerow(["photo", "status", "message", "rmse_px", "drift_px", "drift_deg", "seconds", "outputs"])
     for r in results:
-        writer.writerow([log_photo_path(r.photo, folder), r.verdict(), r.message,
-                         number(r.rmse_px, 3), number(r.drift_px, 3), number(r.drift_deg, 4), ";".join(r.outputs)])
+        writer.writerow([log_photo_path(r.photo, folder), r.verdict(), r.message, number(r.rmse_px, 3),
+                         number(r.drift_px, 3), number(r.drift_deg, 4), number(r.seconds, 2), ";".join(r.outputs)])
     write_text(path, text.getvalue(), overwrite=True)
 
 

@@ -219,10 +219,20 @@ def test_a_table_row_without_a_prior_starts_from_the_photos_exif_gps(run_alg, sm
     gdal.GetDriverByName("JPEG").CreateCopy(str(tmp_path / "gps.jpg"), mem)
     (tmp_path / "photos.csv").write_text("photo,prior,points\ngps.jpg,,\nplain.png,,\n")
     out = tmp_path / "out"
+
+    class Texts(QgsProcessingFeedback):
+        texts = []
+
+        def setProgressText(self, text):  # noqa: N802 (QGIS API)
+            self.texts.append(text)
+
+    feedback = Texts()
     run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"), "XYZ": False,
-                      "ORTHO": False, "OUTPUT": str(out)})
+                      "ORTHO": False, "OUTPUT": str(out)}, feedback)
+    # the row under way is named (a trial's bar sat at 0 % for 17-75 s with no word)
+    assert "processing gps.jpg" in feedback.texts and "processing plain.png" in feedback.texts, feedback.texts
     rows = {r["photo"]: r for r in csv.DictReader(open(out / "batch_log.csv", encoding="utf-8"))}
     assert "prior from EXIF GPS, σ 30 m" in rows["gps.jpg"]["message"], rows["gps.jpg"]
-    assert rows["gps.jpg"]["status"] in ("ok", "uncertain", "poor")
+    assert rows["gps.jpg"]["status"] in ("ok", "uncertain", "poor") and float(rows["gps.jpg"]["seconds"]) > 0
     assert rows["plain.png"]["status"] == "failed"
     assert "no prior camera in this row, and the photo has no GPS position" in rows["plain.png"]["message"]

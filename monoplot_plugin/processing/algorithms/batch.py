@@ -187,6 +187,8 @@ class BatchPhotos(MonoplotAlgorithm):
 
         def progress(fraction, message=""):
             feedback.setProgress(100.0 * fraction)
+            if message:  # the photo under way, or the last one done
+                feedback.setProgressText(message)
 
         register = self.parameterAsBool(parameters, "REGISTER", context)
         if register and mode != 0:
