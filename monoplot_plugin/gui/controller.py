@@ -192,19 +192,24 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         elif switch:
             self.stack.reset(self._without_photo_points())
             self.state.fitted, self.state.fit_info = None, {}
-        prior = self.prior
+        prior, carried = self.prior, ""
         if prior is not None and tuple(prior.image_size) != self.photo_size and not self._restoring:
             notes = []
             prior = fitted_to_size(prior, self.photo_size, rough=True, notes=notes)
-            self.message.emit(self.tr("The rough camera: {0}.").format(notes[0]), INFO)  # a trial's stayed
-            # 1758 x 1378 on a 1574 x 1157 photo: Find camera refused it with a traceback
+            # a trial's stayed 1758 x 1378 on a 1574 x 1157 photo: Find camera refused it with a traceback
+            carried = self.tr("The rough camera: {0}.").format(notes[0])
+        if prior is not None and switch and back is None and not self._restoring:
+            # another picture, not "the same picture at another resolution" (a trial read that of another photo)
+            carried = self.tr("The rough camera of the previous photo is kept for this one ({0} × {1} px): check "
+                              "it, take it From EXIF or draw it on the map.").format(*self.photo_size)
         if prior is not None and not self._restoring:
             self.state.prior = centred_on_picture(prior, self._picture_area()).to_dict()
         self.overlay, self.xyz, self.footprint_wkt = None, None, ""
         self.photoChanged.emit()
         self.cameraChanged.emit()
         self._changed()
-        self._maybe_exif_prior(fresh=switch and back is None)
+        if not self._maybe_exif_prior(fresh=switch and back is None) and carried:
+            self.message.emit(carried, INFO)  # not said when the photo's own GPS camera replaced it at once
         if keep_points and not self._restoring:  # a time-lapse's next frame: the kept camera's overlay on it
             self.ensure_products()
         if back is not None:

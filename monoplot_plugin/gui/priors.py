@@ -276,15 +276,14 @@ class PriorsMixin:
             return None
         return read_exif_prior(self.state.photo_path, self.photo_size)
 
-    def _maybe_exif_prior(self, fresh: bool = False) -> None:
+    def _maybe_exif_prior(self, fresh: bool = False) -> bool:
         """The photo's EXIF GPS camera as the rough camera when there is none, or when the one there was carried
         from another photo (``fresh``: a new photo whose work was not put aside earlier): a trial's second phone
         photo kept the first one's GPS camera, taken elsewhere, and saved it as its own prior. A photo without
-        GPS tags keeps the carried one (the next frame of the same view)."""
+        GPS tags keeps the carried one (the next frame of the same view). Returns whether the EXIF camera was set."""
         if self._restoring or self.image is None or self.dem is None:
-            return
-        if self.state.prior is None or fresh:
-            self.prior_from_exif(quiet=True)
+            return False
+        return bool((self.state.prior is None or fresh) and self.prior_from_exif(quiet=True))
 
     def import_kml(self, path: str) -> bool:
         """Read a KML PhotoOverlay as the prior."""

@@ -499,7 +499,10 @@ def test_a_new_photo_with_gps_tags_gets_its_own_rough_camera_not_the_last_ones(d
     c.set_prior(elsewhere)  # the first photo's camera, moved by hand: not this second photo's
     second = _jpeg_at_camera(scene, tmp_path / "second.jpg", GPSAltitude=f"({scene.camera.position[2]:.1f})",
                              GPSImgDirection="(10.0)", GPSImgDirectionRef="T")
+    said = []
+    c.message.connect(lambda text, level: said.append(text))
     dock.photoFile.setFilePath(second)
+    assert not any("previous photo" in text or "another resolution" in text for text in said), said
     assert np.allclose(c.prior.position[:2], gps_prior.position[:2], atol=1.0)
     assert abs(c.prior.heading - gps_prior.heading) < 0.1
     c.set_prior(elsewhere)
@@ -507,3 +510,5 @@ def test_a_new_photo_with_gps_tags_gets_its_own_rough_camera_not_the_last_ones(d
     shutil.copy(scene.photo_path, plain)  # no tags: the carried camera stays
     dock.photoFile.setFilePath(str(plain))
     assert np.allclose(c.prior.position, elsewhere.position) and abs(c.prior.heading - elsewhere.heading) < 1e-6
+    # ... and said to be the previous photo's, not "the same picture at another resolution" (a trial)
+    assert any(text.startswith("The rough camera of the previous photo is kept for this one") for text in said)
