@@ -143,6 +143,9 @@ def remove_camera_layers(project: QgsProject, other: bool = False) -> None:
     ids = [lid for lid, lyr in project.mapLayers().items() if lyr.customProperty(_ROLE) in roles]
     if ids:
         project.removeMapLayers(ids)
+        group = project.layerTreeRoot().findGroup(GROUP_NAME)
+        if group is not None and not group.children():  # an empty group stayed in the Layers panel (a trial)
+            group.parent().removeChildNode(group)
 
 
 def show_camera_layers(project: QgsProject, camera: Camera, footprint_wkt: str,

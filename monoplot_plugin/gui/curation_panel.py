@@ -184,10 +184,16 @@ class CurationPanel(QWidget):
         return self.c.reject_rest()
 
     def accept_likely(self) -> int:
+        linking = bool(self.c.state.valid_pairs())
         n = self.c.accept_likely()
         if not n:
             self.dock.show_message(self.tr("No likely pairs under the current camera: accept a few points you "
                                            "recognise, the refit links the rest."))
+        elif linking:  # said, not a blank status line (a trial)
+            self.dock.show_message(self.tr("{0} likely pairs linked: the next Fit uses them (Undo takes them "
+                                           "back).").format(n))
+        else:
+            self.dock.show_message(self.tr("{0} likely pairs accepted (Undo takes them back).").format(n))
         return n
 
     def reject_outliers(self) -> int:

@@ -103,6 +103,7 @@ def test_find_camera_automatically_gives_a_camera_and_accepted_points(dock, vall
 
     # ... and its star and footprint leave the map (a trial saw them stay, the dock saying "Not fitted yet")
     qtbot.waitUntil(lambda: not camera_layer_names(), timeout=5000)
+    assert QgsProject.instance().layerTreeRoot().findGroup(GROUP_NAME) is None  # nor an empty group in the panel
     qtbot.mouseClick(dock.redoButton, Qt.MouseButton.LeftButton)
     assert len(c.state.in_space(PHOTO, (ACCEPTED,))) == len(photo) and c.fitted == found
     assert c.state.fit_info["status"] == found_info["status"] and c.state.settings["automatic_status"]

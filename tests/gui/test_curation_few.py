@@ -351,6 +351,7 @@ def test_accept_likely_keeps_decided_points_and_links_pairs_when_the_fit_is_pair
     assert {(photo[i].id, world[i].id) for i in loose} <= {(a, b) for a, b, _ in c.shortlist.accepted_unpartnered()}
     assert f"({len(likely) + len(c.shortlist.accepted_unpartnered())})" in panel.acceptLikelyButton.text()
     press(qtbot, panel.acceptLikelyButton)
+    assert dock.statusLabel.text().startswith(f"{len(likely) + len(loose)} likely pairs linked: the next Fit")
     assert {(photo[i].id, world[i].id) for i in loose} <= set(c.state.pairs)
     assert len(c.state.pairs) == n_pairs + len(likely) + len(loose)  # linked, so the paired fit uses them
     assert all(c.state.points[i].status == CHECK for i in checks)
