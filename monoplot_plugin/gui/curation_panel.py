@@ -20,7 +20,7 @@ from qgis.PyQt.QtWidgets import (QDoubleSpinBox, QFormLayout, QHeaderView, QMenu
                                  QToolButton, QWidget, QWidgetAction)
 
 from ..core.fit import FitOptions
-from ..state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED
+from ..state import ACCEPTED, CHECK, MAP, PHOTO, REJECTED, SUGGESTED
 from . import engine
 from .dock_layout import fit_text_height
 from .fit_settings import fit_arguments
@@ -352,7 +352,8 @@ class CurationPanel(QWidget):
         counts = self.c.state.counts()
         lines = [self.tr("{0}: {1} accepted, {2} to decide ({3} on show), {4} rejected").format(
             name, counts[space][ACCEPTED], counts[space][SUGGESTED], len(sl.shown[space]), counts[space][REJECTED])
-            for space, name in ((PHOTO, self.tr("Photo")), (MAP, self.tr("Map")))]
+            + (self.tr(", {0} check").format(counts[space][CHECK]) if counts[space][CHECK] else "")
+            for space, name in ((PHOTO, self.tr("Photo")), (MAP, self.tr("Map")))]  # check points too (a trial)
         if self.refit_info:
             lines[-1] += " · " + self.tr("camera: {0}").format(self.refit_info)
         if self.refitter.task is not None:
