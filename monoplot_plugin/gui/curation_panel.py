@@ -352,7 +352,7 @@ class CurationPanel(QWidget):
         counts = self.c.state.counts()
         lines = [self.tr("{0}: {1} accepted, {2} to decide ({3} on show), {4} rejected").format(
             name, counts[space][ACCEPTED], counts[space][SUGGESTED], len(sl.shown[space]), counts[space][REJECTED])
-            + (self.tr(", {0} check").format(counts[space][CHECK]) if counts[space][CHECK] else "")
+            + (self.tr(", {0}\u00a0check").format(counts[space][CHECK]) if counts[space][CHECK] else "")
             for space, name in ((PHOTO, self.tr("Photo")), (MAP, self.tr("Map")))]  # check points too (a trial)
         if self.refit_info:
             lines[-1] += " · " + self.tr("camera: {0}").format(self.refit_info)
