@@ -96,6 +96,16 @@ class AutoPanel(QObject):
         if start is None:
             c.message.emit(self.tr("Give a rough camera first (map tool, KML or EXIF)."), Qgis.MessageLevel.Warning)
             return False
+        from .priors import HEADING_GUESSED
+
+        if prior is not None and start is prior and c.state.settings.get(HEADING_GUESSED):
+            # the search keeps near the rough camera's view: from a heading aimed at the DEM's centre it cannot
+            # find a view tens of degrees away (trials B and C: "uncertain", or a camera with 24° of roll)
+            c.message.emit(self.tr("The rough camera's heading is only a guess (the photo's EXIF has no direction): "
+                                   "the registration searches about ±{0:.0f}° around it. Draw the view direction on "
+                                   "the map (Camera tab) first, or the view may not be found.").format(
+                self.prior_sigmas(True)["angle_sigma_deg"] or auto_step.DEFAULT_ANGLE_SIGMA_DEG),
+                Qgis.MessageLevel.Warning)
         photo = qimage_to_array(c.image)  # a copy: the task must not share Qt objects
         dem = c.dem
         _, check_uv, check_xyz = c.check_points()  # the person's check points measure the camera found

@@ -20,11 +20,14 @@ from ..workflow.products import centred_on_picture
 from . import engine
 
 __all__ = ["PriorsMixin", "PriorsHost", "terrain_pitch", "pitch_and_rule", "photo_sky_rows", "GPS_SOURCE",
-           "GPS_POSITION_M"]
+           "GPS_POSITION_M", "HEADING_GUESSED"]
 
 INFO, WARNING, CRITICAL = Qgis.MessageLevel.Info, Qgis.MessageLevel.Warning, Qgis.MessageLevel.Critical
 #: ``state.settings["prior_source"]`` of a rough camera placed at the photo's EXIF GPS position
 GPS_SOURCE = "exif-gps"
+#: ``state.settings`` key: the rough camera's heading is a guess (EXIF gave a position, no direction), until one is
+#: drawn or typed
+HEADING_GUESSED = "prior_heading_guessed"
 #: metres: how far a phone's or drone's GPS position usually is from where it stood (the fit's moved-camera note)
 GPS_POSITION_M = GPS_POSITION_SIGMA_M
 
@@ -143,6 +146,8 @@ class PriorsMixin:
             self.state.settings["prior_source"] = source
         elif not same_place:
             self.state.settings.pop("prior_source", None)
+        if camera is None or (old is not None and abs(old.heading - camera.heading) > 1e-6):
+            self.state.settings.pop(HEADING_GUESSED, None)  # a heading given since, drawn or typed
         self.state.prior = None if camera is None else camera.to_dict()
         self.cameraChanged.emit()
         self._changed()
@@ -241,6 +246,10 @@ class PriorsMixin:
                 exif.pitch, azimuth(camera.heading)) if exif.heading_from_gimbal else \
                 self.tr("Pitch {0:.1f}° from the drone's gimbal (XMP tags).").format(exif.pitch)
         self.set_prior(camera, source=GPS_SOURCE)
+        if guessed:  # Find camera searches a few degrees around it: it should say so (trials B and C)
+            self.state.settings[HEADING_GUESSED] = True
+        else:
+            self.state.settings.pop(HEADING_GUESSED, None)
         text = self.tr("Rough camera from the photo's EXIF GPS tags.") + (" " + pitched if pitched else "")
         if exif.altitude is not None:  # a trial's phone said 11 m above the ground for a hand-held 1.6 m
             above = float(camera.position[2]) - ground
