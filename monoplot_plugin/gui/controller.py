@@ -208,7 +208,13 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         self.photoChanged.emit()
         self.cameraChanged.emit()
         self._changed()
-        if not self._maybe_exif_prior(fresh=switch and back is None) and carried:
+        fresh = switch and back is None
+        if not self._maybe_exif_prior(fresh=fresh) and carried:
+            fov = self.exif_fov() if fresh and self.prior is not None else None
+            if fov is not None and abs(fov - self.prior.fov) > 0.05:  # another picture, its own lens (a trial's
+                # carried camera kept the last photo's 63.4° while the lens box showed this one's 65.3°)
+                self.set_prior(self.prior.with_parameters(fov=fov))
+                carried += " " + self.tr("Its field of view is this photo's, from EXIF: {0:.1f}°.").format(fov)
             self.message.emit(carried, INFO)  # not said when the photo's own GPS camera replaced it at once
         if keep_points and not self._restoring:  # a time-lapse's next frame: the kept camera's overlay on it
             self.ensure_products()

@@ -512,6 +512,18 @@ def test_a_new_photo_with_gps_tags_gets_its_own_rough_camera_not_the_last_ones(d
     assert np.allclose(c.prior.position, elsewhere.position) and abs(c.prior.heading - elsewhere.heading) < 1e-6
     # ... and said to be the previous photo's, not "the same picture at another resolution" (a trial)
     assert any(text.startswith("The rough camera of the previous photo is kept for this one") for text in said)
+    # a photo with a lens in EXIF but no GPS: the carried camera takes its field of view
+    from osgeo import gdal
+
+    mem = gdal.GetDriverByName("MEM").CreateCopy("", gdal.Open(scene.photo_path))
+    mem.SetMetadata({"EXIF_FocalLengthIn35mmFilm": "20"})
+    gdal.GetDriverByName("JPEG").CreateCopy(str(tmp_path / "wide.jpg"), mem)
+    said.clear()
+    dock.photoFile.setFilePath(str(tmp_path / "wide.jpg"))
+    lens = c.exif_fov()
+    assert lens is not None and abs(lens - elsewhere.fov) > 5.0
+    assert abs(c.prior.fov - lens) < 0.01 and np.allclose(c.prior.position, elsewhere.position)
+    assert any("Its field of view is this photo's, from EXIF" in text for text in said), said
 
 
 def test_find_camera_warns_when_the_rough_cameras_heading_is_a_guess(dock, scene, tmp_path, qtbot):
