@@ -77,7 +77,8 @@ class Shortlist:
                 self.decided[p.space][p.id] = p.status
         for space in SPACES:
             self._rerank(space, keep=0)
-        self._live = {k for k in range(len(self._pairs)) if self._is_live(k)}
+        paired = self._paired_ids()
+        self._live = {k for k in range(len(self._pairs)) if self._is_live(k, paired)}
         self._likely = None
 
     def update(self, changed: set) -> None:
@@ -86,9 +87,10 @@ class Shortlist:
             self.rebuild()
             return
         pts = self.state.points
+        paired = self._paired_ids()
         for pid in changed:  # the likely pairs with a changed end, only: O(len(changed)), not O(pairs)
             for k in self._pairs_of.get(pid, ()):
-                if self._is_live(k) != (k in self._live):
+                if self._is_live(k, paired) != (k in self._live):
                     self._live ^= {k}
                     self._likely = None
         fresh = {s: False for s in SPACES}
@@ -299,7 +301,8 @@ class Shortlist:
         for k, (a, b, _, _) in enumerate(self._pairs):
             self._pairs_of.setdefault(a, []).append(k)
             self._pairs_of.setdefault(b, []).append(k)
-        self._live = {k for k in range(len(self._pairs)) if self._is_live(k)}
+        paired = self._paired_ids()
+        self._live = {k for k in range(len(self._pairs)) if self._is_live(k, paired)}
         self._likely = None
 
     def likely(self) -> List[Tuple[str, str, float]]:
@@ -315,7 +318,7 @@ class Shortlist:
         """(photo id, map id, px) of the current camera's likely pairs whose two ends are both accepted and in no
         pair: points a paired fit leaves out (a trial's curation of 18 DEM points "counted for nothing" once it
         paired 7), which Accept likely links. O(pairs)."""
-        pts, paired = self.state.points, {i for pr in self.state.pairs for i in pr}
+        pts, paired = self.state.points, self._paired_ids()
         out = []
         for a, b, d, _ in self._pairs:
             pa, pb = pts.get(a), pts.get(b)
@@ -341,14 +344,18 @@ class Shortlist:
         """Indices of the likely pairs whose end ``end`` (0 photo, 1 map) is ``pid``."""
         return [k for k in self._pairs_of.get(pid, ()) if k in self._live and self._pairs[k][end] == pid]
 
-    def _is_live(self, k: int) -> bool:
-        """Pair ``k`` is likely: both ends exist, neither rejected nor in a pair of the person's (a trial's links
-        drew suggestions to map points already paired), at least one undecided."""
+    def _paired_ids(self) -> Set[str]:
+        """Ids of the points in a pair of the person's. O(pairs), once per pass over the likely pairs."""
+        return {i for pr in self.state.pairs for i in pr}
+
+    def _is_live(self, k: int, paired: Set[str]) -> bool:
+        """Pair ``k`` is likely: both ends exist, neither rejected nor in ``paired`` (:meth:`_paired_ids`: a trial's
+        links drew suggestions to map points already paired), at least one undecided."""
         pts = self.state.points
         a, b = self._pairs[k][0], self._pairs[k][1]
         pa, pb = pts.get(a), pts.get(b)
         return pa is not None and pb is not None and SUGGESTED in (pa.status, pb.status) and \
-            REJECTED not in (pa.status, pb.status) and self.state.partner(a) is None and self.state.partner(b) is None
+            REJECTED not in (pa.status, pb.status) and a not in paired and b not in paired
 
     def set_outliers(self, ids) -> None:
         self.outliers = set(ids)
