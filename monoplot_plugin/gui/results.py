@@ -235,13 +235,12 @@ class ResultsMixin:
         if not words:
             return ""
         what = {"check": self.tr("check points {0:.1f} px"),
-                "loo": self.tr("fit residuals left out one at a time {0:.1f} px, no check points"),
-                "fit": self.tr("fit residuals {0:.1f} px, no check points")}[source].format(error_px)
+                "loo": self.tr("fit residuals left out one at a time {0:.1f} px"),
+                "fit": self.tr("fit residuals {0:.1f} px")}[source].format(error_px)
         check = info.get("check_rmse_px")
-        if source != "check" and check is not None and np.isfinite(check):  # the larger of two measures
-            what = (self.tr("fit residuals left out one at a time {0:.1f} px") if source == "loo" else
-                    self.tr("fit residuals {0:.1f} px")).format(error_px) + self.tr(
-                ", more than the check points' {0:.1f} px").format(check)
+        if source != "check":  # the larger of two measures, or the only one
+            what += self.tr(", more than the check points' {0:.1f} px").format(check) if check is not None and \
+                np.isfinite(check) else self.tr(", no check points")
         return " (" + what + ": " + words + ")"
 
     def residual_segments(self) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:
