@@ -42,6 +42,7 @@ class DockViewMixin:
         if c.fitted is None:
             with camera_layers.derived_layers_only(self.project):
                 camera_layers.remove_camera_layers(self.project)
+            self.map_canvas.refresh()  # else the canvas kept drawing the removed star and footprint (a screenshot)
             return
         if c.dem is None:
             return
