@@ -25,6 +25,7 @@ from .files import InputError, read_photo
 from .frames import (SHARED_XYZ, FrameTask, PhotoResult, Timelapse, blank_photo, fit_job, process_frame,
                      shared_for)
 from .progress import IsCanceled, Progress, never_canceled, no_progress
+from .resume import dem_identity, in_task_order, remove_stale, resumable, say_replaced
 
 __all__ = ["PhotoJob", "PhotoResult", "folder_jobs", "table_jobs", "run_batch", "output_stems", "fit_shared_camera",
            "fit_job", "write_log", "log_photo_path", "frame_tasks", "pick_reference", "shared_camera_verdict",
@@ -131,7 +132,7 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
               log: Log = lambda message, error: None,
               progress: Progress = no_progress, is_canceled: IsCanceled = never_canceled,
               workers: Optional[int] = None, register: bool = False, reference: str = "",
-              camera_verdict: Tuple[str, str] = ("ok", "")) -> List[PhotoResult]:
+              camera_verdict: Tuple[str, str] = ("ok", ""), resume: bool = False) -> List[PhotoResult]:
     """Run every job; never raises for one photo's problem.
 
     Outputs per photo ``<stem>_camera.json`` (fitted jobs, and re-registered frames that turned), ``<stem>_xyz.tif``,
@@ -143,98 +144,46 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
     of a shared camera to ``reference`` (a photo; default the first usable job's, see :func:`pick_reference`) and
     make its products with the corrected camera; the drift is in the log and the results. All jobs share one camera,
     or none does (a table). ``camera_verdict``: (status, note) of the shared camera: a status other than "ok"
-    is every frame's (see :func:`shared_camera_verdict`).
+    is every frame's (see :func:`shared_camera_verdict`). ``resume``: the photos an earlier run in ``out_dir``
+    finished with the same inputs and settings keep their products and results (see :mod:`.resume`).
     """
     os.makedirs(out_dir, exist_ok=True)
     stems = output_stems(jobs)
     tasks = frame_tasks(jobs, stems, log)
-    existing = [n for n in planned_outputs(jobs, stems, write_xyz, write_ortho)
-                if os.path.exists(os.path.join(out_dir, n))]
-    if existing:
-        log(f"{len(existing)} file(s) of an earlier run in {out_dir} will be replaced or removed as the frames are "
-            f"processed (e.g. {existing[0]})", False)
     try:
         setup = batch_setup(jobs, crs_wkt, out_dir, write_xyz, write_ortho, resolution, register, reference,
                             log=log, camera_verdict=camera_verdict)
-        shared = shared_for(setup, dem)
+        journal, keys, earlier = resumable(tasks, setup, dem_identity(dem), resume, log)
+        say_replaced(out_dir, planned_outputs([j for t, j in zip(tasks, jobs) if t.index not in earlier],
+                                              [t.stem for t in tasks if t.index not in earlier], write_xyz,
+                                              write_ortho), log)
+        shared = shared_for(setup, dem) if len(earlier) < len(tasks) else None  # None: nothing left to do
     except InputError as exc:  # no reference frame can serve: nothing can be registered
         results = [PhotoResult(t.photo, False, f"{exc}", index=t.index) for t in tasks]
         log(f"every photo FAILED: {exc}", True)
         return results
     writer = None
-    if setup.camera_json and write_xyz and shared.products.sees_ground:  # written while the frames run
+    if setup.camera_json and write_xyz and shared is not None and shared.products.sees_ground:  # written while the frames run
         writer = _Background(shared.products.write_xyz, os.path.join(out_dir, SHARED_XYZ), crs_wkt)
     finished = [0]
 
     def work(task: FrameTask) -> PhotoResult:  # a frame under way stops on a cancel too
         if not setup.camera_json:  # a table's row takes seconds (a registration 13-21 s): say which is under way (a
             # trial's bar sat at 0 % for 17-75 s with no word)
-            progress(finished[0] / max(1, len(tasks)), f"processing {task.name}")
+            progress((len(earlier) + finished[0]) / max(1, len(tasks)), f"processing {task.name}")
         try:
-            return process_frame(task, shared, is_canceled)
+            result = process_frame(task, shared, is_canceled)
+            journal.append(task, keys[task.index], result)  # at once: a run killed later resumes from here
+            return result
         finally:
             finished[0] += 1
 
-    results = collect(_threaded(tasks, work, workers, is_canceled), tasks, log, progress)
+    fresh = _threaded([t for t in tasks if t.index not in earlier], work, workers, is_canceled)
+    results = collect(in_task_order(tasks, earlier, fresh), tasks, log, progress)
     if writer is not None and writer.wait() is not None:
         shared_xyz_failed(results, os.path.join(out_dir, SHARED_XYZ), writer.error, log)
     remove_stale(out_dir, tasks, results, bool(setup.camera_json), log)
     return results
-
-
-def remove_stale(out_dir: str, tasks: List[FrameTask], results: List[PhotoResult], shared_camera: bool,
-                 log: Log) -> List[str]:
-    """Remove the products of an earlier run this run did not rewrite, where they would contradict the log: every
-    ``<stem>_camera.json``, ``_xyz.tif``, ``_ortho.tif`` of a frame that failed or was skipped, and the own camera
-    and XYZ raster of a frame that now has the shared camera's (it turned in an earlier run). Only these names of
-    the batch's own frames; a canceled frame's of an earlier run are left (it was not processed), and its message
-    names them, while what this run wrote of it before the cancel goes. Returns the paths removed.
-
-    A frame that failed on a rerun kept its orthophoto of the earlier run beside a log saying "failed" (a trial)."""
-    removed, kept = [], []
-
-    partial: List[str] = []
-
-    def remove(path: str, into: List[str]) -> None:
-        try:
-            os.remove(path)
-            into.append(path)
-        except OSError as exc:
-            kept.append(f"{os.path.basename(path)} ({exc})")
-
-    for task, result in zip(tasks, results):
-        own = [os.path.join(out_dir, task.stem + suffix) for suffix in ("_camera.json", "_xyz.tif", "_ortho.tif")]
-        written = {os.path.normcase(os.path.abspath(p)) for p in result.outputs}
-        if result.canceled:
-            # what this run wrote of the frame before the cancel is half of its products: it goes (a trial found a
-            # turned frame's camera file without its rasters, named as an earlier run's); the log says which files
-            # are an earlier run's (a trial read them as this run's)
-            for path in own:
-                if os.path.normcase(os.path.abspath(path)) in written and os.path.isfile(path):
-                    remove(path, partial)
-            result.outputs = []
-            earlier = [os.path.basename(p) for p in own if os.path.isfile(p)]
-            if earlier:
-                result.message += "; files of an earlier run left as they were: " + ", ".join(earlier)
-            continue
-        suffixes = ("_camera.json", "_xyz.tif", "_ortho.tif") if not result.ok else \
-            ("_camera.json", "_xyz.tif") if shared_camera else ()
-        for suffix in suffixes:
-            path = os.path.join(out_dir, task.stem + suffix)
-            if os.path.normcase(os.path.abspath(path)) in written or not os.path.isfile(path):
-                continue
-            remove(path, removed)
-    if partial:
-        log(f"{len(partial)} file(s) of frames canceled while they were written removed (a frame's products come "
-            f"whole or not at all): {', '.join(os.path.basename(p) for p in partial)}", False)
-    if removed:
-        names = ", ".join(os.path.basename(p) for p in removed[:5]) + (", ..." if len(removed) > 5 else "")
-        log(f"{len(removed)} file(s) of an earlier run removed, not made again by this run (frames failed, skipped "
-            f"or now with the shared camera): {names}", False)
-    if kept:
-        log(f"{len(kept)} file(s) of an earlier run could not be removed and are NOT of this run: "
-            + "; ".join(kept[:5]), True)
-    return removed
 
 
 def shared_xyz_failed(results: List[PhotoResult], path: str, error: Exception, log: Log) -> None:

@@ -27,11 +27,12 @@ import sys
 from pathlib import Path
 from typing import Dict, List, Optional, Tuple
 
-from .batch import (Log, PhotoJob, batch_setup, frame_tasks, log_result, output_stems, planned_outputs, remove_stale,
+from .batch import (Log, PhotoJob, batch_setup, frame_tasks, log_result, output_stems, planned_outputs,
                     shared_xyz_failed)
 from .files import InputError
 from .frames import SHARED_XYZ, FrameTask, PhotoResult, Timelapse, process_frame, shared_for
 from .progress import IsCanceled, Progress, never_canceled, no_progress
+from .resume import dem_identity, in_task_order, remove_stale, resumable, say_replaced
 
 __all__ = ["run_batch_dask", "local_client", "check_importable", "frames_per_task"]
 
@@ -131,8 +132,8 @@ def run_batch_dask(jobs: List[PhotoJob], dem_path: str, crs_wkt: str, out_dir: s
                    log: Log = lambda message, error: None, progress: Progress = no_progress,
                    is_canceled: IsCanceled = never_canceled, register: bool = False, reference: str = "",
                    client=None, address: str = "", void_value: Optional[float] = None,
-                   per_task: Optional[int] = None, camera_verdict: Tuple[str, str] = ("ok", "")
-                   ) -> List[PhotoResult]:
+                   per_task: Optional[int] = None, camera_verdict: Tuple[str, str] = ("ok", ""),
+                   resume: bool = False) -> List[PhotoResult]:
     """:func:`~.batch.run_batch` with the frames as Dask tasks (arguments as there; the DEM as a file path).
 
     ``client``: a ``distributed.Client``; else ``address`` of a scheduler ("tcp://host:8786"); else a local
@@ -151,20 +152,22 @@ def run_batch_dask(jobs: List[PhotoJob], dem_path: str, crs_wkt: str, out_dir: s
         setup = batch_setup(jobs, crs_wkt, os.path.abspath(out_dir), write_xyz, write_ortho, resolution, register,
                             os.path.abspath(reference) if reference else "", dem_path=os.path.abspath(dem_path),
                             void_value=void_value, log=log, camera_verdict=camera_verdict)
-        existing = [n for n in planned_outputs(jobs, stems, write_xyz, write_ortho)
-                    if os.path.exists(os.path.join(out_dir, n))]
-        if existing:
-            log(f"{len(existing)} file(s) of an earlier run in {out_dir} will be replaced or removed as the frames are "
-                f"processed (e.g. {existing[0]})", False)
+        journal, keys, earlier = resumable(tasks, setup, dem_identity(dem_path=setup.dem_path,
+                                                                      void_value=void_value), resume, log)
+        todo = [t for t in tasks if t.index not in earlier]
+        say_replaced(out_dir, planned_outputs([jobs[t.index] for t in todo], [t.stem for t in todo], write_xyz,
+                                              write_ortho), log)
         check_importable(client, _frames_task.__module__)
         workers = len(client.scheduler_info().get("workers", {}))
-        per_task = per_task or frames_per_task(len(tasks), workers, bool(setup.camera_json))
-        log(f"Dask: {len(tasks)} frames on {workers} worker(s) of {client.scheduler.address}"
+        per_task = per_task or frames_per_task(len(todo), workers, bool(setup.camera_json))
+        log(f"Dask: {len(todo)} frames on {workers} worker(s) of {client.scheduler.address}"
             + (f", {per_task} frames per task" if per_task > 1 else ""), False)
         shared_xyz = None
         if setup.camera_json and write_xyz:  # one task, beside the frames
             shared_xyz = client.submit(_shared_xyz_task, setup, pure=False)
-        results = _gather(client, tasks, per_task, setup, log, progress, is_canceled)
+        fresh = _gather(client, todo, per_task, setup, log, progress, is_canceled,
+                        lambda t, result: journal.append(t, keys[t.index], result), len(tasks))
+        results = list(in_task_order(tasks, earlier, fresh))
         if shared_xyz is not None:
             try:
                 shared_xyz.result()
@@ -182,9 +185,10 @@ def run_batch_dask(jobs: List[PhotoJob], dem_path: str, crs_wkt: str, out_dir: s
 
 
 def _gather(client, tasks: List[FrameTask], per_task: int, setup: Timelapse, log: Log, progress: Progress,
-            is_canceled: IsCanceled) -> List[PhotoResult]:
-    """Submit the frames, ``per_task`` to a task; take each frame's result once (by index) as its task ends; cancel
-    the rest on a cancel.
+            is_canceled: IsCanceled, ended_frame=lambda task, result: None, total: int = 0) -> List[PhotoResult]:
+    """Submit the frames, ``per_task`` to a task; take each frame's result once (by index) as its task ends, and
+    give it to ``ended_frame(task, result)``; cancel the rest on a cancel. ``total``: the batch's photos (the log
+    counts them), when ``tasks`` are only those to process.
 
     Each future reports its end into a queue (Dask calls the callback once, on a thread of its own), so that waiting
     costs nothing per task still pending (waiting on all pending futures after each result cost this process, which
@@ -195,8 +199,9 @@ def _gather(client, tasks: List[FrameTask], per_task: int, setup: Timelapse, log
     for future in futures:
         future.add_done_callback(finished.put)
     done: Dict[int, PhotoResult] = {}
-    total = len(tasks)
-    while len(done) < total:
+    total = total or len(tasks)
+    before = total - len(tasks)  # done by an earlier run
+    while len(done) < len(tasks):
         if is_canceled():
             pending = [f for f, chunk in futures.items() if chunk[0].index not in done]
             client.cancel(pending)
@@ -217,8 +222,9 @@ def _gather(client, tasks: List[FrameTask], per_task: int, setup: Timelapse, log
                 break
         for t, result in _results(client, [f for f in ended if futures[f][0].index not in done], futures):
             done[t.index] = result
+            ended_frame(t, result)
             log_result(log, t, total, result)
-            progress(len(done) / max(1, total), t.name)
+            progress((before + len(done)) / max(1, total), t.name)
     progress(1.0, "")
     return [done[t.index] for t in tasks]
 

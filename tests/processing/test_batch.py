@@ -108,6 +108,20 @@ def test_table_batch_fits_each_photo_and_skips_a_bad_row(run_alg, small_scene, t
     fitted = json.loads((out / "a_camera.json").read_text())["fit"]
     assert fitted["status"] == "ok" and fitted["mode"] == "paired" and fitted["rmse_px"] < 0.5
     assert set(fitted["sigma"]) >= {"x", "y", "z", "heading"} and 0.0 < fitted["sigma"]["x"] < 50.0
+    # a rerun (RESUME by default) keeps what the first run made, tries the failed row again, and makes again the
+    # rows whose points file changed
+    before = {name: (out / name).stat().st_mtime_ns for name in ("a_camera.json", "d_camera.json")}
+    feedback = recording_feedback()
+    (tmp_path / "gcps.csv").write_text((tmp_path / "gcps.csv").read_text() + "\n")
+    again = run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"),
+                              "XYZ": True, "ORTHO": False, "OUTPUT": str(out)}, feedback)
+    assert again["SUCCEEDED"] == 3 and "1 of 4 photos were done by an earlier run" in feedback.textLog()
+    assert (out / "d_camera.json").stat().st_mtime_ns == before["d_camera.json"]
+    assert (out / "a_camera.json").stat().st_mtime_ns != before["a_camera.json"]
+    with open(again["LOG"], newline="") as fh:
+        rows = {os.path.basename(r["photo"]): r for r in csv.DictReader(fh)}
+    assert rows["d.png"]["message"].startswith("done by an earlier run (resumed): fit")
+    assert rows["d.png"]["status"] == verdict["status"] and rows["b.png"]["status"] == "failed"
 
 
 def test_timelapse_fits_the_shared_camera_once_from_a_prior(run_alg, small_scene, timelapse, tmp_path):

@@ -148,8 +148,11 @@ def test_rerun_into_the_same_folder_says_files_are_replaced(run_alg, small_scene
     run_alg("batch", params, first)
     assert "replaced" not in first.textLog()
     second = QgsProcessingFeedback()
-    run_alg("batch", params, second)
+    run_alg("batch", dict(params, RESUME=False), second)
     assert "2 file(s) of an earlier run" in second.textLog() and "replaced" in second.textLog()
+    third = QgsProcessingFeedback()  # resumed (the default): nothing is made again, nothing replaced
+    run_alg("batch", params, third)
+    assert "1 of 1 photos were done by an earlier run" in third.textLog() and "replaced" not in third.textLog()
 
 
 def test_camera_mislabelled_in_another_crs_is_refused_not_run_empty(run_alg, small_scene, tmp_path):
@@ -227,8 +230,8 @@ def test_cancel_marks_the_rest_canceled_not_failed(run_alg, small_scene, tmp_pat
     for i in range(6):
         write_photo(folder / f"f{i}.png", seed=i)
     parameters = {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(folder), "WORKERS": 1,
-                  "CAMERA": small_scene["fitted"], "OUTPUT": str(tmp_path / "out")}
-    run_alg("batch", parameters)  # an earlier, complete run
+                  "CAMERA": small_scene["fitted"], "OUTPUT": str(tmp_path / "out"), "RESUME": False}
+    run_alg("batch", parameters)  # an earlier, complete run (made again: not resumed)
     feedback = QgsProcessingFeedback()
     feedback.progressChanged.connect(lambda value: feedback.cancel() if value >= 40 else None)
     with pytest.raises(QgsProcessingException, match="Canceled: 3 photos processed, 3 not processed"):

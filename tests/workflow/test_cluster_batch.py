@@ -71,3 +71,26 @@ def test_a_cluster_that_cannot_import_the_plugin_is_told_what_to_do(client):
     text = str(err.value)
     assert "cannot import monoplot_plugin.no_such_module" in text and "3 process(es)" in text, text
     assert "PYTHONPATH=" in text and text.endswith("the same Python packages.")
+
+
+def test_a_rerun_on_the_cluster_keeps_the_frames_an_earlier_run_finished(still_timelapse, client, tmp_path):
+    """RESUME with Dask: the frames whose journal line matches are not sent to the workers again; one whose
+    orthophoto was deleted is."""
+    from monoplot_plugin.workflow.cluster import run_batch_dask
+    from monoplot_plugin.workflow.resume import RESUMED
+
+    scene = still_timelapse
+    cam = Camera.load(scene["camera"])
+    jobs = batch.folder_jobs(scene["folder"], cam)
+    out = tmp_path / "out"
+    first = run_batch_dask(jobs, scene["dem"], cam.crs_wkt, str(out), client=client)
+    assert all(r.ok for r in first)
+    os.remove(first[2].outputs[-1])
+    lines = []
+    again = run_batch_dask(jobs, scene["dem"], cam.crs_wkt, str(out), client=client, resume=True,
+                           log=lambda m, e: lines.append(m))
+    assert [r.index for r in again] == list(range(6)) and all(r.ok for r in again)
+    assert [r.message.startswith(RESUMED) for r in again] == [True, True, False, True, True, True]
+    assert os.path.isfile(first[2].outputs[-1]) and any(line.startswith("Dask: 1 frames") for line in lines)
+    again = run_batch_dask(jobs, scene["dem"], cam.crs_wkt, str(out), client=client, resume=True)
+    assert all(r.message.startswith(RESUMED) for r in again)  # nothing left to do: no task sent

@@ -36,7 +36,7 @@ def test_shared_camera_products_equal_the_per_photo_products(still_timelapse, tm
                               log=lambda m, e: lines.append(m))
     assert [r.ok for r in results] == [True] * 6 and [r.index for r in results] == list(range(6))
     assert sorted(os.listdir(tmp_path / "out")) == sorted([f"frame_{i:03d}_ortho.tif" for i in range(6)]
-                                                          + ["xyz.tif"])
+                                                          + ["xyz.tif", "batch_journal.jsonl"])
     for i in (0, 5):  # what the dock and the single-photo algorithm write for the same photo
         single = products.orthophoto(tmp_path / f"single_{i}.tif", read_photo(scene["frames"][i]), cam, dem)
         assert np.array_equal(band_arrays(tmp_path / "out" / f"frame_{i:03d}_ortho.tif"), band_arrays(single))

@@ -52,6 +52,10 @@ class BatchPhotos(MonoplotAlgorithm):
              "(frame.jpg and frame.png, or in different folders) get numbered outputs (frame_2_ortho.tif); files of "
              "an earlier run in the output folder are replaced, and the log says so; those of a frame this run does "
              "not make again (failed, skipped) are removed.\n\n"
+             "RESUME: a photo an earlier run into the same output folder finished (with products) is not processed "
+             "again when nothing it depends on changed: the photo, its prior and point files, the camera, the DEM "
+             "and the settings (batch_journal.jsonl in the output folder records them as each photo ends, so a "
+             "canceled or killed run resumes where it stopped); the log says which photos were kept.\n\n"
              "Time-lapse speed: what depends only on the camera and the DEM (XYZ raster, sky, the orthophoto's "
              "lookup) is computed once; WORKERS frames are processed at once (0 = one per core).\n\n"
              "REGISTER (time-lapse mode): every frame is matched to REFERENCE (default: the first "
@@ -113,6 +117,9 @@ class BatchPhotos(MonoplotAlgorithm):
         self.addParameter(QgsProcessingParameterString("SCHEDULER", self.tr("Dask scheduler address (empty = this "
                                                                             "machine)"),
                                                        defaultValue="", optional=True))
+        self.addParameter(QgsProcessingParameterBoolean(
+            "RESUME", self.tr("Keep the photos an earlier run in the output folder finished with the same inputs and "
+                              "settings (resume a canceled or interrupted run)"), defaultValue=True))
         self.addParameter(QgsProcessingParameterFolderDestination("OUTPUT", self.tr("Output folder")))
         for name in self.ADVANCED:  # folded away: the dialog showed 16 parameters of both modes at once (a trial)
             param = self.parameterDefinition(name)
@@ -198,7 +205,7 @@ class BatchPhotos(MonoplotAlgorithm):
                        resolution=self.parameterAsDouble(parameters, "RESOLUTION", context) or None,
                        log=log, progress=progress, is_canceled=feedback.isCanceled, register=register,
                        reference=self.parameterAsFile(parameters, "REFERENCE", context) or "",
-                       camera_verdict=camera_verdict)
+                       camera_verdict=camera_verdict, resume=self.parameterAsBool(parameters, "RESUME", context))
         scheduler = (self.parameterAsString(parameters, "SCHEDULER", context) or "").strip()
         if scheduler:
             path, _ = self.dem_path(parameters, context)
