@@ -50,9 +50,9 @@ class PhotoJob:
     # automatic registration's defaults
     position_sigma_m: Optional[float] = None
     angle_sigma_deg: Optional[float] = None
-    # for a row with no prior file: (photo path, (width, height), dem, DEM CRS WKT) -> rough camera, e.g. from the
-    # photo's EXIF GPS (Processing gives ``adapters.exif.exif_rough_camera``: module-level, so it reaches a Dask
-    # worker)
+    # for a row with no prior file: (photo path, (width, height), dem, DEM CRS WKT) -> (rough camera, whether its
+    # heading is known), e.g. from the photo's EXIF GPS (Processing gives ``adapters.exif.exif_rough_camera``:
+    # module-level, so it reaches a Dask worker)
     prior_reader: Optional[Callable] = None
 
 
@@ -163,7 +163,8 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
         log(f"every photo FAILED: {exc}", True)
         return results
     writer = None
-    if setup.camera_json and write_xyz and shared is not None and shared.products.sees_ground:  # written while the frames run
+    # the shared XYZ raster is written while the frames run
+    if setup.camera_json and write_xyz and shared is not None and shared.products.sees_ground:
         writer = _Background(shared.products.write_xyz, os.path.join(out_dir, SHARED_XYZ), crs_wkt)
     finished = [0]
 
