@@ -163,3 +163,17 @@ def test_paper_between_a_frame_line_and_the_picture_is_not_picture():
     assert abs(rows[0] - r0) <= 3 and abs(rows[-1] + 1 - r1) <= 3 and abs(cols[0] - c0) <= 3, (rows[0], rows[-1])
     assert abs(cols[-1] + 1 - c1) <= 3
     assert mask[r0 + 8:r1 - 8, c0 + 8:c1 - 8].all()
+
+
+def test_a_photo_that_fills_its_frame_loses_nothing_to_captions():
+    """A desktop trial's 24 MP photo: glyph-like rock and grass near its top and bottom were taken for printed text
+    lines, and its products lost the summit and a full-width band (8 % of the picture) without a word. Without a
+    paper border there is no print, and no caption is looked for: even letters written into the picture stay."""
+    photo = textured_picture(seed=4)
+    photo[355:400] = 40  # a dark strip the text is printed on
+    cv2.putText(photo, "2019/07/14 14:32 MMMMMMM", (20, 385), cv2.FONT_HERSHEY_SIMPLEX, 0.8, 250, 2)
+    assert picture_box(photo) == (0, 400, 0, 600)
+    assert picture_mask(photo, beyond_captions=True).all()
+    framed = np.full((480, 700), 245, np.uint8)  # the same picture on paper: its caption is found
+    framed[40:440, 50:650] = photo
+    assert not picture_mask(framed, beyond_captions=True)[40 + 375, 50 + 100]
