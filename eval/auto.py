@@ -19,7 +19,13 @@ Cases:
    5 %: a wider search finds more wrong cameras, and none may say "ok" (``wrong_but_ok``; also counted: an "ok"
    more than 1 % of the diagonal off on the terrain grid).
 
-Run: ``.venv/bin/python -m eval.auto [--data DIR] [--scenes 50] [--cases aletsch,synthetic,fog,no_sky,default_sigma]``.
+6. ``auto_heading_unknown``: the first ``--heading-scenes`` (default 8) synthetic scenes and the Aletsch case with
+   the prior's heading turned 60-300 deg away (a photo with GPS but no direction tag), registered by
+   :func:`~monoplot_plugin.core.register_any_heading` with the default angle σ; success as in 3 (Aletsch: <= 15 px);
+   every failure must be reported not "ok".
+
+Run: ``.venv/bin/python -m eval.auto [--data DIR] [--scenes 50] [--heading-scenes 8]
+[--cases aletsch,synthetic,fog,no_sky,default_sigma,heading]``.
 """
 
 from __future__ import annotations
@@ -36,7 +42,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
-from monoplot_plugin.core import register_automatic  # noqa: E402
+from monoplot_plugin.core import register_any_heading, register_automatic  # noqa: E402
 from monoplot_plugin.core.camera import Camera  # noqa: E402
 from monoplot_plugin.core.synthetic import render_photo, synthetic_terrain  # noqa: E402
 
@@ -202,6 +208,38 @@ def case_synthetic(n: int, seed: int = 0, fog: bool = False, default_sigma: bool
              {"target": ">= 95 % within 1 % of range and 0.2 deg", "pass": bool(np.mean(succ) >= 0.95)})})
 
 
+def case_heading_unknown(n: int, data: Path, seed: int = 29):
+    """Priors whose heading is a guess: turned 60-300 deg from the truth (the search must find the direction)."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for k in range(n + 1):
+        turn = float(rng.uniform(60.0, 300.0))
+        if k == n:  # the real case last
+            dem, gcps, image, prior = load_case(data)
+            start = prior.with_parameters(heading=prior.heading + turn)
+            r = register_any_heading(image, dem, start, position_sigma_m=200.0)
+            px = gcp_errors(r.camera, gcps, dem)["gcp_rmse_px"]
+            row = {"scene": "aletsch", "turn_deg": round(turn), "status": r.status, "gcp_px": round(px, 2),
+                   "success": bool(px <= 15.0), "seconds": round(r.elapsed_s, 1)}
+        else:
+            dem, truth, photo, prior, rng_m = make_scene(k)
+            r = register_any_heading(photo, dem, prior.with_parameters(heading=prior.heading + turn),
+                                     position_sigma_m=150.0)
+            e = errors(r.camera, truth, rng_m)
+            row = {"scene": k, "turn_deg": round(turn), "status": r.status,
+                   "success": bool(e["position_share"] <= 0.01 and e["angle_deg"] <= 0.2), **e,
+                   "grid_px": grid_error(r.camera, truth, dem), "seconds": round(r.elapsed_s, 1)}
+        rows.append(row)
+        emit({"case": "auto_heading_unknown_scene", **row})
+    found = [x["success"] for x in rows]
+    wrong_ok = sum(x["status"] == "ok" and not x["success"] for x in rows)
+    emit({"case": "auto_heading_unknown", "n": len(rows), "successes": int(sum(found)),
+          "share": round(float(np.mean(found)), 3), "ok": sum(x["status"] == "ok" for x in rows),
+          "wrong_but_ok": wrong_ok, "statuses": [x["status"] for x in rows],
+          "median_s": round(float(np.median([x["seconds"] for x in rows])), 1),
+          "target": "every failure not ok", "pass": wrong_ok == 0})
+
+
 def _share(flags) -> Optional[float]:
     return round(float(np.mean(flags)), 3) if len(flags) else None
 
@@ -214,7 +252,8 @@ def main(argv=None) -> int:
     ap.add_argument("--fog", type=int, default=3, help="fogged synthetic scenes")
     ap.add_argument("--no-sky", type=int, default=3, help="scenes whose terrain fills the picture (no skyline)")
     ap.add_argument("--default-scenes", type=int, default=20, help="scenes registered with the default σ")
-    ap.add_argument("--cases", default="aletsch,synthetic,fog,no_sky,default_sigma")
+    ap.add_argument("--heading-scenes", type=int, default=8, help="synthetic scenes with an unknown heading")
+    ap.add_argument("--cases", default="aletsch,synthetic,fog,no_sky,default_sigma,heading")
     args = ap.parse_args(argv)
     cases = set(args.cases.split(","))
     t0 = time.perf_counter()
@@ -228,6 +267,8 @@ def main(argv=None) -> int:
         case_synthetic(args.no_sky, no_sky=True)
     if "default_sigma" in cases:
         case_synthetic(args.default_scenes, default_sigma=True)
+    if "heading" in cases:
+        case_heading_unknown(args.heading_scenes, Path(args.data))
     emit({"case": "auto_runtime", "seconds": round(time.perf_counter() - t0, 1)})
     return 0
 

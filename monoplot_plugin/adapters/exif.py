@@ -272,11 +272,20 @@ def exif_camera(exif: Optional[ExifPrior], size: Tuple[int, int], dem, heading: 
 
 
 def exif_rough_camera(path: str, size: Tuple[int, int], dem, crs_wkt: str = ""):
-    """The rough camera of the photo file at ``path`` from its EXIF tags (:func:`exif_camera`, no heading guessed):
-    what a batch row naming no prior camera starts from, as ``autoregister`` does. Module-level and free of QGIS,
-    so a batch job can carry it to a Dask worker.
+    """(rough camera, heading known) of the photo file at ``path`` from its EXIF tags (:func:`exif_camera`): what a
+    batch row naming no prior camera, and ``autoregister`` without a prior, start from. Without a direction tag the
+    camera looks at the DEM's centre and the heading is not known (the automatic registration then searches every
+    direction). Module-level and free of QGIS, so a batch job can carry it to a Dask worker.
 
     Raises:
-        ValueError: the tags give no GPS position or no direction of view, or the position is off the DEM.
+        ValueError: the tags give no GPS position, or the position is off the DEM.
     """
-    return exif_camera(read_exif_prior(path, size), size, dem, crs_wkt=crs_wkt)
+    exif = read_exif_prior(path, size)
+    if exif is not None and exif.has_position and exif.heading is None:
+        from ..core.kml import lonlat_to_crs
+
+        x, y, _ = lonlat_to_crs(exif.lon, exif.lat, crs_wkt or dem.crs_wkt)
+        x0, y0, x1, y1 = dem.bounds()
+        towards_centre = math.degrees(math.atan2((x0 + x1) / 2 - x, (y0 + y1) / 2 - y))
+        return exif_camera(exif, size, dem, heading=towards_centre, crs_wkt=crs_wkt), False
+    return exif_camera(exif, size, dem, crs_wkt=crs_wkt), True

@@ -31,6 +31,6 @@ from .render import RenderedDem, render_dem  # noqa: E402,F401
 __all__ += ["RenderedDem", "render_dem"]
 
 # auto (issue 13): fully automatic registration from a rough prior.
-from .auto import AutoFitResult, register_automatic  # noqa: E402,F401
+from .auto import AutoFitResult, register_any_heading, register_automatic  # noqa: E402,F401
 
-__all__ += ["AutoFitResult", "register_automatic"]
+__all__ += ["AutoFitResult", "register_automatic", "register_any_heading"]

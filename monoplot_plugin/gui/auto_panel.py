@@ -98,14 +98,13 @@ class AutoPanel(QObject):
             return False
         from .priors import HEADING_GUESSED
 
-        if prior is not None and start is prior and c.state.settings.get(HEADING_GUESSED):
-            # the search keeps near the rough camera's view: from a heading aimed at the DEM's centre it cannot
-            # find a view tens of degrees away (trials B and C: "uncertain", or a camera with 24° of roll)
-            c.message.emit(self.tr("The rough camera's heading is only a guess (the photo's EXIF has no direction): "
-                                   "the registration searches about ±{0:.0f}° around it. Draw the view direction on "
-                                   "the map (Camera tab) first, or the view may not be found.").format(
-                self.prior_sigmas(True)["angle_sigma_deg"] or auto_step.DEFAULT_ANGLE_SIGMA_DEG),
-                Qgis.MessageLevel.Warning)
+        heading_known = not (prior is not None and start is prior and c.state.settings.get(HEADING_GUESSED))
+        if not heading_known:
+            # the ordinary search keeps near the rough camera's view: from a heading aimed at the DEM's centre it
+            # could not find a view tens of degrees away (trials B and C: "uncertain", or a camera with 24° of roll)
+            c.message.emit(self.tr("The photo's EXIF has no direction of view: every direction is searched, which "
+                                   "takes three to four times as long. Draw the view direction on the map (Camera "
+                                   "tab) to save the time."), Qgis.MessageLevel.Info)
         photo = qimage_to_array(c.image)  # a copy: the task must not share Qt objects
         dem = c.dem
         _, check_uv, check_xyz = c.check_points()  # the person's check points measure the camera found
@@ -113,7 +112,7 @@ class AutoPanel(QObject):
 
         def work(progress, is_canceled):
             done = auto_step.register(photo, dem, start, **sigmas, progress=part(progress, 0.0, 0.9),
-                                      is_canceled=is_canceled)
+                                      is_canceled=is_canceled, heading_known=heading_known)
             overlay, xyz, footprint = engine.render_products(done.camera, dem, is_canceled)
             # the DEM's silhouettes under the camera found over the photo's detected skyline
             overlay = draw_alignment(overlay, done.camera, done.result.skyline, dem)

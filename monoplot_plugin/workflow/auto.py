@@ -14,7 +14,7 @@ from typing import Optional
 
 import numpy as np
 
-from ..core.auto import AutoFitResult, register_automatic
+from ..core.auto import AutoFitResult, register_any_heading, register_automatic
 from ..core.camera import Camera
 from .fit import (DEEP_UNDERGROUND_M, ON_GROUND_MAX_M, UNDERGROUND_TOLERANCE_M, depth_under_terrain,
                   flag_under_terrain, ground_clearance, measured_on_pairs, on_ground_rule)
@@ -61,15 +61,18 @@ class AutoDone:
 
 def register(photo: np.ndarray, dem, prior: Camera, position_sigma_m: Optional[float] = None,
              angle_sigma_deg: Optional[float] = None, fov_sigma_deg: Optional[float] = None,
-             progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None) -> AutoDone:
-    """Register ``photo`` on ``dem`` from ``prior`` with no points given.
+             progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None,
+             heading_known: bool = True) -> AutoDone:
+    """Register ``photo`` on ``dem`` from ``prior`` with no points given. ``heading_known`` False: the prior's
+    heading is a guess (no direction in the photo's EXIF): every direction of view is searched
+    (:func:`~monoplot_plugin.core.auto.heading.register_any_heading`, three to four times as long).
 
     Raises:
         Canceled: ``is_canceled()`` turned true (nothing to keep).
     """
     # torch through the one import thread (cancelable wait; two threads importing torch at once can fail)
     import_torch(is_canceled, progress)
-    result = register_automatic(
+    result = (register_automatic if heading_known else register_any_heading)(
         photo, dem, prior,
         position_sigma_m=DEFAULT_POSITION_SIGMA_M if position_sigma_m is None else float(position_sigma_m),
         angle_sigma_deg=DEFAULT_ANGLE_SIGMA_DEG if angle_sigma_deg is None else float(angle_sigma_deg),

@@ -331,9 +331,10 @@ def fit_job(job, size, dem, crs_wkt: str, photo: Optional[np.ndarray] = None,
     (a trial)."""
     reader = getattr(job, "prior_reader", None)
     from_exif = not job.prior and reader is not None
+    heading_known = True
     if from_exif:  # as autoregister: an empty prior is the photo's EXIF GPS (a trial made 4 prior files by hand)
         try:
-            prior = reader(job.photo, size, dem, crs_wkt)
+            prior, heading_known = reader(job.photo, size, dem, crs_wkt)
         except ValueError as exc:
             raise InputError(f"no prior camera in this row, and {exc}: give a camera file (Monoplot JSON or "
                              "KML)") from None
@@ -347,7 +348,8 @@ def fit_job(job, size, dem, crs_wkt: str, photo: Optional[np.ndarray] = None,
         position = getattr(job, "position_sigma_m", None) or (GPS_POSITION_SIGMA_M if from_exif else
                                                               DEFAULT_POSITION_SIGMA_M)
         angle = getattr(job, "angle_sigma_deg", None) or DEFAULT_ANGLE_SIGMA_DEG
-        done = register(photo, dem, prior, position_sigma_m=position, angle_sigma_deg=angle, is_canceled=is_canceled)
+        done = register(photo, dem, prior, position_sigma_m=position, angle_sigma_deg=angle, is_canceled=is_canceled,
+                        heading_known=heading_known)
         camera, r = done.camera, done.result
         camera.crs_wkt = crs_wkt
         rmse = float(r.rmse_px) if r.rmse_px is not None and np.isfinite(r.rmse_px) else float("nan")

@@ -102,3 +102,41 @@ def test_a_drones_gimbal_gives_pitch_and_heading(tmp_path):
     assert exif.heading_from_gimbal and not exif.heading_magnetic and exif.relative_altitude == pytest.approx(119.8)
     plain = read_exif_prior(_jpeg(tmp_path / "phone.jpg", (400, 300), FocalLengthIn35mmFilm="24"), (400, 300))
     assert plain.pitch is None and not plain.heading_from_gimbal
+
+
+def _jpeg_at(path, dem, x, y, **tags):
+    """A small JPEG whose GPS tags give map point (x, y) of ``dem``'s CRS, plus ``tags``."""
+    from osgeo import osr
+
+    src, dst = osr.SpatialReference(), osr.SpatialReference()
+    src.ImportFromWkt(dem.crs_wkt)
+    dst.ImportFromEPSG(4326)
+    for srs in (src, dst):
+        srs.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+    lon, lat, _ = osr.CoordinateTransformation(src, dst).TransformPoint(x, y)
+
+    def dms(value):
+        d, m = int(value), int((value - int(value)) * 60)
+        return f"({d}) ({m}) ({(value - d - m / 60) * 3600:.4f})"
+
+    return _jpeg(path, (300, 200), GPSLatitude=dms(lat), GPSLatitudeRef="N", GPSLongitude=dms(lon),
+                 GPSLongitudeRef="E", **tags)
+
+
+def test_a_rough_camera_without_a_direction_tag_looks_at_the_dem_and_says_its_heading_is_unknown(tmp_path):
+    """A batch row or autoregister without a prior: with a direction tag the heading is known; without one the camera
+    looks at the DEM's centre and the registration is told to search every direction (it used to fail the row)."""
+    from monoplot_plugin.adapters.exif import exif_rough_camera
+    from monoplot_plugin.core.synthetic import synthetic_terrain
+
+    dem = synthetic_terrain((80, 80), cell=50.0, seed=1)
+    x0, y0, x1, y1 = dem.bounds()
+    x, y = x0 + 0.5 * (x1 - x0), y0 + 0.1 * (y1 - y0)  # south of the centre: looking north
+    camera, known = exif_rough_camera(_jpeg_at(tmp_path / "nodir.jpg", dem, x, y), (300, 200), dem)
+    assert not known and abs((camera.heading + 180.0) % 360.0 - 180.0) < 1.0
+    assert np.allclose(camera.position[:2], (x, y), atol=1.0)
+    camera, known = exif_rough_camera(_jpeg_at(tmp_path / "east.jpg", dem, x, y, GPSImgDirection="(90.0)",
+                                               GPSImgDirectionRef="T"), (300, 200), dem)
+    assert known and abs(camera.heading - 90.0) < 3.0  # true north to the grid's: the convergence, small here
+    with pytest.raises(ValueError, match="no GPS position"):
+        exif_rough_camera(_jpeg(tmp_path / "plain.jpg", (300, 200)), (300, 200), dem)

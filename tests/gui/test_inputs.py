@@ -526,9 +526,10 @@ def test_a_new_photo_with_gps_tags_gets_its_own_rough_camera_not_the_last_ones(d
     assert any("Its field of view is this photo's, from EXIF" in text for text in said), said
 
 
-def test_find_camera_warns_when_the_rough_cameras_heading_is_a_guess(dock, scene, tmp_path, qtbot):
+def test_find_camera_searches_every_direction_when_the_heading_is_a_guess(dock, scene, tmp_path, qtbot):
     """Trials B and C: EXIF with a position but no direction gives a heading aimed at the DEM's centre, and the
-    registration searches a few degrees around it. Find camera says so before it runs, until a heading is given."""
+    ordinary registration searched a few degrees around it. Find camera then searches every direction, and says so
+    before it runs, until a heading is given."""
     path = _jpeg_at_camera(scene, tmp_path / "nodir.jpg", GPSAltitude=f"({scene.camera.position[2]:.1f})")
     dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
     c = dock.controller
@@ -539,7 +540,8 @@ def test_find_camera_warns_when_the_rough_cameras_heading_is_a_guess(dock, scene
     assert dock.auto_panel.run()
     c.cancel()
     qtbot.waitUntil(lambda: not c.busy, timeout=60000)
-    assert any(text.startswith("The rough camera's heading is only a guess") for text in said), said
+    assert any(text.startswith("The photo's EXIF has no direction of view: every direction is searched")
+               for text in said), said
     c.set_prior(c.prior.with_parameters(pitch=c.prior.pitch - 1.0))  # a pitch edited: still a guessed heading
     assert c.state.settings.get("prior_heading_guessed")
     c.set_prior(c.prior.with_parameters(heading=c.prior.heading + 20.0))  # the view drawn: no longer a guess
@@ -548,4 +550,4 @@ def test_find_camera_warns_when_the_rough_cameras_heading_is_a_guess(dock, scene
     assert dock.auto_panel.run()
     c.cancel()
     qtbot.waitUntil(lambda: not c.busy, timeout=60000)
-    assert not any("only a guess" in text for text in said), said
+    assert not any("every direction is searched" in text for text in said), said

@@ -91,3 +91,17 @@ def test_a_doubtful_registrations_camera_carries_its_verdict_to_the_products(run
     run_alg("computexyz", {"CAMERA": str(tmp_path / "plain.json"), "DEM": str(d / "dem.tif"),
                            "OUTPUT": str(tmp_path / "xyz2.tif")}, quiet)
     assert not quiet.warnings
+
+
+def test_any_heading_finds_a_view_the_prior_looks_away_from(run_alg, rendered_scene, tmp_path):
+    """A viewpoint known, its direction not (a print's caption names the summit it was taken from): ANY_HEADING
+    searches every direction of view."""
+    d = rendered_scene["dir"]
+    truth = rendered_scene["truth"]
+    truth.with_parameters(heading=truth.heading + 100.0, x=truth.position[0] + 50.0).save(tmp_path / "away.json")
+    result = run_alg("autoregister", {"PHOTO": str(d / "photo.png"), "DEM": str(d / "dem.tif"),
+                                      "PRIOR": str(tmp_path / "away.json"), "ANY_HEADING": True,
+                                      "POSITION_SIGMA": 100.0, "OUTPUT": str(tmp_path / "camera.json")})
+    cam = Camera.load(tmp_path / "camera.json")
+    assert abs((cam.heading - truth.heading + 180.0) % 360.0 - 180.0) < 1.0 and abs(cam.pitch - truth.pitch) < 1.0
+    assert result["MESSAGE"].startswith("The direction of view was not known") and result["STATUS"] != "poor"

@@ -5,10 +5,12 @@ occluding contours from a camera, as 3-D points), :mod:`.align` (the oriented ch
 search), :mod:`.fine` (the fine stage, the edge score that compares cameras, position probes), :mod:`.points` (the
 suggestions and skyline points the aligned camera brings together, for the final fit), :mod:`.sigma` (σ that covers
 what those points cannot see), :mod:`.register` (:func:`register_automatic`: alignment, consistent suggestions,
-consensus fit, verdict),
+consensus fit, verdict), :mod:`.heading` (:func:`register_any_heading`: the same when the direction of view is not
+known),
 :mod:`.overlay` (the DEM's silhouettes under the camera found drawn over the photo's detected skyline).
 """
 
+from .heading import register_any_heading
 from .register import AutoFitResult, register_automatic
 
-__all__ = ["register_automatic", "AutoFitResult"]
+__all__ = ["register_automatic", "register_any_heading", "AutoFitResult"]

@@ -1,8 +1,10 @@
 """Register a photo on the DEM automatically (issue 13): the camera from the photo, the DEM and a rough prior."""
 
+from typing import Tuple
 
 from qgis.core import (
     QgsProcessingException,
+    QgsProcessingParameterBoolean,
     QgsProcessingOutputNumber,
     QgsProcessingOutputString,
     QgsProcessingParameterFileDestination,
@@ -19,12 +21,12 @@ from ..base import (MonoplotAlgorithm, cancel_callback, centred_on_print, check_
 from ..inputs import read_photo
 
 
-def camera_from_exif(path: str, size, dem) -> Camera:
-    """A rough camera from the photo's EXIF GPS tags (:func:`~...adapters.exif.exif_camera`)."""
-    from ...adapters.exif import exif_camera, read_exif_prior
+def camera_from_exif(path: str, size, dem) -> Tuple[Camera, bool]:
+    """(rough camera, heading known) from the photo's EXIF GPS tags (:func:`~...adapters.exif.exif_rough_camera`)."""
+    from ...adapters.exif import exif_rough_camera
 
     try:
-        return exif_camera(read_exif_prior(path, size), size, dem)
+        return exif_rough_camera(path, size, dem)
     except ValueError as e:
         raise QgsProcessingException(f"No prior camera given and {e}: give a Monoplot JSON or KML PhotoOverlay "
                                      "camera.") from None
@@ -37,8 +39,10 @@ class AutoRegister(MonoplotAlgorithm):
              "DEM's silhouettes seen from camera hypotheses within the prior's uncertainty, then Monoplot's photo "
              "and DEM suggestions consistent with the aligned camera are fitted like any unpaired fit. The prior "
              "is a Monoplot JSON or KML PhotoOverlay camera, or (when none is given) the photo's EXIF GPS "
-             "position and direction. Writes the camera as JSON; STATUS says whether the evidence supports it "
-             "(ok / uncertain / poor) and MESSAGE why. In a batch, give each photo its own prior. Frames of one "
+             "position and direction. Without a direction tag, or with ANY_HEADING (a viewpoint known, its "
+             "direction not), every direction of view is searched: three to four times as long. Writes the "
+             "camera as JSON; STATUS says whether the evidence supports it (ok / uncertain / poor) and MESSAGE "
+             "why. In a batch, give each photo its own prior. Frames of one "
              "fixed camera (a time-lapse) need one camera, not one each: registered one by one, the same camera "
              "came out up to 38 m apart and a glacier front seemed to move 20 m; register one frame here and "
              "give its camera to 'Batch: many photos' (time-lapse mode, REGISTER for a camera that drifts).")
@@ -57,6 +61,9 @@ class AutoRegister(MonoplotAlgorithm):
         self.addParameter(QgsProcessingParameterNumber(
             "FOV_SIGMA", self.tr("Uncertainty of the field of view (degrees, one sigma; empty = 10 %)"),
             QgsProcessingParameterNumber.Double, optional=True, minValue=0.1, maxValue=40.0))
+        self.addParameter(QgsProcessingParameterBoolean(
+            "ANY_HEADING", self.tr("The prior's heading is unknown: search every direction of view (three to four "
+                                   "times as long)"), defaultValue=False))
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", self.tr("Camera"),
                                                                 "Monoplot camera (*.json)"))
         self.addOutput(QgsProcessingOutputNumber("RMSE_PX", self.tr("Reprojection error of the matched points (px)")))
@@ -69,11 +76,15 @@ class AutoRegister(MonoplotAlgorithm):
         dem, crs = self.dem(parameters, context)
         image = checked(read_photo, photo_path)
         size = (image.shape[1], image.shape[0])
+        heading_known = not self.parameterAsBool(parameters, "ANY_HEADING", context)
         if self.parameterAsFile(parameters, "PRIOR", context):
             prior = self.camera(parameters, context, "PRIOR", crs=crs, image_size=size, rough=True)
         else:
-            prior = camera_from_exif(photo_path, size, dem)
-            feedback.pushInfo(self.tr("Prior camera from the photo's EXIF GPS tags."))
+            prior, tagged = camera_from_exif(photo_path, size, dem)
+            heading_known = heading_known and tagged
+            feedback.pushInfo(self.tr("Prior camera from the photo's EXIF GPS tags.") + (
+                "" if heading_known else " " + self.tr("They give no direction of view: every direction is searched "
+                                                       "(three to four times as long).")))
         prior = centred_on_print(prior, image, feedback)
         fov_sigma = parameters.get("FOV_SIGMA")
         fov_sigma = None if fov_sigma in (None, "") else self.parameterAsDouble(parameters, "FOV_SIGMA", context)
@@ -82,7 +93,7 @@ class AutoRegister(MonoplotAlgorithm):
                                  position_sigma_m=self.parameterAsDouble(parameters, "POSITION_SIGMA", context),
                                  angle_sigma_deg=self.parameterAsDouble(parameters, "ANGLE_SIGMA", context),
                                  fov_sigma_deg=fov_sigma, progress=progress_callback(feedback, 0, 95),
-                                 is_canceled=cancel_callback(feedback))
+                                 is_canceled=cancel_callback(feedback), heading_known=heading_known)
         except Canceled:
             raise QgsProcessingException(self.tr("Registration canceled; no camera written.")) from None
         result = done.result
