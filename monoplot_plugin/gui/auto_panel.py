@@ -38,6 +38,13 @@ def install_auto_panel(dock) -> "AutoPanel":
     return AutoPanel(dock)
 
 
+#: the rough camera's σ for the registration of what the fit settings hold fixed (field of view, position, heading
+#: and pitch together): the search stays within a few hundredths of a degree, a metre
+FIXED_FOV_SIGMA_DEG = 0.02
+FIXED_POSITION_SIGMA_M = 1.0
+FIXED_ANGLE_SIGMA_DEG = 0.05
+
+
 class AutoPanel(QObject):
     """The button and its task of one dock."""
 
@@ -137,6 +144,14 @@ class AutoPanel(QObject):
                                                                    "fov_sigma_deg")}
         if sigmas["position_sigma_m"] is None and from_prior and c.state.settings.get("prior_source") == GPS_SOURCE:
             sigmas["position_sigma_m"] = GPS_POSITION_M
+        free = fit_arguments(c.state.settings)[0]
+        if free is not None:  # what the fit may not change is known: the search keeps it too (a trial's 35 mm lens,
+            # 54.43° and its box unchecked: Find camera returned 54.86° and 61.06°, and its camera 16 px off)
+            for name, held, value in (("fov_sigma_deg", {"fov"}, FIXED_FOV_SIGMA_DEG),
+                                      ("position_sigma_m", {"x", "y"}, FIXED_POSITION_SIGMA_M),
+                                      ("angle_sigma_deg", {"heading", "pitch"}, FIXED_ANGLE_SIGMA_DEG)):
+                if sigmas[name] is None and not held & set(free):
+                    sigmas[name] = value
         return sigmas
 
     def _apply(self, value) -> None:

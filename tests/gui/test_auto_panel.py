@@ -377,3 +377,20 @@ def test_a_rough_camera_at_the_photos_gps_position_is_searched_near_it(dock, val
     assert info["position_sigma_stated"] and info["position_sigma_m"] == 5.0
     assert info["moved_m"] > 10.0 and info["status"] != "ok"
     assert any("moved the camera {0:.0f} m from the rough camera".format(info["moved_m"]) in m for m in messages)
+
+
+def test_a_field_of_view_the_fit_holds_is_held_by_find_camera_too(dock, valley, qtbot):
+    """A trial's 35 mm lens (54.43°), its field of view unchecked in the fit settings: Find camera returned 54.86°
+    and 61.06° (its own σ, 10 %, was all it knew). What the fit may not change, the search keeps."""
+    from monoplot_plugin.gui.auto_panel import FIXED_FOV_SIGMA_DEG
+
+    c = _open_valley(dock, valley)
+    panel = dock.auto_panel
+    assert panel.prior_sigmas(True)["fov_sigma_deg"] is None
+    box = dock.fit_settings.free_checks["field of view"]
+    box.setChecked(False)  # as the person unticks it
+    assert panel.prior_sigmas(True)["fov_sigma_deg"] == FIXED_FOV_SIGMA_DEG
+    assert panel.prior_sigmas(True)["position_sigma_m"] is None  # the position is still free
+    prior_fov = c.prior.fov
+    run_find_camera(dock, qtbot)
+    assert abs(c.fitted.fov - prior_fov) <= 3.0 * FIXED_FOV_SIGMA_DEG + 1e-6, (c.fitted.fov, prior_fov)

@@ -327,8 +327,9 @@ def _finish(finals, at: float, search: _Search):
     evidence["auto_skyline_points"] = int(len(sky_uv))
     fit_at = max(at, 0.5 * (at + 0.9))  # 0.7 -> 0.8: the fit takes 0.8 to 0.9; a retry (0.95) stays at 0.95
     report(fit_at, "automatic registration: consensus fit")
+    # a field of view known better than half a degree (a lens typed in) stays as known
     fit_sig = {"position_sigma_m": sig["position_m"], "angle_sigma_deg": 1.0,
-               "fov_sigma_deg": max(0.5, 0.25 * sig["fov_deg"])}
+               "fov_sigma_deg": sig["fov_deg"] if sig["fov_deg"] < 0.5 else max(0.5, 0.25 * sig["fov_deg"])}
     fit = fit_camera(image_points, world_points, aligned, is_canceled=is_canceled,
                      progress=lambda f, m="": report(fit_at + max(0.0, 0.9 - fit_at) * f, m),
                      time_budget_s=2.0,
