@@ -195,3 +195,25 @@ def test_drawn_camera_gets_a_pitch_from_the_terrain(dock, scene):
     rows_with_sky = np.isnan(view.depth).any(axis=1)
     assert rows_with_sky[: view.depth.shape[0] // 3].any() and not rows_with_sky[-view.depth.shape[0] // 3:].all()
     assert c.prior_from_map(x, y, 0.0, 60.0, -3.0, 2.0).pitch == -3.0  # a given pitch is kept
+
+
+def test_the_lenss_exact_field_of_view_survives_editing_another_box(dock, scene, qtbot):
+    """A trial's 35 mm lens on a 36 mm sensor, 54.432°: "Set field of view" gave the camera the box's 54.4°, and so
+    did typing the heading afterwards (the fit then held 54.4° fixed: 1.4 px RMS at 24 MP). The camera keeps the
+    exact value; a box typed into changes what it shows."""
+    from monoplot_plugin.adapters.exif import lens_fov
+
+    _load(dock, scene.photo_path)
+    c = dock.controller
+    c.set_prior(scene.prior)
+    lens = dock.lens_panel
+    lens.focal_spin.setValue(35.0)
+    lens.sensor_spin.setValue(36.0)
+    exact = lens_fov(35.0, 36.0)
+    assert lens.apply() == pytest.approx(exact) and c.prior.fov == pytest.approx(exact, abs=1e-9)
+    assert abs(exact - round(exact, 1)) > 1e-3  # the box shows it rounded
+    pitch = c.prior.pitch
+    dock.headingSpin.setValue(dock.headingSpin.value() + 7.0)  # as typed (keyboard tracking off: one change)
+    assert c.prior.fov == pytest.approx(exact, abs=1e-9) and c.prior.pitch == pitch
+    dock.fovSpin.setValue(50.0)  # a box edited: its value
+    assert c.prior.fov == pytest.approx(50.0)
