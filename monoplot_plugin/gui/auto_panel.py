@@ -160,7 +160,22 @@ class AutoPanel(QObject):
         r = done.result
         status = checked["status"]
         kept = (c.state.fit_info or {}).get("status")
-        if c.fitted is not None and kept in ("ok", "uncertain") and status != "ok":
+        earlier = _earlier_automatic_edge(c.state.fit_info)  # the fitted camera is an earlier registration's
+        edge = _finite(r.evidence.get("auto_edge_score"))
+        if c.fitted is not None and kept in ("ok", "uncertain") and status != "ok" and earlier is not None and (
+                edge is None or edge > earlier):
+            # a run again with other settings (a trial: ± 150 m, 8°) was told "your fitted camera and your points are
+            # kept" of the first run's own camera: the two are compared as the registration compares its cameras
+            camera_layers.show_camera_layers(self.dock.project, done.camera, footprint, c.dem_crs,
+                                             other=self.tr("automatic, {0}").format(status))
+            logging.getLogger(__name__).info("Automatic registration set aside (%s): %s", status, checked["message"])
+            c.message.emit(self.tr("This automatic registration ended {0} and fits the photo's edges less well (edge "
+                                   "score {1:.3f}, lower is better) than the earlier one ({2:.3f}): the earlier "
+                                   "camera and its points are kept. This one is on the map in purple; its report is "
+                                   "in the Monoplot log.").format(status, edge if edge is not None else float("nan"),
+                                                                  earlier), Qgis.MessageLevel.Warning)
+            return
+        if c.fitted is not None and kept in ("ok", "uncertain") and status != "ok" and earlier is None:
             # Nothing lost: a doubtful automatic camera never replaces the person's own fit and points.
             # ... but the person can look at it: its position and footprint on the map, beside their own
             camera_layers.show_camera_layers(self.dock.project, done.camera, footprint, c.dem_crs,
@@ -226,7 +241,7 @@ class AutoPanel(QObject):
                 "check_rmse_px": checked["check_rmse_px"], "n_check": checked["n_check"],
                 # the registration's pairs, as an unpaired fit records its own: residuals in the dock, points in
                 # the report (it showed none after a registration)
-                "matched": [(p.id, m.id) for p, m in zip(photo_pts, map_pts)]}
+                "matched": [(p.id, m.id) for p, m in zip(photo_pts, map_pts)], "auto_edge_score": edge}
         if len(world):  # how far it went from the rough camera, as a fit says it ("uncertain" beyond 3 σ stated)
             info.update(c.moved_from_prior(done.camera, world, fit_arguments(c.state.settings)[1]))
             c.doubt_a_moved_camera(info)
@@ -245,6 +260,15 @@ class AutoPanel(QObject):
             c.message.emit(self.tr("{0} undecided suggestions and earlier unreviewed matches were replaced by the "
                                    "{1} + {2} matched points (Undo brings them back).").format(
                 replaced, len(photo_pts), len(map_pts)), Qgis.MessageLevel.Info)
+
+
+def _earlier_automatic_edge(info) -> Optional[float]:
+    """The edge score of the fitted camera when it is an automatic registration's (``info``: the fit's record),
+    else None (the person's own fit, or a record from before the score was kept)."""
+    info = info or {}
+    if info.get("mode") != "automatic":
+        return None
+    return _finite(info.get("auto_edge_score"))
 
 
 def _not_decided_already(state, label: str, uv, world) -> np.ndarray:

@@ -394,3 +394,23 @@ def test_a_field_of_view_the_fit_holds_is_held_by_find_camera_too(dock, valley, 
     prior_fov = c.prior.fov
     run_find_camera(dock, qtbot)
     assert abs(c.fitted.fov - prior_fov) <= 3.0 * FIXED_FOV_SIGMA_DEG + 1e-6, (c.fitted.fov, prior_fov)
+
+
+def test_a_second_registration_is_weighed_against_the_first_not_set_aside_as_the_persons_fit(dock, valley, qtbot):
+    """A trial ran Find camera again with Position ± 150 m and Angles ± 8°: its "uncertain" result was set aside with
+    "your fitted camera and your points are kept", the fitted camera being the first run's own. Two automatic
+    cameras are compared by how well they fit the photo's edges (the registration's own measure)."""
+    c = _open_valley(dock, valley)
+    run_find_camera(dock, qtbot)
+    first = c.fitted.parameters()
+    assert c.state.fit_info["mode"] == "automatic" and c.state.fit_info["auto_edge_score"] > 0.0
+    c.state.settings["fit"] = {"position_sigma_m": 5.0}  # the prior is 72 m off: this run ends doubtful
+    c.state.fit_info["auto_edge_score"] = 0.0  # as if the first run fitted the edges perfectly
+    messages = run_find_camera(dock, qtbot)
+    assert c.fitted.parameters() == first
+    assert any("fits the photo's edges less well" in m and "the earlier camera and its points are kept" in m
+               for m in messages), messages
+    assert not any("your fitted camera" in m for m in messages)
+    c.state.fit_info["auto_edge_score"] = 5.0  # ... and now as if it fitted them badly: the new camera replaces it
+    run_find_camera(dock, qtbot)
+    assert c.fitted.parameters() != first and c.state.fit_info["auto_edge_score"] < 5.0
