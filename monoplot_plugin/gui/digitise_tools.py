@@ -6,7 +6,8 @@ The tools write into a :class:`~.digitising.DigitisingSession`, whose live map l
 Capture, QGIS-like: left click adds a vertex (a point is done at once), right click finishes a line (2+ vertices) or
 polygon (3+ vertices), Backspace removes the last vertex, Esc cancels. Vertices snap to the vertices of everything
 already drawn on the photo within :data:`SNAP_PIXELS` screen pixels and :data:`SNAP_MAX_PHOTO_PX` photo pixels (a
-marker shows the snap), and a polygon's or line's last click onto its own first vertex once it has three.
+marker shows the snap), and a polygon's or line's last click onto its own first vertex once it has three (within
+the same limits).
 
 Edit: drag a vertex to move it; right click on a feature (or press Delete with the mouse over it) deletes it.
 
@@ -123,7 +124,9 @@ class PhotoCaptureTool(QgsMapTool):
         if hit is not None:
             candidates.append(hit[3])
         best = min(candidates, key=lambda p: p.distance(point), default=None)
-        if best is not None and best.distance(point) <= tolerance:
+        # its own start within the photo-pixel limit too: 10 screen px are 37 photo px in the dock, and a glacier
+        # outline's 13th click, 32 photo px from its start, snapped onto it and was lost (a trial)
+        if best is not None and best.distance(point) <= others:
             return QgsPointXY(best), True
         return point, False
 

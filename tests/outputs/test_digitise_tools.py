@@ -211,3 +211,24 @@ def test_snapping_onto_another_feature_is_bounded_in_photo_pixels(canvas_and_ses
     far, _ = tool.snapped(QgsPointXY(100 + 2.5 * SNAP_MAX_PHOTO_PX, -100))  # 5 screen px, 20 photo px away
     near, snapped = tool.snapped(QgsPointXY(100 + 0.5 * SNAP_MAX_PHOTO_PX, -100))
     assert (far.x(), far.y()) == (100 + 2.5 * SNAP_MAX_PHOTO_PX, -100) and snapped and (near.x(), near.y()) == (100, -100)
+
+
+def test_a_polygons_own_start_is_snapped_to_within_the_same_photo_pixel_limit(canvas_and_session):
+    """A trial's glacier outline at 3.7 photo px per screen px: its 13th click, 32 photo px from its start (within 10
+    screen px), snapped onto the start and the vertex was lost. Its own start is held to the photo-pixel limit too."""
+    from monoplot_plugin.gui.digitise_tools import SNAP_MAX_PHOTO_PX
+
+    canvas, session = canvas_and_session
+    w = canvas.width() * 4.0
+    canvas.setExtent(canvas.extent().__class__(0, -w * canvas.height() / canvas.width(), w, 0))
+    canvas.refresh()
+    tool = PhotoCaptureTool(canvas, lambda: session, "polygon")
+    for u, v in ((100, 100), (400, 100), (400, 300)):
+        click(tool, canvas, u, v)
+    near_start = (100 + 2.5 * SNAP_MAX_PHOTO_PX, 100)  # 20 photo px, 5 screen px from the start
+    click(tool, canvas, *near_start)
+    assert len(tool.vertices) == 4 and (tool.vertices[-1].x(), -tool.vertices[-1].y()) == pytest.approx(near_start,
+                                                                                                         abs=4.5)
+    start = tool.vertices[0]
+    at_start, snapped = tool.snapped(QgsPointXY(start.x() + 0.5 * SNAP_MAX_PHOTO_PX, start.y()))
+    assert snapped and at_start == start  # right on it: still snaps
