@@ -359,7 +359,17 @@ class ResultsMixin:
         from ..outputs.report import ReportPoints
 
         ids, uv, xyz = self.check_points()
-        return ReportPoints(uv, xyz) if ids else None
+        partners = [self.state.partner(i) for i in ids]
+        return ReportPoints(uv, xyz, self._pair_names(ids, partners)) if ids else None
+
+    def _pair_names(self, photo_ids, map_ids):
+        """The report's names of pairs: the points' own labels (a GCP table's ids: a trial's P01-P10 came out as
+        1-8) when every pair has one and no two are the same, else None (numbered 1, 2, ...)."""
+        names = []
+        for a, b in zip(photo_ids, map_ids):
+            pa, pb = self.state.points.get(a), self.state.points.get(b) if b is not None else None
+            names.append((pa.label if pa is not None else "") or (pb.label if pb is not None else ""))
+        return names if names and all(names) and len(set(names)) == len(names) else None
 
     def report_inputs(self):
         """(ReportPoints of the fit's pairs or None, the fit's sigmas or None) for the report, read on the main
@@ -382,7 +392,9 @@ class ResultsMixin:
                          if a in index_photo and b in index_world]
             if pairs:
                 i, j = np.asarray(pairs, dtype=int).T
-                points = ReportPoints(np.asarray(uv)[i], np.asarray(world)[j])
+                photo_ids, world_ids = self._fit_ids
+                names = self._pair_names([photo_ids[k] for k in i], [world_ids[k] for k in j])
+                points = ReportPoints(np.asarray(uv)[i], np.asarray(world)[j], names)
         # the dock's fit stores its standard deviations as "sigma" (gui/engine.py); a core summary says "std"
         std = info.get("sigma") or info.get("std")
         return points, (std or None)

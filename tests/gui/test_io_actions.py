@@ -49,6 +49,12 @@ def test_gcp_csv_import_keeps_surveyed_z_and_check_flags(dock, scene, tmp_path):
     assert np.abs(world[:, 2] - dem_z).max() > 4.0 and len(pairs) == len(uv) - 3 and len(order) == len(pairs)
     ids, cuv, cxyz = c.check_points()
     assert np.allclose(np.sort(cxyz[:, 2]), np.sort(xyz[check, 2]), atol=1e-3)
+    # the report names the points by the table's ids (a trial's P01-P10 came out numbered 1-8)
+    assert sorted(c.report_checks().names) == ["g1", "g5", "g9"]
+    c.fit_inputs()
+    c.state.fit_info = {"status": "ok"}
+    names = c.report_inputs()[0].names
+    assert sorted(names) == sorted(f"g{i}" for i in range(len(uv)) if not check[i])
     # one undo entry takes the whole import back
     c.stack.undo()
     assert not c.state.points and not c.state.pairs
