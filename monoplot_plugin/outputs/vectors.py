@@ -32,7 +32,7 @@ from osgeo import ogr
 from ._gdal import gdal_errors_as_exceptions, gdal_failure, srs_from_user, vector_verifier
 from .safe_write import atomic_output
 
-__all__ = ["MapFeature", "write_vector_layer", "read_vector_layer", "FIELD_TYPES", "driver_for_path",
+__all__ = ["MapFeature", "polygon_area", "write_vector_layer", "read_vector_layer", "FIELD_TYPES", "driver_for_path",
            "COMPUTED_FIELDS", "INTEGER_FIELDS", "other_layers"]
 
 #: User field types and their OGR types.
@@ -74,6 +74,8 @@ class MapFeature:
     silhouettes: int = 0
     m_per_px: Optional[float] = None
     m_px_max: Optional[float] = None
+    #: polygons: how much the area changes with the camera's error (map units squared), None: the buffer estimate
+    area_error_m2: Optional[float] = None
 
     def __post_init__(self):
         if self.kind not in _OGR_GEOMETRY:
@@ -106,8 +108,11 @@ class MapFeature:
     def measures(self) -> Dict[str, float]:
         """Computed fields (see :data:`COMPUTED_FIELDS`) in map units.
 
-        A polygon's ``area_error`` (map units squared; only with ``xy_error_m``) is the glacier inventories' buffer
-        estimate: the area between the outline moved out and in by its horizontal error, perimeter x xy_error_m.
+        A polygon's ``area_error`` (map units squared) is ``area_error_m2`` when the feature has it (how much the
+        area changes when the camera is off by its pixel error: :func:`~..workflow.features.area_error_m2`), else,
+        with ``xy_error_m``, the glacier inventories' buffer estimate: the area between the outline moved out and in
+        by its horizontal error, perimeter x xy_error_m (cautious: it moves every piece of the outline outward at
+        once, where a camera's error moves the whole outline together).
 
         >>> MapFeature("polygon", [[[0, 0, 5], [10, 0, 5], [10, 20, 9], [0, 20, 9]]]).measures()
         {'area': 200.0, 'length': 60.0, 'silhouette': 0, 'sky_parts': 0}
@@ -119,7 +124,9 @@ class MapFeature:
             out["area"] = float(sum(abs(_shoelace(p[:, :2])) for p in self.parts))
             out["length"] = float(sum(_path_length(_closed(p)[:, :2]) for p in self.parts))
             out["silhouette"] = int(self.silhouettes)
-            if self.xy_error_m is not None and np.isfinite(self.xy_error_m):
+            if self.area_error_m2 is not None and np.isfinite(self.area_error_m2):
+                out["area_error"] = round(float(self.area_error_m2), 1)
+            elif self.xy_error_m is not None and np.isfinite(self.xy_error_m):
                 out["area_error"] = round(out["length"] * float(self.xy_error_m), 1)
         elif self.kind == "line":
             out["length"] = float(sum(_path_length(p[:, :2]) for p in self.parts))
@@ -134,6 +141,11 @@ class MapFeature:
 
 def _closed(ring: np.ndarray) -> np.ndarray:
     return ring if np.array_equal(ring[0], ring[-1]) else np.vstack([ring, ring[:1]])
+
+
+def polygon_area(xy: np.ndarray) -> float:
+    """Area of a ring (N, 2) (map units squared)."""
+    return abs(_shoelace(np.asarray(xy, dtype=np.float64)))
 
 
 def _shoelace(xy: np.ndarray) -> float:

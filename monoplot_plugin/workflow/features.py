@@ -17,7 +17,8 @@ from ..core.lookup import sample_xyz
 from ..core.transforms import densify, ground_pieces, silhouette_crossings, true_runs
 from ..outputs.vectors import MapFeature
 
-__all__ = ["photo_to_map_feature", "PhotoPath", "map_to_photo", "pixel_error", "feature_error_m", "ground_per_pixel"]
+__all__ = ["photo_to_map_feature", "PhotoPath", "map_to_photo", "pixel_error", "feature_error_m", "ground_per_pixel",
+           "area_error_m2"]
 
 #: Most ground samples of a feature at which its position error is evaluated (evenly along it).
 ERROR_SAMPLES = 64
@@ -81,6 +82,42 @@ def feature_error_m(ground_uv: np.ndarray, camera, dem, pixel_rmse: Optional[flo
     errors = ground_error_m(np.asarray(ground_uv)[pick], camera, dem, float(pixel_rmse))
     errors = errors[np.isfinite(errors)]
     return float(np.sqrt(np.mean(errors ** 2))) if len(errors) else None
+
+
+def area_error_m2(ring_uv: np.ndarray, lookup, camera, pixel_rmse: Optional[float]) -> Optional[float]:
+    """How much a polygon's ground area changes when the camera is off by its pixel error (m²): the outline
+    ``ring_uv`` (N, 2) pixels, without its closing point, moved by ``pixel_rmse`` either way along u and along v (a
+    camera turned), scaled and rotated by it at the picture's corners (a field of view or a roll off), and mapped to
+    the ground again by ``lookup``; half of each pair's difference, added in quadrature. None without a pixel error.
+
+    The camera's error moves the whole outline together, not each piece outward as the glacier inventories' buffer
+    (perimeter x error) assumes: a trial's 0.30 km² outline had a buffer of 0.26 km² (87 %) where cameras as far off
+    moved it by 2 %; Aletsch's cameras fitted without one GCP each move its lower glacier by 0.001-0.05 km² against a
+    buffer of 0.36 km²."""
+    if pixel_rmse is None or not np.isfinite(pixel_rmse) or camera is None or len(ring_uv) < 3:
+        return None
+    from ..outputs.vectors import polygon_area
+
+    uv = np.asarray(ring_uv, dtype=np.float64)
+    w, h = camera.image_size
+    centre = np.asarray(camera.principal_point or (w / 2.0, h / 2.0), dtype=np.float64)
+    e = float(pixel_rmse)
+    turn = e / max(1.0, float(np.hypot(w, h)) / 2.0)  # radians (and scale) moving a corner by e pixels
+    rotation = np.array([[np.cos(turn), -np.sin(turn)], [np.sin(turn), np.cos(turn)]])
+
+    def moved(sign: float):
+        yield uv + (sign * e, 0.0)
+        yield uv + (0.0, sign * e)
+        yield centre + (uv - centre) * (1.0 + sign * turn)
+        yield centre + (uv - centre) @ (rotation if sign > 0 else rotation.T).T
+
+    def area_of(points):
+        ground = lookup(points)
+        ring = _drop_repeats(ground[np.isfinite(ground).all(axis=1)])
+        return polygon_area(ring[:, :2]) if len(ring) >= 3 else 0.0
+
+    changes = [0.5 * (area_of(a) - area_of(b)) for a, b in zip(moved(1.0), moved(-1.0))]
+    return float(np.sqrt(np.sum(np.square(changes))))
 
 
 def ground_per_pixel(ground_uv: np.ndarray, camera, dem) -> Tuple[Optional[float], Optional[float]]:
@@ -185,6 +222,8 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
         crossings = silhouette_crossings(ring, origin, jump) if origin is not None else 0
         return MapFeature("polygon", [ring], attributes, sky_parts=sky, silhouettes=crossings,
                           xy_error_m=feature_error_m(dense[:-1][ring_valid], camera, dem, pixel_rmse),
+                          area_error_m2=area_error_m2(dense[:-1], lookup, camera, pixel_rmse) if dem is not None
+                          else None,
                           **_spans(dense[:-1][ring_valid], camera, dem))
     pieces = ground_pieces(ground, valid, origin, jump)[0] if origin is not None else true_runs(valid)
     parts = [_drop_repeats(ground[p:q]) for p, q in pieces]

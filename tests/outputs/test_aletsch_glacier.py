@@ -191,9 +191,10 @@ def test_position_error_of_mapped_gcps_covers_their_surveyed_positions(aletsch, 
 
 
 def test_glacier_area_error_covers_the_area_of_cameras_fitted_without_one_gcp(aletsch):
-    """area_error (perimeter x xy_error_m, the buffer estimate) against the real spread of the area: the lower
-    glacier mapped with each of the 11 cameras fitted without one GCP, the pixel error the fit's leave-one-out RMSE
-    (measured: 1.95 km² ± 0.36; the 11 cameras move it by 0.001-0.05 km²: the buffer is cautious, as known).
+    """area_error (the area's change with the camera off by its pixel error) against the real spread of the area:
+    the lower glacier mapped with each of the 11 cameras fitted without one GCP, the pixel error the fit's
+    leave-one-out RMSE (measured: 1.95 km²; the 11 cameras move it by 0.001-0.05 km², and the buffer estimate,
+    perimeter x xy_error_m, said ± 0.36: cautious, as known, and useless on a trial's small outline, 87 %).
     """
     from monoplot_plugin.workflow.features import pixel_error
 
@@ -201,7 +202,8 @@ def test_glacier_area_error_covers_the_area_of_cameras_fitted_without_one_gcp(al
     rmse_px, _ = pixel_error({"status": fit.status, "rmse_px": fit.rmse_px, "loo_rmse_px": fit.loo_rmse_px})
     glacier = photo_to_map_feature("polygon", LOWER_GLACIER, camera=camera, dem=dem, pixel_rmse=rmse_px)
     measures = glacier.measures()
-    assert measures["area_error"] == pytest.approx(measures["length"] * glacier.xy_error_m, abs=0.1)
+    buffer = measures["length"] * glacier.xy_error_m
+    assert measures["area_error"] < 0.5 * buffer
     areas = []
     for left_out in range(len(aletsch["uv"])):
         keep = np.arange(len(aletsch["uv"])) != left_out
@@ -209,4 +211,4 @@ def test_glacier_area_error_covers_the_area_of_cameras_fitted_without_one_gcp(al
         areas.append(photo_to_map_feature("polygon", LOWER_GLACIER, camera=other, dem=dem).measures()["area"])
     spread = np.abs(np.array(areas) - measures["area"])
     assert spread.max() < measures["area_error"]  # not optimistic
-    assert measures["area_error"] < 0.3 * measures["area"]  # and still a useful figure
+    assert measures["area_error"] < 0.1 * measures["area"]  # and a useful figure

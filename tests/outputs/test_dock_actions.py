@@ -580,11 +580,11 @@ def test_drawn_features_say_their_position_error_only_when_a_fit_vouches_for_the
     footprint = float(np.median(np.linalg.norm(ground - s.camera.position, axis=1))) * 3.0 / s.camera.focal_px
     assert footprint < first < 20 * footprint  # face-on at least; longer on ground seen at a slant
     assert refit({"status": "ok", "rmse_px": 1.0, "check_rmse_px": 6.0}) == pytest.approx(2 * first, rel=0.2)
-    # a polygon gets its area's buffer error, perimeter x xy_error_m (empty while no fit vouches for the camera)
+    # a polygon gets its area's error: how much the area changes with the camera off by its pixel error, less than
+    # the buffer estimate (perimeter x xy_error_m); empty while no fit vouches for the camera
     session.add_feature("polygon", [[0.3 * w, 0.7 * h], [0.7 * w, 0.7 * h], [0.6 * w, 0.9 * h]], {"name": "lake"})
     lake = next(session.map_layer("polygon").getFeatures())
-    assert lake["area_error"] == pytest.approx(lake["length"] * lake["xy_error_m"], rel=1e-3)
-    assert lake["area_error"] > 0
+    assert 0 < lake["area_error"] < lake["length"] * lake["xy_error_m"]
     refit({"status": "uncertain", "rmse_px": 1.0, "check_rmse_px": 3.0})
     assert next(session.map_layer("polygon").getFeatures())["area_error"] in (None, NULL)
 
