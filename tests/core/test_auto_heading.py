@@ -34,8 +34,11 @@ def test_the_sweep_ranks_the_true_direction_first(turned):
 
 def test_register_any_heading_recovers_a_view_the_ordinary_search_cannot_reach(turned):
     dem, truth, photo, prior = turned
-    result = register_any_heading(photo, dem, prior, position_sigma_m=100.0)
+    # the lens known (its field of view held to 0.02°): it stays the rough camera's, not the sweep's (a re-check
+    # trial's held 54.43° came back 54.57°)
+    result = register_any_heading(photo, dem, prior, position_sigma_m=100.0, fov_sigma_deg=0.02)
     cam = result.camera
+    assert abs(cam.fov - prior.fov) <= 0.07
     assert gap(cam.heading, truth.heading) < 0.6 and abs(cam.pitch - truth.pitch) < 0.6
     world = dem_edges(truth, dem, 0.0).sky[::10]
     assert np.nanmedian(np.linalg.norm(cam.project(world) - truth.project(world), axis=1)) < 6.0

@@ -2,9 +2,11 @@
 picture with GPS but no compass tag, a print whose viewpoint is known but not where it looks).
 
 1. Sweep: the horizon around the prior's position is cut into sectors as wide as the ordinary coarse search's
-   heading range (:func:`sector_width`). In each sector that sees the DEM, the DEM's skyline and contours are rendered
-   once and the coarse grid of heading, pitch and field of view is scored against the photo's edges at 256 px
-   (:class:`~.align.Aligner`, no pull to the prior: every sector is judged by the edges alone).
+   heading range (:func:`sector_width`). In each sector that sees the DEM over at least half as much of its view as
+   the best-covered one (:data:`MIN_SHARE_OF_BEST_VIEW`), and shows a skyline when the photo does, the DEM's skyline
+   and contours are rendered once and the coarse grid of heading, pitch and field of view is scored against the
+   photo's edges at 256 px (:class:`~.align.Aligner`, no pull to the prior: every sector is judged by the edges
+   alone).
 2. The best sectors (:data:`N_CANDIDATES`, at least a sector apart) are each registered by
    :func:`~.register.register_automatic` from the prior aimed at that sector's best view, with the prior's
    ordinary σ.
@@ -36,6 +38,11 @@ __all__ = ["register_any_heading", "sweep_headings", "sector_width", "N_CANDIDAT
 
 #: Sectors of the sweep registered in full.
 N_CANDIDATES = 3
+#: A sector whose view sees the DEM over less than this share of the best-covered sector's is not searched.
+MIN_SHARE_OF_BEST_VIEW = 0.5
+#: A field of view known better than this (σ, degrees: a lens typed in and held) is the rough camera's in every
+#: candidate, not the sweep's.
+FOV_KNOWN_DEG = 0.5
 #: Headings farther apart than this many σ of the angle are different directions of view (for the rival rule).
 DISTINCT_SIGMAS = 3.0
 
@@ -69,17 +76,22 @@ def sweep_headings(image: np.ndarray, dem, prior: Camera, sig: dict, is_canceled
     margin = 0.5 * sector + 1.25 * sig["fov_deg"] + 2.0
     step = max(0.25, 4.0 * prior.fov / photo.width)
     grid = offsets_grid(sig, step, roll_steps=1)
+    refs = [prior.with_parameters(heading=(prior.heading + k * 360.0 / n) % 360.0) for k in range(n)]
+    seen = np.array([dem_in_view(ref, align_dem, 0.5 * sector) for ref in refs])
     found = []
-    for k in range(n):
+    for k, ref in enumerate(refs):
         if is_canceled is not None and is_canceled():
             raise FitCanceled()
         if progress is not None:
             progress(k / n, "automatic registration: searching every direction of view")
-        ref = prior.with_parameters(heading=(prior.heading + k * 360.0 / n) % 360.0)
-        if dem_in_view(ref, align_dem, margin) < MIN_VIEW_SEEN:
+        if seen[k] < max(MIN_VIEW_SEEN, MIN_SHARE_OF_BEST_VIEW * seen.max()):
+            # a view off the DEM's edge onto a sliver of near terrain: its few edge points can match anything (the
+            # dock's test scene, a camera at the DEM's south edge: 211° won, scored on a dozen contour points)
             continue
-        al = Aligner(ref, photo, dem_edges(ref, align_dem, margin, ref.focal_px * photo.scale), sig, tau=6.0,
-                     is_canceled=is_canceled, max_points=700)
+        edges = dem_edges(ref, align_dem, margin, ref.focal_px * photo.scale)
+        if photo.usable and not len(edges.sky):
+            continue  # no skyline of the DEM's this way to put on the photo's: the contours alone would be weighed
+        al = Aligner(ref, photo, edges, sig, tau=6.0, is_canceled=is_canceled, max_points=700)
         al.with_prior = False  # each sector judged by the edges alone
         scores = al.score(grid)
         best = int(np.argmin(scores))
@@ -121,6 +133,8 @@ def register_any_heading(image, dem, prior: Camera, *, position_sigma_m: Optiona
                                   is_canceled=is_canceled)
     results = []
     for i, (_, heading, pitch, fov) in enumerate(candidates):
+        if sig["fov_deg"] < FOV_KNOWN_DEG:
+            fov = prior.fov  # a lens typed in stays as known, not the sweep's (a trial: 0.137° off with 0.02° held)
         part = (0.15 + 0.85 * i / len(candidates), 0.85 / len(candidates))
         result = register_automatic(
             image, dem, prior.with_parameters(heading=heading, pitch=pitch, fov=fov),
