@@ -110,6 +110,9 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     ...                                                         "few <pairs>. Outliers: none."})
     >>> "<small>Verified by the check points despite: few &lt;pairs&gt;.</small>" in html, "RMSE 2 px." in html
     (True, False)
+    >>> "<small>The direction of view was not known: 15 directions searched.</small>" in fit_summary_html(
+    ...     cam, {"status": "ok", "message": "The direction of view was not known: 15 directions searched. RMSE 2."})
+    True
     >>> "Status: <b style='color:#1a7f37'>ok</b> · loaded from cam.json" in fit_summary_html(
     ...     cam, {"status": "ok", "loaded_from": "/data/cam.json"})
     True
@@ -180,7 +183,9 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     message = info.get("message", "")
     if status == "ok":
         # and the dock's note on too few pairs, and a loaded camera's own verdict
-        keep = ("Verified by the check points despite", tr("Your "), tr("Loaded with its own fit's verdict"))
+        # ... and that an automatic registration searched every direction (a re-check trial never saw it said)
+        keep = ("Verified by the check points despite", tr("Your "), tr("Loaded with its own fit's verdict"),
+                "The direction of view was not known")
         message = " ".join(part.rstrip(".") + "." for part in message.split(". ") if part.startswith(keep))
         note = f"<p><small>{html_escape(message)}</small></p>" if message else ""
     else:  # why it is doubtful and what to do first; the fit's figures after it, smaller
