@@ -43,6 +43,7 @@ class ReportPoints:
         if len(self.uv) != len(self.xyz):
             raise ValueError("as many photo points as map points are needed")
         self.names = list(names) if names is not None else [str(i + 1) for i in range(len(self.uv))]
+        self.named = names is not None  # names of their own (a GCP table's ids), not the numbers 1, 2, ...
 
 
 def parameter_sigmas(camera, points: ReportPoints, names: Sequence[str] = FIT_PARAMETERS) -> Dict[str, float]:
@@ -247,6 +248,9 @@ def _draw_checks(ax, camera, checks: Optional[ReportPoints]) -> None:
     ax.scatter(uv[:, 0], uv[:, 1], s=40, marker="s", facecolors="none", edgecolors="magenta", linewidths=1.2)
     ax.quiver(uv[:, 0], uv[:, 1], residual[:, 0] * 10, residual[:, 1] * 10, angles="xy", scale_units="xy", scale=1,
               color="magenta", width=0.003)
+    if checks.named:  # their own names (numbers would repeat the control points'); a re-check trial's had none
+        for name, (u, v) in zip(np.asarray(checks.names, dtype=object)[ok], uv):
+            ax.annotate(str(name), (u, v), xytext=(4, -4), textcoords="offset points", color="magenta", fontsize=7)
 
 
 def _draw_overlay(ax, photo, xyz, picture=None, size=None):

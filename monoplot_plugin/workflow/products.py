@@ -269,7 +269,8 @@ def report_points(path, dem, split_checks: bool = False):
         return ReportPoints(table["uv"], xyz, names)
     check = np.asarray(table.get("check", np.zeros(len(xyz), dtype=bool)), dtype=bool)
     fitted = ReportPoints(table["uv"][~check], xyz[~check], [n for n, c in zip(names, check) if not c])
-    return fitted, (ReportPoints(table["uv"][check], xyz[check]) if check.any() else None)
+    return fitted, (ReportPoints(table["uv"][check], xyz[check], [n for n, c in zip(names, check) if c])
+                    if check.any() else None)
 
 
 def ortho_grid(camera: Camera, dem, resolution=None, xyz: Optional[np.ndarray] = None):

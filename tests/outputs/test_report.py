@@ -145,11 +145,13 @@ def test_check_points_are_drawn_and_measured_first(plane_scene, tmp_path):
 
     uv = points.uv.copy()
     uv[8:] += [6.0, 8.0]  # the four check points 10 px off
-    write_csv(str(csv), uv=uv, xyz=points.xyz, check=[False] * 8 + [True] * 4)
+    write_csv(str(csv), uv=uv, xyz=points.xyz, check=[False] * 8 + [True] * 4, ids=[f"P{i:02d}" for i in range(12)])
     fitted, checks = report_points(csv, scene.dem, split_checks=True)
     assert len(fitted.uv) == 8 and len(checks.uv) == 4
     ax = Figure().add_subplot()
     _draw_checks(ax, scene.camera, checks)
+    # named by the table's ids, as the control points are (a re-check trial's check points had no names)
+    assert sorted(t.get_text() for t in ax.texts) == ["P08", "P09", "P10", "P11"]
     rmse = _checks_rmse(scene.camera, checks)
     assert rmse == pytest.approx(10.0, abs=0.2)
     text_ax = Figure().add_subplot()
