@@ -329,3 +329,24 @@ def test_photo_suggestions_leave_the_sky_out(valley):
     ue = everything.uv[:, 0].astype(int).clip(0, truth.width - 1)
     assert (everything.uv[:, 1] < first[ue] - 0.03 * truth.height).sum() > 5
     assert (s.uv[:, 1] > first[u]).sum() >= 0.9 * (everything.uv[:, 1] > first[ue]).sum()
+
+
+def test_dust_specks_on_a_scan_get_no_suggestions():
+    """A trial's scanned print: 18 % of the photo suggestions sat on scratches and dust covering 2.6 % of it. 200
+    specks of 3 px on a rendered photo drew 19 % of 1,000 suggestions; they are left out now."""
+    import cv2
+
+    from monoplot_plugin.core.synthetic import render_photo, synthetic_terrain
+
+    dem = synthetic_terrain((200, 200), cell=50.0, seed=7)
+    x0, y0, x1, y1 = dem.bounds()
+    x, y = (x0 + x1) / 2, y0 + 0.05 * (y1 - y0)
+    cam = Camera((x, y, float(dem.sample(x, y)) + 300.0), 0.0, -4.0, 0.0, 60.0, (900, 600), crs_wkt=dem.crs_wkt)
+    photo = render_photo(cam, dem, seed=1)
+    rng = np.random.default_rng(0)
+    centres = np.column_stack([rng.uniform(10, 890, 200), rng.uniform(150, 590, 200)]).astype(int)
+    for u, v in centres:
+        cv2.circle(photo, (int(u), int(v)), 1, (240, 240, 240) if rng.random() < 0.5 else (15, 15, 15), -1)
+    s = suggest_photo_points(photo, max_points=1000)
+    on_dust = np.linalg.norm(s.uv[:, None] - (centres[None] + 0.5), axis=2).min(axis=1) <= 2.5
+    assert len(s.uv) == 1000 and on_dust.mean() < 0.02
