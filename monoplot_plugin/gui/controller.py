@@ -361,12 +361,20 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         self._fit_ids = ([p.id for p in photo], [p.id for p in world])
         return uv, xyz, pairs
 
+    def fit_start(self):
+        """The camera a fit starts from: the rough camera, else the fitted one; the fitted one when it was loaded
+        from a file (a batch's or a saved camera, loaded to go on from: a trial's next Fit started from the photo's
+        EXIF GPS camera instead). None without either."""
+        if self.fitted is not None and (self.state.fit_info or {}).get("loaded_from"):
+            return self.fitted
+        return self.prior or self.fitted
+
     def fit(self) -> bool:
         """Fit the camera to the accepted points in a task (prior = start); result applied on the main thread."""
         if self.image is None or self.dem is None:
             self.message.emit(self.tr("Load a photo and choose a DEM first."), WARNING)
             return False
-        start = self.prior or self.fitted
+        start = self.fit_start()
         paired_xyz = self.pair_arrays(self.state.valid_pairs())[2] if start is None else ()
         if len(paired_xyz) >= fit_step.MIN_PAIRS_WITHOUT_PRIOR:  # no rough camera: solved from them, as fitcamera
             start = fit_step.start_above_points(paired_xyz, self.photo_size, self.dem.crs_wkt)

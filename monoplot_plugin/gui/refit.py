@@ -179,7 +179,7 @@ class Refitter(QObject):
             self.task.cancel()
             return
         c = self.c
-        start = c.prior or c.fitted
+        start = c.fit_start()
         if start is None or c.dem is None or c.image is None or c.task_kind == "fit":
             return  # (the Fit button's fit is running: its result re-ranks, and it must not share the cores)
         inputs = c.fit_inputs()

@@ -499,3 +499,26 @@ def test_the_fit_tab_says_when_the_points_changed_since_the_fit(dock, scene, tmp
         dock.fitButton.click()
     assert note not in dock.resultLabel.text()
 
+
+
+def test_a_fit_goes_on_from_a_camera_loaded_as_fitted(dock, scene, tmp_path, qtbot):
+    """A trial loaded a batch row's camera into the dock to add points, and its Fit started from the photo's EXIF GPS
+    camera (the rough one) instead. A camera loaded as fitted is where the next fit starts; once fitted again, the
+    rough camera is the start as before."""
+    from monoplot_plugin.gui.io_actions import import_points_csv, load_camera_file
+    from monoplot_plugin.workflow.camera_files import save_camera
+    from monoplot_plugin.workflow.points_csv import write_points_csv
+
+    dock.photoFile.setFilePath(scene.photo_path)
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    c = dock.controller
+    c.set_prior(scene.prior)
+    assert c.fit_start().parameters() == c.prior.parameters()
+    save_camera(str(tmp_path / "batch_row.json"), scene.camera)
+    assert load_camera_file(c, str(tmp_path / "batch_row.json"), as_fitted=True) is not None
+    assert c.fit_start().parameters() == scene.camera.parameters() != c.prior.parameters()
+    write_points_csv(str(tmp_path / "gcps.csv"), uv=scene.uv[:12], xyz=scene.xyz[:12])
+    import_points_csv(c, str(tmp_path / "gcps.csv"))
+    with qtbot.waitSignal(c.taskFinished, timeout=120000):
+        dock.fitButton.click()
+    assert "loaded_from" not in c.state.fit_info and c.fit_start().parameters() == c.prior.parameters()
