@@ -263,7 +263,8 @@ class PriorsMixin:
                 text += " " + self.tr("The drone logged {0:.0f} m above its take-off point.").format(
                     exif.relative_altitude)
         if guessed:
-            text += " " + self.tr("No direction in EXIF: it looks at the DEM centre; draw it on the map if wrong.")
+            text += " " + self.tr("No direction in EXIF: it looks at the DEM centre for now; Find camera automatically "
+                                  "searches every direction (three to four times as long), or draw it on the map.")
         elif exif.heading_magnetic:  # a phone's compass: the declination is unknown here (up to 20° and more)
             text += " " + self.tr("Its direction is from magnetic north: it is off by the local magnetic "
                                   "declination; correct the heading if you know it.")

@@ -533,10 +533,12 @@ def test_find_camera_searches_every_direction_when_the_heading_is_a_guess(dock, 
     path = _jpeg_at_camera(scene, tmp_path / "nodir.jpg", GPSAltitude=f"({scene.camera.position[2]:.1f})")
     dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
     c = dock.controller
-    dock.photoFile.setFilePath(path)
-    assert c.state.settings.get("prior_heading_guessed") and c.prior is not None
     said = []
     c.message.connect(lambda text, level: said.append(text))
+    dock.photoFile.setFilePath(path)
+    assert c.state.settings.get("prior_heading_guessed") and c.prior is not None
+    # said when the rough camera is made, before any click (a re-check trial saw it only after clicking)
+    assert any("Find camera automatically searches every direction" in text for text in said), said
     assert dock.auto_panel.run()
     c.cancel()
     qtbot.waitUntil(lambda: not c.busy, timeout=60000)
