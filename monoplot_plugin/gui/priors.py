@@ -250,7 +250,11 @@ class PriorsMixin:
             self.state.settings[HEADING_GUESSED] = True
         else:
             self.state.settings.pop(HEADING_GUESSED, None)
-        text = self.tr("Rough camera from the photo's EXIF GPS tags.") + (" " + pitched if pitched else "")
+        text = self.tr("Rough camera from the photo's EXIF GPS tags.")
+        if guessed:  # first: the message bar and the status line show two or three lines (a re-check trial)
+            text += " " + self.tr("No direction in EXIF: it looks at the DEM centre for now; Find camera automatically "
+                                  "searches every direction (three to four times as long), or draw it on the map.")
+        text += (" " + pitched) if pitched else ""
         if exif.altitude is not None:  # a trial's phone said 11 m above the ground for a hand-held 1.6 m
             above = float(camera.position[2]) - ground
             text += " " + (self.tr("Its GPS altitude puts it {0:.0f} m above the DEM; a GPS height is often 10-30 m "
@@ -262,10 +266,7 @@ class PriorsMixin:
             if exif.relative_altitude is not None:  # barometric, from the take-off point: a check of the GPS's
                 text += " " + self.tr("The drone logged {0:.0f} m above its take-off point.").format(
                     exif.relative_altitude)
-        if guessed:
-            text += " " + self.tr("No direction in EXIF: it looks at the DEM centre for now; Find camera automatically "
-                                  "searches every direction (three to four times as long), or draw it on the map.")
-        elif exif.heading_magnetic:  # a phone's compass: the declination is unknown here (up to 20° and more)
+        if exif.heading_magnetic and not guessed:  # a phone compass: the declination is unknown (up to 20° and more)
             text += " " + self.tr("Its direction is from magnetic north: it is off by the local magnetic "
                                   "declination; correct the heading if you know it.")
         if exif.fov is None:
