@@ -459,7 +459,8 @@ class OutputTools(QObject):
                       self.tr("Field {0} added to the drawn layers."))
 
     def _open_attributes(self) -> None:
-        """Open the attribute tables of the photo layers (edits there update the live map layers)."""
+        """Open the attribute tables of the photo layers (edits there update the live map layers) and of the map
+        layers, whose computed fields (area, length, their errors) a re-check trial could not find."""
         session = self.current_session()
         iface = self.host.iface
         if session is None or iface is None:
@@ -469,6 +470,13 @@ class OutputTools(QObject):
             if layer.featureCount():
                 layer.startEditing()
                 iface.showAttributeTable(layer)
+        measured = [layer for layer in session.map_layers.values() if layer.featureCount()]
+        for layer in measured:
+            iface.showAttributeTable(layer)
+        if measured:
+            self._message(self.tr("Edit names and your fields in the photo layers' tables; the \"(map)\" tables "
+                                  "show what was measured on the ground (area, length, area_error, xy_error_m)."),
+                          Qgis.MessageLevel.Info)
 
     def _overlay_active_layer(self) -> None:
         iface = self.host.iface

@@ -763,3 +763,19 @@ def test_a_second_photo_of_the_same_file_name_gets_none_of_the_firsts_drawings(d
     messages.clear()
     assert c.load_photo(str(other))  # the modern one's work comes back, named with its folder
     assert any("The work on Gletscher 1890 (2023).png put aside earlier is back" in m for m in messages), messages
+
+
+def test_attributes_of_drawn_features_opens_the_measured_map_tables_too(dock_with_fit, qgis_iface, monkeypatch):
+    """A re-check trial could not find area and area_error in the desktop: the button opened the photo layers'
+    tables only (the user's fields); the map layers' tables, with what was measured on the ground, open with them."""
+    dock, tools = dock_with_fit
+    session = tools.current_session()
+    session.add_feature("polygon", [[50, 100], [190, 100], [150, 150]], {"name": "tongue"})
+    opened = []
+    monkeypatch.setattr(qgis_iface, "showAttributeTable", lambda layer, *a: opened.append(layer), raising=False)
+    said = []
+    dock.controller.message.connect(lambda text, level: said.append(text))
+    tools.actions["attributes"].trigger()
+    assert session.photo_layer("polygon") in opened and session.map_layer("polygon") in opened
+    assert "area" in [f.name() for f in session.map_layer("polygon").fields()]
+    assert any("\"(map)\" tables show what was measured on the ground" in text for text in said), said
