@@ -34,6 +34,10 @@ _UNITS = {"x": "m", "y": "m", "z": "m", "heading": "°", "pitch": "°", "roll": 
           "cy": "px", "k1": "", "k2": ""}
 
 
+#: a dark backing under point names: magenta on snow could not be read (a re-check trial)
+_LABEL_BOX = dict(facecolor="black", alpha=0.45, edgecolor="none", pad=0.6)
+
+
 class ReportPoints:
     """Control points: (N, 2) photo pixels and (N, 3) map coordinates, optional names."""
 
@@ -210,14 +214,16 @@ def _draw_points(ax, photo, points, residual, rmse, status="", check_rmse=None, 
         ax.quiver(uv[:, 0], uv[:, 1], residual[:, 0] * 10, residual[:, 1] * 10, angles="xy", scale_units="xy",
                   scale=1, color="red", width=0.003)
         for name, (u, v) in zip(points.names, uv):
-            ax.annotate(name, (u, v), xytext=(4, -4), textcoords="offset points", color="yellow", fontsize=7)
+            ax.annotate(name, (u, v), xytext=(4, -4), textcoords="offset points", color="yellow", fontsize=7,
+                        bbox=_LABEL_BOX)
         if rmse is not None:  # the status first, in its colour: an "uncertain" camera must not read as fine
             # the check points' error leads when there are some, as in the dock: the fit's own RMSE is how well
             # its points agree (a trial's badge said "RMSE 5.25 px", the check points 17.2 px)
             figures = f"check points {check_rmse:.2f} px · fit RMSE {rmse:.2f} px" if check_rmse is not None \
                 else f"RMSE {rmse:.2f} px"
-            ax.text(8 * w / photo.shape[1], h - 8 * h / photo.shape[0], (f"{status} · " if status else "") + figures,
-                    color="white", fontsize=9, va="bottom", weight="bold" if status else "normal",
+            # at the top: a print's caption is at its bottom (a re-check trial's badge covered its second line)
+            ax.text(8 * w / photo.shape[1], 8 * h / photo.shape[0], (f"{status} · " if status else "") + figures,
+                    color="white", fontsize=9, va="top", weight="bold" if status else "normal",
                     bbox=dict(facecolor=STATUS_COLOURS.get(status, "black"), alpha=0.85 if status else 0.5,
                               edgecolor="none"))
     ax.set_xlim(0, w)
@@ -250,7 +256,8 @@ def _draw_checks(ax, camera, checks: Optional[ReportPoints]) -> None:
               color="magenta", width=0.003)
     if checks.named:  # their own names (numbers would repeat the control points'); a re-check trial's had none
         for name, (u, v) in zip(np.asarray(checks.names, dtype=object)[ok], uv):
-            ax.annotate(str(name), (u, v), xytext=(4, -4), textcoords="offset points", color="magenta", fontsize=7)
+            ax.annotate(str(name), (u, v), xytext=(4, -4), textcoords="offset points", color="magenta", fontsize=7,
+                        bbox=_LABEL_BOX)
 
 
 def _draw_overlay(ax, photo, xyz, picture=None, size=None):
