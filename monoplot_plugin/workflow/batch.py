@@ -25,7 +25,7 @@ from .files import InputError, read_photo
 from .frames import (SHARED_XYZ, FrameTask, PhotoResult, Timelapse, blank_photo, fit_job, process_frame,
                      shared_for)
 from .progress import IsCanceled, Progress, never_canceled, no_progress
-from .resume import dem_identity, in_task_order, remove_stale, resumable, say_replaced
+from .resume import dem_identity, in_task_order, remove_stale, resumable
 
 __all__ = ["PhotoJob", "PhotoResult", "folder_jobs", "table_jobs", "run_batch", "output_stems", "fit_shared_camera",
            "fit_job", "write_log", "log_photo_path", "frame_tasks", "pick_reference", "shared_camera_verdict",
@@ -154,9 +154,7 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
         setup = batch_setup(jobs, crs_wkt, out_dir, write_xyz, write_ortho, resolution, register, reference,
                             log=log, camera_verdict=camera_verdict)
         journal, keys, earlier = resumable(tasks, setup, dem_identity(dem), resume, log)
-        say_replaced(out_dir, planned_outputs([j for t, j in zip(tasks, jobs) if t.index not in earlier],
-                                              [t.stem for t in tasks if t.index not in earlier], write_xyz,
-                                              write_ortho), log)
+        say_replaced(out_dir, jobs, [t for t in tasks if t.index not in earlier], write_xyz, write_ortho, log)
         shared = shared_for(setup, dem) if len(earlier) < len(tasks) else None  # None: nothing left to do
     except InputError as exc:  # no reference frame can serve: nothing can be registered
         results = [PhotoResult(t.photo, False, f"{exc}", index=t.index) for t in tasks]
@@ -375,6 +373,16 @@ def output_stems(jobs: List[PhotoJob]) -> List[str]:
         seen.add(unique.lower())
         stems.append(unique)
     return stems
+
+
+def say_replaced(out_dir: str, jobs: List[PhotoJob], todo: List[FrameTask], write_xyz: bool, write_ortho: bool,
+                 log: Log) -> None:
+    """Log that files of an earlier run will be replaced by those of the tasks ``todo`` (of ``jobs``)."""
+    names = planned_outputs([jobs[t.index] for t in todo], [t.stem for t in todo], write_xyz, write_ortho)
+    existing = [n for n in names if os.path.exists(os.path.join(out_dir, n))]
+    if existing:
+        log(f"{len(existing)} file(s) of an earlier run in {out_dir} will be replaced or removed as the frames are "
+            f"processed (e.g. {existing[0]})", False)
 
 
 def planned_outputs(jobs: List[PhotoJob], stems: List[str], write_xyz: bool, write_ortho: bool) -> List[str]:

@@ -28,11 +28,11 @@ from pathlib import Path
 from typing import Dict, List, Optional, Tuple
 
 from .batch import (Log, PhotoJob, batch_setup, frame_tasks, log_result, output_stems, planned_outputs,
-                    shared_xyz_failed)
+                    say_replaced, shared_xyz_failed)
 from .files import InputError
 from .frames import SHARED_XYZ, FrameTask, PhotoResult, Timelapse, process_frame, shared_for
 from .progress import IsCanceled, Progress, never_canceled, no_progress
-from .resume import dem_identity, in_task_order, remove_stale, resumable, say_replaced
+from .resume import dem_identity, in_task_order, remove_stale, resumable
 
 __all__ = ["run_batch_dask", "local_client", "check_importable", "frames_per_task"]
 
@@ -155,8 +155,7 @@ def run_batch_dask(jobs: List[PhotoJob], dem_path: str, crs_wkt: str, out_dir: s
         journal, keys, earlier = resumable(tasks, setup, dem_identity(dem_path=setup.dem_path,
                                                                       void_value=void_value), resume, log)
         todo = [t for t in tasks if t.index not in earlier]
-        say_replaced(out_dir, planned_outputs([jobs[t.index] for t in todo], [t.stem for t in todo], write_xyz,
-                                              write_ortho), log)
+        say_replaced(out_dir, jobs, todo, write_xyz, write_ortho, log)
         check_importable(client, _frames_task.__module__)
         workers = len(client.scheduler_info().get("workers", {}))
         per_task = per_task or frames_per_task(len(todo), workers, bool(setup.camera_json))

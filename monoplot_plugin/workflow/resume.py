@@ -41,7 +41,7 @@ from .. import plugin_version
 from .frames import FrameTask, PhotoResult, Timelapse
 
 __all__ = ["JOURNAL", "Journal", "frame_key", "dem_identity", "earlier_results", "in_task_order", "resumable",
-           "say_replaced", "remove_stale"]
+           "remove_stale"]
 
 Log = Callable[[str, bool], None]
 
@@ -186,14 +186,6 @@ def resumable(tasks: List[FrameTask], setup: Timelapse, dem_id: str, resume: boo
         log(f"{len(earlier)} of {len(tasks)} photos were done by an earlier run with the same inputs and settings: "
             f"their products are kept, not made again", False)
     return journal, keys, earlier
-
-
-def say_replaced(out_dir: str, names: List[str], log: Log) -> None:
-    """Log that files of an earlier run will be replaced by the outputs ``names`` (file names) to be written."""
-    existing = [n for n in names if os.path.exists(os.path.join(out_dir, n))]
-    if existing:
-        log(f"{len(existing)} file(s) of an earlier run in {out_dir} will be replaced or removed as the frames are "
-            f"processed (e.g. {existing[0]})", False)
 
 
 def remove_stale(out_dir: str, tasks: List[FrameTask], results: List[PhotoResult], shared_camera: bool,
