@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from typing import Dict, Optional, Tuple
 
 __all__ = ["ExifPrior", "read_exif_prior", "parse_exif_prior", "parse_xmp_gimbal", "horizontal_fov_from_35mm",
-           "lens_fov", "exif_camera", "exif_rough_camera"]
+           "lens_fov", "exif_camera", "exif_rough_camera", "heading_to_dem_centre"]
 
 #: Millimetres per FocalPlaneResolutionUnit (EXIF: 1 none, 2 inch, 3 cm; 4 mm and 5 µm in some writers).
 _UNIT_MM = {1: 25.4, 2: 25.4, 3: 10.0, 4: 1.0, 5: 0.001}
@@ -285,7 +285,18 @@ def exif_rough_camera(path: str, size: Tuple[int, int], dem, crs_wkt: str = ""):
         from ..core.kml import lonlat_to_crs
 
         x, y, _ = lonlat_to_crs(exif.lon, exif.lat, crs_wkt or dem.crs_wkt)
-        x0, y0, x1, y1 = dem.bounds()
-        towards_centre = math.degrees(math.atan2((x0 + x1) / 2 - x, (y0 + y1) / 2 - y))
-        return exif_camera(exif, size, dem, heading=towards_centre, crs_wkt=crs_wkt), False
+        return exif_camera(exif, size, dem, heading=heading_to_dem_centre(x, y, dem), crs_wkt=crs_wkt), False
     return exif_camera(exif, size, dem, crs_wkt=crs_wkt), True
+
+
+def heading_to_dem_centre(x: float, y: float, dem) -> float:
+    """Heading (degrees from the grid's north) from map point (x, y) to the centre of ``dem``'s extent: the guess
+    for a rough camera whose photo gives a position and no direction.
+
+    >>> from monoplot_plugin.core.dem import Dem
+    >>> dem = Dem.from_array([[0.0] * 4] * 4, (0, 10, 0, 40, 0, -10))
+    >>> heading_to_dem_centre(20.0, -30.0, dem), heading_to_dem_centre(-30.0, 20.0, dem)
+    (0.0, 90.0)
+    """
+    x0, y0, x1, y1 = dem.bounds()
+    return math.degrees(math.atan2((x0 + x1) / 2 - x, (y0 + y1) / 2 - y))

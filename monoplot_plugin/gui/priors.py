@@ -12,7 +12,7 @@ from typing import Callable, Optional, Protocol, Tuple
 import numpy as np
 from qgis.core import Qgis
 
-from ..adapters.exif import exif_camera, read_exif_prior
+from ..adapters.exif import exif_camera, heading_to_dem_centre, read_exif_prior
 from ..core.camera import Camera, azimuth
 from ..core.kml import lonlat_to_crs
 from ..workflow.auto import GPS_POSITION_SIGMA_M
@@ -234,10 +234,8 @@ class PriorsMixin:
         if not math.isfinite(ground):
             self.message.emit(self.tr("The photo's GPS position lies outside the DEM."), WARNING)
             return False
-        x0, y0, x1, y1 = self.dem.bounds()
         guessed = exif.heading is None  # then it looks at the DEM's centre
-        camera = exif_camera(exif, self.photo_size, self.dem,
-                             heading=math.degrees(math.atan2((x0 + x1) / 2 - x, (y0 + y1) / 2 - y)))
+        camera = exif_camera(exif, self.photo_size, self.dem, heading=heading_to_dem_centre(x, y, self.dem))
         if exif.pitch is None:
             camera, pitched = self._with_terrain_pitch(camera, say=False)
         else:  # a drone's gimbal: looking down at -45° it sees no skyline, and the terrain's pitch would be level
