@@ -162,8 +162,9 @@ class AutoPanel(QObject):
         kept = (c.state.fit_info or {}).get("status")
         earlier = _earlier_automatic_edge(c.state.fit_info)  # the fitted camera is an earlier registration's
         edge = _finite(r.evidence.get("auto_edge_score"))
-        if c.fitted is not None and kept in ("ok", "uncertain") and status != "ok" and earlier is not None and (
-                edge is None or edge > earlier):
+        # a doubtful run does not simply replace a fitted camera that is not doubtful
+        doubtful = c.fitted is not None and kept in ("ok", "uncertain") and status != "ok"
+        if doubtful and earlier is not None and (edge is None or edge > earlier):
             # a run again with other settings (a trial: ± 150 m, 8°) was told "your fitted camera and your points are
             # kept" of the first run's own camera: the two are compared as the registration compares its cameras
             camera_layers.show_camera_layers(self.dock.project, done.camera, footprint, c.dem_crs,
@@ -175,7 +176,7 @@ class AutoPanel(QObject):
                                    "in the Monoplot log.").format(status, edge if edge is not None else float("nan"),
                                                                   earlier), Qgis.MessageLevel.Warning)
             return
-        if c.fitted is not None and kept in ("ok", "uncertain") and status != "ok" and earlier is None:
+        if doubtful and earlier is None:
             # Nothing lost: a doubtful automatic camera never replaces the person's own fit and points.
             # ... but the person can look at it: its position and footprint on the map, beside their own
             camera_layers.show_camera_layers(self.dock.project, done.camera, footprint, c.dem_crs,

@@ -365,10 +365,9 @@ class ResultsMixin:
     def _pair_names(self, photo_ids, map_ids):
         """The report's names of pairs: the points' own labels (a GCP table's ids: a trial's P01-P10 came out as
         1-8) when every pair has one and no two are the same, else None (numbered 1, 2, ...)."""
-        names = []
-        for a, b in zip(photo_ids, map_ids):
-            pa, pb = self.state.points.get(a), self.state.points.get(b) if b is not None else None
-            names.append((pa.label if pa is not None else "") or (pb.label if pb is not None else ""))
+        points = self.state.points
+        names = [getattr(points.get(a), "label", "") or getattr(points.get(b), "label", "")
+                 for a, b in zip(photo_ids, map_ids)]
         return names if names and all(names) and len(set(names)) == len(names) else None
 
     def report_inputs(self):
