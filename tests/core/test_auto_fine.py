@@ -133,3 +133,26 @@ def test_more_passes_walk_a_near_camera_back_where_one_stops(near_slopes, moved)
     assert shift[1] > 30.0, shift  # the scene is one where a single pass stops short
     assert shift[3] < 15.0 and shift[3] < 0.5 * shift[1], shift
     assert score[3] < score[1], score
+
+
+def test_sigma_covers_every_probe_that_fits_the_edges_nearly_as_well(scene):
+    """Where a probe ends fitting the edges nearly as well, the edges do not tell it from the camera: the σ covers
+    it even when it moves the terrain too little to be a rival (a 24 MP trial: 22 m off with σ ± 4.5 m)."""
+    from monoplot_plugin.core.auto import register
+
+    dem, truth, edges, photo = scene
+    tiny = dict.fromkeys(("x", "y", "z", "heading", "pitch", "roll", "fov"), 1e-3)
+    result = register.AutoFitResult(truth, "ok", "", "unpaired", std=dict(tiny))
+    evidence = {"auto_edge_score": edge_score(truth, edges, dem, SIGMAS)}
+    probes = register._probe_position(result, truth, edges, dem, SIGMAS, evidence, None)
+    alike = [p for p in probes if p.score_ratio <= PROBE_RATIO]
+    assert alike, [p.score_ratio for p in probes]
+    found = truth.parameters()
+    for p in alike:
+        ended = p.camera.parameters()
+        for name, s in result.std.items():
+            assert abs(ended[name] - found[name]) <= s + 1e-9, (name, ended[name] - found[name], s)
+    moved = max(np.linalg.norm(np.subtract(p.camera.position, truth.position)) for p in alike)
+    assert max(result.std["x"], result.std["y"], result.std["z"]) == pytest.approx(
+        max(np.max(np.abs(np.subtract(p.camera.position, truth.position))) for p in alike))
+    assert moved > 0.01  # the probes did not all end exactly on the camera: the σ was widened
