@@ -38,6 +38,54 @@ _UNITS = {"x": "m", "y": "m", "z": "m", "heading": "°", "pitch": "°", "roll": 
 _LABEL_BOX = dict(facecolor="black", alpha=0.45, edgecolor="none", pad=0.6)
 
 
+#: Offsets (points) tried for a point's name, nearest first: beside it, then above and below, then further out.
+_LABEL_OFFSETS = ((4, -4), (4, 4), (-4, -4), (-4, 4), (0, 8), (0, -8), (10, 0), (-10, 0), (6, -14), (6, 14),
+                  (-6, -14), (-6, 14))
+
+
+class _Labels:
+    """Point names on a photo axes, each at the first of :data:`_LABEL_OFFSETS` where it covers no other name and no
+    other point (the one covering least when none is free): the names of close points were drawn over each other (a
+    re-check trial's report). Boxes are estimated from the font size, in display units after the axes' aspect."""
+
+    def __init__(self, ax, points_uv, fontsize: float = 7.0):
+        ax.apply_aspect()
+        self.ax, self.fontsize, self.pt = ax, fontsize, ax.figure.dpi / 72.0
+        self.markers = self._display(points_uv)
+        self.boxes = []
+
+    def _display(self, uv) -> np.ndarray:
+        uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+        return self.ax.transData.transform(uv) if len(uv) else np.zeros((0, 2))
+
+    def _overlap(self, box, own) -> float:
+        r = 3.5 * self.pt  # a marker's half size
+        others = [(x - r, y - r, x + r, y + r) for x, y in self.markers if math.hypot(x - own[0], y - own[1]) > 0.5]
+        x0, y0, x1, y1 = box
+        return sum(max(0.0, min(x1, b[2]) - max(x0, b[0])) * max(0.0, min(y1, b[3]) - max(y0, b[1]))
+                   for b in self.boxes + others)
+
+    def add(self, name: str, u: float, v: float, colour: str) -> None:
+        (x, y), = self._display([(u, v)])
+        pad = _LABEL_BOX["pad"] * self.fontsize * self.pt  # the backing's margin around the text
+        w, h = 0.6 * self.fontsize * len(name) * self.pt, 1.2 * self.fontsize * self.pt
+        best = None
+        for dx, dy in _LABEL_OFFSETS:
+            left = x + dx * self.pt - (0.0 if dx > 0 else w if dx < 0 else 0.5 * w)
+            bottom = y + dy * self.pt - (h if dy < 0 else 0.0 if dy > 0 else 0.5 * h)
+            box = (left - pad, bottom - pad, left + w + pad, bottom + h + pad)
+            cost = self._overlap(box, (x, y))
+            if best is None or cost < best[0]:
+                best = (cost, dx, dy, box)
+            if cost == 0.0:
+                break
+        _, dx, dy, box = best
+        self.boxes.append(box)
+        self.ax.annotate(name, (u, v), xytext=(dx, dy), textcoords="offset points", color=colour,
+                         fontsize=self.fontsize, bbox=_LABEL_BOX, ha="left" if dx > 0 else "right" if dx < 0
+                         else "center", va="top" if dy < 0 else "bottom" if dy > 0 else "center")
+
+
 class ReportPoints:
     """Control points: (N, 2) photo pixels and (N, 3) map coordinates, optional names."""
 
@@ -142,9 +190,9 @@ def write_report(path, photo: np.ndarray, camera, dem, points: Optional[ReportPo
     # the page shows at most PAGE_PIXELS a side: a 24 MP scan over a 25 M-cell DEM drawn whole took 2 GB more
     # memory (5.4 GB in all) and 25 s; the figures below are of the full arrays
     k = max(1, math.ceil(max(photo.shape[:2]) / PAGE_PIXELS))
-    _draw_points(ax_photo, photo[::k, ::k], points, residual, rmse, verdict_status(verdict), check_rmse,
-                 size=(photo.shape[1], photo.shape[0]))
-    _draw_checks(ax_photo, camera, checks)
+    labels = _draw_points(ax_photo, photo[::k, ::k], points, residual, rmse, verdict_status(verdict), check_rmse,
+                          size=(photo.shape[1], photo.shape[0]), others=None if checks is None else checks.uv)
+    _draw_checks(ax_photo, camera, checks, labels)
     picture = None if picture is None else np.asarray(picture, dtype=bool)
     ground_xyz = xyz if picture is None else np.where(picture[..., None], xyz, np.nan)
     _draw_overlay(ax_overlay, photo[::k, ::k], xyz[::k, ::k], None if picture is None else picture[::k, ::k],
@@ -198,9 +246,10 @@ def verdict_first(verdict: str) -> str:
     return f"Fit status {status}: {message}" if status else f"Fit status {message}"
 
 
-def _draw_points(ax, photo, points, residual, rmse, status="", check_rmse=None, size=None):
+def _draw_points(ax, photo, points, residual, rmse, status="", check_rmse=None, size=None, others=None):
     """The photo (maybe a shrunk copy of a picture of ``size`` (W, H) px: the points stay in its pixels) with the
-    control points, their reprojections and residuals, and the status badge."""
+    control points, their reprojections and residuals, and the status badge. Returns the :class:`_Labels` holding
+    the names drawn (``others``: (K, 2) more points, e.g. check points, their names are not to cover)."""
     w, h = size or (photo.shape[1], photo.shape[0])
     ax.imshow(photo, cmap="gray" if photo.ndim == 2 else None, interpolation="antialiased", extent=(0, w, h, 0))
     has_points = points is not None and residual is not None
@@ -213,9 +262,6 @@ def _draw_points(ax, photo, points, residual, rmse, status="", check_rmse=None, 
         ax.scatter(proj[:, 0], proj[:, 1], s=30, marker="+", color="red", linewidths=1.2)
         ax.quiver(uv[:, 0], uv[:, 1], residual[:, 0] * 10, residual[:, 1] * 10, angles="xy", scale_units="xy",
                   scale=1, color="red", width=0.003)
-        for name, (u, v) in zip(points.names, uv):
-            ax.annotate(name, (u, v), xytext=(4, -4), textcoords="offset points", color="yellow", fontsize=7,
-                        bbox=_LABEL_BOX)
         if rmse is not None:  # the status first, in its colour: an "uncertain" camera must not read as fine
             # the check points' error leads when there are some, as in the dock: the fit's own RMSE is how well
             # its points agree (a trial's badge said "RMSE 5.25 px", the check points 17.2 px)
@@ -230,6 +276,15 @@ def _draw_points(ax, photo, points, residual, rmse, status="", check_rmse=None, 
     ax.set_ylim(h, 0)
     ax.set_aspect("equal", adjustable="box")  # the axes shrink to the photo: nothing drawn beyond its edges
     ax.axis("off")
+    # names last, placed where the axes' final scale puts them
+    shown = [points.uv] if has_points else []
+    if others is not None:
+        shown.append(np.asarray(others, dtype=np.float64).reshape(-1, 2))
+    labels = _Labels(ax, np.vstack(shown) if shown else np.zeros((0, 2)))
+    if has_points:
+        for name, (u, v) in zip(points.names, points.uv):
+            labels.add(str(name), u, v, "yellow")
+    return labels
 
 
 def _checks_rmse(camera, checks: Optional[ReportPoints]) -> Optional[float]:
@@ -241,8 +296,9 @@ def _checks_rmse(camera, checks: Optional[ReportPoints]) -> Optional[float]:
     return float(np.sqrt(np.mean(np.sum(residual ** 2, axis=1)))) if len(residual) else None
 
 
-def _draw_checks(ax, camera, checks: Optional[ReportPoints]) -> None:
-    """Check points on the photo (magenta squares, their reprojections and residuals ×10)."""
+def _draw_checks(ax, camera, checks: Optional[ReportPoints], labels: Optional[_Labels] = None) -> None:
+    """Check points on the photo (magenta squares, their reprojections and residuals ×10); their names kept clear
+    of those in ``labels`` (:func:`_draw_points`'; None: of these alone)."""
     if checks is None or not len(checks.uv):
         return
     residual = camera.project(checks.xyz) - checks.uv
@@ -255,9 +311,9 @@ def _draw_checks(ax, camera, checks: Optional[ReportPoints]) -> None:
     ax.quiver(uv[:, 0], uv[:, 1], residual[:, 0] * 10, residual[:, 1] * 10, angles="xy", scale_units="xy", scale=1,
               color="magenta", width=0.003)
     if checks.named:  # their own names (numbers would repeat the control points'); a re-check trial's had none
+        labels = _Labels(ax, uv) if labels is None else labels
         for name, (u, v) in zip(np.asarray(checks.names, dtype=object)[ok], uv):
-            ax.annotate(str(name), (u, v), xytext=(4, -4), textcoords="offset points", color="magenta", fontsize=7,
-                        bbox=_LABEL_BOX)
+            labels.add(str(name), u, v, "magenta")
 
 
 def _draw_overlay(ax, photo, xyz, picture=None, size=None):

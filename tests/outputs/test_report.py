@@ -224,3 +224,32 @@ def test_a_large_photo_and_dem_are_drawn_from_shrunk_copies_in_their_own_coordin
     assert ax.get_xlim() == (0, 240) and ax.get_ylim() == (160, 0)
     path = report.write_report(tmp_path / "r.png", scene.photo, scene.camera, scene.dem, points, xyz=scene.xyz)
     assert path.stat().st_size > 10_000
+
+
+def test_names_of_close_points_do_not_cover_each_other(plane_scene):
+    """Five control points and two check points a few pixels apart (a re-check trial's report drew their names over
+    each other): every name's box, as drawn, is clear of the others'."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from monoplot_plugin.outputs import report
+
+    scene = plane_scene
+    points = scene_points(scene, n=7, noise_px=0.0)
+    uv = np.array([[120.0, 80.0], [123.0, 81.0], [118.0, 84.0], [125.0, 78.0], [121.0, 86.0], [124.0, 84.0],
+                   [117.0, 79.0]])
+    control = ReportPoints(uv[:5], points.xyz[:5], names=[f"GCP{i}" for i in range(5)])
+    checks = ReportPoints(uv[5:], points.xyz[5:], names=["CHK1", "CHK2"])
+    fig = Figure(figsize=(8.27, 4.0))
+    FigureCanvasAgg(fig)
+    ax = fig.add_axes((0.05, 0.05, 0.9, 0.9))
+    residual = np.zeros((5, 2))
+    labels = report._draw_points(ax, scene.photo, control, residual, 0.0, "ok", others=checks.uv)
+    report._draw_checks(ax, scene.camera, checks, labels)
+    renderer = fig.canvas.get_renderer()
+    names = [t for t in ax.texts if t.get_text().startswith(("GCP", "CHK"))]
+    assert len(names) == 7
+    boxes = [t.get_window_extent(renderer) for t in names]
+    for i in range(len(boxes)):
+        for j in range(i + 1, len(boxes)):
+            assert not boxes[i].overlaps(boxes[j]), (names[i].get_text(), names[j].get_text())
