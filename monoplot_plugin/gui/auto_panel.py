@@ -154,6 +154,30 @@ class AutoPanel(QObject):
                     sigmas[name] = value
         return sigmas
 
+    def _earlier_against_stated(self, found) -> Optional[tuple]:
+        """(metres, σ, metres) when the fitted camera (an earlier registration's) lies more than twice the position σ
+        the person stated (Position ±, or a GPS's usual error for an EXIF position) from the rough camera, and
+        ``found`` nearer to it: the earlier camera contradicts what they now say more, so it does not win on the
+        edge score (a time-lapse trial: a first run 70 m off; a second with Position ± 20 m was set aside for
+        fitting the edges a little less well). None otherwise (no σ stated: the edge scores decide)."""
+        from .priors import GPS_POSITION_M, GPS_SOURCE
+
+        c = self.controller
+        prior, earlier = c.prior, c.fitted
+        if prior is None or earlier is None:
+            return None
+        options = fit_arguments(c.state.settings)[1]  # None without fit settings
+        sigma = getattr(options, "position_sigma_m", None)
+        if sigma is None and c.state.settings.get("prior_source") == GPS_SOURCE:
+            sigma = GPS_POSITION_M
+        if not sigma:
+            return None
+
+        def away(camera) -> float:
+            return float(np.linalg.norm(np.subtract(camera.position, prior.position)[:2]))
+
+        return (away(earlier), float(sigma), away(found)) if away(earlier) > max(2.0 * sigma, away(found)) else None
+
     def _apply(self, value) -> None:
         done, overlay, xyz, footprint, checked = value
         c = self.controller
@@ -164,7 +188,8 @@ class AutoPanel(QObject):
         edge = _finite(r.evidence.get("auto_edge_score"))
         # a doubtful run does not simply replace a fitted camera that is not doubtful
         doubtful = c.fitted is not None and kept in ("ok", "uncertain") and status != "ok"
-        if doubtful and earlier is not None and (edge is None or edge > earlier):
+        against = self._earlier_against_stated(done.camera) if doubtful and earlier is not None else None
+        if doubtful and earlier is not None and (edge is None or edge > earlier) and against is None:
             # a run again with other settings (a trial: ± 150 m, 8°) was told "your fitted camera and your points are
             # kept" of the first run's own camera: the two are compared as the registration compares its cameras
             camera_layers.show_camera_layers(self.dock.project, done.camera, footprint, c.dem_crs,
@@ -246,6 +271,13 @@ class AutoPanel(QObject):
         if len(world):  # how far it went from the rough camera, as a fit says it ("uncertain" beyond 3 σ stated)
             info.update(c.moved_from_prior(done.camera, world, fit_arguments(c.state.settings)[1]))
             c.doubt_a_moved_camera(info)
+        if against is not None and edge is not None and edge > earlier:  # said before the fit's own message
+            c.message.emit(self.tr("This registration fits the photo's edges a little less well than the earlier one "
+                                   "({0:.3f} against {1:.3f}, lower is better), but the earlier camera is {2:.0f} m "
+                                   "from the rough camera, more than twice the position uncertainty you gave (± "
+                                   "{3:.0f} m), and this one {4:.0f} m: this one replaces it (Undo brings the "
+                                   "earlier one back).").format(
+                edge, earlier, *against), Qgis.MessageLevel.Info)
         if reviewed:  # before the fit's own message, which must be the last word (it says "poor" when it is)
             c.message.emit(self.tr("Your decisions on the earlier automatic points are kept: new matches where you "
                                    "had accepted or rejected one were left out ({0} of {1}).").format(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 from qgis.core import QgsProject, QgsRasterLayer
 from qgis.PyQt.QtCore import Qt
@@ -399,18 +400,36 @@ def test_a_field_of_view_the_fit_holds_is_held_by_find_camera_too(dock, valley, 
 def test_a_second_registration_is_weighed_against_the_first_not_set_aside_as_the_persons_fit(dock, valley, qtbot):
     """A trial ran Find camera again with Position ± 150 m and Angles ± 8°: its "uncertain" result was set aside with
     "your fitted camera and your points are kept", the fitted camera being the first run's own. Two automatic
-    cameras are compared by how well they fit the photo's edges (the registration's own measure)."""
+    cameras are compared by how well they fit the photo's edges (the registration's own measure), unless the
+    earlier one contradicts the position uncertainty the person now gives (a time-lapse trial: a first run 70 m
+    off was kept over a second with Position ± 20 m)."""
     c = _open_valley(dock, valley)
     run_find_camera(dock, qtbot)
     first = c.fitted.parameters()
     assert c.state.fit_info["mode"] == "automatic" and c.state.fit_info["auto_edge_score"] > 0.0
-    c.state.settings["fit"] = {"position_sigma_m": 5.0}  # the prior is 72 m off: this run ends doubtful
+    c.state.settings["fit"] = {"angle_sigma_deg": 0.3}  # the prior is 3° off: this run ends doubtful
     c.state.fit_info["auto_edge_score"] = 0.0  # as if the first run fitted the edges perfectly
     messages = run_find_camera(dock, qtbot)
     assert c.fitted.parameters() == first
     assert any("fits the photo's edges less well" in m and "the earlier camera and its points are kept" in m
                for m in messages), messages
     assert not any("your fitted camera" in m for m in messages)
+    # the rough camera is 72 m from the first camera: "± 5 m" says the first cannot be right
+    c.state.settings["fit"] = {"position_sigma_m": 5.0}
+    c.state.fit_info["auto_edge_score"] = 0.0
+    messages = run_find_camera(dock, qtbot)
+    second = c.fitted.parameters()
+    assert second != first and c.state.fit_info["status"] != "ok"
+    assert any("more than twice the position uncertainty you gave (± 5 m), and this one" in m and "this one "
+               "replaces it" in m for m in messages), messages
+
+    def away(p):
+        return np.hypot(p["x"] - valley["prior"].position[0], p["y"] - valley["prior"].position[1])
+
+    assert away(second) < away(first) and away(first) > 10.0
+    c.stack.undo()  # the earlier camera comes back
+    assert c.fitted.parameters() == first
+    c.state.settings["fit"] = {"angle_sigma_deg": 0.3}
     c.state.fit_info["auto_edge_score"] = 5.0  # ... and now as if it fitted them badly: the new camera replaces it
     run_find_camera(dock, qtbot)
     assert c.fitted.parameters() != first and c.state.fit_info["auto_edge_score"] < 5.0
