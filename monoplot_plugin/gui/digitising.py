@@ -433,7 +433,13 @@ class DigitisingSession(QObject):
 
     def export(self, kind: str, path, overwrite: bool = False, add_to_project: bool = True) -> Path:
         """Write the features of ``kind`` as a GeoPackage or Shapefile (by suffix) and add it to the group."""
-        features, fids, _ = self.map_features(kind)
+        features, fids, dropped = self.map_features(kind)
+        if not features:
+            # a file of no features was said "written" (a flood trial's edge, drawn under a camera below the terrain)
+            from ..outputs import OutputError
+
+            raise OutputError(f"none of the {dropped} drawn {kind}s reaches the terrain under the fitted camera (over "
+                              f"the sky, a DEM void, off the DEM, or the camera is wrong): there is nothing to map")
         # which drawn feature each row is (a trial's file had 6 rows for 8 points drawn, and nothing to tell them
         # apart): its id in the photo layer, as the live map layer has it
         for feature, fid in zip(features, fids):

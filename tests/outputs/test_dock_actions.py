@@ -779,3 +779,21 @@ def test_attributes_of_drawn_features_opens_the_measured_map_tables_too(dock_wit
     assert session.photo_layer("polygon") in opened and session.map_layer("polygon") in opened
     assert "area" in [f.name() for f in session.map_layer("polygon").fields()]
     assert any("\"(map)\" tables show what was measured on the ground" in text for text in said), said
+
+
+def test_saving_drawn_features_none_of_which_reaches_the_terrain_writes_nothing_and_says_so(dock_with_fit, tmp_path,
+                                                                                            monkeypatch):
+    """A flood trial's edge, drawn under a camera below the terrain, was said "Features written" with 0 features in
+    the file."""
+    from qgis.PyQt.QtWidgets import QFileDialog
+
+    dock, tools = dock_with_fit
+    tools.current_session().add_feature("point", [[120, 2]])  # the top rows of the plane scene see the sky
+    messages = []
+    dock.controller.message.connect(lambda text, level: messages.append(text))
+    monkeypatch.setattr(QFileDialog, "getSaveFileName", staticmethod(lambda *a: (str(tmp_path / "edge.gpkg"), "")))
+    tools.actions["features"].trigger()
+    assert not (tmp_path / "edge.gpkg").exists()
+    assert not any(m.startswith("Features written") for m in messages), messages
+    assert any(m.startswith("Nothing was written") and "none of the 1 drawn points reaches the terrain" in m
+               for m in messages), messages
