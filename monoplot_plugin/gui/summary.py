@@ -8,6 +8,7 @@ from html import escape as html_escape
 from typing import Callable, Optional
 
 from ..core.camera import Camera, azimuth
+from ..core.fit.result import sigma_undetermined
 
 __all__ = ["fit_summary_html", "sigma_text", "verdict_first", "unpartnered_text"]
 
@@ -116,6 +117,8 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     >>> "Status: <b style='color:#1a7f37'>ok</b> · loaded from cam.json" in fit_summary_html(
     ...     cam, {"status": "ok", "loaded_from": "/data/cam.json"})
     True
+    >>> "± undetermined*" in fit_summary_html(cam, {"status": "poor", "sigma": {"heading": 6894594.0}})
+    True
     >>> html = fit_summary_html(cam, {"status": "uncertain", "mode": "unpaired", "sigma": {"x": 0.31}})
     >>> "± 0.31*" in html and html.index("assume the automatic pairs are right") < html.index("<table>")
     True
@@ -132,7 +135,7 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
         if name not in sigma or not math.isfinite(sigma[name]):
             return ""
         # the ± of a doubtful fit hold only if its pairs are right: greyed, with the caveat right above the table
-        text = " ± " + sigma_text(sigma[name])
+        text = " ± " + (tr("undetermined") if sigma_undetermined(name, sigma[name]) else sigma_text(sigma[name]))
         return text if trusted else f"<span style='color:#888'>{text}*</span>"
 
     rmse = info.get("rmse_px")

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..core.camera import azimuth
 from ..core.dem import Dem
+from ..core.fit.result import sigma_undetermined
 from ._gdal import image_verifier
 from .safe_write import atomic_output
 
@@ -402,7 +403,8 @@ def parameter_lines(camera, sigmas) -> List[str]:
         if name in ("k1", "k2") and value == 0.0:
             continue
         sigma = sigmas.get(name)
-        sig = f" ± {sigma:.3g}" if sigma is not None and np.isfinite(sigma) else ""
+        sig = "" if sigma is None or np.isnan(sigma) else " ± undetermined" if sigma_undetermined(name, sigma) \
+            else f" ± {sigma:.3g}"
         fmt = "{:.2f}" if name in ("x", "y", "z") else "{:.4f}"
         lines.append(f"  {name:<8} {fmt.format(value):>14}{sig} {_UNITS[name]}")
     lines.append(f"  focal    {camera.focal_px:>14.2f} px")

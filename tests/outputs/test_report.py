@@ -253,3 +253,13 @@ def test_names_of_close_points_do_not_cover_each_other(plane_scene):
     for i in range(len(boxes)):
         for j in range(i + 1, len(boxes)):
             assert not boxes[i].overlaps(boxes[j]), (names[i].get_text(), names[j].get_text())
+
+
+def test_a_sigma_too_large_to_mean_anything_is_said_undetermined(plane_scene):
+    """A poor fit's covariance gave "± 6894594°" (a flood trial): the report says the parameter is undetermined."""
+    from monoplot_plugin.outputs.report import parameter_lines
+
+    lines = parameter_lines(plane_scene.camera, {"heading": 6894594.0, "x": 1.3e9, "pitch": 0.25})
+    by_name = {line.split()[0]: line for line in lines if line.split()}
+    assert "± undetermined" in by_name["heading"] and "± undetermined" in by_name["x"]
+    assert "± 0.25" in by_name["pitch"] and "±" not in by_name["roll"]

@@ -9,7 +9,22 @@ import numpy as np
 
 from ..camera import Camera
 
-__all__ = ["FitResult", "STATUSES", "rmse", "rms"]
+__all__ = ["FitResult", "STATUSES", "rmse", "rms", "sigma_undetermined"]
+
+#: Standard deviations beyond which a parameter is not determined at all (a poor fit's covariance gave "± 1300521642
+#: m" and "± 6894594°" in a flood trial's dock): angles in degrees, positions in metres, the rest in their units.
+UNDETERMINED_ABOVE = {"heading": 90.0, "pitch": 90.0, "roll": 90.0, "fov": 90.0, "x": 1e5, "y": 1e5, "z": 1e5}
+
+
+def sigma_undetermined(name: str, value: float) -> bool:
+    """True when the σ ``value`` of parameter ``name`` says the parameter is not determined (infinite, NaN or beyond
+    :data:`UNDETERMINED_ABOVE`; 1e5 of its units for the others): show "undetermined", not the number.
+
+    >>> sigma_undetermined("heading", 6894594.0), sigma_undetermined("x", 39.0), sigma_undetermined("k1", 1e9)
+    (True, False, True)
+    """
+    return not value < UNDETERMINED_ABOVE.get(name, 1e5)
+
 
 #: Every status a fit can end with, from best to worst; only "ok" means the evidence supports the camera.
 STATUSES = ("ok", "uncertain", "poor", "refused", "canceled")
