@@ -28,7 +28,7 @@ from ..state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, replace_in
 from ..workflow import auto as auto_step
 from ..workflow.progress import part
 from . import engine
-from .fit_settings import fit_arguments
+from .fit_settings import fit_arguments, height_arguments
 
 __all__ = ["install_auto_panel", "AutoPanel"]
 
@@ -116,10 +116,11 @@ class AutoPanel(QObject):
         dem = c.dem
         _, check_uv, check_xyz = c.check_points()  # the person's check points measure the camera found
         sigmas = self.prior_sigmas(prior is not None)
+        height = height_arguments(c.state.settings)  # "camera height: on the ground" holds the search there too
 
         def work(progress, is_canceled):
             done = auto_step.register(photo, dem, start, **sigmas, progress=part(progress, 0.0, 0.9),
-                                      is_canceled=is_canceled, heading_known=heading_known)
+                                      is_canceled=is_canceled, heading_known=heading_known, **height)
             overlay, xyz, footprint = engine.render_products(done.camera, dem, is_canceled)
             # the DEM's silhouettes under the camera found over the photo's detected skyline
             overlay = draw_alignment(overlay, done.camera, done.result.skyline, dem)

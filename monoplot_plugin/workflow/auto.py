@@ -62,21 +62,26 @@ class AutoDone:
 def register(photo: np.ndarray, dem, prior: Camera, position_sigma_m: Optional[float] = None,
              angle_sigma_deg: Optional[float] = None, fov_sigma_deg: Optional[float] = None,
              progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None,
-             heading_known: bool = True) -> AutoDone:
+             heading_known: bool = True, on_ground: Optional[bool] = None,
+             eye_height: Optional[float] = None) -> AutoDone:
     """Register ``photo`` on ``dem`` from ``prior`` with no points given. ``heading_known`` False: the prior's
     heading is a guess (no direction in the photo's EXIF): every direction of view is searched
     (:func:`~monoplot_plugin.core.auto.heading.register_any_heading`, three to four times as long).
+    ``on_ground``, ``eye_height``: the camera height rule of a fit (:func:`~.fit.on_ground_rule`; None: a rough
+    camera within a few metres of the terrain stands on it): a camera on the ground is searched and fitted on it.
 
     Raises:
         Canceled: ``is_canceled()`` turned true (nothing to keep).
     """
     # torch through the one import thread (cancelable wait; two threads importing torch at once can fail)
     import_torch(is_canceled, progress)
+    grounded, eye = on_ground_rule(prior, dem, on_ground, eye_height)
     result = (register_automatic if heading_known else register_any_heading)(
         photo, dem, prior,
         position_sigma_m=DEFAULT_POSITION_SIGMA_M if position_sigma_m is None else float(position_sigma_m),
         angle_sigma_deg=DEFAULT_ANGLE_SIGMA_DEG if angle_sigma_deg is None else float(angle_sigma_deg),
-        fov_sigma_deg=fov_sigma_deg, progress=progress, is_canceled=is_canceled)
+        fov_sigma_deg=fov_sigma_deg, eye_height_m=eye if grounded else None, progress=progress,
+        is_canceled=is_canceled)
     if result.status == "canceled":
         raise Canceled(result.message or "canceled")
     check_canceled(is_canceled)

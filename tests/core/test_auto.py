@@ -151,3 +151,37 @@ def test_a_dem_off_to_the_side_of_the_view_is_said_first_and_never_searched(scen
     assert result.status == "poor" and result.message.startswith("The DEM is not in view")
     assert result.camera.parameters() == away.parameters() and "prior is kept" in result.message
     assert time.perf_counter() - t0 < 10.0  # no search (a full one takes tens of seconds here)
+
+
+@pytest.fixture(scope="module")
+def on_the_ground():
+    """(dem, truth camera, photo): a photographer 2 m above the highest ground of the terrain's southern third,
+    looking at its centre: hills and a skyline ahead (480 x 320 px)."""
+    import math
+
+    from monoplot_plugin.core.xyz import compute_xyz_full
+
+    dem = synthetic_terrain((160, 160), cell=40.0, seed=5)
+    x0, y0, x1, y1 = dem.bounds()
+    gx, gy = np.meshgrid(np.linspace(x0 + 0.2 * (x1 - x0), x0 + 0.8 * (x1 - x0), 60),
+                         np.linspace(y0 + 0.05 * (y1 - y0), y0 + 0.3 * (y1 - y0), 30))
+    z = dem.sample(gx.ravel(), gy.ravel())
+    k = int(np.nanargmax(z))
+    x, y = gx.ravel()[k], gy.ravel()[k]
+    heading = math.degrees(math.atan2((x0 + x1) / 2 - x, (y0 + y1) / 2 - y))
+    truth = Camera((x, y, float(z[k]) + 2.0), heading, -2.0, 0.0, 55.0, (480, 320), crs_wkt=dem.crs_wkt)
+    res = compute_xyz_full(truth.scaled(0.1), dem, visibility=False)
+    assert res.hit.mean() > 0.35 and (~res.hit[0]).all()  # terrain and a skyline
+    return dem, truth, render_photo(truth, dem, seed=5)
+
+
+def test_a_camera_on_the_ground_is_searched_and_fitted_on_it(on_the_ground):
+    """A flood trial's camera on an embankment, its height searched freely, ended 31-64 m under the terrain: with
+    ``eye_height_m`` the height follows the terrain wherever the search moves the camera, and the fit holds it."""
+    dem, truth, photo = on_the_ground
+    x, y, z = truth.position
+    prior = truth.with_parameters(x=x + 40.0, y=y - 30.0, z=z + 25.0, heading=truth.heading + 2.0)
+    r = register_automatic(photo, dem, prior, position_sigma_m=60.0, eye_height_m=2.0)
+    cx, cy, cz = r.camera.position
+    assert cz - float(dem.sample(cx, cy)) == pytest.approx(2.0, abs=1.0), (cz, float(dem.sample(cx, cy)))
+    assert r.status != "poor", r.message

@@ -40,12 +40,26 @@ BOUND_SIGMAS = 3.0
 NAMES = ("heading", "pitch", "roll", "fov", "x", "y", "z")
 
 
-def camera_from_offset(ref: Camera, offset) -> Camera:
-    """``ref`` moved by one offsets vector (see :data:`NAMES`)."""
-    dh, dp, dr, df, dx, dy, dz = (float(v) for v in offset)
+def camera_from_offset(ref: Camera, offset, ground=None) -> Camera:
+    """``ref`` moved by one offsets vector (see :data:`NAMES`); ``ground``: (DEM, eye height in metres) of a camera
+    on the ground, whose height then follows the terrain (the vector's height is not used)."""
+    off = np.asarray(offset, dtype=np.float64)[None] if ground is None else \
+        grounded_offsets(np.asarray(offset, dtype=np.float64)[None], ref.position, ground)
+    dh, dp, dr, df, dx, dy, dz = (float(v) for v in off[0])
     x, y, z = ref.position
     return ref.with_parameters(heading=ref.heading + dh, pitch=ref.pitch + dp, roll=ref.roll + dr,
                                fov=min(170.0, max(2.0, ref.fov + df)), x=x + dx, y=y + dy, z=z + dz)
+
+
+def grounded_offsets(offsets: np.ndarray, origin, ground) -> np.ndarray:
+    """(N, 7) ``offsets`` from ``origin`` (x, y, z) with each height set ``ground[1]`` metres above the terrain of
+    ``ground[0]`` (a DEM) under its position; kept where the DEM has no height."""
+    dem, eye = ground
+    x, y = origin[0] + offsets[:, 4], origin[1] + offsets[:, 5]
+    z = np.asarray(dem.sample(x, y), dtype=np.float64).reshape(-1) + float(eye) - origin[2]
+    out = offsets.copy()
+    out[:, 6] = np.where(np.isfinite(z), z, offsets[:, 6])
+    return out
 
 
 def offsets_grid(sigmas: dict, step_deg: float, extent: float = 2.5, fov_steps: int = 5,
@@ -92,6 +106,8 @@ class Aligner:
         self.contour = edges.contour[kc] - self.origin
         self.contour_next = edges.contour_next[kc] - self.origin
         self.scale_vec = np.array([sigmas["angle_deg"]] * 3 + [sigmas["fov_deg"]] + [sigmas["position_m"]] * 3)
+        #: (DEM, eye height) of a camera on the ground: every hypothesis's height follows the terrain
+        self.ground = sigmas.get("ground")
         self.prior_offset = np.zeros(7) if prior_offset is None else np.asarray(prior_offset, dtype=np.float64)
         self.sky_cols = np.nonzero(photo.sky_valid)[0]
         self.sky_rows = photo.sky_row[self.sky_cols]
@@ -103,6 +119,8 @@ class Aligner:
 
     def _project(self, offsets: np.ndarray, pts: np.ndarray):
         """(N, M) u, v, depth of the points under every hypothesis (working pixels)."""
+        if self.ground is not None:
+            offsets = grounded_offsets(offsets, self.origin, self.ground)
         h = self.ref.heading + offsets[:, 0]
         p = self.ref.pitch + offsets[:, 1]
         r = self.ref.roll + offsets[:, 2]

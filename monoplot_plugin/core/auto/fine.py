@@ -25,7 +25,7 @@ from .align import Aligner, camera_from_offset
 from .dem_edges import dem_edges
 from .photo_edges import PhotoEdges
 
-__all__ = ["refine_fine", "edge_score", "position_probes", "terrain_shift_px", "offset_between", "Probe",
+__all__ = ["refine_fine", "edge_score", "position_probes", "terrain_shift_px", "offset_between", "Probe", "on_ground_z",
            "FINE_ROUNDS", "CHECK_TAU", "PROBE_RATIO", "PROBE_SHIFT"]
 
 #: (distance scale in working px, step factor) of the fine rounds.
@@ -67,6 +67,12 @@ class Probe:
         return self.score_ratio <= PROBE_RATIO and self.shift_px > PROBE_SHIFT * math.hypot(w, h)
 
 
+def on_ground_z(dem, x: float, y: float, eye_height_m: float, otherwise: float) -> float:
+    """Height of a camera ``eye_height_m`` above the terrain at (x, y); ``otherwise`` off the DEM."""
+    ground = float(np.asarray(dem.sample(np.array([x]), np.array([y]))).reshape(-1)[0])
+    return ground + float(eye_height_m) if np.isfinite(ground) else float(otherwise)
+
+
 def offset_between(cam: Camera, ref: Camera) -> np.ndarray:
     """The offsets vector (see :mod:`.align`) that takes ``cam`` to ``ref``."""
     d = np.subtract(ref.position, cam.position)
@@ -101,7 +107,7 @@ def refine_fine(cam: Camera, prior: Camera, photo: PhotoEdges, dem, sig: dict, i
                          is_canceled=is_canceled, max_points=1200)
             off, _ = al.pattern_search(np.zeros(7), steps * scale, mins * scale, max_iter=30)
             off, _ = al.least_squares(off)
-            cam = camera_from_offset(cam, off)
+            cam = camera_from_offset(cam, off, sig.get("ground"))
         if np.linalg.norm(np.asarray(cam.position) - start) <= PASS_SETTLED * sig["position_m"]:
             break
     return cam, al, off
@@ -165,7 +171,10 @@ def position_probes(camera: Camera, prior: Camera, photo: PhotoEdges, dem, sig: 
     aimed_at, shown = _terrain(camera, dem, width=32.0), _terrain(camera, dem)  # once for the four probes
     probes = []
     for direction in (ahead, -ahead, left, -left):
-        start = aimed_from(camera, np.asarray(camera.position) + sig["position_m"] * direction, dem, aimed_at)
+        to = np.asarray(camera.position) + sig["position_m"] * direction
+        if sig.get("eye_height_m") is not None:  # a camera on the ground moves along it
+            to[2] = on_ground_z(dem, to[0], to[1], sig["eye_height_m"], to[2])
+        start = aimed_from(camera, to, dem, aimed_at)
         ended, al, off = refine_fine(start, prior, photo, dem, sig, is_canceled, poll)
         score = edge_score(ended, photo, dem, sig, is_canceled)
         probes.append(Probe(ended, score / base if base > 0 else float("inf"),

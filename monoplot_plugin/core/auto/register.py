@@ -24,6 +24,7 @@
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Callable, NamedTuple, Optional
@@ -37,7 +38,7 @@ from ..fit.verdict import FEWER_SIDE_ADVICE, FEWER_SIDE_CAUSES, outlier_note
 from ..xyz.zbuffer import trial_cameras
 from .align import Aligner, camera_from_offset, offsets_grid
 from .dem_edges import coarse_dem, dem_edges, dem_in_view
-from .fine import PROBE_RATIO, edge_score, fine_steps, offset_between, position_probes, refine_fine
+from .fine import PROBE_RATIO, edge_score, fine_steps, offset_between, on_ground_z, position_probes, refine_fine
 from .photo_edges import SKY_FRACTION_MIN, PhotoEdges, detect_photo_edges
 from .points import FIT_DEM_CELLS, consistent_points, skyline_points
 from .sigma import RIVAL_RATIO, camera_values, edge_std, widen_std
@@ -143,13 +144,16 @@ def _distinct(offsets: np.ndarray, scores: np.ndarray, k: int, min_deg: float, m
     return kept
 
 
-def _positions(sig: dict) -> np.ndarray:
+def _positions(sig: dict, prior: Optional[Camera] = None, dem=None) -> np.ndarray:
     """(P, 7) offsets of the coarse search's positions: the prior's and :data:`POSITION_SIGMAS` σ from it east,
     west, north and south (a camera that far off sees near terrain from another side: no turn of the view at the
     prior's position makes up for it)."""
     d = POSITION_SIGMAS * sig["position_m"]
     out = np.zeros((5, 7))
     out[1:, 4:6] = [(d, 0.0), (-d, 0.0), (0.0, d), (0.0, -d)]
+    if sig.get("eye_height_m") is not None and dem is not None:  # on the ground wherever it moves
+        x, y, z = prior.position
+        out[1:, 6] = [on_ground_z(dem, x + dx, y + dy, sig["eye_height_m"], z) - z for dx, dy in out[1:, 4:6]]
     return out
 
 
@@ -165,6 +169,7 @@ def _check_inputs(image, prior: Camera) -> np.ndarray:
 
 def register_automatic(image, dem, prior: Camera, *, position_sigma_m: Optional[float] = None,
                        angle_sigma_deg: Optional[float] = None, fov_sigma_deg: Optional[float] = None,
+                       eye_height_m: Optional[float] = None,
                        progress: Optional[Callable[[float, str], None]] = None,
                        is_canceled: Optional[Callable[[], bool]] = None) -> FitResult:
     """Register a photo on a DEM from a rough camera, with no points given.
@@ -175,6 +180,11 @@ def register_automatic(image, dem, prior: Camera, *, position_sigma_m: Optional[
         prior: rough :class:`~monoplot_plugin.core.camera.Camera` in the DEM's CRS, image size of the photo.
         position_sigma_m, angle_sigma_deg, fov_sigma_deg: one σ of the prior's position, heading / pitch (roll
             half of it) and horizontal field of view (defaults 200 m, 5°, 10 % of the field of view).
+        eye_height_m: the camera stood this high above the ground (a photographer, a mast): its height follows the
+            terrain wherever the search moves it, known as well as the terrain's height varies within the
+            position's σ (:func:`ground_height_sigma`), and the final fit holds it there. None: the height is
+            searched as the position is (a flood trial's camera on an embankment, left free, ended 31-64 m under
+            the terrain, its height traded against the field of view).
         progress: optional ``callable(fraction, message)``.
         is_canceled: optional ``callable() -> bool``; polled at least every few tenths of a second.
     Returns:
@@ -185,6 +195,11 @@ def register_automatic(image, dem, prior: Camera, *, position_sigma_m: Optional[
     image = _check_inputs(image, prior)
     report = progress or (lambda f, m="": None)
     sig = _sigmas(prior, position_sigma_m, angle_sigma_deg, fov_sigma_deg)
+    if eye_height_m is not None:
+        z = on_ground_z(dem, prior.position[0], prior.position[1], eye_height_m, math.nan)
+        if math.isfinite(z):
+            prior = prior.with_parameters(z=z)
+            sig.update(eye_height_m=float(eye_height_m), ground=(dem, float(eye_height_m)))
     state = {"camera": prior}
     try:
         with trial_cameras():  # the search renders many cameras; one under the DEM is no news for the log
@@ -239,11 +254,11 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     # around the prior's position one roll (the medium search refines it): a third of the full grid's time
     around = offsets_grid(sig, step, roll_steps=1)
     offsets, scores = [], []
-    positions = _positions(sig)
+    positions = _positions(sig, prior, align_dem)
     for k, pos in enumerate(positions):
         report(0.1 + 0.2 * k / len(positions), "automatic registration: coarse search of the view direction")
         grid = grid if k == 0 else around
-        ref = camera_from_offset(prior, pos)
+        ref = camera_from_offset(prior, pos, sig.get("ground"))
         coarse = Aligner(ref, p0, dem_edges(ref, align_dem, margin, ref.focal_px * p0.scale), sig, tau=6.0,
                          prior_offset=offset_between(ref, prior), is_canceled=is_canceled, max_points=700)
         scores.append(coarse.score(grid))
@@ -260,7 +275,7 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     for i, s in enumerate(starts):
         key = tuple(np.round(s[4:7], 3))
         if key not in mediums:
-            ref = camera_from_offset(prior, np.r_[np.zeros(4), s[4:7]])
+            ref = camera_from_offset(prior, np.r_[np.zeros(4), s[4:7]], sig.get("ground"))
             mediums[key] = (Aligner(ref, p1, dem_edges(ref, align_dem, margin, ref.focal_px * p1.scale), sig,
                                     tau=5.0, prior_offset=offset_between(ref, prior), is_canceled=is_canceled,
                                     max_points=800), s[4:7])
@@ -270,15 +285,15 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
         off, sc = medium.least_squares(off, iterations=8)
         off = off + np.r_[np.zeros(4), pos]  # from the prior
         refined.append((sc, off))
-        state["camera"] = camera_from_offset(prior, min(refined, key=lambda t: t[0])[1])
+        state["camera"] = camera_from_offset(prior, min(refined, key=lambda t: t[0])[1], sig.get("ground"))
         report(0.3 + 0.25 * (i + 1) / len(starts), "automatic registration: refining the best hypotheses")
     refined.sort(key=lambda t: t[0])
     # Fine: render again from the best cameras and refine at full working size, the distance scale shrinking
     # (a wide scale first smooths the score's many shallow minima), rendering again from where each round ends.
     finals = []
     for _, off in refined[:N_FINALS]:
-        cam, al, o2 = refine_fine(camera_from_offset(prior, off), prior, fine, align_dem, sig, is_canceled, _poll,
-                                  passes=FINE_PASSES)
+        cam, al, o2 = refine_fine(camera_from_offset(prior, off, sig.get("ground")), prior, fine, align_dem, sig,
+                                  is_canceled, _poll, passes=FINE_PASSES)
         # Judged by the edges alone, each rendered from where it stands (no pull to the prior, one distance
         # scale). ``al`` is the last round's, ``o2`` the offset from its reference to ``cam``.
         finals.append((edge_score(cam, fine, align_dem, sig, is_canceled), cam, al, o2,
@@ -330,6 +345,8 @@ def _finish(finals, at: float, search: _Search):
     # a field of view known better than half a degree (a lens typed in) stays as known
     fit_sig = {"position_sigma_m": sig["position_m"], "angle_sigma_deg": 1.0,
                "fov_sigma_deg": sig["fov_deg"] if sig["fov_deg"] < 0.5 else max(0.5, 0.25 * sig["fov_deg"])}
+    if sig.get("eye_height_m") is not None:  # held on the ground, as the search held it
+        fit_sig.update(ground=dem, eye_height=sig["eye_height_m"])
     fit = fit_camera(image_points, world_points, aligned, is_canceled=is_canceled,
                      progress=lambda f, m="": report(fit_at + max(0.0, 0.9 - fit_at) * f, m),
                      time_budget_s=2.0,

@@ -63,7 +63,9 @@ def edge_std(al: Aligner, offset) -> dict:
     pieces = INDEPENDENT_PER_1024 * al.photo.width / 1024.0
     inflate = max(1.0, float(r.shape[1]) / pieces)
     var = np.clip(np.diag(cov), 0.0, None) * s2 * inflate
-    return {name: float(math.sqrt(v)) for name, v in zip(NAMES, var) if np.isfinite(v)}
+    # a camera on the ground: its height follows the terrain, the edges do not measure it
+    return {name: float(math.sqrt(v)) for name, v in zip(NAMES, var)
+            if np.isfinite(v) and not (name == "z" and getattr(al, "ground", None) is not None)}
 
 
 def widen_std(std: dict, found: dict, others: list, edge: dict) -> dict:
