@@ -39,7 +39,7 @@ import numpy as np
 from .camera import Camera, angles_from_rotation, project_points
 
 __all__ = ["Drift", "Reference", "stable_mask", "register", "fit_rotation", "corrected_camera",
-           "rotation_angle_deg", "pixel_shift", "MIN_INLIERS"]
+           "rotation_angle_deg", "pixel_shift", "turned_pixels", "MIN_INLIERS"]
 
 #: fewer consistent matches than this and a frame is not registered
 MIN_INLIERS = 12
@@ -334,3 +334,19 @@ def corrected_camera(camera: Camera, rotation: np.ndarray) -> Camera:
     """``camera`` turned by ``dR`` (reference camera frame -> frame's camera frame): same centre and intrinsics."""
     heading, pitch, roll = angles_from_rotation(np.asarray(rotation) @ camera.rotation)
     return camera.with_parameters(heading=heading, pitch=pitch, roll=roll)
+
+
+def turned_pixels(camera: Camera, rotation: np.ndarray, uv: np.ndarray) -> np.ndarray:
+    """(N, 2) where the pixels ``uv`` (N, 2) of ``camera``'s picture lie after the view turned by ``dR`` (reference
+    camera frame -> frame's camera frame): the same rays, seen by :func:`corrected_camera`.
+
+    >>> cam = Camera((0, 0, 0), heading=0, pitch=0, roll=0, fov=60, image_size=(640, 480))
+    >>> turn = cam.with_parameters(heading=1.0).rotation @ cam.rotation.T
+    >>> moved = turned_pixels(cam, turn, np.array([[320.0, 240.0]]))
+    >>> round(float(moved[0, 0] - 320.0), 2), round(float(moved[0, 1] - 240.0), 2)  # turned right: points go left
+    (-9.67, 0.0)
+    """
+    uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+    if not len(uv):
+        return uv.copy()
+    return _project_rays(camera, camera.pixel_to_camera_ray(uv) @ np.asarray(rotation).T)

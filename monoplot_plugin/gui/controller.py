@@ -184,7 +184,7 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
         if switch:  # this photo's work waits in the project; the chosen one's, put aside earlier, comes back
             photo_shelf.put_aside(self.project, self.state)
             back = photo_shelf.take_back(self.project, path)
-        self.image = image
+        previous, self.image = self.image, image
         self.state.photo_path = path
         if switch and back is not None:
             back.photo_path, back.dem_layer_id, back.dem_source = path, self.state.dem_layer_id, self.state.dem_source
@@ -216,6 +216,10 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
                 self.set_prior(self.prior.with_parameters(fov=fov))
                 carried += " " + self.tr("Its field of view is this photo's, from EXIF: {0:.1f}°.").format(fov)
             self.message.emit(carried, INFO)  # not said when the photo's own GPS camera replaced it at once
+        if keep_points and new_photo and not self._restoring:  # a time-lapse's next frame: its turn followed
+            from .frame_turn import follow_the_turn
+
+            follow_the_turn(self, previous)
         if keep_points and not self._restoring:  # a time-lapse's next frame: the kept camera's overlay on it
             self.ensure_products()
         if back is not None:

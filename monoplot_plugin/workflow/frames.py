@@ -38,7 +38,7 @@ from .vectors import fill_missing_z
 from .xyz import xyz_raster, xyz_uncached
 
 __all__ = ["PhotoResult", "CameraProducts", "Timelapse", "Shared", "shared_for", "process_frame", "FrameTask",
-           "fit_job", "blank_photo", "SHARED_XYZ", "DRIFT_TOLERANCE_PX"]
+           "fit_job", "blank_photo", "turn_from_previous_frame", "SHARED_XYZ", "DRIFT_TOLERANCE_PX"]
 
 #: file name of the XYZ raster the frames of one shared camera share
 SHARED_XYZ = "xyz.tif"
@@ -375,3 +375,17 @@ def fit_job(job, size, dem, crs_wkt: str, photo: Optional[np.ndarray] = None,
     camera, info = fit_points(size, uv, xyz, prior, dem, paired, check=table.get("check") if paired else None)
     camera.crs_wkt = crs_wkt
     return camera, {**info, "rmse_px": float(info["rmse_px"])}
+
+
+def turn_from_previous_frame(previous: np.ndarray, current: np.ndarray, camera: Camera, border_px: int = 8):
+    """How far the frame ``current`` of a fixed camera turned from ``previous`` ((H, W, 3) uint8, the same size;
+    ``camera``: the previous frame's camera, for its lens), as the batch re-registers a frame
+    (:func:`~..core.drift.register`), key points taken anywhere but the picture's border (a dock has no XYZ raster
+    of the previous frame at hand). A :class:`~..core.drift.Drift`; never raises for a frame that does not match."""
+    from ..core.drift import Drift
+
+    if previous.shape[:2] != current.shape[:2] or tuple(camera.image_size) != (previous.shape[1], previous.shape[0]):
+        return Drift(False, np.eye(3), message="the frames or the camera differ in size")
+    mask = np.zeros(previous.shape[:2], dtype=np.uint8)
+    mask[border_px:-border_px, border_px:-border_px] = 255
+    return register(Reference(previous, camera, mask), current)

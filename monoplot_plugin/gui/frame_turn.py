@@ -1,0 +1,60 @@
+"""The next frame of a fixed camera, its points kept: the points and cameras follow the frame's turn.
+
+A time-lapse trial kept the first frame's points on later frames ("Keep the points"): the mount had turned by up to
+0.5°, so the kept photo points sat 7-28 px off their features, and a drift-corrected camera loaded for the frame was
+judged "uncertain" against them (check points 9.8-28.9 px off on correct cameras). The frame is now registered on the
+previous one as the batch does (:func:`~..workflow.frames.turn_from_previous_frame`), and when it turned, the photo
+points move with it (one undoable edit) and the rough and fitted cameras turn by the same rotation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from qgis.core import Qgis
+from qgis.PyQt.QtCore import QCoreApplication
+
+from ..adapters.photo import qimage_to_array
+from ..core.drift import corrected_camera, turned_pixels
+from ..state import PHOTO, Edit
+from ..workflow.frames import DRIFT_TOLERANCE_PX, turn_from_previous_frame
+
+
+def tr(text: str) -> str:
+    return QCoreApplication.translate("Monoplot", text)
+
+
+def follow_the_turn(controller, previous) -> None:
+    """After ``controller`` loaded another frame keeping its points (``previous``: the last frame's QImage): register
+    the frame on it and, when it turned by :data:`DRIFT_TOLERANCE_PX` or more, move the photo points and turn the
+    cameras; say what was done (or that the frames did not match, the points left where they were)."""
+    c = controller
+    state = c.state
+    camera = c.fitted if c.fitted is not None else c.prior
+    if camera is None or previous is None:
+        return
+    drift = turn_from_previous_frame(qimage_to_array(previous), qimage_to_array(c.image), camera)
+    if not drift.ok:
+        c.message.emit(tr("This frame could not be matched to the previous one ({0}): its points and camera are "
+                          "kept as they were; check them.").format(drift.message), Qgis.MessageLevel.Warning)
+        return
+    if drift.pixels < DRIFT_TOLERANCE_PX:
+        return
+    photo = [p for p in state.points.values() if p.space == PHOTO]
+    if photo:
+        import numpy as np
+
+        moved = turned_pixels(camera, drift.rotation, np.array([(p.x, p.y) for p in photo]))
+        edit = Edit(tr("Follow the frame's turn"), before={p.id: p for p in photo},
+                    after={p.id: replace(p, x=float(u), y=float(v)) for p, (u, v) in zip(photo, moved)})
+        c.stack.push(edit)
+    if c.prior is not None:
+        c.set_prior(corrected_camera(c.prior, drift.rotation))
+    if c.fitted is not None:
+        info = dict(state.fit_info or {})
+        turned = tr("Turned onto this frame by {0:.3f}° ({1:.1f} px).").format(drift.degrees, drift.pixels)
+        info["message"] = (info.get("message", "") + " " + turned).strip()
+        c.set_fitted(corrected_camera(c.fitted, drift.rotation), info)
+    c.message.emit(tr("This frame turned {0:.3f}° ({1:.1f} px) from the previous one ({2} matches): its {3} photo "
+                      "points and the camera were turned with it (Undo puts the points back).").format(
+        drift.degrees, drift.pixels, drift.inliers, len(photo)), Qgis.MessageLevel.Info)
