@@ -16,7 +16,16 @@ SPREAD_RATIO = 5.0
 
 
 def _metres(value: float) -> str:
-    return f"{value:.0f} m" if value >= 10 else f"{value:.1f} m"
+    """Metres to two significant digits at most (a flood trial read "8.6 m of ground (0.0 m along most of it)").
+
+    >>> [_metres(v) for v in (910.0, 8.63, 0.043, 0.002)]
+    ['910 m', '8.6 m', '0.043 m', 'under 0.01 m']
+    """
+    if value >= 10:
+        return f"{value:.0f} m"
+    if value >= 1:
+        return f"{value:.1f} m"
+    return f"{value:.2g} m" if value >= 0.01 else "under 0.01 m"
 
 
 def spread_note(kind_name: str, spans: Iterable[Tuple[int, Optional[float], Optional[float]]], told: Set[tuple],
