@@ -111,6 +111,11 @@ class ResultsMixin:
                            "within {1:.0f} m: if it is right, fix the position in the fit settings (untick "
                            "position) and fit again.").format(moved, sigma)
         # a trial's phone photo: GPS 23 m off, the fit "uncertain" 211 m away, and nothing said it had moved
+        if not info.get("position_sigma_stated", True):  # a flood trial read "Position ± 153 m", never set
+            return self.tr("The fit moved the camera {0:.0f} m from the rough camera, more than twice the uncertainty "
+                           "assumed for its position (± {1:.0f} m, 5 % of the distance to the terrain; Position ± in "
+                           "the fit settings says better): if the rough position is right (a GPS position), fix the "
+                           "position in the fit settings (untick position) and fit again.").format(moved, sigma)
         return self.tr("The fit moved the camera {0:.0f} m from the rough camera, more than twice its stated "
                        "uncertainty (Position ± {1:.0f} m): if the rough position is right (a GPS position), fix the "
                        "position in the fit settings (untick position) and fit again.").format(moved, sigma)

@@ -522,3 +522,15 @@ def test_a_fit_goes_on_from_a_camera_loaded_as_fitted(dock, scene, tmp_path, qtb
     with qtbot.waitSignal(c.taskFinished, timeout=120000):
         dock.fitButton.click()
     assert "loaded_from" not in c.state.fit_info and c.fit_start().parameters() == c.prior.parameters()
+
+
+def test_the_advice_on_a_moved_camera_says_whose_position_uncertainty_it_is(dock):
+    """A flood trial read "more than twice its stated uncertainty (Position ± 153 m)" having set no Position ±: the
+    default (5 % of the distance to the terrain) is said to be assumed, a stated one to be stated."""
+    c = dock.controller
+    info = {"status": "uncertain", "moved_m": 400.0, "position_sigma_m": 153.0}
+    assumed = c.moved_advice(dict(info, position_sigma_stated=False))
+    assert "uncertainty assumed for its position (± 153 m, 5 % of the distance" in assumed and "stated" not in assumed
+    stated = c.moved_advice(dict(info, position_sigma_stated=True))
+    assert "more than twice its stated uncertainty (Position ± 153 m)" in stated
+    assert c.moved_advice(dict(info, status="ok", position_sigma_stated=False)) == ""
