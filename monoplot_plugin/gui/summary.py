@@ -165,7 +165,7 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
                                   "points as check points (key C) to measure the camera.") + "</small>"
     z_text = f"{z:.0f} m{sig('z')}"
     clearance = info.get("clearance_m")
-    under = not info.get("on_ground") and clearance is not None and math.isfinite(clearance) and clearance < 0
+    under = not info.get("on_ground") and clearance is not None and math.isfinite(clearance) and clearance <= -0.05
     if under:  # a coarse DEM at the camera, or a fit that ended low: say so, the overlay needs it explained
         z_text += " " + tr("({0:.1f} m under the DEM)").format(-clearance)
     cells = [("X", f"{x:.0f} m{sig('x')}"),
@@ -188,7 +188,7 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
         # and the dock's note on too few pairs, and a loaded camera's own verdict
         # ... and that an automatic registration searched every direction (a re-check trial never saw it said)
         keep = ("Verified by the check points despite", tr("Your "), tr("Loaded with its own fit's verdict"),
-                "The direction of view was not known")
+                "The direction of view was not known", tr("Turned onto this frame"))
         message = " ".join(part.rstrip(".") + "." for part in message.split(". ") if part.startswith(keep))
         note = f"<p><small>{html_escape(message)}</small></p>" if message else ""
     else:  # why it is doubtful and what to do first; the fit's figures after it, smaller

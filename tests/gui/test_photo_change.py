@@ -134,8 +134,13 @@ def test_the_next_frame_of_a_turned_camera_turns_the_kept_points_and_cameras(doc
         expected = turned.project(np.array([[m.x, m.y, m.z if m.z is not None else scene.dem.sample(m.x, m.y)]]))[0]
         assert np.hypot(p.x - expected[0], p.y - expected[1]) < 1.5, (pid, (p.x, p.y), expected)
     assert any("This frame turned 0.4" in m and "photo points and the camera were turned" in m for m in messages)
-    c.stack.undo()  # the points go back where they were on the first frame
+    assert not c.fit_points_changed()  # the fit's points moved with its camera: no "Fit again"
+    turned_fit = c.fitted
+    c.stack.undo()  # the points go back where they were on the first frame, and the cameras with them
     assert {p.id: (p.x, p.y) for p in c.state.points.values() if p.space == PHOTO} == photo
+    assert c.fitted == scene.camera and c.prior == rough
+    c.stack.redo()
+    assert c.fitted == turned_fit and abs(c.prior.heading - rough.heading - 0.4) < 0.07
 
 
 def test_a_damaged_photo_is_refused_before_any_question(dock, scene, qtbot, tmp_path):
