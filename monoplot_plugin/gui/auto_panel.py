@@ -272,13 +272,6 @@ class AutoPanel(QObject):
         if len(world):  # how far it went from the rough camera, as a fit says it ("uncertain" beyond 3 σ stated)
             info.update(c.moved_from_prior(done.camera, world, fit_arguments(c.state.settings)[1]))
             c.doubt_a_moved_camera(info)
-        if against is not None and edge is not None and edge > earlier:  # said before the fit's own message
-            c.message.emit(self.tr("This registration fits the photo's edges a little less well than the earlier one "
-                                   "({0:.3f} against {1:.3f}, lower is better), but the earlier camera is {2:.0f} m "
-                                   "from the rough camera, more than twice the position uncertainty you gave (± "
-                                   "{3:.0f} m), and this one {4:.0f} m: this one replaces it (Undo brings the "
-                                   "earlier one back).").format(
-                edge, earlier, *against), Qgis.MessageLevel.Info)
         if reviewed:  # before the fit's own message, which must be the last word (it says "poor" when it is)
             c.message.emit(self.tr("Your decisions on the earlier automatic points are kept: new matches where you "
                                    "had accepted or rejected one were left out ({0} of {1}).").format(
@@ -294,6 +287,14 @@ class AutoPanel(QObject):
             c.message.emit(self.tr("{0} undecided suggestions and earlier unreviewed matches were replaced by the "
                                    "{1} + {2} matched points (Undo brings them back).").format(
                 replaced, len(photo_pts), len(map_pts)), Qgis.MessageLevel.Info)
+        if against is not None and edge is not None and edge > earlier:
+            # said last: it explains the replacement (a re-check trial saw it pushed off the bar by the count)
+            c.message.emit(self.tr("This registration fits the photo's edges a little less well than the earlier one "
+                                   "({0:.3f} against {1:.3f}, lower is better), but the earlier camera is {2:.0f} m "
+                                   "from the rough camera, more than twice the position uncertainty you gave (± "
+                                   "{3:.0f} m), and this one {4:.0f} m: this one replaces it (Undo brings the "
+                                   "earlier one back).").format(
+                edge, earlier, *against), Qgis.MessageLevel.Info)
 
 
 def _earlier_automatic_edge(info) -> Optional[float]:
