@@ -82,9 +82,13 @@ class _Labels:
                 break
         _, dx, dy, box = best
         self.boxes.append(box)
+        # a name moved off its first place gets a thin line to its point (a re-check trial gave two names of a
+        # cluster to the point they had been moved beside)
+        leader = None if (dx, dy) == _LABEL_OFFSETS[0] else dict(arrowstyle="-", color=colour, lw=0.6, shrinkA=0,
+                                                                  shrinkB=0, alpha=0.8)
         self.ax.annotate(name, (u, v), xytext=(dx, dy), textcoords="offset points", color=colour,
-                         fontsize=self.fontsize, bbox=_LABEL_BOX, ha="left" if dx > 0 else "right" if dx < 0
-                         else "center", va="top" if dy < 0 else "bottom" if dy > 0 else "center")
+                         fontsize=self.fontsize, bbox=_LABEL_BOX, arrowprops=leader, ha="left" if dx > 0 else
+                         "right" if dx < 0 else "center", va="top" if dy < 0 else "bottom" if dy > 0 else "center")
 
 
 class ReportPoints:
