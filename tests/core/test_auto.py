@@ -185,3 +185,5 @@ def test_a_camera_on_the_ground_is_searched_and_fitted_on_it(on_the_ground):
     cx, cy, cz = r.camera.position
     assert cz - float(dem.sample(cx, cy)) == pytest.approx(2.0, abs=1.0), (cz, float(dem.sample(cx, cy)))
     assert r.status != "poor", r.message
+    # its height is known as well as the terrain under the position's σ is (a re-check trial read "Z ± 200")
+    assert 1.0 <= r.std["z"] < 60.0, r.std

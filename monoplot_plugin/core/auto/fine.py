@@ -26,6 +26,7 @@ from .dem_edges import dem_edges
 from .photo_edges import PhotoEdges
 
 __all__ = ["refine_fine", "edge_score", "position_probes", "terrain_shift_px", "offset_between", "Probe", "on_ground_z",
+           "grounded_height_sigma",
            "FINE_ROUNDS", "CHECK_TAU", "PROBE_RATIO", "PROBE_SHIFT"]
 
 #: (distance scale in working px, step factor) of the fine rounds.
@@ -71,6 +72,18 @@ def on_ground_z(dem, x: float, y: float, eye_height_m: float, otherwise: float) 
     """Height of a camera ``eye_height_m`` above the terrain at (x, y); ``otherwise`` off the DEM."""
     ground = float(np.asarray(dem.sample(np.array([x]), np.array([y]))).reshape(-1)[0])
     return ground + float(eye_height_m) if np.isfinite(ground) else float(otherwise)
+
+
+def grounded_height_sigma(dem, camera: Camera, std: dict) -> float:
+    """σ (m) of the height of a camera held on the ground: the terrain's rise over the position's σ (``std``'s x and
+    y) at its position, and 1 m for the eye height (a re-check trial read "Z ± 200" of a camera held 2 m up)."""
+    x, y, _ = camera.position
+    sx, sy = float(std.get("x", 0.0)), float(std.get("y", 0.0))
+    z = np.asarray(dem.sample(np.array([x + sx, x - sx, x, x]), np.array([y, y, y + sy, y - sy])),
+                   dtype=np.float64).reshape(-1)
+    dx, dy = 0.5 * (z[0] - z[1]), 0.5 * (z[2] - z[3])
+    rise = math.hypot(dx if np.isfinite(dx) else 0.0, dy if np.isfinite(dy) else 0.0)
+    return float(math.hypot(rise, 1.0))
 
 
 def offset_between(cam: Camera, ref: Camera) -> np.ndarray:

@@ -38,7 +38,8 @@ from ..fit.verdict import FEWER_SIDE_ADVICE, FEWER_SIDE_CAUSES, outlier_note
 from ..xyz.zbuffer import trial_cameras
 from .align import Aligner, camera_from_offset, offsets_grid
 from .dem_edges import coarse_dem, dem_edges, dem_in_view
-from .fine import PROBE_RATIO, edge_score, fine_steps, offset_between, on_ground_z, position_probes, refine_fine
+from .fine import (PROBE_RATIO, edge_score, fine_steps, grounded_height_sigma, offset_between, on_ground_z,
+                   position_probes, refine_fine)
 from .photo_edges import SKY_FRACTION_MIN, PhotoEdges, detect_photo_edges
 from .points import FIT_DEM_CELLS, consistent_points, skyline_points
 from .sigma import RIVAL_RATIO, camera_values, edge_std, widen_std
@@ -207,6 +208,8 @@ def register_automatic(image, dem, prior: Camera, *, position_sigma_m: Optional[
     except FitCanceled:
         result = AutoFitResult(state["camera"], "canceled", "The automatic registration was canceled; the camera "
                                "is the best found so far.", "unpaired", aligned=state["camera"])
+    if sig.get("ground") is not None and result.std and result.status != "canceled":
+        result.std["z"] = grounded_height_sigma(dem, result.camera, result.std)  # held on the ground
     result.elapsed_s = time.perf_counter() - t0
     report(1.0, "")  # not the status: the workflow may still lower it (the height rule)
     return result
