@@ -439,7 +439,7 @@ class DigitisingSession(QObject):
             from ..outputs import OutputError
 
             raise OutputError(f"none of the {dropped} drawn {kind}s reaches the terrain under the fitted camera (over "
-                              f"the sky, a DEM void, off the DEM, or the camera is wrong): there is nothing to map")
+                              f"the sky, a DEM void, off the DEM, or the camera is wrong): there is nothing to map.")
         # which drawn feature each row is (a trial's file had 6 rows for 8 points drawn, and nothing to tell them
         # apart): its id in the photo layer, as the live map layer has it
         for feature, fid in zip(features, fids):

@@ -353,7 +353,7 @@ class ResultsMixin:
         if info.get("height_freed") and clearance is not None:  # the import warned it would be held on the ground
             text += " " + self.tr("The pairs placed the camera {0:.0f} m above the terrain: its height was fitted "
                                   "freely, not held on the ground.").format(clearance)
-        if clearance is not None and clearance < 0:
+        if clearance is not None and round(-clearance) >= 1:  # not "0 m below the terrain: the fit is wrong" (a trial)
             level = Qgis.MessageLevel.Warning
             text += " " + self.tr("The camera ended {0:.0f} m below the terrain: the fit is wrong; reject "
                                   "doubtful points or improve the rough camera.").format(-clearance)
