@@ -170,7 +170,8 @@ class Aligner:
         left, right = np.where(ok, left, 0), np.where(ok, right, 0)
         u0, u1 = us.ravel()[left], us.ravel()[right]
         v0, v1 = vs.ravel()[left], vs.ravel()[right]
-        gap = u1 - u0
+        with np.errstate(invalid="ignore"):  # inf - inf where a column has no skyline: not finite, left out below
+            gap = u1 - u0
         ok &= np.isfinite(gap) & (gap <= SKY_GAP_PX)
         t = np.where(ok & (gap > 1e-9), (np.tile(centre, N) - u0) / np.where(gap > 1e-9, gap, 1.0), 0.0)
         return np.where(ok, v0 + t * (v1 - v0), np.inf).reshape(N, W)
