@@ -407,9 +407,11 @@ def parameter_lines(camera, sigmas) -> List[str]:
         if name in ("k1", "k2") and value == 0.0:
             continue
         sigma = sigmas.get(name)
-        sig = "" if sigma is None or np.isnan(sigma) else " ± undetermined" if sigma_undetermined(name, sigma) \
-            else f" ± {sigma:.3g}"
         fmt = "{:.2f}" if name in ("x", "y", "z") else "{:.4f}"
+        if sigma is not None and not np.isnan(sigma) and sigma_undetermined(name, sigma):  # the unit with the value
+            lines.append(f"  {name:<8} {fmt.format(value):>14} {_UNITS[name]} (± undetermined)")
+            continue
+        sig = "" if sigma is None or np.isnan(sigma) else f" ± {sigma:.3g}"
         lines.append(f"  {name:<8} {fmt.format(value):>14}{sig} {_UNITS[name]}")
     lines.append(f"  focal    {camera.focal_px:>14.2f} px")
     return lines
