@@ -38,7 +38,10 @@ def follow_the_turn(controller, previous) -> None:
         c.message.emit(tr("This frame could not be matched to the previous one ({0}): its points and camera are "
                           "kept as they were; check them.").format(drift.message), Qgis.MessageLevel.Warning)
         return
-    if drift.pixels < DRIFT_TOLERANCE_PX:
+    if drift.pixels < DRIFT_TOLERANCE_PX:  # said: the frame was checked (a re-check trial heard nothing)
+        c.message.emit(tr("This frame was matched to the previous one ({0} matches): it has not turned ({1:.2f} px), "
+                          "the points and camera stay as they are.").format(drift.inliers, drift.pixels),
+                       Qgis.MessageLevel.Info)
         return
     before = _cameras(c)
     photo = [p for p in state.points.values() if p.space == PHOTO]

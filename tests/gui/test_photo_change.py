@@ -90,11 +90,14 @@ def test_a_time_lapse_frame_keeps_the_camera_and_shows_its_overlay(dock, scene, 
     frame = str(tmp_path / "frame_2.png")
     image = cv2.imread(scene.photo_path)
     cv2.imwrite(frame, cv2.convertScaleAbs(image, alpha=0.7, beta=10))  # a darker frame of the same camera
-    seen = []
+    seen, messages = [], []
+    c.message.connect(lambda text, *_: messages.append(text))
     answer_with(qtbot, "Keep the points", seen)
     dock.photoFile.setFilePath(frame)
     assert "time-lapse" in seen[-1]
     assert c.state.photo_path == frame and c.fitted == scene.camera
+    # registered on the previous frame, and said (a re-check trial heard nothing of a frame that had not turned)
+    assert any("This frame was matched to the previous one" in m and "it has not turned" in m for m in messages)
     qtbot.waitUntil(lambda: c.overlay is not None and not c.products_pending, timeout=30000)
     assert c.xyz is not None and np.isfinite(c.xyz[..., 2]).any()
 
