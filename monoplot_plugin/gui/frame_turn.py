@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
 from qgis.core import Qgis
 from qgis.PyQt.QtCore import QCoreApplication
 
@@ -47,8 +48,6 @@ def follow_the_turn(controller, previous) -> None:
     photo = [p for p in state.points.values() if p.space == PHOTO]
     edit = None
     if photo:
-        import numpy as np
-
         moved = turned_pixels(camera, drift.rotation, np.array([(p.x, p.y) for p in photo]))
         edit = Edit(tr("Follow the frame's turn"), before={p.id: p for p in photo},
                     after={p.id: replace(p, x=float(u), y=float(v)) for p, (u, v) in zip(photo, moved)})

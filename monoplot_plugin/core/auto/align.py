@@ -51,14 +51,21 @@ def camera_from_offset(ref: Camera, offset, ground=None) -> Camera:
                                fov=min(170.0, max(2.0, ref.fov + df)), x=x + dx, y=y + dy, z=z + dz)
 
 
+def ground_heights(ground, x, y, otherwise) -> np.ndarray:
+    """(N,) heights ``ground[1]`` metres above the terrain of ``ground[0]`` (a DEM) at map points (x, y), arrays of
+    N; ``otherwise`` (N,) where the DEM has no height."""
+    dem, eye = ground
+    z = np.asarray(dem.sample(np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)),
+                   dtype=np.float64).reshape(-1) + float(eye)
+    return np.where(np.isfinite(z), z, np.asarray(otherwise, dtype=np.float64))
+
+
 def grounded_offsets(offsets: np.ndarray, origin, ground) -> np.ndarray:
     """(N, 7) ``offsets`` from ``origin`` (x, y, z) with each height set ``ground[1]`` metres above the terrain of
-    ``ground[0]`` (a DEM) under its position; kept where the DEM has no height."""
-    dem, eye = ground
-    x, y = origin[0] + offsets[:, 4], origin[1] + offsets[:, 5]
-    z = np.asarray(dem.sample(x, y), dtype=np.float64).reshape(-1) + float(eye) - origin[2]
+    ``ground[0]`` (a DEM) under its position (:func:`ground_heights`); kept where the DEM has no height."""
     out = offsets.copy()
-    out[:, 6] = np.where(np.isfinite(z), z, offsets[:, 6])
+    out[:, 6] = ground_heights(ground, origin[0] + offsets[:, 4], origin[1] + offsets[:, 5],
+                               origin[2] + offsets[:, 6]) - origin[2]
     return out
 
 

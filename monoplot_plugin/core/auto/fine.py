@@ -21,11 +21,11 @@ from typing import Optional
 import numpy as np
 
 from ..camera import Camera
-from .align import Aligner, camera_from_offset
+from .align import Aligner, camera_from_offset, ground_heights
 from .dem_edges import dem_edges
 from .photo_edges import PhotoEdges
 
-__all__ = ["refine_fine", "edge_score", "position_probes", "terrain_shift_px", "offset_between", "Probe", "on_ground_z",
+__all__ = ["refine_fine", "edge_score", "position_probes", "terrain_shift_px", "offset_between", "Probe",
            "grounded_height_sigma",
            "FINE_ROUNDS", "CHECK_TAU", "PROBE_RATIO", "PROBE_SHIFT"]
 
@@ -66,12 +66,6 @@ class Probe:
         """True when the probe fits the edges nearly as well and moves the terrain visibly."""
         w, h = self.camera.image_size
         return self.score_ratio <= PROBE_RATIO and self.shift_px > PROBE_SHIFT * math.hypot(w, h)
-
-
-def on_ground_z(dem, x: float, y: float, eye_height_m: float, otherwise: float) -> float:
-    """Height of a camera ``eye_height_m`` above the terrain at (x, y); ``otherwise`` off the DEM."""
-    ground = float(np.asarray(dem.sample(np.array([x]), np.array([y]))).reshape(-1)[0])
-    return ground + float(eye_height_m) if np.isfinite(ground) else float(otherwise)
 
 
 def grounded_height_sigma(dem, camera: Camera, std: dict) -> float:
@@ -185,8 +179,8 @@ def position_probes(camera: Camera, prior: Camera, photo: PhotoEdges, dem, sig: 
     probes = []
     for direction in (ahead, -ahead, left, -left):
         to = np.asarray(camera.position) + sig["position_m"] * direction
-        if sig.get("eye_height_m") is not None:  # a camera on the ground moves along it
-            to[2] = on_ground_z(dem, to[0], to[1], sig["eye_height_m"], to[2])
+        if sig.get("ground") is not None:  # a camera on the ground moves along it (on this DEM)
+            to[2] = ground_heights((dem, sig["ground"][1]), [to[0]], [to[1]], [to[2]])[0]
         start = aimed_from(camera, to, dem, aimed_at)
         ended, al, off = refine_fine(start, prior, photo, dem, sig, is_canceled, poll)
         score = edge_score(ended, photo, dem, sig, is_canceled)

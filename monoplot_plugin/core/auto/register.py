@@ -36,10 +36,10 @@ from ..fit import FitCanceled, FitResult, fit_camera
 from ..fit.result import rms
 from ..fit.verdict import FEWER_SIDE_ADVICE, FEWER_SIDE_CAUSES, outlier_note
 from ..xyz.zbuffer import trial_cameras
-from .align import Aligner, camera_from_offset, offsets_grid
+from .align import Aligner, camera_from_offset, ground_heights, offsets_grid
 from .dem_edges import coarse_dem, dem_edges, dem_in_view
-from .fine import (PROBE_RATIO, edge_score, fine_steps, grounded_height_sigma, offset_between, on_ground_z,
-                   position_probes, refine_fine)
+from .fine import (PROBE_RATIO, edge_score, fine_steps, grounded_height_sigma, offset_between, position_probes,
+                   refine_fine)
 from .photo_edges import SKY_FRACTION_MIN, PhotoEdges, detect_photo_edges
 from .points import FIT_DEM_CELLS, consistent_points, skyline_points
 from .sigma import RIVAL_RATIO, camera_values, edge_std, widen_std
@@ -152,9 +152,9 @@ def _positions(sig: dict, prior: Optional[Camera] = None, dem=None) -> np.ndarra
     d = POSITION_SIGMAS * sig["position_m"]
     out = np.zeros((5, 7))
     out[1:, 4:6] = [(d, 0.0), (-d, 0.0), (0.0, d), (0.0, -d)]
-    if sig.get("eye_height_m") is not None and dem is not None:  # on the ground wherever it moves
+    if sig.get("ground") is not None and dem is not None:  # on the ground (of ``dem``) wherever it moves
         x, y, z = prior.position
-        out[1:, 6] = [on_ground_z(dem, x + dx, y + dy, sig["eye_height_m"], z) - z for dx, dy in out[1:, 4:6]]
+        out[1:, 6] = ground_heights((dem, sig["ground"][1]), x + out[1:, 4], y + out[1:, 5], np.full(4, z)) - z
     return out
 
 
@@ -183,7 +183,7 @@ def register_automatic(image, dem, prior: Camera, *, position_sigma_m: Optional[
             half of it) and horizontal field of view (defaults 200 m, 5°, 10 % of the field of view).
         eye_height_m: the camera stood this high above the ground (a photographer, a mast): its height follows the
             terrain wherever the search moves it, known as well as the terrain's height varies within the
-            position's σ (:func:`ground_height_sigma`), and the final fit holds it there. None: the height is
+            position's σ (:func:`~.fine.grounded_height_sigma`), and the final fit holds it there. None: the height is
             searched as the position is (a flood trial's camera on an embankment, left free, ended 31-64 m under
             the terrain, its height traded against the field of view).
         progress: optional ``callable(fraction, message)``.
@@ -197,10 +197,10 @@ def register_automatic(image, dem, prior: Camera, *, position_sigma_m: Optional[
     report = progress or (lambda f, m="": None)
     sig = _sigmas(prior, position_sigma_m, angle_sigma_deg, fov_sigma_deg)
     if eye_height_m is not None:
-        z = on_ground_z(dem, prior.position[0], prior.position[1], eye_height_m, math.nan)
+        z = float(ground_heights((dem, eye_height_m), [prior.position[0]], [prior.position[1]], [math.nan])[0])
         if math.isfinite(z):
             prior = prior.with_parameters(z=z)
-            sig.update(eye_height_m=float(eye_height_m), ground=(dem, float(eye_height_m)))
+            sig["ground"] = (dem, float(eye_height_m))
     state = {"camera": prior}
     try:
         with trial_cameras():  # the search renders many cameras; one under the DEM is no news for the log
@@ -348,8 +348,8 @@ def _finish(finals, at: float, search: _Search):
     # a field of view known better than half a degree (a lens typed in) stays as known
     fit_sig = {"position_sigma_m": sig["position_m"], "angle_sigma_deg": 1.0,
                "fov_sigma_deg": sig["fov_deg"] if sig["fov_deg"] < 0.5 else max(0.5, 0.25 * sig["fov_deg"])}
-    if sig.get("eye_height_m") is not None:  # held on the ground, as the search held it
-        fit_sig.update(ground=dem, eye_height=sig["eye_height_m"])
+    if sig.get("ground") is not None:  # held on the ground, as the search held it
+        fit_sig.update(ground=dem, eye_height=sig["ground"][1])
     fit = fit_camera(image_points, world_points, aligned, is_canceled=is_canceled,
                      progress=lambda f, m="": report(fit_at + max(0.0, 0.9 - fit_at) * f, m),
                      time_budget_s=2.0,
