@@ -424,8 +424,9 @@ def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_poi
 def write_log(path: str, results: List[PhotoResult], folder: str = "") -> None:
     """CSV summary: photo (relative to ``folder``, the batch's photo folder or table's, when inside it, else
     absolute: see :func:`log_photo_path`), status (:meth:`~.frames.PhotoResult.verdict`: a fit "uncertain" was
-    logged "ok"), message, rmse_px, drift_px, drift_deg (re-registered frames), seconds (spent on the photo, where
-    it ran; a trial had to time its registrations one by one), outputs (semicolon-separated)."""
+    logged "ok"), message, rmse_px, drift_px, drift_deg, match_px, match_points (re-registered frames), seconds
+    (spent on the photo, where it ran; a trial had to time its registrations one by one), outputs
+    (semicolon-separated)."""
     import io
 
     def number(value, digits):
@@ -433,10 +434,12 @@ def write_log(path: str, results: List[PhotoResult], folder: str = "") -> None:
 
     text = io.StringIO(newline="")
     writer = csv.writer(text)
-    writer.writerow(["photo", "status", "message", "rmse_px", "drift_px", "drift_deg", "seconds", "outputs"])
+    writer.writerow(["photo", "status", "message", "rmse_px", "drift_px", "drift_deg", "match_px", "match_points",
+                     "seconds", "outputs"])
     for r in results:
         writer.writerow([log_photo_path(r.photo, folder), r.verdict(), r.message, number(r.rmse_px, 3),
-                         number(r.drift_px, 3), number(r.drift_deg, 4), number(r.seconds, 2), ";".join(r.outputs)])
+                         number(r.drift_px, 3), number(r.drift_deg, 4), number(r.match_px, 3),
+                         r.match_points or "", number(r.seconds, 2), ";".join(r.outputs)])
     write_text(path, text.getvalue(), overwrite=True)
 
 

@@ -85,6 +85,10 @@ class PhotoResult:
     canceled: bool = False  # not processed because the user canceled the batch
     drift_px: float = float("nan")  # re-registration: mean image shift from the reference frame
     drift_deg: float = float("nan")  # and the angle of the turn
+    #: re-registration's quality: RMS of its matched points' residuals (px) and their number; a frame of a shared
+    #: camera has no fit RMSE, and a trial could not tell a well registered turned frame from a doubtful one
+    match_px: float = float("nan")
+    match_points: int = 0
     index: int = -1  # position in the batch
     seconds: float = float("nan")  # spent processing it (where it ran: a Dask worker's own clock)
     #: the batch log's verdict: ok, uncertain, poor (products written, with that doubt), failed, skipped (a blank
@@ -276,7 +280,8 @@ def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCance
         else:  # products written, but the fitted camera is doubtful
             result.message = f"fit {fit_status}, RMSE {result.rmse_px:.2f} px: {fit_message}"
         if np.isfinite(result.drift_px):
-            result.message += f", drift {result.drift_px:.2f} px ({result.drift_deg:.3f} deg)"
+            result.message += (f", drift {result.drift_px:.2f} px ({result.drift_deg:.3f} deg), registered on "
+                               f"{result.match_points} points within {result.match_px:.2f} px RMS")
         if task.photo and task.stem != os.path.splitext(task.name)[0]:
             result.message += f" (outputs {task.stem}_*)"
     except Exception as exc:  # one photo's failure must not lose the batch
@@ -304,6 +309,7 @@ def _registered(shared: Shared, photo: np.ndarray, result: PhotoResult):
     if not drift.ok:
         raise InputError(f"not registered on the reference frame: {drift.message}")
     result.drift_px, result.drift_deg = drift.pixels, drift.degrees
+    result.match_px, result.match_points = drift.residual_px, drift.inliers
     if drift.pixels < DRIFT_TOLERANCE_PX:
         return shared.products, False
     camera = corrected_camera(shared.camera, drift.rotation)

@@ -111,7 +111,8 @@ class Journal:
         line = {"stem": task.stem, "key": key, "ok": bool(result.ok), "status": result.verdict(),
                 "message": result.message, "outputs": [os.path.basename(p) for p in result.outputs],
                 "rmse_px": _number(result.rmse_px), "drift_px": _number(result.drift_px),
-                "drift_deg": _number(result.drift_deg), "seconds": _number(result.seconds)}
+                "drift_deg": _number(result.drift_deg), "match_px": _number(result.match_px),
+                "match_points": int(result.match_points), "seconds": _number(result.seconds)}
         with self._lock, open(self.path, "a+b") as journal:
             if not self._line_start:  # a run killed while writing left half a line: this one starts on its own
                 end = journal.seek(0, os.SEEK_END)
@@ -163,7 +164,8 @@ def earlier_results(tasks: List[FrameTask], keys: Dict[int, str], journal: Journ
 
         found[task.index] = PhotoResult(task.photo, True, f"{RESUMED}: {line.get('message', '')}", outputs,
                                         rmse_px=number("rmse_px"), drift_px=number("drift_px"),
-                                        drift_deg=number("drift_deg"), index=task.index,
+                                        drift_deg=number("drift_deg"), match_px=number("match_px"),
+                                        match_points=int(line.get("match_points") or 0), index=task.index,
                                         seconds=number("seconds"), status=line.get("status", ""))
     return found
 

@@ -61,6 +61,9 @@ def test_turned_frames_are_registered_and_get_their_corrected_camera(drifting_ti
         assert result.drift_deg == pytest.approx(drift.rotation_angle_deg(truth), abs=0.05)
         assert float(row["drift_px"]) == pytest.approx(result.drift_px, abs=1e-3) and row["drift_deg"]
         assert "drift" in result.message
+        # how well it was registered, for a frame with no fit RMSE of its own (a trial could not tell)
+        assert 0 <= float(row["match_px"]) < 1.0 and int(row["match_points"]) >= drift.MIN_INLIERS
+        assert f"registered on {row['match_points']} points" in result.message
         own = out / f"frame_{i:03d}_camera.json"
         if i == 0:  # the reference itself: no turn, the shared camera's products
             assert result.drift_px < 0.1 and not own.exists()
