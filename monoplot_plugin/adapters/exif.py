@@ -241,6 +241,33 @@ def read_exif_prior(path: str, size: Tuple[int, int]) -> Optional[ExifPrior]:
     return prior if (prior.has_position or prior.fov is not None or prior.focal_mm is not None) else None
 
 
+def parse_photo_taken(metadata: Dict[str, str]) -> Optional[str]:
+    """When the photo was taken (``DateTimeOriginal``, else ``DateTime``) as ISO 8601 local time, or None.
+
+    >>> parse_photo_taken({"EXIF_DateTimeOriginal": "2026:05:01 06:30:00"})
+    '2026-05-01T06:30:00'
+    >>> parse_photo_taken({"EXIF_DateTimeOriginal": "0000:00:00 00:00:00"}) is None   # a camera without a clock
+    True
+    """
+    for tag in ("EXIF_DateTimeOriginal", "EXIF_DateTime"):
+        found = re.match(r"\s*(\d{4})[:-](\d{2})[:-](\d{2})[ T](\d{2}):(\d{2}):(\d{2})", metadata.get(tag, ""))
+        if found and int(found.group(1)) > 0:
+            year, month, day, hour, minute, second = found.groups()
+            return f"{year}-{month}-{day}T{hour}:{minute}:{second}"
+    return None
+
+
+def read_photo_taken(path: str) -> Optional[str]:
+    """:func:`parse_photo_taken` of the photo file (None when it has no date or GDAL cannot open it)."""
+    from osgeo import gdal
+
+    try:
+        ds = gdal.Open(path) if path else None
+    except RuntimeError:
+        return None
+    return parse_photo_taken(ds.GetMetadata() or {}) if ds is not None else None
+
+
 def exif_camera(exif: Optional[ExifPrior], size: Tuple[int, int], dem, heading: Optional[float] = None,
                 crs_wkt: str = ""):
     """A rough :class:`~monoplot_plugin.core.camera.Camera` in ``dem``'s CRS from the EXIF tags: GPS position,

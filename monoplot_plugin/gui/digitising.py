@@ -44,6 +44,9 @@ PHOTO_FID = "photo_fid"
 #: ... and the name of the photo it was drawn on (a season of time-lapse frames merged into one layer said no more
 #: which frame a line came from, a trial); a field of the person's own of that name wins
 PHOTO_NAME = "photo"
+#: ... and when it was taken (EXIF, ISO 8601; empty when the photo has no date): a time-lapse trial's outlines of ten
+#: dated frames said no date, and the frames' names were all it had to order them by
+PHOTO_TAKEN = "photo_date"  # 10 characters: a Shapefile field name
 
 
 class DigitisingSession(QObject):
@@ -67,8 +70,10 @@ class DigitisingSession(QObject):
 
     def __init__(self, project: QgsProject, camera, dem, xyz: Optional[np.ndarray], photo_name: str,
                  fields: Sequence[Tuple[str, str]] = (("name", "string"),), parent=None,
-                 pixel_rmse: Optional[float] = None, area: Optional[np.ndarray] = None):
+                 pixel_rmse: Optional[float] = None, area: Optional[np.ndarray] = None,
+                 photo_taken: Optional[str] = None):
         super().__init__(parent)
+        self.photo_taken = photo_taken  # ISO 8601 date and time of the photo (EXIF), or None
         self.project = project
         self.camera, self.dem, self.xyz = camera, dem, xyz
         self.area = area  # a scanned print's picture: drawn on its paper or caption, no ground
@@ -140,8 +145,7 @@ class DigitisingSession(QObject):
             attrs = [QgsField(n, _QVARIANT[t]) for n, t in self.fields]
             attrs += computed_fields(kind)
             attrs.append(QgsField(PHOTO_FID, QVariant.Type.LongLong))
-            if not self._own_photo_field():
-                attrs.append(QgsField(PHOTO_NAME, QVariant.Type.String))
+            attrs += [QgsField(name, QVariant.Type.String) for name, _ in self._photo_fields()]
             layer.dataProvider().addAttributes([a for a in attrs if layer.fields().indexFromName(a.name()) < 0])
             layer.updateFields()
             if not reused:  # drawn as on the photo (QGIS's random default was a thin pale line: a trial)
@@ -413,8 +417,8 @@ class DigitisingSession(QObject):
                 if layer.fields().indexFromName(name) >= 0 and value is not None:
                     f[name] = _qvalue(value, dict(self.fields).get(name))
             f[PHOTO_FID] = int(fid)
-            if not self._own_photo_field():
-                f[PHOTO_NAME] = self.photo_name
+            for name, value in self._photo_values().items():
+                f[name] = value
             new.append(f)
         ok, _ = provider.addFeatures(new)
         if not ok:  # never silently: a feature missing from the map layer is data the user would lose
@@ -443,18 +447,22 @@ class DigitisingSession(QObject):
         # which drawn feature each row is (a trial's file had 6 rows for 8 points drawn, and nothing to tell them
         # apart): its id in the photo layer, as the live map layer has it
         for feature, fid in zip(features, fids):
-            feature.attributes = {**feature.attributes, PHOTO_FID: int(fid)}
-            if not self._own_photo_field():
-                feature.attributes[PHOTO_NAME] = self.photo_name
-        extra = [(PHOTO_FID, "integer")] + ([] if self._own_photo_field() else [(PHOTO_NAME, "string")])
+            feature.attributes = {**feature.attributes, PHOTO_FID: int(fid), **self._photo_values()}
+        extra = [(PHOTO_FID, "integer"), *self._photo_fields()]
         written = write_vector_layer(path, features, self.dem.crs_wkt, fields=[*self.fields, *extra],
                                      kind=kind, overwrite=overwrite)
         if add_to_project:
             add_vector_file_layer(written, self.project, self.group)
         return written
 
-    def _own_photo_field(self) -> bool:
-        return any(n.lower() == PHOTO_NAME for n, _ in self.fields)
+    def _photo_fields(self) -> List[Tuple[str, str]]:
+        """The photo's name and date fields the map layers add, but not over a field of the person's own."""
+        own = {n.lower() for n, _ in self.fields}
+        return [(name, "string") for name in (PHOTO_NAME, PHOTO_TAKEN) if name not in own]
+
+    def _photo_values(self) -> dict:
+        values = {PHOTO_NAME: self.photo_name, PHOTO_TAKEN: self.photo_taken}
+        return {name: values[name] for name, _ in self._photo_fields() if values[name] is not None}
 
 
 def drawn_entry_key(photo_name: str) -> str:

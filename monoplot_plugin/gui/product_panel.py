@@ -30,6 +30,7 @@ from .digitising import KINDS, DigitisingSession, drawn_entry_key
 from .drawn_copies import refill_map_layers
 from .drawing_notes import doubt_note, kind_names, sky_text, spread_note
 from .photo_names import claim_photo_label, photo_label
+from ..adapters.exif import read_photo_taken
 from ..adapters.layers import derived_layers_only, mark_modified_later
 from .map_layers import map_layer_on_photo, overlay_outcome
 from .product_exports import LAST_FOLDER_KEY, ProductExports
@@ -205,7 +206,8 @@ class OutputTools(QObject):
         if self.session is None:
             self.session = DigitisingSession(self.project, camera, dem, xyz, self.photo_name(claim=True), parent=self,
                                              pixel_rmse=pixel_error(self.controller.state.fit_info)[0],
-                                             area=self.controller._picture_area())
+                                             area=self.controller._picture_area(),
+                                             photo_taken=read_photo_taken(self.controller.state.photo_path or ""))
             self.session.mapLayerUpdated.connect(self._report_sky)
             # what the restored features already had is old news: told again on every reopening (desktop trial)
             self._sky_told.update({kind: (*counts, self.session.last_silhouettes.get(kind, 0))

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from osgeo import gdal
 
-from monoplot_plugin.adapters.exif import lens_fov, read_exif_prior
+from monoplot_plugin.adapters.exif import lens_fov, read_exif_prior, read_photo_taken
 
 
 def _jpeg(path, size, **tags):
@@ -140,3 +140,12 @@ def test_a_rough_camera_without_a_direction_tag_looks_at_the_dem_and_says_its_he
     assert known and abs(camera.heading - 90.0) < 3.0  # true north to the grid's: the convergence, small here
     with pytest.raises(ValueError, match="no GPS position"):
         exif_rough_camera(_jpeg(tmp_path / "plain.jpg", (300, 200)), (300, 200), dem)
+
+
+def test_the_date_the_photo_was_taken(tmp_path):
+    dated = _jpeg(tmp_path / "f.jpg", (300, 200), DateTimeOriginal="2026:05:01 06:30:00", DateTime="2026:06:01 08:00:00")
+    assert read_photo_taken(dated) == "2026-05-01T06:30:00"  # when taken, not when last edited
+    assert read_photo_taken(_jpeg(tmp_path / "g.jpg", (300, 200), DateTime="2026:06:01 08:00:00")) == \
+        "2026-06-01T08:00:00"
+    assert read_photo_taken(_jpeg(tmp_path / "h.jpg", (300, 200))) is None
+    assert read_photo_taken(str(tmp_path / "missing.jpg")) is None

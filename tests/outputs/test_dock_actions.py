@@ -21,11 +21,12 @@ def dock_with_fit(qgis_iface, qtbot, plane_scene, tmp_path):
     s = plane_scene
     dem_path = tmp_path / "plane_dem.tif"
     s.dem.save(str(dem_path))
-    photo_path = tmp_path / "Gletscher 1890.png"
+    photo_path = tmp_path / "Gletscher 1890.jpg"  # a dated JPEG (EXIF), as a camera writes it
     mem = gdal.GetDriverByName("MEM").Create("", s.camera.width, s.camera.height, 3, gdal.GDT_Byte)
     for b in range(3):
         mem.GetRasterBand(b + 1).WriteArray(s.photo[..., b])
-    gdal.GetDriverByName("PNG").CreateCopy(str(photo_path), mem)
+    mem.SetMetadataItem("EXIF_DateTimeOriginal", "1890:07:14 10:30:00")
+    gdal.GetDriverByName("JPEG").CreateCopy(str(photo_path), mem, options=["WRITE_EXIF_METADATA=YES", "QUALITY=98"])
     project = QgsProject.instance()
     project.clear()
     dem_layer = QgsRasterLayer(str(dem_path), "plane DEM")
@@ -77,6 +78,10 @@ def test_outputs_in_the_dock(dock_with_fit, plane_scene, tmp_path, qtbot):
     shp = tools.export_features("polygon", tmp_path / "tongue.shp")
     # the product card's one layout, as Processing writes it: bands X, Y, Z (distance only when asked)
     assert xyz_layer.bandCount() == 3 and ortho_layer.crs().authid() == CRS and report.exists() and shp.exists()
+    # which photo, and when it was taken (EXIF): outlines of dated frames merged into one layer can be ordered
+    (exported,) = list(QgsVectorLayer(str(shp), "tongue").getFeatures())
+    assert (exported["photo"], exported["photo_date"]) == ("Gletscher 1890.jpg", "1890-07-14T10:30:00")
+    assert next(live.getFeatures())["photo_date"] == "1890-07-14T10:30:00"
     assert tools.export_xyz(tmp_path / "xyz_distance.tif", distance=True).bandCount() == 4
     names = {node.name() for node in group.findLayers()}
     assert {"xyz (X Y Z, photo pixels)", "ortho (orthophoto)", "tongue"} <= names
@@ -206,8 +211,8 @@ def test_drawn_layers_stay_above_the_orthophoto_and_a_rewrite_replaces_its_layer
 
     rows = [(f["name"], f["photo_fid"], f["photo"]) for f in QgsVectorLayer(str(saved), "t", "ogr").getFeatures()]
     # ... and which photo it was drawn on (time-lapse frames merged into one layer said no more, a trial)
-    assert rows == [("tongue", next(session.photo_layer("polygon").getFeatures()).id(), "Gletscher 1890.png")]
-    assert next(session.map_layer("polygon").getFeatures())["photo"] == "Gletscher 1890.png"
+    assert rows == [("tongue", next(session.photo_layer("polygon").getFeatures()).id(), "Gletscher 1890.jpg")]
+    assert next(session.map_layer("polygon").getFeatures())["photo"] == "Gletscher 1890.jpg"
     order = _legend_order(session.group)
     live = session.map_layer("polygon")
     assert order.index(live) < order.index(ortho) and order.index(live) < order.index(xyz)
@@ -748,7 +753,7 @@ def test_a_second_photo_of_the_same_file_name_gets_none_of_the_firsts_drawings(d
     c.state.fitted = dict(fitted, heading=fitted["heading"] + 1.0)
     c.cameraChanged.emit()
     session = tools.current_session()
-    assert tools.photo_name() == "Gletscher 1890 (2023).png"
+    assert tools.photo_name() == "Gletscher 1890 (2023).jpg"
     assert session.map_layer("line").featureCount() == 0 and session.photo_layer("line").featureCount() == 0
     assert session.group.name() == "Gletscher 1890 (2023)"
     session.add_feature("line", [[60, 120], [90, 125]])
@@ -758,11 +763,11 @@ def test_a_second_photo_of_the_same_file_name_gets_none_of_the_firsts_drawings(d
     assert c.load_photo(first)  # back to the print: its own line, not the modern one's
     c.state.fitted = fitted
     c.cameraChanged.emit()
-    assert tools.photo_name() == "Gletscher 1890.png"
+    assert tools.photo_name() == "Gletscher 1890.jpg"
     assert tools.current_session().photo_layer("line").featureCount() == 1
     messages.clear()
     assert c.load_photo(str(other))  # the modern one's work comes back, named with its folder
-    assert any("The work on Gletscher 1890 (2023).png put aside earlier is back" in m for m in messages), messages
+    assert any("The work on Gletscher 1890 (2023).jpg put aside earlier is back" in m for m in messages), messages
 
 
 def test_attributes_of_drawn_features_opens_the_measured_map_tables_too(dock_with_fit, qgis_iface, monkeypatch):
