@@ -23,11 +23,11 @@ from qgis.PyQt.QtWidgets import QAction
 from ..adapters import layers as camera_layers
 from ..adapters.photo import qimage_to_array
 from ..core.auto.overlay import draw_alignment
-from ..core.camera import Camera
 from ..state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, replace_in_views
 from ..workflow import auto as auto_step
 from ..workflow.progress import part
 from . import engine
+from .camera_follow import CamerasFollowEdit, camera_snapshot
 from .fit_settings import fit_arguments, height_arguments
 
 __all__ = ["install_auto_panel", "AutoPanel"]
@@ -48,34 +48,6 @@ FIXED_ANGLE_SIGMA_DEG = 0.05
 class AutoPanel(QObject):
     """The button and its task of one dock."""
 
-    def _follow_undo(self, changed) -> None:
-        """After an Undo (Redo) of the registration's points, its camera goes (comes back) with them, when the fit
-        on show is still the one it left (a later fit or camera is the person's: it stays)."""
-        if self._undoable is None:
-            return
-        edit, before, after = self._undoable
-        c = self.controller
-        if not c.stack.knows(edit):  # the history was reset (another project, or this one read back): not an Undo.
-            # (a trial reopened its project: the reset was taken for an Undo, the "uncertain" cap went, and the
-            # same wrong camera was then fitted "ok")
-            self._undoable = None
-            return
-        applied = c.stack.is_applied(edit)
-        current, target = (before, after) if applied else (after, before)
-        if c.state.fitted != current["fitted"] or c.state.fitted == target["fitted"]:
-            if c.state.fitted not in (before["fitted"], after["fitted"]):
-                self._undoable = None  # another fit since: the registration's camera is history
-            return
-        for key, value in target["settings"].items():
-            if value is None:
-                c.state.settings.pop(key, None)
-            else:
-                c.state.settings[key] = value
-        camera = None if target["fitted"] is None else Camera.from_dict(target["fitted"])
-        c.set_fitted(camera, target["info"], background=True)
-        if camera is None:  # its star and footprint leave the map too (a trial saw them stay, "Not fitted yet")
-            self.dock._update_camera_layers()
-
     def __init__(self, dock):
         super().__init__(dock)
         self.dock = dock
@@ -89,8 +61,8 @@ class AutoPanel(QObject):
         #: (the "Automatic points" edit, the fit before it, the fit it brought): an Undo of those points takes
         #: the registration's camera back too, a Redo brings it again (a trial: after the Undo the fit tab still
         #: spoke of its 134 points, and the next Suggest drew DEM suggestions from its "uncertain" camera)
-        self._undoable = None
-        self.controller.stack.add_listener(self._follow_undo)
+        self._follower = CamerasFollowEdit(self.controller, background=True,
+                                           on_restored=lambda camera: camera or dock._update_camera_layers())
 
     def run(self) -> bool:
         """Start the registration from the rough camera (prior, else the fitted camera) in a task."""
@@ -249,7 +221,7 @@ class AutoPanel(QObject):
         photo_pts = [Point.new(PHOTO, float(u), float(v), status=taken, label=label) for u, v in uv]
         map_pts = [Point.new(MAP, float(x), float(y), float(z), status=taken, label=label) for x, y, z in world]
         replaced = 0
-        before = _fit_snapshot(c)
+        before = camera_snapshot(c, prior=False, settings=_REGISTRATION_SETTINGS)
         c.state.settings["automatic_status"] = status
         c.state.settings["automatic_sigma"] = {k: float(v) for k, v in (r.std or {}).items()}
         edit = None
@@ -259,7 +231,7 @@ class AutoPanel(QObject):
             # what goes: the undecided suggestions, and an earlier run's matches nobody went through (a second run
             # had doubled them); the message counts both (it said "0 replaced" while 161 went)
             replaced = sum(1 for pid, after in edit.after.items() if after is None)
-            self._undoable = None  # the listener must not act on this push
+            self._follower.forget()  # the listener must not act on this push
             edit = edit if c.stack.push(edit) else None
         info = {"status": status, "rmse_px": _finite(r.rmse_px), "loo_rmse_px": _finite(r.loo_rmse_px),
                 "sigma": {k: float(v) for k, v in (r.std or {}).items()}, "converged": status == "ok",
@@ -277,7 +249,8 @@ class AutoPanel(QObject):
                                    "had accepted or rejected one were left out ({0} of {1}).").format(
                 n_found - len(photo_pts), n_found), Qgis.MessageLevel.Info)
         c.show_fit(engine.FitOutcome(done.camera, info, overlay, xyz, footprint))
-        self._undoable = None if edit is None else (edit, before, _fit_snapshot(c))
+        if edit is not None:
+            self._follower.watch(edit, before, camera_snapshot(c, prior=False, settings=_REGISTRATION_SETTINGS))
         if status == "poor" and photo_pts:
             c.message.emit(self.tr("Automatic registration ended poor: its {0} + {1} matched points are left "
                                    "undecided (they are probably wrong), and replaced {2} undecided suggestions (Undo "
@@ -325,10 +298,8 @@ def _not_decided_already(state, label: str, uv, world) -> np.ndarray:
 SAME_POINT_PX, SAME_POINT_M = 2.0, 5.0
 
 
-def _fit_snapshot(c) -> dict:
-    """The controller's fit (camera dict, info) and the registration's settings, copied."""
-    return {"fitted": c.state.fitted, "info": dict(c.state.fit_info or {}),
-            "settings": {k: c.state.settings.get(k) for k in ("automatic_status", "automatic_sigma")}}
+#: what a registration sets besides the camera, and an Undo of its points takes back
+_REGISTRATION_SETTINGS = ("automatic_status", "automatic_sigma")
 
 
 def _finite(v) -> Optional[float]:

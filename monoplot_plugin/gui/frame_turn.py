@@ -19,6 +19,7 @@ from ..adapters.photo import qimage_to_array
 from ..core.drift import corrected_camera, turned_pixels
 from ..state import PHOTO, Edit
 from ..workflow.frames import DRIFT_TOLERANCE_PX, turn_from_previous_frame
+from .camera_follow import CamerasFollowEdit, camera_snapshot
 
 
 def tr(text: str) -> str:
@@ -44,7 +45,7 @@ def follow_the_turn(controller, previous) -> None:
                           "the points and camera stay as they are.").format(drift.inliers, drift.pixels),
                        Qgis.MessageLevel.Info)
         return
-    before = _cameras(c)
+    before = camera_snapshot(c)
     photo = [p for p in state.points.values() if p.space == PHOTO]
     edit = None
     if photo:
@@ -64,52 +65,16 @@ def follow_the_turn(controller, previous) -> None:
             info["fit_point_xy"] = xy
         c.set_fitted(corrected_camera(c.fitted, drift.rotation), info)
     if edit is not None:
-        _Follower.of(c).watch(edit, before, _cameras(c))
+        _follower(c).watch(edit, before, camera_snapshot(c))
     c.message.emit(tr("This frame turned {0:.3f}° ({1:.1f} px) from the previous one ({2} matches): its {3} photo "
                       "points and the camera were turned with it (Undo turns them back).").format(
         drift.degrees, drift.pixels, drift.inliers, len(photo)), Qgis.MessageLevel.Info)
 
 
-def _cameras(c) -> dict:
-    """The controller's rough and fitted cameras (dicts) and fit record, copied."""
-    return {"prior": c.state.prior, "fitted": c.state.fitted, "info": dict(c.state.fit_info or {})}
-
-
-class _Follower:
-    """An Undo (Redo) of "Follow the frame's turn" turns the cameras back (again) with the points, when they are
-    still those the turn left (a later fit or rough camera is the person's: it stays). A re-check trial's Undo put
-    the points back but left both cameras turned: residuals of 6-8 px under a fit still said "0.0 px (ok)"."""
-
-    def __init__(self, controller):
-        self.controller, self.watched = controller, None
-        controller.stack.add_listener(self._follow)
-
-    @staticmethod
-    def of(controller) -> "_Follower":
-        follower = controller.__dict__.get("_turn_follower")
-        if follower is None:
-            follower = controller.__dict__["_turn_follower"] = _Follower(controller)
-        return follower
-
-    def watch(self, edit, before: dict, after: dict) -> None:
-        self.watched = (edit, before, after)
-
-    def _follow(self, changed) -> None:
-        if self.watched is None:
-            return
-        edit, before, after = self.watched
-        c = self.controller
-        if not c.stack.knows(edit):  # another project, or the history reset: not an Undo
-            self.watched = None
-            return
-        current, target = (before, after) if c.stack.is_applied(edit) else (after, before)
-        if (c.state.prior, c.state.fitted) != (current["prior"], current["fitted"]):
-            if (c.state.prior, c.state.fitted) != (target["prior"], target["fitted"]):
-                self.watched = None  # a camera of the person's since: the turn is history
-            return
-        from ..core.camera import Camera
-
-        if target["prior"] != c.state.prior:
-            c.set_prior(None if target["prior"] is None else Camera.from_dict(target["prior"]))
-        if target["fitted"] != c.state.fitted:
-            c.set_fitted(None if target["fitted"] is None else Camera.from_dict(target["fitted"]), target["info"])
+def _follower(controller) -> CamerasFollowEdit:
+    """The controller's one watch of "Follow the frame's turn": its Undo (Redo) turns the rough and fitted cameras
+    back (again) with the points (a re-check trial's Undo left both cameras turned)."""
+    follower = controller.__dict__.get("_turn_follower")
+    if follower is None:
+        follower = controller.__dict__["_turn_follower"] = CamerasFollowEdit(controller)
+    return follower
