@@ -95,7 +95,7 @@ def test_a_basin_the_search_missed_is_taken_when_a_probe_finds_it(scene):
 def test_too_few_probes_back_make_an_ok_uncertain(scene):
     """A camera in a basin narrower than the prior's uncertainty (fewer than two of the four probes came back) is not
     "ok", whatever else the evidence says; two probes back are enough."""
-    from monoplot_plugin.core.auto import register
+    from monoplot_plugin.core.auto import register, verdict
 
     _, truth, *_ = scene
     good = {"auto_skyline_usable": True, "auto_sky_fraction": 0.98, "auto_sky_agreement": 0.97, "auto_edge_score": 0.15,
@@ -103,14 +103,14 @@ def test_too_few_probes_back_make_an_ok_uncertain(scene):
     verdicts, stds = {}, {}
     for returned in (0, 1, 2):
         result = register.AutoFitResult(truth, "ok", "unpaired fit.", "unpaired", std={"heading": 0.05, "x": 3.0})
-        register._combine(result, dict(good, auto_probe_returned=returned))
+        verdict.combine_evidence(result, dict(good, auto_probe_returned=returned))
         verdicts[returned], stds[returned] = (result.status, result.message), result.std
     assert verdicts[2][0] == "ok" and stds[2]["x"] == 3.0
     # a camera the probes could not confirm is placed only as well as the prior placed it (a desktop trial: "± 8 m",
     # 37 m off); so is one whose terrain is too near for the edges to place it
     assert all(stds[n][k] == 100.0 for n in (0, 1) for k in "xyz")
     near = register.AutoFitResult(truth, "ok", "unpaired fit.", "unpaired", std={"heading": 0.05, "x": 3.0})
-    register._combine(near, dict(good, auto_probe_returned=4, auto_range_m=500.0))
+    verdict.combine_evidence(near, dict(good, auto_probe_returned=4, auto_range_m=500.0))
     assert near.status == "uncertain" and near.std["y"] == 100.0
     assert verdicts[1][0] == "uncertain" and "only 1 of four cameras moved" in verdicts[1][1]
     assert verdicts[0][0] == "uncertain" and "none of four cameras moved" in verdicts[0][1]

@@ -40,35 +40,16 @@ from .align import Aligner, camera_from_offset, ground_heights, offsets_grid
 from .dem_edges import coarse_dem, dem_edges, dem_in_view
 from .fine import (PROBE_RATIO, edge_score, fine_steps, grounded_height_sigma, offset_between, position_probes,
                    refine_fine)
-from .photo_edges import SKY_FRACTION_MIN, PhotoEdges, detect_photo_edges
+from .photo_edges import PhotoEdges, detect_photo_edges
 from .points import FIT_DEM_CELLS, consistent_points, skyline_points
 from .sigma import RIVAL_RATIO, camera_values, edge_std, widen_std
+from .verdict import EDGE_SCORE_OK, alignment_evidence, combine_evidence, no_clear_skyline
 
 __all__ = ["register_automatic", "AutoFitResult", "ALIGN_DEM_CELLS", "FIT_DEM_CELLS"]
 
 #: Most DEM cells used by the alignment (finer DEMs are averaged by blocks).
 ALIGN_DEM_CELLS = 2_000_000
 WIDTHS = (256, 512, 1024)
-#: Least share of the photo's clear skyline on the DEM's (within 0.4 % of the width) for an "ok". Calibrated on
-#: the synthetic scenes: right cameras 0.95-0.99, a camera 4 deg off in field of view whose suggestions still
-#: paired (the pairs are drawn near the aligned camera, so they agree with it) 0.65.
-SKY_AGREEMENT_OK = 0.8
-#: Below this share of the photo's clear skyline on the DEM's the camera is "poor": on 76 registrations of the
-#: synthetic scenes every camera that succeeded had 0.68 or more, and one 258 px off had 0.25; a desktop trial's
-#: prior turned 90 deg ended 95 deg off at 0.15, "uncertain".
-SKY_AGREEMENT_POOR = 0.35
-#: Largest edge score (:func:`.fine.edge_score`, lower is better) of the camera returned for an "ok". Calibrated on 20
-#: synthetic scenes: right cameras 0.12-0.21; a camera 21 % of the range off whose skyline still agreed 0.26.
-EDGE_SCORE_OK = 0.23
-#: Largest ratio of the prior's position σ to the median distance of the terrain seen for an "ok". Calibrated on
-#: 20 synthetic scenes: cameras 2.5 % and 21 % of the range off were "ok" at ratios 0.14 and 0.20 (their
-#: suggestions paired with the wrong camera: pairs drawn near it agree with it); right ones lost at 0.14 and 0.16.
-NEAR_RATIO = 0.1
-#: Largest σ (degrees) of heading and pitch (:mod:`.sigma`: the edges' covariance, rival hypotheses, the aligned
-#: camera) for an "ok". Calibrated on 20 synthetic scenes: right "ok" cameras 0.08-0.29; a camera 1.8 % of the
-#: range and 0.25 deg off, "ok" by every other rule (edge score 0.226), 0.70 from rivals the edges could not tell
-#: apart.
-ANGLE_SIGMA_OK = 0.5
 #: Distinct view directions of the coarse grid refined at 512 px (at 256 px and the prior's position the grid's
 #: best is often not the right basin), and how many of the refined are refined again at full size.
 N_STARTS = 8
@@ -97,10 +78,6 @@ FAINT_EDGES_SCORE = 2.0 * EDGE_SCORE_OK
 #: 35 m off whose foreground was hundreds of pixels off went on to 17 px, "uncertain").
 ESCAPE_RATIO = 0.9
 MAX_ESCAPES = 2
-#: Fewest of the four position probes that must come back (within 1 % of the diagonal) for an "ok": right "ok"
-#: cameras of 70 synthetic scenes had 2-4 back (4 for all but one); a wrong one (1.25 % of the range, 23 px on the
-#: terrain) had 1, and another 0.
-PROBES_BACK_OK = 2
 #: Least share of the prior's view (widened by the search's angular margin) that must see the DEM for a search:
 #: below it there are no terrain edges to align (a desktop trial's DEM off to the side ended "uncertain", the
 #: prior kept and the reason at the end of a long message).
@@ -335,7 +312,7 @@ def _finish(finals, at: float, search: _Search):
     w = image.shape[1]
     aligned_edge, aligned, al, off, best_score = finals[0]
     report(at, "automatic registration: suggestions consistent with the aligned camera")
-    evidence = _alignment_evidence(al, off, best_score, refined, fine, w)
+    evidence = alignment_evidence(al, off, best_score, refined, fine, w)
     evidence["auto_range_m"] = _typical_range(aligned, align_dem)
     evidence["auto_position_sigma_m"] = float(sig["position_m"])
     _poll(is_canceled)
@@ -409,7 +386,7 @@ def _finish(finals, at: float, search: _Search):
         # the photo's edges do not support the camera: it is known no better than the prior (before the verdict's
         # message, which quotes the σ shown)
         result.std = widen_std(result.std, {}, [], _prior_std(sig))
-    _combine(result, evidence)
+    combine_evidence(result, evidence)
     if keep_prior:
         result = _prior_kept(result, prior, sig)
     return result, probes
@@ -481,7 +458,7 @@ def _prior_kept(result: AutoFitResult, prior: Camera, sig: dict) -> AutoFitResul
     if no_edges:
         why = "the photo's edges match no camera's view of the DEM, the prior's neither (edge score 1 = no match)"
     elif not ev["auto_skyline_usable"] and ev["auto_edge_score"] > FAINT_EDGES_SCORE:
-        why = (f"{_no_clear_skyline(ev)}, and its "
+        why = (f"{no_clear_skyline(ev)}, and its "
                f"faint edges match the DEM's only by chance under the best camera found (edge score "
                f"{ev['auto_edge_score']:.2f}, the prior's {ev['auto_prior_edge_score']:.2f}; 0 is a perfect fit, 1 "
                f"no match)")
@@ -509,89 +486,3 @@ def _typical_range(camera: Camera, dem) -> float:
     res = compute_xyz_full(camera.scaled(min(1.0, 64.0 / camera.width)), dem, visibility=False)
     d = res.distance[res.hit]
     return float(np.median(d)) if len(d) else float("nan")
-
-
-def _alignment_evidence(al: Aligner, off, score: float, refined, photo: PhotoEdges, full_width: int) -> dict:
-    # Distinct competitor: the best refined hypothesis more than 1 degree away in heading or pitch.
-    best_off = refined[0][1]
-    rival = [sc for sc, o in refined[1:] if np.max(np.abs(o[:2] - best_off[:2])) > 1.0]
-    within = max(1.0, 0.004 * photo.width)  # 4 px on a 1000 px picture
-    return {"auto_skyline_usable": bool(photo.usable), "auto_sky_fraction": float(photo.sky_fraction),
-            "auto_sky_contrast": float(photo.contrast), "auto_align_score": float(score),
-            "auto_sky_agreement": al.skyline_agreement(off, within),
-            "auto_rival_ratio": float(refined[0][0] / rival[0]) if rival and rival[0] > 0 else 0.0,
-            "auto_evaluations": int(al.evaluations)}
-
-
-def _no_clear_skyline(ev: dict) -> str:
-    """Why the photo's skyline is not usable, in words: too few columns have one, or the line found has the colour
-    of the picture under it (a trial's brick wall: "no clear skyline (76 % of its columns)" read as a contradiction).
-
-    >>> _no_clear_skyline({"auto_sky_fraction": 0.2})
-    'the photo shows no clear skyline (20 % of its columns)'
-    >>> _no_clear_skyline({"auto_sky_fraction": 0.76})[:76]
-    'the photo shows no clear skyline: the line found across 76 % of its columns '
-    """
-    share = 100 * ev["auto_sky_fraction"]
-    if ev["auto_sky_fraction"] < SKY_FRACTION_MIN:
-        return f"the photo shows no clear skyline ({share:.0f} % of its columns)"
-    return (f"the photo shows no clear skyline: the line found across {share:.0f} % of its columns has much of the "
-            "colour of what lies under it, as a wall's or a rock face's edge has, not a sky's")
-
-
-def _combine(result: AutoFitResult, ev: dict) -> None:
-    """Add the alignment's evidence; it can only lower the fit's status. The reasons for doubt are kept in
-    ``result.weak`` (:func:`_prior_kept` gives them alone)."""
-    result.evidence.update(ev)
-    weak = result.weak = []
-    if not ev["auto_skyline_usable"]:
-        weak.append(f"{_no_clear_skyline(ev)}: the "
-                    "camera rests on suggestions alone")
-    elif ev["auto_sky_agreement"] < SKY_AGREEMENT_OK:
-        weak.append(f"only {100 * ev['auto_sky_agreement']:.0f} % of the photo's skyline lies on the DEM's "
-                    "skyline under the camera")
-    if ev.get("auto_edge_score", 1.0) > EDGE_SCORE_OK:
-        weak.append(f"the DEM's skyline and contours fit the photo's edges only loosely under the camera (edge "
-                    f"score {ev.get('auto_edge_score', 1.0):.3f}, over {EDGE_SCORE_OK:.3f}; 0 is a perfect fit)")
-    rng = ev.get("auto_range_m", float("nan"))
-    near = not np.isfinite(rng) or ev.get("auto_position_sigma_m", 0.0) > NEAR_RATIO * rng
-    if near:
-        weak.append(f"the prior position's uncertainty ({ev.get('auto_position_sigma_m', 0.0):.0f} m) is a large "
-                    f"part of the distance to the terrain seen ({rng:.0f} m): edges alone cannot place the camera")
-    spread = max(result.std.get("heading", 0.0), result.std.get("pitch", 0.0))
-    if spread > 90.0:  # a σ of thousands of degrees (a photo of fog) says nothing a reader can use
-        weak.append("the photo's edges do not determine the view direction")
-    elif spread > ANGLE_SIGMA_OK:
-        weak.append(f"views the photo's edges cannot tell apart leave the view direction uncertain by {spread:.2f} "
-                    "deg (σ)")
-    if ev["auto_rival_ratio"] > 0.9:
-        weak.append("a clearly different view direction aligns the edges almost as well")
-    back = ev.get("auto_probe_returned", PROBES_BACK_OK)
-    if back < PROBES_BACK_OK:
-        weak.append(f"{'none' if back == 0 else f'only {back}'} of four cameras moved by the position's σ "
-                    f"({ev.get('auto_position_sigma_m', 0.0):.0f} m) and refined again came back to this one: it "
-                    "sits in a basin narrower than the prior's uncertainty, and another camera may fit elsewhere")
-    if ev.get("auto_probe_rivals", 0):
-        weak.append(f"a camera {ev['auto_probe_distance_m']:.0f} m away, turned to the same terrain, fits the "
-                    f"photo's edges about as well (its edge score is {ev['auto_probe_ratio']:.2f} times this "
-                    f"one's; lower is better) and puts the terrain {ev['auto_probe_shift_px']:.0f} px elsewhere: "
-                    "the edges cannot place the camera that closely")
-    if near or back < PROBES_BACK_OK:
-        # what the edges cannot place, only the prior does: its position σ is the honest one (a desktop trial's near
-        # scene said ± 8 / 39 m with the camera 37 m off)
-        result.std = widen_std(result.std, {}, [], dict.fromkeys("xyz", float(ev.get("auto_position_sigma_m", 0.0))))
-    text = (f" Automatic: skyline on {100 * ev['auto_sky_fraction']:.0f} % of the columns, "
-            f"{100 * ev['auto_sky_agreement']:.0f} % of it on the DEM's; {len(result.image_points)} photo and "
-            f"{len(result.world_points)} DEM suggestions kept as consistent with the aligned camera.")
-    if ev["auto_skyline_usable"] and ev["auto_sky_agreement"] < SKY_AGREEMENT_POOR and result.status in ("ok",
-                                                                                                      "uncertain"):
-        # the reason first (the dock shows the message's start; the fit's own "Uncertain:" is a lesser matter now)
-        result.status = "poor"
-        result.message = (f"Probably wrong: only {100 * ev['auto_sky_agreement']:.0f} % of the photo's clear skyline "
-                          "lies on the DEM's under this camera; give a better rough camera (its heading first) or "
-                          "pair a few points. " + result.message.replace(" Uncertain: ", " Also: ") + text)
-    elif weak and result.status == "ok":
-        result.status = "uncertain"
-        result.message += text + " Uncertain: " + "; ".join(weak) + ": check the matched points."
-    else:
-        result.message += text + (" Also: " + "; ".join(weak) + "." if weak else "")

@@ -1,0 +1,137 @@
+"""The alignment's own evidence on an automatic registration's camera, and how it lowers the fit's verdict.
+
+The fit (:func:`~monoplot_plugin.core.fit.fit_camera`) judges the camera by the matched points, which were drawn near
+the aligned camera and so agree with it, right or wrong. The edges say more: whether the photo has a clear skyline,
+how much of it lies on the DEM's, how tightly the DEM's contours fit the photo's edges, whether another view or a
+camera moved by the prior's σ fits about as well. :func:`combine_evidence` can only lower the status ("ok" to
+"uncertain", or "poor" when the skyline clearly disagrees) and says why.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .photo_edges import SKY_FRACTION_MIN, PhotoEdges
+from .sigma import widen_std
+
+if TYPE_CHECKING:  # the registration imports this module
+    from .align import Aligner
+    from .register import AutoFitResult
+
+__all__ = ["alignment_evidence", "combine_evidence", "no_clear_skyline", "SKY_AGREEMENT_OK", "SKY_AGREEMENT_POOR",
+           "EDGE_SCORE_OK", "NEAR_RATIO", "ANGLE_SIGMA_OK", "PROBES_BACK_OK"]
+
+#: Least share of the photo's clear skyline on the DEM's (within 0.4 % of the width) for an "ok". Calibrated on
+#: the synthetic scenes: right cameras 0.95-0.99, a camera 4 deg off in field of view whose suggestions still
+#: paired (the pairs are drawn near the aligned camera, so they agree with it) 0.65.
+SKY_AGREEMENT_OK = 0.8
+#: Below this share of the photo's clear skyline on the DEM's the camera is "poor": on 76 registrations of the
+#: synthetic scenes every camera that succeeded had 0.68 or more, and one 258 px off had 0.25; a desktop trial's
+#: prior turned 90 deg ended 95 deg off at 0.15, "uncertain".
+SKY_AGREEMENT_POOR = 0.35
+#: Largest edge score (:func:`.fine.edge_score`, lower is better) of the camera returned for an "ok". Calibrated on 20
+#: synthetic scenes: right cameras 0.12-0.21; a camera 21 % of the range off whose skyline still agreed 0.26.
+EDGE_SCORE_OK = 0.23
+#: Largest ratio of the prior's position σ to the median distance of the terrain seen for an "ok". Calibrated on
+#: 20 synthetic scenes: cameras 2.5 % and 21 % of the range off were "ok" at ratios 0.14 and 0.20 (their
+#: suggestions paired with the wrong camera: pairs drawn near it agree with it); right ones lost at 0.14 and 0.16.
+NEAR_RATIO = 0.1
+#: Largest σ (degrees) of heading and pitch (:mod:`.sigma`: the edges' covariance, rival hypotheses, the aligned
+#: camera) for an "ok". Calibrated on 20 synthetic scenes: right "ok" cameras 0.08-0.29; a camera 1.8 % of the
+#: range and 0.25 deg off, "ok" by every other rule (edge score 0.226), 0.70 from rivals the edges could not tell
+#: apart.
+ANGLE_SIGMA_OK = 0.5
+#: Fewest of the four position probes that must come back (within 1 % of the diagonal) for an "ok": right "ok"
+#: cameras of 70 synthetic scenes had 2-4 back (4 for all but one); a wrong one (1.25 % of the range, 23 px on the
+#: terrain) had 1, and another 0.
+PROBES_BACK_OK = 2
+
+
+def alignment_evidence(al: Aligner, off, score: float, refined, photo: PhotoEdges, full_width: int) -> dict:
+    """The ``auto_*`` evidence of the aligned offset ``off`` (edge score ``score``) among the ``refined``
+    hypotheses ((score, offset), best first), with the photo's edges ``photo``."""
+    # Distinct competitor: the best refined hypothesis more than 1 degree away in heading or pitch.
+    best_off = refined[0][1]
+    rival = [sc for sc, o in refined[1:] if np.max(np.abs(o[:2] - best_off[:2])) > 1.0]
+    within = max(1.0, 0.004 * photo.width)  # 4 px on a 1000 px picture
+    return {"auto_skyline_usable": bool(photo.usable), "auto_sky_fraction": float(photo.sky_fraction),
+            "auto_sky_contrast": float(photo.contrast), "auto_align_score": float(score),
+            "auto_sky_agreement": al.skyline_agreement(off, within),
+            "auto_rival_ratio": float(refined[0][0] / rival[0]) if rival and rival[0] > 0 else 0.0,
+            "auto_evaluations": int(al.evaluations)}
+
+
+def no_clear_skyline(ev: dict) -> str:
+    """Why the photo's skyline is not usable, in words: too few columns have one, or the line found has the colour
+    of the picture under it (a trial's brick wall: "no clear skyline (76 % of its columns)" read as a contradiction).
+
+    >>> no_clear_skyline({"auto_sky_fraction": 0.2})
+    'the photo shows no clear skyline (20 % of its columns)'
+    >>> no_clear_skyline({"auto_sky_fraction": 0.76})[:76]
+    'the photo shows no clear skyline: the line found across 76 % of its columns '
+    """
+    share = 100 * ev["auto_sky_fraction"]
+    if ev["auto_sky_fraction"] < SKY_FRACTION_MIN:
+        return f"the photo shows no clear skyline ({share:.0f} % of its columns)"
+    return (f"the photo shows no clear skyline: the line found across {share:.0f} % of its columns has much of the "
+            "colour of what lies under it, as a wall's or a rock face's edge has, not a sky's")
+
+
+def combine_evidence(result: AutoFitResult, ev: dict) -> None:
+    """Add the alignment's evidence; it can only lower the fit's status. The reasons for doubt are kept in
+    ``result.weak`` (the registration's ``_prior_kept`` gives them alone)."""
+    result.evidence.update(ev)
+    weak = result.weak = []
+    if not ev["auto_skyline_usable"]:
+        weak.append(f"{no_clear_skyline(ev)}: the "
+                    "camera rests on suggestions alone")
+    elif ev["auto_sky_agreement"] < SKY_AGREEMENT_OK:
+        weak.append(f"only {100 * ev['auto_sky_agreement']:.0f} % of the photo's skyline lies on the DEM's "
+                    "skyline under the camera")
+    if ev.get("auto_edge_score", 1.0) > EDGE_SCORE_OK:
+        weak.append(f"the DEM's skyline and contours fit the photo's edges only loosely under the camera (edge "
+                    f"score {ev.get('auto_edge_score', 1.0):.3f}, over {EDGE_SCORE_OK:.3f}; 0 is a perfect fit)")
+    rng = ev.get("auto_range_m", float("nan"))
+    near = not np.isfinite(rng) or ev.get("auto_position_sigma_m", 0.0) > NEAR_RATIO * rng
+    if near:
+        weak.append(f"the prior position's uncertainty ({ev.get('auto_position_sigma_m', 0.0):.0f} m) is a large "
+                    f"part of the distance to the terrain seen ({rng:.0f} m): edges alone cannot place the camera")
+    spread = max(result.std.get("heading", 0.0), result.std.get("pitch", 0.0))
+    if spread > 90.0:  # a σ of thousands of degrees (a photo of fog) says nothing a reader can use
+        weak.append("the photo's edges do not determine the view direction")
+    elif spread > ANGLE_SIGMA_OK:
+        weak.append(f"views the photo's edges cannot tell apart leave the view direction uncertain by {spread:.2f} "
+                    "deg (σ)")
+    if ev["auto_rival_ratio"] > 0.9:
+        weak.append("a clearly different view direction aligns the edges almost as well")
+    back = ev.get("auto_probe_returned", PROBES_BACK_OK)
+    if back < PROBES_BACK_OK:
+        weak.append(f"{'none' if back == 0 else f'only {back}'} of four cameras moved by the position's σ "
+                    f"({ev.get('auto_position_sigma_m', 0.0):.0f} m) and refined again came back to this one: it "
+                    "sits in a basin narrower than the prior's uncertainty, and another camera may fit elsewhere")
+    if ev.get("auto_probe_rivals", 0):
+        weak.append(f"a camera {ev['auto_probe_distance_m']:.0f} m away, turned to the same terrain, fits the "
+                    f"photo's edges about as well (its edge score is {ev['auto_probe_ratio']:.2f} times this "
+                    f"one's; lower is better) and puts the terrain {ev['auto_probe_shift_px']:.0f} px elsewhere: "
+                    "the edges cannot place the camera that closely")
+    if near or back < PROBES_BACK_OK:
+        # what the edges cannot place, only the prior does: its position σ is the honest one (a desktop trial's near
+        # scene said ± 8 / 39 m with the camera 37 m off)
+        result.std = widen_std(result.std, {}, [], dict.fromkeys("xyz", float(ev.get("auto_position_sigma_m", 0.0))))
+    text = (f" Automatic: skyline on {100 * ev['auto_sky_fraction']:.0f} % of the columns, "
+            f"{100 * ev['auto_sky_agreement']:.0f} % of it on the DEM's; {len(result.image_points)} photo and "
+            f"{len(result.world_points)} DEM suggestions kept as consistent with the aligned camera.")
+    if ev["auto_skyline_usable"] and ev["auto_sky_agreement"] < SKY_AGREEMENT_POOR and result.status in ("ok",
+                                                                                                      "uncertain"):
+        # the reason first (the dock shows the message's start; the fit's own "Uncertain:" is a lesser matter now)
+        result.status = "poor"
+        result.message = (f"Probably wrong: only {100 * ev['auto_sky_agreement']:.0f} % of the photo's clear skyline "
+                          "lies on the DEM's under this camera; give a better rough camera (its heading first) or "
+                          "pair a few points. " + result.message.replace(" Uncertain: ", " Also: ") + text)
+    elif weak and result.status == "ok":
+        result.status = "uncertain"
+        result.message += text + " Uncertain: " + "; ".join(weak) + ": check the matched points."
+    else:
+        result.message += text + (" Also: " + "; ".join(weak) + "." if weak else "")
