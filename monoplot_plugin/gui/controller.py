@@ -7,7 +7,6 @@ All point edits go through ``self.stack`` (undo/redo); every change is written t
 from __future__ import annotations
 
 import logging
-import math
 import sys
 import time
 from typing import Callable, List, Optional, Tuple
@@ -19,22 +18,20 @@ from qgis.PyQt.QtGui import QImage
 
 from ..adapters.photo import PhotoError, array_to_qimage, qimage_to_array, read_photo
 from ..core.camera import Camera
-from ..state import ACCEPTED, MAP, PHOTO, CommandStack, Point, ProjectState, replace_in_views
-from ..workflow import auto as auto_step
-from ..workflow import fit as fit_step
+from ..state import MAP, PHOTO, CommandStack, ProjectState, replace_in_views
 from ..workflow.camera_files import fitted_to_size
 from ..workflow.products import centred_on_picture
 from ..workflow import warmup
 from . import engine, photo_shelf
 from .curation import CurationMixin
+from .fitting import FittingMixin
 from .dem_input import DemInputMixin
-from .fit_settings import fit_arguments, height_arguments
+from .fit_settings import fit_arguments
 from .photo_change import work_on_photo
 from .photo_names import photo_label
 from .priors import PriorsMixin
 from .project_session import ProjectSessionMixin
 from .results import ResultsMixin
-from .refit import inputs_key
 from .tasks import CANCELED, FunctionTask, HiddenTask, TaskResult, abandon, start_task
 
 __all__ = ["MonoplotController"]
@@ -49,7 +46,8 @@ _LOG_LEVELS = {WARNING: logging.WARNING, CRITICAL: logging.ERROR}
 INPUT_BOUND = ("suggest", "fit", "auto")
 
 
-class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin, ProjectSessionMixin, QObject):
+class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, FittingMixin, ResultsMixin, ProjectSessionMixin,
+                         QObject):
     """State holder and workflow of one Monoplot session (one QGIS project).
 
     Signals:
@@ -337,122 +335,6 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, ResultsMixin
             self.message.emit(text, WARNING if featureless else INFO)
 
         return self._start("suggest", self.tr("Suggest points"), work, apply)
-
-    def _accepted_for_fit(self) -> Tuple[List[Point], List[Point]]:
-        """(photo points, map points with a height) the fit would use: the accepted ones, map points off the DEM
-        and without a height of their own left out."""
-        photo = self.state.in_space(PHOTO, (ACCEPTED,))
-        world = [p for p in self.state.in_space(MAP, (ACCEPTED,))]
-        if self.dem is not None:
-            world = [p if p.z is not None else Point(**{**p.__dict__, "z": float(self.dem.sample(p.x, p.y))})
-                     for p in world]
-        return photo, [p for p in world if p.z is not None and math.isfinite(p.z)]
-
-    def fit_inputs(self):
-        """(photo uv (N, 2), map xyz (M, 3), pairs [(i, j)]) of the accepted points, or a reason string."""
-        photo, world = self._accepted_for_fit()
-        if len(photo) < self.MIN_POINTS or len(world) < self.MIN_POINTS:
-            return self.tr("The fit needs at least {0} accepted points on the photo and on the map "
-                           "(now {1} and {2}).").format(self.MIN_POINTS, len(photo), len(world))
-        index_photo = {p.id: i for i, p in enumerate(photo)}
-        index_world = {p.id: i for i, p in enumerate(world)}
-        pairs = [(index_photo[a.id], index_world[b.id]) for a, b in self.state.valid_pairs()
-                 if a.id in index_photo and b.id in index_world]
-        if len(pairs) < self.MIN_POINTS:
-            pairs = []  # a paired fit uses the pairs only: fewer than 4 would under-determine the 7 unknowns
-        uv = np.array([(p.x, p.y) for p in photo], dtype=np.float64)
-        xyz = np.array([(p.x, p.y, p.z) for p in world], dtype=np.float64)
-        self._fit_ids = ([p.id for p in photo], [p.id for p in world])
-        return uv, xyz, pairs
-
-    def fit_start(self):
-        """The camera a fit starts from: the rough camera, else the fitted one; the fitted one when it was loaded
-        from a file (a batch's or a saved camera, loaded to go on from: a trial's next Fit started from the photo's
-        EXIF GPS camera instead). None without either."""
-        if self.fitted is not None and (self.state.fit_info or {}).get("loaded_from"):
-            return self.fitted
-        return self.prior or self.fitted
-
-    def fit(self) -> bool:
-        """Fit the camera to the accepted points in a task (prior = start); result applied on the main thread."""
-        if self.image is None or self.dem is None:
-            self.message.emit(self.tr("Load a photo and choose a DEM first."), WARNING)
-            return False
-        start = self.fit_start()
-        paired_xyz = self.pair_arrays(self.state.valid_pairs())[2] if start is None else ()
-        if len(paired_xyz) >= fit_step.MIN_PAIRS_WITHOUT_PRIOR:  # no rough camera: solved from them, as fitcamera
-            start = fit_step.start_above_points(paired_xyz, self.photo_size, self.dem.crs_wkt)
-            self.message.emit(self.tr("No rough camera: the camera is solved from the {0} pairs alone.").format(
-                len(paired_xyz)), INFO)
-        if start is None:
-            self.message.emit(self.tr("Give a rough camera first (map tool or KML), or pair {0} or more "
-                                      "points.").format(fit_step.MIN_PAIRS_WITHOUT_PRIOR), WARNING)
-            return False
-        inputs = self.fit_inputs()
-        if isinstance(inputs, str):
-            self.message.emit(inputs, WARNING)
-            return False
-        uv, xyz, pairs = inputs
-        n_links = len(self.state.valid_pairs())
-        if 0 < n_links < self.MIN_POINTS:
-            self.message.emit(self.tr("{0} pair(s) ignored: a paired fit needs at least {1}; fitting without "
-                                      "pairs.").format(n_links, self.MIN_POINTS), INFO)
-        photo_ids, world_ids = self._fit_ids
-        point_xy = {pid: (self.state.points[pid].x, self.state.points[pid].y) for pid in photo_ids + world_ids}
-        check_ids, check_uv, check_xyz = self.check_points()
-        dem = self.dem
-
-        free, options = fit_arguments(self.state.settings)  # the dock's fit settings (gui/fit_settings.py)
-        height = height_arguments(self.state.settings)  # on the ground / in the air / automatic
-        key = inputs_key(uv, xyz, pairs, start, free, (options, height), check_uv, check_xyz)
-        known = self._known_fit[1] if self._known_fit[0] == key else None  # the background refit's, if the same
-        # A refit of these very inputs under way (the person clicked Fit soon after the last accept): wait for it
-        # rather than cancel it and start the same fit again; the Fit fits itself when the refit fails.
-        awaited = None if known is not None else self.running_refit(key)
-        self.awaited_refit = awaited
-
-        def work(progress, is_canceled):
-            done = known
-            if awaited is not None:
-                progress(0.0, "waiting for the background fit of these points")
-                done = awaited.wait(is_canceled)
-            return engine.fit_and_render(uv, xyz, pairs, start, dem, progress, is_canceled, check_uv, check_xyz,
-                                         free=free, options=options, done=done, **height)
-
-        def apply(outcome):
-            # the matches the fit used, by point id (indices would drift with later edits)
-            outcome.info["matched"] = [[photo_ids[i], world_ids[j]] for i, j in outcome.info.pop("matched_idx", [])]
-            outcome.info["check_error_px"] = dict(zip(check_ids, outcome.info.pop("check_errors", [])))
-            outcome.info["outliers"] = [photo_ids[i] for i in outcome.info.pop("outlier_idx", [])]
-            # what the camera was fitted to, to say when the points have changed since (fit_points_changed)
-            outcome.info["fit_point_xy"] = point_xy  # point id -> (x, y)
-            self.cap_by_automatic(outcome.info, photo_ids + world_ids, len(pairs), len(check_ids))
-            outcome.info.update(self.moved_from_prior(outcome.camera, xyz, options))
-            self.doubt_a_moved_camera(outcome.info)
-            if 0 < n_links < self.MIN_POINTS:  # said before the fit too, but its message replaced that at once
-                outcome.info["message"] = (outcome.info.get("message", "") + " " + self.tr(
-                    "Your {0} linked pair(s) were fitted as unpaired points: a paired fit needs at least {1}.")
-                    .format(n_links, self.MIN_POINTS)).strip()
-            self._apply_fit(outcome)
-
-        title = self.tr("Fit camera") if known is None else self.tr("Fit camera (already fitted in the background)")
-        return self._start("fit", title, work, apply)
-
-    def cap_by_automatic(self, info: dict, ids, n_pairs: int, n_check: int) -> None:
-        """A fit on the points ``ids`` while they are all the automatic registration's own matches: its status capped
-        by the registration's verdict (:func:`~..workflow.auto.cap_by_automatic`) and its σ no smaller than the
-        registration's (the greyed ± showed 0.5 m after a 200 m registration), in ``info``."""
-        labels = [self.state.points[i].label for i in ids if i in self.state.points]
-        automatic = str(self.state.settings.get("automatic_status") or "")
-        info["status"], info["message"] = auto_step.cap_by_automatic(
-            info.get("status", "ok"), info.get("message", ""), labels, n_pairs, n_check, automatic)
-        if automatic and auto_step.rests_on_automatic(labels, n_pairs, n_check):
-            info["sigma"] = auto_step.sigma_at_least(info.get("sigma"), self.state.settings.get("automatic_sigma"))
-
-    def remember_fit(self, key: tuple, done) -> None:
-        """A background refit finished: the Fit button's fit of the same inputs (``refit.inputs_key``) renders its
-        camera instead of fitting again."""
-        self._known_fit = (key, done)
 
     def set_fitted(self, camera: Optional[Camera], info: Optional[dict] = None, background: bool = False) -> None:
         """Use ``camera`` as the fitted camera (e.g. loaded from a file); overlay and XYZ are recomputed here (in a
