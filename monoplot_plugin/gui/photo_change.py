@@ -62,7 +62,8 @@ def ask_photo_change(parent, name: str, work: str, offer_keep: bool, comes_back:
     if offer_keep:
         text += " " + tr("The new file has the same size: if it is the same picture (a grey, re-touched or "
                          "re-saved copy) or another frame of the same fixed camera (a time-lapse), keep them, "
-                         "and the camera with them.")
+                         "and the camera with them: the new frame is matched to this one, and if the camera has "
+                         "turned a little, the points and the camera follow the turn (Undo takes it back).")
     else:
         text += " " + tr("They are put aside in the project and come back when you choose that photo again (the "
                          "map points stay).")

@@ -148,7 +148,7 @@ class ProductExports:
         try:  # before minutes of work (a trial's orthophoto into a missing folder failed after 7 s)
             check_can_write(path, overwrite)
         except OutputError as exc:
-            self.message(self.tr("Nothing was written: {0}").format(exc), Qgis.MessageLevel.Critical)
+            self.message(self.tr("Nothing was written: {0}").format(exc), Qgis.MessageLevel.Warning)
             return None
         name = self.photo_name()
         work = self._work(what, path, overwrite)  # copies what the worker needs, now

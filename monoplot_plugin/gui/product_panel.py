@@ -378,7 +378,8 @@ class OutputTools(QObject):
         try:
             result = work()
         except (OutputError, ValueError) as exc:
-            self._message(self.tr("Nothing was written: {0}").format(exc), Qgis.MessageLevel.Critical)
+            # what the person can put right (a folder, a name, a feature off the terrain): a warning, as QGIS's own
+            self._message(self.tr("Nothing was written: {0}").format(exc), Qgis.MessageLevel.Warning)
             return
         self._message(done_text.format(result), Qgis.MessageLevel.Success)
 
@@ -439,7 +440,7 @@ class OutputTools(QObject):
             except (OutputError, ValueError) as exc:
                 text = (self.tr("Nothing was written: {0}").format(exc) if not written else
                         self.tr("Written: {0}; not written: {1}").format(", ".join(written), exc))
-                self._message(text, Qgis.MessageLevel.Critical)
+                self._message(text, Qgis.MessageLevel.Warning)  # the person's to put right, not a failure
                 return
         self._message(self.tr("Features written: {0}").format(", ".join(written)), Qgis.MessageLevel.Success)
 

@@ -94,7 +94,7 @@ def test_a_time_lapse_frame_keeps_the_camera_and_shows_its_overlay(dock, scene, 
     c.message.connect(lambda text, *_: messages.append(text))
     answer_with(qtbot, "Keep the points", seen)
     dock.photoFile.setFilePath(frame)
-    assert "time-lapse" in seen[-1]
+    assert "time-lapse" in seen[-1] and "follow the turn" in seen[-1]  # said before, not only after
     assert c.state.photo_path == frame and c.fitted == scene.camera
     # registered on the previous frame, and said (a re-check trial heard nothing of a frame that had not turned)
     assert any("This frame was matched to the previous one" in m and "it has not turned" in m for m in messages)

@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from osgeo import gdal
-from qgis.core import NULL, QgsFeature, QgsGeometry, QgsPointXY, QgsProject, QgsRasterLayer, QgsVectorLayer
+from qgis.core import NULL, Qgis, QgsFeature, QgsGeometry, QgsPointXY, QgsProject, QgsRasterLayer, QgsVectorLayer
 
 from monoplot_plugin.outputs import OutputExistsError
 from monoplot_plugin.workflow.products import metres_words
@@ -795,10 +795,13 @@ def test_saving_drawn_features_none_of_which_reaches_the_terrain_writes_nothing_
     dock, tools = dock_with_fit
     tools.current_session().add_feature("point", [[120, 2]])  # the top rows of the plane scene see the sky
     messages = []
-    dock.controller.message.connect(lambda text, level: messages.append(text))
+    levels = []
+    dock.controller.message.connect(lambda text, level: (messages.append(text), levels.append(level)))
     monkeypatch.setattr(QFileDialog, "getSaveFileName", staticmethod(lambda *a: (str(tmp_path / "edge.gpkg"), "")))
     tools.actions["features"].trigger()
     assert not (tmp_path / "edge.gpkg").exists()
     assert not any(m.startswith("Features written") for m in messages), messages
-    assert any(m.startswith("Nothing was written") and "none of the 1 drawn points reaches the terrain" in m
-               for m in messages), messages
+    said = [i for i, m in enumerate(messages)
+            if m.startswith("Nothing was written") and "none of the 1 drawn points reaches the terrain" in m]
+    # the person's to put right (a re-check trial saw it as a red "Critical")
+    assert said and levels[said[-1]] == Qgis.MessageLevel.Warning, (messages, levels)
