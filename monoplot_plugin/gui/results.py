@@ -90,17 +90,34 @@ class ResultsMixin:
             return {}
         moved = float(np.linalg.norm(np.subtract(camera.position, prior.position)[:2]))
         reach = np.hypot(*(np.asarray(xyz)[:, :2] - np.asarray(prior.position[:2])).T)
-        sigma = (options or FitOptions()).prior_sigmas(prior.fov, float(np.median(reach)))["position_m"]
+        sigmas = (options or FitOptions()).prior_sigmas(prior.fov, float(np.median(reach)))
+        sigma = sigmas["position_m"]
         # a GPS position needs no σ of 5 % of the range (a trial's drone: 369 m off, under that 2σ, unsaid)
         gps = self.state.settings.get("prior_source") == GPS_SOURCE and \
             (options is None or options.position_sigma_m is None)
         stated = gps or (options is not None and options.position_sigma_m is not None)
         return {"moved_m": moved, "position_sigma_m": GPS_POSITION_M if gps else sigma, "moved_from_gps": gps,
-                "position_sigma_stated": bool(stated)}
+                "position_sigma_stated": bool(stated), "fov_deg": float(camera.fov),
+                "prior_fov_deg": float(prior.fov), "fov_sigma_deg": sigmas["fov_deg"]}
 
     def moved_advice(self, info: dict) -> str:
         """What to do about a fit that is not "ok" and took the camera more than twice the position σ from the rough
-        camera (a GPS position: fix it), for the message bar and the fit tab; "" otherwise."""
+        camera (a GPS position: fix it), or its field of view far from the rough camera's (give the lens), for the
+        message bar and the fit tab; "" otherwise."""
+        return " ".join(text for text in (self._position_advice(info), self._lens_advice(info)) if text)
+
+    def _lens_advice(self, info: dict) -> str:
+        """A fit not "ok" whose field of view ended more than three σ (and 5°) from the rough camera's: a re-check
+        trial's poor fit at a 146.6° field of view said nothing of it."""
+        fov, prior_fov, sigma = info.get("fov_deg"), info.get("prior_fov_deg"), info.get("fov_sigma_deg")
+        if info.get("status", "ok") == "ok" or fov is None or prior_fov is None or not sigma or \
+                abs(fov - prior_fov) <= max(3.0 * sigma, 5.0):
+            return ""
+        return self.tr("The fit took the field of view to {0:.1f}° from the rough camera's {1:.1f}°: if you know "
+                       "the lens, give it (Lens, in the Camera tab) and untick field of view in the fit "
+                       "settings, then fit again.").format(fov, prior_fov)
+
+    def _position_advice(self, info: dict) -> str:
         moved, sigma = info.get("moved_m"), info.get("position_sigma_m")
         if info.get("status", "ok") == "ok" or moved is None or not sigma or moved <= 2.0 * sigma:
             return ""

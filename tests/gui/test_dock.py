@@ -534,3 +534,7 @@ def test_the_advice_on_a_moved_camera_says_whose_position_uncertainty_it_is(dock
     stated = c.moved_advice(dict(info, position_sigma_stated=True))
     assert "more than twice its stated uncertainty (Position ± 153 m)" in stated
     assert c.moved_advice(dict(info, status="ok", position_sigma_stated=False)) == ""
+    # a field of view far from the rough camera's is said too (a re-check trial's poor fit ended at 146.6°, unsaid)
+    lens = {"status": "poor", "fov_deg": 146.6, "prior_fov_deg": 60.0, "fov_sigma_deg": 6.0}
+    assert "field of view to 146.6° from the rough camera's 60.0°" in c.moved_advice(lens)
+    assert c.moved_advice(dict(lens, fov_deg=64.0)) == "" and c.moved_advice(dict(lens, status="ok")) == ""
