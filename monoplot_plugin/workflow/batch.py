@@ -332,7 +332,9 @@ def collect(results: Iterable[Optional[PhotoResult]], tasks: List[FrameTask], lo
         else:
             log_result(log, task, total, result)
         out.append(result)
-        progress(len(out) / max(1, total), task.name)
+        # no message: the log line said which frame ended (Processing's dialog logs every progress text, and a
+        # time-lapse trial's log repeated each frame's name on a line of its own)
+        progress(len(out) / max(1, total), "")
     canceled = sum(r.canceled for r in out)
     if canceled:
         log(f"canceled: {canceled} photos not processed", True)

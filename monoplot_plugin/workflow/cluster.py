@@ -223,7 +223,7 @@ def _gather(client, tasks: List[FrameTask], per_task: int, setup: Timelapse, log
             done[t.index] = result
             ended_frame(t, result)
             log_result(log, t, total, result)
-            progress((before + len(done)) / max(1, total), t.name)
+            progress((before + len(done)) / max(1, total), "")  # its log line named it
     progress(1.0, "")
     return [done[t.index] for t in tasks]
 

@@ -245,6 +245,8 @@ def test_a_table_row_without_a_prior_starts_from_the_photos_exif_gps(run_alg, sm
                       "ORTHO": False, "OUTPUT": str(out)}, feedback)
     # the row under way is named (a trial's bar sat at 0 % for 17-75 s with no word)
     assert "processing gps.jpg" in feedback.texts and "processing plain.png" in feedback.texts, feedback.texts
+    # and only that: the dialog logs every progress text, and a frame's bare name repeated its log line (a trial)
+    assert not {"gps.jpg", "plain.png"} & set(feedback.texts), feedback.texts
     rows = {r["photo"]: r for r in csv.DictReader(open(out / "batch_log.csv", encoding="utf-8"))}
     assert "prior from EXIF GPS, σ 30 m" in rows["gps.jpg"]["message"], rows["gps.jpg"]
     assert rows["gps.jpg"]["status"] in ("ok", "uncertain", "poor") and float(rows["gps.jpg"]["seconds"]) > 0

@@ -17,9 +17,10 @@ def canceled_after(frames):
     seen = []
 
     def progress(fraction, message=""):
-        if message and fraction < 1.0:
+        if fraction < 1.0:
             seen.append(message)
 
+    # a frame ended: a step of progress that does not say a frame is under way ("processing ...")
     return progress, lambda: len([m for m in seen if not m.startswith("processing")]) >= frames
 
 
