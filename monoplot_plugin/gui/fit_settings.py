@@ -188,7 +188,25 @@ class FitSettingsPanel(QgsCollapsibleGroupBox, _Panel):
         self._updating = False
         controller.photoChanged.connect(self.refresh)
         controller.demChanged.connect(self.refresh)
+        controller.cameraChanged.connect(self._show_auto_height)
         self.refresh()
+
+    def _show_auto_height(self) -> None:
+        """"auto" says the height it stands for with this rough camera and DEM (:func:`workflow.fit.on_ground_rule`):
+        a flood trial read "Above ground 12.0 m" in the camera tab and "auto" here, and could not tell which the fit
+        would use."""
+        text = tr("auto")
+        c = self.controller
+        start = c.fit_start() if c.dem is not None else None
+        if start is not None:
+            from ..workflow.fit import on_ground_rule
+
+            on_ground = HEIGHT_MODES[self.height_combo.currentIndex()][2]
+            grounded, eye = on_ground_rule(start, c.dem, on_ground, None)
+            text = tr("auto ({0:.1f} m)").format(eye) if grounded else tr("auto (in the air)")
+        if text != self.eye_spin.specialValueText():
+            self.eye_spin.setSpecialValueText(text)
+            self.eye_spin.update()
 
     def free(self) -> Tuple[str, ...]:
         names = {n for label, names in FREE_GROUPS if self.free_checks[label].isChecked() for n in names}
@@ -215,6 +233,7 @@ class FitSettingsPanel(QgsCollapsibleGroupBox, _Panel):
             self.eye_spin.setEnabled(height["on_ground"] is not False)
         finally:
             self._updating = False
+        self._show_auto_height()
 
     def _free_toggled(self) -> None:
         if not self._updating:
@@ -224,6 +243,7 @@ class FitSettingsPanel(QgsCollapsibleGroupBox, _Panel):
     def _height_changed(self) -> None:
         on_ground = HEIGHT_MODES[self.height_combo.currentIndex()][2]
         self.eye_spin.setEnabled(on_ground is not False)  # a camera in the air has no eye height
+        self._show_auto_height()
         if not self._updating:
             self._store(on_ground=on_ground, eye_height_m=self.eye_spin.value() or None)
 

@@ -217,3 +217,19 @@ def test_the_lenss_exact_field_of_view_survives_editing_another_box(dock, scene,
     assert c.prior.fov == pytest.approx(exact, abs=1e-9) and c.prior.pitch == pitch
     dock.fovSpin.setValue(50.0)  # a box edited: its value
     assert c.prior.fov == pytest.approx(50.0)
+
+
+def test_auto_camera_height_says_the_height_it_stands_for(dock, scene):
+    """A flood trial read "Above ground 12.0 m" in the camera tab and "auto" in the fit settings, and could not tell
+    which height the fit would hold: "auto" now says it, for this rough camera and mode."""
+    _load(dock, scene.photo_path)
+    c = dock.controller
+    panel = dock.fit_settings
+    ground = float(scene.dem.sample(*scene.prior.position[:2]))
+    c.set_prior(scene.prior.with_parameters(z=ground + 12.0))  # an embankment: within 20 m, on the ground
+    assert panel.eye_spin.value() == 0.0 and panel.eye_spin.text() == "auto (12.0 m)"
+    panel.height_combo.setCurrentIndex(1)  # "On the ground" without a height: a hand-held camera's
+    assert panel.eye_spin.text() == "auto (1.7 m)"
+    panel.height_combo.setCurrentIndex(0)
+    c.set_prior(scene.prior.with_parameters(z=ground + 300.0))  # a drone
+    assert panel.eye_spin.text() == "auto (in the air)"
