@@ -39,37 +39,60 @@ def prior_sigma_px(c) -> float:
     return (options or FitOptions()).prior_sigma_px(c.prior, distance or 1000.0)
 
 
+#: how long (seconds) a warning stays on the bar under lesser messages pushed after it: a flood trial's warning on
+#: switching the DEM was taken off at once by the information messages of the same switch
+WARNING_HOLD_S = 10.0
+
+
+def _severity(level) -> int:
+    """Critical 2, Warning 1, anything else (Info, Success) 0."""
+    from qgis.core import Qgis
+
+    return {Qgis.MessageLevel.Critical: 2, Qgis.MessageLevel.Warning: 1}.get(level, 0)
+
+
 class MessageOnce:
     """Push to QGIS's message bar so that each message shows once: the previous Monoplot message is taken off the
     bar first (a message bar keeps older messages under the newest and shows them again when it expires), and
     :meth:`clear` takes it off when the state it spoke of has changed (an edit, an undo: a desktop trial saw "2000
     photo and 1024 DEM suggestions" come back after QGIS's "Task complete" expired, while the dock's status line
-    said "Undone: ..."). Covered by QGIS's own "Task complete", a task's result comes back when that one expires."""
+    said "Undone: ..."). Covered by QGIS's own "Task complete", a task's result comes back when that one expires.
+    A warning pushed less than :data:`WARNING_HOLD_S` ago stays under a lesser message (it shows again when that
+    one expires): the step that warned often says more right after."""
 
     def __init__(self):
-        self._item = None
+        self._items = []  # (bar item, pushed at, severity), oldest first
         self._pushed_at = 0.0
 
     def push(self, bar, title: str, text: str, level, duration: int) -> None:
-        self.clear(bar)
+        severity, now = _severity(level), time.monotonic()
+        held = [entry for entry in self._items if entry[2] > severity and now - entry[1] < WARNING_HOLD_S]
+        for entry in self._items:
+            if entry not in held:
+                self._pop(bar, entry[0])
         # the bar shows rich text: a message quoting "<leftFov>" (a KML element) lost it (a trial)
         bar.pushMessage(title, html.escape(text, quote=False), level, duration)
-        self._pushed_at = time.monotonic()
+        self._pushed_at = now
         try:
-            self._item = bar.currentItem()
+            item = bar.currentItem()
         except AttributeError:
-            self._item = None
+            item = None
+        self._items = held + ([(item, now, severity)] if item is not None else [])
 
+    @staticmethod
+    def _pop(bar, item) -> None:
+        try:
+            bar.popWidget(item)
+        except (RuntimeError, TypeError, AttributeError):  # already gone (expired, closed)
+            pass
 
     def clear(self, bar, older_than_s: float = 0.0) -> None:
-        """Take the last Monoplot message off ``bar``, if it was pushed more than ``older_than_s`` ago (a task
+        """Take the Monoplot messages off ``bar``, if the last was pushed more than ``older_than_s`` ago (a task
         starting: the message of the step before is stale, one pushed as the task started is about it)."""
-        if self._item is not None and time.monotonic() - self._pushed_at >= older_than_s:
-            try:
-                bar.popWidget(self._item)
-            except (RuntimeError, TypeError, AttributeError):  # already gone (expired, closed)
-                pass
-            self._item = None
+        if self._items and time.monotonic() - self._pushed_at >= older_than_s:
+            for item, _, _ in self._items:
+                self._pop(bar, item)
+            self._items = []
 
 
 class CurationPanel(QWidget):

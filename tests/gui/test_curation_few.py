@@ -125,6 +125,17 @@ def test_messages_show_once_and_the_status_line_follows_the_state(dock, scene, q
     bar.pushMessage("Task complete", "Suggest points", Qgis.MessageLevel.Success, 2)
     assert [item.text() for item in bar.items()] == ["Suggest points", "2000 photo and 1024 DEM suggestions"]
     bar.clearWidgets()
+    # a warning stays under the information messages of the same step (a flood trial's DEM-switch warning was taken
+    # off at once by them); it goes with the next warning, or when the state changes
+    once.push(bar, "Monoplot", "The DEM changed: 4 points are off it", Qgis.MessageLevel.Warning, 6)
+    once.push(bar, "Monoplot", "DEM read: 2,000 x 2,000 cells", Qgis.MessageLevel.Info, 6)
+    once.push(bar, "Monoplot", "The rough camera is 12 m above the DEM", Qgis.MessageLevel.Info, 6)
+    assert [item.text() for item in bar.items()] == ["The rough camera is 12 m above the DEM",
+                                                     "The DEM changed: 4 points are off it"]
+    once.push(bar, "Monoplot", "Another warning", Qgis.MessageLevel.Warning, 6)
+    assert [item.text() for item in bar.items()] == ["Another warning"]
+    once.clear(bar)
+    assert bar.items() == []
     # a fit's message leads with its verdict when it is not "ok" (the bar shows one line)
     info = {"status": "poor", "mode": "unpaired", "rmse_px": 3.0, "n_photo": 8, "n_matched": 3}
     poor, level = dock.controller.fit_summary(info)
