@@ -347,9 +347,19 @@ class CurationPanel(QWidget):
             tip = self.tr("The current camera is not yet ok ({0}): its links are shown, but judge a few more points "
                           "yourself before accepting them all").format(self.tr(self.ranking_status or "none"))
         elif not n_likely and sl.camera is not None:  # greyed out: say why (the desktop trial could not tell)
-            tip = self.tr("No linked pairs: under the current camera no undecided suggestion has a partner in the "
-                          "other view within {0:.0f} px (Options: pairs within), nearer than chance").format(
-                sl.threshold)
+            from ..core.recommend import chance
+
+            if sl.clutter and chance(sl.sigma, max(sl.clutter.values())) >= 1.0:
+                # the real reason on a real print: its camera's error (a trial's "ok" fit, 10 px on the GCPs)
+                # against 2,000 suggestions a view; "within 8 px" sent it looking at the wrong setting
+                tip = self.tr("No linked pairs: the suggestions are too dense for the current camera's uncertainty "
+                              "(± {0:.0f} px): a partner that near would as likely be there by chance. Thin them "
+                              "(Reject the rest) or judge pairs yourself; the links come as the camera firms "
+                              "up").format(sl.sigma)
+            else:
+                tip = self.tr("No linked pairs: under the current camera no undecided suggestion has a partner in "
+                              "the other view within {0:.0f} px (Options: pairs within), nearer than "
+                              "chance").format(sl.threshold)
         else:
             tip = self.tr("Accept both ends of every linked pair (a photo suggestion and a DEM suggestion the "
                           "current camera puts close together)")

@@ -183,6 +183,8 @@ def test_accept_likely_waits_for_a_camera_the_verdict_calls_ok(dock, scene, qtbo
     assert c.shortlist.camera is not None and not c.shortlist.likely()
     assert dock.photo_view.links.band.numberOfVertices() == 0
     assert not panel.acceptLikelyButton.isEnabled() and "No linked pairs" in panel.acceptLikelyButton.toolTip()
+    # ... said as such: not "within 8 px", which sent a trial looking at the wrong setting
+    assert "too dense for the current camera's uncertainty" in panel.acceptLikelyButton.toolTip()
     add_scene_points(dock, scene, n=10)  # a new run of a few suggestions (sparse: a near partner tells)
     qtbot.waitUntil(lambda: len(c.shortlist.likely()) >= 8, timeout=10000)
     assert not panel.acceptLikelyButton.isEnabled()
