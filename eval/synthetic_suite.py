@@ -77,7 +77,7 @@ sys.path.insert(0, str(REPO))
 
 from monoplot_plugin.core.camera import Camera  # noqa: E402
 from monoplot_plugin.core.dem import Dem  # noqa: E402
-from monoplot_plugin.core.fit import FitOptions, fit_camera  # noqa: E402
+from monoplot_plugin.core.fit import FitOptions, fit_camera, sigma_pixels  # noqa: E402
 from monoplot_plugin.core.fit.diagnose import basin_score  # noqa: E402
 from monoplot_plugin.core.synthetic import DEFAULT_ORIGIN, synthetic_terrain  # noqa: E402
 from monoplot_plugin.core.xyz import segment_first_hit  # noqa: E402
@@ -458,6 +458,12 @@ def run_scene(spec) -> dict:
     rec["position_error_m"] = round(float(math.sqrt(err["x"] ** 2 + err["y"] ** 2 + err["z"] ** 2)), 3)
     rec["std"] = {k: round(v, 5) for k, v in sig.items()}
     rec["covered_2sigma"] = bool(sig) and all(abs(err[k]) <= 2 * v for k, v in sig.items())
+    # the σ as a pixel error (what an unpaired fit's products are said to be worth): does it cover the camera's
+    # real error on the terrain, err_px?
+    sp = sigma_pixels(cam, sig, s["world_xyz"]) if sig else float("nan")
+    rec["sigma_px"] = _round(sp)
+    rec["err_within_sigma_px"] = bool(np.isfinite(sp) and rec.get("err_px") is not None and rec["err_px"] <= sp)
+    rec["err_within_2sigma_px"] = bool(np.isfinite(sp) and rec.get("err_px") is not None and rec["err_px"] <= 2 * sp)
     rec["gen_s"] = round(gen_s, 3)
     for key in ("params",):
         rec[key] = {k: (round(v, 4) if isinstance(v, float) else v) for k, v in rec[key].items()}
@@ -471,6 +477,15 @@ def _round(x, n=3):
 # ----------------------------------------------------------------------------------------------------------------
 # Summaries
 # ----------------------------------------------------------------------------------------------------------------
+def _sigma_px_coverage(oks) -> dict:
+    if not oks:
+        return {}
+    ratio = [r["err_px"] / r["sigma_px"] for r in oks if r.get("err_px") is not None]
+    return {"ok_err_within_sigma_px": round(sum(r["err_within_sigma_px"] for r in oks) / len(oks), 3),
+            "ok_err_within_2sigma_px": round(sum(r["err_within_2sigma_px"] for r in oks) / len(oks), 3),
+            "ok_err_over_sigma_px_median": round(float(np.median(ratio)), 3) if ratio else None}
+
+
 def summarise(records, stratum: str, label: str) -> dict:
     n = len(records)
     conf = {st: {"success": 0, "failure": 0} for st in STATUSES}
@@ -487,6 +502,8 @@ def summarise(records, stratum: str, label: str) -> dict:
             "confusion": conf, "ok_precision": round(conf["ok"]["success"] / ok_n, 3) if ok_n else None,
             "sigma_coverage": round(sum(r["covered_2sigma"] for r in succ) / len(succ), 3) if succ else None,
             "successes_with_sigma": len(with_sigma), "successes": len(succ),
+            # over the "ok" fits: their camera's error on the terrain within its σ as a pixel error (1 and 2 times)
+            **_sigma_px_coverage([r for r in records if r["status"] == "ok" and r.get("sigma_px")]),
             "median_fit_s": round(float(np.median(times)), 3) if times else None}
 
 

@@ -23,6 +23,7 @@ from qgis.PyQt.QtWidgets import QAction
 from ..adapters import layers as camera_layers
 from ..adapters.photo import qimage_to_array
 from ..core.auto.overlay import draw_alignment
+from ..core.fit import sigma_pixels
 from ..state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, replace_in_views
 from ..workflow import auto as auto_step
 from ..workflow.progress import part
@@ -235,6 +236,8 @@ class AutoPanel(QObject):
             edit = edit if c.stack.push(edit) else None
         info = {"status": status, "rmse_px": _finite(r.rmse_px), "loo_rmse_px": _finite(r.loo_rmse_px),
                 "sigma": {k: float(v) for k, v in (r.std or {}).items()}, "converged": status == "ok",
+                # its σ as a pixel error on the terrain it matched: what its products are worth
+                "sigma_px": _finite(sigma_pixels(done.camera, r.std or {}, world)),
                 "message": str(checked["message"]), "mode": "automatic", "n_photo": n_found,
                 "n_map": n_found, "n_pairs": 0, "n_matched": n_found, "elapsed_s": float(r.elapsed_s),
                 "check_rmse_px": checked["check_rmse_px"], "n_check": checked["n_check"],

@@ -89,6 +89,8 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         "rmse_px": _float(result.rmse_px),
         "loo_rmse_px": _float(result.loo_rmse_px),
         "sigma": {k: float(v) for k, v in (result.std or {}).items()},
+        # the camera's σ as a pixel error, on the terrain the fit matched: an unpaired fit's error figure
+        "sigma_px": _float(fit_step.sigma_px(result, xyz)),
         "converged": result.status == "ok",
         "message": str(result.message),
         "mode": result.mode,

@@ -13,6 +13,7 @@ from typing import List, Tuple
 import numpy as np
 from qgis.core import Qgis
 
+from ..core.fit import sigma_pixels
 from ..state import ACCEPTED, MAP, PHOTO, Point
 from ..workflow import auto as auto_step
 from ..workflow import fit as fit_step
@@ -114,7 +115,10 @@ class FittingMixin:
             outcome.info["outliers"] = [photo_ids[i] for i in outcome.info.pop("outlier_idx", [])]
             # what the camera was fitted to, to say when the points have changed since (fit_points_changed)
             outcome.info["fit_point_xy"] = point_xy  # point id -> (x, y)
+            sigma = outcome.info.get("sigma")
             self.cap_by_automatic(outcome.info, photo_ids + world_ids, len(pairs), len(check_ids))
+            if outcome.info.get("sigma") != sigma:  # widened to the registration's: its pixel error with it
+                outcome.info["sigma_px"] = _finite(sigma_pixels(outcome.camera, outcome.info["sigma"], xyz))
             outcome.info.update(self.moved_from_prior(outcome.camera, xyz, options))
             self.doubt_a_moved_camera(outcome.info)
             if 0 < n_links < self.MIN_POINTS:  # said before the fit too, but its message replaced that at once
@@ -141,3 +145,7 @@ class FittingMixin:
         """A background refit finished: the Fit button's fit of the same inputs (``refit.inputs_key``) renders its
         camera instead of fitting again."""
         self._known_fit = (key, done)
+
+
+def _finite(value) -> "float | None":
+    return float(value) if value is not None and math.isfinite(value) else None

@@ -239,8 +239,8 @@ class ResultsMixin:
         """" (check points 7.7 px: about 40 m on the ground, the median over the terrain seen, 4.3 km away at the
         median)": what a product of the fitted camera is worth on the ground, for the "Written: ..." message
         (:func:`~..workflow.features.pixel_error`: the check points, else a paired fit's residuals or their
-        leave-one-out error; an unpaired fit without check points says its error is not known); "" without a
-        camera or an XYZ raster."""
+        leave-one-out error, an unpaired fit's σ as a pixel error; without either its error is not known); "" without
+        a camera or an XYZ raster."""
         from ..workflow.features import pixel_error
         from ..workflow.products import ground_error_spread, ground_error_words
 
@@ -258,7 +258,8 @@ class ResultsMixin:
             return ""
         what = {"check": self.tr("check points {0:.1f} px"),
                 "loo": self.tr("fit residuals left out one at a time {0:.1f} px"),
-                "fit": self.tr("fit residuals {0:.1f} px")}[source].format(error_px)
+                "fit": self.tr("fit residuals {0:.1f} px"),
+                "sigma": self.tr("the camera's uncertainty (σ) {0:.1f} px")}[source].format(error_px)
         check = info.get("check_rmse_px")
         if source != "check":  # the larger of two measures, or the only one
             what += self.tr(", more than the check points' {0:.1f} px").format(check) if check is not None and \

@@ -193,7 +193,7 @@ def camera_json(camera: Camera, verdict: Optional[dict] = None) -> str:
     if sigma:
         d["fit"]["sigma"] = sigma
     # the figures a product's xy_error_m is worked out from (workflow.features.pixel_error), kept with the verdict
-    for key in ("mode", "rmse_px", "loo_rmse_px"):
+    for key in ("mode", "rmse_px", "loo_rmse_px", "sigma_px"):
         value = verdict.get(key, summary.get(key))
         if isinstance(value, str) or (value is not None and np.isfinite(float(value))):
             d["fit"][key] = value if isinstance(value, str) else float(value)

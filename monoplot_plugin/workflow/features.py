@@ -27,9 +27,11 @@ ERROR_SAMPLES = 64
 def pixel_error(info: Optional[dict], only_ok: bool = True) -> Tuple[Optional[float], str]:
     """(the photo's pixel error a fit vouches for, RMS pixels; where it comes from): the independent check points'
     RMSE ("check") when there are some, else for a paired fit the larger of its RMSE ("fit") and its leave-one-out
-    RMSE ("loo"). ``(None, "unpaired")`` for an unpaired fit or an automatic registration without check points:
-    their residuals measure how well their automatic pairs agree, not their accuracy (Aletsch, simulated curation:
-    leave-one-out 3.8 px, the GCPs 9.5 px off; on the ground the GCPs 2.2 times the error predicted from 3.8 px).
+    RMSE ("loo"). An unpaired fit or an automatic registration: their residuals measure how well their automatic
+    pairs agree, not their accuracy (Aletsch, simulated curation: leave-one-out 3.8 px, the GCPs 9.5 px off; on the
+    ground the GCPs 2.2 times the error predicted from 3.8 px), so their camera's σ as a pixel error (``sigma_px``,
+    :func:`~.fit.sigma_px`: 11.1 px there) is said ("sigma"), or the check points' RMSE when larger;
+    ``(None, "unpaired")`` without either.
     ``(None, "")`` without a fit (a camera loaded from a file), and with ``only_ok`` when the fit is not "ok": its
     residuals would understate a camera the evidence does not support. Carried to the ground as ``xy_error_m``
     (:func:`feature_error_m`) and said with every written product.
@@ -47,6 +49,10 @@ def pixel_error(info: Optional[dict], only_ok: bool = True) -> Tuple[Optional[fl
     (5.0, 'loo')
     >>> pixel_error({"status": "ok", "mode": "unpaired", "rmse_px": 2.9, "loo_rmse_px": 3.8})
     (None, 'unpaired')
+    >>> pixel_error({"status": "ok", "mode": "unpaired", "rmse_px": 2.9, "sigma_px": 11.1})
+    (11.1, 'sigma')
+    >>> pixel_error({"status": "ok", "mode": "unpaired", "sigma_px": 11.1, "check_rmse_px": 14.0, "n_check": 3})
+    (14.0, 'check')
     >>> pixel_error({"status": "ok", "mode": "automatic", "rmse_px": 2.2})  # its pairs were drawn near its camera
     (None, 'unpaired')
     """
@@ -59,11 +65,12 @@ def pixel_error(info: Optional[dict], only_ok: bool = True) -> Tuple[Optional[fl
         return float(value) if value is not None and np.isfinite(value) else None
 
     unpaired = info.get("mode") in ("unpaired", "automatic")  # the registration's matched pairs: agreement too
-    if finite("check_rmse_px") is not None and (unpaired or not (finite("loo_rmse_px") or 0.0) > finite(
-            "check_rmse_px")):
+    if unpaired:  # the check points and the camera's σ: the larger of the two, or the one there is
+        candidates = [(v, k) for k, v in (("check", finite("check_rmse_px")), ("sigma", finite("sigma_px")))
+                      if v is not None]
+        return max(candidates) if candidates else (None, "unpaired")
+    if finite("check_rmse_px") is not None and not (finite("loo_rmse_px") or 0.0) > finite("check_rmse_px"):
         return finite("check_rmse_px"), "check"
-    if unpaired:
-        return None, "unpaired"
     candidates = [(v, k) for k, v in (("fit", finite("rmse_px")), ("loo", finite("loo_rmse_px"))) if v is not None]
     return max(candidates) if candidates else (None, "")
 

@@ -13,13 +13,13 @@ from typing import Optional, Sequence, Tuple
 import numpy as np
 
 from ..core.camera import Camera
-from ..core.fit import FitOptions, FitResult, fit_camera
+from ..core.fit import FitOptions, FitResult, fit_camera, sigma_pixels
 from .progress import Canceled, IsCanceled, Progress, check_canceled
 from .warmup import import_torch
 
 __all__ = ["ON_GROUND_MAX_M", "DEFAULT_EYE_HEIGHT_M", "FitRefused", "FitDone", "ground_clearance", "on_ground_rule",
            "fit", "point_rmse", "fit_points", "measured_on_pairs", "hidden_share", "flag_hidden_points",
-           "MIN_PAIRS_WITHOUT_PRIOR", "start_above_points"]
+           "MIN_PAIRS_WITHOUT_PRIOR", "start_above_points", "sigma_px"]
 
 #: a start camera at most this high above the terrain is taken as a photographer on the ground (a person, a
 #: tripod, a lookout tower, a rooftop): the fit keeps its height above the terrain (z follows the DEM, one unknown
@@ -299,6 +299,18 @@ def flag_hidden_points(result: FitResult, xyz: np.ndarray, dem) -> None:
         result.message = f"{result.message} Uncertain: {text}."
 
 
+def sigma_px(result: FitResult, xyz: np.ndarray) -> float:
+    """The fit's σ as a pixel error (core :func:`~..core.fit.sigma_pixels`) over the (M, 3) DEM points ``xyz`` it
+    matched (its kept pairs' DEM points; all of ``xyz`` when it kept none): what an unpaired fit's products are
+    said to be worth (:func:`.features.pixel_error`). NaN without σ."""
+    xyz = np.asarray(xyz, dtype=float).reshape(-1, 3)
+    pairs = np.asarray(result.pairs).reshape(-1, 2)
+    kept = np.asarray(getattr(result, "inliers", np.ones(len(pairs), bool)), dtype=bool).reshape(-1)
+    used = np.unique(pairs[kept, 1]) if len(pairs) and kept.shape == (len(pairs),) and kept.any() else None
+    points = xyz[used[used < len(xyz)]] if used is not None else xyz
+    return sigma_pixels(result.camera, result.std, points if len(points) else xyz)
+
+
 def measured_on_pairs(camera: Camera, uv: np.ndarray, xyz: np.ndarray) -> Tuple[int, float]:
     """(how many of the pairs, (K, 2) pixels / (K, 3) map points, the camera projects; their RMSE in pixels, NaN
     for none): a camera measured on check points or on pairs it was not fitted to.
@@ -345,7 +357,8 @@ def fit_points(image_size, uv: np.ndarray, xyz: np.ndarray, prior: Camera, dem, 
     ``check`` (N,) bool marks the paired rows that are check points (a GCP table's ``check`` column): kept out of
     the fit and measured, as in the dock; a refusal or a prior of another image size is an
     :class:`~.inputs.InputError`. Returns (camera, info) with ``info["rmse_px"]``, ``"status"``, ``"message"``,
-    ``"summary"`` (the fit's JSON digest), ``"n_check"`` and ``"check_rmse_px"`` (NaN without check points)."""
+    ``"summary"`` (the fit's JSON digest), ``"n_check"``, ``"check_rmse_px"`` (NaN without check points) and
+    ``"sigma_px"`` (:func:`sigma_px`)."""
     from .inputs import InputError
 
     if tuple(image_size) != tuple(prior.image_size):
@@ -364,7 +377,8 @@ def fit_points(image_size, uv: np.ndarray, xyz: np.ndarray, prior: Camera, dem, 
     rmse = float(result.rmse_px) if np.isfinite(result.rmse_px) else point_rmse(camera, uv, xyz, paired)
     return camera, {"rmse_px": rmse, "status": result.status, "message": result.message,
                     "summary": result.summary(), "n_check": int(check.sum()),
-                    "check_rmse_px": float(result.check_rmse_px) if check.any() else float("nan")}
+                    "check_rmse_px": float(result.check_rmse_px) if check.any() else float("nan"),
+                    "sigma_px": sigma_px(result, xyz)}
 
 
 #: Paired ground-control points from which a camera is solved with no prior (a direct linear transform needs 6).

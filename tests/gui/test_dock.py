@@ -12,6 +12,7 @@ from qgis.PyQt.QtCore import QEvent, QPoint, QPointF, Qt
 from qgis.PyQt.QtGui import QMouseEvent
 from qgis.PyQt.QtWidgets import QApplication
 
+from monoplot_plugin.workflow.features import pixel_error
 from monoplot_plugin.state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, replace_suggestions
 from monoplot_plugin.gui.photo_canvas import uv_to_map
 
@@ -181,6 +182,14 @@ def test_fit_task_runs_to_completion(dock, scene, qtbot):
     # linked cursor: a photo pixel maps to the ground it sees
     ground = c.ground_at_pixel(240, 300)
     assert ground is not None and abs(ground[2] - scene.dem.sample(ground[0], ground[1])) < 30
+    # an unpaired fit's error figure: its σ as a pixel error, which covers how far its camera is from the truth
+    # on the terrain it fitted (its residuals only say how well its automatic pairs agree)
+    sigma_px = c.state.fit_info["sigma_px"]
+    off = np.sqrt(np.mean(np.sum((fitted.project(scene.xyz) - scene.camera.project(scene.xyz)) ** 2, axis=1)))
+    assert off < 2 * sigma_px < 50, (off, sigma_px)
+    if c.state.fit_info["status"] == "ok":
+        assert pixel_error(c.state.fit_info) == (sigma_px, "sigma")
+        assert "the camera's uncertainty (σ)" in c.ground_accuracy_text()
 
 
 def test_cancel_a_running_fit(dock, scene, qtbot):

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..camera import Camera
 
-__all__ = ["FitResult", "STATUSES", "rmse", "rms", "sigma_undetermined"]
+__all__ = ["FitResult", "STATUSES", "rmse", "rms", "sigma_undetermined", "sigma_pixels"]
 
 #: Standard deviations beyond which a parameter is not determined at all (a poor fit's covariance gave "± 1300521642
 #: m" and "± 6894594°" in a flood trial's dock): angles in degrees, positions in metres, the rest in their units.
@@ -24,6 +24,36 @@ def sigma_undetermined(name: str, value: float) -> bool:
     (True, False, True)
     """
     return not value < UNDETERMINED_ABOVE.get(name, 1e5)
+
+
+def sigma_pixels(camera: Camera, std: Dict[str, float], points: np.ndarray) -> float:
+    """The camera's uncertainty as a pixel error: RMS over ``points`` ((N, 3) map coordinates, the terrain the fit
+    used) of where each one moves in the picture when every parameter moves by its σ (``std``, by the names of
+    :data:`~..camera.PARAMETER_NAMES`), added in quadrature. NaN without points or σ, or with a σ undetermined.
+
+    The σ are taken as independent: parameters the points trade against each other (distance against field of
+    view) are counted each in full, so the figure errs on the large side. An unpaired fit's residuals measure how
+    well its automatic pairs agree, not its accuracy; this does (Aletsch, simulated curation, 2026-12-06: 11.1 px
+    RMS over the 11 GCPs, which are 9.5 px off, the paired optimum itself 7.7 px; the leave-one-out said 3.8 px).
+
+    >>> cam = Camera((0.0, 0.0, 0.0), 0.0, 0.0, 0.0, 60.0, (1000, 700))
+    >>> round(sigma_pixels(cam, {"heading": 0.1}, np.array([[0.0, 4000.0, 0.0]])), 2)   # f tan(0.1°)
+    1.51
+    """
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    usable = {k: float(v) for k, v in (std or {}).items() if v}
+    if not len(points) or not usable or any(sigma_undetermined(k, v) for k, v in usable.items()):
+        return float("nan")
+    values = camera.parameters()
+    base = camera.project(points)
+    shift2 = np.zeros(len(points))
+    for name, sigma in usable.items():
+        if name not in values:
+            continue
+        moved = camera.with_parameters(**{name: values[name] + sigma}).project(points)
+        shift2 += np.sum((moved - base) ** 2, axis=1)
+    finite = np.isfinite(shift2)
+    return float(np.sqrt(np.mean(shift2[finite]))) if finite.any() else float("nan")
 
 
 #: Every status a fit can end with, from best to worst; only "ok" means the evidence supports the camera.
