@@ -118,6 +118,9 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
         # Ctrl+Z in the point table did nothing); a box being typed in keeps its own undo (gui/undo_keys.py)
         self._undo_keys = install_undo_keys(self.stepTabs, self.undoButton, self.redoButton)
         self.photo_tool.on_undo = self.map_tool.on_undo = self._said
+        # the Points tab's clicks curate: a drawing tool left on would take them (gui/dock_extensions.py)
+        self.stepTabs.currentChanged.connect(
+            lambda index: self.stepTabs.widget(index) is self.pointsTab and self.end_photo_tools())
         self.table_model = PointTableModel(c.state, self)
         self.table_proxy = make_proxy(self.table_model, self)
         self.pointTable.setModel(self.table_proxy)
@@ -456,6 +459,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
         return text
 
     def _project_cleared(self) -> None:
+        self.end_photo_tools()
         self.controller.cancel()
         self.controller.project_closed()
         self.controller.restore()

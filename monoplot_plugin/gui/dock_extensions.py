@@ -38,6 +38,13 @@ class DockExtensionsMixin:
         action.toggled.connect(toggled)
         return button
 
+    def end_photo_tools(self) -> None:
+        """Uncheck every photo tool: clicks on the photo curate points again. Done when the Points tab is shown and
+        when the project is closed (a trial reopened its project with "Draw lines" still on: its accepts, rejects
+        and Ctrl+clicks on the Points tab went into a line, without a word)."""
+        for action, _ in self._photo_tools:
+            action.setChecked(False)
+
     def add_output_action(self, action: QAction) -> QToolButton:
         """Add a button for ``action`` to the "Fit and results" tab."""
         button = QToolButton(self)

@@ -805,3 +805,18 @@ def test_saving_drawn_features_none_of_which_reaches_the_terrain_writes_nothing_
             if m.startswith("Nothing was written") and "none of the 1 drawn points reaches the terrain" in m]
     # the person's to put right (a re-check trial saw it as a red "Critical")
     assert said and levels[said[-1]] == Qgis.MessageLevel.Warning, (messages, levels)
+
+
+def test_a_drawing_tool_ends_on_the_points_tab_and_with_the_project(dock_with_fit, qtbot):
+    """A trial reopened its project with "Draw lines" still on: on the Points tab its accepts, rejects and
+    Ctrl+clicks went into a line, without a word. Showing the Points tab, or closing the project, ends the tool."""
+    dock, tools = dock_with_fit
+    tools.actions["line"].setChecked(True)
+    assert dock.photo_canvas.mapTool() is tools.capture_tools["line"]
+    dock.stepTabs.setCurrentWidget(dock.fitTab)  # another tab keeps it (drawing there is fine)
+    assert tools.actions["line"].isChecked()
+    dock.stepTabs.setCurrentWidget(dock.pointsTab)
+    assert not tools.actions["line"].isChecked() and dock.photo_canvas.mapTool() is dock.photo_tool
+    tools.actions["polygon"].setChecked(True)
+    QgsProject.instance().clear()
+    assert not tools.actions["polygon"].isChecked() and dock.photo_canvas.mapTool() is dock.photo_tool
