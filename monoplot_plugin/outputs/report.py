@@ -411,8 +411,13 @@ def parameter_lines(camera, sigmas) -> List[str]:
         if sigma is not None and not np.isnan(sigma) and sigma_undetermined(name, sigma):  # the unit with the value
             lines.append(f"  {name:<8} {fmt.format(value):>14} {_UNITS[name]} (± undetermined)")
             continue
-        sig = "" if sigma is None or np.isnan(sigma) else f" ± {sigma:.3g}"
-        lines.append(f"  {name:<8} {fmt.format(value):>14}{sig} {_UNITS[name]}")
+        if sigma is None or np.isnan(sigma) or sigma <= 0:
+            lines.append(f"  {name:<8} {fmt.format(value):>14} {_UNITS[name]}")
+            continue
+        # to the σ's second significant digit, no further: "x 650130.09 ± 627 m" and "heading 296.4389 ± 2.94°"
+        # claimed a precision the σ denies (a trial)
+        decimals = min(max(0, 1 - math.floor(math.log10(sigma))), 2 if name in ("x", "y", "z") else 4)
+        lines.append(f"  {name:<8} {value:>14.{decimals}f} ± {round(sigma, decimals):.{decimals}f} {_UNITS[name]}")
     lines.append(f"  focal    {camera.focal_px:>14.2f} px")
     return lines
 

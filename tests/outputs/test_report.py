@@ -60,8 +60,11 @@ def test_report_heading_is_the_azimuth_the_dock_shows(plane_scene, tmp_path):
     from monoplot_plugin.outputs.report import parameter_lines
 
     camera = plane_scene.camera.with_parameters(heading=-63.6349)
-    heading = next(line for line in parameter_lines(camera, {"heading": 0.295}) if line.strip().startswith("heading"))
-    assert "296.3651 ± 0.295 °" in heading, heading
+    lines = parameter_lines(camera.with_parameters(x=650130.0912), {"heading": 0.294, "x": 627.3, "pitch": 2.94})
+    by_name = {line.split()[0]: line for line in lines[2:]}
+    assert "296.37 ± 0.29 °" in by_name["heading"], by_name["heading"]
+    # no more digits than the σ allows (a trial read "x 650130.09 ± 627 m", "heading 296.4389 ± 2.94°")
+    assert "650130 ± 627 m" in by_name["x"] and " ± 2.9 °" in by_name["pitch"], lines
     assert write_report(tmp_path / "r.png", plane_scene.photo, camera, plane_scene.dem).exists()
 
 
