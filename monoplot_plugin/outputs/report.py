@@ -37,6 +37,8 @@ _UNITS = {"x": "m", "y": "m", "z": "m", "heading": "°", "pitch": "°", "roll": 
 
 #: a dark backing under point names: magenta on snow could not be read (a re-check trial)
 _LABEL_BOX = dict(facecolor="black", alpha=0.45, edgecolor="none", pad=0.6)
+#: check points' names: a light magenta (the markers' pure magenta was hard to read on the dark box, a trial)
+CHECK_LABEL_COLOUR = "#ff9cff"
 
 
 #: Offsets (points) tried for a point's name, nearest first: beside it, then above and below, then further out.
@@ -198,6 +200,9 @@ def write_report(path, photo: np.ndarray, camera, dem, points: Optional[ReportPo
     labels = _draw_points(ax_photo, photo[::k, ::k], points, residual, rmse, verdict_status(verdict), check_rmse,
                           size=(photo.shape[1], photo.shape[0]), others=None if checks is None else checks.uv)
     _draw_checks(ax_photo, camera, checks, labels)
+    # the photo's frame: a residual arrow (×10) is cut at its edge, not given room beyond it (a trial's ran off)
+    ax_photo.set_xlim(0, photo.shape[1])
+    ax_photo.set_ylim(photo.shape[0], 0)
     picture = None if picture is None else np.asarray(picture, dtype=bool)
     ground_xyz = xyz if picture is None else np.where(picture[..., None], xyz, np.nan)
     _draw_overlay(ax_overlay, photo[::k, ::k], xyz[::k, ::k], None if picture is None else picture[::k, ::k],
@@ -318,7 +323,9 @@ def _draw_checks(ax, camera, checks: Optional[ReportPoints], labels: Optional[_L
     if checks.named:  # their own names (numbers would repeat the control points'); a re-check trial's had none
         labels = _Labels(ax, uv) if labels is None else labels
         for name, (u, v) in zip(np.asarray(checks.names, dtype=object)[ok], uv):
-            labels.add(str(name), u, v, "magenta")
+            # a GCP table's numbers would repeat the control points' (a trial read two "3"s): C3
+            text = f"C{name}" if str(name).isdigit() else str(name)
+            labels.add(text, u, v, CHECK_LABEL_COLOUR)
 
 
 def _draw_overlay(ax, photo, xyz, picture=None, size=None):

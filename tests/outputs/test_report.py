@@ -155,6 +155,12 @@ def test_check_points_are_drawn_and_measured_first(plane_scene, tmp_path):
     _draw_checks(ax, scene.camera, checks)
     # named by the table's ids, as the control points are (a re-check trial's check points had no names)
     assert sorted(t.get_text() for t in ax.texts) == ["P08", "P09", "P10", "P11"]
+    # numbers of a GCP table are said as check points' (a trial read two "3"s: a control point's and a check's)
+    from monoplot_plugin.outputs.report import ReportPoints
+
+    numbered = Figure().add_subplot()
+    _draw_checks(numbered, scene.camera, ReportPoints(checks.uv, checks.xyz, ["3", "4", "5", "6"]))
+    assert sorted(t.get_text() for t in numbered.texts) == ["C3", "C4", "C5", "C6"]
     rmse = _checks_rmse(scene.camera, checks)
     assert rmse == pytest.approx(10.0, abs=0.2)
     text_ax = Figure().add_subplot()
