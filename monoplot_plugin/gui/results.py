@@ -259,7 +259,9 @@ class ResultsMixin:
         what = {"check": self.tr("check points {0:.1f} px"),
                 "loo": self.tr("fit residuals left out one at a time {0:.1f} px"),
                 "fit": self.tr("fit residuals {0:.1f} px"),
-                "sigma": self.tr("the camera's uncertainty (σ) {0:.1f} px")}[source].format(error_px)
+                # an upper estimate: the σ counted as independent (on 148 "ok" synthetic fits the camera's error
+                # on the terrain was 0.16 of it at the median, within it in 98.6 %)
+                "sigma": self.tr("the camera's σ {0:.1f} px, an upper estimate")}[source].format(error_px)
         check = info.get("check_rmse_px")
         if source != "check":  # the larger of two measures, or the only one
             what += self.tr(", more than the check points' {0:.1f} px").format(check) if check is not None and \

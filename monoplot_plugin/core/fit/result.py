@@ -32,9 +32,11 @@ def sigma_pixels(camera: Camera, std: Dict[str, float], points: np.ndarray) -> f
     :data:`~..camera.PARAMETER_NAMES`), added in quadrature. NaN without points or σ, or with a σ undetermined.
 
     The σ are taken as independent: parameters the points trade against each other (distance against field of
-    view) are counted each in full, so the figure errs on the large side. An unpaired fit's residuals measure how
-    well its automatic pairs agree, not its accuracy; this does (Aletsch, simulated curation, 2026-12-06: 11.1 px
-    RMS over the 11 GCPs, which are 9.5 px off, the paired optimum itself 7.7 px; the leave-one-out said 3.8 px).
+    view) are counted each in full, so the figure is an upper estimate. An unpaired fit's residuals measure how
+    well its automatic pairs agree, not its accuracy (measured 2026-12-06: on Aletsch with the simulated curation
+    11.1 px RMS over the 11 GCPs, which are 9.5 px off, the paired optimum itself 7.7 px, where the leave-one-out
+    said 3.8 px; on the 148 "ok" fits of the synthetic suite the camera's error on the terrain was 0.16 of it at
+    the median, 0.33 at the 90th percentile, within it in 98.6 % and within twice it in all).
 
     >>> cam = Camera((0.0, 0.0, 0.0), 0.0, 0.0, 0.0, 60.0, (1000, 700))
     >>> round(sigma_pixels(cam, {"heading": 0.1}, np.array([[0.0, 4000.0, 0.0]])), 2)   # f tan(0.1°)
