@@ -414,7 +414,7 @@ def parameter_lines(camera, sigmas) -> List[str]:
         if name in ("k1", "k2") and value == 0.0:
             continue
         sigma = sigmas.get(name)
-        fmt = "{:.2f}" if name in ("x", "y", "z") else "{:.4f}"
+        fmt = "{:.2f}" if name in ("x", "y", "z") else "{:.1f}" if name in ("cx", "cy") else "{:.4f}"
         if sigma is not None and not np.isnan(sigma) and sigma_undetermined(name, sigma):  # the unit with the value
             lines.append(f"  {name:<8} {fmt.format(value):>14} {_UNITS[name]} (± undetermined)")
             continue
