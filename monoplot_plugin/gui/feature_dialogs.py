@@ -88,7 +88,9 @@ class FeatureDialogsMixin:
                         self.tr("Written: {0}; not written: {1}").format(", ".join(written), exc))
                 self._message(text, Qgis.MessageLevel.Warning)  # the person's to put right, not a failure
                 return
-        self._message(self.tr("Features written: {0}").format(", ".join(written)), Qgis.MessageLevel.Success)
+        # and where to find them (a trial opened them again, not seeing them added to the photo's group)
+        self._message(self.tr("Features written: {0}; added to the layer group {1}.").format(
+            ", ".join(written), Path(self.photo_name()).stem), Qgis.MessageLevel.Success)
 
     def _ask_field(self) -> None:
         from qgis.PyQt.QtWidgets import QInputDialog

@@ -13,7 +13,7 @@ from typing import Optional, Tuple
 import numpy as np
 from qgis.core import (QgsCategorizedSymbolRenderer, QgsCoordinateReferenceSystem, QgsCoordinateTransform, QgsFeature,
                        QgsField, QgsGeometry, QgsLayerTreeGroup, QgsProject, QgsRasterLayer, QgsRendererCategory,
-                       QgsSymbol, QgsVectorLayer)
+                       QgsSymbol, QgsVectorLayer, QgsWkbTypes)
 from qgis.PyQt.QtCore import Qt, QVariant
 from qgis.PyQt.QtGui import QColor
 
@@ -168,7 +168,9 @@ def overlay_outcome(layer: QgsVectorLayer, overlay: QgsVectorLayer, tr=str) -> T
         return tr("None of the {0} features of {1} is in the photo's view: they lie outside what the camera sees, or "
                   "the layer's CRS is not what it says.").format(total, layer.name()) + no_crs, True
     text = tr("Drawn on the photo: {0} of the {1} features of {2}").format(len(sources), total, layer.name())
-    if hidden:
+    if hidden and layer.geometryType() == QgsWkbTypes.GeometryType.PointGeometry:  # a point is hidden, not partly
+        text += " " + tr("({0} of them hidden behind terrain)").format(hidden)
+    elif hidden:
         text += " " + tr("({0} of them partly hidden behind terrain, dashed)").format(hidden)
     return text + "." + no_crs, bool(no_crs)
 

@@ -200,3 +200,18 @@ def test_the_message_counts_the_features_hidden_in_part_not_the_pieces(qgis_app)
     text, doubtful = overlay_outcome(source, overlay)
     assert text == "Drawn on the photo: 2 of the 3 features of valley lines (1 of them partly hidden behind " \
                    "terrain, dashed)." and not doubtful
+    # a point is hidden or not, not "partly" (a trial's 4 stakes "partly hidden behind terrain")
+    stakes = QgsVectorLayer("Point?crs=EPSG:2056", "stakes", "memory")
+    stakes.dataProvider().addFeatures([QgsFeature() for _ in range(3)])
+    on_photo = QgsVectorLayer("Point", "stakes on photo", "memory")
+    on_photo.dataProvider().addAttributes([QgsField("source_fid", QVariant.Type.LongLong),
+                                           QgsField("visible", QVariant.Type.Int)])
+    on_photo.updateFields()
+    marks = []
+    for fid, visible in [(1, 0), (2, 1), (3, 0)]:
+        f = QgsFeature(on_photo.fields())
+        f["source_fid"], f["visible"] = fid, visible
+        marks.append(f)
+    on_photo.dataProvider().addFeatures(marks)
+    text, _ = overlay_outcome(stakes, on_photo)
+    assert text == "Drawn on the photo: 3 of the 3 features of stakes (2 of them hidden behind terrain)."
