@@ -119,6 +119,9 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     True
     >>> "± undetermined*" in fit_summary_html(cam, {"status": "poor", "sigma": {"heading": 6894594.0}})
     True
+    >>> "move the terrain by 11.1 px in the picture" in fit_summary_html(
+    ...     cam, {"status": "ok", "mode": "unpaired", "rmse_px": 2.9, "sigma_px": 11.1, "sigma": {"x": 627.0}})
+    True
     >>> html = fit_summary_html(cam, {"status": "uncertain", "mode": "unpaired", "sigma": {"x": 0.31}})
     >>> "± 0.31*" in html and html.index("assume the automatic pairs are right") < html.index("<table>")
     True
@@ -163,6 +166,11 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     elif info.get("mode") == "unpaired":
         head += "<br><small>" + tr("RMSE of the automatic pairs (agreement, not accuracy): mark a few paired "
                                   "points as check points (key C) to measure the camera.") + "</small>"
+    if info.get("mode") in ("unpaired", "automatic") and info.get("sigma_px") is not None:
+        # what the σ below mean in the picture: a trial read "ok" beside "± 627 m" as a contradiction (distance
+        # traded against the field of view moves the terrain by pixels only)
+        head += "<br><small>" + tr("The σ below move the terrain by {0:.1f} px in the picture, RMS (an upper "
+                                  "estimate).").format(info["sigma_px"]) + "</small>"
     z_text = f"{z:.0f} m{sig('z')}"
     clearance = info.get("clearance_m")
     under = not info.get("on_ground") and clearance is not None and math.isfinite(clearance) and clearance <= -0.05
