@@ -164,6 +164,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
         # project life cycle
         self.project.readProject.connect(self._project_read)
         self.project.cleared.connect(self._project_cleared)
+        self.project.layerTreeRoot().visibilityChanged.connect(self._group_visibility)
         self._unloaded = False
         QgsApplication.instance().aboutToQuit.connect(self.unload)
         self.output_tools = self._install_outputs()
@@ -497,6 +498,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
                              (self.map_canvas.destinationCrsChanged, self._map_crs_changed),
                              (self.project.readProject, self._project_read),
                              (self.project.cleared, self._project_cleared),
+                             (self.project.layerTreeRoot().visibilityChanged, self._group_visibility),
                              (QgsApplication.instance().aboutToQuit, self.unload)):
             try:
                 signal.disconnect(slot)

@@ -97,3 +97,11 @@ class DockViewMixin:
                     "hidden": self.tr("hidden behind terrain (would be at {0:.0f}, {1:.0f})"),
                     "outside": self.tr("outside the photo")}[where]
             self.iface.statusBarIface().showMessage("Monoplot: " + (text.format(*uv) if uv else text), 4000)
+
+    def _group_visibility(self, *args) -> None:
+        """The "Monoplot" layer group unticked hides the dock's items on the map too (points, links, wedge,
+        footprint outline, camera), ticked shows them again."""
+        group = self.project.layerTreeRoot().findGroup(camera_layers.GROUP_NAME)
+        shown = group is None or group.isVisible()
+        if shown != self.map_view.shown:
+            self.map_view.set_shown(shown)

@@ -110,10 +110,26 @@ class MapPresenter:
         self.camera_marker.setIconSize(14)
         self.cursor = _cursor_marker(canvas, QColor(0, 230, 255))
         self.likely = IconBand(canvas, QColor(0, 230, 255), size=19, width=2, z=28)  # ring: has a likely partner
+        #: False while the person hides the "Monoplot" layer group: its canvas items go with it (a trial unticked
+        #: the group to check exported layers, and the wedge, footprint outline and markers stayed drawn)
+        self.shown = True
 
     @property
     def crs(self) -> QgsCoordinateReferenceSystem:
         return self.c.dem_crs
+
+    def set_shown(self, shown: bool) -> None:
+        """Show or hide every Monoplot item on the map (points, links, wedge, footprint outline, camera)."""
+        self.shown = bool(shown)
+        self._apply_shown()
+
+    def _apply_shown(self) -> None:
+        for item in (self.markers, self.likely, self.prior_band, self.fitted_band):
+            item.set_visible(self.shown)
+        if not self.shown:
+            self.camera_marker.hide()
+        elif self.c.fitted is not None or self.c.prior is not None:  # where the last redraw put it
+            self.camera_marker.show()
 
     def _to_canvas(self, x: float, y: float) -> QgsPointXY:
         from .tools import SpaceMapping
@@ -127,10 +143,12 @@ class MapPresenter:
         self.likely.crs = self.crs
         self.likely.set_points([QgsPointXY(p.x, p.y) for p in self.c.shortlist.likely_visible(MAP)])
         self.redraw_selection()
+        if not self.shown:
+            self._apply_shown()
 
     def redraw_selection(self) -> None:
         p = self.c.state.points.get(self.c.current[MAP])
-        self.markers.set_highlight(None if p is None else (p.x, p.y))
+        self.markers.set_highlight(None if p is None or not self.shown else (p.x, p.y))
 
     def reach(self, cx: float, cy: float) -> float:
         """Metres from (cx, cy) to the farthest DEM corner: how far a view wedge is drawn (15 km without DEM)."""
@@ -163,6 +181,8 @@ class MapPresenter:
         else:
             self.camera_marker.setCenter(self._to_canvas(*cam.position[:2]))
             self.camera_marker.show()
+        if not self.shown:
+            self._apply_shown()
 
     def show_cursor(self, xy: Optional[Tuple[float, float]]) -> None:
         if xy is None:

@@ -192,6 +192,28 @@ def test_fit_task_runs_to_completion(dock, scene, qtbot):
         assert "the camera's σ" in c.ground_accuracy_text() and "an upper estimate" in c.ground_accuracy_text()
 
 
+def test_unticking_the_monoplot_group_hides_the_dock_items_on_the_map(dock, scene, qtbot):
+    """A trial unticked the "Monoplot" group to check its exported layers: the view wedge, footprint outline and
+    point markers stayed drawn on the map."""
+    from monoplot_plugin.adapters.layers import GROUP_NAME
+
+    c = start_fit_on_scene(dock, scene, qtbot)
+    with qtbot.waitSignal(c.taskFinished, timeout=60000):
+        pass
+    qtbot.waitUntil(lambda: QgsProject.instance().layerTreeRoot().findGroup(GROUP_NAME) is not None, timeout=10000)
+    view = dock.map_view
+    group = QgsProject.instance().layerTreeRoot().findGroup(GROUP_NAME)
+    assert view.fitted_band.band.isVisible() and view.camera_marker.isVisible()
+    group.setItemVisibilityChecked(False)
+    assert not view.shown and not view.fitted_band.band.isVisible() and not view.prior_band.band.isVisible()
+    assert not view.camera_marker.isVisible() and not any(b.isVisible() for b in view.markers.bands.values())
+    c.cameraChanged.emit()  # a redraw keeps them hidden
+    dock.map_view.redraw_points()
+    assert not view.camera_marker.isVisible() and not any(b.isVisible() for b in view.markers.bands.values())
+    group.setItemVisibilityChecked(True)
+    assert view.shown and view.fitted_band.band.isVisible() and view.camera_marker.isVisible()
+
+
 def test_cancel_a_running_fit(dock, scene, qtbot):
     c = start_fit_on_scene(dock, scene, qtbot)
     # under way: past its first step, or still waiting for torch's import (a cancel must work there too; under a
