@@ -57,8 +57,18 @@ class FittingMixin:
     def fit_start(self):
         """The camera a fit starts from: the rough camera, else the fitted one; the fitted one when it was loaded
         from a file (a batch's or a saved camera, loaded to go on from: a trial's next Fit started from the photo's
-        EXIF GPS camera instead). None without either."""
-        if self.fitted is not None and (self.state.fit_info or {}).get("loaded_from"):
+        EXIF GPS camera instead) or found by the automatic registration (not "poor"). None without either."""
+        info = self.state.fit_info or {}
+        if self.fitted is not None and info.get("loaded_from"):
+            return self.fitted
+        from .priors import HEADING_GUESSED
+
+        guessed = bool(self.state.settings.get(HEADING_GUESSED))  # the rough camera's heading is no one's word
+        if self.fitted is not None and info.get("status") != "poor" and (
+                info.get("mode") == "automatic" or (guessed and info.get("from_fitted_prior") == self.state.prior)):
+            # the registration's camera, not the rough one it searched from (and, while that rough camera's heading
+            # is a guess, the fits that went on from it): a phone trial's refits started from its EXIF camera aimed
+            # at the DEM's centre, 155° off, and were refused ("Every DEM point is behind the initial camera")
             return self.fitted
         return self.prior or self.fitted
 
@@ -68,6 +78,9 @@ class FittingMixin:
             self.message.emit(self.tr("Load a photo and choose a DEM first."), WARNING)
             return False
         start = self.fit_start()
+        # gone on from the fitted camera, not the rough one: the next fit does too, until the rough camera changes
+        from_fitted = self.state.prior if start is not None and self.state.prior is not None and \
+            start.to_dict() == self.state.fitted else None
         paired_xyz = self.pair_arrays(self.state.valid_pairs())[2] if start is None else ()
         if len(paired_xyz) >= fit_step.MIN_PAIRS_WITHOUT_PRIOR:  # no rough camera: solved from them, as fitcamera
             start = fit_step.start_above_points(paired_xyz, self.photo_size, self.dem.crs_wkt)
@@ -109,6 +122,8 @@ class FittingMixin:
                                          free=free, options=options, done=done, **height)
 
         def apply(outcome):
+            if from_fitted is not None:
+                outcome.info["from_fitted_prior"] = from_fitted
             # the matches the fit used, by point id (indices would drift with later edits)
             outcome.info["matched"] = [[photo_ids[i], world_ids[j]] for i, j in outcome.info.pop("matched_idx", [])]
             outcome.info["check_error_px"] = dict(zip(check_ids, outcome.info.pop("check_errors", [])))

@@ -37,13 +37,16 @@ from ..adapters.dem import DemError
 from ..adapters.photo import PhotoError
 from ..core.photo_file import PhotoFileError
 from ..outputs.safe_write import OutputError
+from ..workflow.fit import FitRefused
 from ..workflow.inputs import InputError
 from ..workflow.products import ProductError
 from ..workflow.progress import Canceled  # raised by work that stops at once when is_canceled() turns true
 
 #: errors of the person's input or file system, raised with a sentence that says it all: the reason is shown, and
 #: no traceback goes to the log (a read-only folder put a Python traceback in the Monoplot tab, desktop trial)
-WORDED_ERRORS = (OutputError, InputError, ProductError, PhotoError, PhotoFileError, DemError)
+#: (a fit's refusal too: a background refit from a rough camera turned away wrote "Every DEM point is behind the
+#: initial camera" as a traceback, a phone-photo trial)
+WORDED_ERRORS = (OutputError, InputError, ProductError, PhotoError, PhotoFileError, DemError, FitRefused)
 
 __all__ = ["TaskResult", "FunctionTask", "HiddenTask", "start_task", "abandon", "SUCCESS", "FAILED", "CANCELED"]
 

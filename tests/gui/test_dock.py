@@ -569,3 +569,36 @@ def test_the_advice_on_a_moved_camera_says_whose_position_uncertainty_it_is(dock
     lens = {"status": "poor", "fov_deg": 146.6, "prior_fov_deg": 60.0, "fov_sigma_deg": 6.0}
     assert "field of view to 146.6° from the rough camera's 60.0°" in c.moved_advice(lens)
     assert c.moved_advice(dict(lens, fov_deg=64.0)) == "" and c.moved_advice(dict(lens, status="ok")) == ""
+
+
+def test_fits_go_on_from_the_registered_camera_while_the_rough_heading_is_a_guess(dock, scene, qtbot):
+    """A phone trial: the EXIF camera (no direction: aimed at the DEM's centre, 155° off) stayed the start of every
+    refit after Find camera automatically, which were refused ("Every DEM point is behind the initial camera") and
+    wrote a traceback. The registration's camera is the start, and so are the fits that go on from it while the
+    rough heading is a guess; a rough camera of the person's is the start again."""
+    from monoplot_plugin.gui.priors import HEADING_GUESSED
+    from monoplot_plugin.gui.tasks import _run_work as run_work
+    from monoplot_plugin.workflow.fit import FitRefused
+
+    load_inputs(dock, scene, qtbot)
+    add_scene_points(dock, scene)
+    c = dock.controller
+    accept_everything(c)
+    away = scene.prior.with_parameters(heading=scene.prior.heading + 155.0)
+    c.set_prior(away)
+    c.state.settings[HEADING_GUESSED] = True
+    c.set_fitted(scene.prior, {"mode": "automatic", "status": "uncertain"})
+    assert c.fit_start().parameters() == scene.prior.parameters()
+    assert c.fit()
+    with qtbot.waitSignal(c.taskFinished, timeout=60000) as blocker:
+        pass
+    assert blocker.args[0].ok, blocker.args[0].reason
+    assert c.state.fit_info["mode"] == "unpaired" and c.fit_start().parameters() == c.fitted.parameters()
+    c.set_prior(scene.prior)  # the person's own rough camera: the start again
+    assert c.fit_start().parameters() == scene.prior.parameters()
+    # a refusal is said in words, without a traceback in the log
+    def refuse(progress, is_canceled):
+        raise FitRefused("Every DEM point is behind the initial camera")
+
+    result = run_work(refuse, lambda *a: None, lambda: False)
+    assert result.reason.startswith("Every DEM point") and not result.details
