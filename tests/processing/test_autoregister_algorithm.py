@@ -105,3 +105,14 @@ def test_any_heading_finds_a_view_the_prior_looks_away_from(run_alg, rendered_sc
     cam = Camera.load(tmp_path / "camera.json")
     assert abs((cam.heading - truth.heading + 180.0) % 360.0 - 180.0) < 1.0 and abs(cam.pitch - truth.pitch) < 1.0
     assert result["MESSAGE"].startswith("The direction of view was not known") and result["STATUS"] != "poor"
+
+
+def test_the_position_uncertainty_defaults_to_a_gps_error_for_an_exif_prior(processing_provider):
+    """A phone trial: the dialog filled 200 m for its EXIF GPS prior, the dock took 30 m, and the same photo came out
+    "uncertain" in Processing and "ok" in the dock. Empty by default: 30 m for EXIF GPS, 200 m for a camera file."""
+    from monoplot_plugin.workflow.auto import DEFAULT_POSITION_SIGMA_M, GPS_POSITION_SIGMA_M
+
+    parameter = processing_provider.algorithm("autoregister").parameterDefinition("POSITION_SIGMA")
+    assert parameter.defaultValue() is None and parameter.flags() & parameter.FlagOptional
+    assert f"empty = {GPS_POSITION_SIGMA_M:.0f} m for the photo's EXIF GPS position, " \
+           f"{DEFAULT_POSITION_SIGMA_M:.0f} m for a prior camera file" in parameter.description()

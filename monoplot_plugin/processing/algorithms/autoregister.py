@@ -52,9 +52,13 @@ class AutoRegister(MonoplotAlgorithm):
         self.add_dem_parameter()
         self.add_camera_parameter("PRIOR", optional=True,
                                   description="Prior camera (Monoplot JSON or KML PhotoOverlay; empty = EXIF GPS)")
+        # empty by default: an EXIF GPS position is known to a GPS's usual error, as the dock and the batch take it
+        # (a phone trial: 200 m here gave "uncertain" where the dock's 30 m gave "ok" on the same photo)
         self.addParameter(QgsProcessingParameterNumber(
-            "POSITION_SIGMA", self.tr("Uncertainty of the prior position (m, one sigma)"),
-            QgsProcessingParameterNumber.Double, auto.DEFAULT_POSITION_SIGMA_M, minValue=1.0))
+            "POSITION_SIGMA", self.tr("Uncertainty of the prior position (m, one sigma; empty = {0:.0f} m for the "
+                                      "photo's EXIF GPS position, {1:.0f} m for a prior camera file)").format(
+                auto.GPS_POSITION_SIGMA_M, auto.DEFAULT_POSITION_SIGMA_M),
+            QgsProcessingParameterNumber.Double, None, optional=True, minValue=1.0))
         self.addParameter(QgsProcessingParameterNumber(
             "ANGLE_SIGMA", self.tr("Uncertainty of the prior heading and pitch (degrees, one sigma)"),
             QgsProcessingParameterNumber.Double, auto.DEFAULT_ANGLE_SIGMA_DEG, minValue=0.1, maxValue=30.0))
@@ -86,11 +90,19 @@ class AutoRegister(MonoplotAlgorithm):
                 "" if heading_known else " " + self.tr("They give no direction of view: every direction is searched "
                                                        "(three to four times as long).")))
         prior = centred_on_print(prior, image, feedback)
+        from_exif = not self.parameterAsFile(parameters, "PRIOR", context)
+        position_sigma = parameters.get("POSITION_SIGMA")
+        if position_sigma in (None, ""):
+            position_sigma = auto.GPS_POSITION_SIGMA_M if from_exif else auto.DEFAULT_POSITION_SIGMA_M
+            feedback.pushInfo(self.tr("Prior position uncertainty: {0:.0f} m ({1}).").format(
+                position_sigma, self.tr("a GPS's usual error") if from_exif else self.tr("the default")))
+        else:
+            position_sigma = self.parameterAsDouble(parameters, "POSITION_SIGMA", context)
         fov_sigma = parameters.get("FOV_SIGMA")
         fov_sigma = None if fov_sigma in (None, "") else self.parameterAsDouble(parameters, "FOV_SIGMA", context)
         try:
             done = auto.register(image, dem, prior,
-                                 position_sigma_m=self.parameterAsDouble(parameters, "POSITION_SIGMA", context),
+                                 position_sigma_m=position_sigma,
                                  angle_sigma_deg=self.parameterAsDouble(parameters, "ANGLE_SIGMA", context),
                                  fov_sigma_deg=fov_sigma, progress=progress_callback(feedback, 0, 95),
                                  is_canceled=cancel_callback(feedback), heading_known=heading_known)
