@@ -266,6 +266,13 @@ class PriorsMixin:
                            self.tr("Its GPS altitude puts it {0:.0f} m above the DEM; a GPS height is often 10-30 m "
                                    "off: set \"Above ground\" (Camera tab) if you know the flight height.")
                            ).format(above)
+            low, high = _ground_range(self.dem, x, y, GPS_POSITION_M)
+            if high - low > 10.0:  # a slope: where the GPS put it is not where it stood (a phone trial: "31 m above
+                # the DEM" at a GPS fix 22 m downslope, 12.6 m above the ground where it stood)
+                text += " " + self.tr("The ground within {0:.0f} m of the GPS position (its usual error) lies "
+                                      "{1:.0f} to {2:.0f} m below that altitude: on a slope the height above the DEM "
+                                      "depends on where the camera really stood; the fit finds it.").format(
+                    GPS_POSITION_M, float(camera.position[2]) - high, float(camera.position[2]) - low)
             if exif.relative_altitude is not None:  # barometric, from the take-off point: a check of the GPS's
                 text += " " + self.tr("The drone logged {0:.0f} m above its take-off point.").format(
                     exif.relative_altitude)
@@ -314,3 +321,13 @@ class PriorsMixin:
         self.message.emit(self.tr("Rough camera imported from {0}.").format(path) + note, WARNING if note else INFO)
         return True
 
+
+def _ground_range(dem, x: float, y: float, radius: float) -> "tuple[float, float]":
+    """(lowest, highest) DEM height (m) within ``radius`` metres of (x, y), sampled on three rings of 12 points and
+    the centre; (NaN, NaN) off the DEM."""
+    angles = np.radians(np.arange(0.0, 360.0, 30.0))
+    rings = [(0.0, 0.0)] + [(r * np.cos(a), r * np.sin(a)) for r in (radius / 3, 2 * radius / 3, radius)
+                            for a in angles]
+    heights = np.array([float(dem.sample(x + dx, y + dy)) for dx, dy in rings])
+    heights = heights[np.isfinite(heights)]
+    return (float(heights.min()), float(heights.max())) if len(heights) else (math.nan, math.nan)

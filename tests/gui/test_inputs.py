@@ -279,6 +279,12 @@ def test_rough_camera_from_exif_gps(dock, scene, tmp_path):
     # 300 m up: the flight height, not "1.7 m held in the hand" (a trial's drone); a compass direction is said
     assert any("flight height" in text and "held in the hand" not in text for text in said), said
     assert any("magnetic north" in text for text in said), said
+    # on a slope, the ground around the GPS fix is said too (a phone trial's "31 m above the DEM" at a fix 22 m
+    # downslope of where it stood, 12.6 m above that ground)
+    from monoplot_plugin.gui.priors import _ground_range
+
+    low, high = _ground_range(scene.dem, *scene.camera.position[:2], 30.0)
+    assert any("The ground within 30 m of the GPS position" in text for text in said) == (high - low > 10.0), said
     # the pitch from the terrain is said in the EXIF camera's own message (its own was replaced at once, a trial)
     assert any(text.startswith("Rough camera from the photo's EXIF GPS tags. Pitch set to") for text in said), said
     c = dock.controller
@@ -553,3 +559,13 @@ def test_find_camera_searches_every_direction_when_the_heading_is_a_guess(dock, 
     c.cancel()
     qtbot.waitUntil(lambda: not c.busy, timeout=60000)
     assert not any("every direction is searched" in text for text in said), said
+
+
+def test_the_ground_around_a_gps_fix():
+    from monoplot_plugin.core.dem import Dem
+    from monoplot_plugin.gui.priors import _ground_range
+
+    slope = Dem.from_array(np.add.outer(np.zeros(50), np.arange(50.0)) * 10.0, (0.0, 10.0, 0.0, 500.0, 0.0, -10.0))
+    low, high = _ground_range(slope, 250.0, 250.0, 30.0)  # 1 m a metre eastward: 30 m either way
+    assert (low, high) == (pytest.approx(215.0, abs=0.5), pytest.approx(275.0, abs=0.5))
+    assert all(math.isnan(v) for v in _ground_range(slope, 5000.0, 5000.0, 30.0))
