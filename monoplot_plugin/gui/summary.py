@@ -91,6 +91,8 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     >>> html = fit_summary_html(cam, {"rmse_px": 6.4, "mode": "unpaired", "check_rmse_px": 12.3, "n_check": 4})
     >>> html.index("Check points <b>12.3 px</b>") < html.index("RMSE <b>6.4 px</b>")
     True
+    >>> "(28 m above the DEM)" in fit_summary_html(cam, {"rmse_px": 6.4, "clearance_m": 28.2})
+    True
     >>> "3.8 m under the DEM" in fit_summary_html(cam, {"rmse_px": 6.4, "clearance_m": -3.8})
     True
     >>> html = fit_summary_html(cam, {"rmse_px": 6.4, "status": "uncertain", "message": "Uncertain: add points."})
@@ -176,6 +178,9 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     under = not info.get("on_ground") and clearance is not None and math.isfinite(clearance) and clearance <= -0.05
     if under:  # a coarse DEM at the camera, or a fit that ended low: say so, the overlay needs it explained
         z_text += " " + tr("({0:.1f} m under the DEM)").format(-clearance)
+    elif not info.get("on_ground") and clearance is not None and math.isfinite(clearance):
+        # in the air: how high (a phone trial's hand-held camera fitted 28 m up, "ok", and nothing said so)
+        z_text += " " + tr("({0:.0f} m above the DEM)").format(clearance)
     cells = [("X", f"{x:.0f} m{sig('x')}"),
              (tr("Heading"), f"{azimuth(fitted.heading):.2f}°{sig('heading')}"),
              ("Y", f"{y:.0f} m{sig('y')}"),
