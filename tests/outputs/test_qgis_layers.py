@@ -177,41 +177,36 @@ def test_drawn_features_survive_saving_and_reopening_the_project(qgis_app, plane
     reopened.clear()
 
 
-def test_the_message_counts_the_features_hidden_in_part_not_the_pieces(qgis_app):
-    """A trial's line along a valley floor came out in 9 hidden pieces of 1-10 px (DEM bumps at a grazing angle):
-    "9 pieces hidden" read as more occlusion than there was. The message counts features partly hidden."""
+def _source_and_overlay(kind: str, name: str, n: int, pieces):
+    """A source layer of ``n`` features and its overlay on the photo: one feature per (source fid, visible) piece."""
     from qgis.core import QgsFeature, QgsField, QgsVectorLayer
     from qgis.PyQt.QtCore import QVariant
 
-    from monoplot_plugin.gui.map_layers import overlay_outcome
-
-    source = QgsVectorLayer("LineString?crs=EPSG:2056", "valley lines", "memory")
-    source.dataProvider().addFeatures([QgsFeature() for _ in range(3)])
-    overlay = QgsVectorLayer("LineString", "valley lines on photo", "memory")
+    source = QgsVectorLayer(f"{kind}?crs=EPSG:2056", name, "memory")
+    source.dataProvider().addFeatures([QgsFeature() for _ in range(n)])
+    overlay = QgsVectorLayer(kind, f"{name} on photo", "memory")
     overlay.dataProvider().addAttributes([QgsField("source_fid", QVariant.Type.LongLong),
                                           QgsField("visible", QVariant.Type.Int)])
     overlay.updateFields()
-    pieces = []
-    for fid, visible in [(1, 1)] + [(1, 0), (1, 1)] * 9 + [(2, 1)]:  # line 1 in 19 pieces, 9 hidden; line 2 seen
+    features = []
+    for fid, visible in pieces:
         f = QgsFeature(overlay.fields())
         f["source_fid"], f["visible"] = fid, visible
-        pieces.append(f)
-    overlay.dataProvider().addFeatures(pieces)
+        features.append(f)
+    overlay.dataProvider().addFeatures(features)
+    return source, overlay
+
+
+def test_the_message_counts_the_features_hidden_in_part_not_the_pieces(qgis_app):
+    """A trial's line along a valley floor came out in 9 hidden pieces of 1-10 px (DEM bumps at a grazing angle):
+    "9 pieces hidden" read as more occlusion than there was. The message counts features partly hidden."""
+    from monoplot_plugin.gui.map_layers import overlay_outcome
+
+    # line 1 in 19 pieces, 9 hidden; line 2 seen
+    source, overlay = _source_and_overlay("LineString", "valley lines", 3, [(1, 1)] + [(1, 0), (1, 1)] * 9 + [(2, 1)])
     text, doubtful = overlay_outcome(source, overlay)
     assert text == "Drawn on the photo: 2 of the 3 features of valley lines (1 of them partly hidden behind " \
                    "terrain, dashed)." and not doubtful
     # a point is hidden or not, not "partly" (a trial's 4 stakes "partly hidden behind terrain")
-    stakes = QgsVectorLayer("Point?crs=EPSG:2056", "stakes", "memory")
-    stakes.dataProvider().addFeatures([QgsFeature() for _ in range(3)])
-    on_photo = QgsVectorLayer("Point", "stakes on photo", "memory")
-    on_photo.dataProvider().addAttributes([QgsField("source_fid", QVariant.Type.LongLong),
-                                           QgsField("visible", QVariant.Type.Int)])
-    on_photo.updateFields()
-    marks = []
-    for fid, visible in [(1, 0), (2, 1), (3, 0)]:
-        f = QgsFeature(on_photo.fields())
-        f["source_fid"], f["visible"] = fid, visible
-        marks.append(f)
-    on_photo.dataProvider().addFeatures(marks)
-    text, _ = overlay_outcome(stakes, on_photo)
+    text, _ = overlay_outcome(*_source_and_overlay("Point", "stakes", 3, [(1, 0), (2, 1), (3, 0)]))
     assert text == "Drawn on the photo: 3 of the 3 features of stakes (2 of them hidden behind terrain)."
