@@ -447,18 +447,6 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
             # only in the fit tab); the message bar stays quiet: nothing happened
             show_status(self.statusLabel, self._restored_text())
 
-    def _restored_text(self) -> str:
-        c = self.controller
-        text = self.tr("Monoplot session restored from the project.")
-        info = c.state.fit_info or {}
-        if c.fitted is not None:
-            check, rmse = info.get("check_rmse_px"), info.get("rmse_px")
-            figure = self.tr(", check points {0:.1f} px").format(check) if check is not None else \
-                self.tr(", RMSE {0:.1f} px").format(rmse) if rmse is not None else ""
-            text += " " + self.tr("Fitted camera: {0}{1} (see the fit tab).").format(
-                self.tr(str(info.get("status") or "not judged")), figure)
-        return text
-
     def _project_cleared(self) -> None:
         self.end_photo_tools()
         self.controller.cancel()
