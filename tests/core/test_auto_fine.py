@@ -115,6 +115,11 @@ def test_too_few_probes_back_make_an_ok_uncertain(scene):
     assert verdicts[1][0] == "uncertain" and "only 1 of four cameras moved" in verdicts[1][1]
     assert verdicts[0][0] == "uncertain" and "none of four cameras moved" in verdicts[0][1]
     assert Probe(truth, 1.0, 1.0).returned and not Probe(truth, 1.0, 50.0).returned
+    # a rival view is named by where it looks (a phone trial's "a clearly different view direction" named none)
+    rivalled = register.AutoFitResult(truth, "ok", "unpaired fit.", "unpaired", std={"heading": 0.05, "x": 3.0})
+    verdict.combine_evidence(rivalled, dict(good, auto_probe_returned=4, auto_rival_ratio=0.95,
+                                            auto_rival_heading_deg=-12.0, auto_rival_pitch_deg=0.1))
+    assert rivalled.status == "uncertain" and "almost as well (12.0° to the left)" in rivalled.message
 
 
 @pytest.mark.parametrize("moved", [(40.0, -30.0, -15.0), (50.0, 0.0, 10.0)])

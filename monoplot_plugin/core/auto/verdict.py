@@ -54,13 +54,35 @@ def alignment_evidence(al: Aligner, off, score: float, refined, photo: PhotoEdge
     hypotheses ((score, offset), best first), with the photo's edges ``photo``."""
     # Distinct competitor: the best refined hypothesis more than 1 degree away in heading or pitch.
     best_off = refined[0][1]
-    rival = [sc for sc, o in refined[1:] if np.max(np.abs(o[:2] - best_off[:2])) > 1.0]
+    rival = [(sc, o) for sc, o in refined[1:] if np.max(np.abs(o[:2] - best_off[:2])) > 1.0]
     within = max(1.0, 0.004 * photo.width)  # 4 px on a 1000 px picture
-    return {"auto_skyline_usable": bool(photo.usable), "auto_sky_fraction": float(photo.sky_fraction),
-            "auto_sky_contrast": float(photo.contrast), "auto_align_score": float(score),
-            "auto_sky_agreement": al.skyline_agreement(off, within),
-            "auto_rival_ratio": float(refined[0][0] / rival[0]) if rival and rival[0] > 0 else 0.0,
-            "auto_evaluations": int(al.evaluations)}
+    ev = {"auto_skyline_usable": bool(photo.usable), "auto_sky_fraction": float(photo.sky_fraction),
+          "auto_sky_contrast": float(photo.contrast), "auto_align_score": float(score),
+          "auto_sky_agreement": al.skyline_agreement(off, within),
+          "auto_rival_ratio": float(refined[0][0] / rival[0][0]) if rival and rival[0][0] > 0 else 0.0,
+          "auto_evaluations": int(al.evaluations)}
+    if rival:  # where it looks, from this camera (a phone trial's message named no direction)
+        ev["auto_rival_heading_deg"], ev["auto_rival_pitch_deg"] = (float(d) for d in rival[0][1][:2] - best_off[:2])
+    return ev
+
+
+def _rival_words(ev: dict) -> str:
+    """Where the rival view looks from the camera's, in words ("" when not known).
+
+    >>> _rival_words({"auto_rival_heading_deg": -12.04, "auto_rival_pitch_deg": 1.5})
+    ' (12.0° to the left and 1.5° higher)'
+    >>> _rival_words({"auto_rival_heading_deg": 3.0, "auto_rival_pitch_deg": 0.2})
+    ' (3.0° to the right)'
+    """
+    heading, pitch = ev.get("auto_rival_heading_deg"), ev.get("auto_rival_pitch_deg")
+    if heading is None or pitch is None:
+        return ""
+    parts = []
+    if abs(heading) >= 0.5:
+        parts.append(f"{abs(heading):.1f}° to the {'right' if heading > 0 else 'left'}")
+    if abs(pitch) >= 0.5:
+        parts.append(f"{abs(pitch):.1f}° {'higher' if pitch > 0 else 'lower'}")
+    return f" ({' and '.join(parts)})" if parts else ""
 
 
 def no_clear_skyline(ev: dict) -> str:
@@ -105,7 +127,7 @@ def combine_evidence(result: AutoFitResult, ev: dict) -> None:
         weak.append(f"views the photo's edges cannot tell apart leave the view direction uncertain by {spread:.2f} "
                     "deg (σ)")
     if ev["auto_rival_ratio"] > 0.9:
-        weak.append("a clearly different view direction aligns the edges almost as well")
+        weak.append("a clearly different view direction aligns the edges almost as well" + _rival_words(ev))
     back = ev.get("auto_probe_returned", PROBES_BACK_OK)
     if back < PROBES_BACK_OK:
         weak.append(f"{'none' if back == 0 else f'only {back}'} of four cameras moved by the position's σ "
