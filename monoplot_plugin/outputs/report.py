@@ -277,8 +277,9 @@ def _draw_points(ax, photo, points, residual, rmse, status="", check_rmse=None, 
             # its points agree (a trial's badge said "RMSE 5.25 px", the check points 17.2 px)
             figures = f"check points {check_rmse:.2f} px · fit RMSE {rmse:.2f} px" if check_rmse is not None \
                 else f"RMSE {rmse:.2f} px"
-            # at the top: a print's caption is at its bottom (a re-check trial's badge covered its second line)
-            ax.text(8 * w / photo.shape[1], 8 * h / photo.shape[0], (f"{status} · " if status else "") + figures,
+            # under the photo, outside it: on it, it covered a print's caption (at the bottom, a re-check trial) or
+            # its peaks and sky (at the top, a trial)
+            ax.text(0.0, -0.015, (f"{status} · " if status else "") + figures, transform=ax.transAxes,
                     color="white", fontsize=9, va="top", weight="bold" if status else "normal",
                     bbox=dict(facecolor=STATUS_COLOURS.get(status, "black"), alpha=0.85 if status else 0.5,
                               edgecolor="none"))
