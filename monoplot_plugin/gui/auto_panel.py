@@ -12,7 +12,6 @@ skyline (cyan): where they part, the camera or the skyline is wrong.
 from __future__ import annotations
 
 import logging
-import math
 from typing import Optional
 
 import numpy as np
@@ -159,7 +158,7 @@ class AutoPanel(QObject):
         status = checked["status"]
         kept = (c.state.fit_info or {}).get("status")
         earlier = _earlier_automatic_edge(c.state.fit_info)  # the fitted camera is an earlier registration's
-        edge = _finite(r.evidence.get("auto_edge_score"))
+        edge = engine.finite_or_none(r.evidence.get("auto_edge_score"))
         # a doubtful run does not simply replace a fitted camera that is not doubtful
         doubtful = c.fitted is not None and kept in ("ok", "uncertain") and status != "ok"
         against = self._earlier_against_stated(done.camera) if doubtful and earlier is not None else None
@@ -234,10 +233,11 @@ class AutoPanel(QObject):
             replaced = sum(1 for pid, after in edit.after.items() if after is None)
             self._follower.forget()  # the listener must not act on this push
             edit = edit if c.stack.push(edit) else None
-        info = {"status": status, "rmse_px": _finite(r.rmse_px), "loo_rmse_px": _finite(r.loo_rmse_px),
+        finite = engine.finite_or_none
+        info = {"status": status, "rmse_px": finite(r.rmse_px), "loo_rmse_px": finite(r.loo_rmse_px),
                 "sigma": {k: float(v) for k, v in (r.std or {}).items()}, "converged": status == "ok",
                 # its σ as a pixel error on the terrain it matched: what its products are worth
-                "sigma_px": _finite(sigma_pixels(done.camera, r.std or {}, world)),
+                "sigma_px": finite(sigma_pixels(done.camera, r.std or {}, world)),
                 "message": str(checked["message"]), "mode": "automatic", "n_photo": n_found,
                 "n_map": n_found, "n_pairs": 0, "n_matched": n_found, "elapsed_s": float(r.elapsed_s),
                 "check_rmse_px": checked["check_rmse_px"], "n_check": checked["n_check"],
@@ -279,7 +279,7 @@ def _earlier_automatic_edge(info) -> Optional[float]:
     info = info or {}
     if info.get("mode") != "automatic":
         return None
-    return _finite(info.get("auto_edge_score"))
+    return engine.finite_or_none(info.get("auto_edge_score"))
 
 
 def _not_decided_already(state, label: str, uv, world) -> np.ndarray:
@@ -317,8 +317,3 @@ def _two_scores(a: Optional[float], b: float):
         if f"{a:.{digits}f}" != f"{b:.{digits}f}":
             break
     return f"{a:.{digits}f}", f"{b:.{digits}f}"
-
-
-def _finite(v) -> Optional[float]:
-    return float(v) if v is not None and math.isfinite(float(v)) else None
-

@@ -86,11 +86,11 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
     result, camera = done.result, done.camera
     info = {
         "status": result.status,
-        "rmse_px": _float(result.rmse_px),
-        "loo_rmse_px": _float(result.loo_rmse_px),
+        "rmse_px": finite_or_none(result.rmse_px),
+        "loo_rmse_px": finite_or_none(result.loo_rmse_px),
         "sigma": {k: float(v) for k, v in (result.std or {}).items()},
         # the camera's σ as a pixel error, on the terrain the fit matched: an unpaired fit's error figure
-        "sigma_px": _float(fit_step.sigma_px(result, xyz)),
+        "sigma_px": finite_or_none(fit_step.sigma_px(result, xyz)),
         "converged": result.status == "ok",
         "message": str(result.message),
         "mode": result.mode,
@@ -98,7 +98,7 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         "on_ground": done.on_ground,
         "eye_height_m": done.eye_height,
         "height_freed": done.height_freed,
-        "clearance_m": _float(fit_step.ground_clearance(camera, dem)),
+        "clearance_m": finite_or_none(fit_step.ground_clearance(camera, dem)),
         "n_photo": int(len(uv)),
         "n_map": int(len(xyz)),
         "n_pairs": int(len(pairs)),
@@ -108,9 +108,9 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         "outlier_idx": [int(i) for i in np.flatnonzero(np.asarray(result.photo_outliers, dtype=bool).reshape(-1))]
         if len(np.asarray(result.photo_outliers).reshape(-1)) == len(uv) else [],
         "elapsed_s": float(result.elapsed_s),
-        "check_rmse_px": _float(result.check_rmse_px),
+        "check_rmse_px": finite_or_none(result.check_rmse_px),
         "n_check": int(len(result.check_residuals_px)),
-        "check_errors": [_float(np.hypot(*r)) for r in np.asarray(result.check_residuals_px).reshape(-1, 2)],
+        "check_errors": [finite_or_none(np.hypot(*r)) for r in np.asarray(result.check_residuals_px).reshape(-1, 2)],
     }
     progress(0.88, "")
     overlay, pixel_xyz, footprint = render_products(camera, dem, is_canceled,
@@ -126,7 +126,8 @@ def _inliers(result) -> np.ndarray:
     return inl if inl.shape == (k,) else np.ones(k, bool)
 
 
-def _float(v) -> Optional[float]:
+def finite_or_none(v) -> Optional[float]:
+    """``v`` as a float, None when it is None, NaN or infinite (the fit info keeps JSON-friendly numbers)."""
     return None if v is None or not math.isfinite(float(v)) else float(v)
 
 

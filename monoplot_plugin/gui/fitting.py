@@ -133,7 +133,8 @@ class FittingMixin:
             sigma = outcome.info.get("sigma")
             self.cap_by_automatic(outcome.info, photo_ids + world_ids, len(pairs), len(check_ids))
             if outcome.info.get("sigma") != sigma:  # widened to the registration's: its pixel error with it
-                outcome.info["sigma_px"] = _finite(sigma_pixels(outcome.camera, outcome.info["sigma"], xyz))
+                widened = sigma_pixels(outcome.camera, outcome.info["sigma"], xyz)
+                outcome.info["sigma_px"] = engine.finite_or_none(widened)
             outcome.info.update(self.moved_from_prior(outcome.camera, xyz, options))
             self.doubt_a_moved_camera(outcome.info)
             if 0 < n_links < self.MIN_POINTS:  # said before the fit too, but its message replaced that at once
@@ -160,7 +161,3 @@ class FittingMixin:
         """A background refit finished: the Fit button's fit of the same inputs (``refit.inputs_key``) renders its
         camera instead of fitting again."""
         self._known_fit = (key, done)
-
-
-def _finite(value) -> "float | None":
-    return float(value) if value is not None and math.isfinite(value) else None
