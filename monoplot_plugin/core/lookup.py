@@ -13,7 +13,7 @@ from typing import Callable, Optional, Tuple
 
 import numpy as np
 
-__all__ = ["sample_xyz", "visibility_of_points", "orthorectify", "OrthoLookup", "ortho_lookup", "TurnableLookup",
+__all__ = ["sample_xyz", "visibility_of_points", "neighbour_depth", "orthorectify", "OrthoLookup", "ortho_lookup", "TurnableLookup",
            "turnable_lookup", "widened"]
 
 
@@ -65,13 +65,20 @@ def sample_xyz(xyz: np.ndarray, uv, origin=None, max_jump: float = 0.05) -> np.n
     return out
 
 
-def visibility_of_points(camera, points: np.ndarray, xyz: np.ndarray, tolerance: Optional[float] = None
-                         ) -> Tuple[np.ndarray, np.ndarray]:
+def visibility_of_points(camera, points: np.ndarray, xyz: np.ndarray, tolerance: Optional[float] = None,
+                         dem=None) -> Tuple[np.ndarray, np.ndarray]:
     """Project ground points into the photo and tell which ones the camera sees.
 
     A point is visible when it projects inside the photo and is not farther from the camera than the ground seen
     through that pixel (the XYZ raster's point), within ``tolerance`` metres (default: 1 % of the distance plus
     the XYZ raster's pixel footprint there, which absorbs the 1-pixel quantisation of the depth buffer).
+
+    Terrain seen at a grazing angle spans far more depth in one pixel than that, and an orthophoto of a low camera
+    over flat ground had stripes of its seen cells left out. So with ``dem`` (the terrain the raster was made of), a
+    point that fails the test but lies no farther than the farthest ground seen through the neighbouring pixels
+    (:func:`neighbour_depth`) is decided by the exact line of sight
+    (:func:`~monoplot_plugin.core.xyz.segment_first_hit`): seen when nothing stops the ray before it, within the
+    same tolerance. A point beyond all of them is hidden whatever the angle.
 
     Returns:
         (uv (N, 2) pixels, NaN behind the camera; visible (N,) bool).
@@ -79,14 +86,59 @@ def visibility_of_points(camera, points: np.ndarray, xyz: np.ndarray, tolerance:
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     uv, depth = camera.project_with_depth(points)
     seen = sample_xyz(xyz, uv, camera.position)
-    origin = np.asarray(camera.position)
+    origin = np.asarray(camera.position, dtype=np.float64)
     d_point = np.linalg.norm(points - origin, axis=1)
     d_seen = np.linalg.norm(seen - origin, axis=1)
     footprint = d_seen / camera.focal_px  # metres per pixel at that distance, face-on
     tol = (0.01 * d_point + 3.0 * footprint) if tolerance is None else tolerance
+    tol = np.broadcast_to(np.asarray(tol, dtype=np.float64), d_point.shape)
     with np.errstate(invalid="ignore"):
-        visible = (depth > 0) & camera.in_image(uv) & np.isfinite(d_seen) & (d_point <= d_seen + tol)
+        candidate = (depth > 0) & camera.in_image(uv) & np.isfinite(d_seen)
+        visible = candidate & (d_point <= d_seen + tol)
+    if dem is not None:
+        with np.errstate(invalid="ignore"):
+            unsure = np.flatnonzero(candidate & ~visible & (d_point <= neighbour_depth(xyz, uv, origin) + tol))
+        if unsure.size:
+            from .xyz import segment_first_hit  # the xyz package imports this module's callers, not this module
+
+            s = segment_first_hit(dem, origin, points[unsure])
+            with np.errstate(invalid="ignore"):
+                visible[unsure] = ~(s * d_point[unsure] < d_point[unsure] - tol[unsure])  # NaN: no hit, seen
     return uv, visible
+
+
+def neighbour_depth(xyz: np.ndarray, uv, origin) -> np.ndarray:
+    """(N,) the largest distance from ``origin`` of the ground seen through the pixel containing each of ``uv``
+    ((N, 2)) and its eight neighbours: infinite where one of them sees no ground (sky, void) or lies beyond the
+    photo's edge (the ground between a border pixel's centre and the edge is not in the raster), NaN outside the
+    photo.
+
+    >>> xyz = np.zeros((3, 3, 3)); xyz[..., 1] = [[1030.0], [1010.0], [1000.0]]  # rows farther up the photo
+    >>> neighbour_depth(xyz, [[1.5, 1.5], [1.5, 2.5], [9.0, 1.0]], (0.0, 0.0, 0.0)).tolist()
+    [1030.0, inf, nan]
+    >>> xyz[0, 0] = np.nan  # sky beside the top row
+    >>> neighbour_depth(xyz, [[1.5, 1.5]], (0.0, 0.0, 0.0)).tolist()
+    [inf]
+    """
+    uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
+    height, width = xyz.shape[:2]
+    out = np.full(len(uv), np.nan)
+    with np.errstate(invalid="ignore"):
+        cols, rows = np.floor(uv[:, 0]), np.floor(uv[:, 1])
+        inside = np.flatnonzero((cols >= 0) & (cols < width) & (rows >= 0) & (rows < height))
+    if not inside.size:
+        return out
+    r, c = rows[inside].astype(int), cols[inside].astype(int)
+    origin = np.asarray(origin, dtype=np.float64)
+    far = np.full(len(inside), -np.inf)
+    for dr in (-1, 0, 1):
+        for dc in (-1, 0, 1):
+            rn, cn = r + dr, c + dc
+            framed = (rn >= 0) & (rn < height) & (cn >= 0) & (cn < width)
+            around = np.linalg.norm(xyz[np.clip(rn, 0, height - 1), np.clip(cn, 0, width - 1)] - origin, axis=1)
+            far = np.maximum(far, np.where(np.isnan(around) | ~framed, np.inf, around))
+    out[inside] = far
+    return out
 
 
 def orthorectify(photo: np.ndarray, camera, dem, xyz: np.ndarray, *,
@@ -174,7 +226,7 @@ def ortho_lookup(camera, dem, xyz: np.ndarray, *, between_chunks: Optional[Calla
         chunk = dem.crop(row0, 0, step, cols).vertices().reshape(-1, 3)
         start = row0 * cols
         finite = np.isfinite(chunk[:, 2])
-        uv, visible = visibility_of_points(camera, chunk[finite], xyz)
+        uv, visible = visibility_of_points(camera, chunk[finite], xyz, dem=dem)
         cells_parts.append(start + np.flatnonzero(finite)[visible])
         uv_parts.append(uv[visible])
         if between_chunks is not None:
@@ -262,7 +314,7 @@ def turnable_lookup(camera, dem, xyz_of, max_degrees: float = 3.0) -> TurnableLo
     xyz = xyz_of(wide)
     pts = dem.vertices().reshape(-1, 3)
     finite = np.isfinite(pts[:, 2])
-    _, visible = visibility_of_points(wide, pts[finite], xyz)
+    _, visible = visibility_of_points(wide, pts[finite], xyz, dem=dem)
     cells = np.flatnonzero(finite)[visible]
     rays = (pts[cells] - np.asarray(wide.position)) @ wide.rotation.T
     return TurnableLookup(tuple(dem.elevation.shape), margin, cells.astype(np.int64), rays, wide.rotation)

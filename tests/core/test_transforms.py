@@ -167,3 +167,28 @@ def test_ground_error_matches_the_spread_of_noisy_pixels(scene):
     # twice the pixel error, about twice the ground error where the terrain is smooth at that scale
     doubled = ground_error_m(uv, cam, dem, 2 * rmse_px)[smooth] / predicted[smooth]
     assert 1.8 < np.median(doubled) < 2.2
+
+
+def test_orthorectify_keeps_terrain_seen_at_a_grazing_angle():
+    """A low camera over a rippled plain, the top of the photo half a degree under the horizon: one pixel row
+    spans many DEM rows far away. The plain depth test left stripes of seen cells out (a trial's flood
+    orthophoto); every cell an exact line of sight sees is kept."""
+    rows, cols, cell = 300, 120, 5.0
+    ground = np.ones((rows, 1)) * 0.3 * np.sin(np.arange(cols) / 7.0)[None, :]
+    dem = Dem.from_array(ground, (0.0, cell, 0.0, rows * cell, 0.0, -cell))
+    x0, y0 = dem.cell_to_map(cols / 2, rows - 1)
+    cam = Camera((x0, y0, 6.0), heading=0.0, pitch=-6.2, roll=0.0, fov=20.0, image_size=(160, 90))
+    photo = render_photo(cam, dem, noise=False)
+    seen = orthorectify(photo, cam, dem, compute_xyz(cam, dem))[..., 3] == 255
+    xs, ys = dem.cell_centres()
+    pts = np.stack([xs.ravel(), ys.ravel(), dem.elevation.ravel()], axis=1)
+    origin = np.asarray(cam.position)
+    s = segment_first_hit(dem, origin, pts)
+    length = np.linalg.norm(pts - origin, axis=1)
+    uv, depth = cam.project_with_depth(pts)
+    with np.errstate(invalid="ignore"):
+        exact = ~(np.isfinite(s) & (s * length < length - (1.0 + 1e-4 * length))) & cam.in_image(uv) & (depth > 0)
+    exact = exact.reshape(dem.shape)
+    assert exact.sum() > 2000
+    assert (seen & exact).sum() > 0.99 * exact.sum()
+    assert (seen & ~exact).sum() < 0.02 * exact.sum()

@@ -141,7 +141,8 @@ def compute_xyz_full(cam: Camera, dem: Dem, max_range: Optional[float] = None, c
         rel_tol, abs_tol: a cell centre counts as visible when the surface seen at its pixel is no nearer than its
             own range minus ``rel_tol * range + abs_tol`` (abs_tol defaults to one cell). Decided at pixel
             resolution: cells that project within a pixel of an occluding ridge can be misjudged; for exact
-            line-of-sight tests use :func:`segment_first_hit` (``transforms.orthorectify(exact=True)`` does).
+            line-of-sight tests use :func:`segment_first_hit` (``lookup.visibility_of_points`` does where the
+            pixels cannot decide).
         near: terrain nearer than this depth (metres along the optical axis) is clipped away; the far bands of a
             level-of-detail view (:mod:`..xyz_lod`) start at their own depth.
         spans: None, or (lo, hi): (rows,) integer arrays; only the cells [lo[r], hi[r]) of each row r are terrain
