@@ -13,8 +13,8 @@ from typing import Callable, Optional, Tuple
 
 import numpy as np
 
-__all__ = ["sample_xyz", "visibility_of_points", "neighbour_depth", "orthorectify", "OrthoLookup", "ortho_lookup", "TurnableLookup",
-           "turnable_lookup", "widened"]
+__all__ = ["sample_xyz", "visibility_of_points", "neighbour_depth", "orthorectify", "OrthoLookup", "ortho_lookup",
+           "TurnableLookup", "turnable_lookup", "widened"]
 
 
 def sample_xyz(xyz: np.ndarray, uv, origin=None, max_jump: float = 0.05) -> np.ndarray:
