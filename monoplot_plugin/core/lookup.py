@@ -13,7 +13,7 @@ from typing import Callable, Optional, Tuple
 
 import numpy as np
 
-__all__ = ["sample_xyz", "visibility_of_points", "neighbour_depth", "orthorectify", "OrthoLookup", "ortho_lookup",
+__all__ = ["sample_xyz", "visibility_of_points", "farthest_around", "orthorectify", "OrthoLookup", "ortho_lookup",
            "TurnableLookup", "turnable_lookup", "widened"]
 
 
@@ -66,7 +66,7 @@ def sample_xyz(xyz: np.ndarray, uv, origin=None, max_jump: float = 0.05) -> np.n
 
 
 def visibility_of_points(camera, points: np.ndarray, xyz: np.ndarray, tolerance: Optional[float] = None,
-                         dem=None) -> Tuple[np.ndarray, np.ndarray]:
+                         dem=None, far: Optional[np.ndarray] = None) -> Tuple[np.ndarray, np.ndarray]:
     """Project ground points into the photo and tell which ones the camera sees.
 
     A point is visible when it projects inside the photo and is not farther from the camera than the ground seen
@@ -76,7 +76,7 @@ def visibility_of_points(camera, points: np.ndarray, xyz: np.ndarray, tolerance:
     Terrain seen at a grazing angle spans far more depth in one pixel than that, and an orthophoto of a low camera
     over flat ground had stripes of its seen cells left out. So with ``dem`` (the terrain the raster was made of), a
     point that fails the test but lies no farther than the farthest ground seen through the neighbouring pixels
-    (:func:`neighbour_depth`) is decided by the exact line of sight
+    (``far``, :func:`farthest_around` of ``xyz``: computed when not given) is decided by the exact line of sight
     (:func:`~monoplot_plugin.core.xyz.segment_first_hit`): seen when nothing stops the ray before it, within the
     same tolerance. A point beyond all of them is hidden whatever the angle.
 
@@ -96,49 +96,43 @@ def visibility_of_points(camera, points: np.ndarray, xyz: np.ndarray, tolerance:
         candidate = (depth > 0) & camera.in_image(uv) & np.isfinite(d_seen)
         visible = candidate & (d_point <= d_seen + tol)
     if dem is not None:
-        with np.errstate(invalid="ignore"):
-            unsure = np.flatnonzero(candidate & ~visible & (d_point <= neighbour_depth(xyz, uv, origin) + tol))
-        if unsure.size:
-            from .xyz import segment_first_hit  # the xyz package imports this module's callers, not this module
+        failed = np.flatnonzero(candidate & ~visible)
+        if failed.size:
+            far = farthest_around(xyz, origin) if far is None else far
+            r = np.clip(np.floor(uv[failed, 1]).astype(np.int64), 0, xyz.shape[0] - 1)
+            c = np.clip(np.floor(uv[failed, 0]).astype(np.int64), 0, xyz.shape[1] - 1)
+            unsure = failed[d_point[failed] <= far[r, c] + tol[failed]]
+            if unsure.size:
+                from .xyz import segment_first_hit  # not at import: the xyz package is the heavier one
 
-            s = segment_first_hit(dem, origin, points[unsure])
-            with np.errstate(invalid="ignore"):
-                visible[unsure] = ~(s * d_point[unsure] < d_point[unsure] - tol[unsure])  # NaN: no hit, seen
+                s = segment_first_hit(dem, origin, points[unsure])
+                with np.errstate(invalid="ignore"):
+                    visible[unsure] = ~(s * d_point[unsure] < d_point[unsure] - tol[unsure])  # NaN: no hit, seen
     return uv, visible
 
 
-def neighbour_depth(xyz: np.ndarray, uv, origin) -> np.ndarray:
-    """(N,) the largest distance from ``origin`` of the ground seen through the pixel containing each of ``uv``
-    ((N, 2)) and its eight neighbours: infinite where one of them sees no ground (sky, void) or lies beyond the
-    photo's edge (the ground between a border pixel's centre and the edge is not in the raster), NaN outside the
-    photo.
+def farthest_around(xyz: np.ndarray, origin) -> np.ndarray:
+    """(H, W) float32: the largest distance from ``origin`` of the ground seen through each pixel of ``xyz``
+    ((H, W, 3)) and its eight neighbours; infinite where one of them sees no ground (sky, void) or lies beyond the
+    photo's edge (the ground between a border pixel's centre and the edge is not in the raster).
 
-    >>> xyz = np.zeros((3, 3, 3)); xyz[..., 1] = [[1030.0], [1010.0], [1000.0]]  # rows farther up the photo
-    >>> neighbour_depth(xyz, [[1.5, 1.5], [1.5, 2.5], [9.0, 1.0]], (0.0, 0.0, 0.0)).tolist()
-    [1030.0, inf, nan]
-    >>> xyz[0, 0] = np.nan  # sky beside the top row
-    >>> neighbour_depth(xyz, [[1.5, 1.5]], (0.0, 0.0, 0.0)).tolist()
-    [inf]
+    >>> xyz = np.zeros((3, 2, 3)); xyz[..., 1] = [[1030.0], [1010.0], [1000.0]]  # rows farther up the photo
+    >>> farthest_around(xyz, (0.0, 0.0, 0.0)).tolist()
+    [[inf, inf], [inf, inf], [inf, inf]]
+    >>> xyz = np.zeros((3, 3, 3)); xyz[..., 1] = [[1030.0], [1010.0], [1000.0]]
+    >>> float(farthest_around(xyz, (0.0, 0.0, 0.0))[1, 1])
+    1030.0
     """
-    uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
     height, width = xyz.shape[:2]
-    out = np.full(len(uv), np.nan)
-    with np.errstate(invalid="ignore"):
-        cols, rows = np.floor(uv[:, 0]), np.floor(uv[:, 1])
-        inside = np.flatnonzero((cols >= 0) & (cols < width) & (rows >= 0) & (rows < height))
-    if not inside.size:
-        return out
-    r, c = rows[inside].astype(int), cols[inside].astype(int)
-    origin = np.asarray(origin, dtype=np.float64)
-    far = np.full(len(inside), -np.inf)
-    for dr in (-1, 0, 1):
-        for dc in (-1, 0, 1):
-            rn, cn = r + dr, c + dc
-            framed = (rn >= 0) & (rn < height) & (cn >= 0) & (cn < width)
-            around = np.linalg.norm(xyz[np.clip(rn, 0, height - 1), np.clip(cn, 0, width - 1)] - origin, axis=1)
-            far = np.maximum(far, np.where(np.isnan(around) | ~framed, np.inf, around))
-    out[inside] = far
-    return out
+    dist = np.full((height + 2, width + 2), np.inf, dtype=np.float32)
+    inner = np.sqrt(np.sum((xyz - np.asarray(origin, dtype=np.float64)) ** 2, axis=2))
+    dist[1:-1, 1:-1] = np.where(np.isnan(inner), np.inf, inner)
+    far = dist[1:-1, 1:-1].copy()
+    for dr in (0, 1, 2):
+        for dc in (0, 1, 2):
+            if (dr, dc) != (1, 1):
+                np.maximum(far, dist[dr:dr + height, dc:dc + width], out=far)
+    return far
 
 
 def orthorectify(photo: np.ndarray, camera, dem, xyz: np.ndarray, *,
@@ -220,13 +214,14 @@ def ortho_lookup(camera, dem, xyz: np.ndarray, *, between_chunks: Optional[Calla
     caller's progress, and its cancel: an exception it raises goes through unchanged)."""
     rows, cols = dem.shape
     cells_parts, uv_parts = [], []
+    far = farthest_around(xyz, camera.position)  # once for all chunks: where a grazing cell may still be seen
     total = rows * cols
     step = max(1, int(chunk_cells) // max(1, cols))  # whole rows: the cell centres of one block at a time (all of
     for row0 in range(0, rows, step):  # a 10 M-cell grid's took 240 MB, their temporaries more)
         chunk = dem.crop(row0, 0, step, cols).vertices().reshape(-1, 3)
         start = row0 * cols
         finite = np.isfinite(chunk[:, 2])
-        uv, visible = visibility_of_points(camera, chunk[finite], xyz, dem=dem)
+        uv, visible = visibility_of_points(camera, chunk[finite], xyz, dem=dem, far=far)
         cells_parts.append(start + np.flatnonzero(finite)[visible])
         uv_parts.append(uv[visible])
         if between_chunks is not None:
