@@ -156,6 +156,15 @@ class _Band:
     def set_visible(self, visible: bool) -> None:
         self.band.setVisible(visible)
 
+    def set_style(self, color: QColor, fill: Optional[QColor] = None, width: Optional[float] = None) -> None:
+        """Restroke (and refill) the band: the same geometry drawn stronger or fainter."""
+        self.band.setColor(color)
+        self.band.setStrokeColor(color)
+        if fill is not None:
+            self.band.setFillColor(fill)
+        if width is not None:
+            self.band.setWidth(int(round(width)))
+
     def remove(self) -> None:
         scene = self.canvas.scene()
         if scene is not None and self.band.scene() is scene:

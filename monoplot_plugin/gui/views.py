@@ -96,13 +96,19 @@ class PhotoPresenter:
         self.canvas.scene().removeItem(self.cursor)
 
 
+#: The rough camera's dashed wedge (stroke, fill, width): strong while it is the only camera, faint once a camera is
+#: fitted (a trial's wedge, aimed by a guess at the DEM's centre, still pointed 155 deg away from the registered
+#: camera and read as where the photo looks).
+PRIOR_STYLE = (QColor(255, 170, 0), QColor(255, 170, 0, 40), 2)
+PRIOR_STYLE_FITTED = (QColor(255, 170, 0, 110), QColor(255, 170, 0, 0), 1)
+
+
 class MapPresenter:
     def __init__(self, controller, canvas: QgsMapCanvas):
         self.c = controller
         self.canvas = canvas
         self.markers = PointMarkers(canvas, crs=QgsCoordinateReferenceSystem())
-        self.prior_band = PolygonBand(canvas, QColor(255, 170, 0), QColor(255, 170, 0, 40), width=2, z=8,
-                                      dashed=True)
+        self.prior_band = PolygonBand(canvas, *PRIOR_STYLE, z=8, dashed=True)
         # outline only: the footprint layer in the project carries the fill
         self.fitted_band = PolygonBand(canvas, QColor(40, 130, 255), QColor(40, 130, 255, 0), width=2, z=9)
         self.camera_marker = _cursor_marker(canvas, QColor(255, 40, 40))
@@ -173,6 +179,7 @@ class MapPresenter:
     def redraw_camera(self, fitted_footprint_wkt: str = "") -> None:
         self.prior_band.crs = self.fitted_band.crs = self.crs
         prior, fitted = self.c.prior, self.c.fitted
+        self.prior_band.set_style(*(PRIOR_STYLE if fitted is None else PRIOR_STYLE_FITTED))
         self.show_wedge(prior)
         self.fitted_band.set_geometry(QgsGeometry.fromWkt(fitted_footprint_wkt) if fitted_footprint_wkt else None)
         cam = fitted or prior

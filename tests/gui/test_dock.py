@@ -204,6 +204,16 @@ def test_unticking_the_monoplot_group_hides_the_dock_items_on_the_map(dock, scen
     view = dock.map_view
     group = QgsProject.instance().layerTreeRoot().findGroup(GROUP_NAME)
     assert view.fitted_band.band.isVisible() and view.camera_marker.isVisible()
+    # the rough camera's wedge is faint beside a fitted camera (a trial read a guessed wedge as where the photo
+    # looks), and strong again without one
+    assert c.prior is not None and not view.prior_band.band.asGeometry().isEmpty()
+    assert view.prior_band.band.strokeColor().alpha() < 128 and view.prior_band.band.fillColor().alpha() == 0
+    saved, c.state.fitted = c.state.fitted, None
+    c.cameraChanged.emit()
+    assert view.prior_band.band.strokeColor().alpha() == 255 and view.prior_band.band.fillColor().alpha() > 0
+    c.state.fitted = saved
+    c.cameraChanged.emit()
+    assert view.prior_band.band.strokeColor().alpha() < 128
     group.setItemVisibilityChecked(False)
     assert not view.shown and not view.fitted_band.band.isVisible() and not view.prior_band.band.isVisible()
     assert not view.camera_marker.isVisible() and not any(b.isVisible() for b in view.markers.bands.values())
