@@ -301,24 +301,35 @@ class Dem:
         return np.stack([x, y, self.elevation.astype(np.float64)], axis=-1)
 
     # --- sampling ---------------------------------------------------------------------------------------------
-    def sample(self, x, y, method: str = "bilinear"):
+    def sample(self, x, y, method: str = "bilinear", to_extent: bool = False):
         """Height at map points; NaN outside the mesh (beyond the outer cell centres) or next to a void.
 
         Args:
             x, y: scalars or arrays of the same shape (map units).
             method: "bilinear" (bilinear between the four surrounding centres) or "mesh" (the two-triangle
                 surface that :func:`~monoplot_plugin.core.xyz.compute_xyz` intersects).
+            to_extent: points in the outer half of an edge cell (inside the raster's extent, beyond the outer cell
+                centres) take the height of the nearest point of the mesh's edge instead of NaN: a point a person
+                places on the map there (a trial's summit on the DEM's last half cell lost its height, and its pair
+                was left out of the fit without a word).
         Returns:
             float or float64 array shaped like x.
 
         >>> dem = Dem.from_array([[0.0, 0.0], [0.0, 4.0]], (0, 1, 0, 2, 0, -1))
         >>> float(dem.sample(1.25, 0.75)), float(dem.sample(1.25, 0.75, method="mesh"))
         (2.25, 3.0)
+        >>> bool(np.isnan(dem.sample(1.9, 0.1))), float(dem.sample(1.9, 0.1, to_extent=True))
+        (True, 4.0)
         """
         col, row = self.map_to_cell(x, y)
         scalar = np.ndim(col) == 0
         fc = np.atleast_1d(np.asarray(col, dtype=np.float64)) - 0.5
         fr = np.atleast_1d(np.asarray(row, dtype=np.float64)) - 0.5
+        if to_extent:
+            with np.errstate(invalid="ignore"):
+                edge = (fc >= -0.5) & (fr >= -0.5) & (fc <= self.cols - 0.5) & (fr <= self.rows - 0.5)
+            fc = np.where(edge, np.clip(fc, 0.0, self.cols - 1), fc)
+            fr = np.where(edge, np.clip(fr, 0.0, self.rows - 1), fr)
         out = np.full(fc.shape, np.nan)
         inside = (fc >= 0) & (fr >= 0) & (fc <= self.cols - 1) & (fr <= self.rows - 1)
         if self.cols >= 2 and self.rows >= 2 and inside.any():

@@ -259,8 +259,9 @@ class ChipView(QWidget):
 
     def _project(self, camera: Camera, points) -> Optional[np.ndarray]:
         c = self.controller
-        xyz = np.array([(q.x, q.y, q.z if q.z is not None else (float(c.dem.sample(q.x, q.y)) if c.dem is not None
-                                                                 else np.nan)) for q in points], dtype=float)
+        xyz = np.array([(q.x, q.y, q.z if q.z is not None else
+                         (float(c.dem.sample(q.x, q.y, to_extent=True)) if c.dem is not None else np.nan))
+                        for q in points], dtype=float)
         if not len(xyz):
             return None
         uv, depth = camera.project_with_depth(xyz)

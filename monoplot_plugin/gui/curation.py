@@ -164,7 +164,7 @@ class CurationMixin:
     def add_manual(self, space: str, x: float, y: float) -> str:
         z = None
         if space == MAP and self.dem is not None:
-            zz = float(self.dem.sample(x, y))
+            zz = float(self.dem.sample(x, y, to_extent=True))
             z = zz if math.isfinite(zz) else None
         p = Point.new(space, x, y, z, status=ACCEPTED, manual=True)
         self.stack.push(add_points(self.state, [p], self.tr("Add point")))
@@ -175,7 +175,7 @@ class CurationMixin:
         p = self.state.points[pid]
         z = None
         if p.space == MAP and self.dem is not None:
-            zz = float(self.dem.sample(x, y))
+            zz = float(self.dem.sample(x, y, to_extent=True))
             z = zz if math.isfinite(zz) else None
         self.stack.push(move_point(self.state, pid, x, y, z))
 

@@ -33,9 +33,26 @@ class FittingMixin:
         photo = self.state.in_space(PHOTO, (ACCEPTED,))
         world = [p for p in self.state.in_space(MAP, (ACCEPTED,))]
         if self.dem is not None:
-            world = [p if p.z is not None else Point(**{**p.__dict__, "z": float(self.dem.sample(p.x, p.y))})
-                     for p in world]
+            world = [p if p.z is not None else
+                     Point(**{**p.__dict__, "z": float(self.dem.sample(p.x, p.y, to_extent=True))}) for p in world]
         return photo, [p for p in world if p.z is not None and math.isfinite(p.z)]
+
+    def heightless_text(self) -> str:
+        """What the fit leaves out of the accepted map points for want of a height (off the DEM, or on a void, and
+        no height of their own), "" when none: a trial's pair was dropped without a word."""
+        kept = {p.id for p in self._accepted_for_fit()[1]}
+        left = [p for p in self.state.in_space(MAP, (ACCEPTED,)) if p.id not in kept]
+        if not left:
+            return ""
+        paired = {b.id for _, b in self.state.valid_pairs()}
+        n_paired = sum(p.id in paired for p in left)
+        text = (self.tr("1 accepted DEM point has no height (off the DEM or on a void) and is left out")
+                if len(left) == 1 else
+                self.tr("{0} accepted DEM points have no height (off the DEM or on a void) and are left out")
+                .format(len(left)))
+        if n_paired:
+            text += self.tr(", with its pair") if n_paired == 1 else self.tr(", with {0} pairs").format(n_paired)
+        return text + self.tr(": move them onto the DEM.")
 
     def fit_inputs(self):
         """(photo uv (N, 2), map xyz (M, 3), pairs [(i, j)]) of the accepted points, or a reason string."""
@@ -95,6 +112,9 @@ class FittingMixin:
             self.message.emit(inputs, WARNING)
             return False
         uv, xyz, pairs = inputs
+        heightless = self.heightless_text()
+        if heightless:
+            self.message.emit(heightless, WARNING)
         n_links = len(self.state.valid_pairs())
         if 0 < n_links < self.MIN_POINTS:
             self.message.emit(self.tr("{0} pair(s) ignored: a paired fit needs at least {1}; fitting without "
@@ -137,6 +157,8 @@ class FittingMixin:
                 outcome.info["sigma_px"] = engine.finite_or_none(widened)
             outcome.info.update(self.moved_from_prior(outcome.camera, xyz, options))
             self.doubt_a_moved_camera(outcome.info)
+            if heightless:  # said before the fit too; the fit's message stays with its camera
+                outcome.info["message"] = (outcome.info.get("message", "") + " " + heightless).strip()
             if 0 < n_links < self.MIN_POINTS:  # said before the fit too, but its message replaced that at once
                 outcome.info["message"] = (outcome.info.get("message", "") + " " + self.tr(
                     "Your {0} linked pair(s) were fitted as unpaired points: a paired fit needs at least {1}.")

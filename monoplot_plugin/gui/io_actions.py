@@ -184,7 +184,7 @@ def export_points_csv(controller, path: str) -> int:
 
 
 def _dem_z(c, p: Point) -> float:
-    return float(c.dem.sample(p.x, p.y)) if c.dem is not None else float("nan")
+    return float(c.dem.sample(p.x, p.y, to_extent=True)) if c.dem is not None else float("nan")
 
 
 def _layer_fields():

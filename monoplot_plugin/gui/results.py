@@ -52,7 +52,7 @@ class ResultsMixin:
     def _ground_z(self, p: object) -> Optional[float]:
         if p.z is not None:
             return p.z
-        z = float(self.dem.sample(p.x, p.y)) if self.dem is not None else float("nan")
+        z = float(self.dem.sample(p.x, p.y, to_extent=True)) if self.dem is not None else float("nan")
         return z if math.isfinite(z) else None
 
     def check_points(self):
@@ -172,7 +172,7 @@ class ResultsMixin:
                      and pts[a].status == ACCEPTED and pts[b].status == ACCEPTED]
             if not links:
                 return []
-            world = np.array([(b.x, b.y, b.z if b.z is not None else float(self.dem.sample(b.x, b.y))
+            world = np.array([(b.x, b.y, b.z if b.z is not None else float(self.dem.sample(b.x, b.y, to_extent=True))
                                if self.dem is not None else 0.0) for _, b in links])
             proj = cam.project(world)
             for (a, _), q in zip(links, proj):
