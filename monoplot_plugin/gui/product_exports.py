@@ -77,6 +77,13 @@ class ProductExports:
         info = self.controller.state.fit_info if isinstance(self.controller.state.fit_info, dict) else {}
         verdict = f"{info.get('status', '')}: {info.get('message', '')}" if info.get("status") else ""
         accuracy = self.controller.ground_accuracy_text().strip(" ()") if what == "report" else ""
+        if what == "report" and verdict and c.fit_points_changed():
+            # a trial's report drew the points of after an edit ("RMSE 7.94 px on 6 points") under the figures of
+            # the fit before it ("paired fit on 7 pairs: RMSE 7.5 px"), and nothing said the two differ
+            stale = self.tr("The accepted points changed after this fit: the points drawn are the current ones, "
+                            "the figures the fit's. Fit again for a report whose figures match them.")
+            verdict = f"{info.get('status', '')}: {stale} {info.get('message', '')}"
+            c.message.emit(stale, Qgis.MessageLevel.Warning)
 
         def work(progress=None, is_canceled=None):
             if what == "xyz":

@@ -40,3 +40,24 @@ def test_report_inputs_core_summary_std_still_read(dock_with_fit):
     dock, tools = dock_with_fit
     dock.controller.state.fit_info = {"std": {"x": 3.0}}
     assert dock.controller.report_inputs() == (None, {"x": 3.0})
+
+
+def test_a_report_after_the_points_changed_says_its_figures_are_the_fits(dock_with_fit, plane_scene, tmp_path,
+                                                                          qgis_iface):
+    """A trial's report drew the points of after an edit under the figures of the fit before it, unsaid."""
+    from qgis.core import Qgis
+
+    dock, tools = dock_with_fit
+    c = dock.controller
+    photo, world = _accepted_points(c, plane_scene)
+    c.state.fit_info = {"status": "ok", "message": "paired fit on 8 pairs: RMSE 0.5 px.", "rmse_px": 0.5,
+                        "fit_point_xy": {p.id: (p.x, p.y) for p in photo + world}}
+    bar = qgis_iface.messageBar()
+    bar.clearWidgets()
+    assert tools.export_report(tmp_path / "same.png").exists()
+    assert not any("changed after this fit" in m for m in bar.get_messages(Qgis.MessageLevel.Warning))
+    c.move(photo[0].id, photo[0].x + 3.0, photo[0].y)
+    assert c.fit_points_changed()
+    assert tools.export_report(tmp_path / "changed.png").exists()
+    assert any("The accepted points changed after this fit" in m
+               for m in bar.get_messages(Qgis.MessageLevel.Warning))
