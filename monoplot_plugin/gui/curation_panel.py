@@ -352,10 +352,12 @@ class CurationPanel(QWidget):
             if sl.clutter and chance(sl.sigma, max(sl.clutter.values())) >= 1.0:
                 # the real reason on a real print: its camera's error (a trial's "ok" fit, 10 px on the GCPs)
                 # against 2,000 suggestions a view; "within 8 px" sent it looking at the wrong setting
+                # "Thin them (Reject the rest)" led a trial nowhere on a print (300 a view still too dense for
+                # ± 35 px): what shrinks the camera's uncertainty is pairs a person judges
                 tip = self.tr("No linked pairs: the suggestions are too dense for the current camera's uncertainty "
-                              "(± {0:.0f} px): a partner that near would as likely be there by chance. Thin them "
-                              "(Reject the rest) or judge pairs yourself; the links come as the camera firms "
-                              "up").format(sl.sigma)
+                              "(± {0:.0f} px): a partner that near would as likely be there by chance. Pair a few "
+                              "more points yourself (Shift+click) and fit: the links come as the camera's "
+                              "uncertainty shrinks").format(sl.sigma)
             else:
                 tip = self.tr("No linked pairs: under the current camera no undecided suggestion has a partner in "
                               "the other view within {0:.0f} px (Options: pairs within), nearer than "
