@@ -68,7 +68,9 @@ class _Labels:
         return sum(max(0.0, min(x1, b[2]) - max(x0, b[0])) * max(0.0, min(y1, b[3]) - max(y0, b[1]))
                    for b in self.boxes + others)
 
-    def add(self, name: str, u: float, v: float, colour: str) -> None:
+    def add(self, name: str, u: float, v: float, colour: str, only_if_free: bool = False) -> bool:
+        """Draw ``name`` beside (u, v); with ``only_if_free`` not at all when every place covers something
+        (returns whether it was drawn)."""
         (x, y), = self._display([(u, v)])
         pad = _LABEL_BOX["pad"] * self.fontsize * self.pt  # the backing's margin around the text
         w, h = 0.6 * self.fontsize * len(name) * self.pt, 1.2 * self.fontsize * self.pt
@@ -82,6 +84,8 @@ class _Labels:
                 best = (cost, dx, dy, box)
             if cost == 0.0:
                 break
+        if only_if_free and best[0] > 0.0:
+            return False
         _, dx, dy, box = best
         self.boxes.append(box)
         # a name moved off its first place gets a thin line to its point (a re-check trial gave two names of a
@@ -91,6 +95,7 @@ class _Labels:
         self.ax.annotate(name, (u, v), xytext=(dx, dy), textcoords="offset points", color=colour,
                          fontsize=self.fontsize, bbox=_LABEL_BOX, arrowprops=leader, ha="left" if dx > 0 else
                          "right" if dx < 0 else "center", va="top" if dy < 0 else "bottom" if dy > 0 else "center")
+        return True
 
 
 class ReportPoints:
@@ -256,6 +261,10 @@ def verdict_first(verdict: str) -> str:
     return f"Fit status {status}: {message}" if status else f"Fit status {message}"
 
 
+#: Up to this many control points every one is named on the report's photo; beyond it only those whose name has room.
+ALL_LABELS_UP_TO = 40
+
+
 def _draw_points(ax, photo, points, residual, rmse, status="", check_rmse=None, size=None, others=None):
     """The photo (maybe a shrunk copy of a picture of ``size`` (W, H) px: the points stay in its pixels) with the
     control points, their reprojections and residuals, and the status badge. Returns the :class:`_Labels` holding
@@ -293,8 +302,13 @@ def _draw_points(ax, photo, points, residual, rmse, status="", check_rmse=None, 
         shown.append(np.asarray(others, dtype=np.float64).reshape(-1, 2))
     labels = _Labels(ax, np.vstack(shown) if shown else np.zeros((0, 2)))
     if has_points:
-        for name, (u, v) in zip(points.names, points.uv):
-            labels.add(str(name), u, v, "yellow")
+        crowded = len(points.uv) > ALL_LABELS_UP_TO
+        # the largest residuals named first (the text lists them by name); past ALL_LABELS_UP_TO points a name
+        # that would cover another is left out (a trial's automatic registration: 333 names over each other)
+        order = np.argsort(-np.hypot(*np.nan_to_num(residual, nan=0.0).T), kind="stable") if crowded else \
+            range(len(points.uv))
+        for i in order:
+            labels.add(str(points.names[i]), points.uv[i, 0], points.uv[i, 1], "yellow", only_if_free=crowded)
     return labels
 
 

@@ -274,3 +274,26 @@ def test_a_sigma_too_large_to_mean_anything_is_said_undetermined(plane_scene):
     by_name = {line.split()[0]: line for line in lines if line.split()}
     assert by_name["heading"].endswith("° (± undetermined)") and by_name["x"].endswith("m (± undetermined)")
     assert "± 0.25" in by_name["pitch"] and "±" not in by_name["roll"]
+
+
+def test_crowded_point_names_give_way_and_the_largest_residuals_are_named():
+    """A trial's automatic registration reported 333 points whose names lay over each other."""
+    from matplotlib.figure import Figure
+
+    from monoplot_plugin.outputs.report import ALL_LABELS_UP_TO, ReportPoints, _draw_points
+
+    rng = np.random.default_rng(1)
+    photo = np.zeros((300, 400, 3), np.uint8)
+
+    def drawn(n):
+        uv = rng.uniform([10, 10], [390, 290], size=(n, 2))
+        residual = rng.normal(0, 1.0, size=(n, 2))
+        residual[0] = (30.0, 0.0)  # the largest
+        ax = Figure(figsize=(8, 6)).add_subplot()
+        _draw_points(ax, photo, ReportPoints(uv, np.zeros((n, 3))), residual, 1.0)
+        return [t.get_text() for t in ax.texts if t.get_text().isdigit()]
+
+    few = drawn(ALL_LABELS_UP_TO)
+    assert sorted(few, key=int) == [str(i + 1) for i in range(ALL_LABELS_UP_TO)]  # all named, as before
+    many = drawn(333)
+    assert "1" in many and 20 < len(many) < 333
