@@ -100,7 +100,10 @@ class ChipView(QWidget):
             label.setStyleSheet("background: #222; color: #ccc;")
             row.addWidget(label)
         outer.addLayout(row)
-        self.caption = QLabel()  # one line, elided (the whole text in its tool tip): no lines of text over the photo
+        # wrapped, not cut at one line (the whole text in its tool tip too): at the smallest chips the camera's word
+        # was cut off ("Photo point · paired (cya…", a trial)
+        self.caption = QLabel()
+        self.caption.setWordWrap(True)
         outer.addWidget(self.caption)
         self._resize_chips(CHIP_PX)
         self._view: Optional[Tuple[dict, QImage]] = None  # (camera dict, rendering) of the rough camera
@@ -159,7 +162,12 @@ class ChipView(QWidget):
     def _set_caption(self, text: str) -> None:
         self.caption.setToolTip(text)
         metrics = self.caption.fontMetrics()
-        self.caption.setText(metrics.elidedText(text, Qt.TextElideMode.ElideRight, self.caption.width()))
+        width = self.caption.width()
+        # at most three lines (the captions are short; elided beyond that)
+        text = metrics.elidedText(text, Qt.TextElideMode.ElideRight, int(2.6 * width))
+        self.caption.setText(text)
+        wrapped = metrics.boundingRect(0, 0, width, 10 * metrics.lineSpacing(), int(Qt.TextFlag.TextWordWrap), text)
+        self.caption.setFixedHeight(max(metrics.lineSpacing(), wrapped.height()) + 2)
 
     def _place(self) -> None:
         """In the corner of the canvas diagonally away from the selected point: it is never under its own chips

@@ -50,6 +50,12 @@ def test_chips_show_the_selected_photo_point_and_its_partner(dock, scene, qtbot)
     assert abs(cyan[:, 1].mean() - (side / 2 + 12 * zoom)) < 4  # the partner where the camera puts it
     assert abs(cyan[:, 0].mean() - side / 2) < 4
     assert "paired" in dock.chips.caption.toolTip()
+    # at the smallest chips the caption takes a second line rather than cutting the camera's word off (a trial:
+    # "Photo point · paired (cya…")
+    dock.chips._resize_chips(72)
+    assert "camera" in dock.chips.caption.text() and "…" not in dock.chips.caption.text()
+    assert dock.chips.caption.height() > dock.chips.caption.fontMetrics().lineSpacing()
+    dock.chips._resize_chips(side)
     # the photo chip is the photo, zoomed: its corner pixel is the photo's pixel there
     img = dock.chips.photo_chip.pixmap().toImage()
     r = chip_radius(scene.camera.width)
