@@ -240,6 +240,8 @@ class AutoPanel(QObject):
                 "sigma": {k: float(v) for k, v in (r.std or {}).items()}, "converged": status == "ok",
                 # its σ as a pixel error on the terrain it matched: what its products are worth
                 "sigma_px": finite(sigma_pixels(done.camera, r.std or {}, world)),
+                # ... unless its σ are the rough camera's own (the edges did not narrow them): no figure then
+                "sigma_is_prior": bool(r.evidence.get("auto_sigma_is_prior")),
                 "message": str(checked["message"]), "mode": "automatic", "n_photo": n_found,
                 "n_map": n_found, "n_pairs": 0, "n_matched": n_found, "elapsed_s": float(r.elapsed_s),
                 "check_rmse_px": checked["check_rmse_px"], "n_check": checked["n_check"],

@@ -251,6 +251,12 @@ class ResultsMixin:
         if source == "unpaired":
             return self.tr(" (no check points: an unpaired fit's residuals do not say how far off its products are "
                            "on the ground; mark a few accepted pairs as check points to know)")
+        if source == "sigma" and info.get("sigma_is_prior"):
+            # a figure from σ no data narrowed is no measure (a trial: "about 820 m on the ground", the camera 13 m
+            # off at the median)
+            return self.tr(" (the camera's σ are no smaller than the rough camera's: the photo's edges did not "
+                           "narrow them, so its error on the ground is not known; mark a few accepted pairs as check "
+                           "points to know)")
         if error_px is None:
             return ""
         words = ground_error_words(ground_error_spread(self.fitted, self.xyz, error_px, self.dem))

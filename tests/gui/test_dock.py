@@ -190,6 +190,11 @@ def test_fit_task_runs_to_completion(dock, scene, qtbot):
     if c.state.fit_info["status"] == "ok":
         assert pixel_error(c.state.fit_info) == (sigma_px, "sigma")
         assert "the camera's σ" in c.ground_accuracy_text() and "an upper estimate" in c.ground_accuracy_text()
+    # σ no data narrowed (an automatic registration whose edges did not support its camera keeps the rough
+    # camera's) give no figure on the ground (a trial: "about 820 m", the camera 13 m off)
+    c.state.fit_info = dict(c.state.fit_info, status="uncertain", mode="automatic", sigma_is_prior=True)
+    text = c.ground_accuracy_text()
+    assert "no smaller than the rough camera's" in text and "not known" in text and " m on the ground" not in text
 
 
 def test_unticking_the_monoplot_group_hides_the_dock_items_on_the_map(dock, scene, qtbot):

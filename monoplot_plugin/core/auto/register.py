@@ -386,6 +386,7 @@ def _finish(finals, at: float, search: _Search):
         # the photo's edges do not support the camera: it is known no better than the prior (before the verdict's
         # message, which quotes the σ shown)
         result.std = widen_std(result.std, {}, [], _prior_std(sig))
+        evidence["auto_sigma_is_prior"] = True
     combine_evidence(result, evidence)
     if keep_prior:
         result = _prior_kept(result, prior, sig)
@@ -472,7 +473,8 @@ def _prior_kept(result: AutoFitResult, prior: Camera, sig: dict) -> AutoFitResul
                          f"The automatic registration did not improve on the prior camera: {why}. The prior is "
                          "kept: check it, pair a few points by hand, or give a closer prior."
                          + (f" Also: {reasons}." if reasons else ""), result.mode, result.free,
-                         evidence=dict(ev, auto_prior_kept=True, auto_no_edges=no_edges), std=_prior_std(sig))
+                         evidence=dict(ev, auto_prior_kept=True, auto_no_edges=no_edges, auto_sigma_is_prior=True),
+                         std=_prior_std(sig))
     kept.image_points, kept.world_points, kept.aligned, kept.skyline = (result.image_points, result.world_points,
                                                                         result.aligned, result.skyline)
     kept.elapsed_s = result.elapsed_s
