@@ -33,7 +33,9 @@ __all__ = ["PhotoJob", "PhotoResult", "folder_jobs", "table_jobs", "run_batch", 
 
 IMAGE_PATTERNS = ("*.jpg", "*.jpeg", "*.png", "*.tif", "*.tiff", "*.bmp")
 
-Log = Callable[[str, bool], None]
+#: ``log(message, error)``: ``error`` True for an error, :data:`WARNING` for a warning, False for information.
+Log = Callable[[str, object], None]
+WARNING = "warning"
 
 
 @dataclass
@@ -347,7 +349,8 @@ def log_result(log: Log, task: FrameTask, total: int, result: PhotoResult) -> No
     not a failure), "skipped" (a blank frame) or "FAILED, skipped"."""
     head = f"[{task.index + 1}/{total}] {task.name}"
     if result.ok:
-        log(f"{head}: {result.message}", False)
+        # at its verdict's level: a trial's "uncertain" rows were plain information lines among the "ok" ones
+        log(f"{head}: {result.message}", {"uncertain": WARNING, "poor": True}.get(result.status, False))
     elif result.canceled:
         log(f"{head}: canceled: {result.message}", True)
     elif result.status == "skipped":

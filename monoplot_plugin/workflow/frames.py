@@ -240,6 +240,12 @@ def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCance
             camera, verdict = fit_job(task.job, size, shared.dem, setup.crs_wkt, photo, is_canceled)
             result.rmse_px, fit_status, fit_message = verdict["rmse_px"], verdict["status"], verdict["message"]
             result.outputs.append(_write_camera(setup, task.stem, camera, verdict))  # with its σ
+            if verdict.get("prior_kept") and (setup.write_xyz or setup.write_ortho):
+                # no camera was found (a trial's indoor photo had its rough camera's XYZ raster and orthophoto
+                # written and counted processed): the camera file says so, no products are made of a guess
+                result.status = "skipped"
+                raise InputError(f"{verdict['message']} No products written (the camera file keeps the rough "
+                                 f"camera and the reasons).")
             products = CameraProducts(camera, shared.dem, setup.resolution, setup.write_ortho, cached=False)
         elif tuple(camera.image_size) != size:
             raise InputError(f"photo is {size[0]}x{size[1]} px but the shared camera is for "
@@ -277,8 +283,9 @@ def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCance
             result.message = f"ok, {whose}" if fit_status == "ok" else f"{fit_status}: {fit_message} ({whose})"
         elif fit_status == "ok":
             result.message = f"ok, fit RMSE {result.rmse_px:.2f} px"
-        else:  # products written, but the fitted camera is doubtful
-            result.message = f"fit {fit_status}, RMSE {result.rmse_px:.2f} px: {fit_message}"
+        else:  # products written, but the fitted camera is doubtful ("RMSE nan px" of a camera matched nowhere)
+            rmse = f", RMSE {result.rmse_px:.2f} px" if np.isfinite(result.rmse_px) else ""
+            result.message = f"fit {fit_status}{rmse}: {fit_message}"
         if np.isfinite(result.drift_px):
             result.message += (f", drift {result.drift_px:.2f} px ({result.drift_deg:.3f} deg), registered on "
                                f"{result.match_points} points within {result.match_px:.2f} px RMS")
@@ -360,6 +367,7 @@ def fit_job(job, size, dem, crs_wkt: str, photo: Optional[np.ndarray] = None,
         camera.crs_wkt = crs_wkt
         rmse = float(r.rmse_px) if r.rmse_px is not None and np.isfinite(r.rmse_px) else float("nan")
         return camera, {"status": r.status, "rmse_px": rmse, "summary": r.summary(),
+                        "prior_kept": bool(r.evidence.get("auto_prior_kept")),
                         "message": (f"automatic registration (no points in this row; prior "
                                     f"{'from EXIF GPS, ' if from_exif else ''}σ {position:g} m, {angle:g}°): "
                                     + r.message)}

@@ -252,3 +252,62 @@ def test_a_table_row_without_a_prior_starts_from_the_photos_exif_gps(run_alg, sm
     assert rows["gps.jpg"]["status"] in ("ok", "uncertain", "poor") and float(rows["gps.jpg"]["seconds"]) > 0
     assert rows["plain.png"]["status"] == "failed"
     assert "no prior camera in this row, and the photo has no GPS position" in rows["plain.png"]["message"]
+
+
+def test_a_row_whose_registration_keeps_the_rough_camera_gets_no_products(run_alg, tmp_path):
+    """A trial's indoor photo: the registration kept the rough camera (no camera found), and the batch wrote its
+    XYZ raster and orthophoto and counted it processed. Its camera file is written with the reasons; no products,
+    the row "skipped", logged as such."""
+    import cv2
+
+    from monoplot_plugin.core.camera import Camera
+    from monoplot_plugin.core.synthetic import render_photo, synthetic_terrain
+
+    dem = synthetic_terrain((160, 160), cell=60.0, seed=1)  # a ridge-lined valley seen from its south end
+    x0, y0, x1, y1 = dem.bounds()
+    x, y = (x0 + x1) / 2, y0 + 0.03 * (y1 - y0)
+    truth = Camera((x, y, float(dem.sample(x, y)) + 400.0), -5.0, -3.0, 0.5, 55.0, (480, 320), crs_wkt=dem.crs_wkt)
+    dem.save(tmp_path / "dem.tif")
+    clear = render_photo(truth, dem, seed=1).astype(float)  # in a thick fog: faint edges, no camera better
+    faint = clear * 0.07 + 225.0 * 0.93 + np.random.default_rng(0).normal(0.0, 2.0, clear.shape)
+    cv2.imwrite(str(tmp_path / "fog.png"), np.clip(faint, 0, 255).astype(np.uint8)[..., ::-1])
+    truth.with_parameters(heading=truth.heading + 3.0, x=x + 60.0).save(tmp_path / "prior.json")
+    (tmp_path / "photos.csv").write_text("photo,prior,points\nfog.png,prior.json,\n")
+    out = tmp_path / "out"
+
+    class Feedback(QgsProcessingFeedback):
+        errors = []
+
+        def reportError(self, text, fatal=False):  # noqa: N802
+            self.errors.append(text)
+
+    feedback = Feedback()
+    with pytest.raises(QgsProcessingException):  # no photo processed
+        run_alg("batch", {"MODE": 1, "DEM": str(tmp_path / "dem.tif"), "TABLE": str(tmp_path / "photos.csv"),
+                          "XYZ": True, "ORTHO": True, "WORKERS": 1, "OUTPUT": str(out)}, feedback)
+    with open(out / "batch_log.csv", newline="") as fh:
+        row = next(csv.DictReader(fh))
+    camera = json.loads((out / "fog_camera.json").read_text())
+    assert camera["fit"]["status"] in ("uncertain", "poor") and "prior is kept" in camera["fit"]["message"]
+    assert row["status"] == "skipped" and "No products written" in row["message"], row
+    assert not (out / "fog_xyz.tif").exists() and not (out / "fog_ortho.tif").exists()
+    assert any("fog.png: skipped" in m for m in feedback.errors), feedback.errors
+
+
+def test_a_doubtful_rows_log_line_is_a_warning(run_alg, small_scene, tmp_path):
+    """"uncertain" is logged as a warning (the README says so; a trial's were plain information lines)."""
+    cam = small_scene["cam"]
+    cam.with_parameters(heading=cam.heading - 1.0).save(tmp_path / "prior.json")
+    write_photo(tmp_path / "noise.png", seed=5)  # no skyline: registered on chance matches, "uncertain"
+
+    class Feedback(QgsProcessingFeedback):
+        warnings = []
+
+        def pushWarning(self, text):  # noqa: N802
+            self.warnings.append(text)
+
+    feedback = Feedback()
+    (tmp_path / "photos.csv").write_text("photo,prior,points\nnoise.png,prior.json,\n")
+    run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"), "XYZ": False,
+                      "ORTHO": False, "WORKERS": 1, "OUTPUT": str(tmp_path / "out")}, feedback)
+    assert any(m.startswith("[1/1] noise.png: fit uncertain") for m in feedback.warnings), feedback.warnings

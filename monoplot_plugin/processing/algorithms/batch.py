@@ -16,7 +16,7 @@ from qgis.core import (
 )
 
 from ...outputs.safe_write import cancel_before_commit, write_text
-from ...workflow.auto import DEFAULT_ANGLE_SIGMA_DEG, DEFAULT_POSITION_SIGMA_M
+from ...workflow.auto import DEFAULT_ANGLE_SIGMA_DEG, DEFAULT_POSITION_SIGMA_M, GPS_POSITION_SIGMA_M
 from ...workflow.camera_files import camera_json
 from .. import batch
 from ..base import MonoplotAlgorithm, checked
@@ -40,7 +40,8 @@ class BatchPhotos(MonoplotAlgorithm):
              "POSITION_SIGMA and ANGLE_SIGMA, or the row's own in optional columns position_sigma (m) and "
              "angle_sigma (degrees). A row whose prior cell is empty starts from the photo's EXIF GPS position and "
              "direction, as autoregister does, with a position uncertainty of 30 m unless POSITION_SIGMA is set "
-             "to another value or the row gives its own (a photo without GPS tags fails, with the reason; one "
+             "or the row gives its own (a camera file's rows: 200 m; a photo without GPS tags fails, with the "
+             "reason; one "
              "without a direction tag is registered over every direction of view, three to four times as long).\n\n"
              "A KML camera (a rough prior) takes its image size from the first readable photo.\n\n"
              "Progress is reported per photo. A photo that cannot be read (damaged, truncated, not an image) or "
@@ -94,8 +95,10 @@ class BatchPhotos(MonoplotAlgorithm):
                                                      QgsProcessingParameterFile.File, optional=True,
                                                      fileFilter="CSV (*.csv)"))
         self.addParameter(QgsProcessingParameterNumber(
-            "POSITION_SIGMA", self.tr("Uncertainty of the priors' position (m, one sigma; table rows without points)"),
-            QgsProcessingParameterNumber.Double, DEFAULT_POSITION_SIGMA_M, optional=True, minValue=1.0))
+            "POSITION_SIGMA", self.tr("Uncertainty of the priors' position (m, one sigma; table rows without points; "
+                                      "empty = {0:.0f} m for EXIF GPS, {1:.0f} m for a camera file)").format(
+                GPS_POSITION_SIGMA_M, DEFAULT_POSITION_SIGMA_M),
+            QgsProcessingParameterNumber.Double, None, optional=True, minValue=1.0))
         self.addParameter(QgsProcessingParameterNumber(
             "ANGLE_SIGMA", self.tr("Uncertainty of the priors' heading and pitch (degrees, one sigma; table rows "
                                    "without points)"),
@@ -174,23 +177,24 @@ class BatchPhotos(MonoplotAlgorithm):
                                                      "time-lapse mode and give FOLDER and CAMERA)."))
             photo_folder = os.path.dirname(os.path.abspath(self.parameterAsFile(parameters, "TABLE", context)))
             jobs = checked(batch.table_jobs, self.parameterAsFile(parameters, "TABLE", context))
-            position = self.parameterAsDouble(parameters, "POSITION_SIGMA", context) or DEFAULT_POSITION_SIGMA_M
+            # empty: each row's own default (a trial's 200 typed in, the old default, silently meant 30 m for its
+            # EXIF rows)
+            position = (None if parameters.get("POSITION_SIGMA") in (None, "") else
+                        self.parameterAsDouble(parameters, "POSITION_SIGMA", context) or None)
             angle = self.parameterAsDouble(parameters, "ANGLE_SIGMA", context) or DEFAULT_ANGLE_SIGMA_DEG
             from ...adapters.exif import exif_rough_camera
 
             for job in jobs:  # a row's own columns first
                 if not job.prior:  # the photo's EXIF GPS, with a GPS's uncertainty unless one was asked for
                     job.prior_reader = exif_rough_camera
-                    if position != DEFAULT_POSITION_SIGMA_M:
-                        job.position_sigma_m = job.position_sigma_m or position
-                else:
-                    job.position_sigma_m = job.position_sigma_m or position
+                job.position_sigma_m = job.position_sigma_m or position  # None: the row's default (fit_job)
                 job.angle_sigma_deg = job.angle_sigma_deg or angle
             camera_verdict = ("ok", "")  # each row's own fit says
         feedback.pushInfo(self.tr("{0} photos to process").format(len(jobs)))
 
         def log(message, error):
-            (feedback.reportError if error else feedback.pushInfo)(message)
+            (feedback.pushWarning if error == batch.WARNING else feedback.reportError if error else
+             feedback.pushInfo)(message)
 
         def progress(fraction, message=""):
             feedback.setProgress(100.0 * fraction)
