@@ -102,12 +102,14 @@ def check_height(result, prior: Camera, dem) -> None:
     said = ""
     if grounded and math.isfinite(clearance) and abs(clearance - eye) > ON_GROUND_MAX_M:
         said = (f"The camera found is {clearance:.0f} m above the terrain, but the rough camera stood on the ground "
-                f"({eye:.0f} m): check it, or fit it on points with the camera height on the ground.")
+                f"({eye:.0f} m): check it, or fit it on points with the camera held on the ground (the dock's Fit "
+                f"settings, or fitcamera's Camera height).")
     elif grounded and math.isfinite(clearance) and clearance < -UNDERGROUND_TOLERANCE_M:
         # the registration itself never holds a camera on the ground: say what does (a trial's phone photo was told
         # to set "camera height: automatic", which it already was)
         said = (f"The camera found is {-clearance:.0f} m under the terrain; the rough camera stood on the ground, "
-                f"where Fit on the matched points holds it (camera height automatic or on the ground).")
+                f"where a fit on the matched points holds it (camera height automatic or on the ground, in the dock's "
+                f"Fit settings or fitcamera's Camera height).")
     if said:
         result.message = f"{result.message} {said}"
         if result.status == "ok":

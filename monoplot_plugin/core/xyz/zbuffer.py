@@ -94,8 +94,9 @@ def _cull_sign(cam: Camera, dem: Dem) -> float:
     ground = dem.sample(x, y, method="mesh")
     if not math.isnan(ground) and z <= ground:
         level = logging.DEBUG if getattr(_TRIALS, "on", False) else logging.WARNING
-        logger.log(level, "camera %.1f m below the DEM surface at its position: the terrain is seen from above "
-                   "only", ground - z)
+        # where it stands: a batch's log gave the line twice with nothing to tell which photo's camera it was
+        logger.log(level, "camera at X %.0f, Y %.0f is %.1f m below the DEM surface there: the terrain is seen "
+                   "from above only", x, y, ground - z)
     g = dem.geotransform
     # triangle (r, c), (r, c+1), (r+1, c+1) is counter-clockwise in (col, row); the map flips it when the affine's
     # determinant is negative (north-up), and the image's downward v axis flips it once more
