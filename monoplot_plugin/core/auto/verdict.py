@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..fit.result import sigma_shifts
 from .photo_edges import SKY_FRACTION_MIN, PhotoEdges
 from .sigma import widen_std
 
@@ -21,7 +22,7 @@ if TYPE_CHECKING:  # the registration imports this module
     from .register import AutoFitResult
 
 __all__ = ["alignment_evidence", "combine_evidence", "no_clear_skyline", "SKY_AGREEMENT_OK", "SKY_AGREEMENT_POOR",
-           "EDGE_SCORE_OK", "NEAR_RATIO", "ANGLE_SIGMA_OK", "PROBES_BACK_OK"]
+           "EDGE_SCORE_OK", "NEAR_RATIO", "ANGLE_SIGMA_OK", "PROBES_BACK_OK", "NEAR_SHIFT", "NEAR_SHIFT_SHARE"]
 
 #: Least share of the photo's clear skyline on the DEM's (within 0.4 % of the width) for an "ok". Calibrated on
 #: the synthetic scenes: right cameras 0.95-0.99, a camera 4 deg off in field of view whose suggestions still
@@ -43,6 +44,12 @@ NEAR_RATIO = 0.1
 #: range and 0.25 deg off, "ok" by every other rule (edge score 0.226), 0.70 from rivals the edges could not tell
 #: apart.
 ANGLE_SIGMA_OK = 0.5
+#: An "ok" camera's σ may move at most NEAR_SHIFT_SHARE of the ground it sees by more than NEAR_SHIFT of the
+#: picture's diagonal (:func:`~..fit.sigma_shifts`). The far ridges the edges align can hold a camera whose
+#: position is known only along the view to ± 142 m: a trial's "ok" camera, 33 m off, had its near slope (6 % of
+#: the ground, under 300 m) 367 px off at the median.
+NEAR_SHIFT = 0.03
+NEAR_SHIFT_SHARE = 0.02
 #: Fewest of the four position probes that must come back (within 1 % of the diagonal) for an "ok": right "ok"
 #: cameras of 70 synthetic scenes had 2-4 back (4 for all but one); a wrong one (1.25 % of the range, 23 px on the
 #: terrain) had 1, and another 0.
@@ -107,8 +114,8 @@ def combine_evidence(result: AutoFitResult, ev: dict) -> None:
     result.evidence.update(ev)
     weak = result.weak = []
     if not ev["auto_skyline_usable"]:
-        weak.append(f"{no_clear_skyline(ev)}: the "
-                    "camera rests on suggestions alone")
+        # "rests on suggestions alone" only when some were matched (a trial's fog photo: 0 matched points)
+        weak.append(no_clear_skyline(ev) + (": the camera rests on suggestions alone" if len(result.pairs) else ""))
     elif ev["auto_sky_agreement"] < SKY_AGREEMENT_OK:
         weak.append(f"only {100 * ev['auto_sky_agreement']:.0f} % of the photo's skyline lies on the DEM's "
                     "skyline under the camera")
@@ -142,6 +149,18 @@ def combine_evidence(result: AutoFitResult, ev: dict) -> None:
         # what the edges cannot place, only the prior does: its position σ is the honest one (a desktop trial's near
         # scene said ± 8 / 39 m with the camera 37 m off)
         result.std = widen_std(result.std, {}, [], dict.fromkeys("xyz", float(ev.get("auto_position_sigma_m", 0.0))))
+    ground = getattr(result, "ground", None)
+    if ground is not None and len(ground):
+        shifts = sigma_shifts(result.camera, result.std, ground)
+        limit = NEAR_SHIFT * float(np.hypot(*result.camera.image_size))
+        moved = np.isfinite(shifts) & (shifts > limit)
+        ev["auto_ground_uncertain_share"] = float(moved.mean())
+        result.evidence["auto_ground_uncertain_share"] = ev["auto_ground_uncertain_share"]
+        if ev["auto_ground_uncertain_share"] > NEAR_SHIFT_SHARE:
+            reach = float(np.max(np.linalg.norm(ground[moved] - np.asarray(result.camera.position), axis=1)))
+            weak.append(f"with the camera's σ, {100 * moved.mean():.0f} % of the ground seen (the nearest, within "
+                        f"{reach:.0f} m) may be more than {limit:.0f} px off: the camera is not placed closely enough "
+                        "for the near terrain")
     text = (f" Automatic: skyline on {100 * ev['auto_sky_fraction']:.0f} % of the columns, "
             f"{100 * ev['auto_sky_agreement']:.0f} % of it on the DEM's; {len(result.image_points)} photo and "
             f"{len(result.world_points)} DEM suggestions kept as consistent with the aligned camera.")

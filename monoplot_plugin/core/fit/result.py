@@ -9,7 +9,7 @@ import numpy as np
 
 from ..camera import Camera
 
-__all__ = ["FitResult", "STATUSES", "rmse", "rms", "sigma_undetermined", "sigma_pixels"]
+__all__ = ["FitResult", "STATUSES", "rmse", "rms", "sigma_undetermined", "sigma_pixels", "sigma_shifts"]
 
 #: Standard deviations beyond which a parameter is not determined at all (a poor fit's covariance gave "± 1300521642
 #: m" and "± 6894594°" in a flood trial's dock): angles in degrees, positions in metres, the rest in their units.
@@ -42,10 +42,23 @@ def sigma_pixels(camera: Camera, std: Dict[str, float], points: np.ndarray) -> f
     >>> round(sigma_pixels(cam, {"heading": 0.1}, np.array([[0.0, 4000.0, 0.0]])), 2)   # f tan(0.1°)
     1.51
     """
+    shift = sigma_shifts(camera, std, points)
+    finite = np.isfinite(shift)
+    return float(np.sqrt(np.mean(shift[finite] ** 2))) if finite.any() else float("nan")
+
+
+def sigma_shifts(camera: Camera, std: Dict[str, float], points: np.ndarray) -> np.ndarray:
+    """(N,) pixels each of ``points`` ((N, 3) map coordinates) moves in the picture when every parameter moves by
+    its σ (``std``), added in quadrature (see :func:`sigma_pixels`); all NaN without σ or with one undetermined.
+
+    >>> cam = Camera((0.0, 0.0, 0.0), 0.0, 0.0, 0.0, 60.0, (1000, 700))
+    >>> sigma_shifts(cam, {"x": 10.0}, np.array([[0.0, 100.0, 0.0], [0.0, 1000.0, 0.0]])).round(1).tolist()
+    [86.6, 8.7]
+    """
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     usable = {k: float(v) for k, v in (std or {}).items() if v}
     if not len(points) or not usable or any(sigma_undetermined(k, v) for k, v in usable.items()):
-        return float("nan")
+        return np.full(len(points), np.nan)
     values = camera.parameters()
     base = camera.project(points)
     shift2 = np.zeros(len(points))
@@ -54,8 +67,7 @@ def sigma_pixels(camera: Camera, std: Dict[str, float], points: np.ndarray) -> f
             continue
         moved = camera.with_parameters(**{name: values[name] + sigma}).project(points)
         shift2 += np.sum((moved - base) ** 2, axis=1)
-    finite = np.isfinite(shift2)
-    return float(np.sqrt(np.mean(shift2[finite]))) if finite.any() else float("nan")
+    return np.sqrt(shift2)
 
 
 #: Every status a fit can end with, from best to worst; only "ok" means the evidence supports the camera.
