@@ -122,6 +122,35 @@ def test_too_few_probes_back_make_an_ok_uncertain(scene):
     assert rivalled.status == "uncertain" and "almost as well (12.0° to the left)" in rivalled.message
 
 
+def test_an_ok_camera_needs_its_sigma_to_place_its_near_ground(scene):
+    """A trial's "ok" camera, placed along the view only to ± 142 m by ridges 5.6 km away, had its near slope
+    (6 % of the ground) 367 px off. With ground near the camera that the σ moves by more than 3 % of the diagonal
+    the camera is "uncertain", and the message says how much and how near; far ground alone keeps it "ok"."""
+    import numpy as np
+
+    from monoplot_plugin.core.auto import register, verdict
+
+    _, truth, *_ = scene
+    good = {"auto_skyline_usable": True, "auto_sky_fraction": 0.98, "auto_sky_agreement": 0.97, "auto_edge_score": 0.15,
+            "auto_range_m": 5000.0, "auto_position_sigma_m": 100.0, "auto_rival_ratio": 0.5, "auto_probe_rivals": 0,
+            "auto_probe_returned": 4}
+    ahead = np.array([np.sin(np.radians(truth.heading)), np.cos(np.radians(truth.heading)), 0.0])
+    below = np.asarray(truth.position) - [0.0, 0.0, 50.0]
+
+    def judged(distances):
+        result = register.AutoFitResult(truth, "ok", "unpaired fit.", "unpaired", std={"heading": 0.05, "x": 40.0,
+                                                                                      "y": 40.0})
+        result.ground = below + np.outer(distances, ahead)
+        verdict.combine_evidence(result, dict(good))
+        return result
+
+    far = judged(np.linspace(4000.0, 6000.0, 100))
+    assert far.status == "ok" and far.evidence["auto_ground_uncertain_share"] == 0.0
+    near = judged(np.concatenate([np.linspace(80.0, 200.0, 10), np.linspace(4000.0, 6000.0, 90)]))
+    assert near.status == "uncertain" and near.evidence["auto_ground_uncertain_share"] >= 0.1
+    assert "10 % of the ground seen (the nearest, within" in near.message
+
+
 @pytest.mark.parametrize("moved", [(40.0, -30.0, -15.0), (50.0, 0.0, 10.0)])
 def test_more_passes_walk_a_near_camera_back_where_one_stops(near_slopes, moved):
     """Terrain about 100 m ahead: each round scores against silhouettes rendered where it starts, and one pass of
