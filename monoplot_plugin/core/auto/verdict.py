@@ -120,8 +120,12 @@ def combine_evidence(result: AutoFitResult, ev: dict) -> None:
         weak.append(f"only {100 * ev['auto_sky_agreement']:.0f} % of the photo's skyline lies on the DEM's "
                     "skyline under the camera")
     if ev.get("auto_edge_score", 1.0) > EDGE_SCORE_OK:
+        # with one cause the person can act on (a trial's EXIF GPS 250 m off, searched within its 30 m: the camera
+        # ended 311 m from the truth, nothing said the σ might be too small)
         weak.append(f"the DEM's skyline and contours fit the photo's edges only loosely under the camera (edge "
-                    f"score {ev.get('auto_edge_score', 1.0):.3f}, over {EDGE_SCORE_OK:.3f}; 0 is a perfect fit)")
+                    f"score {ev.get('auto_edge_score', 1.0):.3f}, over {EDGE_SCORE_OK:.3f}; 0 is a perfect fit): "
+                    f"if the rough position may be farther off than its σ of "
+                    f"{ev.get('auto_position_sigma_m', 0.0):.0f} m, give a larger position uncertainty")
     rng = ev.get("auto_range_m", float("nan"))
     near = not np.isfinite(rng) or ev.get("auto_position_sigma_m", 0.0) > NEAR_RATIO * rng
     if near:
