@@ -95,6 +95,19 @@ def test_map_to_photo_flags_occlusion():
     assert np.allclose(back[:, :2], part.xyz[part.visible, :2], atol=1e-4)
 
 
+def seen_exactly(cam, dem) -> np.ndarray:
+    """(rows, cols) bool: the cell centres in the picture that an exact line of sight from the camera reaches."""
+    xs, ys = dem.cell_centres()
+    pts = np.stack([xs.ravel(), ys.ravel(), dem.elevation.ravel()], axis=1)
+    origin = np.asarray(cam.position)
+    s = segment_first_hit(dem, origin, pts)
+    length = np.linalg.norm(pts - origin, axis=1)
+    uv, depth = cam.project_with_depth(pts)
+    with np.errstate(invalid="ignore"):
+        exact = ~(np.isfinite(s) & (s * length < length - (1.0 + 1e-4 * length))) & cam.in_image(uv) & (depth > 0)
+    return exact.reshape(dem.shape)
+
+
 def test_orthorectify_fills_only_visible_cells(scene):
     cam, dem = scene
     photo = render_photo(cam, dem, noise=False)
@@ -109,15 +122,7 @@ def test_orthorectify_fills_only_visible_cells(scene):
     u, v = cam.project([[x, y, dem.elevation[r, c]]])[0]
     assert np.array_equal(ortho[r, c, :3], photo[int(v), int(u)])
     # seen cells agree with an exact line of sight to each cell centre
-    xs, ys = dem.cell_centres()
-    pts = np.stack([xs.ravel(), ys.ravel(), dem.elevation.ravel()], axis=1)
-    origin = np.asarray(cam.position)
-    s = segment_first_hit(dem, origin, pts)
-    length = np.linalg.norm(pts - origin, axis=1)
-    uv, depth = cam.project_with_depth(pts)
-    with np.errstate(invalid="ignore"):
-        exact = ~(np.isfinite(s) & (s * length < length - (1.0 + 1e-4 * length))) & cam.in_image(uv) & (depth > 0)
-    assert (exact.reshape(dem.shape) == mask).mean() > 0.95  # the depth test is decided at pixel resolution
+    assert (seen_exactly(cam, dem) == mask).mean() > 0.95  # the depth test is decided at pixel resolution
 
 
 def test_densify_keeps_vertices():
@@ -180,15 +185,7 @@ def test_orthorectify_keeps_terrain_seen_at_a_grazing_angle():
     cam = Camera((x0, y0, 6.0), heading=0.0, pitch=-6.2, roll=0.0, fov=20.0, image_size=(160, 90))
     photo = render_photo(cam, dem, noise=False)
     seen = orthorectify(photo, cam, dem, compute_xyz(cam, dem))[..., 3] == 255
-    xs, ys = dem.cell_centres()
-    pts = np.stack([xs.ravel(), ys.ravel(), dem.elevation.ravel()], axis=1)
-    origin = np.asarray(cam.position)
-    s = segment_first_hit(dem, origin, pts)
-    length = np.linalg.norm(pts - origin, axis=1)
-    uv, depth = cam.project_with_depth(pts)
-    with np.errstate(invalid="ignore"):
-        exact = ~(np.isfinite(s) & (s * length < length - (1.0 + 1e-4 * length))) & cam.in_image(uv) & (depth > 0)
-    exact = exact.reshape(dem.shape)
+    exact = seen_exactly(cam, dem)
     assert exact.sum() > 2000
     assert (seen & exact).sum() > 0.99 * exact.sum()
     assert (seen & ~exact).sum() < 0.02 * exact.sum()
