@@ -463,9 +463,9 @@ def _prior_kept(result: AutoFitResult, prior: Camera, sig: dict) -> AutoFitResul
         why = "the photo's edges match no camera's view of the DEM, the prior's neither (edge score 1 = no match)"
     elif not ev["auto_skyline_usable"] and ev["auto_edge_score"] > FAINT_EDGES_SCORE:
         why = (f"{no_clear_skyline(ev)}, and its "
-               f"faint edges match the DEM's only by chance under the best camera found (edge score "
-               f"{ev['auto_edge_score']:.2f}, the prior's {ev['auto_prior_edge_score']:.2f}; 0 is a perfect fit, 1 "
-               f"no match)")
+               f"edges match the DEM's too loosely under the best camera found to trust it without a skyline (edge "
+               f"score {ev['auto_edge_score']:.2f}, the prior's {ev['auto_prior_edge_score']:.2f}; 0 is a perfect "
+               f"fit, 1 no match; faint edges in fog match a few of the DEM's by chance)")
         result.weak = []  # the rest is about that camera, which is not returned (its σ, its rivals)
     else:
         why = (f"no camera found fits the photo's edges clearly better than the prior (edge score "
