@@ -6,6 +6,8 @@ provides ``controller``, ``project``, ``iface``, ``photo_canvas``, ``photo_view`
 
 from __future__ import annotations
 
+import math
+
 from qgis.core import QgsSettings
 from qgis.PyQt.QtCore import QTimer
 
@@ -74,15 +76,18 @@ class DockViewMixin:
         self.map_view.show_cursor(None if ground is None else ground[:2])
         if self.iface is None or c.fitted is None:
             return
+        # the pixel's column and row (it covers [j, j+1) x [i, i+1)), not the position rounded: a trial read 2994
+        # for pixel 2993
+        u, v = math.floor(u), math.floor(v)
         if ground is not None:
             # the DEM's CRS named: QGIS's own coordinate box beside it shows the project's (a trial's 3857 project)
             crs = c.dem_crs.authid() if c.dem_crs.isValid() else ""
-            text = self.tr("Monoplot: photo pixel ({0:.0f}, {1:.0f}) → X {2:.1f}  Y {3:.1f}  Z {4:.1f} m").format(
+            text = self.tr("Monoplot: photo pixel ({0}, {1}) → X {2:.1f}  Y {3:.1f}  Z {4:.1f} m").format(
                 u, v, *ground) + (f" ({crs})" if crs else "")
         elif c.xyz is None:  # just after a fit or a reopen: the per-pixel coordinates are being computed
-            text = self.tr("Monoplot: photo pixel ({0:.0f}, {1:.0f}) → ground coordinates not ready yet").format(u, v)
+            text = self.tr("Monoplot: photo pixel ({0}, {1}) → ground coordinates not ready yet").format(u, v)
         else:  # said, not the last ground reading left on show (a trial read it over the sky)
-            text = self.tr("Monoplot: photo pixel ({0:.0f}, {1:.0f}) → no ground (sky, outside the picture or off "
+            text = self.tr("Monoplot: photo pixel ({0}, {1}) → no ground (sky, outside the picture or off "
                            "the DEM)").format(u, v)
         self.iface.statusBarIface().showMessage(text, 4000)
 

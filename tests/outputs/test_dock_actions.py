@@ -291,6 +291,8 @@ def test_the_hover_readout_says_when_a_pixel_has_no_ground(dock_with_fit, qgis_i
     assert "→ ground coordinates not ready yet" in hover(120, 140)
     c.ensure_products(background=False)
     assert "→ X" in hover(100, 150)  # the plane scene's bottom rows see the ground
+    # the pixel's column and row, not the position rounded (a trial read 2994 for pixel 2993)
+    assert "photo pixel (100, 150) → X" in hover(100.7, 150.7)
     assert hover(120, 3).endswith("→ no ground (sky, outside the picture or off the DEM)")  # its top rows the sky
 
 
