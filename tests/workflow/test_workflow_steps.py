@@ -356,7 +356,7 @@ def test_a_camera_found_automatically_keeps_to_the_height_the_person_gave(scene)
         assert (expected == "poor") == found.message.startswith("Probably wrong: the camera ends")
         # under the ground it stood on: the Fit holds it there (a trial's phone photo was told to set the camera
         # height to "automatic", which it was)
-        assert dz != -7.0 or "where Fit on the matched points holds it" in found.message
+        assert dz != -7.0 or "where a fit on the matched points holds it" in found.message
     # a drone's rough camera keeps its height free: 80 m up, found 20 m higher, is no contradiction
     found = SimpleNamespace(camera=camera.with_parameters(z=ground + 100.0), status="ok", message="Fitted.")
     check_height(found, camera, dem)
