@@ -8,6 +8,7 @@ covers ``[j, j+1) x [i, i+1)``, so the lookup of ``(u, v)`` is pixel ``(floor(v)
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Callable, Optional, Tuple
 
@@ -66,7 +67,7 @@ def sample_xyz(xyz: np.ndarray, uv, origin=None, max_jump: float = 0.05) -> np.n
 
 
 def visibility_of_points(camera, points: np.ndarray, xyz: np.ndarray, tolerance: Optional[float] = None,
-                         dem=None, far: Optional[np.ndarray] = None) -> Tuple[np.ndarray, np.ndarray]:
+                         dem=None, far: Optional[Callable[[], np.ndarray]] = None) -> Tuple[np.ndarray, np.ndarray]:
     """Project ground points into the photo and tell which ones the camera sees.
 
     A point is visible when it projects inside the photo and is not farther from the camera than the ground seen
@@ -76,7 +77,8 @@ def visibility_of_points(camera, points: np.ndarray, xyz: np.ndarray, tolerance:
     Terrain seen at a grazing angle spans far more depth in one pixel than that, and an orthophoto of a low camera
     over flat ground had stripes of its seen cells left out. So with ``dem`` (the terrain the raster was made of), a
     point that fails the test but lies no farther than the farthest ground seen through the neighbouring pixels
-    (``far``, :func:`farthest_around` of ``xyz``: computed when not given) is decided by the exact line of sight
+    (:func:`farthest_around` of ``xyz``, made only when a point needs it; ``far()`` gives it instead, for a caller
+    that tests many blocks of points against one raster) is decided by the exact line of sight
     (:func:`~monoplot_plugin.core.xyz.segment_first_hit`): seen when nothing stops the ray before it, within the
     same tolerance. A point beyond all of them is hidden whatever the angle.
 
@@ -98,10 +100,10 @@ def visibility_of_points(camera, points: np.ndarray, xyz: np.ndarray, tolerance:
     if dem is not None:
         failed = np.flatnonzero(candidate & ~visible)
         if failed.size:
-            far = farthest_around(xyz, origin) if far is None else far
+            farthest = farthest_around(xyz, origin) if far is None else far()
             r = np.clip(np.floor(uv[failed, 1]).astype(np.int64), 0, xyz.shape[0] - 1)
             c = np.clip(np.floor(uv[failed, 0]).astype(np.int64), 0, xyz.shape[1] - 1)
-            unsure = failed[d_point[failed] <= far[r, c] + tol[failed]]
+            unsure = failed[d_point[failed] <= farthest[r, c] + tol[failed]]
             if unsure.size:
                 from .xyz import segment_first_hit  # not at import: the xyz package is the heavier one
 
@@ -124,9 +126,12 @@ def farthest_around(xyz: np.ndarray, origin) -> np.ndarray:
     1030.0
     """
     height, width = xyz.shape[:2]
+    origin = np.asarray(origin, dtype=np.float64)
     dist = np.full((height + 2, width + 2), np.inf, dtype=np.float32)
-    inner = np.sqrt(np.sum((xyz - np.asarray(origin, dtype=np.float64)) ** 2, axis=2))
-    dist[1:-1, 1:-1] = np.where(np.isnan(inner), np.inf, inner)
+    for r0 in range(0, height, 256):  # blocks of rows: a 24 MP raster's offsets whole took 576 MB
+        offsets = xyz[r0:r0 + 256] - origin
+        block = np.sqrt(np.einsum("ijk,ijk->ij", offsets, offsets))
+        dist[1 + r0:1 + r0 + len(block), 1:-1] = np.where(np.isnan(block), np.inf, block)
     far = dist[1:-1, 1:-1].copy()
     for dr in (0, 1, 2):
         for dc in (0, 1, 2):
@@ -214,7 +219,7 @@ def ortho_lookup(camera, dem, xyz: np.ndarray, *, between_chunks: Optional[Calla
     caller's progress, and its cancel: an exception it raises goes through unchanged)."""
     rows, cols = dem.shape
     cells_parts, uv_parts = [], []
-    far = farthest_around(xyz, camera.position)  # once for all chunks: where a grazing cell may still be seen
+    far = functools.cache(lambda: farthest_around(xyz, camera.position))  # once, if a chunk needs it at all
     total = rows * cols
     step = max(1, int(chunk_cells) // max(1, cols))  # whole rows: the cell centres of one block at a time (all of
     for row0 in range(0, rows, step):  # a 10 M-cell grid's took 240 MB, their temporaries more)

@@ -37,10 +37,11 @@ class FittingMixin:
                      Point(**{**p.__dict__, "z": float(self.dem.sample(p.x, p.y, to_extent=True))}) for p in world]
         return photo, [p for p in world if p.z is not None and math.isfinite(p.z)]
 
-    def heightless_text(self) -> str:
+    def heightless_text(self, kept=None) -> str:
         """What the fit leaves out of the accepted map points for want of a height (off the DEM, or on a void, and
-        no height of their own), "" when none: a trial's pair was dropped without a word."""
-        kept = {p.id for p in self._accepted_for_fit()[1]}
+        no height of their own), "" when none: a trial's pair was dropped without a word. ``kept``: the ids of the
+        map points the fit takes, when known (:meth:`fit_inputs` found them)."""
+        kept = {p.id for p in self._accepted_for_fit()[1]} if kept is None else set(kept)
         left = [p for p in self.state.in_space(MAP, (ACCEPTED,)) if p.id not in kept]
         if not left:
             return ""
@@ -112,7 +113,7 @@ class FittingMixin:
             self.message.emit(inputs, WARNING)
             return False
         uv, xyz, pairs = inputs
-        heightless = self.heightless_text()
+        heightless = self.heightless_text(kept=self._fit_ids[1])
         if heightless:
             self.message.emit(heightless, WARNING)
         n_links = len(self.state.valid_pairs())

@@ -158,9 +158,8 @@ def combine_evidence(result: AutoFitResult, ev: dict) -> None:
         shifts = sigma_shifts(result.camera, result.std, ground)
         limit = NEAR_SHIFT * float(np.hypot(*result.camera.image_size))
         moved = np.isfinite(shifts) & (shifts > limit)
-        ev["auto_ground_uncertain_share"] = float(moved.mean())
-        result.evidence["auto_ground_uncertain_share"] = ev["auto_ground_uncertain_share"]
-        if ev["auto_ground_uncertain_share"] > NEAR_SHIFT_SHARE:
+        result.evidence["auto_ground_uncertain_share"] = float(moved.mean())
+        if moved.mean() > NEAR_SHIFT_SHARE:
             reach = float(np.max(np.linalg.norm(ground[moved] - np.asarray(result.camera.position), axis=1)))
             weak.append(f"with the camera's σ, {100 * moved.mean():.0f} % of the ground seen (the nearest, within "
                         f"{reach:.0f} m) may be more than {limit:.0f} px off: the camera is not placed closely enough "
