@@ -74,22 +74,35 @@ class DockViewMixin:
         c = self.controller
         ground = c.ground_at_pixel(u, v)
         self.map_view.show_cursor(None if ground is None else ground[:2])
-        if self.iface is None or c.fitted is None:
-            return
         # the pixel's column and row (it covers [j, j+1) x [i, i+1)), not the position rounded: a trial read 2994
         # for pixel 2993
         u, v = math.floor(u), math.floor(v)
-        if ground is not None:
+        if c.fitted is None:
+            text = self.tr("photo pixel ({0}, {1})").format(u, v) if c.photo_size else ""
+        elif ground is not None:
             # the DEM's CRS named: QGIS's own coordinate box beside it shows the project's (a trial's 3857 project)
             crs = c.dem_crs.authid() if c.dem_crs.isValid() else ""
-            text = self.tr("Monoplot: photo pixel ({0}, {1}) → X {2:.1f}  Y {3:.1f}  Z {4:.1f} m").format(
-                u, v, *ground) + (f" ({crs})" if crs else "")
+            text = self.tr("photo pixel ({0}, {1}) → X {2:.1f}  Y {3:.1f}  Z {4:.1f} m").format(
+                u, v, *ground) + (f" ({crs})" if crs else "") + self._cursor_error(u + 0.5, v + 0.5)
         elif c.xyz is None:  # just after a fit or a reopen: the per-pixel coordinates are being computed
-            text = self.tr("Monoplot: photo pixel ({0}, {1}) → ground coordinates not ready yet").format(u, v)
+            text = self.tr("photo pixel ({0}, {1}) → ground coordinates not ready yet").format(u, v)
         else:  # said, not the last ground reading left on show (a trial read it over the sky)
-            text = self.tr("Monoplot: photo pixel ({0}, {1}) → no ground (sky, outside the picture or off "
-                           "the DEM)").format(u, v)
-        self.iface.statusBarIface().showMessage(text, 4000)
+            text = self.tr("photo pixel ({0}, {1}) → no ground (sky, outside the picture or off the DEM)").format(
+                u, v)
+        self.photo_canvas.set_readout(text)
+        if self.iface is not None and c.fitted is not None:
+            self.iface.statusBarIface().showMessage("Monoplot: " + text, 4000)
+
+    def _cursor_error(self, u: float, v: float) -> str:
+        """"; X, Y ± 56 m (check points 7.7 px)" for the cursor readout, "" where the error is not known."""
+        from ..workflow.products import metres_words
+
+        error = self.controller.ground_error_at_pixel(u, v)
+        if error is None:
+            return ""
+        error_m, error_px, source = error
+        what = {"check": self.tr("check points"), "sigma": self.tr("the camera's σ")}.get(source, self.tr("fit"))
+        return self.tr("; X, Y ± {0} ({1} {2:.1f} px)").format(metres_words(error_m), what, error_px)
 
     def _map_cursor(self, point) -> None:
         if self.controller.fitted is None or self.controller.dem is None:

@@ -310,6 +310,25 @@ class ResultsMixin:
             return None
         return engine.lookup_xyz(self.xyz, self.photo_size, u, v)
 
+    def ground_error_at_pixel(self, u: float, v: float) -> Optional[Tuple[float, float, str]]:
+        """(horizontal error in metres, RMS, of the ground seen at photo pixel (u, v); the pixel error it is carried
+        from; where that comes from: "check", "loo", "fit" or "sigma", see
+        :func:`~..workflow.features.pixel_error`), for the cursor readout; None where it is not known (no fit, sky,
+        σ no data narrowed, an unpaired fit without σ or check points). The same footprint model as the features'
+        ``xy_error_m`` (:func:`~..core.transforms.ground_error_m`): a trial read X, Y, Z to a tenth of a metre
+        with nothing saying they were good to 50 m."""
+        from ..core.transforms import ground_error_m
+        from ..workflow.features import pixel_error
+
+        info = self.state.fit_info if isinstance(self.state.fit_info, dict) else {}
+        if self.fitted is None or self.dem is None or info.get("sigma_is_prior") or self.ground_at_pixel(u, v) is None:
+            return None
+        error_px, source = pixel_error(info, only_ok=False)
+        if error_px is None:
+            return None
+        error_m = float(ground_error_m([[u, v]], self.fitted, self.dem, error_px)[0])
+        return (error_m, float(error_px), source) if np.isfinite(error_m) else None
+
     def pixel_of_ground(self, x: float, y: float) -> Tuple[Optional[Tuple[float, float]], str]:
         """(pixel, "visible" | "hidden" | "outside" | "") of map point (x, y) under the fitted camera."""
         cam = self.fitted

@@ -190,11 +190,21 @@ def test_fit_task_runs_to_completion(dock, scene, qtbot):
     if c.state.fit_info["status"] == "ok":
         assert pixel_error(c.state.fit_info) == (sigma_px, "sigma")
         assert "the camera's σ" in c.ground_accuracy_text() and "an upper estimate" in c.ground_accuracy_text()
+    # the cursor readout's error at a pixel: the camera's pixel error carried to the ground seen there, larger
+    # where the ground is farther (a trial read X, Y to 0.1 m with nothing saying they were good to 50 m)
+    rows = [v for v in range(120, 470, 10) if c.ground_at_pixel(240, v) is not None]
+    near, far = c.ground_error_at_pixel(240, rows[-1]), c.ground_error_at_pixel(240, rows[0])
+    if pixel_error(c.state.fit_info, only_ok=False)[0] is not None:
+        assert near is not None and far is not None and near[1:] == pixel_error(c.state.fit_info, only_ok=False)
+        assert 0 < near[0] < far[0], (near, far)
+        assert "; X, Y ± " in dock._cursor_error(240, rows[-1]) and " px)" in dock._cursor_error(240, rows[-1])
+    assert c.ground_error_at_pixel(-5, 100) is None  # outside the picture
     # σ no data narrowed (an automatic registration whose edges did not support its camera keeps the rough
     # camera's) give no figure on the ground (a trial: "about 820 m", the camera 13 m off)
     c.state.fit_info = dict(c.state.fit_info, status="uncertain", mode="automatic", sigma_is_prior=True)
     text = c.ground_accuracy_text()
     assert "no smaller than the rough camera's" in text and "not known" in text and " m on the ground" not in text
+    assert c.ground_error_at_pixel(240, rows[-1]) is None and dock._cursor_error(240, rows[-1]) == ""
 
 
 def test_unticking_the_monoplot_group_hides_the_dock_items_on_the_map(dock, scene, qtbot):

@@ -294,6 +294,25 @@ def test_the_hover_readout_says_when_a_pixel_has_no_ground(dock_with_fit, qgis_i
     # the pixel's column and row, not the position rounded (a trial read 2994 for pixel 2993)
     assert "photo pixel (100, 150) → X" in hover(100.7, 150.7)
     assert hover(120, 3).endswith("→ no ground (sky, outside the picture or off the DEM)")  # its top rows the sky
+    # the same line over the photo canvas's bottom edge: QGIS's status bar cut it to "Monoplot: photo pixel" on a
+    # 1280 px window
+    text = hover(100, 150)
+    readout, canvas = dock.photo_canvas.readout, dock.photo_canvas
+    assert readout.isVisible() and "Monoplot: " + readout.text() == text
+    assert readout.geometry().bottom() < canvas.height() and readout.geometry().right() < canvas.width()
+    if c.ground_error_at_pixel(100.5, 150.5) is not None:  # how far off that ground may be, when it is known
+        assert "; X, Y ± " in text
+    from qgis.PyQt.QtCore import QEvent, QPointF, Qt
+    from qgis.PyQt.QtGui import QMouseEvent
+    from qgis.PyQt.QtWidgets import QApplication
+
+    # at the top while the cursor is on the bottom strip, where it would hide what the cursor points at
+    below = QPointF(canvas.viewport().width() / 2, canvas.viewport().height() - 10)
+    QApplication.sendEvent(canvas.viewport(), QMouseEvent(QEvent.Type.MouseMove, below, Qt.MouseButton.NoButton,
+                                                          Qt.MouseButton.NoButton, Qt.KeyboardModifier.NoModifier))
+    assert readout.isVisible() and readout.geometry().bottom() < below.y(), readout.text()
+    QApplication.sendEvent(canvas, QEvent(QEvent.Type.Leave))
+    assert not readout.isVisible()
 
 
 def _save_through_dialog(qtbot, path, seen):
