@@ -206,25 +206,30 @@ def _refill_camera_layers(project: QgsProject, camera: Camera, footprint_wkt: st
 
 def style_xyz_layer(layer) -> None:
     """An XYZ raster layer (:mod:`..outputs.xyz_raster`) as the dock and Processing show it: no CRS (photo pixel
-    space, drawn without reprojection), Z (band 3) as a colour ramp from low (blue) to high (red), 80 % opaque."""
-    from qgis.core import (QgsColorRampShader, QgsCoordinateReferenceSystem, QgsRasterBandStats, QgsRasterShader,
-                           QgsSingleBandPseudoColorRenderer, QgsStyle)
+    space, drawn without reprojection), Z (band 3) as the colour ramp of :mod:`..outputs.xyz_style` (the look its
+    style file gives a file added by hand) over the layer's Z range."""
+    from qgis.core import (QgsColorRampShader, QgsCoordinateReferenceSystem, QgsGradientColorRamp,
+                           QgsGradientStop, QgsRasterBandStats, QgsRasterShader, QgsSingleBandPseudoColorRenderer)
+    from qgis.PyQt.QtGui import QColor
+
+    from ..outputs.xyz_style import Z_BAND, Z_OPACITY, Z_RAMP
 
     layer.setCrs(QgsCoordinateReferenceSystem())
     provider = layer.dataProvider()
-    if provider is None or provider.bandCount() < 3:
+    if provider is None or provider.bandCount() < Z_BAND:
         return
-    stats = provider.bandStatistics(3, QgsRasterBandStats.Stats.Min | QgsRasterBandStats.Stats.Max)
-    ramp = QgsStyle.defaultStyle().colorRamp("Spectral") or QgsStyle.defaultStyle().colorRamp("Viridis")
-    if ramp is not None and stats.minimumValue < stats.maximumValue:
-        ramp.invert()  # Spectral: low = blue, high = red
+    stats = provider.bandStatistics(Z_BAND, QgsRasterBandStats.Stats.Min | QgsRasterBandStats.Stats.Max)
+    if stats.minimumValue < stats.maximumValue:
+        (_, first), *middle, (_, last) = Z_RAMP
+        ramp = QgsGradientColorRamp(QColor(first), QColor(last), False,
+                                    [QgsGradientStop(t, QColor(colour)) for t, colour in middle])
         shader_fn = QgsColorRampShader(stats.minimumValue, stats.maximumValue, ramp,
                                        QgsColorRampShader.Type.Interpolated)
-        shader_fn.classifyColorRamp(8, -1)
+        shader_fn.classifyColorRamp(len(Z_RAMP), -1)
         shader = QgsRasterShader()
         shader.setRasterShaderFunction(shader_fn)
-        renderer = QgsSingleBandPseudoColorRenderer(provider, 3, shader)
+        renderer = QgsSingleBandPseudoColorRenderer(provider, Z_BAND, shader)
         renderer.setClassificationMin(stats.minimumValue)
         renderer.setClassificationMax(stats.maximumValue)
         layer.setRenderer(renderer)
-    layer.setOpacity(0.8)
+    layer.setOpacity(Z_OPACITY)

@@ -39,6 +39,7 @@ import numpy as np
 
 from .. import plugin_version
 from .frames import FrameTask, PhotoResult, Timelapse
+from ..outputs.xyz_style import style_path
 
 __all__ = ["JOURNAL", "Journal", "frame_key", "dem_identity", "earlier_results", "in_task_order", "resumable",
            "remove_stale"]
@@ -209,6 +210,12 @@ def remove_stale(out_dir: str, tasks: List[FrameTask], results: List[PhotoResult
             into.append(path)
         except OSError as exc:
             kept.append(f"{os.path.basename(path)} ({exc})")
+            return
+        if path.endswith("_xyz.tif"):  # its QGIS style file goes with it (a convenience, not a product)
+            try:
+                style_path(path).unlink()
+            except OSError:
+                pass
 
     for task, result in zip(tasks, results):
         own = [os.path.join(out_dir, task.stem + suffix) for suffix in ("_camera.json", "_xyz.tif", "_ortho.tif")]

@@ -129,6 +129,28 @@ def test_xyz_layer_identify_gives_ground_coordinates(project, plane_scene, tmp_p
     assert np.allclose([values[1], values[2], values[3]], s.xyz[int(v), int(u)], atol=0.07)
 
 
+def test_an_xyz_raster_added_by_hand_shows_z_as_the_dock_does(project, plane_scene, tmp_path):
+    """A trial added the XYZ raster through the Browser: QGIS drew X, Y, Z as red, green and blue (grey noise). Its
+    style file, written beside it, makes QGIS draw it as the dock does, with the file's Z range."""
+    from qgis.core import QgsRasterLayer
+
+    s = plane_scene
+    path = write_xyz_raster(tmp_path / "photo_xyz.tif", s.xyz, CRS, s.distance)
+    assert (tmp_path / "photo_xyz.qml").is_file()
+    by_hand = QgsRasterLayer(str(path), "by hand")  # as Add Raster Layer or the Browser opens it
+    ours = add_xyz_layer(path, project)
+    assert by_hand.isValid() and by_hand.renderer().type() == "singlebandpseudocolor"
+    assert by_hand.renderer().band() == ours.renderer().band() == 3
+    z = s.xyz[..., 2][np.isfinite(s.xyz[..., 2])]
+    shader = by_hand.renderer().shader().rasterShaderFunction()
+    assert np.isclose(shader.minimumValue(), z.min(), rtol=1e-5) and np.isclose(shader.maximumValue(), z.max(),
+                                                                              rtol=1e-5)
+    assert by_hand.opacity() == ours.opacity() < 1.0
+    colours = [i.color.name() for i in shader.colorRampItemList()]
+    ours_colours = [i.color.name() for i in ours.renderer().shader().rasterShaderFunction().colorRampItemList()]
+    assert colours[0] == ours_colours[0] and colours[-1] == ours_colours[-1] and colours[0] != colours[-1]
+
+
 def test_map_layer_drawn_on_photo_with_hidden_parts(project, plane_scene):
     s = plane_scene
     cx, cy, _ = s.camera.position

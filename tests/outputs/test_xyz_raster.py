@@ -60,7 +60,7 @@ def test_existing_output_is_refused_then_replaced_on_request(plane_scene, tmp_pa
     assert path.read_bytes() == before
     write_xyz_raster(path, plane_scene.xyz + 1.0, CRS, overwrite=True)
     assert path.read_bytes() != before
-    assert sorted(os.listdir(tmp_path)) == ["xyz.tif"]  # no temporary file left
+    assert sorted(os.listdir(tmp_path)) == ["xyz.qml", "xyz.tif"]  # no temporary file left
 
 
 def test_writing_reports_progress_and_a_cancel_stops_it_part_way(plane_scene, tmp_path, monkeypatch):
@@ -81,7 +81,7 @@ def test_writing_reports_progress_and_a_cancel_stops_it_part_way(plane_scene, tm
         write_xyz_raster(path, plane_scene.xyz + 1.0, CRS, overwrite=True, progress=parts.append)
     assert len(parts) == 2  # stopped at the third part of the first band, not after the whole file
     assert path.read_bytes() == before
-    assert sorted(os.listdir(tmp_path)) == ["xyz.tif"]
+    assert sorted(os.listdir(tmp_path)) == ["xyz.qml", "xyz.tif"]
 
 
 def test_failure_half_way_leaves_earlier_output_intact(plane_scene, tmp_path):
@@ -92,7 +92,7 @@ def test_failure_half_way_leaves_earlier_output_intact(plane_scene, tmp_path):
     with pytest.raises(TypeError):
         write_xyz_raster(path, broken, CRS, overwrite=True)
     assert path.read_bytes() == before
-    assert sorted(os.listdir(tmp_path)) == ["xyz.tif"]
+    assert sorted(os.listdir(tmp_path)) == ["xyz.qml", "xyz.tif"]
 
 
 def test_non_ascii_path(plane_scene, tmp_path):
@@ -136,7 +136,7 @@ def test_read_only_folder_is_reported_and_earlier_output_kept(plane_scene, world
     assert len(lines) == 2 and all(line.startswith("REFUSED") for line in lines), output
     assert "permission denied" in lines[0] and "read-only" in lines[0]
     assert earlier.read_bytes() == before
-    assert sorted(os.listdir(folder)) == ["xyz.tif"]
+    assert sorted(os.listdir(folder)) == ["xyz.qml", "xyz.tif"]
 
 
 def test_missing_folder_and_bad_shapes_are_clear_errors(plane_scene, tmp_path):
@@ -170,4 +170,4 @@ def test_running_out_of_space_half_way_keeps_the_earlier_output(plane_scene, tmp
     assert result.returncode == 0, result.stderr
     assert result.stdout.startswith("REFUSED cannot write") and "disk is full" in result.stdout, result.stdout
     assert path.read_bytes() == before
-    assert os.listdir(tmp_path) == ["xyz.tif"]
+    assert sorted(os.listdir(tmp_path)) == ["xyz.qml", "xyz.tif"]

@@ -36,7 +36,7 @@ def test_shared_camera_products_equal_the_per_photo_products(still_timelapse, tm
                               log=lambda m, e: lines.append(m))
     assert [r.ok for r in results] == [True] * 6 and [r.index for r in results] == list(range(6))
     assert sorted(os.listdir(tmp_path / "out")) == sorted([f"frame_{i:03d}_ortho.tif" for i in range(6)]
-                                                          + ["xyz.tif", "batch_journal.jsonl"])
+                                                          + ["xyz.tif", "xyz.qml", "batch_journal.jsonl"])
     for i in (0, 5):  # what the dock and the single-photo algorithm write for the same photo
         single = products.orthophoto(tmp_path / f"single_{i}.tif", read_photo(scene["frames"][i]), cam, dem)
         assert np.array_equal(band_arrays(tmp_path / "out" / f"frame_{i:03d}_ortho.tif"), band_arrays(single))
@@ -298,7 +298,7 @@ def test_a_rerun_removes_the_earlier_products_of_frames_it_does_not_make_again(d
     assert [r.ok for r in second] == [True, True, False, True, True]
     assert not list(out.glob("frame_002_*"))  # skipped now: its earlier products are gone
     # not re-registered now: the frames have the shared camera, their own cameras of the earlier run are gone
-    assert not list(out.glob("frame_*_camera.json")) and not list(out.glob("frame_*_xyz.tif"))
+    assert not list(out.glob("frame_*_camera.json")) and not list(out.glob("frame_*_xyz.*"))  # and the style
     assert len(list(out.glob("frame_*_ortho.tif"))) == 4 and (out / "notes.txt").read_text() == "mine"
     assert any("of an earlier run removed" in m and "frame_002_ortho.tif" in m for m in lines)
 
