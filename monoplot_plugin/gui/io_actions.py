@@ -25,7 +25,7 @@ from ..adapters.photo_space import photo_point, pixel_of
 from ..core.camera import Camera
 from ..core.fit.verdict import judge_by_checks
 from ..state import ACCEPTED, CHECK, MAP, PHOTO, Edit, Point
-from ..workflow.camera_files import load_camera, save_camera, written_fit
+from ..workflow.camera_files import fitted_on_photo, load_camera, save_camera, written_fit
 from ..workflow.fit import measured_on_pairs
 from ..workflow.inputs import OFF_DEM_NOTE, InputError, _transform, points_to_dem_crs
 from ..workflow.points_csv import read_points_csv, write_points_csv
@@ -331,6 +331,16 @@ def load_camera_file(controller, path: str, as_fitted: bool = False,
         info["message"] += " " + tr("It was written by a fit whose verdict was \"{0}\": {1}").format(written, why)
         if sigma:  # how doubtful, per parameter (a trial's reloaded "uncertain" camera showed no ± at all)
             info["sigma"] = sigma
+    elif written == "ok" and not n_check and fitted_on_photo(fit, c.state.photo_path or "") is False:
+        # its fit verified it on another photo: that "ok" says nothing of this one (a trial loaded frame 1's camera
+        # onto frame 5, after a 4 degree remount: "ok", and a front 168 m off where its error said 6.9 m)
+        info["message"] += " " + tr(
+            "It was fitted on another photo ({0}), not on this one: its \"ok\" does not carry over (a camera turned "
+            "by a few degrees looks the same in the file). Fit it on this photo's points, use it as the rough camera "
+            "for Find camera automatically, or mark check points; for frames of a fixed camera, change the photo "
+            "with \"Keep the points\", which measures the turn.").format(str(fit.get("photo") or tr("unknown")))
+        if sigma:
+            info["sigma"] = sigma
     elif written == "ok" and not n_check:
         # its own fit verified it (the dock's Save fitted camera, fitcamera): that verdict and its σ come back with
         # it (a trial's "ok" camera reloaded as "uncertain", and the features drawn on it lost their xy error)
@@ -367,7 +377,8 @@ def save_camera_file(controller, path: str, which: str = "fitted") -> bool:
     try:
         info = (c.state.fit_info or {}) if which == "fitted" else {}
         save_camera(path, camera, name=os.path.splitext(os.path.basename(c.state.photo_path or path))[0],
-                    verdict=info if info.get("status") else None)
+                    verdict=info if info.get("status") else None,
+                    photo_path=(c.state.photo_path or "") if info.get("status") else "")
     except (OSError, ValueError) as exc:
         c.message.emit(tr("Cannot write {0}: {1}").format(path, exc), CRITICAL)
         return False

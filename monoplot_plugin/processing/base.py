@@ -38,7 +38,7 @@ from ..core.dem_large import IMAGE_NOTE
 from ..workflow.inputs import load_dem as load_checked_dem
 from ..adapters.photo_space import PHOTO_Y_SIGN  # noqa: F401 (algorithms import it from here)
 from ..adapters.layers import crs_from_wkt
-from ..workflow.camera_files import written_verdict
+from ..workflow.camera_files import verdict_on_photo
 from ..workflow.progress import Canceled
 from .inputs import InputError, load_camera, photo_size
 
@@ -261,8 +261,11 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         for note in notes:  # a camera transformed into the DEM's CRS
             if feedback is not None:
                 feedback.pushInfo(note)
-        status, message = written_verdict(path)
-        if status and status != "ok" and not rough and feedback is not None:
+        status, message = verdict_on_photo(path, photo or "")
+        if message.startswith("fitted on another photo") and not rough and feedback is not None:
+            # a time-lapse trial's frame 1 camera on frame 5 (a 4 degree remount): products 168 m off, said "ok"
+            feedback.pushWarning(self.tr("The camera {0} was {1}").format(os.path.basename(path), message[:600]))
+        elif status and status != "ok" and not rough and feedback is not None:
             # written by an "uncertain" or "poor" fit or registration: what is made from it inherits its error
             feedback.pushWarning(self.tr("The camera {0} was written by a fit whose verdict was \"{1}\": the "
                                          "products made from it are no better than it. Its message: {2}").format(

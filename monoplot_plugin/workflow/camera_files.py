@@ -16,7 +16,8 @@ import numpy as np
 from ..core.camera import Camera, azimuth
 from .inputs import InputError, _crs_name, check_camera, read_text
 
-__all__ = ["load_camera", "save_camera", "camera_json", "written_fit", "written_verdict", "fitted_to_size"]
+__all__ = ["load_camera", "save_camera", "camera_json", "written_fit", "written_verdict", "fitted_to_size",
+           "photo_fingerprint", "fitted_on_photo", "verdict_on_photo"]
 
 
 def load_camera(path: str, image_size: Optional[Tuple[int, int]] = None, crs_wkt: str = "",
@@ -152,10 +153,12 @@ def _same_crs(a: str, b: str) -> bool:
                                "CRITERION=EQUIVALENT_EXCEPT_AXIS_ORDER_GEOGCRS"]))
 
 
-def save_camera(path: str, camera: Camera, name: str = "Monoplot camera", verdict: Optional[dict] = None) -> None:
+def save_camera(path: str, camera: Camera, name: str = "Monoplot camera", verdict: Optional[dict] = None,
+                photo_path: str = "") -> None:
     """Write ``camera`` to ``path``: a KML PhotoOverlay for ``.kml`` (position, angles, field of view only), else
     Monoplot's camera JSON (everything, and ``verdict``, the fit's {"status", "message"}, when given: see
-    :func:`written_verdict`). Through a temporary file; an existing file is replaced."""
+    :func:`written_verdict`; ``photo_path``: the photo it was fitted on, see :func:`camera_json`). Through a
+    temporary file; an existing file is replaced."""
     from ..outputs.safe_write import write_text
 
     if str(path).lower().endswith(".kml"):
@@ -163,13 +166,14 @@ def save_camera(path: str, camera: Camera, name: str = "Monoplot camera", verdic
 
         write_camera_kml(path, camera, name=name, overwrite=True)
     else:
-        write_text(path, camera_json(camera, verdict), overwrite=True)
+        write_text(path, camera_json(camera, verdict, photo_path), overwrite=True)
 
 
-def camera_json(camera: Camera, verdict: Optional[dict] = None) -> str:
+def camera_json(camera: Camera, verdict: Optional[dict] = None, photo_path: str = "") -> str:
     """Monoplot camera JSON with the fit's verdict ({"status", "message"}, and its σ per parameter from
     ``"sigma"`` or the fit summary's ``"std"``) under ``"fit"`` (readers of the camera ignore it:
-    :meth:`~..core.camera.Camera.from_dict`).
+    :meth:`~..core.camera.Camera.from_dict`). With ``photo_path``, the photo the verdict is about: its file name
+    and :func:`photo_fingerprint` (see :func:`fitted_on_photo`).
 
     >>> cam = Camera((1.0, 2.0, 3.0), 0.0, 0.0, 0.0, 50.0, (10, 8))
     >>> text = camera_json(cam, {"status": "uncertain", "message": "few points", "sigma": {"x": 2.5}})
@@ -197,7 +201,43 @@ def camera_json(camera: Camera, verdict: Optional[dict] = None) -> str:
         value = verdict.get(key, summary.get(key))
         if isinstance(value, str) or (value is not None and np.isfinite(float(value))):
             d["fit"][key] = value if isinstance(value, str) else float(value)
+    fingerprint = photo_fingerprint(photo_path)
+    if fingerprint:
+        d["fit"].update(photo=os.path.basename(photo_path), photo_sha256=fingerprint)
     return json.dumps(d, indent=2)
+
+
+def photo_fingerprint(path: str) -> str:
+    """SHA-256 (hex) of a photo file's bytes, "" when it cannot be read: which photo a camera was fitted on, whatever
+    its name (a time-lapse's frames share names and sizes, and differ by a turn of the mount)."""
+    import hashlib
+
+    if not path:
+        return ""
+    digest = hashlib.sha256()
+    try:
+        with open(path, "rb") as f:
+            for block in iter(lambda: f.read(1 << 20), b""):
+                digest.update(block)
+    except OSError:
+        return ""
+    return digest.hexdigest()
+
+
+def fitted_on_photo(fit: dict, photo_path: str) -> Optional[bool]:
+    """Whether the verdict ``fit`` (:func:`written_fit`) is about the photo at ``photo_path``: True (the same bytes),
+    False (another photo), None (the file does not say: written without a photo, e.g. a fit on points alone).
+
+    A trial loaded frame 1's "ok" camera onto frame 5 of the same station, after a 4 degree remount: the dock said
+    "ok", and a front drawn on it was 168 m off where its error figure said 6.9 m.
+
+    >>> fitted_on_photo({}, "a.jpg") is None, fitted_on_photo({"photo_sha256": "0" * 64}, "/no/such/photo.jpg")
+    (True, False)
+    """
+    recorded = str(fit.get("photo_sha256") or "")
+    if not recorded:
+        return None
+    return photo_fingerprint(photo_path) == recorded
 
 
 def written_fit(path: str) -> dict:
@@ -219,3 +259,15 @@ def written_verdict(path: str) -> Tuple[str, str]:
     raster, and nothing said so."""
     fit = written_fit(path)
     return str(fit.get("status") or ""), str(fit.get("message") or "")
+
+
+def verdict_on_photo(path: str, photo_path: str) -> Tuple[str, str]:
+    """:func:`written_verdict` of the camera file ``path`` for products of the photo ``photo_path``: an "ok" its fit
+    gave on another photo (:func:`fitted_on_photo`) is "uncertain" here, the message saying so first."""
+    fit = written_fit(path)
+    status, message = str(fit.get("status") or ""), str(fit.get("message") or "")
+    if status == "ok" and photo_path and fitted_on_photo(fit, photo_path) is False:
+        return "uncertain", (f"fitted on another photo ({fit.get('photo') or 'unknown'}), not on "
+                             f"{os.path.basename(photo_path)}: its \"ok\" does not carry over (a camera turned by a "
+                             f"few degrees looks the same in the file). Its fit's message: {message}")
+    return status, message

@@ -240,7 +240,7 @@ def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCance
         if camera is None:  # a table row: fit this photo's camera
             camera, verdict = fit_job(task.job, size, shared.dem, setup.crs_wkt, photo, is_canceled)
             result.rmse_px, fit_status, fit_message = verdict["rmse_px"], verdict["status"], verdict["message"]
-            result.outputs.append(_write_camera(setup, task.stem, camera, verdict))  # with its σ
+            result.outputs.append(_write_camera(setup, task.stem, camera, verdict, task.photo))  # with its σ
             if verdict.get("prior_kept") and (setup.write_xyz or setup.write_ortho):
                 # no camera was found (a trial's indoor photo had its rough camera's XYZ raster and orthophoto
                 # written and counted processed): the camera file says so, no products are made of a guess
@@ -261,7 +261,7 @@ def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCance
                 note = f"the shared camera turned onto this frame ({result.drift_px:.1f} px of drift)"
                 result.outputs.append(_write_camera(setup, task.stem, camera, {
                     "status": setup.camera_status,
-                    "message": f"{note}; {setup.camera_note}" if setup.camera_note else note}))
+                    "message": f"{note}; {setup.camera_note}" if setup.camera_note else note}, task.photo))
         check_canceled(is_canceled)
         if (setup.write_xyz or setup.write_ortho) and not products.sees_ground:
             raise InputError("the camera sees no cell of the DEM (every pixel is sky): wrong camera or DEM?")
@@ -328,9 +328,10 @@ def _registered(shared: Shared, photo: np.ndarray, result: PhotoResult):
     return CameraProducts(camera, shared.dem, shared.setup.resolution, shared.setup.write_ortho, cached=False), True
 
 
-def _write_camera(setup: Timelapse, stem: str, camera: Camera, verdict: Optional[dict] = None) -> str:
+def _write_camera(setup: Timelapse, stem: str, camera: Camera, verdict: Optional[dict] = None,
+                  photo_path: str = "") -> str:
     path = os.path.join(setup.out_dir, f"{stem}_camera.json")
-    write_text(path, camera_json(camera, verdict), overwrite=True)
+    write_text(path, camera_json(camera, verdict, photo_path), overwrite=True)
     return path
 
 

@@ -466,6 +466,52 @@ def test_a_camera_written_with_its_verdict_comes_back_with_it(dock, scene, tmp_p
     assert json.loads(saved.read_text())["fit"]["sigma"] == {"x": 0.48, "heading": 0.0079}
 
 
+def test_an_ok_camera_fitted_on_another_photo_loads_uncertain(dock, scene, tmp_path, qtbot):
+    """A time-lapse trial loaded frame 1's "ok" camera onto frame 5 (the mount turned 4 degrees): the dock said "ok",
+    and a front drawn on it was 168 m off where its error figure said 6.9 m. The saved camera names its photo; on
+    the same photo it comes back "ok", on another (same size and name) "uncertain", saying why."""
+    import shutil
+
+    from monoplot_plugin.core.synthetic import render_photo
+    from monoplot_plugin.adapters.photo import array_to_qimage
+    from monoplot_plugin.workflow.camera_files import camera_json
+
+    frames = tmp_path / "frame1", tmp_path / "frame5"
+    for folder in frames:
+        folder.mkdir()
+    shutil.copy(scene.photo_path, frames[0] / "photo.png")
+    turned = scene.camera.with_parameters(heading=scene.camera.heading + 4.0)
+    assert array_to_qimage(render_photo(turned, scene.dem)).save(str(frames[1] / "photo.png"))
+    dock.photoFile.setFilePath(str(frames[0] / "photo.png"))
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    c = dock.controller
+    verdict = {"status": "ok", "message": "paired fit on 6 pairs: RMSE 0.5 px.", "sigma": {"heading": 0.008},
+               "mode": "paired", "rmse_px": 0.5, "loo_rmse_px": 1.2}
+    c.set_fitted(scene.camera, verdict, background=False)
+    saved = tmp_path / "frame1_camera.json"
+    assert io_actions.save_camera_file(c, str(saved))
+    fit = json.loads(saved.read_text())["fit"]
+    assert fit["photo"] == "photo.png" and len(fit["photo_sha256"]) == 64
+    assert io_actions.load_camera_file(c, str(saved), as_fitted=True) is not None
+    assert c.state.fit_info["status"] == "ok"  # the photo it was fitted on
+    from test_photo_change import answer_with
+
+    answer_with(qtbot, "Start afresh", [])  # the question asked when the photo changes under a fitted camera
+    dock.photoFile.setFilePath(str(frames[1] / "photo.png"))
+    assert c.state.photo_path == str(frames[1] / "photo.png")
+    assert io_actions.load_camera_file(c, str(saved), as_fitted=True) is not None
+    info = c.state.fit_info
+    assert info["status"] == "uncertain" and "fitted on another photo (photo.png)" in info["message"]
+    assert info["sigma"] == {"heading": 0.008}
+    from monoplot_plugin.workflow.features import pixel_error
+    assert pixel_error(info) == (None, "")  # no error figure on the ground for features drawn on it
+    # a camera file written without a photo (a fit on points alone) keeps its verdict, as before
+    bare = tmp_path / "bare.json"
+    bare.write_text(camera_json(scene.camera, verdict))
+    assert io_actions.load_camera_file(c, str(bare), as_fitted=True) is not None
+    assert c.state.fit_info["status"] == "ok"
+
+
 def test_a_gcp_table_in_the_projects_crs_is_converted_and_one_off_the_dem_is_a_warning(dock, scene, tmp_path):
     """A trial: a GCP table in the project's CRS (LV95) was read as the DEM's (LV03): the 11 points lay 2,200 km
     away, the message said only "11 pairs", the fit said "ok" and the XYZ raster was empty."""

@@ -93,6 +93,31 @@ def test_a_doubtful_registrations_camera_carries_its_verdict_to_the_products(run
     assert not quiet.warnings
 
 
+def test_a_camera_fitted_on_one_photo_is_not_ok_for_another(run_alg, rendered_scene, tmp_path):
+    """A time-lapse trial used frame 1's "ok" camera for frame 5 (the mount turned 4 degrees): its products were
+    168 m off, said "ok". The camera file names the photo its verdict is about; products of another photo warn,
+    and their XYZ raster says "uncertain"; products of the same photo do not."""
+    from osgeo import gdal
+
+    from tests.processing.conftest import recording_feedback
+    from monoplot_plugin.workflow.camera_files import camera_json
+
+    d = rendered_scene["dir"]
+    camera = tmp_path / "frame1_camera.json"
+    camera.write_text(camera_json(rendered_scene["truth"], {"status": "ok", "message": "fitted"},
+                                  str(d / "photo.png")))
+    other = tmp_path / "photo.png"  # the same name and size, other pixels
+    cv2.imwrite(str(other), 255 - cv2.imread(str(d / "photo.png")))
+    for photo, warned in ((d / "photo.png", False), (other, True)):
+        log = recording_feedback()
+        out = tmp_path / f"xyz_{warned}.tif"
+        run_alg("computexyz", {"CAMERA": str(camera), "DEM": str(d / "dem.tif"), "PHOTO": str(photo),
+                               "OUTPUT": str(out)}, log)
+        assert any("fitted on another photo (photo.png)" in w for w in log.warnings) == warned, log.warnings
+        kept = json.loads(gdal.Open(str(out)).GetMetadataItem("MONOPLOT_FIT"))
+        assert kept["status"] == ("uncertain" if warned else "ok")
+
+
 def test_any_heading_finds_a_view_the_prior_looks_away_from(run_alg, rendered_scene, tmp_path):
     """A viewpoint known, its direction not (a print's caption names the summit it was taken from): ANY_HEADING
     searches every direction of view."""

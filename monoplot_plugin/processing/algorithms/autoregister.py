@@ -117,7 +117,8 @@ class AutoRegister(MonoplotAlgorithm):
         # with its verdict: an uncertain or poor registration's camera (the prior, or the best found) is written
         # all the same, and the products made from it warn of it
         write_text(out, camera_json(camera, {"status": result.status, "message": result.message,
-                                             "sigma": result.std, "mode": "automatic"}), overwrite=True)
+                                             "sigma": result.std, "mode": "automatic"}, photo_path),
+                   overwrite=True)
         feedback.pushInfo(self.tr("Camera: {0}").format(camera_line(camera)))
         if result.std:
             feedback.pushInfo(self.tr("One standard deviation: {0}").format(

@@ -158,7 +158,7 @@ class BatchPhotos(MonoplotAlgorithm):
                 if os.path.exists(os.path.join(out_dir, "camera.json")):
                     feedback.pushInfo(self.tr("camera.json of an earlier run in {0} is replaced").format(out_dir))
                 # with its verdict and σ: a later run given this camera knows it was fitted (or how doubtful it is)
-                write_text(os.path.join(out_dir, "camera.json"), camera_json(camera, verdict), overwrite=True)
+                write_text(os.path.join(out_dir, "camera.json"), camera_json(camera, verdict, used), overwrite=True)
                 feedback.pushInfo(self.tr("Shared camera fitted on {0}: RMSE {1:.2f} px; written to {2}").format(
                     os.path.basename(used), verdict["rmse_px"], os.path.join(out_dir, 'camera.json')))
             else:

@@ -30,7 +30,7 @@ from ..base import (PHOTO_Y_SIGN, MonoplotAlgorithm, camera_line, cancel_callbac
                     progress_callback)
 from ..inputs import read_photo
 from ...core.xyz_strips import plan_strips
-from ...workflow.camera_files import written_fit, written_verdict
+from ...workflow.camera_files import verdict_on_photo, written_fit
 from ...workflow.products import NO_GROUND, ProductError, blank_outside, ortho_grid, picture_area
 from ...workflow.inputs import check_not_empty
 from ..safe_sink import keep_pixel_space, safe_sink
@@ -102,7 +102,7 @@ class ComputeXyz(_CameraDemAlgorithm):
         area = None if photo is None else picture_area(photo)
         ground = float(np.isfinite(blank_outside(xyz[..., 2], area)).mean())
         self.check_not_empty(parameters, context, int(ground > 0), "XYZ raster", NO_GROUND)
-        status, message = written_verdict(self.parameterAsFile(parameters, "CAMERA", context))
+        status, message = verdict_on_photo(self.parameterAsFile(parameters, "CAMERA", context), path)
         pipeline.write_xyz(out, camera, dem, crs.toWkt(), progress=progress_callback(feedback, 80, 95),
                            is_canceled=cancel_callback(feedback), area=area,  # found once, above
                            fit={"status": status, "message": message} if status else None)
@@ -338,10 +338,11 @@ class Report(_CameraDemAlgorithm):
 
     def run_algorithm(self, parameters, context, feedback):
         camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
-        photo = checked(read_photo, self.photo_path(parameters, context))
+        photo_path = self.photo_path(parameters, context)
+        photo = checked(read_photo, photo_path)
         points = self.parameterAsFile(parameters, "POINTS_CSV", context) or None
         out = self.parameterAsFileOutput(parameters, "OUTPUT", context)
-        status, message = written_verdict(self.parameterAsFile(parameters, "CAMERA", context))
+        status, message = verdict_on_photo(self.parameterAsFile(parameters, "CAMERA", context), photo_path)
         # the σ the camera's own fit wrote (the demo's page had none once its table held check points only)
         sigma = written_fit(self.parameterAsFile(parameters, "CAMERA", context)).get("sigma") or None
         checked(pipeline.report, out, photo, camera, dem, points, f"{status}: {message}" if status else "", sigma)
