@@ -56,6 +56,15 @@ NEAR_SHIFT_SHARE = 0.02
 PROBES_BACK_OK = 2
 
 
+def _metres(value: float) -> str:
+    """A distance for a message: whole metres from 10 m, two figures below (a trial's σ of 0.5 m read "0 m").
+
+    >>> [_metres(v) for v in (0.5, 0.736, 9.54, 147.0, 1234.0)]
+    ['0.5', '0.74', '9.5', '147', '1234']
+    """
+    return f"{value:.0f}" if abs(value) >= 10.0 else f"{value:.2g}"
+
+
 def alignment_evidence(al: Aligner, off, score: float, refined, photo: PhotoEdges, full_width: int) -> dict:
     """The ``auto_*`` evidence of the aligned offset ``off`` (edge score ``score``) among the ``refined``
     hypotheses ((score, offset), best first), with the photo's edges ``photo``."""
@@ -125,12 +134,13 @@ def combine_evidence(result: AutoFitResult, ev: dict) -> None:
         weak.append(f"the DEM's skyline and contours fit the photo's edges only loosely under the camera (edge "
                     f"score {ev.get('auto_edge_score', 1.0):.3f}, over {EDGE_SCORE_OK:.3f}; 0 is a perfect fit): "
                     f"if the rough position may be farther off than its σ of "
-                    f"{ev.get('auto_position_sigma_m', 0.0):.0f} m, give a larger position uncertainty")
+                    f"{_metres(ev.get('auto_position_sigma_m', 0.0))} m, give a larger position uncertainty")
     rng = ev.get("auto_range_m", float("nan"))
     near = not np.isfinite(rng) or ev.get("auto_position_sigma_m", 0.0) > NEAR_RATIO * rng
     if near:
-        weak.append(f"the prior position's uncertainty ({ev.get('auto_position_sigma_m', 0.0):.0f} m) is a large "
-                    f"part of the distance to the terrain seen ({rng:.0f} m): edges alone cannot place the camera")
+        weak.append(f"the prior position's uncertainty ({_metres(ev.get('auto_position_sigma_m', 0.0))} m) is a "
+                    f"large part of the distance to the terrain seen ({rng:.0f} m): edges alone cannot place the "
+                    "camera")
     spread = max(result.std.get("heading", 0.0), result.std.get("pitch", 0.0))
     if spread > 90.0:  # a σ of thousands of degrees (a photo of fog) says nothing a reader can use
         weak.append("the photo's edges do not determine the view direction")
@@ -142,10 +152,10 @@ def combine_evidence(result: AutoFitResult, ev: dict) -> None:
     back = ev.get("auto_probe_returned", PROBES_BACK_OK)
     if back < PROBES_BACK_OK:
         weak.append(f"{'none' if back == 0 else f'only {back}'} of four cameras moved by the position's σ "
-                    f"({ev.get('auto_position_sigma_m', 0.0):.0f} m) and refined again came back to this one: it "
+                    f"({_metres(ev.get('auto_position_sigma_m', 0.0))} m) and refined again came back to this one: it "
                     "sits in a basin narrower than the prior's uncertainty, and another camera may fit elsewhere")
     if ev.get("auto_probe_rivals", 0):
-        weak.append(f"a camera {ev['auto_probe_distance_m']:.0f} m away, turned to the same terrain, fits the "
+        weak.append(f"a camera {_metres(ev['auto_probe_distance_m'])} m away, turned to the same terrain, fits the "
                     f"photo's edges about as well (its edge score is {ev['auto_probe_ratio']:.2f} times this "
                     f"one's; lower is better) and puts the terrain {ev['auto_probe_shift_px']:.0f} px elsewhere: "
                     "the edges cannot place the camera that closely")

@@ -58,7 +58,7 @@ class AutoRegister(MonoplotAlgorithm):
             "POSITION_SIGMA", self.tr("Uncertainty of the prior position (m, one sigma; empty = {0:.0f} m for the "
                                       "photo's EXIF GPS position, {1:.0f} m for a prior camera file)").format(
                 auto.GPS_POSITION_SIGMA_M, auto.DEFAULT_POSITION_SIGMA_M),
-            QgsProcessingParameterNumber.Double, None, optional=True, minValue=1.0))
+            QgsProcessingParameterNumber.Double, None, optional=True, minValue=0.1))
         self.addParameter(QgsProcessingParameterNumber(
             "ANGLE_SIGMA", self.tr("Uncertainty of the prior heading and pitch (degrees, one sigma)"),
             QgsProcessingParameterNumber.Double, auto.DEFAULT_ANGLE_SIGMA_DEG, minValue=0.1, maxValue=30.0))

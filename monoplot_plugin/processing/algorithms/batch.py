@@ -98,7 +98,7 @@ class BatchPhotos(MonoplotAlgorithm):
             "POSITION_SIGMA", self.tr("Uncertainty of the priors' position (m, one sigma; table rows without points; "
                                       "empty = {0:.0f} m for EXIF GPS, {1:.0f} m for a camera file)").format(
                 GPS_POSITION_SIGMA_M, DEFAULT_POSITION_SIGMA_M),
-            QgsProcessingParameterNumber.Double, None, optional=True, minValue=1.0))
+            QgsProcessingParameterNumber.Double, None, optional=True, minValue=0.1))
         self.addParameter(QgsProcessingParameterNumber(
             "ANGLE_SIGMA", self.tr("Uncertainty of the priors' heading and pitch (degrees, one sigma; table rows "
                                    "without points)"),
