@@ -11,16 +11,17 @@ from __future__ import annotations
 
 import csv
 import fnmatch
+import json
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Callable, Iterable, List, Optional, Tuple
+from typing import Callable, Iterable, List, Optional
 
 import numpy as np
 
 from ..core.camera import Camera
 from ..outputs.safe_write import write_text
-from .camera_files import written_verdict
+from .camera_files import fit_figures, written_fit, written_verdict
 from .files import InputError, read_photo
 from .frames import (SHARED_XYZ, FrameTask, PhotoResult, Timelapse, blank_photo, fit_job, process_frame,
                      shared_for)
@@ -134,7 +135,7 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
               log: Log = lambda message, error: None,
               progress: Progress = no_progress, is_canceled: IsCanceled = never_canceled,
               workers: Optional[int] = None, register: bool = False, reference: str = "",
-              camera_verdict: Tuple[str, str] = ("ok", ""), resume: bool = False) -> List[PhotoResult]:
+              camera_verdict: tuple = ("ok", ""), resume: bool = False) -> List[PhotoResult]:
     """Run every job; never raises for one photo's problem.
 
     Outputs per photo ``<stem>_camera.json`` (fitted jobs, and re-registered frames that turned), ``<stem>_xyz.tif``,
@@ -145,8 +146,9 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
     ``workers``: frames processed at once (threads; default: the number of cores). ``register``: match every frame
     of a shared camera to ``reference`` (a photo; default the first usable job's, see :func:`pick_reference`) and
     make its products with the corrected camera; the drift is in the log and the results. All jobs share one camera,
-    or none does (a table). ``camera_verdict``: (status, note) of the shared camera: a status other than "ok"
-    is every frame's (see :func:`shared_camera_verdict`). ``resume``: the photos an earlier run in ``out_dir``
+    or none does (a table). ``camera_verdict``: (status, note[, fit figures]) of the shared camera: a status other
+    than "ok" is every frame's, the figures go with the cameras of turned frames (see
+    :func:`shared_camera_verdict`). ``resume``: the photos an earlier run in ``out_dir``
     finished with the same inputs and settings keep their products and results (see :mod:`.resume`).
     """
     os.makedirs(out_dir, exist_ok=True)
@@ -221,7 +223,7 @@ class _Background:
 def batch_setup(jobs: List[PhotoJob], crs_wkt: str, out_dir: str, write_xyz: bool = True, write_ortho: bool = True,
                 resolution: Optional[float] = None, register: bool = False, reference: str = "",
                 dem_path: str = "", void_value: Optional[float] = None, log: Log = lambda message, error: None,
-                camera_verdict: Tuple[str, str] = ("ok", "")) -> Timelapse:
+                camera_verdict: tuple = ("ok", "")) -> Timelapse:
     """The :class:`~.frames.Timelapse` of a batch: the shared camera of its jobs (all or none), the reference
     (:func:`pick_reference`; an InputError when the one named cannot serve)."""
     cameras = {j.camera.to_json() for j in jobs if j.camera is not None}
@@ -234,7 +236,9 @@ def batch_setup(jobs: List[PhotoJob], crs_wkt: str, out_dir: str, write_xyz: boo
         reference = pick_reference([j.photo for j in jobs if j.photo], Camera.from_json(camera_json), reference, log)
     return Timelapse(out_dir, crs_wkt, camera_json, write_xyz, write_ortho, resolution, register,
                      reference if register else "", dem_path=dem_path, void_value=void_value,
-                     camera_status=camera_verdict[0] or "ok", camera_note=camera_verdict[1])
+                     camera_status=camera_verdict[0] or "ok", camera_note=camera_verdict[1],
+                     camera_fit_json=json.dumps(camera_verdict[2], sort_keys=True) if len(camera_verdict) > 2
+                     and camera_verdict[2] else "")
 
 
 def pick_reference(photos: List[str], camera, named: str = "", log: Log = lambda message, error: None) -> str:
@@ -274,18 +278,19 @@ def pick_reference(photos: List[str], camera, named: str = "", log: Log = lambda
                      "the shared camera)")
 
 
-def shared_camera_verdict(path: str, log: Log = lambda message, error: None) -> Tuple[str, str]:
-    """(status, note) of a time-lapse's shared camera file for :func:`run_batch`: the verdict of the fit that wrote
-    it (:func:`~.camera_files.written_verdict`); a camera without one (a rough prior, a KML) is "uncertain: camera
+def shared_camera_verdict(path: str, log: Log = lambda message, error: None) -> tuple:
+    """(status, note, fit figures) of a time-lapse's shared camera file for :func:`run_batch`: the verdict of the
+    fit that wrote it (:func:`~.camera_files.written_verdict`) and its figures (:func:`~.camera_files.fit_figures`,
+    {} without); a camera without one (a rough prior, a KML) is "uncertain: camera
     not fitted", said once in the log. A rough prior taken as the fitted camera gave every frame "ok" and products
     225 m off (a trial)."""
     status, message = written_verdict(path)
     if status in ("ok", "uncertain", "poor"):
-        return status, f"the camera's fit was {status}" if status != "ok" else ""
+        return status, f"the camera's fit was {status}" if status != "ok" else "", fit_figures(written_fit(path))
     log(f"The camera {os.path.basename(path)} carries no fit verdict: it is not a fitted camera (a rough prior?). "
         "Its frames are marked \"uncertain: camera not fitted\"; fit it on one frame (Fit camera, or POINTS here) "
         "for products you can trust.", True)
-    return "uncertain", "camera not fitted"
+    return "uncertain", "camera not fitted", {}
 
 
 def frame_tasks(jobs: List[PhotoJob], stems: List[str], log: Log) -> List[FrameTask]:

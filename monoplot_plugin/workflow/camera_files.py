@@ -17,7 +17,10 @@ from ..core.camera import Camera, azimuth
 from .inputs import InputError, _crs_name, check_camera, read_text
 
 __all__ = ["load_camera", "save_camera", "camera_json", "written_fit", "written_verdict", "fitted_to_size",
-           "photo_fingerprint", "fitted_on_photo", "verdict_on_photo"]
+           "photo_fingerprint", "fitted_on_photo", "verdict_on_photo", "fit_figures", "PIXEL_FIGURES"]
+
+#: A fit's pixel figures a product's ``xy_error_m`` is worked out from (:func:`~.features.pixel_error`).
+PIXEL_FIGURES = ("rmse_px", "loo_rmse_px", "sigma_px")
 
 
 def load_camera(path: str, image_size: Optional[Tuple[int, int]] = None, crs_wkt: str = "",
@@ -190,21 +193,33 @@ def camera_json(camera: Camera, verdict: Optional[dict] = None, photo_path: str 
     d["heading"] = azimuth(camera.heading)
     if not verdict:
         return json.dumps(d, indent=2)
-    d["fit"] = {"status": str(verdict.get("status") or ""), "message": str(verdict.get("message") or "")}
-    summary = verdict.get("summary") or {}
-    sigma = verdict.get("sigma") or summary.get("std") or {}
-    sigma = {str(k): float(v) for k, v in sigma.items() if v is not None and np.isfinite(float(v))}
-    if sigma:
-        d["fit"]["sigma"] = sigma
-    # the figures a product's xy_error_m is worked out from (workflow.features.pixel_error), kept with the verdict
-    for key in ("mode", "rmse_px", "loo_rmse_px", "sigma_px"):
-        value = verdict.get(key, summary.get(key))
-        if isinstance(value, str) or (value is not None and np.isfinite(float(value))):
-            d["fit"][key] = value if isinstance(value, str) else float(value)
+    d["fit"] = {"status": str(verdict.get("status") or ""), "message": str(verdict.get("message") or ""),
+                **fit_figures(verdict)}
     fingerprint = photo_fingerprint(photo_path)
     if fingerprint:
         d["fit"].update(photo=os.path.basename(photo_path), photo_sha256=fingerprint)
     return json.dumps(d, indent=2)
+
+
+def fit_figures(verdict: dict) -> dict:
+    """What a camera file keeps of a fit besides its status and message: ``sigma`` per parameter (from ``"sigma"``
+    or the fit summary's ``"std"``), ``mode`` and the :data:`PIXEL_FIGURES` a product's ``xy_error_m`` is worked
+    out from (:func:`~.features.pixel_error`); finite values only.
+
+    >>> fit_figures({"status": "ok", "summary": {"std": {"x": 2.0, "y": None}, "rmse_px": 1.5}, "mode": "paired"})
+    {'sigma': {'x': 2.0}, 'mode': 'paired', 'rmse_px': 1.5}
+    """
+    out = {}
+    summary = verdict.get("summary") or {}
+    sigma = verdict.get("sigma") or summary.get("std") or {}
+    sigma = {str(k): float(v) for k, v in sigma.items() if v is not None and np.isfinite(float(v))}
+    if sigma:
+        out["sigma"] = sigma
+    for key in ("mode",) + PIXEL_FIGURES:
+        value = verdict.get(key, summary.get(key))
+        if isinstance(value, str) or (value is not None and np.isfinite(float(value))):
+            out[key] = value if isinstance(value, str) else float(value)
+    return out
 
 
 def photo_fingerprint(path: str) -> str:

@@ -25,7 +25,7 @@ import os
 import queue
 import sys
 from pathlib import Path
-from typing import Dict, List, Optional, Tuple
+from typing import Dict, List, Optional
 
 from .batch import (Log, PhotoJob, batch_setup, frame_tasks, log_result, output_stems, planned_outputs,
                     say_replaced, shared_xyz_failed)
@@ -132,7 +132,7 @@ def run_batch_dask(jobs: List[PhotoJob], dem_path: str, crs_wkt: str, out_dir: s
                    log: Log = lambda message, error: None, progress: Progress = no_progress,
                    is_canceled: IsCanceled = never_canceled, register: bool = False, reference: str = "",
                    client=None, address: str = "", void_value: Optional[float] = None,
-                   per_task: Optional[int] = None, camera_verdict: Tuple[str, str] = ("ok", ""),
+                   per_task: Optional[int] = None, camera_verdict: tuple = ("ok", ""),
                    resume: bool = False) -> List[PhotoResult]:
     """:func:`~.batch.run_batch` with the frames as Dask tasks (arguments as there; the DEM as a file path).
 

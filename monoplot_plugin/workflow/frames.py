@@ -29,7 +29,7 @@ from ..core.suggest_photo import FEATURELESS_CONTRAST, coarse_contrast
 from ..outputs.orthophoto import write_orthophoto
 from ..outputs.safe_write import write_text
 from ..outputs.xyz_raster import write_xyz_raster
-from .camera_files import camera_json
+from .camera_files import PIXEL_FIGURES, camera_json
 from .files import InputError, load_camera, read_photo, read_points_csv
 from .fit import fit_points
 from .progress import IsCanceled, check_canceled, never_canceled
@@ -144,7 +144,9 @@ class Timelapse:
     ``camera_json``: the shared camera ("" for a table of photos each fitted). ``register``: re-register every
     frame on ``reference`` (a photo path). ``dem_path``/``void_value``: how a worker opens the DEM.
     ``camera_status``/``camera_note``: the shared camera's verdict ("uncertain" for a camera file without one: a
-    rough prior is no fitted camera), which every frame of it inherits."""
+    rough prior is no fitted camera), which every frame of it inherits; ``camera_fit_json``: its fit's figures
+    (:func:`~.camera_files.fit_figures`, as JSON: the setup stays hashable), which a turned frame's camera file
+    carries with the registration's residual added (:func:`turned_figures`)."""
 
     out_dir: str
     crs_wkt: str
@@ -159,6 +161,7 @@ class Timelapse:
     void_value: Optional[float] = None
     camera_status: str = "ok"
     camera_note: str = ""
+    camera_fit_json: str = ""
 
 
 @dataclass(frozen=True)
@@ -261,7 +264,8 @@ def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCance
                 note = f"the shared camera turned onto this frame ({result.drift_px:.1f} px of drift)"
                 result.outputs.append(_write_camera(setup, task.stem, camera, {
                     "status": setup.camera_status,
-                    "message": f"{note}; {setup.camera_note}" if setup.camera_note else note}, task.photo))
+                    "message": f"{note}; {setup.camera_note}" if setup.camera_note else note,
+                    **turned_figures(setup.camera_fit_json, result.match_px)}, task.photo))
         check_canceled(is_canceled)
         if (setup.write_xyz or setup.write_ortho) and not products.sees_ground:
             raise InputError("the camera sees no cell of the DEM (every pixel is sky): wrong camera or DEM?")
@@ -326,6 +330,28 @@ def _registered(shared: Shared, photo: np.ndarray, result: PhotoResult):
         if lookup is not None:
             return CameraProducts.of_lookup(camera, shared.products.grid, lookup), True
     return CameraProducts(camera, shared.dem, shared.setup.resolution, shared.setup.write_ortho, cached=False), True
+
+
+def turned_figures(camera_fit_json: str, match_px: float) -> dict:
+    """The shared camera's fit figures for a frame it was turned onto: its σ as they are (the turn is known to a
+    small part of the shared camera's angular σ), its pixel figures with the turn's registration residual
+    ``match_px`` (RMS) added in quadrature, the two errors being independent. A time-lapse trial's turned frames
+    carried no figures: loaded in the dock, they showed "ok" with no ± and the fronts drawn on them had no
+    xy_error_m.
+
+    >>> turned_figures('{"mode": "paired", "loo_rmse_px": 3.0, "sigma": {"x": 1.0}}', 4.0)
+    {'mode': 'paired', 'loo_rmse_px': 5.0, 'sigma': {'x': 1.0}}
+    >>> turned_figures("", 0.5)
+    {}
+    """
+    import json
+
+    figures = json.loads(camera_fit_json) if camera_fit_json else {}
+    if np.isfinite(match_px):
+        for key in PIXEL_FIGURES:
+            if key in figures:
+                figures[key] = math.hypot(float(figures[key]), float(match_px))
+    return figures
 
 
 def _write_camera(setup: Timelapse, stem: str, camera: Camera, verdict: Optional[dict] = None,

@@ -79,6 +79,34 @@ def test_turned_frames_are_registered_and_get_their_corrected_camera(drifting_ti
         assert np.allclose(xyz, again, rtol=0.0, atol=1e-6, equal_nan=True), np.nanmax(np.abs(xyz - again))
 
 
+def test_a_turned_frames_camera_file_carries_the_shared_cameras_figures(drifting_timelapse, tmp_path):
+    """A time-lapse trial's turned frames carried only a status: loaded in the dock they said "ok" with no ±, and
+    the fronts drawn on them had no xy_error_m. Their files carry the shared camera's σ and pixel figures, the
+    registration's residual added, and name their photo."""
+    import json
+    import math
+
+    from monoplot_plugin.workflow.camera_files import fitted_on_photo, written_fit
+    from monoplot_plugin.workflow.features import pixel_error
+
+    scene = drifting_timelapse
+    cam = Camera.load(scene["camera"])
+    dem = Dem.open(scene["dem"])
+    shared = {"mode": "paired", "rmse_px": 1.5, "loo_rmse_px": 2.0, "sigma": {"heading": 0.01, "x": 0.8}}
+    out = tmp_path / "out"
+    results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(out), register=True,
+                              camera_verdict=("ok", "", shared))
+    turned = [(r, out / f"frame_{r.index:03d}_camera.json") for r in results if r.drift_px >= 0.1]
+    assert turned and all(r.ok for r, _ in turned)
+    for r, path in turned:
+        fit = written_fit(str(path))
+        assert fit["status"] == "ok" and fit["sigma"] == shared["sigma"] and fit["mode"] == "paired"
+        assert fit["loo_rmse_px"] == pytest.approx(math.hypot(2.0, r.match_px))
+        assert pixel_error(fit) == (pytest.approx(math.hypot(2.0, r.match_px)), "loo")
+        assert fitted_on_photo(fit, r.photo) is True
+    assert json.loads(turned[0][1].read_text())["fit"]["photo"] == os.path.basename(turned[0][0].photo)
+
+
 def test_a_frame_that_cannot_be_registered_is_reported_not_given_the_reference_camera(drifting_timelapse,
                                                                                          tmp_path):
     import shutil

@@ -17,7 +17,7 @@ from qgis.core import (
 
 from ...outputs.safe_write import cancel_before_commit, write_text
 from ...workflow.auto import DEFAULT_ANGLE_SIGMA_DEG, DEFAULT_POSITION_SIGMA_M, GPS_POSITION_SIGMA_M
-from ...workflow.camera_files import camera_json
+from ...workflow.camera_files import camera_json, fit_figures
 from .. import batch
 from ..base import MonoplotAlgorithm, checked
 
@@ -153,7 +153,7 @@ class BatchPhotos(MonoplotAlgorithm):
                                                 self.parameterAsFile(parameters, "CAMERA", context), points,
                                                 self.parameterAsFile(parameters, "DEM_POINTS", context),
                                                 dem, crs.toWkt(), lambda m, e: feedback.reportError(m, False))
-                camera_verdict = (verdict["status"], verdict["message"])
+                camera_verdict = (verdict["status"], verdict["message"], fit_figures(verdict))
                 os.makedirs(out_dir, exist_ok=True)
                 if os.path.exists(os.path.join(out_dir, "camera.json")):
                     feedback.pushInfo(self.tr("camera.json of an earlier run in {0} is replaced").format(out_dir))
