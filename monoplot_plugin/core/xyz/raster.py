@@ -1,6 +1,12 @@
 """Z-buffer kernels: mesh vertices projected row by row, each quad's two triangles rasterised into per-thread depth
 buffers of inverse depths and triangle ids (clipped at the near plane, back faces culled), the buffers merged.
 
+With lens distortion whose polynomial stops growing at some radius (barrel, ``k1 < 0``), a vertex beyond that
+radius has no pixel; a triangle with one is clipped to a pyramid inside the valid radius that holds the whole picture
+(:data:`OUTSIDE_CONE`, :func:`_raster_clipped`) rather than dropped: the ground at the feet of a camera 1.7 m up,
+seen at the bottom of a phone photo (k1 -0.06), lies in triangles whose far corners are beyond it, and the bottom
+third of such a photo had no ground (a desktop trial).
+
 >>> import numpy as np
 >>> zbuf = np.zeros((1, 4, 4), dtype=np.float32); tbuf = np.full((1, 4, 4), -1, dtype=np.int32)
 >>> _raster_triangle(0.0, 0.0, 1.0, 4.0, 0.0, 1.0, 0.0, 4.0, 1.0, 7, zbuf[0], tbuf[0], 0.0)
@@ -19,13 +25,16 @@ from .mesh import _distort, _vertex_cam
 
 #: DEM rows per block of :func:`_rasterise`: a block projects its rows once each, plus one shared row.
 RASTER_BLOCK_ROWS = 16
+#: ``w`` of a vertex in front of the camera but beyond the distortion's valid radius (:func:`_project_row`): its
+#: triangles are clipped (:func:`_raster_clipped`), not drawn from their corners nor dropped as voids (NaN).
+OUTSIDE_CONE = -0.5
 
 
 @njit(cache=True)
 def _project_row(elev, gt, C, R, intr, near, r, c0, c1, u, v, w):
     """Project the mesh vertices of DEM row r, columns [c0, c1), into (cols,) float32 u, v (pixels; NaN if not in
-    front) and w: inverse camera depth 1/z for vertices more than ``near`` in front, -1 for the others, NaN for voids
-    and for vertices outside the distortion's valid radius."""
+    front) and w: inverse camera depth 1/z for vertices more than ``near`` in front, -1 for the others, NaN for voids,
+    :data:`OUTSIDE_CONE` for vertices in front but outside the distortion's valid radius."""
     f, cx, cy, k1, k2, r2max = intr[0], intr[1], intr[2], intr[3], intr[4], intr[5]
     for c in range(c0, c1):
         if elev[r, c] != elev[r, c]:
@@ -42,7 +51,7 @@ def _project_row(elev, gt, C, R, intr, near, r, c0, c1, u, v, w):
                 if xn * xn + yn * yn > r2max:
                     u[c] = np.nan
                     v[c] = np.nan
-                    w[c] = np.nan
+                    w[c] = OUTSIDE_CONE
                     continue
                 xn, yn = _distort(xn, yn, k1, k2)
             u[c] = f * xn + cx
@@ -148,37 +157,55 @@ def _raster_quad(ua, va, wa, ub, vb, wb, uc, vc, wc, ud, vd, wd, i0, i1, j0, j1,
 
 
 @njit(cache=True)
+def _clip_polygon(Q, n, nx, ny, nz, d, out):
+    """Sutherland-Hodgman: the part of the convex polygon ``Q[:n]`` (camera frame) where ``nx x + ny y + nz z + d``
+    is >= 0, into ``out``; returns its vertex count."""
+    m = 0
+    for k in range(n):
+        a = Q[k]
+        b = Q[(k + 1) % n]
+        sa = nx * a[0] + ny * a[1] + nz * a[2] + d
+        sb = nx * b[0] + ny * b[1] + nz * b[2] + d
+        if sa >= 0.0:
+            out[m] = a
+            m += 1
+        if (sa >= 0.0) != (sb >= 0.0):
+            t = sa / (sa - sb)
+            out[m] = a + t * (b - a)
+            m += 1
+    return m
+
+
+@njit(cache=True)
 def _raster_clipped(elev, gt, C, R, intr, near, ra, ca, rb, cb, rc, cc, tid, zbuf, tbuf, cull):
-    """Clip a triangle that crosses the near plane (camera frame, float64) and rasterise the part in front."""
+    """Clip a triangle that crosses the near plane, or (with distortion) has a corner beyond its valid radius, to
+    the part in front and inside the pyramid ``|x| <= a z``, ``|y| <= b z`` (``intr[6]``, ``intr[7]``: inside the
+    valid radius, holding the picture), then rasterise that polygon as a fan."""
     f, cx, cy, k1, k2, r2max = intr[0], intr[1], intr[2], intr[3], intr[4], intr[5]
     P = np.empty((3, 3))
     P[0, 0], P[0, 1], P[0, 2] = _vertex_cam(elev, gt, C, R, ra, ca)
     P[1, 0], P[1, 1], P[1, 2] = _vertex_cam(elev, gt, C, R, rb, cb)
     P[2, 0], P[2, 1], P[2, 2] = _vertex_cam(elev, gt, C, R, rc, cc)
-    Q = np.empty((4, 3))
-    n = 0
-    for k in range(3):
-        a = P[k]
-        b = P[(k + 1) % 3]
-        a_in = a[2] >= near
-        b_in = b[2] >= near
-        if a_in:
-            Q[n] = a
-            n += 1
-        if a_in != b_in:
-            t = (near - a[2]) / (b[2] - a[2])
-            Q[n] = a + t * (b - a)
-            n += 1
+    Q = np.empty((8, 3))
+    Q2 = np.empty((8, 3))
+    n = _clip_polygon(P, 3, 0.0, 0.0, 1.0, -near, Q)
+    distorted = k1 != 0.0 or k2 != 0.0
+    if distorted and r2max < np.inf:
+        a, b = intr[6], intr[7]
+        n = _clip_polygon(Q, n, -1.0, 0.0, a, 0.0, Q2)
+        n = _clip_polygon(Q2, n, 1.0, 0.0, a, 0.0, Q)
+        n = _clip_polygon(Q, n, 0.0, -1.0, b, 0.0, Q2)
+        n = _clip_polygon(Q2, n, 0.0, 1.0, b, 0.0, Q)
     if n < 3:
         return
-    U = np.empty(4)
-    V = np.empty(4)
-    Wd = np.empty(4)
+    U = np.empty(8)
+    V = np.empty(8)
+    Wd = np.empty(8)
     for k in range(n):
         xn = Q[k, 0] / Q[k, 2]
         yn = Q[k, 1] / Q[k, 2]
-        if k1 != 0.0 or k2 != 0.0:
-            if xn * xn + yn * yn > r2max:
+        if distorted:
+            if xn * xn + yn * yn > r2max * 1.000001:
                 return
             xn, yn = _distort(xn, yn, k1, k2)
         U[k] = f * xn + cx
@@ -245,7 +272,8 @@ def _raster_quad_row(ut, vt, wt, ub, vb, wb, r, c0, c1, elev, gt, C, R, intr, ne
                 _raster_triangle(u00, v00, w00, u01, v01, w01, u11, v11, w11, base, zbuf, tbuf, cull)
                 _raster_triangle(u00, v00, w00, u11, v11, w11, u10, v10, w10, base + 1, zbuf, tbuf, cull)
             continue
-        if not (w00 > 0.0 or w01 > 0.0 or w10 > 0.0 or w11 > 0.0):
+        if not (w00 > 0.0 or w01 > 0.0 or w10 > 0.0 or w11 > 0.0 or w00 == OUTSIDE_CONE or w01 == OUTSIDE_CONE
+                or w10 == OUTSIDE_CONE or w11 == OUTSIDE_CONE):
             continue  # behind the camera, or voids (NaN compares false)
         base = 2 * (r * (cols - 1) + c)
         for t in range(2):
@@ -263,7 +291,8 @@ def _raster_quad_row(ut, vt, wt, ub, vb, wb, r, c0, c1, elev, gt, C, R, intr, ne
                                  _row_pick(ut, ub, r, rb, cb), _row_pick(vt, vb, r, rb, cb), wb_,
                                  _row_pick(ut, ub, r, rc, cc), _row_pick(vt, vb, r, rc, cc), wc,
                                  base + t, zbuf, tbuf, cull)
-            elif wa > 0.0 or wb_ > 0.0 or wc > 0.0:
+            elif wa > 0.0 or wb_ > 0.0 or wc > 0.0 or wa == OUTSIDE_CONE or wb_ == OUTSIDE_CONE \
+                    or wc == OUTSIDE_CONE:
                 _raster_clipped(elev, gt, C, R, intr, near, ra, ca, rb, cb, rc, cc, base + t, zbuf, tbuf, cull)
 
 

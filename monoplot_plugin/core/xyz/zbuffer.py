@@ -76,9 +76,19 @@ class XyzResult:
 
 
 def _intrinsics(cam: Camera) -> np.ndarray:
-    """(f, cx, cy, k1, k2, r2max) for the kernels; r2max: :func:`~..distortion.valid_radius2`."""
+    """(f, cx, cy, k1, k2, r2max, a, b) for the kernels; r2max: :func:`~..distortion.valid_radius2`; a, b: the
+    half-widths (normalised, x / z and y / z) of the pyramid triangles are clipped to where a corner lies beyond
+    r2max (:func:`~.raster._raster_clipped`): its corners on the valid radius in the direction of the picture's
+    farthest corner from the principal point. Radial distortion keeps directions, and a barrel lens's undistorted
+    picture lies inside the rectangle of its undistorted corners, so the pyramid holds the whole picture."""
     r2max = valid_radius2(cam.k1, cam.k2) if (cam.k1 != 0.0 or cam.k2 != 0.0) else np.inf
-    return np.array([cam.focal_px, cam.cx, cam.cy, cam.k1, cam.k2, r2max], dtype=np.float64)
+    a = b = np.inf
+    if np.isfinite(r2max):
+        ex = max(cam.cx, cam.width - cam.cx) / cam.focal_px
+        ey = max(cam.cy, cam.height - cam.cy) / cam.focal_px
+        angle = math.atan2(ey, ex)
+        a, b = math.sqrt(r2max) * math.cos(angle), math.sqrt(r2max) * math.sin(angle)
+    return np.array([cam.focal_px, cam.cx, cam.cy, cam.k1, cam.k2, r2max, a, b], dtype=np.float64)
 
 
 def _cull_sign(cam: Camera, dem: Dem) -> float:
