@@ -87,8 +87,24 @@ class FittingMixin:
             # the registration's camera, not the rough one it searched from (and, while that rough camera's heading
             # is a guess, the fits that went on from it): a phone trial's refits started from its EXIF camera aimed
             # at the DEM's centre, 155° off, and were refused ("Every DEM point is behind the initial camera")
-            return self.fitted
+            return self._held_at_prior(self.fitted)
         return self.prior or self.fitted
+
+    def _held_at_prior(self, camera):
+        """``camera`` standing at the rough camera's position where the fit settings hold the position (x and y
+        unticked; its height too when z is): "if the GPS position is right, untick position and fit again" meant the
+        rough camera's position, and after Find camera automatically the fit held the registration's, 68 m from it
+        (a phone trial; the advice came back unchanged)."""
+        prior = self.prior
+        free = fit_arguments(self.state.settings)[0]
+        if prior is None or free is None:
+            return camera
+        values = {}
+        if not {"x", "y"} & set(free):
+            values.update(x=prior.position[0], y=prior.position[1])
+        if "z" not in free:
+            values["z"] = prior.position[2]
+        return camera.with_parameters(**values) if values else camera
 
     def fit(self) -> bool:
         """Fit the camera to the accepted points in a task (prior = start); result applied on the main thread."""

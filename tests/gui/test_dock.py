@@ -619,6 +619,17 @@ def test_fits_go_on_from_the_registered_camera_while_the_rough_heading_is_a_gues
         pass
     assert blocker.args[0].ok, blocker.args[0].reason
     assert c.state.fit_info["mode"] == "unpaired" and c.fit_start().parameters() == c.fitted.parameters()
+    # "untick position and fit again" (the rough position is a right GPS position): the fit starts, and keeps,
+    # the rough camera's position, turned as the registration found it (a phone trial's advice did nothing: the
+    # fit held the registration's position, 68 m from the GPS's)
+    from monoplot_plugin.gui.fit_settings import SETTINGS_KEY
+
+    c.state.settings[SETTINGS_KEY] = dict(c.state.settings.get(SETTINGS_KEY) or {},
+                                          free=["z", "heading", "pitch", "roll", "fov"])
+    held = c.fit_start()
+    assert held.position[:2] == away.position[:2] and held.position[2] == c.fitted.position[2]
+    assert held.heading == c.fitted.heading and held.position[:2] != c.fitted.position[:2]
+    c.state.settings[SETTINGS_KEY] = dict(c.state.settings[SETTINGS_KEY], free=None)
     c.set_prior(scene.prior)  # the person's own rough camera: the start again
     assert c.fit_start().parameters() == scene.prior.parameters()
     # a refusal is said in words, without a traceback in the log
