@@ -188,7 +188,8 @@ def write_points_csv(path: str, uv: Optional[np.ndarray] = None, xyz: Optional[n
                      ids: Optional[Sequence] = None, check: Optional[Sequence[bool]] = None) -> None:
     """Write points in the format :func:`read_points_csv` reads (columns id, u_px, v_px, X, Y, Z, check).
 
-    A NaN Z is written as an empty cell (read back as "take the DEM's")."""
+    A NaN Z is written as an empty cell (read back as "take the DEM's"). Map coordinates keep 12 significant
+    digits: millimetres in metres, and about 0.1 mm in degrees (three decimals of a longitude are 55 m)."""
     from ..outputs.safe_write import write_text
 
     n = len(uv) if uv is not None else len(xyz)
@@ -202,7 +203,7 @@ def write_points_csv(path: str, uv: Optional[np.ndarray] = None, xyz: Optional[n
         if uv is not None:
             row += [f"{float(v):.3f}" for v in uv[i]]
         if xyz is not None:
-            row += ["" if not np.isfinite(float(v)) else f"{float(v):.3f}" for v in xyz[i]]
+            row += ["" if not np.isfinite(float(v)) else f"{float(v):.12g}" for v in xyz[i]]
         if check is not None:
             row.append(1 if check[i] else 0)
         writer.writerow(row)

@@ -250,13 +250,16 @@ def report(path, photo: np.ndarray, camera: Camera, dem, points=None, points_csv
 
 def report_points(path, dem, split_checks: bool = False):
     """The paired points of a CSV table (:func:`~.points_csv.read_points_csv`) as the report's ``ReportPoints``;
-    a missing Z is the DEM's. ``split_checks``: (fitted points, check points or None) by the table's check column.
+    its map points in the DEM's working CRS as ``fitcamera`` reads them (:func:`~.inputs.points_to_dem_crs`: a
+    longitude/latitude table gave "RMSE nan px" and no check points in a trial's report, where ``fitcamera`` had
+    fitted the same table); a missing Z is the DEM's. ``split_checks``: (fitted points, check points or None) by
+    the table's check column.
 
     Raises:
         InputError: the table is not paired (it needs u, v and X, Y columns on each row).
     """
     from ..outputs.report import ReportPoints
-    from .inputs import InputError
+    from .inputs import InputError, points_to_dem_crs
     from .points_csv import read_points_csv
     from .vectors import fill_missing_z
 
@@ -264,7 +267,8 @@ def report_points(path, dem, split_checks: bool = False):
     if "uv" not in table or "xyz" not in table:
         raise InputError(f"{os.path.basename(str(path))}: the report needs paired points (u_px, v_px and X, Y, Z "
                          f"on each row)")
-    xyz, names = fill_missing_z(table["xyz"], dem), [str(i) for i in table["ids"]]
+    converted = points_to_dem_crs(table["xyz"], dem, name=os.path.basename(str(path)))[0]
+    xyz, names = fill_missing_z(converted, dem), [str(i) for i in table["ids"]]
     if not split_checks:
         return ReportPoints(table["uv"], xyz, names)
     check = np.asarray(table.get("check", np.zeros(len(xyz), dtype=bool)), dtype=bool)

@@ -163,6 +163,20 @@ def test_check_points_are_drawn_and_measured_first(plane_scene, tmp_path):
     assert sorted(t.get_text() for t in numbered.texts) == ["C3", "C4", "C5", "C6"]
     rmse = _checks_rmse(scene.camera, checks)
     assert rmse == pytest.approx(10.0, abs=0.2)
+    # a GCP table in longitude/latitude, as fitcamera reads it: a trial's report said "RMSE nan px", no checks
+    from osgeo import osr
+
+    source, wgs84 = osr.SpatialReference(), osr.SpatialReference()
+    source.SetFromUserInput(scene.dem.crs_wkt)
+    wgs84.SetFromUserInput("EPSG:4326")
+    wgs84.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+    source.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+    to_lonlat = osr.CoordinateTransformation(source, wgs84)
+    lonlat = np.array([to_lonlat.TransformPoint(*p) for p in points.xyz])
+    write_csv(str(csv), uv=uv, xyz=lonlat, check=[False] * 8 + [True] * 4, ids=[f"P{i:02d}" for i in range(12)])
+    fitted_ll, checks_ll = report_points(csv, scene.dem, split_checks=True)
+    assert np.allclose(checks_ll.xyz, checks.xyz, atol=0.05) and np.allclose(fitted_ll.xyz, fitted.xyz, atol=0.05)
+    assert _checks_rmse(scene.camera, checks_ll) == pytest.approx(rmse, abs=0.01)
     text_ax = Figure().add_subplot()
     _draw_parameters(text_ax, scene.camera, None, 0.1, fitted, scene.xyz, "", rmse, checks)
     assert "Check points (magenta, kept out of the fit): RMSE 10.00 px on 4" in text_ax.texts[0].get_text()
