@@ -217,9 +217,20 @@ class ChipView(QWidget):
         centre = self._centre(p, camera)
         self._at = centre
         if centre is None:
-            self.photo_chip.setText(tr("No camera:\nnot in the photo"))
-            self.dem_chip.setText(tr("Give a rough\ncamera first"))
-            self._set_caption(tr("A map point shows on the photo once there is a camera."))
+            if camera is None:
+                self.photo_chip.setText(tr("No camera:\nnot in the photo"))
+                self.dem_chip.setText(tr("Give a rough\ncamera first"))
+                self._set_caption(tr("A map point shows on the photo once there is a camera."))
+            elif p.z is None and not np.isfinite(self._project_height(p)):
+                # a trial's lake point, on a void, read "Give a rough camera first" beside a fitted camera
+                self.photo_chip.setText(tr("No height:\nnot placed"))
+                self.dem_chip.setText(tr("On a void or\noff the DEM"))
+                self._set_caption(tr("This map point has no height (on a void of the DEM, or off it): it cannot "
+                                     "be placed on the photo, and fits and check points leave it out."))
+            else:
+                self.photo_chip.setText(tr("Behind the\ncamera"))
+                self.dem_chip.setText(tr("Not in view"))
+                self._set_caption(tr("This map point lies behind the camera: it is not in the photo."))
             self._place()
             return
         partner = c.state.points.get(partner_id)
@@ -265,11 +276,15 @@ class ChipView(QWidget):
         uv = self._project(camera, [p])
         return None if uv is None or not np.isfinite(uv[0]).all() else (float(uv[0, 0]), float(uv[0, 1]))
 
-    def _project(self, camera: Camera, points) -> Optional[np.ndarray]:
+    def _project_height(self, q) -> float:
+        """The height a map point is projected at: its own, else the DEM's there (NaN on a void or off the DEM)."""
         c = self.controller
-        xyz = np.array([(q.x, q.y, q.z if q.z is not None else
-                         (float(c.dem.sample(q.x, q.y, to_extent=True)) if c.dem is not None else np.nan))
-                        for q in points], dtype=float)
+        if q.z is not None:
+            return float(q.z)
+        return float(c.dem.sample(q.x, q.y, to_extent=True)) if c.dem is not None else np.nan
+
+    def _project(self, camera: Camera, points) -> Optional[np.ndarray]:
+        xyz = np.array([(q.x, q.y, self._project_height(q)) for q in points], dtype=float)
         if not len(xyz):
             return None
         uv, depth = camera.project_with_depth(xyz)

@@ -46,3 +46,23 @@ def test_a_pair_whose_map_point_has_no_height_is_said_to_be_left_out(dock, scene
     assert any("has no height" in m and "with its pair" in m for m in warnings)
     assert "has no height (off the DEM or on a void) and is left out, with its pair" in c.state.fit_info["message"]
     assert c.state.fit_info["n_pairs"] == 8
+
+
+def test_a_check_point_with_no_height_is_said_and_its_chips_say_why(dock, scene, qtbot):
+    """A trial's lake check point, on a void of the DEM: "7.3 px RMSE on 3" left it out without a word, and its
+    chips read "Give a rough camera first" beside a fitted camera."""
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    x0, y0, x1, y1 = c.dem.bounds()
+    off = c.add_manual(MAP, x1 + 500.0, 0.5 * (y0 + y1))  # off the DEM: no height
+    extra = c.add_manual(PHOTO, 100.0, 100.0)
+    c.link(extra, off)
+    assert c.toggle_check(extra) and len(c.state.check_pairs()) == 1
+    assert "1 check point's map point has no height" in c.heightless_text() and "not measured" in \
+        c.heightless_text()
+    c.set_fitted(scene.camera, {"status": "ok", "message": "fitted"}, background=False)
+    dock.chips.set_wanted(True)
+    c.select(MAP, off)
+    qtbot.waitUntil(lambda: "No height" in dock.chips.photo_chip.text(), timeout=5000)
+    assert "void" in dock.chips.dem_chip.text() and "camera" not in dock.chips.dem_chip.text().lower()
+    assert "no height" in dock.chips.caption.text()
