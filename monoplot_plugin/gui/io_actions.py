@@ -27,7 +27,7 @@ from ..core.fit.verdict import judge_by_checks
 from ..state import ACCEPTED, CHECK, MAP, PHOTO, Edit, Point
 from ..workflow.camera_files import fitted_on_photo, load_camera, save_camera, written_fit
 from ..workflow.fit import measured_on_pairs
-from ..workflow.inputs import OFF_DEM_NOTE, InputError, _transform, points_to_dem_crs
+from ..workflow.inputs import InputError, _transform, is_warning_note, points_to_dem_crs
 from ..workflow.points_csv import read_points_csv, write_points_csv
 from .product_exports import writable_folder
 
@@ -146,7 +146,7 @@ def import_points_csv(controller, path: str, all_check: bool = False) -> int:
             ", ".join(table["unused"]))
     for note in notes:
         text += " " + note + ("" if note.endswith("?") else ".")
-    off_dem = any(OFF_DEM_NOTE in note for note in notes)
+    off_dem = any(is_warning_note(note) for note in notes)
     c.message.emit(text, WARNING if outside or off_dem or table.get("unused") else INFO)
     return rows
 

@@ -24,7 +24,8 @@ from typing import List, Optional, Sequence, Tuple
 import numpy as np
 
 __all__ = ["InputError", "load_dem", "check_dem_file", "check_photo_path", "check_camera", "check_view", "read_text",
-           "points_to_dem_crs", "OFF_DEM_NOTE", "check_not_empty", "MIN_DEM_CELLS"]
+           "points_to_dem_crs", "OFF_DEM_NOTE", "HEIGHT_UNIT_NOTE", "is_warning_note", "check_not_empty",
+           "MIN_DEM_CELLS"]
 
 #: Rows and columns a DEM needs at the least (the mesh has a triangle per half of a square of four cells).
 MIN_DEM_CELLS = 2
@@ -226,7 +227,7 @@ def points_to_dem_crs(xyz: np.ndarray, dem, points_crs: str = "", name: str = "t
         swapped = xyz[:, [1, 0, 2]]
         notes.append(f"{_points_of(name)} have X and Y the other way round (Y east, X north, as Swiss and many "
                      "survey tables write them) and were swapped")
-        return swapped, notes + _off_dem_notes(dem, swapped, name)
+        return swapped, notes + _dem_notes(dem, swapped, name)
     if not source and len(xyz) and dem.crs_wkt and _inside(dem, xyz).mean() < 0.5:
         lonlat = _degrees(xyz)
         guesses = ([("EPSG:4326", "longitude/latitude (WGS 84)")] if lonlat else []) + [
@@ -238,16 +239,61 @@ def points_to_dem_crs(xyz: np.ndarray, dem, points_crs: str = "", name: str = "t
                 continue
             if _inside(dem, converted).mean() >= 0.5:
                 notes.append(f"{_points_of(name)} look like {words} and were converted to the DEM's CRS")
-                return converted, notes + _off_dem_notes(dem, converted, name)
+                return converted, notes + _dem_notes(dem, converted, name)
     if not source or not dem.crs_wkt or _same_crs(source, dem.crs_wkt):
-        return xyz, notes + _off_dem_notes(dem, xyz, name)
+        return xyz, notes + _dem_notes(dem, xyz, name)
     converted = _transform(xyz, source, dem.crs_wkt)
     notes.append(f"{_points_of(name)} were converted from {_crs_name(source)} to {_crs_name(dem.crs_wkt)}")
-    return converted, notes + _off_dem_notes(dem, converted, name)
+    return converted, notes + _dem_notes(dem, converted, name)
 
 
 #: Notes of :func:`points_to_dem_crs` that say this are warnings (points off the DEM), the others information.
 OFF_DEM_NOTE = "lie outside the DEM"
+#: ... and so are those that say this (heights in feet against metres, :func:`_height_unit_notes`).
+HEIGHT_UNIT_NOTE = "times the DEM's there"
+#: Metres in a foot.
+FOOT_M = 0.3048
+
+
+def is_warning_note(note: str) -> bool:
+    """A note of :func:`points_to_dem_crs` that is a warning, not information."""
+    return OFF_DEM_NOTE in note or HEIGHT_UNIT_NOTE in note
+
+
+def _dem_notes(dem, xyz: np.ndarray, name: str) -> List[str]:
+    return _off_dem_notes(dem, xyz, name) + _height_unit_notes(dem, xyz, name)
+
+
+def _height_unit_notes(dem, xyz: np.ndarray, name: str) -> List[str]:
+    """A warning when the points' own heights are the DEM's in another unit: about 0.305 times them (a DEM in feet
+    that does not say so, or points in metres against it) or 3.28 times. A trial's DEM in feet without its unit
+    tag: the fit ended "poor", 800 px, with advice to check the pairs, and nothing hinted at feet.
+
+    >>> from monoplot_plugin.core.dem import Dem
+    >>> dem = Dem.from_array(np.full((10, 10), 3000.0), (0, 10, 0, 100, 0, -10))
+    >>> pts = np.array([[15.0, 15.0, 914.4], [55.0, 45.0, 915.0], [75.0, 85.0, 913.9]])
+    >>> "0.305 times the DEM's there" in _height_unit_notes(dem, pts, "gcps.csv")[0]
+    True
+    >>> _height_unit_notes(dem, pts * [1, 1, 3.28], "gcps.csv")
+    []
+    """
+    z = np.asarray(xyz, dtype=float)[:, 2]
+    given = np.isfinite(xyz).all(axis=1) & _inside(dem, xyz)
+    if given.sum() < 3:
+        return []
+    ground = np.asarray(dem.sample(xyz[given, 0], xyz[given, 1]), dtype=float)
+    usable = np.isfinite(ground) & (np.abs(ground) > 10.0)
+    if usable.sum() < 3:
+        return []
+    ratio = z[given][usable] / ground[usable]
+    for factor, why in ((FOOT_M, "the DEM's heights are probably in feet without saying so (set its unit, or "
+                                  "convert it to metres), or the points' are metres against a DEM in feet"),
+                        (1.0 / FOOT_M, "the points' heights are probably in feet (give them in metres), or the "
+                                       "DEM's in metres against points in feet")):
+        if np.mean(np.abs(ratio / factor - 1.0) < 0.05) >= 0.8:
+            return [f"{_points_of(name)} have heights about {factor:.3g} {HEIGHT_UNIT_NOTE} (median of "
+                    f"{len(ratio)}): {why}"]
+    return []
 
 
 def _points_of(name: str) -> str:

@@ -138,6 +138,27 @@ def test_a_table_in_another_crs_than_the_dem_says_where_its_points_went(run_alg,
                               "OUTPUT": str(tmp_path / "c.json")})
 
 
+def test_heights_in_feet_against_a_dem_in_metres_are_said(run_alg, small_scene, ground_truth, tmp_path):
+    """A trial's DEM in feet without its unit tag: the fit ended "poor", 800 px, advising to check the pairs, and
+    nothing hinted at feet. Heights 3.28 times (or 0.305 times) the DEM's are a warning that names the unit."""
+    from tests.processing.conftest import recording_feedback
+
+    gcps = tmp_path / "gcps_feet.csv"
+    write_points_csv(str(gcps), uv=ground_truth["pixels"], xyz=ground_truth["world"] * [1.0, 1.0, 1.0 / 0.3048])
+    log = recording_feedback()
+    try:
+        run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"], "PRIOR": ground_truth["prior"],
+                              "PHOTO_CSV": str(gcps), "OUTPUT": str(tmp_path / "c.json")}, log)
+    except QgsProcessingException:
+        pass  # refused or not: what matters is that the log names the unit
+    assert any("have heights about 3.28 times the DEM's there" in w and "feet" in w for w in log.warnings), log.warnings
+    quiet = recording_feedback()  # heights in metres: no such warning
+    write_points_csv(str(gcps), uv=ground_truth["pixels"], xyz=ground_truth["world"])
+    run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"], "PRIOR": ground_truth["prior"],
+                          "PHOTO_CSV": str(gcps), "OUTPUT": str(tmp_path / "c.json")}, quiet)
+    assert not any("times the DEM's" in w for w in quiet.warnings)
+
+
 def test_photo_points_outside_the_image_are_refused(run_alg, small_scene, ground_truth, tmp_path):
     gcps = tmp_path / "gcps.csv"
     write_points_csv(str(gcps), uv=ground_truth["pixels"] * 10, xyz=ground_truth["world"])

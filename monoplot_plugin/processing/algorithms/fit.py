@@ -24,7 +24,7 @@ from ...workflow.progress import Canceled
 from ..base import (MonoplotAlgorithm, camera_line, cancel_callback, centred_on_print, check_canceled, checked,
                     progress_callback, read_map_points, read_photo_points, report_status)
 from ...adapters.layers import crs_from_wkt
-from ...workflow.inputs import OFF_DEM_NOTE, points_to_dem_crs
+from ...workflow.inputs import is_warning_note, points_to_dem_crs
 from ..inputs import InputError, read_photo, read_points_csv
 
 CSV_FILTER = "CSV (*.csv *.txt)"
@@ -131,7 +131,7 @@ class FitCamera(MonoplotAlgorithm):
                                                      else [])
                 for note in notes:
                     if feedback is not None:
-                        (feedback.pushWarning if OFF_DEM_NOTE in note else feedback.pushInfo)(note)
+                        (feedback.pushWarning if is_warning_note(note) else feedback.pushInfo)(note)
                 xyz_parts.append(converted)
         if not uv_parts or not xyz_parts:
             raise QgsProcessingException(self.tr(
