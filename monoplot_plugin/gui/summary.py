@@ -127,6 +127,13 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     >>> html = fit_summary_html(cam, {"status": "uncertain", "mode": "unpaired", "sigma": {"x": 0.31}})
     >>> "± 0.31*" in html and html.index("assume the automatic pairs are right") < html.index("<table>")
     True
+
+    A lens's distortion and principal point, when the camera has them (a phone trial's fitted k1 was only in the
+    report):
+
+    >>> html = fit_summary_html(cam.with_parameters(k1=-0.044), {"status": "ok", "sigma": {"k1": 0.003}})
+    >>> "Distortion k1&nbsp;</td><td>-0.0440 ± 0.0030" in html, "Distortion k1" in fit_summary_html(cam, {})
+    (True, False)
     """
     if fitted is None:
         return tr("Not fitted yet.")
@@ -188,7 +195,13 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
              ("Z", z_text if not info.get("on_ground") else
               tr("{0:.0f} m (ground + {1:.3g} m)").format(z, round(info.get("eye_height_m") or 0.0, 1))),
              (tr("Roll"), f"{fitted.roll:.2f}°{sig('roll')}"),
-             ("", ""), (tr("Field of view"), f"{fitted.fov:.2f}°{sig('fov')}")]
+             # the lens's distortion when there is some (a phone trial's fitted k1 was shown only in the report)
+             (tr("Distortion k1"), f"{fitted.k1:.4f}{sig('k1')}") if fitted.k1 else ("", ""),
+             (tr("Field of view"), f"{fitted.fov:.2f}°{sig('fov')}")]
+    if fitted.k2:
+        cells += [(tr("Distortion k2"), f"{fitted.k2:.4f}{sig('k2')}"), ("", "")]
+    if fitted.principal_point is not None:
+        cells += [(tr("Principal point"), f"{fitted.cx:.0f}, {fitted.cy:.0f} px"), ("", "")]
     html = "".join("<tr>" + "".join(f"<td>{k}&nbsp;</td><td>{v}&nbsp;&nbsp;&nbsp;</td>" for k, v in pair)
                    + "</tr>" for pair in zip(cells[0::2], cells[1::2]))
     badge = _STATUS_STYLE.get(status, _STATUS_STYLE["poor"])
