@@ -47,18 +47,19 @@ def suggest_dem(dem, max_points: int, camera: Optional[Camera] = None, position_
 def fit(image_size, uv: np.ndarray, xyz: np.ndarray, prior: Camera, dem, paired: bool,
         progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None,
         on_ground: Optional[bool] = None, eye_height: Optional[float] = None,
-        check: Optional[np.ndarray] = None) -> Tuple[Camera, Dict]:
+        check: Optional[np.ndarray] = None, free=None) -> Tuple[Camera, Dict]:
     """Fit a camera to (N, 2) photo points and (M, 3) DEM points, from ``prior`` (:func:`workflow.fit.fit`).
 
     Paired: row i of ``uv`` and of ``xyz`` are the same point. ``on_ground`` / ``eye_height``: the workflow's one
     rule (:func:`workflow.fit.on_ground_rule`; None: automatic, as in the dock); ``check`` (N,) bool: the paired
-    rows that are check points (measured, not fitted). Returns (camera, info) with
+    rows that are check points (measured, not fitted); ``free``: the parameters fitted (None: the default seven).
+    Returns (camera, info) with
     ``info["rmse_px"]``, ``"status"`` ("ok", "uncertain" or "poor"),
     ``"message"`` and ``"summary"`` (the fit's JSON digest). Raises :class:`InputError` when the fit refuses the
     points (the message says what to add) and :class:`~..workflow.progress.Canceled` when canceled.
     """
     return fit_step.fit_points(image_size, uv, xyz, prior, dem, paired, progress=progress, is_canceled=is_canceled,
-                               on_ground=on_ground, eye_height=eye_height, check=check)
+                               on_ground=on_ground, eye_height=eye_height, check=check, free=free)
 
 
 # --- products ---------------------------------------------------------------------------------------------------

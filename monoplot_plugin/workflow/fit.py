@@ -350,12 +350,13 @@ def point_rmse(camera: Camera, uv: np.ndarray, xyz: np.ndarray, paired: bool) ->
 def fit_points(image_size, uv: np.ndarray, xyz: np.ndarray, prior: Camera, dem, paired: bool,
                progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None,
                on_ground: Optional[bool] = None, eye_height: Optional[float] = None,
-               check: Optional[np.ndarray] = None) -> Tuple[Camera, dict]:
+               check: Optional[np.ndarray] = None, free: Optional[Sequence[str]] = None) -> Tuple[Camera, dict]:
     """:func:`fit` of (N, 2) photo points and (M, 3) DEM points from ``prior``, with the file-based callers'
     conventions (Processing, the batch): ``on_ground`` / ``eye_height`` as in :func:`on_ground_rule` (None:
     automatic, the dock's default too); ``paired`` means row i of ``uv`` and of ``xyz`` are the same point;
     ``check`` (N,) bool marks the paired rows that are check points (a GCP table's ``check`` column): kept out of
-    the fit and measured, as in the dock; a refusal or a prior of another image size is an
+    the fit and measured, as in the dock; ``free``: the parameters fitted (None: the core's default); a refusal or
+    a prior of another image size is an
     :class:`~.inputs.InputError`. Returns (camera, info) with ``info["rmse_px"]``, ``"status"``, ``"message"``,
     ``"summary"`` (the fit's JSON digest), ``"n_check"``, ``"check_rmse_px"`` (NaN without check points) and
     ``"sigma_px"`` (:func:`sigma_px`)."""
@@ -370,7 +371,7 @@ def fit_points(image_size, uv: np.ndarray, xyz: np.ndarray, prior: Camera, dem, 
     pairs = np.column_stack([np.arange(len(uv)), np.arange(len(uv))]) if paired else None
     try:
         done = fit(uv, xyz, prior, dem, pairs=pairs, on_ground=on_ground, eye_height=eye_height,
-                   check_uv=check_uv, check_xyz=check_xyz, progress=progress, is_canceled=is_canceled)
+                   check_uv=check_uv, check_xyz=check_xyz, progress=progress, is_canceled=is_canceled, free=free)
     except FitRefused as exc:
         raise InputError(f"the fit refused these points: {exc}") from exc
     result, camera = done.result, done.camera

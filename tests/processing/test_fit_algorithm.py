@@ -159,6 +159,25 @@ def test_heights_in_feet_against_a_dem_in_metres_are_said(run_alg, small_scene, 
     assert not any("times the DEM's" in w for w in quiet.warnings)
 
 
+def test_a_wide_lens_distortion_is_fitted_when_asked(run_alg, small_scene, ground_truth, tmp_path):
+    """A phone trial's 26 mm lens (k1 -0.06): the dock fits k1, fitcamera could not. LENS frees k1."""
+    cam = small_scene["cam"].with_parameters(k1=-0.06)
+    gcps = tmp_path / "gcps.csv"
+    write_points_csv(str(gcps), uv=cam.project(ground_truth["world"]), xyz=ground_truth["world"])
+    rmse = {}
+    for lens in (0, 1):
+        out = tmp_path / f"camera_{lens}.json"
+        result = run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"],
+                                       "PRIOR": ground_truth["prior"], "PHOTO_CSV": str(gcps), "LENS": lens,
+                                       "OUTPUT": str(out)})
+        rmse[lens] = result["RMSE_PX"]
+        if lens:
+            assert Camera.load(out).k1 == pytest.approx(-0.06, abs=0.01)
+        else:
+            assert Camera.load(out).k1 == 0.0  # the prior's, not fitted
+    assert rmse[1] < 0.1 * rmse[0], rmse
+
+
 def test_photo_points_outside_the_image_are_refused(run_alg, small_scene, ground_truth, tmp_path):
     gcps = tmp_path / "gcps.csv"
     write_points_csv(str(gcps), uv=ground_truth["pixels"] * 10, xyz=ground_truth["world"])

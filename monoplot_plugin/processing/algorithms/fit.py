@@ -84,6 +84,10 @@ class FitCamera(MonoplotAlgorithm):
         self.addParameter(QgsProcessingParameterNumber(
             "EYE_HEIGHT", self.tr("Height above the ground (m)"),
             QgsProcessingParameterNumber.Double, None, optional=True, minValue=0.0))
+        # the lens, as the dock's fit settings free it (a phone trial's 26 mm lens, k1 -0.06: free in the dock, not
+        # here, and a GCP 21 m away left 121 px of leave-one-out error the fit could not model)
+        self.addParameter(QgsProcessingParameterEnum(
+            "LENS", self.tr("Lens distortion"), [self.tr(option) for option, _ in self.LENS_OPTIONS], defaultValue=0))
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", self.tr("Fitted camera"),
                                                                 "Monoplot camera (*.json)"))
         self.addOutput(QgsProcessingOutputNumber("RMSE_PX", self.tr("Reprojection error (px)")))
@@ -95,6 +99,10 @@ class FitCamera(MonoplotAlgorithm):
         self.addOutput(QgsProcessingOutputString("MESSAGE", self.tr("What the fit found and, unless ok, what to do")))
 
     dropped_dem_points = 0
+    #: (LENS choice, parameters fitted besides the seven of the pose and the field of view)
+    LENS_OPTIONS = (("As the prior camera's (none unless it has some)", ()),
+                    ("Fit radial distortion k1 (wide lenses, phones)", ("k1",)),
+                    ("Fit k1 and the principal point", ("k1", "cx", "cy")))
 
     def gather_points(self, parameters, context, dem, crs=None):
         """(uv (N, 2), xyz (M, 3), paired, check) from layers and/or CSV files; Z sampled from the DEM where
@@ -162,6 +170,13 @@ class FitCamera(MonoplotAlgorithm):
             check = np.zeros(len(uv), dtype=bool)  # check points are pairs
         return uv, xyz, paired, check
 
+    def free(self, parameters, context):
+        """The parameters to fit: the default seven, and the lens's of LENS; None for the default alone."""
+        from ...core.fit import DEFAULT_FREE
+
+        extra = self.LENS_OPTIONS[self.parameterAsEnum(parameters, "LENS", context)][1]
+        return tuple(DEFAULT_FREE) + extra if extra else None
+
     def eye_height(self, parameters, context):
         """EYE_HEIGHT in metres, or None when left empty (the workflow's default for the chosen height)."""
         if parameters.get("EYE_HEIGHT") in (None, ""):
@@ -212,7 +227,8 @@ class FitCamera(MonoplotAlgorithm):
             camera, info = checked(pipeline.fit, photo_size, uv, xyz, prior, dem, paired,
                                    progress_callback(feedback, 0, 95), cancel_callback(feedback),
                                    on_ground=on_ground_choice(self.parameterAsEnum(parameters, "ON_GROUND", context)),
-                                   eye_height=self.eye_height(parameters, context), check=check)
+                                   eye_height=self.eye_height(parameters, context), check=check,
+                                   free=self.free(parameters, context))
         except Canceled:
             raise QgsProcessingException(self.tr("Fit canceled; no camera written.")) from None
         report_status(feedback, self.tr("Fit"), info["status"], info["message"])
