@@ -54,6 +54,21 @@ def test_autoregister_writes_a_camera_and_its_status(run_alg, rendered_scene, tm
     assert result["N_MATCHED"] >= 0 and np.isfinite(result["RMSE_PX"]) or result["STATUS"] == "poor"
 
 
+def test_autoregister_holds_a_camera_on_the_ground_when_asked(run_alg, rendered_scene, tmp_path):
+    """A phone trial: an EXIF altitude 14 m too high, and autoregister had no way to hold the camera on the ground,
+    as the dock's Find camera does: it ended 20.7 m too high. ON_GROUND and EYE_HEIGHT, as fitcamera's."""
+    from monoplot_plugin.core.dem import Dem
+
+    d = rendered_scene["dir"]
+    out = tmp_path / "camera.json"
+    run_alg("autoregister", {"PHOTO": str(d / "photo.png"), "DEM": str(d / "dem.tif"), "PRIOR": str(d / "prior.json"),
+                             "POSITION_SIGMA": 20.0, "ON_GROUND": 1, "EYE_HEIGHT": 2.5, "OUTPUT": str(out)})
+    cam = Camera.load(out)
+    dem = Dem.open(str(d / "dem.tif"))
+    ground = float(dem.sample(cam.position[0], cam.position[1], to_extent=True))
+    assert cam.position[2] - ground == pytest.approx(2.5, abs=0.5)
+
+
 def test_autoregister_without_prior_or_gps_says_what_to_give(run_alg, rendered_scene, tmp_path):
     d = rendered_scene["dir"]
     with pytest.raises(QgsProcessingException, match="GPS|prior"):

@@ -19,6 +19,7 @@ from ...workflow.progress import Canceled
 from ..base import (MonoplotAlgorithm, cancel_callback, centred_on_print, check_canceled, checked, progress_callback,
                     report_status, camera_line)
 from ..inputs import read_photo
+from .fit import add_height_parameters, height_choice
 
 
 def camera_from_exif(path: str, size, dem) -> Tuple[Camera, bool]:
@@ -68,6 +69,9 @@ class AutoRegister(MonoplotAlgorithm):
         self.addParameter(QgsProcessingParameterBoolean(
             "ANY_HEADING", self.tr("The prior's heading is unknown: search every direction of view (three to four "
                                    "times as long)"), defaultValue=False))
+        # held on the ground as the dock's Find camera holds it (a phone trial: an EXIF altitude 14 m too high, and
+        # Processing had no way to say the photo was taken standing on the ground: 40 m off, 20.7 m too high)
+        add_height_parameters(self)
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", self.tr("Camera"),
                                                                 "Monoplot camera (*.json)"))
         self.addOutput(QgsProcessingOutputNumber("RMSE_PX", self.tr("Reprojection error of the matched points (px)")))
@@ -105,7 +109,8 @@ class AutoRegister(MonoplotAlgorithm):
                                  position_sigma_m=position_sigma,
                                  angle_sigma_deg=self.parameterAsDouble(parameters, "ANGLE_SIGMA", context),
                                  fov_sigma_deg=fov_sigma, progress=progress_callback(feedback, 0, 95),
-                                 is_canceled=cancel_callback(feedback), heading_known=heading_known)
+                                 is_canceled=cancel_callback(feedback), heading_known=heading_known,
+                                 **height_choice(self, parameters, context))
         except Canceled:
             raise QgsProcessingException(self.tr("Registration canceled; no camera written.")) from None
         result = done.result

@@ -76,14 +76,7 @@ class FitCamera(MonoplotAlgorithm):
                                                      fileFilter=CSV_FILTER))
         self.addParameter(QgsProcessingParameterBoolean("PAIRED", self.tr("Points are paired (row i <-> row i)"),
                                                         defaultValue=False))
-        # The dock's rule (workflow.fit.on_ground_rule): automatic unless the person says otherwise. The index
-        # order keeps old scripts meaning what they said: ON_GROUND=1 (formerly true) is "on the ground".
-        self.addParameter(QgsProcessingParameterEnum(
-            "ON_GROUND", self.tr("Camera height"), [self.tr(option) for option in self.HEIGHT_OPTIONS],
-            defaultValue=0))
-        self.addParameter(QgsProcessingParameterNumber(
-            "EYE_HEIGHT", self.tr("Height above the ground (m)"),
-            QgsProcessingParameterNumber.Double, None, optional=True, minValue=0.0))
+        add_height_parameters(self)
         # the lens, as the dock's fit settings free it (a phone trial's 26 mm lens, k1 -0.06: free in the dock, not
         # here, and a GCP 21 m away left 121 px of leave-one-out error the fit could not model)
         self.addParameter(QgsProcessingParameterEnum(
@@ -177,12 +170,6 @@ class FitCamera(MonoplotAlgorithm):
         extra = self.LENS_OPTIONS[self.parameterAsEnum(parameters, "LENS", context)][1]
         return tuple(DEFAULT_FREE) + extra if extra else None
 
-    def eye_height(self, parameters, context):
-        """EYE_HEIGHT in metres, or None when left empty (the workflow's default for the chosen height)."""
-        if parameters.get("EYE_HEIGHT") in (None, ""):
-            return None
-        return self.parameterAsDouble(parameters, "EYE_HEIGHT", context)
-
     def run_algorithm(self, parameters, context, feedback):
         photo = self.photo_path(parameters, context)
         dem, crs = self.dem(parameters, context)
@@ -226,9 +213,8 @@ class FitCamera(MonoplotAlgorithm):
         try:
             camera, info = checked(pipeline.fit, photo_size, uv, xyz, prior, dem, paired,
                                    progress_callback(feedback, 0, 95), cancel_callback(feedback),
-                                   on_ground=on_ground_choice(self.parameterAsEnum(parameters, "ON_GROUND", context)),
-                                   eye_height=self.eye_height(parameters, context), check=check,
-                                   free=self.free(parameters, context))
+                                   check=check, free=self.free(parameters, context),
+                                   **height_choice(self, parameters, context))
         except Canceled:
             raise QgsProcessingException(self.tr("Fit canceled; no camera written.")) from None
         report_status(feedback, self.tr("Fit"), info["status"], info["message"])
@@ -251,6 +237,25 @@ class FitCamera(MonoplotAlgorithm):
         return {"OUTPUT": out, "RMSE_PX": rmse, "N_PHOTO": n_fit, "N_DEM": len(xyz) - info["n_check"],
                 "STATUS": info["status"], "MESSAGE": info["message"], "N_CHECK": info["n_check"],
                 "CHECK_RMSE_PX": info["check_rmse_px"]}
+
+
+def add_height_parameters(alg) -> None:
+    """ON_GROUND and EYE_HEIGHT, the dock's camera height rule (workflow.fit.on_ground_rule): automatic unless the
+    person says otherwise, for ``fitcamera`` and ``autoregister``. The index order keeps old scripts meaning what they
+    said: ON_GROUND=1 (formerly true) is "on the ground"."""
+    alg.addParameter(QgsProcessingParameterEnum(
+        "ON_GROUND", alg.tr("Camera height"), [alg.tr(option) for option in FitCamera.HEIGHT_OPTIONS], defaultValue=0))
+    alg.addParameter(QgsProcessingParameterNumber(
+        "EYE_HEIGHT", alg.tr("Height above the ground (m)"),
+        QgsProcessingParameterNumber.Double, None, optional=True, minValue=0.0))
+
+
+def height_choice(alg, parameters, context) -> dict:
+    """``on_ground`` and ``eye_height`` for the workflow from ON_GROUND and EYE_HEIGHT (empty: the workflow's
+    default for the chosen height)."""
+    eye = None if parameters.get("EYE_HEIGHT") in (None, "") else alg.parameterAsDouble(parameters, "EYE_HEIGHT",
+                                                                                        context)
+    return {"on_ground": on_ground_choice(alg.parameterAsEnum(parameters, "ON_GROUND", context)), "eye_height": eye}
 
 
 def on_ground_choice(index: int):
