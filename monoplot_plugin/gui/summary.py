@@ -131,6 +131,8 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     A lens's distortion and principal point, when the camera has them (a phone trial's fitted k1 was only in the
     report):
 
+    >>> "X&nbsp;</td><td>600000.00 m ± 0.040" in fit_summary_html(cam, {"status": "ok", "sigma": {"x": 0.04}})
+    True
     >>> html = fit_summary_html(cam.with_parameters(k1=-0.044), {"status": "ok", "sigma": {"k1": 0.003}})
     >>> "Distortion k1&nbsp;</td><td>-0.0440 ± 0.0030" in html, "Distortion k1" in fit_summary_html(cam, {})
     (True, False)
@@ -149,6 +151,13 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
         # the ± of a doubtful fit hold only if its pairs are right: greyed, with the caveat right above the table
         text = " ± " + (tr("undetermined") if sigma_undetermined(name, sigma[name]) else sigma_text(sigma[name]))
         return text if trusted else f"<span style='color:#888'>{text}*</span>"
+
+    def metres(name: str, value: float) -> str:
+        """A coordinate to the decimals its σ deserves: whole metres unless it is known better (a time-lapse
+        trial's surveyed position, ± 0.5 m, read to the metre)."""
+        s = sigma.get(name)
+        decimals = 0 if s is None or not math.isfinite(s) or s >= 1.0 else 1 if s >= 0.1 else 2
+        return f"{value:.{decimals}f} m"
 
     rmse = info.get("rmse_px")
     loo = info.get("loo_rmse_px")
@@ -180,7 +189,7 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
         # traded against the field of view moves the terrain by pixels only)
         head += "<br><small>" + tr("The σ below move the terrain by {0:.1f} px in the picture, RMS (an upper "
                                   "estimate).").format(info["sigma_px"]) + "</small>"
-    z_text = f"{z:.0f} m{sig('z')}"
+    z_text = f"{metres('z', z)}{sig('z')}"
     clearance = info.get("clearance_m")
     under = not info.get("on_ground") and clearance is not None and math.isfinite(clearance) and clearance <= -0.05
     if under:  # a coarse DEM at the camera, or a fit that ended low: say so, the overlay needs it explained
@@ -188,9 +197,9 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     elif not info.get("on_ground") and clearance is not None and math.isfinite(clearance):
         # in the air: how high (a phone trial's hand-held camera fitted 28 m up, "ok", and nothing said so)
         z_text += " " + tr("({0:.0f} m above the DEM)").format(clearance)
-    cells = [("X", f"{x:.0f} m{sig('x')}"),
+    cells = [("X", f"{metres('x', x)}{sig('x')}"),
              (tr("Heading"), f"{azimuth(fitted.heading):.2f}°{sig('heading')}"),
-             ("Y", f"{y:.0f} m{sig('y')}"),
+             ("Y", f"{metres('y', y)}{sig('y')}"),
              (tr("Pitch"), f"{fitted.pitch:.2f}°{sig('pitch')}"),
              ("Z", z_text if not info.get("on_ground") else
               tr("{0:.0f} m (ground + {1:.3g} m)").format(z, round(info.get("eye_height_m") or 0.0, 1))),
