@@ -147,11 +147,14 @@ def test_heights_in_feet_against_a_dem_in_metres_are_said(run_alg, small_scene, 
     write_points_csv(str(gcps), uv=ground_truth["pixels"], xyz=ground_truth["world"] * [1.0, 1.0, 1.0 / 0.3048])
     log = recording_feedback()
     try:
-        run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"], "PRIOR": ground_truth["prior"],
-                              "PHOTO_CSV": str(gcps), "OUTPUT": str(tmp_path / "c.json")}, log)
+        result = run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"],
+                                       "PRIOR": ground_truth["prior"], "PHOTO_CSV": str(gcps),
+                                       "OUTPUT": str(tmp_path / "c.json")}, log)
     except QgsProcessingException:
-        pass  # refused or not: what matters is that the log names the unit
+        result = None  # refused or not: what matters is that the log names the unit
     assert any("have heights about 3.28 times the DEM's there" in w and "feet" in w for w in log.warnings), log.warnings
+    if result is not None:  # and a failed fit says so in words ("RMSE nan px (too few pairs ...)" with 12 pairs)
+        assert "nan" not in result["MESSAGE"] and "too few pairs" not in result["MESSAGE"], result["MESSAGE"]
     quiet = recording_feedback()  # heights in metres: no such warning
     write_points_csv(str(gcps), uv=ground_truth["pixels"], xyz=ground_truth["world"])
     run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"], "PRIOR": ground_truth["prior"],

@@ -20,6 +20,8 @@ Processing and the report show the same figures.
 >>> judge({"mode": "paired", "n_free": 7, "n_pairs": 10, "rmse_px": 2.0, "diag": 1000.0, "spread": 0.014})[1]
 'paired fit on 10 pairs: RMSE 2.0 px (too few pairs for a leave-one-out check). Uncertain: the pairs cover a small \
 part of the picture (1.4 %): elsewhere the camera is extrapolated; add pairs spread over the picture.'
+>>> judge({"mode": "paired", "n_free": 7, "n_pairs": 12, "rmse_px": float("nan"), "diag": 1000.0})[1][:72]
+'paired fit on 12 pairs: no camera found puts the points in front of it. '
 >>> judge({"mode": "paired", "n_free": 7, "n_pairs": 11, "rmse_px": 2.0, "diag": 1000.0, "check_rmse_px": 12.0,
 ...        "n_check": 10})[0]
 'uncertain'
@@ -186,13 +188,22 @@ def judge(e: dict) -> Tuple[str, str]:
         text = (f"unpaired fit: {e.get('n_inliers', 0)} of {e.get('n_photo', 0)} photo points matched a DEM point "
                 f"within {e.get('radius_px', 0):.0f} px, RMSE {rmse:.1f} px")
     loo = float(e.get("loo_rmse_px", math.nan))
-    text += f", leave-one-out {loo:.1f} px" if np.isfinite(loo) else " (too few pairs for a leave-one-out check)"
+    if not np.isfinite(rmse):  # no camera put the points in front of it ("RMSE nan px (too few pairs for a
+        # leave-one-out check)" with 12 pairs whose heights were in feet, a trial)
+        text = text.split(": RMSE")[0].split(", RMSE")[0] + ": no camera found puts the points in front of it"
+    elif np.isfinite(loo):
+        text += f", leave-one-out {loo:.1f} px"
+    else:
+        text += " (too few pairs for a leave-one-out check)"
     check = float(e.get("check_rmse_px", math.nan))
     if np.isfinite(check):
         text += f"; check points {check:.1f} px"
     text += "."
     suspect = suspect_pair_text(e)
-    if not np.isfinite(rmse) or rmse > POOR_SHARE * diag:
+    if not np.isfinite(rmse):
+        poor.append("the points fit no camera: check the pairs (a wrong link?), the points' heights and their unit, "
+                    "and the free parameters" + suspect)
+    elif rmse > POOR_SHARE * diag:
         poor.append("the residuals are large: check the pairs (a wrong link?) or the free parameters" + suspect)
     elif e.get("mode") == "paired" and rmse > WEAK_SHARE * diag:
         # pairs a person placed err by a few pixels: residuals over 1.5 % of the picture mean a wrong pair or a

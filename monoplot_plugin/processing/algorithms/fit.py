@@ -225,10 +225,12 @@ class FitCamera(MonoplotAlgorithm):
         rmse = float(info.get("rmse_px", float("nan")))
         feedback.pushInfo(self.tr("Camera: {0}").format(camera_line(camera)))
         std = info.get("summary", {}).get("std") or {}
-        if std:
+        if std and np.isfinite(rmse):  # no σ of a camera no pair could place (a trial read "x ± 4.62e+04")
             feedback.pushInfo(self.tr("One standard deviation: {0}").format(
                 ", ".join(f"{k} ± {v:.3g}" for k, v in std.items() if v is not None)))
-        feedback.pushInfo(self.tr("Reprojection error {0:.2f} px; written to {1}").format(rmse, out))
+        feedback.pushInfo(self.tr("Reprojection error {0:.2f} px; written to {1}").format(rmse, out) if
+                          np.isfinite(rmse) else self.tr("No camera fits the points: the camera written to {0} is "
+                                                         "the start, marked \"{1}\"").format(out, info["status"]))
         if info["n_check"]:
             feedback.pushInfo(self.tr("Check points: {0:.2f} px RMSE on {1} (not fitted)").format(
                 info["check_rmse_px"], info["n_check"]))
