@@ -326,12 +326,13 @@ def load_camera_file(controller, path: str, as_fitted: bool = False,
     fit = written_fit(path)
     written, why = str(fit.get("status") or ""), str(fit.get("message") or "")
     sigma = {str(k): float(v) for k, v in (fit.get("sigma") or {}).items() if isinstance(v, (int, float))}
+    elsewhere = written == "ok" and not n_check and fitted_on_photo(fit, c.state.photo_path or "") is False
     if written in ("uncertain", "poor") and not n_check:  # its own fit doubted it: so does the dock
         info["status"] = "poor" if written == "poor" else info["status"]  # unchecked: "uncertain" already
         info["message"] += " " + tr("It was written by a fit whose verdict was \"{0}\": {1}").format(written, why)
         if sigma:  # how doubtful, per parameter (a trial's reloaded "uncertain" camera showed no ± at all)
             info["sigma"] = sigma
-    elif written == "ok" and not n_check and fitted_on_photo(fit, c.state.photo_path or "") is False:
+    elif elsewhere:
         # its fit verified it on another photo: that "ok" says nothing of this one (a trial loaded frame 1's camera
         # onto frame 5, after a 4 degree remount: "ok", and a front 168 m off where its error said 6.9 m)
         info["message"] += " " + tr(
@@ -360,7 +361,12 @@ def load_camera_file(controller, path: str, as_fitted: bool = False,
         info["message"] += " " + tr("On the {0} pairs already there it gives {1:.1f} px RMSE.").format(
             n_pairs, pairs_rmse)
     c.set_fitted(camera, info, background=True)
-    c.message.emit(tr("Fitted camera loaded from {0}.").format(name) + moved, INFO)
+    if elsewhere:  # said where the person looks, not only in the fit tab (a re-check trial on the camera tab)
+        c.message.emit(tr("Fitted camera loaded from {0}: \"uncertain\" here, it was fitted on another photo "
+                          "({1}); see the fit tab.").format(name, str(fit.get("photo") or tr("unknown"))) + moved,
+                       WARNING)
+    else:
+        c.message.emit(tr("Fitted camera loaded from {0}.").format(name) + moved, INFO)
     return camera
 
 

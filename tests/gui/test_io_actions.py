@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 import pytest
-from qgis.core import QgsProject, QgsRasterLayer
+from qgis.core import Qgis, QgsProject, QgsRasterLayer
 
 from monoplot_plugin.gui import io_actions
 from monoplot_plugin.state import ACCEPTED, CHECK, MAP, PHOTO, remove_points
@@ -499,9 +499,13 @@ def test_an_ok_camera_fitted_on_another_photo_loads_uncertain(dock, scene, tmp_p
     answer_with(qtbot, "Start afresh", [])  # the question asked when the photo changes under a fitted camera
     dock.photoFile.setFilePath(str(frames[1] / "photo.png"))
     assert c.state.photo_path == str(frames[1] / "photo.png")
+    said = []
+    c.message.connect(lambda text, level: said.append((text, level)))
     assert io_actions.load_camera_file(c, str(saved), as_fitted=True) is not None
     info = c.state.fit_info
     assert info["status"] == "uncertain" and "fitted on another photo (photo.png)" in info["message"]
+    assert any("\"uncertain\" here, it was fitted on another photo" in m and level == Qgis.MessageLevel.Warning
+               for m, level in said)  # in the message bar too: the camera tab says nothing of the fit
     assert info["sigma"] == {"heading": 0.008}
     from monoplot_plugin.workflow.features import pixel_error
     assert pixel_error(info) == (None, "")  # no error figure on the ground for features drawn on it
