@@ -178,7 +178,8 @@ class FitSettingsPanel(QgsCollapsibleGroupBox, _Panel):
         self.eye_spin.setSuffix(" m")
         self.eye_spin.setSpecialValueText(tr("auto"))
         self.eye_spin.setToolTip(tr("Height above the ground of a camera on the ground; auto = the rough camera's "
-                                    "own height when automatic, 1.7 m on the ground."))
+                                    "own height when automatic (1.7 m when it is under the DEM), 1.7 m on the "
+                                    "ground."))
         self.height_combo.currentIndexChanged.connect(self._height_changed)
         self.eye_spin.valueChanged.connect(self._height_changed)
         self.height_row = WrappingRow([QLabel(tr("Camera height")), self.height_combo],

@@ -55,9 +55,11 @@ def test_on_ground_rule(scene):
     assert fit_step.on_ground_rule(high, dem, on_ground=True, eye_height=3.0) == (True, 3.0)
     assert fit_step.on_ground_rule(low, dem, on_ground=False) == (False, fit_step.DEFAULT_EYE_HEIGHT_M)
     assert fit_step.on_ground_rule(low, dem, eye_height=2.0) == (True, 2.0)  # automatic, at the height asked
-    # under the DEM, a little (a coarse DEM) or far (a wrong altitude): held on the ground
-    assert fit_step.on_ground_rule(camera.with_parameters(z=ground - 5.0), dem) == (True, 0.0)
-    assert fit_step.on_ground_rule(camera.with_parameters(z=ground - 29.0), dem) == (True, 0.0)
+    # under the DEM, a little (a coarse DEM) or far (a wrong altitude): held on the ground, at eye height (a trial's
+    # rough camera 0.6 m under held a phone camera at 0 m)
+    eye = fit_step.DEFAULT_EYE_HEIGHT_M
+    assert fit_step.on_ground_rule(camera.with_parameters(z=ground - 0.6), dem) == (True, eye)
+    assert fit_step.on_ground_rule(camera.with_parameters(z=ground - 29.0), dem) == (True, eye)
 
 
 def test_a_free_fit_under_the_terrain_is_refitted_on_the_ground(scene):
