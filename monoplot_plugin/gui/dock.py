@@ -47,6 +47,9 @@ from .views import MapPresenter, PhotoPresenter
 FORM_CLASS, _ = uic.loadUiType(str(PLUGIN_DIR / "ui" / "dock.ui"))
 #: QgsSettings key (the plugin's "monoplot/" prefix) of the number of suggestions per view.
 SUGGESTION_COUNT_KEY = "monoplot/suggestions_per_view"
+#: The DEM overlay's opacity in a project that has none: three desktop trials found the photo grey and flat at 50 %
+#: (a flood line's colour washed out while it was drawn); the rendered relief still shows over it at 35 %.
+DEFAULT_OVERLAY_PERCENT = 35
 
 
 class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWidget, FORM_CLASS):
@@ -435,7 +438,8 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
     # --- project life cycle -----------------------------------------------------------------------------------
     def _apply_settings(self) -> None:
         """Widgets that show a setting stored with the project (default when the project has none)."""
-        self.overlaySlider.setValue(int(self.controller.state.settings.get("overlay_opacity", 50)))
+        self.overlaySlider.setValue(int(self.controller.state.settings.get("overlay_opacity",
+                                                                           DEFAULT_OVERLAY_PERCENT)))
 
     def _project_read(self, *args) -> None:
         c = self.controller

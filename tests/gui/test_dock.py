@@ -67,6 +67,9 @@ def test_load_photo_and_dem_shows_photo(dock, scene, qtbot):
     assert dock.controller.state.dem_layer_id == dock.demCombo.currentLayer().id()
     extent = dock.photo_canvas.extent()
     assert extent.contains(uv_to_map(0, 0)) and extent.contains(uv_to_map(480, 320))
+    # the DEM overlay at 35 % by default: three trials found the photo grey and flat at 50 %
+    assert dock.overlaySlider.value() == 35 and dock.overlayValue.text() == "35 %"
+    assert abs(dock.photo_canvas.overlay_item._opacity - 0.35) < 1e-9
 
 
 def test_unreadable_photo_is_a_message_not_a_traceback(dock, tmp_path, qgis_iface):
