@@ -326,7 +326,15 @@ class ResultsMixin:
         error_px, source = pixel_error(info, only_ok=False)
         if error_px is None:
             return None
-        error_m = float(ground_error_m([[u, v]], self.fitted, self.dem, error_px)[0])
+        # once per pixel and camera (its XYZ raster is replaced with it): the mouse moves many times over a pixel,
+        # and the footprint costs five rays on the DEM
+        key = (math.floor(u), math.floor(v), float(error_px), id(self.xyz))
+        cached = self.__dict__.get("_ground_error_cache")
+        if cached is None or cached[0] != key:
+            error_m = float(ground_error_m([[math.floor(u) + 0.5, math.floor(v) + 0.5]], self.fitted, self.dem,
+                                           error_px)[0])
+            cached = self.__dict__["_ground_error_cache"] = (key, error_m)
+        error_m = cached[1]
         return (error_m, float(error_px), source) if np.isfinite(error_m) else None
 
     def pixel_of_ground(self, x: float, y: float) -> Tuple[Optional[Tuple[float, float]], str]:
