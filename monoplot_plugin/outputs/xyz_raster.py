@@ -152,8 +152,9 @@ def write_xyz_raster_strips(path, strips: Iterable, width: int, height: int, crs
                 z_low, z_high = np.inf, -np.inf
                 for row0, xyz, distance in strips:
                     # fmin / fmax skip the NaN of the sky without a copy of the strip's finite heights
-                    z_low = float(np.fmin(z_low, np.fmin.reduce(xyz[..., 2], axis=None)))
-                    z_high = float(np.fmax(z_high, np.fmax.reduce(xyz[..., 2], axis=None)))
+                    with np.errstate(invalid="ignore"):  # a strip of sky only reduces to NaN, which fmin skips
+                        z_low = float(np.fmin(z_low, np.fmin.reduce(xyz[..., 2], axis=None)))
+                        z_high = float(np.fmax(z_high, np.fmax.reduce(xyz[..., 2], axis=None)))
                     values = [xyz[..., 0], xyz[..., 1], xyz[..., 2]] + ([distance] if with_distance else [])
                     for index, band_values in enumerate(values, start=1):
                         band = ds.GetRasterBand(index)
