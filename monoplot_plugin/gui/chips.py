@@ -223,10 +223,9 @@ class ChipView(QWidget):
                 self._set_caption(tr("A map point shows on the photo once there is a camera."))
             elif p.z is None and not np.isfinite(self._project_height(p)):
                 # a trial's lake point, on a void, read "Give a rough camera first" beside a fitted camera
-                self.photo_chip.setText(tr("No height:\nnot placed"))
-                self.dem_chip.setText(tr("On a void or\noff the DEM"))
-                self._set_caption(tr("This map point has no height (on a void of the DEM, or off it): it cannot "
-                                     "be placed on the photo, and fits and check points leave it out."))
+                self.photo_chip.setText(tr("No height"))
+                self.dem_chip.setText(tr("DEM void\nor edge"))
+                self._set_caption(tr("Map point with no height (DEM void or off it): not used."))
             else:
                 self.photo_chip.setText(tr("Behind the\ncamera"))
                 self.dem_chip.setText(tr("Not in view"))

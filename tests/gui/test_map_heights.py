@@ -65,4 +65,4 @@ def test_a_check_point_with_no_height_is_said_and_its_chips_say_why(dock, scene,
     c.select(MAP, off)
     qtbot.waitUntil(lambda: "No height" in dock.chips.photo_chip.text(), timeout=5000)
     assert "void" in dock.chips.dem_chip.text() and "camera" not in dock.chips.dem_chip.text().lower()
-    assert "no height" in dock.chips.caption.text()
+    assert "no height" in dock.chips.caption.text() and "…" not in dock.chips.caption.text()
