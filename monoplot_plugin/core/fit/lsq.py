@@ -3,14 +3,15 @@
 from __future__ import annotations
 
 import math
-from typing import Dict
+from typing import Dict, Tuple
 
 import numpy as np
 
 from .params import ParameterSpace
 from .result import rmse
 
-__all__ = ["least_squares", "jacobian", "parameter_std", "bootstrap_std", "leave_one_out", "PIXEL_FLOOR"]
+__all__ = ["least_squares", "jacobian", "parameter_std", "parameter_uncertainty", "bootstrap_std", "leave_one_out",
+           "PIXEL_FLOOR"]
 
 
 def least_squares(ctx, space: ParameterSpace, u0, q, P, loss="linear", f_scale=1.0, max_nfev=None):
@@ -57,18 +58,33 @@ PIXEL_FLOOR = 0.5
 def parameter_std(ctx, space: ParameterSpace, u, q, P) -> Dict[str, float]:
     """Standard deviations of the free parameters (their units: metres, degrees, pixels) from the covariance
     ``s^2 (J^T J)^-1``, ``s`` the residuals' standard error (at least :data:`PIXEL_FLOOR`)."""
+    return parameter_uncertainty(space, u, q, P)[0]
+
+
+def parameter_uncertainty(space: ParameterSpace, u, q, P) -> Tuple[Dict[str, float], Dict[str, Dict[str, float]]]:
+    """(σ of each free parameter as :func:`parameter_std`, their correlations ``{name: {other: r}}``); both empty
+    when the covariance cannot be computed.
+
+    The correlations say which errors go together: a camera slid back along its view and turned to keep far points
+    where they are moves them little and the near ground a lot, which σ taken as independent cannot tell
+    (:func:`~.result.sigma_shifts`)."""
     m, n = 2 * len(q), len(u)
     if m <= n:
-        return {}
+        return {}, {}
     J = jacobian(space, u, q, P)
     r0 = (space.project(u, P)[0] - q).ravel()
     sigma2 = max(float(r0 @ r0) / (m - n), PIXEL_FLOOR ** 2)
     try:
         cov = np.linalg.inv(J.T @ J) * sigma2
     except np.linalg.LinAlgError:
-        return {}
+        return {}, {}
     diag = np.clip(np.diag(cov), 0.0, None)
-    return {name: float(space.scales[i] * math.sqrt(diag[i])) for i, name in enumerate(space.names)}
+    std = {name: float(space.scales[i] * math.sqrt(diag[i])) for i, name in enumerate(space.names)}
+    root = np.sqrt(diag)
+    if not np.all(np.isfinite(cov)) or np.any(root <= 0):
+        return std, {}
+    corr = np.clip(cov / np.outer(root, root), -1.0, 1.0)
+    return std, {a: {b: float(corr[i, j]) for j, b in enumerate(space.names)} for i, a in enumerate(space.names)}
 
 
 def bootstrap_std(ctx, space: ParameterSpace, u, q, P, rounds: int) -> Dict[str, float]:

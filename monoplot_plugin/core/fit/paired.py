@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .lsq import jacobian, leave_one_out, least_squares, parameter_std
+from .lsq import jacobian, leave_one_out, least_squares, parameter_uncertainty
 from .result import FitResult, rmse, rms
 from .starts import dlt_start, pnp_starts
 from .verdict import WEAK_SHARE, photo_spread, weak_direction_matters, weakest_parameter
@@ -30,7 +30,7 @@ def fit_paired(ctx, pairs: np.ndarray) -> FitResult:
     residuals = camera.project(ctx.world[pairs[:, 1]]) - q
     ctx.history.append(rmse(residuals))
     ctx.report(0.7, "paired fit: leave-one-out")
-    std = parameter_std(ctx, space, u, q, P)
+    std, correlation = parameter_uncertainty(space, u, q, P)
     loo = leave_one_out(ctx, space, u, q, P)
     nearest = np.full(len(ctx.q), np.nan)
     nearest[pairs[:, 0]] = np.linalg.norm(residuals, axis=1)
@@ -52,7 +52,7 @@ def fit_paired(ctx, pairs: np.ndarray) -> FitResult:
         evidence.update(_wrong_pair(ctx, q, P))
     return FitResult(camera, "ok", "", "paired", ctx.free, rmse_px, pairs, residuals,
                      np.ones(len(pairs), dtype=bool), nearest, std, rms(loo), loo, loss_history=ctx.history,
-                     n_starts=ctx.starts_tried, evidence=evidence)
+                     n_starts=ctx.starts_tried, evidence=evidence, correlation=correlation)
 
 
 def _wrong_pair(ctx, q: np.ndarray, P: np.ndarray) -> dict:

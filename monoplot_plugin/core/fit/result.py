@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Dict, List, Tuple
+from typing import Callable, Dict, List, Optional, Tuple
 
 import numpy as np
 
@@ -47,13 +47,26 @@ def sigma_pixels(camera: Camera, std: Dict[str, float], points: np.ndarray) -> f
     return float(np.sqrt(np.mean(shift[finite] ** 2))) if finite.any() else float("nan")
 
 
-def sigma_shifts(camera: Camera, std: Dict[str, float], points: np.ndarray) -> np.ndarray:
+def sigma_shifts(camera: Camera, std: Dict[str, float], points: np.ndarray,
+                 correlation: Optional[Dict[str, Dict[str, float]]] = None,
+                 ground: Optional[Callable] = None) -> np.ndarray:
     """(N,) pixels each of ``points`` ((N, 3) map coordinates) moves in the picture when every parameter moves by
     its σ (``std``), added in quadrature (see :func:`sigma_pixels`); all NaN without σ or with one undetermined.
+
+    With ``correlation`` (``{name: {other: r}}``, :attr:`FitResult.correlation`) the moves are combined as the
+    covariance ``D R D`` says (``D`` the σ, ``R`` the correlations; a pair missing counts as uncorrelated): the
+    point's σ in the picture. Far points that fixed the camera then move little, near ground a camera slid along its
+    view moves a lot. ``ground``: a callable ``(x, y) -> z`` for a camera held on the ground (``z`` not fitted):
+    its height then follows the terrain when x or y move (a camera slid 8.5 m back along a slope also rose 4 m,
+    which moved the ground 30 m in front of it by 150 px).
 
     >>> cam = Camera((0.0, 0.0, 0.0), 0.0, 0.0, 0.0, 60.0, (1000, 700))
     >>> sigma_shifts(cam, {"x": 10.0}, np.array([[0.0, 100.0, 0.0], [0.0, 1000.0, 0.0]])).round(1).tolist()
     [86.6, 8.7]
+    >>> far_fixed = {"x": {"heading": -1.0}, "heading": {"x": -1.0}}   # moved right, turned left: 1 km stays put
+    >>> std = {"x": 10.0, "heading": 0.573}
+    >>> sigma_shifts(cam, std, np.array([[0.0, 100.0, 0.0], [0.0, 1000.0, 0.0]]), far_fixed).round(1).tolist()
+    [77.9, 0.0]
     """
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
     usable = {k: float(v) for k, v in (std or {}).items() if v}
@@ -61,13 +74,25 @@ def sigma_shifts(camera: Camera, std: Dict[str, float], points: np.ndarray) -> n
         return np.full(len(points), np.nan)
     values = camera.parameters()
     base = camera.project(points)
+    names = [name for name in usable if name in values]
+    def moved(name):
+        change = {name: values[name] + usable[name]}
+        if ground is not None and name in ("x", "y") and "z" not in usable:
+            xy = {"x": values["x"], "y": values["y"], name: change[name]}
+            lift = ground(np.array([xy["x"]]), np.array([xy["y"]])) - ground(np.array([values["x"]]),
+                                                                             np.array([values["y"]]))
+            if np.isfinite(lift).all():
+                change["z"] = values["z"] + float(np.asarray(lift).ravel()[0])
+        return camera.with_parameters(**change).project(points) - base
+
+    moves = [moved(name) for name in names]
     shift2 = np.zeros(len(points))
-    for name, sigma in usable.items():
-        if name not in values:
-            continue
-        moved = camera.with_parameters(**{name: values[name] + sigma}).project(points)
-        shift2 += np.sum((moved - base) ** 2, axis=1)
-    return np.sqrt(shift2)
+    for i, a in enumerate(names):
+        for j, b in enumerate(names):
+            r = 1.0 if i == j else float((correlation or {}).get(a, {}).get(b, 0.0))
+            if r:
+                shift2 += r * np.sum(moves[i] * moves[j], axis=1)
+    return np.sqrt(np.clip(shift2, 0.0, None))
 
 
 #: Every status a fit can end with, from best to worst; only "ok" means the evidence supports the camera.
@@ -95,6 +120,8 @@ class FitResult:
             in paired mode, the pair residual norm of each photo point, NaN for unpaired ones).
         std: standard deviation of each fitted parameter (its units: metres, degrees, pixels), from the Jacobian
             of the final least-squares fit; empty when it could not be computed.
+        correlation: the fitted parameters' correlations ``{name: {other: r}}`` from the same covariance (empty
+            when it could not be computed): with ``std`` the camera's covariance (:func:`sigma_shifts`).
         loo_rmse_px: leave-one-out RMSE over the pairs (each pair predicted by a fit without it), NaN if too few.
         loo_residuals_px: (K,) leave-one-out error of each pair (pixels).
         check_rmse_px / check_residuals_px: RMSE and (C, 2) residuals on the independent check points, if given.
@@ -129,6 +156,7 @@ class FitResult:
     photo_outliers: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
     n_starts: int = 0
     elapsed_s: float = 0.0
+    correlation: Dict[str, Dict[str, float]] = field(default_factory=dict)
 
     @property
     def ok(self) -> bool:

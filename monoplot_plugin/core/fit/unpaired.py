@@ -26,7 +26,7 @@ from .consensus import (_gates, chance_inliers, consensus_score, hypotheses, inl
 from .descent import descend_from_prior
 from .local_search import local_hypotheses
 from .losses import mutual_nearest_pairs, nearest_distances
-from .lsq import bootstrap_std, jacobian, leave_one_out, parameter_std
+from .lsq import bootstrap_std, jacobian, leave_one_out, parameter_uncertainty
 from .pairing import converge_on_pairs, refine_by_pairs
 from .params import ParameterSpace
 from .result import FitResult, rms, rmse
@@ -320,7 +320,8 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
     # automatic pairs widen the bootstrap, not the covariance), and by the automatic pairing's covariance (its
     # gate follows the residuals: where the inlier radius is smaller than the noise, the pairs within the radius
     # have truncated residuals and too small a covariance).
-    std = parameter_std(ctx, space, u, q_in, P_in) if len(pairs) else {}
+    # (the correlations are the final pairs' covariance's: the widenings below scale the σ, not how they go together)
+    std, result.correlation = parameter_uncertainty(space, u, q_in, P_in) if len(pairs) else ({}, {})
     for name, value in (result.std or {}).items():
         std[name] = max(std.get(name, 0.0), value)
     boot = bootstrap_std(ctx, space, u, q_in, P_in, ctx.options.bootstrap) if len(pairs) else {}
