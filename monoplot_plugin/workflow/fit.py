@@ -128,7 +128,7 @@ def fit(uv: np.ndarray, xyz: np.ndarray, start: Camera, dem, pairs=None, on_grou
 
     def run(from_camera, held, at, report):
         result = fit_camera(uv, xyz, from_camera, pairs=pairs, ground=dem if held else None, eye_height=at,
-                            check_image_points=check_uv if has_check else None,
+                            terrain=dem, check_image_points=check_uv if has_check else None,
                             check_world_points=check_xyz if has_check else None, free=free, options=options,
                             progress=report, is_canceled=is_canceled)
         if result.status == "canceled":

@@ -33,6 +33,7 @@ import numpy as np
 
 from ..camera import Camera
 from ..fit import FitCanceled, FitResult, fit_camera
+from ..fit.near_ground import ground_seen
 from ..fit.result import rms
 from ..fit.verdict import FEWER_SIDE_ADVICE, FEWER_SIDE_CAUSES, outlier_note
 from ..xyz.zbuffer import trial_cameras
@@ -94,7 +95,8 @@ class AutoFitResult(FitResult):
         aligned: the camera after the edge alignment, before the fit.
         skyline: (W, 2) photo skyline (u, v) in full-size pixels, NaN where the photo shows no clear skyline.
         weak: the reasons for doubt the verdict gave (sentences without the final stop).
-        ground: (K, 3) a sample of the terrain the camera sees (:func:`_ground_seen`), for the verdict.
+        ground: (K, 3) a sample of the terrain the camera sees (:func:`~..fit.near_ground.ground_seen`), for the
+            verdict.
     """
 
     image_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
@@ -389,7 +391,7 @@ def _finish(finals, at: float, search: _Search):
         # message, which quotes the σ shown)
         result.std = widen_std(result.std, {}, [], _prior_std(sig))
         evidence["auto_sigma_is_prior"] = True
-    result.ground = _ground_seen(result.camera, align_dem)
+    result.ground = ground_seen(result.camera, align_dem)
     combine_evidence(result, evidence)
     if keep_prior:
         result = _prior_kept(result, prior, sig)
@@ -482,15 +484,6 @@ def _prior_kept(result: AutoFitResult, prior: Camera, sig: dict) -> AutoFitResul
                                                                         result.aligned, result.skyline)
     kept.elapsed_s = result.elapsed_s
     return kept
-
-
-def _ground_seen(camera: Camera, dem, width: float = 128.0) -> np.ndarray:
-    """(N, 3) the terrain the camera sees, one point per pixel of a ``width`` px wide z-buffer (the whole picture,
-    near slopes as much as the far ridges the edges align)."""
-    from ..xyz import compute_xyz_full
-
-    res = compute_xyz_full(camera.scaled(min(1.0, width / camera.width)), dem, visibility=False)
-    return res.xyz[res.hit]
 
 
 def _typical_range(camera: Camera, dem) -> float:

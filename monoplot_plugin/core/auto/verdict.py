@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..fit.result import sigma_shifts
+from ..fit.near_ground import NEAR_SHIFT, NEAR_SHIFT_SHARE, loosely_placed_ground
 from .photo_edges import SKY_FRACTION_MIN, PhotoEdges
 from .sigma import widen_std
 
@@ -45,11 +45,9 @@ NEAR_RATIO = 0.1
 #: apart.
 ANGLE_SIGMA_OK = 0.5
 #: An "ok" camera's σ may move at most NEAR_SHIFT_SHARE of the ground it sees by more than NEAR_SHIFT of the
-#: picture's diagonal (:func:`~..fit.sigma_shifts`). The far ridges the edges align can hold a camera whose
-#: position is known only along the view to ± 142 m: a trial's "ok" camera, 33 m off, had its near slope (6 % of
-#: the ground, under 300 m) 367 px off at the median.
-NEAR_SHIFT = 0.03
-NEAR_SHIFT_SHARE = 0.02
+#: picture's diagonal (one definition for every fit: :mod:`~..fit.near_ground`). The far ridges the edges align can
+#: hold a camera whose position is known only along the view to ± 142 m: a trial's "ok" camera, 33 m off, had its
+#: near slope (6 % of the ground, under 300 m) 367 px off at the median.
 #: Fewest of the four position probes that must come back (within 1 % of the diagonal) for an "ok": right "ok"
 #: cameras of 70 synthetic scenes had 2-4 back (4 for all but one); a wrong one (1.25 % of the range, 23 px on the
 #: terrain) had 1, and another 0.
@@ -164,16 +162,14 @@ def combine_evidence(result: AutoFitResult, ev: dict) -> None:
         # scene said ± 8 / 39 m with the camera 37 m off)
         result.std = widen_std(result.std, {}, [], dict.fromkeys("xyz", float(ev.get("auto_position_sigma_m", 0.0))))
     ground = getattr(result, "ground", None)
-    if ground is not None and len(ground):
-        shifts = sigma_shifts(result.camera, result.std, ground)
-        limit = NEAR_SHIFT * float(np.hypot(*result.camera.image_size))
-        moved = np.isfinite(shifts) & (shifts > limit)
-        result.evidence["auto_ground_uncertain_share"] = float(moved.mean())
-        if moved.mean() > NEAR_SHIFT_SHARE:
-            reach = float(np.max(np.linalg.norm(ground[moved] - np.asarray(result.camera.position), axis=1)))
-            weak.append(f"with the camera's σ, {100 * moved.mean():.0f} % of the ground seen (the nearest, within "
-                        f"{reach:.0f} m) may be more than {limit:.0f} px off: the camera is not placed closely enough "
-                        "for the near terrain")
+    loose = loosely_placed_ground(result.camera, result.std, ground) if ground is not None else {}
+    if loose:
+        result.evidence["auto_ground_uncertain_share"] = loose["ground_loose_share"]
+        if loose["ground_loose_share"] > NEAR_SHIFT_SHARE:
+            weak.append(f"with the camera's σ, {100 * loose['ground_loose_share']:.0f} % of the ground seen (the "
+                        f"nearest, within {loose['ground_loose_reach_m']:.0f} m) may be more than "
+                        f"{loose['ground_loose_limit_px']:.0f} px off: the camera is not placed closely enough for "
+                        "the near terrain")
     text = (f" Automatic: skyline on {100 * ev['auto_sky_fraction']:.0f} % of the columns, "
             f"{100 * ev['auto_sky_agreement']:.0f} % of it on the DEM's; {len(result.image_points)} photo and "
             f"{len(result.world_points)} DEM suggestions kept as consistent with the aligned camera.")

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..camera import Camera
 from .checks import check_inputs
+from .near_ground import ground_seen, loosely_placed_ground
 from .context import FitCanceled, FitContext
 from .options import FitOptions
 from .paired import fit_paired
@@ -20,7 +21,7 @@ __all__ = ["fit_camera"]
 
 
 def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Optional[Iterable[str]] = None, *,
-               ground=None, eye_height: float = 1.7, check_image_points=None, check_world_points=None,
+               ground=None, eye_height: float = 1.7, terrain=None, check_image_points=None, check_world_points=None,
                options: Optional[FitOptions] = None, progress: Optional[Callable[[float, str], None]] = None,
                is_canceled: Optional[Callable[[], bool]] = None, **option_values) -> FitResult:
     """Fit a camera to photo points and DEM points.
@@ -34,6 +35,9 @@ def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Op
         ground: optional terrain for the "camera on the ground" constraint: a callable ``(x, y) -> z`` on numpy
             arrays, or an object with a ``sample(x, y)`` method (a :class:`~monoplot_plugin.core.dem.Dem`).
         eye_height: metres of the camera above the ground (with ``ground``).
+        terrain: optional :class:`~monoplot_plugin.core.dem.Dem` the points come from: the verdict then also asks
+            whether the camera is placed closely enough for all the ground it sees, the near ground too
+            (:mod:`~.near_ground`), not only where the points are.
         check_image_points, check_world_points: optional (C, 2) and (C, 3) paired points NOT used by the fit;
             their RMSE is reported as ``check_rmse_px`` and judged by the verdict.
         options: a :class:`FitOptions`; or give its fields as keywords (``position_sigma_m=50``, ``n_starts=1``,
@@ -71,6 +75,9 @@ def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Op
         if result.evidence:
             result.evidence.update(check_rmse_px=result.check_rmse_px, has_check=len(cq) > 0, n_check=len(cq))
     if result.evidence and result.status not in ("refused", "canceled"):
+        if terrain is not None:
+            result.evidence.update(loosely_placed_ground(result.camera, result.std, ground_seen(result.camera, terrain),
+                                                         result.correlation, ctx.ground))
         result.status, result.message = judge(result.evidence)
     result.elapsed_s = time.perf_counter() - t0
     ctx.report(1.0, "")  # not the status: a caller may still lower it (on-ground rule, automatic cap)

@@ -37,6 +37,8 @@ from typing import Tuple
 
 import numpy as np
 
+from .near_ground import loose_ground_text
+
 __all__ = ["degenerate_points", "weakest_parameter", "weak_direction_matters", "judge", "judge_by_checks",
            "outlier_note", "photo_spread"]
 
@@ -249,6 +251,9 @@ def judge(e: dict) -> Tuple[str, str]:
         which = "pairs" if e.get("mode") == "paired" else "matched points"
         weak.append(f"the {which} cover a small part of the picture ({100 * spread:.1f} %): elsewhere the camera is "
                     f"extrapolated; add {'pairs' if which == 'pairs' else 'points'} spread over the picture")
+    loose = loose_ground_text(e)
+    if loose:
+        weak.append(loose)
     if e.get("mode") == "unpaired":
         n_in = int(e.get("n_inliers", 0))
         chance = float(e.get("chance_max", 0.0))

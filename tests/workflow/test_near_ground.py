@@ -1,0 +1,103 @@
+"""A camera on the ground fitted on far points only: right where its points are, loose on the near ground.
+
+A person standing on a hillside photographs a valley; the points anyone recognises are far (ridges, summits). The
+fit (the dock's and Processing's, :func:`monoplot_plugin.workflow.fit.fit`, with the DEM) must not call such a
+camera "ok" when its σ leaves the near ground, a large part of the picture, loose; with points on the near ground
+too it may.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from monoplot_plugin.core.camera import Camera
+from monoplot_plugin.core.fit import FitOptions, fit_camera
+from monoplot_plugin.core.fit.near_ground import NEAR_SHIFT, ground_seen
+from monoplot_plugin.core.synthetic import synthetic_terrain
+from monoplot_plugin.core.xyz import segment_first_hit
+from monoplot_plugin.workflow.fit import fit
+
+
+def _first_hits(dem, cam, uv):
+    origin, dirs = cam.pixel_to_world_ray(uv)
+    starts = np.broadcast_to(origin, dirs.shape)
+    s = segment_first_hit(dem, starts, starts + dirs * 20000.0)
+    return starts + s[:, None] * dirs * 20000.0
+
+
+@pytest.fixture(scope="module")
+def hillside():
+    """(dem, true camera 1.7 m over the terrain, (N, 2) pixels, (N, 3) terrain they see, (N,) distances, rng)."""
+    dem = synthetic_terrain((300, 300), cell=20.0, seed=4)
+    x0, y0, _, _ = dem.bounds()
+    rng = np.random.default_rng(4)
+    for _ in range(300):
+        x, y = x0 + rng.uniform(0.3, 0.7) * 6000, y0 + rng.uniform(0.1, 0.3) * 6000
+        pos = np.array([x, y, float(dem.sample(x, y)) + 1.7])
+        cam = Camera(pos, 0.0, 0.0, 0.0, 55.0, (1200, 800), crs_wkt=dem.crs_wkt)
+        target = float(dem.sample(x, y + 3000))
+        cam = cam.with_parameters(pitch=math.degrees(math.atan2(target - pos[2], 3000)) - 0.2 * cam.vertical_fov)
+        uv = rng.uniform([0, 0], [1200, 800], (3000, 2))
+        hits = _first_hits(dem, cam, uv)
+        seen = np.isfinite(hits).all(axis=1)
+        dist = np.linalg.norm(hits - pos, axis=1)
+        if seen.mean() > 0.5 and (seen & (dist < 300)).mean() > 0.15 and (seen & (dist > 1000)).mean() > 0.2:
+            return dem, cam, uv[seen], hits[seen], dist[seen], rng
+    pytest.fail("no hillside view found")
+
+
+def _off_share(camera, truth, dem):
+    """Share of the ground the true camera sees that ``camera`` puts more than NEAR_SHIFT of the diagonal off."""
+    ground = ground_seen(truth, dem)
+    err = np.linalg.norm(camera.project(ground) - truth.project(ground), axis=1)
+    return float(np.mean(~(err <= NEAR_SHIFT * math.hypot(*truth.image_size))))
+
+
+def _points(hillside, near: int):
+    dem, truth, uv, hits, dist, _ = hillside
+    rng = np.random.default_rng(0)
+    far, close = np.flatnonzero(dist > 1000)[:12], np.flatnonzero((dist > 20) & (dist < 300))[:near]
+    pick = np.concatenate([far, close])
+    return uv[pick] + rng.normal(0, 1.0, (len(pick), 2)), hits[pick]
+
+
+def _prior(truth):
+    x, y, z = truth.position
+    return truth.with_parameters(x=x + 20, y=y - 15, heading=5.0, pitch=truth.pitch + 1, fov=58.0)
+
+
+OPTIONS = FitOptions(position_sigma_m=30.0, angle_sigma_deg=6.0)
+
+
+def test_far_points_only_leave_the_near_ground_loose_and_the_fit_says_so(hillside):
+    dem, truth = hillside[0], hillside[1]
+    uv, xyz = _points(hillside, near=0)
+    done = fit(uv, xyz, _prior(truth), dem, options=OPTIONS)
+    result = done.result
+    assert done.on_ground
+    # the scene is what the test claims: the fitted camera really misplaces much of the near ground
+    assert _off_share(result.camera, truth, dem) > 0.1
+    assert result.status == "uncertain", result.message
+    assert result.evidence["ground_loose_share"] > 0.1
+    assert "too loosely for the near ground" in result.message and "add points on the near ground" in result.message
+    # the core fit says the same when given the terrain, and nothing about it without
+    core = fit_camera(uv, xyz, _prior(truth), ground=dem, terrain=dem, options=OPTIONS)
+    assert core.status != "ok" and core.evidence["ground_loose_share"] > 0.1
+    assert "ground_loose_share" not in fit_camera(uv, xyz, _prior(truth), ground=dem, options=OPTIONS).evidence
+
+
+def test_points_on_the_near_ground_too_place_it_and_the_fit_is_ok(hillside):
+    dem, truth = hillside[0], hillside[1]
+    uv, xyz = _points(hillside, near=10)
+    result = fit(uv, xyz, _prior(truth), dem, options=OPTIONS).result
+    assert _off_share(result.camera, truth, dem) < 0.02
+    assert result.status == "ok", result.message
+    assert result.evidence["ground_loose_share"] <= 0.02
+    # the correlations are kept with the σ: symmetric, ones on the diagonal
+    names = list(result.std)
+    assert set(result.correlation) == set(names)
+    for a in names:
+        assert result.correlation[a][a] == pytest.approx(1.0)
+        for b in names:
+            assert result.correlation[a][b] == pytest.approx(result.correlation[b][a])
