@@ -96,11 +96,12 @@ bench: setup
 	$(PY) bench/bench_dock.py
 
 # Camera fit on the real Aletsch case (../shared/data/aletsch), smapshot's 100 real small GCP sets and the synthetic
-# suite (232 generated scenes): one JSON line per case or stratum.
+# suite (232 generated scenes), cameras on the ground seeing near ground (40 scenes): one JSON line per case or stratum.
 eval: setup
 	$(PY) -m eval.aletsch
 	$(PY) -m eval.smapshot
 	$(PY) -m eval.synthetic_suite --careless 24
+	$(PY) -m eval.eye_level --scenes 40
 	$(PY) -m eval.auto
 	$(PY) -m eval.user_trial
 

@@ -121,7 +121,7 @@ def emit(line: dict) -> None:
 
 def case_paired(dem, gcps, prior):
     pairs = np.stack([np.arange(len(gcps))] * 2, axis=1)
-    r = fit_camera(gcps[:, :2], gcps[:, 2:], prior, pairs=pairs)
+    r = fit_camera(gcps[:, :2], gcps[:, 2:], prior, pairs=pairs, terrain=dem)
     line = {"case": "paired", "status": r.status, "pairs": len(pairs), "rmse_px": round(r.rmse_px, 2),
             "loo_rmse_px": round(r.loo_rmse_px, 2), **gcp_errors(r.camera, gcps, dem), "target_px": 7.8,
             "pass": bool(r.rmse_px <= 7.8), "seconds": round(r.elapsed_s, 2)}
@@ -132,7 +132,7 @@ def case_semi(dem, gcps, image, prior, careless_fraction=0.2, seed=0):
     photo, demsug, timing = suggestions(image, dem, prior)
     reference = reference_camera(gcps, prior)
     pa, da = curate(photo.uv, demsug.xyz, gcps)
-    r = fit_camera(photo.uv[pa], demsug.xyz[da], prior)
+    r = fit_camera(photo.uv[pa], demsug.xyz[da], prior, terrain=dem)  # the DEM, as the dock gives it
     e = gcp_errors(r.camera, gcps, dem)
     emit({"case": "semi_automatic", "status": r.status, "photo_suggested": len(photo), "dem_suggested": len(demsug),
           "photo_accepted": int(pa.sum()), "dem_accepted": int(da.sum()), **e, "target_px": 10.0,
@@ -153,7 +153,7 @@ def case_semi(dem, gcps, image, prior, careless_fraction=0.2, seed=0):
         rng = np.random.default_rng(seed)
         pc = pa | (rng.random(len(pa)) < fraction) & ~pa
         dc = da | (rng.random(len(da)) < fraction) & ~da
-        rc = fit_camera(photo.uv[pc], demsug.xyz[dc], prior)
+        rc = fit_camera(photo.uv[pc], demsug.xyz[dc], prior, terrain=dem)
         ec = gcp_errors(rc.camera, gcps, dem)
         extra = (pc & ~pa)[pc]  # which of the fitted photo points are the careless additions
         flagged = rc.photo_outliers if len(rc.photo_outliers) == len(extra) else np.zeros(len(extra), bool)

@@ -16,7 +16,8 @@ Scenes (all deterministic from ``--seed``; terrain from :func:`~monoplot_plugin.
   picture; on the DEM side either plausible (visible terrain not accepted in the photo) or terrain hidden behind
   ridges or just outside the picture.
   The photo set and the DEM set have their own wrong shares (mean = the drawn share), hence different sizes; both
-  are shuffled and no pairing is given: ``fit_camera(photo_uv, dem_xyz, prior)``.
+  are shuffled and no pairing is given: ``fit_camera(photo_uv, dem_xyz, prior, terrain=dem)`` (the DEM, as the dock
+  and Processing give it, for the verdict's near-ground check).
   The prior: x and y each off by up to the bound (uniform; the bound capped at 0.3 x the range: a user knows where
   he stood better than that), z by up to half of it, heading by up to the angle bound, pitch half of it, roll a
   third (<= 2 deg), fov up to 10 % x (angle bound / 10 deg).
@@ -370,7 +371,7 @@ def build_scene(spec):
               "truth": truth.parameters(), "prior": prior.parameters()}
     return {"photo": photo[perm_p], "world": dem_set[perm_d], "prior": prior, "truth": truth, "pairs": pairs,
             "truth_pairs": truth_pairs, "world_xyz": real_xyz, "uv_truth": uv_truth, "sigmas": sigmas,
-            "grid_xyz": grid_points, "params": params}
+            "grid_xyz": grid_points, "params": params, "dem": dem}
 
 
 # ----------------------------------------------------------------------------------------------------------------
@@ -415,9 +416,9 @@ def run_scene(spec) -> dict:
     kw = _sigma_kwargs(s["sigmas"])
     try:
         if s["pairs"] is None:
-            r = fit_camera(s["photo"], s["world"], s["prior"], **kw)
+            r = fit_camera(s["photo"], s["world"], s["prior"], terrain=s["dem"], **kw)
         else:
-            r = fit_camera(s["photo"], s["world"], s["prior"], pairs=s["pairs"], **kw)
+            r = fit_camera(s["photo"], s["world"], s["prior"], pairs=s["pairs"], terrain=s["dem"], **kw)
         status, message, cam, std, fit_s = r.status, r.message, r.camera, dict(r.std), r.elapsed_s
         rmse_px = float(r.rmse_px)
         radius = (r.evidence or {}).get("radius_px") if s["pairs"] is None else None
