@@ -52,7 +52,8 @@ def loosely_placed_ground(camera: Camera, std: Dict[str, float], ground: np.ndar
     """Evidence for :func:`~.verdict.judge`: ``ground_loose_share``, the share of ``ground`` ((N, 3), e.g.
     :func:`ground_seen`) that the camera's σ (``std``, with ``correlation`` when known) may move by more than
     :data:`NEAR_SHIFT` of the diagonal; ``ground_loose_reach_m``, the distance of the farthest such point;
-    ``ground_loose_limit_px``, that shift in pixels. Empty when nothing can be said (no ground, no σ).
+    ``ground_loose_limit_px``, that shift in pixels. Empty when nothing can be said (no ground, no σ, a σ
+    undetermined). A point that a move by σ puts behind the camera counts as loose.
     ``height_of``: the terrain ``(x, y) -> z`` of a camera held on the ground, whose height follows x and y."""
     if ground is None or not len(ground) or not std:
         return {}
@@ -60,7 +61,9 @@ def loosely_placed_ground(camera: Camera, std: Dict[str, float], ground: np.ndar
     if not np.isfinite(shifts).any():
         return {}
     limit = NEAR_SHIFT * float(np.hypot(*camera.image_size))
-    moved = np.isfinite(shifts) & (shifts > limit)
+    # a point that a move by σ puts behind the camera (no projection) is off by more than any limit: a camera
+    # slid 48 m along its view, "ok" with 1 % of its ground counted loose, had most of it behind
+    moved = ~(shifts <= limit)
     reach = float(np.max(np.linalg.norm(ground[moved] - np.asarray(camera.position), axis=1))) if moved.any() \
         else 0.0
     return {"ground_loose_share": float(moved.mean()), "ground_loose_reach_m": reach, "ground_loose_limit_px": limit}
