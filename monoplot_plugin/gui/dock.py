@@ -157,8 +157,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
         c.fitInfoChanged.connect(lambda: self.resultLabel.setText(self._result_text()))  # check points measured
 
         # linked cursors
-        self.photo_canvas.cursorMoved.connect(self._photo_cursor)
-        self.photo_canvas.cursorLeft.connect(lambda: self.map_view.show_cursor(None))
+        self._connect_photo_cursor()  # gui/dock_view.py
         self.map_canvas.xyCoordinates.connect(self._map_cursor)
         # canvas items keep map coordinates of the CRS they were drawn in: draw them again when it changes (QGIS
         # takes the project's CRS from the first layer added a moment later: a wedge drawn in between was lost)

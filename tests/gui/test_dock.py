@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 import time
 
@@ -392,6 +393,23 @@ def test_linked_cursor_from_photo_mouse_moves(dock, scene, qtbot):
     expected = dock.map_mapping.to_canvas(ground[0], ground[1])
     assert abs(shown.x() - expected.x()) < 60 and abs(shown.y() - expected.y()) < 60  # within a pixel step of the
     # (scaled) XYZ raster and the mouse position rounding
+
+
+def test_photo_readout_follows_a_new_camera_under_a_cursor_at_rest(dock, scene, qtbot):
+    """A refit (here a camera set) under a still cursor: the readout says the new camera's ground, not the old."""
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    c.set_fitted(scene.camera)
+    for u, v in ((230.5, 240.5), (200.5, 260.5)):  # two moves: the cursor may rest where another test left it
+        qtbot.mouseMove(dock.photo_canvas.viewport(), pos=photo_pos(dock, u, v))
+    readout = dock.photo_canvas.readout
+    qtbot.waitUntil(lambda: readout.isVisible() and " X " in readout.text(), timeout=2000)
+    before = readout.text()
+    x, y, _ = scene.camera.position
+    c.set_fitted(scene.camera.with_parameters(x=x + 400.0, heading=scene.camera.heading + 2.0))
+    qtbot.waitUntil(lambda: readout.text() != before and " X " in readout.text(), timeout=3000)
+    ground = c.ground_at_pixel(*[math.floor(t) + 0.5 for t in dock._cursor_uv])
+    assert f"X {ground[0]:.1f}" in readout.text()
 
 
 def test_manual_map_point_add_and_move_on_the_main_map(dock, scene, qtbot):
