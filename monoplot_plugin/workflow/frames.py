@@ -222,6 +222,17 @@ def shared_for(setup: Timelapse, dem=None) -> Shared:
         return found
 
 
+def row_status(fit_status: str) -> str:
+    """A batch row's status for its fit's verdict: "ok", "uncertain" and "poor" as they are; any other ("refused":
+    the fit refused its input, e.g. a registration whose camera left the DEM) is "poor", since its products are
+    made of a camera nothing vouches for (a trial's batch logged such a row "ok", its camera 428 m off).
+
+    >>> [row_status(s) for s in ("ok", "uncertain", "poor", "refused")]
+    ['ok', 'uncertain', 'poor', 'poor']
+    """
+    return fit_status if fit_status in ("ok", "uncertain", "poor") else "poor"
+
+
 def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCanceled] = None) -> PhotoResult:
     """Read, (re-register,) and write the products of one frame; every problem becomes a failed result.
     ``is_canceled`` (threads on this machine; a Dask task has none): checked inside an automatic registration and
@@ -281,7 +292,7 @@ def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCance
         result.ok = True
         if shared.camera is not None:  # a frame inherits the doubt of the camera it shares
             fit_status, fit_message = setup.camera_status, setup.camera_note
-        result.status = fit_status if fit_status in ("uncertain", "poor") else "ok"
+        result.status = row_status(fit_status)
         # a frame of a shared camera has no fit of its own (its RMSE column stays empty): say whose camera it used
         whose = "the shared camera turned" if own_camera and shared.camera is not None else "the shared camera"
         if shared.camera is not None:
