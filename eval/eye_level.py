@@ -50,7 +50,7 @@ sys.path.insert(0, str(REPO))
 from eval.synthetic_suite import (RANGE_BINS, STATUSES, _init_worker, cast, on_dem,  # noqa: E402
                                   reprojection_error, scene_dem, visible_points)
 from monoplot_plugin.core.camera import Camera  # noqa: E402
-from monoplot_plugin.core.fit import FitOptions, sigma_shifts  # noqa: E402
+from monoplot_plugin.core.fit import FitOptions, fit_camera, sigma_shifts  # noqa: E402
 from monoplot_plugin.workflow.fit import DEFAULT_EYE_HEIGHT_M, FitRefused, fit  # noqa: E402
 
 KINDS = ("far", "mixed")
@@ -170,8 +170,6 @@ def run_scene(index: int, seed: int) -> dict:
         status, message, cam, std = "refused", str(exc), s["prior"], {}
     fit_s = time.perf_counter() - t0
     truth, grid = s["truth"], s["grid"]
-    from monoplot_plugin.core.fit import fit_camera
-
     opt = fit_camera(s["photo"], s["world"], truth, pairs=s["truth_pairs"])
     e_opt = reprojection_error(opt.camera, s["true_xyz"], s["uv_truth"])
     e = reprojection_error(cam, s["true_xyz"], s["uv_truth"])

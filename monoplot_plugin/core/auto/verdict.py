@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..fit.near_ground import NEAR_SHIFT, NEAR_SHIFT_SHARE, loosely_placed_ground
+from ..fit.near_ground import NEAR_SHIFT, NEAR_SHIFT_SHARE, loose_ground_text, loosely_placed_ground
 from .photo_edges import SKY_FRACTION_MIN, PhotoEdges
 from .sigma import widen_std
 
@@ -165,11 +165,9 @@ def combine_evidence(result: AutoFitResult, ev: dict) -> None:
     loose = loosely_placed_ground(result.camera, result.std, ground) if ground is not None else {}
     if loose:
         result.evidence["auto_ground_uncertain_share"] = loose["ground_loose_share"]
-        if loose["ground_loose_share"] > NEAR_SHIFT_SHARE:
-            weak.append(f"with the camera's σ, {100 * loose['ground_loose_share']:.0f} % of the ground seen (the "
-                        f"nearest, within {loose['ground_loose_reach_m']:.0f} m) may be more than "
-                        f"{loose['ground_loose_limit_px']:.0f} px off: the camera is not placed closely enough for "
-                        "the near terrain")
+        text = loose_ground_text(loose, "the camera is not placed closely enough for the near terrain")
+        if text:
+            weak.append(text)
     text = (f" Automatic: skyline on {100 * ev['auto_sky_fraction']:.0f} % of the columns, "
             f"{100 * ev['auto_sky_agreement']:.0f} % of it on the DEM's; {len(result.image_points)} photo and "
             f"{len(result.world_points)} DEM suggestions kept as consistent with the aligned camera.")

@@ -75,7 +75,7 @@ def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Op
         if result.evidence:
             result.evidence.update(check_rmse_px=result.check_rmse_px, has_check=len(cq) > 0, n_check=len(cq))
     if result.evidence and result.status not in ("refused", "canceled"):
-        if terrain is not None:
+        if terrain is not None and result.std:  # without σ nothing can be said: no z-buffer rendered
             result.evidence.update(loosely_placed_ground(result.camera, result.std, ground_seen(result.camera, terrain),
                                                          result.correlation, ctx.ground))
         result.status, result.message = judge(result.evidence)

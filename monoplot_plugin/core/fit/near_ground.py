@@ -69,9 +69,14 @@ def loosely_placed_ground(camera: Camera, std: Dict[str, float], ground: np.ndar
     return {"ground_loose_share": float(moved.mean()), "ground_loose_reach_m": reach, "ground_loose_limit_px": limit}
 
 
-def loose_ground_text(e: dict) -> str:
+#: what a fit's verdict says follows from loose ground, and what to do
+FIT_CONSEQUENCE = ("the points place the camera too loosely for the near ground; add points on the near ground, or "
+                   "fix the position if you know it")
+
+
+def loose_ground_text(e: dict, consequence: str = FIT_CONSEQUENCE) -> str:
     """The verdict's words for evidence ``e`` from :func:`loosely_placed_ground` ("" when the ground is placed
-    closely enough).
+    closely enough), ending with ``consequence`` (the automatic registration says its own).
 
     >>> print(loose_ground_text({"ground_loose_share": 0.3, "ground_loose_reach_m": 240.0,
     ...                          "ground_loose_limit_px": 150.0}))
@@ -83,5 +88,4 @@ place the camera too loosely for the near ground; add points on the near ground,
         return ""
     return (f"with the camera's σ, {100 * share:.0f} % of the ground seen (the nearest, within "
             f"{float(e.get('ground_loose_reach_m', 0.0)):.0f} m) may be more than "
-            f"{float(e.get('ground_loose_limit_px', 0.0)):.0f} px off: the points place the camera too loosely for "
-            "the near ground; add points on the near ground, or fix the position if you know it")
+            f"{float(e.get('ground_loose_limit_px', 0.0)):.0f} px off: {consequence}")

@@ -75,14 +75,17 @@ def sigma_shifts(camera: Camera, std: Dict[str, float], points: np.ndarray,
     values = camera.parameters()
     base = camera.project(points)
     names = [name for name in usable if name in values]
+
+    def height(x: float, y: float) -> float:
+        return float(np.asarray(ground(np.array([x]), np.array([y]))).ravel()[0])
+
     def moved(name):
         change = {name: values[name] + usable[name]}
         if ground is not None and name in ("x", "y") and "z" not in usable:
-            xy = {"x": values["x"], "y": values["y"], name: change[name]}
-            lift = ground(np.array([xy["x"]]), np.array([xy["y"]])) - ground(np.array([values["x"]]),
-                                                                             np.array([values["y"]]))
-            if np.isfinite(lift).all():
-                change["z"] = values["z"] + float(np.asarray(lift).ravel()[0])
+            lift = height(change.get("x", values["x"]), change.get("y", values["y"])) - height(values["x"],
+                                                                                               values["y"])
+            if np.isfinite(lift):
+                change["z"] = values["z"] + lift
         return camera.with_parameters(**change).project(points) - base
 
     moves = [moved(name) for name in names]
