@@ -116,6 +116,14 @@ def test_find_camera_automatically_gives_a_camera_and_accepted_points(dock, vall
     registration_sigma = dict(c.state.settings["automatic_sigma"])
     assert registration_sigma and registration_sigma == pytest.approx(info["sigma"])
     c.state.settings["automatic_status"] = "uncertain"
+    # ... nor when a few points of the person's own join them: each finds a match among a hundred, and cannot pull
+    # the camera anywhere (a trial's print: 157 + 157 matches and 5 own points, "ok" with the camera 588 m off)
+    from monoplot_plugin.state import Point, add_points
+
+    world_xyz = np.array([(p.x, p.y, p.z) for p in world])
+    own = [Point.new(PHOTO, float(u), float(v), status=ACCEPTED, manual=True) for u, v in found.project(world_xyz[:2])]
+    own += [Point.new(MAP, *map(float, xyz), status=ACCEPTED, manual=True) for xyz in world_xyz[2:4] + 5.0]
+    c.stack.push(add_points(c.state, own, "Add points"))
     assert c.fit()
     with qtbot.waitSignal(c.taskFinished, timeout=240000) as blocker:
         pass
@@ -127,6 +135,8 @@ def test_find_camera_automatically_gives_a_camera_and_accepted_points(dock, vall
     # nor can its σ be smaller than the registration's (its own σ from those points alone would be)
     for name, value in registration_sigma.items():
         assert refit["sigma"][name] >= value - 1e-9, (name, refit["sigma"], registration_sigma)
+    assert f"{len(photo) + len(world)} of the {len(photo) + len(world) + 4} points fitted" in refit["message"]
+    qtbot.mouseClick(dock.undoButton, Qt.MouseButton.LeftButton)  # the person's own four points go
     # one Undo takes back the registration's points in both views (it took two: the DEM's, then the photo's)
     assert dock.undoButton.toolTip() == "Undo Automatic points (Ctrl+Z)"
     qtbot.mouseClick(dock.undoButton, Qt.MouseButton.LeftButton)
