@@ -25,7 +25,9 @@ coarse DEM's near points errs against the world and still puts those points wher
 misses near relief, so the products err there under the true camera too (``truth_bad_share``).
 Output: one JSON line per kind and an overall line (n, success rate, confusion status x
 success/failure, ``ok_precision``), and per "ok" fit how much of the ground its σ covers (``ground_within_2sigma``:
-grid points whose error is within twice the pixel shift the σ give them).
+grid points whose error is within twice the pixel shift the σ give them); and how much of the ground the ± said on
+it covers (:func:`claimed_ground_error`: ``*_claim_within_2x_figure`` from the fit's one pixel figure,
+``*_claim_within_2x_spread`` with the camera's σ where the ground is; medians over "ok" and over all fits).
 
 Run: ``.venv/bin/python -m eval.eye_level [--scenes 40] [--seed 0] [--jobs 2] [--records FILE]``.
 """
@@ -159,9 +161,41 @@ def ground_errors(cam: Camera, truth: Camera, grid_uv: np.ndarray, dem, world) -
     return np.where(ok & (depth > 0) & np.isfinite(err), err, np.inf)
 
 
+def claimed_ground_error(done, s) -> dict:
+    """How well the ± the products claim on the ground covers the camera's real error there, over the grid.
+
+    The real error of the ground at a pixel: between where the fitted camera's ray and the hidden camera's ray
+    meet the user's DEM (the camera's error alone; the DEM's own is not claimed). The claim, as the dock's cursor
+    readout and a feature's ``xy_error_m`` say it (:func:`monoplot_plugin.workflow.spread.ground_errors_m`): from
+    the fit's σ as one pixel figure alone (``sigma_px`` carried by the footprint, as before the camera's spread was
+    counted where the ground is), and with the camera's σ moving each pixel's ground.
+    Returns ``claim_within_2x_figure`` / ``claim_within_2x_spread`` (share of the grid points seen whose real error
+    is at most twice the claim) and ``claim_ratio_*_median`` (real / claimed); {} without a figure."""
+    from monoplot_plugin.workflow.fit import sigma_px
+    from monoplot_plugin.workflow.spread import camera_spread, ground_errors_m
+
+    r, dem, uv = done.result, s["dem"], s["grid_uv"]
+    figure = sigma_px(r, s["world"])
+    if not np.isfinite(figure):
+        return {}
+    reach = 3 * (s["world_dem"].bounds()[2] - s["world_dem"].bounds()[0])
+    fitted, true = cast(dem, r.camera, uv, reach), cast(dem, s["truth"], uv, reach)
+    real = np.linalg.norm(fitted[:, :2] - true[:, :2], axis=1)
+    spread = camera_spread({"sigma": r.std, "correlation": r.correlation, "on_ground": done.on_ground}, dem)
+    out = {}
+    for name, with_spread in (("figure", None), ("spread", spread)):
+        claim = ground_errors_m(figure, with_spread, r.camera, dem, uv)
+        ok = np.isfinite(real) & np.isfinite(claim) & (claim > 0)
+        if ok.any():
+            out[f"claim_within_2x_{name}"] = round(float(np.mean(real[ok] <= 2 * claim[ok])), 3)
+            out[f"claim_ratio_{name}_median"] = round(float(np.median(real[ok] / claim[ok])), 3)
+    return out
+
+
 def run_scene(index: int, seed: int) -> dict:
     s = build_scene(index, seed)
     t0 = time.perf_counter()
+    done = None
     try:
         done = fit(s["photo"], s["world"], s["prior"], s["dem"], options=FitOptions(**s["sigmas"]))
         r = done.result
@@ -184,6 +218,8 @@ def run_scene(index: int, seed: int) -> dict:
     shifts = sigma_shifts(cam, std, grid) if std else np.full(len(grid), np.nan)
     covered = np.isfinite(shifts) & (g_err <= 2 * shifts)
 
+    claims = claimed_ground_error(done, s) if done is not None else {}
+
     def med(x):
         x = x[np.isfinite(x)]
         return round(float(np.median(x)), 2) if len(x) else None
@@ -195,9 +231,14 @@ def run_scene(index: int, seed: int) -> dict:
             "far_err_px_median": med(g_err[~near]), "near_sigma_px_median": med(shifts[near]),
             "ground_within_2sigma": round(float(covered.mean()), 3),
             "position_error_m": round(float(np.linalg.norm(np.subtract(cam.position, truth.position))), 2),
-            "std": {k: round(float(v), 4) for k, v in std.items()}, "fit_s": round(fit_s, 2),
+            "std": {k: round(float(v), 4) for k, v in std.items()}, "fit_s": round(fit_s, 2), **claims,
             "evidence": {k: v for k, v in (r.evidence or {}).items() if isinstance(v, (int, float, str))
                          and k != "note"} if status != "refused" else {}}
+
+
+def _median(records, key: str):
+    values = [r[key] for r in records if r.get(key) is not None]
+    return round(float(np.median(values)), 3) if values else None
 
 
 def summarise(records, label: str) -> dict:
@@ -211,6 +252,9 @@ def summarise(records, label: str) -> dict:
             "ok_precision": round(sum(r["success"] for r in ok) / len(ok), 3) if ok else None,
             "ok_ground_within_2sigma_median": round(float(np.median([r["ground_within_2sigma"] for r in ok])), 3)
             if ok else None,
+            # the ± said on the ground (cursor readout, xy_error_m) against the camera's real error there
+            **{f"{who}_claim_within_2x_{name}_median": _median(group, f"claim_within_2x_{name}")
+               for who, group in (("ok", ok), ("fitted", records)) for name in ("figure", "spread")},
             "median_fit_s": round(float(np.median([r["fit_s"] for r in records])), 2) if records else None}
 
 

@@ -200,7 +200,8 @@ def ground_error_m(uv, cam: Camera, dem: Dem, pixel_rmse: float) -> np.ndarray:
     it leaves out the DEM's own error.
 
     Args:
-        uv: (N, 2) pixel positions; pixel_rmse: pixels.
+        uv: (N, 2) pixel positions; pixel_rmse: pixels, one for all or (N,) one per pixel (the camera's σ moves
+            near ground more than far: :func:`~monoplot_plugin.core.fit.sigma_shifts`).
     Returns:
         (N,) metres; NaN where the pixel sees no terrain, or no neighbour along one axis does.
 
@@ -214,23 +215,27 @@ def ground_error_m(uv, cam: Camera, dem: Dem, pixel_rmse: float) -> np.ndarray:
     (2.31, 2.31)
     >>> bool(e[1] > e[0]), bool(np.isnan(e[2]))
     (True, True)
+    >>> e2 = ground_error_m([[320, 240], [320, 200]], cam, dem, np.array([2.0, 4.0]))  # one error per pixel
+    >>> round(float(e2[0]), 2), round(float(e2[1] / e[1]), 2)
+    (2.31, 2.0)
     """
     uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
     n = len(uv)
     if n == 0:
         return np.zeros(0)
-    h = float(np.clip(pixel_rmse, 0.5, 16.0))
-    offsets = np.array([[0, 0], [h, 0], [-h, 0], [0, h], [0, -h]], dtype=np.float64)
-    ground, ok = photo_points_to_map((uv[None, :, :] + offsets[:, None, :]).reshape(-1, 2), cam, dem)
+    pixel_rmse = np.broadcast_to(np.asarray(pixel_rmse, dtype=np.float64), (n,))
+    h = np.clip(pixel_rmse, 0.5, 16.0)[:, None]  # (N, 1)
+    offsets = np.array([[0, 0], [1, 0], [-1, 0], [0, 1], [0, -1]], dtype=np.float64)
+    ground, ok = photo_points_to_map((uv[None, :, :] + offsets[:, None, :] * h[None]).reshape(-1, 2), cam, dem)
     xy, ok = ground[:, :2].reshape(5, n, 2), ok.reshape(5, n)
 
     def derivative(plus: int, minus: int) -> np.ndarray:
         both = ok[plus] & ok[minus]
         d = np.full((n, 2), np.nan)
-        d[both] = (xy[plus][both] - xy[minus][both]) / (2 * h)
+        d[both] = (xy[plus][both] - xy[minus][both]) / (2 * h[both])
         for side in (plus, minus):  # one-sided where the other neighbour sees the sky
             one = ~both & ok[side] & ok[0]
-            d[one] = (xy[side][one] - xy[0][one]) / h
+            d[one] = (xy[side][one] - xy[0][one]) / h[one]
         return d
 
     du, dv = derivative(1, 2), derivative(3, 4)

@@ -238,6 +238,7 @@ class AutoPanel(QObject):
         finite = engine.finite_or_none
         info = {"status": status, "rmse_px": finite(r.rmse_px), "loo_rmse_px": finite(r.loo_rmse_px),
                 "sigma": {k: float(v) for k, v in (r.std or {}).items()}, "converged": status == "ok",
+                "correlation": engine.correlation_record(getattr(r, "correlation", None)),
                 # its σ as a pixel error on the terrain it matched: what its products are worth
                 "sigma_px": finite(sigma_pixels(done.camera, r.std or {}, world)),
                 # ... unless its σ are the rough camera's own (the edges did not narrow them): no figure then

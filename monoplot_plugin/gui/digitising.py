@@ -58,6 +58,8 @@ class DigitisingSession(DrawnHistoryMixin, QObject):
         xyz: optional per-pixel XYZ raster of the photo; not needed (features are intersected with the DEM
             exactly) and may be None.
         photo_name: photo file name (names the layer group and the layers).
+        pixel_rmse: the fit's pixel error (:func:`~..workflow.features.pixel_error`), None unknown; ``spread``: the
+            camera's σ and correlations (:func:`~..workflow.spread.camera_spread`), None: the pixel error alone.
         fields: user attribute fields, (name, type) with type in string, integer, real, date.
 
     Signals:
@@ -72,13 +74,14 @@ class DigitisingSession(DrawnHistoryMixin, QObject):
     def __init__(self, project: QgsProject, camera, dem, xyz: Optional[np.ndarray], photo_name: str,
                  fields: Sequence[Tuple[str, str]] = (("name", "string"),), parent=None,
                  pixel_rmse: Optional[float] = None, area: Optional[np.ndarray] = None,
-                 photo_taken: Optional[str] = None):
+                 photo_taken: Optional[str] = None, spread=None):
         super().__init__(parent)
         self.photo_taken = photo_taken  # ISO 8601 date and time of the photo (EXIF), or None
         self.project = project
         self.camera, self.dem, self.xyz = camera, dem, xyz
         self.area = area  # a scanned print's picture: drawn on its paper or caption, no ground
         self.pixel_rmse = pixel_rmse  # the fit's pixel error, carried to the ground as xy_error_m (None: unknown)
+        self.spread = spread  # the camera's σ where each feature is (workflow.spread.CameraSpread), or None
         self.photo_name = photo_name
         self.fields: List[Tuple[str, str]] = list(fields)
         self.group = photo_group(project, photo_name)
@@ -243,12 +246,13 @@ class DigitisingSession(DrawnHistoryMixin, QObject):
         self.closedByLayers.emit()
 
     def update_camera(self, camera, dem, xyz: Optional[np.ndarray] = None,
-                      pixel_rmse: Optional[float] = None) -> None:
+                      pixel_rmse: Optional[float] = None, spread=None) -> None:
         """A new fit (or DEM): keep what was drawn on the photo, recompute every live map layer."""
         if self.closed:
             return
-        same = camera == self.camera and dem is self.dem and xyz is self.xyz and pixel_rmse == self.pixel_rmse
-        self.camera, self.dem, self.xyz, self.pixel_rmse = camera, dem, xyz, pixel_rmse
+        same = (camera == self.camera and dem is self.dem and xyz is self.xyz and pixel_rmse == self.pixel_rmse
+                and spread == self.spread)
+        self.camera, self.dem, self.xyz, self.pixel_rmse, self.spread = camera, dem, xyz, pixel_rmse, spread
         if not same:  # the same camera and DEM again (the dock says "camera changed" for an overlay too): the
             # features mapped stay valid; tracing each again froze a trial's QGIS 4.6 s over a 100 M-cell DEM
             self._mapped.clear()
@@ -327,7 +331,7 @@ class DigitisingSession(DrawnHistoryMixin, QObject):
                 mapped = cached[1]
             else:
                 mapped = photo_to_map_feature(kind, vertices, self.xyz, camera=self.camera, dem=self.dem,
-                                              pixel_rmse=self.pixel_rmse, area=self.area)
+                                              pixel_rmse=self.pixel_rmse, area=self.area, spread=self.spread)
                 self._mapped[key] = (wkb, mapped)
             if mapped is not None:
                 mapped = replace(mapped, attributes=attrs)

@@ -121,7 +121,8 @@ class DockViewMixin:
         if error is None:
             return ""
         error_m, error_px, source = error
-        what = {"check": self.tr("check points"), "sigma": self.tr("the camera's σ")}.get(source, self.tr("fit"))
+        what = {"check": self.tr("check points"), "sigma": self.tr("the camera's σ"),
+                "sigma_here": self.tr("the camera's σ here")}.get(source, self.tr("fit"))
         return self.tr("; X, Y ± {0} ({1} {2:.1f} px)").format(metres_words(error_m), what, error_px)
 
     def _map_cursor(self, point) -> None:

@@ -60,6 +60,12 @@ class FitOutcome:
     footprint_wkt: str = ""
 
 
+def correlation_record(correlation) -> dict:
+    """A fit's parameter correlations ``{name: {other: r}}`` as plain finite floats (a fit record, JSON)."""
+    return {str(a): {str(b): float(r) for b, r in row.items() if np.isfinite(r)}
+            for a, row in (correlation or {}).items()}
+
+
 def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, int]], start: Camera, dem,
                    progress: Progress, is_canceled: IsCanceled,
                    check_uv: Optional[np.ndarray] = None, check_xyz: Optional[np.ndarray] = None,
@@ -89,6 +95,8 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         "rmse_px": finite_or_none(result.rmse_px),
         "loo_rmse_px": finite_or_none(result.loo_rmse_px),
         "sigma": {k: float(v) for k, v in (result.std or {}).items()},
+        # ... and their correlations: the products' error where their ground is (workflow.spread)
+        "correlation": correlation_record(result.correlation),
         # the camera's σ as a pixel error, on the terrain the fit matched: an unpaired fit's error figure
         "sigma_px": finite_or_none(fit_step.sigma_px(result, xyz)),
         "converged": result.status == "ok",

@@ -197,6 +197,7 @@ class OutputTools(FeatureDialogsMixin, QObject):
         if self.session is None:
             self.session = DigitisingSession(self.project, camera, dem, xyz, self.photo_name(claim=True), parent=self,
                                              pixel_rmse=pixel_error(self.controller.state.fit_info)[0],
+                                             spread=self.controller.camera_spread(),
                                              area=self.controller._picture_area(),
                                              photo_taken=read_photo_taken(self.controller.state.photo_path or ""))
             self.session.mapLayerUpdated.connect(self._report_sky)
@@ -227,7 +228,7 @@ class OutputTools(FeatureDialogsMixin, QObject):
             self._forget_session()
         if self.session is not None:
             self.session.update_camera(self.controller.fitted, self.controller.dem, None,
-                                       pixel_error(self.controller.state.fit_info)[0])
+                                       pixel_error(self.controller.state.fit_info)[0], self.controller.camera_spread())
         elif self.project.readEntry("monoplot", drawn_entry_key(self.photo_name()), "")[0]:
             self.current_session()  # a reopened project with features drawn on this photo: show them again
         self._redraw_overlays()

@@ -310,18 +310,27 @@ class ResultsMixin:
             return None
         return engine.lookup_xyz(self.xyz, self.photo_size, u, v)
 
+    def camera_spread(self):
+        """The fitted camera's σ and correlations as the products carry them
+        (:func:`~..workflow.spread.camera_spread`), or None."""
+        from ..workflow.spread import camera_spread
+
+        return camera_spread(self.state.fit_info if isinstance(self.state.fit_info, dict) else None, self.dem)
+
     def ground_error_at_pixel(self, u: float, v: float) -> Optional[Tuple[float, float, str]]:
         """(horizontal error in metres, RMS, of the ground seen at photo pixel (u, v); the pixel error it is carried
         from; where that comes from: "check", "loo", "fit" or "sigma", see
-        :func:`~..workflow.features.pixel_error`), for the cursor readout; None where it is not known (no fit, sky,
-        σ no data narrowed, an unpaired fit without σ or check points). The same footprint model as the features'
-        ``xy_error_m`` (:func:`~..core.transforms.ground_error_m`): a trial read X, Y, Z to a tenth of a metre
-        with nothing saying they were good to 50 m."""
-        from ..core.transforms import ground_error_m
+        :func:`~..workflow.features.pixel_error`, or "sigma_here" where the camera's σ at that ground is larger,
+        :mod:`~..workflow.spread`), for the cursor readout; None where it is not known (no fit, sky, σ no data
+        narrowed, an unpaired fit without σ or check points). The same figure as the features'
+        ``xy_error_m`` (:func:`~..workflow.spread.ground_errors_m`): a trial read X, Y, Z to a tenth of a metre
+        with nothing saying they were good to 50 m; another read "± 6 m" on near ground 73 m off."""
         from ..workflow.features import pixel_error
+        from ..workflow.spread import ground_errors_m, pixel_errors
 
         info = self.state.fit_info if isinstance(self.state.fit_info, dict) else {}
-        if self.fitted is None or self.dem is None or info.get("sigma_is_prior") or self.ground_at_pixel(u, v) is None:
+        ground = self.ground_at_pixel(u, v)
+        if self.fitted is None or self.dem is None or info.get("sigma_is_prior") or ground is None:
             return None
         error_px, source = pixel_error(info, only_ok=False)
         if error_px is None:
@@ -331,10 +340,14 @@ class ResultsMixin:
         key = (math.floor(u), math.floor(v), float(error_px), id(self.xyz))
         cached = self.__dict__.get("_ground_error_cache")
         if cached is None or cached[0] != key:
-            error_m = float(ground_error_m([[math.floor(u) + 0.5, math.floor(v) + 0.5]], self.fitted, self.dem,
-                                           error_px)[0])
-            cached = self.__dict__["_ground_error_cache"] = (key, error_m)
-        error_m = cached[1]
+            spread = self.camera_spread()
+            here = float(pixel_errors(error_px, spread, self.fitted, np.array([ground]))[0])
+            error_m = float(ground_errors_m(error_px, spread, self.fitted, self.dem,
+                                            [[math.floor(u) + 0.5, math.floor(v) + 0.5]])[0])
+            cached = self.__dict__["_ground_error_cache"] = (key, (error_m, here))
+        error_m, here = cached[1]
+        if here > error_px:
+            error_px, source = here, "sigma_here"
         return (error_m, float(error_px), source) if np.isfinite(error_m) else None
 
     def pixel_of_ground(self, x: float, y: float) -> Tuple[Optional[Tuple[float, float]], str]:

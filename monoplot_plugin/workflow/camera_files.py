@@ -203,11 +203,14 @@ def camera_json(camera: Camera, verdict: Optional[dict] = None, photo_path: str 
 
 def fit_figures(verdict: dict) -> dict:
     """What a camera file keeps of a fit besides its status and message: ``sigma`` per parameter (from ``"sigma"``
-    or the fit summary's ``"std"``), ``mode`` and the :data:`PIXEL_FIGURES` a product's ``xy_error_m`` is worked
-    out from (:func:`~.features.pixel_error`); finite values only.
+    or the fit summary's ``"std"``) and their ``correlation``, ``mode``, ``on_ground`` and the
+    :data:`PIXEL_FIGURES` a product's ``xy_error_m`` is worked out from (:func:`~.features.pixel_error`,
+    :func:`~.spread.camera_spread`); finite values only.
 
     >>> fit_figures({"status": "ok", "summary": {"std": {"x": 2.0, "y": None}, "rmse_px": 1.5}, "mode": "paired"})
     {'sigma': {'x': 2.0}, 'mode': 'paired', 'rmse_px': 1.5}
+    >>> fit_figures({"sigma": {"x": 2.0}, "correlation": {"x": {"y": 0.5, "z": None}}, "on_ground": True})
+    {'sigma': {'x': 2.0}, 'correlation': {'x': {'y': 0.5}}, 'on_ground': True}
     """
     out = {}
     summary = verdict.get("summary") or {}
@@ -215,6 +218,13 @@ def fit_figures(verdict: dict) -> dict:
     sigma = {str(k): float(v) for k, v in sigma.items() if v is not None and np.isfinite(float(v))}
     if sigma:
         out["sigma"] = sigma
+    correlation = verdict.get("correlation") or summary.get("correlation") or {}
+    correlation = {str(a): {str(b): float(r) for b, r in row.items() if r is not None and np.isfinite(float(r))}
+                   for a, row in correlation.items() if isinstance(row, dict)}
+    if any(correlation.values()):
+        out["correlation"] = correlation
+    if isinstance(verdict.get("on_ground"), bool):
+        out["on_ground"] = verdict["on_ground"]
     for key in ("mode",) + PIXEL_FIGURES:
         value = verdict.get(key, summary.get(key))
         if isinstance(value, str) or (value is not None and np.isfinite(float(value))):

@@ -198,10 +198,22 @@ def test_fit_task_runs_to_completion(dock, scene, qtbot):
     # where the ground is farther (a trial read X, Y to 0.1 m with nothing saying they were good to 50 m)
     rows = [v for v in range(120, 470, 10) if c.ground_at_pixel(240, v) is not None]
     near, far = c.ground_error_at_pixel(240, rows[-1]), c.ground_error_at_pixel(240, rows[0])
-    if pixel_error(c.state.fit_info, only_ok=False)[0] is not None:
-        assert near is not None and far is not None and near[1:] == pixel_error(c.state.fit_info, only_ok=False)
+    figure = pixel_error(c.state.fit_info, only_ok=False)
+    if figure[0] is not None:
+        # at least the fit's figure; more where the camera's σ moves that ground more ("the camera's σ here")
+        assert near is not None and far is not None, (near, far)
+        for error in (near, far):
+            assert error[1] >= figure[0] and error[2] in (figure[1], "sigma_here"), (error, figure)
         assert 0 < near[0] < far[0], (near, far)
         assert "; X, Y ± " in dock._cursor_error(240, rows[-1]) and " px)" in dock._cursor_error(240, rows[-1])
+        # ... and it covers how far off the fitted camera puts that ground (both rays on the same DEM)
+        from monoplot_plugin.core.transforms import photo_points_to_map
+
+        for v, error in ((rows[-1], near), (rows[0], far)):
+            pixel = [[240.5, v + 0.5]]
+            real = np.hypot(*(photo_points_to_map(pixel, fitted, c.dem)[0][0, :2]
+                              - photo_points_to_map(pixel, scene.camera, c.dem)[0][0, :2]))
+            assert real <= 2 * error[0], (v, real, error)
     assert c.ground_error_at_pixel(-5, 100) is None  # outside the picture
     # σ no data narrowed (an automatic registration whose edges did not support its camera keeps the rough
     # camera's) give no figure on the ground (a trial: "about 820 m", the camera 13 m off)

@@ -101,3 +101,38 @@ def test_points_on_the_near_ground_too_place_it_and_the_fit_is_ok(hillside):
         assert result.correlation[a][a] == pytest.approx(1.0)
         for b in names:
             assert result.correlation[a][b] == pytest.approx(result.correlation[b][a])
+
+
+def test_a_feature_on_the_near_ground_says_how_far_off_the_camera_may_put_it(hillside):
+    """The ± a drawn feature gets (``xy_error_m``) counts the camera's σ where the feature is: a line on the near
+    ground of a camera placed by far points said ± 6 m from the far points' pixel error and was 73 m off."""
+    from monoplot_plugin.workflow.features import photo_to_map_feature
+    from monoplot_plugin.workflow.fit import sigma_px
+    from monoplot_plugin.workflow.spread import camera_spread
+
+    dem, truth, uv, hits, dist, _ = hillside
+    fit_uv, xyz = _points(hillside, near=0)
+    done = fit(fit_uv, xyz, _prior(truth), dem, options=OPTIONS)
+    result = done.result
+    figure = sigma_px(result, xyz)
+    assert np.isfinite(figure)
+    spread = camera_spread({"sigma": result.std, "correlation": result.correlation, "on_ground": done.on_ground}, dem)
+    # a line along the near ground, drawn where the true camera sees terrain 40-250 m away
+    near = np.flatnonzero((dist > 40) & (dist < 250))[:40]
+    line = uv[near][np.argsort(uv[near, 0])]
+    said = {}
+    for name, with_spread in (("figure", None), ("spread", spread)):
+        feature = photo_to_map_feature("line", line, camera=result.camera, dem=dem, pixel_rmse=figure,
+                                       spread=with_spread, step_px=50.0)
+        said[name] = feature.xy_error_m
+    # how far off the fitted camera really puts that ground (its error alone: both rays on the same DEM)
+    real = np.linalg.norm(_first_hits(dem, result.camera, line)[:, :2] - _first_hits(dem, truth, line)[:, :2], axis=1)
+    real_rms = float(np.sqrt(np.nanmean(real ** 2)))
+    assert said["figure"] * 2 < real_rms, (said, real_rms)  # the far points' figure alone misses it
+    assert said["spread"] * 2 >= real_rms and said["spread"] > 3 * said["figure"], (said, real_rms)
+    # and far ground, where the points are, keeps the figure's ± at the median (the spread adds little there)
+    ratios = [photo_to_map_feature("point", [p], camera=result.camera, dem=dem, pixel_rmse=figure,
+                                   spread=spread).xy_error_m /
+              photo_to_map_feature("point", [p], camera=result.camera, dem=dem, pixel_rmse=figure).xy_error_m
+              for p in uv[np.flatnonzero(dist > 1500)[:15]]]
+    assert np.median(ratios) < 1.5, ratios

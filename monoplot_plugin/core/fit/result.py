@@ -9,7 +9,8 @@ import numpy as np
 
 from ..camera import Camera
 
-__all__ = ["FitResult", "STATUSES", "rmse", "rms", "sigma_undetermined", "sigma_pixels", "sigma_shifts"]
+__all__ = ["FitResult", "STATUSES", "rmse", "rms", "sigma_undetermined", "sigma_pixels", "sigma_shifts",
+           "sigma_cameras", "combine_moves"]
 
 #: Standard deviations beyond which a parameter is not determined at all (a poor fit's covariance gave "± 1300521642
 #: m" and "± 6894594°" in a flood trial's dock): angles in degrees, positions in metres, the rest in their units.
@@ -69,12 +70,27 @@ def sigma_shifts(camera: Camera, std: Dict[str, float], points: np.ndarray,
     [77.9, 0.0]
     """
     points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
-    usable = {k: float(v) for k, v in (std or {}).items() if v}
-    if not len(points) or not usable or any(sigma_undetermined(k, v) for k, v in usable.items()):
+    moved = sigma_cameras(camera, std, ground)
+    if not len(points) or not moved:
         return np.full(len(points), np.nan)
-    values = camera.parameters()
     base = camera.project(points)
-    names = [name for name in usable if name in values]
+    return combine_moves({name: cam.project(points) - base for name, cam in moved.items()}, correlation)
+
+
+def sigma_cameras(camera: Camera, std: Dict[str, float], ground: Optional[Callable] = None) -> Dict[str, Camera]:
+    """``{name: camera}``: ``camera`` with one parameter moved by its σ (``std``), for each parameter it has; with
+    ``ground`` (``(x, y) -> z``, a camera held on the ground: ``z`` not in ``std``) its height follows the terrain
+    when x or y move. {} without σ or with one undetermined (:func:`sigma_undetermined`).
+
+    >>> cam = Camera((0.0, 0.0, 0.0), 0.0, 0.0, 0.0, 60.0, (1000, 700))
+    >>> moved = sigma_cameras(cam, {"x": 10.0, "heading": 0.5}, ground=lambda x, y: 0.1 * np.asarray(x))
+    >>> [float(v) for v in moved["x"].position], moved["heading"].heading
+    ([10.0, 0.0, 1.0], 0.5)
+    """
+    usable = {k: float(v) for k, v in (std or {}).items() if v}
+    if not usable or any(sigma_undetermined(k, v) for k, v in usable.items()):
+        return {}
+    values = camera.parameters()
 
     def height(x: float, y: float) -> float:
         return float(np.asarray(ground(np.array([x]), np.array([y]))).ravel()[0])
@@ -86,15 +102,29 @@ def sigma_shifts(camera: Camera, std: Dict[str, float], points: np.ndarray,
                                                                                                values["y"])
             if np.isfinite(lift):
                 change["z"] = values["z"] + lift
-        return camera.with_parameters(**change).project(points) - base
+        return camera.with_parameters(**change)
 
-    moves = [moved(name) for name in names]
-    shift2 = np.zeros(len(points))
+    return {name: moved(name) for name in usable if name in values}
+
+
+def combine_moves(moves: Dict[str, np.ndarray], correlation: Optional[Dict[str, Dict[str, float]]] = None
+                  ) -> np.ndarray:
+    """(N,) length of the combined move of N things (pixels, ground points) when each parameter's σ moves them by
+    ``moves[name]`` ((N, D) each): ``sqrt(sum_ab r_ab m_a . m_b)``, the ``D R D`` covariance with ``correlation``
+    (``{a: {b: r}}``; a pair missing counts as uncorrelated).
+
+    >>> m = {"x": np.array([[3.0, 0.0]]), "heading": np.array([[-3.0, 0.0]])}
+    >>> combine_moves(m).round(2).tolist(), combine_moves(m, {"x": {"heading": 1.0}, "heading": {"x": 1.0}}).tolist()
+    ([4.24], [0.0])
+    """
+    names = list(moves)
+    n = len(next(iter(moves.values()))) if moves else 0
+    shift2 = np.zeros(n)
     for i, a in enumerate(names):
         for j, b in enumerate(names):
             r = 1.0 if i == j else float((correlation or {}).get(a, {}).get(b, 0.0))
             if r:
-                shift2 += r * np.sum(moves[i] * moves[j], axis=1)
+                shift2 += r * np.sum(moves[a] * moves[b], axis=1)
     return np.sqrt(np.clip(shift2, 0.0, None))
 
 
@@ -174,6 +204,7 @@ class FitResult:
                 "loo_rmse_px": r(self.loo_rmse_px), "check_rmse_px": r(self.check_rmse_px),
                 "pairs": int(len(self.pairs)), "inliers": int(self.inliers.sum()), "free": list(self.free),
                 "std": {k: r(v, 4) for k, v in self.std.items()}, "n_starts": self.n_starts,
+                "correlation": {a: {b: r(v, 4) for b, v in row.items()} for a, row in self.correlation.items()},
                 "elapsed_s": r(self.elapsed_s), "photo_outliers": int(np.sum(self.photo_outliers)),
                 "evidence": {k: (r(v) if isinstance(v, float) else v) for k, v in self.evidence.items()},
                 "camera": self.camera.to_dict()}
