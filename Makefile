@@ -102,6 +102,7 @@ eval: setup
 	$(PY) -m eval.smapshot
 	$(PY) -m eval.synthetic_suite --careless 24
 	$(PY) -m eval.eye_level --scenes 40
+	$(PY) -m eval.lens
 	$(PY) -m eval.auto
 	$(PY) -m eval.user_trial
 

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..camera import Camera
 from .checks import check_inputs
+from .lens import unmodelled_lens
 from .near_ground import ground_seen, loosely_placed_ground
 from .context import FitCanceled, FitContext
 from .options import FitOptions
@@ -75,6 +76,7 @@ def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Op
         if result.evidence:
             result.evidence.update(check_rmse_px=result.check_rmse_px, has_check=len(cq) > 0, n_check=len(cq))
     if result.evidence and result.status not in ("refused", "canceled"):
+        result.evidence.update(unmodelled_lens(ctx, result))
         if terrain is not None and result.std:  # without σ nothing can be said: no z-buffer rendered
             result.evidence.update(loosely_placed_ground(result.camera, result.std, ground_seen(result.camera, terrain),
                                                          result.correlation, ctx.ground))

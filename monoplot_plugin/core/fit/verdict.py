@@ -37,6 +37,7 @@ from typing import Tuple
 
 import numpy as np
 
+from .lens import lens_text
 from .near_ground import loose_ground_text
 
 __all__ = ["degenerate_points", "weakest_parameter", "weak_direction_matters", "judge", "judge_by_checks",
@@ -254,6 +255,9 @@ def judge(e: dict) -> Tuple[str, str]:
     loose = loose_ground_text(e)
     if loose:
         weak.append(loose)
+    lens = lens_text(e)
+    if lens:
+        weak.append(lens)
     if e.get("mode") == "unpaired":
         n_in = int(e.get("n_inliers", 0))
         chance = float(e.get("chance_max", 0.0))
