@@ -278,6 +278,11 @@ class OutputTools(FeatureDialogsMixin, QObject):
         """Another photo or project: drop the session (its layers belong to the old one; the drawn features are
         in the project file and come back with it)."""
         self._forget_session()
+        # its drawing tools too: the new photo starts with point curation (a trial's "Draw polygons" stayed pressed
+        # over a photo without a camera)
+        for action in self.actions.values():
+            if action.isCheckable() and action.isChecked():
+                action.setChecked(False)
         xyz_step.clear_cache()
         self._sky_told, self._doubt_told, self._spread_told = {}, {}, set()
         self.canvas.set_extra_layers([])

@@ -265,9 +265,15 @@ def test_what_was_drawn_on_another_photo_is_on_the_map_after_reopening(dock, sce
     assert drawn.geometry().constGet().is3D() and drawn["m_per_px"] > 0
     modern = str(tmp_path / "modern.png")
     cv2.imwrite(modern, cv2.imread(scene.photo_path)[:, ::-1])
+    draw_lines = dock.output_tools.actions["line"]
+    draw_lines.trigger()  # still drawing lines when another photo is chosen
+    assert draw_lines.isChecked() and dock.photo_canvas.mapTool() is not dock.photo_tool
     answer_with(qtbot, "Start afresh", [])
     dock.photoFile.setFilePath(modern)
     assert c.state.photo_path == modern and dock.output_tools.session is None
+    # the new photo starts with point curation: no drawing tool left pressed over a photo without a camera (a trial's
+    # "Draw polygons" stayed pressed after the photo changed)
+    assert not draw_lines.isChecked() and dock.photo_canvas.mapTool() is dock.photo_tool
     path = str(tmp_path / "repeat.qgz")
     c.save()
     assert project.write(path)
