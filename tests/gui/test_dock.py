@@ -215,6 +215,11 @@ def test_fit_task_runs_to_completion(dock, scene, qtbot):
                               - photo_points_to_map(pixel, scene.camera, c.dem)[0][0, :2]))
             assert real <= 2 * error[0], (v, real, error)
     assert c.ground_error_at_pixel(-5, 100) is None  # outside the picture
+    # a camera the fit doubts: its figure may be far too small, and the readout says so
+    status = c.state.fit_info["status"]
+    c.state.fit_info = dict(c.state.fit_info, status="uncertain")
+    assert "the camera is uncertain: it may be far more)" in dock._cursor_error(240, rows[-1])
+    c.state.fit_info = dict(c.state.fit_info, status=status)
     # σ no data narrowed (an automatic registration whose edges did not support its camera keeps the rough
     # camera's) give no figure on the ground (a trial: "about 820 m", the camera 13 m off)
     c.state.fit_info = dict(c.state.fit_info, status="uncertain", mode="automatic", sigma_is_prior=True)

@@ -136,3 +136,18 @@ def test_a_feature_on_the_near_ground_says_how_far_off_the_camera_may_put_it(hil
               photo_to_map_feature("point", [p], camera=result.camera, dem=dem, pixel_rmse=figure).xy_error_m
               for p in uv[np.flatnonzero(dist > 1500)[:15]]]
     assert np.median(ratios) < 1.5, ratios
+
+
+def test_far_check_points_do_not_verify_the_near_ground(hillside):
+    """Check points on summits far away measure the camera where the points already fix it: they cannot say the
+    near ground is placed (a flood trial's camera, "ok" with 4 summit check points, was 6 m off and the ground within
+    300 m 1000 px off). A check point on the near ground can."""
+    dem, truth, uv, hits, dist, _ = hillside
+    fit_uv, xyz = _points(hillside, near=0)
+    far_checks = np.flatnonzero(dist > 2000)[20:25]
+    done = fit(fit_uv, xyz, _prior(truth), dem, options=OPTIONS, check_uv=uv[far_checks], check_xyz=hits[far_checks])
+    result = done.result
+    assert result.check_rmse_px < 0.015 * np.hypot(*truth.image_size)  # they agree with the camera
+    assert result.status == "uncertain", result.message
+    assert "do not reach that ground" in result.message and "Verified by the check points" not in result.message
+    assert result.evidence["check_nearest_m"] > result.evidence["ground_loose_reach_m"]

@@ -74,7 +74,11 @@ def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Op
         result.check_residuals_px = cuv - cq
         result.check_rmse_px = rmse(result.check_residuals_px)
         if result.evidence:
-            result.evidence.update(check_rmse_px=result.check_rmse_px, has_check=len(cq) > 0, n_check=len(cq))
+            cw = np.asarray(check_world_points, dtype=np.float64).reshape(-1, 3)
+            nearest = float(np.min(np.linalg.norm(cw - np.asarray(result.camera.position), axis=1))) if len(cw) \
+                else float("nan")  # how near the camera the check points measure it (verdict: loose near ground)
+            result.evidence.update(check_rmse_px=result.check_rmse_px, has_check=len(cq) > 0, n_check=len(cq),
+                                   check_nearest_m=nearest)
     if result.evidence and result.status not in ("refused", "canceled"):
         result.evidence.update(unmodelled_lens(ctx, result))
         if terrain is not None and result.std:  # without σ nothing can be said: no z-buffer rendered

@@ -304,8 +304,15 @@ def judge(e: dict) -> Tuple[str, str]:
     checked_ok = (np.isfinite(check) and check <= WEAK_SHARE * diag and not check_far
                   and int(e.get("n_check", 0)) >= MIN_CHECKS)
     if checked_ok and not poor and weak:
-        text += " Verified by the check points despite: " + "; ".join(weak) + "."
-        weak = []
+        # ... except loose near ground that no check point is on: summits 4-7 km away verified a trial's flood camera
+        # "despite" its near-ground warning, the camera 6 m off and the ground within 300 m 1000 px off
+        unverified = [w for w in weak if w == loose and not check_reaches_loose_ground(e)]
+        verified = [w for w in weak if w not in unverified]
+        if verified:
+            text += " Verified by the check points despite: " + "; ".join(verified) + "."
+        weak = [w + (f" (the check points, the nearest {float(e['check_nearest_m']):.0f} m away, do not reach that "
+                     f"ground: a check point on it would verify it)" if np.isfinite(e.get("check_nearest_m", np.nan))
+                     else "") for w in unverified]
     elif weak and not poor and np.isfinite(check) and check <= WEAK_SHARE * diag and not check_far:
         # too few to verify: say how close it is (a trial marked 3 good pairs as check points, as advised, and a
         # fit "ok" with them as pairs turned "uncertain" with no word on what would settle it)
@@ -323,6 +330,19 @@ def judge(e: dict) -> Tuple[str, str]:
     if weak:
         return "uncertain", text + " Uncertain: " + "; ".join(weak) + "." + note
     return "ok", text + note
+
+
+def check_reaches_loose_ground(e: dict) -> bool:
+    """True when a check point lies within the loosely placed ground (``check_nearest_m`` at most
+    ``ground_loose_reach_m``, :func:`~.near_ground.loosely_placed_ground`): then it measures that ground too.
+
+    >>> check_reaches_loose_ground({"check_nearest_m": 4000.0, "ground_loose_reach_m": 300.0})
+    False
+    >>> check_reaches_loose_ground({"check_nearest_m": 150.0, "ground_loose_reach_m": 300.0})
+    True
+    """
+    nearest, reach = float(e.get("check_nearest_m", np.nan)), float(e.get("ground_loose_reach_m", np.nan))
+    return bool(np.isfinite(nearest) and np.isfinite(reach) and nearest <= reach)
 
 
 def suspect_pair_text(e: dict) -> str:
