@@ -261,6 +261,12 @@ def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCance
                 result.status = "skipped"
                 raise InputError(f"{verdict['message']} No products written (the camera file keeps the rough "
                                  f"camera and the reasons).")
+            if fit_status == "poor" and (setup.write_xyz or setup.write_ortho):
+                # probably wrong: a trial's batch wrote the XYZ raster and orthophoto of a registration 93 m off,
+                # "poor", and counted the row processed; its camera file is there to look at
+                result.status = "skipped"
+                raise InputError(f"fit poor: {fit_message} No products written (the camera file keeps the camera "
+                                 f"found and the reasons).")
             products = CameraProducts(camera, shared.dem, setup.resolution, setup.write_ortho, cached=False)
         elif tuple(camera.image_size) != size:
             raise InputError(f"photo is {size[0]}x{size[1]} px but the shared camera is for "

@@ -91,7 +91,6 @@ def test_table_batch_fits_each_photo_and_skips_a_bad_row(run_alg, small_scene, t
     out = tmp_path / "out"
     result = run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"),
                                "XYZ": True, "ORTHO": False, "OUTPUT": str(out)})
-    assert result["SUCCEEDED"] == 3 and result["FAILED"] == 1
     assert sorted(p.name for p in out.glob("*_camera.json")) == ["a_camera.json", "c_camera.json", "d_camera.json"]
     with open(result["LOG"], newline="") as fh:
         rows = {os.path.basename(r["photo"]): r for r in csv.DictReader(fh)}
@@ -102,7 +101,12 @@ def test_table_batch_fits_each_photo_and_skips_a_bad_row(run_alg, small_scene, t
     verdict = json.loads((out / "d_camera.json").read_text())["fit"]
     assert verdict["status"] in ("uncertain", "poor") and "automatic registration" in verdict["message"]
     assert rows["d.png"]["message"].startswith(f"fit {verdict['status']}")
-    assert rows["d.png"]["status"] == verdict["status"]  # the verdict, not "ok" (a trial)
+    if verdict["status"] == "poor":  # probably wrong: no products of it (a trial's batch wrote a camera 93 m off's)
+        assert rows["d.png"]["status"] == "skipped" and "No products written" in rows["d.png"]["message"]
+        assert not (out / "d_xyz.tif").exists() and result["SUCCEEDED"] == 2 and result["FAILED"] == 2
+    else:
+        assert rows["d.png"]["status"] == verdict["status"]  # the verdict, not "ok" (a trial)
+        assert (out / "d_xyz.tif").exists() and result["SUCCEEDED"] == 3 and result["FAILED"] == 1
     assert rows["a.png"]["status"] == "ok" and rows["a.png"]["photo"] == "a.png"  # relative to the table's folder
     # a fitted row's camera file keeps the fit's σ, as the dock's and fitcamera's do (the dock reads it back)
     fitted = json.loads((out / "a_camera.json").read_text())["fit"]
@@ -311,3 +315,35 @@ def test_a_doubtful_rows_log_line_is_a_warning(run_alg, small_scene, tmp_path):
     run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"), "XYZ": False,
                       "ORTHO": False, "WORKERS": 1, "OUTPUT": str(tmp_path / "out")}, feedback)
     assert any(m.startswith("[1/1] noise.png: fit uncertain") for m in feedback.warnings), feedback.warnings
+
+
+def test_a_row_whose_fit_is_poor_gets_its_camera_file_and_no_products(run_alg, small_scene, tmp_path):
+    """A trial's batch wrote the XYZ raster and orthophoto of a registration 93 m off, "poor", and counted the row
+    processed. A probably wrong camera makes no products: its camera file is written with the reasons, the row is
+    "skipped" and says so; the good row beside it is made as before."""
+    from monoplot_plugin.core.dem import Dem
+    from monoplot_plugin.core.xyz import compute_xyz
+    from monoplot_plugin.processing.inputs import write_points_csv
+
+    cam = small_scene["cam"]
+    xyz = compute_xyz(cam, Dem.open(small_scene["dem"]))
+    rows, cols = np.nonzero(np.isfinite(xyz[..., 2]))
+    world = xyz[rows, cols][np.random.default_rng(7).choice(len(rows), 10, replace=False)]
+    uv = cam.project(world)
+    write_points_csv(str(tmp_path / "good.csv"), uv=uv, xyz=world)
+    write_points_csv(str(tmp_path / "scrambled.csv"), uv=uv, xyz=world[::-1])  # every pair linked wrongly
+    cam.save(tmp_path / "prior.json")
+    for name in ("good.png", "bad.png"):
+        write_photo(tmp_path / name)
+    (tmp_path / "photos.csv").write_text("photo,prior,points\ngood.png,prior.json,good.csv\n"
+                                         "bad.png,prior.json,scrambled.csv\n")
+    out = tmp_path / "out"
+    result = run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"),
+                               "XYZ": True, "ORTHO": True, "WORKERS": 1, "OUTPUT": str(out)})
+    with open(result["LOG"], newline="") as fh:
+        logged = {os.path.basename(r["photo"]): r for r in csv.DictReader(fh)}
+    assert json.loads((out / "bad_camera.json").read_text())["fit"]["status"] == "poor"
+    assert logged["bad.png"]["status"] == "skipped" and "No products written" in logged["bad.png"]["message"]
+    assert not (out / "bad_xyz.tif").exists() and not (out / "bad_ortho.tif").exists()
+    assert logged["good.png"]["status"] == "ok" and (out / "good_xyz.tif").exists() and (out / "good_ortho.tif").exists()
+    assert result["SUCCEEDED"] == 1
