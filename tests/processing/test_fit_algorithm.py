@@ -2,6 +2,7 @@
 
 import json
 
+import cv2
 import numpy as np
 import pytest
 from qgis.core import QgsFeature, QgsGeometry, QgsPoint, QgsProcessingException, QgsVectorLayer
@@ -41,6 +42,16 @@ def test_fit_from_paired_csv_recovers_the_camera(run_alg, small_scene, ground_tr
     assert np.linalg.norm(np.subtract(fitted.position, truth.position)) < 5.0
     assert abs(fitted.heading - truth.heading) < 0.1 and abs(fitted.fov - truth.fov) < 0.2
     assert json.loads(out.read_text())["crs_wkt"]  # the DEM's CRS travels with the camera
+    # ... and the photo it was fitted on: products of another photo warn (a trial's camera of photo 2 made photo 3's
+    # XYZ raster 60 m off, silently)
+    from monoplot_plugin.workflow.camera_files import fitted_on_photo, photo_fingerprint
+
+    fit = json.loads(out.read_text())["fit"]
+    assert fit["photo_sha256"] == photo_fingerprint(small_scene["photo"])
+    assert fitted_on_photo(fit, small_scene["photo"]) is True
+    other = tmp_path / "other.png"
+    cv2.imwrite(str(other), 255 - cv2.imread(small_scene["photo"]))
+    assert fitted_on_photo(fit, str(other)) is False
 
 
 def test_the_tables_check_column_keeps_check_points_out_of_the_fit(run_alg, small_scene, ground_truth, tmp_path):

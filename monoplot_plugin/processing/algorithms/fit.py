@@ -221,7 +221,9 @@ class FitCamera(MonoplotAlgorithm):
         camera.crs_wkt = crs.toWkt()
         out = self.parameterAsFileOutput(parameters, "OUTPUT", context)
         check_canceled(feedback)
-        write_text(out, camera_json(camera, info), overwrite=True)  # with its verdict: products warn of it
+        # with its verdict and the photo it is about: products warn of it, and of another photo (a trial ran
+        # computexyz with a camera of photo 2 on photo 3, 60 m off, silently)
+        write_text(out, camera_json(camera, info, photo), overwrite=True)
         rmse = float(info.get("rmse_px", float("nan")))
         feedback.pushInfo(self.tr("Camera: {0}").format(camera_line(camera)))
         std = info.get("summary", {}).get("std") or {}
