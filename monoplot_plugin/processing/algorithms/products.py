@@ -31,7 +31,7 @@ from ..base import (PHOTO_Y_SIGN, MonoplotAlgorithm, camera_line, cancel_callbac
 from ..inputs import read_photo
 from ...core.xyz_strips import plan_strips
 from ...workflow.camera_files import verdict_on_photo, written_fit
-from ...workflow.products import NO_GROUND, ProductError, blank_outside, ortho_grid, picture_area
+from ...workflow.products import AUTO, NO_GROUND, ProductError, blank_outside, ortho_grid, picture_area
 from ...workflow.inputs import check_not_empty
 from ..safe_sink import keep_pixel_space, safe_sink
 
@@ -282,12 +282,17 @@ class Orthophoto(_CameraDemAlgorithm):
     _display = "Orthophoto"
     _help = ("Drapes the photo on the DEM and writes it as a north-up RGBA GeoTIFF in the DEM's CRS: each ground "
              "cell seen by the camera gets the colour of its pixel; cells hidden by terrain or outside the photo "
-             "are transparent.")
+             "are transparent. Cell size 0 keeps the photo's own detail (the ground footprint of a pixel at the "
+             "median distance, never coarser than the DEM's cells unless 10 million cells need it) over the part "
+             "of the DEM the camera sees, as the dock's orthophoto; give a cell size for another grid.")
 
     def initAlgorithm(self, config=None):
         self.add_camera_dem(photo_optional=False)
-        self.addParameter(QgsProcessingParameterNumber("RESOLUTION", self.tr("Cell size (map units, 0 = DEM's)"),
-                                                       QgsProcessingParameterNumber.Double, 0.0, minValue=0.0))
+        # 0: the photo's own detail over what the camera sees, as the dock's (a drone trial's 5 cm pixels were
+        # written on the DEM's 1 m cells over all of it, mostly transparent)
+        self.addParameter(QgsProcessingParameterNumber(
+            "RESOLUTION", self.tr("Cell size (map units, 0 = the photo's own detail)"),
+            QgsProcessingParameterNumber.Double, 0.0, minValue=0.0))
         self.addParameter(QgsProcessingParameterRasterDestination("OUTPUT", self.tr("Orthophoto")))
         self.add_allow_empty()
 
@@ -297,7 +302,11 @@ class Orthophoto(_CameraDemAlgorithm):
         if (photo.shape[1], photo.shape[0]) != tuple(camera.image_size):
             raise QgsProcessingException(self.tr("The photo is {0}x{1} px but the camera is for {2}x{3} px.").format(
                 photo.shape[1], photo.shape[0], camera.width, camera.height))
-        resolution = self.parameterAsDouble(parameters, "RESOLUTION", context) or None
+        from ...core.dem_large import is_large
+
+        # 0: the photo's own detail (a DEM read by windows: the part of it the camera sees, at its finest level that
+        # fits, as before)
+        resolution = self.parameterAsDouble(parameters, "RESOLUTION", context) or (None if is_large(dem) else AUTO)
         out = self.parameterAsOutputLayer(parameters, "OUTPUT", context)
         try:  # of a DEM read by windows: the part the camera sees
             grid = ortho_grid(camera, dem, resolution)
