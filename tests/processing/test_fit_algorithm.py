@@ -362,3 +362,27 @@ def test_a_number_with_a_decimal_comma_is_refused_not_read_as_another(run_alg, s
     with pytest.raises(QgsProcessingException, match=r'EYE_HEIGHT "1.700,5" is not a number$'):
         run_alg("fitcamera", {**given, "EYE_HEIGHT": "1.700,5"})
     assert run_alg("fitcamera", {**given, "EYE_HEIGHT": "1.7"})["STATUS"]  # a decimal point: read as given
+
+
+def test_known_parameters_are_kept_at_the_priors_values(run_alg, small_scene, ground_truth, tmp_path):
+    """A drone trial had 3 GCPs and the lens from EXIF: refused, with no way to fix the field of view here as the
+    dock's fit settings can. FIXED keeps it (or the position, height, angles) at the prior camera's values: with the
+    lens and the drone's height known, 3 GCPs leave one equation to spare."""
+    truth = small_scene["cam"]
+    prior = ground_truth["prior_cam"].with_parameters(fov=truth.fov)  # the lens and the height known
+    prior_path = tmp_path / "prior_lens.json"
+    prior.save(prior_path)
+    gcps = tmp_path / "three.csv"
+    pick = [0, 7, 13]
+    write_points_csv(str(gcps), uv=ground_truth["pixels"][pick], xyz=ground_truth["world"][pick])
+    params = {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"], "PRIOR": str(prior_path),
+              "PHOTO_CSV": str(gcps), "OUTPUT": str(tmp_path / "camera.json")}
+    with pytest.raises(QgsProcessingException, match="3"):  # seven unknowns, six equations
+        run_alg("fitcamera", params)
+    result = run_alg("fitcamera", {**params, "FIXED": [1, 5]})  # the height and the field of view
+    fitted = Camera.load(tmp_path / "camera.json")
+    assert fitted.fov == pytest.approx(truth.fov, abs=1e-9) and fitted.position[2] == pytest.approx(prior.position[2])
+    assert np.linalg.norm(np.subtract(fitted.position, truth.position)) < 5.0 and result["RMSE_PX"] < 0.5
+    # fixing without a prior to take the values from is refused, saying why
+    with pytest.raises(QgsProcessingException, match="PRIOR"):
+        run_alg("fitcamera", {**{k: v for k, v in params.items() if k != "PRIOR"}, "FIXED": [5]})

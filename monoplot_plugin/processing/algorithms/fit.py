@@ -9,6 +9,7 @@ from qgis.core import (
     QgsProcessingOutputNumber,
     QgsProcessingOutputString,
     QgsProcessingParameterBoolean,
+    QgsProcessingParameterDefinition,
     QgsProcessingParameterEnum,
     QgsProcessingParameterFeatureSource,
     QgsProcessingParameterFile,
@@ -81,6 +82,13 @@ class FitCamera(MonoplotAlgorithm):
         # here, and a GCP 21 m away left 121 px of leave-one-out error the fit could not model)
         self.addParameter(QgsProcessingParameterEnum(
             "LENS", self.tr("Lens distortion"), [self.tr(option) for option, _ in self.LENS_OPTIONS], defaultValue=0))
+        # what the person knows, kept at the prior's values, as the dock's fit settings untick them (a drone trial
+        # with 3 GCPs and the lens from EXIF was refused, with no way to fix the field of view here)
+        fixed = QgsProcessingParameterEnum("FIXED", self.tr("Known (kept at the prior camera's values)"),
+                                           [self.tr(option) for option, _ in self.FIXED_OPTIONS],
+                                           allowMultiple=True, optional=True, defaultValue=[])
+        fixed.setFlags(fixed.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+        self.addParameter(fixed)
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", self.tr("Fitted camera"),
                                                                 "Monoplot camera (*.json)"))
         self.addOutput(QgsProcessingOutputNumber("RMSE_PX", self.tr("Reprojection error (px)")))
@@ -163,12 +171,23 @@ class FitCamera(MonoplotAlgorithm):
             check = np.zeros(len(uv), dtype=bool)  # check points are pairs
         return uv, xyz, paired, check
 
+    #: (FIXED choice, the parameters it keeps at the prior's values)
+    FIXED_OPTIONS = (("Position (X, Y)", ("x", "y")), ("Height (Z)", ("z",)), ("Heading", ("heading",)),
+                     ("Pitch", ("pitch",)), ("Roll", ("roll",)), ("Field of view", ("fov",)))
+
     def free(self, parameters, context):
-        """The parameters to fit: the default seven, and the lens's of LENS; None for the default alone."""
+        """The parameters to fit: the default seven less those FIXED, and the lens's of LENS; None for the default
+        alone."""
         from ...core.fit import DEFAULT_FREE
 
         extra = self.LENS_OPTIONS[self.parameterAsEnum(parameters, "LENS", context)][1]
-        return tuple(DEFAULT_FREE) + extra if extra else None
+        fixed = {name for i in self.parameterAsEnums(parameters, "FIXED", context)
+                 for name in self.FIXED_OPTIONS[i][1]}
+        if fixed and not self.parameterAsFile(parameters, "PRIOR", context):
+            raise QgsProcessingException(self.tr("Known parameters (FIXED) are kept at the prior camera's values: "
+                                                 "give a PRIOR camera with them."))
+        free = tuple(name for name in tuple(DEFAULT_FREE) + extra if name not in fixed)
+        return free if extra or fixed else None
 
     def run_algorithm(self, parameters, context, feedback):
         photo = self.photo_path(parameters, context)
@@ -185,17 +204,20 @@ class FitCamera(MonoplotAlgorithm):
                 "A prior camera is needed (PRIOR: Monoplot JSON or KML) unless the points are {0} or more paired "
                 "ground-control points.").format(MIN_PAIRS_WITHOUT_PRIOR))
         prior = centred_on_print(prior, checked(read_photo, photo), feedback)
-        minimum = 4 if paired else 6
+        free = self.free(parameters, context)
+        n_free = len(free) if free is not None else 7
+        # paired: an equation a pair, two unknowns at most (the core says more if they are too few); unpaired: six
+        minimum = max(2, -(-n_free // 2)) if paired else 6
         n_uv, n_xyz = len(uv) - int(check.sum()), len(xyz) - int(check.sum())  # the check points are not fitted
         if n_uv < minimum or n_xyz < minimum:
             hint = self.tr(" {0} DEM points were left out: outside the DEM, or not in the DEM file's CRS ({1})."
                            ).format(self.dropped_dem_points, dem_crs_name(dem)) if self.dropped_dem_points else ""
             # paired: the pairs that are left ("0 photo and 0 DEM points (at least 4 each pair needed)" read as if
             # the photo points were missing too, a trial)
-            text = self.tr("Too few pairs for a 7-parameter camera: {0} left (at least {1} needed).").format(
-                min(n_uv, n_xyz), minimum) if paired else self.tr(
-                "Too few points for a 7-parameter camera: {0} photo and {1} DEM points (at least {2} of each "
-                "needed).").format(n_uv, n_xyz, minimum)
+            text = self.tr("Too few pairs for a {0}-parameter camera: {1} left (at least {2} needed).").format(
+                n_free, min(n_uv, n_xyz), minimum) if paired else self.tr(
+                "Too few points for a {0}-parameter camera: {1} photo and {2} DEM points (at least {3} of each "
+                "needed).").format(n_free, n_uv, n_xyz, minimum)
             raise QgsProcessingException(text + hint)
         outside = ~prior.in_image(uv)
         if outside.any():
@@ -213,7 +235,7 @@ class FitCamera(MonoplotAlgorithm):
         try:
             camera, info = checked(pipeline.fit, photo_size, uv, xyz, prior, dem, paired,
                                    progress_callback(feedback, 0, 95), cancel_callback(feedback),
-                                   check=check, free=self.free(parameters, context),
+                                   check=check, free=free,
                                    **height_choice(self, parameters, context))
         except Canceled:
             raise QgsProcessingException(self.tr("Fit canceled; no camera written.")) from None
