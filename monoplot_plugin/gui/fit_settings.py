@@ -139,8 +139,11 @@ class FitSettingsPanel(QgsCollapsibleGroupBox, _Panel):
         grid = QGridLayout()
         self.free_checks: Dict[str, QCheckBox] = {}
         for i, (label, _) in enumerate(FREE_GROUPS):
-            box = QCheckBox(tr(label))
-            box.setToolTip(tr("Checked: the fit adjusts it; unchecked: it keeps the rough camera's value."))
+            # "k1" alone said nothing to a trial's new user told to free "a lens's barrel distortion"
+            box = QCheckBox(tr("lens distortion k1") if label == "k1" else tr(label))
+            box.setToolTip(tr("Checked: the fit adjusts it; unchecked: it keeps the rough camera's value.") + (
+                " " + tr("Free it for a wide lens or a phone, or when the fit says its residuals grow towards the "
+                         "picture's edges.") if label == "k1" else ""))
             box.toggled.connect(self._free_toggled)
             self.free_checks[label] = box
             grid.addWidget(box, i // 3, i % 3)

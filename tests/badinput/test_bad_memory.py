@@ -38,16 +38,19 @@ def test_xyz_in_strips_equals_xyz_at_once(run_alg, small_scene, tmp_path, monkey
 
 
 def test_orthophoto_in_strips_equals_orthophoto_at_once(run_alg, small_scene, tmp_path, monkeypatch):
+    from monoplot_plugin.core.dem import Dem
+
+    cell = Dem.open(small_scene["dem"]).cell_size  # the DEM's 80 x 80 grid (the default is the photo's detail)
     whole = tmp_path / "whole.tif"
     run_alg("orthophoto", {"CAMERA": small_scene["camera"], "DEM": small_scene["dem"], "PHOTO": small_scene["photo"],
-                           "OUTPUT": str(whole)})
+                           "RESOLUTION": cell, "OUTPUT": str(whole)})
     grid = 80 * 80 * 40
     monkeypatch.setenv("MONOPLOT_MEMORY_LIMIT_MB",
                        str((_limit_for_rows(small_scene, 30) * (1 << 20) + grid + 30 * 160 * 3) / (1 << 20)))
     feedback = QgsProcessingFeedback()
     strips = tmp_path / "strips.tif"
     run_alg("orthophoto", {"CAMERA": small_scene["camera"], "DEM": small_scene["dem"], "PHOTO": small_scene["photo"],
-                           "OUTPUT": str(strips)}, feedback)
+                           "RESOLUTION": cell, "OUTPUT": str(strips)}, feedback)
     assert "Orthophoto computed in strips of" in feedback.textLog()
     a = gdal.Open(str(whole)).ReadAsArray()
     b = gdal.Open(str(strips)).ReadAsArray()

@@ -37,8 +37,9 @@ def check_inputs(ctx, pairs) -> str:
         k = len(np.unique(pairs, axis=0))
         needed = n_free // 2 + 1  # 2 equations per pair must exceed the unknowns
         if k < needed:
-            return (f"{k} linked pair{'s' if k != 1 else ''} give {2 * k} equations for {n_free} free "
-                    f"parameters ({names}): link at least {needed - k} more pair{'s' if needed - k > 1 else ''}"
+            # "pairs", not "linked pairs": Processing's GCP tables have no links (a trial read the dock's word)
+            return (f"{k} pair{'s' if k != 1 else ''} give{'s' if k == 1 else ''} {2 * k} equations for {n_free} "
+                    f"free parameters ({names}): add at least {needed - k} more pair{'s' if needed - k > 1 else ''}"
                     f" (at least {needed} in all), or fix parameters (e.g. a known field of view, or the camera "
                     f"on the ground).")
         pairs = np.unique(pairs, axis=0)

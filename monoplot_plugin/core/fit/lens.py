@@ -73,6 +73,6 @@ def lens_text(e: dict) -> str:
             and before - after > 1.0):
         return ""
     kind = "barrel" if float(e.get("lens_k1", 0.0)) < 0 else "pincushion"
-    return (f"the residuals grow towards the picture's edges as a lens's {kind} distortion makes them: with k1 fitted "
-            f"too, the same pairs leave {after:.1f} px instead of {before:.1f} px; free k1 (the dock's fit settings, "
-            f"or fitcamera's free parameters) and fit again")
+    return (f"the residuals grow towards the picture's edges as a lens's {kind} distortion makes them: with k1 "
+            f"fitted too, the same pairs leave {after:.1f} px instead of {before:.1f} px; free k1 (the dock's fit "
+            f"settings: lens distortion k1; fitcamera's Lens distortion: Fit radial distortion k1) and fit again")

@@ -309,7 +309,14 @@ class Orthophoto(_CameraDemAlgorithm):
         resolution = self.parameterAsDouble(parameters, "RESOLUTION", context) or (None if is_large(dem) else AUTO)
         out = self.parameterAsOutputLayer(parameters, "OUTPUT", context)
         try:  # of a DEM read by windows: the part the camera sees
-            grid = ortho_grid(camera, dem, resolution)
+            try:
+                grid = ortho_grid(camera, dem, resolution)
+            except ProductError:
+                if resolution != AUTO:
+                    raise
+                # no terrain seen, no detail to keep: the DEM's grid, and the empty-product check below says why
+                # (or writes it, ALLOW_EMPTY)
+                grid = ortho_grid(camera, dem, None)
         except ProductError as exc:
             raise QgsProcessingException(str(exc)) from exc
         rows = plan_strips(camera, extra_per_row=3 * camera.width,
