@@ -128,8 +128,9 @@ def test_a_feature_on_the_near_ground_says_how_far_off_the_camera_may_put_it(hil
     # how far off the fitted camera really puts that ground (its error alone: both rays on the same DEM)
     real = np.linalg.norm(_first_hits(dem, result.camera, line)[:, :2] - _first_hits(dem, truth, line)[:, :2], axis=1)
     real_rms = float(np.sqrt(np.nanmean(real ** 2)))
-    assert said["figure"] * 2 < real_rms, (said, real_rms)  # the far points' figure alone misses it
-    assert said["spread"] * 2 >= real_rms and said["spread"] > 3 * said["figure"], (said, real_rms)
+    # the ± covers it, and is never below the fit's own figure (on QGIS 3.22's libraries that figure alone said
+    # 2.8 m of this 22.6 m; on 3.40's, numpy 2, its σ came out larger and it said 58 m)
+    assert said["spread"] * 2 >= real_rms and said["spread"] >= said["figure"], (said, real_rms)
     # and far ground, where the points are, keeps the figure's ± at the median (the spread adds little there)
     ratios = [photo_to_map_feature("point", [p], camera=result.camera, dem=dem, pixel_rmse=figure,
                                    spread=spread).xy_error_m /
