@@ -27,6 +27,7 @@ from ..core.fit import sigma_pixels
 from ..state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, replace_in_views
 from ..workflow import auto as auto_step
 from ..workflow.progress import part
+from ..workflow.spread import plain_correlation
 from . import engine
 from .camera_follow import CamerasFollowEdit, camera_snapshot
 from .fit_settings import fit_arguments, height_arguments
@@ -238,7 +239,7 @@ class AutoPanel(QObject):
         finite = engine.finite_or_none
         info = {"status": status, "rmse_px": finite(r.rmse_px), "loo_rmse_px": finite(r.loo_rmse_px),
                 "sigma": {k: float(v) for k, v in (r.std or {}).items()}, "converged": status == "ok",
-                "correlation": engine.correlation_record(getattr(r, "correlation", None)),
+                "correlation": plain_correlation(getattr(r, "correlation", None)),
                 # its σ as a pixel error on the terrain it matched: what its products are worth
                 "sigma_px": finite(sigma_pixels(done.camera, r.std or {}, world)),
                 # ... unless its σ are the rough camera's own (the edges did not narrow them): no figure then

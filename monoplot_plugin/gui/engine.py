@@ -18,6 +18,7 @@ from ..state import MAP, PHOTO, Point
 from ..workflow import fit as fit_step
 from ..workflow import suggest as suggest_step
 from ..workflow.progress import Canceled, IsCanceled, Progress, check_canceled, part
+from ..workflow.spread import plain_correlation
 
 __all__ = ["FitOutcome", "suggest", "fit_and_render", "render_products", "residual_segments", "lookup_xyz",
            "locate_in_photo", "camera_sees_dem", "view_wedge", "mask_to_wkt", "colorize_relief", "XYZ_MAX_PIXELS",
@@ -60,12 +61,6 @@ class FitOutcome:
     footprint_wkt: str = ""
 
 
-def correlation_record(correlation) -> dict:
-    """A fit's parameter correlations ``{name: {other: r}}`` as plain finite floats (a fit record, JSON)."""
-    return {str(a): {str(b): float(r) for b, r in row.items() if np.isfinite(r)}
-            for a, row in (correlation or {}).items()}
-
-
 def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, int]], start: Camera, dem,
                    progress: Progress, is_canceled: IsCanceled,
                    check_uv: Optional[np.ndarray] = None, check_xyz: Optional[np.ndarray] = None,
@@ -96,7 +91,7 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         "loo_rmse_px": finite_or_none(result.loo_rmse_px),
         "sigma": {k: float(v) for k, v in (result.std or {}).items()},
         # ... and their correlations: the products' error where their ground is (workflow.spread)
-        "correlation": correlation_record(result.correlation),
+        "correlation": plain_correlation(result.correlation),
         # the camera's σ as a pixel error, on the terrain the fit matched: an unpaired fit's error figure
         "sigma_px": finite_or_none(fit_step.sigma_px(result, xyz)),
         "converged": result.status == "ok",

@@ -218,9 +218,9 @@ def fit_figures(verdict: dict) -> dict:
     sigma = {str(k): float(v) for k, v in sigma.items() if v is not None and np.isfinite(float(v))}
     if sigma:
         out["sigma"] = sigma
-    correlation = verdict.get("correlation") or summary.get("correlation") or {}
-    correlation = {str(a): {str(b): float(r) for b, r in row.items() if r is not None and np.isfinite(float(r))}
-                   for a, row in correlation.items() if isinstance(row, dict)}
+    from .spread import plain_correlation
+
+    correlation = plain_correlation(verdict.get("correlation") or summary.get("correlation"))
     if any(correlation.values()):
         out["correlation"] = correlation
     if isinstance(verdict.get("on_ground"), bool):

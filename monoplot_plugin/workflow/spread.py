@@ -23,7 +23,7 @@ import numpy as np
 
 from ..core.fit import combine_moves, sigma_cameras, sigma_shifts
 
-__all__ = ["CameraSpread", "camera_spread", "pixel_errors", "ground_errors_m"]
+__all__ = ["CameraSpread", "camera_spread", "plain_correlation", "pixel_errors", "ground_errors_m"]
 
 
 @dataclass(frozen=True)
@@ -83,10 +83,21 @@ def camera_spread(info: Optional[dict], dem=None) -> Optional[CameraSpread]:
            if isinstance(v, (int, float)) and np.isfinite(v) and v > 0}
     if not std or info.get("sigma_is_prior"):
         return None
-    correlation = {str(a): {str(b): float(r) for b, r in row.items() if isinstance(r, (int, float)) and np.isfinite(r)}
-                   for a, row in (info.get("correlation") or {}).items() if isinstance(row, dict)}
+    correlation = plain_correlation(info.get("correlation"))
     ground = dem.sample if info.get("on_ground") and dem is not None and "z" not in std else None
     return CameraSpread(std, correlation, ground)
+
+
+def plain_correlation(correlation) -> Dict[str, Dict[str, float]]:
+    """Parameter correlations ``{name: {other: r}}`` (a fit's, or as read from a fit record or camera file) as plain
+    finite floats, for a record, a JSON file or a :class:`CameraSpread`; what is not a number is left out.
+
+    >>> plain_correlation({"x": {"y": 0.5, "z": None, "w": float("nan")}, "bad": 3})
+    {'x': {'y': 0.5}}
+    """
+    return {str(a): {str(b): float(r) for b, r in row.items()
+                     if isinstance(r, (int, float, np.floating)) and np.isfinite(r)}
+            for a, row in (correlation or {}).items() if isinstance(row, dict)}
 
 
 def pixel_errors(figure: Optional[float], spread: Optional[CameraSpread], camera, xyz: np.ndarray) -> np.ndarray:
