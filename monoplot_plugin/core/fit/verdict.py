@@ -20,6 +20,9 @@ Processing and the report show the same figures.
 >>> judge({"mode": "paired", "n_free": 7, "n_pairs": 10, "rmse_px": 2.0, "diag": 1000.0, "spread": 0.014})[1]
 'paired fit on 10 pairs: RMSE 2.0 px (too few pairs for a leave-one-out check). Uncertain: the pairs cover a small \
 part of the picture (1.4 %): elsewhere the camera is extrapolated; add pairs spread over the picture.'
+>>> judge({"mode": "paired", "n_free": 7, "n_pairs": 4, "rmse_px": 0.1, "diag": 1000.0})[1].split("Uncertain: ")[1]
+'4 pairs for 7 free parameters leave 1 equation to spare, so nothing tests the camera: pair 2 more points, mark \
+check points, or fix the parameters you know.'
 >>> judge({"mode": "paired", "n_free": 7, "n_pairs": 12, "rmse_px": float("nan"), "diag": 1000.0})[1][:72]
 'paired fit on 12 pairs: no camera found puts the points in front of it. '
 >>> judge({"mode": "paired", "n_free": 7, "n_pairs": 11, "rmse_px": 2.0, "diag": 1000.0, "check_rmse_px": 12.0,
@@ -65,6 +68,10 @@ COMPETITOR_RATIO = 0.8
 #: pairs over 6.5 % of the picture were "ok" at 1.9 px RMSE with the camera 256 m off (187 px across the picture);
 #: each of the 100 real sets of ``eval.smapshot`` covers at least 10.5 % (median 35 %).
 MIN_SPREAD, MIN_SPREAD_PAIRED = 0.05, 0.10
+#: a paired fit with fewer equations to spare than this (2 x pairs - free parameters) is at most "uncertain": its
+#: residuals cannot show a wrong camera; the advice asks for enough pairs to leave FEW_SPARE_TARGET spare (then the
+#: leave-one-out check has equations to spare too)
+MIN_SPARE, FEW_SPARE_TARGET = 2, 4
 #: pairs beyond the inlier radius (within twice it, more than chance adds) above this share of the inliers: the
 #: residuals are truncated by the radius, which makes an unpaired fit uncertain when converging on the pairs within
 #: twice the radius moves the camera (see :func:`judge`, ``beyond_radius`` and ``truncation_px``)
@@ -219,6 +226,14 @@ def judge(e: dict) -> Tuple[str, str]:
         # one pair the others cannot place: a wrong point or surveyed height pulls the camera while the RMSE over
         # all pairs stays small (generated: one height 60 m off of 12 pairs, "ok" at 10.3 px, the camera 27 m off)
         weak.append("one pair disagrees with the others" + suspect)
+    spare = 2 * int(e.get("n_pairs", 0)) - n_free
+    if e.get("mode") == "paired" and np.isfinite(rmse) and spare < MIN_SPARE:
+        # the residuals of as many equations as unknowns (and one) are near zero whatever the camera: generated
+        # scenes, 4 noisy pairs of 100 for 7 parameters, were "ok" 11-660 px off in 5 of 24 "ok" fits
+        more = (FEW_SPARE_TARGET - spare + 1) // 2
+        weak.append(f"{e.get('n_pairs', 0)} pairs for {n_free} free parameters leave {max(spare, 0)} equation"
+                    f"{'s' if spare != 1 else ''} to spare, so nothing tests the camera: pair {more} more points, "
+                    f"mark check points, or fix the parameters you know")
     # Check points far worse than the fit's own residuals: the residuals flatter the camera (pairs that agree with
     # each other, not with the terrain), whatever the share of the picture.
     check_far = np.isfinite(check) and np.isfinite(rmse) and check > CHECK_OVER_RESIDUALS * max(rmse, 1.0) \
