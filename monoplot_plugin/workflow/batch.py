@@ -15,7 +15,7 @@ import json
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Callable, Iterable, List, Optional
+from typing import Callable, Iterable, List, Optional, Sequence
 
 import numpy as np
 
@@ -59,16 +59,20 @@ class PhotoJob:
     prior_reader: Optional[Callable] = None
 
 
-def folder_jobs(folder: str, camera, patterns: str = "") -> List[PhotoJob]:
+def folder_jobs(folder: str, camera, patterns: str = "", exclude: Sequence[str] = ()) -> List[PhotoJob]:
     """Jobs for every image in ``folder`` (sorted by name), all sharing ``camera``.
 
-    ``patterns``: semicolon-separated globs (default: common image extensions)."""
+    ``patterns``: semicolon-separated globs (default: common image extensions); ``exclude``: files that are not
+    photos though they match (the DEM: a trial kept its dem.tif beside the frames, and the batch failed on it as a
+    photo)."""
     if not folder or not os.path.isdir(folder):
         raise InputError(f"photo folder not found: {folder}")
     globs = [p.strip() for p in patterns.split(";") if p.strip()] or list(IMAGE_PATTERNS)
+    left_out = {os.path.normcase(os.path.realpath(p)) for p in exclude if p}
     names = sorted(n for n in os.listdir(folder)
                    if os.path.isfile(os.path.join(folder, n)) and any(fnmatch.fnmatch(n.lower(), g.lower())
-                                                                      for g in globs))
+                                                                      for g in globs)
+                   and os.path.normcase(os.path.realpath(os.path.join(folder, n))) not in left_out)
     if not names:
         raise InputError(f"no photos matching {';'.join(globs)} in {folder}")
     return [PhotoJob(os.path.join(folder, n), camera=camera) for n in names]

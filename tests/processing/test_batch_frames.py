@@ -295,3 +295,22 @@ def test_a_shared_camera_without_fit_verdict_is_not_ok(run_alg, small_scene, tmp
     assert rows[0]["message"] == "uncertain: camera not fitted (the shared camera)"
     assert sum("carries no fit verdict: it is not a fitted camera" in w for w in feedback.warnings) == 1
     assert any(w.startswith("2 of the photos processed have a camera whose verdict is not") for w in feedback.warnings)
+
+
+def test_dem_kept_beside_the_frames_is_not_taken_for_a_frame(run_alg, small_scene, tmp_path):
+    """A trial kept dem.tif in the photo folder; the default patterns (which include *.tif) made it a frame that
+    failed. The DEM given is left out of the frames."""
+    import shutil
+
+    folder = tmp_path / "frames"
+    folder.mkdir()
+    for i in range(2):
+        smooth_jpeg(folder / f"f{i}.jpg", seed=i)
+    dem_here = folder / "dem.tif"
+    shutil.copy(small_scene["dem"], dem_here)
+    out = tmp_path / "out"
+    result = run_alg("batch", {"MODE": 0, "DEM": str(dem_here), "FOLDER": str(folder),
+                               "CAMERA": small_scene["camera"], "XYZ": False, "OUTPUT": str(out)},
+                     QgsProcessingFeedback())
+    assert result["SUCCEEDED"] == 2 and result["FAILED"] == 0
+    assert [r["photo"].rsplit("/", 1)[-1] for r in log_rows(result["LOG"])] == ["f0.jpg", "f1.jpg"]

@@ -146,7 +146,8 @@ class BatchPhotos(MonoplotAlgorithm):
                                                      "table mode and give TABLE)."))
             photo_folder = self.parameterAsFile(parameters, "FOLDER", context)
             jobs = checked(batch.folder_jobs, photo_folder, None,
-                           self.parameterAsString(parameters, "PATTERN", context))
+                           self.parameterAsString(parameters, "PATTERN", context),
+                           [self.dem_path(parameters, context)[0]])  # a DEM kept beside the frames is no frame
             points = self.parameterAsFile(parameters, "POINTS", context)
             if points:  # fit once, on the first readable frame; every frame shares the camera
                 camera, used, verdict = checked(batch.fit_shared_camera, [j.photo for j in jobs],
