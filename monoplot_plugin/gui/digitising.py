@@ -26,7 +26,7 @@ from ..adapters.layers import derived_layers_only, rebuilt_on_reopen
 from ..adapters.photo_space import (computed_fields, photo_geometry, photo_point, photo_vertices, pixel_of,
                                    qgs_geometry)
 from ..workflow.features import photo_to_map_feature
-from ..outputs.vectors import MapFeature, write_vector_layer
+from ..outputs.vectors import FIT_STATUS_FIELD, MapFeature, write_vector_layer
 from .map_layers import add_layer, add_vector_file_layer, photo_group
 from . import persistence
 from .drawn_copies import DRAWN_ROOT, map_copies
@@ -48,6 +48,8 @@ PHOTO_NAME = "photo"
 #: ... and when it was taken (EXIF, ISO 8601; empty when the photo has no date): a time-lapse trial's outlines of ten
 #: dated frames said no date, and the frames' names were all it had to order them by
 PHOTO_TAKEN = "photo_date"  # 10 characters: a Shapefile field name
+#: ... and the verdict of the camera the feature was mapped with (:data:`~..outputs.vectors.FIT_STATUS_FIELD`)
+FIT_STATUS = FIT_STATUS_FIELD
 
 
 class DigitisingSession(DrawnHistoryMixin, QObject):
@@ -60,6 +62,7 @@ class DigitisingSession(DrawnHistoryMixin, QObject):
         photo_name: photo file name (names the layer group and the layers).
         pixel_rmse: the fit's pixel error (:func:`~..workflow.features.pixel_error`), None unknown; ``spread``: the
             camera's σ and correlations (:func:`~..workflow.spread.camera_spread`), None: the pixel error alone.
+        fit_status: the camera's verdict, written in each map feature's :data:`FIT_STATUS` field (None: unknown).
         fields: user attribute fields, (name, type) with type in string, integer, real, date.
 
     Signals:
@@ -74,8 +77,9 @@ class DigitisingSession(DrawnHistoryMixin, QObject):
     def __init__(self, project: QgsProject, camera, dem, xyz: Optional[np.ndarray], photo_name: str,
                  fields: Sequence[Tuple[str, str]] = (("name", "string"),), parent=None,
                  pixel_rmse: Optional[float] = None, area: Optional[np.ndarray] = None,
-                 photo_taken: Optional[str] = None, spread=None):
+                 photo_taken: Optional[str] = None, spread=None, fit_status: Optional[str] = None):
         super().__init__(parent)
+        self.fit_status = fit_status  # the camera's verdict, a field of every map feature (None: unknown)
         self.photo_taken = photo_taken  # ISO 8601 date and time of the photo (EXIF), or None
         self.project = project
         self.camera, self.dem, self.xyz = camera, dem, xyz
@@ -246,12 +250,13 @@ class DigitisingSession(DrawnHistoryMixin, QObject):
         self.closedByLayers.emit()
 
     def update_camera(self, camera, dem, xyz: Optional[np.ndarray] = None,
-                      pixel_rmse: Optional[float] = None, spread=None) -> None:
+                      pixel_rmse: Optional[float] = None, spread=None, fit_status: Optional[str] = None) -> None:
         """A new fit (or DEM): keep what was drawn on the photo, recompute every live map layer."""
         if self.closed:
             return
         same = (camera == self.camera and dem is self.dem and xyz is self.xyz and pixel_rmse == self.pixel_rmse
                 and spread == self.spread)
+        self.fit_status = fit_status
         self.camera, self.dem, self.xyz, self.pixel_rmse, self.spread = camera, dem, xyz, pixel_rmse, spread
         if not same:  # the same camera and DEM again (the dock says "camera changed" for an overlay too): the
             # features mapped stay valid; tracing each again froze a trial's QGIS 4.6 s over a 100 M-cell DEM
@@ -398,12 +403,13 @@ class DigitisingSession(DrawnHistoryMixin, QObject):
         return written
 
     def _photo_fields(self) -> List[Tuple[str, str]]:
-        """The photo's name and date fields the map layers add, but not over a field of the person's own."""
+        """The photo's name and date and the camera's verdict, fields the map layers add, but not over a field of
+        the person's own."""
         own = {n.lower() for n, _ in self.fields}
-        return [(name, "string") for name in (PHOTO_NAME, PHOTO_TAKEN) if name not in own]
+        return [(name, "string") for name in (PHOTO_NAME, PHOTO_TAKEN, FIT_STATUS) if name not in own]
 
     def _photo_values(self) -> dict:
-        values = {PHOTO_NAME: self.photo_name, PHOTO_TAKEN: self.photo_taken}
+        values = {PHOTO_NAME: self.photo_name, PHOTO_TAKEN: self.photo_taken, FIT_STATUS: self.fit_status}
         return {name: values[name] for name, _ in self._photo_fields() if values[name] is not None}
 
 

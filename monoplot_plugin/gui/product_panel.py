@@ -199,7 +199,8 @@ class OutputTools(FeatureDialogsMixin, QObject):
                                              pixel_rmse=pixel_error(self.controller.state.fit_info)[0],
                                              spread=self.controller.camera_spread(),
                                              area=self.controller._picture_area(),
-                                             photo_taken=read_photo_taken(self.controller.state.photo_path or ""))
+                                             photo_taken=read_photo_taken(self.controller.state.photo_path or ""),
+                                             fit_status=self._fit_status())
             self.session.mapLayerUpdated.connect(self._report_sky)
             # what the restored features already had is old news: told again on every reopening (desktop trial)
             self._sky_told.update({kind: (*counts, self.session.last_silhouettes.get(kind, 0))
@@ -220,6 +221,11 @@ class OutputTools(FeatureDialogsMixin, QObject):
                 mark_modified_later(self.project)
         return self.session
 
+    def _fit_status(self) -> Optional[str]:
+        """The fitted camera's verdict (ok, uncertain, poor), None when the dock has none (a camera loaded without
+        one)."""
+        return (self.controller.state.fit_info or {}).get("status") or None
+
     def _camera_changed(self) -> None:
         self._update_enabled()
         if self.ready() is not None:
@@ -228,7 +234,8 @@ class OutputTools(FeatureDialogsMixin, QObject):
             self._forget_session()
         if self.session is not None:
             self.session.update_camera(self.controller.fitted, self.controller.dem, None,
-                                       pixel_error(self.controller.state.fit_info)[0], self.controller.camera_spread())
+                                       pixel_error(self.controller.state.fit_info)[0], self.controller.camera_spread(),
+                                       fit_status=self._fit_status())
         elif self.project.readEntry("monoplot", drawn_entry_key(self.photo_name()), "")[0]:
             self.current_session()  # a reopened project with features drawn on this photo: show them again
         self._redraw_overlays()

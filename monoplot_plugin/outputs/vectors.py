@@ -11,7 +11,8 @@ on sky already split off (see :mod:`.digitise`). :func:`write_vector_layer` writ
   ``silhouette`` (polygons: how many times the outline crosses a silhouette, where it then encloses ground the photo
   does not show, which its area counts), and
   ``xy_error_m`` (the expected horizontal position error of the feature's ground points, metres, RMS, from the fit's
-  pixel error: :func:`~monoplot_plugin.core.transforms.ground_error_m`; empty when no fit vouches for the camera).
+  pixel error: :func:`~monoplot_plugin.core.transforms.ground_error_m`; empty when no fit vouches for the camera);
+  the dock and Processing add :data:`FIT_STATUS_FIELD`, the verdict of the camera the features were mapped with.
 
 Shapefile limits are checked up front with a clear message: field names of at most 10 characters, one geometry
 type per file. Attributes are written as UTF-8 (``.cpg`` file).
@@ -33,7 +34,7 @@ from ._gdal import gdal_errors_as_exceptions, gdal_failure, srs_from_user, vecto
 from .safe_write import atomic_output
 
 __all__ = ["MapFeature", "polygon_area", "write_vector_layer", "read_vector_layer", "FIELD_TYPES", "driver_for_path",
-           "COMPUTED_FIELDS", "INTEGER_FIELDS", "other_layers"]
+           "COMPUTED_FIELDS", "INTEGER_FIELDS", "FIT_STATUS_FIELD", "other_layers"]
 
 #: User field types and their OGR types.
 FIELD_TYPES = {"string": ogr.OFTString, "integer": ogr.OFTInteger, "real": ogr.OFTReal, "date": ogr.OFTDate}
@@ -42,6 +43,10 @@ COMPUTED_FIELDS = {"point": ("sky_parts", "xy_error_m", "m_per_px", "m_px_max"),
                    "line": ("length", "length3d", "sky_parts", "xy_error_m", "m_per_px", "m_px_max"),
                    "polygon": ("area", "area_error", "length", "sky_parts", "silhouette", "xy_error_m", "m_per_px",
                                "m_px_max")}
+#: The field of the verdict (ok / uncertain / poor) of the camera a map feature was mapped with, beside the
+#: measures (dock and Processing; empty when unknown): a trial's outline from an "uncertain" camera, 72 % too small,
+#: read in its exported file as any other.
+FIT_STATUS_FIELD = "fit_status"
 #: The computed fields that are whole numbers.
 INTEGER_FIELDS = ("sky_parts", "silhouette")
 _OGR_GEOMETRY = {"point": ogr.wkbPoint25D, "line": ogr.wkbMultiLineString25D, "polygon": ogr.wkbMultiPolygon25D}

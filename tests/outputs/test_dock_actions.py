@@ -258,6 +258,27 @@ def test_a_photo_field_of_the_persons_own_is_kept(dock_with_fit, tmp_path):
     assert next(layer.getFeatures())["Photo"] == "scan 17"
 
 
+def test_features_keep_the_verdict_of_the_camera_they_were_mapped_with(dock_with_fit, plane_scene, tmp_path):
+    """A trial's outline, mapped with an "uncertain" camera and 72 % too small, read in its exported file as any
+    other: the map features carry the fit's verdict (fit_status), in the live layer and in the file, and a refit
+    changes it."""
+    dock, tools = dock_with_fit
+    c = dock.controller
+    c.state.fit_info = {"status": "uncertain", "message": "uncertain: generated"}
+    c.cameraChanged.emit()
+    session = tools.current_session()
+    session.add_feature("line", [[60, 150], [200, 160]], {"name": "front"})
+    live = session.map_layer("line")
+    assert next(live.getFeatures())["fit_status"] == "uncertain"
+    for name in ("front.shp", "front.gpkg"):
+        saved = tools.export_features("line", tmp_path / name)
+        assert next(QgsVectorLayer(str(saved), "t", "ogr").getFeatures())["fit_status"] == "uncertain"
+    c.state.fit_info = {"status": "ok", "message": "ok: generated"}
+    c.state.fitted = plane_scene.camera.with_parameters(heading=plane_scene.camera.heading + 0.1).to_dict()
+    c.cameraChanged.emit()
+    assert next(live.getFeatures())["fit_status"] == "ok"
+
+
 def test_point_over_the_sky_is_reported_in_plain_words(dock_with_fit):
     dock, tools = dock_with_fit
     tools.current_session().add_feature("point", [[120, 2]])  # the top rows of the plane scene see the sky

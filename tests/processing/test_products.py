@@ -119,6 +119,21 @@ def test_photo_polygon_becomes_3d_map_polygon_on_the_terrain(run_alg, small_scen
     assert 0.3 * footprint < errors[0] < 10 * footprint and errors[1] == pytest.approx(2 * errors[0], rel=0.2)
 
 
+def test_photo_features_carry_the_verdict_of_their_camera_file(run_alg, small_scene):
+    """As the dock's drawings: fit_status says how sure the camera was (a trial's outline from an "uncertain" camera
+    read in its file as any other); empty for a camera file without a verdict."""
+    cam = small_scene["cam"]
+    rows = np.nonzero(np.isfinite(compute_xyz(cam, Dem.open(small_scene["dem"]))[..., 2]))[0]
+    v0, v1 = np.percentile(rows, [60, 90])
+    drawn = photo_polygon_layer([(40, v0), (120, v0), (120, v1), (40, v1)])
+    statuses = []
+    for camera in (small_scene["camera"], small_scene["fitted"]):
+        result = run_alg("phototomap", {"INPUT": drawn, "CAMERA": camera, "DEM": small_scene["dem"], "STEP": 5,
+                                        "OUTPUT": "memory:"})
+        statuses.append(next(result["OUTPUT"].getFeatures())["fit_status"])
+    assert statuses[0] in (None, NULL) and statuses[1] == "ok"
+
+
 def test_map_line_projects_onto_photo_and_back(run_alg, small_scene, tmp_path):
     cam = small_scene["cam"]
     dem = Dem.open(small_scene["dem"])

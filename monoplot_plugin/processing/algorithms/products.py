@@ -31,6 +31,7 @@ from ..base import (PHOTO_Y_SIGN, MonoplotAlgorithm, camera_line, cancel_callbac
 from ..inputs import read_photo
 from ...core.xyz_strips import plan_strips
 from ...workflow.camera_files import verdict_on_photo, written_fit
+from ...outputs.vectors import FIT_STATUS_FIELD
 from ...workflow.products import AUTO, NO_GROUND, ProductError, blank_outside, ortho_grid, picture_area
 from ...workflow.inputs import check_not_empty
 from ..safe_sink import keep_pixel_space, safe_sink
@@ -151,7 +152,9 @@ class PhotoToMap(_CameraDemAlgorithm):
              "that see the sky are dropped (and reported). With a photo pixel error (the fit's check-point RMSE, "
              "else its leave-one-out RMSE), each feature gets xy_error_m: the expected horizontal error (m, RMS) of "
              "its ground points, from the terrain's footprint of that error; it grows with range and where rays graze "
-             "the terrain, and leaves out the DEM's own error.")
+             "the terrain, and leaves out the DEM's own error. Each feature also gets fit_status, the verdict the "
+             "camera file carries (ok, uncertain, poor; uncertain for an ok fitted on another photo than PHOTO; "
+             "empty when the file has none).")
 
     def initAlgorithm(self, config=None):
         self.addParameter(QgsProcessingParameterFeatureSource("INPUT", self.tr("Features drawn on the photo")))
@@ -180,6 +183,11 @@ class PhotoToMap(_CameraDemAlgorithm):
         wkb = QgsWkbTypes.addZ(QgsWkbTypes.multiType(source.wkbType()))
         # the measures the dock's drawings get (area, length, length3d, sky_parts), beside the input's fields
         fields, measured = geo.measured_fields(source.fields(), QgsWkbTypes.geometryType(source.wkbType()))
+        # and, as the dock's, the camera's verdict on this photo (empty when its file has none)
+        status = verdict_on_photo(self.parameterAsFile(parameters, "CAMERA", context), path)[0] or None
+        if fields.indexFromName(FIT_STATUS_FIELD) < 0:
+            fields.append(QgsField(FIT_STATUS_FIELD, QVariant.Type.String))
+            measured.append(FIT_STATUS_FIELD)
         sink = safe_sink(self, parameters, "OUTPUT", context, fields, wkb, crs)
         total = max(1, source.featureCount())
         dropped = 0
@@ -196,6 +204,7 @@ class PhotoToMap(_CameraDemAlgorithm):
                     feature.id()))
                 continue
             out = QgsFeature(fields)
+            measures[FIT_STATUS_FIELD] = status
             out.setAttributes(feature.attributes() + [measures.get(name) for name in measured])
             out.setGeometry(geometry)
             sink.addFeature(out, QgsFeatureSink.FastInsert)
