@@ -16,6 +16,7 @@ import numpy as np
 from ..core.camera import Camera
 from ..state import MAP, PHOTO, Point
 from ..workflow import fit as fit_step
+from ..workflow.mixed import fit_accepted
 from ..workflow import suggest as suggest_step
 from ..workflow.progress import Canceled, IsCanceled, Progress, check_canceled, part
 from ..workflow.spread import plain_correlation
@@ -81,7 +82,7 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         Canceled: the user canceled.
     """
     if done is None:
-        done = fit_step.fit(uv, xyz, start, dem, pairs=pairs or None, check_uv=check_uv, check_xyz=check_xyz,
+        done = fit_accepted(uv, xyz, start, dem, pairs=pairs or None, check_uv=check_uv, check_xyz=check_xyz,
                             progress=part(progress, 0.0, 0.85), is_canceled=is_canceled, free=free, options=options,
                             on_ground=on_ground, eye_height=eye_height)
     result, camera = done.result, done.camera
@@ -105,6 +106,8 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         "n_photo": int(len(uv)),
         "n_map": int(len(xyz)),
         "n_pairs": int(len(pairs)),
+        # the pairs checked an unpaired fit of the other points (workflow.mixed): its check errors end with theirs
+        "pairs_checked": int(done.pairs_checked),
         "n_matched": int(_inliers(result).sum()),  # the pairs kept, as the message counts them
         "matched_idx": [[int(i), int(j)] for (i, j), ok in zip(np.asarray(result.pairs).reshape(-1, 2),
                                                               _inliers(result)) if ok],

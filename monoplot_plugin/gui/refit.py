@@ -19,7 +19,7 @@ from typing import List, Optional
 import numpy as np
 from qgis.PyQt.QtCore import QObject, QTimer, pyqtSignal
 
-from ..workflow import fit as fit_step
+from ..workflow.mixed import fit_accepted
 from ..workflow.auto import cap_by_automatic
 from ..workflow.progress import check_canceled
 from .fit_settings import fit_arguments, height_arguments
@@ -206,7 +206,7 @@ class Refitter(QObject):
         def work(progress, is_canceled):
             done = None
             try:
-                done = fit_step.fit(uv, xyz, start, dem, pairs=pairs or None, progress=progress, check_uv=check_uv,
+                done = fit_accepted(uv, xyz, start, dem, pairs=pairs or None, progress=progress, check_uv=check_uv,
                                     check_xyz=check_xyz, is_canceled=is_canceled, free=free, options=options,
                                     **height)
             finally:

@@ -390,7 +390,12 @@ class ResultsMixin:
             text = self.tr("Camera fitted: RMSE {0:.1f} px on the {1} of {2} photo points that matched a DEM "
                            "point.").format(rmse if rmse is not None else float("nan"), n_matched, n_photo)
         check = info.get("check_rmse_px")
-        if check is not None and info.get("mode") == "paired" and n_pairs:  # its pairs, as the tab says
+        if check is not None and info.get("pairs_checked"):  # the pairs checked a fit of the other points
+            text = self.tr("Camera fitted on the points without a partner: {0:.1f} px RMSE on {1} check points, "
+                           "your {2} pairs among them (fit: {3:.1f} px on {4} matched points).").format(
+                check, info.get("n_check", 0), info["pairs_checked"], rmse if rmse is not None else float("nan"),
+                n_matched if n_matched is not None else n_photo)
+        elif check is not None and info.get("mode") == "paired" and n_pairs:  # its pairs, as the tab says
             text = self.tr("Camera fitted: {0:.1f} px RMSE on {1} check points (fit: {2:.1f} px on {3} "
                            "pairs).").format(check, info.get("n_check", 0),
                                              rmse if rmse is not None else float("nan"), n_pairs)

@@ -68,6 +68,8 @@ class FitDone:
     eye_height: Optional[float]
     #: the automatic rule held the camera on the ground, and the pairs demanded its height free (FREE_HEIGHT_F)
     height_freed: bool = False
+    #: pairs kept out of the fit as its check points (:func:`~.mixed.fit_accepted`), after the given check points
+    pairs_checked: int = 0
 
     @property
     def camera(self) -> Camera:

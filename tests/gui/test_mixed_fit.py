@@ -1,0 +1,33 @@
+"""A few pairs among many points without a partner, in the real dock: the pairs check a fit of the other points
+(:mod:`monoplot_plugin.workflow.mixed`) instead of leaving them out (a trial's 4 summits and hundreds of accepted
+suggestions: the paired fit used the summits only, its camera 28 m off)."""
+
+from __future__ import annotations
+
+import numpy as np
+from qgis.core import Qgis
+
+from monoplot_plugin.state import ACCEPTED
+from test_dock import add_scene_points, load_inputs
+
+
+def test_four_pairs_check_the_fit_of_the_accepted_points_without_a_partner(dock, scene, qtbot, qgis_iface):
+    load_inputs(dock, scene, qtbot)
+    c, panel = dock.controller, dock.curation_panel
+    panel.refitCheck.setChecked(False)  # the Fit's own verdict only
+    photo, world = add_scene_points(dock, scene)
+    c.set_prior(scene.prior)
+    for i in range(4):
+        c.link(photo[i].id, world[i].id)
+    c.set_status([p.id for p in photo[4:44]] + [w.id for w in world[4:44]], ACCEPTED)
+    qgis_iface.messageBar().clear_messages()
+    assert c.fit()
+    qtbot.waitUntil(lambda: c.fitted is not None, timeout=120000)
+    info = c.state.fit_info
+    assert info["pairs_checked"] == 4 and info["mode"] == "unpaired" and info["status"] == "ok", info["message"]
+    assert info["message"].startswith("Your 4 pairs alone left the camera uncertain")
+    said = " ".join(qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Success))
+    assert "your 4 pairs among them" in said and "Not used by a paired fit" not in said
+    # the camera the pairs checked is close to the truth where the points are
+    error = np.linalg.norm(c.fitted.project(scene.xyz) - scene.uv, axis=1)
+    assert np.sqrt(np.mean(error ** 2)) < 2.0
