@@ -142,7 +142,7 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
               camera_verdict: tuple = ("ok", ""), resume: bool = False) -> List[PhotoResult]:
     """Run every job; never raises for one photo's problem.
 
-    Outputs per photo ``<stem>_camera.json`` (fitted jobs, and re-registered frames that turned), ``<stem>_xyz.tif``,
+    Outputs per photo ``<stem>_camera.json`` (fitted jobs, and every re-registered frame), ``<stem>_xyz.tif``,
     ``<stem>_ortho.tif``; jobs sharing one camera share one ``xyz.tif`` (the XYZ raster depends only on the camera
     and the DEM). ``log(message, is_error)`` receives one line per photo; ``progress(fraction, message)`` and
     ``is_canceled()`` follow the workflow's protocol; on a cancel the remaining photos are reported as not processed.

@@ -276,9 +276,13 @@ def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCance
             products, turned = _registered(shared, photo, result)
             if turned:
                 camera, own_camera = products.camera, True
-                # the shared camera's verdict goes with it: a turned file without one loaded "uncertain" in the
-                # dock while the shared camera, 7 px off on that frame, loaded "ok" (a trial)
-                note = f"the shared camera turned onto this frame ({result.drift_px:.1f} px of drift)"
+            # the shared camera's verdict goes with it: a turned file without one loaded "uncertain" in the dock
+            # while the shared camera, 7 px off on that frame, loaded "ok" (a trial). A frame that did not turn gets
+            # its file too, for this photo: a trial's phototomap of such a frame with the shared camera's file
+            # said "fitted on another photo: its ok does not carry over", as for a frame nobody had checked
+            if turned or shared.camera is not None:
+                note = (f"the shared camera turned onto this frame ({result.drift_px:.1f} px of drift)" if turned
+                        else f"the shared camera, registered on this frame ({result.drift_px:.2f} px of drift)")
                 result.outputs.append(_write_camera(setup, task.stem, camera, {
                     "status": setup.camera_status,
                     "message": f"{note}; {setup.camera_note}" if setup.camera_note else note,

@@ -201,6 +201,7 @@ def remove_stale(out_dir: str, tasks: List[FrameTask], results: List[PhotoResult
 
     A frame that failed on a rerun kept its orthophoto of the earlier run beside a log saying "failed" (a trial)."""
     removed, kept = [], []
+    of_failed: List[str] = []  # a failed or skipped frame's, named first: what contradicts the log most
 
     partial: List[str] = []
 
@@ -238,7 +239,8 @@ def remove_stale(out_dir: str, tasks: List[FrameTask], results: List[PhotoResult
             path = os.path.join(out_dir, task.stem + suffix)
             if os.path.normcase(os.path.abspath(path)) in written or not os.path.isfile(path):
                 continue
-            remove(path, removed)
+            remove(path, removed if result.ok else of_failed)
+    removed[:0] = of_failed
     if partial:
         log(f"{len(partial)} file(s) of frames canceled while they were written removed (a frame's products come "
             f"whole or not at all): {', '.join(os.path.basename(p) for p in partial)}", False)

@@ -3,6 +3,7 @@ per-photo products, frames in threads, re-registration of turned frames, refusal
 registered, cancel with frames in flight."""
 
 import csv
+import json
 import os
 
 import numpy as np
@@ -12,7 +13,7 @@ from osgeo import gdal
 from monoplot_plugin.core import drift
 from monoplot_plugin.core.camera import Camera
 from monoplot_plugin.core.dem import Dem
-from monoplot_plugin.workflow import batch, products
+from monoplot_plugin.workflow import batch, camera_files, products
 from monoplot_plugin.workflow.files import read_photo
 
 
@@ -65,9 +66,16 @@ def test_turned_frames_are_registered_and_get_their_corrected_camera(drifting_ti
         assert 0 <= float(row["match_px"]) < 1.0 and int(row["match_points"]) >= drift.MIN_INLIERS
         assert f"registered on {row['match_points']} points" in result.message
         own = out / f"frame_{i:03d}_camera.json"
-        if i == 0:  # the reference itself: no turn, the shared camera's products
-            assert result.drift_px < 0.1 and not own.exists()
-            assert str(out / "xyz.tif") in result.outputs
+        if i == 0:  # the reference itself: no turn, the shared camera's products, and its file for this frame
+            assert result.drift_px < 0.1 and str(out / "xyz.tif") in result.outputs
+            mine = Camera.load(own)
+            assert np.allclose(mine.rotation, cam.rotation) and np.allclose(mine.position, cam.position)
+            assert str(own) in result.outputs
+            fit = json.loads(own.read_text())["fit"]
+            assert "registered on this frame" in fit["message"]
+            # for this very photo: Processing's phototomap with it keeps the shared camera's verdict (a trial's,
+            # given the shared camera's own file, said "fitted on another photo: its ok does not carry over")
+            assert camera_files.fitted_on_photo(fit, scene["frames"][0]) is True
             continue
         corrected = Camera.load(own)  # its own camera, XYZ raster and orthophoto
         assert drift.pixel_shift(cam, corrected.rotation @ cam.rotation.T, truth) <= 0.5
