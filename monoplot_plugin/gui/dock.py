@@ -36,7 +36,6 @@ from .number_entry import accept_both_separators
 from .undo_keys import install_undo_keys
 from .photo_canvas import PhotoCanvas
 from .point_table import ID_ROLE, PointTableModel, make_proxy
-from .prior_height import PriorHeightBox
 from .rough_camera import RoughCameraMixin
 from .dock_extensions import DockExtensionsMixin
 from .dock_view import SHOW_CHIPS_KEY, DockViewMixin
@@ -85,23 +84,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
         self.photoFile.lineEdit().editingFinished.connect(self._photo_path_typed)
         self.demCombo.layerChanged.connect(self._dem_chosen)
 
-        # camera
-        self.drawCameraButton.toggled.connect(self._toggle_camera_tool)
-        self.camera_tool.cameraDrawn.connect(self._camera_drawn)
-        self.camera_tool.dragging.connect(self._camera_dragging)
-        self.kmlButton.clicked.connect(self._import_kml)
-        self.exifButton.clicked.connect(lambda: c.prior_from_exif())
-        self.clearPriorButton.clicked.connect(lambda: c.set_prior(None))
-        # a new project starts from the boxes' defaults, not the closed project's camera (a trial: the next camera
-        # drawn took its pitch -11.3 deg and +48 m, and a pitch other than 0 skipped the one from the terrain)
-        self._camera_box_defaults = {spin: spin.value() for spin in (self.fovSpin, self.headingSpin, self.pitchSpin,
-                                                                     self.heightSpin)}
-        for spin in (self.fovSpin, self.headingSpin, self.pitchSpin):
-            # typing "55" moves the camera once, on Enter: not to 5 deg first, which warned that the camera did not
-            # look at the DEM (desktop trial)
-            spin.setKeyboardTracking(False)
-            spin.valueChanged.connect(self._prior_spin_changed)
-        self.prior_height = PriorHeightBox(c, self.heightSpin, self.show_message)  # gui/prior_height.py
+        self._connect_camera_widgets(c)  # gui/rough_camera.py
 
         # points
         # how many suggestions: a user preference (QgsSettings), not part of the project

@@ -1,5 +1,6 @@
 """The dock's rough camera (a mixin of :class:`~.dock.MonoplotDock`): drawn on the map by press and drag (a live
-wedge while dragging), its field of view, heading and pitch from the spin boxes, or read from a KML or camera JSON."""
+wedge while dragging), its field of view, heading and pitch from the spin boxes, its height and position typed
+(:mod:`.prior_height`, :mod:`.prior_position`), or read from a KML or camera JSON."""
 
 from __future__ import annotations
 
@@ -7,14 +8,37 @@ from qgis.core import Qgis
 from qgis.PyQt.QtWidgets import QFileDialog
 
 from .io_actions import IoActions
+from .prior_height import PriorHeightBox
+from .prior_position import PriorPositionBox
 
 __all__ = ["RoughCameraMixin"]
 
 
 class RoughCameraMixin:
     """Slots of the dock's rough-camera widgets (``drawCameraButton``, ``fovSpin``, ``headingSpin``, ``pitchSpin``,
-    ``heightSpin``, the KML button); the dock provides ``controller``, ``map_canvas``, ``camera_tool``,
-    ``map_view``, ``io_actions`` and ``show_message``."""
+    ``heightSpin``, ``positionEdit``, the KML button); the dock provides ``controller``, ``map_canvas``,
+    ``camera_tool``, ``map_view``, ``io_actions`` and ``show_message``."""
+
+    def _connect_camera_widgets(self, c) -> None:
+        """Connect the camera tab's buttons and boxes to the controller ``c`` (from the dock's constructor)."""
+        self.drawCameraButton.toggled.connect(self._toggle_camera_tool)
+        self.camera_tool.cameraDrawn.connect(self._camera_drawn)
+        self.camera_tool.dragging.connect(self._camera_dragging)
+        self.kmlButton.clicked.connect(self._import_kml)
+        self.exifButton.clicked.connect(lambda: c.prior_from_exif())
+        self.clearPriorButton.clicked.connect(lambda: c.set_prior(None))
+        # a new project starts from the boxes' defaults, not the closed project's camera (a trial: the next camera
+        # drawn took its pitch -11.3 deg and +48 m, and a pitch other than 0 skipped the one from the terrain)
+        self._camera_box_defaults = {spin: spin.value() for spin in (self.fovSpin, self.headingSpin, self.pitchSpin,
+                                                                     self.heightSpin)}
+        for spin in (self.fovSpin, self.headingSpin, self.pitchSpin):
+            # typing "55" moves the camera once, on Enter: not to 5 deg first, which warned that the camera did not
+            # look at the DEM (desktop trial)
+            spin.setKeyboardTracking(False)
+            spin.valueChanged.connect(self._prior_spin_changed)
+        self.prior_height = PriorHeightBox(c, self.heightSpin, self.show_message)  # gui/prior_height.py
+        self.prior_position = PriorPositionBox(c, self.positionEdit, self.show_message, lambda x, y: c.prior_from_map(
+            x, y, self.headingSpin.value(), self.fovSpin.value(), self.pitchSpin.value(), self.heightSpin.value()))
 
     def _toggle_camera_tool(self, on: bool) -> None:
         if on:

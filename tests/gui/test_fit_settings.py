@@ -233,3 +233,34 @@ def test_auto_camera_height_says_the_height_it_stands_for(dock, scene):
     panel.height_combo.setCurrentIndex(0)
     c.set_prior(scene.prior.with_parameters(z=ground + 300.0))  # a drone
     assert panel.eye_spin.text() == "auto (in the air)"
+
+
+def test_position_box_places_and_moves_the_rough_camera_to_typed_coordinates(dock, scene, qtbot):
+    """A surveyed position typed, not drawn: a time-lapse trial drew its GNSS position at 1.2 m a screen pixel and
+    got the camera 0.6-1.3 m off its coordinates. Typed X, Y (Enter) place a camera with no rough camera yet, and
+    move one that exists keeping its height above the DEM and its angles; a typo or a point off the DEM says so."""
+    _load(dock, scene.photo_path)
+    c = dock.controller
+    assert c.prior is None and dock.positionEdit.text() == ""
+    x, y = scene.camera.position[0] + 0.37, scene.camera.position[1] - 0.42
+    dock.headingSpin.setValue(15.0)
+    dock.positionEdit.setFocus()
+    qtbot.keyClicks(dock.positionEdit, f"{x:.2f}, {y:.2f}")
+    qtbot.keyClick(dock.positionEdit, Qt.Key.Key_Return)
+    assert c.prior is not None and c.prior.position[:2] == pytest.approx((round(x, 2), round(y, 2)), abs=1e-6)
+    assert c.prior.heading == pytest.approx(15.0)
+    # moved: the height above the DEM and the angles kept
+    c.set_prior(c.prior.with_parameters(z=float(scene.dem.sample(x, y)) + 30.0, pitch=-3.0))
+    assert dock.positionEdit.text() == f"{round(x, 2):.2f}, {round(y, 2):.2f}"
+    dock.positionEdit.selectAll()
+    qtbot.keyClicks(dock.positionEdit, f"{x + 200:.1f} {y + 100:.1f}")
+    qtbot.keyClick(dock.positionEdit, Qt.Key.Key_Return)
+    nx, ny, nz = c.prior.position
+    assert (nx, ny) == pytest.approx((round(x + 200, 1), round(y + 100, 1)), abs=1e-6)
+    assert nz - float(scene.dem.sample(nx, ny)) == pytest.approx(30.0, abs=0.01) and c.prior.pitch == -3.0
+    assert "30.0 m above the DEM" in dock.statusLabel.text()
+    for typed, said in (("2643210", "Type the camera's position as X, Y"), ("0, 0", "outside the DEM")):
+        dock.positionEdit.selectAll()
+        qtbot.keyClicks(dock.positionEdit, typed)
+        qtbot.keyClick(dock.positionEdit, Qt.Key.Key_Return)
+        assert said in dock.statusLabel.text() and c.prior.position == (nx, ny, nz)
