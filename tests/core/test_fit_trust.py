@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from monoplot_plugin.core import Camera, fit_camera
-from monoplot_plugin.core.fit.consensus import focal_from_ray_angle, rotation_from_two_rays
+from monoplot_plugin.core.fit.minimal import focal_from_ray_angle, rotation_from_two_rays
 
 torch = pytest.importorskip("torch")
 torch.set_num_threads(1)

@@ -26,10 +26,11 @@ import numpy as np
 
 from ..camera import angles_from_rotation, focal_from_fov, fov_from_focal
 from .losses import mutual_nearest_pairs
+from .minimal import camera_rays, focal_from_ray_angle, rotation_between, rotation_from_two_rays
 from .lsq import least_squares
 from .params import ParameterSpace
 
-__all__ = ["focal_from_ray_angle", "rotation_from_two_rays", "consensus_score", "hypotheses", "local_optimise",
+__all__ = ["consensus_score", "hypotheses", "local_optimise",
            "chance_inliers", "inlier_radius", "shift_hypotheses", "kernel_align", "prior_penalty"]
 
 
@@ -53,63 +54,6 @@ def inlier_radius(diag: float, image_area: float = 0.0, n_photo: int = 0, n_dem:
         one_coincidence = math.sqrt(image_area / (math.pi * n_photo * n_dem))
         radius = min(radius, max(one_coincidence, 0.003 * float(diag), 2.0))
     return radius
-
-
-def focal_from_ray_angle(p1: np.ndarray, p2: np.ndarray, cos_world: np.ndarray) -> np.ndarray:
-    """Focal lengths (pixels) at which the rays of two pixels make the angle whose cosine is ``cos_world``.
-
-    Args:
-        p1, p2: (H, 2) pixel offsets from the principal point.
-        cos_world: (H,) cosine of the angle between the two world directions.
-    Returns:
-        (H,) focal length, NaN where no positive focal length gives that angle.
-
-    >>> f = focal_from_ray_angle(np.array([[-100.0, 0]]), np.array([[100.0, 0]]), np.array([math.cos(math.pi / 2)]))
-    >>> round(float(f[0]), 6)   # two rays 90 degrees apart, 100 px either side of the centre
-    100.0
-    """
-    a = np.sum(p1 * p2, axis=1)
-    r1 = np.sum(p1 * p1, axis=1)
-    r2 = np.sum(p2 * p2, axis=1)
-    c2 = cos_world * cos_world
-    # (a + F)^2 = c^2 (r1 + F)(r2 + F) with F = f^2, and a + F of the sign of c.
-    qa = 1.0 - c2
-    qb = 2.0 * a - c2 * (r1 + r2)
-    qc = a * a - c2 * r1 * r2
-    disc = qb * qb - 4.0 * qa * qc
-    out = np.full(len(a), np.nan)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        root = np.sqrt(np.where(disc >= 0, disc, np.nan))
-        for F in ((-qb + root) / (2.0 * qa), (-qb - root) / (2.0 * qa)):
-            # Squaring admitted the supplementary angle too: keep the root whose cosine is the one asked for.
-            cos_at = (a + F) / np.sqrt((r1 + F) * (r2 + F))
-            good = np.isfinite(F) & (F > 0) & (np.abs(cos_at - cos_world) < 1e-6) & np.isnan(out)
-            out[good] = np.sqrt(F[good])
-    return out
-
-
-def rotation_from_two_rays(b1, b2, w1, w2) -> np.ndarray:
-    """(H, 3, 3) world-to-camera rotations taking the world directions ``w1, w2`` onto the camera rays ``b1, b2``
-    (exactly for the first, in the plane of the two for the second). All inputs (H, 3) unit vectors.
-
-    >>> R = rotation_from_two_rays(np.array([[0.0, 0, 1]]), np.array([[1.0, 0, 0]]),
-    ...                            np.array([[0.0, 1, 0]]), np.array([[1.0, 0, 0]]))
-    >>> np.round(R[0] @ np.array([0.0, 1, 0]), 6).tolist()
-    [0.0, 0.0, 1.0]
-    """
-    def frame(a, b):
-        e2 = np.cross(a, b)
-        e2 /= np.linalg.norm(e2, axis=1, keepdims=True)
-        e3 = np.cross(a, e2)
-        return np.stack([a, e2, e3], axis=2)  # columns
-
-    return frame(b1, b2) @ np.transpose(frame(w1, w2), (0, 2, 1))
-
-
-def _rays(offsets: np.ndarray, focal: np.ndarray) -> np.ndarray:
-    """(H, 2) pixel offsets from the principal point and (H,) focal lengths -> (H, 3) unit camera rays."""
-    v = np.concatenate([offsets, focal[:, None]], axis=1)
-    return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
 def consensus_score(q: np.ndarray, uv: np.ndarray, usable: np.ndarray, radius: float) -> Tuple[float, np.ndarray]:
@@ -263,14 +207,14 @@ def hypotheses(ctx, sigmas: dict, n_max: int, camera=None) -> List[dict]:
         good = np.isfinite(focal) & (focal >= lo) & (focal <= hi)
     else:
         focal = np.full(len(i1), f0)
-        b1, b2 = _rays(o1, focal), _rays(o2, focal)
+        b1, b2 = camera_rays(o1, focal), camera_rays(o2, focal)
         tolerance = 2.0 * radius / f0
         good = np.abs(np.arccos(np.clip(np.sum(b1 * b2, axis=1), -1, 1)) - np.arccos(cos_w)) <= tolerance
     if not good.any():
         return []
     i1, i2, j1, j2, w1, w2, focal = i1[good], i2[good], j1[good], j2[good], w1[good], w2[good], focal[good]
     o1, o2 = q[i1] - c, q[i2] - c
-    R = rotation_from_two_rays(_rays(o1, focal), _rays(o2, focal), w1, w2)
+    R = rotation_from_two_rays(camera_rays(o1, focal), camera_rays(o2, focal), w1, w2)
     R = R[:n_hyp]
     focal = focal[:n_hyp]
     # Score every hypothesis: project the scored DEM points, count photo points with one within the radius.
@@ -317,14 +261,6 @@ def hypotheses(ctx, sigmas: dict, n_max: int, camera=None) -> List[dict]:
         out.append({"heading": heading, "pitch": pitch, "roll": roll,
                     "fov": fov_from_focal(float(focal[idx]), cam.width), "score": float(scores[idx])})
     return out
-
-
-def _rotation_between(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(3, 3) smallest rotation taking unit vector ``a`` onto unit vector ``b`` (Rodrigues)."""
-    v = np.cross(a, b)
-    c = float(a @ b)
-    vx = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-    return np.eye(3) + vx + vx @ vx / (1.0 + c)
 
 
 def shift_hypotheses(ctx, sigmas: dict, n_keep: int = 6, camera=None) -> List[dict]:
@@ -374,7 +310,7 @@ def shift_hypotheses(ctx, sigmas: dict, n_keep: int = 6, camera=None) -> List[di
         # frame is the old frame's ray through the centre minus the shift.
         a = np.array([0.0, 0.0, 1.0])
         b = np.array([-dx / f, -dy / f, 1.0])
-        R = _rotation_between(b / np.linalg.norm(b), a) @ R0
+        R = rotation_between(b / np.linalg.norm(b), a) @ R0
         heading, pitch, roll = angles_from_rotation(R)
         out.append({"heading": heading, "pitch": pitch, "roll": roll, "fov": cam.fov, "score": float(smooth[ix[n],
                                                                                                         iy[n]])})
