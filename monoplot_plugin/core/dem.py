@@ -36,6 +36,7 @@ import numpy as np
 from .dem_voids import (  # noqa: F401 (re-exported: one place to import a DEM's tools from)
     VOID_SENTINELS, band_to_metres, mark_voids, stored_to_metres, zero_voids)
 from .dem_window_view import view_footprint, view_window  # noqa: F401 (view_footprint: re-exported)
+from .dem_read import DemReadCanceled, open_decoding_on_all_cores, read_cells  # noqa: F401 (DemReadCanceled: re-exported)
 
 __all__ = ["Dem", "DemReadCanceled", "utm_wkt_for_lonlat", "view_window", "view_footprint", "mark_voids", "zero_voids",
            "VOID_SENTINELS"]
@@ -43,39 +44,6 @@ __all__ = ["Dem", "DemReadCanceled", "utm_wkt_for_lonlat", "view_window", "view_
 logger = logging.getLogger("monoplot")
 
 GeoTransform = Tuple[float, float, float, float, float, float]
-
-
-class DemReadCanceled(Exception):
-    """The person canceled while a DEM file was read (nothing was kept)."""
-
-
-#: A DEM read with progress is read in about this many bands of rows (each decoded on all cores).
-READ_BANDS = 50
-
-
-def _read_cells(band, col0: int, row0: int, cols: int, rows: int, progress=None, is_canceled=None) -> np.ndarray:
-    """A window of a GDAL band as an array; with ``progress`` or ``is_canceled``, read in :data:`READ_BANDS`
-    bands of whole blocks, reporting and polling between them (a 100 M-cell file takes 2-3 s to read: the dock's
-    bar stood at 0 % meanwhile and Cancel waited for the end; GDAL's own progress callback is not called when it
-    decodes on several threads)."""
-    if progress is None and is_canceled is None:
-        return band.ReadAsArray(col0, row0, cols, rows)
-    block_rows = max(1, band.GetBlockSize()[1])
-    step = max(block_rows, int(math.ceil(rows / READ_BANDS / block_rows)) * block_rows)
-    out = None
-    for r in range(0, rows, step):
-        if is_canceled is not None and is_canceled():
-            raise DemReadCanceled("canceled while the DEM was read")
-        n = min(step, rows - r)
-        if out is None:
-            first = band.ReadAsArray(col0, row0, cols, n)
-            out = np.empty((rows, cols), dtype=first.dtype)
-            out[:n] = first
-        else:
-            band.ReadAsArray(col0, row0 + r, cols, n, buf_obj=out[r:r + n])
-        if progress is not None:
-            progress((r + n) / rows, "")
-    return out if out is not None else band.ReadAsArray(col0, row0, cols, rows)
 
 
 @dataclass
@@ -156,7 +124,7 @@ class Dem:
         from osgeo import gdal, osr
 
         gdal.UseExceptions()
-        ds = _open_decoding_on_all_cores(gdal, str(path))
+        ds = open_decoding_on_all_cores(gdal, str(path))
         if ds is None:
             raise OSError(f"GDAL cannot open {path}")
         rb = ds.GetRasterBand(band)
@@ -174,7 +142,7 @@ class Dem:
                 raise ValueError(f"the camera sees no part of {path}")
             row0, col0, rows, cols = window
         reading = None if progress is None else (lambda fraction, message="": progress(0.8 * fraction, message))
-        data = _read_cells(rb, col0, row0, cols, rows, reading, is_canceled)  # then voids, maybe a reprojection
+        data = read_cells(rb, col0, row0, cols, rows, reading, is_canceled)  # then voids, maybe a reprojection
         nodata = rb.GetNoDataValue()
         if row0 or col0:
             gt = (gt[0] + col0 * gt[1] + row0 * gt[2], gt[1], gt[2], gt[3] + col0 * gt[4] + row0 * gt[5], gt[4], gt[5])
@@ -467,20 +435,6 @@ def utm_wkt_for_lonlat(lon: float, lat: float) -> str:
     srs = osr.SpatialReference()
     srs.ImportFromEPSG((32600 if lat >= 0 else 32700) + zone)
     return srs.ExportToWkt()
-
-
-def _open_decoding_on_all_cores(gdal, path: str):
-    """``gdal.Open(path)`` with the file's compressed blocks decoded on all cores when read (GDAL_NUM_THREADS for
-    this thread only, unless the person set it): a 100 M-cell DEFLATE GeoTIFF was read in 0.85 s instead of
-    2.5 s on 2 cores."""
-    if gdal.GetConfigOption("GDAL_NUM_THREADS"):
-        return gdal.Open(path)
-    before = gdal.GetThreadLocalConfigOption("GDAL_NUM_THREADS", None)
-    gdal.SetThreadLocalConfigOption("GDAL_NUM_THREADS", "ALL_CPUS")
-    try:
-        return gdal.Open(path)
-    finally:
-        gdal.SetThreadLocalConfigOption("GDAL_NUM_THREADS", before)
 
 
 def _finite_min_max(a: np.ndarray) -> Tuple[float, float]:
