@@ -182,10 +182,20 @@ class ChipView(QWidget):
 
             at = parent.getCoordinateTransform().transform(QgsPointXY(self._at[0], -self._at[1]))  # x = u, y = -v
             left, top = at.x() > parent.width() / 2.0, at.y() > parent.height() / 2.0
+        # clear of the canvas's readout line where it is (its wrapped second line hid the chips' caption, a trial)
+        readout = getattr(parent, "readout", None)
+        shown = readout is not None and readout.isVisible()
+        below = readout.height() + 2 if shown and readout.y() > parent.height() / 2.0 else 0
+        above = readout.y() + readout.height() + 2 if shown and readout.y() <= parent.height() / 2.0 else 0
         x = 6 if left else max(0, parent.width() - self.width() - 6)
-        y = 6 if top else max(0, parent.height() - self.height() - 6)
+        y = max(6, above) if top else max(0, parent.height() - self.height() - 6 - below)
         self.move(x, y)
         self.raise_()
+
+    def keep_clear(self) -> None:
+        """Placed again when the canvas's readout line moves or grows (:meth:`.photo_canvas.PhotoCanvas`)."""
+        if not self.isHidden():
+            self._place()
 
     # --- what to show -------------------------------------------------------------------------------------------
     def show_point(self, space: str, pid: str) -> None:

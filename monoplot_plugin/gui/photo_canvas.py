@@ -17,7 +17,7 @@ from qgis.core import QgsCoordinateReferenceSystem, QgsMapLayer, QgsRectangle
 from qgis.gui import QgsMapCanvas, QgsMapCanvasItem
 from qgis.PyQt.QtCore import QRectF, Qt, QTimer, pyqtSignal
 from qgis.PyQt.QtGui import QBrush, QColor, QImage, QPainter
-from qgis.PyQt.QtWidgets import QLabel
+from qgis.PyQt.QtWidgets import QLabel, QWidget
 
 from ..adapters.photo_space import photo_point, pixel_of
 
@@ -178,14 +178,19 @@ class PhotoCanvas(QgsMapCanvas):
     def _place_readout(self) -> None:
         if not self.readout.isVisible():
             return
+        before = (self.readout.y(), self.readout.height())
         width = max(50, self.width() - 8)
         self.readout.setFixedWidth(width)
         height = self.readout.heightForWidth(width)
         self.readout.setFixedHeight(height if height > 0 else self.readout.sizeHint().height())
         bottom = self.height() - self.readout.height() - 4
         # at the top while the cursor is on the bottom strip: never over what the cursor points at
-        self.readout.move(4, 4 if self._cursor_y >= bottom - 8 else bottom)
+        y = 4 if self._cursor_y >= bottom - 8 else bottom
+        self.readout.move(4, y)
         self.readout.raise_()
+        if (self.readout.y(), self.readout.height()) != before:  # the pair chips float here too: clear of the line
+            for chips in self.findChildren(QWidget, "MonoplotChips"):
+                chips.keep_clear()
 
     def mouseMoveEvent(self, event):  # noqa: N802 (Qt API)
         self._cursor_y = event.pos().y()

@@ -122,10 +122,10 @@ def test_chips_keep_to_the_corner_away_from_the_point_and_can_be_switched_off(do
     qtbot.waitUntil(lambda: canvas.width() > 200 and canvas.height() > 150)
     assert dock.chips.side <= max(72, min(canvas.width(), canvas.height()) // 4)
     w, h = scene.camera.image_size
-    corners = {}
+    corners, points = {}, {}
     for name, (u, v) in {"upper left": (0.1 * w, 0.1 * h), "lower right": (0.9 * w, 0.9 * h),
                          "lower left": (0.1 * w, 0.9 * h)}.items():
-        a = Point.new(PHOTO, u, v)
+        a = points[name] = Point.new(PHOTO, u, v)
         c.stack.push(add_points(c.state, [a]))
         c.select(PHOTO, a.id)
         qtbot.wait(20)
@@ -135,6 +135,13 @@ def test_chips_keep_to_the_corner_away_from_the_point_and_can_be_switched_off(do
         assert not chips.contains(int(at.x()), int(at.y())), name  # never over the point it shows
         corners[name] = (chips.center().x() > canvas.width() / 2, chips.center().y() > canvas.height() / 2)
     assert corners == {"upper left": (True, True), "lower right": (False, False), "lower left": (True, False)}
+    # the cursor readout, two lines over the bottom edge, does not cover the chips' caption (a trial's did)
+    c.select(PHOTO, points["upper left"].id)  # the chips in the lower right corner, where the readout is
+    canvas.set_readout("photo pixel (12, 34) → X 2603952.1  Y 1202531.4  Z 424.0 m (EPSG:2056); X, Y ± 172 m "
+                       "(the camera's σ here 41.5 px; the camera is uncertain: it may be far more)")
+    assert canvas.readout.height() > canvas.readout.fontMetrics().lineSpacing()  # wrapped
+    assert not dock.chips.geometry().intersects(canvas.readout.geometry())
+    c.select(PHOTO, a.id)
     area = dock.chips.width() * dock.chips.height() / float(canvas.width() * canvas.height())
     assert area < 0.2
     # a drawing tool on the photo: the chips would hide what is traced (a trial's small dock canvas)
