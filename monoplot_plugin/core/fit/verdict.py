@@ -21,8 +21,10 @@ Processing and the report show the same figures.
 'paired fit on 10 pairs: RMSE 2.0 px (too few pairs for a leave-one-out check). Uncertain: the pairs cover a small \
 part of the picture (1.4 %): elsewhere the camera is extrapolated; add pairs spread over the picture.'
 >>> judge({"mode": "paired", "n_free": 7, "n_pairs": 4, "rmse_px": 0.1, "diag": 1000.0})[1].split("Uncertain: ")[1]
-'4 pairs for 7 free parameters leave 1 equation to spare, so nothing tests the camera: pair 2 more points, mark \
-check points, or fix the parameters you know.'
+'4 pairs for 7 free parameters leave 1 equation to spare, too few to test the camera (no pair can be left out): \
+pair 2 more points, mark check points, or fix the parameters you know.'
+>>> judge({"mode": "paired", "n_free": 6, "n_pairs": 4, "rmse_px": 0.1, "diag": 1000.0})[1].split(": pair ")[1][:13]
+'1 more point,'
 >>> judge({"mode": "paired", "n_free": 7, "n_pairs": 12, "rmse_px": float("nan"), "diag": 1000.0})[1][:72]
 'paired fit on 12 pairs: no camera found puts the points in front of it. '
 >>> judge({"mode": "paired", "n_free": 7, "n_pairs": 11, "rmse_px": 2.0, "diag": 1000.0, "check_rmse_px": 12.0,
@@ -68,10 +70,10 @@ COMPETITOR_RATIO = 0.8
 #: pairs over 6.5 % of the picture were "ok" at 1.9 px RMSE with the camera 256 m off (187 px across the picture);
 #: each of the 100 real sets of ``eval.smapshot`` covers at least 10.5 % (median 35 %).
 MIN_SPREAD, MIN_SPREAD_PAIRED = 0.05, 0.10
-#: a paired fit with fewer equations to spare than this (2 x pairs - free parameters) is at most "uncertain": its
-#: residuals cannot show a wrong camera; the advice asks for enough pairs to leave FEW_SPARE_TARGET spare (then the
-#: leave-one-out check has equations to spare too)
-MIN_SPARE, FEW_SPARE_TARGET = 2, 4
+#: a paired fit with fewer equations to spare than this (2 x pairs - free parameters) is at most "uncertain": no
+#: pair can be left out (the rest would leave nothing to spare), and its residuals cannot show a wrong camera; the
+#: advice asks for enough pairs to leave FEW_SPARE_TARGET spare
+MIN_SPARE, FEW_SPARE_TARGET = 3, 4
 #: pairs beyond the inlier radius (within twice it, more than chance adds) above this share of the inliers: the
 #: residuals are truncated by the radius, which makes an unpaired fit uncertain when converging on the pairs within
 #: twice the radius moves the camera (see :func:`judge`, ``beyond_radius`` and ``truncation_px``)
@@ -233,8 +235,9 @@ def judge(e: dict) -> Tuple[str, str]:
         # scene's best camera off, 5 over twice it (5-660 px)
         more = (FEW_SPARE_TARGET - spare + 1) // 2
         weak.append(f"{e.get('n_pairs', 0)} pairs for {n_free} free parameters leave {max(spare, 0)} equation"
-                    f"{'s' if spare != 1 else ''} to spare, so nothing tests the camera: pair {more} more points, "
-                    f"mark check points, or fix the parameters you know")
+                    f"{'s' if spare != 1 else ''} to spare, too few to test the camera (no pair can be left out): "
+                    f"pair {more} more point{'s' if more != 1 else ''}, mark check points, or fix the parameters "
+                    f"you know")
     # Check points far worse than the fit's own residuals: the residuals flatter the camera (pairs that agree with
     # each other, not with the terrain), whatever the share of the picture.
     check_far = np.isfinite(check) and np.isfinite(rmse) and check > CHECK_OVER_RESIDUALS * max(rmse, 1.0) \
