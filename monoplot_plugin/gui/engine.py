@@ -108,6 +108,8 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         "n_pairs": int(len(pairs)),
         # the pairs checked an unpaired fit of the other points (workflow.mixed): its check errors end with theirs
         "pairs_checked": int(done.pairs_checked),
+        # ... or, the paired fit kept over it, that fit's status ("" when none was tried)
+        "alone_status": done.alone_status,
         "n_matched": int(_inliers(result).sum()),  # the pairs kept, as the message counts them
         "matched_idx": [[int(i), int(j)] for (i, j), ok in zip(np.asarray(result.pairs).reshape(-1, 2),
                                                               _inliers(result)) if ok],

@@ -378,7 +378,11 @@ class ResultsMixin:
             text = self.tr("Camera fitted: RMSE {0:.1f} px on {1} pairs.").format(
                 rmse if rmse is not None else float("nan"), n_pairs)
             unused = unpartnered_text(info, self.tr)
-            if unused:  # a trial's curation of 18 DEM points went unsaid: both sides are counted
+            if unused and info.get("alone_status"):  # fitted on their own too, and the paired fit kept (a trial
+                # read "not used: pair them" above a message saying they had been fitted)
+                text += " " + self.tr("The {0} were also fitted on their own, your pairs as check points: "
+                                      "{1}, so the paired fit is kept.").format(unused, self.tr(info["alone_status"]))
+            elif unused:  # a trial's curation of 18 DEM points went unsaid: both sides are counted
                 text += " " + self.tr("Not used by a paired fit: {0}; pair them (select one, Shift+click its "
                                       "partner) to use them.").format(unused)
         if info.get("mode") == "automatic":  # its own matches: they agree with it by construction (a trial read

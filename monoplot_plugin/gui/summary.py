@@ -104,6 +104,10 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     >>> "on 8 pairs (27 photo and 24 DEM points accepted without a partner not used: pair them" in fit_summary_html(
     ...     cam, {"rmse_px": 0.4, "mode": "paired", "n_photo": 35, "n_map": 32, "n_pairs": 8})
     True
+    >>> html = fit_summary_html(cam, {"rmse_px": 0.4, "mode": "paired", "n_photo": 35, "n_map": 32, "n_pairs": 8,
+    ...                               "alone_status": "poor"})
+    >>> "on 8 pairs (27 photo and 24 DEM points accepted without a partner fitted apart, poor: see below)" in html
+    True
     >>> "on 8 pairs (1 photo point accepted without a partner not used: pair them" in fit_summary_html(
     ...     cam, {"rmse_px": 0.4, "mode": "paired", "n_photo": 9, "n_map": 8, "n_pairs": 8})
     True
@@ -177,7 +181,9 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
         head = tr("RMSE <b>{0}</b>{1} on {2} pairs{3}").format(
             "—" if rmse is None else f"{rmse:.1f} px",
             "" if loo is None else tr(" (leave-one-out {0:.1f} px)").format(loo), info["n_pairs"],
-            tr(" ({0} not used: pair them to use them)").format(unused) if unused else "")
+            "" if not unused else tr(" ({0} not used: pair them to use them)").format(unused)
+            if not info.get("alone_status") else tr(" ({0} fitted apart, {1}: see below)").format(
+                unused, tr(info["alone_status"])))
     if info.get("check_rmse_px") is not None:
         head = tr("Check points <b>{0:.1f} px</b> RMSE on {1} (not fitted)").format(
             info["check_rmse_px"], info.get("n_check", 0)) + "<br>" + tr("Fit: ") + head

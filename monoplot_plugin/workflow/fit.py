@@ -70,6 +70,8 @@ class FitDone:
     height_freed: bool = False
     #: pairs kept out of the fit as its check points (:func:`~.mixed.fit_accepted`), after the given check points
     pairs_checked: int = 0
+    #: the status of that unpaired fit when the paired fit was kept over it ("" when none was tried)
+    alone_status: str = ""
 
     @property
     def camera(self) -> Camera:

@@ -31,3 +31,24 @@ def test_four_pairs_check_the_fit_of_the_accepted_points_without_a_partner(dock,
     # the camera the pairs checked is close to the truth where the points are
     error = np.linalg.norm(c.fitted.project(scene.xyz) - scene.uv, axis=1)
     assert np.sqrt(np.mean(error ** 2)) < 2.0
+
+
+def test_pairs_the_other_points_contradict_keep_the_paired_fit_and_the_bar_says_so(dock, scene, qtbot, qgis_iface):
+    """A trial read "not used: pair them" in the bar above a fit tab saying those points had been fitted."""
+    load_inputs(dock, scene, qtbot)
+    c, panel = dock.controller, dock.curation_panel
+    panel.refitCheck.setChecked(False)
+    photo, world = add_scene_points(dock, scene)
+    c.set_prior(scene.prior)
+    for i in range(5):  # each photo point linked to the next one's map point: wrong pairs
+        c.link(photo[i].id, world[(i + 1) % 5].id)
+    c.set_status([p.id for p in photo[5:45]] + [w.id for w in world[5:45]], ACCEPTED)
+    qgis_iface.messageBar().clear_messages()
+    assert c.fit()
+    qtbot.waitUntil(lambda: c.fitted is not None, timeout=120000)
+    info = c.state.fit_info
+    assert info["mode"] == "paired" and info["status"] != "ok" and info["alone_status"] in ("poor", "uncertain")
+    assert "so the paired fit is kept" in info["message"]
+    said = " ".join(qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Warning))
+    assert "were also fitted on their own" in said and "pair them (select one" not in said
+    assert "fitted apart" in dock.resultLabel.text()
