@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import Dict, Tuple
+from typing import Dict, Optional, Tuple
 
 import numpy as np
 
@@ -61,13 +61,19 @@ def parameter_std(ctx, space: ParameterSpace, u, q, P) -> Dict[str, float]:
     return parameter_uncertainty(space, u, q, P)[0]
 
 
-def parameter_uncertainty(space: ParameterSpace, u, q, P) -> Tuple[Dict[str, float], Dict[str, Dict[str, float]]]:
+def parameter_uncertainty(space: ParameterSpace, u, q, P, held: Optional[Dict[str, float]] = None
+                          ) -> Tuple[Dict[str, float], Dict[str, Dict[str, float]]]:
     """(σ of each free parameter as :func:`parameter_std`, their correlations ``{name: {other: r}}``); both empty
     when the covariance cannot be computed.
 
     The correlations say which errors go together: a camera slid back along its view and turned to keep far points
     where they are moves them little and the near ground a lot, which σ taken as independent cannot tell
-    (:func:`~.result.sigma_shifts`)."""
+    (:func:`~.result.sigma_shifts`).
+
+    ``held``: σ (their units) of parameters held at a value known to that accuracy (not free: a surveyed position
+    fixed at ± 1 m). The free parameters take up their error as well: ``G Σ Gᵀ`` is added to the covariance, ``G``
+    how the fit's solution moves with each held value (:func:`held_sensitivity`). A time-lapse trial's camera fixed
+    at its surveyed position (1.3 m off, ± 1 m) had its pitch 3.5 σ off with the residuals' σ alone."""
     m, n = 2 * len(q), len(u)
     if m <= n:
         return {}, {}
@@ -75,9 +81,13 @@ def parameter_uncertainty(space: ParameterSpace, u, q, P) -> Tuple[Dict[str, flo
     r0 = (space.project(u, P)[0] - q).ravel()
     sigma2 = max(float(r0 @ r0) / (m - n), PIXEL_FLOOR ** 2) * few_equations_factor(m - n) ** 2
     try:
-        cov = np.linalg.inv(J.T @ J) * sigma2
+        normal_inv = np.linalg.inv(J.T @ J)
     except np.linalg.LinAlgError:
         return {}, {}
+    cov = normal_inv * sigma2
+    if held:
+        G, sigma_held = held_sensitivity(space, u, q, P, J, normal_inv, held)
+        cov = cov + (G * sigma_held ** 2) @ G.T
     diag = np.clip(np.diag(cov), 0.0, None)
     std = {name: float(space.scales[i] * math.sqrt(diag[i])) for i, name in enumerate(space.names)}
     root = np.sqrt(diag)
@@ -85,6 +95,23 @@ def parameter_uncertainty(space: ParameterSpace, u, q, P) -> Tuple[Dict[str, flo
         return std, {}
     corr = np.clip(cov / np.outer(root, root), -1.0, 1.0)
     return std, {a: {b: float(corr[i, j]) for j, b in enumerate(space.names)} for i, a in enumerate(space.names)}
+
+
+def held_sensitivity(space: ParameterSpace, u, q, P, J: np.ndarray, normal_inv: np.ndarray,
+                     held: Dict[str, float]) -> Tuple[np.ndarray, np.ndarray]:
+    """(G (n, k), σ (k,)): how the free parameters' solution ``u`` (n,) moves per unit of each held parameter, both
+    in the units of a space that frees them too (:func:`~.params.parameter_scales`), and the held σ in those units.
+    ``G = -(JᵀJ)⁻¹ Jᵀ B``, ``B`` the residuals' Jacobian in the held parameters; ``normal_inv`` is ``(JᵀJ)⁻¹``."""
+    names = [n for n in held if n not in space.names and not (space.ground is not None and n == "z")]
+    if not names:
+        return np.zeros((len(u), 0)), np.zeros(0)
+    camera = space.camera(u)
+    wider = ParameterSpace(camera, tuple(space.names) + tuple(names), space.typical_range, origin=space.origin,
+                           ground=space.ground, eye_height=space.eye_height)
+    columns = [wider.names.index(n) for n in names]
+    B = jacobian(wider, wider.zero(), q, P)[:, columns]
+    scales = np.array([wider.scales[i] for i in columns])
+    return -normal_inv @ J.T @ B, np.array([held[n] for n in names]) / scales
 
 
 #: fewer equations to spare than this and the residuals' scale is a guess (:func:`few_equations_factor`)

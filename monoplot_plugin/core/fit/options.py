@@ -84,6 +84,22 @@ class FitOptions:
                 "angle_deg": float(5.0 if self.angle_sigma_deg is None else self.angle_sigma_deg),
                 "fov_deg": float(0.1 * fov if self.fov_sigma_deg is None else self.fov_sigma_deg)}
 
+    def held_sigmas(self, free) -> Dict[str, float]:
+        """One σ (metres, degrees) of the camera parameters not in ``free`` whose accuracy the user stated (a
+        position fixed at its surveyed value, ± 1 m): their error goes into the free parameters' σ
+        (:func:`~.lsq.parameter_uncertainty`); a parameter whose σ is the default is held exactly.
+
+        >>> FitOptions(position_sigma_m=1.0, angle_sigma_deg=2.0).held_sigmas(("heading", "pitch", "roll", "fov"))
+        {'x': 1.0, 'y': 1.0, 'z': 1.0}
+        >>> FitOptions(angle_sigma_deg=2.0).held_sigmas(("x", "y", "z", "fov"))
+        {'heading': 2.0, 'pitch': 2.0, 'roll': 1.0}
+        """
+        stated = {"x": self.position_sigma_m, "y": self.position_sigma_m, "z": self.position_sigma_m,
+                  "heading": self.angle_sigma_deg, "pitch": self.angle_sigma_deg,
+                  "roll": None if self.angle_sigma_deg is None else 0.5 * self.angle_sigma_deg,
+                  "fov": self.fov_sigma_deg}
+        return {n: float(v) for n, v in stated.items() if n not in set(free) and v is not None and v > 0}
+
     def prior_sigma_px(self, camera, typical_range: float) -> float:
         """One σ (pixels, along each image axis) of where the rough ``camera`` puts a point ``typical_range``
         metres away: the prior's angle, position and field-of-view uncertainty (:meth:`prior_sigmas`) through its

@@ -30,7 +30,7 @@ def fit_paired(ctx, pairs: np.ndarray) -> FitResult:
     residuals = camera.project(ctx.world[pairs[:, 1]]) - q
     ctx.history.append(rmse(residuals))
     ctx.report(0.7, "paired fit: leave-one-out")
-    std, correlation = parameter_uncertainty(space, u, q, P)
+    std, correlation = parameter_uncertainty(space, u, q, P, held=ctx.options.held_sigmas(ctx.requested_free))
     loo = leave_one_out(ctx, space, u, q, P)
     nearest = np.full(len(ctx.q), np.nan)
     nearest[pairs[:, 0]] = np.linalg.norm(residuals, axis=1)

@@ -321,7 +321,8 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
     # gate follows the residuals: where the inlier radius is smaller than the noise, the pairs within the radius
     # have truncated residuals and too small a covariance).
     # (the correlations are the final pairs' covariance's: the widenings below scale the σ, not how they go together)
-    std, result.correlation = parameter_uncertainty(space, u, q_in, P_in) if len(pairs) else ({}, {})
+    std, result.correlation = parameter_uncertainty(space, u, q_in, P_in, held=ctx.options.held_sigmas(
+        ctx.requested_free)) if len(pairs) else ({}, {})
     for name, value in (result.std or {}).items():
         std[name] = max(std.get(name, 0.0), value)
     boot = bootstrap_std(ctx, space, u, q_in, P_in, ctx.options.bootstrap) if len(pairs) else {}
