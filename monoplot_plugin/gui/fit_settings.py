@@ -161,7 +161,10 @@ class FitSettingsPanel(QgsCollapsibleGroupBox, _Panel):
             spin.setDecimals(1)
             spin.setSuffix(suffix)
             spin.setSpecialValueText(tr("auto"))  # 0 = the fit's default
-            spin.setToolTip(tr("One standard deviation of the rough camera; auto = the fit's default."))
+            # a trial's "± 400 m" was how far off the viewpoint could be at most: one σ is about half of that
+            spin.setToolTip(tr("One standard deviation of the rough camera: about half of the most you think it "
+                               "could be off (off by up to 400 m: 200 m); auto = the fit's default. With the "
+                               "parameter unticked, the fit holds it and counts this in the others' ±."))
             spin.valueChanged.connect(self._sigma_changed)
             self.sigma_spins[name] = spin
             row.addWidget(QLabel(tr(label)), i // 2, 2 * (i % 2))
