@@ -79,6 +79,7 @@ class PriorPositionBox:
         if xy is None:
             self.say(tr("Type the camera's position as X, Y in the DEM's CRS, e.g. 2643210.5, 1154830.2."),
                      Qgis.MessageLevel.Warning)
+            self.edit.setText(shown)  # the camera's position again, not the text that is none
             return
         x, y = xy
         if prior is None:

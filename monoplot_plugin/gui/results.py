@@ -395,9 +395,12 @@ class ResultsMixin:
                            "point.").format(rmse if rmse is not None else float("nan"), n_matched, n_photo)
         check = info.get("check_rmse_px")
         if check is not None and info.get("pairs_checked"):  # the pairs checked a fit of the other points
-            text = self.tr("Camera fitted on the points without a partner: {0:.1f} px RMSE on {1} check points, "
-                           "your {2} pairs among them (fit: {3:.1f} px on {4} matched points).").format(
-                check, info.get("n_check", 0), info["pairs_checked"], rmse if rmse is not None else float("nan"),
+            n_check, k = info.get("n_check", 0), info["pairs_checked"]
+            checks = self.tr("your {0} pairs, kept out as check points").format(k) if n_check == k else \
+                self.tr("{0} check points, your {1} pairs among them").format(n_check, k)
+            text = self.tr("Camera fitted: {0:.1f} px RMSE on {1}; the camera from the points without a partner "
+                           "(fit: {2:.1f} px on {3} matched points).").format(
+                check, checks, rmse if rmse is not None else float("nan"),
                 n_matched if n_matched is not None else n_photo)
         elif check is not None and info.get("mode") == "paired" and n_pairs:  # its pairs, as the tab says
             text = self.tr("Camera fitted: {0:.1f} px RMSE on {1} check points (fit: {2:.1f} px on {3} "

@@ -172,7 +172,8 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
         "—" if rmse is None else f"{rmse:.1f} px",
         "" if loo is None else tr(" (leave-one-out {0:.1f} px)").format(loo),
         photo_text, info.get("n_map", 0),
-        tr(", {0} pairs").format(info["n_pairs"]) if info.get("n_pairs") else "")
+        "" if not info.get("n_pairs") else tr(", {0} pairs").format(info["n_pairs"]) if not info.get(
+            "pairs_checked") else tr(", {0} pairs kept out as check points").format(info["n_pairs"]))
     if info.get("loaded_from") and not info.get("n_photo"):  # not "RMSE — · 0 photo / 0 DEM points"
         head = tr("loaded from {0}").format(html_escape(os.path.basename(str(info["loaded_from"])))) + (
             "" if rmse is None else tr(" · its fit: RMSE {0:.1f} px").format(rmse))

@@ -264,3 +264,4 @@ def test_position_box_places_and_moves_the_rough_camera_to_typed_coordinates(doc
         qtbot.keyClicks(dock.positionEdit, typed)
         qtbot.keyClick(dock.positionEdit, Qt.Key.Key_Return)
         assert said in dock.statusLabel.text() and c.prior.position == (nx, ny, nz)
+        assert dock.positionEdit.text() == f"{nx:.2f}, {ny:.2f}"  # the camera's again, not the typo

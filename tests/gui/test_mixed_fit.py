@@ -27,7 +27,9 @@ def test_four_pairs_check_the_fit_of_the_accepted_points_without_a_partner(dock,
     assert info["pairs_checked"] == 4 and info["mode"] == "unpaired" and info["status"] == "ok", info["message"]
     assert info["message"].startswith("Your 4 pairs alone left the camera uncertain")
     said = " ".join(qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Success))
-    assert "your 4 pairs among them" in said and "Not used by a paired fit" not in said
+    assert "Camera fitted: " in said and "on your 4 pairs, kept out as check points" in said
+    assert "Not used by a paired fit" not in said
+    assert "4 pairs kept out as check points" in dock.resultLabel.text()
     # the camera the pairs checked is close to the truth where the points are
     error = np.linalg.norm(c.fitted.project(scene.xyz) - scene.uv, axis=1)
     assert np.sqrt(np.mean(error ** 2)) < 2.0
