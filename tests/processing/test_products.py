@@ -1,12 +1,16 @@
 """XYZ raster, photo -> map, map -> photo and orthophoto algorithms through processing.run on real files."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from osgeo import gdal
-from qgis.core import NULL, QgsFeature, QgsGeometry, QgsPointXY, QgsProcessingException, QgsVectorLayer
+from qgis.core import (NULL, QgsFeature, QgsGeometry, QgsPointXY, QgsProcessingException, QgsProcessingFeedback,
+                       QgsVectorLayer)
 
 from monoplot_plugin.core.dem import Dem
 from monoplot_plugin.core.xyz import compute_xyz, compute_xyz_full
+from monoplot_plugin.workflow.camera_files import camera_json
 
 
 def test_compute_xyz_writes_photo_sized_raster_matching_core(run_alg, small_scene, tmp_path):
@@ -132,6 +136,18 @@ def test_photo_features_carry_the_verdict_of_their_camera_file(run_alg, small_sc
                                         "OUTPUT": "memory:"})
         statuses.append(next(result["OUTPUT"].getFeatures())["fit_status"])
     assert statuses[0] in (None, NULL) and statuses[1] == "ok"
+    # an "uncertain" camera: its verdict, and no xy_error_m even with a pixel error given (as the dock)
+    doubtful = Path(small_scene["dir"]) / "doubtful.json"
+    doubtful.write_text(camera_json(cam, {"status": "uncertain", "message": "generated"}))
+    errors = {}
+    for camera in (small_scene["fitted"], str(doubtful)):
+        feedback = QgsProcessingFeedback()
+        result = run_alg("phototomap", {"INPUT": drawn, "CAMERA": camera, "DEM": small_scene["dem"], "STEP": 5,
+                                        "PIXEL_ERROR": 2.0, "OUTPUT": "memory:"}, feedback)
+        feature = next(result["OUTPUT"].getFeatures())
+        errors[feature["fit_status"]] = (feature["xy_error_m"], feedback.textLog())
+    assert errors["ok"][0] > 0 and "left empty" not in errors["ok"][1]
+    assert errors["uncertain"][0] in (None, NULL) and "xy_error_m is left empty" in errors["uncertain"][1]
 
 
 def test_map_line_projects_onto_photo_and_back(run_alg, small_scene, tmp_path):

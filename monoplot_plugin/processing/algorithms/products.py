@@ -154,7 +154,7 @@ class PhotoToMap(_CameraDemAlgorithm):
              "its ground points, from the terrain's footprint of that error; it grows with range and where rays graze "
              "the terrain, and leaves out the DEM's own error. Each feature also gets fit_status, the verdict the "
              "camera file carries (ok, uncertain, poor; uncertain for an ok fitted on another photo than PHOTO; "
-             "empty when the file has none).")
+             "empty when the file has none); xy_error_m stays empty under an uncertain or poor one.")
 
     def initAlgorithm(self, config=None):
         self.addParameter(QgsProcessingParameterFeatureSource("INPUT", self.tr("Features drawn on the photo")))
@@ -185,6 +185,12 @@ class PhotoToMap(_CameraDemAlgorithm):
         fields, measured = geo.measured_fields(source.fields(), QgsWkbTypes.geometryType(source.wkbType()))
         # and, as the dock's, the camera's verdict on this photo (empty when its file has none)
         status = verdict_on_photo(self.parameterAsFile(parameters, "CAMERA", context), path)[0] or None
+        if pixel_rmse is not None and status in ("uncertain", "poor"):
+            # as the dock: no ± on a camera the evidence does not support (a trial's frame, turned 0.6° since the
+            # camera was fitted on another frame, had its line 58 m off with xy_error_m 6.0 m)
+            feedback.pushWarning(self.tr("The camera is {0} on this photo: xy_error_m is left empty (PIXEL_ERROR "
+                                         "would understate its error).").format(status))
+            pixel_rmse = None
         if fields.indexFromName(FIT_STATUS_FIELD) < 0:
             fields.append(QgsField(FIT_STATUS_FIELD, QVariant.Type.String))
             measured.append(FIT_STATUS_FIELD)
