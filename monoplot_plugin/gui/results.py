@@ -14,6 +14,7 @@ from qgis.PyQt.QtCore import QTimer
 
 from ..state import ACCEPTED
 from . import engine
+from ..core.fit.verdict import pairs_wanted
 from .summary import unpartnered_text
 
 __all__ = ["ResultsMixin", "ResultsHost", "MOVED_SIGMAS"]
@@ -377,9 +378,11 @@ class ResultsMixin:
         if info.get("mode") == "paired" and n_pairs:  # its pairs only; the unpaired points wait
             text = self.tr("Camera fitted: RMSE {0:.1f} px on {1} pairs.").format(
                 rmse if rmse is not None else float("nan"), n_pairs)
+            more = pairs_wanted(n_pairs, len(info.get("free") or ()))  # the fit tab's advice, here too (a trial)
+            if more:
+                text += " " + self.tr("Pair {0} more point(s): too few pairs to test the camera.").format(more)
             unused = unpartnered_text(info, self.tr)
-            if unused and info.get("alone_status"):  # fitted on their own too, and the paired fit kept (a trial
-                # read "not used: pair them" above a message saying they had been fitted)
+            if unused and info.get("alone_status"):  # fitted on their own too, the paired fit kept (a trial)
                 text += " " + self.tr("The {0} were also fitted on their own, your pairs as check points: "
                                       "{1}, so the paired fit is kept.").format(unused, self.tr(info["alone_status"]))
             elif unused:  # a trial's curation of 18 DEM points went unsaid: both sides are counted
@@ -400,8 +403,7 @@ class ResultsMixin:
                 self.tr("{0} check points, your {1} pairs among them").format(n_check, k)
             text = self.tr("Camera fitted: {0:.1f} px RMSE on {1}; the camera from the points without a partner "
                            "(fit: {2:.1f} px on {3} matched points).").format(
-                check, checks, rmse if rmse is not None else float("nan"),
-                n_matched if n_matched is not None else n_photo)
+                check, checks, float("nan") if rmse is None else rmse, n_photo if n_matched is None else n_matched)
         elif check is not None and info.get("mode") == "paired" and n_pairs:  # its pairs, as the tab says
             text = self.tr("Camera fitted: {0:.1f} px RMSE on {1} check points (fit: {2:.1f} px on {3} "
                            "pairs).").format(check, info.get("n_check", 0),

@@ -54,3 +54,22 @@ def test_pairs_the_other_points_contradict_keep_the_paired_fit_and_the_bar_says_
     said = " ".join(qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Warning))
     assert "were also fitted on their own" in said and "pair them (select one" not in said
     assert "fitted apart" in dock.resultLabel.text()
+
+
+def test_too_few_pairs_the_bar_asks_for_as_many_more_as_the_fit_tab(dock, scene, qtbot, qgis_iface):
+    """A trial's bar said "pair them" of 20 points without a partner while its fit tab said "pair 1 more point"."""
+    load_inputs(dock, scene, qtbot)
+    c, panel = dock.controller, dock.curation_panel
+    panel.refitCheck.setChecked(False)
+    photo, world = add_scene_points(dock, scene)
+    c.set_prior(scene.prior)
+    for i in range(4):
+        c.link(photo[i].id, world[i].id)
+    qgis_iface.messageBar().clear_messages()
+    assert c.fit()
+    qtbot.waitUntil(lambda: c.fitted is not None, timeout=120000)
+    info = c.state.fit_info
+    more = 2 if len(info["free"]) == 7 else 1
+    assert info["status"] != "ok" and f"pair {more} more point" in info["message"]
+    said = " ".join(qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Warning))
+    assert f"Pair {more} more point(s): too few pairs to test the camera." in said

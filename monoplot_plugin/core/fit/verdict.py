@@ -46,7 +46,7 @@ from .lens import lens_text
 from .near_ground import loose_ground_text
 
 __all__ = ["degenerate_points", "weakest_parameter", "weak_direction_matters", "judge", "judge_by_checks",
-           "outlier_note", "photo_spread"]
+           "outlier_note", "photo_spread", "pairs_wanted"]
 
 #: check points more than this many times the fit's own RMSE off (and over 0.5 % of the picture) make it uncertain:
 #: a person's clicks on check points err by about as much as on the fitted points, not several times more
@@ -229,11 +229,11 @@ def judge(e: dict) -> Tuple[str, str]:
         # all pairs stays small (generated: one height 60 m off of 12 pairs, "ok" at 10.3 px, the camera 27 m off)
         weak.append("one pair disagrees with the others" + suspect)
     spare = 2 * int(e.get("n_pairs", 0)) - n_free
-    if e.get("mode") == "paired" and np.isfinite(rmse) and spare < MIN_SPARE:
+    more = pairs_wanted(int(e.get("n_pairs", 0)), n_free)
+    if e.get("mode") == "paired" and np.isfinite(rmse) and more:
         # the residuals of as many equations as unknowns (and one) are near zero whatever the camera: generated
         # scenes, 4 noisy pairs for 7 parameters: 24 of 100 fits "ok", 13 of them over 1.5 times the error of the
         # scene's best camera off, 5 over twice it (5-660 px)
-        more = (FEW_SPARE_TARGET - spare + 1) // 2
         weak.append(f"{e.get('n_pairs', 0)} pairs for {n_free} free parameters leave {max(spare, 0)} equation"
                     f"{'s' if spare != 1 else ''} to spare, too few to test the camera (no pair can be left out): "
                     f"pair {more} more point{'s' if more != 1 else ''}, mark check points, or fix the parameters "
@@ -349,6 +349,17 @@ def judge(e: dict) -> Tuple[str, str]:
     if weak:
         return "uncertain", text + " Uncertain: " + "; ".join(weak) + "." + note
     return "ok", text + note
+
+
+def pairs_wanted(n_pairs: int, n_free: int) -> int:
+    """How many more pairs a paired fit of ``n_pairs`` for ``n_free`` parameters needs before its residuals can test
+    it (fewer than :data:`MIN_SPARE` equations to spare; enough for :data:`FEW_SPARE_TARGET`); 0 when it has enough.
+
+    >>> pairs_wanted(4, 7), pairs_wanted(4, 6), pairs_wanted(5, 7), pairs_wanted(11, 7)
+    (2, 1, 0, 0)
+    """
+    spare = 2 * int(n_pairs) - int(n_free)
+    return 0 if spare >= MIN_SPARE or n_free <= 0 else (FEW_SPARE_TARGET - spare + 1) // 2
 
 
 def check_reaches_loose_ground(e: dict) -> bool:
