@@ -11,12 +11,18 @@ from monoplot_plugin.state import ACCEPTED
 from test_dock import add_scene_points, load_inputs
 
 
-def test_four_pairs_check_the_fit_of_the_accepted_points_without_a_partner(dock, scene, qtbot, qgis_iface):
+def _curating(dock, scene, qtbot):
+    """(controller, photo points, map points): the scene's exact points suggested, its rough camera set, and no
+    background refit (the Fit's own verdict only)."""
     load_inputs(dock, scene, qtbot)
-    c, panel = dock.controller, dock.curation_panel
-    panel.refitCheck.setChecked(False)  # the Fit's own verdict only
+    dock.curation_panel.refitCheck.setChecked(False)
     photo, world = add_scene_points(dock, scene)
-    c.set_prior(scene.prior)
+    dock.controller.set_prior(scene.prior)
+    return dock.controller, photo, world
+
+
+def test_four_pairs_check_the_fit_of_the_accepted_points_without_a_partner(dock, scene, qtbot, qgis_iface):
+    c, photo, world = _curating(dock, scene, qtbot)
     for i in range(4):
         c.link(photo[i].id, world[i].id)
     c.set_status([p.id for p in photo[4:44]] + [w.id for w in world[4:44]], ACCEPTED)
@@ -37,11 +43,7 @@ def test_four_pairs_check_the_fit_of_the_accepted_points_without_a_partner(dock,
 
 def test_pairs_the_other_points_contradict_keep_the_paired_fit_and_the_bar_says_so(dock, scene, qtbot, qgis_iface):
     """A trial read "not used: pair them" in the bar above a fit tab saying those points had been fitted."""
-    load_inputs(dock, scene, qtbot)
-    c, panel = dock.controller, dock.curation_panel
-    panel.refitCheck.setChecked(False)
-    photo, world = add_scene_points(dock, scene)
-    c.set_prior(scene.prior)
+    c, photo, world = _curating(dock, scene, qtbot)
     for i in range(5):  # each photo point linked to the next one's map point: wrong pairs
         c.link(photo[i].id, world[(i + 1) % 5].id)
     c.set_status([p.id for p in photo[5:45]] + [w.id for w in world[5:45]], ACCEPTED)
@@ -58,11 +60,7 @@ def test_pairs_the_other_points_contradict_keep_the_paired_fit_and_the_bar_says_
 
 def test_too_few_pairs_the_bar_asks_for_as_many_more_as_the_fit_tab(dock, scene, qtbot, qgis_iface):
     """A trial's bar said "pair them" of 20 points without a partner while its fit tab said "pair 1 more point"."""
-    load_inputs(dock, scene, qtbot)
-    c, panel = dock.controller, dock.curation_panel
-    panel.refitCheck.setChecked(False)
-    photo, world = add_scene_points(dock, scene)
-    c.set_prior(scene.prior)
+    c, photo, world = _curating(dock, scene, qtbot)
     for i in range(4):
         c.link(photo[i].id, world[i].id)
     qgis_iface.messageBar().clear_messages()
