@@ -62,16 +62,20 @@ class PriorPositionBox:
         controller.demChanged.connect(self.show)
         self.show()
 
-    def show(self) -> None:
-        """The box shows the rough camera's X, Y (to the centimetre), empty without one."""
+    def _camera_text(self) -> str:
+        """The rough camera's X, Y to the centimetre, "" without one."""
         prior = self.controller.prior
-        text = "" if prior is None else f"{prior.position[0]:.2f}, {prior.position[1]:.2f}"
+        return "" if prior is None else f"{prior.position[0]:.2f}, {prior.position[1]:.2f}"
+
+    def show(self) -> None:
+        """The box shows the rough camera's X, Y, empty without one (not while the person types in it)."""
+        text = self._camera_text()
         if self.edit.text() != text and not self.edit.hasFocus():
             self.edit.setText(text)
 
     def _edited(self) -> None:
         prior, dem = self.controller.prior, self.controller.dem
-        shown = "" if prior is None else f"{prior.position[0]:.2f}, {prior.position[1]:.2f}"
+        shown = self._camera_text()
         text = self.edit.text().strip()
         if not text or text == shown:  # left as it is (editingFinished also fires on leaving the box)
             return

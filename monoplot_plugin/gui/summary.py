@@ -168,23 +168,26 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     n_photo, n_matched = info.get("n_photo", 0), info.get("n_matched")
     photo_text = tr("{0} photo").format(n_photo) if info.get("mode") != "unpaired" or n_matched is None else \
         tr("{0} of {1} photo matched").format(n_matched, n_photo)  # the RMSE is over the matched ones only
+    pairs_text = ""
+    if info.get("n_pairs"):
+        pairs_text = (tr(", {0} pairs kept out as check points") if info.get("pairs_checked") else
+                      tr(", {0} pairs")).format(info["n_pairs"])
     head = tr("RMSE <b>{0}</b>{1} · {2} / {3} DEM points{4}").format(
         "—" if rmse is None else f"{rmse:.1f} px",
         "" if loo is None else tr(" (leave-one-out {0:.1f} px)").format(loo),
-        photo_text, info.get("n_map", 0),
-        "" if not info.get("n_pairs") else tr(", {0} pairs").format(info["n_pairs"]) if not info.get(
-            "pairs_checked") else tr(", {0} pairs kept out as check points").format(info["n_pairs"]))
+        photo_text, info.get("n_map", 0), pairs_text)
     if info.get("loaded_from") and not info.get("n_photo"):  # not "RMSE — · 0 photo / 0 DEM points"
         head = tr("loaded from {0}").format(html_escape(os.path.basename(str(info["loaded_from"])))) + (
             "" if rmse is None else tr(" · its fit: RMSE {0:.1f} px").format(rmse))
     if info.get("mode") == "paired" and info.get("n_pairs"):  # a paired fit uses its pairs only: say so
         unused = unpartnered_text(info, tr)
+        if unused and info.get("alone_status"):  # fitted on their own too, the paired fit kept (workflow.mixed)
+            unused = tr(" ({0} fitted apart, {1}: see below)").format(unused, tr(info["alone_status"]))
+        elif unused:
+            unused = tr(" ({0} not used: pair them to use them)").format(unused)
         head = tr("RMSE <b>{0}</b>{1} on {2} pairs{3}").format(
             "—" if rmse is None else f"{rmse:.1f} px",
-            "" if loo is None else tr(" (leave-one-out {0:.1f} px)").format(loo), info["n_pairs"],
-            "" if not unused else tr(" ({0} not used: pair them to use them)").format(unused)
-            if not info.get("alone_status") else tr(" ({0} fitted apart, {1}: see below)").format(
-                unused, tr(info["alone_status"])))
+            "" if loo is None else tr(" (leave-one-out {0:.1f} px)").format(loo), info["n_pairs"], unused)
     if info.get("check_rmse_px") is not None:
         head = tr("Check points <b>{0:.1f} px</b> RMSE on {1} (not fitted)").format(
             info["check_rmse_px"], info.get("n_check", 0)) + "<br>" + tr("Fit: ") + head
