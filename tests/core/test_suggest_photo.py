@@ -150,6 +150,22 @@ def test_a_caption_of_two_lines_of_different_sizes_stays_outside_the_picture():
     assert picture_box(scan) == box_beyond_captions(scan)[0]  # found by the border itself, caption detector or not
 
 
+def test_a_caption_whose_letters_leave_rows_of_paper_stays_outside_the_picture():
+    """A re-check trial's 1900 print, laid out as scanned: white margin, no frame line, a serif title and a
+    smaller line under it. In the capitals' upper rows and between the small line's letters, 90 % of a row is
+    still paper: the border stopped there, the picture's bottom was put 127 px low, and the fitted pitch was 2
+    degrees (7-10 σ) off."""
+    rng = np.random.default_rng(5)
+    r0, r1, c0, c1 = 50, 1150, 60, 1660
+    scan = (247 + rng.normal(0, 2, (r1 + 170, c1 + 60))).clip(0, 255).astype(np.uint8)
+    scan[r0:r1, c0:c1] = cv2.resize(textured_picture(h=275, w=400, low=40, high=200), (c1 - c0, r1 - r0))
+    cv2.putText(scan, "Der Bergsee unter dem Hohgrat, von der Alphuette aus", (c0 + 170, r1 + 70),
+                cv2.FONT_HERSHEY_TRIPLEX, 1.2, 50, 2, cv2.LINE_AA)
+    cv2.putText(scan, "Phot. J. Gabler, Interlaken   No. 2214      1900", (c0 + 330, r1 + 125),
+                cv2.FONT_HERSHEY_COMPLEX_SMALL, 1.4, 50, 1, cv2.LINE_AA)
+    assert np.allclose(box_beyond_captions(scan)[0], (r0, r1, c0, c1), atol=4), box_beyond_captions(scan)[0]
+
+
 def test_paper_between_a_frame_line_and_the_picture_is_not_picture():
     """A re-check trial's scan: a frame line 14 px outside the picture. The box runs along the frame line; the
     paper inside it was draped as a white seam along the orthophoto's edges and got suggestions on the picture's
