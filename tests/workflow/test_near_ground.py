@@ -152,3 +152,16 @@ def test_far_check_points_do_not_verify_the_near_ground(hillside):
     assert result.status == "uncertain", result.message
     assert "do not reach that ground" in result.message and "Verified by the check points" not in result.message
     assert result.evidence["check_nearest_m"] > result.evidence["ground_loose_reach_m"]
+
+
+def test_too_few_far_check_points_are_told_to_include_the_near_ground(hillside):
+    """Too few check points, all far: the advice to add more says one must be on the near ground (a re-check
+    trial added far ones as told, then read that they "do not reach that ground")."""
+    dem, truth, uv, hits, dist, _ = hillside
+    fit_uv, xyz = _points(hillside, near=0)
+    far_checks = np.flatnonzero(dist > 2000)[20:23]
+    result = fit(fit_uv, xyz, _prior(truth), dem, options=OPTIONS, check_uv=uv[far_checks],
+                 check_xyz=hits[far_checks]).result
+    assert result.status == "uncertain", result.message
+    reach = result.evidence["ground_loose_reach_m"]
+    assert f"spread over the picture, one of them within {reach:.0f} m of the camera, verify" in result.message

@@ -336,9 +336,15 @@ def judge(e: dict) -> Tuple[str, str]:
         # too few to verify: say how close it is (a trial marked 3 good pairs as check points, as advised, and a
         # fit "ok" with them as pairs turned "uncertain" with no word on what would settle it)
         n_check = int(e.get("n_check", 0))
+        # ... and what "spread" must include: loose near ground is verified only by a check point on it (a re-check
+        # trial marked 4 far check points as told and was then told they "do not reach that ground")
+        near = ""
+        if loose in weak and not check_reaches_loose_ground(e):
+            near = f", one of them within {float(e['ground_loose_reach_m']):.0f} m of the camera," \
+                if np.isfinite(e.get("ground_loose_reach_m", np.nan)) else ", one of them on the near ground,"
         # "off by", not "agree": a trial read "the 3 check points agree (19.6 px)" as reassurance
         weak.append(f"the {n_check} check point{'s are' if n_check != 1 else ' is'} off by {check:.1f} px, under "
-                    f"1.5 % of the picture: {MIN_CHECKS} or more, spread over the picture, verify the camera "
+                    f"1.5 % of the picture: {MIN_CHECKS} or more, spread over the picture{near} verify the camera "
                     f"despite the rest")
     note = (" " + e["note"]) if e.get("note") else ""
     # A camera judged probably wrong cannot say which points are wrong: no outlier advice under it (a person told to
