@@ -87,9 +87,11 @@ class PriorPositionBox:
             return
         x, y = xy
         if prior is None:
-            if self.place(x, y) is not None:
-                self.say(tr("Rough camera placed at X {0:.2f}, Y {1:.2f}; set its heading (box or Draw on map)."
-                            ).format(x, y))
+            placed = self.place(x, y)
+            if placed is not None:  # say which way it looks: a trial had typed the heading, and was told to set it
+                self.say(tr("Rough camera placed at X {0:.2f}, Y {1:.2f}, looking along heading {2:.0f}°: if it "
+                            "looks elsewhere, change the Heading box or use Draw on map.").format(
+                    x, y, float(placed.heading)))
             self.show()
             return
         old_ground, ground = float(dem.sample(*prior.position[:2])), float(dem.sample(x, y))

@@ -249,6 +249,7 @@ def test_position_box_places_and_moves_the_rough_camera_to_typed_coordinates(doc
     qtbot.keyClick(dock.positionEdit, Qt.Key.Key_Return)
     assert c.prior is not None and c.prior.position[:2] == pytest.approx((round(x, 2), round(y, 2)), abs=1e-6)
     assert c.prior.heading == pytest.approx(15.0)
+    assert "looking along heading 15°" in dock.statusLabel.text()  # what it took, not "set its heading"
     # moved: the height above the DEM and the angles kept
     c.set_prior(c.prior.with_parameters(z=float(scene.dem.sample(x, y)) + 30.0, pitch=-3.0))
     assert dock.positionEdit.text() == f"{round(x, 2):.2f}, {round(y, 2):.2f}"
