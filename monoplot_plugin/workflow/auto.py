@@ -198,7 +198,7 @@ def judge_by_check_points(status: str, message: str, camera: Camera, check_uv: n
     >>> judge_by_check_points("ok", "m.", cam, cam.project(xyz[:2]) + 1.0, xyz[:2])["status"]  # 2 agree: not lowered
     'ok'
     """
-    from ..core.fit.verdict import WEAK_SHARE, judge_by_checks
+    from ..core.fit.verdict import WEAK_SHARE, checks_beyond_residuals, judge_by_checks
 
     n_given = len(np.asarray(check_uv).reshape(-1, 2))
     out = {"status": status, "message": message, "check_rmse_px": None, "n_check": n_given}
@@ -208,7 +208,9 @@ def judge_by_check_points(status: str, message: str, camera: Camera, check_uv: n
     diag = math.hypot(*camera.image_size)
     checked, text = judge_by_checks(rmse, n, diag, rmse_px)
     out["check_rmse_px"] = rmse if math.isfinite(rmse) else None
-    if checked == "uncertain" and n and rmse <= WEAK_SHARE * diag:
+    # (agreeing means within 1.5 % of the picture and within a few times the camera's own residuals)
+    agree = rmse <= WEAK_SHARE * diag and not checks_beyond_residuals(rmse, rmse_px, diag)
+    if checked == "uncertain" and n and agree:
         # they agree, only too few to verify the camera alone: that lowers nothing its own evidence verified (a
         # trial: 2 check points at 0.9 px made an "ok" fit "uncertain" when imported after it, and left it "ok"
         # when imported before it, as a fit judges them)
