@@ -57,9 +57,20 @@ def terrain_pitch(camera: Camera, dem, rays: int = 9, samples: int = 160,
     return pitch_and_rule(camera, dem, rays, samples, sky_rows)[0]
 
 
-def pitch_and_rule(camera: Camera, dem, rays: int = 9, samples: int = 160,
-                   sky_rows: Optional[np.ndarray] = None) -> Tuple[Optional[float], bool]:
-    """(:func:`terrain_pitch`, True when the photo's skyline set it, False for the fixed fifth)."""
+def pitch_and_rule(camera: Camera, dem, rays: int = 9, samples: int = 160, sky_rows: Optional[np.ndarray] = None,
+                   sky_above: bool = False) -> Tuple[Optional[float], str]:
+    """(:func:`terrain_pitch`, the rule that set it: "photo" (the photo's skyline), "fifth" (the fixed fifth) or
+    "above"). ``sky_above``: the photo shows no sky and the camera is in the air, looking down: without the photo's
+    skyline the DEM's goes just above the top of the frame, the least downward pitch that hides it (a drone trial's
+    photo, pitched -30 deg with no sky in it, got -13 deg from the fixed fifth).
+
+    >>> from monoplot_plugin.core.dem import Dem
+    >>> flat = Dem.from_array(np.zeros((100, 100)), (0, 10, 0, 1000, 0, -10))
+    >>> drone = Camera((500.0, 100.0, 120.0), 0.0, 0.0, 0.0, 60.0, (400, 300))
+    >>> pitch, rule = pitch_and_rule(drone, flat, sky_above=True)
+    >>> rule, round(pitch - terrain_pitch(drone, flat) + 0.3 * drone.vertical_fov, 6)
+    ('above', 0.0)
+    """
     x0, y0, z0 = (float(v) for v in camera.position)
     bx0, by0, bx1, by1 = dem.bounds()
     reach = math.hypot(bx1 - bx0, by1 - by0)
@@ -86,10 +97,12 @@ def pitch_and_rule(camera: Camera, dem, rays: int = 9, samples: int = 160,
                 along = math.hypot(focal, u - camera.cx)
                 on_photo.append(elevation - math.degrees(math.atan2(camera.cy - v, along)))
     if not best:
-        return None, False
+        return None, "fifth"
     if len(on_photo) >= max(3, rays // 3):
-        return float(np.clip(np.median(on_photo), -60.0, 30.0)), True
-    return float(np.clip(np.median(best) - 0.2 * camera.vertical_fov, -60.0, 30.0)), False
+        return float(np.clip(np.median(on_photo), -60.0, 30.0)), "photo"
+    if sky_above:
+        return float(np.clip(np.median(best) - 0.5 * camera.vertical_fov, -60.0, 30.0)), "above"
+    return float(np.clip(np.median(best) - 0.2 * camera.vertical_fov, -60.0, 30.0)), "fifth"
 
 
 def photo_sky_rows(image: np.ndarray, mask: Optional[np.ndarray] = None) -> Optional[np.ndarray]:
@@ -193,13 +206,20 @@ class PriorsMixin:
     def _with_terrain_pitch(self, camera: Camera, say: bool = True) -> Tuple[Camera, str]:
         """(``camera`` pitched at the terrain, the sentence that says how; "" when it stays as it is); ``say``:
         also show the sentence (the EXIF camera puts it in its own message, which would replace it)."""
-        pitch, on_photo = pitch_and_rule(camera, self.dem, sky_rows=self._photo_sky_rows())
+        from ..workflow.fit import ON_GROUND_MAX_M, ground_clearance
+
+        rows = self._photo_sky_rows()
+        in_air = ground_clearance(camera, self.dem) > ON_GROUND_MAX_M  # (NaN off the DEM: not in the air)
+        pitch, rule = pitch_and_rule(camera, self.dem, sky_rows=rows, sky_above=rows is None and in_air)
         if pitch is None:
             return camera, ""
-        if on_photo:
+        if rule == "photo":
             # measured once on 40 generated scenes, rough position ± 20 m: median pitch error 0.6° (3.5° before)
             text = self.tr("Pitch set to {0:.1f}°, so that the DEM's skyline lies on the photo's; edit it if "
                            "wrong.")
+        elif rule == "above":
+            text = self.tr("Pitch set to {0:.1f}°: the photo shows no sky, so the camera, in the air, looks down at "
+                           "least this much (the DEM's skyline just above the picture); edit it if you know it.")
         else:
             text = self.tr("Pitch set to {0:.1f}° from the terrain (its skyline in the upper part of the picture); "
                            "edit it if wrong.")

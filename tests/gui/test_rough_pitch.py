@@ -54,3 +54,29 @@ def test_the_dock_says_which_skyline_set_the_pitch(dock, scene, qtbot):
     rule = "so that the DEM's skyline lies on the photo's" if prior.pitch != fixed else \
         "its skyline in the upper part of the picture"
     assert any(rule in text for text in said), said
+
+
+def test_a_drone_photo_without_sky_pitches_the_rough_camera_down(dock, scene, qtbot, tmp_path):
+    """A drone trial's photo looked down the slope (pitch -30 deg) and showed no sky; the rough camera got -13 deg
+    from the fixed rule, which puts the DEM's skyline inside the picture. In the air, with no sky on the photo, the
+    DEM's skyline goes just above the picture: the least downward pitch the photo allows."""
+    import cv2
+
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    x, y, _ = scene.camera.position
+    height = 250.0
+    truth = scene.camera.with_parameters(z=float(scene.dem.sample(x, y)) + height, pitch=-45.0)
+    photo = render_photo(truth, scene.dem)
+    assert photo_sky_rows(photo) is None
+    path = str(tmp_path / "drone.png")
+    cv2.imwrite(path, photo[:, :, ::-1])
+    dock.photoFile.setFilePath(path)
+    said = []
+    c.message.connect(lambda text, level: said.append(text))
+    prior = c.prior_from_map(x, y, truth.heading, truth.fov, 0.0, height)
+    fixed = terrain_pitch(prior.with_parameters(pitch=0.0), scene.dem)
+    assert truth.pitch - 1.0 <= prior.pitch < fixed - 5.0, (prior.pitch, fixed)  # down, never past the truth
+    assert any("the photo shows no sky" in text for text in said), said
+    on_ground = c.prior_from_map(x, y, truth.heading, truth.fov, 0.0, 2.0)  # fog, or a close-up: the fixed rule
+    assert on_ground.pitch == terrain_pitch(on_ground.with_parameters(pitch=0.0), scene.dem)
