@@ -42,6 +42,12 @@ from .xyz.zbuffer import NEAR_PLANE_M
 #: the caller states the position's uncertainty: the fit's default position σ is at least this
 #: (:meth:`~.fit.options.FitOptions.prior_sigmas`), so such a slope may as well stand behind the true camera.
 BLOCKED_VIEW_NEAR_M = 100.0
+#: DEM suggestions within this many cells of the DEM's border are left out: where the DEM stops, its rendering
+#: ends in an edge against the sky that no photo shows (the world goes on), and key points crowd on it (a drone
+#: trial: most of 161 suggestions on the border of its DEM tile, none on the landslide it was made for).
+EDGE_CELLS = 3.0
+#: ... and key points within this many pixels of it in the rendering from a camera
+EDGE_PX = 6
 
 __all__ = ["PhotoSuggestions", "DemSuggestions", "suggest_photo_points", "suggest_dem_points", "detect_keypoints",
            "spread_by_grid", "thin_evenly", "terrain_landmarks", "silhouette_peaks", "PHOTO_DETECTOR", "DEM_DETECTOR"]
@@ -295,6 +301,11 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
         import cv2
 
         mask = cv2.dilate(mask.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
+        # no key points on the rendering's edge where the DEM stops (see EDGE_CELLS): its pixels, widened by a key
+        # point's reach (a point 3-4 cells in, one rendered pixel at range, still sits on that edge)
+        border = np.zeros_like(mask)
+        border[mask & res.hit] = near_dem_border(dem, res.xyz[mask & res.hit], cells=1.5)
+        mask &= ~cv2.dilate(border.astype(np.uint8), np.ones((2 * EDGE_PX + 1,) * 2, np.uint8)).astype(bool)
         uv, score, source = detect_keypoints(img, mask, **{**DEM_DETECTOR, **detector})
         cell = (float(cell_px) * scale) if cell_px else max(small.width, small.height) / 128.0
         min_dist = cell / 3.0 if min_distance_px is None else float(min_distance_px) * scale
@@ -370,6 +381,8 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
     score = np.concatenate(score_list) if score_list else np.zeros(0)
     kind = np.concatenate(kind_list).astype("<U8") if kind_list else np.zeros(0, dtype="<U8")
     prom = np.concatenate(prom_list) if prom_list else np.zeros(0)
+    inner = ~near_dem_border(dem, xyz)
+    xyz, score, kind, prom = xyz[inner], score[inner], kind[inner], prom[inner]
     if camera is not None and len(xyz):
         uv, depth = camera.project_with_depth(xyz)
         inside = camera.in_image(uv, margin=view_margin * max(camera.image_size)) & (depth > near_m)
@@ -385,6 +398,20 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
         order = order[stable_order(score[order], xyz[order, 0], xyz[order, 1])]
     xyz, score, kind, prom, uv = xyz[order], score[order], kind[order], prom[order], uv[order]
     return DemSuggestions(xyz, score, [f"d{i:04d}" for i in range(len(xyz))], kind, uv, prom, near_m)
+
+
+def near_dem_border(dem, xyz: np.ndarray, cells: float = EDGE_CELLS) -> np.ndarray:
+    """(N,) bool: the map points ``xyz`` (N, 3) lie within ``cells`` cells of the DEM's border.
+
+    >>> from .dem import Dem
+    >>> dem = Dem.from_array(np.zeros((100, 100)), (0, 10, 0, 1000, 0, -10))
+    >>> near_dem_border(dem, np.array([[15.0, 500.0, 0.0], [500.0, 500.0, 0.0], [500.0, 985.0, 0.0]])).tolist()
+    [True, False, True]
+    """
+    if not len(xyz):
+        return np.zeros(0, dtype=bool)
+    col, row = dem.map_to_cell(xyz[:, 0], xyz[:, 1])
+    return np.minimum.reduce([col, row, dem.cols - col, dem.rows - row]) < cells
 
 
 def blocked_view(res, camera, dem, near_m: float = BLOCKED_VIEW_NEAR_M, step: int = 4) -> bool:

@@ -350,3 +350,20 @@ def test_dust_specks_on_a_scan_get_no_suggestions():
     s = suggest_photo_points(photo, max_points=1000)
     on_dust = np.linalg.norm(s.uv[:, None] - (centres[None] + 0.5), axis=2).min(axis=1) <= 2.5
     assert len(s.uv) == 1000 and on_dust.mean() < 0.02
+
+
+def test_dem_suggestions_leave_out_the_edge_where_the_dem_stops():
+    """A drone trial's DEM tile, a valley side rising beyond its border: the rendering ends in an edge against the
+    sky there, which no photo shows, and most DEM suggestions sat on it."""
+    from monoplot_plugin.core.suggest import near_dem_border
+    from monoplot_plugin.core.synthetic import synthetic_terrain
+
+    base = synthetic_terrain((300, 300), cell=5.0, seed=2)
+    rows = np.arange(300)[:, None]
+    dem = Dem.from_array(base.elevation * 0.1 + (299 - rows) * 5.0 * 0.28, base.geotransform, crs_wkt=base.crs_wkt)
+    x0, y0, x1, _ = dem.bounds()
+    x, y = (x0 + x1) / 2, y0 + 200
+    cam = Camera((x, y, float(dem.sample(x, y)) + 120.0), 40.0, -30.0, 0.0, 71.6, (1200, 900), crs_wkt=dem.crs_wkt)
+    s = suggest_dem_points(dem, cam)
+    assert len(s.xyz) > 100
+    assert not near_dem_border(dem, s.xyz, cells=4.0).any()
