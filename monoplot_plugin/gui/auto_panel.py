@@ -45,6 +45,9 @@ def install_auto_panel(dock) -> "AutoPanel":
 FIXED_FOV_SIGMA_DEG = 0.02
 FIXED_POSITION_SIGMA_M = 1.0
 FIXED_ANGLE_SIGMA_DEG = 0.05
+#: share of the field of view: its σ in the search when the rough camera's comes from the photo's lens (EXIF focal
+#: length: a 35 mm equivalent is rounded to the millimetre, and its crop factor taken on the diagonal)
+LENS_FOV_SHARE = 0.04
 
 
 class AutoPanel(QObject):
@@ -110,7 +113,8 @@ class AutoPanel(QObject):
         (Position ±, Angles ±, Field of view ±); without a Position ±, for a rough camera at the photo's EXIF GPS
         position, a GPS's usual error (a trial's phone photo over a floodplain, GPS 32 m off: registered 251 m
         from where it stood with the default 200 m, 16 m and 90 m with 30 m in two runs, "uncertain" each time);
-        else the registration's defaults."""
+        without a Field of view ±, for a rough camera whose field of view is the photo's lens's (EXIF),
+        :data:`LENS_FOV_SHARE` of it; else the registration's defaults."""
         from .priors import GPS_POSITION_M, GPS_SOURCE
 
         c = self.controller
@@ -127,6 +131,10 @@ class AutoPanel(QObject):
                                       ("angle_sigma_deg", {"heading", "pitch"}, FIXED_ANGLE_SIGMA_DEG)):
                 if sigmas[name] is None and not held & set(free):
                     sigmas[name] = value
+        lens = c.exif_lens() if sigmas["fov_sigma_deg"] is None and c.prior is not None else None
+        if lens is not None and lens.fov and abs(c.prior.fov - lens.fov) < 0.05:
+            # the lens is known: a drone trial's 24 mm equivalent (71.6°) left the search free to end at 113.7°
+            sigmas["fov_sigma_deg"] = LENS_FOV_SHARE * float(lens.fov)
         return sigmas
 
     def _earlier_against_stated(self, found) -> Optional[tuple]:

@@ -266,3 +266,24 @@ def test_position_box_places_and_moves_the_rough_camera_to_typed_coordinates(doc
         qtbot.keyClick(dock.positionEdit, Qt.Key.Key_Return)
         assert said in dock.statusLabel.text() and c.prior.position == (nx, ny, nz)
         assert dock.positionEdit.text() == f"{nx:.2f}, {ny:.2f}"  # the camera's again, not the typo
+
+
+def test_find_camera_keeps_near_the_field_of_view_of_the_photos_lens(dock, scene, tmp_path):
+    """A drone trial's EXIF lens (24 mm equivalent, 71.6°) gave the rough camera its field of view, and Find
+    camera, free to search 10 %, ended at 113.7°. The lens's field of view is searched within a few %, unless the
+    person states a Field of view ± or types another field of view."""
+    from monoplot_plugin.gui.auto_panel import LENS_FOV_SHARE
+
+    path = _jpeg_with_exif(tmp_path / "drone.jpg", (480, 360), FocalLengthIn35mmFilm="24")
+    _load(dock, path)
+    c = dock.controller
+    fov = read_exif_prior(path, (480, 360)).fov
+    assert fov == pytest.approx(71.6, abs=0.1)  # the trial's (a 4:3 picture, crop factor on the diagonal)
+    c.set_prior(scene.prior.with_parameters(fov=fov))
+    panel = dock.auto_panel
+    assert panel.prior_sigmas(True)["fov_sigma_deg"] == pytest.approx(LENS_FOV_SHARE * fov)
+    c.set_prior(scene.prior.with_parameters(fov=fov + 5.0))  # typed: not the lens's
+    assert panel.prior_sigmas(True)["fov_sigma_deg"] is None
+    c.state.settings["fit"] = {"fov_sigma_deg": 8.0}
+    c.set_prior(scene.prior.with_parameters(fov=fov))
+    assert panel.prior_sigmas(True)["fov_sigma_deg"] == 8.0
