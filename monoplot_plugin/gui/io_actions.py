@@ -305,8 +305,10 @@ class IoActions:
         ])
         dock.cameraButtons.insertWidget(dock.cameraButtons.count() - 1, self.camera_button)
         self.points_button = self._menu_button(tr("Import / export"), [
-            (tr("Import GCP table (CSV: u, v, X, Y, Z, id, check)…"), self._import_csv),
-            (tr("Import GCP table as check points…"), lambda: self._import_csv(all_check=True)),
+            # the two differ at the start: a trial's script (a person skimming the menu too) took the first, whose
+            # column list ended in "check", for the second
+            (tr("Import GCP table as pairs (CSV: u, v, X, Y, Z; optional id, check)…"), self._import_csv),
+            (tr("Import GCP table, every row a check point…"), lambda: self._import_csv(all_check=True)),
             (tr("Export pairs as GCP table (CSV)…"), self._export_csv),
             None,
             (tr("Import selected point layers"), self._import_layers),

@@ -70,7 +70,7 @@ def test_the_menu_imports_a_gcp_table_as_check_points(dock, scene, tmp_path, mon
     path = str(tmp_path / "gcps.csv")
     write_points_csv(path, uv=uv, xyz=xyz, ids=[f"g{i}" for i in range(len(uv))])  # no check column
     monkeypatch.setattr(io_actions.QFileDialog, "getOpenFileName", staticmethod(lambda *a, **k: (path, "")))
-    entry = next(a for a in dock.io_actions.points_button.menu().actions() if "as check points" in a.text())
+    entry = next(a for a in dock.io_actions.points_button.menu().actions() if "every row a check point" in a.text())
     entry.trigger()
     assert len(c.state.check_pairs()) == len(uv) and not c.state.valid_pairs()
     inputs = c.fit_inputs()  # nothing of them goes into the fit: no points to fit (a message), or none of these
