@@ -258,6 +258,25 @@ class Dem:
             return float(col), float(row)
         return col, row
 
+    def near_edge(self, xyz, cells: float = 2.5) -> np.ndarray:
+        """(N,) bool: the map points ``xyz`` (N, 2 or 3) lie within ``cells`` cells of the DEM's border or of a
+        void. There the terrain stops, and a rendering of it ends in an edge no photo shows (the world goes on).
+
+        >>> dem = Dem.from_array(np.zeros((100, 100)), (0, 10, 0, 1000, 0, -10))
+        >>> dem.elevation[50, 80] = np.nan
+        >>> dem.near_edge([[15.0, 500.0], [500.0, 500.0], [500.0, 985.0], [805.0, 495.0]]).tolist()
+        [True, False, True, True]
+        """
+        xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, np.shape(xyz)[-1])
+        col, row = (np.atleast_1d(v) for v in self.map_to_cell(xyz[:, 0], xyz[:, 1]))
+        out = (col < cells) | (row < cells) | (col > self.cols - cells) | (row > self.rows - cells)
+        reach = int(math.ceil(cells))
+        near_void = self.derived(f"near_void_{reach}", lambda z: _near_voids(z, reach))
+        if near_void is not None:
+            out |= near_void[np.clip(row.astype(np.int64), 0, self.rows - 1),
+                             np.clip(col.astype(np.int64), 0, self.cols - 1)]
+        return out
+
     def cell_centres(self) -> Tuple[np.ndarray, np.ndarray]:
         """(X, Y): two (rows, cols) float64 arrays of cell-centre map coordinates."""
         cc, rr = np.meshgrid(np.arange(self.cols) + 0.5, np.arange(self.rows) + 0.5)
@@ -435,6 +454,16 @@ def utm_wkt_for_lonlat(lon: float, lat: float) -> str:
     srs = osr.SpatialReference()
     srs.ImportFromEPSG((32600 if lat >= 0 else 32700) + zone)
     return srs.ExportToWkt()
+
+
+def _near_voids(elevation: np.ndarray, reach: int) -> Optional[np.ndarray]:
+    """(rows, cols) bool, cells within ``reach`` cells of a void; None when there is none."""
+    void = np.isnan(elevation)
+    if not void.any():
+        return None
+    from scipy import ndimage
+
+    return ndimage.binary_dilation(void, iterations=reach)
 
 
 def _finite_min_max(a: np.ndarray) -> Tuple[float, float]:

@@ -304,7 +304,7 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
         # no key points on the rendering's edge where the DEM stops (see EDGE_CELLS): its pixels, widened by a key
         # point's reach (a point 3-4 cells in, one rendered pixel at range, still sits on that edge)
         border = np.zeros_like(mask)
-        border[mask & res.hit] = near_dem_border(dem, res.xyz[mask & res.hit], cells=1.5)
+        border[mask & res.hit] = dem.near_edge(res.xyz[mask & res.hit], cells=1.5)
         mask &= ~cv2.dilate(border.astype(np.uint8), np.ones((2 * EDGE_PX + 1,) * 2, np.uint8)).astype(bool)
         uv, score, source = detect_keypoints(img, mask, **{**DEM_DETECTOR, **detector})
         cell = (float(cell_px) * scale) if cell_px else max(small.width, small.height) / 128.0
@@ -381,7 +381,7 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
     score = np.concatenate(score_list) if score_list else np.zeros(0)
     kind = np.concatenate(kind_list).astype("<U8") if kind_list else np.zeros(0, dtype="<U8")
     prom = np.concatenate(prom_list) if prom_list else np.zeros(0)
-    inner = ~near_dem_border(dem, xyz)
+    inner = ~dem.near_edge(xyz, EDGE_CELLS)
     xyz, score, kind, prom = xyz[inner], score[inner], kind[inner], prom[inner]
     if camera is not None and len(xyz):
         uv, depth = camera.project_with_depth(xyz)
@@ -398,20 +398,6 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
         order = order[stable_order(score[order], xyz[order, 0], xyz[order, 1])]
     xyz, score, kind, prom, uv = xyz[order], score[order], kind[order], prom[order], uv[order]
     return DemSuggestions(xyz, score, [f"d{i:04d}" for i in range(len(xyz))], kind, uv, prom, near_m)
-
-
-def near_dem_border(dem, xyz: np.ndarray, cells: float = EDGE_CELLS) -> np.ndarray:
-    """(N,) bool: the map points ``xyz`` (N, 3) lie within ``cells`` cells of the DEM's border.
-
-    >>> from .dem import Dem
-    >>> dem = Dem.from_array(np.zeros((100, 100)), (0, 10, 0, 1000, 0, -10))
-    >>> near_dem_border(dem, np.array([[15.0, 500.0, 0.0], [500.0, 500.0, 0.0], [500.0, 985.0, 0.0]])).tolist()
-    [True, False, True]
-    """
-    if not len(xyz):
-        return np.zeros(0, dtype=bool)
-    col, row = dem.map_to_cell(xyz[:, 0], xyz[:, 1])
-    return np.minimum.reduce([col, row, dem.cols - col, dem.rows - row]) < cells
 
 
 def blocked_view(res, camera, dem, near_m: float = BLOCKED_VIEW_NEAR_M, step: int = 4) -> bool:

@@ -355,7 +355,6 @@ def test_dust_specks_on_a_scan_get_no_suggestions():
 def test_dem_suggestions_leave_out_the_edge_where_the_dem_stops():
     """A drone trial's DEM tile, a valley side rising beyond its border: the rendering ends in an edge against the
     sky there, which no photo shows, and most DEM suggestions sat on it."""
-    from monoplot_plugin.core.suggest import near_dem_border
     from monoplot_plugin.core.synthetic import synthetic_terrain
 
     base = synthetic_terrain((300, 300), cell=5.0, seed=2)
@@ -366,4 +365,4 @@ def test_dem_suggestions_leave_out_the_edge_where_the_dem_stops():
     cam = Camera((x, y, float(dem.sample(x, y)) + 120.0), 40.0, -30.0, 0.0, 71.6, (1200, 900), crs_wkt=dem.crs_wkt)
     s = suggest_dem_points(dem, cam)
     assert len(s.xyz) > 100
-    assert not near_dem_border(dem, s.xyz, cells=4.0).any()
+    assert not dem.near_edge(s.xyz, cells=4.0).any()

@@ -107,22 +107,6 @@ def dem_in_view(camera: Camera, dem: Dem, margin_deg: float, width: int = 160) -
     return float(np.isfinite(compute_xyz(wide, dem)[..., 2]).mean())
 
 
-def _border(dem: Dem, xyz: np.ndarray, cells: float = 2.5) -> np.ndarray:
-    """(N,) bool, map points within ``cells`` cells of the DEM's edge or of a void."""
-    col, row = dem.map_to_cell(xyz[:, 0], xyz[:, 1])
-    col, row = np.asarray(col), np.asarray(row)
-    out = (col < cells) | (row < cells) | (col > dem.cols - cells) | (row > dem.rows - cells)
-    void = np.isnan(dem.elevation)
-    if void.any():
-        from scipy import ndimage
-
-        near = ndimage.binary_dilation(void, iterations=int(math.ceil(cells)))
-        r = np.clip(row.astype(np.int64), 0, dem.rows - 1)
-        c = np.clip(col.astype(np.int64), 0, dem.cols - 1)
-        out |= near[r, c]
-    return out
-
-
 def _thin(idx: np.ndarray, most: int) -> np.ndarray:
     return idx if len(idx) <= most else idx[np.linspace(0, len(idx) - 1, most).astype(np.int64)]
 
@@ -157,7 +141,7 @@ def dem_edges(camera: Camera, dem: Dem, margin_deg: float, focal_px: float = Non
         rows, cols = rows[keep], cols[keep]
         xyz = res.xyz[rows, cols]
         ok = np.isfinite(xyz).all(axis=1)
-        ok[ok] &= ~_border(dem, xyz[ok])
+        ok[ok] &= ~dem.near_edge(xyz[ok])
         rows, cols, xyz = rows[ok], cols[ok], xyz[ok]
         tx, ty = -gy[rows, cols], gx[rows, cols]
         norm = np.hypot(tx, ty)
