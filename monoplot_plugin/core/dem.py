@@ -258,20 +258,26 @@ class Dem:
             return float(col), float(row)
         return col, row
 
-    def near_edge(self, xyz, cells: float = 2.5) -> np.ndarray:
-        """(N,) bool: the map points ``xyz`` (N, 2 or 3) lie within ``cells`` cells of the DEM's border or of a
-        void. There the terrain stops, and a rendering of it ends in an edge no photo shows (the world goes on).
+    def near_edge(self, xyz, cells=2.5) -> np.ndarray:
+        """(N,) bool: the map points ``xyz`` (N, 2 or 3) lie within ``cells`` cells (one for all, or (N,) one
+        each; voids are looked for within at most :data:`VOID_REACH_MAX`) of the DEM's border or of a void. There
+        the terrain stops, and a rendering of it ends in an edge no photo shows (the world goes on).
 
         >>> dem = Dem.from_array(np.zeros((100, 100)), (0, 10, 0, 1000, 0, -10))
         >>> dem.elevation[50, 80] = np.nan
         >>> dem.near_edge([[15.0, 500.0], [500.0, 500.0], [500.0, 985.0], [805.0, 495.0]]).tolist()
         [True, False, True, True]
+        >>> dem.near_edge([[15.0, 500.0], [65.0, 500.0]], np.array([1.0, 7.0])).tolist()
+        [False, True]
         """
         xyz = np.asarray(xyz, dtype=np.float64).reshape(-1, np.shape(xyz)[-1])
+        if not len(xyz):
+            return np.zeros(0, dtype=bool)
         col, row = (np.atleast_1d(v) for v in self.map_to_cell(xyz[:, 0], xyz[:, 1]))
+        cells = np.broadcast_to(np.asarray(cells, dtype=np.float64), col.shape)
         out = (col < cells) | (row < cells) | (col > self.cols - cells) | (row > self.rows - cells)
-        reach = int(math.ceil(cells))
-        near_void = self.derived(f"near_void_{reach}", lambda z: _near_voids(z, reach))
+        reach = min(VOID_REACH_MAX, int(math.ceil(float(cells.max()))))
+        near_void = self.derived(f"near_void_{reach}", lambda z: _near_voids(z, reach)) if reach > 0 else None
         if near_void is not None:
             out |= near_void[np.clip(row.astype(np.int64), 0, self.rows - 1),
                              np.clip(col.astype(np.int64), 0, self.cols - 1)]
@@ -454,6 +460,10 @@ def utm_wkt_for_lonlat(lon: float, lat: float) -> str:
     srs = osr.SpatialReference()
     srs.ImportFromEPSG((32600 if lat >= 0 else 32700) + zone)
     return srs.ExportToWkt()
+
+
+#: :meth:`Dem.near_edge` looks for voids within at most this many cells (one dilation of the voids kept per reach)
+VOID_REACH_MAX = 8
 
 
 def _near_voids(elevation: np.ndarray, reach: int) -> Optional[np.ndarray]:

@@ -46,7 +46,7 @@ BLOCKED_VIEW_NEAR_M = 100.0
 #: ends in an edge against the sky that no photo shows (the world goes on), and key points crowd on it (a drone
 #: trial: most of 161 suggestions on the border of its DEM tile, none on the landslide it was made for).
 EDGE_CELLS = 3.0
-#: ... and key points within this many pixels of it in the rendering from a camera
+#: ... and, in the rendering from a camera, key points whose terrain lies within this many rendered pixels more
 EDGE_PX = 6
 
 __all__ = ["PhotoSuggestions", "DemSuggestions", "suggest_photo_points", "suggest_dem_points", "detect_keypoints",
@@ -301,17 +301,18 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
         import cv2
 
         mask = cv2.dilate(mask.astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
-        # no key points on the rendering's edge where the DEM stops (see EDGE_CELLS): its pixels, widened by a key
-        # point's reach (a point 3-4 cells in, one rendered pixel at range, still sits on that edge)
-        border = np.zeros_like(mask)
-        border[mask & res.hit] = dem.near_edge(res.xyz[mask & res.hit], cells=1.5)
-        mask &= ~cv2.dilate(border.astype(np.uint8), np.ones((2 * EDGE_PX + 1,) * 2, np.uint8)).astype(bool)
+        mask &= ~beside_dem_edge(res, dem)
         uv, score, source = detect_keypoints(img, mask, **{**DEM_DETECTOR, **detector})
         cell = (float(cell_px) * scale) if cell_px else max(small.width, small.height) / 128.0
         min_dist = cell / 3.0 if min_distance_px is None else float(min_distance_px) * scale
         keep = spread_by_grid(uv, score, small.image_size, cell, per_cell, min_dist)
         pts = foreground_xyz(res, uv[keep])
         ok = np.isfinite(pts).all(axis=1)
+        # none on the rendering's edge where the DEM stops (EDGE_CELLS): a key point sits a few rendered pixels
+        # inside it, several cells at range; its own terrain is what counts (Aletsch's summits stand before
+        # terrain near voids and must stay)
+        metres_per_px = np.linalg.norm(pts[ok] - np.asarray(small.position), axis=1) / small.focal_px
+        ok[ok] &= ~dem.near_edge(pts[ok], EDGE_CELLS + EDGE_PX * metres_per_px / dem.cell_size)
         xyz_list.append(pts[ok])
         score_list.append(score[keep][ok])
         kind_list.append(source[keep][ok])
@@ -398,6 +399,24 @@ def suggest_dem_points(dem, camera=None, max_points: int = 8000, cell_px: Option
         order = order[stable_order(score[order], xyz[order, 0], xyz[order, 1])]
     xyz, score, kind, prom, uv = xyz[order], score[order], kind[order], prom[order], uv[order]
     return DemSuggestions(xyz, score, [f"d{i:04d}" for i in range(len(xyz))], kind, uv, prom, near_m)
+
+
+def beside_dem_edge(res, dem) -> np.ndarray:
+    """(H, W) bool of a rendering ``res`` (:func:`~.xyz.compute_xyz_full`): pixels within :data:`EDGE_PX` of terrain
+    at the DEM's edge (its border or a void) that see that terrain, terrain beyond it or sky; nearer terrain in front
+    of it stays (Aletsch's summits stand before terrain near voids). Key points there sit on the edge where the DEM
+    stops, and take the detector's budget from the terrain (a drone trial's tile: 11 of 36 on its border)."""
+    import cv2
+
+    hit = np.asarray(res.hit)
+    at_edge = np.zeros(hit.shape, bool)
+    at_edge[hit] = dem.near_edge(res.xyz[hit], 1.5)
+    edge_depth = np.where(at_edge, res.distance, 0.0).astype(np.float32)
+    nearby = cv2.dilate(edge_depth, np.ones((2 * EDGE_PX + 1,) * 2, np.uint8))  # the farthest edge terrain near
+    beside = hit & (nearby > 0) & (res.distance >= 0.9 * nearby)
+    # sky: beside the edge terrain, unless terrain well in front of it is as near (a summit's own outline)
+    front = cv2.dilate((hit & (nearby > 0) & ~beside).astype(np.uint8), np.ones((5, 5), np.uint8)).astype(bool)
+    return beside | (~hit & (nearby > 0) & ~front)
 
 
 def blocked_view(res, camera, dem, near_m: float = BLOCKED_VIEW_NEAR_M, step: int = 4) -> bool:
