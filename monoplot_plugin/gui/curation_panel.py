@@ -186,6 +186,9 @@ class CurationPanel(QWidget):
 
         c.pointsChanged.connect(self._on_points)
         c.cameraChanged.connect(self._on_camera)
+        # check points measured after the fit change its verdict: the counts line and the actions that trust an
+        # "ok" camera follow (a drone trial's line said "camera: fit, 7.7 px (ok)" under "camera status uncertain")
+        c.fitInfoChanged.connect(self._on_camera)
         self.refitter.refitted.connect(self._on_refit)
         self.refitter.unavailable.connect(self._refit_stale)
         c.busyChanged.connect(self._on_busy)

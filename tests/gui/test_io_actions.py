@@ -423,8 +423,9 @@ def test_check_points_imported_after_a_fit_measure_it_at_once(dock, scene, tmp_p
     io_actions.import_points_csv(c, near, all_check=True)
     assert c.state.fit_info["status"] == "uncertain", c.state.fit_info["message"]
     assert "times the camera's residuals" in c.state.fit_info["message"]
+    assert "(uncertain)" in dock.countsLabel.text() and "(ok)" not in dock.countsLabel.text()  # the points tab too
     c.stack.undo()
-    assert c.state.fit_info["status"] == "ok"
+    assert c.state.fit_info["status"] == "ok" and "(ok)" in dock.countsLabel.text()
     # Two that agree are too few to verify a camera alone, but lower nothing the fit verified (a trial: "uncertain"
     # when imported after the fit, "ok" when imported before it, as a fit judges them)
     two = str(tmp_path / "two.csv")
