@@ -259,8 +259,8 @@ def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCance
                 # no camera was found (a trial's indoor photo had its rough camera's XYZ raster and orthophoto
                 # written and counted processed): the camera file says so, no products are made of a guess
                 result.status = "skipped"
-                raise InputError(f"{verdict['message']} No products written (the camera file keeps the rough "
-                                 f"camera and the reasons).")
+                raise InputError(f"fit {fit_status}: {fit_message} No products written (the camera file keeps the "
+                                 f"rough camera and the reasons).")
             if fit_status == "poor" and (setup.write_xyz or setup.write_ortho):
                 # probably wrong: a trial's batch wrote the XYZ raster and orthophoto of a registration 93 m off,
                 # "poor", and counted the row processed; its camera file is there to look at

@@ -101,7 +101,9 @@ def test_table_batch_fits_each_photo_and_skips_a_bad_row(run_alg, small_scene, t
     verdict = json.loads((out / "d_camera.json").read_text())["fit"]
     assert verdict["status"] in ("uncertain", "poor") and "automatic registration" in verdict["message"]
     assert rows["d.png"]["message"].startswith(f"fit {verdict['status']}")
-    if verdict["status"] == "poor":  # probably wrong: no products of it (a trial's batch wrote a camera 93 m off's)
+    kept = "keeps the rough camera" in rows["d.png"]["message"]  # no camera found: the rough one is no product's
+    if verdict["status"] == "poor" or kept:  # probably wrong: no products of it (a trial's batch wrote a camera 93
+        # m off's)
         assert rows["d.png"]["status"] == "skipped" and "No products written" in rows["d.png"]["message"]
         assert not (out / "d_xyz.tif").exists() and result["SUCCEEDED"] == 2 and result["FAILED"] == 2
     else:
@@ -119,13 +121,17 @@ def test_table_batch_fits_each_photo_and_skips_a_bad_row(run_alg, small_scene, t
     (tmp_path / "gcps.csv").write_text((tmp_path / "gcps.csv").read_text() + "\n")
     again = run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"),
                               "XYZ": True, "ORTHO": False, "OUTPUT": str(out)}, feedback)
-    assert again["SUCCEEDED"] == 3 and "1 of 4 photos were done by an earlier run" in feedback.textLog()
-    assert (out / "d_camera.json").stat().st_mtime_ns == before["d_camera.json"]
     assert (out / "a_camera.json").stat().st_mtime_ns != before["a_camera.json"]
     with open(again["LOG"], newline="") as fh:
         rows = {os.path.basename(r["photo"]): r for r in csv.DictReader(fh)}
+    assert rows["b.png"]["status"] == "failed"
+    if verdict["status"] == "poor" or kept:  # nothing was made of d: it is tried again, as the failed row is
+        assert again["SUCCEEDED"] == 2 and rows["d.png"]["status"] == "skipped"
+        return
+    assert again["SUCCEEDED"] == 3 and "1 of 4 photos were done by an earlier run" in feedback.textLog()
+    assert (out / "d_camera.json").stat().st_mtime_ns == before["d_camera.json"]
     assert rows["d.png"]["message"].startswith("done by an earlier run (resumed): fit")
-    assert rows["d.png"]["status"] == verdict["status"] and rows["b.png"]["status"] == "failed"
+    assert rows["d.png"]["status"] == verdict["status"]
 
 
 def test_timelapse_fits_the_shared_camera_once_from_a_prior(run_alg, small_scene, timelapse, tmp_path):
