@@ -277,10 +277,10 @@ class Dem:
         cells = np.broadcast_to(np.asarray(cells, dtype=np.float64), col.shape)
         out = (col < cells) | (row < cells) | (col > self.cols - cells) | (row > self.rows - cells)
         reach = min(VOID_REACH_MAX, int(math.ceil(float(cells.max()))))
-        near_void = self.derived(f"near_void_{reach}", lambda z: _near_voids(z, reach)) if reach > 0 else None
-        if near_void is not None:
-            out |= near_void[np.clip(row.astype(np.int64), 0, self.rows - 1),
-                             np.clip(col.astype(np.int64), 0, self.cols - 1)]
+        to_void = self.derived("void_distance", _void_distance) if reach > 0 else None
+        if to_void is not None:
+            out |= to_void[np.clip(row.astype(np.int64), 0, self.rows - 1),
+                           np.clip(col.astype(np.int64), 0, self.cols - 1)] <= reach
         return out
 
     def cell_centres(self) -> Tuple[np.ndarray, np.ndarray]:
@@ -462,18 +462,19 @@ def utm_wkt_for_lonlat(lon: float, lat: float) -> str:
     return srs.ExportToWkt()
 
 
-#: :meth:`Dem.near_edge` looks for voids within at most this many cells (one dilation of the voids kept per reach)
+#: :meth:`Dem.near_edge` looks for voids within at most this many cells
 VOID_REACH_MAX = 8
 
 
-def _near_voids(elevation: np.ndarray, reach: int) -> Optional[np.ndarray]:
-    """(rows, cols) bool, cells within ``reach`` cells of a void; None when there is none."""
+def _void_distance(elevation: np.ndarray) -> Optional[np.ndarray]:
+    """(rows, cols) float32, each cell's distance to the nearest void in cells, along rows and columns (0 on a
+    void; one transform for every reach :meth:`Dem.near_edge` asks); None when there is none."""
     void = np.isnan(elevation)
     if not void.any():
         return None
-    from scipy import ndimage
+    import cv2
 
-    return ndimage.binary_dilation(void, iterations=reach)
+    return cv2.distanceTransform((~void).astype(np.uint8), cv2.DIST_L1, 3)
 
 
 def _finite_min_max(a: np.ndarray) -> Tuple[float, float]:
