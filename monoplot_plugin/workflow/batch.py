@@ -21,7 +21,7 @@ import numpy as np
 
 from ..core.camera import Camera
 from ..outputs.safe_write import write_text
-from .camera_files import fit_figures, written_fit, written_verdict
+from .camera_files import fit_figures, photo_fingerprint, written_fit, written_verdict
 from .files import InputError, read_photo
 from .frames import (SHARED_XYZ, FrameTask, PhotoResult, Timelapse, blank_photo, fit_job, process_frame,
                      shared_for)
@@ -29,8 +29,8 @@ from .progress import IsCanceled, Progress, never_canceled, no_progress
 from .resume import dem_identity, in_task_order, remove_stale, resumable
 
 __all__ = ["PhotoJob", "PhotoResult", "folder_jobs", "table_jobs", "run_batch", "output_stems", "fit_shared_camera",
-           "fit_job", "write_log", "log_photo_path", "frame_tasks", "pick_reference", "shared_camera_verdict",
-           "remove_stale", "batch_setup", "IMAGE_PATTERNS"]
+           "fit_job", "write_log", "log_photo_path", "frame_tasks", "fitted_frame", "pick_reference",
+           "shared_camera_verdict", "remove_stale", "batch_setup", "IMAGE_PATTERNS"]
 
 IMAGE_PATTERNS = ("*.jpg", "*.jpeg", "*.png", "*.tif", "*.tiff", "*.bmp")
 
@@ -237,7 +237,15 @@ def batch_setup(jobs: List[PhotoJob], crs_wkt: str, out_dir: str, write_xyz: boo
     if register and not camera_json:
         raise InputError("re-registration needs the frames' shared camera (time-lapse mode)")
     if register:
-        reference = pick_reference([j.photo for j in jobs if j.photo], Camera.from_json(camera_json), reference, log)
+        photos = [j.photo for j in jobs if j.photo]
+        fitted = fitted_frame(photos, camera_verdict[2] if len(camera_verdict) > 2 else {})
+        if not reference and fitted and not blank_photo(read_photo(fitted)):
+            # the frame the camera was fitted on: the others are turned relative to it (the first frame, if the
+            # mount moved between it and the fitted one, would pass its turn on to every frame)
+            log(f"reference frame: {os.path.basename(fitted)}, the frame the shared camera was fitted on", False)
+            reference = fitted
+        else:
+            reference = pick_reference(photos, Camera.from_json(camera_json), reference, log)
     return Timelapse(out_dir, crs_wkt, camera_json, write_xyz, write_ortho, resolution, register,
                      reference if register else "", dem_path=dem_path, void_value=void_value,
                      camera_status=camera_verdict[0] or "ok", camera_note=camera_verdict[1],
@@ -290,11 +298,31 @@ def shared_camera_verdict(path: str, log: Log = lambda message, error: None) -> 
     225 m off (a trial)."""
     status, message = written_verdict(path)
     if status in ("ok", "uncertain", "poor"):
-        return status, f"the camera's fit was {status}" if status != "ok" else "", fit_figures(written_fit(path))
+        fit = written_fit(path)
+        # with the photo it was fitted on, if the file says (see fitted_frame, frames.frame_verdict)
+        figures = {**fit_figures(fit), **{k: fit[k] for k in ("photo", "photo_sha256") if fit.get(k)}}
+        return status, f"the camera's fit was {status}" if status != "ok" else "", figures
     log(f"The camera {os.path.basename(path)} carries no fit verdict: it is not a fitted camera (a rough prior?). "
         "Its frames are marked \"uncertain: camera not fitted\"; fit it on one frame (Fit camera, or POINTS here) "
         "for products you can trust.", True)
     return "uncertain", "camera not fitted", {}
+
+
+def fitted_frame(photos: List[str], figures: dict) -> str:
+    """The one of ``photos`` a shared camera was fitted on: its file name and bytes those the camera's fit records
+    (``figures``' "photo" and "photo_sha256", see :func:`shared_camera_verdict`); "" when none is, or the fit does
+    not say. Only the photos of that name are read.
+
+    >>> fitted_frame(["/no/such/a.jpg"], {"photo": "a.jpg", "photo_sha256": "0" * 64}), fitted_frame(["a.jpg"], {})
+    ('', '')
+    """
+    name, sha = str(figures.get("photo") or ""), str(figures.get("photo_sha256") or "")
+    if not name or not sha:
+        return ""
+    for path in photos:
+        if os.path.basename(path) == name and photo_fingerprint(path) == sha:
+            return path
+    return ""
 
 
 def frame_tasks(jobs: List[PhotoJob], stems: List[str], log: Log) -> List[FrameTask]:

@@ -17,7 +17,7 @@ from ..core.camera import Camera, azimuth
 from .inputs import InputError, _crs_name, check_camera, read_text
 
 __all__ = ["load_camera", "save_camera", "camera_json", "written_fit", "written_verdict", "fitted_to_size",
-           "photo_fingerprint", "fitted_on_photo", "verdict_on_photo", "fit_figures", "PIXEL_FIGURES"]
+           "photo_fingerprint", "fitted_photo", "fitted_on_photo", "verdict_on_photo", "fit_figures", "PIXEL_FIGURES"]
 
 #: A fit's pixel figures a product's ``xy_error_m`` is worked out from (:func:`~.features.pixel_error`).
 PIXEL_FIGURES = ("rmse_px", "loo_rmse_px", "sigma_px")
@@ -195,10 +195,15 @@ def camera_json(camera: Camera, verdict: Optional[dict] = None, photo_path: str 
         return json.dumps(d, indent=2)
     d["fit"] = {"status": str(verdict.get("status") or ""), "message": str(verdict.get("message") or ""),
                 **fit_figures(verdict)}
-    fingerprint = photo_fingerprint(photo_path)
-    if fingerprint:
-        d["fit"].update(photo=os.path.basename(photo_path), photo_sha256=fingerprint)
+    d["fit"].update(fitted_photo(photo_path))
     return json.dumps(d, indent=2)
+
+
+def fitted_photo(photo_path: str) -> dict:
+    """``{"photo": name, "photo_sha256": fingerprint}`` of the photo a camera was fitted on, as its camera file
+    records it (:func:`camera_json`); {} when there is none or it cannot be read."""
+    fingerprint = photo_fingerprint(photo_path)
+    return {"photo": os.path.basename(photo_path), "photo_sha256": fingerprint} if fingerprint else {}
 
 
 def fit_figures(verdict: dict) -> dict:

@@ -13,6 +13,7 @@ picklable :class:`Timelapse` (:func:`shared_for`, cached per process).
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import threading
@@ -29,7 +30,7 @@ from ..core.suggest_photo import FEATURELESS_CONTRAST, coarse_contrast
 from ..outputs.orthophoto import write_orthophoto
 from ..outputs.safe_write import write_text
 from ..outputs.xyz_raster import write_xyz_raster
-from .camera_files import PIXEL_FIGURES, camera_json
+from .camera_files import PIXEL_FIGURES, camera_json, photo_fingerprint
 from .files import InputError, load_camera, read_photo, read_points_csv
 from .fit import fit_points
 from .progress import IsCanceled, check_canceled, never_canceled
@@ -233,6 +234,28 @@ def row_status(fit_status: str) -> str:
     return fit_status if fit_status in ("ok", "uncertain", "poor") else "poor"
 
 
+def frame_verdict(setup: Timelapse, photo_path: str, registered: bool) -> tuple:
+    """(status, note) of a frame of the shared camera: the camera's own, except that an "ok" camera fitted on
+    another frame (its fit names the photo, see :func:`~.batch.shared_camera_verdict`) is "uncertain" on a frame
+    that was not re-registered: a turn of the mount since does not show in the products (a trial's two frames
+    bumped by 0.5 degrees were logged "ok, the shared camera", 32-37 m off on the glacier), as
+    :func:`~.camera_files.verdict_on_photo` says for one photo.
+
+    >>> verdict = frame_verdict(Timelapse("out", "", camera_fit_json='{"photo": "f1.jpg", "photo_sha256": "00"}'),
+    ...                         "/no/such/f2.jpg", registered=False)
+    >>> verdict[0], verdict[1][:45]
+    ('uncertain', 'the shared camera was fitted on f1.jpg and th')
+    """
+    if setup.camera_status != "ok" or registered:
+        return setup.camera_status, setup.camera_note
+    fit = json.loads(setup.camera_fit_json) if setup.camera_fit_json else {}
+    if fit.get("photo_sha256") and photo_fingerprint(photo_path) != fit["photo_sha256"]:
+        return "uncertain", (f"the shared camera was fitted on {fit.get('photo')} and this frame was not "
+                             f"re-registered: a turn of the mount since then would not show (re-register every "
+                             f"frame to measure it)")
+    return setup.camera_status, setup.camera_note
+
+
 def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCanceled] = None) -> PhotoResult:
     """Read, (re-register,) and write the products of one frame; every problem becomes a failed result.
     ``is_canceled`` (threads on this machine; a Dask task has none): checked inside an automatic registration and
@@ -301,7 +324,7 @@ def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCance
                                                             photo))
         result.ok = True
         if shared.camera is not None:  # a frame inherits the doubt of the camera it shares
-            fit_status, fit_message = setup.camera_status, setup.camera_note
+            fit_status, fit_message = frame_verdict(setup, task.photo, registered=shared.reference is not None)
         result.status = row_status(fit_status)
         # a frame of a shared camera has no fit of its own (its RMSE column stays empty): say whose camera it used
         whose = "the shared camera turned" if own_camera and shared.camera is not None else "the shared camera"

@@ -33,7 +33,7 @@ def timelapse(tmp_path):
 def test_timelapse_batch_skips_the_corrupted_photo(run_alg, small_scene, timelapse, tmp_path):
     feedback = recording_feedback()
     out = tmp_path / "out"
-    result = run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(timelapse),
+    result = run_alg("batch", {"MODE": 0, "REGISTER": False, "DEM": small_scene["dem"], "FOLDER": str(timelapse),
                                "CAMERA": small_scene["fitted"], "XYZ": True, "ORTHO": True, "OUTPUT": str(out)},
                      feedback)
     assert result["SUCCEEDED"] == 19 and result["FAILED"] == 1
@@ -149,7 +149,7 @@ def test_timelapse_fits_the_shared_camera_once_from_a_prior(run_alg, small_scene
     cam.with_parameters(heading=cam.heading + 1.5, x=cam.position[0] - 60).save(tmp_path / "prior.json")
     (timelapse / "frame_00.jpg").write_bytes(b"truncated")  # the first frame is bad too: the fit uses the next
     out = tmp_path / "out"
-    result = run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(timelapse),
+    result = run_alg("batch", {"MODE": 0, "REGISTER": False, "DEM": small_scene["dem"], "FOLDER": str(timelapse),
                                "CAMERA": str(tmp_path / "prior.json"), "POINTS": str(tmp_path / "gcps.csv"),
                                "XYZ": False, "ORTHO": True, "OUTPUT": str(out)})
     assert result["SUCCEEDED"] == 18 and result["FAILED"] == 2

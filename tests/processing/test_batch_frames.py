@@ -36,7 +36,7 @@ def test_truncated_jpeg_frame_is_skipped_not_draped_grey(run_alg, small_scene, t
     (folder / "f1.jpg").write_bytes(data[: len(data) // 2])  # a cut-off copy: libjpeg would fill it with grey
     feedback = QgsProcessingFeedback()
     out = tmp_path / "out"
-    result = run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(folder),
+    result = run_alg("batch", {"MODE": 0, "REGISTER": False, "DEM": small_scene["dem"], "FOLDER": str(folder),
                                "CAMERA": small_scene["camera"], "XYZ": False, "OUTPUT": str(out)}, feedback)
     assert result["SUCCEEDED"] == 2 and result["FAILED"] == 1
     assert sorted(p.name for p in out.glob("*_ortho.tif")) == ["f0_ortho.tif", "f2_ortho.tif"]
@@ -74,7 +74,7 @@ def test_frames_with_the_same_name_get_distinct_outputs(run_alg, small_scene, tm
     write_photo(folder / "frame_10.jpg", seed=3)
     feedback = QgsProcessingFeedback()
     out = tmp_path / "out"
-    result = run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(folder),
+    result = run_alg("batch", {"MODE": 0, "REGISTER": False, "DEM": small_scene["dem"], "FOLDER": str(folder),
                                "CAMERA": small_scene["camera"], "XYZ": False, "OUTPUT": str(out)}, feedback)
     assert result["SUCCEEDED"] == 3
     assert sorted(p.name for p in out.glob("*_ortho.tif")) == ["frame_09_2_ortho.tif", "frame_09_ortho.tif",
@@ -215,7 +215,7 @@ def test_kml_shared_camera_takes_the_frames_size(run_alg, small_scene, tmp_path)
     write_photo(folder / "a.png")
     write_photo(folder / "b.png", seed=4)
     feedback = QgsProcessingFeedback()
-    result = run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(folder),
+    result = run_alg("batch", {"MODE": 0, "REGISTER": False, "DEM": small_scene["dem"], "FOLDER": str(folder),
                                "CAMERA": str(tmp_path / "prior.kml"), "OUTPUT": str(tmp_path / "out")}, feedback)
     assert result["SUCCEEDED"] == 2 and result["FAILED"] == 1
     assert f"image size {WIDTH}x{HEIGHT} px taken from a.png" in feedback.textLog()
@@ -229,7 +229,7 @@ def test_cancel_marks_the_rest_canceled_not_failed(run_alg, small_scene, tmp_pat
     folder.mkdir()
     for i in range(6):
         write_photo(folder / f"f{i}.png", seed=i)
-    parameters = {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(folder), "WORKERS": 1,
+    parameters = {"MODE": 0, "REGISTER": False, "DEM": small_scene["dem"], "FOLDER": str(folder), "WORKERS": 1,
                   "CAMERA": small_scene["fitted"], "OUTPUT": str(tmp_path / "out"), "RESUME": False}
     run_alg("batch", parameters)  # an earlier, complete run (made again: not resumed)
     feedback = QgsProcessingFeedback()
@@ -286,7 +286,7 @@ def test_a_shared_camera_without_fit_verdict_is_not_ok(run_alg, small_scene, tmp
     for i in range(2):
         write_photo(folder / f"f{i}.png", seed=i)
     feedback = recording_feedback()
-    result = run_alg("batch", {"MODE": 0, "DEM": small_scene["dem"], "FOLDER": str(folder), "XYZ": False,
+    result = run_alg("batch", {"MODE": 0, "REGISTER": False, "DEM": small_scene["dem"], "FOLDER": str(folder), "XYZ": False,
                                "CAMERA": small_scene["camera"], "OUTPUT": str(tmp_path / "out")}, feedback)
     assert result["SUCCEEDED"] == 2 and len(list((tmp_path / "out").glob("*_ortho.tif"))) == 2  # still works
     assert result["NOT_OK"] == 2  # processed, but no camera it can vouch for
@@ -309,7 +309,7 @@ def test_dem_kept_beside_the_frames_is_not_taken_for_a_frame(run_alg, small_scen
     dem_here = folder / "dem.tif"
     shutil.copy(small_scene["dem"], dem_here)
     out = tmp_path / "out"
-    result = run_alg("batch", {"MODE": 0, "DEM": str(dem_here), "FOLDER": str(folder),
+    result = run_alg("batch", {"MODE": 0, "REGISTER": False, "DEM": str(dem_here), "FOLDER": str(folder),
                                "CAMERA": small_scene["camera"], "XYZ": False, "OUTPUT": str(out)},
                      QgsProcessingFeedback())
     assert result["SUCCEEDED"] == 2 and result["FAILED"] == 0

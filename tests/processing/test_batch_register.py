@@ -41,11 +41,18 @@ def test_register_reports_the_drift_of_every_frame_and_the_one_it_cannot_registe
     assert "frame_002.png: FAILED, skipped: not registered" in feedback.textLog()
 
 
-def test_register_needs_the_time_lapse_mode(run_alg, frames, tmp_path):
+def test_register_is_on_by_default_and_left_aside_in_table_mode(run_alg, processing_provider, frames, tmp_path):
+    """A time-lapse run with the defaults logged two bumped frames "ok, the shared camera" (a trial): every frame
+    is re-registered unless asked not to. A table's photos are each fitted: REGISTER does not stop that mode."""
+    assert processing_provider.algorithm("batch").parameterDefinition("REGISTER").defaultValue() is True
+    result = run_alg("batch", {"MODE": 0, "DEM": frames["dem"], "FOLDER": frames["folder"],
+                               "CAMERA": frames["camera"], "XYZ": False, "OUTPUT": str(tmp_path / "out")})
+    rows = log_rows(result["LOG"])
+    assert float(rows[1]["drift_deg"]) == pytest.approx(1.04, abs=0.05) and rows[2]["status"] == "failed"
     (tmp_path / "t.csv").write_text("photo,prior,points\na.png,b.json,c.csv\n")
-    with pytest.raises(QgsProcessingException, match="REGISTER needs the time-lapse mode"):
+    with pytest.raises(QgsProcessingException, match="No photo could be processed"):
         run_alg("batch", {"MODE": 1, "DEM": frames["dem"], "TABLE": str(tmp_path / "t.csv"), "REGISTER": True,
-                          "OUTPUT": str(tmp_path / "out")})
+                          "OUTPUT": str(tmp_path / "out2")})
 
 
 def test_scheduler_address_runs_the_frames_on_its_workers(run_alg, frames, tmp_path):
@@ -53,7 +60,7 @@ def test_scheduler_address_runs_the_frames_on_its_workers(run_alg, frames, tmp_p
 
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as c:
         feedback = QgsProcessingFeedback()
-        result = run_alg("batch", {"MODE": 0, "DEM": frames["dem"], "FOLDER": frames["folder"],
+        result = run_alg("batch", {"MODE": 0, "REGISTER": False, "DEM": frames["dem"], "FOLDER": frames["folder"],
                                    "CAMERA": frames["camera"], "SCHEDULER": c.scheduler_address,
                                    "OUTPUT": str(tmp_path / "out")}, feedback)
     assert result["SUCCEEDED"] == 4

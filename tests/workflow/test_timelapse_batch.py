@@ -357,3 +357,44 @@ def test_a_frame_canceled_while_written_leaves_no_half_of_its_products(tmp_path)
     assert not half.exists() and older.exists() and result.outputs == []
     assert result.message.endswith("files of an earlier run left as they were: f3_ortho.tif")
     assert any("canceled while they were written removed" in text and "f3_camera.json" in text for text in said)
+
+
+def fitted_on_frame(scene, tmp_path, index):
+    """A camera file as the dock writes it for frame ``index``: its true camera, "ok", naming that photo."""
+    path = tmp_path / "camera_fitted.json"
+    path.write_text(camera_files.camera_json(scene["cameras"][index], {"status": "ok", "message": "fitted"},
+                                             scene["frames"][index]))
+    return str(path)
+
+
+def test_re_registration_is_relative_to_the_frame_the_camera_was_fitted_on(drifting_timelapse, tmp_path):
+    """The first frame was every frame's reference: a camera fitted on another frame passed the turn between the
+    two on to every frame. The frame the camera file names is the reference now."""
+    scene = drifting_timelapse
+    path = fitted_on_frame(scene, tmp_path, 2)
+    cam, dem = Camera.load(path), Dem.open(scene["dem"])
+    lines = []
+    verdict = batch.shared_camera_verdict(path)
+    results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(tmp_path / "out"),
+                              register=True, camera_verdict=verdict, log=lambda m, e: lines.append(m))
+    assert all(r.ok and r.status == "ok" for r in results), [r.message for r in results]
+    assert any("reference frame: frame_002.png, the frame the shared camera was fitted on" in m for m in lines)
+    assert results[2].drift_px < 0.1 and results[0].drift_deg == pytest.approx(
+        drift.rotation_angle_deg(scene["cameras"][0].rotation @ cam.rotation.T), abs=0.05)
+    frame0 = Camera.load(tmp_path / "out" / "frame_000_camera.json")
+    assert drift.pixel_shift(cam, frame0.rotation @ cam.rotation.T, scene["cameras"][0].rotation @ cam.rotation.T) \
+        <= 0.5
+
+
+def test_frames_not_re_registered_are_uncertain_unless_the_camera_was_fitted_on_them(drifting_timelapse, tmp_path):
+    """A trial's two bumped frames were logged "ok, the shared camera", 32-37 m off on the glacier: without a
+    re-registration nothing shows that a frame is not the one the "ok" camera was fitted on."""
+    scene = drifting_timelapse
+    path = fitted_on_frame(scene, tmp_path, 2)
+    cam, dem = Camera.load(path), Dem.open(scene["dem"])
+    results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(tmp_path / "out"),
+                              camera_verdict=batch.shared_camera_verdict(path), write_ortho=False)
+    assert [r.status for r in results] == ["uncertain", "uncertain", "ok", "uncertain", "uncertain"]
+    assert all(r.ok for r in results)
+    assert "fitted on frame_002.png and this frame was not re-registered" in results[0].message
+    assert results[2].message == "ok, the shared camera"

@@ -17,7 +17,7 @@ from qgis.core import (
 
 from ...outputs.safe_write import cancel_before_commit, write_text
 from ...workflow.auto import DEFAULT_ANGLE_SIGMA_DEG, DEFAULT_POSITION_SIGMA_M, GPS_POSITION_SIGMA_M
-from ...workflow.camera_files import camera_json, fit_figures
+from ...workflow.camera_files import camera_json, fit_figures, fitted_photo
 from .. import batch
 from ..base import MonoplotAlgorithm, checked
 
@@ -59,11 +59,14 @@ class BatchPhotos(MonoplotAlgorithm):
              "canceled or killed run resumes where it stopped); the log says which photos were kept.\n\n"
              "Time-lapse speed: what depends only on the camera and the DEM (XYZ raster, sky, the orthophoto's "
              "lookup) is computed once; WORKERS frames are processed at once (0 = one per core).\n\n"
-             "REGISTER (time-lapse mode): every frame is matched to REFERENCE (default: the first "
-             "frame that can be read and is not blank: fog, night) on "
+             "REGISTER (time-lapse mode, on by default; a table's photos are each fitted): every frame is matched "
+             "to REFERENCE (default: the frame the shared camera was fitted on, when its file names it and it is "
+             "in the folder; else the first frame that can be read and is not blank: fog, night) on "
              "stable terrain (no sky, no foreground) and the camera is turned by the drift found; the drift (pixels "
              "and degrees) is in the log, a frame that turned gets its own frame_camera.json and frame_xyz.tif, and "
-             "a frame that cannot be registered is reported as failed (never given the reference camera).\n\n"
+             "a frame that cannot be registered is reported as failed (never given the reference camera). Without "
+             "REGISTER, an \"ok\" camera fitted on one frame is \"uncertain\" on the others: a bump of the mount "
+             "would not show.\n\n"
              "SCHEDULER: the address of a Dask scheduler (tcp://host:8786) whose workers process the frames (each "
              "frame a task; a worker that dies has its frames retried elsewhere); the workers must see the photo "
              "folder, the DEM and the output folder at the same paths. Empty: this machine.")
@@ -111,7 +114,7 @@ class BatchPhotos(MonoplotAlgorithm):
                                                        QgsProcessingParameterNumber.Double, 0.0, minValue=0.0))
         self.addParameter(QgsProcessingParameterBoolean("REGISTER",
                                                         self.tr("Re-register every frame (time-lapse mode)"),
-                                                        defaultValue=False))
+                                                        defaultValue=True))
         self.addParameter(QgsProcessingParameterFile("REFERENCE", self.tr("Reference frame (default: the first "
                                                                           "usable frame)"),
                                                      QgsProcessingParameterFile.File, optional=True))
@@ -154,7 +157,8 @@ class BatchPhotos(MonoplotAlgorithm):
                                                 self.parameterAsFile(parameters, "CAMERA", context), points,
                                                 self.parameterAsFile(parameters, "DEM_POINTS", context),
                                                 dem, crs.toWkt(), lambda m, e: feedback.reportError(m, False))
-                camera_verdict = (verdict["status"], verdict["message"], fit_figures(verdict))
+                camera_verdict = (verdict["status"], verdict["message"],
+                                  {**fit_figures(verdict), **fitted_photo(used)})
                 os.makedirs(out_dir, exist_ok=True)
                 if os.path.exists(os.path.join(out_dir, "camera.json")):
                     feedback.pushInfo(self.tr("camera.json of an earlier run in {0} is replaced").format(out_dir))
@@ -202,9 +206,8 @@ class BatchPhotos(MonoplotAlgorithm):
             if message:  # the photo under way, or the last one done
                 feedback.setProgressText(message)
 
-        register = self.parameterAsBool(parameters, "REGISTER", context)
-        if register and mode != 0:
-            raise QgsProcessingException(self.tr("REGISTER needs the time-lapse mode (frames of one camera)."))
+        # a table's photos are each fitted on their own: nothing to re-register (on by default for a time-lapse)
+        register = self.parameterAsBool(parameters, "REGISTER", context) and mode == 0
         options = dict(write_xyz=self.parameterAsBool(parameters, "XYZ", context),
                        write_ortho=self.parameterAsBool(parameters, "ORTHO", context),
                        resolution=self.parameterAsDouble(parameters, "RESOLUTION", context) or None,
