@@ -146,6 +146,37 @@ def test_the_next_frame_of_a_turned_camera_turns_the_kept_points_and_cameras(doc
     assert c.fitted == turned_fit and abs(c.prior.heading - rough.heading - 0.4) < 0.07
 
 
+def test_check_points_kept_on_a_turned_frame_are_measured_with_the_turned_camera(dock, scene, qtbot, tmp_path):
+    """A time-lapse trial's 6 check points, 13.1 px on the first frame, read "18.2 px, 5 times the camera's
+    residuals" after Keep the points on a frame turned 0.5°: they were measured when the points had moved and the
+    camera not yet. Measured with the turned camera, they say what they said."""
+    from monoplot_plugin.adapters.photo import array_to_qimage
+    from monoplot_plugin.core.synthetic import render_photo
+
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    photo, world = add_scene_points(dock, scene, n=10)
+    accept_everything(c)
+    for k in range(4):
+        c.link(photo[k].id, world[k].id)
+    c.stack.push(set_status(c.state, [p.id for p in photo[:4] + world[:4]], CHECK))
+    c.set_fitted(scene.camera, {"status": "ok", "message": "the true camera", "rmse_px": 0.5})
+    c.remeasure_checks()
+    first = c.state.fit_info["check_rmse_px"]
+    assert first < 1.0 and c.state.fit_info["status"] == "ok"
+    turned = scene.camera.with_parameters(heading=scene.camera.heading + 0.5, pitch=scene.camera.pitch - 0.2)
+    frame = str(tmp_path / "frame_turned.png")
+    assert array_to_qimage(render_photo(turned, scene.dem, noise=False)).save(frame)
+    answer_with(qtbot, "Keep the points", [])
+    dock.photoFile.setFilePath(frame)
+    assert c.state.photo_path == frame and abs(c.fitted.heading - turned.heading) < 0.07
+    info = c.state.fit_info
+    assert info["check_rmse_px"] < first + 0.5, info["check_rmse_px"]
+    assert info["status"] == "ok" and "Turned onto this frame" in info["message"]
+    c.stack.undo()  # the points and the cameras turn back together: measured with the camera turned back
+    assert c.fitted == scene.camera and c.state.fit_info["check_rmse_px"] < first + 0.5
+
+
 def test_a_damaged_photo_is_refused_before_any_question(dock, scene, qtbot, tmp_path):
     """A trial chose a truncated JPEG while the photo carried points: the dock asked "Keep the points?" and only
     then refused the file. It is now refused at once, with its reason, and the points and the box stay."""
