@@ -188,3 +188,24 @@ def test_a_camera_on_the_ground_is_searched_and_fitted_on_it(on_the_ground):
     assert r.status != "poor", r.message
     # its height is known as well as the terrain under the position's σ is (a re-check trial read "Z ± 200")
     assert 1.0 <= r.std["z"] < 60.0, r.std
+
+
+def test_a_dem_that_ends_inside_the_view_is_named_as_the_cause(scene):
+    """A time-lapse trial's DEM stopped inside the view: with the true camera as prior only 55 % of the photo's
+    skyline lay on the DEM's, and the message blamed the position's σ and views the edges could not tell apart.
+    Where the DEM's edge stands for its skyline, the message says so."""
+    from monoplot_plugin.core.dem import Dem
+
+    dem, truth, photo, _ = scene
+    cut = dem.elevation.astype(np.float64).copy()
+    cut[:115, :80] = np.nan  # the skyline ridges of the western half of the view are missing
+    short = Dem.from_array(cut, dem.geotransform, dem.crs_wkt)
+    pe = detect_photo_edges(photo, width=480)
+    whole = Aligner(truth, pe, dem_edges(truth, dem, 2.0), SIGMAS, tau=3.0)
+    assert whole.skyline_at_dem_edge(np.zeros(7), 2.0) < 0.05
+    cut_off = Aligner(truth, pe, dem_edges(truth, short, 2.0), SIGMAS, tau=3.0).skyline_at_dem_edge(np.zeros(7), 2.0)
+    assert 0.2 < cut_off < 0.8
+    r = register_automatic(photo, short, truth, position_sigma_m=5.0, angle_sigma_deg=0.5, fov_sigma_deg=0.5)
+    assert r.evidence["auto_sky_at_dem_edge"] > 0.15
+    assert "the DEM ends inside the view: its edge stands for the skyline under" in r.message
+    assert "give a larger position uncertainty" not in r.message

@@ -112,6 +112,8 @@ class Aligner:
         self.sky_next = edges.sky_next[ks] - self.origin
         self.contour = edges.contour[kc] - self.origin
         self.contour_next = edges.contour_next[kc] - self.origin
+        border = getattr(edges, "border", np.zeros((0, 3)))
+        self.border = border[_every(len(border), max_points)] - self.origin
         self.scale_vec = np.array([sigmas["angle_deg"]] * 3 + [sigmas["fov_deg"]] + [sigmas["position_m"]] * 3)
         #: (DEM, eye height) of a camera on the ground: every hypothesis's height follows the terrain
         self.ground = sigmas.get("ground")
@@ -331,6 +333,17 @@ class Aligner:
             if not improved or np.all(np.abs(step) < h):
                 break
         return x, best
+
+    def skyline_at_dem_edge(self, offset, within_px: float) -> float:
+        """Share of the photo's clear skyline columns where, under ``offset``, the DEM's skyline is its edge (the
+        terrain beyond the DEM is missing, :attr:`~.dem_edges.DemEdges.border`) lying higher than ``within_px``
+        above any skyline point inside it: there the photo's skyline cannot be compared with the DEM's."""
+        if not self.use_sky or not len(self.border):
+            return 0.0
+        off = np.asarray(offset, dtype=np.float64)[None]
+        edge = self._sky_top(*self._project(off, self.border))[0][self.sky_cols]
+        inside = self._sky_top(*self._project(off, self.sky))[0][self.sky_cols]
+        return float(np.mean(np.isfinite(edge) & ~(inside <= edge + within_px)))
 
     def skyline_agreement(self, offset, within_px: float) -> float:
         """Share of the photo's clear skyline columns whose DEM skyline lies within ``within_px`` working pixels."""

@@ -25,7 +25,7 @@ For a DEM much finer than the camera needs, :func:`coarse_dem` averages blocks o
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -44,6 +44,8 @@ class DemEdges:
         sky, sky_next: (S, 3) skyline points (terrain with sky right above) and a point one pixel along the edge.
         contour, contour_next: (K, 3) occluding-contour points (near side of a depth step) and their neighbours.
         camera: the widened camera that rendered them.
+        border: (B, 3) skyline points left out of ``sky`` because the DEM ends there (:meth:`~..dem.Dem.near_edge`):
+            where the DEM's edge stands for the skyline, the photo's skyline cannot be compared with it.
     """
 
     sky: np.ndarray
@@ -51,6 +53,7 @@ class DemEdges:
     contour: np.ndarray
     contour_next: np.ndarray
     camera: Camera
+    border: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
 
 def coarse_dem(dem: Dem, max_cells: int, is_canceled=None) -> Dem:
@@ -135,13 +138,19 @@ def dem_edges(camera: Camera, dem: Dem, margin_deg: float, focal_px: float = Non
     gx = cv2.Sobel(logd, cv2.CV_32F, 1, 0, ksize=3)
     gy = cv2.Sobel(logd, cv2.CV_32F, 0, 1, ksize=3)
     out = []
+    border = np.zeros((0, 3))
     for mask, most in ((sky, max_points), (contour, max_points)):
         rows, cols = np.nonzero(mask)
         keep = _thin(np.arange(len(rows)), most)
         rows, cols = rows[keep], cols[keep]
         xyz = res.xyz[rows, cols]
         ok = np.isfinite(xyz).all(axis=1)
-        ok[ok] &= ~dem.near_edge(xyz[ok])
+        at_edge = np.zeros_like(ok)
+        at_edge[ok] = dem.near_edge(xyz[ok])
+        if mask is sky and at_edge.any():  # lifted to the silhouette as the skyline points are (below)
+            origin, up = cam.pixel_to_world_ray(np.stack([cols[at_edge] + 0.5, rows[at_edge] + 0.0], axis=1))
+            border = origin + up * np.linalg.norm(xyz[at_edge] - origin, axis=1)[:, None]
+        ok &= ~at_edge
         rows, cols, xyz = rows[ok], cols[ok], xyz[ok]
         tx, ty = -gy[rows, cols], gx[rows, cols]
         norm = np.hypot(tx, ty)
@@ -160,5 +169,5 @@ def dem_edges(camera: Camera, dem: Dem, margin_deg: float, focal_px: float = Non
             xyz, nxt = lifted, nxt + (lifted - xyz)
         out.append((xyz, nxt))
     (s, sn), (c, cn) = out
-    return DemEdges(s, sn, c, cn, cam)
+    return DemEdges(s, sn, c, cn, cam, border)
 

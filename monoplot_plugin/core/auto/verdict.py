@@ -52,6 +52,9 @@ ANGLE_SIGMA_OK = 0.5
 #: cameras of 70 synthetic scenes had 2-4 back (4 for all but one); a wrong one (1.25 % of the range, 23 px on the
 #: terrain) had 1, and another 0.
 PROBES_BACK_OK = 2
+#: Share of the photo's skyline under which the DEM's edge stands for the skyline (the DEM stops inside the view)
+#: from which the message names it as a cause (words only: the status is the other rules').
+DEM_EDGE_SHARE = 0.1
 
 
 def _metres(value: float) -> str:
@@ -73,6 +76,7 @@ def alignment_evidence(al: Aligner, off, score: float, refined, photo: PhotoEdge
     ev = {"auto_skyline_usable": bool(photo.usable), "auto_sky_fraction": float(photo.sky_fraction),
           "auto_sky_contrast": float(photo.contrast), "auto_align_score": float(score),
           "auto_sky_agreement": al.skyline_agreement(off, within),
+          "auto_sky_at_dem_edge": al.skyline_at_dem_edge(off, within),
           "auto_rival_ratio": float(refined[0][0] / rival[0][0]) if rival and rival[0][0] > 0 else 0.0,
           "auto_evaluations": int(al.evaluations)}
     if rival:  # where it looks, from this camera (a phone trial's message named no direction)
@@ -126,13 +130,21 @@ def combine_evidence(result: AutoFitResult, ev: dict) -> None:
     elif ev["auto_sky_agreement"] < SKY_AGREEMENT_OK:
         weak.append(f"only {100 * ev['auto_sky_agreement']:.0f} % of the photo's skyline lies on the DEM's "
                     "skyline under the camera")
+    at_edge = ev.get("auto_sky_at_dem_edge", 0.0) if ev["auto_skyline_usable"] else 0.0
+    if at_edge >= DEM_EDGE_SHARE:
+        # named: a trial's DEM stopped inside the view, and the message blamed the position's σ and rival views
+        weak.append(f"the DEM ends inside the view: its edge stands for the skyline under {100 * at_edge:.0f} % of "
+                    "the photo's skyline, where the terrain beyond it is missing and the photo cannot be compared "
+                    "with it; a DEM reaching the horizon would judge the camera on all of it")
     if ev.get("auto_edge_score", 1.0) > EDGE_SCORE_OK:
         # with one cause the person can act on (a trial's EXIF GPS 250 m off, searched within its 30 m: the camera
         # ended 311 m from the truth, nothing said the σ might be too small)
+        cause = ("the DEM's edge in the view is one cause" if at_edge >= DEM_EDGE_SHARE else
+                 f"if the rough position may be farther off than its σ of "
+                 f"{_metres(ev.get('auto_position_sigma_m', 0.0))} m, give a larger position uncertainty")
         weak.append(f"the DEM's skyline and contours fit the photo's edges only loosely under the camera (edge "
                     f"score {ev.get('auto_edge_score', 1.0):.3f}, over {EDGE_SCORE_OK:.3f}; 0 is a perfect fit): "
-                    f"if the rough position may be farther off than its σ of "
-                    f"{_metres(ev.get('auto_position_sigma_m', 0.0))} m, give a larger position uncertainty")
+                    + cause)
     rng = ev.get("auto_range_m", float("nan"))
     near = not np.isfinite(rng) or ev.get("auto_position_sigma_m", 0.0) > NEAR_RATIO * rng
     if near:
