@@ -453,3 +453,29 @@ def test_a_held_position_known_to_some_metres_widens_the_angles_sigma_to_cover_t
     unpaired = fit_camera(observed, world[::-1], held, free=free, position_sigma_m=5.0)
     exact_unpaired = fit_camera(observed, world[::-1], held, free=free)
     assert unpaired.std["pitch"] > 2 * exact_unpaired.std["pitch"]
+
+
+def test_a_camera_that_sees_no_part_of_the_dem_is_poor_however_well_its_points_fit():
+    """A trial's GCP table in metres beside a DEM in degrees (another CRS): the paired fit agreed with its points,
+    "ok" at 0.0 px, with the camera 4,575 km from the DEM. Its products cannot be made; the verdict says so."""
+    from monoplot_plugin.core.synthetic import synthetic_terrain
+    from monoplot_plugin.core.xyz import compute_xyz_full
+
+    dem = synthetic_terrain((160, 160), cell=60.0, seed=1)
+    x0, y0, x1, y1 = dem.bounds()
+    x, y = (x0 + x1) / 2, y0 + 0.03 * (y1 - y0)
+    truth = Camera((x, y, float(dem.sample(x, y)) + 400.0), -5.0, -3.0, 0.5, 55.0, (480, 320), crs_wkt=dem.crs_wkt)
+    res = compute_xyz_full(truth, dem, visibility=False)
+    rows, cols = np.nonzero(res.hit)
+    pick = np.random.default_rng(0).choice(len(rows), 12, replace=False)
+    world = res.xyz[rows[pick], cols[pick]]
+    uv = np.column_stack([cols[pick] + 0.5, rows[pick] + 0.5])
+    pairs = np.stack([np.arange(12)] * 2, axis=1)
+    start = truth.with_parameters(heading=truth.heading + 2.0, x=x + 50.0)
+    here = fit_camera(uv, world, start, pairs=pairs, terrain=dem)
+    assert here.status == "ok" and "sees no part of the DEM" not in here.message
+    shift = np.array([2_000_000.0, 1_000_000.0, 0.0])  # the same points, typed in another CRS's numbers
+    away = fit_camera(uv, world + shift, start.with_parameters(x=x + 50.0 + shift[0], y=y + shift[1]), pairs=pairs,
+                      terrain=dem)
+    assert away.rmse_px < 1.0 and away.status == "poor"
+    assert away.message.startswith("Probably wrong: the camera (at X ") and "in the DEM's CRS?" in away.message

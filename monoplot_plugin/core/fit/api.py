@@ -21,6 +21,18 @@ from .verdict import judge
 __all__ = ["fit_camera"]
 
 
+def sees_no_terrain(result: FitResult) -> None:
+    """A fitted camera that sees no cell of the terrain it was given is "poor", whatever its points say: a trial's GCP
+    table in another CRS than the DEM's (metres beside degrees) fitted "ok" at 0.0 px, 4,575 km from the DEM. Its
+    points agree with it; they cannot be the terrain's."""
+    x, y = result.camera.position[:2]
+    result.evidence["sees_no_terrain"] = True
+    if result.status in ("ok", "uncertain"):
+        result.status = "poor"
+    result.message = (f"Probably wrong: the camera (at X {x:.0f}, Y {y:.0f}) sees no part of the DEM: are the map "
+                      f"points' X, Y in the DEM's CRS? No product can be made from it. " + result.message)
+
+
 def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Optional[Iterable[str]] = None, *,
                ground=None, eye_height: float = 1.7, terrain=None, check_image_points=None, check_world_points=None,
                options: Optional[FitOptions] = None, progress: Optional[Callable[[float, str], None]] = None,
@@ -81,10 +93,13 @@ def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Op
                                    check_nearest_m=nearest)
     if result.evidence and result.status not in ("refused", "canceled"):
         result.evidence.update(unmodelled_lens(ctx, result))
-        if terrain is not None and result.std:  # without σ nothing can be said: no z-buffer rendered
-            result.evidence.update(loosely_placed_ground(result.camera, result.std, ground_seen(result.camera, terrain),
-                                                         result.correlation, ctx.ground))
+        seen = ground_seen(result.camera, terrain) if terrain is not None else None
+        if seen is not None and result.std:  # without σ nothing can be said
+            result.evidence.update(loosely_placed_ground(result.camera, result.std, seen, result.correlation,
+                                                         ctx.ground))
         result.status, result.message = judge(result.evidence)
+        if seen is not None and not len(seen):
+            sees_no_terrain(result)
     result.elapsed_s = time.perf_counter() - t0
     ctx.report(1.0, "")  # not the status: a caller may still lower it (on-ground rule, automatic cap)
     return result
