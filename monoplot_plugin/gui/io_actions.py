@@ -22,7 +22,7 @@ from qgis.PyQt.QtCore import QCoreApplication, Qt, QVariant
 from qgis.PyQt.QtWidgets import QFileDialog, QMenu, QSizePolicy, QToolButton
 
 from ..adapters.photo_space import photo_point, pixel_of
-from ..state import ACCEPTED, CHECK, MAP, PHOTO, Edit, Point
+from ..state import ACCEPTED, CHECK, MAP, PHOTO, REJECTED, Edit, Point
 from ..workflow.inputs import InputError, _transform, is_warning_note, points_to_dem_crs
 from ..workflow.points_csv import read_points_csv, write_points_csv
 from .camera_io import load_camera_file, save_camera_file
@@ -102,6 +102,10 @@ def import_points_csv(controller, path: str, all_check: bool = False) -> int:
         has_uv = uv is not None and bool(np.isfinite(uv[i]).all())
         has_xyz = xyz is not None and bool(np.isfinite(xyz[i, :2]).all())
         status = _status(bool(check[i]) and has_uv and has_xyz)  # a check point needs both sides
+        if has_uv and _off_photo(c, uv[i]):
+            # kept out of the fit (a trial's one typed u of 1720 on a 1500 px photo among 11 exact pairs made the fit
+            # "poor", 302 px, its field of view 111°); Processing refuses such a table
+            status = REJECTED
         label = str(ids[i])
         a = b = None
         # a map point already there (left by another photo's work, or this table imported before) is used again:
@@ -136,7 +140,8 @@ def import_points_csv(controller, path: str, all_check: bool = False) -> int:
         text += " " + tr("{0} rows were imported before and are left as they are.").format(again)
     outside = _outside_photo(c, photo)
     if outside:
-        text += " " + tr("{0} photo points lie outside the photo ({1}): is the table for this photo?").format(
+        text += " " + tr("{0} photo points lie outside the photo ({1}): imported rejected, out of the fit (shown "
+                         "with the rejected points); is the table for this photo, or a number mistyped?").format(
             len(outside), ", ".join(outside[:5]) + (", …" if len(outside) > 5 else ""))
     if table.get("unused"):  # a photo or map column under a name the reader does not know
         text += " " + tr("Columns not read: {0} (photo pixels are u_px, v_px; map coordinates X, Y, Z).").format(
@@ -151,10 +156,15 @@ def import_points_csv(controller, path: str, all_check: bool = False) -> int:
 def _outside_photo(c, photo: List[Point]) -> List[str]:
     """The labels of the photo points outside the photo (a trial's typed u of 3350 on a 3000 px photo was counted,
     not named)."""
+    return [p.label or f"({p.x:.0f}, {p.y:.0f})" for p in photo if _off_photo(c, (p.x, p.y))]
+
+
+def _off_photo(c, uv) -> bool:
+    """Whether the pixel ``uv`` lies outside the photo (False when no photo is loaded)."""
     if c.photo_size is None:
-        return []
+        return False
     w, h = c.photo_size
-    return [p.label or f"({p.x:.0f}, {p.y:.0f})" for p in photo if not (0 <= p.x <= w and 0 <= p.y <= h)]
+    return not (0 <= uv[0] <= w and 0 <= uv[1] <= h)
 
 
 def export_points_csv(controller, path: str) -> int:

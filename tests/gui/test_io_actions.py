@@ -11,7 +11,7 @@ import pytest
 from qgis.core import Qgis, QgsProject, QgsRasterLayer
 
 from monoplot_plugin.gui import io_actions
-from monoplot_plugin.state import ACCEPTED, CHECK, MAP, PHOTO, remove_points
+from monoplot_plugin.state import ACCEPTED, CHECK, MAP, PHOTO, REJECTED, remove_points
 from monoplot_plugin.workflow.points_csv import read_points_csv, write_points_csv
 
 
@@ -163,7 +163,11 @@ def test_tables_from_other_tools_are_read_or_said_not_to_be(dock, scene, tmp_pat
     off = [f"G{i},{u + (1000 if i == 2 else 0):.2f},{v:.2f},{x:.2f},{y:.2f},{z:.2f}"
            for i, ((u, v), (x, y, z)) in enumerate(zip(uv, xyz))]
     io_actions.import_points_csv(c, table("off.csv", "id,u_px,v_px,X,Y,Z", off))
-    assert "1 photo points lie outside the photo (G2)" in messages[-1]
+    assert "1 photo points lie outside the photo (G2): imported rejected, out of the fit" in messages[-1]
+    # a typed u of 1720 on a 1500 px photo made a trial's fit "poor" (302 px): that pair is kept out of it
+    g2 = [p for p in c.state.points.values() if p.label == "G2"]
+    assert len(g2) == 2 and all(p.status == REJECTED for p in g2)
+    assert len(c.state.valid_pairs()) == 5 and len(c.state.pairs) == 6
     c.stack.undo()
     bad = table("bad_number.csv", "u_px,v_px,X,Y,Z", ["12 px,3,4,5,6"])
     assert io_actions.import_points_csv(c, bad) == 0 and '\'u_px\' is "12 px", not a number' in messages[-1]
@@ -187,7 +191,7 @@ def test_a_table_imported_again_or_on_a_second_photo_adds_no_map_point_twice(doc
     # the photo points go (another photo), the map points stay: a second table pairs its pixels with them
     c.stack.push(remove_points(c.state, [p.id for p in c.state.in_space(PHOTO)]))
     other = str(tmp_path / "modern.csv")
-    write_points_csv(other, uv=uv * 1.5, xyz=xyz)
+    write_points_csv(other, uv=uv * 0.8 + 5.0, xyz=xyz)
     assert io_actions.import_points_csv(c, other) == 6
     assert "6 map points were there already and are used again" in messages[-1]
     assert len(c.state.in_space(MAP)) == 6 and len(c.state.pairs) == 6
