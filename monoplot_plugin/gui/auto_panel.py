@@ -94,10 +94,14 @@ class AutoPanel(QObject):
         _, check_uv, check_xyz = c.check_points()  # the person's check points measure the camera found
         sigmas = self.prior_sigmas(prior is not None)
         height = height_arguments(c.state.settings)  # "camera height: on the ground" holds the search there too
+        # a view far from the rough heading (a trial's 183°) is looked for over every direction when the edges fit
+        # loosely near it, unless the person gave the angles' uncertainty (Angles ±): then the heading is that sure
+        search_wider = sigmas["angle_sigma_deg"] is None
 
         def work(progress, is_canceled):
             done = auto_step.register(photo, dem, start, **sigmas, progress=part(progress, 0.0, 0.9),
-                                      is_canceled=is_canceled, heading_known=heading_known, **height)
+                                      is_canceled=is_canceled, heading_known=heading_known,
+                                      every_direction_if_loose=search_wider, **height)
             overlay, xyz, footprint = engine.render_products(done.camera, dem, is_canceled)
             # the DEM's silhouettes under the camera found over the photo's detected skyline
             overlay = draw_alignment(overlay, done.camera, done.result.skyline, dem)

@@ -15,6 +15,7 @@ from typing import Optional
 import numpy as np
 
 from ..core.auto import AutoFitResult, register_any_heading, register_automatic
+from ..core.auto.verdict import EDGE_SCORE_OK
 from ..core.camera import Camera
 from .fit import (DEEP_UNDERGROUND_M, ON_GROUND_MAX_M, UNDERGROUND_TOLERANCE_M, depth_under_terrain,
                   flag_under_terrain, ground_clearance, measured_on_pairs, on_ground_rule)
@@ -63,10 +64,13 @@ def register(photo: np.ndarray, dem, prior: Camera, position_sigma_m: Optional[f
              angle_sigma_deg: Optional[float] = None, fov_sigma_deg: Optional[float] = None,
              progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None,
              heading_known: bool = True, on_ground: Optional[bool] = None,
-             eye_height: Optional[float] = None) -> AutoDone:
+             eye_height: Optional[float] = None, every_direction_if_loose: bool = False) -> AutoDone:
     """Register ``photo`` on ``dem`` from ``prior`` with no points given. ``heading_known`` False: the prior's
     heading is a guess (no direction in the photo's EXIF): every direction of view is searched
     (:func:`~monoplot_plugin.core.auto.heading.register_any_heading`, three to four times as long).
+    ``every_direction_if_loose``: when the search near the prior's heading ends short of "ok" with the DEM's edges
+    fitting the photo's loosely (edge score over :data:`~monoplot_plugin.core.auto.verdict.EDGE_SCORE_OK`), every
+    direction is searched too, and the better fit of the edges kept (:func:`_every_direction`).
     ``on_ground``, ``eye_height``: the camera height rule of a fit (:func:`~.fit.on_ground_rule`; None: a rough
     camera within a few metres of the terrain stands on it): a camera on the ground is searched and fitted on it.
 
@@ -85,8 +89,48 @@ def register(photo: np.ndarray, dem, prior: Camera, position_sigma_m: Optional[f
     if result.status == "canceled":
         raise Canceled(result.message or "canceled")
     check_canceled(is_canceled)
+    ev = result.evidence or {}
+    # not for a photo whose edges match nothing (fog, a blank frame): any direction would fit its chance edges
+    if every_direction_if_loose and heading_known and result.status != "ok" and _edge_score(result) > EDGE_SCORE_OK \
+            and ev.get("auto_skyline_usable") and not ev.get("auto_no_edges"):
+        result = _every_direction(result, photo, dem, prior, position_sigma_m, angle_sigma_deg, fov_sigma_deg,
+                                  eye if grounded else None, progress, is_canceled)
     check_height(result, prior, dem)
     return AutoDone(result)
+
+
+def _edge_score(result) -> float:
+    return float((result.evidence or {}).get("auto_edge_score", math.inf))
+
+
+def _every_direction(near: AutoFitResult, photo, dem, prior: Camera, position_sigma_m, angle_sigma_deg,
+                     fov_sigma_deg, eye, progress, is_canceled) -> AutoFitResult:
+    """The search over every direction after one near the prior's heading fitted the edges loosely; the result
+    whose edges fit better, its message saying what was done. A trial's rough camera turned 183° away from the
+    view: "uncertain", 195° off; searched every direction, 0.05° off (Processing's ANY_HEADING, which the dock did
+    not offer)."""
+    def report(fraction, message=""):
+        if progress is not None:
+            progress(fraction, "searching every direction: " + message if message else "")
+
+    report(0.0, "the view found fits the photo's edges loosely")
+    wide = register_any_heading(
+        photo, dem, prior,
+        position_sigma_m=DEFAULT_POSITION_SIGMA_M if position_sigma_m is None else float(position_sigma_m),
+        angle_sigma_deg=DEFAULT_ANGLE_SIGMA_DEG if angle_sigma_deg is None else float(angle_sigma_deg),
+        fov_sigma_deg=fov_sigma_deg, eye_height_m=eye, progress=report, is_canceled=is_canceled)
+    if wide.status == "canceled":
+        raise Canceled(wide.message or "canceled")
+    check_canceled(is_canceled)
+    turn = (wide.camera.heading - prior.heading + 180.0) % 360.0 - 180.0
+    if _edge_score(wide) < _edge_score(near):
+        wide.message = (f"Every direction searched: near the rough camera's heading the DEM's edges fitted the photo's "
+                        f"loosely (edge score {_edge_score(near):.3f}); this view, {abs(turn):.0f}° to the "
+                        f"{'right' if turn > 0 else 'left'} of it, fits them better ({_edge_score(wide):.3f}). "
+                        + wide.message)
+        return wide
+    near.message = (f"{near.message} Every direction was searched too: no view fitted the photo's edges better.")
+    return near
 
 
 def check_height(result, prior: Camera, dem) -> None:

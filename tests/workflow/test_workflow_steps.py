@@ -448,3 +448,23 @@ def test_a_gps_height_a_few_metres_up_is_weighed_against_eye_height():
     dem, truth, uv, world, prior = _phone_scene(15.0)
     done = fit_step.fit(uv, world, prior, dem)
     assert fit_step.ground_clearance(done.camera, dem) > 10.0 and "Held at eye height" not in done.result.message
+
+
+def test_a_rough_heading_far_off_is_searched_in_every_direction_when_the_edges_fit_loosely():
+    """A trial's rough camera looked 183° away from the view: Find camera kept that direction ("uncertain", 195°
+    off) while Processing's ANY_HEADING found it to 0.05°, an option the dock does not have. Asked to
+    (the dock does), the step searches every direction when the edges fit loosely near the rough heading."""
+    from monoplot_plugin.workflow import auto as auto_step
+
+    dem = synthetic_terrain((160, 160), cell=60.0, seed=1)
+    x0, y0, x1, y1 = dem.bounds()
+    x, y = (x0 + x1) / 2, y0 + 0.03 * (y1 - y0)
+    truth = Camera((x, y, float(dem.sample(x, y)) + 400.0), -5.0, -3.0, 0.5, 55.0, (480, 320), crs_wkt=dem.crs_wkt)
+    photo = render_photo(truth, dem, seed=1)
+    away = truth.with_parameters(heading=truth.heading + 180.0, x=x + 60.0)
+    messages = []
+    done = auto_step.register(photo, dem, away, every_direction_if_loose=True,
+                              progress=lambda f, m="": messages.append(m))
+    assert abs((done.camera.heading - truth.heading + 180.0) % 360.0 - 180.0) < 0.5
+    assert done.result.message.startswith("Every direction searched: near the rough camera's heading")
+    assert any(m.startswith("searching every direction") for m in messages)
