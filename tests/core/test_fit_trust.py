@@ -189,9 +189,15 @@ def test_check_points_far_worse_than_the_residuals_make_the_verdict_uncertain():
     result = fit_camera(fit_uv, fit_world, TRUTH.with_parameters(heading=TRUTH.heading + 1), pairs=pairs,
                         check_image_points=check_uv, check_world_points=check_world)
     assert result.status == "uncertain" and "times the fit's residuals" in result.message, result.message
+    # their scale, not the residuals', is the camera's: its σ widened by as much (a trial's ± 0.03° for 0.075° off)
+    alone = fit_camera(fit_uv, fit_world, TRUTH.with_parameters(heading=TRUTH.heading + 1), pairs=pairs)
+    factor = result.check_rmse_px / max(result.rmse_px, 1.0)
+    assert factor > 5.0 and result.std["heading"] == pytest.approx(factor * alone.std["heading"], rel=1e-6)
+    assert f"Its σ are widened {factor:.1f} times" in result.message
     fair = fit_camera(fit_uv, fit_world, TRUTH.with_parameters(heading=TRUTH.heading + 1), pairs=pairs,
                       check_image_points=check_uv - [6.0, -6.0], check_world_points=check_world)
     assert fair.status == "ok", fair.message  # about a pixel off: as good as the clicks
+    assert fair.std == alone.std and "widened" not in fair.message
 
 
 def test_close_range_prior_far_off_in_position_is_found_by_position_hypotheses():
