@@ -47,19 +47,14 @@ def follow_the_turn(controller, previous) -> None:
         return
     before = camera_snapshot(c)
     photo = [p for p in state.points.values() if p.space == PHOTO]
-    edit = None
-    if photo:
-        moved = turned_pixels(camera, drift.rotation, np.array([(p.x, p.y) for p in photo]))
-        edit = Edit(tr("Follow the frame's turn"), before={p.id: p for p in photo},
-                    after={p.id: replace(p, x=float(u), y=float(v)) for p, (u, v) in zip(photo, moved)})
-        c.stack.push(edit)
+    moved = turned_pixels(camera, drift.rotation, np.array([(p.x, p.y) for p in photo])) if photo else []
+    # the cameras turn first, then the points: the check points are measured once, with the turned camera on the
+    # turned points (measured in between, a trial's 13.1 px read "18.2 px, 5 times the camera's residuals")
     if c.prior is not None:
         c.set_prior(corrected_camera(c.prior, drift.rotation))
     if c.fitted is not None:
         info = dict(state.fit_info or {})
-        # the check points were measured again when the points moved, with the camera not yet turned (a trial's
-        # 13.1 px became "18.2 px, 5 times the camera's residuals"): their verdict is undone, and made again below
-        for key in ("status", "message"):
+        for key in ("status", "message"):  # the check points' verdict is made again on the turned points
             if f"{key}_before_checks" in info:
                 info[key] = info.pop(f"{key}_before_checks")
         info.pop("checks_measured", None)
@@ -70,6 +65,12 @@ def follow_the_turn(controller, previous) -> None:
             xy.update({p.id: [float(u), float(v)] for p, (u, v) in zip(photo, moved) if p.id in xy})
             info["fit_point_xy"] = xy
         c.set_fitted(corrected_camera(c.fitted, drift.rotation), info)
+    edit = None
+    if photo:
+        edit = Edit(tr("Follow the frame's turn"), before={p.id: p for p in photo},
+                    after={p.id: replace(p, x=float(u), y=float(v)) for p, (u, v) in zip(photo, moved)})
+        c.stack.push(edit)
+    else:
         c.remeasure_checks()
     if edit is not None:
         _follower(c).watch(edit, before, camera_snapshot(c))

@@ -140,8 +140,8 @@ def import_points_csv(controller, path: str, all_check: bool = False) -> int:
         text += " " + tr("{0} rows were imported before and are left as they are.").format(again)
     outside = _outside_photo(c, photo)
     if outside:
-        text += " " + tr("{0} photo points lie outside the photo ({1}): imported rejected, out of the fit (shown "
-                         "with the rejected points); is the table for this photo, or a number mistyped?").format(
+        text += " " + tr("{0} photo points lie outside the photo ({1}): imported rejected, out of the fit (Show ▾ "
+                         "Rejected lists them); is the table for this photo, or a number mistyped?").format(
             len(outside), ", ".join(outside[:5]) + (", …" if len(outside) > 5 else ""))
     if table.get("unused"):  # a photo or map column under a name the reader does not know
         text += " " + tr("Columns not read: {0} (photo pixels are u_px, v_px; map coordinates X, Y, Z).").format(

@@ -102,9 +102,10 @@ class ResultsMixin:
                 "prior_fov_deg": float(prior.fov), "fov_sigma_deg": sigmas["fov_deg"]}
 
     def moved_advice(self, info: dict) -> str:
-        """What to do about a fit that is not "ok" and took the camera more than twice the position σ from the rough
-        camera (a GPS position: fix it), or its field of view far from the rough camera's (give the lens), for the
-        message bar and the fit tab; "" otherwise."""
+        """What to do about a fit not "ok" that took the camera more than twice the position σ from the rough camera
+        (a GPS position: fix it), or its field of view far from the rough one's (give the lens); "" otherwise."""
+        if info.get("sees_no_terrain"):  # the points' CRS is wrong, not the position or lens (a re-check trial)
+            return ""
         return " ".join(text for text in (self._position_advice(info), self._lens_advice(info)) if text)
 
     def _lens_advice(self, info: dict) -> str:

@@ -32,6 +32,11 @@ def sigma_text(value: float) -> str:
 VERDICT_MARKERS = ("Probably wrong: ", "Uncertain: ")
 
 
+#: the start of a message whose first sentence goes before the verdict (:func:`verdict_first`; the workflow's
+#: ``auto._every_direction`` writes it)
+LEAD_MARKER = "Every direction searched:"
+
+
 def verdict_first(message: str) -> tuple:
     """(the verdict's reasons and what follows them, the figures before them) of a fit's message; the dock shows the
     first part first: a desktop trial's "uncertain" registration said why only after 600 characters of figures.
@@ -42,7 +47,17 @@ def verdict_first(message: str) -> tuple:
     ("Probably wrong: only 12 % of the skyline lies on the DEM's. Also: few points.", '')
     >>> verdict_first("The automatic registration did not improve on the prior camera.")
     ('The automatic registration did not improve on the prior camera.', '')
+
+    A registration that searched every direction says so first (a re-check trial's dock showed it last, under a
+    paragraph of reasons, for a camera now looking 177° from the rough one):
+
+    >>> verdict_first("Every direction searched: this view fits better (0.13). unpaired fit: 9 matched. Uncertain: x.")
+    ('Every direction searched: this view fits better (0.13). Uncertain: x.', 'unpaired fit: 9 matched.')
     """
+    if message.startswith(LEAD_MARKER) and ". " in message:
+        lead, rest = message.split(". ", 1)
+        verdict, details = verdict_first(rest)
+        return f"{lead}. {verdict}".strip(), details
     found = [i for i in (message.find(m) for m in VERDICT_MARKERS) if i >= 0]
     if not found or min(found) == 0:
         return message.strip(), ""
@@ -233,7 +248,7 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
         # and the dock's note on too few pairs, and a loaded camera's own verdict
         # ... and that an automatic registration searched every direction (a re-check trial never saw it said)
         keep = ("Verified by the check points despite", tr("Your "), tr("Loaded with its own fit's verdict"),
-                "The direction of view was not known", tr("Turned onto this frame"))
+                "The direction of view was not known", tr("Turned onto this frame"), LEAD_MARKER)
         message = " ".join(part.rstrip(".") + "." for part in message.split(". ") if part.startswith(keep))
         note = f"<p><small>{html_escape(message)}</small></p>" if message else ""
     else:  # why it is doubtful and what to do first; the fit's figures after it, smaller

@@ -623,3 +623,13 @@ def test_a_swiss_table_with_y_east_and_x_north_is_read_right(dock, scene, tmp_pa
     got = np.array([world[n] for n in names])
     assert np.abs(got - xyz[:, :2]).max() < 0.01  # on the DEM: X and Y swapped back
     assert any("X and Y the other way round" in m and "were swapped" in m for m in messages), messages
+
+
+def test_a_camera_that_sees_no_dem_gets_no_advice_on_its_position_or_lens(dock, scene):
+    """A re-check trial's "poor" camera, 4,575 km from the DEM (its GCP table in another CRS), was told to fix its
+    position in the fit settings: the points' CRS is the cause, which the fit's own message names."""
+    c = dock.controller
+    info = {"status": "poor", "moved_m": 4574673.0, "position_sigma_m": 100.0, "fov_deg": 60.0,
+            "prior_fov_deg": 60.0, "fov_sigma_deg": 6.0}
+    assert "moved the camera 4574673 m" in c.moved_advice(info)
+    assert c.moved_advice({**info, "sees_no_terrain": True}) == ""

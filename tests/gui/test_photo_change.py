@@ -167,11 +167,16 @@ def test_check_points_kept_on_a_turned_frame_are_measured_with_the_turned_camera
     turned = scene.camera.with_parameters(heading=scene.camera.heading + 0.5, pitch=scene.camera.pitch - 0.2)
     frame = str(tmp_path / "frame_turned.png")
     assert array_to_qimage(render_photo(turned, scene.dem, noise=False)).save(frame)
+    said = []
+    c.message.connect(lambda text, *_: said.append(text))
     answer_with(qtbot, "Keep the points", [])
     dock.photoFile.setFilePath(frame)
+    qtbot.wait(50)  # the check points' message is queued
     assert c.state.photo_path == frame and abs(c.fitted.heading - turned.heading) < 0.07
     info = c.state.fit_info
     assert info["check_rmse_px"] < first + 0.5, info["check_rmse_px"]
+    measured = [float(t.split("Check points: ")[1].split(" px")[0]) for t in said if t.startswith("Check points: ")]
+    assert all(m < first + 0.5 for m in measured), said  # never a figure of the camera not yet turned
     assert info["status"] == "ok" and "Turned onto this frame" in info["message"]
     c.stack.undo()  # the points and the cameras turn back together: measured with the camera turned back
     assert c.fitted == scene.camera and c.state.fit_info["check_rmse_px"] < first + 0.5
