@@ -253,6 +253,8 @@ def test_a_poor_automatic_camera_leaves_its_matches_undecided(dock, valley, qtbo
     messages = run_find_camera(dock, qtbot)
     assert dock.stepTabs.currentWidget() is dock.fitTab  # the result in sight
     assert c.state.fit_info["status"] == "poor", c.state.fit_info["message"]
+    # no Angles ± given and the edges fit loosely: every direction was searched too, and said first
+    assert c.state.fit_info["message"].startswith("Every direction searched")
     assert not c.state.in_space(PHOTO, (ACCEPTED,)) and not c.state.in_space(MAP, (ACCEPTED,))
     matched = [p for p in c.state.points.values() if p.label == "automatic"]
     assert matched and all(p.status == SUGGESTED for p in matched)
@@ -390,7 +392,8 @@ def test_a_rough_camera_at_the_photos_gps_position_is_searched_near_it(dock, val
     assert panel.prior_sigmas(False)["position_sigma_m"] is None  # started from a fitted camera, not the GPS's
     c.state.settings["fit"] = {"position_sigma_m": 12.0, "angle_sigma_deg": 2.0}
     assert panel.prior_sigmas(True) == {"position_sigma_m": 12.0, "angle_sigma_deg": 2.0, "fov_sigma_deg": None}
-    c.state.settings["fit"] = {"position_sigma_m": 5.0}
+    # the default Angles ± stated: the search stays near the rough heading (no search of every direction)
+    c.state.settings["fit"] = {"position_sigma_m": 5.0, "angle_sigma_deg": 5.0}
     messages = run_find_camera(dock, qtbot)  # the prior is 72 m from the truth: 5 m cannot hold it all
     info = c.state.fit_info
     assert info["position_sigma_stated"] and info["position_sigma_m"] == 5.0
@@ -433,7 +436,8 @@ def test_a_second_registration_is_weighed_against_the_first_not_set_aside_as_the
                for m in messages), messages
     assert not any("your fitted camera" in m for m in messages)
     # the rough camera is 72 m from the first camera: "± 5 m" says the first cannot be right
-    c.state.settings["fit"] = {"position_sigma_m": 5.0}
+    # the default Angles ± stated: the search stays near the rough heading (no search of every direction)
+    c.state.settings["fit"] = {"position_sigma_m": 5.0, "angle_sigma_deg": 5.0}
     c.state.fit_info["auto_edge_score"] = 0.0
     messages = run_find_camera(dock, qtbot)
     second = c.fitted.parameters()
