@@ -80,12 +80,12 @@ def register(photo: np.ndarray, dem, prior: Camera, position_sigma_m: Optional[f
     # torch through the one import thread (cancelable wait; two threads importing torch at once can fail)
     import_torch(is_canceled, progress)
     grounded, eye = on_ground_rule(prior, dem, on_ground, eye_height)
-    result = (register_automatic if heading_known else register_any_heading)(
-        photo, dem, prior,
+    search = dict(  # the prior's uncertainty and height rule, for the search near its heading and any other
         position_sigma_m=DEFAULT_POSITION_SIGMA_M if position_sigma_m is None else float(position_sigma_m),
         angle_sigma_deg=DEFAULT_ANGLE_SIGMA_DEG if angle_sigma_deg is None else float(angle_sigma_deg),
-        fov_sigma_deg=fov_sigma_deg, eye_height_m=eye if grounded else None, progress=progress,
-        is_canceled=is_canceled)
+        fov_sigma_deg=fov_sigma_deg, eye_height_m=eye if grounded else None, is_canceled=is_canceled)
+    result = (register_automatic if heading_known else register_any_heading)(photo, dem, prior, progress=progress,
+                                                                             **search)
     if result.status == "canceled":
         raise Canceled(result.message or "canceled")
     check_canceled(is_canceled)
@@ -93,8 +93,7 @@ def register(photo: np.ndarray, dem, prior: Camera, position_sigma_m: Optional[f
     # not for a photo whose edges match nothing (fog, a blank frame): any direction would fit its chance edges
     if every_direction_if_loose and heading_known and result.status != "ok" and _edge_score(result) > EDGE_SCORE_OK \
             and ev.get("auto_skyline_usable") and not ev.get("auto_no_edges"):
-        result = _every_direction(result, photo, dem, prior, position_sigma_m, angle_sigma_deg, fov_sigma_deg,
-                                  eye if grounded else None, progress, is_canceled)
+        result = _every_direction(result, photo, dem, prior, search, progress)
     check_height(result, prior, dem)
     return AutoDone(result)
 
@@ -103,8 +102,7 @@ def _edge_score(result) -> float:
     return float((result.evidence or {}).get("auto_edge_score", math.inf))
 
 
-def _every_direction(near: AutoFitResult, photo, dem, prior: Camera, position_sigma_m, angle_sigma_deg,
-                     fov_sigma_deg, eye, progress, is_canceled) -> AutoFitResult:
+def _every_direction(near: AutoFitResult, photo, dem, prior: Camera, search: dict, progress) -> AutoFitResult:
     """The search over every direction after one near the prior's heading fitted the edges loosely; the result
     whose edges fit better, its message saying what was done. A trial's rough camera turned 183° away from the
     view: "uncertain", 195° off; searched every direction, 0.05° off (Processing's ANY_HEADING, which the dock did
@@ -114,14 +112,10 @@ def _every_direction(near: AutoFitResult, photo, dem, prior: Camera, position_si
             progress(fraction, "searching every direction: " + message if message else "")
 
     report(0.0, "the view found fits the photo's edges loosely")
-    wide = register_any_heading(
-        photo, dem, prior,
-        position_sigma_m=DEFAULT_POSITION_SIGMA_M if position_sigma_m is None else float(position_sigma_m),
-        angle_sigma_deg=DEFAULT_ANGLE_SIGMA_DEG if angle_sigma_deg is None else float(angle_sigma_deg),
-        fov_sigma_deg=fov_sigma_deg, eye_height_m=eye, progress=report, is_canceled=is_canceled)
+    wide = register_any_heading(photo, dem, prior, progress=report, **search)
     if wide.status == "canceled":
         raise Canceled(wide.message or "canceled")
-    check_canceled(is_canceled)
+    check_canceled(search["is_canceled"])
     turn = (wide.camera.heading - prior.heading + 180.0) % 360.0 - 180.0
     if _edge_score(wide) < _edge_score(near):
         wide.message = (f"Every direction searched: near the rough camera's heading the DEM's edges fitted the photo's "

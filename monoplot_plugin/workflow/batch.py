@@ -21,7 +21,7 @@ import numpy as np
 
 from ..core.camera import Camera
 from ..outputs.safe_write import write_text
-from .camera_files import fit_figures, photo_fingerprint, written_fit, written_verdict
+from .camera_files import fit_figures, fitted_on_photo, written_fit, written_verdict
 from .files import InputError, read_photo
 from .frames import (SHARED_XYZ, FrameTask, PhotoResult, Timelapse, blank_photo, fit_job, process_frame,
                      shared_for)
@@ -316,13 +316,9 @@ def fitted_frame(photos: List[str], figures: dict) -> str:
     >>> fitted_frame(["/no/such/a.jpg"], {"photo": "a.jpg", "photo_sha256": "0" * 64}), fitted_frame(["a.jpg"], {})
     ('', '')
     """
-    name, sha = str(figures.get("photo") or ""), str(figures.get("photo_sha256") or "")
-    if not name or not sha:
-        return ""
-    for path in photos:
-        if os.path.basename(path) == name and photo_fingerprint(path) == sha:
-            return path
-    return ""
+    name = str(figures.get("photo") or "")
+    return next((path for path in photos if name and os.path.basename(path) == name
+                 and fitted_on_photo(figures, path)), "")
 
 
 def frame_tasks(jobs: List[PhotoJob], stems: List[str], log: Log) -> List[FrameTask]:

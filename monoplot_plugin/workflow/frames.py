@@ -30,7 +30,7 @@ from ..core.suggest_photo import FEATURELESS_CONTRAST, coarse_contrast
 from ..outputs.orthophoto import write_orthophoto
 from ..outputs.safe_write import write_text
 from ..outputs.xyz_raster import write_xyz_raster
-from .camera_files import PIXEL_FIGURES, camera_json, photo_fingerprint
+from .camera_files import PIXEL_FIGURES, camera_json, fitted_on_photo
 from .files import InputError, load_camera, read_photo, read_points_csv
 from .fit import fit_points
 from .progress import IsCanceled, check_canceled, never_canceled
@@ -249,7 +249,7 @@ def frame_verdict(setup: Timelapse, photo_path: str, registered: bool) -> tuple:
     if setup.camera_status != "ok" or registered:
         return setup.camera_status, setup.camera_note
     fit = json.loads(setup.camera_fit_json) if setup.camera_fit_json else {}
-    if fit.get("photo_sha256") and photo_fingerprint(photo_path) != fit["photo_sha256"]:
+    if fitted_on_photo(fit, photo_path) is False:
         return "uncertain", (f"the shared camera was fitted on {fit.get('photo')} and this frame was not "
                              f"re-registered: a turn of the mount since then would not show (re-register every "
                              f"frame to measure it)")

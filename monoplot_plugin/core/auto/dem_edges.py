@@ -148,8 +148,7 @@ def dem_edges(camera: Camera, dem: Dem, margin_deg: float, focal_px: float = Non
         at_edge = np.zeros_like(ok)
         at_edge[ok] = dem.near_edge(xyz[ok])
         if mask is sky and at_edge.any():  # lifted to the silhouette as the skyline points are (below)
-            origin, up = cam.pixel_to_world_ray(np.stack([cols[at_edge] + 0.5, rows[at_edge] + 0.0], axis=1))
-            border = origin + up * np.linalg.norm(xyz[at_edge] - origin, axis=1)[:, None]
+            border = _lifted(cam, rows[at_edge], cols[at_edge], xyz[at_edge])
         ok &= ~at_edge
         rows, cols, xyz = rows[ok], cols[ok], xyz[ok]
         tx, ty = -gy[rows, cols], gx[rows, cols]
@@ -164,10 +163,15 @@ def dem_edges(camera: Camera, dem: Dem, margin_deg: float, focal_px: float = Non
             # anywhere in its upper half or the sky pixel's lower half: on average at the pixel's top edge. The
             # point at the same distance on the ray through that edge projects where the silhouette lies (the
             # photo's skyline is the sub-pixel boundary, :mod:`.photo_edges`); its neighbour likewise.
-            _, up = cam.pixel_to_world_ray(np.stack([cols + 0.5, rows + 0.0], axis=1))
-            lifted = origin + up * dist[:, None]
+            lifted = _lifted(cam, rows, cols, xyz)
             xyz, nxt = lifted, nxt + (lifted - xyz)
         out.append((xyz, nxt))
     (s, sn), (c, cn) = out
     return DemEdges(s, sn, c, cn, cam, border)
 
+
+def _lifted(cam: Camera, rows: np.ndarray, cols: np.ndarray, xyz: np.ndarray) -> np.ndarray:
+    """(N, 3) the terrain points ``xyz`` of the top terrain pixels (``rows``, ``cols``) moved, at the same distance
+    from the camera, onto the ray through their pixel's top edge: where the silhouette lies (see :func:`dem_edges`)."""
+    origin, up = cam.pixel_to_world_ray(np.stack([cols + 0.5, rows + 0.0], axis=1))
+    return origin + up * np.linalg.norm(xyz - origin, axis=1)[:, None]

@@ -13,11 +13,10 @@ from .lens import unmodelled_lens
 from .near_ground import ground_seen, loosely_placed_ground
 from .context import FitCanceled, FitContext
 from .options import FitOptions
-from .verdict import checks_beyond_residuals
 from .paired import fit_paired
 from .result import FitResult, rmse
 from .unpaired import fit_unpaired
-from .verdict import judge
+from .verdict import checks_beyond_residuals, judge
 
 __all__ = ["fit_camera"]
 

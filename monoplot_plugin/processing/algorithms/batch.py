@@ -115,7 +115,8 @@ class BatchPhotos(MonoplotAlgorithm):
         self.addParameter(QgsProcessingParameterBoolean("REGISTER",
                                                         self.tr("Re-register every frame (time-lapse mode)"),
                                                         defaultValue=True))
-        self.addParameter(QgsProcessingParameterFile("REFERENCE", self.tr("Reference frame (default: the first "
+        self.addParameter(QgsProcessingParameterFile("REFERENCE", self.tr("Reference frame (default: the frame the "
+                                                                          "camera was fitted on, else the first "
                                                                           "usable frame)"),
                                                      QgsProcessingParameterFile.File, optional=True))
         self.addParameter(QgsProcessingParameterNumber("WORKERS", self.tr("Frames at once (0 = one per core)"),
