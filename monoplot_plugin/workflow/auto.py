@@ -19,7 +19,7 @@ from ..core.auto.verdict import EDGE_SCORE_OK
 from ..core.camera import Camera
 from .fit import (DEEP_UNDERGROUND_M, ON_GROUND_MAX_M, UNDERGROUND_TOLERANCE_M, depth_under_terrain,
                   flag_under_terrain, ground_clearance, measured_on_pairs, on_ground_rule)
-from .progress import Canceled, IsCanceled, Progress, check_canceled
+from .progress import Canceled, IsCanceled, Progress, check_canceled, part
 from .warmup import import_torch
 
 __all__ = ["AutoDone", "register", "check_height", "DEFAULT_POSITION_SIGMA_M", "GPS_POSITION_SIGMA_M",
@@ -31,6 +31,9 @@ DEFAULT_POSITION_SIGMA_M = 200.0
 #: ... and for a position from a photo's EXIF GPS (a phone's or a drone's: usually within 30 m; the dock's too)
 GPS_POSITION_SIGMA_M = 30.0
 DEFAULT_ANGLE_SIGMA_DEG = 5.0
+#: share of the progress bar the search near the rough heading fills when every direction may follow (that
+#: search takes three to four times as long)
+NEAR_SEARCH_SHARE = 0.25
 #: label of the points the automatic registration matched (the point table shows it; :func:`cap_by_automatic`
 #: reads it)
 AUTOMATIC_LABEL = "automatic"
@@ -84,16 +87,21 @@ def register(photo: np.ndarray, dem, prior: Camera, position_sigma_m: Optional[f
         position_sigma_m=DEFAULT_POSITION_SIGMA_M if position_sigma_m is None else float(position_sigma_m),
         angle_sigma_deg=DEFAULT_ANGLE_SIGMA_DEG if angle_sigma_deg is None else float(angle_sigma_deg),
         fov_sigma_deg=fov_sigma_deg, eye_height_m=eye if grounded else None, is_canceled=is_canceled)
-    result = (register_automatic if heading_known else register_any_heading)(photo, dem, prior, progress=progress,
-                                                                             **search)
+    # one bar over both searches: the one near the rough heading fills its first part, so a search of every
+    # direction that follows continues the bar instead of starting it again at 0 %
+    wider = every_direction_if_loose and heading_known
+    near_end = NEAR_SEARCH_SHARE if wider else 1.0
+    result = (register_automatic if heading_known else register_any_heading)(
+        photo, dem, prior, progress=part(progress, 0.0, near_end) if progress is not None else None, **search)
     if result.status == "canceled":
         raise Canceled(result.message or "canceled")
     check_canceled(is_canceled)
     ev = result.evidence or {}
     # not for a photo whose edges match nothing (fog, a blank frame): any direction would fit its chance edges
-    if every_direction_if_loose and heading_known and result.status != "ok" and _edge_score(result) > EDGE_SCORE_OK \
+    if wider and result.status != "ok" and _edge_score(result) > EDGE_SCORE_OK \
             and ev.get("auto_skyline_usable") and not ev.get("auto_no_edges"):
-        result = _every_direction(result, photo, dem, prior, search, progress)
+        result = _every_direction(result, photo, dem, prior, search,
+                                  part(progress, near_end, 1.0) if progress is not None else None)
     check_height(result, prior, dem)
     return AutoDone(result)
 

@@ -462,9 +462,11 @@ def test_a_rough_heading_far_off_is_searched_in_every_direction_when_the_edges_f
     truth = Camera((x, y, float(dem.sample(x, y)) + 400.0), -5.0, -3.0, 0.5, 55.0, (480, 320), crs_wkt=dem.crs_wkt)
     photo = render_photo(truth, dem, seed=1)
     away = truth.with_parameters(heading=truth.heading + 180.0, x=x + 60.0)
-    messages = []
+    messages, fractions = [], []
     done = auto_step.register(photo, dem, away, every_direction_if_loose=True,
-                              progress=lambda f, m="": messages.append(m))
+                              progress=lambda f, m="": (messages.append(m), fractions.append(f)))
     assert abs((done.camera.heading - truth.heading + 180.0) % 360.0 - 180.0) < 0.5
     assert done.result.message.startswith("Every direction searched: near the rough camera's heading")
     assert any(m.startswith("searching every direction") for m in messages)
+    # one bar over both searches (a trial saw it fall back to 0 % when the second began)
+    assert all(b >= a - 1e-9 for a, b in zip(fractions, fractions[1:])) and fractions[-1] > 0.9
