@@ -90,8 +90,7 @@ def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Op
         else:
             result = fit_unpaired(ctx)
     except FitCanceled:
-        result = FitResult(ctx.best_camera(), "canceled", "The fit was canceled; the camera is the best found "
-                           "so far.", mode, ctx.free, loss_history=ctx.history, n_starts=ctx.starts_tried)
+        result = _canceled(ctx, mode)
     if result.status not in ("refused", "canceled") and check_image_points is not None \
             and check_world_points is not None:
         cq = np.asarray(check_image_points, dtype=np.float64).reshape(-1, 2)
@@ -105,7 +104,11 @@ def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Op
             result.evidence.update(check_rmse_px=result.check_rmse_px, has_check=len(cq) > 0, n_check=len(cq),
                                    check_nearest_m=nearest)
     if result.evidence and result.status not in ("refused", "canceled"):
-        result.evidence.update(unmodelled_lens(ctx, result))
+        try:  # its refit polls too: a cancel there is the fit's, not an exception out of it (a trial's traceback)
+            result.evidence.update(unmodelled_lens(ctx, result))
+        except FitCanceled:
+            result = _canceled(ctx, mode, result.camera)
+    if result.evidence and result.status not in ("refused", "canceled"):
         widen_by_checks(result, ctx.diag)
         seen = ground_seen(result.camera, terrain) if terrain is not None else None
         if seen is not None and result.std:  # without σ nothing can be said
@@ -121,3 +124,10 @@ def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Op
     result.elapsed_s = time.perf_counter() - t0
     ctx.report(1.0, "")  # not the status: a caller may still lower it (on-ground rule, automatic cap)
     return result
+
+
+def _canceled(ctx: FitContext, mode: str, camera=None) -> FitResult:
+    """The result of a canceled fit: ``camera`` (the best found so far by default)."""
+    return FitResult(camera if camera is not None else ctx.best_camera(), "canceled",
+                     "The fit was canceled; the camera is the best found so far.", mode, ctx.free,
+                     loss_history=ctx.history, n_starts=ctx.starts_tried)
