@@ -242,7 +242,7 @@ def batch_setup(jobs: List[PhotoJob], crs_wkt: str, out_dir: str, write_xyz: boo
         if not reference and fitted and not blank_photo(read_photo(fitted)):
             # the frame the camera was fitted on: the others are turned relative to it (the first frame, if the
             # mount moved between it and the fitted one, would pass its turn on to every frame)
-            log(f"reference frame: {os.path.basename(fitted)}, the frame the shared camera was fitted on", False)
+            log(f"Reference frame: {os.path.basename(fitted)}, the frame the shared camera was fitted on", False)
             reference = fitted
         else:
             reference = pick_reference(photos, Camera.from_json(camera_json), reference, log)

@@ -378,7 +378,7 @@ def test_re_registration_is_relative_to_the_frame_the_camera_was_fitted_on(drift
     results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(tmp_path / "out"),
                               register=True, camera_verdict=verdict, log=lambda m, e: lines.append(m))
     assert all(r.ok and r.status == "ok" for r in results), [r.message for r in results]
-    assert any("reference frame: frame_002.png, the frame the shared camera was fitted on" in m for m in lines)
+    assert any("Reference frame: frame_002.png, the frame the shared camera was fitted on" in m for m in lines)
     assert results[2].drift_px < 0.1 and results[0].drift_deg == pytest.approx(
         drift.rotation_angle_deg(scene["cameras"][0].rotation @ cam.rotation.T), abs=0.05)
     frame0 = Camera.load(tmp_path / "out" / "frame_000_camera.json")
