@@ -441,10 +441,15 @@ class ResultsMixin:
         return text, level
 
     def report_checks(self):
-        """The check pairs as the report's ``ReportPoints`` (None without any), read on the main thread."""
+        """The check pairs as the report's ``ReportPoints`` (None without any), read on the main thread; with them
+        the person's pairs when the fit kept them out as check points (``pairs_checked``: a fit of the points
+        without a partner won), as the fit tab counts them."""
         from ..outputs.report import ReportPoints
 
-        ids, uv, xyz = self.check_points()
+        point_pairs = list(self.state.check_pairs())
+        if (self.state.fit_info or {}).get("pairs_checked"):
+            point_pairs += [pair for pair in self.state.valid_pairs() if pair not in point_pairs]
+        ids, uv, xyz = self.pair_arrays(point_pairs)
         partners = [self.state.partner(i) for i in ids]
         return ReportPoints(uv, xyz, self._pair_names(ids, partners)) if ids else None
 
@@ -467,7 +472,7 @@ class ResultsMixin:
         inputs = self.fit_inputs()
         if not isinstance(inputs, str):
             uv, world, pairs = inputs
-            if not pairs:
+            if not pairs or info.get("pairs_checked"):  # the person's pairs checked it (report_checks shows them)
                 # An unpaired fit: the report shows the automatic pairs the fit matched (by id) and their RMSE;
                 # without them its photo panel promised control points and showed none.
                 photo_ids, world_ids = self._fit_ids
