@@ -182,17 +182,24 @@ def cap_by_automatic(status: str, message: str, labels, n_pairs: int, n_check: i
     'ok'
     >>> cap_by_automatic("ok", "RMSE 1.5 px.", ["automatic"] * 4, 3, 0, "uncertain")[0]
     'ok'
+
+    A fit already "uncertain" on its own still says it rests on the registration's points (a trial's Fit after
+    Find camera said only that the near ground within 10 m was loose, the camera 148 m off):
+
+    >>> cap_by_automatic("uncertain", "Near ground loose.", ["automatic"] * 4, 0, 0, "uncertain")[1][:46]
+    'Near ground loose. Uncertain, as the automatic'
     """
     labels = list(labels)
-    if _RANK.get(automatic_status, 0) <= _RANK.get(status, 0) or not rests_on_automatic(labels, n_pairs, n_check):
+    if _RANK.get(automatic_status, 0) < _RANK.get(status, 0) or automatic_status not in _RANK \
+            or automatic_status == "ok" or not rests_on_automatic(labels, n_pairs, n_check):
         return status, message
     n_auto = sum(1 for label in labels if label == AUTOMATIC_LABEL)
     which = ("every point fitted is one it matched" if n_auto == len(labels) else
              f"{n_auto} of the {len(labels)} points fitted are ones it matched")
     return automatic_status, (f"{message} {automatic_status.capitalize()}, as the automatic registration was: "
                               f"{which} near its own camera, so they agree with that camera whether it is right or "
-                              "not. Pair a few points you recognise, or mark check points, to confirm it (or reject "
-                              "its points and fit on your own).")
+                              "not, and its σ are no smaller than the registration's. Pair a few points you recognise, "
+                              "or mark check points, to confirm it (or reject its points and fit on your own).")
 
 
 def rests_on_automatic(labels, n_pairs: int, n_check: int) -> bool:
