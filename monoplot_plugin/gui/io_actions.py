@@ -23,7 +23,7 @@ from qgis.PyQt.QtWidgets import QFileDialog, QMenu, QSizePolicy, QToolButton
 
 from ..adapters.photo_space import photo_point, pixel_of
 from ..state import ACCEPTED, CHECK, MAP, PHOTO, REJECTED, Edit, Point
-from ..workflow.inputs import InputError, _transform, is_warning_note, points_to_dem_crs
+from ..workflow.inputs import InputError, _transform, is_warning_note, photo_points_in_frame, points_to_dem_crs
 from ..workflow.points_csv import read_points_csv, write_points_csv
 from .camera_io import load_camera_file, save_camera_file
 from .product_exports import writable_folder
@@ -93,6 +93,9 @@ def import_points_csv(controller, path: str, all_check: bool = False) -> int:
         project_crs = c.project.crs()  # a table in the project's CRS is recognised (and said) when it is not the DEM's
         xyz, notes = points_to_dem_crs(xyz, c.dem, name=os.path.basename(path),
                                        candidates=[project_crs.toWkt()] if project_crs.isValid() else [])
+    if uv is not None and c.photo_size is not None:  # u and v the other way round: swapped, said first
+        uv, swapped = photo_points_in_frame(uv, c.photo_size, name=os.path.basename(path))
+        notes = swapped + notes
     photo, world, pairs = [], [], []
     n = len(ids)
     there = _map_points_at(c.state)

@@ -23,9 +23,9 @@ from typing import List, Optional, Sequence, Tuple
 
 import numpy as np
 
-__all__ = ["InputError", "load_dem", "check_dem_file", "check_photo_path", "check_camera", "check_view", "read_text",
-           "points_to_dem_crs", "OFF_DEM_NOTE", "HEIGHT_UNIT_NOTE", "is_warning_note", "check_not_empty",
-           "MIN_DEM_CELLS"]
+__all__ = ["InputError", "photo_points_in_frame", "load_dem", "check_dem_file", "check_photo_path", "check_camera",
+           "check_view", "read_text", "points_to_dem_crs", "OFF_DEM_NOTE", "HEIGHT_UNIT_NOTE", "is_warning_note",
+           "check_not_empty", "MIN_DEM_CELLS"]
 
 #: Rows and columns a DEM needs at the least (the mesh has a triangle per half of a square of four cells).
 MIN_DEM_CELLS = 2
@@ -245,6 +245,35 @@ def points_to_dem_crs(xyz: np.ndarray, dem, points_crs: str = "", name: str = "t
     converted = _transform(xyz, source, dem.crs_wkt)
     notes.append(f"{_points_of(name)} were converted from {_crs_name(source)} to {_crs_name(dem.crs_wkt)}")
     return converted, notes + _dem_notes(dem, converted, name)
+
+
+def photo_points_in_frame(uv: np.ndarray, size: Sequence[float], name: str = "the points"
+                          ) -> Tuple[np.ndarray, List[str]]:
+    """(N, 2) photo points and notes: points whose u and v are the other way round (row first, as a table of rows
+    and columns writes them) are swapped, when several lie off the ``size`` (W, H) photo as given and every one lies
+    on it swapped (noted). A trial's table with v first: 5 of its 12 points off the photo came in rejected, and the
+    fit on the 7 others, their u and v swapped too, was wrong.
+
+    >>> uv = np.array([[100.0, 1200.0], [900.0, 1400.0], [500.0, 300.0]])
+    >>> swapped, notes = photo_points_in_frame(uv, (1500, 1000), "gcps.csv")
+    >>> swapped.tolist(), notes[0][:55]
+    ([[1200.0, 100.0], [1400.0, 900.0], [300.0, 500.0]], 'The points of gcps.csv have u and v the other way round')
+    >>> photo_points_in_frame(uv[:1], (1500, 1000))[1]  # one point off the photo: a typo as likely as a swap
+    []
+    """
+    uv = np.asarray(uv, dtype=float).reshape(-1, 2)
+    w, h = float(size[0]), float(size[1])
+    given = np.isfinite(uv).all(axis=1)
+
+    def on_photo(points):
+        return (points[:, 0] >= 0) & (points[:, 0] <= w) & (points[:, 1] >= 0) & (points[:, 1] <= h)
+
+    off = given & ~on_photo(uv)
+    if off.sum() < 2 or not on_photo(uv[given][:, ::-1]).all():
+        return uv, []
+    return uv[:, ::-1].copy(), [f"{_points_of(name)} have u and v the other way round ({int(off.sum())} of "
+                                f"{int(given.sum())} lie off the {w:.0f} x {h:.0f} photo as given, every one on it "
+                                "swapped) and were swapped: the columns are u_px (across), v_px (down)"]
 
 
 #: Notes of :func:`points_to_dem_crs` that say this are warnings (points off the DEM), the others information.

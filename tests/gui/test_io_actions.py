@@ -625,6 +625,22 @@ def test_a_swiss_table_with_y_east_and_x_north_is_read_right(dock, scene, tmp_pa
     assert any("X and Y the other way round" in m and "were swapped" in m for m in messages), messages
 
 
+def test_a_table_with_u_and_v_the_other_way_round_is_read_right(dock, scene, tmp_path):
+    """A trial's table with v first: 5 of its 12 rows off the photo came in rejected, the other 7 fitted wrong."""
+    _load(dock, scene)
+    c = dock.controller
+    messages = []
+    c.message.connect(lambda text, level: messages.append(text))
+    uv, xyz = _surveyed(scene, 12)
+    assert (uv[:, 0] > c.photo_size[1]).sum() >= 2  # as given (v, u), those rows lie below the photo
+    path = str(tmp_path / "gcps.csv")
+    write_points_csv(path, uv=uv[:, ::-1], xyz=xyz, ids=[f"g{i}" for i in range(12)])
+    assert io_actions.import_points_csv(c, path) == 12
+    photo = {p.label: (p.x, p.y) for p in c.state.in_space(PHOTO, (ACCEPTED,))}
+    assert len(photo) == 12 and np.abs(np.array([photo[f"g{i}"] for i in range(12)]) - uv).max() < 0.01
+    assert "u and v the other way round" in messages[-1] and "lie outside the photo" not in messages[-1]
+
+
 def test_a_camera_that_sees_no_dem_gets_no_advice_on_its_position_or_lens(dock, scene):
     """A re-check trial's "poor" camera, 4,575 km from the DEM (its GCP table in another CRS), was told to fix its
     position in the fit settings: the points' CRS is the cause, which the fit's own message names."""

@@ -201,6 +201,23 @@ def test_photo_points_outside_the_image_are_refused(run_alg, small_scene, ground
                               "OUTPUT": str(tmp_path / "c.json")})
 
 
+def test_a_table_with_u_and_v_the_other_way_round_is_swapped(run_alg, small_scene, ground_truth, tmp_path):
+    """A trial's GCP table with v first: refused as "outside the photo" here, and in the dock its rows off the photo
+    were rejected and the rest fitted wrong. Several points off the photo as given, all on it swapped: swapped."""
+    from tests.processing.conftest import recording_feedback
+
+    uv = ground_truth["pixels"]
+    assert (uv[:, 0] > 120).sum() >= 2  # as given (v, u), those rows lie below the 160 x 120 photo
+    gcps = tmp_path / "gcps.csv"
+    write_points_csv(str(gcps), uv=uv[:, ::-1], xyz=ground_truth["world"])
+    feedback = recording_feedback()
+    result = run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"],
+                                   "PRIOR": ground_truth["prior"], "PHOTO_CSV": str(gcps),
+                                   "OUTPUT": str(tmp_path / "c.json")}, feedback)
+    assert result["RMSE_PX"] < 0.5
+    assert any("u and v the other way round" in line for line in feedback.warnings), feedback.warnings
+
+
 def test_aletsch_paired_fit_from_kml_prior(run_alg, aletsch_dir, tmp_path):
     """The real case: 11 hand GCPs, the rough KML PhotoOverlay prior, the Int16 DEM with 0 voids."""
     out = tmp_path / "aletsch.json"

@@ -25,7 +25,7 @@ from ...workflow.progress import Canceled
 from ..base import (MonoplotAlgorithm, camera_line, cancel_callback, centred_on_print, check_canceled, checked,
                     progress_callback, read_map_points, read_photo_points, report_status)
 from ...adapters.layers import crs_from_wkt
-from ...workflow.inputs import is_warning_note, points_to_dem_crs
+from ...workflow.inputs import is_warning_note, photo_points_in_frame, points_to_dem_crs
 from ..inputs import InputError, read_photo, read_points_csv
 
 CSV_FILTER = "CSV (*.csv *.txt)"
@@ -219,6 +219,9 @@ class FitCamera(MonoplotAlgorithm):
                 "Too few points for a {0}-parameter camera: {1} photo and {2} DEM points (at least {3} of each "
                 "needed).").format(n_free, n_uv, n_xyz, minimum)
             raise QgsProcessingException(text + hint)
+        uv, swapped = photo_points_in_frame(uv, prior.image_size, name="the points")  # u and v the other way round
+        for note in swapped:
+            feedback.pushWarning(note)
         outside = ~prior.in_image(uv)
         if outside.any():
             first = ", ".join(f"({u:.1f}, {v:.1f})" for u, v in uv[outside][:3])
