@@ -467,6 +467,7 @@ def test_a_rough_heading_far_off_is_searched_in_every_direction_when_the_edges_f
                               progress=lambda f, m="": (messages.append(m), fractions.append(f)))
     assert abs((done.camera.heading - truth.heading + 180.0) % 360.0 - 180.0) < 0.5
     assert done.result.message.startswith("Every direction searched: near the rough camera's heading")
+    assert "was not known" not in done.result.message  # the rough camera gave one (a trial read that it had not)
     assert any(m.startswith("searching every direction") for m in messages)
     # one bar over both searches (a trial saw it fall back to 0 % when the second began)
     assert all(b >= a - 1e-9 for a, b in zip(fractions, fractions[1:])) and fractions[-1] > 0.9

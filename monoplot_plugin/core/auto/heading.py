@@ -150,6 +150,10 @@ def register_any_heading(image, dem, prior: Camera, *, position_sigma_m: Optiona
     return best
 
 
+#: how the message of a search of every direction begins (the workflow leaves it out where a direction was given)
+UNKNOWN_HEADING_WORDS = "The direction of view was not known: "
+
+
 def _edge(result) -> float:
     value = result.evidence.get("auto_edge_score", float("inf"))
     return float(value) if np.isfinite(value) else float("inf")
@@ -159,7 +163,7 @@ def _best_of(results: List[AutoFitResult], sig: dict, n_sectors: int) -> AutoFit
     """The result whose camera fits the photo's edges best, doubted when another direction fits them nearly as well."""
     results = sorted(results, key=_edge)
     best = results[0]
-    head = (f"The direction of view was not known: {n_sectors} directions around the position that see the DEM "
+    head = (f"{UNKNOWN_HEADING_WORDS}{n_sectors} directions around the position that see the DEM "
             f"were searched and the best {len(results)} registered; this one fits the photo's edges best "
             f"(edge score {_edge(best):.3f}).")
     rivals = [r for r in results[1:] if _edge(r) <= RIVAL_RATIO * _edge(best)
