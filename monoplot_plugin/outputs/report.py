@@ -33,14 +33,10 @@ FIT_PARAMETERS = ("x", "y", "z", "heading", "pitch", "roll", "fov")
 PAGE_PIXELS = 1600
 _UNITS = {"x": "m", "y": "m", "z": "m", "heading": "°", "pitch": "°", "roll": "°", "fov": "°", "cx": "px",
           "cy": "px", "k1": "", "k2": ""}
-
-
 #: a dark backing under point names: magenta on snow could not be read (a re-check trial)
 _LABEL_BOX = dict(facecolor="black", alpha=0.45, edgecolor="none", pad=0.6)
 #: check points' names: a light magenta (the markers' pure magenta was hard to read on the dark box, a trial)
 CHECK_LABEL_COLOUR = "#ff9cff"
-
-
 #: Offsets (points) tried for a point's name, nearest first: beside it, then above and below, then further out.
 _LABEL_OFFSETS = ((4, -4), (4, 4), (-4, -4), (-4, 4), (0, 8), (0, -8), (10, 0), (-10, 0), (6, -14), (6, 14),
                   (-6, -14), (-6, 14))
@@ -416,11 +412,14 @@ def _draw_footprint(ax, camera, dem, visible, points):
     ax.xaxis.set_major_locator(MaxNLocator(4))  # seven-digit eastings: more labels would run into each other
 
 
-def parameter_lines(camera, sigmas) -> List[str]:
+def parameter_lines(camera, sigmas, status: str = "") -> List[str]:
     """The camera block of the report, one parameter a line. The heading is an azimuth in [0, 360), as the dock
-    shows it (a fit may return -63.6 for 296.4)."""
+    shows it (a fit may return -63.6 for 296.4). Under a fit ``status`` "uncertain" or "poor" each ± is starred
+    and a line says they may understate the error, as the dock's (a trial's report printed "heading 245.71 ±
+    0.51°" plainly for a camera 15° off)."""
+    doubt = status in ("uncertain", "poor")
+    star, sigmas = "*" if doubt else "", sigmas or {}
     params = camera.parameters()
-    sigmas = sigmas or {}
     lines = ["Camera (pinhole; angles in degrees: heading clockwise from grid north, pitch above horizontal)", ""]
     for name in ("x", "y", "z", "heading", "pitch", "roll", "fov", "cx", "cy", "k1", "k2"):
         value = params[name]
@@ -439,8 +438,12 @@ def parameter_lines(camera, sigmas) -> List[str]:
         # to the σ's second significant digit, no further: "x 650130.09 ± 627 m" and "heading 296.4389 ± 2.94°"
         # claimed a precision the σ denies (a trial)
         decimals = min(max(0, 1 - math.floor(math.log10(sigma))), 2 if name in ("x", "y", "z") else 4)
-        lines.append(f"  {name:<8} {value:>14.{decimals}f} ± {round(sigma, decimals):.{decimals}f} {_UNITS[name]}")
+        lines.append(f"  {name:<8} {value:>14.{decimals}f} ± {round(sigma, decimals):.{decimals}f}{star} "
+                     f"{_UNITS[name]}")
     lines.append(f"  focal    {camera.focal_px:>14.2f} px")
+    if doubt and any("±" in line and "undetermined" not in line for line in lines):
+        lines.append(f"  * The ± assume the fit's pairs are right: this {status} camera may be off by far more "
+                     "(check points measure it).")
     return lines
 
 
@@ -468,7 +471,7 @@ def _draw_parameters(ax, camera, sigmas, rmse, points, xyz, verdict="", check_rm
     import textwrap
 
     ax.axis("off")
-    lines = parameter_lines(camera, sigmas)
+    lines = parameter_lines(camera, sigmas, verdict_status(verdict))
     lines.append("")
     if check_rmse is not None:  # the measured accuracy first: independent of the fit
         lines.append(f"Check points (magenta, kept out of the fit): RMSE {check_rmse:.2f} px on {len(checks.uv)}")

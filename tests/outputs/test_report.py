@@ -65,6 +65,12 @@ def test_report_heading_is_the_azimuth_the_dock_shows(plane_scene, tmp_path):
     assert "296.37 ± 0.29 °" in by_name["heading"], by_name["heading"]
     # no more digits than the σ allows (a trial read "x 650130.09 ± 627 m", "heading 296.4389 ± 2.94°")
     assert "650130 ± 627 m" in by_name["x"] and " ± 2.9 °" in by_name["pitch"], lines
+    # an uncertain fit's ± are starred and said to assume its pairs right, as the dock says (a trial's report
+    # printed "heading 245.71 ± 0.51°" plainly for a camera 15° off)
+    doubted = parameter_lines(camera, {"heading": 0.294}, "uncertain")
+    assert any("296.37 ± 0.29* °" in line for line in doubted), doubted
+    assert "may be off by far more" in doubted[-1] and "this uncertain camera" in doubted[-1]
+    assert not any("*" in line for line in lines)
     assert write_report(tmp_path / "r.png", plane_scene.photo, camera, plane_scene.dem).exists()
 
 
