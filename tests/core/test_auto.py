@@ -45,9 +45,26 @@ def test_terrain_over_terrain_is_no_skyline(seed):
     cam = Camera((x, y, float(dem.sample(x, y)) + 300.0), 0.0, -30.0, 0.0, 55.0, (800, 533), crs_wkt=dem.crs_wkt)
     pe = detect_photo_edges(render_photo(cam, dem, seed=seed), width=512)
     assert not pe.usable and pe.sky_like_below > 0.3
+    # in grey the rock face is no skyline either (its greys are no sky's smooth shading)
+    assert not detect_photo_edges(_old_print(render_photo(cam, dem, seed=seed), seed), width=512).usable
     if seed == 2:  # the same terrain under the sky (looking level): a usable skyline, its sky a colour of its own
-        level = detect_photo_edges(render_photo(cam.with_parameters(pitch=-2.0), dem, seed=seed), width=512)
+        level_photo = render_photo(cam.with_parameters(pitch=-2.0), dem, seed=seed)
+        level = detect_photo_edges(level_photo, width=512)
         assert level.usable and level.sky_like_below < 0.1
+        # ... and so it is on an old grey print of it, vignetted and grainy, its sky's greys the terrain's too (a
+        # trial's prints: "no clear skyline", the skyline traced exactly)
+        for width in (256, 512):
+            assert detect_photo_edges(_old_print(level_photo, seed), width=width).usable
+
+
+def _old_print(photo: np.ndarray, seed: int) -> np.ndarray:
+    """``photo`` as an old grey print: contrast lost, darker towards the corners, film grain (RGB uint8)."""
+    h, w = photo.shape[:2]
+    grey = photo.astype(np.float32) @ np.array([0.299, 0.587, 0.114], np.float32)
+    v, u = np.mgrid[0:h, 0:w]
+    vignette = 1.0 - 0.35 * (((u - w / 2) / (w / 2)) ** 2 + ((v - h / 2) / (h / 2)) ** 2) / 2
+    grey = (80.0 + 0.45 * grey) * vignette + np.random.default_rng(seed).normal(0.0, 5.0, grey.shape)
+    return np.repeat(np.clip(grey, 0, 255).astype(np.uint8)[..., None], 3, axis=2)
 
 
 def test_score_prefers_the_true_camera_to_the_prior(scene):

@@ -27,6 +27,7 @@ frame, caption or margin), each with its orientation (modulo 180 degrees) for th
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Tuple
 
 import numpy as np
 
@@ -51,6 +52,13 @@ PEN = 0.3
 #: skylines against the sky 0.00-0.05 (also the Aletsch print, in colour and in grey); a rock face over grass seen
 #: from a camera looking down, no sky in the picture, 0.56-0.70.
 SKY_LIKE_MAX = 0.3
+#: ... in a picture without colour (a grey print, a black-and-white scan), where sky and terrain share their greys
+#: and only the sky's smoothness tells them apart: the share of the picture under the skyline within 2 standard
+#: deviations of the sky's own smooth shading (a quadratic in u, v: vignetting, a sky's gradient) continued there.
+#: Measured at 256-1024 px: grey skylines against the sky 0.00-0.15 (rendered photos, a trial's four grey prints,
+#: the Aletsch print scanned on paper; at most 0.08 from 512 px), the rock faces over grass above 0.26-0.71 (by
+#: colour, the trial's prints read 0.48: "no clear skyline", though it was traced exactly).
+GREY_SKY_LIKE_MAX = 0.2
 #: A straight horizontal edge across at least BORDER_SPAN of the picture's columns within the top BORDER_BAND of its
 #: height is the picture's own top border (a print's white margin or frame line inside the picture area), not a
 #: skyline: the sky is searched below it. A skyline so near the top would leave too thin a sky to count anyway, and
@@ -214,8 +222,8 @@ def detect_photo_edges(image: np.ndarray, width: int = 512, mask=None) -> PhotoE
     sky_fraction = float(valid.sum()) / max(1, int(pic.any(axis=0).sum()))
     contrast = float(np.median(at[valid] / np.maximum(sky_tex[valid], 0.5))) if valid.any() else 0.0
     boundary = _boundary_rows(raw, path, gap, VALID)
-    like = _sky_like_below(rgb, boundary, valid, top, pic, gap)
-    usable = sky_fraction >= SKY_FRACTION_MIN and not like > SKY_LIKE_MAX
+    like, like_max = _sky_like_below(rgb, boundary, valid, top, pic, gap)
+    usable = sky_fraction >= SKY_FRACTION_MIN and not like > like_max
     # Terrain edges: Canny below the skyline (clouds are not terrain), inside the picture.
     g8 = cv2.GaussianBlur(gray, (0, 0), sigma)
     med = float(np.median(g8[pic])) if pic.any() else 128.0
@@ -268,23 +276,53 @@ def _below_top_border(raw: np.ndarray, pic: np.ndarray, least: float, tol: int) 
 
 
 def _sky_like_below(rgb: np.ndarray, boundary: np.ndarray, valid: np.ndarray, top: np.ndarray, pic: np.ndarray,
-                    gap: int) -> float:
-    """Share of the picture under the skyline (``gap`` rows clear of it) whose colour lies within 2 standard
-    deviations (each at least 2 Lab units) of the colour above it in the clear columns; NaN when either side is
-    empty."""
+                    gap: int) -> Tuple[float, float]:
+    """(share, its limit): the share of the picture under the skyline (``gap`` rows clear of it) whose colour lies
+    within 2 standard deviations (each at least 2 Lab units) of the colour above it in the clear columns (limit
+    :data:`SKY_LIKE_MAX`); in a picture without colour, of the sky's smooth shading continued under the skyline
+    (limit :data:`GREY_SKY_LIKE_MAX`). NaN when either side is empty."""
     import cv2
 
-    H = rgb.shape[0]
+    H, W = rgb.shape[:2]
     rows = np.arange(H)[:, None]
     above = (rows >= top[None, :]) & (rows < boundary[None, :] - gap) & valid[None, :] & pic
     below = (rows > boundary[None, :] + gap) & pic
     if above.sum() < 20 or below.sum() < 20:
-        return float("nan")
+        return float("nan"), SKY_LIKE_MAX
     lab = cv2.cvtColor(rgb.astype(np.float32) / 255.0, cv2.COLOR_RGB2LAB)
     sky = lab[above]
+    if _monochrome(lab[pic]):
+        v, u = np.nonzero(above)
+        coef = np.linalg.lstsq(_quadratic(u, v, W), sky[:, 0], rcond=None)[0]
+        spread = max(float(np.std(sky[:, 0] - _quadratic(u, v, W) @ coef)), 2.0)
+        v, u = np.nonzero(below)  # the shading continued, within the sky's own greys
+        shade = np.clip(_quadratic(u, v, W) @ coef, sky[:, 0].min(), sky[:, 0].max())
+        return float(np.mean(np.abs(lab[below][:, 0] - shade) < 2.0 * spread)), GREY_SKY_LIKE_MAX
     mean, spread = sky.mean(axis=0), np.maximum(sky.std(axis=0), 2.0)
     d = np.linalg.norm((lab[below] - mean) / spread, axis=1)
-    return float(np.mean(d < 2.0))
+    return float(np.mean(d < 2.0)), SKY_LIKE_MAX
+
+
+#: A picture whose Lab a and b depart by less than this (standard deviation) from a function of its lightness has no
+#: colour to tell sky from terrain: a grey print saved as RGB, or a toned one (sepia: its tint follows the grey).
+GREY_CHROMA = 2.0
+
+
+def _monochrome(lab: np.ndarray) -> bool:
+    """Whether the (N, 3) Lab colours are one tint's greys: a and b a quadratic of L within :data:`GREY_CHROMA`."""
+    lab = lab[:: max(1, len(lab) // 20000)]
+    if len(lab) < 10:
+        return False
+    terms = np.column_stack([np.ones(len(lab)), lab[:, 0], lab[:, 0] ** 2])
+    chroma = lab[:, 1:]
+    rest = chroma - terms @ np.linalg.lstsq(terms, chroma, rcond=None)[0]
+    return bool(np.max(rest.std(axis=0)) < GREY_CHROMA)
+
+
+def _quadratic(u: np.ndarray, v: np.ndarray, width: int) -> np.ndarray:
+    """(N, 6) the terms of a quadratic in the pixel positions ``u``, ``v`` (scaled by the picture's width)."""
+    a, b = np.asarray(u, float) / width, np.asarray(v, float) / width
+    return np.column_stack([np.ones_like(a), a, b, a * a, a * b, b * b])
 
 
 def _boundary_rows(gy: np.ndarray, path: np.ndarray, gap: int, least: float) -> np.ndarray:
