@@ -107,6 +107,10 @@ def load_camera_file(controller, path: str, as_fitted: bool = False,
         c.message.emit(tr("Fitted camera loaded from {0}: \"uncertain\" here, it was fitted on another photo "
                           "({1}); see the fit tab.").format(name, str(fit.get("photo") or tr("unknown"))) + moved,
                        WARNING)
+    elif info["status"] != "ok":  # its status where the person looks, in the colour it has (a trial's "uncertain"
+        # camera loaded with a blue "Fitted camera loaded" and nothing more)
+        c.message.emit(tr("Fitted camera loaded from {0}: \"{1}\"; see the fit tab for why.").format(
+            name, tr(info["status"])) + moved, WARNING)
     else:
         c.message.emit(tr("Fitted camera loaded from {0}.").format(name) + moved, INFO)
     return camera

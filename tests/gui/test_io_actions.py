@@ -454,12 +454,16 @@ def test_a_camera_written_with_its_verdict_comes_back_with_it(dock, scene, tmp_p
 
     _load(dock, scene)
     c = dock.controller
+    said = []
+    c.message.connect(lambda text, level: said.append((text, level)))
     poor = tmp_path / "poor.json"
     poor.write_text(camera_json(scene.camera, {"status": "poor", "message": "the skyline disagrees",
                                                "sigma": {"x": 210.0, "heading": 1.5}}))
     assert io_actions.load_camera_file(c, str(poor), as_fitted=True) is not None
     info = c.state.fit_info
     assert info["status"] == "poor" and 'verdict was "poor": the skyline disagrees' in info["message"]
+    # the bar says it too, as a warning (a trial's "uncertain" camera loaded with a blue "Fitted camera loaded.")
+    assert '"poor"' in said[-1][0] and said[-1][1] == Qgis.MessageLevel.Warning, said
     # its σ says how doubtful (a trial's reloaded "uncertain" camera showed no ± though its file held them)
     assert info["sigma"] == {"x": 210.0, "heading": 1.5} and "± 210" in dock.resultLabel.text()
     saved = tmp_path / "saved.json"
