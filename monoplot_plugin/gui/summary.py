@@ -143,6 +143,9 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     >>> "move the terrain by 11.1 px in the picture" in fit_summary_html(
     ...     cam, {"status": "ok", "mode": "unpaired", "rmse_px": 2.9, "sigma_px": 11.1, "sigma": {"x": 627.0}})
     True
+    >>> "by more than the picture's size (5607 px, RMS)" in fit_summary_html(
+    ...     cam, {"status": "uncertain", "mode": "automatic", "sigma_px": 5606.6, "sigma": {"x": 200.0}})
+    True
     >>> html = fit_summary_html(cam, {"status": "uncertain", "mode": "unpaired", "sigma": {"x": 0.31}})
     >>> "± 0.31*" in html and html.index("assume the automatic pairs are right") < html.index("<table>")
     True
@@ -212,8 +215,13 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     if info.get("mode") in ("unpaired", "automatic") and info.get("sigma_px") is not None:
         # what the σ below mean in the picture: a trial read "ok" beside "± 627 m" as a contradiction (distance
         # traded against the field of view moves the terrain by pixels only)
-        head += "<br><small>" + tr("The σ below move the terrain by {0:.1f} px in the picture, RMS (an upper "
-                                  "estimate).").format(info["sigma_px"]) + "</small>"
+        moved = float(info["sigma_px"])
+        if moved > math.hypot(*fitted.image_size):  # "by 5606.6 px" on a 1290 px photo read as nonsense (a trial)
+            head += "<br><small>" + tr("The σ below move the terrain by more than the picture's size ({0:.0f} px, "
+                                      "RMS): they barely place the camera.").format(moved) + "</small>"
+        else:
+            head += "<br><small>" + tr("The σ below move the terrain by {0:.1f} px in the picture, RMS (an upper "
+                                      "estimate).").format(moved) + "</small>"
     z_text = f"{metres('z', z)}{sig('z')}"
     clearance = info.get("clearance_m")
     under = not info.get("on_ground") and clearance is not None and math.isfinite(clearance) and clearance <= -0.05
