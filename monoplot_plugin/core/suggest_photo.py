@@ -321,9 +321,55 @@ def box_beyond_captions(gray: np.ndarray) -> Tuple[Tuple[int, int, int, int], li
     for a, b, c, d in captions:
         painted[a:b, c:d] = paper
     r0, r1, c0, c1 = picture_box(painted)
-    if (r0, r1, c0, c1) == (0, h, 0, w):
-        return box, captions
-    return (max(r0, box[0]), min(r1, box[1]), max(c0, box[2]), min(c1, box[3])), captions
+    if (r0, r1, c0, c1) != (0, h, 0, w):
+        box = (max(r0, box[0]), min(r1, box[1]), max(c0, box[2]), min(c1, box[3]))
+    return _without_caption_strip(gray, box, captions), captions
+
+
+#: A caption strip's lines are flat: this share of their pixels within :data:`STRIP_TOLERANCE` of its grey.
+STRIP_FLAT = 0.95
+STRIP_TOLERANCE = 12
+#: ... it is at most this share of the picture box deep, and the picture's line next to it mostly of other greys
+#: (a straight edge, where a plain sky ends at a skyline's highest peak first)
+STRIP_DEPTH = 0.15
+STRIP_EDGE = 0.6
+
+
+def _without_caption_strip(gray: np.ndarray, box: Tuple[int, int, int, int], captions: list) -> Tuple[int, ...]:
+    """``box`` without a strip of flat grey, the caption's own, that runs from its top or bottom edge past a caption
+    printed in it: a trial's grey prints had their caption on a light strip between the picture and the scan's dark
+    border, and the strip was taken for picture (the principal point 45 px low, contours drawn on the caption).
+
+    >>> img = np.full((300, 400), 20, np.uint8)                                     # a scanner's dark border
+    >>> img[20:230, 20:380] = np.random.default_rng(1).integers(40, 200, (210, 360))  # the picture
+    >>> img[230:262, 20:380] = 225; img[238:254, 40:300:12] = 30                     # its caption strip, letters
+    >>> _without_caption_strip(img, (20, 262, 20, 380), [(238, 254, 40, 300)])
+    (20, 230, 20, 380)
+    """
+    r0, r1, c0, c1 = box
+    for a, b, _, _ in captions:
+        bottom = a - r0 > (r1 - r0) / 2
+        if (bottom and not r0 < a < r1) or (not bottom and not r0 < b < r1):
+            continue
+        painted = gray[r0:r1, c0:c1].astype(np.int16)
+        grey = int(np.median(painted[a - r0:b - r0]))
+        for ca, cb, cc, cd in captions:  # the letters, painted in the strip's grey
+            painted[max(0, ca - r0):max(0, cb - r0), max(0, cc - c0):max(0, cd - c0)] = grey
+        share = (np.abs(painted - grey) <= STRIP_TOLERANCE).mean(axis=1)
+        flat, depth = share >= STRIP_FLAT, int(STRIP_DEPTH * len(share))
+        if bottom:
+            run = np.flatnonzero(~flat[::-1])
+            edge = len(flat) - (int(run[0]) if len(run) else len(flat))  # the strip's first line
+            # past the caption's top, not deep, and ending on a straight edge (a picture's, not a skyline's peaks
+            # over a plain sky or a lake with a title printed on it)
+            if len(flat) - depth <= edge < a - r0 and edge > 0 and share[edge - 1] <= 1.0 - STRIP_EDGE:
+                r1 = r0 + edge
+        else:
+            run = np.flatnonzero(~flat)
+            edge = int(run[0]) if len(run) else 0
+            if b - r0 < edge <= depth and edge < len(flat) and share[edge] <= 1.0 - STRIP_EDGE:
+                r0 = r0 + edge
+    return r0, r1, c0, c1
 
 
 #: Paper between a frame line and the picture is looked for this deep inside the picture box (share of its extent).

@@ -166,6 +166,21 @@ def test_a_caption_whose_letters_leave_rows_of_paper_stays_outside_the_picture()
     assert np.allclose(box_beyond_captions(scan)[0], (r0, r1, c0, c1), atol=4), box_beyond_captions(scan)[0]
 
 
+def test_a_caption_on_a_light_strip_between_the_picture_and_a_dark_border_is_not_picture():
+    """A trial's grey prints: a dark scanner border all round, the picture, and under it a light strip with the
+    caption. The strip was taken for picture: the principal point 45 px low, contours drawn on the caption."""
+    rng = np.random.default_rng(8)
+    r0, r1, c0, c1 = 45, 885, 45, 1245
+    scan = (24 + rng.normal(0, 3, (1020, 1290))).clip(0, 255).astype(np.uint8)
+    scan[r0:r1, c0:c1] = cv2.resize(textured_picture(h=280, w=400, low=60, high=200), (c1 - c0, r1 - r0))
+    scan[r1:975, c0:c1] = (224 + rng.normal(0, 3, (975 - r1, c1 - c0))).clip(0, 255).astype(np.uint8)
+    cv2.putText(scan, "Tafel 2. Blick ins Hochtal, 1912. Phot. Archiv Gletscherkunde Nr. 114", (c0 + 30, r1 + 52),
+                cv2.FONT_HERSHEY_SIMPLEX, 0.9, 40, 2, cv2.LINE_AA)
+    assert np.allclose(box_beyond_captions(scan)[0], (r0, r1, c0, c1), atol=4), box_beyond_captions(scan)[0]
+    rows = np.flatnonzero(picture_mask(scan, beyond_captions=True).any(axis=1))
+    assert rows[0] >= r0 and rows[-1] < r1
+
+
 def test_paper_between_a_frame_line_and_the_picture_is_not_picture():
     """A re-check trial's scan: a frame line 14 px outside the picture. The box runs along the frame line; the
     paper inside it was draped as a white seam along the orthophoto's edges and got suggestions on the picture's
