@@ -25,7 +25,7 @@ from .camera_files import fit_figures, fitted_on_photo, written_fit, written_ver
 from .files import InputError, read_photo
 from .frames import (SHARED_XYZ, FrameTask, PhotoResult, Timelapse, blank_photo, fit_job, process_frame,
                      shared_for)
-from .progress import IsCanceled, Progress, never_canceled, no_progress
+from .progress import IsCanceled, Progress, SharedBar, never_canceled, no_progress
 from .resume import dem_identity, in_task_order, remove_stale, resumable
 
 __all__ = ["PhotoJob", "PhotoResult", "folder_jobs", "table_jobs", "run_batch", "output_stems", "fit_shared_camera",
@@ -172,21 +172,23 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
     # the shared XYZ raster is written while the frames run
     if setup.camera_json and write_xyz and shared is not None and shared.products.sees_ground:
         writer = _Background(shared.products.write_xyz, os.path.join(out_dir, SHARED_XYZ), crs_wkt)
-    finished = [0]
+    bar = SharedBar(progress, len(tasks), len(earlier))
 
     def work(task: FrameTask) -> PhotoResult:  # a frame under way stops on a cancel too
-        if not setup.camera_json:  # a table's row takes seconds (a registration 13-21 s): say which is under way (a
-            # trial's bar sat at 0 % for 17-75 s with no word)
-            progress((len(earlier) + finished[0]) / max(1, len(tasks)), f"processing {task.name}")
+        own = None
+        if not setup.camera_json:  # a row's registration takes seconds: which is under way, and how far (trials'
+            # bars sat at 0 % for 17-75 s with no word, and for 216 s with a row done at 89 s); its stages unsaid:
+            bar.item(task.index, 0.0, f"processing {task.name}")  # Processing's log prints every progress text
+            own = lambda fraction, message="": bar.item(task.index, fraction)  # noqa: E731
         try:
-            result = process_frame(task, shared, is_canceled)
+            result = process_frame(task, shared, is_canceled, own)
             journal.append(task, keys[task.index], result)  # at once: a run killed later resumes from here
             return result
         finally:
-            finished[0] += 1
+            bar.finished(task.index)
 
     fresh = _threaded([t for t in tasks if t.index not in earlier], work, workers, is_canceled)
-    results = collect(in_task_order(tasks, earlier, fresh), tasks, log, progress)
+    results = collect(in_task_order(tasks, earlier, fresh), tasks, log, bar.forward)
     if writer is not None and writer.wait() is not None:
         shared_xyz_failed(results, os.path.join(out_dir, SHARED_XYZ), writer.error, log)
     remove_stale(out_dir, tasks, results, bool(setup.camera_json), log)

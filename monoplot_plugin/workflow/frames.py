@@ -33,7 +33,7 @@ from ..outputs.xyz_raster import write_xyz_raster
 from .camera_files import PIXEL_FIGURES, camera_json, fitted_on_photo
 from .files import InputError, load_camera, read_photo, read_points_csv
 from .fit import fit_points
-from .progress import IsCanceled, check_canceled, never_canceled
+from .progress import IsCanceled, Progress, check_canceled, never_canceled
 from .inputs import load_dem
 from .products import blank_outside, centred_on_picture, ortho_grid, picture_area
 from .vectors import fill_missing_z
@@ -256,11 +256,12 @@ def frame_verdict(setup: Timelapse, photo_path: str, registered: bool) -> tuple:
     return setup.camera_status, setup.camera_note
 
 
-def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCanceled] = None) -> PhotoResult:
+def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCanceled] = None,
+                  progress: Optional[Progress] = None) -> PhotoResult:
     """Read, (re-register,) and write the products of one frame; every problem becomes a failed result.
     ``is_canceled`` (threads on this machine; a Dask task has none): checked inside an automatic registration and
     before the products, so that a cancel stops the frames under way too (a trial's Ctrl+C let two more frames be
-    registered and written, 12 s)."""
+    registered and written, 12 s). ``progress``: the fraction of a table row's automatic registration done."""
     is_canceled = is_canceled or never_canceled
     setup = shared.setup
     result = PhotoResult(task.photo, False, index=task.index)
@@ -275,7 +276,7 @@ def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCance
         camera, products = shared.camera, shared.products
         fit_status, fit_message = "ok", ""
         if camera is None:  # a table row: fit this photo's camera
-            camera, verdict = fit_job(task.job, size, shared.dem, setup.crs_wkt, photo, is_canceled)
+            camera, verdict = fit_job(task.job, size, shared.dem, setup.crs_wkt, photo, is_canceled, progress)
             result.rmse_px, fit_status, fit_message = verdict["rmse_px"], verdict["status"], verdict["message"]
             result.outputs.append(_write_camera(setup, task.stem, camera, verdict, task.photo))  # with its σ
             if verdict.get("prior_kept") and (setup.write_xyz or setup.write_ortho):
@@ -424,7 +425,7 @@ def headline(camera: Camera, prior: Camera, std: Optional[dict]) -> str:
 
 
 def fit_job(job, size, dem, crs_wkt: str, photo: Optional[np.ndarray] = None,
-            is_canceled: Optional[IsCanceled] = None):
+            is_canceled: Optional[IsCanceled] = None, progress: Optional[Progress] = None):
     """Fit the camera of a batch job (``prior``, ``points``, ``dem_points`` paths) from its files; returns (camera,
     verdict): the verdict a dict with ``"status"``, ``"message"``, ``"rmse_px"`` (NaN when unknown) and the fit's
     ``"summary"`` (its σ), as :func:`~.camera_files.camera_json` writes it beside the camera. A row without points
@@ -452,7 +453,7 @@ def fit_job(job, size, dem, crs_wkt: str, photo: Optional[np.ndarray] = None,
                                                               DEFAULT_POSITION_SIGMA_M)
         angle = getattr(job, "angle_sigma_deg", None) or DEFAULT_ANGLE_SIGMA_DEG
         done = register(photo, dem, prior, position_sigma_m=position, angle_sigma_deg=angle, is_canceled=is_canceled,
-                        heading_known=heading_known)
+                        heading_known=heading_known, progress=progress)
         camera, r = done.camera, done.result
         camera.crs_wkt = crs_wkt
         rmse = float(r.rmse_px) if r.rmse_px is not None and np.isfinite(r.rmse_px) else float("nan")

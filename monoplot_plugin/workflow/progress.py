@@ -19,9 +19,11 @@ monoplot_plugin.workflow.progress.Canceled: canceled
 
 from __future__ import annotations
 
-from typing import Callable, Optional
+import threading
+from typing import Callable, Dict, Hashable, Optional
 
-__all__ = ["Progress", "IsCanceled", "Canceled", "no_progress", "never_canceled", "part", "check_canceled"]
+__all__ = ["Progress", "IsCanceled", "Canceled", "no_progress", "never_canceled", "part", "check_canceled",
+           "SharedBar"]
 
 Progress = Callable[..., None]  # progress(fraction in [0, 1], message: str = "")
 IsCanceled = Callable[[], bool]
@@ -56,3 +58,40 @@ def check_canceled(is_canceled: Optional[IsCanceled]) -> None:
     """Raise :class:`Canceled` when ``is_canceled()`` says so."""
     if is_canceled is not None and is_canceled():
         raise Canceled()
+
+
+class SharedBar:
+    """One ``progress`` over ``total`` items worked on in parallel threads, ``done`` of them done before: an item
+    under way counts with its own fraction, and the bar never goes back (items end out of order).
+
+    >>> seen = []
+    >>> bar = SharedBar(lambda f, m="": seen.append(round(f, 2)), 4)
+    >>> bar.item("a", 0.5); bar.item("b", 0.5); bar.finished("a"); bar.forward(0.25); bar.item("b", 1.0)
+    >>> seen
+    [0.12, 0.25, 0.25, 0.5]
+    """
+
+    def __init__(self, progress: Optional[Progress], total: int, done: int = 0):
+        self._progress = progress or no_progress
+        self._total, self._done, self._shown = max(1, int(total)), int(done), 0.0
+        self._under_way: Dict[Hashable, float] = {}
+        self._lock = threading.Lock()
+
+    def item(self, key: Hashable, fraction: float, message: str = "") -> None:
+        """Item ``key`` is ``fraction`` done."""
+        with self._lock:
+            self._under_way[key] = max(0.0, min(1.0, float(fraction)))
+            fraction = (self._done + sum(self._under_way.values())) / self._total
+        self.forward(fraction, message)
+
+    def finished(self, key: Hashable) -> None:
+        """Item ``key`` is done (whatever its end)."""
+        with self._lock:
+            self._done += 1
+            self._under_way.pop(key, None)
+
+    def forward(self, fraction: float, message: str = "") -> None:
+        """Show ``fraction`` of the whole, unless more was shown already."""
+        with self._lock:
+            self._shown = fraction = max(self._shown, float(fraction))
+        self._progress(fraction, message)

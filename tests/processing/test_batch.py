@@ -171,10 +171,23 @@ def test_table_rows_registered_automatically_take_the_priors_uncertainty(run_alg
                                          "a.png,prior.json,,,\n"
                                          "b.png,prior.json,,30,1.5\n")
     out = tmp_path / "out"
+
+    class Recording(QgsProcessingFeedback):
+        seen: list = []
+
+        def setProgress(self, progress):  # noqa: N802 (QGIS API)
+            self.seen.append(progress)
+            super().setProgress(progress)
+
+    feedback = Recording()
     run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"), "XYZ": False,
-                      "ORTHO": False, "POSITION_SIGMA": 80.0, "ANGLE_SIGMA": 2.0, "OUTPUT": str(out)})
+                      "ORTHO": False, "POSITION_SIGMA": 80.0, "ANGLE_SIGMA": 2.0, "WORKERS": 1, "OUTPUT": str(out)},
+            feedback)
     messages = [json.loads((out / f"{n}_camera.json").read_text())["fit"]["message"] for n in ("a", "b")]
     assert "prior σ 80 m, 2°" in messages[0] and "prior σ 30 m, 1.5°" in messages[1]
+    # the bar moves while a row is registered, not only when it ends (a trial's sat at 0 % for 216 s), forward
+    assert any(0.0 < p < 50.0 for p in feedback.seen) and any(50.0 < p < 100.0 for p in feedback.seen)
+    assert all(b >= a - 1e-6 for a, b in zip(feedback.seen, feedback.seen[1:])), feedback.seen
     (tmp_path / "bad.csv").write_text("photo,prior,points,position_sigma\na.png,prior.json,,far\n")
     with pytest.raises(QgsProcessingException, match="bad.csv line 2: position_sigma 'far' is not a positive"):
         run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "bad.csv"),
