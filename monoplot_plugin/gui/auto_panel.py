@@ -17,8 +17,8 @@ from typing import Optional
 
 import numpy as np
 from qgis.core import Qgis
-from qgis.PyQt.QtCore import QObject
-from qgis.PyQt.QtWidgets import QAction
+from qgis.PyQt.QtCore import QObject, Qt
+from qgis.PyQt.QtWidgets import QAction, QSizePolicy, QToolButton
 
 from ..adapters import layers as camera_layers
 from ..adapters.photo import qimage_to_array
@@ -63,6 +63,14 @@ class AutoPanel(QObject):
                                        "accepted points to check."))
         self.action.triggered.connect(self.run)
         dock.add_output_action(self.action)
+        # ... and under the rough camera's buttons, where the camera it starts from is given (a trial looked for it
+        # there, and found it at the bottom of the fit tab among the products)
+        self.camera_tab_button = QToolButton(dock)
+        self.camera_tab_button.setDefaultAction(self.action)
+        self.camera_tab_button.setToolButtonStyle(Qt.ToolButtonStyle.ToolButtonTextOnly)
+        self.camera_tab_button.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Fixed)
+        layout = dock.cameraTabLayout
+        layout.insertWidget(layout.indexOf(dock.cameraButtons) + 1, self.camera_tab_button)
         #: (the "Automatic points" edit, the fit before it, the fit it brought): an Undo of those points takes
         #: the registration's camera back too, a Redo brings it again (a trial: after the Undo the fit tab still
         #: spoke of its 134 points, and the next Suggest drew DEM suggestions from its "uncertain" camera)

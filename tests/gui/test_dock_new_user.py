@@ -222,6 +222,13 @@ def test_the_dock_fits_a_laptop_screen_768_px_tall(dock, qtbot):
     # the camera tab's rows keep their height and the rest is a scroll away
     assert d.drawCameraButton.height() >= d.drawCameraButton.sizeHint().height()
     assert d.cameraScroll.verticalScrollBar().maximum() > 0
+    # Find camera automatically is there too, under the rough camera's buttons, in full (a trial looked for it
+    # there and found it at the bottom of the fit tab, among the products)
+    from qgis.PyQt.QtWidgets import QToolButton
+
+    found = [b for b in d.cameraScroll.widget().findChildren(QToolButton) if b.defaultAction() is d.auto_panel.action]
+    assert len(found) == 1 and found[0].width() >= found[0].sizeHint().width()
+    assert found[0].geometry().top() > d.drawCameraButton.geometry().top()
 
 
 def test_ctrl_z_in_the_tabs_undoes_the_last_point_edit(dock, scene, qtbot):
