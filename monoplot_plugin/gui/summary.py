@@ -8,7 +8,7 @@ from html import escape as html_escape
 from typing import Callable, Optional
 
 from ..core.camera import Camera, azimuth
-from ..core.fit.result import sigma_undetermined
+from ..core.fit.result import LEAD_MARKER, sigma_undetermined, verdict_first
 
 __all__ = ["fit_summary_html", "sigma_text", "verdict_first", "unpartnered_text"]
 
@@ -25,44 +25,6 @@ def sigma_text(value: float) -> str:
     if not value > 0:
         return "0"
     return f"{value:.{min(6, max(0, 1 - math.floor(math.log10(value))))}f}"
-
-
-#: Where a verdict's own words start in a fit's message (core.fit.verdict and core.auto.register write them after
-#: the fit's figures: "unpaired fit: 76 of 153 ... Uncertain: the photo shows no clear skyline ...").
-VERDICT_MARKERS = ("Probably wrong: ", "Uncertain: ")
-
-
-#: the start of a message whose first sentence goes before the verdict (:func:`verdict_first`; the workflow's
-#: ``auto._every_direction`` writes it)
-LEAD_MARKER = "Every direction searched:"
-
-
-def verdict_first(message: str) -> tuple:
-    """(the verdict's reasons and what follows them, the figures before them) of a fit's message; the dock shows the
-    first part first: a desktop trial's "uncertain" registration said why only after 600 characters of figures.
-
-    >>> verdict_first("unpaired fit: 76 of 153 matched. Automatic: skyline on 9 %. Uncertain: no clear skyline.")
-    ('Uncertain: no clear skyline.', 'unpaired fit: 76 of 153 matched. Automatic: skyline on 9 %.')
-    >>> verdict_first("Probably wrong: only 12 % of the skyline lies on the DEM's. Also: few points.")
-    ("Probably wrong: only 12 % of the skyline lies on the DEM's. Also: few points.", '')
-    >>> verdict_first("The automatic registration did not improve on the prior camera.")
-    ('The automatic registration did not improve on the prior camera.', '')
-
-    A registration that searched every direction says so first (a re-check trial's dock showed it last, under a
-    paragraph of reasons, for a camera now looking 177° from the rough one):
-
-    >>> verdict_first("Every direction searched: this view fits better (0.13). unpaired fit: 9 matched. Uncertain: x.")
-    ('Every direction searched: this view fits better (0.13). Uncertain: x.', 'unpaired fit: 9 matched.')
-    """
-    if message.startswith(LEAD_MARKER) and ". " in message:
-        lead, rest = message.split(". ", 1)
-        verdict, details = verdict_first(rest)
-        return f"{lead}. {verdict}".strip(), details
-    found = [i for i in (message.find(m) for m in VERDICT_MARKERS) if i >= 0]
-    if not found or min(found) == 0:
-        return message.strip(), ""
-    i = min(found)
-    return message[i:].strip(), message[:i].strip()
 
 
 def unpartnered_text(info: dict, tr: Callable[[str], str] = str) -> str:

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..core.camera import azimuth
 from ..core.dem import Dem
-from ..core.fit.result import sigma_undetermined
+from ..core.fit.result import sigma_undetermined, verdict_first as judgement_first
 from ._gdal import image_verifier
 from .safe_write import atomic_output
 
@@ -242,18 +242,18 @@ def verdict_status(verdict: str) -> str:
 
 
 def verdict_first(verdict: str) -> str:
-    """The verdict with its judgement first ("Uncertain: ..." / "Probably wrong: ...", then the figures): cut to fit
-    the page, it keeps why (a long automatic verdict lost its reason at the bottom of the page).
+    """The verdict with its judgement first ("Uncertain: ..." / "Probably wrong: ...", then the figures, as the dock
+    shows it: :func:`~..core.fit.result.verdict_first`): cut to fit the page, it keeps why (a long automatic verdict
+    lost its reason at the bottom of the page).
 
     >>> verdict_first("uncertain: paired fit on 9 pairs: RMSE 2.0 px. Uncertain: the pairs cover 1 %.")
     'Fit status uncertain. Uncertain: the pairs cover 1 %. Figures: paired fit on 9 pairs: RMSE 2.0 px.'
     """
     status = verdict_status(verdict)
     message = verdict.split(":", 1)[1].strip() if status else verdict
-    for word in ("Probably wrong:", "Uncertain:"):
-        at = message.find(word)
-        if at > 0:
-            return f"Fit status {status}. {message[at:].strip()} Figures: {message[:at].strip()}"
+    judgement, figures = judgement_first(message)
+    if figures:
+        return f"Fit status {status}. {judgement} Figures: {figures}"
     return f"Fit status {status}: {message}" if status else f"Fit status {message}"
 
 

@@ -17,6 +17,7 @@ import numpy as np
 from ..core.auto import AutoFitResult, register_any_heading, register_automatic
 from ..core.auto.verdict import EDGE_SCORE_OK
 from ..core.auto.heading import UNKNOWN_HEADING_WORDS
+from ..core.fit.result import LEAD_MARKER
 from ..core.camera import Camera
 from .fit import (DEEP_UNDERGROUND_M, ON_GROUND_MAX_M, UNDERGROUND_TOLERANCE_M, depth_under_terrain,
                   flag_under_terrain, ground_clearance, measured_on_pairs, on_ground_rule)
@@ -129,7 +130,7 @@ def _every_direction(near: AutoFitResult, photo, dem, prior: Camera, search: dic
     if _edge_score(wide) < _edge_score(near):
         # the sweep's own words begin "The direction of view was not known": the rough camera gave one (a trial)
         swept = wide.message.replace(UNKNOWN_HEADING_WORDS, "", 1)
-        wide.message = (f"Every direction searched: near the rough camera's heading the DEM's edges fitted the photo's "
+        wide.message = (f"{LEAD_MARKER} near the rough camera's heading the DEM's edges fitted the photo's "
                         f"loosely (edge score {_edge_score(near):.3f}); this view, {abs(turn):.0f}° to the "
                         f"{'right' if turn > 0 else 'left'} of it, fits them better ({_edge_score(wide):.3f}). "
                         + swept[:1].upper() + swept[1:])

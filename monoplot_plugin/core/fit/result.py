@@ -10,7 +10,7 @@ import numpy as np
 from ..camera import Camera
 
 __all__ = ["FitResult", "STATUSES", "rmse", "rms", "sigma_undetermined", "sigma_pixels", "sigma_shifts",
-           "sigma_cameras", "combine_moves"]
+           "sigma_cameras", "combine_moves", "verdict_first", "VERDICT_MARKERS", "LEAD_MARKER"]
 
 #: Standard deviations beyond which a parameter is not determined at all (a poor fit's covariance gave "± 1300521642
 #: m" and "± 6894594°" in a flood trial's dock): angles in degrees, positions in metres, the rest in their units.
@@ -221,3 +221,41 @@ def rms(values) -> float:
     values = np.asarray(values, dtype=np.float64)
     values = values[np.isfinite(values)]
     return float(np.sqrt(np.mean(values ** 2))) if len(values) else float("nan")
+
+
+#: Where a verdict's own words start in a fit's message (core.fit.verdict and core.auto.register write them after
+#: the fit's figures: "unpaired fit: 76 of 153 ... Uncertain: the photo shows no clear skyline ...").
+VERDICT_MARKERS = ("Probably wrong: ", "Uncertain: ")
+
+
+#: the start of a message whose first sentence goes before the verdict (:func:`verdict_first`; the workflow's
+#: ``auto._every_direction`` writes it)
+LEAD_MARKER = "Every direction searched:"
+
+
+def verdict_first(message: str) -> tuple:
+    """(the verdict's reasons and what follows them, the figures before them) of a fit's message; the dock shows the
+    first part first: a desktop trial's "uncertain" registration said why only after 600 characters of figures.
+
+    >>> verdict_first("unpaired fit: 76 of 153 matched. Automatic: skyline on 9 %. Uncertain: no clear skyline.")
+    ('Uncertain: no clear skyline.', 'unpaired fit: 76 of 153 matched. Automatic: skyline on 9 %.')
+    >>> verdict_first("Probably wrong: only 12 % of the skyline lies on the DEM's. Also: few points.")
+    ("Probably wrong: only 12 % of the skyline lies on the DEM's. Also: few points.", '')
+    >>> verdict_first("The automatic registration did not improve on the prior camera.")
+    ('The automatic registration did not improve on the prior camera.', '')
+
+    A registration that searched every direction says so first (a re-check trial's dock showed it last, under a
+    paragraph of reasons, for a camera now looking 177° from the rough one):
+
+    >>> verdict_first("Every direction searched: this view fits better (0.13). unpaired fit: 9 matched. Uncertain: x.")
+    ('Every direction searched: this view fits better (0.13). Uncertain: x.', 'unpaired fit: 9 matched.')
+    """
+    if message.startswith(LEAD_MARKER) and ". " in message:
+        lead, rest = message.split(". ", 1)
+        verdict, details = verdict_first(rest)
+        return f"{lead}. {verdict}".strip(), details
+    found = [i for i in (message.find(m) for m in VERDICT_MARKERS) if i >= 0]
+    if not found or min(found) == 0:
+        return message.strip(), ""
+    i = min(found)
+    return message[i:].strip(), message[:i].strip()
