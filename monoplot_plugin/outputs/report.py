@@ -414,12 +414,10 @@ def _draw_footprint(ax, camera, dem, visible, points):
 
 def parameter_lines(camera, sigmas, status: str = "") -> List[str]:
     """The camera block of the report, one parameter a line. The heading is an azimuth in [0, 360), as the dock
-    shows it (a fit may return -63.6 for 296.4). Under a fit ``status`` "uncertain" or "poor" each ± is starred
-    and a line says they may understate the error, as the dock's (a trial's report printed "heading 245.71 ±
-    0.51°" plainly for a camera 15° off)."""
-    doubt = status in ("uncertain", "poor")
-    star, sigmas = "*" if doubt else "", sigmas or {}
-    params = camera.parameters()
+    shows it (a fit may return -63.6 for 296.4). Under a fit ``status`` "uncertain" or "poor" each ± is starred and
+    a line says they may understate the error, as the dock's (a trial's report: "heading 245.71 ± 0.51°", 15° off)."""
+    doubt, sigmas, params = status in ("uncertain", "poor"), sigmas or {}, camera.parameters()
+    star = "*" if doubt else ""
     lines = ["Camera (pinhole; angles in degrees: heading clockwise from grid north, pitch above horizontal)", ""]
     for name in ("x", "y", "z", "heading", "pitch", "roll", "fov", "cx", "cy", "k1", "k2"):
         value = params[name]
@@ -447,6 +445,8 @@ def parameter_lines(camera, sigmas, status: str = "") -> List[str]:
     return lines
 
 
+#: The last line of a verdict cut to fit the page, saying where the rest is (a trial: lost)
+CUT_NOTE = "… (cut to fit the page: the whole text is in the fit tab and the camera's JSON file)"
 #: Lines of 8 pt text the page's bottom block holds (0.24 of an A4 page's height).
 REPORT_TEXT_LINES = 24
 
@@ -494,7 +494,7 @@ def _draw_parameters(ax, camera, sigmas, rmse, points, xyz, verdict="", check_rm
         wrapped = textwrap.wrap(verdict_first(verdict), 110)
         room = REPORT_TEXT_LINES - len(lines)  # a long automatic verdict ran off the bottom of the page
         if len(wrapped) > room:
-            wrapped = wrapped[:max(1, room - 1)] + ["… (cut to fit the page)"]
+            wrapped = wrapped[:max(1, room - 1)] + [CUT_NOTE]
         lines += wrapped
     ax.text(0.0, 1.0, "\n".join(lines), va="top", ha="left", family="monospace", fontsize=8,
             transform=ax.transAxes)
