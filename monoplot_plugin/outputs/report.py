@@ -190,7 +190,7 @@ def write_report(path, photo: np.ndarray, camera, dem, points: Optional[ReportPo
     fig.text(0.06, 0.965, title or "Monoplot report", fontsize=15, weight="bold")
     fig.text(0.06, 0.948, f"{datetime.date.today().isoformat()}  ·  photo {camera.width} × {camera.height} px  ·  "
              f"{_crs_label(dem.crs_wkt)}", fontsize=8, color="0.3")
-    ax_photo = fig.add_axes((0.06, 0.60, 0.88, 0.33))
+    ax_photo = fig.add_axes((0.06, 0.62, 0.88, 0.31))  # room under it for the badge (it covered a title, a trial)
     ax_overlay = fig.add_axes((0.06, 0.33, 0.43, 0.24))
     ax_map = fig.add_axes((0.54, 0.29, 0.40, 0.27))  # its title stays below the photo
     ax_text = fig.add_axes((0.06, 0.03, 0.88, 0.24))
@@ -440,8 +440,7 @@ def parameter_lines(camera, sigmas, status: str = "") -> List[str]:
                      f"{_UNITS[name]}")
     lines.append(f"  focal    {camera.focal_px:>14.2f} px")
     if doubt and any("±" in line and "undetermined" not in line for line in lines):
-        lines.append(f"  * The ± assume the fit's pairs are right: this {status} camera may be off by far more "
-                     "(check points measure it).")
+        lines.append(f"  * The ± assume the fit's pairs are right: this {status} camera may be off by far more.")
     return lines
 
 
