@@ -155,9 +155,15 @@ class PriorsMixin:
     def set_prior(self, camera: Optional[Camera], source: str = "") -> None:
         """Use ``camera`` as the rough camera; ``source``: where its position comes from (:data:`GPS_SOURCE`), kept
         while the position stays (a height or angle edited), forgotten when it moves."""
-        if camera is not None and self.image is not None:  # a print's optical axis: its picture's centre
-            camera = centred_on_picture(camera, self._picture_area())
         old = self.prior
+        if camera is not None and self.image is not None:  # a print's optical axis: its picture's centre
+            centred = centred_on_picture(camera, self._picture_area())
+            if centred is not camera and (old is None or old.principal_point != centred.principal_point):
+                # said, as Processing says it (a re-check trial looked for it in the dock)
+                self.message.emit(self.tr("Principal point at the picture's centre ({0:.0f}, {1:.0f}), not the "
+                                          "file's: the photo has a print's border.").format(centred.cx, centred.cy),
+                                  INFO)
+            camera = centred
         same_place = old is not None and camera is not None and \
             tuple(old.position[:2]) == tuple(camera.position[:2])
         if source:

@@ -171,9 +171,15 @@ def test_a_prints_border_gets_no_relief_overlay_and_no_ground_under_the_cursor(d
     assert c.pixel_of_ground(*ground[0][:2])[1] == "outside" and c.pixel_of_ground(*ground[1][:2])[1] == "visible"
     # a rough camera of a print looks through its picture's centre, not the scan's (the border is uneven: 20 px on
     # top, 60 under it); a fitted camera loaded from a file keeps its own
+    said = []
+    c.message.connect(lambda text, level: said.append(text))
     c.set_prior(scene.prior)
     assert c.prior.principal_point == pytest.approx((w / 2, (20 + h - 60) / 2), abs=3)
     assert c.fitted.principal_point is None
+    # ... and the dock says so, once (Processing did; a re-check trial looked for it in the dock)
+    assert sum("Principal point at the picture's centre" in text for text in said) == 1
+    c.set_prior(scene.prior.with_parameters(heading=scene.prior.heading + 1.0))
+    assert sum("Principal point at the picture's centre" in text for text in said) == 1
 
 
 def test_rough_camera_drawn_by_press_and_drag(dock, scene, qtbot):
