@@ -446,9 +446,9 @@ class ResultsMixin:
         without a partner won), as the fit tab counts them."""
         from ..outputs.report import ReportPoints
 
-        point_pairs = list(self.state.check_pairs())
+        point_pairs = self.state.check_pairs()
         if (self.state.fit_info or {}).get("pairs_checked"):
-            point_pairs += [pair for pair in self.state.valid_pairs() if pair not in point_pairs]
+            point_pairs += self.state.valid_pairs()  # accepted pairs: never check pairs too
         ids, uv, xyz = self.pair_arrays(point_pairs)
         partners = [self.state.partner(i) for i in ids]
         return ReportPoints(uv, xyz, self._pair_names(ids, partners)) if ids else None

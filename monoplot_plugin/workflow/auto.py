@@ -94,7 +94,7 @@ def register(photo: np.ndarray, dem, prior: Camera, position_sigma_m: Optional[f
     wider = every_direction_if_loose and heading_known
     near_end = NEAR_SEARCH_SHARE if wider else 1.0
     result = (register_automatic if heading_known else register_any_heading)(
-        photo, dem, prior, progress=part(progress, 0.0, near_end) if progress is not None else None, **search)
+        photo, dem, prior, progress=part(progress, 0.0, near_end), **search)
     if result.status == "canceled":
         raise Canceled(result.message or "canceled")
     check_canceled(is_canceled)
@@ -102,8 +102,7 @@ def register(photo: np.ndarray, dem, prior: Camera, position_sigma_m: Optional[f
     # not for a photo whose edges match nothing (fog, a blank frame): any direction would fit its chance edges
     if wider and result.status != "ok" and _edge_score(result) > EDGE_SCORE_OK \
             and ev.get("auto_skyline_usable") and not ev.get("auto_no_edges"):
-        result = _every_direction(result, photo, dem, prior, search,
-                                  part(progress, near_end, 1.0) if progress is not None else None)
+        result = _every_direction(result, photo, dem, prior, search, part(progress, near_end, 1.0))
     check_height(result, prior, dem)
     return AutoDone(result)
 

@@ -292,9 +292,9 @@ def _sky_like_below(rgb: np.ndarray, boundary: np.ndarray, valid: np.ndarray, to
     lab = cv2.cvtColor(rgb.astype(np.float32) / 255.0, cv2.COLOR_RGB2LAB)
     sky = lab[above]
     if _monochrome(lab[pic]):
-        v, u = np.nonzero(above)
-        coef = np.linalg.lstsq(_quadratic(u, v, W), sky[:, 0], rcond=None)[0]
-        spread = max(float(np.std(sky[:, 0] - _quadratic(u, v, W) @ coef)), 2.0)
+        terms = _quadratic(*np.nonzero(above)[::-1], W)
+        coef = np.linalg.lstsq(terms, sky[:, 0], rcond=None)[0]
+        spread = max(float(np.std(sky[:, 0] - terms @ coef)), 2.0)
         v, u = np.nonzero(below)  # the shading continued, within the sky's own greys
         shade = np.clip(_quadratic(u, v, W) @ coef, sky[:, 0].min(), sky[:, 0].max())
         return float(np.mean(np.abs(lab[below][:, 0] - shade) < 2.0 * spread)), GREY_SKY_LIKE_MAX
