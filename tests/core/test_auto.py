@@ -79,8 +79,15 @@ def test_score_prefers_the_true_camera_to_the_prior(scene):
 
 def test_register_automatic_recovers_the_view(scene):
     dem, truth, photo, prior = scene
-    result = register_automatic(photo, dem, prior, position_sigma_m=100.0, angle_sigma_deg=3.0)
+    bar = []
+    result = register_automatic(photo, dem, prior, position_sigma_m=100.0, angle_sigma_deg=3.0,
+                                progress=lambda f, m="": bar.append(f))
     assert isinstance(result, FitResult) and result.status in ("ok", "uncertain", "poor")
+    # the bar never goes back and moves while the coarse grid is scored, not once per position (a batch row sat at
+    # 10 % for 74 s): the coarse stage (10-30 %) and the fine one (55-70 %) report on their way
+    assert all(b >= a - 1e-9 for a, b in zip(bar, bar[1:])) and bar[-1] == 1.0
+    assert len({round(f, 3) for f in bar if 0.1 < f < 0.3}) >= 10, sorted(set(bar))
+    assert any(0.55 < f < 0.7 for f in bar), sorted(set(bar))
     cam = result.camera
     # The view direction: from 3 deg off to within a few tenths; the pixels of the terrain near the true ones.
     assert abs(cam.heading - truth.heading) < 0.6 and abs(cam.pitch - truth.pitch) < 0.6

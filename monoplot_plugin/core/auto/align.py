@@ -189,8 +189,10 @@ class Aligner:
         d2 = d * d
         return d2 / (d2 + self.tau * self.tau)
 
-    def score(self, offsets) -> np.ndarray:
-        """(N,) scores of (N, 7) offsets (lower is better), in batches (polls ``is_canceled`` between them)."""
+    def score(self, offsets, done: Optional[Callable[[float], None]] = None) -> np.ndarray:
+        """(N,) scores of (N, 7) offsets (lower is better), in batches (polls ``is_canceled`` between them).
+        ``done(fraction)``: called after each batch with the share of ``offsets`` scored (a grid of thousands of
+        cameras takes half a minute: the bar moves meanwhile)."""
         offsets = np.atleast_2d(np.asarray(offsets, dtype=np.float64))
         out = np.empty(len(offsets))
         batch = max(1, int(2e6 // max(1, len(self.sky) + 2 * len(self.contour))))
@@ -200,6 +202,8 @@ class Aligner:
 
                 raise FitCanceled()
             out[a:a + batch] = self._score(offsets[a:a + batch])
+            if done is not None:
+                done(min(len(offsets), a + batch) / len(offsets))
         self.evaluations += len(offsets)
         return out
 

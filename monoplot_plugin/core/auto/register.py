@@ -239,13 +239,16 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     around = offsets_grid(sig, step, roll_steps=1)
     offsets, scores = [], []
     positions = _positions(sig, prior, align_dem)
+    # the bar moves with the cameras scored: the prior's full grid alone took 30 of a 60 s coarse search (a batch)
+    total, scored = len(grid) + (len(positions) - 1) * len(around), 0
     for k, pos in enumerate(positions):
-        report(0.1 + 0.2 * k / len(positions), "automatic registration: coarse search of the view direction")
         grid = grid if k == 0 else around
         ref = camera_from_offset(prior, pos, sig.get("ground"))
         coarse = Aligner(ref, p0, dem_edges(ref, align_dem, margin, ref.focal_px * p0.scale), sig, tau=6.0,
                          prior_offset=offset_between(ref, prior), is_canceled=is_canceled, max_points=700)
-        scores.append(coarse.score(grid))
+        scores.append(coarse.score(grid, done=lambda f, before=scored, n=len(grid): report(
+            0.1 + 0.2 * (before + f * n) / total, "automatic registration: coarse search of the view direction")))
+        scored += len(grid)
         offsets.append(grid + pos[None, :])
     offsets, scores = np.vstack(offsets), np.concatenate(scores)
     starts = [offsets[i] for i in _distinct(offsets, scores, N_STARTS, 2.0 * step, POSITION_SIGMAS
@@ -275,13 +278,14 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
     # Fine: render again from the best cameras and refine at full working size, the distance scale shrinking
     # (a wide scale first smooths the score's many shallow minima), rendering again from where each round ends.
     finals = []
-    for _, off in refined[:N_FINALS]:
+    for j, (_, off) in enumerate(refined[:N_FINALS]):
         cam, al, o2 = refine_fine(camera_from_offset(prior, off, sig.get("ground")), prior, fine, align_dem, sig,
                                   is_canceled, _poll, passes=FINE_PASSES)
         # Judged by the edges alone, each rendered from where it stands (no pull to the prior, one distance
         # scale). ``al`` is the last round's, ``o2`` the offset from its reference to ``cam``.
         finals.append((edge_score(cam, fine, align_dem, sig, is_canceled), cam, al, o2,
                        float(al.score(o2[None])[0])))
+        report(0.55 + 0.15 * (j + 1) / min(N_FINALS, len(refined)), "automatic registration: fine alignment")
     finals.sort(key=lambda t: t[0])
     prior_edge = edge_score(prior, fine, align_dem, sig, is_canceled)
     search = _Search(image, dem, prior, sig, report, is_canceled, fine, align_dem, refined, prior_edge, {})
