@@ -231,19 +231,26 @@ class PhotoEditTool(QgsMapTool):
         self.marker.setVisible(False)
 
     def feature_at(self, point: QgsPointXY):
-        """(kind, fid) of the drawn feature under ``point`` (within the tolerance), or None."""
+        """(kind, fid) of the drawn feature under ``point`` (within the tolerance), or None. A point, a line or a
+        polygon's outline within the tolerance comes first, the nearest of them; a polygon whose inside holds
+        ``point`` only when none is, the smallest such (a trial's right click on a boulder drawn inside a slide's
+        outline deleted the outline: every polygon is at distance 0 from a point inside it)."""
         session = self.session_getter()
         if session is None:
             return None
         tolerance = _tolerance(self.canvas())
         probe = QgsGeometry.fromPointXY(point)
-        best, best_d = None, tolerance
+        best, best_d, inside = None, tolerance, []
         for kind, layer in session.photo_layers.items():
             for feature in layer.getFeatures():
-                d = feature.geometry().distance(probe)
+                geometry = feature.geometry()
+                d = geometry.distance(probe)
+                if kind == "polygon" and d == 0.0:
+                    inside.append((geometry.area(), feature.id()))
+                    d = QgsGeometry(geometry.constGet().boundary()).distance(probe)
                 if d <= best_d:
                     best, best_d = (kind, feature.id()), d
-        return best
+        return best or (("polygon", min(inside)[1]) if inside else None)
 
     def canvasPressEvent(self, event: QgsMapMouseEvent) -> None:  # noqa: N802
         session = self.session_getter()

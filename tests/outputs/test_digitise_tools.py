@@ -117,6 +117,30 @@ def test_edit_tool_moves_vertex_and_deletes(canvas_and_session):
     assert before == [1, 1]  # the move, then the delete, each announced before it happened
 
 
+def test_a_right_click_on_a_point_inside_a_polygon_deletes_the_point_not_the_polygon(canvas_and_session):
+    """A trial drew boulders inside a slide's outline: a right click on a boulder deleted the outline, silently
+    (every polygon is at distance 0 from a point inside it). The point, the line or the outline under the click
+    goes first; inside polygons only the smallest, and only when nothing else is near."""
+    canvas, session = canvas_and_session
+    session.add_feature("polygon", [[20, 20], [300, 20], [300, 220], [20, 220]])
+    small = session.add_feature("polygon", [[200, 150], [260, 150], [260, 200], [200, 200]])
+    boulder = session.add_feature("point", [[100, 80]])
+    session.add_feature("line", [[60, 180], [160, 190]])
+    tool = PhotoEditTool(canvas, lambda: session)
+    canvas.setMapTool(tool)
+    count = {kind: lambda kind=kind: session.photo_layer(kind).featureCount() for kind in ("point", "line", "polygon")}
+    click(tool, canvas, 101, 81, Qt.MouseButton.RightButton)  # on the boulder, inside the outline
+    assert (count["point"](), count["polygon"]()) == (0, 2), "the boulder goes, the outline stays"
+    assert boulder not in [f.id() for f in session.photo_layer("point").getFeatures()]
+    click(tool, canvas, 110, 185, Qt.MouseButton.RightButton)  # on the line, inside the outline
+    assert (count["line"](), count["polygon"]()) == (0, 2)
+    click(tool, canvas, 230, 175, Qt.MouseButton.RightButton)  # inside both polygons: the small one
+    assert count["polygon"]() == 1
+    assert small not in [f.id() for f in session.photo_layer("polygon").getFeatures()]
+    click(tool, canvas, 120, 110, Qt.MouseButton.RightButton)  # inside the outline, nothing else near: the outline
+    assert count["polygon"]() == 0
+
+
 def test_without_fitted_camera_the_tool_says_so(qgis_app, qtbot):
     canvas = PhotoCanvas()
     qtbot.addWidget(canvas)
