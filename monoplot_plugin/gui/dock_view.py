@@ -161,4 +161,8 @@ class DockViewMixin:
                 self.tr(", RMSE {0:.1f} px").format(rmse) if rmse is not None else ""
             text += " " + self.tr("Fitted camera: {0}{1} (see the fit tab).").format(
                 self.tr(str(info.get("status") or "not judged")), figure)
+        session = getattr(getattr(self, "output_tools", None), "session", None)
+        if session is not None and session.restored_from_autosave:  # its own notice came first: kept in view
+            text += " " + self.tr("Features drawn on the photo after the project was last saved came back from "
+                                  "the autosave.")
         return text

@@ -22,6 +22,7 @@ from qgis.core import Qgis, QgsMapLayer, QgsProject, QgsVectorLayer
 from qgis.PyQt.QtCore import QObject, pyqtSignal
 from qgis.PyQt.QtWidgets import QAction, QWidget
 
+from . import persistence
 from .digitise_tools import PhotoCaptureTool, PhotoEditTool
 from ..outputs.safe_write import OutputError
 from ..workflow import xyz as xyz_step
@@ -236,8 +237,11 @@ class OutputTools(FeatureDialogsMixin, QObject):
             self.session.update_camera(self.controller.fitted, self.controller.dem, None,
                                        pixel_error(self.controller.state.fit_info)[0], self.controller.camera_spread(),
                                        fit_status=self._fit_status())
-        elif self.project.readEntry("monoplot", drawn_entry_key(self.photo_name()), "")[0]:
-            self.current_session()  # a reopened project with features drawn on this photo: show them again
+        elif (self.project.readEntry("monoplot", drawn_entry_key(self.photo_name()), "")[0]
+              or persistence.autosaved_entry(self.project, drawn_entry_key(self.photo_name()))):
+            # a reopened project with features drawn on this photo, saved or only autosaved (drawn after the last
+            # Save, then a crash): show them again, at once
+            self.current_session()
         self._redraw_overlays()
 
     def _overlay_entry(self) -> str:

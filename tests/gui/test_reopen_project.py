@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import os
 
+import pytest
 from qgis.core import QgsProject
 
 from monoplot_plugin.adapters.layers import GROUP_NAME
@@ -200,3 +201,46 @@ def test_work_discarded_after_the_plugin_unloaded_does_not_come_back(dock, scene
         assert source == "project" and "p-new" not in state.points
     finally:
         again.unload()
+
+
+@pytest.mark.parametrize("drawn_before_save", [0, 1])
+def test_features_drawn_after_the_last_save_and_restored_from_the_autosave_are_announced(dock, scene, qtbot,
+                                                                                            qgis_iface, tmp_path,
+                                                                                            drawn_before_save):
+    """A trial drew two points, QGIS crashed before Save; reopening (the plugin opens its dock as the project is
+    read) brought them back, but the status line said only "session restored from the project": the notice of the
+    restored drawing came first and was written over."""
+    from monoplot_plugin.gui.dock import MonoplotDock
+
+    _fitted_session(dock, scene, qtbot)
+    project = QgsProject.instance()
+    path = str(tmp_path / "crashed.qgz")
+    session = dock.output_tools.current_session()
+    for _ in range(drawn_before_save):
+        session.add_feature("point", [[20, 30]])
+    assert project.write(path)
+    old = os.path.getmtime(path)
+    os.utime(path, (old - 10, old - 10))
+    session.add_feature("point", [[40, 60]])  # drawn after the save: only in the autosave
+    qtbot.waitUntil(lambda: persistence.autosaved_entry(project, session._entry()) is not None, timeout=5000)
+    autosaves = {}
+    for name in (persistence.autosave_path(project), persistence._entries_path(persistence.autosave_path(project))):
+        if os.path.exists(name):
+            with open(name, encoding="utf-8") as fh:
+                autosaves[name] = fh.read()
+    dock.unload()
+    project.clear()  # a crash: QGIS never closes the project, its autosave stays (a clear would discard it)
+    for name, text in autosaves.items():
+        with open(name, "w", encoding="utf-8") as fh:
+            fh.write(text)
+    assert project.read(path)
+    later = MonoplotDock(qgis_iface)
+    qtbot.addWidget(later)
+    try:
+        # shown at once, not when the person next draws, and said on the status line, after what else came back
+        restored = later.output_tools.session
+        assert restored is not None and restored.photo_layer("point").featureCount() == 1 + drawn_before_save
+        status = later.statusLabel.text() + later.statusLabel.toolTip()
+        assert "after the project was last saved" in status, status
+    finally:
+        later.unload()
