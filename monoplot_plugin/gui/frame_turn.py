@@ -37,6 +37,8 @@ def follow_the_turn(controller, previous) -> None:
         return
     drift = turn_from_previous_frame(qimage_to_array(previous), qimage_to_array(c.image), camera)
     if not drift.ok:
+        if c.fitted is not None:
+            _unchecked_here(c, drift.message)
         c.message.emit(tr("This frame could not be matched to the previous one ({0}): its points and camera are "
                           "kept as they were; check them.").format(drift.message), Qgis.MessageLevel.Warning)
         return
@@ -77,6 +79,25 @@ def follow_the_turn(controller, previous) -> None:
     c.message.emit(tr("This frame turned {0:.3f}° ({1:.1f} px) from the previous one ({2} matches): its {3} photo "
                       "points and the camera were turned with it (Undo turns them back).").format(
         drift.degrees, drift.pixels, drift.inliers, len(photo)), Qgis.MessageLevel.Info)
+
+
+def _unchecked_here(controller, why: str) -> None:
+    """The fitted camera kept on a frame that could not be matched to the previous one is not known to fit it: an
+    "ok" becomes "uncertain", and its message says why first (a time-lapse trial's "ok" camera stayed a green "ok"
+    on a frame of another view, 307 m and 20° off; a line drawn there was given ± 5 m, 900 m off). A fit on this
+    frame's points, or check points measured on it, judge it again."""
+    info = dict(controller.state.fit_info or {})
+    note = tr("Uncertain: this frame could not be matched to the one the camera was fitted on ({0}), so the camera "
+              "is not known to fit it; fit again on this frame's points, or mark check points on it.").format(why)
+    for key in ("status", "status_before_checks"):
+        if info.get(key) == "ok":
+            info[key] = "uncertain"
+    for key in ("message", "message_before_checks"):
+        if key == "message" or key in info:
+            info[key] = (note + " " + info.get(key, "")).strip()
+    info.pop("checks_measured", None)  # measured again, on this frame, from the lowered status
+    controller.set_fitted(controller.fitted, info)
+    controller.remeasure_checks()
 
 
 def _follower(controller) -> CamerasFollowEdit:

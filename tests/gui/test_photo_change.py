@@ -146,6 +146,35 @@ def test_the_next_frame_of_a_turned_camera_turns_the_kept_points_and_cameras(doc
     assert c.fitted == turned_fit and abs(c.prior.heading - rough.heading - 0.4) < 0.07
 
 
+def test_a_frame_that_matches_no_previous_one_leaves_its_kept_camera_not_ok(dock, scene, qtbot, tmp_path):
+    """A time-lapse trial kept the points on a frame of another view (the same size, 300 m away and 20° turned): the
+    frame could not be matched, but its "ok" camera stayed a green "ok", and a line drawn there was given ± 5 m
+    while 900 m off. The camera is now "uncertain" there, and its message says why first."""
+    from monoplot_plugin.adapters.photo import array_to_qimage
+    from monoplot_plugin.core.fit.result import verdict_first
+    from monoplot_plugin.core.synthetic import render_photo
+
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    add_scene_points(dock, scene, n=8)
+    accept_everything(c)
+    c.set_fitted(scene.camera, {"status": "ok", "message": "the true camera"})
+    x, y, z = scene.camera.position
+    other = scene.camera.with_parameters(x=x + 300.0, heading=scene.camera.heading + 20.0)
+    frame = str(tmp_path / "another_view.png")
+    assert array_to_qimage(render_photo(other, scene.dem, seed=7)).save(frame)
+    messages, seen = [], []
+    c.message.connect(lambda text, *_: messages.append(text))
+    answer_with(qtbot, "Keep the points", seen)
+    dock.photoFile.setFilePath(frame)
+    assert c.state.photo_path == frame and c.fitted == scene.camera
+    assert any("could not be matched" in m for m in messages), messages
+    info = c.state.fit_info
+    assert info["status"] == "uncertain", info
+    assert verdict_first(info["message"])[0].startswith("Uncertain: this frame could not be matched")
+    assert "the true camera" in info["message"]  # what the fit said is kept, after the reason
+
+
 def test_check_points_kept_on_a_turned_frame_are_measured_with_the_turned_camera(dock, scene, qtbot, tmp_path):
     """A time-lapse trial's 6 check points, 13.1 px on the first frame, read "18.2 px, 5 times the camera's
     residuals" after Keep the points on a frame turned 0.5°: they were measured when the points had moved and the
