@@ -362,20 +362,23 @@ def collect(results: Iterable[Optional[PhotoResult]], tasks: List[FrameTask], lo
             progress: Progress) -> List[PhotoResult]:
     """The results in task order (None: canceled before processing), logged one line each, with progress."""
     out: List[PhotoResult] = []
-    total = len(tasks)
+    total, ended = len(tasks), 0
     for task, result in zip(tasks, results):
         if result is None:
             result = PhotoResult(task.photo, False, "canceled before processing", canceled=True, index=task.index)
         else:
             log_result(log, task, total, result)
         out.append(result)
-        # no message: the log line said which frame ended (Processing's dialog logs every progress text, and a
-        # time-lapse trial's log repeated each frame's name on a line of its own)
-        progress(len(out) / max(1, total), "")
+        if not result.canceled:  # a canceled frame is no progress (a trial's bar jumped to 100 % on Cancel)
+            ended += 1
+            # no message: the log line said which frame ended (Processing's dialog logs every progress text, and a
+            # time-lapse trial's log repeated each frame's name on a line of its own)
+            progress(ended / max(1, total), "")
     canceled = sum(r.canceled for r in out)
     if canceled:
         log(f"canceled: {canceled} photos not processed", True)
-    progress(1.0, "")
+    else:
+        progress(1.0, "")
     return out
 
 

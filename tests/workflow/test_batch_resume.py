@@ -36,10 +36,14 @@ def first_run(still_timelapse, tmp_path):
     dem = Dem.open(scene["dem"])
     out = tmp_path / "out"
     progress, is_canceled = canceled_after(2)
+    fractions = []
     results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(out), workers=1,
-                              progress=progress, is_canceled=is_canceled)
+                              progress=lambda f, m="": (fractions.append(f), progress(f, m)),
+                              is_canceled=is_canceled)
     done = [r for r in results if r.ok]
     assert 2 <= len(done) < 6 and all(r.canceled for r in results if not r.ok)
+    # the bar stops where the work stopped (a trial's jumped to 100 % on Cancel)
+    assert max(fractions) < 1.0 and max(fractions) == pytest.approx(len(done) / 6, abs=0.2), fractions
     return scene, cam, dem, out, done
 
 
