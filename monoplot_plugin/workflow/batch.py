@@ -13,7 +13,6 @@ import csv
 import fnmatch
 import json
 import os
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Callable, Iterable, List, Optional, Sequence
 
@@ -21,11 +20,12 @@ import numpy as np
 
 from ..core.camera import Camera
 from ..outputs.safe_write import write_text
+from .batch_threads import Background, threaded
 from .camera_files import fit_figures, fitted_on_photo, written_fit, written_verdict
 from .files import InputError, read_photo
 from .frames import (SHARED_XYZ, FrameTask, PhotoResult, Timelapse, blank_photo, fit_job, process_frame,
                      shared_for)
-from .progress import IsCanceled, Progress, SharedBar, never_canceled, no_progress
+from .progress import CallerThread, IsCanceled, Progress, SharedBar, never_canceled, no_progress
 from .resume import dem_identity, in_task_order, remove_stale, resumable
 
 __all__ = ["PhotoJob", "PhotoResult", "folder_jobs", "table_jobs", "run_batch", "output_stems", "fit_shared_camera",
@@ -171,8 +171,9 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
     writer = None
     # the shared XYZ raster is written while the frames run
     if setup.camera_json and write_xyz and shared is not None and shared.products.sees_ground:
-        writer = _Background(shared.products.write_xyz, os.path.join(out_dir, SHARED_XYZ), crs_wkt)
-    bar = SharedBar(progress, len(tasks), len(earlier))
+        writer = Background(shared.products.write_xyz, os.path.join(out_dir, SHARED_XYZ), crs_wkt)
+    relay = CallerThread(progress)  # the frames' threads report through this thread (qgis_process)
+    bar = SharedBar(relay, len(tasks), len(earlier))
 
     def work(task: FrameTask) -> PhotoResult:  # a frame under way stops on a cancel too
         own = None
@@ -187,7 +188,7 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
         finally:
             bar.finished(task.index)
 
-    fresh = _threaded([t for t in tasks if t.index not in earlier], work, workers, is_canceled)
+    fresh = threaded([t for t in tasks if t.index not in earlier], work, workers, is_canceled, relay.flush)
     results = collect(in_task_order(tasks, earlier, fresh), tasks, log, bar.forward)
     if writer is not None and writer.wait() is not None:
         shared_xyz_failed(results, os.path.join(out_dir, SHARED_XYZ), writer.error, log)
@@ -202,28 +203,6 @@ def shared_xyz_failed(results: List[PhotoResult], path: str, error: Exception, l
         if path in r.outputs:
             r.outputs.remove(path)
             r.message += f"; {SHARED_XYZ} not written"
-
-
-class _Background:
-    """``function(*args)`` in a thread; :meth:`wait` returns the exception it raised, or None."""
-
-    def __init__(self, function, *args):
-        import threading
-
-        self.error = None
-
-        def run():
-            try:
-                function(*args)
-            except Exception as exc:  # reported by the caller after the frames
-                self.error = exc
-
-        self.thread = threading.Thread(target=run, name="monoplot-shared-xyz", daemon=True)
-        self.thread.start()
-
-    def wait(self):
-        self.thread.join()
-        return self.error
 
 
 def batch_setup(jobs: List[PhotoJob], crs_wkt: str, out_dir: str, write_xyz: bool = True, write_ortho: bool = True,
@@ -332,30 +311,6 @@ def frame_tasks(jobs: List[PhotoJob], stems: List[str], log: Log) -> List[FrameT
         name = os.path.basename(job.photo) or job.label or f"job {index + 1}"
         tasks.append(FrameTask(index, job.photo, stem, name, None if job.camera is not None else job))
     return tasks
-
-
-def _threaded(tasks: List[FrameTask], work: Callable[[FrameTask], PhotoResult], workers: Optional[int],
-              is_canceled: IsCanceled) -> Iterable[Optional[PhotoResult]]:
-    """Results of ``work`` on every task, in task order, ``workers`` at a time (one: in this thread, strictly one
-    after the other); a task that has not started when ``is_canceled()`` turns true comes back None (canceled)."""
-    workers = max(1, workers or os.cpu_count() or 1)
-    if workers == 1:
-        for task in tasks:
-            yield None if is_canceled() else work(task)
-        return
-
-    def guarded(task):
-        return None if is_canceled() else work(task)
-
-    window = 2 * workers  # frames in flight: the decoded photos and products held at once stay few
-    with ThreadPoolExecutor(max_workers=workers, thread_name_prefix="monoplot-batch") as pool:
-        pending = []
-        for task in tasks:
-            pending.append(pool.submit(guarded, task))
-            if len(pending) > window:
-                yield pending.pop(0).result()
-        for future in pending:
-            yield future.result()
 
 
 def collect(results: Iterable[Optional[PhotoResult]], tasks: List[FrameTask], log: Log,

@@ -23,7 +23,7 @@ import threading
 from typing import Callable, Dict, Hashable, Optional
 
 __all__ = ["Progress", "IsCanceled", "Canceled", "no_progress", "never_canceled", "part", "check_canceled",
-           "SharedBar"]
+           "SharedBar", "CallerThread"]
 
 Progress = Callable[..., None]  # progress(fraction in [0, 1], message: str = "")
 IsCanceled = Callable[[], bool]
@@ -95,3 +95,47 @@ class SharedBar:
         with self._lock:
             self._shown = fraction = max(self._shown, float(fraction))
         self._progress(fraction, message)
+
+
+class CallerThread:
+    """A ``progress`` that calls ``progress`` only on the thread that made it: calls from other threads wait for
+    :meth:`flush`, which that thread calls while it waits for them (the last fraction, and every message in order).
+
+    Qt hands a signal emitted on another thread to the receiver's event loop; qgis_process runs an algorithm on its
+    main thread with no event loop running, so a batch whose frames ran in worker threads showed no progress until
+    it ended (a time-lapse trial in a terminal: nothing for 50-90 s a frame).
+
+    >>> import threading
+    >>> seen = []
+    >>> relay = CallerThread(lambda f, m="": seen.append((f, m)))
+    >>> worker = threading.Thread(target=lambda: (relay(0.2, "a"), relay(0.3), relay(0.4)))
+    >>> worker.start(); worker.join()
+    >>> seen
+    []
+    >>> relay.flush(); seen
+    [(0.2, 'a'), (0.4, '')]
+    >>> relay(0.5); seen[-1]
+    (0.5, '')
+    """
+
+    def __init__(self, progress: Optional[Progress]):
+        self._progress = progress or no_progress
+        self._owner = threading.get_ident()
+        self._waiting: list = []
+        self._lock = threading.Lock()
+
+    def __call__(self, fraction: float, message: str = "") -> None:
+        if threading.get_ident() != self._owner:
+            with self._lock:
+                self._waiting.append((fraction, message))
+            return
+        self.flush()
+        self._progress(fraction, message)
+
+    def flush(self) -> None:
+        """Pass on what other threads reported: each message, and the last fraction (on the owner's thread)."""
+        with self._lock:
+            waiting, self._waiting = self._waiting, []
+        for i, (fraction, message) in enumerate(waiting):
+            if message or i == len(waiting) - 1:
+                self._progress(fraction, message)
