@@ -5,7 +5,10 @@ print's drawn glacier front, traced it through the modern camera 745 m away, sil
 proposed over the print's.
 
 The first photo to draw or export under a name owns it (the project remembers its path, relative when the project
-stores relative paths); another photo of that name goes by ``stem (its folder).suffix``."""
+stores relative paths, and absolute beside it); another photo of that name goes by ``stem (its folder).suffix``.
+A name claimed before the project had a file could only be stored absolute: :func:`restate_owners`, called as the
+project is written, stores it relative to the file (a trial moved a project folder with its photos: the photo came
+back as "drone (scene)", and none of its drawn features showed)."""
 
 from __future__ import annotations
 
@@ -15,21 +18,31 @@ from pathlib import Path
 
 from qgis.core import QgsProject
 
-__all__ = ["photo_label", "claim_photo_label"]
+__all__ = ["photo_label", "claim_photo_label", "restate_owners"]
 
 _SCOPE = "monoplot"
 
 
+_FOLDER = "/outputs/photo_names"
+
+
 def _owner_key(name: str) -> str:
     """Project entry key of the path owning ``name`` (entry keys are XML names: a hash, not the name)."""
-    return "/outputs/photo_names/n_" + hashlib.sha1(name.encode("utf-8")).hexdigest()[:16]
+    return f"{_FOLDER}/n_" + hashlib.sha1(name.encode("utf-8")).hexdigest()[:16]
 
 
-def _same_file(project: QgsProject, stored: str, path: str) -> bool:
-    def norm(p: str) -> str:
-        return os.path.normcase(os.path.abspath(p))
+_ABSOLUTE = "_abs"  # suffix of the entry keeping an owner's absolute path
 
-    return norm(project.readPath(stored)) == norm(path)
+
+def _norm(p: str) -> str:
+    return os.path.normcase(os.path.abspath(p))
+
+
+def _same_file(project: QgsProject, key: str, stored: str, path: str) -> bool:
+    """Whether the owner stored under ``key`` (as the project stores paths: ``stored``) is the file ``path``, found
+    relative to the project file or at its absolute path (a project moved with its photos, or not)."""
+    absolute = project.readEntry(_SCOPE, key + _ABSOLUTE, "")[0]
+    return _norm(project.readPath(stored)) == _norm(path) or bool(absolute) and _norm(absolute) == _norm(path)
 
 
 def _candidates(path: str):
@@ -49,7 +62,7 @@ def photo_label(project: QgsProject, path: str) -> str:
     last = ""
     for name in _candidates(path):
         owner = project.readEntry(_SCOPE, _owner_key(name), "")[0]
-        if not owner or _same_file(project, owner, path):
+        if not owner or _same_file(project, _owner_key(name), owner, path):
             return name
         last = name
     return last
@@ -61,4 +74,19 @@ def claim_photo_label(project: QgsProject, path: str) -> str:
     name = photo_label(project, path)
     if path and not project.readEntry(_SCOPE, _owner_key(name), "")[0]:
         project.writeEntry(_SCOPE, _owner_key(name), project.writePath(os.path.abspath(path)))
+        project.writeEntry(_SCOPE, _owner_key(name) + _ABSOLUTE, os.path.abspath(path))
     return name
+
+
+def restate_owners(project: QgsProject) -> None:
+    """Store every owner's path as the project stores paths now, from its absolute path (as the project is written:
+    relative to its file when it stores relative paths). An owner known only by a relative path is left as it is."""
+    for entry in project.entryList(_SCOPE, _FOLDER):
+        if entry.endswith(_ABSOLUTE):
+            continue
+        key = f"{_FOLDER}/{entry}"
+        stored = project.readEntry(_SCOPE, key, "")[0]
+        absolute = project.readEntry(_SCOPE, key + _ABSOLUTE, "")[0] or (stored if os.path.isabs(stored) else "")
+        if absolute:
+            project.writeEntry(_SCOPE, key, project.writePath(absolute))
+            project.writeEntry(_SCOPE, key + _ABSOLUTE, absolute)

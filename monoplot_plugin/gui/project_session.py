@@ -13,6 +13,7 @@ from qgis.core import Qgis, QgsCoordinateReferenceSystem, QgsRasterLayer
 from ..adapters.layers import mark_modified_later
 from ..state import MAP, PHOTO, ProjectState
 from . import persistence
+from .photo_names import restate_owners
 
 __all__ = ["ProjectSessionMixin", "ProjectSessionHost"]
 
@@ -66,6 +67,7 @@ class ProjectSessionMixin:
             self._saved_as_from = before
         if not self._restoring:
             persistence.store_in_project(self.project, self.state)
+        restate_owners(self.project)  # photo names claimed before the project had a file: relative to it now
 
     def _project_saved(self) -> None:
         """Saved under a new name: the old file's autosave holds work that is now in the new file. Left there, the
