@@ -81,13 +81,17 @@ def test_a_basin_the_search_missed_is_taken_when_a_probe_finds_it(scene):
     wrong, al, off = refine_fine(wrong, wrong, edges, dem, SIGMAS)
     assert terrain_shift_px(wrong, truth, dem) > 30.0
     finals = [(edge_score(wrong, edges, dem, SIGMAS), wrong, al, off, float(al.score(off[None])[0]))]
-    search = register._Search(photo, dem, wrong, SIGMAS, lambda *a: None, None, edges, dem, [(0.0, np.zeros(7))],
+    bar = []
+    report = register.never_back(lambda f, m="": bar.append(f))  # as register_automatic reports
+    search = register._Search(photo, dem, wrong, SIGMAS, report, None, edges, dem, [(0.0, np.zeros(7))],
                               edge_score(wrong.with_parameters(heading=wrong.heading + 20.0), edges, dem, SIGMAS),
                               {})
     first, probes = register._finish(finals, 0.7, search)
     assert min(p.score_ratio for p in probes) < register.ESCAPE_RATIO
     found = register._escape(first, probes, finals, search, {})
     assert found.evidence.get("auto_escapes", 0) >= 1 and "a position probe found" in found.message
+    # the bar never goes back as the search goes on (a trial's went from 89 % to 85 %)
+    assert all(b >= a for a, b in zip(bar, bar[1:])) and max(bar) < 1.0, bar
     assert found.evidence["auto_edge_score"] < first.evidence["auto_edge_score"]
     assert terrain_shift_px(found.camera, truth, dem) < 0.5 * terrain_shift_px(first.camera, truth, dem)
 

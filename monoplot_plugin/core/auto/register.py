@@ -175,7 +175,7 @@ def register_automatic(image, dem, prior: Camera, *, position_sigma_m: Optional[
     """
     t0 = time.perf_counter()
     image = _check_inputs(image, prior)
-    report = progress or (lambda f, m="": None)
+    report = never_back(progress)
     sig = _sigmas(prior, position_sigma_m, angle_sigma_deg, fov_sigma_deg)
     if eye_height_m is not None:
         z = float(ground_heights((dem, eye_height_m), [prior.position[0]], [prior.position[1]], [math.nan])[0])
@@ -194,6 +194,23 @@ def register_automatic(image, dem, prior: Camera, *, position_sigma_m: Optional[
     result.elapsed_s = time.perf_counter() - t0
     report(1.0, "")  # not the status: the workflow may still lower it (the height rule)
     return result
+
+
+def never_back(progress: Optional[Callable[[float, str], None]]) -> Callable[..., None]:
+    """``progress`` that never goes back (a search going on from a position probe starts its last stages again: a
+    trial's bar went from 89 % to 85 %).
+
+    >>> seen = []; report = never_back(lambda f, m: seen.append(f)); report(0.5); report(0.3, "again"); seen
+    [0.5, 0.5]
+    """
+    shown = [0.0]
+
+    def report(fraction: float, message: str = "") -> None:
+        shown[0] = max(shown[0], fraction)
+        if progress is not None:
+            progress(shown[0], message)
+
+    return report
 
 
 def _poll(is_canceled) -> None:
