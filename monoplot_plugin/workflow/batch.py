@@ -181,15 +181,17 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
             # bars sat at 0 % for 17-75 s with no word, and for 216 s with a row done at 89 s); its stages unsaid:
             bar.item(task.index, 0.0, f"processing {task.name}")  # Processing's log prints every progress text
             own = lambda fraction, message="": bar.item(task.index, fraction)  # noqa: E731
+        result = None
         try:
             result = process_frame(task, shared, is_canceled, own)
             journal.append(task, keys[task.index], result)  # at once: a run killed later resumes from here
             return result
         finally:
-            bar.finished(task.index)
+            bar.finished(task.index, counted=result is not None and not result.canceled)
 
     fresh = threaded([t for t in tasks if t.index not in earlier], work, workers, is_canceled, relay.flush)
     results = collect(in_task_order(tasks, earlier, fresh), tasks, log, bar.forward)
+    relay.flush()  # what the frames' threads said after the last wait
     if writer is not None and writer.wait() is not None:
         shared_xyz_failed(results, os.path.join(out_dir, SHARED_XYZ), writer.error, log)
     remove_stale(out_dir, tasks, results, bool(setup.camera_json), log)

@@ -84,10 +84,11 @@ class SharedBar:
             fraction = (self._done + sum(self._under_way.values())) / self._total
         self.forward(fraction, message)
 
-    def finished(self, key: Hashable) -> None:
-        """Item ``key`` is done (whatever its end)."""
+    def finished(self, key: Hashable, counted: bool = True) -> None:
+        """Item ``key`` ended; ``counted``: as work done (not an item canceled under way: a trial's bar went from
+        3 % to 50 % on Cancel, the two rows under way counted as done)."""
         with self._lock:
-            self._done += 1
+            self._done += int(bool(counted))
             self._under_way.pop(key, None)
 
     def forward(self, fraction: float, message: str = "") -> None:

@@ -236,6 +236,36 @@ def test_a_cancel_stops_a_row_being_registered(run_alg, small_scene, tmp_path):
         fit_job(job, (photo.shape[1], photo.shape[0]), dem, dem.crs_wkt, photo, is_canceled=lambda: True)
 
 
+def test_a_table_batch_canceled_while_rows_register_stops_its_bar_where_the_work_stopped(run_alg, small_scene,
+                                                                                        tmp_path):
+    """A trial canceled a table batch at 3 %: the bar jumped to 50 % (the two rows under way counted as done, their
+    registrations reporting 100 % as they stopped)."""
+    cam = small_scene["cam"]
+    cam.with_parameters(heading=cam.heading - 1.0).save(tmp_path / "prior.json")
+    names = ("a.png", "b.png", "c.png", "d.png")
+    for name in names:
+        write_photo(tmp_path / name, seed=3)
+    (tmp_path / "photos.csv").write_text("photo,prior,points\n" + "".join(f"{n},prior.json,\n" for n in names))
+
+    class CancelingInARow(QgsProcessingFeedback):
+        seen: list = []
+        at = None
+
+        def setProgress(self, progress):  # noqa: N802 (QGIS API)
+            self.seen.append(progress)
+            if self.at is None and 0.0 < progress < 25.0:  # a row is registering
+                self.at = len(self.seen)
+                self.cancel()
+            super().setProgress(progress)
+
+    feedback = CancelingInARow()
+    with pytest.raises(QgsProcessingException, match="Canceled: 0 photos processed, 4 not processed"):
+        run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"),
+                          "XYZ": False, "ORTHO": False, "WORKERS": 2, "OUTPUT": str(tmp_path / "out")}, feedback)
+    assert feedback.at is not None, feedback.seen
+    assert max(feedback.seen) < 25.0, feedback.seen  # no row ended: not even a quarter done
+
+
 def test_a_table_row_without_a_prior_starts_from_the_photos_exif_gps(run_alg, small_scene, tmp_path):
     """As autoregister: an empty prior cell is the photo's EXIF GPS (a trial made its four priors by hand in the
     dock: "FAILED, skipped: no camera file given"), with a GPS's 30 m of uncertainty; a photo without GPS fails with

@@ -192,7 +192,8 @@ def register_automatic(image, dem, prior: Camera, *, position_sigma_m: Optional[
     if sig.get("ground") is not None and result.std and result.status != "canceled":
         result.std["z"] = grounded_height_sigma(dem, result.camera, result.std)  # held on the ground
     result.elapsed_s = time.perf_counter() - t0
-    report(1.0, "")  # not the status: the workflow may still lower it (the height rule)
+    if result.status != "canceled":  # a canceled search is not done (a batch's bar went to 50 % on Cancel)
+        report(1.0, "")  # not the status: the workflow may still lower it (the height rule)
     return result
 
 
