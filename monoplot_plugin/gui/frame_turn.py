@@ -87,17 +87,27 @@ def _unchecked_here(controller, why: str) -> None:
     on a frame of another view, 307 m and 20° off; a line drawn there was given ± 5 m, 900 m off). A fit on this
     frame's points, or check points measured on it, judge it again."""
     info = dict(controller.state.fit_info or {})
-    note = tr("Uncertain: this frame could not be matched to the one the camera was fitted on ({0}), so the camera "
-              "is not known to fit it; fit again on this frame's points, or mark check points on it.").format(why)
+    note = tr("Uncertain: this frame could not be matched to the previous one ({0}), whose camera it keeps, so the "
+              "camera is not known to fit it; fit again on this frame's points, or mark check points on it.").format(
+        why)
     for key in ("status", "status_before_checks"):
         if info.get(key) == "ok":
             info[key] = "uncertain"
     for key in ("message", "message_before_checks"):
-        if key == "message" or key in info:
-            info[key] = (note + " " + info.get(key, "")).strip()
+        if key == "message" or key in info:  # one note, the last frame's (a trial's doubled at each switch)
+            info[key] = (note + " " + _without_note(info.get(key, ""), note)).strip()
     info.pop("checks_measured", None)  # measured again, on this frame, from the lowered status
     controller.set_fitted(controller.fitted, info)
     controller.remeasure_checks()
+
+
+def _without_note(message: str, note: str) -> str:
+    """``message`` without the unmatched-frame note an earlier frame put first (the same words as ``note``, up to
+    its ``(``, and on to its last words)."""
+    head, tail = note[:note.index("(")], note[note.rindex(";"):]
+    start = message.find(head)
+    end = message.find(tail, start) if start >= 0 else -1
+    return message if end < 0 else (message[:start] + message[end + len(tail):]).strip()
 
 
 def _follower(controller) -> CamerasFollowEdit:

@@ -173,6 +173,11 @@ def test_a_frame_that_matches_no_previous_one_leaves_its_kept_camera_not_ok(dock
     assert info["status"] == "uncertain", info
     assert verdict_first(info["message"])[0].startswith("Uncertain: this frame could not be matched")
     assert "the true camera" in info["message"]  # what the fit said is kept, after the reason
+    # back to the first frame, which does not match the other view either: still one note, not one per switch
+    answer_with(qtbot, "Keep the points", seen)
+    dock.photoFile.setFilePath(scene.photo_path)
+    message = c.state.fit_info["message"]
+    assert message.count("could not be matched") == 1 and message.count("the true camera") == 1, message
 
 
 def test_check_points_kept_on_a_turned_frame_are_measured_with_the_turned_camera(dock, scene, qtbot, tmp_path):
