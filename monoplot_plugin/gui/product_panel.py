@@ -126,6 +126,9 @@ class OutputTools(FeatureDialogsMixin, QObject):
             tool.editing.connect(self.host.status_is_stale)
             self.actions[kind] = action
         self.edit_tool.undone.connect(self.host.show_status)
+        # a delete said as a drawing undo is (a re-check trial found the status line empty after one)
+        self.edit_tool.deleted.connect(lambda kind, fid: self.host.show_status(self.tr(
+            "Deleted a {0} drawn on the photo (Ctrl+Z brings it back).").format(self.tr(kind))))
         self.edit_tool.editing.connect(self.host.status_is_stale)  # "session restored" stayed after an edit (trial)
         self.actions["edit"] = QAction(self.tr("Edit drawn features"), parent)
         self.actions["edit"].setToolTip(self.tr("Drag a vertex to move it; right click a feature to delete it; "
@@ -217,8 +220,8 @@ class OutputTools(FeatureDialogsMixin, QObject):
                     self.session.photo_layer(kind)
             self._show_on_photo()
             if self.session.restored_from_autosave:  # drawn after the last Save, then QGIS crashed
-                self._message(self.tr("Monoplot restored features drawn on the photo after the project was last "
-                                      "saved (autosave)."), Qgis.MessageLevel.Info)
+                self._message(self.tr("Drawing on the photo done after the project was last saved (features drawn, "
+                                      "moved or deleted) was restored from the autosave."), Qgis.MessageLevel.Info)
                 mark_modified_later(self.project)
         return self.session
 

@@ -662,7 +662,7 @@ def test_features_drawn_after_the_last_save_come_back_after_a_crash_and_say_so(d
     assert project.read(path)
     qtbot.waitUntil(lambda: tools.session is not None and tools.session.photo_layer("polygon").featureCount() == 2,
                     timeout=10000)
-    assert any("restored features drawn on the photo" in m for m in messages), messages
+    assert any("was restored from the autosave" in m for m in messages), messages
     qtbot.waitUntil(project.isDirty, timeout=2000)
 
 
@@ -676,6 +676,19 @@ def test_a_drawing_edit_takes_the_message_about_the_state_before_off_the_status_
     tool.vertices = [QgsPointXY(100, -200), QgsPointXY(300, -220)]  # photo pixels (u, -v), as clicked
     assert tool.finish() is not None  # what Enter or a right click does
     assert "restored" not in dock.statusLabel.text()
+
+
+def test_a_feature_deleted_with_the_edit_tool_is_said_on_the_status_line(dock_with_fit):
+    """A re-check trial found the status line empty after a delete, while each drawing undo is said."""
+    from qgis.core import QgsPointXY
+
+    dock, tools = dock_with_fit
+    tool = tools.capture_tools["line"]
+    tool.vertices = [QgsPointXY(100, -200), QgsPointXY(300, -220)]
+    assert tool.finish() is not None
+    assert tools.edit_tool.delete_at(QgsPointXY(200, -210))  # what a right click on it does
+    assert "Deleted a line drawn on the photo (Ctrl+Z brings it back)" in dock.statusLabel.text(), \
+        dock.statusLabel.text()
 
 
 def test_drawing_on_a_doubtful_camera_is_said_once(dock_with_fit):
