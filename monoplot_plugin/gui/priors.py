@@ -224,8 +224,12 @@ class PriorsMixin:
             text = self.tr("Pitch set to {0:.1f}°, so that the DEM's skyline lies on the photo's; edit it if "
                            "wrong.")
         elif rule == "above":
+            # a bound, not an estimate: a quarry trial's drone looked down -40°, the bound said -15° and nothing
+            # asked for the real one; suggestions and fits from it failed ("poor")
             text = self.tr("Pitch set to {0:.1f}°: the photo shows no sky, so the camera, in the air, looks down at "
-                           "least this much (the DEM's skyline just above the picture); edit it if you know it.")
+                           "least this much (the DEM's skyline just above the picture). Drone photos often look "
+                           "down much more: type the gimbal pitch if you know it (the flight app or log), else try "
+                           "a steeper pitch if the suggestions do not match.")
         else:
             text = self.tr("Pitch set to {0:.1f}° from the terrain (its skyline in the upper part of the picture); "
                            "edit it if wrong.")

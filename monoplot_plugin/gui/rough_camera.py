@@ -78,6 +78,12 @@ class RoughCameraMixin:
         fov, pitch = _edited(self.fovSpin, prior.fov), _edited(self.pitchSpin, prior.pitch)
         if (prior.fov, prior.pitch, prior.heading) != (fov, pitch, heading):
             self.controller.set_prior(prior.with_parameters(fov=fov, pitch=pitch, heading=heading))
+            # said in place of how the box's old value was set (a trial read "Pitch set to -15.0°" after typing -40)
+            typed = [name for name, old, new in ((self.tr("heading"), prior.heading, heading),
+                                                 (self.tr("pitch"), prior.pitch, pitch),
+                                                 (self.tr("field of view"), prior.fov, fov)) if old != new]
+            self._said(self.tr("Rough camera: {0} as typed (heading {1:.1f}°, pitch {2:.1f}°, field of view "
+                               "{3:.1f}°).").format(", ".join(typed), heading, pitch, fov))
 
     def _import_kml(self) -> None:
         path, _ = QFileDialog.getOpenFileName(self, self.tr("Rough camera from KML or camera JSON"), "",

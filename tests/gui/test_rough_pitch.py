@@ -77,6 +77,12 @@ def test_a_drone_photo_without_sky_pitches_the_rough_camera_down(dock, scene, qt
     prior = c.prior_from_map(x, y, truth.heading, truth.fov, 0.0, height)
     fixed = terrain_pitch(prior.with_parameters(pitch=0.0), scene.dem)
     assert truth.pitch - 1.0 <= prior.pitch < fixed - 5.0, (prior.pitch, fixed)  # down, never past the truth
-    assert any("the photo shows no sky" in text for text in said), said
+    assert any("the photo shows no sky" in text and "type the gimbal pitch" in text for text in said), said
+    # the pitch typed replaces how the bound was set on the status line (a trial read "Pitch set to -15.0°" after
+    # typing -40)
+    dock.pitchSpin.setValue(-45.0)
+    assert c.prior.pitch == -45.0
+    assert "Pitch set to" not in dock.statusLabel.text() and "pitch as typed" in dock.statusLabel.text(), \
+        dock.statusLabel.text()
     on_ground = c.prior_from_map(x, y, truth.heading, truth.fov, 0.0, 2.0)  # fog, or a close-up: the fixed rule
     assert on_ground.pitch == terrain_pitch(on_ground.with_parameters(pitch=0.0), scene.dem)
