@@ -252,7 +252,9 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, FittingMixin
 
         def done(result: TaskResult) -> None:
             self.task = None
-            LOG.info("%s: %s in %.2f s", description, result.status, time.perf_counter() - t0)
+            # "ran to its end", not "found what it looked for" (a trial read "success" for a search that found none)
+            LOG.info("%s: %s in %.2f s", description, {"success": "finished"}.get(result.status, result.status),
+                     time.perf_counter() - t0)
             if result.ok and kind in INPUT_BOUND and inputs != self._inputs_generation:
                 # another photo or DEM was chosen meanwhile: a camera or points of the old ones would be shown on
                 # the new ones (a trial: a registration of the clear photo landed on its fog copy, "98 % skyline")

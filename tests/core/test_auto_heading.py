@@ -51,3 +51,21 @@ def test_a_cancel_during_the_sweep_stops_it(turned):
     start = time.perf_counter()
     result = register_any_heading(photo, dem, prior, is_canceled=lambda: time.perf_counter() - start > 0.5)
     assert result.status == "canceled" and time.perf_counter() - start < 3.0
+
+
+def test_when_no_direction_matches_the_message_does_not_call_one_the_best_fit():
+    """A quarry trial's photo without sky: every direction scored 1.000 (no match), and the message said "this one
+    fits the photo's edges best (edge score 1.000)"."""
+    from monoplot_plugin.core.auto.heading import _best_of
+    from monoplot_plugin.core.auto.register import AutoFitResult
+    from monoplot_plugin.core.camera import Camera
+
+    def result(heading, score):
+        camera = Camera((0.0, 0.0, 100.0), heading, -10.0, 0.0, 60.0, (400, 300))
+        return AutoFitResult(camera, "uncertain", "No match.", "unpaired", evidence={"auto_edge_score": score})
+
+    sig = {"angle_deg": 5.0, "position_m": 100.0, "fov_deg": 6.0}
+    none = _best_of([result(0.0, 1.0), result(120.0, 1.0)], sig, 12)
+    assert "fits the photo's edges best" not in none.message and "in none do the DEM's edges match" in none.message
+    some = _best_of([result(0.0, 0.2), result(120.0, 0.9)], sig, 12)
+    assert "this one fits the photo's edges best (edge score 0.200)" in some.message

@@ -102,7 +102,7 @@ def test_products_wait_for_a_fit_and_the_log_tab_tells_what_happened(dock, scene
         texts = [m for m, _ in logged]
         assert any("Give a rough camera first" in m for m in texts)  # the warning of the refused click
         assert any("Fit (" in m and "RMSE" in m and "core fit" in m for m in texts)  # what the fit did
-        assert any("Fit camera" in m and ": success in" in m for m in texts)  # and how long it took
+        assert any("Fit camera" in m and ": finished in" in m for m in texts)  # and how long it took
         # an unpaired fit's RMSE is agreement, not accuracy: the message says how to pair points to measure it
         assert any("Camera fitted" in m and "Shift+click a point then its partner" in m for m in texts)
         # the camera dropped: the products are disabled again

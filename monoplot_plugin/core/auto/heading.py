@@ -31,7 +31,8 @@ from ..xyz.zbuffer import trial_cameras
 from .align import Aligner, offsets_grid
 from .dem_edges import coarse_dem, dem_edges, dem_in_view
 from .photo_edges import detect_photo_edges
-from .register import ALIGN_DEM_CELLS, MIN_VIEW_SEEN, WIDTHS, AutoFitResult, _sigmas, register_automatic
+from .register import (ALIGN_DEM_CELLS, MIN_VIEW_SEEN, NO_EDGES_SCORE, WIDTHS, AutoFitResult, _sigmas,
+                       register_automatic)
 from .sigma import RIVAL_RATIO
 
 __all__ = ["register_any_heading", "sweep_headings", "sector_width", "N_CANDIDATES"]
@@ -166,6 +167,10 @@ def _best_of(results: List[AutoFitResult], sig: dict, n_sectors: int) -> AutoFit
     head = (f"{UNKNOWN_HEADING_WORDS}{n_sectors} directions around the position that see the DEM "
             f"were searched and the best {len(results)} registered; this one fits the photo's edges best "
             f"(edge score {_edge(best):.3f}).")
+    if _edge(best) >= NO_EDGES_SCORE:  # 1 is no match at all: "best" would say what it is not (a quarry trial)
+        head = (f"{UNKNOWN_HEADING_WORDS}{n_sectors} directions around the position that see the DEM "
+                f"were searched and the best {len(results)} registered; in none do the DEM's edges match the "
+                f"photo's (edge score {_edge(best):.3f}, 1 for no match).")
     rivals = [r for r in results[1:] if _edge(r) <= RIVAL_RATIO * _edge(best)
               and _heading_gap(r.camera.heading, best.camera.heading) > DISTINCT_SIGMAS * sig["angle_deg"]]
     best.evidence["auto_heading_searched"] = True
