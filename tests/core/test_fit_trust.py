@@ -485,3 +485,17 @@ def test_a_camera_that_sees_no_part_of_the_dem_is_poor_however_well_its_points_f
                       terrain=dem)
     assert away.rmse_px < 1.0 and away.status == "poor"
     assert away.message.startswith("Probably wrong: the camera (at X ") and "in the DEM's CRS?" in away.message
+
+
+def test_loose_near_ground_with_the_position_held_is_not_told_to_fix_the_position():
+    """A quarry trial held the position and height in the fit settings; the verdict, loose on the near ground,
+    told her to fix the position if she knew it."""
+    from monoplot_plugin.core.fit.verdict import judge
+
+    evidence = {"mode": "paired", "n_free": 5, "diag": 1000.0, "n_pairs": 12, "rmse_px": 2.0, "loo_rmse_px": 2.5,
+                "ground_loose_share": 0.5, "ground_loose_reach_m": 120.0, "ground_loose_limit_px": 20.0}
+    free_position = judge({**evidence, "position_free": True})[1]
+    held = judge({**evidence, "position_free": False})[1]
+    assert "fix the position if you know it" in free_position
+    assert "too loosely for the near ground" in held and "fix the position" not in held
+    assert "position and height held" in held

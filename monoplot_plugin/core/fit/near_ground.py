@@ -27,7 +27,8 @@ import numpy as np
 from ..camera import Camera
 from .result import sigma_shifts
 
-__all__ = ["NEAR_SHIFT", "NEAR_SHIFT_SHARE", "ground_seen", "loosely_placed_ground", "loose_ground_text"]
+__all__ = ["NEAR_SHIFT", "NEAR_SHIFT_SHARE", "ground_seen", "loosely_placed_ground", "loose_ground_text",
+           "FIT_CONSEQUENCE", "HELD_CONSEQUENCE"]
 
 #: a point of the ground seen is loosely placed when the camera's σ may move it by more than this share of the
 #: picture's diagonal (3 %: the share beyond which the verdict calls residuals poor)
@@ -72,6 +73,10 @@ def loosely_placed_ground(camera: Camera, std: Dict[str, float], ground: np.ndar
 #: what a fit's verdict says follows from loose ground, and what to do
 FIT_CONSEQUENCE = ("the points place the camera too loosely for the near ground; add points on the near ground, or "
                    "fix the position if you know it")
+#: the same with the position held: fixing it is no advice then (a quarry trial, position and height held, was told
+#: to fix the position)
+HELD_CONSEQUENCE = ("the points place the camera too loosely for the near ground, its position held as it is; add "
+                    "points on the near ground, or check the position and height held in the fit settings")
 
 
 def loose_ground_text(e: dict, consequence: str = FIT_CONSEQUENCE) -> str:

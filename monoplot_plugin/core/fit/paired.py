@@ -38,7 +38,8 @@ def fit_paired(ctx, pairs: np.ndarray) -> FitResult:
     cond, weakest = weakest_parameter(jacobian(space, u, q, P), space.names, space.scales)
     if not weak_direction_matters(camera, weakest):
         cond = 1.0
-    evidence = {"mode": "paired", "n_free": len(ctx.free), "diag": ctx.diag, "n_pairs": len(pairs),
+    evidence = {"mode": "paired", "n_free": len(ctx.free), "position_free": bool({"x", "y"} & set(ctx.free)),
+                "diag": ctx.diag, "n_pairs": len(pairs),
                 "rmse_px": rmse_px, "loo_rmse_px": rms(loo), "condition": cond, "weakest": weakest,
                 "spread": photo_spread(q, ctx.initial.image_size)}
     finite = np.isfinite(loo)

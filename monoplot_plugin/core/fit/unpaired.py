@@ -334,7 +334,8 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
     # true camera lay within 2 sigma in every parameter at once in 0.899 of the successes, with 1.4 in 0.918).
     result.std = {name: AUTOMATIC_PAIRS_WIDENING * value for name, value in std.items()}
     used = result.inliers.sum() if len(result.inliers) else 0
-    evidence = {"mode": "unpaired", "n_free": len(ctx.free), "diag": ctx.diag, "n_photo": len(ctx.q),
+    evidence = {"mode": "unpaired", "n_free": len(ctx.free), "position_free": bool({"x", "y"} & set(ctx.free)),
+                "diag": ctx.diag, "n_photo": len(ctx.q),
                 "n_dem": len(ctx.world), "n_dem_in_view": int(usable.sum()), "radius_px": radius,
                 "n_inliers": int(len(pairs)),
                 "score": score, "chance_max": float(chance.max()), "chance_mean": float(chance.mean()),

@@ -43,7 +43,7 @@ from typing import Tuple
 import numpy as np
 
 from .lens import lens_text
-from .near_ground import loose_ground_text
+from .near_ground import FIT_CONSEQUENCE, HELD_CONSEQUENCE, loose_ground_text
 
 __all__ = ["degenerate_points", "weakest_parameter", "weak_direction_matters", "judge", "judge_by_checks",
            "outlier_note", "photo_spread", "pairs_wanted"]
@@ -270,7 +270,7 @@ def judge(e: dict) -> Tuple[str, str]:
         which = "pairs" if e.get("mode") == "paired" else "matched points"
         weak.append(f"the {which} cover a small part of the picture ({100 * spread:.1f} %): elsewhere the camera is "
                     f"extrapolated; add {'pairs' if which == 'pairs' else 'points'} spread over the picture")
-    loose = loose_ground_text(e)
+    loose = loose_ground_text(e, FIT_CONSEQUENCE if e.get("position_free", True) else HELD_CONSEQUENCE)
     if loose:
         weak.append(loose)
     lens = lens_text(e)
