@@ -21,17 +21,13 @@ from qgis.core import QgsProject
 __all__ = ["photo_label", "claim_photo_label", "restate_owners"]
 
 _SCOPE = "monoplot"
-
-
-_FOLDER = "/outputs/photo_names"
+_FOLDER = "/outputs/photo_names"  # the owners' entries
+_ABSOLUTE = "_abs"  # suffix of the entry keeping an owner's absolute path
 
 
 def _owner_key(name: str) -> str:
     """Project entry key of the path owning ``name`` (entry keys are XML names: a hash, not the name)."""
     return f"{_FOLDER}/n_" + hashlib.sha1(name.encode("utf-8")).hexdigest()[:16]
-
-
-_ABSOLUTE = "_abs"  # suffix of the entry keeping an owner's absolute path
 
 
 def _norm(p: str) -> str:
@@ -86,7 +82,9 @@ def restate_owners(project: QgsProject) -> None:
             continue
         key = f"{_FOLDER}/{entry}"
         stored = project.readEntry(_SCOPE, key, "")[0]
-        absolute = project.readEntry(_SCOPE, key + _ABSOLUTE, "")[0] or (stored if os.path.isabs(stored) else "")
+        absolute = project.readEntry(_SCOPE, key + _ABSOLUTE, "")[0]
+        if not absolute and os.path.isabs(stored):  # claimed before the absolute path was kept beside it
+            absolute = stored
+            project.writeEntry(_SCOPE, key + _ABSOLUTE, absolute)
         if absolute:
             project.writeEntry(_SCOPE, key, project.writePath(absolute))
-            project.writeEntry(_SCOPE, key + _ABSOLUTE, absolute)
