@@ -31,9 +31,9 @@ from ..xyz.zbuffer import trial_cameras
 from .align import Aligner, offsets_grid
 from .dem_edges import coarse_dem, dem_edges, dem_in_view
 from .photo_edges import detect_photo_edges
-from .register import (ALIGN_DEM_CELLS, MIN_VIEW_SEEN, NO_EDGES_SCORE, WIDTHS, AutoFitResult, _sigmas,
-                       register_automatic)
+from .register import ALIGN_DEM_CELLS, MIN_VIEW_SEEN, WIDTHS, AutoFitResult, _sigmas, register_automatic
 from .sigma import RIVAL_RATIO
+from .verdict import NO_EDGES_SCORE
 
 __all__ = ["register_any_heading", "sweep_headings", "sector_width", "N_CANDIDATES"]
 

@@ -44,7 +44,8 @@ from .fine import (PROBE_RATIO, edge_score, fine_steps, grounded_height_sigma, o
 from .photo_edges import PhotoEdges, detect_photo_edges
 from .points import FIT_DEM_CELLS, consistent_points, skyline_points
 from .sigma import RIVAL_RATIO, camera_values, edge_std, widen_std
-from .verdict import EDGE_SCORE_OK, alignment_evidence, combine_evidence, no_clear_skyline
+from .verdict import (EDGE_SCORE_OK, FAINT_EDGES_SCORE, alignment_evidence, combine_evidence, prior_kept,
+                      prior_std)
 
 __all__ = ["register_automatic", "AutoFitResult", "ALIGN_DEM_CELLS", "FIT_DEM_CELLS"]
 
@@ -64,15 +65,6 @@ POSITION_SIGMAS = 1.0
 #: Least improvement of the edge score (:func:`.fine.edge_score`) for the automatic camera to be returned instead
 #: of the prior.
 PRIOR_MARGIN = 0.01
-#: An edge score above this (1 = nothing matches) means the photo's edges match nothing of the DEM's.
-NO_EDGES_SCORE = 0.98
-#: Without a clear skyline, a camera whose edge score is above this is not returned (the prior is kept): faint
-#: edges (a photo in fog) match a few of the DEM's by chance, and the search turns the camera towards them. The
-#: Aletsch print and 6 synthetic scenes blended 80-97 % into fog gave such cameras at 0.66-0.97 (priors 0.94-1.0),
-#: each farther off than its prior (77 and 245 px against 46 px on the GCPs; 10 deg off from a prior 3 deg off).
-#: Right cameras on clear synthetic photos score 0.05-0.35; twice the "ok" limit leaves room for a real photo's
-#: coarser match (the Aletsch GCP camera scores 0.59 on the print, whose skyline is clear).
-FAINT_EDGES_SCORE = 2.0 * EDGE_SCORE_OK
 #: A position probe (:func:`.fine.position_probes`) whose edge score is below this share of the camera's is a
 #: basin the search missed: the registration goes on from it, at most :data:`MAX_ESCAPES` times. Right cameras'
 #: probes scored 0.99-1.11 of them on 70 synthetic scenes; missed basins 0.33-0.89 (at 0.89, a camera "ok" but
@@ -246,7 +238,7 @@ def _register(image, dem, prior, sig, report, is_canceled, state) -> FitResult:
             prior, "poor", f"The DEM is not in view: from the prior camera, with the view widened by {margin:.0f} "
             f"deg on every side, {100 * seen:.1f} % of the picture sees the DEM, so there is no terrain to align the "
             f"photo with. Give a DEM that covers what the photo shows, or check the prior's position and heading. "
-            f"The prior is kept.", "unpaired", evidence={"auto_dem_in_view": seen}, std=_prior_std(sig))
+            f"The prior is kept.", "unpaired", evidence={"auto_dem_in_view": seen}, std=prior_std(sig))
     # Coarse: a grid of view directions and fields of view at the prior's position and around it, each position
     # rendered from where it stands.
     report(0.1, "automatic registration: coarse search of the view direction")
@@ -411,12 +403,12 @@ def _finish(finals, at: float, search: _Search):
     if evidence["auto_edge_score"] > EDGE_SCORE_OK:
         # the photo's edges do not support the camera: it is known no better than the prior (before the verdict's
         # message, which quotes the σ shown)
-        result.std = widen_std(result.std, {}, [], _prior_std(sig))
+        result.std = widen_std(result.std, {}, [], prior_std(sig))
         evidence["auto_sigma_is_prior"] = True
     result.ground = ground_seen(result.camera, align_dem)
     combine_evidence(result, evidence)
     if keep_prior:
-        result = _prior_kept(result, prior, sig)
+        result = prior_kept(result, prior, sig)
     return result, probes
 
 
@@ -467,45 +459,6 @@ def _probe_position(result: AutoFitResult, prior: Camera, photo: PhotoEdges, dem
         evidence["auto_probe_distance_m"] = float(np.linalg.norm(np.subtract(worst.camera.position,
                                                                              result.camera.position)))
     return probes
-
-
-def _prior_std(sig: dict) -> dict:
-    """The prior's σ by parameter name (roll half the angle σ, as the search takes it)."""
-    return {"x": sig["position_m"], "y": sig["position_m"], "z": sig["position_m"], "heading": sig["angle_deg"],
-            "pitch": sig["angle_deg"], "roll": 0.5 * sig["angle_deg"], "fov": sig["fov_deg"]}
-
-
-def _prior_kept(result: AutoFitResult, prior: Camera, sig: dict) -> AutoFitResult:
-    """The prior camera back, "uncertain" (or the fit's "poor"), when the automatic camera does not fit the photo's
-    edges clearly better than the prior did; its σ is the prior's."""
-    ev = result.evidence
-    # The reasons only: the figures of the fit on the suggestions were about a camera not returned, and quoting
-    # them ("65 of 133 photo points matched", "the camera returned is the edge alignment's") on a photo of fog
-    # contradicted "the prior is kept" (a trial).
-    no_edges = min(ev["auto_edge_score"], ev["auto_prior_edge_score"]) > NO_EDGES_SCORE
-    if no_edges:
-        why = "the photo's edges match no camera's view of the DEM, the prior's neither (edge score 1 = no match)"
-    elif not ev["auto_skyline_usable"] and ev["auto_edge_score"] > FAINT_EDGES_SCORE:
-        why = (f"{no_clear_skyline(ev)}, and its "
-               f"edges match the DEM's too loosely under the best camera found to trust it without a skyline (edge "
-               f"score {ev['auto_edge_score']:.2f}, the prior's {ev['auto_prior_edge_score']:.2f}; 0 is a perfect "
-               f"fit, 1 no match; faint edges in fog match a few of the DEM's by chance)")
-        result.weak = []  # the rest is about that camera, which is not returned (its σ, its rivals)
-    else:
-        why = (f"no camera found fits the photo's edges clearly better than the prior (edge score "
-               f"{ev['auto_edge_score']:.3f} against the prior's {ev['auto_prior_edge_score']:.3f}; 0 is a "
-               f"perfect fit)")
-    reasons = "; ".join(result.weak)
-    kept = AutoFitResult(prior, "poor" if result.status == "poor" else "uncertain",
-                         f"The automatic registration did not improve on the prior camera: {why}. The prior is "
-                         "kept: check it, pair a few points by hand, or give a closer prior."
-                         + (f" Also: {reasons}." if reasons else ""), result.mode, result.free,
-                         evidence=dict(ev, auto_prior_kept=True, auto_no_edges=no_edges, auto_sigma_is_prior=True),
-                         std=_prior_std(sig))
-    kept.image_points, kept.world_points, kept.aligned, kept.skyline = (result.image_points, result.world_points,
-                                                                        result.aligned, result.skyline)
-    kept.elapsed_s = result.elapsed_s
-    return kept
 
 
 def _typical_range(camera: Camera, dem) -> float:

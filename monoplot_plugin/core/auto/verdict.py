@@ -22,7 +22,8 @@ if TYPE_CHECKING:  # the registration imports this module
     from .register import AutoFitResult
 
 __all__ = ["alignment_evidence", "combine_evidence", "no_clear_skyline", "SKY_AGREEMENT_OK", "SKY_AGREEMENT_POOR",
-           "EDGE_SCORE_OK", "NEAR_RATIO", "ANGLE_SIGMA_OK", "PROBES_BACK_OK", "NEAR_SHIFT", "NEAR_SHIFT_SHARE"]
+           "EDGE_SCORE_OK", "NO_EDGES_SCORE", "FAINT_EDGES_SCORE", "prior_std", "prior_kept", "NEAR_RATIO",
+           "ANGLE_SIGMA_OK", "PROBES_BACK_OK", "NEAR_SHIFT", "NEAR_SHIFT_SHARE"]
 
 #: Least share of the photo's clear skyline on the DEM's (within 0.4 % of the width) for an "ok". Calibrated on
 #: the synthetic scenes: right cameras 0.95-0.99, a camera 4 deg off in field of view whose suggestions still
@@ -55,6 +56,17 @@ PROBES_BACK_OK = 2
 #: Share of the photo's skyline under which the DEM's edge stands for the skyline (the DEM stops inside the view)
 #: from which the message names it as a cause (words only: the status is the other rules').
 DEM_EDGE_SHARE = 0.1
+
+
+#: An edge score above this (1 = nothing matches) means the photo's edges match nothing of the DEM's.
+NO_EDGES_SCORE = 0.98
+#: Without a clear skyline, a camera whose edge score is above this is not returned (the prior is kept): faint
+#: edges (a photo in fog) match a few of the DEM's by chance, and the search turns the camera towards them. The
+#: Aletsch print and 6 synthetic scenes blended 80-97 % into fog gave such cameras at 0.66-0.97 (priors 0.94-1.0),
+#: each farther off than its prior (77 and 245 px against 46 px on the GCPs; 10 deg off from a prior 3 deg off).
+#: Right cameras on clear synthetic photos score 0.05-0.35; twice the "ok" limit leaves room for a real photo's
+#: coarser match (the Aletsch GCP camera scores 0.59 on the print, whose skyline is clear).
+FAINT_EDGES_SCORE = 2.0 * EDGE_SCORE_OK
 
 
 def _metres(value: float) -> str:
@@ -195,3 +207,42 @@ def combine_evidence(result: AutoFitResult, ev: dict) -> None:
         result.message += text + " Uncertain: " + "; ".join(weak) + ": check the matched points."
     else:
         result.message += text + (" Also: " + "; ".join(weak) + "." if weak else "")
+
+
+def prior_std(sig: dict) -> dict:
+    """The prior's σ by parameter name (roll half the angle σ, as the search takes it)."""
+    return {"x": sig["position_m"], "y": sig["position_m"], "z": sig["position_m"], "heading": sig["angle_deg"],
+            "pitch": sig["angle_deg"], "roll": 0.5 * sig["angle_deg"], "fov": sig["fov_deg"]}
+
+
+def prior_kept(result: "AutoFitResult", prior, sig: dict) -> "AutoFitResult":
+    """The prior camera back, "uncertain" (or the fit's "poor"), when the automatic camera does not fit the photo's
+    edges clearly better than the prior did; its σ is the prior's."""
+    ev = result.evidence
+    # The reasons only: the figures of the fit on the suggestions were about a camera not returned, and quoting
+    # them ("65 of 133 photo points matched", "the camera returned is the edge alignment's") on a photo of fog
+    # contradicted "the prior is kept" (a trial).
+    no_edges = min(ev["auto_edge_score"], ev["auto_prior_edge_score"]) > NO_EDGES_SCORE
+    if no_edges:
+        why = "the photo's edges match no camera's view of the DEM, the prior's neither (edge score 1 = no match)"
+    elif not ev["auto_skyline_usable"] and ev["auto_edge_score"] > FAINT_EDGES_SCORE:
+        why = (f"{no_clear_skyline(ev)}, and its "
+               f"edges match the DEM's too loosely under the best camera found to trust it without a skyline (edge "
+               f"score {ev['auto_edge_score']:.2f}, the prior's {ev['auto_prior_edge_score']:.2f}; 0 is a perfect "
+               f"fit, 1 no match; faint edges in fog match a few of the DEM's by chance)")
+        result.weak = []  # the rest is about that camera, which is not returned (its σ, its rivals)
+    else:
+        why = (f"no camera found fits the photo's edges clearly better than the prior (edge score "
+               f"{ev['auto_edge_score']:.3f} against the prior's {ev['auto_prior_edge_score']:.3f}; 0 is a "
+               f"perfect fit)")
+    reasons = "; ".join(result.weak)
+    kept = type(result)(prior, "poor" if result.status == "poor" else "uncertain",
+                         f"The automatic registration did not improve on the prior camera: {why}. The prior is "
+                         "kept: check it, pair a few points by hand, or give a closer prior."
+                         + (f" Also: {reasons}." if reasons else ""), result.mode, result.free,
+                         evidence=dict(ev, auto_prior_kept=True, auto_no_edges=no_edges, auto_sigma_is_prior=True),
+                         std=prior_std(sig))
+    kept.image_points, kept.world_points, kept.aligned, kept.skyline = (result.image_points, result.world_points,
+                                                                        result.aligned, result.skyline)
+    kept.elapsed_s = result.elapsed_s
+    return kept
