@@ -105,6 +105,26 @@ def test_pairs_free_the_height_of_a_start_held_under_the_terrain_only_when_they_
     assert kept.on_ground and "Height fitted freely" not in kept.result.message
 
 
+def test_one_wrong_check_point_does_not_keep_the_camera_held_at_a_wrong_height(scene):
+    """A desktop trial: 7 good pairs and 4 check points, one of them 114 px off under the true camera. The freed
+    height's camera (1.6 m off, 2.3 px on the pairs) was judged "poor" by that check point, and the camera held at
+    the GPS height, 42 m off at 65 px and "poor" too, was kept. Check points judge the camera chosen; they do not
+    make the pairs' clearly better camera lose to a worse one."""
+    dem, camera, ground = scene
+    full = xyz.xyz_raster(camera, dem)
+    rows, cols = np.nonzero(np.isfinite(full[..., 2]))
+    world = full[rows, cols][np.random.default_rng(3).choice(len(rows), 16, replace=False)]
+    up = camera.with_parameters(z=ground + 30.0)
+    uv = up.project(world) + np.random.default_rng(4).normal(0.0, 0.7, (16, 2))
+    pairs = np.column_stack([np.arange(12)] * 2)
+    check_uv = uv[12:].copy()
+    check_uv[0] += (110.0, 30.0)  # one check point clicked on the wrong feature
+    start = up.with_parameters(z=ground - 29.0, heading=1.0)
+    done = fit_step.fit(uv[:12], world[:12], start, dem, pairs=pairs, check_uv=check_uv, check_xyz=world[12:])
+    assert not done.on_ground and fit_step.ground_clearance(done.camera, dem) == pytest.approx(30.0, abs=3.0)
+    assert done.result.rmse_px < 1.5 and "Height fitted freely" in done.result.message
+
+
 def test_a_camera_that_cannot_see_the_points_it_fits_is_poor():
     """A desktop trial: a fit from a phone's GPS position slid 117 m back behind the ridge it stood on and said "ok"
     at 1.9 px; every XYZ pixel and drawn point then fell on the slope in front of it. Generated: exact pairs on
