@@ -129,6 +129,11 @@ class DockViewMixin:
         # a doubtful camera's figure may be far too small: a trial read "± 0.83 m (fit 0.4 px)" 77 m off
         doubt = self.tr("; the camera is {0}: it may be far more").format(status) \
             if status in ("uncertain", "poor") else ""
+        fitted = self.controller.fitted
+        if source == "sigma_here" and fitted is not None and error_px >= math.hypot(*fitted.image_size) - 0.5:
+            # a move by σ puts this ground behind the camera: no pixel figure (a trial read "σ here 5000.0 px")
+            return self.tr("; X, Y ± {0} (the camera's σ here: anywhere in the picture{1})").format(
+                metres_words(error_m), doubt)
         return self.tr("; X, Y ± {0} ({1} {2:.1f} px{3})").format(metres_words(error_m), what, error_px, doubt)
 
     def _map_cursor(self, point) -> None:

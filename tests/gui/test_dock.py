@@ -219,7 +219,13 @@ def test_fit_task_runs_to_completion(dock, scene, qtbot):
     status = c.state.fit_info["status"]
     c.state.fit_info = dict(c.state.fit_info, status="uncertain")
     assert "the camera is uncertain: it may be far more)" in dock._cursor_error(240, rows[-1])
-    c.state.fit_info = dict(c.state.fit_info, status=status)
+    # σ so large that a move by them puts that ground behind the camera: no pixel figure (a trial read "σ here
+    # 5000.0 px", the picture's diagonal)
+    kept = dict(c.state.fit_info)
+    c.state.fit_info = dict(kept, sigma={**kept["sigma"], "x": 5e4, "y": 5e4}, sigma_px=kept["sigma_px"] + 0.01)
+    text = dock._cursor_error(240, rows[-1])
+    assert "(the camera's σ here: anywhere in the picture; the camera is uncertain" in text and " px" not in text
+    c.state.fit_info = dict(kept, status=status)
     # σ no data narrowed (an automatic registration whose edges did not support its camera keeps the rough
     # camera's) give no figure on the ground (a trial: "about 820 m", the camera 13 m off)
     c.state.fit_info = dict(c.state.fit_info, status="uncertain", mode="automatic", sigma_is_prior=True)
