@@ -46,6 +46,9 @@ visible world points (the whole picture, not only where the points are).
 **Sigma coverage**: share of successes with sigmas whose true camera lies within 2 sigma of the fitted one for every
 parameter with a finite sigma (x, y, z in m; heading (wrapped), pitch, roll, fov in deg); a success without any
 sigma counts as not covered.
+**Check-point bound**: per scene, 5 of the true points clicked with the scene's noise as check points; what they
+vouch for (``core.fit.check_bound_px``, the figure the products are said to be worth with 3 or more check points)
+against the camera's error over the grid; ``ok_grid_within_check_bound`` = share of "ok" fits it covers.
 
 Output: one JSON line per stratum (n, success rate, the verdict's confusion matrix status x success/failure,
 ``ok_precision`` = share of "ok" fits that are successes, sigma coverage, median fit seconds) and an overall line with
@@ -67,6 +70,7 @@ import math
 import os
 import sys
 import time
+import zlib
 from pathlib import Path
 
 os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -78,7 +82,7 @@ sys.path.insert(0, str(REPO))
 
 from monoplot_plugin.core.camera import Camera  # noqa: E402
 from monoplot_plugin.core.dem import Dem  # noqa: E402
-from monoplot_plugin.core.fit import FitOptions, fit_camera, sigma_pixels  # noqa: E402
+from monoplot_plugin.core.fit import FitOptions, check_bound_px, fit_camera, sigma_pixels  # noqa: E402
 from monoplot_plugin.core.fit.diagnose import basin_score  # noqa: E402
 from monoplot_plugin.core.synthetic import DEFAULT_ORIGIN, synthetic_terrain  # noqa: E402
 from monoplot_plugin.core.xyz import segment_first_hit  # noqa: E402
@@ -465,10 +469,23 @@ def run_scene(spec) -> dict:
     rec["sigma_px"] = _round(sp)
     rec["err_within_sigma_px"] = bool(np.isfinite(sp) and rec.get("err_px") is not None and rec["err_px"] <= sp)
     rec["err_within_2sigma_px"] = bool(np.isfinite(sp) and rec.get("err_px") is not None and rec["err_px"] <= 2 * sp)
+    # what CHECK_POINTS check points (true points clicked with the scene's noise) vouch for, as the products say
+    # it (workflow.features.pixel_error): does it cover the camera's real error on the terrain, grid_err_px?
+    if rec.get("grid_err_px") is not None and len(s["world_xyz"]) >= CHECK_POINTS:
+        rng = np.random.default_rng(zlib.crc32(str(spec["id"]).encode()))
+        pick = rng.choice(len(s["world_xyz"]), CHECK_POINTS, replace=False)
+        clicked = s["uv_truth"][pick] + rng.normal(0.0, s["params"]["noise_px"], (CHECK_POINTS, 2))
+        bound = check_bound_px(reprojection_error(cam, s["world_xyz"][pick], clicked), CHECK_POINTS)
+        rec["check_bound_px"] = _round(bound)
+        rec["grid_within_check_bound"] = bool(np.isfinite(bound) and rec["grid_err_px"] <= bound)
     rec["gen_s"] = round(gen_s, 3)
     for key in ("params",):
         rec[key] = {k: (round(v, 4) if isinstance(v, float) else v) for k, v in rec[key].items()}
     return rec
+
+
+#: Check points drawn per scene for the calibration of what they vouch for (core.fit.check_bound_px).
+CHECK_POINTS = 5
 
 
 def _round(x, n=3):
@@ -481,10 +498,13 @@ def _round(x, n=3):
 def _sigma_px_coverage(oks) -> dict:
     if not oks:
         return {}
+    checked = [r for r in oks if "grid_within_check_bound" in r]
+    bound = {"ok_grid_within_check_bound": round(sum(r["grid_within_check_bound"] for r in checked) / len(checked),
+                                                 3)} if checked else {}
     ratio = [r["err_px"] / r["sigma_px"] for r in oks if r.get("err_px") is not None]
     return {"ok_err_within_sigma_px": round(sum(r["err_within_sigma_px"] for r in oks) / len(oks), 3),
             "ok_err_within_2sigma_px": round(sum(r["err_within_2sigma_px"] for r in oks) / len(oks), 3),
-            "ok_err_over_sigma_px_median": round(float(np.median(ratio)), 3) if ratio else None}
+            "ok_err_over_sigma_px_median": round(float(np.median(ratio)), 3) if ratio else None, **bound}
 
 
 def summarise(records, stratum: str, label: str) -> dict:

@@ -114,14 +114,15 @@ class DockViewMixin:
             self.iface.statusBarIface().showMessage("Monoplot: " + text, 4000)
 
     def _cursor_error(self, u: float, v: float) -> str:
-        """"; X, Y ± 56 m (check points 7.7 px)" for the cursor readout, "" where the error is not known."""
+        """"; X, Y ± 56 m (check points, at most 10.3 px)" for the cursor readout, "" where the error is not known."""
         from ..workflow.products import metres_words
 
         error = self.controller.ground_error_at_pixel(u, v)
         if error is None:
             return ""
         error_m, error_px, source = error
-        what = {"check": self.tr("check points"), "sigma": self.tr("the camera's σ"),
+        # the check points' figure is what so many vouch for, not their RMSE the fit tab shows (features.pixel_error)
+        what = {"check": self.tr("check points, at most"), "sigma": self.tr("the camera's σ"),
                 "sigma_here": self.tr("the camera's σ here"),
                 # a trial read "(fit 23.8 px)" for the leave-one-out error of a fit whose RMSE was 4 px
                 "loo": self.tr("fit, each pair left out")}.get(source, self.tr("fit"))

@@ -243,6 +243,7 @@ class ResultsMixin:
         (:func:`~..workflow.features.pixel_error`: the check points, else a paired fit's residuals or their
         leave-one-out error, an unpaired fit's σ as a pixel error; without either its error is not known); "" without
         a camera or an XYZ raster."""
+        from ..core.fit import check_bound_px
         from ..workflow.features import pixel_error
         from ..workflow.products import ground_error_spread, ground_error_words
 
@@ -264,16 +265,18 @@ class ResultsMixin:
         words = ground_error_words(ground_error_spread(self.fitted, self.xyz, error_px, self.dem))
         if not words:
             return ""
-        what = {"check": self.tr("check points {0:.1f} px"),
-                "loo": self.tr("fit residuals left out one at a time {0:.1f} px"),
-                "fit": self.tr("fit residuals {0:.1f} px"),
+        check, n_check = info.get("check_rmse_px"), int(info.get("n_check") or 0)
+        # the check points' RMSE and what so many of them vouch for (workflow.features.pixel_error)
+        checks = self.tr("check points {0:.1f} px RMSE on {1}, at most {2:.1f} px at 95 %").format(
+            check, n_check, check_bound_px(check, n_check)) if check is not None and np.isfinite(check) else ""
+        what = {"check": checks,
+                "loo": self.tr("fit residuals left out one at a time {0:.1f} px").format(error_px),
+                "fit": self.tr("fit residuals {0:.1f} px").format(error_px),
                 # an upper estimate: the σ counted as independent (on 148 "ok" synthetic fits the camera's error
                 # on the terrain was 0.16 of it at the median, within it in 98.6 %)
-                "sigma": self.tr("the camera's σ {0:.1f} px, an upper estimate")}[source].format(error_px)
-        check = info.get("check_rmse_px")
+                "sigma": self.tr("the camera's σ {0:.1f} px, an upper estimate").format(error_px)}[source]
         if source != "check":  # the larger of two measures, or the only one
-            what += self.tr(", more than the check points' {0:.1f} px").format(check) if check is not None and \
-                np.isfinite(check) else self.tr(", no check points")
+            what += self.tr(", more than the {0}").format(checks) if checks else self.tr(", no check points")
         return " (" + what + ": " + words + ")"
 
     def residual_segments(self) -> List[Tuple[Tuple[float, float], Tuple[float, float]]]:

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..core.camera import Camera
 from ..core.dem import Dem
+from ..core.fit import check_bound_px
 from .progress import IsCanceled, Progress, check_canceled, part
 from .xyz import xyz_result
 
@@ -415,7 +416,8 @@ def ground_error_words(spread: dict) -> str:
 
 
 def points_accuracy(camera: Camera, dem, xyz: np.ndarray, points=None, checks=None) -> str:
-    """"check points 7.7 px on 5: about 40 m on the ground, ...": the check points' RMSE, or the larger of the
+    """"check points 7.7 px on 5, at most 12.2 px at 95 %: about 40 m on the ground, ...": what the check points
+    vouch for (:func:`~..core.fit.check_bound_px`), or the larger of the
     paired points' RMSE and their leave-one-out error (:func:`leave_one_out_px`: the residuals of the points a
     camera was fitted to understate its error, as :func:`~.features.pixel_error` says) when that is larger or there
     are no check points (a few check points on flat ground at mid range said half a trial's error), carried to the
@@ -428,8 +430,9 @@ def points_accuracy(camera: Camera, dem, xyz: np.ndarray, points=None, checks=No
             continue
         residual = camera.project(pts.xyz) - pts.uv
         rmse = float(np.sqrt(np.nanmean(np.sum(residual ** 2, axis=1))))
-        if kind == "check":
-            measures.append((rmse, f"check points {rmse:.1f} px on {len(pts.uv)}"))
+        if kind == "check":  # what so many vouch for (features.pixel_error)
+            bound = check_bound_px(rmse, len(pts.uv))
+            measures.append((bound, f"check points {rmse:.1f} px on {len(pts.uv)}, at most {bound:.1f} px at 95 %"))
             continue
         loo = leave_one_out_px(camera, pts.uv, pts.xyz)
         pixels = max(rmse, loo) if np.isfinite(loo) else rmse

@@ -197,6 +197,7 @@ def test_the_report_says_what_the_camera_is_worth_on_the_ground(plane_scene):
     no "Control points" legend over a photo that has none."""
     from matplotlib.figure import Figure
 
+    from monoplot_plugin.core.fit import check_bound_px
     from monoplot_plugin.outputs.report import _draw_parameters, _draw_points
     from monoplot_plugin.workflow.products import ground_error, leave_one_out_px, metres_words, points_accuracy
 
@@ -204,8 +205,12 @@ def test_the_report_says_what_the_camera_is_worth_on_the_ground(plane_scene):
     points, checks = scene_points(scene, seed=3), scene_points(scene, n=5, noise_px=4.0, seed=4)
     text = points_accuracy(scene.camera, scene.dem, scene.xyz, points, checks)
     check_rmse = float(np.sqrt(np.mean(np.sum((scene.camera.project(checks.xyz) - checks.uv) ** 2, axis=1))))
-    metres = ground_error(scene.camera, scene.xyz, check_rmse, scene.dem)[1]
-    assert text.startswith(f"check points {check_rmse:.1f} px on 5: about {metres_words(metres)} on the ground")
+    # what 5 check points vouch for: their RMSE raised for so few (1.59 times), carried to the ground
+    bound = check_bound_px(check_rmse, 5)
+    assert bound == pytest.approx(1.593 * check_rmse, rel=0.001)
+    metres = ground_error(scene.camera, scene.xyz, bound, scene.dem)[1]
+    assert text.startswith(f"check points {check_rmse:.1f} px on 5, at most {bound:.1f} px at 95 %: about "
+                           f"{metres_words(metres)} on the ground")
     # without check points: the larger of the paired points' residuals and their leave-one-out error, both said
     paired = points_accuracy(scene.camera, scene.dem, scene.xyz, points)
     loo = leave_one_out_px(scene.camera, points.uv, points.xyz)
@@ -219,7 +224,7 @@ def test_the_report_says_what_the_camera_is_worth_on_the_ground(plane_scene):
     close = scene_points(scene, n=3, noise_px=0.2, seed=5)
     larger = points_accuracy(scene.camera, scene.dem, scene.xyz, points, close)
     assert larger.startswith(f"{len(points.uv)} paired points, RMSE {rmse:.1f} px, leave-one-out {loo:.1f} px, "
-                             "more than the check points ") and " px on 3: about " in larger
+                             "more than the check points ") and " px on 3, at most " in larger
     ax = Figure().add_subplot()
     _draw_parameters(ax, scene.camera, None, 1.0, points, scene.xyz, "ok: paired fit.", accuracy=text)
     assert "Ground accuracy: check points" in ax.texts[0].get_text()

@@ -58,8 +58,9 @@ from .context import FitCanceled
 from .losses import mutual_nearest_pairs, soft_nearest_loss, unpaired_loss
 from .options import FitOptions
 from .params import DEFAULT_FREE, ParameterSpace
-from .result import STATUSES, FitResult, combine_moves, sigma_cameras, sigma_pixels, sigma_shifts, sigma_undetermined
+from .result import (STATUSES, FitResult, check_bound_px, combine_moves, sigma_cameras, sigma_pixels, sigma_shifts,
+                     sigma_undetermined)
 
 __all__ = ["FitResult", "FitOptions", "FitCanceled", "STATUSES", "fit_camera", "unpaired_loss",
            "soft_nearest_loss", "mutual_nearest_pairs", "DEFAULT_FREE", "ParameterSpace", "sigma_undetermined",
-           "sigma_pixels", "sigma_shifts", "sigma_cameras", "combine_moves"]
+           "sigma_pixels", "sigma_shifts", "check_bound_px", "sigma_cameras", "combine_moves"]

@@ -9,8 +9,9 @@ import numpy as np
 
 from ..camera import Camera
 
-__all__ = ["FitResult", "STATUSES", "rmse", "rms", "sigma_undetermined", "sigma_pixels", "sigma_shifts",
-           "sigma_cameras", "combine_moves", "verdict_first", "VERDICT_MARKERS", "LEAD_MARKER"]
+__all__ = ["FitResult", "STATUSES", "rmse", "rms", "check_bound_px", "CHECK_CONFIDENCE", "sigma_undetermined",
+           "sigma_pixels", "sigma_shifts", "sigma_cameras", "combine_moves", "verdict_first", "VERDICT_MARKERS",
+           "LEAD_MARKER"]
 
 #: Standard deviations beyond which a parameter is not determined at all (a poor fit's covariance gave "± 1300521642
 #: m" and "± 6894594°" in a flood trial's dock): angles in degrees, positions in metres, the rest in their units.
@@ -221,6 +222,33 @@ def rms(values) -> float:
     values = np.asarray(values, dtype=np.float64)
     values = values[np.isfinite(values)]
     return float(np.sqrt(np.mean(values ** 2))) if len(values) else float("nan")
+
+
+#: Confidence of :func:`check_bound_px`: the share of cameras whose error its bound covers, were the check points
+#: drawn at random over the terrain the camera sees.
+CHECK_CONFIDENCE = 0.95
+
+
+def check_bound_px(rmse_px: Optional[float], n_check: int) -> float:
+    """What ``n_check`` check points whose RMSE is ``rmse_px`` (pixels) say the camera's pixel error is at most:
+    the RMSE over the lower :data:`CHECK_CONFIDENCE` quantile of its spread for that many points (their 2 n
+    residuals taken as normal: the mean square over chi-square with 2 n degrees of freedom). NaN without a finite
+    RMSE or without check points.
+
+    Few check points can say far less than the camera is off: a desktop trial's 3 said 2.4 px where the camera was
+    5.3 px off; 3 points give 1.9 times their RMSE, 11 points 1.3 times. On the 147 "ok" fits of the synthetic
+    suite, 3-11 check points drawn at random (with the scene's click noise): the camera's error within this bound in
+    99-100 % over the true points, 98-99 % over the whole terrain seen (2026-12-07).
+
+    >>> round(check_bound_px(10.0, 3), 1), round(check_bound_px(10.0, 11), 1), check_bound_px(None, 0)
+    (19.2, 13.4, nan)
+    """
+    if rmse_px is None or not n_check or not np.isfinite(rmse_px):
+        return float("nan")
+    from scipy.stats import chi2
+
+    dof = 2 * int(n_check)
+    return float(rmse_px) * float(np.sqrt(dof / chi2.ppf(1.0 - CHECK_CONFIDENCE, dof)))
 
 
 #: Where a verdict's own words start in a fit's message (core.fit.verdict and core.auto.register write them after
