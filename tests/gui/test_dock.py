@@ -225,6 +225,10 @@ def test_fit_task_runs_to_completion(dock, scene, qtbot):
     c.state.fit_info = dict(kept, sigma={**kept["sigma"], "x": 5e4, "y": 5e4}, sigma_px=kept["sigma_px"] + 0.01)
     text = dock._cursor_error(240, rows[-1])
     assert "(the camera's σ here: anywhere in the picture; the camera is uncertain" in text and " px" not in text
+    # a poor fit's field of view ± 475°: moved back by it, no camera; the readout has no σ figure there, and no
+    # error (a trial's raised at every move of the mouse over the photo, and the dock stayed busy)
+    c.state.fit_info = dict(kept, status="poor", sigma={**kept["sigma"], "fov": 475.0}, sigma_px=kept["sigma_px"] + 0.02)
+    assert "the camera is poor: it may be far more)" in dock._cursor_error(240, rows[-1])
     c.state.fit_info = dict(kept, status=status)
     # σ no data narrowed (an automatic registration whose edges did not support its camera keeps the rough
     # camera's) give no figure on the ground (a trial: "about 820 m", the camera 13 m off)

@@ -81,15 +81,20 @@ def sigma_shifts(camera: Camera, std: Dict[str, float], points: np.ndarray,
 def sigma_cameras(camera: Camera, std: Dict[str, float], ground: Optional[Callable] = None) -> Dict[str, Camera]:
     """``{name: camera}``: ``camera`` with one parameter moved by its σ (``std``), for each parameter it has; with
     ``ground`` (``(x, y) -> z``, a camera held on the ground: ``z`` not in ``std``) its height follows the terrain
-    when x or y move. {} without σ or with one undetermined (:func:`sigma_undetermined`).
+    when x or y move. {} without σ, with one undetermined (:func:`sigma_undetermined`, either way), or when a move
+    by σ is no camera (a field of view beyond 0-180°).
 
     >>> cam = Camera((0.0, 0.0, 0.0), 0.0, 0.0, 0.0, 60.0, (1000, 700))
     >>> moved = sigma_cameras(cam, {"x": 10.0, "heading": 0.5}, ground=lambda x, y: 0.1 * np.asarray(x))
     >>> [float(v) for v in moved["x"].position], moved["heading"].heading
     ([10.0, 0.0, 1.0], 0.5)
+    >>> sigma_cameras(cam, {"fov": -475.0}), sigma_cameras(cam, {"fov": -70.0})
+    ({}, {})
     """
     usable = {k: float(v) for k, v in (std or {}).items() if v}
-    if not usable or any(sigma_undetermined(k, v) for k, v in usable.items()):
+    # by size: moved back by σ (negative) a field of view of 79.5° ± 475° is no camera (a trial's cursor raised at
+    # every move of the mouse over the photo)
+    if not usable or any(sigma_undetermined(k, abs(v)) for k, v in usable.items()):
         return {}
     values = camera.parameters()
 
@@ -105,7 +110,10 @@ def sigma_cameras(camera: Camera, std: Dict[str, float], ground: Optional[Callab
                 change["z"] = values["z"] + lift
         return camera.with_parameters(**change)
 
-    return {name: moved(name) for name in usable if name in values}
+    try:
+        return {name: moved(name) for name in usable if name in values}
+    except ValueError:  # a move by σ leaves the cameras possible (a field of view of 60° ± 89° moved back): none
+        return {}
 
 
 def combine_moves(moves: Dict[str, np.ndarray], correlation: Optional[Dict[str, Dict[str, float]]] = None
