@@ -261,9 +261,14 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, FittingMixin
                 self.message.emit(self.tr("{0} finished, but the photo or the DEM changed while it ran: its result "
                                           "is not used. Run it again.").format(description), WARNING)
             elif result.ok:
-                on_success(result.value)
-                if kind == "suggest":
-                    self._prepare_fit()
+                try:
+                    on_success(result.value)
+                    if kind == "suggest":
+                        self._prepare_fit()
+                except Exception as exc:  # the dock stays usable: a trial's stayed busy at 100 %, Fit greyed out
+                    LOG.exception("%s: showing its result failed", description)
+                    self.message.emit(self.tr("{0} finished, but showing its result failed: {1} (details in the "
+                                              "Monoplot log)").format(description, exc), CRITICAL)
             elif result.status == CANCELED:
                 self.message.emit(self.tr("{0} canceled.").format(description), INFO)
             else:

@@ -133,3 +133,21 @@ def test_a_fit_ending_after_the_dock_was_deleted_reaches_nothing(qgis_iface, dem
     qtbot.waitUntil(lambda: task.result is not None, timeout=60000)
     qtbot.wait(500)  # the task's end reaches the main thread
     assert logged == []
+
+
+def test_a_result_that_cannot_be_shown_leaves_the_dock_usable(dock, qtbot):
+    """A trial: showing a poor fit raised (its cursor's σ), and the dock stayed busy at "Fit camera 100 %" with Fit
+    greyed out and Cancel doing nothing. Now the failure is said and logged, and the next task runs."""
+    c = dock.controller
+    messages, shown = [], []
+    c.message.connect(lambda text, level: messages.append(text))
+
+    def show(value):
+        raise ValueError(f"cannot show {value}")
+
+    assert c.run_task("fit", "Fit camera", lambda progress, is_canceled: 42, show)
+    qtbot.waitUntil(lambda: c.task is None, timeout=20000)
+    assert c.task_kind == "" and dock.fitButton.isEnabled() and not dock.cancelButton.isEnabled()
+    assert any("Fit camera finished, but showing its result failed: cannot show 42" in m for m in messages), messages
+    assert c.run_task("fit", "Fit camera", lambda progress, is_canceled: 7, shown.append)
+    qtbot.waitUntil(lambda: shown == [7], timeout=20000)
