@@ -280,7 +280,8 @@ class CurationPanel(QWidget):
         trusted_fit = c.fitted is not None and (info.get("status") != "poor" or c.prior is None)
         if trusted_fit:
             camera, sigma = c.fitted, sigma_of(*(float(info.get(k) or float("nan"))
-                                                 for k in ("rmse_px", "loo_rmse_px", "check_rmse_px")))
+                                                 for k in ("rmse_px", "loo_rmse_px", "check_rmse_px")),
+                                               n_check=int(info.get("n_check") or 0))
             self.ranking_status = str(info.get("status", ""))
             # the verdict with it, as the background refit's line says it (a trial read "fit, 5.2 px" as good)
             verdict = self.tr(self.ranking_status) if self.ranking_status else ""

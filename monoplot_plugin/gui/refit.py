@@ -94,16 +94,27 @@ def inputs_key(uv, xyz, pairs, start, free, options, check_uv, check_xyz) -> tup
             repr(options), arr(check_uv), arr(check_xyz))
 
 
-def sigma_of(rmse_px: float, loo_px: float = math.nan, check_px: float = math.nan) -> float:
+def sigma_of(rmse_px: float, loo_px: float = math.nan, check_px: float = math.nan, n_check: int = 0) -> float:
     """How far (px) a partner may be under a fitted camera: twice the worst of its RMSE, its leave-one-out error
-    and its check points' RMSE (at least 4 px; 25 px when none is known). A new suggestion's partner is off by the
-    camera's error at a point it was not fitted to, which its own RMSE understates (synthetic scenes, 5 points:
-    RMSE 0.3 px, leave-one-out 5.1 px, the camera 3 px off; with sigma from the RMSE alone, 34 of 242 linked pairs
-    were over 10 px wrong).
+    and its check points' RMSE (at least 4 px; 25 px when none is known); with
+    :data:`~..workflow.features.CHECKS_OVER_SIGMA` check points or more, twice what they vouch for alone
+    (:func:`~..workflow.features.pixel_error`: a flood trial's leave-one-out of 27.7 px, from near pairs that each
+    steer the camera alone, kept "Accept likely" off at ± 55 px where its 4 check points said 4.2 px). A new
+    suggestion's partner is off by the camera's error at a point it was not fitted to, which its own RMSE
+    understates (synthetic scenes, 5 points: RMSE 0.3 px, leave-one-out 5.1 px, the camera 3 px off; with sigma from
+    the RMSE alone, 34 of 242 linked pairs were over 10 px wrong).
 
-    >>> sigma_of(3.0), sigma_of(float("nan")), sigma_of(1.0, loo_px=5.0), sigma_of(1.0, check_px=9.0)
+    >>> sigma_of(3.0), sigma_of(float("nan")), sigma_of(1.0, loo_px=5.0), sigma_of(1.0, check_px=9.0, n_check=1)
     (6.0, 25.0, 10.0, 18.0)
+    >>> round(sigma_of(2.3, loo_px=27.7, check_px=4.2, n_check=4), 1)
+    14.4
     """
+    from ..core.fit import check_bound_px
+    from ..workflow.features import CHECKS_OVER_SIGMA
+
+    check = check_bound_px(check_px, n_check) if check_px is not None else math.nan
+    if n_check >= CHECKS_OVER_SIGMA and math.isfinite(check):
+        return max(4.0, 2.0 * check)
     known = [float(x) for x in (rmse_px, loo_px, check_px) if x is not None and math.isfinite(float(x))]
     return max(4.0, 2.0 * max(known)) if known else 25.0
 
@@ -214,7 +225,7 @@ class Refitter(QObject):
             r = done.result
             status, _ = cap_by_automatic(r.status, "", labels, len(pairs), len(check_uv), automatic)
             rmse = float(r.rmse_px) if r.rmse_px is not None else float("nan")
-            sigma = sigma_of(rmse, r.loo_rmse_px, r.check_rmse_px)
+            sigma = sigma_of(rmse, r.loo_rmse_px, r.check_rmse_px, len(check_uv))
             rec = recommendation(done.camera, *snapshot, sigma, threshold) if status in USABLE else None
             flags = np.asarray(r.photo_outliers, dtype=bool).reshape(-1)
             outliers = [pid for pid, f in zip(photo_ids, flags) if f] if len(flags) == len(photo_ids) else []
