@@ -189,9 +189,10 @@ def photo_points_to_map(uv, cam: Camera, dem: Dem) -> Tuple[np.ndarray, np.ndarr
     return xyz, ok
 
 
-def ground_error_m(uv, cam: Camera, dem: Dem, pixel_rmse: float) -> np.ndarray:
+def ground_error_m(uv, cam: Camera, dem: Dem, pixel_rmse: float, vertical: bool = False) -> np.ndarray:
     """Horizontal position error (metres, RMS) of the terrain point seen at each pixel, for a reprojection error of
-    ``pixel_rmse`` pixels (RMS of the 2-D error, as a fit's check-point RMSE) in the photo.
+    ``pixel_rmse`` pixels (RMS of the 2-D error, as a fit's check-point RMSE) in the photo; with ``vertical``, the
+    error of its height instead (nil on flat ground, large where a pixel's footprint climbs a slope).
 
     The error is carried to the ground by the terrain's footprint of a pixel there:
     ``pixel_rmse / sqrt(2) * sqrt(|dXY/du|^2 + |dXY/dv|^2)``, the derivatives by central differences over
@@ -218,6 +219,13 @@ def ground_error_m(uv, cam: Camera, dem: Dem, pixel_rmse: float) -> np.ndarray:
     >>> e2 = ground_error_m([[320, 240], [320, 200]], cam, dem, np.array([2.0, 4.0]))  # one error per pixel
     >>> round(float(e2[0]), 2), round(float(e2[1] / e[1]), 2)
     (2.31, 2.0)
+    >>> float(ground_error_m([[320, 240]], cam, dem, 2.0, vertical=True)[0])  # flat: the height stays
+    0.0
+    >>> rows = np.arange(200.0)[:, None] + 0.5
+    >>> slope = Dem.from_array(0.5 * (2000.0 - 10.0 * rows) * np.ones((1, 200)), (0, 10, 0, 2000, 0, -10))
+    >>> up, flat = (ground_error_m([[320, 240]], cam, slope, 2.0, vertical=v)[0] for v in (True, False))
+    >>> bool(0.3 * flat < up < 0.5 * flat)  # rising 0.5 m per m ahead: half the error along the view
+    True
     """
     uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
     n = len(uv)
@@ -227,11 +235,12 @@ def ground_error_m(uv, cam: Camera, dem: Dem, pixel_rmse: float) -> np.ndarray:
     h = np.clip(pixel_rmse, 0.5, 16.0)[:, None]  # (N, 1)
     offsets = np.array([[0, 0], [1, 0], [-1, 0], [0, 1], [0, -1]], dtype=np.float64)
     ground, ok = photo_points_to_map((uv[None, :, :] + offsets[:, None, :] * h[None]).reshape(-1, 2), cam, dem)
-    xy, ok = ground[:, :2].reshape(5, n, 2), ok.reshape(5, n)
+    width = 1 if vertical else 2
+    xy, ok = (ground[:, 2:] if vertical else ground[:, :2]).reshape(5, n, width), ok.reshape(5, n)
 
     def derivative(plus: int, minus: int) -> np.ndarray:
         both = ok[plus] & ok[minus]
-        d = np.full((n, 2), np.nan)
+        d = np.full((n, width), np.nan)
         d[both] = (xy[plus][both] - xy[minus][both]) / (2 * h[both])
         for side in (plus, minus):  # one-sided where the other neighbour sees the sky
             one = ~both & ok[side] & ok[0]

@@ -114,13 +114,17 @@ class DockViewMixin:
             self.iface.statusBarIface().showMessage("Monoplot: " + text, 4000)
 
     def _cursor_error(self, u: float, v: float) -> str:
-        """"; X, Y ± 56 m (check points, at most 10.3 px)" for the cursor readout, "" where the error is not known."""
+        """"; X, Y ± 56 m, Z ± 4.1 m (check points, at most 10.3 px)" for the cursor readout, "" where the error is not
+        known."""
         from ..workflow.products import metres_words
 
         error = self.controller.ground_error_at_pixel(u, v)
         if error is None:
             return ""
-        error_m, error_px, source = error
+        error_m, error_px, source, height_m = error
+        # the height's too (a flood trial's marks were 3-6 m too high with nothing said); not the DEM's own error
+        xy = self.tr("X, Y ± {0}").format(metres_words(error_m)) + (
+            self.tr(", Z ± {0}").format(metres_words(height_m)) if math.isfinite(height_m) else "")
         # the check points' figure is what so many vouch for, not their RMSE the fit tab shows (features.pixel_error)
         what = {"check": self.tr("check points, at most"), "sigma": self.tr("the camera's σ"),
                 "sigma_here": self.tr("the camera's σ here"),
@@ -133,9 +137,8 @@ class DockViewMixin:
         fitted = self.controller.fitted
         if source == "sigma_here" and fitted is not None and error_px >= math.hypot(*fitted.image_size) - 0.5:
             # a move by σ puts this ground behind the camera: no pixel figure (a trial read "σ here 5000.0 px")
-            return self.tr("; X, Y ± {0} (the camera's σ here: anywhere in the picture{1})").format(
-                metres_words(error_m), doubt)
-        return self.tr("; X, Y ± {0} ({1} {2:.1f} px{3})").format(metres_words(error_m), what, error_px, doubt)
+            return self.tr("; {0} (the camera's σ here: anywhere in the picture{1})").format(xy, doubt)
+        return self.tr("; {0} ({1} {2:.1f} px{3})").format(xy, what, error_px, doubt)
 
     def _map_cursor(self, point) -> None:
         if self.controller.fitted is None or self.controller.dem is None:

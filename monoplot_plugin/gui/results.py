@@ -322,14 +322,14 @@ class ResultsMixin:
 
         return camera_spread(self.state.fit_info if isinstance(self.state.fit_info, dict) else None, self.dem)
 
-    def ground_error_at_pixel(self, u: float, v: float) -> Optional[Tuple[float, float, str]]:
+    def ground_error_at_pixel(self, u: float, v: float) -> Optional[Tuple[float, float, str, float]]:
         """(horizontal error in metres, RMS, of the ground seen at photo pixel (u, v); the pixel error it is carried
-        from; where that comes from: "check", "loo", "fit" or "sigma", see
-        :func:`~..workflow.features.pixel_error`, or "sigma_here" where the camera's σ at that ground is larger,
-        :mod:`~..workflow.spread`), for the cursor readout; None where it is not known (no fit, sky, σ no data
-        narrowed, an unpaired fit without σ or check points). The same figure as the features'
-        ``xy_error_m`` (:func:`~..workflow.spread.ground_errors_m`): a trial read X, Y, Z to a tenth of a metre
-        with nothing saying they were good to 50 m; another read "± 6 m" on near ground 73 m off."""
+        from; where that comes from: "check", "loo", "fit" or "sigma", see :func:`~..workflow.features.pixel_error`,
+        or "sigma_here" where the camera's σ at that ground is larger, :mod:`~..workflow.spread`; the error of its
+        height in metres, NaN where not known), for the cursor readout; None where it is not known (no fit, sky, σ
+        no data narrowed, an unpaired fit without σ or check points). The same figure as the features'
+        ``xy_error_m`` (:func:`~..workflow.spread.ground_errors_m`): a trial read X, Y, Z to a tenth of a metre with
+        nothing saying they were good to 50 m; another read "± 6 m" on near ground 73 m off."""
         from ..workflow.features import pixel_error
         from ..workflow.spread import ground_errors_m, pixel_errors
 
@@ -347,13 +347,14 @@ class ResultsMixin:
         if cached is None or cached[0] != key:
             spread = self.camera_spread()
             here = float(pixel_errors(error_px, spread, self.fitted, np.array([ground]))[0])
-            error_m = float(ground_errors_m(error_px, spread, self.fitted, self.dem,
-                                            [[math.floor(u) + 0.5, math.floor(v) + 0.5]])[0])
-            cached = self.__dict__["_ground_error_cache"] = (key, (error_m, here))
-        error_m, here = cached[1]
+            pixel = [[math.floor(u) + 0.5, math.floor(v) + 0.5]]
+            error_m, height_m = (float(ground_errors_m(error_px, spread, self.fitted, self.dem, pixel, up)[0])
+                                 for up in (False, True))
+            cached = self.__dict__["_ground_error_cache"] = (key, (error_m, here, height_m))
+        error_m, here, height_m = cached[1]
         if here > error_px:
             error_px, source = here, "sigma_here"
-        return (error_m, float(error_px), source) if np.isfinite(error_m) else None
+        return (error_m, float(error_px), source, height_m) if np.isfinite(error_m) else None
 
     def pixel_of_ground(self, x: float, y: float) -> Tuple[Optional[Tuple[float, float]], str]:
         """(pixel, "visible" | "hidden" | "outside" | "") of map point (x, y) under the fitted camera."""

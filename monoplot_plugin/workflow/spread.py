@@ -42,10 +42,11 @@ class CameraSpread:
         shifts = sigma_shifts(camera, self.std, xyz, self.correlation, self.ground)
         return np.where(np.isfinite(shifts), shifts, float(np.hypot(*camera.image_size)))
 
-    def ground_m(self, camera, dem, uv: np.ndarray) -> np.ndarray:
-        """(N,) metres the ground seen at each of the (N, 2) pixels ``uv`` moves horizontally when the camera moves
-        by its σ (each parameter's move: the pixel's ray from the moved camera on ``dem``; combined with the
-        correlations); NaN where no ground is seen, or a moved camera's ray there meets none.
+    def ground_m(self, camera, dem, uv: np.ndarray, vertical: bool = False) -> np.ndarray:
+        """(N,) metres the ground seen at each of the (N, 2) pixels ``uv`` moves horizontally (with ``vertical``:
+        up or down) when the camera moves by its σ (each parameter's move: the pixel's ray from the moved camera on
+        ``dem``; combined with the correlations); NaN where no ground is seen, or a moved camera's ray there meets
+        none.
 
         Not a pixel error carried by the footprint: on ground seen at a grazing angle that footprint is long along
         the view and short across it, and the camera's moves shift it mostly one way (a near line said ± 40-270 m
@@ -57,13 +58,14 @@ class CameraSpread:
         back = sigma_cameras(camera, {k: -v for k, v in self.std.items()}, self.ground)
         if not len(uv) or not ahead or set(ahead) != set(back):
             return np.full(len(uv), np.nan)
-        here = photo_points_to_map(uv, camera, dem)[0][:, :2]
+        axes = slice(2, 3) if vertical else slice(0, 2)
+        here = photo_points_to_map(uv, camera, dem)[0][:, axes]
         moves, lost = {}, np.isnan(here).any(axis=1)
         for name in ahead:
             # the larger of the moves by +σ and -σ (as a move by +σ): ground seen at a grazing angle moves more
             # away from the camera than towards it (a near line: +σ alone said half of the camera's real error)
-            plus = photo_points_to_map(uv, ahead[name], dem)[0][:, :2] - here
-            minus = here - photo_points_to_map(uv, back[name], dem)[0][:, :2]
+            plus = photo_points_to_map(uv, ahead[name], dem)[0][:, axes] - here
+            minus = here - photo_points_to_map(uv, back[name], dem)[0][:, axes]
             larger = np.linalg.norm(minus, axis=1) > np.linalg.norm(plus, axis=1)
             moves[name] = np.nan_to_num(np.where(larger[:, None], minus, plus))
             lost |= np.isnan(plus).any(axis=1) | np.isnan(minus).any(axis=1)
@@ -111,24 +113,25 @@ def pixel_errors(figure: Optional[float], spread: Optional[CameraSpread], camera
     return np.fmax(base, spread.pixels(camera, xyz))
 
 
-def ground_errors_m(figure: Optional[float], spread: Optional[CameraSpread], camera, dem, uv: np.ndarray
-                    ) -> np.ndarray:
+def ground_errors_m(figure: Optional[float], spread: Optional[CameraSpread], camera, dem, uv: np.ndarray,
+                    vertical: bool = False) -> np.ndarray:
     """(N,) horizontal error (metres) of the ground seen at each of the (N, 2) pixels ``uv``: the fit's pixel error
     ``figure`` carried by the footprint (:func:`~..core.transforms.ground_error_m`) or the camera's σ moving that
     ground (:meth:`CameraSpread.ground_m`), whichever is larger. Where a move by σ takes the pixel's ray off the
     terrain, its pixel shift there is carried by the footprint instead. NaN without a figure or where no ground is
-    seen."""
+    seen. ``vertical``: the error of the ground's height instead (a flood analyst's marks, 3-6 m too high, had
+    none said)."""
     from ..core.transforms import ground_error_m, photo_points_to_map
 
     uv = np.asarray(uv, dtype=np.float64).reshape(-1, 2)
     if figure is None or not len(uv):
         return np.full(len(uv), np.nan)
-    base = ground_error_m(uv, camera, dem, float(figure))
+    base = ground_error_m(uv, camera, dem, float(figure), vertical)
     if spread is None:
         return base
-    here = spread.ground_m(camera, dem, uv)
+    here = spread.ground_m(camera, dem, uv, vertical)
     lost = np.isnan(here) & np.isfinite(base)
     if lost.any():
         ground = photo_points_to_map(uv[lost], camera, dem)[0]
-        here[lost] = ground_error_m(uv[lost], camera, dem, spread.pixels(camera, ground))
+        here[lost] = ground_error_m(uv[lost], camera, dem, spread.pixels(camera, ground), vertical)
     return np.fmax(base, here)

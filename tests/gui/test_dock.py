@@ -214,6 +214,11 @@ def test_fit_task_runs_to_completion(dock, scene, qtbot):
             real = np.hypot(*(photo_points_to_map(pixel, fitted, c.dem)[0][0, :2]
                               - photo_points_to_map(pixel, scene.camera, c.dem)[0][0, :2]))
             assert real <= 2 * error[0], (v, real, error)
+            # ... and how far off its height may be (a flood trial's marks were 3-6 m too high, with no ± at all)
+            rise = abs(photo_points_to_map(pixel, fitted, c.dem)[0][0, 2]
+                       - photo_points_to_map(pixel, scene.camera, c.dem)[0][0, 2])
+            assert np.isfinite(error[3]) and rise <= 2 * error[3] + 0.01, (v, rise, error)
+        assert ", Z ± " in dock._cursor_error(240, rows[-1])
     assert c.ground_error_at_pixel(-5, 100) is None  # outside the picture
     # a camera the fit doubts: its figure may be far too small, and the readout says so
     status = c.state.fit_info["status"]
