@@ -135,9 +135,12 @@ class DockViewMixin:
         doubt = self.tr("; the camera is {0}: it may be far more").format(status) \
             if status in ("uncertain", "poor") else ""
         fitted = self.controller.fitted
-        if source == "sigma_here" and fitted is not None and error_px >= math.hypot(*fitted.image_size) - 0.5:
-            # a move by σ puts this ground behind the camera: no pixel figure (a trial read "σ here 5000.0 px")
-            return self.tr("; {0} (the camera's σ here: anywhere in the picture{1})").format(xy, doubt)
+        if fitted is not None and error_px >= math.hypot(*fitted.image_size) - 0.5:
+            # an error the picture's size or more, or a move by σ that puts this ground behind the camera: it may be
+            # anywhere, and no figure in metres means anything (a trial read "σ here 5000.0 px"; a re-check "± 6.4 m
+            # (check points, at most 4561.5 px)" where the ground was 0.5-2.2 km off)
+            why = self.tr("check points") if source == "check" else what
+            return self.tr("; X, Y, Z not known here ({0}: anywhere in the picture{1})").format(why, doubt)
         return self.tr("; {0} ({1} {2:.1f} px{3})").format(xy, what, error_px, doubt)
 
     def _map_cursor(self, point) -> None:

@@ -229,7 +229,14 @@ def test_fit_task_runs_to_completion(dock, scene, qtbot):
     kept = dict(c.state.fit_info)
     c.state.fit_info = dict(kept, sigma={**kept["sigma"], "x": 5e4, "y": 5e4}, sigma_px=kept["sigma_px"] + 0.01)
     text = dock._cursor_error(240, rows[-1])
-    assert "(the camera's σ here: anywhere in the picture; the camera is uncertain" in text and " px" not in text
+    assert "X, Y, Z not known here (the camera's σ here: anywhere in the picture; the camera is uncertain" in text
+    assert " ± " not in text and " px" not in text
+    # so with check points that vouch for more than the picture's size: no figure in metres (a re-check read
+    # "± 6.4 m (check points, at most 4561.5 px)" where the ground was 0.5-2.2 km off)
+    c.state.fit_info = dict(kept, status="poor", check_rmse_px=3000.0, n_check=4)
+    text = dock._cursor_error(240, rows[-1])
+    assert "X, Y, Z not known here (check points: anywhere in the picture; the camera is poor" in text, text
+    assert " ± " not in text
     # a poor fit's field of view ± 475°: moved back by it, no camera; the readout has no σ figure there, and no
     # error (a trial's raised at every move of the mouse over the photo, and the dock stayed busy)
     c.state.fit_info = dict(kept, status="poor", sigma={**kept["sigma"], "fov": 475.0}, sigma_px=kept["sigma_px"] + 0.02)
