@@ -123,6 +123,9 @@ def test_one_wrong_check_point_does_not_keep_the_camera_held_at_a_wrong_height(s
     done = fit_step.fit(uv[:12], world[:12], start, dem, pairs=pairs, check_uv=check_uv, check_xyz=world[12:])
     assert not done.on_ground and fit_step.ground_clearance(done.camera, dem) == pytest.approx(30.0, abs=3.0)
     assert done.result.rmse_px < 1.5 and "Height fitted freely" in done.result.message
+    # the check point that stands out is named, where the verdict speaks of the check points
+    u, v = check_uv[0]
+    assert f"one of them, at pixel ({u:.0f}, {v:.0f})" in done.result.message, done.result.message
 
 
 def test_a_camera_that_cannot_see_the_points_it_fits_is_poor():

@@ -14,7 +14,7 @@ from .near_ground import ground_seen, loosely_placed_ground
 from .context import FitCanceled, FitContext
 from .options import FitOptions
 from .paired import fit_paired
-from .result import FitResult, rmse
+from .result import FitResult, rmse, worst_check
 from .unpaired import fit_unpaired
 from .verdict import checks_beyond_residuals, judge
 
@@ -102,7 +102,8 @@ def fit_camera(image_points, world_points, initial: Camera, pairs=None, free: Op
             nearest = float(np.min(np.linalg.norm(cw - np.asarray(result.camera.position), axis=1))) if len(cw) \
                 else float("nan")  # how near the camera the check points measure it (verdict: loose near ground)
             result.evidence.update(check_rmse_px=result.check_rmse_px, has_check=len(cq) > 0, n_check=len(cq),
-                                   check_nearest_m=nearest)
+                                   check_nearest_m=nearest, **worst_check(result.check_residuals_px, cq, cw,
+                                                                           result.camera.position))
     if result.evidence and result.status not in ("refused", "canceled"):
         try:  # its refit polls too: a cancel there is the fit's, not an exception out of it (a trial's traceback)
             result.evidence.update(unmodelled_lens(ctx, result))

@@ -9,9 +9,9 @@ import numpy as np
 
 from ..camera import Camera
 
-__all__ = ["FitResult", "STATUSES", "rmse", "rms", "check_bound_px", "CHECK_CONFIDENCE", "sigma_undetermined",
-           "sigma_pixels", "sigma_shifts", "sigma_cameras", "combine_moves", "verdict_first", "VERDICT_MARKERS",
-           "LEAD_MARKER"]
+__all__ = ["FitResult", "STATUSES", "rmse", "rms", "check_bound_px", "CHECK_CONFIDENCE", "worst_check",
+           "sigma_undetermined", "sigma_pixels", "sigma_shifts", "sigma_cameras", "combine_moves", "verdict_first",
+           "VERDICT_MARKERS", "LEAD_MARKER"]
 
 #: Standard deviations beyond which a parameter is not determined at all (a poor fit's covariance gave "± 1300521642
 #: m" and "± 6894594°" in a flood trial's dock): angles in degrees, positions in metres, the rest in their units.
@@ -257,6 +257,36 @@ def check_bound_px(rmse_px: Optional[float], n_check: int) -> float:
 
     dof = 2 * int(n_check)
     return float(rmse_px) * float(np.sqrt(dof / chi2.ppf(1.0 - CHECK_CONFIDENCE, dof)))
+
+
+#: A check point whose error is this many times the others' RMS (at least 3 others) is named by the verdict.
+CHECK_STANDS_OUT = 5.0
+
+
+def worst_check(residuals_px: np.ndarray, uv: np.ndarray, world: np.ndarray, position) -> dict:
+    """Evidence on the check point that stands out: ``check_worst_uv`` (its pixel), ``check_worst_px`` (its error),
+    ``check_others_px`` (the others' RMSE) and ``check_worst_m`` (its distance from the camera), when its error is
+    :data:`CHECK_STANDS_OUT` times the others' RMS or more, with 3 others at least; {} otherwise. A flood trial's
+    one check point 24 m from the camera, its map position 0.7 m off (114 px even under the true camera), made a
+    camera 1.6 m from the truth "poor", and nothing said which point.
+
+    >>> r = np.array([[0.5, 0.0], [3.0, 0.0], [0.0, 5.7], [169.0, 0.0]])
+    >>> uv, world = np.zeros((4, 2)) + [[10, 20]], np.array([[0, 300.0, 0]] * 3 + [[0, 24.0, 0]])
+    >>> {k: round(v, 1) if isinstance(v, float) else v for k, v in worst_check(r, uv, world, (0, 0, 0)).items()}
+    {'check_worst_uv': (10.0, 20.0), 'check_worst_px': 169.0, 'check_others_px': 3.7, 'check_worst_m': 24.0}
+    >>> worst_check(r[:3], uv[:3], world[:3], (0, 0, 0))
+    {}
+    """
+    errors = np.hypot(*np.asarray(residuals_px, dtype=np.float64).reshape(-1, 2).T)
+    if len(errors) < 4 or not np.isfinite(errors).all():
+        return {}
+    i = int(np.argmax(errors))
+    others = float(np.sqrt(np.mean(np.delete(errors, i) ** 2)))
+    if errors[i] < CHECK_STANDS_OUT * max(others, 1.0):
+        return {}
+    return {"check_worst_uv": (float(uv[i][0]), float(uv[i][1])), "check_worst_px": float(errors[i]),
+            "check_others_px": others,
+            "check_worst_m": float(np.linalg.norm(np.asarray(world[i], dtype=np.float64) - np.asarray(position)))}
 
 
 #: Where a verdict's own words start in a fit's message (core.fit.verdict and core.auto.register write them after

@@ -255,6 +255,12 @@ def judge(e: dict) -> Tuple[str, str]:
         weak.append(f"the check points are off by {check:.1f} px, {check / max(rmse, 1.0):.0f} times the fit's "
                     f"residuals: the camera is less accurate than its residuals say; add points near the check "
                     f"points or pair a few")
+    said = poor if poor and "check points" in poor[-1] else weak if weak and "check points" in weak[-1] else None
+    if said is not None and "check_worst_px" in e:  # which one, when one stands out (a flood trial's did)
+        u, v = e["check_worst_uv"]
+        said[-1] += (f" (one of them, at pixel ({u:.0f}, {v:.0f}) and {e['check_worst_m']:.0f} m from the camera, is "
+                     f"off by {e['check_worst_px']:.0f} px, the others {e['check_others_px']:.1f} px: check its map "
+                     f"position, which near the camera moves it by many pixels a metre, or unmark it)")
     cond = float(e.get("condition", 1.0))
     if cond > 1e6:
         weak.append(f"the points barely determine {e.get('weakest', 'a parameter')}: fix it or add points that "
