@@ -10,8 +10,8 @@ import numpy as np
 from ..camera import Camera
 
 __all__ = ["FitResult", "STATUSES", "rmse", "rms", "check_bound_px", "CHECK_CONFIDENCE", "worst_check",
-           "sigma_undetermined", "sigma_pixels", "sigma_shifts", "sigma_cameras", "combine_moves", "verdict_first",
-           "VERDICT_MARKERS", "LEAD_MARKER"]
+           "worst_check_words", "sigma_undetermined", "sigma_pixels", "sigma_shifts", "sigma_cameras", "combine_moves",
+           "verdict_first", "VERDICT_MARKERS", "LEAD_MARKER"]
 
 #: Standard deviations beyond which a parameter is not determined at all (a poor fit's covariance gave "± 1300521642
 #: m" and "± 6894594°" in a flood trial's dock): angles in degrees, positions in metres, the rest in their units.
@@ -287,6 +287,25 @@ def worst_check(residuals_px: np.ndarray, uv: np.ndarray, world: np.ndarray, pos
     return {"check_worst_uv": (float(uv[i][0]), float(uv[i][1])), "check_worst_px": float(errors[i]),
             "check_others_px": others,
             "check_worst_m": float(np.linalg.norm(np.asarray(world[i], dtype=np.float64) - np.asarray(position)))}
+
+
+def worst_check_words(e: dict) -> str:
+    """" (one of them, at pixel (u, v) and D m from the camera, is off by X px, the others Y px: ...)" for the check
+    point that stands out (evidence of :func:`worst_check`), said by the verdict with what it says of the check
+    points (a flood trial's one near check point made a right camera "poor" and nothing said which); "" without.
+
+    >>> worst_check_words({"check_worst_uv": (10.0, 20.0), "check_worst_px": 169.0, "check_others_px": 3.7,
+    ...                    "check_worst_m": 24.0})[:66]
+    ' (one of them, at pixel (10, 20) and 24 m from the camera, is off '
+    >>> worst_check_words({})
+    ''
+    """
+    if "check_worst_px" not in e:
+        return ""
+    u, v = e["check_worst_uv"]
+    return (f" (one of them, at pixel ({u:.0f}, {v:.0f}) and {e['check_worst_m']:.0f} m from the camera, is off by "
+            f"{e['check_worst_px']:.0f} px, the others {e['check_others_px']:.1f} px: check its map position, which "
+            f"near the camera moves it by many pixels a metre, or unmark it)")
 
 
 #: Where a verdict's own words start in a fit's message (core.fit.verdict and core.auto.register write them after

@@ -44,6 +44,7 @@ import numpy as np
 
 from .lens import lens_text
 from .near_ground import FIT_CONSEQUENCE, HELD_CONSEQUENCE, loose_ground_text
+from .result import worst_check_words
 
 __all__ = ["degenerate_points", "weakest_parameter", "weak_direction_matters", "judge", "judge_by_checks",
            "outlier_note", "photo_spread", "pairs_wanted"]
@@ -241,26 +242,21 @@ def judge(e: dict) -> Tuple[str, str]:
     # Check points far worse than the fit's own residuals: the residuals flatter the camera (pairs that agree with
     # each other, not with the terrain), whatever the share of the picture.
     check_far = checks_beyond_residuals(check, rmse, diag)
+    named = worst_check_words(e)
     if np.isfinite(check) and check > POOR_SHARE * diag:
-        poor.append("the independent check points disagree with the camera")
+        poor.append("the independent check points disagree with the camera" + named)
     elif np.isfinite(check) and check > WEAK_SHARE * diag and check_far:
         # off by more than 1.5 % of the picture AND several times the fit's own residuals: the independent evidence
         # contradicts a camera its pairs agree on (a generated scene: check points 27.6 px, residuals 2 px, the
         # camera 185 m off, was "uncertain")
         poor.append(f"the independent check points are off by {check:.1f} px, {check / max(rmse, 1.0):.0f} times "
-                    f"the fit's residuals")
+                    f"the fit's residuals{named}")
     elif np.isfinite(check) and check > WEAK_SHARE * diag:
-        weak.append("the check points are off by more than 1.5 % of the picture")
+        weak.append("the check points are off by more than 1.5 % of the picture" + named)
     if check_far and not poor and check <= WEAK_SHARE * diag:
         weak.append(f"the check points are off by {check:.1f} px, {check / max(rmse, 1.0):.0f} times the fit's "
                     f"residuals: the camera is less accurate than its residuals say; add points near the check "
-                    f"points or pair a few")
-    said = poor if poor and "check points" in poor[-1] else weak if weak and "check points" in weak[-1] else None
-    if said is not None and "check_worst_px" in e:  # which one, when one stands out (a flood trial's did)
-        u, v = e["check_worst_uv"]
-        said[-1] += (f" (one of them, at pixel ({u:.0f}, {v:.0f}) and {e['check_worst_m']:.0f} m from the camera, is "
-                     f"off by {e['check_worst_px']:.0f} px, the others {e['check_others_px']:.1f} px: check its map "
-                     f"position, which near the camera moves it by many pixels a metre, or unmark it)")
+                    f"points or pair a few{named}")
     cond = float(e.get("condition", 1.0))
     if cond > 1e6:
         weak.append(f"the points barely determine {e.get('weakest', 'a parameter')}: fix it or add points that "
