@@ -109,12 +109,11 @@ def sigma_of(rmse_px: float, loo_px: float = math.nan, check_px: float = math.na
     >>> round(sigma_of(2.3, loo_px=27.7, check_px=4.2, n_check=4), 1)
     14.4
     """
-    from ..core.fit import check_bound_px
-    from ..workflow.features import CHECKS_OVER_SIGMA
+    from ..workflow.features import checks_measure
 
-    check = check_bound_px(check_px, n_check) if check_px is not None else math.nan
-    if n_check >= CHECKS_OVER_SIGMA and math.isfinite(check):
-        return max(4.0, 2.0 * check)
+    measured = checks_measure(check_px, n_check)
+    if measured is not None:
+        return max(4.0, 2.0 * measured)
     known = [float(x) for x in (rmse_px, loo_px, check_px) if x is not None and math.isfinite(float(x))]
     return max(4.0, 2.0 * max(known)) if known else 25.0
 

@@ -19,8 +19,8 @@ from ..core.transforms import densify, ground_pieces, silhouette_crossings, true
 from ..outputs.vectors import MapFeature
 from .spread import CameraSpread, ground_errors_m
 
-__all__ = ["photo_to_map_feature", "PhotoPath", "map_to_photo", "pixel_error", "feature_error_m", "ground_per_pixel",
-           "area_error_m2"]
+__all__ = ["photo_to_map_feature", "PhotoPath", "map_to_photo", "pixel_error", "checks_measure", "feature_error_m",
+           "ground_per_pixel", "area_error_m2"]
 
 #: Check points from which a fit's pixel error is theirs (:func:`pixel_error`), not its σ's or its leave-one-out
 #: error's: with 3 or more drawn at random, the bound they give covered the camera's error in 98-100 % of the
@@ -29,6 +29,19 @@ CHECKS_OVER_SIGMA = 3
 
 #: Most ground samples of a feature at which its position error is evaluated (evenly along it).
 ERROR_SAMPLES = 64
+
+
+def checks_measure(check_rmse_px: Optional[float], n_check: int) -> Optional[float]:
+    """What ``n_check`` check points of RMSE ``check_rmse_px`` vouch for (:func:`~..core.fit.check_bound_px`) when
+    they are :data:`CHECKS_OVER_SIGMA` or more, and so measure the camera alone; None when fewer or none.
+
+    >>> round(checks_measure(4.2, 4), 1), checks_measure(4.2, 2), checks_measure(None, 5)
+    (7.2, None, None)
+    """
+    if check_rmse_px is None or n_check < CHECKS_OVER_SIGMA:
+        return None
+    bound = check_bound_px(check_rmse_px, n_check)
+    return bound if np.isfinite(bound) else None
 
 
 def pixel_error(info: Optional[dict], only_ok: bool = True) -> Tuple[Optional[float], str]:
@@ -86,10 +99,11 @@ def pixel_error(info: Optional[dict], only_ok: bool = True) -> Tuple[Optional[fl
         return float(value) if value is not None and np.isfinite(value) else None
 
     n_check = int(info.get("n_check") or 0)
+    measured = checks_measure(finite("check_rmse_px"), n_check)
+    if measured is not None:  # enough check points measure the camera
+        return measured, "check"
     check = check_bound_px(finite("check_rmse_px"), n_check)
     check = check if np.isfinite(check) else None
-    if check is not None and n_check >= CHECKS_OVER_SIGMA:  # enough check points measure the camera
-        return check, "check"
     unpaired = info.get("mode") in ("unpaired", "automatic")  # the registration's matched pairs: agreement too
     # fewer: the larger of them and the fit's own figure, or the one there is
     own = (("sigma", finite("sigma_px")),) if unpaired else (("fit", finite("rmse_px")), ("loo", finite("loo_rmse_px")))
