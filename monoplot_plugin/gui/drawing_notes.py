@@ -82,7 +82,8 @@ def doubt_note(told: dict, kind: str, camera, count: int, status: str, tr: Calla
     if any(c == camera and t for k, (c, _, t) in told.items() if k != kind):
         return ""
     return " " + tr("Drawn on a camera whose fit is \"{0}\": its map positions inherit the camera's errors (no "
-                    "xy_error_m). Check the fit (pairs, check points) before using them.").format(tr(status))
+                    "xy_error_m, z_error_m). Check the fit (pairs, check points) before using them."
+                    ).format(tr(status))
 
 
 def kind_names(tr: Callable[[str], str] = str) -> dict:

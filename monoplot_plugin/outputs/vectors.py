@@ -11,7 +11,8 @@ on sky already split off (see :mod:`.digitise`). :func:`write_vector_layer` writ
   ``silhouette`` (polygons: how many times the outline crosses a silhouette, where it then encloses ground the photo
   does not show, which its area counts), and
   ``xy_error_m`` (the expected horizontal position error of the feature's ground points, metres, RMS, from the fit's
-  pixel error: :func:`~monoplot_plugin.core.transforms.ground_error_m`; empty when no fit vouches for the camera);
+  pixel error: :func:`~monoplot_plugin.core.transforms.ground_error_m`; empty when no fit vouches for the camera),
+  ``z_error_m`` (the same for their heights);
   the dock and Processing add :data:`FIT_STATUS_FIELD`, the verdict of the camera the features were mapped with.
 
 Shapefile limits are checked up front with a clear message: field names of at most 10 characters, one geometry
@@ -39,10 +40,10 @@ __all__ = ["MapFeature", "polygon_area", "write_vector_layer", "read_vector_laye
 #: User field types and their OGR types.
 FIELD_TYPES = {"string": ogr.OFTString, "integer": ogr.OFTInteger, "real": ogr.OFTReal, "date": ogr.OFTDate}
 #: Fields Monoplot adds, by geometry kind.
-COMPUTED_FIELDS = {"point": ("sky_parts", "xy_error_m", "m_per_px", "m_px_max"),
-                   "line": ("length", "length3d", "sky_parts", "xy_error_m", "m_per_px", "m_px_max"),
-                   "polygon": ("area", "area_error", "length", "sky_parts", "silhouette", "xy_error_m", "m_per_px",
-                               "m_px_max")}
+COMPUTED_FIELDS = {"point": ("sky_parts", "xy_error_m", "z_error_m", "m_per_px", "m_px_max"),
+                   "line": ("length", "length3d", "sky_parts", "xy_error_m", "z_error_m", "m_per_px", "m_px_max"),
+                   "polygon": ("area", "area_error", "length", "sky_parts", "silhouette", "xy_error_m", "z_error_m",
+                               "m_per_px", "m_px_max")}
 #: The field of the verdict (ok / uncertain / poor) of the camera a map feature was mapped with, beside the
 #: measures (dock and Processing; empty when unknown): a trial's outline from an "uncertain" camera, 72 % too small,
 #: read in its exported file as any other.
@@ -64,6 +65,7 @@ class MapFeature:
         sky_parts: number of pieces left out because they were over sky / off the DEM.
         xy_error_m: expected horizontal position error of the ground points (metres, RMS over the feature's
             samples), None when unknown.
+        z_error_m: the same for the ground points' heights (metres, RMS), None when unknown.
         silhouettes: polygons: silhouette crossings of the outline (:func:`~..core.transforms.silhouette_crossings`).
         m_per_px, m_px_max: the horizontal shift (metres, RMS) one pixel of photo error causes on the ground,
             median and largest over the feature's samples, whatever the camera's verdict (the far, grazing part of
@@ -77,6 +79,7 @@ class MapFeature:
     sky_parts: int = 0
     xy_error_m: Optional[float] = None
     silhouettes: int = 0
+    z_error_m: Optional[float] = None
     m_per_px: Optional[float] = None
     m_px_max: Optional[float] = None
     #: polygons: how much the area changes with the camera's error (map units squared), None: the buffer estimate
@@ -137,7 +140,7 @@ class MapFeature:
             out["length"] = float(sum(_path_length(p[:, :2]) for p in self.parts))
             out["length3d"] = float(sum(_path_length(p) for p in self.parts))
         out["sky_parts"] = int(self.sky_parts)
-        for name in ("xy_error_m", "m_per_px", "m_px_max"):
+        for name in ("xy_error_m", "z_error_m", "m_per_px", "m_px_max"):
             value = getattr(self, name)
             if value is not None and np.isfinite(value):  # else the field stays empty
                 out[name] = round(float(value), 3)

@@ -14,7 +14,7 @@ from ..adapters.photo_space import geometry_parts as _parts
 from ..core.transforms import ground_pieces, silhouette_crossings, true_runs
 from ..adapters.photo_space import computed_fields, geometry_kind
 from ..outputs.vectors import MapFeature
-from ..workflow.features import feature_error_m, ground_per_pixel
+from ..workflow.features import feature_errors, ground_per_pixel
 from . import pipeline
 
 #: Relative range jump between consecutive line vertices that cuts the line (a silhouette).
@@ -30,8 +30,8 @@ def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float, y_sig
     Lines break where vertices see the sky and at silhouettes; polygon rings drop the vertices over the sky (the
     ring closes across the gap). Returns (geometry or None, number of vertices dropped, the computed fields the
     dock's drawings get: :data:`~..outputs.vectors.COMPUTED_FIELDS`, by :meth:`MapFeature.measures`; ``xy_error_m``
-    with ``pixel_rmse``, the photo's pixel error). ``area``: a scanned print's picture ((H, W) bool): vertices on
-    its paper or caption are dropped as sky is.
+    and ``z_error_m`` with ``pixel_rmse``, the photo's pixel error). ``area``: a scanned print's picture ((H, W)
+    bool): vertices on its paper or caption are dropped as sky is.
     """
     if geometry is None or geometry.isNull():
         return None, 0, {}
@@ -64,11 +64,11 @@ def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float, y_sig
     # not subtracted from the area (drawings on the photo have none)
     built_kind, built_parts = _parts(built)
     pieces = [rings[0] for rings in built_parts]
-    error = feature_error_m(np.vstack(ground_uv), camera, dem, pixel_rmse)
+    errors = feature_errors(np.vstack(ground_uv), camera, dem, pixel_rmse)
     median, largest = ground_per_pixel(np.vstack(ground_uv), camera, dem)
     crossings = sum(silhouette_crossings(p, camera.position, SILHOUETTE_JUMP) for p in pieces) \
         if built_kind == "polygon" else 0
-    return built, dropped, MapFeature(built_kind, pieces, sky_parts=sky_parts, xy_error_m=error,
+    return built, dropped, MapFeature(built_kind, pieces, sky_parts=sky_parts, **errors,
                                       silhouettes=crossings, m_per_px=median, m_px_max=largest).measures()
 
 

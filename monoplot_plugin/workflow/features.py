@@ -20,7 +20,7 @@ from ..outputs.vectors import MapFeature
 from .spread import CameraSpread, ground_errors_m
 
 __all__ = ["photo_to_map_feature", "PhotoPath", "map_to_photo", "pixel_error", "checks_measure", "feature_error_m",
-           "ground_per_pixel", "area_error_m2"]
+           "feature_errors", "ground_per_pixel", "area_error_m2"]
 
 #: Check points from which a fit's pixel error is theirs (:func:`pixel_error`), not its σ's or its leave-one-out
 #: error's: with 3 or more drawn at random, the bound they give covered the camera's error in 98-100 % of the
@@ -112,9 +112,11 @@ def pixel_error(info: Optional[dict], only_ok: bool = True) -> Tuple[Optional[fl
 
 
 def feature_error_m(ground_uv: np.ndarray, camera, dem, pixel_rmse: Optional[float],
-                    spread: Optional[CameraSpread] = None) -> Optional[float]:
+                    spread: Optional[CameraSpread] = None, vertical: bool = False) -> Optional[float]:
     """RMS of :func:`~.spread.ground_errors_m` (metres) over up to :data:`ERROR_SAMPLES` of a feature's
-    ground samples (pixels, evenly along it); None without a pixel error or where none of them is finite. With the
+    ground samples (pixels, evenly along it); None without a pixel error or where none of them is finite.
+    ``vertical``: the error of the ground's height instead (``z_error_m``: a flood analyst's marks were 3-6 m too
+    high, and only the cursor said a ± on heights). With the
     camera's ``spread``, each sample's error is at least the camera's σ there (:func:`~.spread.ground_errors_m`:
     a flood line on the near ground of a phone photo said ± 6 m from its far points' 5.6 px and was 73 m off).
 
@@ -124,7 +126,7 @@ def feature_error_m(ground_uv: np.ndarray, camera, dem, pixel_rmse: Optional[flo
         return None
     pick = np.unique(np.linspace(0, len(ground_uv) - 1, min(len(ground_uv), ERROR_SAMPLES)).round().astype(int))
     uv = np.asarray(ground_uv, dtype=np.float64).reshape(-1, 2)[pick]
-    errors = ground_errors_m(float(pixel_rmse), spread, camera, dem, uv)
+    errors = ground_errors_m(float(pixel_rmse), spread, camera, dem, uv, vertical)
     errors = errors[np.isfinite(errors)]
     return float(np.sqrt(np.mean(errors ** 2))) if len(errors) else None
 
@@ -247,7 +249,7 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
         if not np.isfinite(ground).all():
             return None
         return MapFeature("point", [ground], attributes,
-                          xy_error_m=feature_error_m(verts[:1], camera, dem, pixel_rmse, spread),
+                          **feature_errors(verts[:1], camera, dem, pixel_rmse, spread),
                           **_spans(verts[:1], camera, dem))
     if kind not in ("line", "polygon"):
         raise ValueError(f"kind must be point, line or polygon, got {kind!r}")
@@ -270,7 +272,7 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
             return None
         crossings = silhouette_crossings(ring, origin, jump) if origin is not None else 0
         return MapFeature("polygon", [ring], attributes, sky_parts=sky, silhouettes=crossings,
-                          xy_error_m=feature_error_m(dense[:-1][ring_valid], camera, dem, pixel_rmse, spread),
+                          **feature_errors(dense[:-1][ring_valid], camera, dem, pixel_rmse, spread),
                           area_error_m2=area_error_m2(dense[:-1], lookup, camera, pixel_rmse) if dem is not None
                           else None,
                           **_spans(dense[:-1][ring_valid], camera, dem))
@@ -281,8 +283,17 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
     if not parts:
         return None
     return MapFeature("line", parts, attributes, sky_parts=sky,
-                      xy_error_m=feature_error_m(dense[valid], camera, dem, pixel_rmse, spread),
+                      **feature_errors(dense[valid], camera, dem, pixel_rmse, spread),
                       **_spans(dense[valid], camera, dem))
+
+
+def feature_errors(ground_uv: np.ndarray, camera, dem, pixel_rmse: Optional[float],
+                   spread: Optional[CameraSpread] = None) -> dict:
+    """A feature's ``xy_error_m`` and ``z_error_m`` (:func:`feature_error_m` along and across the vertical), as
+    :class:`~..outputs.vectors.MapFeature` takes them."""
+    return {"xy_error_m": feature_error_m(ground_uv, camera, dem, pixel_rmse, spread),
+            "z_error_m": feature_error_m(ground_uv, camera, dem, pixel_rmse, spread, vertical=True)}
+
 
 
 def _spans(ground_uv: np.ndarray, camera, dem) -> dict:

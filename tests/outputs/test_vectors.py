@@ -225,3 +225,26 @@ def test_a_line_from_near_to_far_has_the_xy_error_of_its_far_end_too(plane_scene
     assert line.xy_error_m <= float(each.max())
     ds = None  # noqa: F841 (closes the GDAL dataset)
     assert photo_to_map_feature("line", [[120, 158], [120, top]], s.xyz).m_px_max is None  # no camera: unknown
+
+
+@pytest.mark.parametrize("suffix", [".gpkg", ".shp"])
+def test_a_feature_on_a_slope_says_how_far_off_its_heights_may_be(plane_scene, tmp_path, suffix):
+    """``z_error_m``: a flood analyst's marks were 3-6 m too high under a camera whose pixel error was known, and
+    only the cursor gave heights a ±. It is the RMS of the height error of the feature's ground samples (the
+    pixel error carried by the slope's footprint), written with the other measures."""
+    from monoplot_plugin.core.transforms import ground_error_m
+
+    s = plane_scene
+    top = np.flatnonzero(np.isfinite(s.xyz[:, 120, 2])).min() + 0.5
+    uv = np.column_stack([np.full(40, 120.0), np.linspace(158.0, top, 40)])
+    line = photo_to_map_feature("line", uv, camera=s.camera, dem=s.dem, pixel_rmse=2.0)
+    each = ground_error_m(uv, s.camera, s.dem, 2.0, vertical=True)
+    each = each[np.isfinite(each)]
+    assert float(each.min()) > 0  # a tilted plane: a pixel's footprint climbs
+    assert line.z_error_m == pytest.approx(float(np.sqrt(np.mean(each ** 2))), rel=0.05)
+    assert 0 < line.z_error_m < line.xy_error_m  # the plane climbs less than it runs
+    assert photo_to_map_feature("line", uv, camera=s.camera, dem=s.dem).z_error_m is None  # no pixel error
+    path = write_vector_layer(tmp_path / f"marks{suffix}", [line], s.dem.crs_wkt)
+    ds, layer = open_layer(path)
+    assert layer.GetNextFeature()["z_error_m"] == pytest.approx(line.z_error_m, abs=1e-3)
+    ds = None  # noqa: F841 (closes the GDAL dataset)

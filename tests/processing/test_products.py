@@ -145,9 +145,10 @@ def test_photo_features_carry_the_verdict_of_their_camera_file(run_alg, small_sc
         result = run_alg("phototomap", {"INPUT": drawn, "CAMERA": camera, "DEM": small_scene["dem"], "STEP": 5,
                                         "PIXEL_ERROR": 2.0, "OUTPUT": "memory:"}, feedback)
         feature = next(result["OUTPUT"].getFeatures())
-        errors[feature["fit_status"]] = (feature["xy_error_m"], feedback.textLog())
-    assert errors["ok"][0] > 0 and "left empty" not in errors["ok"][1]
-    assert errors["uncertain"][0] in (None, NULL) and "xy_error_m is left empty" in errors["uncertain"][1]
+        errors[feature["fit_status"]] = (feature["xy_error_m"], feedback.textLog(), feature["z_error_m"])
+    assert errors["ok"][0] > 0 and errors["ok"][2] > 0 and "left empty" not in errors["ok"][1]
+    assert errors["uncertain"][0] in (None, NULL) and errors["uncertain"][2] in (None, NULL)
+    assert "xy_error_m and z_error_m are left empty" in errors["uncertain"][1]
 
 
 def test_map_line_projects_onto_photo_and_back(run_alg, small_scene, tmp_path):

@@ -150,11 +150,12 @@ class PhotoToMap(_CameraDemAlgorithm):
              "layer in the DEM's CRS with Z, by intersecting each vertex's ray with the DEM. Lines are densified "
              "every STEP pixels first, since a straight line on the photo is not straight on the terrain. Vertices "
              "that see the sky are dropped (and reported). With a photo pixel error (the fit's check-point RMSE, "
-             "else its leave-one-out RMSE), each feature gets xy_error_m: the expected horizontal error (m, RMS) of "
-             "its ground points, from the terrain's footprint of that error; it grows with range and where rays graze "
+             "else its leave-one-out RMSE), each feature gets xy_error_m and z_error_m: the expected horizontal and "
+             "vertical error (m, RMS) of its ground points, from the terrain's footprint of that error; it grows "
+             "with range and where rays graze "
              "the terrain, and leaves out the DEM's own error. Each feature also gets fit_status, the verdict the "
              "camera file carries (ok, uncertain, poor; uncertain for an ok fitted on another photo than PHOTO; "
-             "empty when the file has none); xy_error_m stays empty under an uncertain or poor one.")
+             "empty when the file has none); xy_error_m and z_error_m stay empty under an uncertain or poor one.")
 
     def initAlgorithm(self, config=None):
         self.addParameter(QgsProcessingParameterFeatureSource("INPUT", self.tr("Features drawn on the photo")))
@@ -188,8 +189,8 @@ class PhotoToMap(_CameraDemAlgorithm):
         if pixel_rmse is not None and status in ("uncertain", "poor"):
             # as the dock: no ± on a camera the evidence does not support (a trial's frame, turned 0.6° since the
             # camera was fitted on another frame, had its line 58 m off with xy_error_m 6.0 m)
-            feedback.pushWarning(self.tr("The camera is {0} on this photo: xy_error_m is left empty (PIXEL_ERROR "
-                                         "would understate its error).").format(status))
+            feedback.pushWarning(self.tr("The camera is {0} on this photo: xy_error_m and z_error_m are left empty "
+                                         "(PIXEL_ERROR would understate its error).").format(status))
             pixel_rmse = None
         if fields.indexFromName(FIT_STATUS_FIELD) < 0:
             fields.append(QgsField(FIT_STATUS_FIELD, QVariant.Type.String))
