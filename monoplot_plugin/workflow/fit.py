@@ -19,7 +19,7 @@ from .warmup import import_torch
 
 __all__ = ["ON_GROUND_MAX_M", "DEFAULT_EYE_HEIGHT_M", "FitRefused", "FitDone", "ground_clearance", "on_ground_rule",
            "fit", "point_rmse", "fit_points", "measured_on_pairs", "hidden_share", "flag_hidden_points",
-           "MIN_PAIRS_WITHOUT_PRIOR", "start_above_points", "sigma_px"]
+           "sight_within_sigma", "MIN_PAIRS_WITHOUT_PRIOR", "start_above_points", "sigma_px"]
 
 #: a start camera at most this high above the terrain is taken as a photographer on the ground (a person, a
 #: tripod, a lookout tower, a rooftop): the fit keeps its height above the terrain (z follows the DEM, one unknown
@@ -45,6 +45,8 @@ FREE_HEIGHT_F = 20.0
 #: Shares of the map points a fit used that terrain may hide from its camera before the fit is "uncertain" and
 #: "poor" (:func:`flag_hidden_points`): a right camera sees the points it matched, bar a coarse DEM's few.
 HIDDEN_DOUBT, HIDDEN_POOR = 0.25, 0.5
+#: DEM cells around a camera whose terrain does not hide its points (:func:`hidden_share`): the ground it stands on
+STANDING_CELLS = 2.0
 #: fewest pairs for that test (2 x 5 - 8 = 2 degrees of freedom left, one fewer than the free fit's 7 unknowns leave)
 FREE_HEIGHT_MIN_PAIRS = 5
 #: An unpaired fit held on the ground higher than this (metres) is also fitted at eye height (:func:`weigh_eye_height`).
@@ -173,7 +175,7 @@ def fit(uv: np.ndarray, xyz: np.ndarray, start: Camera, dem, pairs=None, on_grou
             lambda f, m="": progress(0.5 + 0.5 * f, m or "trying the camera at eye height"))
         at_eye = run(start, True, DEFAULT_EYE_HEIGHT_M, report)
         result, eye = weigh_eye_height(result, at_eye, eye)
-    flag_hidden_points(result, xyz, dem)
+    flag_hidden_points(result, xyz, dem, grounded)
     return FitDone(result, grounded, eye if grounded else None)
 
 
@@ -270,7 +272,11 @@ def flag_under_terrain(result: FitResult, clearance: float, depth: float = float
 def hidden_share(camera: Camera, xyz: np.ndarray, dem) -> Tuple[int, int]:
     """(how many of the map points ``xyz`` (K, 3) terrain hides from ``camera``, how many were looked at): a line of
     sight that enters the terrain short of its point by more than three DEM cells and 2 % of its length (a coarse
-    DEM's grazing slopes, a surveyed height a little under the DEM's, stay seen).
+    DEM's grazing slopes, a surveyed height a little under the DEM's, stay seen). The line is looked at from
+    :data:`STANDING_CELLS` DEM cells out: nearer, the terrain is the ground the camera stands on, which the DEM
+    cannot resolve at that scale (a summit's camera, fitted 5-14 m behind its top on a 25 m DEM, 2 px on 10 pairs,
+    had every line of sight enter its own summit 2-4 m away, and was called "poor"); a line under the terrain
+    there is hidden (a camera 80 m behind a summit).
 
     >>> from monoplot_plugin.core.dem import Dem
     >>> dem = Dem.from_array(np.where(np.arange(40)[None, :] == 20, 100.0, 0.0).repeat(40, 0), (0, 10, 0, 400, 0, -10))
@@ -286,18 +292,22 @@ def hidden_share(camera: Camera, xyz: np.ndarray, dem) -> Tuple[int, int]:
         return 0, 0
     origin = np.asarray(camera.position, dtype=float)
     length = np.linalg.norm(xyz - origin, axis=1)
-    s = segment_first_hit(dem, origin, xyz)
-    short = np.where(np.isfinite(s), (1.0 - s) * length, 0.0)
-    hidden = short > np.maximum(3.0 * dem.cell_size, 0.02 * length)
+    out = np.minimum(STANDING_CELLS * dem.cell_size, 0.5 * length)  # metres from the camera
+    starts = origin + (xyz - origin) * (out / np.maximum(length, 1e-9))[:, None]
+    under = starts[:, 2] < np.nan_to_num(dem.sample(starts[:, 0], starts[:, 1], method="mesh"), nan=-np.inf)
+    s = segment_first_hit(dem, starts, xyz)
+    short = np.where(np.isfinite(s), (1.0 - s) * (length - out), 0.0)
+    hidden = under | (short > np.maximum(3.0 * dem.cell_size, 0.02 * length))
     return int(hidden.sum()), len(xyz)
 
 
-def flag_hidden_points(result: FitResult, xyz: np.ndarray, dem) -> None:
+def flag_hidden_points(result: FitResult, xyz: np.ndarray, dem, on_ground: bool = False) -> None:
     """A camera that cannot see most of the map points it was fitted to stands where no photo of them was taken (a
     trial: a fit from a phone's GPS position slid 117 m back behind the ridge it stood on, distant terrain trading
     that for the field of view; "ok" at 1.9 px, and every XYZ pixel and drawn point fell on the slope in front of
     it). Over :data:`HIDDEN_POOR` of them hidden is "poor", over :data:`HIDDEN_DOUBT` an "ok" becomes "uncertain";
-    said in ``result.message`` (in place)."""
+    "uncertain" only, with what to do, when a camera within twice its σ in X and Y (``on_ground``: as high above the
+    terrain there) sees them (:func:`sight_within_sigma`). Said in ``result.message`` (in place)."""
     if result.status not in ("ok", "uncertain") or dem is None:
         return
     pairs = np.asarray(result.pairs, dtype=np.int64).reshape(-1, 2)
@@ -305,8 +315,17 @@ def flag_hidden_points(result: FitResult, xyz: np.ndarray, dem) -> None:
         pairs = pairs[np.asarray(result.inliers, dtype=bool)]
     if len(pairs) < 4:
         return
-    hidden, seen = hidden_share(result.camera, np.asarray(xyz, dtype=float)[pairs[:, 1]], dem)
+    points = np.asarray(xyz, dtype=float)[pairs[:, 1]]
+    hidden, seen = hidden_share(result.camera, points, dem)
     if not seen or hidden <= HIDDEN_DOUBT * seen:
+        return
+    near = sight_within_sigma(result.camera, result.std, points, dem, on_ground)
+    if near is not None:
+        result.status = "uncertain"
+        result.message = (f"{result.message} Uncertain: terrain hides {hidden} of the {seen} map points it was "
+                          f"fitted to from the camera, though it would see them {near:.0f} m away, within twice its "
+                          f"σ: its position is loosely known there; give the known position and fix it in Fit "
+                          f"settings, or add points on the near ground.")
         return
     text = (f"terrain hides {hidden} of the {seen} map points it was fitted to from the camera: it probably ended "
             f"behind a ridge or a slope, where no photo of them was taken; check its position (give the known "
@@ -317,6 +336,30 @@ def flag_hidden_points(result: FitResult, xyz: np.ndarray, dem) -> None:
     else:
         result.status = "uncertain"
         result.message = f"{result.message} Uncertain: {text}."
+
+
+def sight_within_sigma(camera: Camera, std: dict, xyz: np.ndarray, dem, on_ground: bool) -> Optional[float]:
+    """Metres to the nearest camera position, on a grid of -2 to +2 σ in X and in Y (``std``; ``on_ground``: as
+    high above the terrain as ``camera``, else as high), from which terrain hides at most :data:`HIDDEN_DOUBT` of
+    the (K, 3) map points ``xyz``; None when none does or the σ are unknown. A summit's camera fitted 7-14 m behind
+    its top on a 10 m DEM (σ 4-7 m, 2 px on 10 pairs) was "poor", "terrain hides 8 of the 10 map points"; the
+    summit 2σ away sees them."""
+    sx, sy = float(std.get("x", 0.0) or 0.0), float(std.get("y", 0.0) or 0.0)
+    if not (np.isfinite(sx) and np.isfinite(sy)) or max(sx, sy) <= 0.0:
+        return None
+    x0, y0, z0 = (float(v) for v in camera.position)
+    clearance = ground_clearance(camera, dem)
+    found = []
+    for a in (-2.0, -1.0, 0.0, 1.0, 2.0):
+        for b in (-2.0, -1.0, 0.0, 1.0, 2.0):
+            x, y = x0 + a * sx, y0 + b * sy
+            z = float(dem.sample(x, y)) + clearance if on_ground else z0
+            if not np.isfinite(z) or (a == 0.0 and b == 0.0):
+                continue
+            hidden, seen = hidden_share(camera.with_parameters(x=x, y=y, z=z), xyz, dem)
+            if seen and hidden <= HIDDEN_DOUBT * seen:
+                found.append(math.hypot(x - x0, y - y0))
+    return min(found) if found else None
 
 
 def sigma_px(result: FitResult, xyz: np.ndarray) -> float:

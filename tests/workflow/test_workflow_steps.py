@@ -128,6 +128,36 @@ def test_one_wrong_check_point_does_not_keep_the_camera_held_at_a_wrong_height(s
     assert f"one of them, at pixel ({u:.0f}, {v:.0f})" in done.result.message, done.result.message
 
 
+def test_a_camera_on_a_summit_sees_over_its_own_ground_and_one_behind_it_does_not():
+    """A trial's 1890s print taken from a summit: fits 5-14 m from where it stood (2 px on 10 pairs, 25 m DEM) were
+    "poor", "terrain hides 10 of the 10 map points", every line of sight entering the summit 2-4 m from the camera:
+    the DEM's cells cannot say what a person standing on a summit sees over. Generated: a cone on a plain (25 m
+    cells), points on the plain 2-4 km away; a camera 2 m over the cone's tip or a few metres from it sees them,
+    one 20-80 m behind it down the far side does not."""
+    n, cell = 320, 25.0
+    centres = (np.arange(n) + 0.5) * cell
+    x, y = np.meshgrid(centres, centres[::-1])
+    plain = 2400.0 + 15.0 * np.sin(x / 300.0) * np.cos(y / 410.0)
+    dem = Dem.from_array(np.maximum(plain, 3000.0 - 0.6 * np.hypot(x - 4000.0, y - 4000.0)),
+                         (0.0, cell, 0.0, n * cell, 0.0, -cell))
+    rng = np.random.default_rng(0)
+    xy = np.column_stack([rng.uniform(3000, 5000, 30), rng.uniform(6000, 7800, 30)])  # north, on the plain
+    xyz = np.column_stack([xy, [dem.sample(a, b) for a, b in xy]])
+
+    def camera_at(behind):
+        x, y = 4000.0, 4000.0 - behind
+        return Camera((x, y, float(dem.sample(x, y)) + 2.0), 0.0, -10.0, 0.0, 50.0, (800, 600))
+
+    assert [fit_step.hidden_share(camera_at(b), xyz, dem)[0] for b in (0.0, 8.0, 12.0)] == [0, 0, 0]
+    assert [fit_step.hidden_share(camera_at(b), xyz, dem)[0] for b in (20.0, 40.0, 80.0)] == [30, 30, 30]
+    # 20 m behind, its position known to ± 8 m: from 8 m north, within twice that, it sees them ("uncertain", with
+    # what to do, not "poor"); known to ± 1 m, or 80 m behind, no camera that near does
+    near = fit_step.sight_within_sigma(camera_at(20.0), {"x": 8.0, "y": 8.0}, xyz, dem, on_ground=True)
+    assert near == pytest.approx(8.0)
+    assert fit_step.sight_within_sigma(camera_at(20.0), {"x": 1.0, "y": 1.0}, xyz, dem, on_ground=True) is None
+    assert fit_step.sight_within_sigma(camera_at(80.0), {"x": 8.0, "y": 8.0}, xyz, dem, on_ground=True) is None
+
+
 def test_a_camera_that_cannot_see_the_points_it_fits_is_poor():
     """A desktop trial: a fit from a phone's GPS position slid 117 m back behind the ridge it stood on and said "ok"
     at 1.9 px; every XYZ pixel and drawn point then fell on the slope in front of it. Generated: exact pairs on
