@@ -319,15 +319,16 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, FittingMixin
             self.message.emit(self.tr("Load a photo and choose a DEM first."), WARNING)
             return False
         photo = qimage_to_array(self.image)  # copies: the task must not share Qt objects
-        dem, camera = self.dem, self.camera()
+        dem, camera, rough = self.dem, self.camera(), self.prior
         options = fit_arguments(self.state.settings)[1]  # the prior's position σ, if the person set it
         position_sigma_m = options.position_sigma_m if options is not None else None
 
         def work(progress, is_canceled):
-            return engine.suggest(photo, dem, camera, n_photo, n_dem, progress, is_canceled, position_sigma_m)
+            return engine.suggest(photo, dem, camera, n_photo, n_dem, progress, is_canceled, position_sigma_m,
+                                  rough)
 
         def apply(value):
-            photo_pts, map_pts, near_clip_m, featureless = value
+            photo_pts, map_pts, near_clip_m, featureless, from_rough = value
             self.stack.push(replace_in_views(self.state, {PHOTO: photo_pts, MAP: map_pts}, self.tr("Suggest points")))
             text = self.tr("{0} photo and {1} DEM suggestions: accept (A / left click) or reject "
                            "(R / right click) them.").format(len(photo_pts), len(map_pts))
@@ -337,6 +338,9 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, FittingMixin
                                       "suggestions. If the photo does show a slope that close, give the position's "
                                       "uncertainty (Position ± in Fit settings, tab 4) and suggest again; if not, "
                                       "check the camera's position and height.").format(near_clip_m)
+            if from_rough:
+                text += " " + self.tr("The fitted camera sees too little terrain for DEM suggestions (is it "
+                                      "wrong?): they come from the rough camera.")
             if featureless:  # first: the message bar shows one line
                 text = featureless + " " + text
             self.message.emit(text, WARNING if featureless else INFO)

@@ -32,21 +32,22 @@ XYZ_MAX_PIXELS = 1_500_000
 # --- suggestions ----------------------------------------------------------------------------------------------
 
 def suggest(photo_rgb: np.ndarray, dem, camera: Optional[Camera], n_photo: int, n_dem: int,
-            progress: Progress, is_canceled: IsCanceled,
-            position_sigma_m: Optional[float] = None) -> Tuple[List[Point], List[Point], float, str]:
+            progress: Progress, is_canceled: IsCanceled, position_sigma_m: Optional[float] = None,
+            rough: Optional[Camera] = None) -> Tuple[List[Point], List[Point], float, str, bool]:
     """Key points on the photo (pixels) and on the DEM (map X, Y, Z) as "suggested" :class:`Point` objects
     (:func:`workflow.suggest.suggest`), the distance (m) within which terrain filling the rough camera's view
-    was left out of the DEM suggestions (0 = none; :func:`core.suggest.blocked_view`), and a warning when the photo
-    shows almost nothing ("" otherwise; :func:`workflow.suggest.featureless_note`)."""
-    photo, dem_pts = suggest_step.suggest(photo_rgb, dem, camera, n_photo, n_dem, progress, is_canceled,
-                                          position_sigma_m)
+    was left out of the DEM suggestions (0 = none; :func:`core.suggest.blocked_view`), a warning when the photo
+    shows almost nothing ("" otherwise; :func:`workflow.suggest.featureless_note`), and whether the DEM
+    suggestions came from the ``rough`` camera (the fitted ``camera`` saw too little terrain)."""
+    photo, dem_pts, from_rough = suggest_step.suggest(photo_rgb, dem, camera, n_photo, n_dem, progress,
+                                                      is_canceled, position_sigma_m, rough)
     photo_points = [Point.new(PHOTO, u, v, score=float(s)) for (u, v), s in zip(photo.uv, photo.score)]
     kinds = list(getattr(dem_pts, "kind", [""] * len(dem_pts.score)))
     map_points = [Point.new(MAP, x, y, z, score=float(s), label=str(k) if k in ("summit", "saddle", "junction")
                             else "")
                   for (x, y, z), s, k in zip(dem_pts.xyz, dem_pts.score, kinds)]
     return (photo_points, map_points, float(getattr(dem_pts, "near_clip_m", 0.0)),
-            suggest_step.featureless_note(photo))
+            suggest_step.featureless_note(photo), from_rough)
 
 
 # --- fit --------------------------------------------------------------------------------------------------------

@@ -41,10 +41,19 @@ def suggest_dem(dem, max_points: int, camera: Optional[Camera] = None,
                               poll=lambda: check_canceled(is_canceled))
 
 
+#: A fitted camera whose rendering gives fewer DEM suggestions than this share of those asked for gives way to the
+#: rough camera's, when that gives more (:func:`suggest`)
+FEW_DEM_SHARE = 0.2
+
+
 def suggest(photo: np.ndarray, dem, camera: Optional[Camera], n_photo: int, n_dem: int,
             progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None,
-            position_sigma_m: Optional[float] = None) -> Tuple[PhotoSuggestions, DemSuggestions]:
-    """Both sets of suggestions (photo, then DEM), with progress and cancel between them."""
+            position_sigma_m: Optional[float] = None,
+            rough: Optional[Camera] = None) -> Tuple[PhotoSuggestions, DemSuggestions, bool]:
+    """Both sets of suggestions (photo, then DEM), with progress and cancel between them, and whether the DEM's came
+    from the ``rough`` camera: a fitted ``camera`` that sees too little terrain for :data:`FEW_DEM_SHARE` of
+    ``n_dem`` gives way to it when it gives more (a summit trial's failed automatic camera, pitched 35° up, "uncertain",
+    left Suggest with 0 DEM suggestions and no way on)."""
     report = progress or (lambda fraction, message="": None)
     report(0.05, "photo")
     photo_points = suggest_photo(photo, n_photo)
@@ -52,5 +61,12 @@ def suggest(photo: np.ndarray, dem, camera: Optional[Camera], n_photo: int, n_de
     report(0.45, "DEM")
     dem_points = suggest_dem(dem, n_dem, camera, position_sigma_m, is_canceled)
     check_canceled(is_canceled)
+    from_rough = False
+    if rough is not None and camera is not None and rough != camera and len(dem_points) < FEW_DEM_SHARE * n_dem:
+        report(0.7, "DEM, from the rough camera")
+        from_prior = suggest_dem(dem, n_dem, rough, position_sigma_m, is_canceled)
+        check_canceled(is_canceled)
+        if len(from_prior) > len(dem_points):
+            dem_points, from_rough = from_prior, True
     report(0.95, "")
-    return photo_points, dem_points
+    return photo_points, dem_points, from_rough

@@ -601,3 +601,24 @@ def test_suggest_after_a_poor_fit_renders_the_dem_from_the_rough_camera(dock, sc
     assert len(dem_points) >= 50
     seen = scene.prior.in_image(scene.prior.project(dem_points))
     assert seen.mean() > 0.9, seen.mean()
+
+
+def test_suggest_after_a_fit_that_sees_the_sky_takes_the_dem_from_the_rough_camera(dock, scene, qtbot):
+    """A summit trial's automatic run failed "uncertain" with the camera pitched 35° up: Suggest rendered the DEM
+    from it and gave 0 DEM suggestions, with no way on. A fitted camera that sees too little terrain gives way to
+    the rough camera's rendering, and the message says so."""
+    load_inputs(dock, scene, qtbot)
+    c = dock.controller
+    c.set_prior(scene.prior)
+    skyward = scene.camera.with_parameters(pitch=60.0)
+    c.set_fitted(skyward, {"status": "uncertain", "message": "Uncertain"})
+    messages = []
+    c.message.connect(lambda text, level: messages.append(text))
+    press(qtbot, dock.suggestButton)
+    with qtbot.waitSignal(c.taskFinished, timeout=60000) as blocker:
+        pass
+    assert blocker.args[0].ok, blocker.args[0].reason
+    dem_points = np.array([(p.x, p.y, p.z) for p in c.state.points.values() if p.space == MAP], dtype=float)
+    assert len(dem_points) >= 50
+    assert scene.prior.in_image(scene.prior.project(dem_points)).mean() > 0.9
+    assert any("they come from the rough camera" in m for m in messages), messages
