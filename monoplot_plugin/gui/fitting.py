@@ -100,7 +100,9 @@ class FittingMixin:
         """``camera`` standing at the rough camera's position where the fit settings hold the position (x and y
         unticked; its height too when z is): "if the GPS position is right, untick position and fit again" meant the
         rough camera's position, and after Find camera automatically the fit held the registration's, 68 m from it
-        (a phone trial; the advice came back unchanged)."""
+        (a phone trial; the advice came back unchanged). A rough camera on the ground gives its height too: a height
+        belongs to its place there (a time-lapse trial's mast, 3 m above a steep flank: the registration's camera, 3
+        m above the ground 10 m uphill, held at the mast's X, Y kept its height, 14 m above the ground, "ok")."""
         prior = self.prior
         free = fit_arguments(self.state.settings)[0]
         if prior is None or free is None:
@@ -108,6 +110,9 @@ class FittingMixin:
         values = {}
         if not {"x", "y"} & set(free):
             values.update(x=prior.position[0], y=prior.position[1])
+            on_ground = height_arguments(self.state.settings)["on_ground"]
+            if self.dem is not None and fit_step.on_ground_rule(prior, self.dem, on_ground)[0]:
+                values["z"] = prior.position[2]
         if "z" not in free:
             values["z"] = prior.position[2]
         return camera.with_parameters(**values) if values else camera

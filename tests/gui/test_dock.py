@@ -689,6 +689,20 @@ def test_fits_go_on_from_the_registered_camera_while_the_rough_heading_is_a_gues
     held = c.fit_start()
     assert held.position[:2] == away.position[:2] and held.position[2] == c.fitted.position[2]
     assert held.heading == c.fitted.heading and held.position[:2] != c.fitted.position[:2]
+    # a rough camera on the ground gives its height as well: a height belongs to its place (a time-lapse trial's
+    # mast 3 m above a steep flank; the registration's camera, 3 m above the ground 10 m uphill, held at the mast's
+    # X, Y kept its own height, 14 m above the ground there, and the fit said "ok")
+    from monoplot_plugin.workflow.fit import ground_clearance
+
+    x, y, _ = away.position
+    mast = away.with_parameters(z=float(c.dem.sample(x, y)) + 3.0)
+    c.set_prior(mast)
+    c.set_fitted(scene.prior.with_parameters(z=scene.prior.position[2] + 40.0), {"mode": "automatic",
+                                                                                 "status": "uncertain"})
+    held = c.fit_start()
+    assert held.position[:2] == mast.position[:2] and ground_clearance(held, c.dem) == pytest.approx(3.0)
+    assert held.heading == c.fitted.heading
+    c.set_fitted(None)
     c.state.settings[SETTINGS_KEY] = dict(c.state.settings[SETTINGS_KEY], free=None)
     c.set_prior(scene.prior)  # the person's own rough camera: the start again
     assert c.fit_start().parameters() == scene.prior.parameters()
