@@ -17,7 +17,7 @@ from qgis.core import Qgis
 from qgis.PyQt.QtCore import QCoreApplication
 
 from ..core.camera import Camera
-from ..core.fit.verdict import judge_by_checks
+from ..core.fit.check_points import judge_by_checks
 from ..workflow.camera_files import fitted_on_photo, load_camera, save_camera, written_fit
 from ..workflow.fit import measured_on_pairs
 from ..workflow.inputs import InputError

@@ -223,7 +223,8 @@ class ResultsMixin:
         before = info.get("status_before_checks", info.get("status", "ok"))
         message = info.get("message_before_checks", info.get("message", ""))
         own = info.get("rmse_px")  # the fit's residuals: check points far beyond them make it "poor", as in a fit
-        judged = judge_by_check_points(before, message, cam, uv, xyz, float(own) if own is not None else np.nan)
+        judged = judge_by_check_points(before, message, cam, uv, xyz, float(own) if own is not None else np.nan,
+                                       info.get("mode") == "paired")
         info.update(checks_measured=key, status_before_checks=before, message_before_checks=message,
                     status=judged["status"], message=judged["message"], check_rmse_px=judged["check_rmse_px"],
                     n_check=len(ids), check_error_px={i: float(e) for i, e in zip(ids, errors) if np.isfinite(e)})

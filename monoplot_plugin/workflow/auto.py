@@ -235,14 +235,15 @@ def sigma_at_least(sigma: Optional[dict], floor: Optional[dict]) -> dict:
 
 
 def judge_by_check_points(status: str, message: str, camera: Camera, check_uv: np.ndarray,
-                          check_xyz: np.ndarray, rmse_px: float = float("nan")) -> dict:
+                          check_xyz: np.ndarray, rmse_px: float = float("nan"), paired: bool = False) -> dict:
     """The automatic camera measured by the person's check points (``check_uv`` (K, 2) pixels, ``check_xyz``
     (K, 3) map points, kept out of the registration): {"status", "message", "check_rmse_px", "n_check"}.
 
     The check points can only lower the registration's status (a run after a fit the check points called "poor"
     came back "uncertain" with the same camera, the check points ignored): "poor" or "uncertain" by the same rule
-    as a camera loaded from a file (:func:`~..core.fit.verdict.judge_by_checks`), with the camera's own residuals
-    ``rmse_px`` (pixels, the automatic registration's matched pairs) when it has some.
+    as a camera loaded from a file (:func:`~..core.fit.check_points.judge_by_checks`), with the camera's own residuals
+    ``rmse_px`` (pixels, the automatic registration's matched pairs) when it has some; ``paired``: those of a
+    paired fit (every pair's).
 
     >>> from monoplot_plugin.core.camera import Camera
     >>> cam = Camera((0.0, 0.0, 100.0), 0.0, 0.0, 0.0, 60.0, (1000, 750))
@@ -254,7 +255,7 @@ def judge_by_check_points(status: str, message: str, camera: Camera, check_uv: n
     >>> judge_by_check_points("ok", "m.", cam, cam.project(xyz[:2]) + 1.0, xyz[:2])["status"]  # 2 agree: not lowered
     'ok'
     """
-    from ..core.fit.verdict import WEAK_SHARE, checks_beyond_residuals, judge_by_checks
+    from ..core.fit.check_points import WEAK_SHARE, checks_beyond_residuals, judge_by_checks
 
     n_given = len(np.asarray(check_uv).reshape(-1, 2))
     out = {"status": status, "message": message, "check_rmse_px": None, "n_check": n_given}
@@ -262,10 +263,10 @@ def judge_by_check_points(status: str, message: str, camera: Camera, check_uv: n
         return out
     n, rmse = measured_on_pairs(camera, check_uv, check_xyz)
     diag = math.hypot(*camera.image_size)
-    checked, text = judge_by_checks(rmse, n, diag, rmse_px)
+    checked, text = judge_by_checks(rmse, n, diag, rmse_px, paired)
     out["check_rmse_px"] = rmse if math.isfinite(rmse) else None
     # (agreeing means within 1.5 % of the picture and within a few times the camera's own residuals)
-    agree = rmse <= WEAK_SHARE * diag and not checks_beyond_residuals(rmse, rmse_px, diag)
+    agree = rmse <= WEAK_SHARE * diag and not checks_beyond_residuals(rmse, rmse_px, diag, paired)
     if checked == "uncertain" and n and agree:
         # they agree, only too few to verify the camera alone: that lowers nothing its own evidence verified (a
         # trial: 2 check points at 0.9 px made an "ok" fit "uncertain" when imported after it, and left it "ok"

@@ -499,3 +499,27 @@ def test_loose_near_ground_with_the_position_held_is_not_told_to_fix_the_positio
     assert "fix the position if you know it" in free_position
     assert "too loosely for the near ground" in held and "fix the position" not in held
     assert "position and height held" in held
+
+
+def test_check_points_beyond_a_paired_fits_residuals_count_on_a_large_photo():
+    """A drone trial, 4000 x 3000: one near GCP's surveyed height 2 m off among 5 pairs, check points 20.3 px on a
+    1.8 px fit, "ok" with the camera 15.7 m off: 20 px was under the 0.5 % of the diagonal (25 px) the rule asked
+    for. A paired fit's residuals are every pair's: 0.2 % (and 5 px) is enough there; an unpaired fit's, those of
+    its matches within an inlier radius, keep the 0.5 %."""
+    big = TRUTH.with_parameters()
+    big = Camera(big.position, big.heading, big.pitch, big.roll, big.fov, (4000, 3000))
+    rng = np.random.default_rng(3)
+    world = terrain_points(60, rng, big)
+    uv = big.project(world)
+    inside = np.flatnonzero(big.in_image(uv))[:16]
+    pairs = np.column_stack([np.arange(12)] * 2)
+    fit_uv = uv[inside[:12]] + rng.normal(0.0, 0.7, (12, 2))
+    check_uv, check_world = uv[inside[12:]] + [10.0, -10.0], world[inside[12:]]  # 14 px: 0.28 % of 5000
+    result = fit_camera(fit_uv, world[inside[:12]], big.with_parameters(heading=big.heading + 1), pairs=pairs,
+                        check_image_points=check_uv, check_world_points=check_world)
+    assert result.rmse_px < 1.5 and result.status == "uncertain", result.message
+    assert "a pair's map position or height is wrong" in result.message
+    # the same check points 3 px off stay within what the clicks explain
+    calm = fit_camera(fit_uv, world[inside[:12]], big.with_parameters(heading=big.heading + 1), pairs=pairs,
+                      check_image_points=uv[inside[12:]] + [2.0, -2.0], check_world_points=check_world)
+    assert calm.status == "ok", calm.message

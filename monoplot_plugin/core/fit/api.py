@@ -16,18 +16,19 @@ from .options import FitOptions
 from .paired import fit_paired
 from .result import FitResult, rmse, worst_check
 from .unpaired import fit_unpaired
-from .verdict import checks_beyond_residuals, judge
+from .check_points import checks_beyond_residuals
+from .verdict import judge
 
 __all__ = ["fit_camera"]
 
 
 def widen_by_checks(result: FitResult, diag: float) -> None:
     """σ from the residuals, scaled by how much worse the check points are (their RMSE over the residuals' RMSE, at
-    least 1 px) when they are beyond them (:func:`~.verdict.checks_beyond_residuals`): the residuals' scale is then
+    least 1 px) when they are beyond them (:func:`~.check_points.checks_beyond_residuals`): the residuals' scale is then
     not the camera's error. A time-lapse trial's fit on 3.3 px residuals, its check points at 13.1 px: heading and
     pitch ± 0.03°, the pitch 0.075° off (2.8 σ)."""
     check, own = result.check_rmse_px, result.rmse_px
-    if not result.std or not checks_beyond_residuals(check, own, diag):
+    if not result.std or not checks_beyond_residuals(check, own, diag, result.mode == "paired"):
         return
     factor = float(check / max(own, 1.0))
     result.std = {name: value * factor for name, value in result.std.items()}

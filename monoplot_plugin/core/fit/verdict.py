@@ -42,19 +42,14 @@ from typing import Tuple
 
 import numpy as np
 
+from .check_points import CHECK_OVER_RESIDUALS, MIN_CHECKS, POOR_SHARE, WEAK_SHARE, checks_beyond_residuals
 from .lens import lens_text
 from .near_ground import FIT_CONSEQUENCE, HELD_CONSEQUENCE, loose_ground_text
 from .result import worst_check_words
 
-__all__ = ["degenerate_points", "weakest_parameter", "weak_direction_matters", "judge", "judge_by_checks",
-           "outlier_note", "photo_spread", "pairs_wanted"]
+__all__ = ["degenerate_points", "weakest_parameter", "weak_direction_matters", "judge", "outlier_note",
+           "photo_spread", "pairs_wanted", "POOR_SHARE", "WEAK_SHARE", "MIN_CHECKS"]
 
-#: check points more than this many times the fit's own RMSE off (and over 0.5 % of the picture) make it uncertain:
-#: a person's clicks on check points err by about as much as on the fitted points, not several times more
-CHECK_OVER_RESIDUALS = 3.0
-#: shares of the picture's diagonal: residuals or check points beyond POOR_SHARE make a fit poor; check points beyond
-#: WEAK_SHARE make it uncertain (and within it, with at least MIN_CHECKS of them, they verify it)
-POOR_SHARE, WEAK_SHARE, MIN_CHECKS = 0.03, 0.015, 4
 #: Why few of the fewer side's points match, and what to do (the automatic registration words it for its own points,
 #: which nobody accepted). Unpaired, a right point may simply have no accepted counterpart in the other view: a trial
 #: accepted 85 right photo points of which only 37 had one, and "reject the flagged points" would have lost 32 right
@@ -241,7 +236,7 @@ def judge(e: dict) -> Tuple[str, str]:
                     f"you know")
     # Check points far worse than the fit's own residuals: the residuals flatter the camera (pairs that agree with
     # each other, not with the terrain), whatever the share of the picture.
-    check_far = checks_beyond_residuals(check, rmse, diag)
+    check_far = checks_beyond_residuals(check, rmse, diag, e.get("mode") == "paired")
     named = worst_check_words(e)
     if np.isfinite(check) and check > POOR_SHARE * diag:
         poor.append("the independent check points disagree with the camera" + named)
@@ -254,9 +249,12 @@ def judge(e: dict) -> Tuple[str, str]:
     elif np.isfinite(check) and check > WEAK_SHARE * diag:
         weak.append("the check points are off by more than 1.5 % of the picture" + named)
     if check_far and not poor and check <= WEAK_SHARE * diag:
+        # paired: few pairs bend to fit a wrong one (a drone trial's GCP 2 m too high, 5 pairs: its residual 0.9 px)
+        wrong_pair = ", or a pair's map position or height is wrong (the camera bends to fit it)" \
+            if e.get("mode") == "paired" else ""
         weak.append(f"the check points are off by {check:.1f} px, {check / max(rmse, 1.0):.0f} times the fit's "
                     f"residuals: the camera is less accurate than its residuals say; add points near the check "
-                    f"points or pair a few{named}")
+                    f"points or pair a few{wrong_pair}{named}")
     cond = float(e.get("condition", 1.0))
     if cond > 1e6:
         weak.append(f"the points barely determine {e.get('weakest', 'a parameter')}: fix it or add points that "
@@ -439,56 +437,3 @@ def outlier_note(e: dict, sure: bool = True) -> str:
                        "view.")
     return text + (": the camera is uncertain, so they may be right and the camera wrong; judge them one by one "
                    "rather than rejecting them all.")
-
-
-def checks_beyond_residuals(check_rmse_px: float, rmse_px: float, diag: float) -> bool:
-    """True when check points are off by more than :data:`CHECK_OVER_RESIDUALS` times the camera's own residuals
-    ``rmse_px`` (at least 1 px) and by more than 0.5 % of the diagonal ``diag``: the residuals flatter the camera.
-
-    >>> checks_beyond_residuals(50.3, 7.7, 5000.0), checks_beyond_residuals(20.0, 7.7, 5000.0)
-    (True, False)
-    >>> checks_beyond_residuals(50.3, float("nan"), 5000.0)
-    False
-    """
-    return bool(np.isfinite(check_rmse_px) and np.isfinite(rmse_px)
-                and check_rmse_px > CHECK_OVER_RESIDUALS * max(rmse_px, 1.0) and check_rmse_px > 0.005 * diag)
-
-
-def judge_by_checks(check_rmse_px: float, n_check: int, diag: float,
-                    rmse_px: float = float("nan")) -> Tuple[str, str]:
-    """(status, message) of a camera nobody fitted here (loaded from a file) or the automatic registration's, from
-    its independent check points: "ok" only when at least :data:`MIN_CHECKS` of them agree as a fit's would;
-    without them it is unverified. With the camera's own residuals ``rmse_px`` (the automatic registration's
-    matched pairs), check points beyond 1.5 % of the picture and :data:`CHECK_OVER_RESIDUALS` times them make it
-    "poor", as they make a fit (a desktop trial: Find camera said "uncertain" with check points at 28.6 px, 13
-    times its residuals; Fit on the same points at once said "poor").
-
-    >>> judge_by_checks(float("nan"), 0, 1000.0)[0], judge_by_checks(4.0, 6, 1000.0)[0]
-    ('uncertain', 'ok')
-    >>> judge_by_checks(40.0, 6, 1000.0)[0], judge_by_checks(4.0, 2, 1000.0)[0]
-    ('poor', 'uncertain')
-    >>> judge_by_checks(20.0, 6, 1000.0)[0], judge_by_checks(20.0, 6, 1000.0, rmse_px=2.0)[0]
-    ('uncertain', 'poor')
-    >>> judge_by_checks(10.0, 6, 1000.0)[0], judge_by_checks(10.0, 6, 1000.0, rmse_px=2.0)[0]  # under 1.5 %
-    ('ok', 'uncertain')
-    """
-    if not n_check or not np.isfinite(check_rmse_px):
-        return "uncertain", ("Not checked: this camera was not fitted here and no check points measure it. Mark "
-                             f"{MIN_CHECKS} or more pairs as check points (key C), or fit it again.")
-    text = f"Check points: {check_rmse_px:.1f} px on {n_check}."
-    if check_rmse_px > POOR_SHARE * diag:
-        return "poor", text + " Probably wrong: the independent check points disagree with the camera."
-    far = checks_beyond_residuals(check_rmse_px, rmse_px, diag)
-    if check_rmse_px > WEAK_SHARE * diag:
-        if far:
-            return "poor", text + (f" Probably wrong: the independent check points are off by {check_rmse_px:.1f} "
-                                   f"px, {check_rmse_px / max(rmse_px, 1.0):.0f} times the camera's residuals.")
-        return "uncertain", text + " Uncertain: the check points are off by more than 1.5 % of the picture."
-    if far:  # as a fit judges them: a drone trial's 8 surveyed check points at 50 px, a 7.7 px fit, stayed "ok"
-        return "uncertain", text + (f" Uncertain: the check points are off by {check_rmse_px:.1f} px, "
-                                    f"{check_rmse_px / max(rmse_px, 1.0):.0f} times the camera's residuals: the "
-                                    f"camera is less accurate than its residuals say; add points near the check "
-                                    f"points or pair a few.")
-    if n_check < MIN_CHECKS:
-        return "uncertain", text + f" Uncertain: too few check points to verify it ({MIN_CHECKS} at least)."
-    return "ok", text
