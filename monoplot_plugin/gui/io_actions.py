@@ -44,11 +44,14 @@ def tr(text: str) -> str:
 
 # --- points ---------------------------------------------------------------------------------------------------
 def _add_imported(controller, photo: List[Point], world: List[Point], pairs: List[Tuple[str, str]],
-                  text: str) -> None:
-    """One undoable edit: the new points and their pairs."""
+                  text: str, changed: Optional[List[Point]] = None) -> None:
+    """One undoable edit: the new points and their pairs, and ``changed``: points already there, as the table
+    now gives them."""
     state = controller.state
     new = photo + world
-    edit = Edit(text, before={p.id: None for p in new}, after={p.id: p for p in new},
+    changed = changed or []
+    edit = Edit(text, before={**{p.id: None for p in new}, **{p.id: state.points[p.id] for p in changed}},
+                after={p.id: p for p in new + changed},
                 pairs_before=list(state.pairs) if pairs else None,
                 pairs_after=list(state.pairs) + pairs if pairs else None)
     controller.stack.push(edit)
@@ -101,6 +104,8 @@ def import_points_csv(controller, path: str, all_check: bool = False) -> int:
     there = _map_points_at(c.state)
     partner_of = {m: p for p, m in c.state.pairs}
     again = reused = rows = 0
+    heights: List[Point] = []
+    told: List[str] = []
     for i in range(n):
         has_uv = uv is not None and bool(np.isfinite(uv[i]).all())
         has_xyz = xyz is not None and bool(np.isfinite(xyz[i, :2]).all())
@@ -120,7 +125,14 @@ def import_points_csv(controller, path: str, all_check: bool = False) -> int:
                 b, reused = same, reused + 1
                 del there[_place(xyz[i])]  # paired now: a later row at the same place gets a point of its own
             elif has_uv and abs(partner.x - uv[i, 0]) < 0.01 and abs(partner.y - uv[i, 1]) < 0.01:
-                again += 1  # the same row imported before: nothing new
+                z = float(xyz[i, 2]) if math.isfinite(xyz[i, 2]) else None
+                if z is not None and (same.z is None or abs(same.z - z) > 0.005):
+                    # the same row with its height corrected: taken (a drone trial re-imported its table with one
+                    # GCP's surveyed height fixed, and "left as it is" kept the wrong one without a word)
+                    heights.append(dataclasses.replace(same, z=z))
+                    told.append(f"{label} {same.z if same.z is not None else float('nan'):.2f} → {z:.2f} m")
+                else:
+                    again += 1  # the same row imported before: nothing new
                 continue
         if has_uv:
             a = Point.new(PHOTO, uv[i, 0], uv[i, 1], status=status, manual=True, label=label)
@@ -132,8 +144,8 @@ def import_points_csv(controller, path: str, all_check: bool = False) -> int:
         if a is not None and b is not None:
             pairs.append((a.id, b.id))
         rows += a is not None or b is not None
-    if photo or world or pairs:  # an undo entry only for a real change
-        _add_imported(c, photo, world, pairs, tr("Import {0}").format(os.path.basename(path)))
+    if photo or world or pairs or heights:  # an undo entry only for a real change
+        _add_imported(c, photo, world, pairs, tr("Import {0}").format(os.path.basename(path)), heights)
     n_check = sum(1 for a, _ in pairs if c.state.points[a].status == CHECK)
     text = tr("{0}: {1} photo and {2} map points, {3} pairs ({4} check pairs).").format(
         os.path.basename(path), len(photo), len(world), len(pairs), n_check)
@@ -141,6 +153,9 @@ def import_points_csv(controller, path: str, all_check: bool = False) -> int:
         text += " " + tr("{0} map points were there already and are used again.").format(reused)
     if again:
         text += " " + tr("{0} rows were imported before and are left as they are.").format(again)
+    if heights:
+        text += " " + tr("Heights changed since the last import, taken (fit again): {0}.").format(
+            ", ".join(told[:5]) + (", …" if len(told) > 5 else ""))
     outside = _outside_photo(c, photo)
     if outside:
         text += " " + tr("{0} photo points lie outside the photo ({1}): imported rejected, out of the fit (Show ▾ "

@@ -188,6 +188,19 @@ def test_a_table_imported_again_or_on_a_second_photo_adds_no_map_point_twice(doc
     assert io_actions.import_points_csv(c, src) == 0  # the same rows: nothing new, and no empty undo entry
     assert "6 rows were imported before" in messages[-1] and c.stack.undo_text() == undo_text
     assert len(c.state.in_space(PHOTO)) == 6 and len(c.state.in_space(MAP)) == 6 and len(c.state.pairs) == 6
+    # the table again with one surveyed height corrected: taken, said, undoable (a drone trial's re-import of its
+    # corrected table kept the wrong height: "6 rows were imported before and are left as they are")
+    fixed = xyz.copy()
+    fixed[2, 2] -= 2.0
+    write_points_csv(src, uv=uv, xyz=fixed)
+    assert io_actions.import_points_csv(c, src) == 0
+    heights = sorted(p.z for p in c.state.in_space(MAP))
+    assert heights == pytest.approx(sorted(fixed[:, 2])) and len(c.state.in_space(MAP)) == 6
+    assert "Heights changed since the last import, taken (fit again): " in messages[-1], messages[-1]
+    assert f"{xyz[2, 2]:.2f} → {fixed[2, 2]:.2f} m" in messages[-1]
+    assert "5 rows were imported before" in messages[-1]
+    c.stack.undo()
+    assert sorted(p.z for p in c.state.in_space(MAP)) == pytest.approx(sorted(xyz[:, 2]))
     # the photo points go (another photo), the map points stay: a second table pairs its pixels with them
     c.stack.push(remove_points(c.state, [p.id for p in c.state.in_space(PHOTO)]))
     other = str(tmp_path / "modern.csv")
