@@ -141,8 +141,9 @@ class AutoPanel(QObject):
             for name, held, value in (("fov_sigma_deg", {"fov"}, FIXED_FOV_SIGMA_DEG),
                                       ("position_sigma_m", {"x", "y"}, FIXED_POSITION_SIGMA_M),
                                       ("angle_sigma_deg", {"heading", "pitch"}, FIXED_ANGLE_SIGMA_DEG)):
-                if sigmas[name] is None and not held & set(free):
-                    sigmas[name] = value
+                if not held & set(free):  # held, even where a ± is stated (that ± is for the others' σ): a
+                    # time-lapse trial's mast, Position ± 5 m and position unticked, was moved 9-10 m by the search
+                    sigmas[name] = value if sigmas[name] is None else min(float(sigmas[name]), value)
         lens = c.exif_lens() if sigmas["fov_sigma_deg"] is None and c.prior is not None else None
         if lens is not None and lens.fov and abs(c.prior.fov - lens.fov) < 0.05:
             # the lens is known: a drone trial's 24 mm equivalent (71.6°) left the search free to end at 113.7°

@@ -404,7 +404,7 @@ def test_a_rough_camera_at_the_photos_gps_position_is_searched_near_it(dock, val
 def test_a_field_of_view_the_fit_holds_is_held_by_find_camera_too(dock, valley, qtbot):
     """A trial's 35 mm lens (54.43°), its field of view unchecked in the fit settings: Find camera returned 54.86°
     and 61.06° (its own σ, 10 %, was all it knew). What the fit may not change, the search keeps."""
-    from monoplot_plugin.gui.auto_panel import FIXED_FOV_SIGMA_DEG
+    from monoplot_plugin.gui.auto_panel import FIXED_FOV_SIGMA_DEG, FIXED_POSITION_SIGMA_M
 
     c = _open_valley(dock, valley)
     panel = dock.auto_panel
@@ -413,6 +413,14 @@ def test_a_field_of_view_the_fit_holds_is_held_by_find_camera_too(dock, valley, 
     box.setChecked(False)  # as the person unticks it
     assert panel.prior_sigmas(True)["fov_sigma_deg"] == FIXED_FOV_SIGMA_DEG
     assert panel.prior_sigmas(True)["position_sigma_m"] is None  # the position is still free
+    # a held position is held by the search even with a Position ± stated (that ± is for the others' σ): a
+    # time-lapse trial's mast, Position ± 5 m and position unticked, was moved 9-10 m by Find camera
+    dock.fit_settings.sigma_spins["position_sigma_m"].setValue(5.0)
+    assert panel.prior_sigmas(True)["position_sigma_m"] == 5.0
+    dock.fit_settings.free_checks["position"].setChecked(False)
+    assert panel.prior_sigmas(True)["position_sigma_m"] == FIXED_POSITION_SIGMA_M
+    dock.fit_settings.free_checks["position"].setChecked(True)
+    dock.fit_settings.sigma_spins["position_sigma_m"].setValue(0.0)
     prior_fov = c.prior.fov
     run_find_camera(dock, qtbot)
     assert abs(c.fitted.fov - prior_fov) <= 3.0 * FIXED_FOV_SIGMA_DEG + 1e-6, (c.fitted.fov, prior_fov)
