@@ -112,7 +112,8 @@ def yield_to_work() -> None:
 
 
 def warm_up(progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None) -> Dict[str, float]:
-    """Run suggest, fit and render once on a 48 x 48 cell scene; returns the seconds each took (by step name).
+    """Run the photo's skyline detection on a small picture, then render, suggest and fit once on a 48 x 48 cell
+    scene; returns the seconds each took (by step name).
 
     No result is kept; the point is the side effect (kernels compiled or loaded, modules imported). Raises
     ``Canceled`` when ``is_canceled()`` turns true between steps, or :func:`yield_to_work` was called."""
@@ -138,6 +139,18 @@ def warm_up(progress: Optional[Progress] = None, is_canceled: Optional[IsCancele
     x, y = terrain.cell_to_map(24, 46)
     camera = Camera((x, y, float(terrain.sample(x, y)) + 200.0), 0.0, -5.0, 0.0, 60.0, (96, 64),
                     crs_wkt=terrain.crs_wkt)
+    t = time.perf_counter()
+    # first the photo's skyline: a rough camera's pitch is set from it on the main thread, the first thing done
+    # after loading a photo (a time-lapse trial's typed position froze QGIS 6-20 s while it compiled there)
+    from ..core.auto.photo_edges import detect_photo_edges
+
+    rows = np.arange(64)[:, None, None]
+    sky = rows < 20 + 6 * np.sin(np.arange(96) / 9.0)[None, :, None]
+    detect_photo_edges(np.where(sky, 210, 60 + (rows * 7 + np.arange(96)[None, :, None] * 13) % 90)
+                       .repeat(3, axis=2).astype(np.uint8))
+    seconds["skyline"] = time.perf_counter() - t
+    report(0.05, "skyline")
+    check_canceled(is_canceled)
     t = time.perf_counter()
     for dtype in (np.float64, np.float32):  # the z-buffer and the render: one signature per DEM dtype
         check_canceled(is_canceled)
