@@ -126,6 +126,6 @@ class FeatureDialogsMixin:
             iface.showAttributeTable(layer)
         if measured:
             self._message(self.tr("Edit names and your fields in the photo layers' tables; the \"(map)\" tables "
-                                  "show what was measured on the ground (area, length, area_error, xy_error_m, "
-                                  "z_error_m)."),
+                                  "show what was measured on the ground (area on the map, area3d along the terrain, "
+                                  "length, area_error, xy_error_m, z_error_m)."),
                           Qgis.MessageLevel.Info)

@@ -6,7 +6,9 @@ on sky already split off (see :mod:`.digitise`). :func:`write_vector_layer` writ
 - Z geometries: ``Point Z`` for points, ``MultiLineString Z`` for lines (a line crossing sky becomes several
   parts), ``MultiPolygon Z`` for polygons;
 - the user's attribute fields (name, type) plus computed ones, in map units of the CRS:
-  ``area`` (planimetric, polygons), ``length`` (planimetric) and ``length3d`` (along the terrain, lines),
+  ``area`` (planimetric, polygons), ``area3d`` (along the terrain's surface, polygons: the area times the DEM's mean
+  surface factor inside, :func:`~monoplot_plugin.workflow.features.surface_factor`), ``length`` (planimetric) and
+  ``length3d`` (along the terrain, lines),
   ``sky_parts`` (how many pieces of the drawn feature were over sky or off the DEM and were left out),
   ``silhouette`` (polygons: how many times the outline crosses a silhouette, where it then encloses ground the photo
   does not show, which its area counts), and
@@ -42,8 +44,8 @@ FIELD_TYPES = {"string": ogr.OFTString, "integer": ogr.OFTInteger, "real": ogr.O
 #: Fields Monoplot adds, by geometry kind.
 COMPUTED_FIELDS = {"point": ("sky_parts", "xy_error_m", "z_error_m", "m_per_px", "m_px_max"),
                    "line": ("length", "length3d", "sky_parts", "xy_error_m", "z_error_m", "m_per_px", "m_px_max"),
-                   "polygon": ("area", "area_error", "length", "sky_parts", "silhouette", "xy_error_m", "z_error_m",
-                               "m_per_px", "m_px_max")}
+                   "polygon": ("area", "area3d", "area_error", "length", "sky_parts", "silhouette", "xy_error_m",
+                               "z_error_m", "m_per_px", "m_px_max")}
 #: The field of the verdict (ok / uncertain / poor) of the camera a map feature was mapped with, beside the
 #: measures (dock and Processing; empty when unknown): a trial's outline from an "uncertain" camera, 72 % too small,
 #: read in its exported file as any other.
@@ -84,6 +86,8 @@ class MapFeature:
     m_px_max: Optional[float] = None
     #: polygons: how much the area changes with the camera's error (map units squared), None: the buffer estimate
     area_error_m2: Optional[float] = None
+    #: polygons: the terrain's surface over its map area inside the outline (``area3d`` = area x it), None: unknown
+    surface_factor: Optional[float] = None
 
     def __post_init__(self):
         if self.kind not in _OGR_GEOMETRY:
@@ -130,6 +134,8 @@ class MapFeature:
         out: Dict[str, float] = {}
         if self.kind == "polygon":
             out["area"] = float(sum(abs(_shoelace(p[:, :2])) for p in self.parts))
+            if self.surface_factor is not None and np.isfinite(self.surface_factor):
+                out["area3d"] = round(out["area"] * float(self.surface_factor), 1)
             out["length"] = float(sum(_path_length(_closed(p)[:, :2]) for p in self.parts))
             out["silhouette"] = int(self.silhouettes)
             if self.area_error_m2 is not None and np.isfinite(self.area_error_m2):

@@ -14,7 +14,7 @@ from ..adapters.photo_space import geometry_parts as _parts
 from ..core.transforms import ground_pieces, silhouette_crossings, true_runs
 from ..adapters.photo_space import computed_fields, geometry_kind
 from ..outputs.vectors import MapFeature
-from ..workflow.features import feature_errors, ground_per_pixel
+from ..workflow.features import feature_errors, ground_per_pixel, surface_factor
 from . import pipeline
 
 #: Relative range jump between consecutive line vertices that cuts the line (a silhouette).
@@ -69,7 +69,19 @@ def photo_to_map_geometry(geometry: QgsGeometry, camera, dem, step: float, y_sig
     crossings = sum(silhouette_crossings(p, camera.position, SILHOUETTE_JUMP) for p in pieces) \
         if built_kind == "polygon" else 0
     return built, dropped, MapFeature(built_kind, pieces, sky_parts=sky_parts, **errors,
-                                      silhouettes=crossings, m_per_px=median, m_px_max=largest).measures()
+                                      silhouettes=crossings, m_per_px=median, m_px_max=largest,
+                                      surface_factor=_surface_factor(pieces, dem) if built_kind == "polygon"
+                                      else None).measures()
+
+
+def _surface_factor(rings, dem) -> Optional[float]:
+    """The rings' :func:`~..workflow.features.surface_factor`, weighted by their map areas (None when unknown)."""
+    from ..outputs.vectors import polygon_area
+
+    weighted = [(polygon_area(r[:, :2]), surface_factor(r[:, :2], dem)) for r in rings]
+    weighted = [(a, f) for a, f in weighted if f is not None and a > 0]
+    total = sum(a for a, _ in weighted)
+    return sum(a * f for a, f in weighted) / total if total > 0 else None
 
 
 def map_to_photo_geometry(geometry: QgsGeometry, camera, dem, step: float, visible=None, y_sign: float = PHOTO_Y_SIGN,

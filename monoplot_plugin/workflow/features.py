@@ -20,7 +20,7 @@ from ..outputs.vectors import MapFeature
 from .spread import CameraSpread, ground_errors_m
 
 __all__ = ["photo_to_map_feature", "PhotoPath", "map_to_photo", "pixel_error", "checks_measure", "feature_error_m",
-           "feature_errors", "ground_per_pixel", "area_error_m2"]
+           "feature_errors", "ground_per_pixel", "area_error_m2", "surface_factor"]
 
 #: Check points from which a fit's pixel error is theirs (:func:`pixel_error`), not its σ's or its leave-one-out
 #: error's: with 3 or more drawn at random, the bound they give covered the camera's error in 98-100 % of the
@@ -167,6 +167,45 @@ def area_error_m2(ring_uv: np.ndarray, lookup, camera, pixel_rmse: Optional[floa
     return float(np.sqrt(np.sum(np.square(changes))))
 
 
+def surface_factor(ring_xy: np.ndarray, dem) -> Optional[float]:
+    """How much larger the terrain's surface is than its map area inside a ring (N, 2) of map X, Y: the mean of
+    sqrt(1 + (dz/dx)² + (dz/dy)²) over the DEM cells whose centres lie inside (the cell nearest its centroid for a
+    ring smaller than a cell); None off the DEM. A rockfall scar on a 45° slope, 9908 m² on the map, is 14184 m²
+    of rock face: a drone trial's geomorphologist had only the map area, and no word that it was one.
+
+    >>> from ..core.dem import Dem
+    >>> ramp = Dem.from_array(np.tile(np.arange(40.0) * 10.0, (40, 1)), (0, 10, 0, 400, 0, -10))  # 45 degrees
+    >>> round(surface_factor(np.array([[50.0, 50], [300, 50], [300, 300], [50, 300]]), ramp), 4)
+    1.4142
+    """
+    import cv2
+
+    xy = np.asarray(ring_xy, dtype=np.float64).reshape(-1, 2)
+    if dem is None or len(xy) < 3:
+        return None
+    col, row = dem.map_to_cell(xy[:, 0], xy[:, 1])
+    c0, r0 = max(int(np.floor(np.min(col))) - 1, 0), max(int(np.floor(np.min(row))) - 1, 0)
+    c1, r1 = min(int(np.ceil(np.max(col))) + 2, dem.cols), min(int(np.ceil(np.max(row))) + 2, dem.rows)
+    if c1 - c0 < 2 or r1 - r0 < 2:
+        return None
+    g = dem.geotransform
+    window = type(dem).from_array(dem.elevation[r0:r1, c0:c1], (g[0] + c0 * g[1] + r0 * g[2], g[1], g[2],
+                                                                 g[3] + c0 * g[4] + r0 * g[5], g[4], g[5]))
+    dzdx, dzdy = window.gradient()
+    factor = np.sqrt(1.0 + dzdx ** 2 + dzdy ** 2)
+    inside = np.zeros(factor.shape, np.uint8)
+    # cell (c, r) covers [c, c + 1): its centre at c + 0.5 is pixel c's centre for fillPoly
+    ring = np.round(np.column_stack([col - c0 - 0.5, row - r0 - 0.5]) * 16).astype(np.int32)
+    cv2.fillPoly(inside, [ring], 1, lineType=cv2.LINE_8, shift=4)
+    values = factor[inside.astype(bool) & np.isfinite(factor)]
+    if not len(values):
+        cc, rr = int(np.clip(np.mean(col) - c0, 0, factor.shape[1] - 1)), int(np.clip(np.mean(row) - r0, 0,
+                                                                                     factor.shape[0] - 1))
+        values = factor[rr:rr + 1, cc:cc + 1].ravel()
+        values = values[np.isfinite(values)]
+    return float(np.mean(values)) if len(values) else None
+
+
 def ground_per_pixel(ground_uv: np.ndarray, camera, dem) -> Tuple[Optional[float], Optional[float]]:
     """(median, largest) horizontal shift (metres, RMS) one pixel of photo error causes on the ground, over up to
     :data:`ERROR_SAMPLES` of a feature's ground samples (pixels, evenly along it): how far a click one pixel off
@@ -271,7 +310,9 @@ def photo_to_map_feature(kind: str, vertices, xyz: Optional[np.ndarray] = None, 
         if len(ring) < 3:
             return None
         crossings = silhouette_crossings(ring, origin, jump) if origin is not None else 0
+        factor = surface_factor(ring[:, :2], dem)
         return MapFeature("polygon", [ring], attributes, sky_parts=sky, silhouettes=crossings,
+                          surface_factor=factor,
                           **feature_errors(dense[:-1][ring_valid], camera, dem, pixel_rmse, spread),
                           area_error_m2=area_error_m2(dense[:-1], lookup, camera, pixel_rmse) if dem is not None
                           else None,

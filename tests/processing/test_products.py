@@ -110,6 +110,12 @@ def test_photo_polygon_becomes_3d_map_polygon_on_the_terrain(run_alg, small_scen
     # the measures the dock's drawings carry (a desktop trial: Processing kept only the input's fields)
     feature = next(layer.getFeatures())
     assert geometry.area() > 0 and feature["area"] == pytest.approx(geometry.area(), rel=1e-6)
+    # and its area along the terrain: larger, by the DEM's slopes inside (the dock's surface_factor)
+    from monoplot_plugin.workflow.features import surface_factor
+
+    ring = vertices[:, :2]
+    assert feature["area3d"] == pytest.approx(feature["area"] * surface_factor(ring, dem), rel=1e-3)
+    assert feature["area3d"] > feature["area"]
     assert feature["length"] == pytest.approx(geometry.length(), rel=1e-6) and feature["sky_parts"] == 0
     assert feature["xy_error_m"] in (None, NULL)  # no pixel error given: no claim
     # With the fit's pixel error: the median footprint of the outline's ground points, twice as large for twice
