@@ -584,20 +584,28 @@ def test_a_refit_that_moved_the_camera_far_beyond_the_stated_position_is_not_ok(
     assert moved > 3 * 5.0 and outcome.status == "uncertain"
 
 
-def test_suggest_after_a_poor_fit_renders_the_dem_from_the_rough_camera(dock, scene, qtbot):
-    """A flood trial's Suggest after a poor automatic run rendered the DEM from that camera, 31 m under the terrain
-    (77 DEM suggestions against 159-340 from the rough camera): a camera judged "poor" gives way to the rough one."""
+def _dem_suggestions_after(dock, scene, qtbot, fitted, info) -> tuple:
+    """(DEM suggestions (M, 3), the messages said) of a Suggest with ``fitted`` as the fitted camera (``info`` its
+    fit) and the scene's rough camera."""
     load_inputs(dock, scene, qtbot)
     c = dock.controller
     c.set_prior(scene.prior)
-    x, y, z = scene.camera.position
-    wrong = scene.camera.with_parameters(heading=scene.camera.heading + 150.0, z=z - 600.0)  # under the terrain
-    c.set_fitted(wrong, {"status": "poor", "message": "Probably wrong"})
+    c.set_fitted(fitted, info)
+    messages = []
+    c.message.connect(lambda text, level: messages.append(text))
     press(qtbot, dock.suggestButton)
     with qtbot.waitSignal(c.taskFinished, timeout=60000) as blocker:
         pass
     assert blocker.args[0].ok, blocker.args[0].reason
-    dem_points = np.array([(p.x, p.y, p.z) for p in c.state.points.values() if p.space == MAP], dtype=float)
+    return np.array([(p.x, p.y, p.z) for p in c.state.points.values() if p.space == MAP], dtype=float), messages
+
+
+def test_suggest_after_a_poor_fit_renders_the_dem_from_the_rough_camera(dock, scene, qtbot):
+    """A flood trial's Suggest after a poor automatic run rendered the DEM from that camera, 31 m under the terrain
+    (77 DEM suggestions against 159-340 from the rough camera): a camera judged "poor" gives way to the rough one."""
+    x, y, z = scene.camera.position
+    wrong = scene.camera.with_parameters(heading=scene.camera.heading + 150.0, z=z - 600.0)  # under the terrain
+    dem_points, _ = _dem_suggestions_after(dock, scene, qtbot, wrong, {"status": "poor", "message": "Probably wrong"})
     assert len(dem_points) >= 50
     seen = scene.prior.in_image(scene.prior.project(dem_points))
     assert seen.mean() > 0.9, seen.mean()
@@ -607,18 +615,9 @@ def test_suggest_after_a_fit_that_sees_the_sky_takes_the_dem_from_the_rough_came
     """A summit trial's automatic run failed "uncertain" with the camera pitched 35° up: Suggest rendered the DEM
     from it and gave 0 DEM suggestions, with no way on. A fitted camera that sees too little terrain gives way to
     the rough camera's rendering, and the message says so."""
-    load_inputs(dock, scene, qtbot)
-    c = dock.controller
-    c.set_prior(scene.prior)
     skyward = scene.camera.with_parameters(pitch=60.0)
-    c.set_fitted(skyward, {"status": "uncertain", "message": "Uncertain"})
-    messages = []
-    c.message.connect(lambda text, level: messages.append(text))
-    press(qtbot, dock.suggestButton)
-    with qtbot.waitSignal(c.taskFinished, timeout=60000) as blocker:
-        pass
-    assert blocker.args[0].ok, blocker.args[0].reason
-    dem_points = np.array([(p.x, p.y, p.z) for p in c.state.points.values() if p.space == MAP], dtype=float)
+    dem_points, messages = _dem_suggestions_after(dock, scene, qtbot, skyward,
+                                                  {"status": "uncertain", "message": "Uncertain"})
     assert len(dem_points) >= 50
     assert scene.prior.in_image(scene.prior.project(dem_points)).mean() > 0.9
     assert any("they come from the rough camera" in m for m in messages), messages
