@@ -145,8 +145,10 @@ class FittingMixin:
             self.message.emit(heightless, WARNING)
         n_links = len(self.state.valid_pairs())
         if 0 < n_links < self.MIN_POINTS:
-            self.message.emit(self.tr("{0} pair(s) ignored: a paired fit needs at least {1}; fitting without "
-                                      "pairs.").format(n_links, self.MIN_POINTS), INFO)
+            # not "ignored": their points are fitted, unpaired (a time-lapse trial read "3 pair(s) ignored" and then
+            # "were fitted as unpaired points" in the fit's message)
+            self.message.emit(self.tr("Your {0} linked pair(s) are fitted as unpaired points: a paired fit needs at "
+                                      "least {1}.").format(n_links, self.MIN_POINTS), INFO)
         photo_ids, world_ids = self._fit_ids
         point_xy = {pid: (self.state.points[pid].x, self.state.points[pid].y) for pid in photo_ids + world_ids}
         check_ids, check_uv, check_xyz = self.check_points()

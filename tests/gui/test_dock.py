@@ -306,8 +306,12 @@ def test_too_few_linked_pairs_are_said_in_the_fits_own_message(dock, scene, qtbo
     for k in range(3):
         c.link(photo[k].id, world[k].id)
     c.set_prior(scene.prior)
+    said = []
+    c.message.connect(lambda text, level: said.append(text))
     with qtbot.waitSignal(c.taskFinished, timeout=120000):
         assert c.fit()
+    # said before the fit as it is done: not "ignored" (a trial read "3 pair(s) ignored", then "fitted as unpaired")
+    assert "Your 3 linked pair(s) are fitted as unpaired points: a paired fit needs at least 4." in said, said
     assert c.state.fit_info["mode"] == "unpaired"
     assert c.state.fit_info["message"].endswith("Your 3 linked pair(s) were fitted as unpaired points: a paired "
                                                 "fit needs at least 4.")
