@@ -60,8 +60,13 @@ def follow_the_turn(controller, previous) -> None:
             if f"{key}_before_checks" in info:
                 info[key] = info.pop(f"{key}_before_checks")
         info.pop("checks_measured", None)
-        turned = tr("Turned onto this frame by {0:.3f}° ({1:.1f} px).").format(drift.degrees, drift.pixels)
-        info["message"] = (info.get("message", "") + " " + turned).strip()
+        turned = tr("Turned onto this frame by {0:.3f}° ({1:.1f} px) from the previous one.").format(
+            drift.degrees, drift.pixels)
+        # one such sentence, the last frame's: a time-lapse trial's third frame read "Turned … by 1.773° … Turned …
+        # by 3.512°", the second from the second frame, not the first
+        kept = [part for part in info.get("message", "").split(". ")
+                if not part.startswith(tr("Turned onto this frame"))]
+        info["message"] = (". ".join(kept).rstrip(". ") + ". " + turned).lstrip(". ").strip()
         if photo and info.get("fit_point_xy"):  # the points the fit used moved with the camera: not "changed"
             xy = dict(info["fit_point_xy"])
             xy.update({p.id: [float(u), float(v)] for p, (u, v) in zip(photo, moved) if p.id in xy})

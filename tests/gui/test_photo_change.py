@@ -212,8 +212,21 @@ def test_check_points_kept_on_a_turned_frame_are_measured_with_the_turned_camera
     measured = [float(t.split("Check points: ")[1].split(" px")[0]) for t in said if t.startswith("Check points: ")]
     assert all(m < first + 0.5 for m in measured), said  # never a figure of the camera not yet turned
     assert info["status"] == "ok" and "Turned onto this frame" in info["message"]
+    after_first = c.fitted
+    # a third frame, turned back: one sentence, this frame's, from the previous one (a trial's third frame said
+    # "Turned … by 1.773° … Turned … by 3.512°", the second from the second frame)
+    third = str(tmp_path / "frame_back.png")
+    assert array_to_qimage(render_photo(scene.camera, scene.dem, noise=False)).save(third)
+    answer_with(qtbot, "Keep the points", [])
+    dock.photoFile.setFilePath(third)
+    qtbot.wait(50)
+    message = c.state.fit_info["message"]
+    assert message.count("Turned onto this frame") == 1 and "° (" in message, message
+    assert message.startswith("the true camera") and message.endswith("px) from the previous one."), message
+    assert abs(c.fitted.heading - scene.camera.heading) < 0.07
     c.stack.undo()  # the points and the cameras turn back together: measured with the camera turned back
-    assert c.fitted == scene.camera and c.state.fit_info["check_rmse_px"] < first + 0.5
+    assert c.fitted == after_first
+    assert c.state.fit_info["check_rmse_px"] < first + 0.5
 
 
 def test_a_damaged_photo_is_refused_before_any_question(dock, scene, qtbot, tmp_path):
