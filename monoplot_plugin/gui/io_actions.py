@@ -148,7 +148,9 @@ def import_points_csv(controller, path: str, all_check: bool = False) -> int:
         _add_imported(c, photo, world, pairs, tr("Import {0}").format(os.path.basename(path)), heights)
     n_check = sum(1 for a, _ in pairs if c.state.points[a].status == CHECK)
     text = tr("{0}: {1} photo and {2} map points, {3} pairs ({4} check pairs).").format(
-        os.path.basename(path), len(photo), len(world), len(pairs), n_check)
+        os.path.basename(path), len(photo), len(world), len(pairs), n_check) if photo or world or pairs else \
+        tr("{0}: no new points.").format(os.path.basename(path))  # not "0 photo and 0 map points" (a re-check
+    # trial read that as nothing done, before the heights it had changed)
     if reused:
         text += " " + tr("{0} map points were there already and are used again.").format(reused)
     if again:

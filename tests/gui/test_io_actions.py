@@ -196,6 +196,7 @@ def test_a_table_imported_again_or_on_a_second_photo_adds_no_map_point_twice(doc
     assert io_actions.import_points_csv(c, src) == 0
     heights = sorted(p.z for p in c.state.in_space(MAP))
     assert heights == pytest.approx(sorted(fixed[:, 2])) and len(c.state.in_space(MAP)) == 6
+    assert messages[-1].startswith("gcps.csv: no new points.") and "0 photo" not in messages[-1], messages[-1]
     assert "Heights changed since the last import, taken (fit again): " in messages[-1], messages[-1]
     assert f"{xyz[2, 2]:.2f} → {fixed[2, 2]:.2f} m" in messages[-1]
     assert "5 rows were imported before" in messages[-1]
