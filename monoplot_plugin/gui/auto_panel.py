@@ -105,11 +105,13 @@ class AutoPanel(QObject):
         # a view far from the rough heading (a trial's 183°) is looked for over every direction when the edges fit
         # loosely near it, unless the person gave the angles' uncertainty (Angles ±): then the heading is that sure
         search_wider = sigmas["angle_sigma_deg"] is None
+        free = fit_arguments(c.state.settings)[0]
+        hold = free is not None and not {"x", "y"} & set(free) and prior is not None and start is prior
 
         def work(progress, is_canceled):
             done = auto_step.register(photo, dem, start, **sigmas, progress=part(progress, 0.0, 0.9),
                                       is_canceled=is_canceled, heading_known=heading_known,
-                                      every_direction_if_loose=search_wider, **height)
+                                      every_direction_if_loose=search_wider, hold_position=hold, **height)
             overlay, xyz, footprint = engine.render_products(done.camera, dem, is_canceled)
             # the DEM's silhouettes under the camera found over the photo's detected skyline
             overlay = draw_alignment(overlay, done.camera, done.result.skyline, dem)
@@ -152,20 +154,22 @@ class AutoPanel(QObject):
 
     def _earlier_against_stated(self, found) -> Optional[tuple]:
         """(metres, σ, metres) when the fitted camera (an earlier registration's) lies more than twice the position σ
-        the person stated (Position ±, or a GPS's usual error for an EXIF position) from the rough camera, and
-        ``found`` nearer to it: the earlier camera contradicts what they now say more, so it does not win on the
-        edge score (a time-lapse trial: a first run 70 m off; a second with Position ± 20 m was set aside for
-        fitting the edges a little less well). None otherwise (no σ stated: the edge scores decide)."""
+        the person stated (Position ±, a GPS's usual error for an EXIF position, 1 m for a held one) from the rough
+        camera, and ``found`` nearer to it: the earlier camera contradicts what they now say more, so it does not
+        win on the edge score (a time-lapse trial: a first run 70 m off; a second with Position ± 20 m was set
+        aside for fitting the edges a little less well). None otherwise (no σ stated: the edge scores decide)."""
         from .priors import GPS_POSITION_M, GPS_SOURCE
 
         c = self.controller
         prior, earlier = c.prior, c.fitted
         if prior is None or earlier is None:
             return None
-        options = fit_arguments(c.state.settings)[1]  # None without fit settings
+        free, options = fit_arguments(c.state.settings)  # None without fit settings
         sigma = getattr(options, "position_sigma_m", None)
         if sigma is None and c.state.settings.get("prior_source") == GPS_SOURCE:
             sigma = GPS_POSITION_M
+        if free is not None and not {"x", "y"} & set(free):  # held: where the person says the camera stood
+            sigma = FIXED_POSITION_SIGMA_M
         if not sigma:
             return None
 

@@ -69,7 +69,8 @@ def register(photo: np.ndarray, dem, prior: Camera, position_sigma_m: Optional[f
              angle_sigma_deg: Optional[float] = None, fov_sigma_deg: Optional[float] = None,
              progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None,
              heading_known: bool = True, on_ground: Optional[bool] = None,
-             eye_height: Optional[float] = None, every_direction_if_loose: bool = False) -> AutoDone:
+             eye_height: Optional[float] = None, every_direction_if_loose: bool = False,
+             hold_position: bool = False) -> AutoDone:
     """Register ``photo`` on ``dem`` from ``prior`` with no points given. ``heading_known`` False: the prior's
     heading is a guess (no direction in the photo's EXIF): every direction of view is searched
     (:func:`~monoplot_plugin.core.auto.heading.register_any_heading`, three to four times as long).
@@ -78,6 +79,7 @@ def register(photo: np.ndarray, dem, prior: Camera, position_sigma_m: Optional[f
     direction is searched too, and the better fit of the edges kept (:func:`_every_direction`).
     ``on_ground``, ``eye_height``: the camera height rule of a fit (:func:`~.fit.on_ground_rule`; None: a rough
     camera within a few metres of the terrain stands on it): a camera on the ground is searched and fitted on it.
+    ``hold_position``: the prior's X, Y are known (unticked in the fit settings): the final fit holds them.
 
     Raises:
         Canceled: ``is_canceled()`` turned true (nothing to keep).
@@ -88,7 +90,8 @@ def register(photo: np.ndarray, dem, prior: Camera, position_sigma_m: Optional[f
     search = dict(  # the prior's uncertainty and height rule, for the search near its heading and any other
         position_sigma_m=DEFAULT_POSITION_SIGMA_M if position_sigma_m is None else float(position_sigma_m),
         angle_sigma_deg=DEFAULT_ANGLE_SIGMA_DEG if angle_sigma_deg is None else float(angle_sigma_deg),
-        fov_sigma_deg=fov_sigma_deg, eye_height_m=eye if grounded else None, is_canceled=is_canceled)
+        fov_sigma_deg=fov_sigma_deg, eye_height_m=eye if grounded else None, hold_position=hold_position,
+        is_canceled=is_canceled)
     # one bar over both searches: the one near the rough heading fills its first part, so a search of every
     # direction that follows continues the bar instead of starting it again at 0 %
     wider = every_direction_if_loose and heading_known

@@ -424,6 +424,10 @@ def test_a_field_of_view_the_fit_holds_is_held_by_find_camera_too(dock, valley, 
     prior_fov = c.prior.fov
     run_find_camera(dock, qtbot)
     assert abs(c.fitted.fov - prior_fov) <= 3.0 * FIXED_FOV_SIGMA_DEG + 1e-6, (c.fitted.fov, prior_fov)
+    # a position unticked is where the camera ends, not only where the search looks (a re-check trial: 6.6 m off)
+    dock.fit_settings.free_checks["position"].setChecked(False)
+    run_find_camera(dock, qtbot)
+    assert c.fitted.position[:2] == pytest.approx(c.prior.position[:2], abs=1e-6)
 
 
 def test_a_second_registration_is_weighed_against_the_first_not_set_aside_as_the_persons_fit(dock, valley, qtbot):

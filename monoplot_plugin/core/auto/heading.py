@@ -107,7 +107,7 @@ def _heading_gap(a: float, b: float) -> float:
 
 def register_any_heading(image, dem, prior: Camera, *, position_sigma_m: Optional[float] = None,
                          angle_sigma_deg: Optional[float] = None, fov_sigma_deg: Optional[float] = None,
-                         eye_height_m: Optional[float] = None,
+                         eye_height_m: Optional[float] = None, hold_position: bool = False,
                          progress: Optional[Callable[[float, str], None]] = None,
                          is_canceled: Optional[Callable[[], bool]] = None) -> AutoFitResult:
     """:func:`~.register.register_automatic` for a ``prior`` whose heading says nothing (its position, height,
@@ -132,7 +132,8 @@ def register_any_heading(image, dem, prior: Camera, *, position_sigma_m: Optiona
     if not candidates:  # no direction sees the DEM: the ordinary registration says so
         return register_automatic(image, dem, prior, position_sigma_m=position_sigma_m,
                                   angle_sigma_deg=angle_sigma_deg, fov_sigma_deg=fov_sigma_deg,
-                                  eye_height_m=eye_height_m, progress=progress, is_canceled=is_canceled)
+                                  eye_height_m=eye_height_m, hold_position=hold_position, progress=progress,
+                                  is_canceled=is_canceled)
     results = []
     for i, (_, heading, pitch, fov) in enumerate(candidates):
         if sig["fov_deg"] < FOV_KNOWN_DEG:
@@ -141,8 +142,8 @@ def register_any_heading(image, dem, prior: Camera, *, position_sigma_m: Optiona
         result = register_automatic(
             image, dem, prior.with_parameters(heading=heading, pitch=pitch, fov=fov),
             position_sigma_m=position_sigma_m, angle_sigma_deg=angle_sigma_deg, fov_sigma_deg=fov_sigma_deg,
-            eye_height_m=eye_height_m, progress=lambda f, m="", part=part: report(part[0] + part[1] * f, m),
-            is_canceled=is_canceled)
+            eye_height_m=eye_height_m, hold_position=hold_position,
+            progress=lambda f, m="", part=part: report(part[0] + part[1] * f, m), is_canceled=is_canceled)
         if result.status == "canceled":
             return result
         results.append(result)
