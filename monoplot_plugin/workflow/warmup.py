@@ -6,7 +6,7 @@ with the bar at 5 %) and when a saved project was reopened. :func:`warm_up` runs
 tiny generated scene (both DEM dtypes the readers produce), so the plugin can call it in a task when it starts.
 
 >>> sorted(warm_up())
-['fit', 'render', 'suggest']
+['fit', 'render', 'skyline', 'suggest']
 """
 
 from __future__ import annotations
