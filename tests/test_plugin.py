@@ -71,7 +71,7 @@ def test_init_gui_warms_the_kernels_in_a_background_task(plugin, qtbot):
     assert task in tasks_module._LIVE  # kept referenced while its thread runs
     qtbot.waitUntil(lambda: task not in tasks_module._LIVE, timeout=120000)
     assert task.result is not None and task.result.ok, task.result
-    assert set(task.result.value) == {"skyline", "render", "suggest", "fit"}
+    assert set(task.result.value) == {"sight", "render", "suggest", "fit"}
 
 
 def test_unload_during_the_warm_up_cancels_it(qgis_iface, qtbot):

@@ -6,7 +6,7 @@ with the bar at 5 %) and when a saved project was reopened. :func:`warm_up` runs
 tiny generated scene (both DEM dtypes the readers produce), so the plugin can call it in a task when it starts.
 
 >>> sorted(warm_up())
-['fit', 'render', 'skyline', 'suggest']
+['fit', 'render', 'sight', 'suggest']
 """
 
 from __future__ import annotations
@@ -112,8 +112,9 @@ def yield_to_work() -> None:
 
 
 def warm_up(progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None) -> Dict[str, float]:
-    """Run the photo's skyline detection on a small picture and a line of sight, then render, suggest and fit once
-    on a 48 x 48 cell scene; returns the seconds each took (by step name).
+    """Run a line of sight, then render, suggest and fit once on a 48 x 48 cell scene; returns the seconds each took
+    (by step name). Not the photo's skyline detection (OpenCV): imported on this thread as QGIS 3.40 starts, it
+    crashed QGIS (signal 11, the desktop smoke test).
 
     No result is kept; the point is the side effect (kernels compiled or loaded, modules imported). Raises
     ``Canceled`` when ``is_canceled()`` turns true between steps, or :func:`yield_to_work` was called."""
@@ -140,22 +141,14 @@ def warm_up(progress: Optional[Progress] = None, is_canceled: Optional[IsCancele
     camera = Camera((x, y, float(terrain.sample(x, y)) + 200.0), 0.0, -5.0, 0.0, 60.0, (96, 64),
                     crs_wkt=terrain.crs_wkt)
     t = time.perf_counter()
-    # first the photo's skyline: a rough camera's pitch is set from it on the main thread, the first thing done
-    # after loading a photo (a time-lapse trial's typed position froze QGIS 6-20 s while it compiled there)
-    from ..core.auto.photo_edges import detect_photo_edges
-
-    rows = np.arange(64)[:, None, None]
-    sky = rows < 20 + 6 * np.sin(np.arange(96) / 9.0)[None, :, None]
-    detect_photo_edges(np.where(sky, 210, 60 + (rows * 7 + np.arange(96)[None, :, None] * 13) % 90)
-                       .repeat(3, axis=2).astype(np.uint8))
     # the exact line of sight: every fit with the DEM asks whether terrain hides its points (a GCP-table trial, who
     # never ran Suggest, waited 37 s for a first fit of 0.35 s, 13 s of it compiling this under load)
     from ..core.xyz.sight import segment_first_hit
 
     top = terrain.elevation.max() + 100.0
     segment_first_hit(terrain, np.array([x, y, top]), np.array([[x, y - 1500.0, top - 600.0]]))
-    seconds["skyline"] = time.perf_counter() - t
-    report(0.05, "skyline")
+    seconds["sight"] = time.perf_counter() - t
+    report(0.05, "sight")
     check_canceled(is_canceled)
     t = time.perf_counter()
     for dtype in (np.float64, np.float32):  # the z-buffer and the render: one signature per DEM dtype

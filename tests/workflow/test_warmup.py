@@ -18,7 +18,7 @@ def test_real_work_stops_a_running_warm_up():
 
     with pytest.raises(Canceled):
         warmup.warm_up(progress)
-    assert steps == ["skyline", "render"]  # stopped before the suggest and fit steps
+    assert steps == ["sight", "render"]  # stopped before the suggest and fit steps
 
 
 def test_warm_up_runs_in_a_thread():
@@ -26,7 +26,7 @@ def test_warm_up_runs_in_a_thread():
     thread = threading.Thread(target=lambda: out.update(warmup.warm_up()))
     thread.start()
     thread.join(300)
-    assert set(out) == {"skyline", "render", "suggest", "fit"}
+    assert set(out) == {"sight", "render", "suggest", "fit"}
 
 
 def test_a_cancel_stops_the_wait_for_the_torch_import_not_the_import():
