@@ -68,6 +68,9 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     >>> html = fit_summary_html(cam, {"rmse_px": 6.4, "mode": "unpaired", "check_rmse_px": 12.3, "n_check": 4})
     >>> html.index("Check points <b>12.3 px</b>") < html.index("RMSE <b>6.4 px</b>")
     True
+    >>> "2500 m (ground + 1.6 m) ± 12" in fit_summary_html(cam, {"status": "ok", "on_ground": True,
+    ...                                                        "eye_height_m": 1.6, "ground_sigma_m": 12.4})
+    True
     >>> "(28 m above the DEM)" in fit_summary_html(cam, {"rmse_px": 6.4, "clearance_m": 28.2})
     True
     >>> "3.8 m under the DEM" in fit_summary_html(cam, {"rmse_px": 6.4, "clearance_m": -3.8})
@@ -129,11 +132,12 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     status = info.get("status") or ("ok" if info.get("converged", True) else "poor")
     trusted = status == "ok"
 
-    def sig(name: str) -> str:
-        if name not in sigma or not math.isfinite(sigma[name]):
+    def sig(name: str, value: Optional[float] = None) -> str:
+        value = sigma.get(name) if value is None else value
+        if value is None or not math.isfinite(value):
             return ""
         # the ± of a doubtful fit hold only if its pairs are right: greyed, with the caveat right above the table
-        text = " ± " + (tr("undetermined") if sigma_undetermined(name, sigma[name]) else sigma_text(sigma[name]))
+        text = " ± " + (tr("undetermined") if sigma_undetermined(name, value) else sigma_text(value))
         return text if trusted else f"<span style='color:#888'>{text}*</span>"
 
     def metres(name: str, value: float) -> str:
@@ -197,7 +201,8 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
              ("Y", f"{metres('y', y)}{sig('y')}"),
              (tr("Pitch"), f"{fitted.pitch:.2f}°{sig('pitch')}"),
              ("Z", z_text if not info.get("on_ground") else
-              tr("{0:.0f} m (ground + {1:.3g} m)").format(z, round(info.get("eye_height_m") or 0.0, 1))),
+              tr("{0:.0f} m (ground + {1:.3g} m)").format(z, round(info.get("eye_height_m") or 0.0, 1))
+              + sig("z", info.get("ground_sigma_m") or math.nan)),
              (tr("Roll"), f"{fitted.roll:.2f}°{sig('roll')}"),
              # the lens's distortion when there is some (a phone trial's fitted k1 was shown only in the report)
              (tr("Distortion k1"), f"{fitted.k1:.4f}{sig('k1')}") if fitted.k1 else ("", ""),

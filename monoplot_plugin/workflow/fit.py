@@ -17,9 +17,10 @@ from ..core.fit import FitOptions, FitResult, fit_camera, sigma_pixels
 from .progress import Canceled, IsCanceled, Progress, check_canceled
 from .warmup import import_torch
 
-__all__ = ["ON_GROUND_MAX_M", "DEFAULT_EYE_HEIGHT_M", "FitRefused", "FitDone", "ground_clearance", "on_ground_rule",
-           "fit", "point_rmse", "fit_points", "measured_on_pairs", "hidden_share", "flag_hidden_points",
-           "sight_within_sigma", "MIN_PAIRS_WITHOUT_PRIOR", "start_above_points", "sigma_px"]
+__all__ = ["ON_GROUND_MAX_M", "DEFAULT_EYE_HEIGHT_M", "FitRefused", "FitDone", "ground_clearance",
+           "ground_height_sigma", "on_ground_rule", "fit", "point_rmse", "fit_points", "measured_on_pairs",
+           "hidden_share", "flag_hidden_points", "sight_within_sigma", "MIN_PAIRS_WITHOUT_PRIOR",
+           "start_above_points", "sigma_px"]
 
 #: a start camera at most this high above the terrain is taken as a photographer on the ground (a person, a
 #: tripod, a lookout tower, a rooftop): the fit keeps its height above the terrain (z follows the DEM, one unknown
@@ -83,6 +84,37 @@ class FitDone:
 def ground_clearance(camera: Camera, dem) -> float:
     """Height of the camera above the terrain under it (metres; NaN outside the DEM)."""
     return float(camera.position[2]) - float(dem.sample(camera.position[0], camera.position[1]))
+
+
+def ground_height_sigma(camera: Camera, std: Optional[dict], dem) -> Optional[float]:
+    """The σ (m) of the height of a camera held on the ground: how far the terrain under it moves when the camera
+    moves one σ in X or in Y (``std``), the larger side of each, combined. None without both σ or outside the DEM.
+    Its height is not fitted, so it had no ± of its own: a summit trial's camera, held on the ground 47 m off in Y
+    (σ 14 m), stood 37 m low with its Z shown as exact.
+
+    >>> from monoplot_plugin.core.dem import Dem
+    >>> ramp = Dem.from_array(np.tile(np.arange(50.0) * 2.0, (50, 1)), (0, 10, 0, 500, 0, -10))  # 0.2 m/m east
+    >>> cam = Camera((250.0, 250.0, 51.6), 90.0, 0.0, 0.0, 60.0, (100, 100))
+    >>> round(ground_height_sigma(cam, {"x": 20.0, "y": 30.0}, ramp), 1)  # 20 m east: 4 m up; north: flat
+    4.0
+    >>> ground_height_sigma(cam, {"x": 20.0}, ramp) is None
+    True
+    """
+    if not std or "x" not in std or "y" not in std:
+        return None
+    sx, sy = float(std["x"]), float(std["y"])
+    if not (math.isfinite(sx) and math.isfinite(sy)):
+        return None
+    x, y = float(camera.position[0]), float(camera.position[1])
+    xs = np.array([x, x - sx, x + sx, x, x])
+    ys = np.array([y, y, y, y - sy, y + sy])
+    z = np.asarray(dem.sample(xs, ys), dtype=np.float64)
+    if not math.isfinite(z[0]):
+        return None
+    moved = np.abs(z[1:] - z[0])
+    along_x = np.nanmax(moved[:2]) if np.isfinite(moved[:2]).any() else 0.0
+    along_y = np.nanmax(moved[2:]) if np.isfinite(moved[2:]).any() else 0.0
+    return float(math.hypot(along_x, along_y))
 
 
 def on_ground_rule(start: Camera, dem, on_ground: Optional[bool] = None,

@@ -3,6 +3,8 @@ prior's uncertainty passed to a real fit, a terrain-derived pitch for a drawn ca
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from osgeo import gdal
@@ -136,6 +138,13 @@ def test_on_the_ground_mode_holds_the_fit_at_the_eye_height(dock, scene, qtbot):
     x, y, z = c.fitted.position
     assert c.state.fit_info["on_ground"] and c.state.fit_info["eye_height_m"] == 1.5
     assert z - float(scene.dem.sample(x, y)) == pytest.approx(1.5, abs=0.5)
+    # its height is the terrain's under it: as sure as X and Y, and said so (a summit trial's Z had no ±, 37 m low)
+    sigma_z = c.state.fit_info["ground_sigma_m"]
+    sx, sy = (c.state.fit_info["sigma"][k] for k in ("x", "y"))
+    beside = [abs(float(scene.dem.sample(x + dx, y + dy)) - float(scene.dem.sample(x, y)))
+              for dx, dy in ((sx, 0.0), (-sx, 0.0), (0.0, sy), (0.0, -sy))]
+    assert 0.0 < sigma_z and max(beside) <= sigma_z + 1e-6
+    assert re.search(r"Z&nbsp;</td><td>\d+ m \(ground \+ 1.5 m\)(<span[^>]*>)? ± [\d.]+", dock.resultLabel.text())
 
 
 def test_above_ground_box_shows_and_moves_the_prior(dock, scene, qtbot):
