@@ -121,6 +121,8 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, FittingMixin
         self.project.writeProject.connect(self._project_writing)
         self.project.projectSaved.connect(self._project_saved)
         self._saved_as_from = ""  # the file a Save As being written leaves (its autosave goes once it is saved)
+        self._was_unsaved = False  # the project being written had no file yet (its autosave goes once saved)
+        self.restored_source = ""  # where the last restore took the state from (persistence.load_with_source)
         self.message.connect(self._log_message)
         self.pointsChanged.connect(lambda changed: self.remeasure_checks())
         self._project_file = self.project.fileName()  # the file whose autosave this state goes to

@@ -29,7 +29,7 @@ from .curation_panel import MessageOnce, install_curation_panel
 from .dock_layout import (fit_minimum_width, lay_out, narrow_tabs, scroll_camera_tab, scroll_points_tab,
                           show_status, split_photo_and_tabs)
 from .fit_settings import FitSettingsPanel, LensPanel
-from . import photo_change, photo_shelf
+from . import persistence, photo_change, photo_shelf
 from .photo_names import photo_label
 from .io_actions import IoActions
 from .number_entry import accept_both_separators
@@ -170,7 +170,8 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
         scroll_camera_tab(self)
         self._decimal_keys = accept_both_separators(self)  # "63.25" typed in a German locale gave 63
         fit_minimum_width(self)
-        restored = bool(self.project.readEntry("monoplot", "/state", "")[1]) and c.restore()
+        restored = (bool(self.project.readEntry("monoplot", "/state", "")[1]) or
+                    persistence.unsaved_work_left(self.project)) and c.restore()
         if restored and self.output_tools is not None:  # opened by the project's read: its signal came before us
             self.output_tools.refill_other_photos()
         if restored and c.fitted is not None:

@@ -166,6 +166,9 @@ class DockViewMixin:
     def _restored_text(self) -> str:
         c = self.controller
         text = self.tr("Monoplot session restored from the project.")
+        if getattr(c, "restored_source", "") == "unsaved autosave":
+            text = self.tr("Monoplot restored the work of a session that ended without its project being saved or "
+                           "closed (autosave): save the project to keep it.")
         info = c.state.fit_info or {}
         if c.fitted is not None:
             check, rmse = info.get("check_rmse_px"), info.get("rmse_px")

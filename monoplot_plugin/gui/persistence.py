@@ -25,7 +25,7 @@ from qgis.core import QgsApplication, QgsMessageLog, QgsProject, Qgis
 from ..state import ProjectState
 
 __all__ = ["SCOPE", "KEY", "store_in_project", "save", "autosave", "load", "load_with_source", "autosave_path",
-           "read_autosave", "autosave_entry", "autosaved_entry", "discard_autosave"]
+           "read_autosave", "autosave_entry", "autosaved_entry", "discard_autosave", "unsaved_work_left"]
 
 SCOPE, KEY = "monoplot", "/state"
 
@@ -33,11 +33,20 @@ SCOPE, KEY = "monoplot", "/state"
 def autosave_path(project: QgsProject) -> str:
     """Where the autosave of ``project`` goes (the folder exists)."""
     name = project.fileName()
-    if name:
-        return _beside(name)
+    return _beside(name) if name else _unsaved_path()
+
+
+def _unsaved_path() -> str:
+    """The state autosave of a project never saved: in the profile."""
     folder = os.path.join(QgsApplication.qgisSettingsDirPath(), "monoplot")
     os.makedirs(folder, exist_ok=True)
     return os.path.join(folder, "autosave-unsaved-project.json")
+
+
+def unsaved_work_left(project: QgsProject) -> bool:
+    """True when ``project`` was never saved and holds no Monoplot state, and the autosave of a never-saved
+    project is there: a session that ended without QGIS closing its project (a crash) left that work."""
+    return not project.fileName() and not project.readEntry(SCOPE, KEY, "")[1] and os.path.exists(_unsaved_path())
 
 
 def _beside(project_file: str) -> str:
@@ -84,10 +93,8 @@ def _read_entries(path: str) -> dict:
 
 def discard_autosave(project_file: str) -> None:
     """Remove the autosave files of the project saved as ``project_file`` (QGIS closed it: saved, or the person
-    chose not to). Nothing happens for "" (a project never saved)."""
-    if not project_file:
-        return
-    state_path = _beside(project_file)
+    chose not to), "" for a project never saved (its work is in the project QGIS asked about, or discarded)."""
+    state_path = _beside(project_file) if project_file else _unsaved_path()
     with _LOCK:
         for path in (state_path, _entries_path(state_path)):
             # a snapshot taken before this (a worker still writing) must not bring the file back
@@ -171,7 +178,8 @@ def load(project: QgsProject) -> Optional[ProjectState]:
 
 
 def load_with_source(project: QgsProject) -> Tuple[Optional[ProjectState], str]:
-    """(state, "project" | "autosave" | "") — the autosave wins when it is newer than the project file."""
+    """(state, "project" | "autosave" | "unsaved autosave" | "") — the autosave wins when it is newer than the project
+    file; a never-saved project with no state takes the autosave a crash left (:func:`unsaved_work_left`)."""
     text, found = project.readEntry(SCOPE, KEY, "")
     state, source = None, ""
     if found and text:
@@ -182,7 +190,13 @@ def load_with_source(project: QgsProject) -> Tuple[Optional[ProjectState], str]:
         except (ValueError, TypeError, KeyError, json.JSONDecodeError) as exc:
             QgsMessageLog.logMessage(f"Monoplot state in the project is unreadable: {exc}", "Monoplot",
                                      Qgis.MessageLevel.Warning)
-    if project.fileName():
+    if state is None and unsaved_work_left(project):
+        # a never-saved project's work after a crash: nothing else holds it (a flood trial's 8 pairs and fit sat
+        # in this file, the dock opened empty, and choosing the photo again overwrote it)
+        left = read_autosave(_unsaved_path())
+        if left is not None and left.to_dict() != ProjectState().to_dict():
+            state, source = left, "unsaved autosave"
+    elif project.fileName():
         path = autosave_path(project)
         if _newer_than_project(project, path):
             newer = read_autosave(path)

@@ -38,6 +38,8 @@ class ProjectSessionHost(Protocol):
     _restoring: bool
     _project_file: str  # the file whose autosave this state goes to
     _saved_as_from: str  # the file a Save As being written leaves
+    _was_unsaved: bool  # the project being written had no file before
+    restored_source: str
     _autosave: object  # QTimer of the debounced autosave
     _autosave_worker: object
     _map_work_crs: Optional[QgsCoordinateReferenceSystem]
@@ -63,6 +65,7 @@ class ProjectSessionMixin:
 
     def _project_writing(self, *args) -> None:
         before, self._project_file = self._project_file, self.project.fileName()  # Save As: a new file
+        self._was_unsaved = not before
         if before and before != self._project_file:
             self._saved_as_from = before
         if not self._restoring:
@@ -71,10 +74,15 @@ class ProjectSessionMixin:
 
     def _project_saved(self) -> None:
         """Saved under a new name: the old file's autosave holds work that is now in the new file. Left there, the
-        old project reopened with the later work "restored" in it (a desktop trial: day 1's file showed day 2)."""
+        old project reopened with the later work "restored" in it (a desktop trial: day 1's file showed day 2).
+        Saved for the first time: the autosave of a never-saved project goes (a later empty project took it for
+        work a crash left)."""
         if self._saved_as_from:
             persistence.discard_autosave(self._saved_as_from)
             self._saved_as_from = ""
+        elif self.project.fileName() and self._was_unsaved:
+            persistence.discard_autosave("")
+        self._was_unsaved = False
 
     def _changed(self) -> None:
         """Every change marks the project modified (the state goes into it when it is written) and restarts the
@@ -114,6 +122,7 @@ class ProjectSessionMixin:
         self._autosave.stop()  # a pending autosave of the previous project must not overwrite this one
         self._project_file = self.project.fileName()
         state, source = persistence.load_with_source(self.project)
+        self.restored_source = source  # what the dock's status line says came back
         self._restoring = True
         try:
             self.stack.reset(state or ProjectState())
@@ -140,6 +149,11 @@ class ProjectSessionMixin:
                 mark_modified_later(self.project)  # not in the project file: closing must ask to save it
                 self.message.emit(self.tr("Monoplot restored work done after the project was last saved "
                                           "(autosave)."), INFO)
+            elif source == "unsaved autosave":
+                mark_modified_later(self.project)
+                self.message.emit(self.tr("Monoplot restored the work of a session that ended without its "
+                                          "project being saved or closed (autosave): save the project to keep "
+                                          "it."), INFO)
             return True
         finally:
             self._restoring = False

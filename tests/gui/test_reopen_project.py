@@ -244,3 +244,38 @@ def test_features_drawn_after_the_last_save_and_restored_from_the_autosave_are_a
         assert "after the project was last saved" in status, status
     finally:
         later.unload()
+
+
+def test_work_in_a_never_saved_project_comes_back_after_a_crash(dock, scene, qtbot, qgis_iface):
+    """A flood trial's 8 pairs and fit, in a project never saved, sat in the profile's autosave after QGIS was
+    killed: the next dock opened empty, and choosing the photo again overwrote the file. Now the dock takes it
+    back, and says so; a project QGIS closes (it asked whether to save) leaves no such file behind."""
+    from monoplot_plugin.gui.dock import MonoplotDock
+
+    c = _fitted_session(dock, scene, qtbot)
+    project = QgsProject.instance()
+    assert not project.fileName()
+    c.set_setting("overlay_opacity", 23)
+    c.save()
+    path = persistence.autosave_path(project)
+    left = open(path, encoding="utf-8").read()
+    assert '"overlay_opacity":23' in left
+    dock.unload()  # the plugin handed its state over to the project...
+    project.clear()  # ...which QGIS closed: nothing is left to restore
+    assert not os.path.exists(path)
+    assert not persistence.unsaved_work_left(project)
+
+    with open(path, "w", encoding="utf-8") as fh:  # a crash instead: the autosave stays, the project is gone
+        fh.write(left)
+    assert persistence.unsaved_work_left(project)
+    later = MonoplotDock(qgis_iface)
+    qtbot.addWidget(later)
+    try:
+        assert later.controller.state.settings.get("overlay_opacity") == 23
+        assert later.controller.fitted is not None and later.controller.image is not None
+        assert "ended without its project being saved" in later.statusLabel.text()
+        qtbot.waitUntil(project.isDirty, timeout=3000)  # closing QGIS asks to save it
+    finally:
+        later.unload()
+        project.clear()
+    assert not os.path.exists(path)
