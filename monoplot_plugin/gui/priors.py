@@ -28,6 +28,8 @@ GPS_SOURCE = "exif-gps"
 #: ``state.settings`` key: the rough camera's heading is a guess (EXIF gave a position, no direction), until one is
 #: drawn or typed
 HEADING_GUESSED = "prior_heading_guessed"
+#: metres: a rough camera moved no further than this keeps the source of its position (the same one, retyped)
+SAME_PLACE_M = 5.0
 #: metres: how far a phone's or drone's GPS position usually is from where it stood (the fit's moved-camera note)
 GPS_POSITION_M = GPS_POSITION_SIGMA_M
 
@@ -164,8 +166,10 @@ class PriorsMixin:
                                           "file's: the photo has a print's border.").format(centred.cx, centred.cy),
                                   INFO)
             camera = centred
+        # within a few metres: the same position typed again, rounded (a flood trial typed its EXIF GPS position to
+        # the metre, and the search then took the default 200 m, not the GPS's 30 m: 144 m off instead of 25 m)
         same_place = old is not None and camera is not None and \
-            tuple(old.position[:2]) == tuple(camera.position[:2])
+            math.dist(old.position[:2], camera.position[:2]) <= SAME_PLACE_M
         if source:
             self.state.settings["prior_source"] = source
         elif not same_place:

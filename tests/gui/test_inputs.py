@@ -310,6 +310,9 @@ def test_rough_camera_from_exif_gps(dock, scene, tmp_path):
                  dict(ok, status="ok", moved_m=80.0)):
         c.doubt_a_moved_camera(kept)
         assert kept["status"] == "ok"
+    # the GPS position typed again, to the metre (a flood trial): still the GPS's, so still known within 30 m
+    c.set_prior(prior.with_parameters(x=round(prior.position[0]) + 0.5, y=round(prior.position[1]) - 0.5))
+    assert c.state.settings["prior_source"] == "exif-gps"
     c.set_prior(prior.with_parameters(x=prior.position[0] + 50.0))  # moved: no longer the GPS position
     assert "prior_source" not in c.state.settings
     assert prior is not None
