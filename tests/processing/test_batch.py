@@ -47,6 +47,16 @@ def test_timelapse_batch_skips_the_corrupted_photo(run_alg, small_scene, timelap
     # orthophotos differ per frame (each drapes its own photo)
     first, second = (gdal.Open(str(out / f"frame_0{i}_ortho.tif")) for i in (0, 1))
     assert not np.array_equal(first.GetRasterBand(1).ReadAsArray(), second.GetRasterBand(1).ReadAsArray())
+    # cell size 0 means what it means in Orthophoto: the photo's own detail over the part seen (an archivist's batch
+    # gave the DEM's 20 m cells over the whole DEM, 0.5 % of it covered, where Orthophoto gave 1.06 m)
+    single = tmp_path / "single_ortho.tif"
+    run_alg("orthophoto", {"CAMERA": small_scene["fitted"], "DEM": small_scene["dem"],
+                           "PHOTO": str(timelapse / "frame_00.jpg"), "RESOLUTION": 0, "OUTPUT": str(single)})
+    alone = gdal.Open(str(single))
+    assert first.GetGeoTransform() == pytest.approx(alone.GetGeoTransform())
+    assert (first.RasterXSize, first.RasterYSize) == (alone.RasterXSize, alone.RasterYSize)
+    dem = gdal.Open(small_scene["dem"])
+    assert first.GetGeoTransform()[1] != pytest.approx(dem.GetGeoTransform()[1])
     with open(result["LOG"], newline="") as fh:
         rows = list(csv.DictReader(fh))
     assert [r["status"] for r in rows].count("failed") == 1
