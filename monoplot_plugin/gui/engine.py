@@ -104,8 +104,6 @@ def fit_and_render(uv: np.ndarray, xyz: np.ndarray, pairs: Sequence[Tuple[int, i
         "eye_height_m": done.eye_height,
         "height_freed": done.height_freed,
         "clearance_m": finite_or_none(fit_step.ground_clearance(camera, dem)),
-        # held on the ground, its height is the terrain's under it: as sure as its X, Y (no "z" in the σ)
-        "ground_sigma_m": fit_step.ground_height_sigma(camera, result.std, dem) if done.on_ground else None,
         # the camera sees no part of the DEM (core fit.api.sees_no_terrain): no advice on its position or lens
         "sees_no_terrain": bool((result.evidence or {}).get("sees_no_terrain")),
         "n_photo": int(len(uv)),
