@@ -22,3 +22,13 @@ def aletsch_dir():
             pytest.fail(message)
         pytest.skip(message)
     return path
+
+
+@pytest.fixture(scope="session", autouse=True)
+def no_work_left_by_an_earlier_run(request):
+    """A run killed mid-way leaves the autosave of its never-saved project in the test profile: the next run's first
+    dock would take it back (as after a crash) and stop at "keep the points?". Tests start without one."""
+    request.getfixturevalue("qgis_app")  # the profile's folder is known once QGIS is initialised
+    from monoplot_plugin.gui import persistence
+
+    persistence.discard_autosave("")

@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import os
 import threading
+import time
 from typing import Callable, Optional, Tuple
 
 from qgis.core import QgsApplication, QgsMessageLog, QgsProject, Qgis
@@ -43,10 +44,18 @@ def _unsaved_path() -> str:
     return os.path.join(folder, "autosave-unsaved-project.json")
 
 
+#: when this QGIS session loaded the plugin: an autosave of a never-saved project written since is this session's
+SESSION_START = time.time()
+
+
 def unsaved_work_left(project: QgsProject) -> bool:
     """True when ``project`` was never saved and holds no Monoplot state, and the autosave of a never-saved
-    project is there: a session that ended without QGIS closing its project (a crash) left that work."""
-    return not project.fileName() and not project.readEntry(SCOPE, KEY, "")[1] and os.path.exists(_unsaved_path())
+    project is there, written before this session began: a session that ended without QGIS closing its project (a
+    crash) left that work. One written since is this session's own (another dock's, another QGIS's), not taken: a
+    test's dock took an earlier test's and stopped at "keep the points?"."""
+    path = _unsaved_path()
+    return not project.fileName() and not project.readEntry(SCOPE, KEY, "")[1] and os.path.exists(path) and \
+        os.path.getmtime(path) < SESSION_START
 
 
 def _beside(project_file: str) -> str:

@@ -267,6 +267,9 @@ def test_work_in_a_never_saved_project_comes_back_after_a_crash(dock, scene, qtb
 
     with open(path, "w", encoding="utf-8") as fh:  # a crash instead: the autosave stays, the project is gone
         fh.write(left)
+    assert not persistence.unsaved_work_left(project)  # written in this session: its own, not a crash's
+    before = persistence.SESSION_START - 60.0  # ...written by a session before this one
+    os.utime(path, (before, before))
     assert persistence.unsaved_work_left(project)
     later = MonoplotDock(qgis_iface)
     qtbot.addWidget(later)
