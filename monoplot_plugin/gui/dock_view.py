@@ -166,7 +166,7 @@ class DockViewMixin:
     def _restored_text(self) -> str:
         c = self.controller
         text = self.tr("Monoplot session restored from the project.")
-        if getattr(c, "restored_source", "") == "unsaved autosave":
+        if c.restored_source == "unsaved autosave":
             text = self.tr("Monoplot restored the work of a session that ended without its project being saved or "
                            "closed (autosave): save the project to keep it.")
         info = c.state.fit_info or {}

@@ -25,7 +25,6 @@ import numpy as np
 
 from ..core.camera import Camera
 from ..core.drift import MIN_INLIERS, Reference, corrected_camera, register, stable_mask
-from ..core.dem_large import is_large
 from ..core.lookup import ortho_lookup, turnable_lookup
 from ..core.suggest_photo import FEATURELESS_CONTRAST, coarse_contrast
 from ..outputs.orthophoto import write_orthophoto
@@ -36,7 +35,7 @@ from .files import InputError, load_camera, read_photo, read_points_csv
 from .fit import fit_points
 from .progress import IsCanceled, Progress, check_canceled, never_canceled
 from .inputs import load_dem
-from .products import AUTO, blank_outside, centred_on_picture, ortho_grid, picture_area
+from .products import blank_outside, centred_on_picture, ortho_grid, picture_area
 from .vectors import fill_missing_z
 from .xyz import xyz_raster, xyz_uncached
 
@@ -116,8 +115,6 @@ class CameraProducts:
         self.sees_ground = bool(np.isfinite(self.xyz[..., 2]).any())
         self.grid = self.lookup = None
         if ortho and self.sees_ground:
-            if resolution == AUTO and is_large(dem):  # read by windows: the part it sees, at its finest level
-                resolution = None
             self.grid = ortho_grid(camera, dem, resolution)  # of a DEM read by windows: the part it sees
             self.lookup = ortho_lookup(camera, self.grid, self.xyz)
 

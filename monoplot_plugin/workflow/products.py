@@ -286,6 +286,8 @@ def ortho_grid(camera: Camera, dem, resolution=None, xyz: Optional[np.ndarray] =
     that part. ``xyz``: the camera's per-pixel XYZ when the caller has it (for :data:`AUTO`)."""
     from ..core.dem_large import in_memory_limit, is_large
 
+    if resolution == AUTO and is_large(dem):  # read by windows: the part it sees, at its finest level that fits
+        resolution = None
     if resolution == AUTO:
         seen = xyz_result(camera, dem, visibility=False).xyz if xyz is None else xyz
         cell, bounds = auto_resolution(camera, dem, seen)

@@ -113,8 +113,8 @@ def _skyline_dp(strength: np.ndarray, texture: np.ndarray, mask: np.ndarray, jum
     from ``-jump`` up.
 
     numpy, one column at a time over every row change at once: the numba kernel it replaces made QGIS 3.40 crash
-    (signal 11 in LLVM's optimiser, compiling it in the warm-up thread of the desktop, 3 runs of 3), and this takes
-    0.1-0.2 s more per photo.
+    (signal 11 in LLVM's optimiser, compiling it in the warm-up thread of the desktop, 3 runs of 3); this takes
+    67 ms against its 22 ms for 384 x 512.
 
     >>> strength = np.zeros((6, 5)); strength[[3, 3, 1, 3, 3], range(5)] = 1.0
     >>> _skyline_dp(strength, np.zeros((6, 5)), np.ones((6, 5), bool), 1, 0.3).tolist()  # row 1 is 2 jumps away

@@ -318,11 +318,9 @@ class Orthophoto(_CameraDemAlgorithm):
         if (photo.shape[1], photo.shape[0]) != tuple(camera.image_size):
             raise QgsProcessingException(self.tr("The photo is {0}x{1} px but the camera is for {2}x{3} px.").format(
                 photo.shape[1], photo.shape[0], camera.width, camera.height))
-        from ...core.dem_large import is_large
-
         # 0: the photo's own detail (a DEM read by windows: the part of it the camera sees, at its finest level that
-        # fits, as before)
-        resolution = self.parameterAsDouble(parameters, "RESOLUTION", context) or (None if is_large(dem) else AUTO)
+        # fits: workflow.products.ortho_grid)
+        resolution = self.parameterAsDouble(parameters, "RESOLUTION", context) or AUTO
         out = self.parameterAsOutputLayer(parameters, "OUTPUT", context)
         try:  # of a DEM read by windows: the part the camera sees
             try:
