@@ -342,8 +342,9 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, FittingMixin
                                       "uncertainty (Position ± in Fit settings, tab 4) and suggest again; if not, "
                                       "check the camera's position and height.").format(near_clip_m)
             if from_rough:
-                text += " " + self.tr("The fitted camera sees too little terrain for DEM suggestions (is it "
-                                      "wrong?): they come from the rough camera.")
+                text += " " + self.tr("The fitted camera sees little terrain with features (a flat view, or a "
+                                      "wrong camera): DEM suggestions seen from the rough camera were added after "
+                                      "its own.")
             if featureless:  # first: the message bar shows one line
                 text = featureless + " " + text
             self.message.emit(text, WARNING if featureless else INFO)

@@ -13,7 +13,7 @@ from ..core.camera import Camera
 from ..core.suggest import DemSuggestions, PhotoSuggestions, suggest_dem_points, suggest_photo_points
 from .progress import IsCanceled, Progress, check_canceled
 
-__all__ = ["suggest", "suggest_photo", "suggest_dem", "featureless_note"]
+__all__ = ["suggest", "suggest_photo", "suggest_dem", "featureless_note", "merge_dem_suggestions"]
 
 
 def suggest_photo(photo: np.ndarray, max_points: int) -> PhotoSuggestions:
@@ -41,19 +41,62 @@ def suggest_dem(dem, max_points: int, camera: Optional[Camera] = None,
                               poll=lambda: check_canceled(is_canceled))
 
 
-#: A fitted camera whose rendering gives fewer DEM suggestions than this share of those asked for gives way to the
+#: A fitted camera whose rendering gives fewer DEM suggestions than this share of those asked for is helped by the
 #: rough camera's, when that gives more (:func:`suggest`)
 FEW_DEM_SHARE = 0.2
+#: A rough camera's DEM suggestion nearer than this (m, in X and Y) to one of the fitted camera's is the same point
+SAME_DEM_POINT_M = 1.0
+
+
+def merge_dem_suggestions(first: DemSuggestions, second: DemSuggestions, max_points: int,
+                          camera: Optional[Camera] = None) -> DemSuggestions:
+    """``first`` (all of them, in their order), then those of ``second`` farther than :data:`SAME_DEM_POINT_M` from
+    every point of ``first``, up to ``max_points`` in all. Scores stay decreasing (``second``'s are capped at
+    ``first``'s lowest), ids are renumbered, and ``.uv`` is where ``camera`` (if given) sees each point.
+
+    >>> import numpy as np
+    >>> def dem_points(xs, score):
+    ...     n = len(xs)
+    ...     return DemSuggestions(np.c_[xs, np.zeros(n), np.zeros(n)], np.asarray(score, float),
+    ...                           [f"d{i:04d}" for i in range(n)], np.array(["orb"] * n), np.full((n, 2), np.nan),
+    ...                           np.full(n, np.nan))
+    >>> merged = merge_dem_suggestions(dem_points([0.0, 10.0], [0.9, 0.5]), dem_points([0.2, 30.0, 40.0],
+    ...                                [1.0, 0.8, 0.6]), max_points=3)
+    >>> merged.xyz[:, 0].tolist(), merged.score.tolist(), merged.ids
+    ([0.0, 10.0, 30.0], [0.9, 0.5, 0.5], ['d0000', 'd0001', 'd0002'])
+    """
+    from scipy.spatial import cKDTree
+
+    extra = np.arange(len(second))
+    if len(first) and len(second):
+        distance, _ = cKDTree(first.xyz[:, :2]).query(second.xyz[:, :2])
+        extra = extra[distance > SAME_DEM_POINT_M]
+    extra = extra[:max(0, max_points - len(first))]
+    xyz = np.concatenate([first.xyz, second.xyz[extra]]).reshape(-1, 3)
+    lowest = float(first.score.min()) if len(first) else np.inf
+    score = np.concatenate([first.score, np.minimum(second.score[extra], lowest)])
+    uv = (camera.project(xyz) if camera is not None and len(xyz)
+          else np.concatenate([first.uv, second.uv[extra]]).reshape(-1, 2))
+    prominence = np.concatenate([_prominence(first), _prominence(second)[extra]])
+    return DemSuggestions(xyz, score, [f"d{i:04d}" for i in range(len(xyz))],
+                          np.concatenate([first.kind, second.kind[extra]]), uv, prominence,
+                          max(first.near_clip_m, second.near_clip_m))
+
+
+def _prominence(points: DemSuggestions) -> np.ndarray:
+    return points.prominence if len(points.prominence) == len(points) else np.full(len(points), np.nan)
 
 
 def suggest(photo: np.ndarray, dem, camera: Optional[Camera], n_photo: int, n_dem: int,
             progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None,
             position_sigma_m: Optional[float] = None,
             rough: Optional[Camera] = None) -> Tuple[PhotoSuggestions, DemSuggestions, bool]:
-    """Both sets of suggestions (photo, then DEM), with progress and cancel between them, and whether the DEM's came
-    from the ``rough`` camera: a fitted ``camera`` that sees too little terrain for :data:`FEW_DEM_SHARE` of
-    ``n_dem`` gives way to it when it gives more (a summit trial's failed automatic camera, pitched 35° up, "uncertain",
-    left Suggest with 0 DEM suggestions and no way on)."""
+    """Both sets of suggestions (photo, then DEM), with progress and cancel between them, and whether DEM suggestions
+    of the ``rough`` camera were added: when a fitted ``camera`` sees too little terrain for :data:`FEW_DEM_SHARE` of
+    ``n_dem`` and the rough camera gives more, the fitted camera's come first and the rough camera's fill up to
+    ``n_dem`` (:func:`merge_dem_suggestions`). A summit trial's failed automatic camera, pitched 35° up, left Suggest
+    with 0 DEM suggestions and no way on; a flood trial's right one, over a flat valley floor, gave few, and taking
+    the rough camera's instead (22° off) threw away the right ones."""
     report = progress or (lambda fraction, message="": None)
     report(0.05, "photo")
     photo_points = suggest_photo(photo, n_photo)
@@ -67,6 +110,6 @@ def suggest(photo: np.ndarray, dem, camera: Optional[Camera], n_photo: int, n_de
         from_prior = suggest_dem(dem, n_dem, rough, position_sigma_m, is_canceled)
         check_canceled(is_canceled)
         if len(from_prior) > len(dem_points):
-            dem_points, from_rough = from_prior, True
+            dem_points, from_rough = merge_dem_suggestions(dem_points, from_prior, n_dem, camera), True
     report(0.95, "")
     return photo_points, dem_points, from_rough

@@ -613,11 +613,11 @@ def test_suggest_after_a_poor_fit_renders_the_dem_from_the_rough_camera(dock, sc
 
 def test_suggest_after_a_fit_that_sees_the_sky_takes_the_dem_from_the_rough_camera(dock, scene, qtbot):
     """A summit trial's automatic run failed "uncertain" with the camera pitched 35° up: Suggest rendered the DEM
-    from it and gave 0 DEM suggestions, with no way on. A fitted camera that sees too little terrain gives way to
+    from it and gave 0 DEM suggestions, with no way on. A fitted camera that sees too little terrain is helped by
     the rough camera's rendering, and the message says so."""
     skyward = scene.camera.with_parameters(pitch=60.0)
     dem_points, messages = _dem_suggestions_after(dock, scene, qtbot, skyward,
                                                   {"status": "uncertain", "message": "Uncertain"})
     assert len(dem_points) >= 50
     assert scene.prior.in_image(scene.prior.project(dem_points)).mean() > 0.9
-    assert any("they come from the rough camera" in m for m in messages), messages
+    assert any("seen from the rough camera were added" in m for m in messages), messages

@@ -233,6 +233,23 @@ def test_a_cancel_during_the_dem_suggestions_stops_them_between_their_steps(scen
     assert len(done) > 20 and reached
 
 
+def test_a_right_camera_that_sees_few_terrain_features_keeps_its_dem_suggestions_and_gets_the_rough_ones_after(scene):
+    """A flood trial's right automatic camera (0.2° off) over a flat valley floor gave under a fifth of the DEM
+    suggestions asked for, and Suggest replaced them all with the rough camera's (22° off). Its own come first now."""
+    from monoplot_plugin.workflow import suggest as suggest_step
+
+    dem, camera, _ = scene
+    rough = camera.with_parameters(heading=camera.heading + 20.0)
+    own = suggest_step.suggest_dem(dem, 300, camera)
+    assert 0 < len(own) < suggest_step.FEW_DEM_SHARE * 300  # this view sees few features: the case at hand
+    photo = render_photo(camera, dem, seed=1)
+    _, dem_points, from_rough = suggest_step.suggest(photo, dem, camera, 20, 300, rough=rough)
+    assert from_rough and len(own) < len(dem_points) <= 300
+    assert np.allclose(dem_points.xyz[:len(own)], own.xyz)
+    assert np.all(np.diff(dem_points.score) <= 0) and len(set(dem_points.ids)) == len(dem_points)
+    assert np.allclose(dem_points.uv, camera.project(dem_points.xyz), equal_nan=True)
+
+
 def test_products_in_the_one_layout(scene, tmp_path):
     dem, camera, _ = scene
     path = products.write_xyz(tmp_path / "xyz.tif", camera, dem)
