@@ -5,6 +5,7 @@ Cancel), the layer added back when the person removed it. Its needs are :class:`
 
 from __future__ import annotations
 
+import os
 from typing import Optional, Protocol
 
 from qgis.core import Qgis, QgsCoordinateReferenceSystem, QgsRasterLayer
@@ -52,7 +53,9 @@ class DemInputMixin:
 
     def _readd_dem(self, source: str) -> Optional[QgsRasterLayer]:
         """The DEM layer was removed from the project: add its file back (the curation needs it)."""
-        layer = QgsRasterLayer(source, self.tr("DEM (Monoplot)"))
+        # named as QGIS names a file it opens (a trial found "DEM (Monoplot)" where the layer had been "dem")
+        name = os.path.splitext(os.path.basename(source.split("|")[0]))[0] or self.tr("DEM")
+        layer = QgsRasterLayer(source, name)
         if not layer.isValid():
             self.message.emit(self.tr("The DEM of this Monoplot session is missing: {0}").format(source), WARNING)
             return None

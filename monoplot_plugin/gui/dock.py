@@ -149,6 +149,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
         # project life cycle
         self.project.readProject.connect(self._project_read)
         self.project.cleared.connect(self._project_cleared)
+        self.project.projectSaved.connect(self._project_saved_status)
         self.project.layerTreeRoot().visibilityChanged.connect(self._group_visibility)
         self._unloaded = False
         QgsApplication.instance().aboutToQuit.connect(self.unload)
@@ -434,6 +435,15 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
             # only in the fit tab); the message bar stays quiet: nothing happened
             show_status(self.statusLabel, self._restored_text())
 
+    def _project_saved_status(self) -> None:
+        """Work restored from a never-saved project's autosave is in a project file now: the status line stops
+        asking to save it (a trial saw "save the project to keep it" after saving)."""
+        c = self.controller
+        if c.restored_source == "unsaved autosave" and self.project.fileName():
+            c.restored_source = "project"
+            show_status(self.statusLabel, self.tr("The restored work is saved in {0}.").format(
+                os.path.basename(self.project.fileName())))
+
     def _project_cleared(self) -> None:
         self.end_photo_tools()
         self.controller.cancel()
@@ -473,6 +483,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
                              (self.map_canvas.destinationCrsChanged, self._map_crs_changed),
                              (self.project.readProject, self._project_read),
                              (self.project.cleared, self._project_cleared),
+                             (self.project.projectSaved, self._project_saved_status),
                              (self.project.layerTreeRoot().visibilityChanged, self._group_visibility),
                              (QgsApplication.instance().aboutToQuit, self.unload)):
             try:

@@ -147,13 +147,12 @@ class ProjectSessionMixin:
             self.pointsChanged.emit(set())
             if source == "autosave":
                 mark_modified_later(self.project)  # not in the project file: closing must ask to save it
-                self.message.emit(self.tr("Monoplot restored work done after the project was last saved "
+                self.message.emit(self.tr("Restored work done after the project was last saved "
                                           "(autosave)."), INFO)
             elif source == "unsaved autosave":
                 mark_modified_later(self.project)
-                self.message.emit(self.tr("Monoplot restored the work of a session that ended without its "
-                                          "project being saved or closed (autosave): save the project to keep "
-                                          "it."), INFO)
+                self.message.emit(self.tr("Restored the work of a session that ended without its project "
+                                          "being saved or closed (autosave): save the project to keep it."), INFO)
             return True
         finally:
             self._restoring = False

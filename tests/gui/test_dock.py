@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import os
 import re
 
 import numpy as np
@@ -554,6 +555,8 @@ def test_reopening_without_the_dem_layer_adds_it_back(dock, scene, qtbot, tmp_pa
     c = dock.controller
     qtbot.waitUntil(lambda: c.dem_layer is not None, timeout=5000)
     assert c.dem_layer.source() == scene.dem_path and c.dem_layer.id() in project.mapLayers()
+    # named after its file, as QGIS names a file it opens (a trial found "DEM (Monoplot)")
+    assert c.dem_layer.name() == os.path.splitext(os.path.basename(scene.dem_path))[0]
 
 
 def test_unload_leaves_nothing_on_the_main_map(qgis_iface, qtbot, dem_layer, scene):

@@ -246,7 +246,7 @@ def test_features_drawn_after_the_last_save_and_restored_from_the_autosave_are_a
         later.unload()
 
 
-def test_work_in_a_never_saved_project_comes_back_after_a_crash(dock, scene, qtbot, qgis_iface):
+def test_work_in_a_never_saved_project_comes_back_after_a_crash(dock, scene, qtbot, qgis_iface, tmp_path):
     """A flood trial's 8 pairs and fit, in a project never saved, sat in the profile's autosave after QGIS was
     killed: the next dock opened empty, and choosing the photo again overwrote the file. Now the dock takes it
     back, and says so; a project QGIS closes (it asked whether to save) leaves no such file behind."""
@@ -278,6 +278,9 @@ def test_work_in_a_never_saved_project_comes_back_after_a_crash(dock, scene, qtb
         assert later.controller.fitted is not None and later.controller.image is not None
         assert "ended without its project being saved" in later.statusLabel.text()
         qtbot.waitUntil(project.isDirty, timeout=3000)  # closing QGIS asks to save it
+        assert project.write(str(tmp_path / "rescued.qgz"))  # saved: the status line stops asking for it
+        status = later.statusLabel.text() + later.statusLabel.toolTip()
+        assert "saved in rescued.qgz" in status and "save the project" not in status, status
     finally:
         later.unload()
         project.clear()
