@@ -57,7 +57,7 @@ resources_rc.py: resources.qrc $(wildcard icons/*)
 
 test: setup
 	@mkdir -p test-artifacts
-	$(PY) -m pytest -q tests
+	$(PY) -m pytest -q --durations=15 tests
 
 # ruff (pyflakes, pycodestyle, bugbear; pyproject.toml). make test runs it too, as tests/test_lint.py.
 lint: setup

@@ -168,15 +168,22 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         raise NotImplementedError
 
     # --- parameter helpers --------------------------------------------------------------------------------------
-    def add_photo_parameter(self, name: str = "PHOTO", optional: bool = False, description: str = "Photo"):
-        param = QgsProcessingParameterFile(name, self.tr(description), QgsProcessingParameterFile.File,
-                                           optional=optional, fileFilter=IMAGE_FILTER)
+    def add_explained(self, param: QgsProcessingParameterDefinition, explanation: str = "") -> None:
+        """Add ``param``, its ``explanation`` in its tool tip: the dialog's labels stay short (a trial saw a
+        127-character label cut at "empty =", the rest of it out of sight)."""
+        if explanation:
+            param.setHelp(explanation)
         self.addParameter(param)
 
+    def add_photo_parameter(self, name: str = "PHOTO", optional: bool = False, description: str = "Photo",
+                            explanation: str = ""):
+        self.add_explained(QgsProcessingParameterFile(name, self.tr(description), QgsProcessingParameterFile.File,
+                                                      optional=optional, fileFilter=IMAGE_FILTER), explanation)
+
     def add_camera_parameter(self, name: str = "CAMERA", optional: bool = False,
-                             description: str = "Camera (Monoplot JSON, or KML PhotoOverlay)"):
-        self.addParameter(QgsProcessingParameterFile(name, self.tr(description), QgsProcessingParameterFile.File,
-                                                     optional=optional, fileFilter=CAMERA_FILTER))
+                             description: str = "Camera (Monoplot JSON, or KML PhotoOverlay)", explanation: str = ""):
+        self.add_explained(QgsProcessingParameterFile(name, self.tr(description), QgsProcessingParameterFile.File,
+                                                      optional=optional, fileFilter=CAMERA_FILTER), explanation)
 
     def add_dem_parameter(self, name: str = "DEM", optional: bool = False):
         dem = QgsProcessingParameterRasterLayer(name, self.tr("DEM (elevation in metres)"), optional=optional)

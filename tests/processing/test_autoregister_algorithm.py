@@ -154,8 +154,8 @@ def test_the_position_uncertainty_defaults_to_a_gps_error_for_an_exif_prior(proc
 
     parameter = processing_provider.algorithm("autoregister").parameterDefinition("POSITION_SIGMA")
     assert parameter.defaultValue() is None and parameter.flags() & parameter.FlagOptional
-    assert f"empty = {GPS_POSITION_SIGMA_M:.0f} m for the photo's EXIF GPS position, " \
-           f"{DEFAULT_POSITION_SIGMA_M:.0f} m for a prior camera file" in parameter.description()
+    assert f"Empty: {GPS_POSITION_SIGMA_M:.0f} m for the photo's EXIF GPS position, " \
+           f"{DEFAULT_POSITION_SIGMA_M:.0f} m for a prior camera file" in parameter.toolTip()
     # a surveyed camera position (GNSS, ± 0.5 m) is accepted, as the dock accepts it (a time-lapse trial's was
     # refused with "Incorrect parameter value"), in the batch too
     assert parameter.checkValueIsAcceptable(0.5) and not parameter.checkValueIsAcceptable(0.0)

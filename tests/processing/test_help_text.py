@@ -50,3 +50,15 @@ def test_the_toolbox_groups_the_steps_in_the_order_of_the_work(processing_provid
     assert groups["fitcamera"] == groups["suggestphotopoints"] == groups["autoregister"] == "1 · Points and camera"
     assert groups["computexyz"] == groups["orthophoto"] == groups["maptophoto"] == "2 · Products"
     assert groups["batch"] == "3 · Many photos" and len(set(groups.values())) == 3
+
+
+def test_labels_stay_short_and_the_details_are_in_their_tool_tips(processing_provider):
+    """An archivist's dialog cut a 127-character label at "(m, one sigma; empty =": labels are at most 60
+    characters, and what they leave out is in the parameter's tool tip (its help)."""
+    for alg in processing_provider.algorithms():
+        for param in alg.parameterDefinitions():
+            assert len(param.description()) <= 60, (alg.id(), param.description())
+    sigma = processing_provider.algorithm("autoregister").parameterDefinition("POSITION_SIGMA")
+    assert "EXIF GPS" in sigma.toolTip() and "camera file" in sigma.toolTip()
+    resume = processing_provider.algorithm("batch").parameterDefinition("RESUME")
+    assert "same inputs and settings" in resume.toolTip()

@@ -98,16 +98,15 @@ class BatchPhotos(MonoplotAlgorithm):
         self.addParameter(QgsProcessingParameterFile("TABLE", self.tr("Photo table CSV (table mode)"),
                                                      QgsProcessingParameterFile.File, optional=True,
                                                      fileFilter="CSV (*.csv)"))
-        self.addParameter(QgsProcessingParameterNumber(
-            "POSITION_SIGMA", self.tr("Uncertainty of the priors' position (m, one sigma; table rows without points; "
-                                      "empty = {0:.0f} m for EXIF GPS, {1:.0f} m for a camera file)").format(
-                GPS_POSITION_SIGMA_M, DEFAULT_POSITION_SIGMA_M),
-            QgsProcessingParameterNumber.Double, None, optional=True, minValue=0.1))
-        self.addParameter(QgsProcessingParameterNumber(
-            "ANGLE_SIGMA", self.tr("Uncertainty of the priors' heading and pitch (degrees, one sigma; table rows "
-                                   "without points)"),
+        self.add_explained(QgsProcessingParameterNumber(
+            "POSITION_SIGMA", self.tr("Priors' position uncertainty (m, one sigma)"),
+            QgsProcessingParameterNumber.Double, None, optional=True, minValue=0.1),
+            self.tr("For table rows without points. Empty: {0:.0f} m for EXIF GPS, {1:.0f} m for a camera "
+                    "file").format(GPS_POSITION_SIGMA_M, DEFAULT_POSITION_SIGMA_M))
+        self.add_explained(QgsProcessingParameterNumber(
+            "ANGLE_SIGMA", self.tr("Priors' heading and pitch uncertainty (°, one sigma)"),
             QgsProcessingParameterNumber.Double, DEFAULT_ANGLE_SIGMA_DEG, optional=True, minValue=0.1,
-            maxValue=30.0))
+            maxValue=30.0), self.tr("For table rows without points"))
         self.addParameter(QgsProcessingParameterBoolean("XYZ", self.tr("Write XYZ rasters"), defaultValue=True))
         self.addParameter(QgsProcessingParameterBoolean("ORTHO", self.tr("Write orthophotos"), defaultValue=True))
         self.addParameter(QgsProcessingParameterNumber(
@@ -116,18 +115,18 @@ class BatchPhotos(MonoplotAlgorithm):
         self.addParameter(QgsProcessingParameterBoolean("REGISTER",
                                                         self.tr("Re-register every frame (time-lapse mode)"),
                                                         defaultValue=True))
-        self.addParameter(QgsProcessingParameterFile("REFERENCE", self.tr("Reference frame (default: the frame the "
-                                                                          "camera was fitted on, else the first "
-                                                                          "usable frame)"),
-                                                     QgsProcessingParameterFile.File, optional=True))
+        self.add_explained(QgsProcessingParameterFile("REFERENCE", self.tr("Reference frame (empty = automatic)"),
+                                                      QgsProcessingParameterFile.File, optional=True),
+                           self.tr("Empty: the frame the camera was fitted on, else the first usable frame"))
         self.addParameter(QgsProcessingParameterNumber("WORKERS", self.tr("Frames at once (0 = one per core)"),
                                                        QgsProcessingParameterNumber.Integer, 0, minValue=0))
         self.addParameter(QgsProcessingParameterString("SCHEDULER", self.tr("Dask scheduler address (empty = this "
                                                                             "machine)"),
                                                        defaultValue="", optional=True))
-        self.addParameter(QgsProcessingParameterBoolean(
-            "RESUME", self.tr("Keep the photos an earlier run in the output folder finished with the same inputs and "
-                              "settings (resume a canceled or interrupted run)"), defaultValue=True))
+        self.add_explained(QgsProcessingParameterBoolean(
+            "RESUME", self.tr("Resume: keep photos an earlier run finished"), defaultValue=True),
+            self.tr("Photos an earlier run in the output folder finished with the same inputs and settings are kept: "
+                    "a canceled or interrupted run goes on where it stopped"))
         self.addParameter(QgsProcessingParameterFolderDestination("OUTPUT", self.tr("Output folder")))
         for name in self.ADVANCED:  # folded away: the dialog showed 16 parameters of both modes at once (a trial)
             param = self.parameterDefinition(name)

@@ -62,9 +62,9 @@ class FitCamera(MonoplotAlgorithm):
     def initAlgorithm(self, config=None):
         self.add_photo_parameter()
         self.add_dem_parameter()
-        self.add_camera_parameter("PRIOR", optional=True,
-                                  description="Prior camera (Monoplot JSON, or KML PhotoOverlay; not needed with 6 "
-                                              "or more paired GCPs)")
+        self.add_camera_parameter("PRIOR", optional=True, description="Prior camera (not needed with 6+ pairs)",
+                                  explanation=self.tr("A Monoplot camera JSON or a KML PhotoOverlay; not needed with "
+                                                      "6 or more paired GCPs"))
         self.addParameter(QgsProcessingParameterFeatureSource("PHOTO_POINTS", self.tr("Photo points (layer)"),
                                                               [QgsProcessing.TypeVectorPoint], optional=True))
         self.addParameter(QgsProcessingParameterFeatureSource("DEM_POINTS", self.tr("DEM points (layer)"),

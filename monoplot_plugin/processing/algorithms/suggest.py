@@ -66,11 +66,10 @@ class SuggestDemPoints(MonoplotAlgorithm):
         self.addParameter(QgsProcessingParameterNumber("MAX_POINTS", self.tr("Maximum number of points"),
                                                        QgsProcessingParameterNumber.Integer, 60, minValue=1,
                                                        maxValue=10000))
-        sigma = QgsProcessingParameterNumber(
-            "POSITION_SIGMA", self.tr("Uncertainty of the prior position (m, one sigma; empty = 100 m): terrain "
-                                      "nearer than this that fills the camera's view is left out"),
-            QgsProcessingParameterNumber.Double, None, optional=True, minValue=0.0)
-        self.addParameter(sigma)
+        self.add_explained(QgsProcessingParameterNumber(
+            "POSITION_SIGMA", self.tr("Prior position uncertainty (m, one sigma; empty = 100)"),
+            QgsProcessingParameterNumber.Double, None, optional=True, minValue=0.0),
+            self.tr("Terrain nearer than this that fills the camera's view is left out"))
         self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Suggested DEM points"),
                                                             QgsProcessing.TypeVectorPoint))
         self.addOutput(QgsProcessingOutputNumber("COUNT", self.tr("Number of points")))
