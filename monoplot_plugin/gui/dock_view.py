@@ -178,6 +178,8 @@ class DockViewMixin:
                 self.tr(str(info.get("status") or "not judged")), figure)
         session = getattr(getattr(self, "output_tools", None), "session", None)
         if session is not None and session.restored_from_autosave:  # its own notice came first: kept in view
-            text += " " + self.tr("Drawing on the photo done after the project was last saved came back from the "
-                                  "autosave.")
+            text += " " + (self.tr("The features drawn on the photo came back too.")
+                           if c.restored_source == "unsaved autosave" else
+                           self.tr("Drawing on the photo done after the project was last saved came back from the "
+                                   "autosave."))
         return text

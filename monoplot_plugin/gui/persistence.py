@@ -86,8 +86,13 @@ def autosave_entry(project: QgsProject, key: str, text: str) -> None:
 
 
 def autosaved_entry(project: QgsProject, key: str) -> Optional[str]:
-    """The entry ``key`` from the entries autosave when that file is newer than the project file, else None."""
+    """The entry ``key`` from the entries autosave when that file is newer than the project file, else None. For a
+    project never saved: from the one a session before this one left (a crash: the rule of
+    :func:`unsaved_work_left`), since its points came back and the features drawn on the photo did not."""
     path = _entries_path(autosave_path(project))
+    if not project.fileName():
+        left = os.path.exists(path) and os.path.getmtime(path) < SESSION_START
+        return _read_entries(path).get(key) if left else None
     return _read_entries(path).get(key) if _newer_than_project(project, path) else None
 
 

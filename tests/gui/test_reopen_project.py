@@ -260,16 +260,24 @@ def test_work_in_a_never_saved_project_comes_back_after_a_crash(dock, scene, qtb
     path = persistence.autosave_path(project)
     left = open(path, encoding="utf-8").read()
     assert '"overlay_opacity":23' in left
+    # ...and a glacier front drawn on the photo (a re-check trial: the points came back, the drawing did not)
+    dock.output_tools.current_session().add_feature("line", [[20, 30], [60, 35], [90, 50]])
+    entries = persistence._entries_path(path)
+    qtbot.waitUntil(lambda: any('"line": [{' in text for text in persistence._read_entries(entries).values()),
+                    timeout=5000)
+    drawn = open(entries, encoding="utf-8").read()
     dock.unload()  # the plugin handed its state over to the project...
     project.clear()  # ...which QGIS closed: nothing is left to restore
     assert not os.path.exists(path)
     assert not persistence.unsaved_work_left(project)
 
-    with open(path, "w", encoding="utf-8") as fh:  # a crash instead: the autosave stays, the project is gone
-        fh.write(left)
+    for name, text in ((path, left), (entries, drawn)):  # a crash instead: the autosave stays, the project is gone
+        with open(name, "w", encoding="utf-8") as fh:
+            fh.write(text)
     assert not persistence.unsaved_work_left(project)  # written in this session: its own, not a crash's
     before = persistence.SESSION_START - 60.0  # ...written by a session before this one
-    os.utime(path, (before, before))
+    for name in (path, entries):
+        os.utime(name, (before, before))
     assert persistence.unsaved_work_left(project)
     later = MonoplotDock(qgis_iface)
     qtbot.addWidget(later)
@@ -277,6 +285,9 @@ def test_work_in_a_never_saved_project_comes_back_after_a_crash(dock, scene, qtb
         assert later.controller.state.settings.get("overlay_opacity") == 23
         assert later.controller.fitted is not None and later.controller.image is not None
         assert "ended without its project being saved" in later.statusLabel.text()
+        session = later.output_tools.session
+        assert session is not None and session.photo_layer("line").featureCount() == 1
+        assert "drawn on the photo came back" in later.statusLabel.text() + later.statusLabel.toolTip()
         qtbot.waitUntil(project.isDirty, timeout=3000)  # closing QGIS asks to save it
         assert project.write(str(tmp_path / "rescued.qgz"))  # saved: the status line stops asking for it
         status = later.statusLabel.text() + later.statusLabel.toolTip()
@@ -284,4 +295,4 @@ def test_work_in_a_never_saved_project_comes_back_after_a_crash(dock, scene, qtb
     finally:
         later.unload()
         project.clear()
-    assert not os.path.exists(path)
+    assert not os.path.exists(path) and not os.path.exists(entries)
