@@ -9,6 +9,7 @@ camera moved by the prior's σ fits about as well. :func:`combine_evidence` can 
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -179,8 +180,8 @@ def combine_evidence(result: AutoFitResult, ev: dict) -> None:
     if ev.get("auto_probe_rivals", 0):
         weak.append(f"a camera {_metres(ev['auto_probe_distance_m'])} m away, turned to the same terrain, fits the "
                     f"photo's edges about as well (its edge score is {ev['auto_probe_ratio']:.2f} times this "
-                    f"one's; lower is better) and puts the terrain {ev['auto_probe_shift_px']:.0f} px elsewhere: "
-                    "the edges cannot place the camera that closely")
+                    f"one's; lower is better) and puts the terrain {_shift_words(ev['auto_probe_shift_px'], result)}"
+                    ": the edges cannot place the camera that closely")
     if near or back < PROBES_BACK_OK:
         # what the edges cannot place, only the prior does: its position σ is the honest one (a desktop trial's near
         # scene said ± 8 / 39 m with the camera 37 m off)
@@ -246,3 +247,18 @@ def prior_kept(result: "AutoFitResult", prior, sig: dict) -> "AutoFitResult":
                                                                         result.aligned, result.skyline)
     kept.elapsed_s = result.elapsed_s
     return kept
+
+
+def _shift_words(shift_px: float, result) -> str:
+    """How far a rival camera puts the terrain, in words: an RMS over terrain near one of the cameras runs to tens of
+    thousands of pixels (a re-check trial read "24661 px elsewhere" on a 4000 px photo).
+
+    >>> from types import SimpleNamespace
+    >>> r = SimpleNamespace(camera=SimpleNamespace(image_size=(4000, 3000)))
+    >>> _shift_words(61.4, r), _shift_words(24661.0, r)
+    ('61 px elsewhere', "more than the picture's size elsewhere")
+    """
+    w, h = result.camera.image_size
+    if shift_px > math.hypot(w, h):
+        return "more than the picture's size elsewhere"
+    return f"{shift_px:.0f} px elsewhere"
