@@ -92,7 +92,8 @@ class ProductExports:
                                           fit=dict(info), photo=photo, allow_empty=False)
             if what == "ortho":
                 return product_step.orthophoto(path, photo, camera, dem, product_step.AUTO, overwrite=overwrite,
-                                               progress=progress, is_canceled=is_canceled, allow_empty=False)
+                                               progress=progress, is_canceled=is_canceled, allow_empty=False,
+                                               fit=dict(info))
             return product_step.report(path, photo, camera, dem, points=points, sigmas=sigmas, title=Path(name).stem,
                                        overwrite=overwrite, progress=progress, is_canceled=is_canceled,
                                        verdict=verdict, checks=checks, accuracy=accuracy)

@@ -19,12 +19,13 @@ from osgeo import gdal
 from ._gdal import gdal_errors_as_exceptions, gdal_failure, raster_verifier, srs_from_user
 from ..core.lookup import orthorectify
 from .safe_write import OutputError, atomic_output
+from .xyz_raster import fit_metadata
 
 __all__ = ["write_orthophoto", "orthophoto_from_camera"]
 
 
 def write_orthophoto(path, image: np.ndarray, geotransform: Sequence[float], crs_wkt: str, *,
-                     overwrite: bool = False) -> Path:
+                     overwrite: bool = False, fit: Optional[dict] = None) -> Path:
     """Write a (rows, cols, bands + 1) uint8 array whose last band is alpha (0 = unseen) as a GeoTIFF.
 
     Args:
@@ -33,6 +34,8 @@ def write_orthophoto(path, image: np.ndarray, geotransform: Sequence[float], crs
         geotransform: the DEM's GDAL geotransform.
         crs_wkt: the DEM's CRS.
         overwrite: replace an existing file (default: refuse with OutputExistsError).
+        fit: optional verdict of the camera (``status``, ``message``...), kept as ``MONOPLOT_FIT`` in the metadata
+            (:func:`~.xyz_raster.fit_metadata`): an orthophoto of an "uncertain" camera says so.
     """
     image = np.asarray(image)
     if image.ndim != 3 or image.shape[2] not in (2, 4) or image.dtype != np.uint8:
@@ -49,7 +52,7 @@ def write_orthophoto(path, image: np.ndarray, geotransform: Sequence[float], crs
                 ds = gdal.GetDriverByName("GTiff").Create(tmp, cols, rows, nbands, gdal.GDT_Byte, options=options)
                 ds.SetGeoTransform(tuple(float(g) for g in geotransform))
                 ds.SetProjection(srs.ExportToWkt())
-                ds.SetMetadataItem("MONOPLOT_FORMAT", "monoplot-orthophoto/1")
+                ds.SetMetadata({"MONOPLOT_FORMAT": "monoplot-orthophoto/1", **fit_metadata(fit)})
                 interp = ([gdal.GCI_RedBand, gdal.GCI_GreenBand, gdal.GCI_BlueBand] if nbands == 4
                           else [gdal.GCI_GrayIndex]) + [gdal.GCI_AlphaBand]
                 for index in range(nbands):
@@ -69,7 +72,8 @@ def write_orthophoto(path, image: np.ndarray, geotransform: Sequence[float], crs
 def orthophoto_from_camera(path, photo: np.ndarray, camera, dem, xyz: Optional[np.ndarray] = None, *,
                            overwrite: bool = False, rows_per_strip: Optional[int] = None,
                            allow_empty: bool = True,
-                           between_chunks: Optional[Callable[[float], None]] = None) -> Path:
+                           between_chunks: Optional[Callable[[float], None]] = None,
+                           fit: Optional[dict] = None) -> Path:
     """Orthorectify ``photo`` onto ``dem`` (:func:`monoplot_plugin.core.lookup.orthorectify`) and write it.
 
     Args:
@@ -81,6 +85,7 @@ def orthophoto_from_camera(path, photo: np.ndarray, camera, dem, xyz: Optional[n
         allow_empty: write an orthophoto with no cell seen (else OutputError, nothing written).
         between_chunks: called with the fraction done while the cells are looked up (the caller's progress and
             cancel; see core :func:`~..core.lookup.ortho_lookup`).
+        fit: the camera's verdict, kept in the metadata (:func:`write_orthophoto`).
     Raises:
         MemoryBudgetError (core) with the numbers when even thin strips do not fit.
     """
@@ -97,7 +102,7 @@ def orthophoto_from_camera(path, photo: np.ndarray, camera, dem, xyz: Optional[n
     if not allow_empty and not image[..., -1].any():
         raise OutputError(f"the orthophoto {Path(os.fspath(path)).name} would be empty: the camera sees no cell of "
                           f"the DEM")
-    return write_orthophoto(path, image, dem.geotransform, dem.crs_wkt, overwrite=overwrite)
+    return write_orthophoto(path, image, dem.geotransform, dem.crs_wkt, overwrite=overwrite, fit=fit)
 
 
 def orthorectify_in_strips(photo: np.ndarray, camera, dem, rows_per_strip: Optional[int] = None,

@@ -54,6 +54,21 @@ XYZ_FORMAT = "monoplot-xyz/1"
 BAND_NAMES = ("X", "Y", "Z", "DISTANCE")
 
 
+def fit_metadata(fit: Optional[dict]) -> dict:
+    """``{"MONOPLOT_FIT": JSON}`` of how sure the camera of a product is (its ``status``, ``message``, ``rmse_px``,
+    ``check_rmse_px``, ``n_check``, ``mode``), {} without: the file says what its positions are worth.
+
+    >>> fit_metadata({"status": "uncertain", "rmse_px": 2.5, "points": [1, 2]})
+    {'MONOPLOT_FIT': '{"status": "uncertain", "rmse_px": 2.5}'}
+    >>> fit_metadata(None)
+    {}
+    """
+    if not fit:
+        return {}
+    keep = ("status", "message", "rmse_px", "check_rmse_px", "n_check", "mode")
+    return {"MONOPLOT_FIT": json.dumps({k: fit[k] for k in keep if fit.get(k) is not None})}
+
+
 def write_xyz_raster(path, xyz: np.ndarray, crs_wkt: str, distance: Optional[np.ndarray] = None, *,
                      overwrite: bool = False, compress: str = "DEFLATE", dtype: str = "auto",
                      camera=None, photo_name: str = "", fit: Optional[dict] = None,
@@ -125,9 +140,7 @@ def write_xyz_raster_strips(path, strips: Iterable, width: int, height: int, crs
         "MONOPLOT_PHOTO": photo_name,
         "MONOPLOT_CAMERA": camera.to_json(indent=None) if camera is not None else "",
     }
-    if fit:
-        keep = ("status", "rmse_px", "check_rmse_px", "n_check", "mode")
-        metadata["MONOPLOT_FIT"] = json.dumps({k: fit[k] for k in keep if fit.get(k) is not None})
+    metadata.update(fit_metadata(fit))
     options = ["TILED=YES", "BLOCKXSIZE=256", "BLOCKYSIZE=256", f"COMPRESS={compress.upper()}", "PREDICTOR=3",
                "BIGTIFF=IF_SAFER", "INTERLEAVE=BAND", "NUM_THREADS=ALL_CPUS"]  # tiles compressed on every core
     if compress.upper() == "DEFLATE":

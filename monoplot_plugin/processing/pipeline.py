@@ -74,11 +74,13 @@ def write_xyz(path: str, camera: Camera, dem, crs_wkt: str, photo_name: str = ""
 
 
 def orthophoto(path: str, photo: np.ndarray, camera: Camera, dem, resolution: Optional[float],
-               progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None, grid=None):
-    """Write the photo draped on the DEM (:func:`workflow.products.orthophoto`)."""
+               progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None, grid=None,
+               fit: Optional[dict] = None):
+    """Write the photo draped on the DEM (:func:`workflow.products.orthophoto`); ``fit``: the camera's verdict,
+    kept in the metadata."""
     try:
         return products.orthophoto(path, photo, camera, dem, resolution, overwrite=True, progress=progress,
-                                   is_canceled=is_canceled, grid=grid)
+                                   is_canceled=is_canceled, grid=grid, fit=fit)
     except products.ProductError as exc:
         raise InputError(str(exc)) from exc
 

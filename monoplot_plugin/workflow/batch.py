@@ -171,7 +171,8 @@ def run_batch(jobs: List[PhotoJob], dem, crs_wkt: str, out_dir: str, write_xyz: 
     writer = None
     # the shared XYZ raster is written while the frames run
     if setup.camera_json and write_xyz and shared is not None and shared.products.sees_ground:
-        writer = Background(shared.products.write_xyz, os.path.join(out_dir, SHARED_XYZ), crs_wkt)
+        writer = Background(shared.products.write_xyz, os.path.join(out_dir, SHARED_XYZ), crs_wkt, "", None,
+                            {"status": setup.camera_status, "message": setup.camera_note})
     relay = CallerThread(progress)  # the frames' threads report through this thread (qgis_process)
     bar = SharedBar(relay, len(tasks), len(earlier))
 

@@ -126,17 +126,19 @@ class CameraProducts:
         products.xyz, products.sees_ground = None, True
         return products
 
-    def write_orthophoto(self, path: str, photo: np.ndarray) -> str:
+    def write_orthophoto(self, path: str, photo: np.ndarray, fit: Optional[dict] = None) -> str:
         """The frame draped, not its print border or caption (:func:`~.products.picture_area`, found per frame:
-        an archive's scans each have their own)."""
+        an archive's scans each have their own); ``fit``: the row's verdict, in the file's metadata."""
         photo = photo[..., :3] if photo.ndim == 3 and photo.shape[2] > 3 else photo
         image = self.lookup.apply(photo, picture_area(photo))
-        return str(write_orthophoto(path, image, self.grid.geotransform, self.grid.crs_wkt, overwrite=True))
+        return str(write_orthophoto(path, image, self.grid.geotransform, self.grid.crs_wkt, overwrite=True, fit=fit))
 
-    def write_xyz(self, path: str, crs_wkt: str, photo_name: str = "", photo: Optional[np.ndarray] = None) -> str:
-        """The XYZ raster; with ``photo``, nodata over its print border and caption too."""
+    def write_xyz(self, path: str, crs_wkt: str, photo_name: str = "", photo: Optional[np.ndarray] = None,
+                  fit: Optional[dict] = None) -> str:
+        """The XYZ raster; with ``photo``, nodata over its print border and caption too; ``fit``: the verdict."""
         xyz = self.xyz if photo is None else blank_outside(self.xyz, picture_area(photo))
-        return str(write_xyz_raster(path, xyz, crs_wkt, overwrite=True, camera=self.camera, photo_name=photo_name))
+        return str(write_xyz_raster(path, xyz, crs_wkt, overwrite=True, camera=self.camera, photo_name=photo_name,
+                                    fit=fit))
 
 
 @dataclass(frozen=True)
@@ -315,18 +317,22 @@ def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCance
         check_canceled(is_canceled)
         if (setup.write_xyz or setup.write_ortho) and not products.sees_ground:
             raise InputError("the camera sees no cell of the DEM (every pixel is sky): wrong camera or DEM?")
+        if shared.camera is not None:  # a frame inherits the doubt of the camera it shares
+            fit_status, fit_message = frame_verdict(setup, task.photo, registered=shared.reference is not None)
+        # the row's verdict in each product's metadata: an archivist's "uncertain" orthophotos lay beside the good
+        # ones, only the log's status column told them apart
+        fit = {"status": row_status(fit_status), "message": fit_message,
+               "rmse_px": float(result.rmse_px) if np.isfinite(result.rmse_px) else None}
         if setup.write_xyz:
             if own_camera:
                 result.outputs.append(products.write_xyz(os.path.join(setup.out_dir, f"{task.stem}_xyz.tif"),
-                                                         setup.crs_wkt, task.name, photo))
+                                                         setup.crs_wkt, task.name, photo, fit))
             else:  # written once before the frames (see batch.run_batch)
                 result.outputs.append(os.path.join(setup.out_dir, SHARED_XYZ))
         if setup.write_ortho:
             result.outputs.append(products.write_orthophoto(os.path.join(setup.out_dir, f"{task.stem}_ortho.tif"),
-                                                            photo))
+                                                            photo, fit))
         result.ok = True
-        if shared.camera is not None:  # a frame inherits the doubt of the camera it shares
-            fit_status, fit_message = frame_verdict(setup, task.photo, registered=shared.reference is not None)
         result.status = row_status(fit_status)
         # a frame of a shared camera has no fit of its own (its RMSE column stays empty): say whose camera it used
         whose = "the shared camera turned" if own_camera and shared.camera is not None else "the shared camera"

@@ -191,12 +191,14 @@ def write_xyz(path, camera: Camera, dem, crs_wkt: Optional[str] = None, photo_na
 
 def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution=None,
                overwrite: bool = False, progress: Optional[Progress] = None,
-               is_canceled: Optional[IsCanceled] = None, grid=None, allow_empty: bool = True) -> Path:
+               is_canceled: Optional[IsCanceled] = None, grid=None, allow_empty: bool = True,
+               fit: Optional[dict] = None) -> Path:
     """The photo (H, W, 3) draped on the DEM (not its print border or caption, :func:`picture_area`): a north-up RGBA
     GeoTIFF on the DEM's grid, or on a grid of cell size
     ``resolution`` over the same extent (elevations resampled bilinearly), or (:data:`AUTO`) at the photo's own
     detail over the part the camera sees (:func:`auto_resolution`); ``grid``: :func:`ortho_grid` when the caller has
-    it already; ``allow_empty=False``: no ground pixel is a :class:`ProductError`."""
+    it already; ``allow_empty=False``: no ground pixel is a :class:`ProductError`; ``fit``: the camera's verdict,
+    kept in the metadata as the XYZ raster keeps it."""
     from ..outputs.orthophoto import orthophoto_from_camera
 
     if (photo.shape[1], photo.shape[0]) != tuple(camera.image_size):
@@ -215,7 +217,7 @@ def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution=None,
 
     with _committed(is_canceled):
         written = orthophoto_from_camera(path, photo, camera, grid, xyz, overwrite=overwrite,
-                                         between_chunks=between_chunks)
+                                         between_chunks=between_chunks, fit=fit)
     if progress is not None:
         progress(1.0, "")
     return written

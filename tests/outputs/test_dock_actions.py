@@ -150,6 +150,10 @@ def test_exports_run_in_background_tasks(dock_with_fit, tmp_path, qtbot, caplog)
     assert tools.start_export("ortho", tmp_path / "poor_ortho.tif") is not None
     qtbot.waitUntil(lambda: bool(done) and done[-1][0] == "ortho", timeout=30000)
     assert 'from a camera whose fit is "poor"' in dock.statusLabel.text(), dock.statusLabel.text()
+    import json
+
+    kept = json.loads(gdal.Open(str(tmp_path / "poor_ortho.tif")).GetMetadataItem("MONOPLOT_FIT"))
+    assert kept["status"] == "poor"  # the file says it too, as the XYZ raster does
 
 
 def test_a_product_with_no_ground_pixel_is_not_written(dock_with_fit, tmp_path, qtbot):

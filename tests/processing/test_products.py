@@ -312,6 +312,18 @@ def test_orthophoto_at_another_resolution(run_alg, small_scene, tmp_path):
     seen = seen[np.isfinite(seen[..., 2])]
     assert x0 <= seen[:, 0].min() and seen[:, 0].max() <= x0 + dx * ds.RasterXSize
     assert y0 + dy * ds.RasterYSize <= seen[:, 1].min() and seen[:, 1].max() <= y0
+    assert ds.GetMetadataItem("MONOPLOT_FIT") is None  # a camera file with no verdict: nothing to say
+
+
+def test_an_orthophoto_says_the_verdict_of_its_camera(run_alg, small_scene, tmp_path):
+    """An orthophoto lies in a folder beside others: its file says how sure its camera is, as the XYZ raster's."""
+    import json
+
+    out = tmp_path / "ortho.tif"
+    run_alg("orthophoto", {"CAMERA": small_scene["fitted"], "DEM": small_scene["dem"],
+                           "PHOTO": small_scene["photo"], "RESOLUTION": 60, "OUTPUT": str(out)})
+    kept = json.loads(gdal.Open(str(out)).GetMetadataItem("MONOPLOT_FIT"))
+    assert kept["status"] == "ok" and kept["message"] == "the scene's true camera"
 
 
 def test_photo_line_into_the_sky_is_cut_where_it_leaves_the_ground(run_alg, small_scene):

@@ -393,8 +393,20 @@ def test_frames_not_re_registered_are_uncertain_unless_the_camera_was_fitted_on_
     path = fitted_on_frame(scene, tmp_path, 2)
     cam, dem = Camera.load(path), Dem.open(scene["dem"])
     results = batch.run_batch(batch.folder_jobs(scene["folder"], cam), dem, dem.crs_wkt, str(tmp_path / "out"),
-                              camera_verdict=batch.shared_camera_verdict(path), write_ortho=False)
+                              camera_verdict=batch.shared_camera_verdict(path))
     assert [r.status for r in results] == ["uncertain", "uncertain", "ok", "uncertain", "uncertain"]
     assert all(r.ok for r in results)
     assert "fitted on frame_002.png and this frame was not re-registered" in results[0].message
     assert results[2].message == "ok, the shared camera"
+    # each orthophoto says its row's verdict (an archivist's "uncertain" ones lay beside the good ones, only the
+    # log told them apart), the shared XYZ raster the camera's
+    import json
+
+    from osgeo import gdal
+
+    kept = [json.loads(gdal.Open(str(tmp_path / "out" / f"frame_{i:03d}_ortho.tif")).GetMetadataItem("MONOPLOT_FIT"))
+            for i in range(5)]
+    assert [k["status"] for k in kept] == [r.status for r in results]
+    assert "this frame was not re-registered" in kept[0]["message"]
+    shared = json.loads(gdal.Open(str(tmp_path / "out" / batch.SHARED_XYZ)).GetMetadataItem("MONOPLOT_FIT"))
+    assert shared["status"] == "ok"

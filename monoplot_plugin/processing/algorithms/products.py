@@ -335,6 +335,9 @@ class Orthophoto(_CameraDemAlgorithm):
                 grid = ortho_grid(camera, dem, None)
         except ProductError as exc:
             raise QgsProcessingException(str(exc)) from exc
+        status, message = verdict_on_photo(self.parameterAsFile(parameters, "CAMERA", context),
+                                           self.photo_path(parameters, context))
+        fit = {"status": status, "message": message} if status else None  # kept in the file's metadata
         rows = plan_strips(camera, extra_per_row=3 * camera.width,
                            fixed=grid.elevation.size * 40 + 3 * dem.elevation.nbytes, what="orthophoto")
         if rows < camera.height:  # the XYZ raster does not fit at once: the photo is draped strip by strip
@@ -342,13 +345,13 @@ class Orthophoto(_CameraDemAlgorithm):
 
             feedback.pushInfo(self.tr("Orthophoto computed in strips of {0} photo rows (memory)").format(rows))
             orthophoto_from_camera(out, photo, camera, grid, None, overwrite=True, rows_per_strip=rows,
-                                   allow_empty=self.parameterAsBool(parameters, "ALLOW_EMPTY", context))
+                                   allow_empty=self.parameterAsBool(parameters, "ALLOW_EMPTY", context), fit=fit)
             feedback.setProgress(100)
             return {"OUTPUT": out}
         ground = int(np.isfinite(pipeline.xyz_raster(camera, dem)[..., 2]).any())
         self.check_not_empty(parameters, context, ground, "orthophoto", NO_GROUND)
         checked(pipeline.orthophoto, out, photo, camera, dem, resolution, progress_callback(feedback, 0, 95),
-                cancel_callback(feedback), grid)
+                cancel_callback(feedback), grid, fit)
         feedback.setProgress(100)
         return {"OUTPUT": out}
 
