@@ -7,6 +7,8 @@ from qgis.PyQt.QtCore import QEvent, QObject, Qt
 from qgis.PyQt.QtWidgets import (QFrame, QGridLayout, QHeaderView, QScrollArea, QSizePolicy, QVBoxLayout,
                                  QWidget)
 
+from ..workflow.text import cut_at_word
+
 __all__ = ["lay_out", "fit_minimum_width", "scroll_points_tab", "scroll_camera_tab", "narrow_tabs",
            "split_photo_and_tabs", "fit_text_height", "TextHeight", "show_status", "status_line"]
 
@@ -213,10 +215,7 @@ def status_line(text: str, limit: int = STATUS_CHARS) -> str:
     >>> status_line("short"), status_line("one two three four", 12)
     ('short', 'one two …')
     """
-    if len(text) <= limit:
-        return text
-    cut = text.rfind(" ", 0, limit - 1)
-    return text[:cut if cut > 0 else limit - 1].rstrip() + " …"
+    return cut_at_word(text, limit)
 
 
 def place_floating(dock) -> None:

@@ -2,6 +2,7 @@
 :mod:`..workflow.cluster` (a Dask scheduler's workers), under Processing's names."""
 
 from ..workflow.batch import (  # noqa: F401 (the algorithm's names for them)
+    LOG_NAME,
     WARNING,
     PhotoJob,
     PhotoResult,

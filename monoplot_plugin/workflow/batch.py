@@ -27,6 +27,7 @@ from .frames import (SHARED_XYZ, FrameTask, PhotoResult, Timelapse, blank_photo,
                      shared_for)
 from .progress import CallerThread, IsCanceled, Progress, SharedBar, never_canceled, no_progress
 from .resume import dem_identity, in_task_order, remove_stale, resumable
+from .text import cut_at_word
 
 __all__ = ["PhotoJob", "PhotoResult", "folder_jobs", "table_jobs", "run_batch", "output_stems", "fit_shared_camera",
            "fit_job", "write_log", "log_photo_path", "frame_tasks", "fitted_frame", "pick_reference",
@@ -37,6 +38,11 @@ IMAGE_PATTERNS = ("*.jpg", "*.jpeg", "*.png", "*.tif", "*.tiff", "*.bmp")
 #: ``log(message, error)``: ``error`` True for an error, :data:`WARNING` for a warning, False for information.
 Log = Callable[[str, object], None]
 WARNING = "warning"
+
+#: The batch log's file name in the output folder (every row's whole message)
+LOG_NAME = "batch_log.csv"
+#: A row's line in Processing's log is cut to this many characters (the log file keeps all of it)
+ROW_LOG_CHARS = 400
 
 
 @dataclass
@@ -345,8 +351,12 @@ def log_result(log: Log, task: FrameTask, total: int, result: PhotoResult) -> No
     not a failure), "skipped" (a blank frame) or "FAILED, skipped"."""
     head = f"[{task.index + 1}/{total}] {task.name}"
     if result.ok:
-        # at its verdict's level: a trial's "uncertain" rows were plain information lines among the "ok" ones
-        log(f"{head}: {result.message}", {"uncertain": WARNING, "poor": True}.get(result.status, False))
+        # at its verdict's level: a trial's "uncertain" rows were plain information lines among the "ok" ones; cut,
+        # since a registration's reasons ran to 700-1,800 characters a row (the log file keeps all of it)
+        message = cut_at_word(result.message, ROW_LOG_CHARS)
+        if message != result.message:
+            message += f" (all of it in {LOG_NAME})"
+        log(f"{head}: {message}", {"uncertain": WARNING, "poor": True}.get(result.status, False))
     elif result.canceled:
         log(f"{head}: canceled: {result.message}", True)
     elif result.status == "skipped":

@@ -381,6 +381,11 @@ def test_a_doubtful_rows_log_line_is_a_warning(run_alg, small_scene, tmp_path):
     run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"), "XYZ": False,
                       "ORTHO": False, "WORKERS": 1, "OUTPUT": str(tmp_path / "out")}, feedback)
     assert any(m.startswith("[1/1] noise.png: fit uncertain") for m in feedback.warnings), feedback.warnings
+    # cut to a readable line (an archivist's rows ran to 700-1,800 characters), all of it in the log file
+    line = next(m for m in feedback.warnings if m.startswith("[1/1] noise.png"))
+    with open(tmp_path / "out" / "batch_log.csv", newline="") as fh:
+        whole = next(csv.DictReader(fh))["message"]
+    assert len(whole) > 600 and len(line) < 480 and line.endswith("(all of it in batch_log.csv)"), line
 
 
 def test_a_row_whose_fit_is_poor_gets_its_camera_file_and_no_products(run_alg, small_scene, tmp_path):

@@ -225,7 +225,7 @@ class BatchPhotos(MonoplotAlgorithm):
         else:
             results = checked(batch.run_batch, jobs, dem, crs.toWkt(), out_dir,
                               workers=self.parameterAsInt(parameters, "WORKERS", context) or None, **options)
-        log_path = os.path.join(out_dir, "batch_log.csv")
+        log_path = os.path.join(out_dir, batch.LOG_NAME)
         with cancel_before_commit(lambda: False):  # the log says what was done, canceled or not
             batch.write_log(log_path, results, photo_folder)
         succeeded = sum(r.ok for r in results)
