@@ -109,6 +109,8 @@ class MonoplotPlugin:
             # a reload mid-session (the plugin manager's update, Plugin Reloader): the dock comes back for a project
             # with Monoplot work, as when that project is opened (a trial: it stayed closed until clicked)
             QTimer.singleShot(0, self._project_read)
+        else:  # once QGIS has opened a project named on its command line, if any
+            QTimer.singleShot(0, self._open_on_crashed_work)
         self.warmup_task = None
         if self.dependency_notice is None:  # a moment after start-up, so that a quick reload starts nothing
             self._warmup_timer = QTimer()
@@ -126,6 +128,22 @@ class MonoplotPlugin:
         from .workflow.warmup import finish_imports
 
         finish_imports(QUIT_IMPORT_WAIT_S)
+
+    def _open_on_crashed_work(self):
+        """A session that ended without QGIS closing its never-saved project (a crash) left Monoplot work: the dock
+        opens and takes it back, saying so (a re-check trial: nothing at start said the work was waiting; it came
+        back only if the person happened to open the dock on an empty project)."""
+        if self.dock is not None or self.action is None or QgsProject.instance().fileName():
+            return
+        try:
+            from .gui.persistence import unsaved_work_left
+
+            waiting = unsaved_work_left(QgsProject.instance())
+        except Exception:  # noqa: BLE001 — a start-up nicety must never break the plugin's start
+            LOG.exception("Monoplot could not look for work left by a crash")
+            return
+        if waiting:
+            self.action.setChecked(True)
 
     def _project_read(self, *args):
         if self.dock is not None or self.action is None:

@@ -252,3 +252,45 @@ def test_without_its_packages_the_dock_offers_the_install_instead_of_a_python_er
     monkeypatch.undo()
     plugin.action.setChecked(True)  # installed meanwhile: the dock opens
     assert plugin.dock is not None and plugin.action.isChecked()
+
+
+def test_work_a_crash_left_in_a_never_saved_project_opens_the_dock_at_start(qgis_iface, qtbot):
+    """A re-check trial: after a crash, nothing at QGIS's start said that a never-saved project's work was waiting;
+    it came back only if the dock happened to be opened on an empty project. The plugin opens the dock, which takes
+    it back; with no such work (or work this session wrote) nothing opens."""
+    import os
+
+    from qgis.core import QgsProject
+
+    from monoplot_plugin.gui import persistence
+    from monoplot_plugin.state import ProjectState
+
+    project = QgsProject.instance()
+    project.clear()
+    state = ProjectState()
+    state.settings["overlay_opacity"] = 31
+    path = persistence.autosave_path(project)
+    try:
+        for left_by_a_crash in (False, True):
+            with open(path, "w", encoding="utf-8") as fh:
+                fh.write(state.snapshot()())
+            if left_by_a_crash:  # written before this session began; else it is this session's own
+                before = persistence.SESSION_START - 60.0
+                os.utime(path, (before, before))
+            instance = MonoplotPlugin(qgis_iface)
+            instance.initGui()
+            try:
+                if left_by_a_crash:
+                    qtbot.waitUntil(lambda: instance.dock is not None, timeout=5000)
+                    assert instance.action.isChecked()
+                    assert instance.dock.controller.state.settings.get("overlay_opacity") == 31
+                    assert "ended without its project being saved" in instance.dock.statusLabel.text()
+                else:
+                    qtbot.wait(300)
+                    assert instance.dock is None
+            finally:
+                instance.unload()
+                flush_deletes()
+    finally:
+        project.clear()
+        persistence.discard_autosave("")
