@@ -109,8 +109,11 @@ class MonoplotPlugin:
             # a reload mid-session (the plugin manager's update, Plugin Reloader): the dock comes back for a project
             # with Monoplot work, as when that project is opened (a trial: it stayed closed until clicked)
             QTimer.singleShot(0, self._project_read)
-        else:  # once QGIS has opened a project named on its command line, if any
-            QTimer.singleShot(0, self._open_on_crashed_work)
+        elif hasattr(self.iface, "initializationCompleted"):
+            # once QGIS has started (a project named on its command line is open by then): opened during the start,
+            # the restored work made the start's new project "modified", QGIS asked whether to save it before
+            # anything showed, and "Discard" there would have thrown the work away
+            self.iface.initializationCompleted.connect(self._open_on_crashed_work)
         self.warmup_task = None
         if self.dependency_notice is None:  # a moment after start-up, so that a quick reload starts nothing
             self._warmup_timer = QTimer()
@@ -176,8 +179,12 @@ class MonoplotPlugin:
         self.dock.setVisible(visible)
 
     def unload(self):
+        started = getattr(self.iface, "initializationCompleted", None)
         for signal, slot in ((QgsProject.instance().readProject, self._project_read),
-                             (QgsApplication.instance().aboutToQuit, self._quitting)):
+                             (QgsApplication.instance().aboutToQuit, self._quitting),
+                             (started, self._open_on_crashed_work)):
+            if signal is None:
+                continue
             try:
                 signal.disconnect(slot)
             except (TypeError, RuntimeError):  # initGui did not run, or already disconnected

@@ -254,17 +254,26 @@ def test_without_its_packages_the_dock_offers_the_install_instead_of_a_python_er
     assert plugin.dock is not None and plugin.action.isChecked()
 
 
-def test_work_a_crash_left_in_a_never_saved_project_opens_the_dock_at_start(qgis_iface, qtbot):
+def test_work_a_crash_left_in_a_never_saved_project_opens_the_dock_once_qgis_has_started(qgis_iface, qtbot):
     """A re-check trial: after a crash, nothing at QGIS's start said that a never-saved project's work was waiting;
-    it came back only if the dock happened to be opened on an empty project. The plugin opens the dock, which takes
-    it back; with no such work (or work this session wrote) nothing opens."""
+    it came back only if the dock happened to be opened on an empty project. Once QGIS has started
+    (``initializationCompleted``) the plugin opens the dock, which takes it back; not before (opened while QGIS
+    started, the restored work made the start's new project "modified", and QGIS asked whether to save it before
+    anything showed); with no such work, or work this session wrote, nothing opens."""
     import os
 
+    from pytest_qgis.mock_qgis_classes import MockMessageBar
+    from pytest_qgis.qgis_interface import QgisInterface
     from qgis.core import QgsProject
+    from qgis.PyQt.QtCore import pyqtSignal
 
     from monoplot_plugin.gui import persistence
     from monoplot_plugin.state import ProjectState
 
+    class StartingQgis(QgisInterface):  # the real interface's signal, which pytest-qgis's lacks
+        initializationCompleted = pyqtSignal()
+
+    iface = StartingQgis(qgis_iface.mapCanvas(), MockMessageBar(), qgis_iface.mainWindow())
     project = QgsProject.instance()
     project.clear()
     state = ProjectState()
@@ -277,9 +286,12 @@ def test_work_a_crash_left_in_a_never_saved_project_opens_the_dock_at_start(qgis
             if left_by_a_crash:  # written before this session began; else it is this session's own
                 before = persistence.SESSION_START - 60.0
                 os.utime(path, (before, before))
-            instance = MonoplotPlugin(qgis_iface)
+            instance = MonoplotPlugin(iface)
             instance.initGui()
             try:
+                qtbot.wait(300)
+                assert instance.dock is None  # QGIS is still starting
+                iface.initializationCompleted.emit()
                 if left_by_a_crash:
                     qtbot.waitUntil(lambda: instance.dock is not None, timeout=5000)
                     assert instance.action.isChecked()
