@@ -60,13 +60,16 @@ def fit_metadata(fit: Optional[dict]) -> dict:
 
     >>> fit_metadata({"status": "uncertain", "rmse_px": 2.5, "points": [1, 2]})
     {'MONOPLOT_FIT': '{"status": "uncertain", "rmse_px": 2.5}'}
+    >>> fit_metadata({"status": "ok", "message": "σ 2 m"})
+    {'MONOPLOT_FIT': '{"status": "ok", "message": "σ 2 m"}'}
     >>> fit_metadata(None)
     {}
     """
     if not fit:
         return {}
     keep = ("status", "message", "rmse_px", "check_rmse_px", "n_check", "mode")
-    return {"MONOPLOT_FIT": json.dumps({k: fit[k] for k in keep if fit.get(k) is not None})}
+    # as written (a trial's Information tab read "the camera's \u03c3"): GDAL keeps the metadata as UTF-8
+    return {"MONOPLOT_FIT": json.dumps({k: fit[k] for k in keep if fit.get(k) is not None}, ensure_ascii=False)}
 
 
 def write_xyz_raster(path, xyz: np.ndarray, crs_wkt: str, distance: Optional[np.ndarray] = None, *,
