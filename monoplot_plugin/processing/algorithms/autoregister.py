@@ -51,22 +51,23 @@ class AutoRegister(MonoplotAlgorithm):
     def initAlgorithm(self, config=None):
         self.add_photo_parameter()
         self.add_dem_parameter()
-        self.add_camera_parameter("PRIOR", optional=True, description="Prior camera (empty = the photo's EXIF GPS)",
+        self.add_camera_parameter("PRIOR", optional=True, description="Prior camera (empty: EXIF GPS)",
                                   explanation=self.tr("A Monoplot camera JSON or a KML PhotoOverlay; empty: the "
                                                       "position in the photo's EXIF GPS tags"))
         # empty by default: an EXIF GPS position is known to a GPS's usual error, as the dock and the batch take it
         # (a phone trial: 200 m here gave "uncertain" where the dock's 30 m gave "ok" on the same photo)
         self.add_explained(QgsProcessingParameterNumber(
-            "POSITION_SIGMA", self.tr("Prior position uncertainty (m, one sigma)"),
+            "POSITION_SIGMA", self.tr("Position uncertainty (m, 1 σ)"),
             QgsProcessingParameterNumber.Double, None, optional=True, minValue=0.1),
             self.tr("Empty: {0:.0f} m for the photo's EXIF GPS position, {1:.0f} m for a prior camera file").format(
                 auto.GPS_POSITION_SIGMA_M, auto.DEFAULT_POSITION_SIGMA_M))
         self.addParameter(QgsProcessingParameterNumber(
-            "ANGLE_SIGMA", self.tr("Prior heading and pitch uncertainty (°, one sigma)"),
+            "ANGLE_SIGMA", self.tr("Heading and pitch uncertainty (°, 1 σ)"),
             QgsProcessingParameterNumber.Double, auto.DEFAULT_ANGLE_SIGMA_DEG, minValue=0.1, maxValue=30.0))
-        self.addParameter(QgsProcessingParameterNumber(
-            "FOV_SIGMA", self.tr("Field of view uncertainty (°, one sigma; empty = 10 %)"),
-            QgsProcessingParameterNumber.Double, optional=True, minValue=0.1, maxValue=40.0))
+        self.add_explained(QgsProcessingParameterNumber(
+            "FOV_SIGMA", self.tr("Field of view uncertainty (°, 1 σ)"),
+            QgsProcessingParameterNumber.Double, optional=True, minValue=0.1, maxValue=40.0),
+            self.tr("Empty: 10 % of the prior's field of view"))
         self.add_explained(QgsProcessingParameterBoolean(
             "ANY_HEADING", self.tr("Heading unknown: search every direction"), defaultValue=False),
             self.tr("The prior's heading is not known: the search looks in every direction of view (three to four "

@@ -99,19 +99,20 @@ class BatchPhotos(MonoplotAlgorithm):
                                                      QgsProcessingParameterFile.File, optional=True,
                                                      fileFilter="CSV (*.csv)"))
         self.add_explained(QgsProcessingParameterNumber(
-            "POSITION_SIGMA", self.tr("Priors' position uncertainty (m, one sigma)"),
+            "POSITION_SIGMA", self.tr("Priors' position uncertainty (m, 1 σ)"),
             QgsProcessingParameterNumber.Double, None, optional=True, minValue=0.1),
             self.tr("For table rows without points. Empty: {0:.0f} m for EXIF GPS, {1:.0f} m for a camera "
                     "file").format(GPS_POSITION_SIGMA_M, DEFAULT_POSITION_SIGMA_M))
         self.add_explained(QgsProcessingParameterNumber(
-            "ANGLE_SIGMA", self.tr("Priors' heading and pitch uncertainty (°, one sigma)"),
+            "ANGLE_SIGMA", self.tr("Priors' angle uncertainty (°, 1 σ)"),
             QgsProcessingParameterNumber.Double, DEFAULT_ANGLE_SIGMA_DEG, optional=True, minValue=0.1,
-            maxValue=30.0), self.tr("For table rows without points"))
+            maxValue=30.0), self.tr("Of the heading and pitch, for table rows without points"))
         self.addParameter(QgsProcessingParameterBoolean("XYZ", self.tr("Write XYZ rasters"), defaultValue=True))
         self.addParameter(QgsProcessingParameterBoolean("ORTHO", self.tr("Write orthophotos"), defaultValue=True))
-        self.addParameter(QgsProcessingParameterNumber(
-            "RESOLUTION", self.tr("Orthophoto cell size (map units, 0 = the photo's own detail)"),
-            QgsProcessingParameterNumber.Double, 0.0, minValue=0.0))
+        self.add_explained(QgsProcessingParameterNumber(
+            "RESOLUTION", self.tr("Orthophoto cell size (0 = the photo's detail)"),
+            QgsProcessingParameterNumber.Double, 0.0, minValue=0.0),
+            self.tr("In map units; 0: the photo's own detail over the part of the DEM the camera sees"))
         self.addParameter(QgsProcessingParameterBoolean("REGISTER",
                                                         self.tr("Re-register every frame (time-lapse mode)"),
                                                         defaultValue=True))
@@ -120,9 +121,9 @@ class BatchPhotos(MonoplotAlgorithm):
                            self.tr("Empty: the frame the camera was fitted on, else the first usable frame"))
         self.addParameter(QgsProcessingParameterNumber("WORKERS", self.tr("Frames at once (0 = one per core)"),
                                                        QgsProcessingParameterNumber.Integer, 0, minValue=0))
-        self.addParameter(QgsProcessingParameterString("SCHEDULER", self.tr("Dask scheduler address (empty = this "
-                                                                            "machine)"),
-                                                       defaultValue="", optional=True))
+        self.add_explained(QgsProcessingParameterString("SCHEDULER", self.tr("Dask scheduler (empty = this machine)"),
+                                                        defaultValue="", optional=True),
+                           self.tr("The address of a Dask scheduler, e.g. tcp://host:8786"))
         self.add_explained(QgsProcessingParameterBoolean(
             "RESUME", self.tr("Resume: keep photos an earlier run finished"), defaultValue=True),
             self.tr("Photos an earlier run in the output folder finished with the same inputs and settings are kept: "

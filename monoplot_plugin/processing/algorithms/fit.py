@@ -84,7 +84,7 @@ class FitCamera(MonoplotAlgorithm):
             "LENS", self.tr("Lens distortion"), [self.tr(option) for option, _ in self.LENS_OPTIONS], defaultValue=0))
         # what the person knows, kept at the prior's values, as the dock's fit settings untick them (a drone trial
         # with 3 GCPs and the lens from EXIF was refused, with no way to fix the field of view here)
-        fixed = QgsProcessingParameterEnum("FIXED", self.tr("Known (kept at the prior camera's values)"),
+        fixed = QgsProcessingParameterEnum("FIXED", self.tr("Known: kept at the prior's values"),
                                            [self.tr(option) for option, _ in self.FIXED_OPTIONS],
                                            allowMultiple=True, optional=True, defaultValue=[])
         fixed.setFlags(fixed.flags() | QgsProcessingParameterDefinition.FlagAdvanced)

@@ -51,13 +51,12 @@ class _CameraDemAlgorithm(MonoplotAlgorithm):
         self.add_camera_parameter()
         self.add_dem_parameter()
         self.add_photo_parameter("PHOTO", optional=photo_optional,
-                                 description="Photo" if not photo_optional else "Photo (for a KML camera, a print's "
-                                                                                "border)",
+                                 description="Photo" if not photo_optional else "Photo (KML camera, print border)",
                                  explanation=self.tr("Needed for a KML camera; with it, a scanned print's border is "
                                                      "left out") if photo_optional else "")
 
     def add_allow_empty(self):
-        param = QgsProcessingParameterBoolean("ALLOW_EMPTY", self.tr("Write an empty output too (else an error)"),
+        param = QgsProcessingParameterBoolean("ALLOW_EMPTY", self.tr("Write an empty output (else an error)"),
                                               defaultValue=False, optional=True)
         param.setFlags(param.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
         self.addParameter(param)
@@ -165,9 +164,10 @@ class PhotoToMap(_CameraDemAlgorithm):
         self.addParameter(QgsProcessingParameterNumber("STEP", self.tr("Densify every (pixels)"),
                                                        QgsProcessingParameterNumber.Double, 2.0, minValue=0.0))
         self.add_explained(QgsProcessingParameterNumber(
-            "PIXEL_ERROR", self.tr("Photo pixel error for xy_error_m (px RMS; 0 = none)"),
+            "PIXEL_ERROR", self.tr("Pixel error for xy_error_m (px RMS)"),
             QgsProcessingParameterNumber.Double, 0.0, minValue=0.0, optional=True),
-            self.tr("For example the fit's check-point RMSE; 0 leaves xy_error_m empty"))
+            self.tr("The photo's pixel error, for example the fit's check-point RMSE; 0 leaves xy_error_m "
+                    "empty"))
         self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Map features")))
         self.addOutput(QgsProcessingOutputNumber("DROPPED", self.tr("Vertices dropped (sky)")))
         self.add_allow_empty()

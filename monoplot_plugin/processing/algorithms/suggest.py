@@ -61,15 +61,16 @@ class SuggestDemPoints(MonoplotAlgorithm):
     def initAlgorithm(self, config=None):
         self.add_dem_parameter()
         self.add_camera_parameter("CAMERA", optional=True,
-                                  description="Prior camera (to keep only points it sees)")
+                                  description="Prior camera (keeps the points it sees)")
         self.add_photo_parameter("PHOTO", optional=True, description="Photo (needed only for a KML camera)")
         self.addParameter(QgsProcessingParameterNumber("MAX_POINTS", self.tr("Maximum number of points"),
                                                        QgsProcessingParameterNumber.Integer, 60, minValue=1,
                                                        maxValue=10000))
         self.add_explained(QgsProcessingParameterNumber(
-            "POSITION_SIGMA", self.tr("Prior position uncertainty (m, one sigma; empty = 100)"),
+            "POSITION_SIGMA", self.tr("Position uncertainty (m, 1 σ)"),
             QgsProcessingParameterNumber.Double, None, optional=True, minValue=0.0),
-            self.tr("Terrain nearer than this that fills the camera's view is left out"))
+            self.tr("Of the prior camera's position; empty: 100 m. Terrain nearer than this that fills the camera's "
+                    "view is left out"))
         self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Suggested DEM points"),
                                                             QgsProcessing.TypeVectorPoint))
         self.addOutput(QgsProcessingOutputNumber("COUNT", self.tr("Number of points")))
