@@ -150,6 +150,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
         self.project.readProject.connect(self._project_read)
         self.project.cleared.connect(self._project_cleared)
         self.project.projectSaved.connect(self._project_saved_status)
+        self.project.layersRemoved.connect(self._dem_layer_removed)
         self.project.layerTreeRoot().visibilityChanged.connect(self._group_visibility)
         self._unloaded = False
         QgsApplication.instance().aboutToQuit.connect(self.unload)
@@ -435,6 +436,18 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
             # only in the fit tab); the message bar stays quiet: nothing happened
             show_status(self.statusLabel, self._restored_text())
 
+    def _dem_layer_removed(self, layer_ids) -> None:
+        """The DEM layer removed: the DEM box moves on to another raster by itself, without a signal (a re-check
+        trial's showed the XYZ raster written earlier while the DEM read went on in use): empty, and said."""
+        if self.controller.state.dem_layer_id in layer_ids and self.controller.dem_layer is None and \
+                self.demCombo.currentLayer() is not None:
+            self.demCombo.blockSignals(True)
+            self.demCombo.setLayer(None)
+            self.demCombo.blockSignals(False)
+            show_status(self.statusLabel, self.tr(
+                "The DEM layer was removed from the project: Monoplot goes on with the DEM it read, and adds the "
+                "layer back when the project is opened again. Choose another DEM in the DEM box to change it."))
+
     def _project_saved_status(self) -> None:
         """Work restored from a never-saved project's autosave is in a project file now: the status line stops
         asking to save it (a trial saw "save the project to keep it" after saving)."""
@@ -484,6 +497,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
                              (self.project.readProject, self._project_read),
                              (self.project.cleared, self._project_cleared),
                              (self.project.projectSaved, self._project_saved_status),
+                             (self.project.layersRemoved, self._dem_layer_removed),
                              (self.project.layerTreeRoot().visibilityChanged, self._group_visibility),
                              (QgsApplication.instance().aboutToQuit, self.unload)):
             try:

@@ -719,3 +719,23 @@ def test_fits_go_on_from_the_registered_camera_while_the_rough_heading_is_a_gues
 
     result = run_work(refuse, lambda *a: None, lambda: False)
     assert result.reason.startswith("Every DEM point") and not result.details
+
+
+def test_removing_the_dem_layer_leaves_the_dem_box_empty_not_on_another_raster(dock, scene, qtbot, tmp_path):
+    """A re-check trial removed the DEM layer: the DEM box went to the next raster, the XYZ raster written earlier,
+    without a word, while the dock went on with the DEM it had read (a refit gave the same camera). The box is empty
+    now, the DEM in memory stays in use, and the status line says so."""
+    from qgis.core import QgsRasterLayer
+
+    load_inputs(dock, scene, qtbot)
+    project = QgsProject.instance()
+    other = QgsRasterLayer(scene.photo_path, "another raster")
+    assert other.isValid()
+    project.addMapLayer(other)
+    c = dock.controller
+    dem_before = c.dem
+    project.removeMapLayer(c.state.dem_layer_id)
+    qtbot.wait(50)
+    assert dock.demCombo.currentLayer() is None
+    assert c.dem is dem_before and c.dem_layer is None
+    assert "removed" in dock.statusLabel.text() + dock.statusLabel.toolTip()
