@@ -220,8 +220,11 @@ class OutputTools(FeatureDialogsMixin, QObject):
                     self.session.photo_layer(kind)
             self._show_on_photo()
             if self.session.restored_from_autosave:  # drawn after the last Save, then QGIS crashed
+                # (a project never saved has no last save: a re-check trial read that it had)
                 self._message(self.tr("Drawing on the photo done after the project was last saved (features drawn, "
-                                      "moved or deleted) was restored from the autosave."), Qgis.MessageLevel.Info)
+                                      "moved or deleted) was restored from the autosave.") if self.project.fileName()
+                              else self.tr("The features drawn on the photo were restored from the autosave."),
+                              Qgis.MessageLevel.Info)
                 mark_modified_later(self.project)
         return self.session
 

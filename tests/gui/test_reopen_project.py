@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 
 import pytest
-from qgis.core import QgsProject
+from qgis.core import Qgis, QgsProject
 
 from monoplot_plugin.adapters.layers import GROUP_NAME
 from monoplot_plugin.gui import persistence
@@ -279,9 +279,12 @@ def test_work_in_a_never_saved_project_comes_back_after_a_crash(dock, scene, qtb
     for name in (path, entries):
         os.utime(name, (before, before))
     assert persistence.unsaved_work_left(project)
+    qgis_iface.messageBar().clear_messages()
     later = MonoplotDock(qgis_iface)
     qtbot.addWidget(later)
     try:
+        said = " ".join(qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Info))
+        assert "drawn on the photo were restored" in said and "last saved" not in said, said  # it never was
         assert later.controller.state.settings.get("overlay_opacity") == 23
         assert later.controller.fitted is not None and later.controller.image is not None
         assert "ended without its project being saved" in later.statusLabel.text()
