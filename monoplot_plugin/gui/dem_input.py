@@ -59,7 +59,10 @@ class DemInputMixin:
         if not layer.isValid():
             self.message.emit(self.tr("The DEM of this Monoplot session is missing: {0}").format(source), WARNING)
             return None
-        self.project.addMapLayer(layer)
+        # at the bottom of the layer tree: on top it hid what the person had left in view (a re-check trial's
+        # orthophoto, under the grey DEM once the project was opened again)
+        self.project.addMapLayer(layer, False)
+        self.project.layerTreeRoot().addLayer(layer)
         self.message.emit(self.tr("The DEM layer was missing from the project; Monoplot added {0} again.")
                           .format(source), INFO)
         return layer

@@ -549,14 +549,20 @@ def test_reopening_without_the_dem_layer_adds_it_back(dock, scene, qtbot, tmp_pa
     dem_id = dock.controller.state.dem_layer_id
     project.removeMapLayer(dem_id)  # the user removed the DEM layer, then saved
     assert dock.controller.dem is not None  # the in-memory copy stays usable meanwhile
+    from qgis.core import QgsRasterLayer
+
+    assert project.addMapLayer(QgsRasterLayer(scene.photo_path, "orthophoto in view")) is not None
     assert project.write(path)
     project.clear()
     assert project.read(path)
     c = dock.controller
     qtbot.waitUntil(lambda: c.dem_layer is not None, timeout=5000)
     assert c.dem_layer.source() == scene.dem_path and c.dem_layer.id() in project.mapLayers()
-    # named after its file, as QGIS names a file it opens (a trial found "DEM (Monoplot)")
+    # named after its file, as QGIS names a file it opens (a trial found "DEM (Monoplot)"), and under the layers
+    # the person left in view, not over them
     assert c.dem_layer.name() == os.path.splitext(os.path.basename(scene.dem_path))[0]
+    order = [node.layer().name() for node in project.layerTreeRoot().findLayers()]
+    assert order.index(c.dem_layer.name()) > order.index("orthophoto in view"), order
 
 
 def test_unload_leaves_nothing_on_the_main_map(qgis_iface, qtbot, dem_layer, scene):
