@@ -14,6 +14,9 @@ import numpy as np
 
 from ..core.camera import Camera
 from ..core.fit import FitOptions, FitResult, fit_camera, sigma_pixels
+from .height_choice import (DEFAULT_EYE_HEIGHT_M, FREE_HEIGHT_MIN_PAIRS, UNDERGROUND_TOLERANCE_M,  # noqa: F401
+                            UNSURE_HEIGHT_M, ground_clearance, height_explained, weigh_eye_height,
+                            weigh_free_height)
 from .progress import Canceled, IsCanceled, Progress, check_canceled
 from .warmup import import_torch
 
@@ -28,34 +31,15 @@ __all__ = ["ON_GROUND_MAX_M", "DEFAULT_EYE_HEIGHT_M", "FitRefused", "FitDone", "
 #: and the rough priors whose height is only known to tens of metres (KML from a virtual globe, GPS altitude), whose
 #: error the hold would carry into the fit (a 150 m-high drone held at 150 m over other terrain ends 100 m off).
 ON_GROUND_MAX_M = 20.0
-#: a free fit whose camera ends more than this far under the terrain is refitted on the ground (DEM error margin)
-UNDERGROUND_TOLERANCE_M = 2.0
 #: a camera this far under even the lowest terrain within one DEM cell of it stands where no error of the DEM's
 #: (a gorge a coarse grid fills) puts a photographer: "poor" (a trial's brick-wall close-up, registered
 #: automatically, ended 71 m under a flat valley floor, "uncertain", and its wall was draped on the valley)
 DEEP_UNDERGROUND_M = 10.0
-#: eye height of a photographer standing on the ground, when nothing else says it
-DEFAULT_EYE_HEIGHT_M = 1.7
-#: an automatic paired fit held on the ground is also fitted with its height free, and the free height is taken when
-#: freeing it explains the pairs this much better: the F statistic of one more unknown, (SSE_held - SSE_free) /
-#: (SSE_free / (2 x pairs - 8)), over 20: stricter than the 99.9 % point of F(1, d) for d >= 12 degrees of freedom
-#: (10 or more pairs); with fewer pairs the test is laxer (F(1, 6) at 99.9 % is 35.5), which only costs the held
-#: unknown back. A desktop trial: a rough camera 29 m under the terrain (the truth 30 m above it) held on the ground
-#: gave 36.8 px and 37 m off with 9 exact pairs; its height free, 0.8 px and 0.8 m.
-FREE_HEIGHT_F = 20.0
 #: Shares of the map points a fit used that terrain may hide from its camera before the fit is "uncertain" and
 #: "poor" (:func:`flag_hidden_points`): a right camera sees the points it matched, bar a coarse DEM's few.
 HIDDEN_DOUBT, HIDDEN_POOR = 0.25, 0.5
 #: DEM cells around a camera whose terrain does not hide its points (:func:`hidden_share`): the ground it stands on
 STANDING_CELLS = 2.0
-#: fewest pairs for that test (2 x 5 - 8 = 2 degrees of freedom left, one fewer than the free fit's 7 unknowns leave)
-FREE_HEIGHT_MIN_PAIRS = 5
-#: An unpaired fit held on the ground higher than this (metres) is also fitted at eye height (:func:`weigh_eye_height`).
-UNSURE_HEIGHT_M = 3.0
-#: Consensus score (about one more matched point) by which one of the two heights must win to be taken.
-EYE_HEIGHT_MARGIN = 1.0
-#: Two cameras further apart than this (metres) that the points cannot tell apart leave the fit "uncertain".
-HEIGHT_RIVAL_M = 5.0
 
 
 class FitRefused(ValueError):
@@ -79,11 +63,6 @@ class FitDone:
     @property
     def camera(self) -> Camera:
         return self.result.camera
-
-
-def ground_clearance(camera: Camera, dem) -> float:
-    """Height of the camera above the terrain under it (metres; NaN outside the DEM)."""
-    return float(camera.position[2]) - float(dem.sample(camera.position[0], camera.position[1]))
 
 
 def ground_height_sigma(camera: Camera, std: Optional[dict], dem) -> Optional[float]:
@@ -191,6 +170,7 @@ def fit(uv: np.ndarray, xyz: np.ndarray, start: Camera, dem, pairs=None, on_grou
                 f"{ground_clearance(free_result.camera, dem):.0f} m above the terrain at {free_result.rmse_px:.1f} px.")
             flag_hidden_points(free_result, xyz, dem)
             return FitDone(free_result, False, None, height_freed=True)
+        weigh_free_height(result, free_result, eye, dem)
     if on_ground is None and not grounded and height_free and \
             ground_clearance(result.camera, dem) < -UNDERGROUND_TOLERANCE_M:
         # A camera cannot stand under the terrain: the points left its height undetermined. Refit as a
@@ -209,58 +189,6 @@ def fit(uv: np.ndarray, xyz: np.ndarray, start: Camera, dem, pairs=None, on_grou
         result, eye = weigh_eye_height(result, at_eye, eye)
     flag_hidden_points(result, xyz, dem, grounded)
     return FitDone(result, grounded, eye if grounded else None)
-
-
-def weigh_eye_height(held: FitResult, at_eye: FitResult, height: float) -> Tuple[FitResult, float]:
-    """(result, its height above the terrain) of an unpaired fit held ``height`` m above the terrain (the rough
-    camera's own clearance) against the same fit at eye height: the one whose points agree clearly better
-    (:data:`EYE_HEIGHT_MARGIN` more of the consensus score), else the held one, "uncertain" when the two cameras
-    stand more than :data:`HEIGHT_RIVAL_M` apart (the points cannot tell the height). A trial's phone photo, its
-    GPS altitude 15 m high, was held 16.6 m above the valley floor: "ok" at 6.2 px with the camera 34 m off."""
-    own, eye_score = (float((r.evidence or {}).get("score", -math.inf)) for r in (held, at_eye))
-    apart = float(np.linalg.norm(np.subtract(held.camera.position, at_eye.camera.position)))
-    if at_eye.status in ("ok", "uncertain") and eye_score > own + EYE_HEIGHT_MARGIN:
-        at_eye.message = (f"{at_eye.message} Held at eye height ({DEFAULT_EYE_HEIGHT_M:.1f} m above the terrain): "
-                          f"the points agree with it better than at the rough camera's {height:.0f} m (a GPS "
-                          f"altitude is often tens of metres off); set Above ground if it stood higher.")
-        return at_eye, DEFAULT_EYE_HEIGHT_M
-    if apart > HEIGHT_RIVAL_M and own <= eye_score + EYE_HEIGHT_MARGIN:
-        held.message = (f"{held.message} Its height is not known: held {height:.0f} m above the terrain (the rough "
-                        f"camera's), the points agree about as well with a camera at eye height {apart:.0f} m away. "
-                        f"Set Above ground to where the photographer stood (a GPS altitude is often tens of metres "
-                        f"off), or pair a few points.")
-        if held.status == "ok":
-            held.status = "uncertain"
-    return held, height
-
-
-def height_explained(held: FitResult, freed: FitResult, n_pairs: int) -> bool:
-    """True when the fit with the height free explains ``n_pairs`` pairs significantly better than the one held on
-    the ground (:data:`FREE_HEIGHT_F`): one more unknown that removes far more residual than chance would.
-
-    >>> from types import SimpleNamespace as R
-    >>> height_explained(R(rmse_px=36.8, status="ok"), R(rmse_px=0.8, status="ok"), 9)
-    True
-    >>> height_explained(R(rmse_px=8.0, status="ok"), R(rmse_px=7.5, status="ok"), 11)
-    False
-
-    A freed fit judged worse than the held one is not taken; one judged "poor" as the held one is, by the same check
-    points, is: a desktop trial's single wrong check point (114 px off under the true camera) made its freed camera,
-    1.6 m from the truth at 2.3 px on the pairs, "poor", and the camera held at the GPS height, 42 m off at 65 px and
-    "poor" too, was kept.
-
-    >>> height_explained(R(rmse_px=65.0, status="poor"), R(rmse_px=2.3, status="poor"), 7)
-    True
-    >>> height_explained(R(rmse_px=65.0, status="uncertain"), R(rmse_px=2.3, status="poor"), 7)
-    False
-    """
-    rank = {"ok": 2, "uncertain": 1, "poor": 0}
-    if rank.get(freed.status, -1) < min(rank.get(held.status, -1), 1) or \
-            not (np.isfinite(held.rmse_px) and np.isfinite(freed.rmse_px)):
-        return False
-    dof = max(2 * n_pairs - 8, 1)
-    sse_held, sse_free = held.rmse_px ** 2, max(freed.rmse_px ** 2, 1e-6)
-    return (sse_held - sse_free) / (sse_free / dof) > FREE_HEIGHT_F
 
 
 def depth_under_terrain(camera: Camera, dem) -> float:
