@@ -20,6 +20,16 @@ def flush_deletes():
     QCoreApplication.processEvents()
 
 
+def expect_dock(instance, qtbot, opens: bool) -> None:
+    """The plugin ``instance`` opens its dock (its button checked), or after a moment still has none."""
+    if opens:
+        qtbot.waitUntil(lambda: instance.dock is not None, timeout=5000)
+        assert instance.action.isChecked()
+    else:
+        qtbot.wait(300)
+        assert instance.dock is None
+
+
 def monoplot_widgets(window):
     return (window.findChildren(QAction, "MonoplotAction"), window.findChildren(QDockWidget, "MonoplotDock"))
 
@@ -225,12 +235,7 @@ def test_a_reload_brings_the_dock_back_for_a_project_with_monoplot_work(qgis_ifa
         instance = MonoplotPlugin(qgis_iface)
         instance.initGui()
         try:
-            if opens:
-                qtbot.waitUntil(lambda: instance.dock is not None, timeout=5000)
-                assert instance.action.isChecked()
-            else:
-                qtbot.wait(300)
-                assert instance.dock is None
+            expect_dock(instance, qtbot, opens)
         finally:
             instance.unload()
             flush_deletes()
@@ -292,14 +297,10 @@ def test_work_a_crash_left_in_a_never_saved_project_opens_the_dock_once_qgis_has
                 qtbot.wait(300)
                 assert instance.dock is None  # QGIS is still starting
                 iface.initializationCompleted.emit()
+                expect_dock(instance, qtbot, left_by_a_crash)
                 if left_by_a_crash:
-                    qtbot.waitUntil(lambda: instance.dock is not None, timeout=5000)
-                    assert instance.action.isChecked()
                     assert instance.dock.controller.state.settings.get("overlay_opacity") == 31
                     assert "ended without its project being saved" in instance.dock.statusLabel.text()
-                else:
-                    qtbot.wait(300)
-                    assert instance.dock is None
             finally:
                 instance.unload()
                 flush_deletes()
