@@ -14,6 +14,7 @@ import numpy as np
 
 from ..core.camera import Camera
 from ..core.fit import FitOptions, FitResult, fit_camera, sigma_pixels
+from ..core.fit.lsq import GROUND_HEIGHT_SIGMA_M
 from .height_choice import (DEFAULT_EYE_HEIGHT_M, FREE_HEIGHT_MIN_PAIRS, UNDERGROUND_TOLERANCE_M,  # noqa: F401
                             UNSURE_HEIGHT_M, ground_clearance, height_explained, weigh_eye_height,
                             weigh_free_height)
@@ -67,15 +68,19 @@ class FitDone:
 
 def ground_height_sigma(camera: Camera, std: Optional[dict], dem) -> Optional[float]:
     """The σ (m) of the height of a camera held on the ground: how far the terrain under it moves when the camera
-    moves one σ in X or in Y (``std``), the larger side of each, combined. None without both σ or outside the DEM.
+    moves one σ in X or in Y (``std``), the larger side of each, combined with the σ of its height over the terrain
+    (:data:`~..core.fit.lsq.GROUND_HEIGHT_SIGMA_M`, which the X, Y σ already carry). None without both σ or outside
+    the DEM.
     Its height is not fitted, so it had no ± of its own: a summit trial's camera, held on the ground 47 m off in Y
     (σ 14 m), stood 37 m low with its Z shown as exact.
 
     >>> from monoplot_plugin.core.dem import Dem
     >>> ramp = Dem.from_array(np.tile(np.arange(50.0) * 2.0, (50, 1)), (0, 10, 0, 500, 0, -10))  # 0.2 m/m east
     >>> cam = Camera((250.0, 250.0, 51.6), 90.0, 0.0, 0.0, 60.0, (100, 100))
-    >>> round(ground_height_sigma(cam, {"x": 20.0, "y": 30.0}, ramp), 1)  # 20 m east: 4 m up; north: flat
-    4.0
+    >>> round(ground_height_sigma(cam, {"x": 20.0, "y": 30.0}, ramp), 2)  # 20 m east: 4 m up; north: flat
+    4.01
+    >>> ground_height_sigma(cam, {"x": 0.0, "y": 0.0}, ramp)  # X, Y exact: the eye's height over the ground alone
+    0.3
     >>> ground_height_sigma(cam, {"x": 20.0}, ramp) is None
     True
     """
@@ -93,7 +98,7 @@ def ground_height_sigma(camera: Camera, std: Optional[dict], dem) -> Optional[fl
     moved = np.abs(z[1:] - z[0])
     along_x = np.nanmax(moved[:2]) if np.isfinite(moved[:2]).any() else 0.0
     along_y = np.nanmax(moved[2:]) if np.isfinite(moved[2:]).any() else 0.0
-    return float(math.hypot(along_x, along_y))
+    return float(math.hypot(along_x, along_y, GROUND_HEIGHT_SIGMA_M))
 
 
 def on_ground_rule(start: Camera, dem, on_ground: Optional[bool] = None,
