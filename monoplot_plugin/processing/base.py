@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import os
 import re
-from typing import Callable, Optional, Tuple
+from typing import Callable, Dict, Optional, Tuple
 
 import numpy as np
 from qgis.core import (
@@ -175,15 +175,27 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
             param.setHelp(explanation)
         self.addParameter(param)
 
+    def explain(self, texts: Dict[str, str]) -> None:
+        """Each named parameter's tool tip (its help), where it has none yet: what its short label leaves out (a
+        re-check trial hovered over labels such as "Mode", "Points CSV for the shared fit" and found nothing)."""
+        for name, text in texts.items():
+            param = self.parameterDefinition(name)
+            if param is not None and not param.help():
+                param.setHelp(self.tr(text))
+
     def add_photo_parameter(self, name: str = "PHOTO", optional: bool = False, description: str = "Photo",
                             explanation: str = ""):
         self.add_explained(QgsProcessingParameterFile(name, self.tr(description), QgsProcessingParameterFile.File,
-                                                      optional=optional, fileFilter=IMAGE_FILTER), explanation)
+                                                      optional=optional, fileFilter=IMAGE_FILTER),
+                           explanation or self.tr("The photograph's file (JPEG, PNG, TIFF, ...)"))
 
     def add_camera_parameter(self, name: str = "CAMERA", optional: bool = False,
-                             description: str = "Camera (Monoplot JSON, or KML PhotoOverlay)", explanation: str = ""):
+                             description: str = "Camera (Monoplot JSON, or KML PhotoOverlay)",
+                             explanation: str = ""):
         self.add_explained(QgsProcessingParameterFile(name, self.tr(description), QgsProcessingParameterFile.File,
-                                                      optional=optional, fileFilter=CAMERA_FILTER), explanation)
+                                                      optional=optional, fileFilter=CAMERA_FILTER),
+                           explanation or self.tr("A camera JSON written by 'Fit camera', 'Register automatically' "
+                                                  "or the dock, or a KML PhotoOverlay (Google Earth)"))
 
     def add_dem_parameter(self, name: str = "DEM", optional: bool = False):
         dem = QgsProcessingParameterRasterLayer(name, self.tr("DEM (elevation in metres)"), optional=optional)
@@ -193,6 +205,8 @@ class MonoplotAlgorithm(QgsProcessingAlgorithm):
         void = QgsProcessingParameterNumber("VOID_VALUE", self.tr("DEM void value (e.g. 0; empty = none)"),
                                             QgsProcessingParameterNumber.Double, optional=True)
         void.setFlags(void.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+        void.setHelp(self.tr("DEM cells of this value are holes (e.g. 0 or -9999 in a file that does not mark its "
+                             "no-data value); empty: only the file's own no-data value"))
         self.addParameter(void)
 
     # --- input readers ------------------------------------------------------------------------------------------

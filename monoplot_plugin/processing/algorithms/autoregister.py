@@ -75,6 +75,9 @@ class AutoRegister(MonoplotAlgorithm):
         # held on the ground as the dock's Find camera holds it (a phone trial: an EXIF altitude 14 m too high, and
         # Processing had no way to say the photo was taken standing on the ground: 40 m off, 20.7 m too high)
         add_height_parameters(self)
+        self.explain({"ANGLE_SIGMA": "How far the prior's heading and pitch may be off (degrees, one σ); the search "
+                                     "looks about three σ around them. For a heading not known at all, tick "
+                                     "'Heading unknown' instead"})
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", self.tr("Camera"),
                                                                 "Monoplot camera (*.json)"))
         self.addOutput(QgsProcessingOutputNumber("RMSE_PX", self.tr("Reprojection error of the matched points (px)")))

@@ -129,6 +129,27 @@ class BatchPhotos(MonoplotAlgorithm):
             self.tr("Photos an earlier run in the output folder finished with the same inputs and settings are kept: "
                     "a canceled or interrupted run goes on where it stopped"))
         self.addParameter(QgsProcessingParameterFolderDestination("OUTPUT", self.tr("Output folder")))
+        self.explain({
+            "MODE": "Time-lapse folder: every photo in the folder shares one camera (CAMERA, fitted once when "
+                    "POINTS are given). CSV table: each photo listed in TABLE has its own prior and points",
+            "FOLDER": "Time-lapse mode: the folder of frames (not its sub-folders)",
+            "PATTERN": "Time-lapse mode: which files of the folder are frames, patterns separated by ';'",
+            "CAMERA": "Time-lapse mode: the one camera of every frame (a camera JSON or KML); with POINTS it is the "
+                      "prior of a fit made once",
+            "POINTS": "Time-lapse mode: a paired GCP CSV (u_px, v_px, X, Y, Z), or a photo points CSV with DEM "
+                      "points CSV: the shared camera is fitted on them once",
+            "DEM_POINTS": "Time-lapse mode: DEM points (X, Y, Z) for an unpaired shared fit with a photo points "
+                          "CSV in POINTS",
+            "TABLE": "Table mode: a CSV with columns photo, prior and points (optionally dem_points, "
+                     "position_sigma, angle_sigma), paths relative to the table; a row without points is "
+                     "registered automatically",
+            "XYZ": "Write each camera's XYZ raster (X, Y, Z of every photo pixel)",
+            "ORTHO": "Write each photo's orthophoto",
+            "REGISTER": "Time-lapse mode: match every frame to the reference frame on stable terrain and turn the "
+                        "camera by the drift found (a camera mount that moves); unticked: every frame gets the "
+                        "shared camera as it is",
+            "WORKERS": "How many frames are processed at the same time on this machine; 0: one per processor "
+                       "core"})
         for name in self.ADVANCED:  # folded away: the dialog showed 16 parameters of both modes at once (a trial)
             param = self.parameterDefinition(name)
             param.setFlags(param.flags() | QgsProcessingParameterDefinition.FlagAdvanced)

@@ -89,6 +89,20 @@ class FitCamera(MonoplotAlgorithm):
                                            allowMultiple=True, optional=True, defaultValue=[])
         fixed.setFlags(fixed.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
         self.addParameter(fixed)
+        self.explain({
+            "PHOTO_POINTS": "A point layer in photo pixel space (x = column, y = -row), as 'Suggest photo points' "
+                            "writes it",
+            "DEM_POINTS": "A point layer of terrain points (any CRS, reprojected to the DEM's), as 'Suggest DEM "
+                          "points' writes it; a point without Z takes the DEM's height",
+            "PHOTO_CSV": "Columns u_px, v_px (photo pixels); with X, Y, Z in the same file it is a paired GCP table "
+                         "(surveyed Z kept; an optional check column 1/0 marks check points)",
+            "DEM_CSV": "Columns X, Y and optionally Z, in the DEM file's CRS; a missing Z takes the DEM's height",
+            "PAIRED": "Ticked: photo point i and DEM point i are the same feature (a paired GCP CSV is always "
+                      "paired); unticked: the fit matches each photo point to the nearest projected DEM point",
+            "LENS": "Fit the lens's radial distortion (k1), or k1 and the principal point, for wide-angle and "
+                    "phone lenses; the first choice keeps the prior camera's lens",
+            "FIXED": "Parameters you know (a surveyed position, a lens's field of view): kept at the prior "
+                     "camera's values instead of fitted"})
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", self.tr("Fitted camera"),
                                                                 "Monoplot camera (*.json)"))
         self.addOutput(QgsProcessingOutputNumber("RMSE_PX", self.tr("Reprojection error (px)")))
@@ -277,6 +291,12 @@ def add_height_parameters(alg) -> None:
     alg.addParameter(QgsProcessingParameterNumber(
         "EYE_HEIGHT", alg.tr("Height above the ground (m)"),
         QgsProcessingParameterNumber.Double, None, optional=True, minValue=0.0))
+    alg.explain({
+        "ON_GROUND": "Automatic: a prior within 20 m of the terrain is held at its height above it, a higher one "
+                     "is fitted freely; On the ground: held at 'Height above the ground' (hand-held, tripod); In "
+                     "the air: its height fitted freely (drone, aircraft, tower)",
+        "EYE_HEIGHT": "The camera's height above the terrain when it is held on the ground; empty: 1.7 m, or under "
+                      "Automatic the prior's own height above the terrain"})
 
 
 def height_choice(alg, parameters, context) -> dict:

@@ -59,6 +59,9 @@ class _CameraDemAlgorithm(MonoplotAlgorithm):
         param = QgsProcessingParameterBoolean("ALLOW_EMPTY", self.tr("Write an empty output (else an error)"),
                                               defaultValue=False, optional=True)
         param.setFlags(param.flags() | QgsProcessingParameterDefinition.FlagAdvanced)
+        param.setHelp(self.tr("Ticked: a result with nothing in it (the camera sees no terrain, no feature in view) "
+                              "is written empty and the run succeeds, as a script over many inputs may want; "
+                              "unticked: the run stops with an error that says why"))
         self.addParameter(param)
 
     def check_not_empty(self, parameters, context, count, what, hint):
@@ -171,6 +174,11 @@ class PhotoToMap(_CameraDemAlgorithm):
         self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Map features")))
         self.addOutput(QgsProcessingOutputNumber("DROPPED", self.tr("Vertices dropped (sky)")))
         self.add_allow_empty()
+        self.explain({
+            "INPUT": "Points, lines or polygons drawn in photo pixel space (x = column, y = -row), as the dock "
+                     "draws them and 'Map layer to photo' writes them",
+            "STEP": "Lines and outlines get a vertex every STEP pixels before their rays meet the DEM, since a "
+                    "straight line on the photo is not straight on the terrain; 0: the drawn vertices only"})
 
     def run_algorithm(self, parameters, context, feedback):
         source = self.parameterAsSource(parameters, "INPUT", context)
@@ -247,6 +255,13 @@ class MapToPhoto(_CameraDemAlgorithm):
         self.addParameter(QgsProcessingParameterBoolean("HIDDEN", self.tr("Drop hidden parts"), defaultValue=True))
         self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Features on the photo")))
         self.add_allow_empty()
+        self.explain({
+            "INPUT": "Lines, polygons or points in any CRS (reprojected to the DEM's); their vertices are projected "
+                     "onto the photo",
+            "STEP": "Lines and outlines get a vertex every STEP map units before they are projected, so an edge "
+                    "between far-apart corners follows the terrain; 0: the DEM's cell size",
+            "HIDDEN": "Ticked: vertices hidden behind terrain or outside the photo are removed, lines split where "
+                      "they disappear; unticked: every vertex is kept"})
 
     def run_algorithm(self, parameters, context, feedback):
         source = self.parameterAsSource(parameters, "INPUT", context)
@@ -313,6 +328,8 @@ class Orthophoto(_CameraDemAlgorithm):
             QgsProcessingParameterNumber.Double, 0.0, minValue=0.0))
         self.addParameter(QgsProcessingParameterRasterDestination("OUTPUT", self.tr("Orthophoto")))
         self.add_allow_empty()
+        self.explain({"RESOLUTION": "The orthophoto's cell size in the DEM's map units; 0: the ground size of a "
+                                    "photo pixel at the median distance, over the part of the DEM the camera sees"})
 
     def run_algorithm(self, parameters, context, feedback):
         camera, dem, crs = self.camera_and_dem(parameters, context, feedback)
@@ -368,6 +385,8 @@ class Report(_CameraDemAlgorithm):
         self.addParameter(QgsProcessingParameterFile("POINTS_CSV", self.tr("Control points (paired CSV)"),
                                                      QgsProcessingParameterFile.File, optional=True,
                                                      fileFilter="CSV (*.csv *.txt)"))
+        self.explain({"POINTS_CSV": "A paired GCP CSV (u_px, v_px, X, Y, Z; optional check column): the report "
+                                    "draws these points and their residuals under the camera"})
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", self.tr("Report"),
                                                                 "PNG image (*.png);;PDF (*.pdf)"))
 

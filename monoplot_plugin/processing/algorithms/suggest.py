@@ -28,6 +28,7 @@ class SuggestPhotoPoints(MonoplotAlgorithm):
         self.addParameter(QgsProcessingParameterNumber("MAX_POINTS", self.tr("Maximum number of points"),
                                                        QgsProcessingParameterNumber.Integer, 60, minValue=1,
                                                        maxValue=10000))
+        self.explain({"MAX_POINTS": "At most this many points, the most distinctive first, spread over the photo"})
         self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Suggested photo points"),
                                                             QgsProcessing.TypeVectorPoint))
         self.addOutput(QgsProcessingOutputNumber("COUNT", self.tr("Number of points")))
@@ -71,6 +72,7 @@ class SuggestDemPoints(MonoplotAlgorithm):
             QgsProcessingParameterNumber.Double, None, optional=True, minValue=0.0),
             self.tr("Of the prior camera's position; empty: 100 m. Terrain nearer than this that fills the camera's "
                     "view is left out"))
+        self.explain({"MAX_POINTS": "At most this many points, summits and the most distinctive key points first"})
         self.addParameter(QgsProcessingParameterFeatureSink("OUTPUT", self.tr("Suggested DEM points"),
                                                             QgsProcessing.TypeVectorPoint))
         self.addOutput(QgsProcessingOutputNumber("COUNT", self.tr("Number of points")))
