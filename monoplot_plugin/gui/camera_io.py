@@ -93,8 +93,10 @@ def load_camera_file(controller, path: str, as_fitted: bool = False,
         if sigma:
             info["sigma"] = sigma
         # its fit's figures: features drawn on it get their xy_error_m from them (a trial's had none)
-        info.update({k: fit[k] for k in ("mode", "rmse_px", "loo_rmse_px", "sigma_px", "correlation", "on_ground")
-                     if k in fit})
+        info.update({k: fit[k] for k in ("mode", "rmse_px", "loo_rmse_px", "sigma_px", "correlation") if k in fit})
+    # where it stood, whatever its verdict: held on the ground, and how high above it (a time-lapse trial's camera,
+    # 1.6 m up, read "ground + 0 m" once reloaded)
+    info.update({k: fit[k] for k in ("on_ground", "eye_height_m") if k in fit})
     ids, uv, xyz = c.pair_arrays(c.state.valid_pairs())
     n_pairs, pairs_rmse = measured_on_pairs(camera, uv, xyz)
     if n_pairs:  # how the camera fits the pairs already there (a measure of agreement, not of accuracy)

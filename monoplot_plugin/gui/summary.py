@@ -201,7 +201,8 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
              ("Y", f"{metres('y', y)}{sig('y')}"),
              (tr("Pitch"), f"{fitted.pitch:.2f}°{sig('pitch')}"),
              ("Z", z_text if not info.get("on_ground") else
-              tr("{0:.0f} m (ground + {1:.3g} m)").format(z, round(info.get("eye_height_m") or 0.0, 1))
+              (tr("{0:.0f} m (ground + {1:.3g} m)").format(z, round(info["eye_height_m"], 1))
+               if info.get("eye_height_m") is not None else tr("{0:.0f} m (on the ground)").format(z))
               + sig("z", info.get("ground_sigma_m") or math.nan)),
              (tr("Roll"), f"{fitted.roll:.2f}°{sig('roll')}"),
              # the lens's distortion when there is some (a phone trial's fitted k1 was shown only in the report)

@@ -208,14 +208,16 @@ def fitted_photo(photo_path: str) -> dict:
 
 def fit_figures(verdict: dict) -> dict:
     """What a camera file keeps of a fit besides its status and message: ``sigma`` per parameter (from ``"sigma"``
-    or the fit summary's ``"std"``) and their ``correlation``, ``mode``, ``on_ground`` and the
+    or the fit summary's ``"std"``) and their ``correlation``, ``mode``, ``on_ground`` (with ``eye_height_m``, its
+    height above the terrain: a reloaded camera read "ground + 0 m" for one held 1.6 m up, a trial) and the
     :data:`PIXEL_FIGURES` a product's ``xy_error_m`` is worked out from (:func:`~.features.pixel_error`,
     :func:`~.spread.camera_spread`); finite values only.
 
     >>> fit_figures({"status": "ok", "summary": {"std": {"x": 2.0, "y": None}, "rmse_px": 1.5}, "mode": "paired"})
     {'sigma': {'x': 2.0}, 'mode': 'paired', 'rmse_px': 1.5}
-    >>> fit_figures({"sigma": {"x": 2.0}, "correlation": {"x": {"y": 0.5, "z": None}}, "on_ground": True})
-    {'sigma': {'x': 2.0}, 'correlation': {'x': {'y': 0.5}}, 'on_ground': True}
+    >>> fit_figures({"sigma": {"x": 2.0}, "correlation": {"x": {"y": 0.5, "z": None}}, "on_ground": True,
+    ...              "eye_height_m": 1.6})
+    {'sigma': {'x': 2.0}, 'correlation': {'x': {'y': 0.5}}, 'on_ground': True, 'eye_height_m': 1.6}
     """
     out = {}
     summary = verdict.get("summary") or {}
@@ -230,6 +232,9 @@ def fit_figures(verdict: dict) -> dict:
         out["correlation"] = correlation
     if isinstance(verdict.get("on_ground"), bool):
         out["on_ground"] = verdict["on_ground"]
+        eye = verdict.get("eye_height_m")
+        if verdict["on_ground"] and eye is not None and np.isfinite(float(eye)):
+            out["eye_height_m"] = float(eye)
     for key in ("mode",) + PIXEL_FIGURES:
         value = verdict.get(key, summary.get(key))
         if isinstance(value, str) or (value is not None and np.isfinite(float(value))):

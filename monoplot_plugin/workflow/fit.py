@@ -407,7 +407,8 @@ def fit_points(image_size, uv: np.ndarray, xyz: np.ndarray, prior: Camera, dem, 
     return camera, {"rmse_px": rmse, "status": result.status, "message": result.message,
                     "summary": result.summary(), "n_check": int(check.sum()),
                     "check_rmse_px": float(result.check_rmse_px) if check.any() else float("nan"),
-                    "sigma_px": sigma_px(result, xyz)}
+                    "sigma_px": sigma_px(result, xyz), "on_ground": bool(done.on_ground),
+                    "eye_height_m": done.eye_height if done.on_ground else None}
 
 
 #: Paired ground-control points from which a camera is solved with no prior (a direct linear transform needs 6).

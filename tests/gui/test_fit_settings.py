@@ -3,6 +3,7 @@ prior's uncertainty passed to a real fit, a terrain-derived pitch for a drawn ca
 
 from __future__ import annotations
 
+import json
 import math
 import re
 
@@ -147,6 +148,33 @@ def test_on_the_ground_mode_holds_the_fit_at_the_eye_height(dock, scene, qtbot):
     # with the eye's own height over the terrain, which is not exact either (± 0.3 m)
     assert sigma_z == pytest.approx(math.hypot(max(beside[:2]), max(beside[2:]), 0.3), rel=1e-6)
     assert re.search(r"Z&nbsp;</td><td>\d+ m \(ground \+ 1.5 m\)(<span[^>]*>)? ± [\d.]+", dock.resultLabel.text())
+
+
+
+def test_a_camera_held_on_the_ground_keeps_its_height_over_it_through_its_file(dock, scene, qtbot, tmp_path):
+    """A time-lapse trial's camera, fitted 1.6 m above the ground and saved, read "ground + 0 m" once loaded in a
+    new project: its file kept that it stood on the ground, not how high."""
+    from monoplot_plugin.gui.camera_io import load_camera_file, save_camera_file
+
+    _load(dock, scene.photo_path)
+    c = dock.controller
+    _scene_points(dock, scene)
+    c.set_prior(scene.prior)
+    dock.fit_settings.height_combo.setCurrentIndex(1)
+    dock.fit_settings.eye_spin.setValue(1.5)
+    assert c.fit()
+    with qtbot.waitSignal(c.taskFinished, timeout=120000) as blocker:
+        pass
+    assert blocker.args[0].ok, blocker.args[0].reason
+    path = str(tmp_path / "held.json")
+    assert save_camera_file(c, path)
+    assert json.loads(open(path, encoding="utf-8").read())["fit"]["eye_height_m"] == 1.5
+    c.set_fitted(None)
+    assert "ground + 1.5 m" not in dock.resultLabel.text()
+    with qtbot.waitSignal(c.productsReady, timeout=120000):
+        assert load_camera_file(c, path, as_fitted=True) is not None
+    assert c.state.fit_info["eye_height_m"] == 1.5
+    assert "(ground + 1.5 m)" in dock.resultLabel.text()
 
 
 def test_above_ground_box_shows_and_moves_the_prior(dock, scene, qtbot):
