@@ -16,7 +16,7 @@ import numpy as np
 
 from ..fit.near_ground import NEAR_SHIFT, NEAR_SHIFT_SHARE, loose_ground_text, loosely_placed_ground
 from .photo_edges import SKY_FRACTION_MIN, PhotoEdges
-from .sigma import widen_std
+from .sigma import carry_correlated, widen_std
 
 if TYPE_CHECKING:  # the registration imports this module
     from .align import Aligner
@@ -185,7 +185,9 @@ def combine_evidence(result: AutoFitResult, ev: dict) -> None:
     if near or back < PROBES_BACK_OK:
         # what the edges cannot place, only the prior does: its position σ is the honest one (a desktop trial's near
         # scene said ± 8 / 39 m with the camera 37 m off)
-        result.std = widen_std(result.std, {}, [], dict.fromkeys("xyz", float(ev.get("auto_position_sigma_m", 0.0))))
+        # and the angles the fit found for the camera where it stands move with it (:func:`.sigma.carry_correlated`)
+        widened = widen_std(result.std, {}, [], dict.fromkeys("xyz", float(ev.get("auto_position_sigma_m", 0.0))))
+        result.std = carry_correlated(result.std, widened, result.correlation)
     ground = getattr(result, "ground", None)
     loose = loosely_placed_ground(result.camera, result.std, ground) if ground is not None else {}
     if loose:
