@@ -28,6 +28,7 @@ from ..state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, replace_in
 from ..workflow import auto as auto_step
 from ..workflow.progress import part
 from ..workflow.spread import plain_correlation
+from ..workflow.text import cut_at_word
 from . import engine
 from .camera_follow import CamerasFollowEdit, camera_snapshot
 from .fit_settings import fit_arguments, height_arguments
@@ -229,8 +230,12 @@ class AutoPanel(QObject):
             text = self.tr("Automatic registration found no camera better than the rough one ({0}): the rough camera "
                            "stays.") if kept else self.tr("Automatic registration found no match between the photo "
                                                          "and the DEM ({0}): no camera was set.")
-            c.message.emit(text.format(status) + " " + self.tr("Its report is in the Monoplot log; suggest points "
-                                                               "and pick a few you recognise instead."),
+            # why, where the person looks (a time-lapse trial found it only in the log: "no clear skyline")
+            why = str(r.evidence.get("auto_prior_kept_why") or "")
+            why = cut_at_word(why, 240)
+            why = (" " + self.tr("Why: {0}").format(why) + ("" if why.endswith("…") else ".")) if why else ""
+            c.message.emit(text.format(status) + why + " " + self.tr("Suggest points and pick a few you recognise "
+                                                                     "instead (the report is in the Monoplot log)."),
                            Qgis.MessageLevel.Warning)
             return
         camera_layers.remove_camera_layers(self.dock.project, other=True)  # an earlier one set aside is stale now

@@ -243,7 +243,8 @@ def prior_kept(result: "AutoFitResult", prior, sig: dict) -> "AutoFitResult":
                          f"The automatic registration did not improve on the prior camera: {why}. The prior is "
                          "kept: check it, pair a few points by hand, or give a closer prior."
                          + (f" Also: {reasons}." if reasons else ""), result.mode, result.free,
-                         evidence=dict(ev, auto_prior_kept=True, auto_no_edges=no_edges, auto_sigma_is_prior=True),
+                         evidence=dict(ev, auto_prior_kept=True, auto_no_edges=no_edges, auto_sigma_is_prior=True,
+                                       auto_prior_kept_why=why),
                          std=prior_std(sig))
     kept.image_points, kept.world_points, kept.aligned, kept.skyline = (result.image_points, result.world_points,
                                                                         result.aligned, result.skyline)
