@@ -307,6 +307,29 @@ def test_position_box_places_and_moves_the_rough_camera_to_typed_coordinates(doc
         assert dock.positionEdit.text() == f"{nx:.2f}, {ny:.2f}"  # the camera's again, not the typo
 
 
+def test_position_box_takes_a_surveyed_height_as_a_third_number(dock, scene, qtbot):
+    """A time-lapse trial typed her GNSS "X, Y, Z" and was told to type X, Y, the box cleared: a third number is
+    the camera's height in the DEM's height system, as typed, for a new rough camera and for a moved one."""
+    _load(dock, scene.photo_path)
+    c = dock.controller
+    x, y = scene.camera.position[0] + 0.37, scene.camera.position[1] - 0.42
+    ground = float(scene.dem.sample(round(x, 2), round(y, 2)))
+    dock.positionEdit.setFocus()
+    qtbot.keyClicks(dock.positionEdit, f"{x:.2f}, {y:.2f}, {ground + 1.6:.2f}")
+    qtbot.keyClick(dock.positionEdit, Qt.Key.Key_Return)
+    assert c.prior is not None and c.prior.position == pytest.approx((round(x, 2), round(y, 2),
+                                                                      round(ground + 1.6, 2)), abs=1e-6)
+    assert "1.6 m above the DEM" in dock.statusLabel.text()
+    assert dock.heightSpin.value() == pytest.approx(1.6, abs=0.05)  # the Above ground box follows
+    # moved, with a decimal comma, to a height under the terrain: taken, and said
+    dock.positionEdit.selectAll()
+    qtbot.keyClicks(dock.positionEdit, f"{x + 50:.1f}; {y:.1f}; {ground - 30:.1f}".replace(".", ","))
+    qtbot.keyClick(dock.positionEdit, Qt.Key.Key_Return)
+    assert c.prior.position[0] == pytest.approx(round(x + 50, 1)) and c.prior.position[2] == pytest.approx(
+        round(ground - 30, 1))
+    assert "under the DEM" in dock.statusLabel.text() and "height system" in dock.statusLabel.text()
+
+
 def test_find_camera_keeps_near_the_field_of_view_of_the_photos_lens(dock, scene, tmp_path):
     """A drone trial's EXIF lens (24 mm equivalent, 71.6°) gave the rough camera its field of view, and Find
     camera, free to search 10 %, ended at 113.7°. The lens's field of view is searched within a few %, unless the
