@@ -22,6 +22,7 @@ from ..state import MAP, PHOTO, CommandStack, ProjectState, replace_in_views
 from ..workflow.camera_files import fitted_to_size
 from ..workflow.fit import ground_height_sigma
 from ..workflow.products import centred_on_picture
+from ..workflow.text import name_photo_pixels
 from ..workflow import warmup
 from . import engine, photo_shelf
 from .curation import CurationMixin
@@ -370,6 +371,10 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, FittingMixin
 
     def _apply_fit(self, outcome: "engine.FitOutcome") -> None:
         i = outcome.info
+        # a pixel the message quotes, by the name the person's table gave the point there (a trial's GCP4)
+        named = [(p.x, p.y, p.label) for p in self.state.points.values() if p.space == PHOTO and p.manual and p.label]
+        if named and i.get("message"):
+            i["message"] = name_photo_pixels(str(i["message"]), named)
         LOG.info("Fit (%s): status %s, RMSE %s px, check RMSE %s px on %s, %s photo / %s map points, %s pairs "
                  "given, %s matched, core fit %.2f s; %s", i.get("mode"), i.get("status"), _num(i.get("rmse_px")),
                  _num(i.get("check_rmse_px")), i.get("n_check"), i.get("n_photo"), i.get("n_map"), i.get("n_pairs"),

@@ -745,3 +745,28 @@ def test_removing_the_dem_layer_leaves_the_dem_box_empty_not_on_another_raster(d
     assert dock.demCombo.currentLayer() is None
     assert c.dem is dem_before and c.dem_layer is None
     assert "removed" in dock.statusLabel.text() + dock.statusLabel.toolTip()
+
+
+def test_a_pair_the_fit_doubts_is_named_as_the_persons_table_names_it(dock, scene, tmp_path, qtbot):
+    """A time-lapse trial's GCP4, typed 50 m off in X: the dock said "first check the pair at photo pixel (1100,
+    650)" and her table's id appeared only in a column scrolled out of sight. The message names it."""
+    from monoplot_plugin.gui.io_actions import import_points_csv, load_camera_file
+    from monoplot_plugin.workflow.camera_files import save_camera
+    from monoplot_plugin.workflow.points_csv import write_points_csv
+
+    dock.photoFile.setFilePath(scene.photo_path)
+    dock.demCombo.setLayer(QgsProject.instance().mapLayersByName("synthetic DEM")[0])
+    c = dock.controller
+    save_camera(str(tmp_path / "prior.json"), scene.prior)
+    assert load_camera_file(c, str(tmp_path / "prior.json")) is not None
+    xyz = scene.xyz[:12].copy()
+    xyz[3, 2] += 60.0  # one surveyed height typed wrong
+    ids = [f"GCP{i + 1}" for i in range(12)]
+    write_points_csv(str(tmp_path / "gcps.csv"), uv=scene.uv[:12], xyz=xyz, ids=ids)
+    import_points_csv(c, str(tmp_path / "gcps.csv"))
+    with qtbot.waitSignal(c.taskFinished, timeout=120000):
+        dock.fitButton.click()
+    message = c.state.fit_info["message"]
+    pixel = f"photo pixel ({scene.uv[3, 0]:.0f}, {scene.uv[3, 1]:.0f})"
+    assert c.state.fit_info["status"] != "ok" and pixel in message, message
+    assert f"{pixel}, GCP4" in message
