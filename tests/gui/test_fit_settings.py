@@ -341,6 +341,9 @@ def test_find_camera_keeps_near_the_field_of_view_of_the_photos_lens(dock, scene
     c = dock.controller
     fov = read_exif_prior(path, (480, 360)).fov
     assert fov == pytest.approx(71.6, abs=0.1)  # the trial's (a 4:3 picture, crop factor on the diagonal)
+    # the box the rough camera takes it from keeps it to 0.01° (a time-lapse trial's 37.115° became 37.1: 0.3 px
+    # at the picture's edges for a field of view she then held)
+    assert dock.fovSpin.value() == pytest.approx(fov, abs=0.006)
     c.set_prior(scene.prior.with_parameters(fov=fov))
     panel = dock.auto_panel
     assert panel.prior_sigmas(True)["fov_sigma_deg"] == pytest.approx(LENS_FOV_SHARE * fov)
