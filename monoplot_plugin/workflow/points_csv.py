@@ -130,6 +130,7 @@ def read_points_csv(path: str) -> Dict[str, np.ndarray]:
                          f"(map coordinates), got {', '.join(header)}")
     result["ids"] = np.array([row[iid] if iid is not None and iid < len(row) else str(r + 1)
                               for r, row in enumerate(body)])
+    result["named"] = iid is not None  # the ids are the table's own, not row numbers
     if icheck is not None:
         result["check"] = np.array([icheck < len(row) and row[icheck].strip().lower() in _TRUE for row in body])
     # numeric columns read as nothing (a trial's image_x, image_y gave 8 map points and no word of the photo's)

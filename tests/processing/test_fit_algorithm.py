@@ -1,6 +1,7 @@
 """Fit camera algorithm through processing.run: paired CSV, unpaired layers, KML prior, clear refusals."""
 
 import json
+import re
 
 import cv2
 import numpy as np
@@ -72,6 +73,22 @@ def test_the_tables_check_column_keeps_check_points_out_of_the_fit(run_alg, smal
     assert 40.0 / np.sqrt(3) - 1.0 < result["CHECK_RMSE_PX"] < 40.0 / np.sqrt(3) + 1.0
     fitted = Camera.load(out)
     assert np.linalg.norm(np.subtract(fitted.position, small_scene["cam"].position)) < 5.0
+
+
+def test_a_pair_the_fit_doubts_is_named_by_the_tables_id(run_alg, small_scene, ground_truth, tmp_path):
+    """A trial's message said "check the pair at photo pixel (1100, 650)" where her table called it GCP4: the
+    MESSAGE (and the camera file) name it by the table's id."""
+    world = ground_truth["world"][:12].copy()
+    world[3, 2] += 60.0  # one surveyed height typed wrong
+    gcps = tmp_path / "gcps.csv"
+    write_points_csv(str(gcps), uv=ground_truth["pixels"][:12], xyz=world, ids=[f"GCP{i + 1}" for i in range(12)])
+    out = tmp_path / "camera.json"
+    result = run_alg("fitcamera", {"PHOTO": small_scene["photo"], "DEM": small_scene["dem"],
+                                   "PRIOR": ground_truth["prior"], "PHOTO_CSV": str(gcps), "OUTPUT": str(out)})
+    named = re.search(r"photo pixel \((\d+), (\d+)\), GCP4", result["MESSAGE"])
+    assert result["STATUS"] != "ok" and named, result["MESSAGE"]
+    assert np.allclose([float(named.group(1)), float(named.group(2))], ground_truth["pixels"][3], atol=1.0)
+    assert "GCP4" in json.loads(out.read_text())["fit"]["message"]
 
 
 def test_a_prior_made_for_a_crop_is_a_rough_start_and_said_so(run_alg, small_scene, ground_truth, tmp_path):

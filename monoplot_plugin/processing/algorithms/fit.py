@@ -22,6 +22,7 @@ from ...outputs.safe_write import write_text
 from ...workflow.camera_files import camera_json
 from ...workflow.fit import MIN_PAIRS_WITHOUT_PRIOR, start_above_points
 from ...workflow.progress import Canceled
+from ...workflow.text import name_photo_pixels
 from ..base import (MonoplotAlgorithm, camera_line, cancel_callback, centred_on_print, check_canceled, checked,
                     progress_callback, read_map_points, read_photo_points, report_status)
 from ...adapters.layers import crs_from_wkt
@@ -123,6 +124,7 @@ class FitCamera(MonoplotAlgorithm):
         """(uv (N, 2), xyz (M, 3), paired, check) from layers and/or CSV files; Z sampled from the DEM where
         missing; ``check`` (N,) bool: the paired rows a table's ``check`` column marks as check points."""
         uv_parts, xyz_parts, check_parts = [], [], []
+        self.photo_names = []  # (u, v, id) of a table's named photo points: the fit's message names them
         feedback = self.feedback_of(context)
         paired = self.parameterAsBool(parameters, "PAIRED", context)
         photo_source = self.parameterAsSource(parameters, "PHOTO_POINTS", context)
@@ -145,6 +147,8 @@ class FitCamera(MonoplotAlgorithm):
                 paired = True  # one table with both: ground-control points
             if "uv" in table:
                 uv_parts.append(table["uv"])
+                if table.get("named"):
+                    self.photo_names += [(u, v, str(i)) for (u, v), i in zip(table["uv"], table["ids"])]
                 check_parts.append(table.get("check", np.zeros(len(table["uv"]), dtype=bool)))
             if "xyz" in table:  # in the DEM file's CRS (degrees for a geographic DEM used in UTM)
                 project = context.project()
@@ -256,6 +260,8 @@ class FitCamera(MonoplotAlgorithm):
                                    **height_choice(self, parameters, context))
         except Canceled:
             raise QgsProcessingException(self.tr("Fit canceled; no camera written.")) from None
+        # a pixel the message quotes, by its id in the person's table (a trial's GCP4, named by its pixel only)
+        info["message"] = name_photo_pixels(info["message"], self.photo_names)
         report_status(feedback, self.tr("Fit"), info["status"], info["message"])
         camera.crs_wkt = crs.toWkt()
         out = self.parameterAsFileOutput(parameters, "OUTPUT", context)
