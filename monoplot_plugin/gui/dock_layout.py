@@ -19,7 +19,7 @@ TABS_SHARE = (0.38, 0.5)
 
 
 #: The point table model's residual column (:mod:`.point_table`).
-RESIDUAL_COLUMN = 5
+RESIDUAL_COLUMN = 6
 
 
 def lay_out(dock) -> None:
@@ -35,9 +35,9 @@ def lay_out(dock) -> None:
     header = dock.pointTable.horizontalHeader()
     header.setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
     header.setSortIndicator(-1, Qt.SortOrder.AscendingOrder)  # detector order until a header is clicked
-    # the residual next to the status (shown third; the model's column stays 5): at 1600 px it was past the
-    # table's right edge, behind a horizontal scroll
-    header.moveSection(header.visualIndex(RESIDUAL_COLUMN), 2)
+    # the residual next to the status and the name (shown fourth; the model's column stays 6): at 1600 px it was
+    # past the table's right edge, behind a horizontal scroll
+    header.moveSection(header.visualIndex(RESIDUAL_COLUMN), 3)
     dock.table_proxy.sort(-1)
     for button in (dock.suggestButton, dock.mapToolButton, dock.acceptViewButton, dock.resetButton,
                    dock.undoButton, dock.redoButton):  # two even rows (ui/dock.ui): one row was clipped

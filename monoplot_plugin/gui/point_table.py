@@ -12,7 +12,9 @@ from ..state import ACCEPTED, CHECK, PHOTO, REJECTED, ProjectState
 __all__ = ["PointTableModel", "make_proxy", "ID_ROLE"]
 
 ID_ROLE = Qt.ItemDataRole.UserRole + 1
-_COLUMNS = ("View", "Status", "X / u", "Y / v", "Z (m)", "Residual (px)", "Pair", "Source", "Id")
+#: "Name" third: a GCP table's ids were only in "Source" ("manual (GCP4)"), scrolled out of sight, while the
+#: column "Id" showed internal keys such as p3-d248e2 (a time-lapse trial)
+_COLUMNS = ("View", "Status", "Name", "X / u", "Y / v", "Z (m)", "Residual (px)", "Pair", "Source", "Id")
 _STATUS_COLORS = {ACCEPTED: QColor(0, 150, 60), REJECTED: QColor(200, 40, 40), CHECK: QColor(140, 40, 220)}
 
 
@@ -71,7 +73,7 @@ class PointTableModel(QAbstractTableModel):
             return pid
         if role == Qt.ItemDataRole.ForegroundRole and col == 1 and p.status in _STATUS_COLORS:
             return QBrush(_STATUS_COLORS[p.status])
-        if role == Qt.ItemDataRole.TextAlignmentRole and col in (2, 3, 4, 5):
+        if role == Qt.ItemDataRole.TextAlignmentRole and col in (3, 4, 5, 6):
             return int(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
         if role not in (Qt.ItemDataRole.DisplayRole, Qt.ItemDataRole.EditRole):
             return None
@@ -82,21 +84,23 @@ class PointTableModel(QAbstractTableModel):
         if col == 1:
             return self.tr(p.status)
         if col == 2:
-            return p.x if sort else f"{p.x:.{digits}f}"
+            return p.label
         if col == 3:
-            return p.y if sort else f"{p.y:.{digits}f}"
+            return p.x if sort else f"{p.x:.{digits}f}"
         if col == 4:
-            return (p.z if p.z is not None else -1e9) if sort else ("" if p.z is None else f"{p.z:.0f}")
+            return p.y if sort else f"{p.y:.{digits}f}"
         if col == 5:
+            return (p.z if p.z is not None else -1e9) if sort else ("" if p.z is None else f"{p.z:.0f}")
+        if col == 6:
             r = self.residuals.get(pid)
             return (r if r is not None else -1.0) if sort else ("" if r is None else f"{r:.1f}")
-        if col == 6:
+        if col == 7:  # the partner by its name when it has one, else by its key (the "Id" column)
             partner = self.state.partner(pid)
-            return "" if partner is None else partner
-        if col == 7:
-            kind = self.tr("manual") if p.manual else self.tr("detector")
-            return f"{kind} ({p.label})" if p.label else kind
+            other = self.state.points.get(partner) if partner is not None else None
+            return "" if partner is None else (other.label if other is not None and other.label else partner)
         if col == 8:
+            return self.tr("manual") if p.manual else self.tr("detector")
+        if col == 9:
             return pid
         return None
 

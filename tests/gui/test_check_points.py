@@ -61,7 +61,7 @@ def test_key_c_marks_a_pair_as_check_points_and_the_fit_measures_them(dock, scen
     report_checks = c.report_checks()
     assert report_checks is not None and len(report_checks.uv) == 4
     row = dock.table_model.row_of(photo[checks[0]].id)
-    assert dock.table_model.index(row, 1).data() == "check" and dock.table_model.index(row, 5).data() != ""
+    assert dock.table_model.index(row, 1).data() == "check" and dock.table_model.index(row, 6).data() != ""
     # C again: back into the fit (both points of the pair), undoable
     c.toggle_check(world[checks[0]].id)
     assert c.state.points[photo[checks[0]].id].status == ACCEPTED

@@ -177,9 +177,10 @@ def test_fit_task_runs_to_completion(dock, scene, qtbot):
     assert np.median([np.hypot(b[0] - a[0], b[1] - a[1]) for _, a, b in residuals]) < 10
     assert dock.photo_view.residuals.band.numberOfVertices() == 2 * len(residuals)
     row = dock.table_model.row_of(matched[0][0])
-    assert dock.table_model.index(row, 5).data() != ""  # the table shows its residual
-    header = dock.pointTable.horizontalHeader()  # third from the left, in sight without scrolling
-    assert header.visualIndex(5) == 2 and dock.table_model.headerData(5, Qt.Orientation.Horizontal) == "Residual (px)"
+    assert dock.table_model.index(row, 6).data() != ""  # the table shows its residual
+    header = dock.pointTable.horizontalHeader()  # after the status and name, in sight without scrolling
+    assert header.visualIndex(6) == 3 and dock.table_model.headerData(6, Qt.Orientation.Horizontal) == "Residual (px)"
+    assert header.visualIndex(2) == 2 and dock.table_model.headerData(2, Qt.Orientation.Horizontal) == "Name"
     # camera and footprint layers in the project
     roles = {lyr.customProperty("monoplot/role") for lyr in QgsProject.instance().mapLayers().values()}
     assert {"camera", "footprint"} <= roles
@@ -770,3 +771,9 @@ def test_a_pair_the_fit_doubts_is_named_as_the_persons_table_names_it(dock, scen
     pixel = f"photo pixel ({scene.uv[3, 0]:.0f}, {scene.uv[3, 1]:.0f})"
     assert c.state.fit_info["status"] != "ok" and pixel in message, message
     assert f"{pixel}, GCP4" in message
+    # and the point table shows the table's ids in its third column, the partner's too (not internal keys)
+    model = dock.table_model
+    names = [model.index(r, 2).data() for r in range(model.rowCount())]
+    assert names.count("GCP4") == 2 and set(ids) <= set(names)
+    pairs = [model.index(r, 7).data() for r in range(model.rowCount()) if model.index(r, 2).data() == "GCP4"]
+    assert pairs == ["GCP4", "GCP4"], pairs
