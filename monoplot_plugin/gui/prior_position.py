@@ -56,7 +56,7 @@ class PriorPositionBox:
 
     def __init__(self, controller, edit, say, place: Callable[[float, float], object]):
         self.controller, self.edit, self.say, self.place = controller, edit, say, place
-        edit.setPlaceholderText(tr("X, Y in the DEM's CRS, then Enter"))
+        edit.setPlaceholderText(tr("X, Y (or X, Y, Z) in the DEM's CRS, then Enter"))
         edit.setToolTip(tr("Position of the rough camera in the DEM's coordinate system (e.g. surveyed by GNSS): "
                            "type X, Y and press Enter to move the camera there (its height above the DEM and its "
                            "angles are kept), or X, Y, Z to put it at a surveyed height too (in the DEM's height "
