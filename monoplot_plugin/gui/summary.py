@@ -63,12 +63,12 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
 
     >>> cam = Camera((600000, 200000, 2500), 300, -9, 1, 60, (1024, 768))
     >>> html = fit_summary_html(cam, {"rmse_px": 6.4, "n_photo": 70, "n_map": 66, "sigma": {"x": 44.0}})
-    >>> "RMSE <b>6.4 px</b>" in html and "600000 m ± 44" in html
+    >>> "RMSE <b>6.4 px</b>" in html and "600000 m ±\u00a044" in html
     True
     >>> html = fit_summary_html(cam, {"rmse_px": 6.4, "mode": "unpaired", "check_rmse_px": 12.3, "n_check": 4})
     >>> html.index("Check points <b>12.3 px</b>") < html.index("RMSE <b>6.4 px</b>")
     True
-    >>> "2500 m (ground + 1.6 m) ± 12" in fit_summary_html(cam, {"status": "ok", "on_ground": True,
+    >>> "2500 m ±\u00a012 (ground + 1.6 m)" in fit_summary_html(cam, {"status": "ok", "on_ground": True,
     ...                                                        "eye_height_m": 1.6, "ground_sigma_m": 12.4})
     True
     >>> "(28 m above the DEM)" in fit_summary_html(cam, {"rmse_px": 6.4, "clearance_m": 28.2})
@@ -103,7 +103,7 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     >>> "Status: <b style='color:#1a7f37'>ok</b> · loaded from cam.json" in fit_summary_html(
     ...     cam, {"status": "ok", "loaded_from": "/data/cam.json"})
     True
-    >>> "± undetermined*" in fit_summary_html(cam, {"status": "poor", "sigma": {"heading": 6894594.0}})
+    >>> "±\u00a0undetermined*" in fit_summary_html(cam, {"status": "poor", "sigma": {"heading": 6894594.0}})
     True
     >>> "move the terrain by 11.1 px in the picture" in fit_summary_html(
     ...     cam, {"status": "ok", "mode": "unpaired", "rmse_px": 2.9, "sigma_px": 11.1, "sigma": {"x": 627.0}})
@@ -112,16 +112,16 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     ...     cam, {"status": "uncertain", "mode": "automatic", "sigma_px": 5606.6, "sigma": {"x": 200.0}})
     True
     >>> html = fit_summary_html(cam, {"status": "uncertain", "mode": "unpaired", "sigma": {"x": 0.31}})
-    >>> "± 0.31*" in html and html.index("assume the automatic pairs are right") < html.index("<table>")
+    >>> "±\u00a00.31*" in html and html.index("assume the automatic pairs are right") < html.index("<table>")
     True
 
     A lens's distortion and principal point, when the camera has them (a phone trial's fitted k1 was only in the
     report):
 
-    >>> "X&nbsp;</td><td>600000.00 m ± 0.040" in fit_summary_html(cam, {"status": "ok", "sigma": {"x": 0.04}})
+    >>> "X&nbsp;</td><td>600000.00 m ±\u00a00.040" in fit_summary_html(cam, {"status": "ok", "sigma": {"x": 0.04}})
     True
     >>> html = fit_summary_html(cam.with_parameters(k1=-0.044), {"status": "ok", "sigma": {"k1": 0.003}})
-    >>> "Distortion k1&nbsp;</td><td>-0.0440 ± 0.0030" in html, "Distortion k1" in fit_summary_html(cam, {})
+    >>> "Distortion k1&nbsp;</td><td>-0.0440 ±\u00a00.0030" in html, "Distortion k1" in fit_summary_html(cam, {})
     (True, False)
     """
     if fitted is None:
@@ -137,7 +137,8 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
         if value is None or not math.isfinite(value):
             return ""
         # the ± of a doubtful fit hold only if its pairs are right: greyed, with the caveat right above the table
-        text = " ± " + (tr("undetermined") if sigma_undetermined(name, value) else sigma_text(value))
+        # "±" bound to its value (no-break space): at the dock's default width a Z line wrapped as "... ±" / "18*"
+        text = " ±\u00a0" + (tr("undetermined") if sigma_undetermined(name, value) else sigma_text(value))
         return text if trusted else f"<span style='color:#888'>{text}*</span>"
 
     def metres(name: str, value: float) -> str:
@@ -200,10 +201,11 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
              (tr("Heading"), f"{azimuth(fitted.heading):.2f}°{sig('heading')}"),
              ("Y", f"{metres('y', y)}{sig('y')}"),
              (tr("Pitch"), f"{fitted.pitch:.2f}°{sig('pitch')}"),
+             # the ± beside the height it is about, the note after, as for a camera in the air
              ("Z", z_text if not info.get("on_ground") else
-              (tr("{0:.0f} m (ground + {1:.3g} m)").format(z, round(info["eye_height_m"], 1))
-               if info.get("eye_height_m") is not None else tr("{0:.0f} m (on the ground)").format(z))
-              + sig("z", info.get("ground_sigma_m") or math.nan)),
+              f"{z:.0f} m" + sig("z", info.get("ground_sigma_m") or math.nan) + " "
+              + (tr("(ground + {0:.3g} m)").format(round(info["eye_height_m"], 1))
+                 if info.get("eye_height_m") is not None else tr("(on the ground)"))),
              (tr("Roll"), f"{fitted.roll:.2f}°{sig('roll')}"),
              # the lens's distortion when there is some (a phone trial's fitted k1 was shown only in the report)
              (tr("Distortion k1"), f"{fitted.k1:.4f}{sig('k1')}") if fitted.k1 else ("", ""),

@@ -479,7 +479,7 @@ def test_a_camera_written_with_its_verdict_comes_back_with_it(dock, scene, tmp_p
     # the bar says it too, as a warning (a trial's "uncertain" camera loaded with a blue "Fitted camera loaded.")
     assert '"poor"' in said[-1][0] and said[-1][1] == Qgis.MessageLevel.Warning, said
     # its σ says how doubtful (a trial's reloaded "uncertain" camera showed no ± though its file held them)
-    assert info["sigma"] == {"x": 210.0, "heading": 1.5} and "± 210" in dock.resultLabel.text()
+    assert info["sigma"] == {"x": 210.0, "heading": 1.5} and "±\u00a0210" in dock.resultLabel.text()
     saved = tmp_path / "saved.json"
     assert io_actions.save_camera_file(c, str(saved))
     assert json.loads(saved.read_text())["fit"]["status"] == "poor"
