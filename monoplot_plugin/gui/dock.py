@@ -16,7 +16,7 @@ from typing import Optional
 
 from qgis.core import Qgis, QgsApplication, QgsMapLayerProxyModel, QgsProject, QgsRasterLayer, QgsSettings
 from qgis.PyQt import uic
-from qgis.PyQt.QtCore import QItemSelectionModel
+from qgis.PyQt.QtCore import QItemSelectionModel, QTimer
 from qgis.PyQt.QtWidgets import QDockWidget, QToolBar
 
 from .. import PLUGIN_DIR
@@ -151,6 +151,8 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
         self.project.cleared.connect(self._project_cleared)
         self.project.projectSaved.connect(self._project_saved_status)
         self.project.layersRemoved.connect(self._dem_layer_removed)
+        self.project.removeAll.connect(self._all_layers_removed)
+        self._removing_all = False
         self.project.layerTreeRoot().visibilityChanged.connect(self._group_visibility)
         self._unloaded = False
         QgsApplication.instance().aboutToQuit.connect(self.unload)
@@ -436,11 +438,19 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
             # only in the fit tab); the message bar stays quiet: nothing happened
             show_status(self.statusLabel, self._restored_text())
 
+    def _all_layers_removed(self) -> None:
+        """A project closed or cleared removes every layer: not the person removing the DEM (the removal runs
+        before the event loop turns again)."""
+        self._removing_all = True
+        QTimer.singleShot(0, lambda: setattr(self, "_removing_all", False))
+
     def _dem_layer_removed(self, layer_ids) -> None:
         """The DEM layer removed: the DEM box moves on to another raster by itself, without a signal (a re-check
-        trial's showed the XYZ raster written earlier while the DEM read went on in use): empty, and said."""
-        if self.controller.state.dem_layer_id in layer_ids and self.controller.dem_layer is None and \
-                self.demCombo.currentLayer() is not None:
+        trial's showed the XYZ raster written earlier while the DEM read went on in use): empty, and said, also
+        when it was the only raster and the box emptied itself (a re-check trial got no word then)."""
+        if self._removing_all:
+            return
+        if self.controller.state.dem_layer_id in layer_ids and self.controller.dem_layer is None:
             self.demCombo.blockSignals(True)
             self.demCombo.setLayer(None)
             self.demCombo.blockSignals(False)
@@ -498,6 +508,7 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
                              (self.project.cleared, self._project_cleared),
                              (self.project.projectSaved, self._project_saved_status),
                              (self.project.layersRemoved, self._dem_layer_removed),
+                             (self.project.removeAll, self._all_layers_removed),
                              (self.project.layerTreeRoot().visibilityChanged, self._group_visibility),
                              (QgsApplication.instance().aboutToQuit, self.unload)):
             try:

@@ -748,6 +748,35 @@ def test_removing_the_dem_layer_leaves_the_dem_box_empty_not_on_another_raster(d
     assert "removed" in dock.statusLabel.text() + dock.statusLabel.toolTip()
 
 
+def test_removing_the_only_raster_dem_is_said_too_but_not_a_project_closed(dock, scene, qtbot):
+    """A re-check trial removed the DEM, the project's only raster: the box emptied itself and nothing was said.
+    Closing the project (every layer removed) is not a DEM removed."""
+    load_inputs(dock, scene, qtbot)
+    project = QgsProject.instance()
+    c = dock.controller
+    for layer in project.mapLayers().values():  # the DEM the only raster
+        if layer.type() == layer.RasterLayer and layer.id() != c.state.dem_layer_id:
+            project.removeMapLayer(layer.id())
+    qtbot.wait(50)
+    dock.statusLabel.clear()
+    dock.statusLabel.setToolTip("")
+    project.removeMapLayer(c.state.dem_layer_id)
+    qtbot.wait(50)
+    assert dock.demCombo.currentLayer() is None
+    assert "DEM layer was removed" in dock.statusLabel.text() + dock.statusLabel.toolTip()
+    from qgis.core import QgsRasterLayer
+
+    again = QgsRasterLayer(scene.dem_path, "synthetic DEM")
+    project.addMapLayer(again)
+    dock.demCombo.setLayer(again)
+    assert c.state.dem_layer_id == again.id()
+    dock.statusLabel.clear()
+    dock.statusLabel.setToolTip("")
+    project.removeAllMapLayers()
+    qtbot.wait(50)
+    assert "DEM layer was removed" not in dock.statusLabel.text() + dock.statusLabel.toolTip()
+
+
 def test_a_pair_the_fit_doubts_is_named_as_the_persons_table_names_it(dock, scene, tmp_path, qtbot):
     """A time-lapse trial's GCP4, typed 50 m off in X: the dock said "first check the pair at photo pixel (1100,
     650)" and her table's id appeared only in a column scrolled out of sight. The message names it."""
