@@ -19,7 +19,7 @@ from qgis.PyQt.QtCore import QCoreApplication
 from ..core.camera import Camera
 from ..core.fit.check_points import judge_by_checks
 from ..workflow.camera_files import fitted_on_photo, load_camera, save_camera, written_fit
-from ..workflow.fit import measured_on_pairs
+from ..workflow.fit import ground_height_sigma, measured_on_pairs
 from ..workflow.inputs import InputError
 
 __all__ = ["load_camera_file", "save_camera_file"]
@@ -97,6 +97,8 @@ def load_camera_file(controller, path: str, as_fitted: bool = False,
     # where it stood, whatever its verdict: held on the ground, and how high above it (a time-lapse trial's camera,
     # 1.6 m up, read "ground + 0 m" once reloaded)
     info.update({k: fit[k] for k in ("on_ground", "eye_height_m") if k in fit})
+    if info.get("on_ground") and info.get("sigma"):  # its Z as sure as the terrain under its X, Y ± (as fitted)
+        info["ground_sigma_m"] = ground_height_sigma(camera, info["sigma"], c.dem)
     ids, uv, xyz = c.pair_arrays(c.state.valid_pairs())
     n_pairs, pairs_rmse = measured_on_pairs(camera, uv, xyz)
     if n_pairs:  # how the camera fits the pairs already there (a measure of agreement, not of accuracy)

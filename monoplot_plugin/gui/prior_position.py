@@ -99,7 +99,8 @@ class PriorPositionBox:
                 where = tr("X {0:.2f}, Y {1:.2f}").format(x, y) if height is None else \
                     tr("X {0:.2f}, Y {1:.2f}, Z {2:.2f}").format(x, y, height) + self._height_words(placed)
                 self.say(tr("Rough camera placed at {0}, looking along heading {1:.0f}°: if it looks elsewhere, "
-                            "change the Heading box or use Draw on map.").format(where, float(placed.heading)))
+                            "change the Heading box or use Draw on map.").format(where, float(placed.heading)),
+                         self._level(placed))
             self.show()
             return
         old_ground, ground = float(dem.sample(*prior.position[:2])), float(dem.sample(x, y))
@@ -111,7 +112,7 @@ class PriorPositionBox:
         if height is not None:
             moved = self._at_height(prior.with_parameters(x=x, y=y), height)
             self.say(tr("Rough camera moved to X {0:.2f}, Y {1:.2f}, Z {2:.2f}").format(x, y, height)
-                     + self._height_words(moved) + ".")
+                     + self._height_words(moved) + ".", self._level(moved))
             return
         clearance = prior.position[2] - old_ground if math.isfinite(old_ground) else 2.0
         self.controller.set_prior(prior.with_parameters(x=x, y=y, z=ground + clearance))
@@ -122,6 +123,13 @@ class PriorPositionBox:
         moved = camera.with_parameters(z=float(height))
         self.controller.set_prior(moved)
         return moved
+
+    def _level(self, camera):
+        """A warning for a camera placed under the DEM (a typed height in another height system), else info."""
+        dem = self.controller.dem
+        ground = float(dem.sample(*camera.position[:2])) if dem is not None else math.nan
+        under = math.isfinite(ground) and float(camera.position[2]) < ground
+        return Qgis.MessageLevel.Warning if under else Qgis.MessageLevel.Info
 
     def _height_words(self, camera) -> str:
         """" (h m above the DEM)" for ``camera``, or under it with the likely cause; "" off the DEM."""

@@ -10,7 +10,7 @@ import re
 import numpy as np
 import pytest
 from osgeo import gdal
-from qgis.core import QgsProject
+from qgis.core import Qgis, QgsProject
 from qgis.PyQt.QtCore import Qt
 
 from monoplot_plugin.adapters.exif import read_exif_prior
@@ -177,6 +177,8 @@ def test_a_camera_held_on_the_ground_keeps_its_height_over_it_through_its_file(d
         assert load_camera_file(c, path, as_fitted=True) is not None
     assert c.state.fit_info["eye_height_m"] == 1.5
     assert "(ground + 1.5 m)" in dock.resultLabel.text()
+    # with its ± (as sure as the terrain under its X, Y ±), as before it was saved (a re-check trial's had none)
+    assert re.search(r"Z&nbsp;</td><td>\d+ m(<span[^>]*>)? ±\u00a0[\d.]+", dock.resultLabel.text())
 
 
 def test_above_ground_box_shows_and_moves_the_prior(dock, scene, qtbot):
@@ -309,7 +311,7 @@ def test_position_box_places_and_moves_the_rough_camera_to_typed_coordinates(doc
         assert dock.positionEdit.text() == f"{nx:.2f}, {ny:.2f}"  # the camera's again, not the typo
 
 
-def test_position_box_takes_a_surveyed_height_as_a_third_number(dock, scene, qtbot):
+def test_position_box_takes_a_surveyed_height_as_a_third_number(dock, scene, qtbot, qgis_iface):
     """A time-lapse trial typed her GNSS "X, Y, Z" and was told to type X, Y, the box cleared: a third number is
     the camera's height in the DEM's height system, as typed, for a new rough camera and for a moved one."""
     _load(dock, scene.photo_path)
@@ -329,7 +331,10 @@ def test_position_box_takes_a_surveyed_height_as_a_third_number(dock, scene, qtb
     qtbot.keyClick(dock.positionEdit, Qt.Key.Key_Return)
     assert c.prior.position[0] == pytest.approx(round(x + 50, 1)) and c.prior.position[2] == pytest.approx(
         round(ground - 30, 1))
-    assert "under the DEM" in dock.statusLabel.text() and "height system" in dock.statusLabel.text()
+    said = dock.statusLabel.text() + dock.statusLabel.toolTip()
+    assert "under the DEM" in said and "height system" in said
+    # a warning, not an info a re-check trial read past
+    assert any("under the DEM" in m for m in qgis_iface.messageBar().get_messages(Qgis.MessageLevel.Warning))
 
 
 def test_find_camera_keeps_near_the_field_of_view_of_the_photos_lens(dock, scene, tmp_path):
