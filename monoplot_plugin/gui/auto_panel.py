@@ -28,7 +28,6 @@ from ..state import ACCEPTED, MAP, PHOTO, REJECTED, SUGGESTED, Point, replace_in
 from ..workflow import auto as auto_step
 from ..workflow.progress import part
 from ..workflow.spread import plain_correlation
-from ..workflow.text import cut_at_word
 from . import engine
 from .camera_follow import CamerasFollowEdit, camera_snapshot
 from .fit_settings import fit_arguments, height_arguments
@@ -232,8 +231,8 @@ class AutoPanel(QObject):
                                                          "and the DEM ({0}): no camera was set.")
             # why, where the person looks (a time-lapse trial found it only in the log: "no clear skyline")
             why = str(r.evidence.get("auto_prior_kept_why") or "")
-            why = cut_at_word(why, 240)
-            why = (" " + self.tr("Why: {0}").format(why) + ("" if why.endswith("…") else ".")) if why else ""
+            # whole: the status line shows its start, its tool tip all of it (cut, a re-check trial lost the end)
+            why = (" " + self.tr("Why: {0}.").format(why)) if why else ""
             c.message.emit(text.format(status) + why + " " + self.tr("Suggest points and pick a few you recognise "
                                                                      "instead (the report is in the Monoplot log)."),
                            Qgis.MessageLevel.Warning)

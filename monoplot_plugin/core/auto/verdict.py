@@ -232,7 +232,7 @@ def prior_kept(result: "AutoFitResult", prior, sig: dict) -> "AutoFitResult":
         why = (f"{no_clear_skyline(ev)}, and its "
                f"edges match the DEM's too loosely under the best camera found to trust it without a skyline (edge "
                f"score {ev['auto_edge_score']:.2f}, the prior's {ev['auto_prior_edge_score']:.2f}; 0 is a perfect "
-               f"fit, 1 no match; faint edges in fog match a few of the DEM's by chance)")
+               f"fit, 1 no match; without a skyline, a few faint edges can match the DEM's by chance)")
         result.weak = []  # the rest is about that camera, which is not returned (its σ, its rivals)
     else:
         why = (f"no camera found fits the photo's edges clearly better than the prior (edge score "
