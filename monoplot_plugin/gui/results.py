@@ -423,14 +423,16 @@ class ResultsMixin:
             text += " " + self.tr("(How well the automatic pairs agree, not the accuracy: pair a few points you "
                                   "recognise, Shift+click a point then its partner in the other view, and mark "
                                   "them as check points, key C.)")
+        # the verdict first, and where its reasons are right after it: the message bar shows one line, and the
+        # status line under the dock about three (a re-check trial's lost "See the fit tab..." at its end); "Camera
+        # fitted: RMSE 3.0 px" read as a success when 3 of 8 points had matched (desktop trial, 2026-12-03)
         if status == "poor":
-            # the verdict first: the message bar shows one line, and "Camera fitted: RMSE 3.0 px" read as a success
-            # when 3 of 8 points had matched (desktop trial, 2026-12-03)
-            text = text.replace(self.tr("Camera fitted:"), self.tr("Camera fit probably wrong (status poor):"), 1)
+            text = text.replace(self.tr("Camera fitted:"), self.tr("Camera fit probably wrong (status poor; see the "
+                                                                   "fit tab for why and what to do):"), 1)
         elif status != "ok":
-            text = text.replace(self.tr("Camera fitted:"),
-                                self.tr("Camera fitted, {0}:").format(self.tr(status)), 1)
-        if status != "ok":  # the verdict's reasons (its message) are in the fit tab
+            text = text.replace(self.tr("Camera fitted:"), self.tr("Camera fitted, {0} (see the fit tab for why and "
+                                                                   "what to do):").format(self.tr(status)), 1)
+        if status != "ok" and self.tr("see the fit tab") not in text:  # a text of another form: at its end
             text += " " + self.tr("See the fit tab for why and what to do.")
         advice = self.moved_advice(info)
         if advice:
