@@ -419,6 +419,9 @@ class MonoplotDock(RoughCameraMixin, DockViewMixin, DockExtensionsMixin, QDockWi
     def _on_task_finished(self, result) -> None:
         if result.ok and self.controller.task_kind in ("fit", "auto"):  # a camera found either way
             self._update_camera_layers()
+            # the verdict in sight: after a fit from the open Fit settings, the tab stayed scrolled down with
+            # the status and the camera out of view (a re-check trial)
+            self.fitScroll.verticalScrollBar().setValue(0)
         elif result.ok and self.controller.task_kind == "suggest":
             self.mapToolButton.setChecked(True)  # DEM suggestions are curated on the main map
 

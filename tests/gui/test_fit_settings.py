@@ -133,6 +133,12 @@ def test_on_the_ground_mode_holds_the_fit_at_the_eye_height(dock, scene, qtbot):
     panel.height_combo.setCurrentIndex(1)
     panel.eye_spin.setValue(1.5)
     assert height_arguments(c.state.settings) == {"on_ground": True, "eye_height": 1.5}
+    # the fit tab scrolled down to the settings, as a person leaves it after setting them
+    bar = dock.fitScroll.verticalScrollBar()
+    dock.splitter.setSizes([900, 200])  # a short tab: the settings below the fold
+    qtbot.wait(20)
+    bar.setValue(bar.maximum())
+    scrolled = bar.value()
     assert c.fit()
     with qtbot.waitSignal(c.taskFinished, timeout=120000) as blocker:
         pass
@@ -140,6 +146,8 @@ def test_on_the_ground_mode_holds_the_fit_at_the_eye_height(dock, scene, qtbot):
     x, y, z = c.fitted.position
     assert c.state.fit_info["on_ground"] and c.state.fit_info["eye_height_m"] == 1.5
     assert z - float(scene.dem.sample(x, y)) == pytest.approx(1.5, abs=0.5)
+    # ... and back at the top once fitted: the verdict in sight (a re-check trial's stayed out of view)
+    assert scrolled > 0 and bar.value() == 0
     # its height is the terrain's under it: as sure as X and Y, and said so (a summit trial's Z had no ±, 37 m low)
     sigma_z = c.state.fit_info["ground_sigma_m"]
     sx, sy = (c.state.fit_info["sigma"][k] for k in ("x", "y"))
