@@ -68,7 +68,7 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     >>> html = fit_summary_html(cam, {"rmse_px": 6.4, "mode": "unpaired", "check_rmse_px": 12.3, "n_check": 4})
     >>> html.index("Check points <b>12.3 px</b>") < html.index("RMSE <b>6.4 px</b>")
     True
-    >>> "2500 m ±\u00a012 (ground + 1.6 m)" in fit_summary_html(cam, {"status": "ok", "on_ground": True,
+    >>> "2500 m ±\u00a012 (ground\u00a0+\u00a01.6\u00a0m)" in fit_summary_html(cam, {"status": "ok", "on_ground": True,
     ...                                                        "eye_height_m": 1.6, "ground_sigma_m": 12.4})
     True
     >>> "(28 m above the DEM)" in fit_summary_html(cam, {"rmse_px": 6.4, "clearance_m": 28.2})
@@ -204,8 +204,9 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
              # the ± beside the height it is about, the note after, as for a camera in the air
              ("Z", z_text if not info.get("on_ground") else
               f"{z:.0f} m" + sig("z", info.get("ground_sigma_m") or math.nan) + " "
+              # in one piece (no-break spaces): "(ground + 1.7" / "m)" at the dock's default width
               + (tr("(ground + {0:.3g} m)").format(round(info["eye_height_m"], 1))
-                 if info.get("eye_height_m") is not None else tr("(on the ground)"))),
+                 if info.get("eye_height_m") is not None else tr("(on the ground)")).replace(" ", "\u00a0")),
              (tr("Roll"), f"{fitted.roll:.2f}°{sig('roll')}"),
              # the lens's distortion when there is some (a phone trial's fitted k1 was shown only in the report)
              (tr("Distortion k1"), f"{fitted.k1:.4f}{sig('k1')}") if fitted.k1 else ("", ""),

@@ -156,7 +156,7 @@ def test_on_the_ground_mode_holds_the_fit_at_the_eye_height(dock, scene, qtbot):
     # with the eye's own height over the terrain, which is not exact either (± 0.3 m)
     assert sigma_z == pytest.approx(math.hypot(max(beside[:2]), max(beside[2:]), 0.3), rel=1e-6)
     # the ± bound to its value and beside the height (a re-check trial's line wrapped as "... ±" / "18*")
-    assert re.search(r"Z&nbsp;</td><td>\d+ m(<span[^>]*>)? ±\u00a0[\d.]+\*?(</span>)? \(ground \+ 1.5 m\)",
+    assert re.search(r"Z&nbsp;</td><td>\d+ m(<span[^>]*>)? ±\u00a0[\d.]+\*?(</span>)? \(ground\u00a0\+\u00a01.5\u00a0m\)",
                      dock.resultLabel.text()), dock.resultLabel.text()
 
 
@@ -180,11 +180,11 @@ def test_a_camera_held_on_the_ground_keeps_its_height_over_it_through_its_file(d
     assert save_camera_file(c, path)
     assert json.loads(open(path, encoding="utf-8").read())["fit"]["eye_height_m"] == 1.5
     c.set_fitted(None)
-    assert "ground + 1.5 m" not in dock.resultLabel.text()
+    assert "ground\u00a0+\u00a01.5\u00a0m" not in dock.resultLabel.text()
     with qtbot.waitSignal(c.productsReady, timeout=120000):
         assert load_camera_file(c, path, as_fitted=True) is not None
     assert c.state.fit_info["eye_height_m"] == 1.5
-    assert "(ground + 1.5 m)" in dock.resultLabel.text()
+    assert "(ground\u00a0+\u00a01.5\u00a0m)" in dock.resultLabel.text()
     # with its ± (as sure as the terrain under its X, Y ±), as before it was saved (a re-check trial's had none)
     assert re.search(r"Z&nbsp;</td><td>\d+ m(<span[^>]*>)? ±\u00a0[\d.]+", dock.resultLabel.text())
 
