@@ -96,11 +96,11 @@ class PriorPositionBox:
             if placed is not None and height is not None:
                 placed = self._at_height(placed, height)
             if placed is not None:  # say which way it looks: a trial had typed the heading, and was told to set it
+                note, level = self._height_note(placed) if height is not None else ("", Qgis.MessageLevel.Info)
                 where = tr("X {0:.2f}, Y {1:.2f}").format(x, y) if height is None else \
-                    tr("X {0:.2f}, Y {1:.2f}, Z {2:.2f}").format(x, y, height) + self._height_words(placed)
+                    tr("X {0:.2f}, Y {1:.2f}, Z {2:.2f}").format(x, y, height) + note
                 self.say(tr("Rough camera placed at {0}, looking along heading {1:.0f}°: if it looks elsewhere, "
-                            "change the Heading box or use Draw on map.").format(where, float(placed.heading)),
-                         self._level(placed))
+                            "change the Heading box or use Draw on map.").format(where, float(placed.heading)), level)
             self.show()
             return
         old_ground, ground = float(dem.sample(*prior.position[:2])), float(dem.sample(x, y))
@@ -110,9 +110,9 @@ class PriorPositionBox:
             self.edit.setText(shown)
             return
         if height is not None:
-            moved = self._at_height(prior.with_parameters(x=x, y=y), height)
-            self.say(tr("Rough camera moved to X {0:.2f}, Y {1:.2f}, Z {2:.2f}").format(x, y, height)
-                     + self._height_words(moved) + ".", self._level(moved))
+            note, level = self._height_note(self._at_height(prior.with_parameters(x=x, y=y), height))
+            self.say(tr("Rough camera moved to X {0:.2f}, Y {1:.2f}, Z {2:.2f}").format(x, y, height) + note + ".",
+                     level)
             return
         clearance = prior.position[2] - old_ground if math.isfinite(old_ground) else 2.0
         self.controller.set_prior(prior.with_parameters(x=x, y=y, z=ground + clearance))
@@ -124,21 +124,15 @@ class PriorPositionBox:
         self.controller.set_prior(moved)
         return moved
 
-    def _level(self, camera):
-        """A warning for a camera placed under the DEM (a typed height in another height system), else info."""
-        dem = self.controller.dem
-        ground = float(dem.sample(*camera.position[:2])) if dem is not None else math.nan
-        under = math.isfinite(ground) and float(camera.position[2]) < ground
-        return Qgis.MessageLevel.Warning if under else Qgis.MessageLevel.Info
+    def _height_note(self, camera) -> Tuple[str, object]:
+        """(" (h m above the DEM)", info) for ``camera``, or under it with the likely cause and a warning (a typed
+        height in another height system); ("", info) off the DEM."""
+        from ..workflow.fit import ground_clearance
 
-    def _height_words(self, camera) -> str:
-        """" (h m above the DEM)" for ``camera``, or under it with the likely cause; "" off the DEM."""
-        ground = float(self.controller.dem.sample(*camera.position[:2])) if self.controller.dem is not None \
-            else math.nan
-        if not math.isfinite(ground):
-            return ""
-        above = float(camera.position[2]) - ground
+        above = ground_clearance(camera, self.controller.dem) if self.controller.dem is not None else math.nan
+        if not math.isfinite(above):
+            return "", Qgis.MessageLevel.Info
         if above < 0:
             return " " + tr("({0:.1f} m under the DEM: is the height in the DEM's height system, not above the "
-                            "ellipsoid?)").format(-above)
-        return " " + tr("({0:.1f} m above the DEM)").format(above)
+                            "ellipsoid?)").format(-above), Qgis.MessageLevel.Warning
+        return " " + tr("({0:.1f} m above the DEM)").format(above), Qgis.MessageLevel.Info
