@@ -211,10 +211,14 @@ def fit_figures(verdict: dict) -> dict:
     or the fit summary's ``"std"``) and their ``correlation``, ``mode``, ``on_ground`` (with ``eye_height_m``, its
     height above the terrain: a reloaded camera read "ground + 0 m" for one held 1.6 m up, a trial) and the
     :data:`PIXEL_FIGURES` a product's ``xy_error_m`` is worked out from (:func:`~.features.pixel_error`,
-    :func:`~.spread.camera_spread`); finite values only.
+    :func:`~.spread.camera_spread`); finite values only. ``fitted_parameters``: the parameters the fit changed (from
+    ``"free"``), so that one held at a known value (a surveyed position, a lens's field of view) reads as held, not
+    as fitted with no σ.
 
     >>> fit_figures({"status": "ok", "summary": {"std": {"x": 2.0, "y": None}, "rmse_px": 1.5}, "mode": "paired"})
     {'sigma': {'x': 2.0}, 'mode': 'paired', 'rmse_px': 1.5}
+    >>> fit_figures({"summary": {"free": ["heading", "pitch", "roll"]}})
+    {'fitted_parameters': ['heading', 'pitch', 'roll']}
     >>> fit_figures({"sigma": {"x": 2.0}, "correlation": {"x": {"y": 0.5, "z": None}}, "on_ground": True,
     ...              "eye_height_m": 1.6})
     {'sigma': {'x': 2.0}, 'correlation': {'x': {'y': 0.5}}, 'on_ground': True, 'eye_height_m': 1.6}
@@ -235,6 +239,9 @@ def fit_figures(verdict: dict) -> dict:
         eye = verdict.get("eye_height_m")
         if verdict["on_ground"] and eye is not None and np.isfinite(float(eye)):
             out["eye_height_m"] = float(eye)
+    free = verdict.get("free", summary.get("free"))
+    if free:
+        out["fitted_parameters"] = [str(name) for name in free]
     for key in ("mode",) + PIXEL_FIGURES:
         value = verdict.get(key, summary.get(key))
         if isinstance(value, str) or (value is not None and np.isfinite(float(value))):

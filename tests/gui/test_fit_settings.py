@@ -178,7 +178,10 @@ def test_a_camera_held_on_the_ground_keeps_its_height_over_it_through_its_file(d
     assert blocker.args[0].ok, blocker.args[0].reason
     path = str(tmp_path / "held.json")
     assert save_camera_file(c, path)
-    assert json.loads(open(path, encoding="utf-8").read())["fit"]["eye_height_m"] == 1.5
+    saved = json.loads(open(path, encoding="utf-8").read())["fit"]
+    assert saved["eye_height_m"] == 1.5
+    # what the fit changed, so that the height it held reads as held, not as fitted with no σ
+    assert {"x", "y", "heading", "pitch"} <= set(saved["fitted_parameters"]) and "z" not in saved["fitted_parameters"]
     c.set_fitted(None)
     assert "ground\u00a0+\u00a01.5\u00a0m" not in dock.resultLabel.text()
     with qtbot.waitSignal(c.productsReady, timeout=120000):
