@@ -3,8 +3,9 @@
 Photo points are pixels ``u_px, v_px`` (column, row from the top-left corner); map points ``X, Y, Z`` in the DEM's
 CRS; a row may hold both (a paired ground-control point, as in ``gcps.csv``). An optional ``id`` column names the
 points and an optional ``check`` column (1/0, true/false, yes/no) marks check points: pairs kept out of the fit to
-measure it. A Z given in the table is the surveyed height and is used as given; an empty or missing Z is NaN (the
-caller samples the DEM).
+measure it; without one, a ``type`` (or ``role``, ``use``…) column whose values include CP or check does. A Z
+given in the table is the surveyed height and is used as given; an empty or missing Z is NaN (the caller samples
+the DEM).
 """
 
 from __future__ import annotations
@@ -35,6 +36,11 @@ CHECK_COLUMNS = ("check", "is_check", "checkpoint", "check_point")
 #: Column names of a point's name ("Punkt": a Swiss table's; without one, points are numbered by row).
 ID_COLUMNS = ("id", "fid", "name", "point", "punkt", "label", "nr", "gcp")
 _TRUE = ("1", "true", "yes", "y", "t", "check", "x")
+#: Names of a column that says each point's role (GCP or check point), read as the check flag when a row's value is
+#: one of :data:`CHECK_ROLES` (a trial's ``type`` column of CP / GCP was ignored: its check points were fitted).
+ROLE_COLUMNS = ("type", "role", "use", "usage", "kind", "class", "category", "purpose")
+CHECK_ROLES = ("cp", "chk", "check", "checkpoint", "check point", "check_point", "check-point", "icp", "validation",
+               "independent", "control check")
 
 
 def _find_column(header: Sequence[str], names: Sequence[str], exclude: Sequence[str] = ()) -> Optional[int]:
@@ -73,6 +79,9 @@ def read_points_csv(path: str) -> Dict[str, np.ndarray]:
     >>> points = read_points_csv(path)
     >>> points["ids"].tolist(), points["check"].tolist(), points["xyz"].tolist()
     (['a'], [True], [[3.0, 4.0, 5.0]])
+    >>> _ = open(path, "w").write("id,u,v,X,Y,Z,type\\nA,1,2,3,4,5,GCP\\nB,6,7,8,9,10,CP\\n")
+    >>> read_points_csv(path)["check"].tolist()  # a column of each point's role: CP marks a check point
+    [False, True]
     >>> _ = open(path, "w").write("u_px,X,Y,Z\\n10,600000,150000,3000\\n")
     >>> try:
     ...     read_points_csv(path)
@@ -100,6 +109,11 @@ def read_points_csv(path: str) -> Dict[str, np.ndarray]:
     iz = _find_column(header, MAP_COLUMNS[2], taken)
     iid = _find_column(header, ID_COLUMNS)
     icheck = _find_column(header, CHECK_COLUMNS)
+    check_words = _TRUE
+    if icheck is None:
+        irole = _find_column(header, ROLE_COLUMNS)
+        if irole is not None and any(irole < len(row) and row[irole].strip().lower() in CHECK_ROLES for row in body):
+            icheck, check_words = irole, CHECK_ROLES
     result: Dict[str, np.ndarray] = {}
 
     def numbers(columns):
@@ -132,7 +146,8 @@ def read_points_csv(path: str) -> Dict[str, np.ndarray]:
                               for r, row in enumerate(body)])
     result["named"] = iid is not None  # the ids are the table's own, not row numbers
     if icheck is not None:
-        result["check"] = np.array([icheck < len(row) and row[icheck].strip().lower() in _TRUE for row in body])
+        result["check"] = np.array([icheck < len(row) and row[icheck].strip().lower() in check_words
+                                    for row in body])
     # numeric columns read as nothing (a trial's image_x, image_y gave 8 map points and no word of the photo's)
     used = {iu, iv, ix, iy, iz, iid, icheck}
     result["unused"] = [header[i].strip() for i in range(len(header)) if i not in used and i < len(body[0])
