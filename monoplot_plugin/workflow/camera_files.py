@@ -211,7 +211,8 @@ def fit_figures(verdict: dict) -> dict:
     or the fit summary's ``"std"``) and their ``correlation``, ``mode``, ``on_ground`` (with ``eye_height_m``, its
     height above the terrain: a reloaded camera read "ground + 0 m" for one held 1.6 m up, a trial) and the
     :data:`PIXEL_FIGURES` a product's ``xy_error_m`` is worked out from (:func:`~.features.pixel_error`,
-    :func:`~.spread.camera_spread`); finite values only. ``fitted_parameters``: the parameters the fit changed (from
+    :func:`~.spread.camera_spread`), ``check_rmse_px`` with ``n_check`` (the check points' RMSE, when there are
+    any); finite values only. ``fitted_parameters``: the parameters the fit changed (from
     ``"free"``), so that one held at a known value (a surveyed position, a lens's field of view) reads as held, not
     as fitted with no σ.
 
@@ -242,10 +243,12 @@ def fit_figures(verdict: dict) -> dict:
     free = verdict.get("free", summary.get("free"))
     if free:
         out["fitted_parameters"] = [str(name) for name in free]
-    for key in ("mode",) + PIXEL_FIGURES:
+    for key in ("mode",) + PIXEL_FIGURES + ("check_rmse_px",):
         value = verdict.get(key, summary.get(key))
         if isinstance(value, str) or (value is not None and np.isfinite(float(value))):
             out[key] = value if isinstance(value, str) else float(value)
+    if "check_rmse_px" in out and verdict.get("n_check"):
+        out["n_check"] = int(verdict["n_check"])
     return out
 
 

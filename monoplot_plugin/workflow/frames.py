@@ -34,6 +34,7 @@ from .camera_files import PIXEL_FIGURES, camera_json, fitted_on_photo
 from .files import InputError, load_camera, read_photo, read_points_csv
 from .fit import fit_points
 from .progress import IsCanceled, Progress, check_canceled, never_canceled
+from .text import fit_figures_text, name_photo_pixels
 from .inputs import load_dem
 from .products import blank_outside, centred_on_picture, ortho_grid, picture_area
 from .vectors import fill_missing_z
@@ -277,7 +278,7 @@ def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCance
             raise InputError(f"blank frame, no products written: {blank}")
         size = (photo.shape[1], photo.shape[0])
         camera, products = shared.camera, shared.products
-        fit_status, fit_message = "ok", ""
+        fit_status, fit_message, verdict = "ok", "", None
         if camera is None:  # a table row: fit this photo's camera
             camera, verdict = fit_job(task.job, size, shared.dem, setup.crs_wkt, photo, is_canceled, progress)
             result.rmse_px, fit_status, fit_message = verdict["rmse_px"], verdict["status"], verdict["message"]
@@ -339,7 +340,7 @@ def process_frame(task: FrameTask, shared: Shared, is_canceled: Optional[IsCance
         if shared.camera is not None:
             result.message = f"ok, {whose}" if fit_status == "ok" else f"{fit_status}: {fit_message} ({whose})"
         elif fit_status == "ok":
-            result.message = f"ok, fit RMSE {result.rmse_px:.2f} px"
+            result.message = f"ok, fit RMSE {result.rmse_px:.2f} px" + (fit_figures_text(verdict) if verdict else "")
         else:  # products written, but the fitted camera is doubtful ("RMSE nan px" of a camera matched nowhere)
             rmse = f", RMSE {result.rmse_px:.2f} px" if np.isfinite(result.rmse_px) else ""
             result.message = f"fit {fit_status}{rmse}: {fit_message}"
@@ -486,6 +487,9 @@ def fit_job(job, size, dem, crs_wkt: str, photo: Optional[np.ndarray] = None,
     xyz = fill_missing_z(xyz, dem)
     camera, info = fit_points(size, uv, xyz, prior, dem, paired, check=table.get("check") if paired else None)
     camera.crs_wkt = crs_wkt
+    if table.get("named"):  # "the pair at photo pixel (662, 262), G6", as fitcamera says (a trial had no name)
+        named = [(float(u), float(v), str(name)) for (u, v), name in zip(uv, table["ids"])]
+        info["message"] = name_photo_pixels(str(info["message"]), named)
     return camera, {**info, "rmse_px": float(info["rmse_px"])}
 
 

@@ -418,3 +418,42 @@ def test_a_row_whose_fit_is_poor_gets_its_camera_file_and_no_products(run_alg, s
     assert not (out / "bad_xyz.tif").exists() and not (out / "bad_ortho.tif").exists()
     assert logged["good.png"]["status"] == "ok" and (out / "good_xyz.tif").exists() and (out / "good_ortho.tif").exists()
     assert result["SUCCEEDED"] == 1
+
+
+def test_table_rows_say_how_sure_an_ok_fit_is_and_name_a_doubted_gcp(run_alg, small_scene, tmp_path):
+    """An archivist's batch: an "ok" row read only "ok, fit RMSE 0.99 px" (its 3 check points' RMSE in no column or
+    file), a check-point column named "type" (CP / GCP) was ignored and its check points fitted, and a wrong GCP
+    was "the pair at photo pixel (662, 262)" where fitcamera names it "G6"."""
+    from monoplot_plugin.core.dem import Dem
+    from monoplot_plugin.core.xyz import compute_xyz
+
+    cam = small_scene["cam"]
+    xyz = compute_xyz(cam, Dem.open(small_scene["dem"]))
+    rows, cols = np.nonzero(np.isfinite(xyz[..., 2]))
+    pick = np.random.default_rng(11).choice(len(rows), 12, replace=False)
+    world = xyz[rows[pick], cols[pick]]
+    uv = cam.project(world)
+
+    def table(path, shift_g6=0.0):
+        lines = ["id,u,v,X,Y,Z,type"]
+        for k, ((u, v), (x, y, z)) in enumerate(zip(uv, world)):
+            x += shift_g6 if k == 5 else 0.0
+            lines.append(f"G{k + 1},{u:.2f},{v:.2f},{x:.2f},{y:.2f},{z:.2f},{'CP' if k >= 9 else 'GCP'}")
+        path.write_text("\n".join(lines) + "\n")
+
+    table(tmp_path / "good.csv")
+    table(tmp_path / "bad.csv", shift_g6=400.0)
+    cam.with_parameters(heading=cam.heading - 1.0, y=cam.position[1] + 50).save(tmp_path / "prior.json")
+    write_photo(tmp_path / "a.png")
+    write_photo(tmp_path / "b.png")
+    (tmp_path / "photos.csv").write_text("photo,prior,points\na.png,prior.json,good.csv\nb.png,prior.json,bad.csv\n")
+    out = tmp_path / "out"
+    result = run_alg("batch", {"MODE": 1, "DEM": small_scene["dem"], "TABLE": str(tmp_path / "photos.csv"),
+                               "XYZ": False, "ORTHO": False, "WORKERS": 1, "OUTPUT": str(out)})
+    with open(result["LOG"], newline="") as fh:
+        logged = {os.path.basename(r["photo"]): r for r in csv.DictReader(fh)}
+    good = json.loads((out / "a_camera.json").read_text())["fit"]
+    assert logged["a.png"]["status"] == "ok" and good["n_check"] == 3 and good["check_rmse_px"] < 1.0
+    assert "3 check points" in logged["a.png"]["message"] and "leave-one-out" in logged["a.png"]["message"]
+    assert logged["b.png"]["status"] != "ok"
+    assert "G6" in logged["b.png"]["message"], logged["b.png"]["message"]
