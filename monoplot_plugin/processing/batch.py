@@ -8,6 +8,7 @@ from ..workflow.batch import (  # noqa: F401 (the algorithm's names for them)
     PhotoResult,
     fit_shared_camera,
     folder_jobs,
+    other_viewpoints_hint,
     output_stems,
     run_batch,
     shared_camera_verdict,

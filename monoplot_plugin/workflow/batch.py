@@ -31,7 +31,7 @@ from .text import cut_at_word
 
 __all__ = ["PhotoJob", "PhotoResult", "folder_jobs", "table_jobs", "run_batch", "output_stems", "fit_shared_camera",
            "fit_job", "write_log", "log_photo_path", "frame_tasks", "fitted_frame", "pick_reference",
-           "shared_camera_verdict", "remove_stale", "batch_setup", "IMAGE_PATTERNS"]
+           "shared_camera_verdict", "remove_stale", "batch_setup", "other_viewpoints_hint", "IMAGE_PATTERNS"]
 
 IMAGE_PATTERNS = ("*.jpg", "*.jpeg", "*.png", "*.tif", "*.tiff", "*.bmp")
 
@@ -430,6 +430,28 @@ def fit_shared_camera(folder_photos: List[str], prior: str, points: str, dem_poi
                 True)
         return camera, path, verdict
     raise InputError("no photo of the folder could be read for the shared fit: " + "; ".join(problems[:3]))
+
+
+def other_viewpoints_hint(results: List[PhotoResult]) -> str:
+    """A time-lapse batch whose photos mostly differ in size from the shared camera, or turned too far to be
+    registered on the reference frame, is probably of photos from different viewpoints: say which mode fits them
+    (a trial kept the dialog's default mode for a folder of archive photos and read only "photo is 1200x800 px but
+    the shared camera is for 1200x900 px"); "" otherwise.
+
+    >>> bad = PhotoResult("a.jpg", False, "not registered on the reference frame: 2 of 46 matches agree")
+    >>> other_viewpoints_hint([bad, bad, PhotoResult("c.jpg", True)]).startswith("2 of 3 photos")
+    True
+    >>> other_viewpoints_hint([bad, PhotoResult("c.jpg", True), PhotoResult("d.jpg", True)])
+    ''
+    """
+    tried = [r for r in results if not r.canceled]
+    misfits = sum(not r.ok and ("but the shared camera is for" in r.message
+                                or r.message.startswith("not registered on the reference frame")) for r in tried)
+    if misfits < 2 or misfits * 2 < len(tried):
+        return ""
+    return (f"{misfits} of {len(tried)} photos differ in size from the shared camera or could not be registered on "
+            f"the reference frame: a time-lapse folder is one camera that stays put. Photos taken from different "
+            f"places need the CSV table mode (one row per photo with its rough camera and, if any, its points).")
 
 
 def write_log(path: str, results: List[PhotoResult], folder: str = "") -> None:

@@ -457,3 +457,29 @@ def test_table_rows_say_how_sure_an_ok_fit_is_and_name_a_doubted_gcp(run_alg, sm
     assert "3 check points" in logged["a.png"]["message"] and "leave-one-out" in logged["a.png"]["message"]
     assert logged["b.png"]["status"] != "ok"
     assert "G6" in logged["b.png"]["message"], logged["b.png"]["message"]
+
+
+def test_a_time_lapse_batch_of_photos_from_other_viewpoints_points_to_the_table_mode(run_alg, small_scene, tmp_path):
+    """An archivist kept the dialog's default mode (time-lapse) for a folder of photos from different places and read
+    only "photo is 1200x800 px but the shared camera is for 1200x900 px" per photo."""
+    from tests.processing.conftest import HEIGHT, WIDTH
+
+    folder = tmp_path / "archive"
+    folder.mkdir()
+    write_photo(folder / "a.jpg")
+    for i, size in enumerate([(WIDTH + 40, HEIGHT), (WIDTH, HEIGHT + 30), (WIDTH - 20, HEIGHT - 10)]):
+        write_photo(folder / f"other_{i}.jpg", size=size, seed=i)
+
+    class Feedback(QgsProcessingFeedback):
+        warnings = []
+
+        def pushWarning(self, text):  # noqa: N802
+            self.warnings.append(text)
+
+    feedback = Feedback()
+    result = run_alg("batch", {"MODE": 0, "REGISTER": False, "DEM": small_scene["dem"], "FOLDER": str(folder),
+                               "CAMERA": small_scene["fitted"], "XYZ": False, "ORTHO": True,
+                               "OUTPUT": str(tmp_path / "out")}, feedback)
+    assert result["SUCCEEDED"] == 1 and result["FAILED"] == 3
+    assert any(w.startswith("3 of 4 photos differ in size") and "CSV table mode" in w for w in feedback.warnings), \
+        feedback.warnings

@@ -259,6 +259,9 @@ class BatchPhotos(MonoplotAlgorithm):
         else:
             feedback.pushInfo(self.tr("{0} photos processed, {1} skipped; log: {2}").format(succeeded, failed,
                                                                                             log_path))
+        hint = batch.other_viewpoints_hint(results) if mode == 0 else ""
+        if hint:
+            feedback.pushWarning(self.tr(hint))
         doubtful = sum(r.ok and r.verdict() != "ok" for r in results)
         if doubtful:  # processed is not right: their cameras are doubtful
             feedback.pushWarning(self.tr("{0} of the photos processed have a camera whose verdict is not \"ok\" "
