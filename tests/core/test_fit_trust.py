@@ -523,3 +523,23 @@ def test_check_points_beyond_a_paired_fits_residuals_count_on_a_large_photo():
     calm = fit_camera(fit_uv, world[inside[:12]], big.with_parameters(heading=big.heading + 1), pairs=pairs,
                       check_image_points=uv[inside[12:]] + [2.0, -2.0], check_world_points=check_world)
     assert calm.status == "ok", calm.message
+
+
+def test_check_points_do_not_vouch_for_a_camera_a_wrong_pair_pulls():
+    """An archivist's GCP table, one row's X 400 m off: "uncertain" for the pair, then "the 3 check points are off by
+    5.3 px ...: 4 or more, spread over the picture verify the camera despite the rest" (read as reassurance: the
+    camera was 108 m off). Check points measure where they are; a wrong pair is corrected, not outvoted."""
+    rng = np.random.default_rng(4)
+    world = terrain_points(60, rng)
+    uv = TRUTH.project(world)
+    inside = np.flatnonzero(TRUTH.in_image(uv))[:18]
+    fit_uv, fit_world = uv[inside[:12]] + rng.normal(0.0, 0.7, (12, 2)), world[inside[:12]].copy()
+    fit_world[5, 0] += 400.0
+    pairs = np.column_stack([np.arange(12)] * 2)
+    for n_check in (3, 6):  # too few to verify, then enough
+        result = fit_camera(fit_uv, fit_world, TRUTH.with_parameters(heading=TRUTH.heading + 1), pairs=pairs,
+                            check_image_points=uv[inside[12:12 + n_check]],
+                            check_world_points=world[inside[12:12 + n_check]])
+        assert result.status != "ok", (n_check, result.message)
+        assert "verify the camera despite" not in result.message and "Verified by the check points" not in \
+            result.message, result.message

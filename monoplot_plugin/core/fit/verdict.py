@@ -325,6 +325,9 @@ def judge(e: dict) -> Tuple[str, str]:
         # ... except loose near ground that no check point is on: summits 4-7 km away verified a trial's flood camera
         # "despite" its near-ground warning, the camera 6 m off and the ground within 300 m 1000 px off
         unverified = [w for w in weak if w == loose and not check_reaches_loose_ground(e)]
+        # ... and a pair the others cannot place: it pulls the camera where the check points do not look (an
+        # archivist's GCP 400 m off: 3 check points at 5.3 px, the camera 108 m off, the ground 53 m off in places)
+        unverified += [w for w in weak if suspect and w.endswith(suspect)]
         verified = [w for w in weak if w not in unverified]
         if verified:
             text += " Verified by the check points despite: " + "; ".join(verified) + "."
@@ -342,9 +345,12 @@ def judge(e: dict) -> Tuple[str, str]:
             near = f", one of them within {float(e['ground_loose_reach_m']):.0f} m of the camera," \
                 if np.isfinite(e.get("ground_loose_reach_m", np.nan)) else ", one of them on the near ground,"
         # "off by", not "agree": a trial read "the 3 check points agree (19.6 px)" as reassurance
-        weak.append(f"the {n_check} check point{'s are' if n_check != 1 else ' is'} off by {check:.1f} px, under "
-                    f"1.5 % of the picture: {MIN_CHECKS} or more, spread over the picture{near} verify the camera "
-                    f"despite the rest")
+        off = f"the {n_check} check point{'s are' if n_check != 1 else ' is'} off by {check:.1f} px"
+        if suspect and any(w.endswith(suspect) for w in weak):  # no check point vouches for a camera a pair pulls
+            weak.append(off + ", which cannot vouch for a camera that pair pulls: correct or delete it and fit again")
+        else:
+            weak.append(off + f", under 1.5 % of the picture: {MIN_CHECKS} or more, spread over the picture{near} "
+                        f"verify the camera despite the rest")
     note = (" " + e["note"]) if e.get("note") else ""
     # A camera judged probably wrong cannot say which points are wrong: no outlier advice under it (a person told to
     # reject them rejected a correct point, see :func:`flags_outliers`).
