@@ -445,7 +445,7 @@ def parameter_lines(camera, sigmas, status: str = "") -> List[str]:
 
 
 #: The last line of a verdict cut to fit the page, saying where the rest is (a trial: lost)
-CUT_NOTE = "… (cut to fit the page: the whole text is in the fit tab and the camera's JSON file)"
+CUT_NOTE = "… (cut to fit the page: the whole text is in the camera's JSON file and the dock's fit tab)"
 #: Lines of 8 pt text the page's bottom block holds (0.24 of an A4 page's height).
 REPORT_TEXT_LINES = 24
 
