@@ -41,8 +41,13 @@ def test_autoregister_writes_a_camera_and_its_status(run_alg, rendered_scene, tm
     feedback = Stages()
     result = run_alg("autoregister", {"PHOTO": str(d / "photo.png"), "DEM": str(d / "dem.tif"),
                                       "PRIOR": str(d / "prior.json"), "POSITION_SIGMA": 100.0, "ANGLE_SIGMA": 3.0,
-                                      "OUTPUT": str(out)}, feedback)
+                                      "OUTPUT": str(out), "MATCHED": str(tmp_path / "matched.csv")}, feedback)
     assert result["STATUS"] in ("ok", "uncertain", "poor") and result["MESSAGE"]
+    # the pairs the camera rests on, to check (an archivist was told to "check the matched points" and had none)
+    from monoplot_plugin.workflow.points_csv import read_points_csv
+
+    matched = read_points_csv(result["MATCHED"])
+    assert len(matched["uv"]) == result["N_MATCHED"] > 0 and np.isfinite(matched["xyz"]).all()
     # each stage said once in the dialog (a trial's 24 s run said nothing of what it did)
     assert feedback.said.count("Automatic registration: coarse search of the view direction") == 1, feedback.said
     cam = Camera.load(out)

@@ -18,7 +18,7 @@ from ...workflow.camera_files import camera_json
 from ...workflow.progress import Canceled
 from ..base import (MonoplotAlgorithm, cancel_callback, centred_on_print, check_canceled, checked, progress_callback,
                     report_status, camera_line)
-from ..inputs import read_photo
+from ..inputs import read_photo, write_points_csv
 from .fit import add_height_parameters, height_choice
 
 
@@ -80,6 +80,11 @@ class AutoRegister(MonoplotAlgorithm):
                                      "'Heading unknown' instead"})
         self.addParameter(QgsProcessingParameterFileDestination("OUTPUT", self.tr("Camera"),
                                                                 "Monoplot camera (*.json)"))
+        # the message says "check the matched points": an archivist had none to check (only the dock showed them)
+        self.add_explained(QgsProcessingParameterFileDestination(
+            "MATCHED", self.tr("Matched points"), "CSV (*.csv)", optional=True, createByDefault=False),
+            self.tr("The photo / DEM point pairs the camera was fitted on (id, u_px, v_px, X, Y, Z), to check them "
+                    "on the photo and the map, or to fit again with Fit camera after removing wrong ones"))
         self.addOutput(QgsProcessingOutputNumber("RMSE_PX", self.tr("Reprojection error of the matched points (px)")))
         self.addOutput(QgsProcessingOutputNumber("N_MATCHED", self.tr("Matched point pairs")))
         self.addOutput(QgsProcessingOutputString("STATUS", self.tr("Status (ok / uncertain / poor)")))
@@ -135,6 +140,12 @@ class AutoRegister(MonoplotAlgorithm):
             feedback.pushInfo(self.tr("One standard deviation: {0}").format(
                 ", ".join(f"{k} ± {v:.3g}" for k, v in result.std.items())))
         feedback.setProgress(100)
-        uv, _ = done.matched_points()
-        return {"OUTPUT": out, "RMSE_PX": float(result.rmse_px), "N_MATCHED": int(len(uv)),
-                "STATUS": result.status, "MESSAGE": result.message}
+        uv, xyz = done.matched_points()
+        results = {"OUTPUT": out, "RMSE_PX": float(result.rmse_px), "N_MATCHED": int(len(uv)),
+                   "STATUS": result.status, "MESSAGE": result.message}
+        matched = self.parameterAsFileOutput(parameters, "MATCHED", context)
+        if matched:
+            write_points_csv(matched, uv=uv, xyz=xyz, ids=[f"m{i + 1}" for i in range(len(uv))])
+            feedback.pushInfo(self.tr("{0} matched point pairs: {1}").format(len(uv), matched))
+            results["MATCHED"] = matched
+        return results
