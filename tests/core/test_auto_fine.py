@@ -194,3 +194,32 @@ def test_sigma_covers_every_probe_that_fits_the_edges_nearly_as_well(scene):
     assert max(result.std["x"], result.std["y"], result.std["z"]) == pytest.approx(
         max(np.max(np.abs(np.subtract(p.camera.position, truth.position))) for p in alike))
     assert moved > 0.01  # the probes did not all end exactly on the camera: the σ was widened
+
+
+
+def test_edges_filling_a_patch_of_the_picture_count_less_than_edges_across_it(scene, monkeypatch):
+    """A trial's rough camera 84° off: the registration returned a camera 800 m up whose 138 contour points, in a
+    tenth of the picture's width and height, sat on the photo's edges (edge score 0.016; the true camera's 0.62).
+    The match of edges that span less than EDGE_SPREAD_FULL of the picture counts in proportion."""
+    from monoplot_plugin.core.auto import fine
+    from monoplot_plugin.core.auto.align import Aligner
+    from monoplot_plugin.core.auto.dem_edges import dem_edges
+
+    dem, truth, edges, _ = scene
+
+    def spread(camera):
+        found = dem_edges(camera, dem, 1.0, camera.focal_px * edges.scale)
+        return Aligner(camera, edges, found, SIGMAS, tau=4.0).edge_spread(np.zeros(7))
+
+    x0, y0, x1, y1 = dem.bounds()
+    # the whole DEM from 40 km south: a fifth of the picture's width
+    far = truth.with_parameters(y=y0 - 40000.0, z=truth.position[2] + 2000.0, heading=0.0, pitch=-2.0)
+    assert spread(truth) > 0.8 and 0.0 < spread(far) < fine.EDGE_SPREAD_FULL
+    share = spread(far) / fine.EDGE_SPREAD_FULL
+    scores = {}
+    for full in (fine.EDGE_SPREAD_FULL, 1e-9):  # the second: every match counted in full
+        monkeypatch.setattr(fine, "EDGE_SPREAD_FULL", full)
+        scores[full] = [edge_score(camera, edges, dem, SIGMAS) for camera in (truth, far)]
+    (truth_score, far_score), (truth_raw, far_raw) = scores.values()
+    assert truth_score == truth_raw < 0.3  # edges across the picture: unchanged
+    assert far_score == pytest.approx(far_raw + (1.0 - far_raw) * (1.0 - share)) and far_score > far_raw

@@ -338,6 +338,26 @@ class Aligner:
                 break
         return x, best
 
+    def edge_spread(self, offset) -> float:
+        """How much of the picture the DEM's edges under ``offset`` span: the larger of their width and height
+        (5th to 95th percentile of the skyline and contour points inside the picture) over the picture's, 0..1
+        (0 with fewer than 10 such points)."""
+        off = np.asarray(offset, dtype=np.float64)[None]
+        W, H = self.photo.width, self.photo.height
+        us, vs = [], []
+        for pts in (self.sky, self.contour):
+            if len(pts):
+                u, v, z = (a[0] for a in self._project(off, pts))
+                inside = (z > 0) & (u >= 0) & (u < W) & (v >= 0) & (v < H)
+                us.append(u[inside])
+                vs.append(v[inside])
+        u = np.concatenate(us) if us else np.zeros(0)
+        v = np.concatenate(vs) if vs else np.zeros(0)
+        if len(u) < 10:
+            return 0.0
+        (u0, u1), (v0, v1) = np.percentile(u, [5, 95]), np.percentile(v, [5, 95])
+        return float(min(1.0, max((u1 - u0) / W, (v1 - v0) / H)))
+
     def skyline_at_dem_edge(self, offset, within_px: float) -> float:
         """Share of the photo's clear skyline columns where, under ``offset``, the DEM's skyline is its edge (the
         terrain beyond the DEM is missing, :attr:`~.dem_edges.DemEdges.border`) lying higher than ``within_px``

@@ -35,6 +35,9 @@ FINE_ROUNDS = ((8.0, 0.5), (4.0, 0.25), (2.5, 0.1))
 PASS_SETTLED = 0.01
 #: Distance scale (px per 1024 working px) of :func:`edge_score`.
 CHECK_TAU = 4.0
+#: Share of the picture (its width or height) the DEM's edges must span for :func:`edge_score` to count their match
+#: in full; less counts in proportion (a patch of edges is weak evidence of a view).
+EDGE_SPREAD_FULL = 0.3
 #: A probe whose edge score is at most this many times the returned camera's fits the edges "nearly as well".
 #: Measured on 38 synthetic scenes with the default σ: probes that found their way back (under 3 px) scored
 #: 0.99-1.11 of the camera; wrong "ok" cameras had probes 13-78 px away at 0.96-1.14.
@@ -121,12 +124,20 @@ def refine_fine(cam: Camera, prior: Camera, photo: PhotoEdges, dem, sig: dict, i
 
 
 def edge_score(camera: Camera, photo: PhotoEdges, dem, sig: dict, is_canceled=None) -> float:
-    """How well the DEM's skyline and contours seen from ``camera`` fall on the photo's (lower is better)."""
+    """How well the DEM's skyline and contours seen from ``camera`` fall on the photo's (lower is better, 0..1 and
+    more): the aligner's score without the pull to the prior, its match (1 - score) counted in proportion to the
+    share of the picture the edges span (:meth:`~.align.Aligner.edge_spread`) up to :data:`EDGE_SPREAD_FULL`."""
     edges = dem_edges(camera, dem, 1.0, camera.focal_px * photo.scale)
     al = Aligner(camera, photo, edges, sig, tau=CHECK_TAU * photo.width / 1024.0, is_canceled=is_canceled,
                  max_points=2000)
     al.with_prior = False
-    return float(al.score(np.zeros((1, 7)))[0])
+    score = float(al.score(np.zeros((1, 7)))[0])
+    # Edges that fill a patch of the picture match its edges there by chance as well as not: the match counts in
+    # proportion to the share spanned, up to EDGE_SPREAD_FULL (a trial's rough camera 84° off in heading: a camera
+    # 800 m up whose few contours, in a tenth of the picture's width, sat on the photo's edges scored 0.016, the
+    # true camera 0.62, and it was returned).
+    spread = al.edge_spread(np.zeros(7))
+    return score + max(0.0, 1.0 - score) * (1.0 - min(1.0, spread / EDGE_SPREAD_FULL))
 
 
 def _terrain(camera: Camera, dem, width: float = 24.0) -> np.ndarray:
