@@ -169,3 +169,22 @@ def test_too_few_far_check_points_are_told_to_include_the_near_ground(hillside):
     assert result.status == "uncertain", result.message
     reach = result.evidence["ground_loose_reach_m"]
     assert f"spread over the picture, one of them within {reach:.0f} m of the camera, verify" in result.message
+
+
+def test_a_position_held_at_a_rough_guess_leaves_the_near_ground_as_loose_as_its_stated_sigma(hillside):
+    """A flood trial held the camera at her typed position (60 m off, Position ± 40 m) as the dock advised: the fit
+    on far points was "ok", "about 1.0 m on the ground", the near ground 75 m off; the held position counted as
+    exact. Its stated σ is the camera's: in its σ (correlated with the angles that follow it) and in the check of
+    the near ground."""
+    dem, truth = hillside[0], hillside[1]
+    uv, xyz = _points(hillside, near=0)
+    x, y, z = truth.position
+    guess = truth.with_parameters(x=x + 45.0, y=y - 40.0, heading=5.0, pitch=truth.pitch + 1, fov=58.0)
+    held = ("z", "heading", "pitch", "roll", "fov")
+    stated = fit(uv, xyz, guess, dem, options=FitOptions(position_sigma_m=40.0, angle_sigma_deg=6.0),
+                 free=held).result
+    assert _off_share(stated.camera, truth, dem) > 0.1  # the near ground is really off
+    assert stated.std["x"] == pytest.approx(40.0) and stated.std["y"] == pytest.approx(40.0)
+    assert abs(stated.correlation["x"]["heading"]) > 0.1  # the view turns to keep the far points where they are
+    assert stated.status != "ok", stated.message
+    assert stated.evidence["ground_loose_share"] > 0.1 and "its position held as it is" in stated.message

@@ -31,7 +31,8 @@ def widen_by_checks(result: FitResult, diag: float) -> None:
     if not result.std or not checks_beyond_residuals(check, own, diag, result.mode == "paired"):
         return
     factor = float(check / max(own, 1.0))
-    result.std = {name: value * factor for name, value in result.std.items()}
+    free = set(result.free) if result.free else set(result.std)  # a held parameter keeps its stated σ
+    result.std = {name: value * factor if name in free else value for name, value in result.std.items()}
     result.evidence["sigma_widened_by_checks"] = factor
 
 

@@ -63,8 +63,8 @@ def parameter_std(ctx, space: ParameterSpace, u, q, P) -> Dict[str, float]:
 
 def parameter_uncertainty(space: ParameterSpace, u, q, P, held: Optional[Dict[str, float]] = None
                           ) -> Tuple[Dict[str, float], Dict[str, Dict[str, float]]]:
-    """(σ of each free parameter as :func:`parameter_std`, their correlations ``{name: {other: r}}``); both empty
-    when the covariance cannot be computed.
+    """(σ of each free parameter as :func:`parameter_std`, and of each ``held`` one, their correlations
+    ``{name: {other: r}}``); both empty when the covariance cannot be computed.
 
     The correlations say which errors go together: a camera slid back along its view and turned to keep far points
     where they are moves them little and the near ground a lot, which σ taken as independent cannot tell
@@ -85,19 +85,27 @@ def parameter_uncertainty(space: ParameterSpace, u, q, P, held: Optional[Dict[st
     except np.linalg.LinAlgError:
         return {}, {}
     cov = normal_inv * sigma2
+    G, sigma_held, held_names, held_scales = np.zeros((n, 0)), np.zeros(0), [], []
     if held:
-        G, sigma_held = held_sensitivity(space, u, q, P, J, normal_inv, held)
+        G, sigma_held, held_names, held_scales = held_sensitivity(space, u, q, P, J, normal_inv, held)
         cov = cov + (G * sigma_held ** 2) @ G.T
     if space.ground is not None and GROUND_HEIGHT_SIGMA_M > 0:  # the held height is not exact either
-        G = ground_height_sensitivity(space, u, q, P, J, normal_inv, r0)
-        cov = cov + (G * GROUND_HEIGHT_SIGMA_M ** 2) @ G.T
+        Gh = ground_height_sensitivity(space, u, q, P, J, normal_inv, r0)
+        cov = cov + (Gh * GROUND_HEIGHT_SIGMA_M ** 2) @ Gh.T
+    # the held parameters with their stated σ, and how the free ones follow them: a position held at a rough guess
+    # (± 40 m) had no σ, and the near ground's check took it as exact (a flood trial: "ok", "about 1.0 m on the
+    # ground", the near ground 75 m off)
+    S = np.diag(sigma_held ** 2)
+    cov = np.block([[cov, G @ S], [(G @ S).T, S]])
+    names = list(space.names) + list(held_names)
+    scales = list(space.scales) + list(held_scales)
     diag = np.clip(np.diag(cov), 0.0, None)
-    std = {name: float(space.scales[i] * math.sqrt(diag[i])) for i, name in enumerate(space.names)}
+    std = {name: float(scales[i] * math.sqrt(diag[i])) for i, name in enumerate(names)}
     root = np.sqrt(diag)
     if not np.all(np.isfinite(cov)) or np.any(root <= 0):
         return std, {}
     corr = np.clip(cov / np.outer(root, root), -1.0, 1.0)
-    return std, {a: {b: float(corr[i, j]) for j, b in enumerate(space.names)} for i, a in enumerate(space.names)}
+    return std, {a: {b: float(corr[i, j]) for j, b in enumerate(names)} for i, a in enumerate(names)}
 
 
 #: σ (m) of the height of a camera held on the ground (its eye height over the DEM): a person's eye stands about
@@ -119,20 +127,21 @@ def ground_height_sensitivity(space: ParameterSpace, u, q, P, J: np.ndarray, nor
 
 
 def held_sensitivity(space: ParameterSpace, u, q, P, J: np.ndarray, normal_inv: np.ndarray,
-                     held: Dict[str, float]) -> Tuple[np.ndarray, np.ndarray]:
-    """(G (n, k), σ (k,)): how the free parameters' solution ``u`` (n,) moves per unit of each held parameter, both
-    in the units of a space that frees them too (:func:`~.params.parameter_scales`), and the held σ in those units.
+                     held: Dict[str, float]) -> Tuple[np.ndarray, np.ndarray, list, list]:
+    """(G (n, k), σ (k,), names, scales): how the free parameters' solution ``u`` (n,) moves per unit of each held
+    parameter, both in the units of a space that frees them too (:func:`~.params.parameter_scales`), the held σ in
+    those units, the held parameters' names and their scales.
     ``G = -(JᵀJ)⁻¹ Jᵀ B``, ``B`` the residuals' Jacobian in the held parameters; ``normal_inv`` is ``(JᵀJ)⁻¹``."""
     names = [n for n in held if n not in space.names and not (space.ground is not None and n == "z")]
     if not names:
-        return np.zeros((len(u), 0)), np.zeros(0)
+        return np.zeros((len(u), 0)), np.zeros(0), [], []
     camera = space.camera(u)
     wider = ParameterSpace(camera, tuple(space.names) + tuple(names), space.typical_range, origin=space.origin,
                            ground=space.ground, eye_height=space.eye_height)
     columns = [wider.names.index(n) for n in names]
     B = jacobian(wider, wider.zero(), q, P)[:, columns]
     scales = np.array([wider.scales[i] for i in columns])
-    return -normal_inv @ J.T @ B, np.array([held[n] for n in names]) / scales
+    return -normal_inv @ J.T @ B, np.array([held[n] for n in names]) / scales, names, list(scales)
 
 
 #: fewer equations to spare than this and the residuals' scale is a guess (:func:`few_equations_factor`)

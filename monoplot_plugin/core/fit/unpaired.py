@@ -321,8 +321,8 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
     # gate follows the residuals: where the inlier radius is smaller than the noise, the pairs within the radius
     # have truncated residuals and too small a covariance).
     # (the correlations are the final pairs' covariance's: the widenings below scale the σ, not how they go together)
-    std, result.correlation = parameter_uncertainty(space, u, q_in, P_in, held=ctx.options.held_sigmas(
-        ctx.requested_free)) if len(pairs) else ({}, {})
+    held = ctx.options.held_sigmas(ctx.requested_free)
+    std, result.correlation = parameter_uncertainty(space, u, q_in, P_in, held=held) if len(pairs) else ({}, {})
     for name, value in (result.std or {}).items():
         std[name] = max(std.get(name, 0.0), value)
     boot = bootstrap_std(ctx, space, u, q_in, P_in, ctx.options.bootstrap) if len(pairs) else {}
@@ -332,7 +332,8 @@ def _judge_unpaired(ctx, space: ParameterSpace, result: FitResult, candidates, r
     # covariance is scaled by, and a coarse DEM's height errors are systematic, not noise: widen by
     # AUTOMATIC_PAIRS_WIDENING (measured on the synthetic suite, 2026-12-02, after the converging step: with 1.3 the
     # true camera lay within 2 sigma in every parameter at once in 0.899 of the successes, with 1.4 in 0.918).
-    result.std = {name: AUTOMATIC_PAIRS_WIDENING * value for name, value in std.items()}
+    # (a held parameter's σ is the one stated for it, not the pairs')
+    result.std = {name: value if name in held else AUTOMATIC_PAIRS_WIDENING * value for name, value in std.items()}
     used = result.inliers.sum() if len(result.inliers) else 0
     evidence = {"mode": "unpaired", "n_free": len(ctx.free), "position_free": bool({"x", "y"} & set(ctx.free)),
                 "diag": ctx.diag, "n_photo": len(ctx.q),
