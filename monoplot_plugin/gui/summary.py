@@ -132,14 +132,20 @@ def fit_summary_html(fitted: Optional[Camera], info: dict, tr: Callable[[str], s
     status = info.get("status") or ("ok" if info.get("converged", True) else "poor")
     trusted = status == "ok"
 
+    free = set(info.get("free") or ())
+
     def sig(name: str, value: Optional[float] = None) -> str:
         value = sigma.get(name) if value is None else value
+        # held at the rough camera's value: said, with the σ stated for it if any (a flood trial's held guess
+        # showed no ± and no word that it was held)
+        held = "\u00a0" + tr("(held)") if free and name in ("x", "y", "heading", "pitch", "roll", "fov") \
+            and name not in free else ""
         if value is None or not math.isfinite(value):
-            return ""
+            return held
         # the ± of a doubtful fit hold only if its pairs are right: greyed, with the caveat right above the table
         # "±" bound to its value (no-break space): at the dock's default width a Z line wrapped as "... ±" / "18*"
         text = " ±\u00a0" + (tr("undetermined") if sigma_undetermined(name, value) else sigma_text(value))
-        return text if trusted else f"<span style='color:#888'>{text}*</span>"
+        return (text if trusted else f"<span style='color:#888'>{text}*</span>") + held
 
     def metres(name: str, value: float) -> str:
         """A coordinate to the decimals its σ deserves: whole metres unless it is known better (a time-lapse

@@ -103,6 +103,10 @@ def test_fixed_position_and_height_are_kept_by_the_fit(dock, scene, qtbot):
     assert fitted.position == pytest.approx(start.position, abs=1e-6)  # fixed: not moved at all
     assert set(c.state.fit_info["free"]) <= {"heading", "pitch", "roll", "fov"}
     assert abs(fitted.heading - scene.camera.heading) < 1.0 and abs(fitted.fov - scene.camera.fov) < 1.0
+    # the fit tab says what was held (a flood trial's held guess read as a fitted position with no ±)
+    text = dock.resultLabel.text()
+    assert re.search(r"X&nbsp;</td><td>[\d.]+ m\u00a0\(held\)", text), text
+    assert "Heading&nbsp;</td><td>" in text and not re.search(r"Heading&nbsp;</td><td>[^<]*\(held\)", text)
 
 
 def test_settings_come_back_with_the_project(dock, scene, qtbot, tmp_path):
