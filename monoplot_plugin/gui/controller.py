@@ -22,7 +22,7 @@ from ..state import MAP, PHOTO, CommandStack, ProjectState, replace_in_views
 from ..workflow.camera_files import fitted_to_size
 from ..workflow.fit import ground_height_sigma
 from ..workflow.products import centred_on_picture
-from ..workflow.text import name_photo_pixels
+from ..workflow.text import lens_advice, name_photo_pixels
 from ..workflow import warmup
 from . import engine, photo_shelf
 from .curation import CurationMixin
@@ -379,6 +379,10 @@ class MonoplotController(DemInputMixin, PriorsMixin, CurationMixin, FittingMixin
                  "given, %s matched, core fit %.2f s; %s", i.get("mode"), i.get("status"), _num(i.get("rmse_px")),
                  _num(i.get("check_rmse_px")), i.get("n_check"), i.get("n_photo"), i.get("n_map"), i.get("n_pairs"),
                  i.get("n_matched"), float(i.get("elapsed_s") or 0.0), i.get("message", ""))
+        lens = self.exif_lens() if i.get("status") != "ok" and "fov" in (i.get("free") or ()) else None
+        if lens is not None and getattr(lens, "fov", None) and i.get("message"):
+            i["message"] = str(i["message"]) + lens_advice(outcome.camera.fov, float(lens.fov), str(i.get("status")),
+                                                           i.get("free") or ())
         if i.get("on_ground") and self.dem is not None:
             # held on the ground, its height is the terrain's under it: as sure as its X, Y, taken from the σ as
             # finally shown (a re-check trial: Z ± 0.97 m beside the registration's X, Y ± 75, 58 m, 3.9 m off)

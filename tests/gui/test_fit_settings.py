@@ -374,3 +374,40 @@ def test_find_camera_keeps_near_the_field_of_view_of_the_photos_lens(dock, scene
     c.state.settings["fit"] = {"fov_sigma_deg": 8.0}
     c.set_prior(scene.prior.with_parameters(fov=fov))
     assert panel.prior_sigmas(True)["fov_sigma_deg"] == 8.0
+
+
+def test_a_doubtful_fit_that_moved_the_lens_field_of_view_says_to_hold_it(dock, scene, qtbot, tmp_path):
+    """A flood trial's fits traded the field of view against the distance along the view (+3.5° off the EXIF lens,
+    the camera 184 m forward); holding the lens's field of view put it 26 m off, and nothing had suggested it."""
+    from monoplot_plugin.adapters.photo import qimage_to_array
+
+    from qgis.PyQt.QtGui import QImage
+
+    rgb = qimage_to_array(QImage(scene.photo_path))
+    mem = gdal.GetDriverByName("MEM").Create("", rgb.shape[1], rgb.shape[0], 3)
+    for b in range(3):
+        mem.GetRasterBand(b + 1).WriteArray(rgb[..., b])
+    mem.SetMetadataItem("EXIF_FocalLengthIn35mmFilm", "40")  # a lens narrower than the camera's 60°
+    path = str(tmp_path / "lens.jpg")
+    gdal.GetDriverByName("JPEG").CreateCopy(path, mem, options=["WRITE_EXIF_METADATA=YES", "QUALITY=95"])
+    _load(dock, path)
+    c = dock.controller
+    lens_fov = read_exif_prior(path, scene.camera.image_size).fov
+    assert abs(lens_fov - scene.camera.fov) > 5.0
+    c.set_prior(scene.prior.with_parameters(fov=lens_fov))
+    photo = [Point.new(PHOTO, u, v) for u, v in scene.uv[:8]]
+    world = [Point.new(MAP, x + (400.0 if k == 3 else 0.0), y, z) for k, (x, y, z) in enumerate(scene.xyz[:8])]
+    c.stack.push(replace_suggestions(c.state, PHOTO, photo))
+    c.stack.push(replace_suggestions(c.state, MAP, world))
+    everywhere = (-1e12, -1e12, 1e12, 1e12)
+    c.accept_all_in(PHOTO, everywhere)
+    c.accept_all_in(MAP, everywhere)
+    for p, m in zip(photo, world):
+        c.link(p.id, m.id)
+    assert c.fit()
+    with qtbot.waitSignal(c.taskFinished, timeout=120000) as blocker:
+        pass
+    assert blocker.args[0].ok, blocker.args[0].reason
+    info = c.state.fit_info
+    assert info["status"] != "ok" and abs(c.fitted.fov - lens_fov) > 3.0, (info["status"], c.fitted.fov)
+    assert f"moved from the lens ({lens_fov:.1f}°" in info["message"] and "untick field of view" in info["message"]
