@@ -15,6 +15,7 @@ from qgis.core import Qgis
 from qgis.PyQt.QtCore import QCoreApplication
 from qgis.PyQt.QtWidgets import QFileDialog
 
+from ..adapters.exif import read_photo_taken
 from ..outputs.safe_write import OutputError, check_can_write
 from ..workflow import products as product_step
 from .map_layers import add_orthophoto_layer, add_xyz_layer, photo_group
@@ -85,6 +86,8 @@ class ProductExports:
             verdict = f"{info.get('status', '')}: {stale} {info.get('message', '')}"
             c.message.emit(stale, Qgis.MessageLevel.Warning)
 
+        taken = (read_photo_taken(c.state.photo_path or "") or "") if what == "report" else ""  # not in the task
+
         def work(progress=None, is_canceled=None):
             if what == "xyz":
                 return product_step.write_xyz(path, camera, dem, photo_name=name, distance=distance,
@@ -96,7 +99,8 @@ class ProductExports:
                                                fit=dict(info))
             return product_step.report(path, photo, camera, dem, points=points, sigmas=sigmas, title=Path(name).stem,
                                        overwrite=overwrite, progress=progress, is_canceled=is_canceled,
-                                       verdict=verdict, checks=checks, accuracy=accuracy)
+                                       verdict=verdict, checks=checks, accuracy=accuracy,
+                                       photo_taken=taken)
 
         return work
 

@@ -142,7 +142,7 @@ def write_report(path, photo: np.ndarray, camera, dem, points: Optional[ReportPo
                  xyz: Optional[np.ndarray] = None, visible: Optional[np.ndarray] = None,
                  sigmas: Optional[Dict[str, float]] = None, title: str = "", overwrite: bool = False,
                  verdict: str = "", checks: Optional[ReportPoints] = None,
-                 picture: Optional[np.ndarray] = None, accuracy: str = "") -> Path:
+                 picture: Optional[np.ndarray] = None, accuracy: str = "", photo_taken: str = "") -> Path:
     """Write the one-page report.
 
     Args:
@@ -162,6 +162,8 @@ def write_report(path, photo: np.ndarray, camera, dem, points: Optional[ReportPo
             is the camera's measured accuracy and is printed first.
         accuracy: what the camera is worth on the ground, in words (e.g. "check points 7.7 px: about 40 m on the
             ground ..."), printed as "Ground accuracy: ..." (a desktop trial: the report gave none in metres).
+        photo_taken: when the photo was taken (its EXIF date, ISO 8601), printed beside the report's own date
+            (a flood trial read the unlabelled date at the top, the day the report was made, as the photo's).
         overwrite: replace an existing file (default: refuse with OutputExistsError).
     Returns:
         the Path written.
@@ -188,8 +190,9 @@ def write_report(path, photo: np.ndarray, camera, dem, points: Optional[ReportPo
 
     fig = Figure(figsize=(8.27, 11.69))
     fig.text(0.06, 0.965, title or "Monoplot report", fontsize=15, weight="bold")
-    fig.text(0.06, 0.948, f"{datetime.date.today().isoformat()}  ·  photo {camera.width} × {camera.height} px  ·  "
-             f"{_crs_label(dem.crs_wkt)}", fontsize=8, color="0.3")
+    taken = f"photo taken {photo_taken.replace('T', ' ')[:16]}  ·  " if photo_taken else ""
+    fig.text(0.06, 0.948, f"report of {datetime.date.today().isoformat()}  ·  {taken}photo {camera.width} × "
+             f"{camera.height} px  ·  {_crs_label(dem.crs_wkt)}", fontsize=8, color="0.3")
     ax_photo = fig.add_axes((0.06, 0.62, 0.88, 0.31))  # room under it for the badge (it covered a title, a trial)
     ax_overlay = fig.add_axes((0.06, 0.33, 0.43, 0.24))
     ax_map = fig.add_axes((0.54, 0.29, 0.40, 0.27))  # its title stays below the photo

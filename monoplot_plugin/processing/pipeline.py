@@ -86,9 +86,9 @@ def orthophoto(path: str, photo: np.ndarray, camera: Camera, dem, resolution: Op
 
 
 def report(path: str, photo: np.ndarray, camera: Camera, dem, points_csv: Optional[str] = None, verdict: str = "",
-           sigmas: Optional[dict] = None):
+           sigmas: Optional[dict] = None, photo_taken: str = ""):
     """Write a one-page report (PNG or PDF by extension) of a fitted camera; ``verdict``: "status: message" of
     the fit that wrote the camera (its badge and text then say it, as the dock's report does); ``sigmas``: that
-    fit's σ per parameter (None: from the table's paired points, if any)."""
+    fit's σ per parameter (None: from the table's paired points, if any); ``photo_taken``: its EXIF date."""
     return products.report(path, photo, camera, dem, points_csv=points_csv, overwrite=True, verdict=verdict,
-                           sigmas=sigmas)
+                           sigmas=sigmas, photo_taken=photo_taken)

@@ -226,12 +226,12 @@ def orthophoto(path, photo: np.ndarray, camera: Camera, dem, resolution=None,
 def report(path, photo: np.ndarray, camera: Camera, dem, points=None, points_csv=None,
            sigmas: Optional[Dict[str, float]] = None, title: str = "", overwrite: bool = False,
            progress: Optional[Progress] = None, is_canceled: Optional[IsCanceled] = None, verdict: str = "",
-           checks=None, accuracy: Optional[str] = None) -> Path:
+           checks=None, accuracy: Optional[str] = None, photo_taken: str = "") -> Path:
     """The one-page report (PNG or PDF by the suffix of ``path``) of a fitted camera; ``points``: the control
     points to show (outputs' ``ReportPoints``), or ``points_csv``, a paired CSV; ``verdict``: the fit's status and
     message, printed on the page; ``checks``: independent check points (``ReportPoints``), drawn and measured;
     ``accuracy``: what the camera is worth on the ground, in words (None: from the check points when there are
-    some, else from the paired points' residuals, :func:`ground_error`)."""
+    some, else from the paired points' residuals, :func:`ground_error`); ``photo_taken``: the photo's EXIF date."""
     from ..outputs.report import write_report
 
     if points is None and points_csv:
@@ -245,7 +245,7 @@ def report(path, photo: np.ndarray, camera: Camera, dem, points=None, points_csv
     with _committed(is_canceled):
         written = write_report(path, photo, camera, dem, points=points, xyz=result.xyz, picture=area,
                                visible=result.visible, sigmas=sigmas, title=title, overwrite=overwrite,
-                               verdict=verdict, checks=checks, accuracy=accuracy)
+                               verdict=verdict, checks=checks, accuracy=accuracy, photo_taken=photo_taken or "")
     if progress is not None:
         progress(1.0, "")
     return written

@@ -29,6 +29,7 @@ from .. import pipeline
 from ..base import (PHOTO_Y_SIGN, MonoplotAlgorithm, camera_line, cancel_callback, check_canceled, checked,
                     progress_callback)
 from ..inputs import read_photo
+from ...adapters.exif import read_photo_taken
 from ...core.xyz_strips import plan_strips
 from ...workflow.camera_files import verdict_on_photo, written_fit
 from ...outputs.vectors import FIT_STATUS_FIELD
@@ -399,7 +400,8 @@ class Report(_CameraDemAlgorithm):
         status, message = verdict_on_photo(self.parameterAsFile(parameters, "CAMERA", context), photo_path)
         # the σ the camera's own fit wrote (the demo's page had none once its table held check points only)
         sigma = written_fit(self.parameterAsFile(parameters, "CAMERA", context)).get("sigma") or None
-        checked(pipeline.report, out, photo, camera, dem, points, f"{status}: {message}" if status else "", sigma)
+        checked(pipeline.report, out, photo, camera, dem, points, f"{status}: {message}" if status else "", sigma,
+                read_photo_taken(photo_path) or "")
         feedback.setProgress(100)
         return {"OUTPUT": out}
 
