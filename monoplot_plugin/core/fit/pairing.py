@@ -88,11 +88,10 @@ def refine_by_pairs(ctx, space: ParameterSpace, u, gate_px: Optional[float],
     rmse_px = rmse(residuals[inliers])
     uv, usable = ctx.project_usable(space, u)
     nearest = nearest_distances(ctx.q, uv, usable)
-    message = ""
-    if not kept_refinement:
-        message = ("The least-squares refinement on the automatic pairs fitted the point sets worse than the "
-                   "two-sided fit, which was kept (the automatic pairs are probably not exact correspondences).")
-    return FitResult(camera, "ok", message, "unpaired", ctx.free, rmse_px, pairs, residuals, inliers, nearest,
+    # which stage's camera was kept is not said: in the message it read as jargon to a flood analyst ("the
+    # least-squares refinement on the automatic pairs fitted the point sets worse than the two-sided fit") and
+    # there was nothing to do about it
+    return FitResult(camera, "ok", "", "unpaired", ctx.free, rmse_px, pairs, residuals, inliers, nearest,
                      std, rms(loo), loo_all, loss_history=ctx.history, n_starts=ctx.starts_tried)
 
 
